@@ -1,0 +1,260 @@
+"""The board model: one frozen description of a robot, read by everything else.
+
+These classes are the single definition of the board file format: the validator
+builds them from YAML, ``esair schema`` prints their JSON Schema, the generator and
+the emulator read them. Rules that involve more than one field or more than one
+board live in :mod:`esair_min.validate`; values derived from the datasheet live in
+:mod:`esair_min.hardware` and are exposed here as properties.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Literal, Union
+
+from pydantic import BaseModel, ConfigDict, Field, StrictBool, StrictFloat, StrictInt, StrictStr
+
+from . import hardware
+
+Name = Annotated[StrictStr, Field(pattern=r"^[a-z][a-z0-9_]{0,23}$",
+                                  description="lower-case identifier, at most 24 chars")]
+Pin = Annotated[StrictStr, Field(pattern=r"^R[A-E][0-7]$", description="port pin such as RB0")]
+Angle = Annotated[StrictInt, Field(ge=0, le=999, description="servo angle, degrees")]
+Speed = Annotated[StrictInt, Field(ge=0, le=25, description="speed code 0..25 (letters a..z)")]
+I2cAddress = Annotated[StrictInt, Field(ge=0x08, le=0x77, description="7-bit I2C address")]
+Number = Union[StrictInt, StrictFloat]
+
+MAX_SERVOS = 16
+MAX_SENSORS = 8
+MAX_MOTIONS = 100
+MAX_FRAMES = 255
+
+
+class Section(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class Mcu(Section):
+    """The microcontroller and its oscillator."""
+
+    part: Literal["pic18f452"] = Field("pic18f452", description="MCU part (PIC18F452 class)")
+    clock_hz: Annotated[StrictInt, Field(ge=1_000_000, le=40_000_000)] = Field(
+        20_000_000, description="oscillator frequency Fosc in Hz")
+
+
+class Uart(Section):
+    """The serial link to the PC (thesis: wireless RS-232)."""
+
+    baud: Annotated[StrictInt, Field(ge=300, le=1_000_000)] = Field(
+        9600, description="bits per second, 8N1")
+    require_checksum: StrictBool = Field(
+        False, description="refuse command lines without a valid *HH checksum suffix")
+
+
+class Tick(Section):
+    """The Timer2 tick that paces the superloop and drives the sync pin."""
+
+    period_ms: Annotated[Number, Field(gt=0)] = Field(
+        8.9856, description="wanted tick period in ms (Timer2 must make it within 1 %)")
+
+
+class Sync(Section):
+    """The motor-sync line: an output on the central board, the latch input on the actuator."""
+
+    pin: Pin = Field("RB0", description="pin carrying the sync signal")
+
+
+class EepromDevice(Section):
+    """A serial EEPROM (24LC256 class) holding the motion image."""
+
+    kind: Literal["eeprom"]
+    name: Name
+    address: I2cAddress = Field(0x50, description="7-bit I2C address")
+    size_bytes: Annotated[StrictInt, Field(ge=128, le=131072)] = Field(
+        32768, description="capacity in bytes")
+    address_bytes: Literal[1, 2] = Field(2, description="width of the memory address")
+    page_bytes: Annotated[StrictInt, Field(ge=1, le=256)] = Field(
+        64, description="write page size in bytes")
+
+
+class BoardDevice(Section):
+    """A peer board reached over I2C as memory-mapped registers."""
+
+    kind: Literal["board"]
+    name: Name
+    board: Name = Field(description="the peer's `board:` name")
+    address: I2cAddress
+    registers: Annotated[StrictInt, Field(ge=1, le=256)] = Field(
+        description="size of the peer's register map, bytes")
+
+
+Device = Annotated[Union[EepromDevice, BoardDevice], Field(discriminator="kind")]
+
+
+class I2c(Section):
+    """The I2C (MSSP) port: master on the central board, slave on peers."""
+
+    mode: Literal["master", "slave"]
+    speed_hz: Literal[100_000, 400_000] = Field(100_000, description="bus clock")
+    address: I2cAddress | None = Field(None, description="own address (slave only)")
+    devices: tuple[Device, ...] = Field((), description="what a master talks to")
+
+
+class Servo(Section):
+    """A hobby servo on the actuator board (50 Hz PWM)."""
+
+    name: Name
+    index: Annotated[StrictInt, Field(ge=0, lt=MAX_SERVOS)] = Field(
+        description="motor number: letter a = 0; registers 2*index, 2*index+1")
+    pin: Pin
+    min_angle: Angle
+    max_angle: Angle
+    stand_angle: Angle
+    default_speed: Speed = 0
+    pulse_min_us: Annotated[StrictInt, Field(ge=200, le=3000)] = Field(
+        500, description="pulse width at 0 degrees")
+    pulse_max_us: Annotated[StrictInt, Field(ge=200, le=3000)] = Field(
+        2500, description="pulse width at 180 degrees")
+
+
+class Sensor(Section):
+    """An analog sensor on the sensor board (10-bit ADC, exposed as 2 registers)."""
+
+    name: Name
+    channel: Annotated[StrictInt, Field(ge=0, le=7)] = Field(description="ADC channel AN0..AN7")
+    group: Name = Field(description="group compared by reactions, e.g. left_foot")
+    min: Annotated[StrictInt, Field(ge=0, le=1023)] = 0
+    max: Annotated[StrictInt, Field(ge=0, le=1023)] = 1023
+
+
+Action = Literal["stand", "motor", "play", "speeds", "angles", "version", "sensors", "stop"]
+
+#: Characters of arguments each action takes after its prefix, per servo count N:
+#: ``speeds`` takes 3 digits per servo and ``angles`` one code per servo
+#: (36 and 12 on the 12-servo PAPA-MAN, the lengths of the thesis).
+ACTION_ARGS: dict[str, tuple[int, int]] = {   # (fixed, per servo)
+    "stand": (0, 0), "motor": (5, 0), "play": (2, 0), "speeds": (0, 3), "angles": (0, 1),
+    "version": (0, 0), "sensors": (0, 0), "stop": (0, 0),
+}
+
+
+class Command(Section):
+    """One row of the PC command table: a line matches when it starts with ``prefix``
+    and has exactly ``length`` characters (checksum suffix excluded)."""
+
+    name: Name
+    prefix: Annotated[StrictStr, Field(pattern=r"^[!-)+-~]{1,8}$",
+                                       description="printable ASCII, no space or '*'")]
+    action: Action
+    motion: Name | None = Field(None, description="for action play: a fixed motion, no digits")
+
+    def arg_chars(self, servos: int) -> int:
+        """Argument characters after the prefix on a robot with ``servos`` servos."""
+        if self.action == "play" and self.motion is not None:
+            return 0
+        fixed, per_servo = ACTION_ARGS[self.action]
+        return fixed + per_servo * servos
+
+    def length(self, servos: int) -> int:
+        """Characters of a matching line, checksum suffix excluded."""
+        return len(self.prefix) + self.arg_chars(servos)
+
+
+class Frame(Section):
+    """One pose: an angle per servo (by index) and a speed (one, or one per servo)."""
+
+    angles: tuple[Angle, ...]
+    speed: Speed | tuple[Speed, ...] = 0
+
+    def speeds(self) -> tuple[int, ...]:
+        if isinstance(self.speed, int):
+            return (self.speed,) * len(self.angles)
+        return self.speed
+
+
+class Motion(Section):
+    """A stored motion: frames played one per tick group from the EEPROM."""
+
+    name: Name
+    number: Annotated[StrictInt, Field(ge=0, lt=MAX_MOTIONS)] = Field(
+        description="the nn of PLYnn")
+    delay_ticks: Annotated[StrictInt, Field(ge=1, le=255)] = Field(
+        1, description="ticks from one frame's write to the next")
+    frames: Annotated[tuple[Frame, ...], Field(min_length=1, max_length=MAX_FRAMES)]
+
+
+class Reaction(Section):
+    """Auto-balance: compare two sensor groups, play a motion when they disagree."""
+
+    name: Name
+    kind: Literal["balance"]
+    compare: tuple[Name, Name] = Field(description="the two sensor groups compared")
+    threshold: Annotated[StrictInt, Field(ge=1, le=65535)] = Field(
+        description="|sum(a) - sum(b)| above this counts as tipping, ADC counts")
+    samples: Annotated[StrictInt, Field(ge=1, le=255)] = Field(
+        3, description="consecutive tipping samples before the reaction fires")
+    poll_ticks: Annotated[StrictInt, Field(ge=1, le=255)] = Field(
+        5, description="ticks between sensor polls")
+    motion: Name = Field(description="motion played when it fires (pre-empts others)")
+
+
+Role = Literal["central", "actuator", "sensor"]
+
+
+class Board(Section):
+    """One board of a robot: one YAML file."""
+
+    board: Name = Field(description="the board's name, used by its peers")
+    role: Role
+    description: StrictStr = ""
+    mcu: Mcu = Mcu()
+    uart: Uart | None = None
+    tick: Tick | None = None
+    sync: Sync | None = None
+    i2c: I2c
+    servos: tuple[Servo, ...] = ()
+    sensors: tuple[Sensor, ...] = ()
+    commands: tuple[Command, ...] | None = Field(
+        None, description="PC command table; omitted = the PAPA-MAN table")
+    motions: tuple[Motion, ...] = ()
+    reactions: tuple[Reaction, ...] = ()
+
+    # Values computed from the datasheet formulas (validated to be in range).
+    @property
+    def timer2(self) -> hardware.Timer2Setting | None:
+        if self.tick is None:
+            return None
+        return hardware.best_timer2(self.mcu.clock_hz, self.tick.period_ms / 1e3)
+
+    @property
+    def baud(self) -> hardware.BaudSetting | None:
+        if self.uart is None:
+            return None
+        return hardware.best_baud(self.mcu.clock_hz, self.uart.baud)
+
+    @property
+    def i2c_setting(self) -> hardware.I2cSetting | None:
+        if self.i2c.mode != "master":
+            return None
+        return hardware.i2c_master_setting(self.mcu.clock_hz, self.i2c.speed_hz)
+
+    @property
+    def register_count(self) -> int:
+        """Size of this board's register map as an I2C slave."""
+        return 2 * len(self.servos) + 2 * len(self.sensors)
+
+    def device(self, kind: str) -> EepromDevice | BoardDevice | None:
+        return next((d for d in self.i2c.devices if d.kind == kind), None)
+
+
+#: The PAPA-MAN command table (shared/SPEC.md, docs/protocol.md): used when a central
+#: board omits ``commands:``.
+DEFAULT_COMMANDS: tuple[Command, ...] = (
+    Command(name="stand", prefix="t", action="stand"),
+    Command(name="motor", prefix="o", action="motor"),
+    Command(name="play", prefix="PLY", action="play"),
+    Command(name="speeds", prefix="a", action="speeds"),
+    Command(name="angles", prefix="c", action="angles"),
+    Command(name="version", prefix="v", action="version"),
+    Command(name="sensors", prefix="s", action="sensors"),
+    Command(name="stop", prefix="x", action="stop"),
+)

@@ -1,0 +1,43 @@
+"""Find the files that ship with ESAIR MIN: firmware templates and example robots.
+
+Installed (``pip install .``) they are the package data ``esair_min.firmware_templates``
+and ``esair_min.boards``; in a source checkout they are the top-level folders.
+"""
+
+from __future__ import annotations
+
+from importlib import resources
+from pathlib import Path
+
+_REPO = Path(__file__).resolve().parent.parent
+
+
+def _data_dir(package: str, folder: str) -> Path:
+    try:
+        found = Path(str(resources.files(package)))
+        if found.is_dir():
+            return found
+    except ModuleNotFoundError:
+        pass
+    return _REPO / folder
+
+
+def templates_dir() -> Path:
+    return _data_dir("esair_min.firmware_templates", "firmware_templates")
+
+
+def examples_dir() -> Path:
+    return _data_dir("esair_min.boards", "boards")
+
+
+def resolve_robot(arg: str) -> Path:
+    """A robot path as given, or the name of a bundled example (``papaman``)."""
+    p = Path(arg)
+    if p.exists():
+        return p
+    example = examples_dir() / arg
+    if not p.is_absolute() and len(p.parts) == 1 and example.is_dir():
+        return example
+    if len(p.parts) == 2 and p.parts[0] == "boards" and (examples_dir() / p.parts[1]).is_dir():
+        return examples_dir() / p.parts[1]
+    return p

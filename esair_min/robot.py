@@ -1,0 +1,83 @@
+"""A robot: its validated boards, and the views the generator and emulator need."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from .layout import ImageLayout, image_layout
+from .model import Board, BoardDevice, Command, EepromDevice, Motion, Sensor, Servo
+
+
+@dataclass(frozen=True)
+class Robot:
+    """Every board of one robot, validated together. Built by :func:`validate.load_robot`."""
+
+    name: str
+    source: str
+    boards: tuple[Board, ...]
+    files: tuple[str, ...]  # the file each board came from, same order
+
+    def board(self, role: str) -> Board | None:
+        return next((b for b in self.boards if b.role == role), None)
+
+    def file_of(self, board: Board) -> str:
+        return self.files[self.boards.index(board)]
+
+    @property
+    def central(self) -> Board:
+        b = self.board("central")
+        assert b is not None, "validated robots have a central board"
+        return b
+
+    @property
+    def actuator(self) -> Board | None:
+        return self.board("actuator")
+
+    @property
+    def sensor_board(self) -> Board | None:
+        return self.board("sensor")
+
+    @property
+    def servos(self) -> tuple[Servo, ...]:
+        """All servos, ordered by index."""
+        act = self.actuator
+        return tuple(sorted(act.servos, key=lambda s: s.index)) if act else ()
+
+    @property
+    def sensors(self) -> tuple[Sensor, ...]:
+        """All sensors, in register order (the order of the sensor board's file)."""
+        sb = self.sensor_board
+        return sb.sensors if sb else ()
+
+    @property
+    def commands(self) -> tuple[Command, ...]:
+        cmds = self.central.commands
+        assert cmds is not None, "validation fills the default command table"
+        return cmds
+
+    @property
+    def motions(self) -> tuple[Motion, ...]:
+        return self.central.motions
+
+    def motion(self, name: str) -> Motion | None:
+        return next((m for m in self.motions if m.name == name), None)
+
+    @property
+    def eeprom(self) -> EepromDevice | None:
+        dev = self.central.device("eeprom")
+        assert dev is None or isinstance(dev, EepromDevice)
+        return dev
+
+    def peer(self, role: str) -> BoardDevice | None:
+        """The central board's device entry for the board with ``role``."""
+        target = self.board(role)
+        if target is None:
+            return None
+        for dev in self.central.i2c.devices:
+            if isinstance(dev, BoardDevice) and dev.board == target.board:
+                return dev
+        return None
+
+    @property
+    def layout(self) -> ImageLayout:
+        return image_layout(self.motions, len(self.servos))

@@ -1,0 +1,32 @@
+"""The short human summary ``esair check`` prints for a valid robot."""
+
+from __future__ import annotations
+
+from .robot import Robot
+
+
+def robot_summary(robot: Robot) -> list[str]:
+    c = robot.central
+    lines = [f"robot '{robot.name}': {len(robot.boards)} boards "
+             f"({', '.join(f'{b.board} [{b.role}]' for b in robot.boards)})"]
+    lines.append(f"  servos: {len(robot.servos)}, sensors: {len(robot.sensors)}, "
+                 f"commands: {len(robot.commands)}, motions: {len(robot.motions)} "
+                 f"({', '.join(m.name for m in sorted(robot.motions, key=lambda m: m.number))}), "
+                 f"reactions: {len(c.reactions)}")
+    eeprom = robot.eeprom
+    if eeprom is not None:
+        used = robot.layout.total_bytes
+        lines.append(f"  EEPROM '{eeprom.name}': {used} of {eeprom.size_bytes} bytes used "
+                     f"({100.0 * used / eeprom.size_bytes:.1f} %)")
+    t2 = c.timer2
+    if t2 is not None:
+        lines.append(f"  tick: {t2.period_ms:.4f} ms (Timer2 prescale {t2.prescale}, "
+                     f"PR2 {t2.pr2}, postscale {t2.postscale} at {c.mcu.clock_hz} Hz)")
+    baud = c.baud
+    if baud is not None and c.uart is not None:
+        lines.append(f"  UART: {c.uart.baud} baud, SPBRG {baud.spbrg} BRGH={baud.brgh}, "
+                     f"error {baud.error_percent:+.2f} %")
+    i2c = c.i2c_setting
+    if i2c is not None:
+        lines.append(f"  I2C: {c.i2c.speed_hz} Hz, SSPADD {i2c.sspadd}")
+    return lines

@@ -1,0 +1,389 @@
+"""Load a robot folder (or one board file) into a validated, frozen :class:`Robot`.
+
+Order: each file is loaded (marks kept) and checked against the model; then the
+rules that a single board must obey; then the rules across boards. The first
+broken rule raises :class:`ConfigError` pointing at the node to change.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, Iterable
+
+from pydantic import ValidationError
+
+from . import hardware
+from .errors import ConfigError, file_mark
+from .model import (DEFAULT_COMMANDS, Board, BoardDevice, Command, EepromDevice, Frame,
+                    Motion)
+from .robot import Robot
+from .schema_errors import config_error, did_you_mean
+from .yamlload import Document, load_yaml
+
+#: Longest command line, checksum suffix ``*HH`` included (docs/protocol.md).
+MAX_LINE = 40
+CHECKSUM_CHARS = 3
+BAUD_TOLERANCE = 0.02
+TICK_TOLERANCE = 0.01
+
+ROLE_SECTIONS = {
+    "central": {"uart", "tick", "sync", "commands", "motions", "reactions"},
+    "actuator": {"sync", "servos"},
+    "sensor": {"sensors"},
+}
+OPTIONAL_SECTIONS = {"uart", "tick", "sync", "servos", "sensors", "commands", "motions",
+                     "reactions"}
+
+
+def encode_high(angle: int, speed: int) -> int:
+    """The thesis's high byte: angle/100 + 10*speed (may exceed a byte: check it)."""
+    return angle // 100 + 10 * speed
+
+
+class _Checker:
+    """Rules for one robot; ``docs`` maps board name to its loaded file."""
+
+    def __init__(self, boards: list[Board], docs: list[Document]):
+        self.boards = boards
+        self.docs = {b.board: d for b, d in zip(boards, docs)}
+
+    def fail(self, board: Board, loc: Iterable[Any], message: str, *, key: bool = False):
+        raise ConfigError(message, self.docs[board.board].mark(tuple(loc), key=key))
+
+    # -- single board -------------------------------------------------------------
+    def board_rules(self, b: Board) -> None:
+        data = self.docs[b.board].data
+        allowed = ROLE_SECTIONS[b.role]
+        for section in data:
+            if section in OPTIONAL_SECTIONS - allowed:
+                self.fail(b, (section,), f"'{section}' does not belong on a {b.role} board "
+                          f"(a {b.role} board may have: {', '.join(sorted(allowed))})", key=True)
+        required = {"central": ["uart", "tick", "sync"], "actuator": ["sync", "servos"],
+                    "sensor": ["sensors"]}[b.role]
+        for section in required:
+            if not getattr(b, section):
+                self.fail(b, (), f"a {b.role} board needs '{section}:'")
+        self.i2c_rules(b)
+        self.clock_rules(b)
+        self.unique(b, "servos", "name")
+        self.unique(b, "servos", "index")
+        self.unique(b, "sensors", "name")
+        self.unique(b, "sensors", "channel")
+        self.unique(b, "motions", "name")
+        self.unique(b, "motions", "number")
+        self.unique(b, "reactions", "name")
+        for i, s in enumerate(sorted(b.servos, key=lambda s: s.index)):
+            if s.index != i:
+                self.fail(b, ("servos", b.servos.index(s), "index"),
+                          f"servo indices must run 0..{len(b.servos) - 1} with no gap; "
+                          f"index {i} is missing")
+        for i, s in enumerate(b.servos):
+            self.servo_rules(b, i)
+        for i, s in enumerate(b.sensors):
+            if s.min >= s.max:
+                self.fail(b, ("sensors", i, "max"),
+                          f"sensor '{s.name}': max ({s.max}) must be above min ({s.min})")
+        self.pin_rules(b)
+
+    def unique(self, b: Board, section: str, field: str) -> None:
+        seen: dict[Any, int] = {}
+        for i, item in enumerate(getattr(b, section) or ()):
+            value = getattr(item, field)
+            if value in seen:
+                line = self.docs[b.board].mark((section, seen[value], field)).line
+                self.fail(b, (section, i, field),
+                          f"duplicate {section[:-1]} {field} {value!r} "
+                          f"(also at line {line})")
+            seen[value] = i
+
+    def i2c_rules(self, b: Board) -> None:
+        i2c = b.i2c
+        want = "master" if b.role == "central" else "slave"
+        if i2c.mode != want:
+            self.fail(b, ("i2c", "mode"), f"a {b.role} board must be an I2C {want}")
+        if want == "slave":
+            if i2c.address is None:
+                self.fail(b, ("i2c",), "an I2C slave needs its own 'address'")
+            if i2c.devices:
+                self.fail(b, ("i2c", "devices"), "an I2C slave has no 'devices' (only a "
+                          "master talks to devices)", key=True)
+            return
+        if i2c.address is not None:
+            self.fail(b, ("i2c", "address"), "an I2C master has no own 'address'", key=True)
+        if b.i2c_setting is None:
+            self.fail(b, ("i2c", "speed_hz"), f"I2C {i2c.speed_hz} Hz cannot be made at "
+                      f"{b.mcu.clock_hz} Hz (SSPADD must be 1..127)")
+        self.unique_devices(b)
+
+    def unique_devices(self, b: Board) -> None:
+        names: dict[str, int] = {}
+        addrs: dict[int, int] = {}
+        for i, dev in enumerate(b.i2c.devices):
+            if dev.name in names:
+                self.fail(b, ("i2c", "devices", i, "name"), f"duplicate device name "
+                          f"'{dev.name}' (also at line "
+                          f"{self.docs[b.board].mark(('i2c', 'devices', names[dev.name])).line})")
+            if dev.address in addrs:
+                other = b.i2c.devices[addrs[dev.address]]
+                self.fail(b, ("i2c", "devices", i, "address"),
+                          f"I2C address 0x{dev.address:02X} of '{dev.name}' collides with "
+                          f"'{other.name}'")
+            names[dev.name] = i
+            addrs[dev.address] = i
+        if sum(isinstance(d, EepromDevice) for d in b.i2c.devices) > 1:
+            self.fail(b, ("i2c", "devices"), "only one EEPROM device is supported", key=True)
+
+    def clock_rules(self, b: Board) -> None:
+        clock = b.mcu.clock_hz
+        if b.uart is not None:
+            setting = b.baud
+            assert setting is not None
+            if abs(setting.error) > BAUD_TOLERANCE:
+                self.fail(b, ("uart", "baud"),
+                          f"baud {b.uart.baud} cannot be made at {clock} Hz within 2 %: best "
+                          f"is SPBRG {setting.spbrg} with BRGH={setting.brgh} "
+                          f"({setting.actual:.0f} baud, {setting.error_percent:+.2f} %)")
+        if b.tick is not None:
+            t2 = b.timer2
+            assert t2 is not None
+            want = b.tick.period_ms
+            err = (t2.period_ms - want) / want
+            if abs(err) > TICK_TOLERANCE:
+                self.fail(b, ("tick", "period_ms"),
+                          f"tick period {want:g} ms cannot be made by Timer2 at {clock} Hz "
+                          f"within 1 %: nearest is {t2.period_ms:.4f} ms (prescale "
+                          f"{t2.prescale}, PR2 {t2.pr2}, postscale {t2.postscale})")
+
+    def servo_rules(self, b: Board, i: int) -> None:
+        s = b.servos[i]
+        if s.min_angle > s.max_angle:
+            self.fail(b, ("servos", i, "max_angle"), f"servo '{s.name}': max_angle "
+                      f"({s.max_angle}) is below min_angle ({s.min_angle})")
+        if not s.min_angle <= s.stand_angle <= s.max_angle:
+            self.fail(b, ("servos", i, "stand_angle"), f"servo '{s.name}': stand_angle "
+                      f"{s.stand_angle} is outside its limits {s.min_angle}..{s.max_angle}")
+        if s.pulse_min_us >= s.pulse_max_us:
+            self.fail(b, ("servos", i, "pulse_max_us"), f"servo '{s.name}': pulse_max_us "
+                      f"({s.pulse_max_us}) must be above pulse_min_us ({s.pulse_min_us})")
+        high = encode_high(s.stand_angle, s.default_speed)
+        if high > 255:
+            self.fail(b, ("servos", i, "default_speed"), f"servo '{s.name}': speed "
+                      f"{s.default_speed} with angle {s.stand_angle} encodes to high byte "
+                      f"{high}, more than 255")
+
+    def pin_rules(self, b: Board) -> None:
+        used: dict[str, str] = {}
+
+        def claim(pin: str, what: str, loc: tuple[Any, ...]) -> None:
+            if pin in used:
+                self.fail(b, loc, f"pin {pin} is used twice: by {used[pin]} and by {what}")
+            used[pin] = what
+
+        if b.uart is not None:
+            for pin in hardware.UART_PINS:
+                claim(pin, "the UART", ("uart",))
+        for pin in hardware.I2C_PINS:
+            claim(pin, "I2C", ("i2c",))
+        if b.sync is not None:
+            claim(b.sync.pin, "the sync line", ("sync", "pin"))
+        for i, s in enumerate(b.servos):
+            claim(s.pin, f"servo '{s.name}'", ("servos", i, "pin"))
+        for i, s in enumerate(b.sensors):
+            claim(hardware.ADC_PINS[s.channel], f"sensor '{s.name}' (AN{s.channel})",
+                  ("sensors", i, "channel"))
+
+    # -- across boards ------------------------------------------------------------
+    def robot_rules(self) -> None:
+        seen: dict[str, Board] = {}
+        for b in self.boards:
+            if b.board in seen:
+                self.fail(b, ("board",), f"two files describe board '{b.board}' "
+                          f"(the other is {self.docs[seen[b.board].board].path})")
+            seen[b.board] = b
+        by_role: dict[str, Board] = {}
+        for b in self.boards:
+            if b.role in by_role:
+                self.fail(b, ("role",), f"a robot has one {b.role} board; "
+                          f"'{by_role[b.role].board}' is already {b.role}")
+            by_role[b.role] = b
+        central = by_role.get("central")
+        if central is None:
+            raise ConfigError("no central board in this robot (one board needs "
+                              "'role: central')", file_mark(self.docs[self.boards[0].board].path))
+        self.peer_rules(central, by_role)
+        actuator = by_role.get("actuator")
+        self.command_rules(central, len(actuator.servos) if actuator else 0, by_role)
+        for i in range(len(central.motions)):
+            self.motion_rules(central, i, actuator)
+        for i in range(len(central.reactions)):
+            self.reaction_rules(central, i, by_role.get("sensor"))
+
+    def peer_rules(self, central: Board, by_role: dict[str, Board]) -> None:
+        names = {b.board: b for b in self.boards}
+        reached = set()
+        for i, dev in enumerate(central.i2c.devices):
+            if not isinstance(dev, BoardDevice):
+                continue
+            peer = names.get(dev.board)
+            if peer is None or peer is central:
+                self.fail(central, ("i2c", "devices", i, "board"),
+                          f"no peer board named '{dev.board}' in this robot"
+                          f"{did_you_mean(dev.board, [n for n in names if n != central.board])}")
+            reached.add(peer.board)
+            if peer.i2c.address != dev.address:
+                self.fail(central, ("i2c", "devices", i, "address"),
+                          f"device '{dev.name}' is at 0x{dev.address:02X} here but board "
+                          f"'{peer.board}' answers at 0x{peer.i2c.address:02X} "
+                          f"({self.docs[peer.board].mark(('i2c', 'address'))})")
+            if peer.register_count != dev.registers:
+                self.fail(central, ("i2c", "devices", i, "registers"),
+                          f"device '{dev.name}' declares {dev.registers} registers but board "
+                          f"'{peer.board}' has {peer.register_count} "
+                          f"(2 per servo and per sensor)")
+            if peer.i2c.speed_hz != central.i2c.speed_hz:
+                self.fail(peer, ("i2c", "speed_hz"),
+                          f"bus speed {peer.i2c.speed_hz} Hz differs from the master's "
+                          f"{central.i2c.speed_hz} Hz")
+        for b in self.boards:
+            if b.role != "central" and b.board not in reached:
+                self.fail(b, ("board",), f"board '{b.board}' is not among the central "
+                          f"board's I2C devices, so nothing can reach it")
+        eeprom = central.device("eeprom")
+        if central.motions and eeprom is None:
+            self.fail(central, ("motions",), "motions need an EEPROM among the I2C devices "
+                      "(kind: eeprom)", key=True)
+        if isinstance(eeprom, EepromDevice):
+            servos = len(by_role["actuator"].servos) if "actuator" in by_role else 0
+            from .layout import image_layout
+            need = image_layout(central.motions, servos).total_bytes
+            index = central.i2c.devices.index(eeprom)
+            if need > eeprom.size_bytes:
+                self.fail(central, ("i2c", "devices", index, "size_bytes"),
+                          f"the motion image needs {need} bytes but EEPROM '{eeprom.name}' "
+                          f"has {eeprom.size_bytes} ({need - eeprom.size_bytes} bytes over)")
+            if eeprom.address_bytes == 1 and need > 256:
+                self.fail(central, ("i2c", "devices", index, "address_bytes"),
+                          f"a 1-byte address reaches 256 bytes; the motion image needs {need}")
+
+    def command_rules(self, central: Board, n: int, by_role: dict[str, Board]) -> None:
+        commands = central.commands or ()
+        loc_base = ("commands",)
+        needs = {"stand": "actuator", "motor": "actuator", "speeds": "actuator",
+                 "angles": "actuator", "sensors": "sensor"}
+        for i, c in enumerate(commands):
+            role = needs.get(c.action)
+            if role is not None and role not in by_role:
+                self.fail(central, loc_base + (i, "action"), f"command '{c.name}' "
+                          f"(action {c.action}) needs a {role} board in this robot")
+            if c.action == "play" and central.device("eeprom") is None:
+                self.fail(central, loc_base + (i, "action"), f"command '{c.name}' "
+                          "(action play) needs an EEPROM among the I2C devices")
+            for j in range(i):
+                o = commands[j]
+                if o.name == c.name:
+                    self.fail(central, loc_base + (i, "name"),
+                              f"duplicate command name '{c.name}'")
+                if o.length(n) == c.length(n) and (c.prefix.startswith(o.prefix)
+                                                   or o.prefix.startswith(c.prefix)):
+                    self.fail(central, loc_base + (i, "prefix"),
+                              f"command '{c.name}' ({c.prefix!r}, {c.length(n)} chars) is "
+                              f"ambiguous with '{o.name}' ({o.prefix!r}, {o.length(n)} chars)")
+            if c.length(n) + CHECKSUM_CHARS > MAX_LINE:
+                self.fail(central, loc_base + (i, "prefix"),
+                          f"command '{c.name}' is {c.length(n)} chars; with a checksum it "
+                          f"exceeds the {MAX_LINE}-char line")
+            if c.motion is not None:
+                if c.action != "play":
+                    self.fail(central, loc_base + (i, "motion"),
+                              "'motion' is only for action 'play'", key=True)
+                if all(m.name != c.motion for m in central.motions):
+                    self.fail(central, loc_base + (i, "motion"),
+                              f"no motion named '{c.motion}'"
+                              f"{did_you_mean(c.motion, [m.name for m in central.motions])}")
+
+    def motion_rules(self, central: Board, i: int, actuator: Board | None) -> None:
+        m: Motion = central.motions[i]
+        servos = sorted(actuator.servos, key=lambda s: s.index) if actuator else []
+        if not servos:
+            self.fail(central, ("motions", i), "motions need an actuator board with servos")
+        for f, frame in enumerate(m.frames):
+            self.frame_rules(central, ("motions", i, "frames", f), m, f, frame, servos)
+
+    def frame_rules(self, central: Board, loc: tuple[Any, ...], m: Motion, f: int,
+                    frame: Frame, servos: list[Any]) -> None:
+        n = len(servos)
+        if len(frame.angles) != n:
+            self.fail(central, loc + ("angles",), f"motion '{m.name}' frame {f}: "
+                      f"{len(frame.angles)} angles given, the robot has {n} servos")
+        if not isinstance(frame.speed, int) and len(frame.speed) != n:
+            self.fail(central, loc + ("speed",), f"motion '{m.name}' frame {f}: "
+                      f"{len(frame.speed)} speeds given, the robot has {n} servos")
+        for k, (angle, speed, servo) in enumerate(zip(frame.angles, frame.speeds(), servos)):
+            if not servo.min_angle <= angle <= servo.max_angle:
+                self.fail(central, loc + ("angles", k), f"motion '{m.name}' frame {f}: angle "
+                          f"{angle} for servo '{servo.name}' is outside its limits "
+                          f"{servo.min_angle}..{servo.max_angle}")
+            high = encode_high(angle, speed)
+            if high > 255:
+                where = loc + (("speed",) if isinstance(frame.speed, int) else ("speed", k))
+                self.fail(central, where, f"motion '{m.name}' frame {f}: speed {speed} with "
+                          f"angle {angle} encodes to high byte {high}, more than 255")
+
+    def reaction_rules(self, central: Board, i: int, sensor: Board | None) -> None:
+        r = central.reactions[i]
+        groups = sorted({s.group for s in sensor.sensors}) if sensor else []
+        for k, g in enumerate(r.compare):
+            if g not in groups:
+                self.fail(central, ("reactions", i, "compare", k),
+                          f"reaction '{r.name}': no sensor group '{g}'"
+                          f"{did_you_mean(g, groups)} (groups: {', '.join(groups) or 'none'})")
+        if r.compare[0] == r.compare[1]:
+            self.fail(central, ("reactions", i, "compare", 1),
+                      f"reaction '{r.name}' compares group '{r.compare[0]}' with itself")
+        if all(m.name != r.motion for m in central.motions):
+            self.fail(central, ("reactions", i, "motion"), f"reaction '{r.name}': no motion "
+                      f"named '{r.motion}'{did_you_mean(r.motion, [m.name for m in central.motions])}")
+
+
+def load_board(path: Path | str) -> tuple[Board, Document]:
+    """One board file, checked against the model (single-board rules not yet applied)."""
+    doc = load_yaml(path)
+    try:
+        board = Board.model_validate(doc.data)
+    except ValidationError as exc:
+        raise config_error(exc, doc, Board) from None
+    if board.role == "central" and board.commands is None:
+        board = board.model_copy(update={"commands": DEFAULT_COMMANDS})
+    return board, doc
+
+
+def board_files(path: Path | str) -> list[Path]:
+    """The board files of a robot folder (``*.yaml``/``*.yml``, sorted), or ``[path]``."""
+    p = Path(path)
+    if p.is_dir():
+        files = sorted(list(p.glob("*.yaml")) + list(p.glob("*.yml")))
+        if not files:
+            raise ConfigError("no board files (*.yaml) in this folder", file_mark(str(p)))
+        return files
+    return [p]
+
+
+def load_robot(path: Path | str) -> Robot:
+    """Load and validate every board of the robot at ``path`` (a folder or one file)."""
+    files = board_files(path)
+    boards: list[Board] = []
+    docs: list[Document] = []
+    for f in files:
+        board, doc = load_board(f)
+        boards.append(board)
+        docs.append(doc)
+    checker = _Checker(boards, docs)
+    for b in boards:
+        checker.board_rules(b)
+    checker.robot_rules()
+    p = Path(path)
+    name = p.name if p.is_dir() else p.stem
+    return Robot(name, str(path), tuple(boards), tuple(str(f) for f in files))
+
+
+__all__ = ["load_robot", "load_board", "board_files", "encode_high", "MAX_LINE", "Command"]
