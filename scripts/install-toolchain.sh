@@ -9,7 +9,8 @@
 #
 # Environment: ESAIR_TOOLCHAIN (prefix, default /opt/esair-toolchain),
 #              ESAIR_BUILD_DIR (scratch, default /var/tmp/esair-toolchain-build),
-#              ESAIR_JOBS (make -j, default nproc), ESAIR_FORCE_BUILD=1 (rebuild SDCC).
+#              ESAIR_JOBS (make -j, default nproc), ESAIR_FORCE_BUILD=1 (rebuild SDCC),
+#              ESAIR_KEEP_BUILD=1 (keep the SDCC source/build tree).
 # Output goes to a log file; only a short status is printed.
 set -Eeuo pipefail
 
@@ -123,6 +124,7 @@ build_sdcc() {
     [ "$SUDO" = "" ] || [ -w "$(dirname "$PREFIX")" ] || as_root install -d -o "$(id -u)" "$PREFIX"
     (cd "$tree" && make install) >>"$LOG" 2>&1 || die "SDCC make install failed"
     sdcc_works || die "installed $PREFIX/bin/sdcc does not compile for -mpic16"
+    [ "${ESAIR_KEEP_BUILD:-0}" = 1 ] || rm -rf "$src"    # ~210 MB of build tree
 }
 
 say "prefix $PREFIX (log $LOG)"
