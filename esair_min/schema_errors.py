@@ -16,12 +16,12 @@ from typing import Any, Union
 from pydantic import BaseModel, ValidationError
 
 from .errors import ConfigError
-from .yamlload import Document
+from .yamlload import Document, kind_of
 
 _PATTERN_TEXT = {
     r"^[a-z][a-z0-9_]{0,23}$": "a lower-case name (a-z, 0-9, _; at most 24 characters, "
                                "starting with a letter)",
-    r"^R[A-E][0-7]$": "a pin such as RB0 (RA0..RE7)",
+    r"^R[A-E][0-7]$": "a pin such as RB0 (R, port A..E, bit 0..7)",
     r"^[!-)+-~]{1,8}$": "a command prefix of 1 to 8 printable characters "
                         "(no space, no '*')",
 }
@@ -48,6 +48,12 @@ def _unwrap(tp: Any) -> list[Any]:
 
 def _model_at(root: type[BaseModel], loc: tuple[Any, ...]) -> type[BaseModel] | None:
     """The model class whose keys live at ``loc`` (union tags in ``loc`` are followed)."""
+    models = _models_at(root, loc)
+    return models[0] if models else None
+
+
+def _models_at(root: type[BaseModel], loc: tuple[Any, ...]) -> list[type[BaseModel]]:
+    """Every model class whose keys may live at ``loc`` (all members of a union)."""
     candidates: list[Any] = [root]
     for part in loc:
         nxt: list[Any] = []
@@ -61,9 +67,8 @@ def _model_at(root: type[BaseModel], loc: tuple[Any, ...]) -> type[BaseModel] | 
                     elif _tag_of(t) == part:
                         nxt.append(t)
         candidates = nxt
-    models = [t for tp in candidates for t in _unwrap(tp)
-              if isinstance(t, type) and issubclass(t, BaseModel)]
-    return models[0] if models else None
+    return [t for tp in candidates for t in _unwrap(tp)
+            if isinstance(t, type) and issubclass(t, BaseModel)]
 
 
 def _tag_of(model: type[BaseModel]) -> str | None:
@@ -89,11 +94,58 @@ def _data_path(data: Any, loc: tuple[Any, ...]) -> tuple[Any, ...]:
 
 
 def _show(value: Any) -> str:
-    text = repr(value)
-    return text if len(text) <= 40 else text[:37] + "..."
+    """``value`` as a YAML writer would see it, e.g. ``text '20MHz'``, ``an empty value``."""
+    kind = kind_of(value)
+    if value is None:
+        return kind
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, (str, bytes)):
+        text = repr(value)
+    elif isinstance(value, (list, tuple, dict)):
+        text = json_like(value)
+    else:
+        text = str(value)
+    if len(text) > 40:
+        text = text[:37] + "..."
+    return f"{kind} {text}"
 
 
-def _describe(err: dict[str, Any], key: str, model: type[BaseModel] | None) -> str:
+def json_like(value: Any) -> str:
+    if isinstance(value, dict):
+        return "{" + ", ".join(f"{k}: {json_like(v)}" for k, v in value.items()) + "}"
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(json_like(v) for v in value) + "]"
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if value is None:
+        return "null"
+    return repr(value) if isinstance(value, str) else str(value)
+
+
+def _plural(n: Any, word: str) -> str:
+    return f"{n} {word}" if n == 1 else f"{n} {word}s"
+
+
+def _yes_no_hint(value: Any) -> str:
+    """YAML 1.1 reads unquoted yes/no/on/off as booleans: say so when it bites."""
+    if isinstance(value, bool):
+        return " (YAML reads unquoted yes/no/on/off/true/false as true/false: quote it)"
+    return ""
+
+
+def _number(key: str, value: Any) -> str:
+    if "address" in key and isinstance(value, int) and not isinstance(value, bool):
+        return f"{value} (0x{value:02X})"
+    return str(value)
+
+
+def _tags(root: type[BaseModel], loc: tuple[Any, ...]) -> list[str]:
+    return [t for m in _models_at(root, loc) if (t := _tag_of(m)) is not None]
+
+
+def _describe(err: dict[str, Any], key: str, model: type[BaseModel] | None,
+              tags: list[str]) -> str:
     kind = err["type"]
     ctx = err.get("ctx") or {}
     value = err.get("input")
@@ -101,19 +153,26 @@ def _describe(err: dict[str, Any], key: str, model: type[BaseModel] | None) -> s
         return f"missing required key '{key}'"
     if kind == "extra_forbidden":
         allowed = list(model.model_fields) if model else []
-        return f"unknown key '{key}'{did_you_mean(key, allowed)}"
-    if kind in ("int_type", "int_parsing"):
-        return f"'{key}' must be an integer, not {type(value).__name__} {_show(value)}"
+        hint = did_you_mean(key, allowed)
+        if not hint and allowed:
+            hint = f" (allowed here: {', '.join(allowed)})"
+        return f"unknown key '{key}'{hint}"
+    if value is None and kind.endswith("_type"):
+        return f"'{key}' has no value; give it one or remove the key"
+    if kind in ("int_type", "int_parsing", "int_from_float"):
+        return f"'{key}' must be an integer, not {_show(value)}"
     if kind in ("float_type", "float_parsing"):
-        return f"'{key}' must be a number, not {type(value).__name__} {_show(value)}"
+        return f"'{key}' must be a number, not {_show(value)}"
+    if kind == "finite_number":
+        return f"'{key}' must be a finite number, not {_show(value)}"
     if kind == "bool_type":
         return f"'{key}' must be true or false, not {_show(value)}"
     if kind == "string_type":
-        return f"'{key}' must be a string, not {type(value).__name__} {_show(value)}"
+        return f"'{key}' must be text, not {_show(value)}{_yes_no_hint(value)}"
     if kind in ("model_type", "model_attributes_type", "dict_type"):
-        return f"'{key}' must be a mapping of keys, not {type(value).__name__} {_show(value)}"
+        return f"'{key}' must be a mapping of keys, not {_show(value)}"
     if kind in ("tuple_type", "list_type"):
-        return f"'{key}' must be a list, not {type(value).__name__} {_show(value)}"
+        return f"'{key}' must be a list, not {_show(value)}"
     if kind == "string_pattern_mismatch":
         pattern = ctx.get("pattern", "")
         return f"'{key}' must be {_PATTERN_TEXT.get(pattern, 'of the form ' + pattern)}, " \
@@ -123,41 +182,75 @@ def _describe(err: dict[str, Any], key: str, model: type[BaseModel] | None) -> s
         options = [o.strip().strip("'") for o in expected.replace(" or ", ",").split(",")]
         options = [o for o in options if o]
         hint = did_you_mean(str(value), options) if isinstance(value, str) else ""
-        return f"'{key}' must be one of {expected}, not {_show(value)}{hint}"
+        return f"'{key}' must be {'one of ' if len(options) > 1 else ''}{expected}, " \
+               f"not {_show(value)}{hint or _yes_no_hint(value)}"
     if kind in ("union_tag_invalid", "union_tag_not_found"):
-        return f"'kind' must be one of {ctx.get('expected_tags', '')}" + (
-            f", not {_show(ctx.get('tag'))}" if "tag" in ctx else "")
+        choices = " or ".join(f"'{t}'" for t in tags) or ctx.get("expected_tags", "")
+        if kind == "union_tag_not_found" or "tag" not in ctx:
+            return f"missing required key 'kind' ({choices})"
+        tag = ctx.get("tag")
+        return f"'kind' must be {choices}, not {_show(tag)}{did_you_mean(str(tag), tags)}"
     bounds = {
         "greater_than_equal": ("at least", "ge"), "less_than_equal": ("at most", "le"),
         "greater_than": ("greater than", "gt"), "less_than": ("less than", "lt"),
     }
     if kind in bounds:
         words, name = bounds[kind]
-        return f"'{key}' must be {words} {ctx.get(name)}, not {_show(value)}"
+        return f"'{key}' must be {words} {_number(key, ctx.get(name))}, " \
+               f"not {_number(key, value)}"
     if kind in ("too_short", "too_long"):
+        n = ctx.get("min_length", ctx.get("max_length"))
+        actual = len(value) if isinstance(value, (list, tuple, dict, str)) else \
+            ctx.get("actual_length")
         return f"'{key}' must have {'at least' if kind == 'too_short' else 'at most'} " \
-               f"{ctx.get('min_length', ctx.get('max_length'))} items, " \
-               f"not {ctx.get('actual_length')}"
+               f"{_plural(n, 'item')}, not {actual}"
     msg = err.get("msg", "invalid value")
     return f"'{key}': {msg[0].lower() + msg[1:]}"
 
 
+def _label(path: tuple[Any, ...], loc: tuple[Any, ...]) -> str:
+    """The name of the node in messages: its key, with list positions, e.g. ``angles[3]``."""
+    parts = list(path)
+    while parts and not isinstance(parts[-1], str):
+        parts.pop()
+    if not parts:
+        names = [p for p in loc if isinstance(p, str)]
+        return names[-1] if names else ""
+    return parts[-1] + "".join(f"[{i}]" for i in path[len(parts):])
+
+
+def pick_error(errors: list[dict[str, Any]], data: Any) -> dict[str, Any]:
+    """The error to report: an unknown key first (a misspelt key causes the other
+    errors), else pydantic's first error, made as precise as its siblings allow (a
+    union such as ``speed: 3`` or ``speed: [..]`` reports the branch that matches)."""
+    for err in errors:
+        if err["type"] == "extra_forbidden":
+            return err
+    first = errors[0]
+    base = _data_path(data, tuple(first["loc"]))
+    best, depth = first, len(base)
+    for err in errors[1:]:
+        path = _data_path(data, tuple(err["loc"]))
+        if path[:len(base)] == base and len(path) > depth:
+            best, depth = err, len(path)
+    return best
+
+
 def config_error(exc: ValidationError, doc: Document, root: type[BaseModel]) -> ConfigError:
-    """The first error of ``exc`` as a ConfigError marked in ``doc``."""
-    err = exc.errors(include_url=False)[0]
+    """The most useful error of ``exc`` as a ConfigError marked in ``doc``."""
+    err = pick_error(exc.errors(include_url=False), doc.data)
     loc = tuple(err["loc"])
     path = _data_path(doc.data, loc)
-    data_keys = [p for p in loc if isinstance(p, str)]
-    key = next((p for p in reversed(path) if isinstance(p, str)), "")
-    if err["type"] == "missing":
+    tags: list[str] = []
+    if err["type"] in ("missing", "extra_forbidden"):
         key = str(loc[-1])
-        mark = doc.mark(path)
-    elif err["type"] == "extra_forbidden":
-        key = str(loc[-1])
-        mark = doc.mark(path, key=True)
+        mark = doc.mark(path, key=err["type"] == "extra_forbidden")
+    elif err["type"] in ("union_tag_invalid", "union_tag_not_found"):
+        key = "kind"
+        tags = _tags(root, loc)
+        mark = doc.mark(path + ("kind",) if err["type"] == "union_tag_invalid" else path)
     else:
+        key = _label(path, loc)
         mark = doc.mark(path)
-        if not key and data_keys:
-            key = data_keys[-1]
     model = _model_at(root, loc[:-1]) if err["type"] == "extra_forbidden" else None
-    return ConfigError(_describe(err, key, model), mark)
+    return ConfigError(_describe(err, key, model, tags), mark)

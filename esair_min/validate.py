@@ -7,6 +7,7 @@ broken rule raises :class:`ConfigError` pointing at the node to change.
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Any, Iterable
 
@@ -40,6 +41,19 @@ def encode_high(angle: int, speed: int) -> int:
     return angle // 100 + 10 * speed
 
 
+def _overflow(speed: int, angle: int) -> str:
+    """Why a speed/angle pair does not fit the high byte, and what would."""
+    high = encode_high(angle, speed)
+    top = (255 - angle // 100) // 10
+    return (f"speed {speed} with angle {angle} encodes to high byte {high} "
+            f"(angle/100 + 10*speed), more than 255; at this angle use a speed of at "
+            f"most {top}")
+
+
+def _an(word: str) -> str:
+    return f"an {word}" if word[:1] in "aeiou" else f"a {word}"
+
+
 class _Checker:
     """Rules for one robot; ``docs`` maps board name to its loaded file."""
 
@@ -56,13 +70,17 @@ class _Checker:
         allowed = ROLE_SECTIONS[b.role]
         for section in data:
             if section in OPTIONAL_SECTIONS - allowed:
-                self.fail(b, (section,), f"'{section}' does not belong on a {b.role} board "
-                          f"(a {b.role} board may have: {', '.join(sorted(allowed))})", key=True)
+                self.fail(b, (section,), f"'{section}' does not belong on {_an(b.role)} board "
+                          f"({_an(b.role)} board may have: {', '.join(sorted(allowed))})",
+                          key=True)
         required = {"central": ["uart", "tick", "sync"], "actuator": ["sync", "servos"],
                     "sensor": ["sensors"]}[b.role]
         for section in required:
             if not getattr(b, section):
-                self.fail(b, (), f"a {b.role} board needs '{section}:'")
+                if section in data:
+                    self.fail(b, (section,), f"'{section}' is empty, but {_an(b.role)} "
+                              f"board needs it", key=True)
+                self.fail(b, (), f"{_an(b.role)} board needs '{section}:'")
         self.i2c_rules(b)
         self.clock_rules(b)
         self.unique(b, "servos", "name")
@@ -75,8 +93,8 @@ class _Checker:
         for i, s in enumerate(sorted(b.servos, key=lambda s: s.index)):
             if s.index != i:
                 self.fail(b, ("servos", b.servos.index(s), "index"),
-                          f"servo indices must run 0..{len(b.servos) - 1} with no gap; "
-                          f"index {i} is missing")
+                          f"servo '{s.name}': index {s.index} leaves a gap; servo indices "
+                          f"must run 0..{len(b.servos) - 1} and index {i} is missing")
         for i, s in enumerate(b.servos):
             self.servo_rules(b, i)
         for i, s in enumerate(b.sensors):
@@ -92,24 +110,26 @@ class _Checker:
             if value in seen:
                 line = self.docs[b.board].mark((section, seen[value], field)).line
                 self.fail(b, (section, i, field),
-                          f"duplicate {section[:-1]} {field} {value!r} "
-                          f"(also at line {line})")
+                          f"{section[:-1]} {field} {value!r} is already used at line {line}; "
+                          f"each {section[:-1]} needs its own {field}")
             seen[value] = i
 
     def i2c_rules(self, b: Board) -> None:
         i2c = b.i2c
         want = "master" if b.role == "central" else "slave"
         if i2c.mode != want:
-            self.fail(b, ("i2c", "mode"), f"a {b.role} board must be an I2C {want}")
+            self.fail(b, ("i2c", "mode"), f"{_an(b.role)} board must be an I2C {want} "
+                      f"(mode: {want})")
         if want == "slave":
             if i2c.address is None:
-                self.fail(b, ("i2c",), "an I2C slave needs its own 'address'")
+                self.fail(b, ("i2c",), "an I2C slave needs its own 'address' (0x08..0x77)")
             if i2c.devices:
                 self.fail(b, ("i2c", "devices"), "an I2C slave has no 'devices' (only a "
                           "master talks to devices)", key=True)
             return
         if i2c.address is not None:
-            self.fail(b, ("i2c", "address"), "an I2C master has no own 'address'", key=True)
+            self.fail(b, ("i2c", "address"), "an I2C master has no own 'address'; remove it",
+                      key=True)
         if b.i2c_setting is None:
             self.fail(b, ("i2c", "speed_hz"), f"I2C {i2c.speed_hz} Hz cannot be made at "
                       f"{b.mcu.clock_hz} Hz (SSPADD must be 1..127)")
@@ -119,15 +139,19 @@ class _Checker:
         names: dict[str, int] = {}
         addrs: dict[int, int] = {}
         for i, dev in enumerate(b.i2c.devices):
+            doc = self.docs[b.board]
             if dev.name in names:
-                self.fail(b, ("i2c", "devices", i, "name"), f"duplicate device name "
-                          f"'{dev.name}' (also at line "
-                          f"{self.docs[b.board].mark(('i2c', 'devices', names[dev.name])).line})")
+                self.fail(b, ("i2c", "devices", i, "name"), f"device name '{dev.name}' is "
+                          f"already used at line "
+                          f"{doc.mark(('i2c', 'devices', names[dev.name])).line}; "
+                          "each device needs its own name")
             if dev.address in addrs:
                 other = b.i2c.devices[addrs[dev.address]]
+                line = doc.mark(("i2c", "devices", addrs[dev.address], "address")).line
                 self.fail(b, ("i2c", "devices", i, "address"),
                           f"I2C address 0x{dev.address:02X} of '{dev.name}' collides with "
-                          f"'{other.name}'")
+                          f"'{other.name}' (line {line}); every device on the bus needs "
+                          "its own address")
             names[dev.name] = i
             addrs[dev.address] = i
         if sum(isinstance(d, EepromDevice) for d in b.i2c.devices) > 1:
@@ -144,6 +168,9 @@ class _Checker:
                           f"is SPBRG {setting.spbrg} with BRGH={setting.brgh} "
                           f"({setting.actual:.0f} baud, {setting.error_percent:+.2f} %)")
         if b.tick is not None:
+            if not math.isfinite(b.tick.period_ms):
+                self.fail(b, ("tick", "period_ms"), f"tick period must be a finite number "
+                          f"of ms, not {b.tick.period_ms}")
             t2 = b.timer2
             assert t2 is not None
             want = b.tick.period_ms
@@ -165,18 +192,20 @@ class _Checker:
         if s.pulse_min_us >= s.pulse_max_us:
             self.fail(b, ("servos", i, "pulse_max_us"), f"servo '{s.name}': pulse_max_us "
                       f"({s.pulse_max_us}) must be above pulse_min_us ({s.pulse_min_us})")
-        high = encode_high(s.stand_angle, s.default_speed)
-        if high > 255:
-            self.fail(b, ("servos", i, "default_speed"), f"servo '{s.name}': speed "
-                      f"{s.default_speed} with angle {s.stand_angle} encodes to high byte "
-                      f"{high}, more than 255")
+        if encode_high(s.stand_angle, s.default_speed) > 255:
+            self.fail(b, ("servos", i, "default_speed"), f"servo '{s.name}': default "
+                      f"{_overflow(s.default_speed, s.stand_angle)}")
 
     def pin_rules(self, b: Board) -> None:
         used: dict[str, str] = {}
 
         def claim(pin: str, what: str, loc: tuple[Any, ...]) -> None:
+            if pin not in hardware.ALL_PINS:
+                self.fail(b, loc, f"pin {pin} of {what} does not exist on the "
+                          f"{b.mcu.part} (RA0..RA5, RB0..RB7, RC0..RC7, RD0..RD7, RE0..RE2)")
             if pin in used:
-                self.fail(b, loc, f"pin {pin} is used twice: by {used[pin]} and by {what}")
+                self.fail(b, loc, f"pin {pin} is used twice: by {used[pin]} and by {what}; "
+                          f"give {what} another pin")
             used[pin] = what
 
         if b.uart is not None:
@@ -234,12 +263,13 @@ class _Checker:
                 self.fail(central, ("i2c", "devices", i, "address"),
                           f"device '{dev.name}' is at 0x{dev.address:02X} here but board "
                           f"'{peer.board}' answers at 0x{peer.i2c.address:02X} "
-                          f"({self.docs[peer.board].mark(('i2c', 'address'))})")
+                          f"({self.docs[peer.board].mark(('i2c', 'address'))}); make the "
+                          "two addresses agree")
             if peer.register_count != dev.registers:
                 self.fail(central, ("i2c", "devices", i, "registers"),
                           f"device '{dev.name}' declares {dev.registers} registers but board "
                           f"'{peer.board}' has {peer.register_count} "
-                          f"(2 per servo and per sensor)")
+                          f"(2 per servo and per sensor); set registers: {peer.register_count}")
             if peer.i2c.speed_hz != central.i2c.speed_hz:
                 self.fail(peer, ("i2c", "speed_hz"),
                           f"bus speed {peer.i2c.speed_hz} Hz differs from the master's "
@@ -247,23 +277,30 @@ class _Checker:
         for b in self.boards:
             if b.role != "central" and b.board not in reached:
                 self.fail(b, ("board",), f"board '{b.board}' is not among the central "
-                          f"board's I2C devices, so nothing can reach it")
+                          f"board's I2C devices, so nothing can reach it; add it there "
+                          f"(kind: board, board: {b.board})")
         eeprom = central.device("eeprom")
         if central.motions and eeprom is None:
-            self.fail(central, ("motions",), "motions need an EEPROM among the I2C devices "
-                      "(kind: eeprom)", key=True)
+            self.fail(central, ("motions",), "motions need an EEPROM: add one to the I2C "
+                      "devices (kind: eeprom)", key=True)
         if isinstance(eeprom, EepromDevice):
             servos = len(by_role["actuator"].servos) if "actuator" in by_role else 0
             from .layout import image_layout
             need = image_layout(central.motions, servos).total_bytes
             index = central.i2c.devices.index(eeprom)
+            if need > 0xFFFF:
+                self.fail(central, ("motions",), f"the motion image needs {need} bytes, "
+                          f"more than the 65535 its 16-bit offsets reach; use fewer or "
+                          f"shorter motions", key=True)
             if need > eeprom.size_bytes:
                 self.fail(central, ("i2c", "devices", index, "size_bytes"),
                           f"the motion image needs {need} bytes but EEPROM '{eeprom.name}' "
-                          f"has {eeprom.size_bytes} ({need - eeprom.size_bytes} bytes over)")
+                          f"has {eeprom.size_bytes} ({need - eeprom.size_bytes} bytes over); "
+                          f"use a larger EEPROM or fewer frames")
             if eeprom.address_bytes == 1 and need > 256:
                 self.fail(central, ("i2c", "devices", index, "address_bytes"),
-                          f"a 1-byte address reaches 256 bytes; the motion image needs {need}")
+                          f"a 1-byte memory address reaches 256 bytes, but the motion image "
+                          f"needs {need}; use address_bytes: 2")
 
     def command_rules(self, central: Board, n: int, by_role: dict[str, Board]) -> None:
         commands = central.commands or ()
@@ -282,16 +319,21 @@ class _Checker:
                 o = commands[j]
                 if o.name == c.name:
                     self.fail(central, loc_base + (i, "name"),
-                              f"duplicate command name '{c.name}'")
+                              f"command name '{c.name}' is already used at line "
+                              f"{self.docs[central.board].mark(loc_base + (j, 'name')).line}; "
+                              "each command needs its own name")
                 if o.length(n) == c.length(n) and (c.prefix.startswith(o.prefix)
                                                    or o.prefix.startswith(c.prefix)):
                     self.fail(central, loc_base + (i, "prefix"),
-                              f"command '{c.name}' ({c.prefix!r}, {c.length(n)} chars) is "
-                              f"ambiguous with '{o.name}' ({o.prefix!r}, {o.length(n)} chars)")
+                              f"command '{c.name}' (prefix {c.prefix!r}, {c.length(n)}-char "
+                              f"lines) is ambiguous with '{o.name}' (prefix {o.prefix!r}, "
+                              f"{o.length(n)}-char lines): one line would match both; "
+                              "change one prefix")
             if c.length(n) + CHECKSUM_CHARS > MAX_LINE:
                 self.fail(central, loc_base + (i, "prefix"),
-                          f"command '{c.name}' is {c.length(n)} chars; with a checksum it "
-                          f"exceeds the {MAX_LINE}-char line")
+                          f"command '{c.name}' lines are {c.length(n)} chars; with a "
+                          f"{CHECKSUM_CHARS}-char checksum they exceed the {MAX_LINE}-char "
+                          "line limit")
             if c.motion is not None:
                 if c.action != "play":
                     self.fail(central, loc_base + (i, "motion"),
@@ -323,11 +365,10 @@ class _Checker:
                 self.fail(central, loc + ("angles", k), f"motion '{m.name}' frame {f}: angle "
                           f"{angle} for servo '{servo.name}' is outside its limits "
                           f"{servo.min_angle}..{servo.max_angle}")
-            high = encode_high(angle, speed)
-            if high > 255:
+            if encode_high(angle, speed) > 255:
                 where = loc + (("speed",) if isinstance(frame.speed, int) else ("speed", k))
-                self.fail(central, where, f"motion '{m.name}' frame {f}: speed {speed} with "
-                          f"angle {angle} encodes to high byte {high}, more than 255")
+                self.fail(central, where, f"motion '{m.name}' frame {f}, servo "
+                          f"'{servo.name}': {_overflow(speed, angle)}")
 
     def reaction_rules(self, central: Board, i: int, sensor: Board | None) -> None:
         r = central.reactions[i]

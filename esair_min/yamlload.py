@@ -4,7 +4,8 @@ PyYAML composes the node graph (which keeps line/column marks); this module turn
 into dicts, lists and scalars while recording, for every path such as
 ``("servos", 3, "max_angle")``, where its value (and its key) stand in the file.
 It refuses what PyYAML would silently accept: duplicate keys, alias expansion that
-grows without bound, and non-string keys.
+grows without bound (or refers to itself), and non-string keys. Every error is one
+:class:`ConfigError` on one line with the mark of the node to change.
 """
 
 from __future__ import annotations
@@ -24,6 +25,33 @@ Path_ = tuple[Any, ...]
 MAX_NODES = 100_000
 #: Largest board file read, in bytes.
 MAX_FILE_BYTES = 1_000_000
+#: Deepest nesting of mappings and lists (a PAPA-MAN board needs 5).
+MAX_DEPTH = 32
+
+
+def kind_of(value: Any) -> str:
+    """What a YAML value is, in the words of a YAML file (for error messages)."""
+    if value is None:
+        return "an empty value"
+    if isinstance(value, bool):
+        return "true/false"
+    if isinstance(value, int):
+        return "an integer"
+    if isinstance(value, float):
+        return "a number"
+    if isinstance(value, str):
+        return "text"
+    if isinstance(value, (list, tuple)):
+        return "a list"
+    if isinstance(value, dict):
+        return "a mapping"
+    if isinstance(value, (bytes, bytearray)):
+        return "binary data"
+    return f"a {type(value).__name__}"
+
+
+def _one_line(text: str) -> str:
+    return " ".join(str(text).split())
 
 
 @dataclass(frozen=True)
@@ -58,6 +86,7 @@ class _Builder:
         self.path = path
         self.loader = loader
         self.nodes = 0
+        self.open: set[int] = set()   # ids of the collections being built (cycle check)
         self.value_marks: dict[Path_, Mark] = {}
         self.key_marks: dict[Path_, Mark] = {}
 
@@ -65,19 +94,38 @@ class _Builder:
         self.nodes += 1
         if self.nodes > MAX_NODES:
             raise ConfigError(
-                f"document expands to more than {MAX_NODES} nodes "
-                "(recursive or exploding aliases?)",
+                f"aliases expand this document to more than {MAX_NODES} values "
+                "(a billion-laughs style alias bomb?); write the values out instead "
+                "of nesting '*' aliases",
                 _mark(self.path, node),
             )
         self.value_marks[loc] = _mark(self.path, node)
-        if isinstance(node, yaml.MappingNode):
-            return self._mapping(node, loc)
-        if isinstance(node, yaml.SequenceNode):
+        if isinstance(node, yaml.ScalarNode):
+            return self._scalar(node)
+        if id(node) in self.open:
+            raise ConfigError("this list or mapping contains a '*' alias of itself "
+                              "(endless recursion); remove that alias",
+                              _mark(self.path, node))
+        if len(loc) >= MAX_DEPTH:
+            raise ConfigError(f"nested more than {MAX_DEPTH} levels deep; a board file "
+                              "needs far fewer", _mark(self.path, node))
+        self.open.add(id(node))
+        try:
+            if isinstance(node, yaml.MappingNode):
+                return self._mapping(node, loc)
             return [self.build(item, loc + (i,)) for i, item in enumerate(node.value)]
+        finally:
+            self.open.discard(id(node))
+
+    def _scalar(self, node: yaml.ScalarNode) -> Any:
         try:
             return self.loader.construct_object(node, deep=True)
-        except yaml.YAMLError as exc:
-            raise ConfigError(f"cannot read value: {exc}", _mark(self.path, node)) from None
+        except (yaml.YAMLError, ValueError, TypeError, OverflowError) as exc:
+            # ValueError & co.: a tagged or date-like scalar PyYAML cannot convert.
+            problem = getattr(exc, "problem", None) or str(exc)
+            raise ConfigError(f"cannot read value: {_one_line(problem)} "
+                              "(quote the value, or remove its '!' tag)",
+                              _mark(self.path, node)) from None
 
     def _mapping(self, node: yaml.MappingNode, loc: Path_) -> dict[str, Any]:
         # Merge keys (<<) would need PyYAML's flattening; board files do not need them.
@@ -88,14 +136,15 @@ class _Builder:
                     "keys must be plain names (no merge keys, lists or mappings as keys)",
                     _mark(self.path, key_node),
                 )
-            key = self.loader.construct_object(key_node)
+            key = self._scalar(key_node)
             if not isinstance(key, str):
-                raise ConfigError(f"key {key!r} must be a name, not a {type(key).__name__}",
-                                  _mark(self.path, key_node))
+                raise ConfigError(f"key {_one_line(key_node.value)!r} must be a name, not "
+                                  f"{kind_of(key)}", _mark(self.path, key_node))
             if key in out:
                 first = self.key_marks[loc + (key,)]
                 raise ConfigError(
-                    f"duplicate key '{key}' (first given at line {first.line})",
+                    f"duplicate key '{key}' (first given at line {first.line}); "
+                    "keep only one of them",
                     _mark(self.path, key_node),
                 )
             self.key_marks[loc + (key,)] = _mark(self.path, key_node)
@@ -108,9 +157,10 @@ def load_yaml(path: Path | str) -> Document:
     p = Path(path)
     name = str(path)
     if not p.exists():
-        raise ConfigError("no such file", file_mark(name))
+        raise ConfigError("no such file or folder", file_mark(name))
     if p.is_dir():
-        raise ConfigError("is a directory, expected a YAML board file", file_mark(name))
+        raise ConfigError("is a folder, but a board file (YAML) was expected here; "
+                          "rename or move it", file_mark(name))
     raw = p.read_bytes()
     if len(raw) > MAX_FILE_BYTES:
         raise ConfigError(f"file is {len(raw)} bytes, larger than the {MAX_FILE_BYTES} "
@@ -118,25 +168,46 @@ def load_yaml(path: Path | str) -> Document:
     try:
         text = raw.decode("utf-8")
     except UnicodeDecodeError as exc:
-        raise ConfigError(f"not a text file (invalid UTF-8 at byte {exc.start})",
-                          file_mark(name)) from None
-    loader = yaml.SafeLoader(text)
+        raise ConfigError(f"not a text file (invalid UTF-8 at byte {exc.start}); a board "
+                          "file is UTF-8 YAML", file_mark(name)) from None
+    try:
+        loader = yaml.SafeLoader(text)
+    except yaml.reader.ReaderError as exc:
+        raise _reader_error(exc, text, name) from None
     try:
         node = loader.get_single_node()
+    except yaml.reader.ReaderError as exc:
+        raise _reader_error(exc, text, name) from None
     except yaml.MarkedYAMLError as exc:
         m = exc.problem_mark or exc.context_mark
         mark = Mark(name, m.line + 1, m.column + 1) if m else file_mark(name)
         problem = exc.problem or exc.context or "invalid YAML"
-        raise ConfigError(f"YAML syntax error: {problem}", mark) from None
+        if "'\\t'" in problem:
+            problem += " (indent with spaces, not tabs)"
+        raise ConfigError(f"YAML syntax error: {_one_line(problem)}", mark) from None
     except yaml.YAMLError as exc:
-        raise ConfigError(f"YAML error: {exc}", file_mark(name)) from None
+        raise ConfigError(f"YAML error: {_one_line(str(exc))}", file_mark(name)) from None
+    except RecursionError:
+        raise ConfigError(f"nested too deeply to read (more than {MAX_DEPTH} levels are "
+                          "never needed in a board file)", file_mark(name)) from None
     finally:
         loader.dispose()
-    if node is None:
-        raise ConfigError("file is empty, expected a board description", file_mark(name))
+    if node is None or (isinstance(node, yaml.ScalarNode) and node.tag.endswith(":null")):
+        raise ConfigError("file is empty, expected a board description (board:, role:, "
+                          "i2c:, ...)", file_mark(name))
     if not isinstance(node, yaml.MappingNode):
-        raise ConfigError("top level must be a mapping of keys (board:, mcu:, ...)",
-                          _mark(name, node))
+        what = "a list" if isinstance(node, yaml.SequenceNode) else "a single value"
+        raise ConfigError(f"the file is {what}; a board file must be a mapping of keys "
+                          "(board:, role:, i2c:, ...)", _mark(name, node))
     builder = _Builder(name, loader)
     data = builder.build(node, ())
     return Document(name, data, builder.value_marks, builder.key_marks)
+
+
+def _reader_error(exc: yaml.reader.ReaderError, text: str, name: str) -> ConfigError:
+    """A control character in the text: most likely a binary file."""
+    pos = max(0, min(exc.position, len(text)))
+    line = text.count("\n", 0, pos) + 1
+    col = pos - (text.rfind("\n", 0, pos) + 1) + 1
+    return ConfigError(f"control character U+{exc.character:04X} is not allowed in a YAML "
+                       "file (is this a binary file?)", Mark(name, line, col))
