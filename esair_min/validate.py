@@ -55,24 +55,28 @@ def _an(word: str) -> str:
 
 
 class _Checker:
-    """Rules for one robot; ``docs`` maps board name to its loaded file."""
+    """Rules for one robot: each board with the file it was loaded from."""
 
     def __init__(self, boards: list[Board], docs: list[Document]):
         self.boards = boards
-        self.docs = {b.board: d for b, d in zip(boards, docs)}
+        # By identity, not by name: two files may (wrongly) give the same board name.
+        self.docs = {id(b): d for b, d in zip(boards, docs)}
+
+    def doc(self, board: Board) -> Document:
+        return self.docs[id(board)]
 
     def fail(self, board: Board, loc: Iterable[Any], message: str, *, key: bool = False):
-        raise ConfigError(message, self.docs[board.board].mark(tuple(loc), key=key))
+        raise ConfigError(message, self.doc(board).mark(tuple(loc), key=key))
 
     # -- single board -------------------------------------------------------------
     def board_rules(self, b: Board) -> None:
-        data = self.docs[b.board].data
+        data = self.doc(b).data
         allowed = ROLE_SECTIONS[b.role]
         for section in data:
             if section in OPTIONAL_SECTIONS - allowed:
                 self.fail(b, (section,), f"'{section}' does not belong on {_an(b.role)} board "
-                          f"({_an(b.role)} board may have: {', '.join(sorted(allowed))})",
-                          key=True)
+                          f"({_an(b.role)} board may have: {', '.join(sorted(allowed))}); "
+                          f"remove it, or check 'role: {b.role}'", key=True)
         required = {"central": ["uart", "tick", "sync"], "actuator": ["sync", "servos"],
                     "sensor": ["sensors"]}[b.role]
         for section in required:
@@ -108,7 +112,7 @@ class _Checker:
         for i, item in enumerate(getattr(b, section) or ()):
             value = getattr(item, field)
             if value in seen:
-                line = self.docs[b.board].mark((section, seen[value], field)).line
+                line = self.doc(b).mark((section, seen[value], field)).line
                 self.fail(b, (section, i, field),
                           f"{section[:-1]} {field} {value!r} is already used at line {line}; "
                           f"each {section[:-1]} needs its own {field}")
@@ -139,7 +143,7 @@ class _Checker:
         names: dict[str, int] = {}
         addrs: dict[int, int] = {}
         for i, dev in enumerate(b.i2c.devices):
-            doc = self.docs[b.board]
+            doc = self.doc(b)
             if dev.name in names:
                 self.fail(b, ("i2c", "devices", i, "name"), f"device name '{dev.name}' is "
                           f"already used at line "
@@ -227,18 +231,20 @@ class _Checker:
         for b in self.boards:
             if b.board in seen:
                 self.fail(b, ("board",), f"two files describe board '{b.board}' "
-                          f"(the other is {self.docs[seen[b.board].board].path})")
+                          f"(the other is {self.doc(seen[b.board]).path})")
             seen[b.board] = b
         by_role: dict[str, Board] = {}
         for b in self.boards:
             if b.role in by_role:
-                self.fail(b, ("role",), f"a robot has one {b.role} board; "
-                          f"'{by_role[b.role].board}' is already {b.role}")
+                other = by_role[b.role]
+                self.fail(b, ("role",), f"a robot has one {b.role} board, and board "
+                          f"'{other.board}' ({self.doc(other).path}) already is one; "
+                          "change one 'role'")
             by_role[b.role] = b
         central = by_role.get("central")
         if central is None:
             raise ConfigError("no central board in this robot (one board needs "
-                              "'role: central')", file_mark(self.docs[self.boards[0].board].path))
+                              "'role: central')", file_mark(self.doc(self.boards[0]).path))
         self.peer_rules(central, by_role)
         actuator = by_role.get("actuator")
         self.command_rules(central, len(actuator.servos) if actuator else 0, by_role)
@@ -263,7 +269,7 @@ class _Checker:
                 self.fail(central, ("i2c", "devices", i, "address"),
                           f"device '{dev.name}' is at 0x{dev.address:02X} here but board "
                           f"'{peer.board}' answers at 0x{peer.i2c.address:02X} "
-                          f"({self.docs[peer.board].mark(('i2c', 'address'))}); make the "
+                          f"({self.doc(peer).mark(('i2c', 'address'))}); make the "
                           "two addresses agree")
             if peer.register_count != dev.registers:
                 self.fail(central, ("i2c", "devices", i, "registers"),
@@ -320,7 +326,7 @@ class _Checker:
                 if o.name == c.name:
                     self.fail(central, loc_base + (i, "name"),
                               f"command name '{c.name}' is already used at line "
-                              f"{self.docs[central.board].mark(loc_base + (j, 'name')).line}; "
+                              f"{self.doc(central).mark(loc_base + (j, 'name')).line}; "
                               "each command needs its own name")
                 if o.length(n) == c.length(n) and (c.prefix.startswith(o.prefix)
                                                    or o.prefix.startswith(c.prefix)):
@@ -380,7 +386,8 @@ class _Checker:
                           f"{did_you_mean(g, groups)} (groups: {', '.join(groups) or 'none'})")
         if r.compare[0] == r.compare[1]:
             self.fail(central, ("reactions", i, "compare", 1),
-                      f"reaction '{r.name}' compares group '{r.compare[0]}' with itself")
+                      f"reaction '{r.name}' compares group '{r.compare[0]}' with itself; "
+                      "compare two different groups")
         if all(m.name != r.motion for m in central.motions):
             self.fail(central, ("reactions", i, "motion"), f"reaction '{r.name}': no motion "
                       f"named '{r.motion}'{did_you_mean(r.motion, [m.name for m in central.motions])}")

@@ -81,6 +81,9 @@ def _mark(path: str, node: yaml.Node) -> Mark:
     return Mark(path, m.line + 1, m.column + 1)
 
 
+_PLAIN_TAGS = ("tag:yaml.org,2002:map", "tag:yaml.org,2002:seq")
+
+
 class _Builder:
     def __init__(self, path: str, loader: yaml.SafeLoader):
         self.path = path
@@ -93,11 +96,13 @@ class _Builder:
     def build(self, node: yaml.Node, loc: Path_) -> Any:
         self.nodes += 1
         if self.nodes > MAX_NODES:
+            # Point at the top-level key whose value explodes, not deep inside it.
+            where = self.value_marks.get(loc[:1]) if loc else None
             raise ConfigError(
                 f"aliases expand this document to more than {MAX_NODES} values "
                 "(a billion-laughs style alias bomb?); write the values out instead "
                 "of nesting '*' aliases",
-                _mark(self.path, node),
+                where or _mark(self.path, node),
             )
         self.value_marks[loc] = _mark(self.path, node)
         if isinstance(node, yaml.ScalarNode):
@@ -109,6 +114,9 @@ class _Builder:
         if len(loc) >= MAX_DEPTH:
             raise ConfigError(f"nested more than {MAX_DEPTH} levels deep; a board file "
                               "needs far fewer", _mark(self.path, node))
+        if node.tag not in _PLAIN_TAGS:
+            raise ConfigError(f"cannot read value: unsupported tag '{node.tag}' (remove the "
+                              "'!' tag)", _mark(self.path, node))
         self.open.add(id(node))
         try:
             if isinstance(node, yaml.MappingNode):
@@ -182,6 +190,8 @@ def load_yaml(path: Path | str) -> Document:
         m = exc.problem_mark or exc.context_mark
         mark = Mark(name, m.line + 1, m.column + 1) if m else file_mark(name)
         problem = exc.problem or exc.context or "invalid YAML"
+        if problem.startswith("but ") and exc.context:
+            problem = f"{exc.context}, {problem}"
         if "'\\t'" in problem:
             problem += " (indent with spaces, not tabs)"
         raise ConfigError(f"YAML syntax error: {_one_line(problem)}", mark) from None
