@@ -73,5 +73,29 @@ def schema(indent: int) -> None:
     click.echo(json.dumps(doc, indent=indent, sort_keys=True))
 
 
+@main.command()
+@ROBOT
+@click.option("-o", "--output", required=True, metavar="FILE",
+              help="Where to write the image (Intel HEX, or raw with --bin).")
+@click.option("--bin", "raw", is_flag=True, help="Write raw bytes instead of Intel HEX.")
+@_friendly
+def eeprom(robot: str, output: str, raw: bool) -> None:
+    """Build the EEPROM motion image of a robot and write it as Intel HEX."""
+    from .errors import ImageError
+    from .image import build_image, image_summary, write_hex
+
+    model = load(robot)
+    data = build_image(model)
+    if raw:
+        try:
+            with open(output, "wb") as f:
+                f.write(data)
+        except OSError as exc:
+            raise ImageError(f"cannot write {output}: {exc.strerror}") from None
+    else:
+        write_hex(data, output)
+    click.echo(f"{image_summary(model, data)} -> {output}")
+
+
 if __name__ == "__main__":  # pragma: no cover
     main()

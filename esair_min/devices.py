@@ -1,0 +1,156 @@
+"""Simple I2C peripherals behind a :class:`~esair_min.core.Bus`, without timing.
+
+Used by the harness and the tests, and wrapped by the emulator (which adds time).
+Each device answers ``write(data)`` and ``write_read(wdata, n)``; a device whose
+``fault`` flag is set does not acknowledge.
+"""
+
+from __future__ import annotations
+
+from typing import Iterable, Protocol, Sequence
+
+from .errors import ProtocolError
+
+
+class Device(Protocol):
+    address: int
+    fault: bool
+
+    def write(self, data: bytes) -> bool: ...
+
+    def write_read(self, wdata: bytes, n: int) -> bytes | None: ...
+
+
+class Eeprom24:
+    """A 24LC256-class EEPROM: a memory address (high byte first) then data.
+
+    Reads are sequential from the address and wrap at ``size``; writes store their
+    data from the address on (random-address writes, wrapping at ``size``)."""
+
+    def __init__(self, size: int, address: int, address_bytes: int = 2,
+                 data: bytes = b""):
+        if len(data) > size:
+            raise ProtocolError(f"{len(data)} bytes do not fit a {size}-byte EEPROM")
+        self.size = size
+        self.address = address
+        self.address_bytes = address_bytes
+        self.memory = bytearray(b"\xff" * size)
+        self.memory[:len(data)] = data
+        self.pointer = 0
+        self.fault = False
+
+    def load(self, data: bytes) -> None:
+        """Replace the whole contents (blank bytes 0xFF after ``data``)."""
+        if len(data) > self.size:
+            raise ProtocolError(f"{len(data)} bytes do not fit a {self.size}-byte EEPROM")
+        self.memory[:] = b"\xff" * self.size
+        self.memory[:len(data)] = data
+
+    def poke(self, offset: int, value: int) -> None:
+        if not 0 <= offset < self.size or not 0 <= value <= 255:
+            raise ProtocolError(f"poke {offset:#x} {value:#x} is outside the "
+                                f"{self.size}-byte EEPROM or a byte")
+        self.memory[offset] = value
+
+    def _set_pointer(self, wdata: bytes) -> bytes:
+        k = self.address_bytes
+        if len(wdata) >= k:
+            self.pointer = int.from_bytes(wdata[:k], "big") % self.size
+            return wdata[k:]
+        return b""
+
+    def write(self, data: bytes) -> bool:
+        if self.fault:
+            return False
+        for b in self._set_pointer(data):
+            self.memory[self.pointer] = b
+            self.pointer = (self.pointer + 1) % self.size
+        return True
+
+    def write_read(self, wdata: bytes, n: int) -> bytes | None:
+        if self.fault:
+            return None
+        self._set_pointer(wdata)
+        out = bytearray(n)
+        p = self.pointer
+        for i in range(n):
+            out[i] = self.memory[p]
+            p = (p + 1) % self.size
+        self.pointer = p
+        return bytes(out)
+
+
+class RegisterSlave:
+    """A peer board as a register map: the first byte written is the register pointer,
+    data follow with auto-increment (wrapping at the map's size)."""
+
+    def __init__(self, address: int, n_registers: int):
+        self.address = address
+        self.registers = bytearray(n_registers)
+        self.pointer = 0
+        self.fault = False
+
+    def write(self, data: bytes) -> bool:
+        if self.fault:
+            return False
+        if data:
+            n = len(self.registers)
+            p = data[0] % n
+            for b in data[1:]:
+                self.registers[p] = b
+                p = (p + 1) % n
+            self.pointer = p
+        return True
+
+    def write_read(self, wdata: bytes, n: int) -> bytes | None:
+        if self.fault:
+            return None
+        size = len(self.registers)
+        p = wdata[0] % size if wdata else self.pointer
+        out = bytearray(n)
+        for i in range(n):
+            out[i] = self.registers[p]
+            p = (p + 1) % size
+        self.pointer = p
+        return bytes(out)
+
+    def set_readings(self, values: Sequence[int]) -> None:
+        """Sensor board: store 10-bit readings as (low, high) register pairs."""
+        if 2 * len(values) > len(self.registers):
+            raise ProtocolError(f"{len(values)} readings for {len(self.registers) // 2} "
+                                f"sensors")
+        for i, v in enumerate(values):
+            if not 0 <= v <= 1023:
+                raise ProtocolError(f"reading {v} is not a 10-bit value")
+            self.registers[2 * i] = v & 0xFF
+            self.registers[2 * i + 1] = v >> 8
+
+    def pairs(self) -> tuple[tuple[int, int], ...]:
+        """Actuator board: the (low, high) pair of every servo."""
+        r = self.registers
+        return tuple((r[i], r[i + 1]) for i in range(0, len(r) - 1, 2))
+
+
+class SimpleBus:
+    """A bus dispatching by 7-bit address; an absent or faulty device does not ACK."""
+
+    def __init__(self, devices: Iterable[Device]):
+        self.devices = {d.address: d for d in devices}
+
+    def write(self, addr: int, data: bytes) -> bool:
+        d = self.devices.get(addr)
+        return d is not None and d.write(data)
+
+    def write_read(self, addr: int, wdata: bytes, n: int) -> bytes | None:
+        d = self.devices.get(addr)
+        return None if d is None else d.write_read(wdata, n)
+
+
+class NullBus:
+    """Acknowledges every write; reads return zeros (for benchmarks)."""
+
+    def write(self, addr: int, data: bytes) -> bool:
+        return True
+
+    def write_read(self, addr: int, wdata: bytes, n: int) -> bytes | None:
+        return bytes(n)

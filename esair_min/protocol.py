@@ -1,0 +1,225 @@
+"""The PC command protocol as pure functions (docs/protocol.md).
+
+One place for the reply codes and their exact texts, the checksum, the servo pair
+encoding of the thesis, helpers that build command lines (for clients and tests) and
+a parser of reply lines. No I/O, no state.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from enum import IntEnum
+from typing import Iterable, Sequence
+
+from .errors import ProtocolError
+
+PROTOCOL_NAME = "esair-min/1"
+MAX_LINE = 40          # characters of a line, terminator excluded, checksum suffix included
+CHECKSUM_CHARS = 3     # "*HH"
+EOL = b"\r\n"
+MAX_SPEED = 25
+ANGLE_STEP = 3         # the `c` command: char '0'..'l' is 3*(char-0x30) degrees
+ANGLE_CODE_FIRST = 0x30
+ANGLE_CODE_LAST = 0x6C
+KEEP_CODE = "."
+
+
+class Code(IntEnum):
+    """Error codes of the reply table (the number is the nn of ``Enn``)."""
+
+    UNKNOWN = 1
+    TOO_LONG = 2
+    BAD_ARGUMENT = 3
+    OUTSIDE_LIMITS = 4
+    OVERFLOW = 5
+    BAD_CHECKSUM = 6
+    BUSY = 7
+    NO_MOTION = 8
+    IMAGE_INVALID = 9
+    NO_ANSWER = 10
+    CHECKSUM_REQUIRED = 11
+    OVERRUN = 12
+    BAD_CHARACTER = 13
+
+
+#: The exact reply text of every error code (docs/protocol.md, "Replies").
+ERROR_TEXT: dict[Code, str] = {
+    Code.UNKNOWN: "E01 unknown command",
+    Code.TOO_LONG: "E02 line too long",
+    Code.BAD_ARGUMENT: "E03 bad argument",
+    Code.OUTSIDE_LIMITS: "E04 outside limits",
+    Code.OVERFLOW: "E05 speed/angle overflow",
+    Code.BAD_CHECKSUM: "E06 bad checksum",
+    Code.BUSY: "E07 busy",
+    Code.NO_MOTION: "E08 no such motion",
+    Code.IMAGE_INVALID: "E09 motion image invalid",
+    Code.NO_ANSWER: "E10 no answer on i2c",
+    Code.CHECKSUM_REQUIRED: "E11 checksum required",
+    Code.OVERRUN: "E12 input overrun",
+    Code.BAD_CHARACTER: "E13 bad character",
+}
+
+OK_LINE = b"OK\r\n"
+#: Reply lines (terminator included) by code, precomputed for the core.
+ERROR_LINE: dict[Code, bytes] = {c: t.encode() + EOL for c, t in ERROR_TEXT.items()}
+#: Notice lines (``!`` + error text) by code.
+NOTICE_LINE: dict[Code, bytes] = {c: b"!" + t.encode() + EOL for c, t in ERROR_TEXT.items()}
+
+
+def ready_line(image_ok: bool) -> bytes:
+    return f"!READY {PROTOCOL_NAME} image={'ok' if image_ok else 'bad'}".encode() + EOL
+
+
+def reaction_line(name: str) -> bytes:
+    return f"!R {name}".encode() + EOL
+
+
+def ok_line(data: str | None = None) -> bytes:
+    return OK_LINE if data is None else f"OK {data}".encode() + EOL
+
+
+def version_data(servos: int, sensors: int, motions: int, image_ok: bool,
+                 checksum: bool) -> str:
+    return (f"{PROTOCOL_NAME} servos={servos} sensors={sensors} motions={motions} "
+            f"image={'ok' if image_ok else 'bad'} checksum={'on' if checksum else 'off'}")
+
+
+# -- checksum -------------------------------------------------------------------------
+
+def _bytes(data: str | bytes | bytearray) -> bytes:
+    return data.encode("latin-1") if isinstance(data, str) else bytes(data)
+
+
+def xor_checksum(data: str | bytes | bytearray) -> int:
+    """XOR of every byte of ``data``."""
+    x = 0
+    for b in _bytes(data):
+        x ^= b
+    return x
+
+
+def add_checksum(line: str) -> str:
+    """``line`` with its ``*HH`` suffix: ``add_checksum("t") == "t*74"``."""
+    return f"{line}*{xor_checksum(line):02X}"
+
+
+# -- servo pairs ----------------------------------------------------------------------
+
+def encode_pair(angle: int, speed: int) -> tuple[int, int]:
+    """Registers ``2m``/``2m+1`` of a servo: ``(angle % 100, angle/100 + 10*speed)``."""
+    if not 0 <= angle <= 999:
+        raise ProtocolError(f"angle {angle} is outside 0..999")
+    if not 0 <= speed <= MAX_SPEED:
+        raise ProtocolError(f"speed {speed} is outside 0..{MAX_SPEED}")
+    high = angle // 100 + 10 * speed
+    if high > 255:
+        raise ProtocolError(f"speed {speed} with angle {angle} encodes to high byte "
+                            f"{high}, more than 255")
+    return angle % 100, high
+
+
+def decode_pair(low: int, high: int) -> tuple[int, int]:
+    """``(angle, speed)`` of a register pair; ``low`` must be below 100."""
+    if not 0 <= low < 100 or not 0 <= high <= 255:
+        raise ProtocolError(f"pair ({low}, {high}) is not a servo encoding")
+    return (high % 10) * 100 + low, high // 10
+
+
+# -- command lines (PAPA-MAN prefixes by default) ------------------------------------
+
+def _letter(value: int, what: str, limit: int) -> str:
+    if not 0 <= value < limit:
+        raise ProtocolError(f"{what} {value} is outside 0..{limit - 1}")
+    return chr(ord("a") + value)
+
+
+def encode_motor(motor: int, speed: int, angle: int, prefix: str = "o") -> str:
+    """``oMSAAA``: servo ``motor`` (0 = a) to ``angle`` with ``speed``."""
+    if not 0 <= angle <= 999:
+        raise ProtocolError(f"angle {angle} is outside 0..999")
+    return f"{prefix}{_letter(motor, 'motor', 26)}{_letter(speed, 'speed', MAX_SPEED + 1)}{angle:03d}"
+
+
+def encode_play(number: int, prefix: str = "PLY") -> str:
+    if not 0 <= number <= 99:
+        raise ProtocolError(f"motion number {number} is outside 0..99")
+    return f"{prefix}{number:02d}"
+
+
+def encode_speeds(speeds: Iterable[int], prefix: str = "a") -> str:
+    out = [prefix]
+    for s in speeds:
+        if not 0 <= s <= MAX_SPEED:
+            raise ProtocolError(f"speed {s} is outside 0..{MAX_SPEED}")
+        out.append(f"{s:03d}")
+    return "".join(out)
+
+
+def angle_code(angle: int | None) -> str:
+    """The ``c`` command's character for ``angle`` (``None`` keeps the target)."""
+    if angle is None:
+        return KEEP_CODE
+    if not 0 <= angle <= 180 or angle % ANGLE_STEP:
+        raise ProtocolError(f"angle {angle} is not a multiple of 3 in 0..180")
+    return chr(ANGLE_CODE_FIRST + angle // ANGLE_STEP)
+
+
+def encode_angles(angles: Sequence[int | None], prefix: str = "c") -> str:
+    return prefix + "".join(angle_code(a) for a in angles)
+
+
+def encode_stand(prefix: str = "t") -> str:
+    return prefix
+
+
+def encode_version(prefix: str = "v") -> str:
+    return prefix
+
+
+def encode_sensors(prefix: str = "s") -> str:
+    return prefix
+
+
+def encode_stop(prefix: str = "x") -> str:
+    return prefix
+
+
+def frame_line(line: str, checksum: bool = False) -> bytes:
+    """A command line ready for the wire: optional checksum, CR LF."""
+    return (add_checksum(line) if checksum else line).encode("ascii") + EOL
+
+
+# -- replies --------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class Reply:
+    """One line from the board. ``kind`` is ``ok``, ``error`` or ``notice``."""
+
+    kind: str
+    code: Code | None = None   # for errors and error notices
+    data: str = ""             # after "OK " or after "!"
+
+    @property
+    def counts(self) -> bool:
+        """True if this line answers a command (notices do not)."""
+        return self.kind != "notice"
+
+
+_BY_TEXT = {t: c for c, t in ERROR_TEXT.items()}
+
+
+def parse_reply(line: str | bytes) -> Reply:
+    """Parse one line the board sent (terminator optional)."""
+    text = line.decode("ascii", "replace") if isinstance(line, (bytes, bytearray)) else line
+    text = text.rstrip("\r\n")
+    if text.startswith("!"):
+        body = text[1:]
+        return Reply("notice", _BY_TEXT.get(body), body)
+    if text == "OK":
+        return Reply("ok")
+    if text.startswith("OK "):
+        return Reply("ok", None, text[3:])
+    code = _BY_TEXT.get(text)
+    if code is None:
+        raise ProtocolError(f"not a reply line: {text!r}")
+    return Reply("error", code, text)

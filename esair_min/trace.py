@@ -1,0 +1,82 @@
+"""Event traces (docs/trace-format.md): a writer and a bus wrapper that records."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, TextIO
+
+if TYPE_CHECKING:
+    from .core import Bus
+
+HEADER = "# esair-trace 1"
+
+
+class TraceWriter:
+    """Collects trace lines (and writes each to ``stream`` if given).
+
+    UART output is buffered and becomes one ``TX`` line per complete line (ending
+    in LF), however the sender split it."""
+
+    def __init__(self, stream: TextIO | None = None):
+        self.stream = stream
+        self.lines: list[str] = []
+        self._tx = bytearray()
+        self._emit(HEADER)
+
+    def _emit(self, line: str) -> None:
+        self.lines.append(line)
+        if self.stream is not None:
+            self.stream.write(line + "\n")
+
+    def tick(self, n: int) -> None:
+        self._emit(f"T {n}")
+
+    def tx(self, data: bytes) -> None:
+        for b in data:
+            self._tx.append(b)
+            if b == 0x0A:
+                self._emit(f"TX {self._tx.hex().upper()}")
+                self._tx.clear()
+
+    def write(self, addr: int, data: bytes, ack: bool) -> None:
+        self._emit(f"W {addr:02X} {bytes(data).hex().upper()} {'ACK' if ack else 'NACK'}")
+
+    def read(self, addr: int, wdata: bytes, n: int, rdata: bytes | None) -> None:
+        got = "NACK" if rdata is None else bytes(rdata).hex().upper()
+        self._emit(f"R {addr:02X} {bytes(wdata).hex().upper()} {n} {got}")
+
+    def mark(self, us: int) -> None:
+        self._emit(f"@ {us}")
+
+    def close(self) -> None:
+        """Emit a pending partial UART line (none if every line was complete)."""
+        if self._tx:
+            self._emit(f"TX {self._tx.hex().upper()}")
+            self._tx.clear()
+
+    def text(self) -> str:
+        return "".join(line + "\n" for line in self.lines)
+
+
+class TracingBus:
+    """A :class:`Bus` that records every transaction of ``bus`` in ``writer``."""
+
+    def __init__(self, bus: Bus, writer: TraceWriter):
+        self.bus = bus
+        self.writer = writer
+
+    def write(self, addr: int, data: bytes) -> bool:
+        ack = self.bus.write(addr, data)
+        self.writer.write(addr, data, ack)
+        return ack
+
+    def write_read(self, addr: int, wdata: bytes, n: int) -> bytes | None:
+        rdata = self.bus.write_read(addr, wdata, n)
+        self.writer.read(addr, wdata, n, rdata)
+        return rdata
+
+
+def without_marks(lines: list[str] | str) -> list[str]:
+    """Trace lines with ``@`` time marks removed (for comparisons)."""
+    if isinstance(lines, str):
+        lines = lines.splitlines()
+    return [line for line in lines if not line.startswith("@ ")]
