@@ -1,0 +1,91 @@
+"""The actuator board: a register map latched on the sync pin, and the servo model.
+
+Registers ``2m``/``2m+1`` hold servo m's ``low = angle % 100`` and
+``high = angle/100 + 10*speed`` (docs/protocol.md). On each sync tick the board latches
+the whole map: every servo takes the decoded angle as its target and the decoded speed
+as its speed, then moves toward the target by *speed* degrees (speed 0: at once).
+Targets are clamped to the servo's limits, as the actuator firmware does; a pair that
+does not decode (``low >= 100``) or lies outside the limits is counted as an error.
+"""
+
+from __future__ import annotations
+
+from typing import MutableSequence, Sequence
+
+from ..model import Servo
+
+
+def encode(angle: int, speed: int) -> tuple[int, int]:
+    """(low, high) register pair of an angle and speed."""
+    return angle % 100, angle // 100 + 10 * speed
+
+
+def decode(low: int, high: int) -> tuple[int, int]:
+    """(angle, speed) of a register pair."""
+    return (high % 10) * 100 + low, high // 10
+
+
+def step_toward(angle: int, target: int, speed: int) -> int:
+    """One sync tick of a servo: move by ``speed`` degrees toward ``target`` (0: at once)."""
+    if speed == 0 or abs(target - angle) <= speed:
+        return target
+    return angle + speed if target > angle else angle - speed
+
+
+class ServoBank:
+    """Angles, targets and speeds of a set of servos, stepped one sync tick at a time."""
+
+    def __init__(self, servos: Sequence[Servo]):
+        self.servos = tuple(servos)
+        self.angles = [s.stand_angle for s in self.servos]
+        self.targets = [s.stand_angle for s in self.servos]
+        self.speeds = [s.default_speed for s in self.servos]
+        self.bad_pairs = 0
+
+    def latch(self, regs: Sequence[int]) -> None:
+        """Take new targets and speeds from a register map (2 bytes per servo)."""
+        for i, s in enumerate(self.servos):
+            low, high = regs[2 * s.index], regs[2 * s.index + 1]
+            angle, speed = decode(low, high)
+            if low >= 100 or not s.min_angle <= angle <= s.max_angle:
+                self.bad_pairs += 1
+                angle = min(max(angle, s.min_angle), s.max_angle)
+            self.targets[i] = angle
+            self.speeds[i] = speed
+
+    def step(self) -> None:
+        a, t, v = self.angles, self.targets, self.speeds
+        for i in range(len(a)):
+            if a[i] != t[i]:
+                a[i] = step_toward(a[i], t[i], v[i])
+
+
+def stand_registers(servos: Sequence[Servo]) -> bytes:
+    """The register map the actuator firmware starts with: the stand pose at default speed."""
+    n = max((s.index for s in servos), default=-1) + 1
+    regs = bytearray(2 * n)
+    for s in servos:
+        regs[2 * s.index], regs[2 * s.index + 1] = encode(s.stand_angle, s.default_speed)
+    return bytes(regs)
+
+
+class ActuatorBoard:
+    """The actuator board: latches ``regs`` (its live register map) on each sync tick."""
+
+    def __init__(self, servos: Sequence[Servo], regs: MutableSequence[int]):
+        self.regs = regs
+        self.bank = ServoBank(servos)
+        self.syncs = 0
+
+    def sync(self) -> None:
+        self.syncs += 1
+        self.bank.latch(self.regs)
+        self.bank.step()
+
+    @property
+    def angles(self) -> list[int]:
+        return list(self.bank.angles)
+
+    @property
+    def targets(self) -> list[int]:
+        return list(self.bank.targets)

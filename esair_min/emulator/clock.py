@@ -1,0 +1,71 @@
+"""A deterministic virtual clock: a scheduler of timed events, no sleeping.
+
+Time is an integer number of nanoseconds since reset, so that every run of the same
+input gives the same order of events. Events due at the same instant run in the order
+they were scheduled.
+"""
+
+from __future__ import annotations
+
+import heapq
+from typing import Callable
+
+NS_PER_S = 1_000_000_000
+
+Callback = Callable[[], None]
+
+
+def seconds_to_ns(seconds: float) -> int:
+    return int(round(seconds * NS_PER_S))
+
+
+class VirtualClock:
+    """``schedule`` callbacks at virtual times; ``run_until`` runs them in time order."""
+
+    def __init__(self) -> None:
+        self._now = 0
+        self._queue: list[tuple[int, int, Callback]] = []
+        self._seq = 0
+
+    @property
+    def now(self) -> int:
+        """Virtual time in nanoseconds."""
+        return self._now
+
+    @property
+    def now_s(self) -> float:
+        return self._now / NS_PER_S
+
+    def schedule(self, at_ns: int, callback: Callback) -> None:
+        """Run ``callback`` at ``at_ns`` (never earlier than now)."""
+        if at_ns < self._now:
+            at_ns = self._now
+        self._seq += 1
+        heapq.heappush(self._queue, (at_ns, self._seq, callback))
+
+    def after(self, delay_ns: int, callback: Callback) -> None:
+        self.schedule(self._now + delay_ns, callback)
+
+    def next_event(self) -> int | None:
+        """Time of the next pending event, or None when nothing is scheduled."""
+        return self._queue[0][0] if self._queue else None
+
+    def run_until(self, t_ns: int) -> int:
+        """Run every event due at or before ``t_ns``, then set the time to ``t_ns``.
+
+        Returns the number of events run.
+        """
+        q = self._queue
+        pop = heapq.heappop
+        n = 0
+        while q and q[0][0] <= t_ns:
+            at, _, cb = pop(q)
+            self._now = at
+            cb()
+            n += 1
+        if t_ns > self._now:
+            self._now = t_ns
+        return n
+
+    def run_for(self, seconds: float) -> int:
+        return self.run_until(self._now + seconds_to_ns(seconds))

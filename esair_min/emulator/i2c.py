@@ -1,0 +1,96 @@
+"""The I2C bus at its declared speed: bit counting, bus time and NACKs.
+
+Every transaction is counted in bit times (time = bits / speed):
+
+- write: START (1) + address byte and ACK (9) + each data byte and ACK (9) + STOP (1);
+- write then read: START + address + the written bytes, repeated START (1) + address
+  (9) + each read byte and ACK/NACK (9) + STOP;
+- a device that does not acknowledge its address: START + address (9) + STOP.
+
+:class:`TimedBus` wraps the devices' bus (``write``/``write_read``, the core's ``Bus``
+protocol), so the core cannot tell it from the real thing, and keeps a time cursor:
+a transaction starts when both the virtual clock and the bus have reached its start,
+and the bus is busy until its last bit.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable, Protocol
+
+from .clock import NS_PER_S
+
+START = STOP = RESTART = 1
+BYTE = 9          # 8 data bits and the ACK bit
+
+
+class Bus(Protocol):
+    def write(self, addr: int, data: bytes) -> bool: ...
+    def write_read(self, addr: int, wdata: bytes, n: int) -> bytes | None: ...
+
+
+def write_bits(n_data: int) -> int:
+    """Bit times of a write of ``n_data`` bytes (register/memory address included)."""
+    return START + BYTE + BYTE * n_data + STOP
+
+
+def write_read_bits(n_write: int, n_read: int) -> int:
+    """Bit times of a write of ``n_write`` bytes, repeated start, read of ``n_read``."""
+    return START + BYTE + BYTE * n_write + RESTART + BYTE + BYTE * n_read + STOP
+
+
+def nack_bits() -> int:
+    """Bit times of a transaction whose address byte is not acknowledged."""
+    return START + BYTE + STOP
+
+
+def bits_ns(bits: int, speed_hz: int) -> int:
+    return int(round(bits * NS_PER_S / speed_hz))
+
+
+@dataclass
+class BusStats:
+    transactions: int = 0
+    nacks: int = 0
+    bits: int = 0
+    by_address: dict[int, int] = field(default_factory=dict)   # bits per address
+
+
+class TimedBus:
+    """A :class:`Bus` that accounts bus time at ``speed_hz`` against a clock."""
+
+    def __init__(self, inner: Bus, speed_hz: int, now: Callable[[], int]):
+        self.inner = inner
+        self.speed_hz = speed_hz
+        self._now = now
+        self.busy_until = 0
+        self.last_start = 0
+        self.stats = BusStats()
+
+    def _account(self, addr: int, bits: int, ok: bool) -> None:
+        now = self._now()
+        start = self.busy_until if self.busy_until > now else now
+        self.last_start = start
+        self.busy_until = start + bits_ns(bits, self.speed_hz)
+        st = self.stats
+        st.transactions += 1
+        st.bits += bits
+        st.by_address[addr] = st.by_address.get(addr, 0) + bits
+        if not ok:
+            st.nacks += 1
+
+    def cursor(self) -> int:
+        """When the bus is next free (never before now)."""
+        now = self._now()
+        return self.busy_until if self.busy_until > now else now
+
+    def write(self, addr: int, data: bytes) -> bool:
+        ok = self.inner.write(addr, data)
+        self._account(addr, write_bits(len(data)) if ok else nack_bits(), ok)
+        return ok
+
+    def write_read(self, addr: int, wdata: bytes, n: int) -> bytes | None:
+        got = self.inner.write_read(addr, wdata, n)
+        ok = got is not None
+        self._account(addr, write_read_bits(len(wdata), n) if ok else nack_bits(), ok)
+        return got

@@ -1,0 +1,332 @@
+"""The whole emulated robot: central, actuator and sensor boards on one virtual I2C bus.
+
+The central board runs :class:`~esair_min.core.CentralCore` over emulated peripherals:
+
+- its UART (:mod:`.uart`) at line rate, with the 64-byte receive ring;
+- the I2C master on a :class:`~.i2c.TimedBus` (bus time at the declared speed, NACKs)
+  to the 24LC256 holding the generated motion image, the actuator board's register map
+  and the sensor board's register map;
+- Timer2, ticking at the computed period (``robot.central.timer2.period_s``): each tick
+  pulses the sync pin (the actuator board latches its registers and steps its servos),
+  then the core's ``tick()`` runs.
+
+The superloop feeds received bytes to the core whenever it is ready and the CPU is not
+busy on the bus: a byte that arrives during an I2C transfer is handled when it ends.
+Everything happens on a :class:`~.clock.VirtualClock`, so a run is deterministic.
+"""
+
+from __future__ import annotations
+
+import random
+from collections import deque
+from pathlib import Path
+from typing import Callable
+
+from ..core import CentralCore
+from ..devices import Eeprom24, RegisterSlave, SimpleBus
+from ..errors import EsairError
+from ..image import build_image
+from ..robot import Robot
+from ..trace import TraceWriter, TracingBus
+from .actuator import ActuatorBoard, stand_registers
+from .clock import NS_PER_S, VirtualClock, seconds_to_ns
+from .faults import Faults, corrupt
+from .i2c import TimedBus
+from .scenario import Scenario, load_scenario, quiet, resolve_scenario
+from .uart import Uart
+
+HISTORY = 20     # lines kept in each of the state views
+
+
+class _MarkingBus:
+    """Writes an ``@ <us>`` trace mark (when time moved) before each transaction."""
+
+    def __init__(self, inner: TracingBus, mark: Callable[[], None]):
+        self.inner = inner
+        self._mark = mark
+
+    def write(self, addr: int, data: bytes) -> bool:
+        self._mark()
+        return self.inner.write(addr, data)
+
+    def write_read(self, addr: int, wdata: bytes, n: int) -> bytes | None:
+        self._mark()
+        return self.inner.write_read(addr, wdata, n)
+
+
+class _Lines:
+    """Splits a byte stream into lines (CR, LF or CRLF) and keeps the last few."""
+
+    def __init__(self, keep: int):
+        self.last: deque[str] = deque(maxlen=keep)
+        self._buf = bytearray()
+        self._cr = False
+        self.count = 0
+
+    def feed(self, data: bytes) -> list[str]:
+        done = []
+        for b in data:
+            if b in (10, 13):
+                if b == 10 and self._cr:
+                    self._cr = False
+                    continue
+                self._cr = b == 13
+                if self._buf:
+                    done.append(self._buf.decode("latin-1"))
+                    self._buf.clear()
+            else:
+                self._cr = False
+                if len(self._buf) < 200:
+                    self._buf.append(b)
+        self.last.extend(done)
+        self.count += len(done)
+        return done
+
+
+class Emulator:
+    """PAPA-MAN (or any validated robot) in virtual time.
+
+    ``scenario`` is a :class:`Scenario`, a scenario file, or the name of one in the
+    robot's ``scenarios/`` folder; None keeps every sensor at rest. ``trace`` receives
+    the event trace (docs/trace-format.md) with ``@ <us>`` time marks.
+    """
+
+    def __init__(self, robot: Robot, scenario: Scenario | str | Path | None = None,
+                 faults: Faults = Faults(), trace: TraceWriter | None = None,
+                 eeprom_image: bytes | None = None):
+        central = robot.central
+        if central.uart is None or central.timer2 is None:
+            raise EsairError("the central board needs uart: and tick: to be emulated")
+        self.robot = robot
+        self.faults = faults
+        self.clock = VirtualClock()
+        self.tick_s = central.timer2.period_s
+        self._tick_ns_exact = central.timer2.period_s * NS_PER_S
+        self.uart = Uart(self.clock, central.uart.baud, self._feed)
+        self._rng = random.Random(faults.seed)
+
+        # -- the devices on the bus
+        devices: list = []
+        self.eeprom: Eeprom24 | None = None
+        self.corrupted_at: int | None = None
+        eep = robot.eeprom
+        self.image = build_image(robot) if eep else b""
+        if eep is not None:
+            data = self.image if eeprom_image is None else eeprom_image
+            self.eeprom = Eeprom24(eep.size_bytes, eep.address, eep.address_bytes, data)
+            if faults.corrupt_eeprom:
+                self.corrupted_at = corrupt(self.eeprom.memory, len(data), self._rng)
+            devices.append(self.eeprom)
+        act, sen = robot.peer("actuator"), robot.peer("sensor")
+        self.actuator_slave = RegisterSlave(act.address, act.registers) if act else None
+        self.actuator: ActuatorBoard | None = None
+        if self.actuator_slave is not None:
+            regs = stand_registers(robot.servos)
+            self.actuator_slave.registers[:len(regs)] = regs
+            self.actuator_slave.fault = faults.actuator_nack
+            self.actuator = ActuatorBoard(robot.servos, self.actuator_slave.registers)
+            devices.append(self.actuator_slave)
+        self.sensor_slave = RegisterSlave(sen.address, sen.registers) if sen else None
+        if self.sensor_slave is not None and not faults.sensor_absent:
+            devices.append(self.sensor_slave)
+        self.devices = SimpleBus(devices)
+
+        self.bus = TimedBus(self.devices, central.i2c.speed_hz, lambda: self.clock.now)
+        self.trace = trace
+        self._last_mark = -1
+        core_bus = self.bus
+        if trace is not None:
+            core_bus = _MarkingBus(TracingBus(self.bus, trace), self._mark_cursor)
+
+        # -- state views
+        self.commands = _Lines(HISTORY)      # lines the host sent
+        self.replies = _Lines(HISTORY)       # lines the board sent (notices included)
+        self.errors: deque[str] = deque(maxlen=HISTORY)
+        self.on_line: Callable[[str], None] | None = None
+
+        # -- scenario
+        sensors = robot.sensors
+        if scenario is None:
+            self.scenario = quiet(sensors)
+        elif isinstance(scenario, Scenario):
+            self.scenario = scenario
+        else:
+            path = resolve_scenario(str(scenario), robot.source)
+            self.scenario = load_scenario(path, sensors)
+        self.sensor_values: tuple[int, ...] = self.scenario.idle
+        self._set_sensors(self.scenario.idle)
+        for at_ms, values in self.scenario.steps:
+            self.clock.schedule(at_ms * 1_000_000, lambda v=values: self._set_sensors(v))
+
+        # -- the central board
+        self.core = CentralCore(robot, core_bus, self._send)
+        self.ticks = 0
+        self._feed_pending = False
+        self.clock.schedule(self._tick_time(1), self._tick)
+        if faults.noise_per_s > 0:
+            self._schedule_noise()
+        self.core.boot()
+
+    # -- time ----------------------------------------------------------------------------
+    @property
+    def now_s(self) -> float:
+        return self.clock.now / NS_PER_S
+
+    def _tick_time(self, k: int) -> int:
+        return int(round(k * self._tick_ns_exact))
+
+    def run_until(self, t_ns: int) -> None:
+        self.clock.run_until(t_ns)
+
+    def run_for(self, seconds: float) -> None:
+        """Advance virtual time by ``seconds`` (deterministic, as fast as the host can)."""
+        self.clock.run_until(self.clock.now + seconds_to_ns(seconds))
+
+    def next_event_ns(self) -> int | None:
+        """When something next happens inside the robot (for real-time pacing)."""
+        candidates = [t for t in (self.clock.next_event(), self.uart.tx_next()) if t is not None]
+        return min(candidates) if candidates else None
+
+    # -- the host side of the serial line ---------------------------------------------
+    def write(self, data: bytes) -> None:
+        """The host sends ``data`` now; it reaches the board at line rate."""
+        data = bytes(data)
+        self.commands.feed(data)
+        self.uart.host_write(data)
+
+    def read(self) -> bytes:
+        """Every byte the board has completely sent by now (and not read yet)."""
+        return self.uart.host_read()
+
+    @property
+    def idle(self) -> bool:
+        """No byte on the line either way, none waiting in the ring, no write held."""
+        return self.uart.rx_idle and self.uart.tx_idle and self.core.ready()
+
+    def settle(self, max_s: float = 1.0) -> None:
+        """Run until :attr:`idle` (every byte answered and delivered), at most ``max_s``."""
+        end = self.clock.now + seconds_to_ns(max_s)
+        clock = self.clock
+        while not self.idle and clock.now < end:
+            nxt = self.next_event_ns()
+            if nxt is None:
+                break
+            clock.run_until(min(max(nxt, clock.now), end))
+
+    def command(self, line: str | bytes, timeout_s: float = 2.0) -> list[str]:
+        """Send one line (CR LF added) and run until its reply reached the host.
+
+        Returns every line received meanwhile (notices included), the reply last;
+        stops after ``timeout_s`` of virtual time without a reply.
+        """
+        data = line.encode("latin-1") if isinstance(line, str) else bytes(line)
+        self.write(data + b"\r\n")
+        got: list[str] = []
+        buf = bytearray()
+        end = self.clock.now + seconds_to_ns(timeout_s)
+        while self.clock.now < end:
+            nxt = self.next_event_ns()
+            self.clock.run_until(end if nxt is None else min(max(nxt, self.clock.now), end))
+            buf += self.read()
+            while b"\n" in buf:
+                raw, _, rest = bytes(buf).partition(b"\n")
+                buf = bytearray(rest)
+                text = raw.decode("latin-1").rstrip("\r")
+                got.append(text)
+                if not text.startswith("!"):
+                    return got
+        return got
+
+    # -- faults at run time --------------------------------------------------------------
+    def set_fault(self, device: str, on: bool) -> None:
+        """``actuator``, ``sensor`` or ``eeprom`` stops (on) or starts acknowledging."""
+        dev = {"actuator": self.actuator_slave, "sensor": self.sensor_slave,
+               "eeprom": self.eeprom}.get(device)
+        if dev is None:
+            raise EsairError(f"no device '{device}' to fault (actuator, sensor or eeprom)")
+        dev.fault = on
+
+    # -- state views ---------------------------------------------------------------------
+    @property
+    def servo_angles(self) -> list[int]:
+        return self.actuator.angles if self.actuator else []
+
+    @property
+    def servo_targets(self) -> list[int]:
+        """Targets latched by the actuator board (one sync tick after the write)."""
+        return self.actuator.targets if self.actuator else []
+
+    @property
+    def playing(self) -> int | None:
+        return self.core.playing
+
+    # -- internals -----------------------------------------------------------------------
+    def _mark(self, t_ns: int) -> None:
+        us = t_ns // 1000
+        if us != self._last_mark and self.trace is not None:
+            self._last_mark = us
+            self.trace.mark(us)
+
+    def _mark_cursor(self) -> None:
+        self._mark(self.bus.cursor())
+
+    def _set_sensors(self, values: tuple[int, ...]) -> None:
+        self.sensor_values = values
+        if self.sensor_slave is not None:
+            self.sensor_slave.set_readings(values)
+
+    def _send(self, data: bytes) -> None:
+        at = self.bus.cursor()
+        if self.trace is not None:
+            self._mark(at)
+            self.trace.tx(data)
+        self.uart.board_send(data, at)
+        for line in self.replies.feed(data):
+            if line.startswith("E") or line.startswith("!E"):
+                self.errors.append(line)
+            if self.on_line is not None:
+                self.on_line(line)
+
+    def _tick(self) -> None:
+        k = self.ticks + 1
+        self.ticks = k
+        self.clock.schedule(self._tick_time(k + 1), self._tick)
+        if self.actuator is not None:
+            self.actuator.sync()
+        if self.trace is not None:
+            self._mark_cursor()
+            self.trace.tick(k)
+        self.core.tick()
+        self._feed()
+
+    def _feed_event(self) -> None:
+        self._feed_pending = False
+        self._feed()
+
+    def _feed(self) -> None:
+        """The superloop: feed the decoder while it is ready and the bus is free."""
+        uart, core, clock, bus = self.uart, self.core, self.clock, self.bus
+        ring = uart.ring
+        while ring and core.ready():
+            if bus.busy_until > clock.now:
+                if not self._feed_pending:
+                    self._feed_pending = True
+                    clock.schedule(bus.busy_until, self._feed_event)
+                return
+            if uart.overrun:
+                uart.overrun = False
+                core.rx_overrun()
+            core.rx_byte(ring.popleft())
+
+    def _schedule_noise(self) -> None:
+        gap = self._rng.expovariate(self.faults.noise_per_s)
+        self.clock.after(max(1, seconds_to_ns(gap)), self._noise)
+
+    def _noise(self) -> None:
+        self.uart.receive(self._rng.randrange(256))
+        self._feed()
+        self._schedule_noise()
+
+    def close(self) -> None:
+        if self.trace is not None:
+            self.trace.close()
