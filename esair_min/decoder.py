@@ -52,10 +52,8 @@ class LineAssembler:
         self.after_cr = False      # the previous byte was CR (a following LF is swallowed)
 
     def note_overrun(self) -> None:
-        """Bytes of the line being received were lost: answer it E12 at its end.
-        The lost bytes separate a CR from a following LF, so that LF ends a line."""
+        """Bytes of the line being received were lost: answer it E12 at its end."""
         self.overrun = True
-        self.after_cr = False
 
     def feed(self, b: int) -> LineResult | None:
         """One received byte; at a non-empty line end, the line or its error code."""
