@@ -106,6 +106,8 @@ def _show(value: Any) -> str:
         text = json_like(value)
     else:
         text = str(value)
+    if not text.isprintable():
+        text = text.encode("unicode_escape").decode("ascii")
     if len(text) > 40:
         text = text[:37] + "..."
     return f"{kind} {text}"
@@ -113,7 +115,8 @@ def _show(value: Any) -> str:
 
 def json_like(value: Any) -> str:
     if isinstance(value, dict):
-        return "{" + ", ".join(f"{k}: {json_like(v)}" for k, v in value.items()) + "}"
+        return "{" + ", ".join(f"{k if str(k).isprintable() else repr(k)}: {json_like(v)}"
+                               for k, v in value.items()) + "}"
     if isinstance(value, (list, tuple)):
         return "[" + ", ".join(json_like(v) for v in value) + "]"
     if isinstance(value, bool):
@@ -121,6 +124,12 @@ def json_like(value: Any) -> str:
     if value is None:
         return "null"
     return repr(value) if isinstance(value, str) else str(value)
+
+
+def quote(name: Any) -> str:
+    """A key in quotes, escaped if it holds line breaks or other invisible characters."""
+    text = str(name)
+    return f"'{text}'" if text.isprintable() else repr(text)
 
 
 def _plural(n: Any, word: str) -> str:
@@ -150,39 +159,39 @@ def _describe(err: dict[str, Any], key: str, model: type[BaseModel] | None,
     ctx = err.get("ctx") or {}
     value = err.get("input")
     if kind == "missing":
-        return f"missing required key '{key}'"
+        return f"missing required key {quote(key)}"
     if kind == "extra_forbidden":
         allowed = list(model.model_fields) if model else []
         hint = did_you_mean(key, allowed)
         if not hint and allowed:
             hint = f" (allowed here: {', '.join(allowed)})"
-        return f"unknown key '{key}'{hint}"
+        return f"unknown key {quote(key)}{hint}"
     if value is None and kind.endswith("_type"):
-        return f"'{key}' has no value; give it one or remove the key"
+        return f"{quote(key)} has no value; give it one or remove the key"
     if kind in ("int_type", "int_parsing", "int_from_float"):
-        return f"'{key}' must be an integer, not {_show(value)}"
+        return f"{quote(key)} must be an integer, not {_show(value)}"
     if kind in ("float_type", "float_parsing"):
-        return f"'{key}' must be a number, not {_show(value)}"
+        return f"{quote(key)} must be a number, not {_show(value)}"
     if kind == "finite_number":
-        return f"'{key}' must be a finite number, not {_show(value)}"
+        return f"{quote(key)} must be a finite number, not {_show(value)}"
     if kind == "bool_type":
-        return f"'{key}' must be true or false, not {_show(value)}"
+        return f"{quote(key)} must be true or false, not {_show(value)}"
     if kind == "string_type":
-        return f"'{key}' must be text, not {_show(value)}{_yes_no_hint(value)}"
+        return f"{quote(key)} must be text, not {_show(value)}{_yes_no_hint(value)}"
     if kind in ("model_type", "model_attributes_type", "dict_type"):
-        return f"'{key}' must be a mapping of keys, not {_show(value)}"
+        return f"{quote(key)} must be a mapping of keys, not {_show(value)}"
     if kind in ("tuple_type", "list_type"):
-        return f"'{key}' must be a list, not {_show(value)}"
+        return f"{quote(key)} must be a list, not {_show(value)}"
     if kind == "string_pattern_mismatch":
         pattern = ctx.get("pattern", "")
-        return f"'{key}' must be {_PATTERN_TEXT.get(pattern, 'of the form ' + pattern)}, " \
+        return f"{quote(key)} must be {_PATTERN_TEXT.get(pattern, 'of the form ' + pattern)}, " \
                f"not {_show(value)}"
     if kind == "literal_error":
         expected = ctx.get("expected", "")
         options = [o.strip().strip("'") for o in expected.replace(" or ", ",").split(",")]
         options = [o for o in options if o]
         hint = did_you_mean(str(value), options) if isinstance(value, str) else ""
-        return f"'{key}' must be {'one of ' if len(options) > 1 else ''}{expected}, " \
+        return f"{quote(key)} must be {'one of ' if len(options) > 1 else ''}{expected}, " \
                f"not {_show(value)}{hint or _yes_no_hint(value)}"
     if kind in ("union_tag_invalid", "union_tag_not_found"):
         choices = " or ".join(f"'{t}'" for t in tags) or ctx.get("expected_tags", "")
@@ -196,16 +205,16 @@ def _describe(err: dict[str, Any], key: str, model: type[BaseModel] | None,
     }
     if kind in bounds:
         words, name = bounds[kind]
-        return f"'{key}' must be {words} {_number(key, ctx.get(name))}, " \
+        return f"{quote(key)} must be {words} {_number(key, ctx.get(name))}, " \
                f"not {_number(key, value)}"
     if kind in ("too_short", "too_long"):
         n = ctx.get("min_length", ctx.get("max_length"))
         actual = len(value) if isinstance(value, (list, tuple, dict, str)) else \
             ctx.get("actual_length")
-        return f"'{key}' must have {'at least' if kind == 'too_short' else 'at most'} " \
+        return f"{quote(key)} must have {'at least' if kind == 'too_short' else 'at most'} " \
                f"{_plural(n, 'item')}, not {actual}"
     msg = err.get("msg", "invalid value")
-    return f"'{key}': {msg[0].lower() + msg[1:]}"
+    return f"{quote(key)}: {msg[0].lower() + msg[1:]}"
 
 
 def _label(path: tuple[Any, ...], loc: tuple[Any, ...]) -> str:

@@ -151,7 +151,7 @@ class _Builder:
             if key in out:
                 first = self.key_marks[loc + (key,)]
                 raise ConfigError(
-                    f"duplicate key '{key}' (first given at line {first.line}); "
+                    f"duplicate key {key!r} (first given at line {first.line}); "
                     "keep only one of them",
                     _mark(self.path, key_node),
                 )
