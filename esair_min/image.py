@@ -149,6 +149,14 @@ def parse_image(data: bytes, robot: Robot | None = None) -> ParsedImage:
         raise ImageError(f"CRC mismatch: header says 0x{h.crc:04X}, bytes give 0x{crc:04X}")
     entries = [struct.unpack_from("<BBBBH", data, HEADER_BYTES + DIR_ENTRY_BYTES * i)
                for i in range(h.count)]
+    last = -1
+    for number, count, delay, reserved, _ in entries:
+        if number <= last or number > 99:
+            raise ImageError(f"directory: motion number {number} out of order or above 99")
+        if count == 0 or delay == 0 or reserved != 0:
+            raise ImageError(f"directory: motion {number} has frames {count}, "
+                             f"delay {delay}, reserved {reserved}")
+        last = number
     total_frames = sum(e[1] for e in entries)
     frames_bytes = h.length - dir_end
     if robot is not None:
@@ -162,13 +170,7 @@ def parse_image(data: bytes, robot: Robot | None = None) -> ParsedImage:
             raise ImageError(f"{frames_bytes} frame bytes do not hold {total_frames} frames")
     motions = []
     offset = dir_end
-    last = -1
-    for number, count, delay, reserved, off in entries:
-        if number <= last or number > 99:
-            raise ImageError(f"directory: motion number {number} out of order or above 99")
-        if count == 0 or delay == 0 or reserved != 0:
-            raise ImageError(f"directory: motion {number} has frames {count}, "
-                             f"delay {delay}, reserved {reserved}")
+    for number, count, delay, _, off in entries:
         if off != offset:
             raise ImageError(f"directory: motion {number} at offset {off}, expected {offset}")
         frames = tuple(bytes(data[off + k * frame_bytes: off + (k + 1) * frame_bytes])
@@ -177,7 +179,6 @@ def parse_image(data: bytes, robot: Robot | None = None) -> ParsedImage:
             _check_frame(number, k, f, robot)
         motions.append(ParsedMotion(number, delay, off, frames))
         offset += count * frame_bytes
-        last = number
     return ParsedImage(h, frame_bytes, tuple(motions))
 
 
