@@ -97,5 +97,21 @@ def eeprom(robot: str, output: str, raw: bool) -> None:
     click.echo(f"{image_summary(model, data)} -> {output}")
 
 
+@main.command()
+@ROBOT
+@click.option("-o", "--output", required=True, metavar="DIR",
+              help="Output folder: one sub-folder per board (central, actuator, sensor).")
+@_friendly
+def generate(robot: str, output: str) -> None:
+    """Generate the C firmware of every board (core, hal.h, PIC and host ports, Makefile)."""
+    from pathlib import Path
+
+    from codegen import generate_robot
+
+    result = generate_robot(load(robot), Path(output))
+    click.echo(f"{', '.join(result.boards)}: {len(result.written)} files written, "
+               f"{len(result.unchanged)} unchanged in {output}")
+
+
 if __name__ == "__main__":  # pragma: no cover
     main()

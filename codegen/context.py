@@ -1,0 +1,213 @@
+"""The template context of each board: every number the C needs, computed here.
+
+Templates loop over these values and copy them; they compute nothing. The context of
+a board is a plain dict of str/int/bytes/lists of dicts, built from the frozen model
+(and esair_min.hardware, layout, image, protocol) only.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from esair_min import __version__
+from esair_min import protocol as P
+from esair_min.errors import GenerateError
+from esair_min.hardware import ADC_PINS
+from esair_min.image import build_image
+from esair_min.layout import HEADER_BYTES
+from esair_min.model import Board
+from esair_min.robot import Robot
+
+from . import timing
+
+Context = dict[str, Any]
+
+#: Bytes per EEPROM read while checking the image at reset (docs/protocol.md, Reset).
+IMAGE_CHECK_CHUNK = 32
+#: Fixed buffers of the generated firmware (docs/firmware.md).
+RX_RING_BYTES = 64
+TX_RING_BYTES = 32
+PORTS = "ABCDE"
+
+
+def common_context(robot: Robot, board: Board) -> Context:
+    """Banner and MCU facts shared by every board."""
+    source = f"{robot.name}/{Path(robot.file_of(board)).name}"
+    return {
+        "version": __version__,
+        "source": source,
+        "robot": robot.name,
+        "board": board.board,
+        "role": board.role,
+        "clock_hz": board.mcu.clock_hz,
+        "oscillator": timing.oscillator(board.mcu.clock_hz),
+        "sync_pin": _pin(board.sync.pin) if board.sync else None,
+    }
+
+
+def _pin(name: str) -> dict[str, Any]:
+    """``RB0`` -> port letter, port index 0..4 and bit mask."""
+    port, bit = name[1], int(name[2])
+    return {"name": name, "port": port, "index": PORTS.index(port), "bit": bit,
+            "mask": 1 << bit}
+
+
+def _split_image_ok(line: bytes) -> tuple[bytes, bytes]:
+    """A line made with ``image_ok=True`` split around its ``ok`` (the C core sends
+    ``ok`` or ``bad`` between the two parts)."""
+    before, sep, after = line.partition(b"image=ok")
+    assert sep, line
+    return before + b"image=", after
+
+
+def central_context(robot: Robot) -> Context:
+    board = robot.central
+    ctx = common_context(robot, board)
+    servos = robot.servos
+    n = len(servos)
+    numbers = {m.name: m.number for m in robot.motions}
+    uart = board.uart
+    checksum = bool(uart and uart.require_checksum)
+
+    pool = bytearray()
+    rows = []
+    for c in robot.commands:
+        at = pool.find(c.prefix.encode("ascii"))
+        if at < 0:
+            at = len(pool)
+            pool += c.prefix.encode("ascii")
+        length = c.length(n)
+        if length > P.MAX_LINE:
+            raise GenerateError(f"command '{c.name}' needs {length} characters, more than "
+                                f"the {P.MAX_LINE} of a line")
+        rows.append({"name": c.name, "at": at, "prefix_len": len(c.prefix), "length": length,
+                     "action": c.action.upper(),
+                     "motion": numbers[c.motion] if c.motion else 0xFF})
+
+    eeprom = robot.eeprom
+    image = build_image(robot) if eeprom is not None else b""
+    act, sen = robot.peer("actuator"), robot.peer("sensor")
+    sensors = robot.sensors
+    groups: list[str] = []
+    reactions = []
+    slot_numbers = [s.number for s in robot.layout.slots]
+    for r in board.reactions:
+        masks = []
+        for g in r.compare:
+            if g not in groups:
+                groups.append(g)
+            masks.append(sum(1 << i for i, s in enumerate(sensors) if s.group == g))
+        reactions.append({"name": r.name, "group_a": groups.index(r.compare[0]),
+                          "group_b": groups.index(r.compare[1]), "threshold": r.threshold,
+                          "samples": r.samples, "poll_ticks": r.poll_ticks,
+                          "motion": numbers[r.motion],
+                          "motion_index": slot_numbers.index(numbers[r.motion]),
+                          "notice": P.reaction_line(r.name)})
+    group_masks = [{"name": g, "mask": sum(1 << i for i, s in enumerate(sensors)
+                                           if s.group == g)} for g in groups]
+    ver_pre, ver_post = _split_image_ok(
+        P.ok_line(P.version_data(n, len(sensors), len(robot.motions), True, checksum)))
+    ready_pre, ready_post = _split_image_ok(P.ready_line(True))
+    t2, baud, i2c = board.timer2, board.baud, board.i2c_setting
+    if t2 is None or baud is None or i2c is None:
+        raise GenerateError(f"central board '{board.board}' needs tick:, uart: and an "
+                            f"I2C master")
+    ctx.update({
+        "servos": [{"name": s.name, "index": s.index, "min": s.min_angle, "max": s.max_angle,
+                    "stand": s.stand_angle, "speed": s.default_speed} for s in servos],
+        "n_servos": n,
+        "frame_bytes": 2 * n,
+        "n_sensors": len(sensors),
+        "require_checksum": int(checksum),
+        "line_max": P.MAX_LINE,
+        "prefix_pool": bytes(pool),
+        "commands": rows,
+        "motions": [{"name": s.name, "number": s.number, "frames": s.frames,
+                     "delay": s.delay_ticks, "offset": s.offset}
+                    for s in robot.layout.slots],
+        "groups": group_masks,
+        "reactions": reactions,
+        "has_eeprom": int(eeprom is not None),
+        "eeprom": ({"address": eeprom.address, "address_bytes": eeprom.address_bytes,
+                    "size": eeprom.size_bytes} if eeprom else
+                   {"address": 0, "address_bytes": 2, "size": 0}),
+        "image": image,
+        "image_header": image[:HEADER_BYTES],
+        "image_length": len(image),
+        "image_crc": int.from_bytes(image[6:8], "little") if image else 0xFFFF,
+        "image_chunk": IMAGE_CHECK_CHUNK,
+        "actuator": {"present": int(act is not None), "address": act.address if act else 0,
+                     "registers": act.registers if act else 0},
+        "sensor": {"present": int(sen is not None), "address": sen.address if sen else 0,
+                   "registers": sen.registers if sen else 0},
+        "error_lines": [{"code": int(c), "line": P.ERROR_LINE[c], "notice": P.NOTICE_LINE[c]}
+                        for c in sorted(P.Code)],
+        "ok_line": P.OK_LINE,
+        "version_pre": ver_pre, "version_post": ver_post,
+        "ready_pre": ready_pre, "ready_post": ready_post,
+        "timer2": {"t2con": t2.t2con, "pr2": t2.pr2, "prescale": t2.prescale,
+                   "postscale": t2.postscale, "period_us": round(t2.period_s * 1e6, 1)},
+        "baud": {"spbrg": baud.spbrg, "brgh": baud.brgh, "rate": uart.baud if uart else 0,
+                 "error_percent": round(baud.error_percent, 2)},
+        "i2c": {"sspadd": i2c.sspadd, "speed_hz": board.i2c.speed_hz},
+        "rx_ring": RX_RING_BYTES,
+        "tx_ring": TX_RING_BYTES,
+    })
+    return ctx
+
+
+def actuator_context(robot: Robot) -> Context:
+    board = robot.actuator
+    assert board is not None
+    ctx = common_context(robot, board)
+    pwm = timing.pwm_timing(board.mcu.clock_hz)
+    servos = robot.servos
+    ctx.update({
+        "servos": [{"name": s.name, "index": s.index, "min": s.min_angle, "max": s.max_angle,
+                    "stand": s.stand_angle, "speed": s.default_speed,
+                    "pulse_min": s.pulse_min_us, "pulse_max": s.pulse_max_us,
+                    "pin": _pin(s.pin)} for s in servos],
+        "n_servos": len(servos),
+        "registers": 2 * len(servos),
+        "address": _slave_address(board),
+        "pwm": {"t1con": pwm.t1con, "prescale": pwm.prescale, "frame": pwm.frame_counts,
+                "num": pwm.num, "den": pwm.den},
+        "ports_used": sorted({p for p in (_pin(s.pin)["port"] for s in servos)}),
+    })
+    return ctx
+
+
+def sensor_context(robot: Robot) -> Context:
+    board = robot.sensor_board
+    assert board is not None
+    ctx = common_context(robot, board)
+    adc = timing.adc_clock(board.mcu.clock_hz)
+    sensors = robot.sensors
+    ctx.update({
+        "sensors": [{"name": s.name, "channel": s.channel, "group": s.group,
+                     "pin": ADC_PINS[s.channel]} for s in sensors],
+        "n_sensors": len(sensors),
+        "registers": 2 * len(sensors),
+        "address": _slave_address(board),
+        "adc": {"divisor": adc.divisor, "adcs2": adc.adcs2, "adcs": adc.adcs,
+                # ADCON1: right-justified (ADFM), ADCS2, PCFG=0000 (AN0..AN7 analog)
+                "adcon1": 0x80 | (adc.adcs2 << 6),
+                # ADCON0 without channel bits: ADCS1:0, ADON
+                "adcon0": (adc.adcs << 6) | 0x01},
+    })
+    return ctx
+
+
+def _slave_address(board: Board) -> dict[str, int]:
+    if board.i2c.address is None:
+        raise GenerateError(f"board '{board.board}' is an I2C slave without an address")
+    return {"address": board.i2c.address, "sspadd": board.i2c.address << 1}
+
+
+BUILDERS = {"central": central_context, "actuator": actuator_context,
+            "sensor": sensor_context}
+
+
+def board_context(robot: Robot, role: str) -> Context:
+    return BUILDERS[role](robot)
