@@ -6,19 +6,26 @@ and ``esair_min.boards``; in a source checkout they are the top-level folders.
 
 from __future__ import annotations
 
-from importlib import resources
+import importlib.util
 from pathlib import Path
 
 _REPO = Path(__file__).resolve().parent.parent
 
 
 def _data_dir(package: str, folder: str) -> Path:
+    """The folder of ``package`` when installed, else the checkout's ``folder``.
+
+    The data packages have no ``__init__.py`` (they are plain folders of templates and
+    YAML), so they import as namespace packages: ask the import system where they are
+    rather than ``importlib.resources.files``, whose namespace result is not a path.
+    """
     try:
-        found = Path(str(resources.files(package)))
-        if found.is_dir():
-            return found
+        spec = importlib.util.find_spec(package)
     except ModuleNotFoundError:
-        pass
+        spec = None
+    for location in (spec.submodule_search_locations or []) if spec else []:
+        if Path(location).is_dir():
+            return Path(location)
     return _REPO / folder
 
 

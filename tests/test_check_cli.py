@@ -97,3 +97,47 @@ def test_help_lists_every_command_with_one_line() -> None:
         assert line, f"command {name} missing from --help"
         shown = line.group(1).strip().removesuffix("...")   # click shortens to the width
         assert len(shown) >= 10 and first.startswith(shown)
+
+
+# -- the documentation and the package cannot drift from the code -----------------------
+
+def _models() -> list[type]:
+    from pydantic import BaseModel
+
+    from esair_min import model
+
+    return [cls for cls in vars(model).values()
+            if isinstance(cls, type) and issubclass(cls, BaseModel)
+            and cls.__module__ == model.__name__ and cls.model_fields]
+
+
+def test_board_format_doc_lists_every_field() -> None:
+    """docs/board-format.md has a section per model, with a table row per field."""
+    doc = (ROOT / "docs" / "board-format.md").read_text()
+    models = _models()
+    assert {m.__name__ for m in models} >= {"Board", "Servo", "Motion", "Frame", "I2c"}
+    for cls in models:
+        heading = re.search(rf"^(#+) .*\({cls.__name__}\)$", doc, re.MULTILINE)
+        assert heading, f"docs/board-format.md has no section for {cls.__name__}"
+        level = len(heading.group(1))
+        rest = doc[heading.end():]
+        end = re.search(rf"^#{{1,{level}}} ", rest, re.MULTILINE)
+        section = rest[:end.start()] if end else rest
+        for field in cls.model_fields:
+            assert f"| `{field}` |" in section, \
+                f"docs/board-format.md: field '{field}' of {cls.__name__} is not documented"
+
+
+def test_every_python_package_is_installed() -> None:
+    """`pip install .` ships every package folder (pyproject lists them explicitly)."""
+    import tomllib
+
+    config = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]
+    listed = set(config["packages"])
+    for top in ("esair_min", "codegen"):
+        for init in (ROOT / top).rglob("__init__.py"):
+            package = ".".join(init.parent.relative_to(ROOT).parts)
+            assert package in listed, f"{package} is missing from pyproject.toml packages"
+    assert config["package-dir"] == {"esair_min.firmware_templates": "firmware_templates",
+                                     "esair_min.boards": "boards"}
+    assert "**/*.yaml" in config["package-data"]["esair_min.boards"]
