@@ -169,7 +169,14 @@ def load_yaml(path: Path | str) -> Document:
     if p.is_dir():
         raise ConfigError("is a folder, but a board file (YAML) was expected here; "
                           "rename or move it", file_mark(name))
-    raw = p.read_bytes()
+    if not p.is_file():
+        raise ConfigError("is not a regular file (a device or pipe?); a board file is "
+                          "expected here", file_mark(name))
+    try:
+        raw = p.read_bytes()
+    except OSError as exc:
+        raise ConfigError(f"cannot read the file: {exc.strerror or exc}",
+                          file_mark(name)) from None
     if len(raw) > MAX_FILE_BYTES:
         raise ConfigError(f"file is {len(raw)} bytes, larger than the {MAX_FILE_BYTES} "
                           "bytes a board file may have", file_mark(name))

@@ -269,3 +269,25 @@ def test_yaml_reader_errors(tmp_path: Path, text: str, message: str) -> None:
     with pytest.raises(ConfigError) as info:
         load_yaml(f)
     assert str(info.value) == f"{f}:{message}"
+
+
+def test_pipe_where_a_board_file_was_expected(tmp_path: Path) -> None:
+    fifo = tmp_path / "central.yaml"
+    os.mkfifo(fifo)
+    with pytest.raises(ConfigError) as info:
+        load_robot(tmp_path)
+    assert str(info.value) == (f"{fifo}:1:1: is not a regular file (a device or pipe?); "
+                               "a board file is expected here")
+
+
+def test_unreadable_file(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    f = tmp_path / "central.yaml"
+    f.write_text("board: central\n")
+
+    def refuse(self: Path) -> bytes:
+        raise PermissionError(13, "Permission denied")
+
+    monkeypatch.setattr(Path, "read_bytes", refuse)
+    with pytest.raises(ConfigError) as info:
+        load_yaml(f)
+    assert str(info.value) == f"{f}:1:1: cannot read the file: Permission denied"
