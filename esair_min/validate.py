@@ -84,7 +84,7 @@ class _Checker:
                 if section in data:
                     self.fail(b, (section,), f"'{section}' is empty, but {_an(b.role)} "
                               f"board needs it", key=True)
-                self.fail(b, (), f"{_an(b.role)} board needs '{section}:'")
+                self.fail(b, (), f"{_an(b.role)} board needs a '{section}:' section")
         self.i2c_rules(b)
         self.clock_rules(b)
         self.unique(b, "servos", "name")
@@ -136,7 +136,8 @@ class _Checker:
                       key=True)
         if b.i2c_setting is None:
             self.fail(b, ("i2c", "speed_hz"), f"I2C {i2c.speed_hz} Hz cannot be made at "
-                      f"{b.mcu.clock_hz} Hz (SSPADD must be 1..127)")
+                      f"{b.mcu.clock_hz} Hz (SSPADD must be 1..127); choose another "
+                      "speed_hz or clock_hz")
         self.unique_devices(b)
 
     def unique_devices(self, b: Board) -> None:
@@ -159,7 +160,8 @@ class _Checker:
             names[dev.name] = i
             addrs[dev.address] = i
         if sum(isinstance(d, EepromDevice) for d in b.i2c.devices) > 1:
-            self.fail(b, ("i2c", "devices"), "only one EEPROM device is supported", key=True)
+            self.fail(b, ("i2c", "devices"), "only one EEPROM device is supported; remove "
+                      "the others", key=True)
 
     def clock_rules(self, b: Board) -> None:
         clock = b.mcu.clock_hz
@@ -279,7 +281,7 @@ class _Checker:
             if peer.i2c.speed_hz != central.i2c.speed_hz:
                 self.fail(peer, ("i2c", "speed_hz"),
                           f"bus speed {peer.i2c.speed_hz} Hz differs from the master's "
-                          f"{central.i2c.speed_hz} Hz")
+                          f"{central.i2c.speed_hz} Hz; use speed_hz: {central.i2c.speed_hz}")
         for b in self.boards:
             if b.role != "central" and b.board not in reached:
                 self.fail(b, ("board",), f"board '{b.board}' is not among the central "
@@ -343,7 +345,8 @@ class _Checker:
             if c.motion is not None:
                 if c.action != "play":
                     self.fail(central, loc_base + (i, "motion"),
-                              "'motion' is only for action 'play'", key=True)
+                              "'motion' is only for action 'play'; remove it or use "
+                              "action: play", key=True)
                 if all(m.name != c.motion for m in central.motions):
                     self.fail(central, loc_base + (i, "motion"),
                               f"no motion named '{c.motion}'"

@@ -47,6 +47,10 @@ EXPECTED = {
         'tests/fixtures/bad/binary_junk/central.yaml:1:1: not a text file (invalid UTF-8 at byte 0); a board file is UTF-8 YAML',
     "binary_nul":
         'tests/fixtures/bad/binary_nul/central.yaml:3:17: control character U+0000 is not allowed in a YAML file (is this a binary file?)',
+    "bool_type":
+        "tests/fixtures/bad/bool_type/central.yaml:14:21: 'require_checksum' must be true or false, not text 'maybe'",
+    "command_needs_sensor_board":
+        "tests/fixtures/bad/command_needs_sensor_board/central.yaml:35:42: command 'sensors' (action sensors) needs a sensor board in this robot",
     "command_too_long":
         "tests/fixtures/bad/command_too_long/central.yaml:33:29: command 'speeds' lines are 44 chars; with a 3-char checksum they exceed the 40-char line limit",
     "deep_nesting":
@@ -55,6 +59,8 @@ EXPECTED = {
         'tests/fixtures/bad/dir_as_file/extra.yaml:1:1: is a folder, but a board file (YAML) was expected here; rename or move it',
     "duplicate_board_name":
         "tests/fixtures/bad/duplicate_board_name/sensor2.yaml:4:8: two files describe board 'sensor' (the other is tests/fixtures/bad/duplicate_board_name/sensor.yaml)",
+    "duplicate_command_name":
+        "tests/fixtures/bad/duplicate_command_name/central.yaml:38:12: command name 'play' is already used at line 32; each command needs its own name",
     "duplicate_device_name":
         "tests/fixtures/bad/duplicate_device_name/central.yaml:25:27: device name 'servos' is already used at line 24; each device needs its own name",
     "duplicate_key":
@@ -73,20 +79,36 @@ EXPECTED = {
         'tests/fixtures/bad/empty_file/central.yaml:1:1: file is empty, expected a board description (board:, role:, i2c:, ...)',
     "empty_folder":
         'tests/fixtures/bad/empty_folder:1:1: no board files (*.yaml) in this folder',
+    "empty_section":
+        "tests/fixtures/bad/empty_section/actuator.yaml:16:1: 'sync' is empty, but an actuator board needs it",
     "empty_value":
         "tests/fixtures/bad/empty_value/actuator.yaml:20:73: 'max_angle' has no value; give it one or remove the key",
     "frame_angle_count":
         "tests/fixtures/bad/frame_angle_count/central.yaml:62:18: motion 'sit' frame 0: 11 angles given, the robot has 12 servos",
     "frame_outside_limits":
         "tests/fixtures/bad/frame_outside_limits/central.yaml:62:37: motion 'sit' frame 0: angle 170 for servo 'l_ankle_pitch' is outside its limits 40..140",
+    "frame_speed_count":
+        "tests/fixtures/bad/frame_speed_count/central.yaml:113:77: motion 'balance' frame 0: 2 speeds given, the robot has 12 servos",
     "i2c_collision":
         "tests/fixtures/bad/i2c_collision/central.yaml:25:57: I2C address 0x50 of 'feet' collides with 'motion_store' (line 23); every device on the bus needs its own address",
+    "i2c_speed_unreachable":
+        'tests/fixtures/bad/i2c_speed_unreachable/central.yaml:21:13: I2C 400000 Hz cannot be made at 1000000 Hz (SSPADD must be 1..127); choose another speed_hz or clock_hz',
+    "image_over_64k":
+        'tests/fixtures/bad/image_over_64k/central.yaml:52:1: the motion image needs 68456 bytes, more than the 65535 its 16-bit offsets reach; use fewer or shorter motions',
+    "master_with_address":
+        "tests/fixtures/bad/master_with_address/central.yaml:21:3: an I2C master has no own 'address'; remove it",
+    "min_above_max_angle":
+        "tests/fixtures/bad/min_above_max_angle/actuator.yaml:20:75: servo 'l_hip_yaw': max_angle (120) is below min_angle (130)",
     "missing_device_kind":
         "tests/fixtures/bad/missing_device_kind/central.yaml:23:7: missing required key 'kind' ('eeprom' or 'board')",
     "missing_file":
         'tests/fixtures/bad/missing_file/central.yaml:1:1: no such file or folder',
     "missing_key":
         "tests/fixtures/bad/missing_key/actuator.yaml:21:5: missing required key 'pin'",
+    "missing_section":
+        "tests/fixtures/bad/missing_section/actuator.yaml:6:1: an actuator board needs a 'sync:' section",
+    "motion_on_non_play":
+        "tests/fixtures/bad/motion_on_non_play/central.yaml:37:48: 'motion' is only for action 'play'; remove it or use action: play",
     "motions_without_eeprom":
         'tests/fixtures/bad/motions_without_eeprom/central.yaml:51:1: motions need an EEPROM: add one to the I2C devices (kind: eeprom)',
     "no_central":
@@ -95,6 +117,8 @@ EXPECTED = {
         "tests/fixtures/bad/non_string_key/central.yaml:4:1: key '9600' must be a name, not an integer",
     "peer_address":
         "tests/fixtures/bad/peer_address/central.yaml:24:57: device 'feet' is at 0x20 here but board 'sensor' answers at 0x21 (tests/fixtures/bad/peer_address/sensor.yaml:13:12); make the two addresses agree",
+    "peer_bus_speed":
+        "tests/fixtures/bad/peer_bus_speed/sensor.yaml:12:13: bus speed 400000 Hz differs from the master's 100000 Hz; use speed_hz: 100000",
     "peer_registers":
         "tests/fixtures/bad/peer_registers/central.yaml:24:78: device 'servos' declares 22 registers but board 'actuator' has 24 (2 per servo and per sensor); set registers: 24",
     "pin_not_on_part":
@@ -103,8 +127,12 @@ EXPECTED = {
         "tests/fixtures/bad/pin_twice/actuator.yaml:21:43: pin RD0 is used twice: by servo 'l_hip_yaw' and by servo 'l_hip_roll'; give servo 'l_hip_roll' another pin",
     "pin_twice_uart":
         'tests/fixtures/bad/pin_twice_uart/central.yaml:18:8: pin RC6 is used twice: by the UART and by the sync line; give the sync line another pin',
+    "pulse_order":
+        "tests/fixtures/bad/pulse_order/actuator.yaml:20:148: servo 'l_hip_yaw': pulse_max_us (1000) must be above pulse_min_us (2000)",
     "python_tag":
         "tests/fixtures/bad/python_tag/central.yaml:2:8: cannot read value: unsupported tag 'tag:yaml.org,2002:python/object/apply:os.system' (remove the '!' tag)",
+    "reaction_compare_three":
+        "tests/fixtures/bad/reaction_compare_three/central.yaml:46:14: 'compare' must have at most 2 items, not 3",
     "reaction_same_group":
         "tests/fixtures/bad/reaction_same_group/central.yaml:46:26: reaction 'auto_balance' compares group 'left_foot' with itself; compare two different groups",
     "root_list":
@@ -119,6 +147,10 @@ EXPECTED = {
         "tests/fixtures/bad/servo_index_gap/actuator.yaml:32:34: servo 'r_ankle_roll': index 12 leaves a gap; servo indices must run 0..11 and index 11 is missing",
     "slave_as_master":
         'tests/fixtures/bad/slave_as_master/actuator.yaml:13:9: an actuator board must be an I2C slave (mode: slave)',
+    "slave_with_devices":
+        "tests/fixtures/bad/slave_with_devices/sensor.yaml:14:3: an I2C slave has no 'devices' (only a master talks to devices)",
+    "slave_without_address":
+        "tests/fixtures/bad/slave_without_address/sensor.yaml:11:3: an I2C slave needs its own 'address' (0x08..0x77)",
     "speed_list_item":
         "tests/fixtures/bad/speed_list_item/central.yaml:113:111: 'speed[11]' must be at most 25, not 40",
     "speed_out_of_range":
@@ -137,6 +169,8 @@ EXPECTED = {
         'tests/fixtures/bad/tick_infinite/central.yaml:16:14: tick period must be a finite number of ms, not inf',
     "two_actuators":
         "tests/fixtures/bad/two_actuators/sensor.yaml:14:1: 'sensors' does not belong on an actuator board (an actuator board may have: servos, sync); remove it, or check 'role: actuator'",
+    "two_eeproms":
+        'tests/fixtures/bad/two_eeproms/central.yaml:22:3: only one EEPROM device is supported; remove the others',
     "two_sensor_boards":
         "tests/fixtures/bad/two_sensor_boards/sensor2.yaml:5:7: a robot has one sensor board, and board 'sensor' (tests/fixtures/bad/two_sensor_boards/sensor.yaml) already is one; change one 'role'",
     "unknown_command_motion":
