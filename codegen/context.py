@@ -173,7 +173,10 @@ def actuator_context(robot: Robot) -> Context:
         "address": _slave_address(board),
         "pwm": {"t1con": pwm.t1con, "prescale": pwm.prescale, "frame": pwm.frame_counts,
                 "num": pwm.num, "den": pwm.den},
-        "ports_used": sorted({p for p in (_pin(s.pin)["port"] for s in servos)}),
+        "ports_used": sorted({_pin(s.pin)["port"] for s in servos}),
+        "initial_regs": bytes(b for s in servos
+                              for b in (s.stand_angle % 100,
+                                        s.stand_angle // 100 + 10 * s.default_speed)),
     })
     return ctx
 
