@@ -1,0 +1,110 @@
+"""``esair build``: generate every board's firmware and build it for the PIC18F452.
+
+Each board folder's own Makefile does the build (``make -B pic18f452``, so every file is
+compiled again and every warning is seen); any warning from sdcc, gpasm or gplink is a
+failure. The footprint comes from the gplink map (:func:`esair_min.toolchain.parse_map`).
+"""
+
+from __future__ import annotations
+
+import re
+import subprocess
+from dataclasses import dataclass
+from pathlib import Path
+
+from .errors import EsairError
+from .robot import Robot
+from .toolchain import MapUsage, Toolchain, ToolchainError, find_toolchain, parse_map
+
+FLASH_BYTES = 32768      # PIC18F452 program memory
+RAM_BYTES = 1536         # PIC18F452 data memory (general purpose)
+_WARNING_RE = re.compile(r"warning", re.I)
+
+
+class BuildError(EsairError):
+    """The PIC toolchain is missing or a board's firmware did not build cleanly."""
+
+
+@dataclass(frozen=True)
+class BoardBuild:
+    role: str
+    folder: Path
+    usage: MapUsage
+
+    @property
+    def hex(self) -> Path:
+        return self.folder / "firmware.hex"
+
+    @property
+    def cod(self) -> Path:
+        """The symbol file gpsim loads."""
+        return self.folder / "build-pic" / "firmware.cod"
+
+
+def toolchain() -> Toolchain:
+    """The installed toolchain, or BuildError saying how to install it."""
+    try:
+        return find_toolchain()
+    except ToolchainError as exc:
+        raise BuildError(str(exc)) from None
+
+
+def build_board(folder: Path, tc: Toolchain, timeout: float = 300.0) -> MapUsage:
+    """``make -B pic18f452`` in one generated board folder; the map's usage.
+
+    Raises BuildError when make fails or any tool prints a warning (the lines shown)."""
+    cmd = ["make", "-B", "--no-print-directory", "-C", str(folder), "pic18f452",
+           f"PREFIX={tc.prefix}"]
+    try:
+        proc = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
+    except subprocess.TimeoutExpired:
+        raise BuildError(f"{folder}: make pic18f452 took more than {timeout:g} s") from None
+    except OSError as exc:
+        raise BuildError(f"cannot run make: {exc.strerror}") from None
+    out = proc.stdout + proc.stderr
+    if proc.returncode != 0:
+        raise BuildError(f"{folder}: make pic18f452 failed:\n{_tail(out)}")
+    warnings = [line for line in out.splitlines() if _WARNING_RE.search(line)]
+    if warnings:
+        raise BuildError(f"{folder}: the PIC build printed {len(warnings)} warning(s):\n"
+                         + "\n".join(warnings[:20]))
+    map_path = folder / "firmware.map"
+    if not map_path.exists():
+        raise BuildError(f"{folder}: make pic18f452 wrote no firmware.map")
+    try:
+        return parse_map(map_path)
+    except ToolchainError as exc:
+        raise BuildError(str(exc)) from None
+
+
+def _tail(text: str, lines: int = 30) -> str:
+    return "\n".join(text.rstrip().splitlines()[-lines:])
+
+
+def build_robot(robot: Robot, out_dir: Path, tc: Toolchain | None = None) -> list[BoardBuild]:
+    """Generate every board of ``robot`` under ``out_dir`` and build each for the PIC."""
+    from codegen import generate_robot
+
+    tc = tc or toolchain()
+    result = generate_robot(robot, Path(out_dir))
+    builds = []
+    for role in result.boards:
+        folder = Path(out_dir) / role
+        builds.append(BoardBuild(role, folder, build_board(folder, tc)))
+    return builds
+
+
+def summary_lines(builds: list[BoardBuild]) -> list[str]:
+    """The footprint table ``esair build`` prints."""
+    rows = [("board", "program bytes", "of", "RAM bytes", "of", "(stack)")]
+    for b in builds:
+        u = b.usage
+        rows.append((b.role, str(u.program_bytes), f"{FLASH_BYTES} ({u.program_bytes / FLASH_BYTES:.1%})",
+                     str(u.data_bytes), f"{RAM_BYTES} ({u.data_bytes / RAM_BYTES:.1%})",
+                     f"{u.stack_bytes} B stack"))
+    widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
+    out = []
+    for r in rows:
+        out.append("  ".join(c.ljust(w) if i in (0, 2, 4, 5) else c.rjust(w)
+                             for i, (c, w) in enumerate(zip(r, widths))).rstrip())
+    return out

@@ -1,0 +1,322 @@
+"""Run the central board's PIC18F452 firmware in gpsim against a stimulus script.
+
+The same stimulus scripts as ``python -m esair_min.harness`` (docs/trace-format.md)
+become a gpsim command file generated from the model:
+
+- gpsim's ``usart`` module on RC6/RC7 at the board's baud sends the ``rx`` bytes at line
+  rate (its transmit FIFO queues them) and ``log w _TXREG`` records every reply byte;
+- an ``e24xx256`` at the EEPROM's address (A0..A2 tied by pull-ups) holds the robot's
+  motion image, loaded with ``load e`` from an Intel HEX file;
+- an ``i2c2par`` module at the actuator board's address stands in for the actuator (it
+  ACKs every byte written), another at the sensor board's address stands in for the
+  sensor board (every byte read returns its 8 pins, set by pull-ups/pull-downs);
+- ``FileRecorder`` modules record SCL, SDA and the sync pin; the bus is decoded from
+  the waveforms (:mod:`esair_min.gpsim_wave`), like a logic analyser would.
+
+``tick N`` runs N tick periods of simulated time (Timer2's exact instruction count);
+``boot`` runs until the start-up image check and the ``!READY`` line are done.
+Everything is deterministic. See docs/toolchain.md, section "gpsim harness".
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from .errors import ProtocolError
+from .gpsim_wave import I2cTransfer, decode_i2c, read_edges, read_register_log
+from .harness import unescape
+from .image import build_image, write_hex
+from .robot import Robot
+from .toolchain import Toolchain, ToolchainError, run_gpsim
+
+UNUSED_ADDRESS = 0x7F      # an i2c2par moved here stops answering (fault on)
+NO_WRITE_NACK = ("gpsim 0.31's MSSP master keeps driving SDA with the last bit of a byte "
+                 "during the ACK clock, so a missing device is seen as ACKing every byte "
+                 "that ends in 0 (every write address): only read NACKs can be simulated")
+
+
+@dataclass(frozen=True)
+class GpsimSetup:
+    """The numbers a gpsim command file needs, taken from the model."""
+
+    clock_hz: int
+    baud: int
+    tick_cycles: int          # instruction cycles per Timer2 tick
+    sync_pin: str             # gpsim pin name, e.g. "portb0"
+    eeprom_address: int       # 7-bit, 0x50..0x57 (the e24xx256 answers only there)
+    actuator_address: int | None
+    sensor_address: int | None
+    image_bytes: int
+
+    @classmethod
+    def from_robot(cls, robot: Robot) -> GpsimSetup:
+        central = robot.central
+        if central.uart is None or central.sync is None or robot.eeprom is None:
+            raise ToolchainError("the gpsim harness needs a central board with uart, sync "
+                                 "and an EEPROM")
+        eep = robot.eeprom.address
+        if eep & 0x78 != 0x50:
+            raise ToolchainError(f"EEPROM address 0x{eep:02X}: gpsim's e24xx256 answers "
+                                 "only at 0x50..0x57")
+        act, sen = robot.peer("actuator"), robot.peer("sensor")
+        return cls(clock_hz=central.mcu.clock_hz, baud=central.uart.baud,
+                   tick_cycles=central.timer2.instructions,
+                   sync_pin=_gpsim_pin(central.sync.pin), eeprom_address=eep,
+                   actuator_address=act.address if act else None,
+                   sensor_address=sen.address if sen else None,
+                   image_bytes=len(build_image(robot)))
+
+    @property
+    def cycles_per_second(self) -> int:
+        return self.clock_hz // 4
+
+    @property
+    def byte_cycles(self) -> int:
+        """Instruction cycles per UART character (10 bits), rounded up."""
+        return -(-10 * self.cycles_per_second // self.baud)
+
+    @property
+    def boot_cycles(self) -> int:
+        """A generous bound for reset, image check at 100 kHz and the !READY line."""
+        i2c = (self.image_bytes + 16) * 9 * (self.cycles_per_second // 100_000)
+        return 2 * i2c + 40 * self.byte_cycles + 100_000
+
+
+def _gpsim_pin(pin: str) -> str:
+    m = re.fullmatch(r"R([A-E])([0-7])", pin)
+    if not m:
+        raise ToolchainError(f"pin {pin!r} is not a port pin")
+    return f"port{m.group(1).lower()}{m.group(2)}"
+
+
+@dataclass
+class GpsimRun:
+    """What one gpsim run of a stimulus script produced (cycles are instruction cycles)."""
+
+    output: str                                        # gpsim's console output
+    tx: list[tuple[int, int]]                          # (cycle, byte) written to TXREG
+    transfers: list[I2cTransfer]                       # decoded from SCL/SDA
+    sync_edges: list[tuple[int, int]]                  # (cycle, level) of the sync pin
+    end_cycle: int
+    replies: list[tuple[int, bytes]] = field(default_factory=list)   # (cycle of LF, line)
+
+    def __post_init__(self) -> None:
+        line = bytearray()
+        for cycle, b in self.tx:
+            line.append(b)
+            if b == 0x0A:
+                self.replies.append((cycle, bytes(line)))
+                line.clear()
+
+    def trace(self) -> list[str]:
+        """The run as docs/trace-format.md lines (``T`` = rising sync edges counted
+        from reset, ``@`` marks in microseconds), ordered by cycle."""
+        events: list[tuple[int, int, str]] = []
+        ticks = [c for c, v in self.sync_edges if v == 1 and c > 0]
+        for n, c in enumerate(ticks, start=1):
+            events.append((c, 0, f"T {n}"))
+        for c, line in self.replies:
+            events.append((c, 1, f"TX {line.hex().upper()}"))
+        for t in self.transfers:
+            events.append((t.start, 2, t.trace_line()))
+        events.sort()
+        return ["# esair-trace 1"] + [text for _, _, text in events]
+
+
+class _Script:
+    """Builds the gpsim command file while keeping the simulated time."""
+
+    def __init__(self, setup: GpsimSetup):
+        self.setup = setup
+        self.lines: list[str] = []
+        self.now = 0                 # cycle the simulation stops at after the last run
+        self.booted = False
+
+    def run_to(self, cycle: int) -> None:
+        self.now = max(self.now, cycle)
+        self.lines += [f"break c {self.now}", "run"]
+
+
+def _pin_levels(value: int) -> list[int]:
+    """The byte an i2c2par sensor stand-in must return so every reading is ``value``."""
+    b = value & 0xFF
+    if value != b | (b << 8):
+        raise ProtocolError(f"gpsim's sensor stand-in returns the same byte for every "
+                            f"register: reading {value} is not b + 256*b (use 0, 257, 514 "
+                            "or 771)")
+    return [(b >> i) & 1 for i in range(8)]
+
+
+def build_script(robot: Robot, stimulus: str, cod_name: str, image_name: str) -> tuple[str, GpsimSetup]:
+    """The gpsim command file running ``stimulus`` on firmware ``cod_name``."""
+    s = GpsimSetup.from_robot(robot)
+    sc = _Script(s)
+    L = sc.lines
+    L += [f"load {cod_name}", "p18f452.BreakOnInvalidRegisterWrite = false",
+          f"frequency {s.clock_hz}", "module library libgpsim_modules.so.0",
+          # the PC end of the serial link
+          "module load usart U1", f"U1.txbaud = {s.baud}", f"U1.rxbaud = {s.baud}",
+          "node ntx", "node nrx", "attach ntx portc6 U1.RXPIN", "attach nrx portc7 U1.TXPIN",
+          # the I2C bus: pull-ups, recorders, the motion EEPROM
+          "module load pullup PSCL", "module load pullup PSDA",
+          "module load FileRecorder FSCL", "module load FileRecorder FSDA",
+          "module load FileRecorder FSYNC",
+          "FSCL.digital = true", "FSDA.digital = true", "FSYNC.digital = true",
+          'FSCL.file = "scl.txt"', 'FSDA.file = "sda.txt"', 'FSYNC.file = "sync.txt"',
+          "module load e24xx256 EE"]
+    scl, sda = ["nscl", "portc3", "PSCL.pin", "FSCL.pin", "EE.SCL"], \
+        ["nsda", "portc4", "PSDA.pin", "FSDA.pin", "EE.SDA"]
+    # chip-select pins: the e24xx256 answers at 0x50 | A2A1A0
+    for bit in range(3):
+        if s.eeprom_address >> bit & 1:
+            L += [f"module load pullup PA{bit}", f"node na{bit}",
+                  f"attach na{bit} EE.A{bit} PA{bit}.pin"]
+    stand_ins = {"actuator": ("ACT", s.actuator_address), "sensor": ("SEN", s.sensor_address)}
+    for name, addr in stand_ins.values():
+        if addr is None:
+            continue
+        L += [f"module load i2c2par {name}", f"{name}.Slave_Address = {addr:#04x}"]
+        scl.append(f"{name}.SCL")
+        sda.append(f"{name}.SDA")
+    if s.sensor_address is not None:
+        # each port pin of the sensor stand-in on its own node, pulled to 0 or 5 V
+        for i in range(8):
+            L += [f"module load pullup PS{i}", f"node nsp{i}", f"attach nsp{i} SEN.p{i} PS{i}.pin"]
+        L += _sensor_levels(_pin_levels(0))
+    L += [f"node {scl[0]}", f"node {sda[0]}", "attach " + " ".join(scl), "attach " + " ".join(sda),
+          f"node nsync", f"attach nsync {s.sync_pin} FSYNC.pin",
+          f"load e EE {image_name}",
+          "log on regs.log", "log w _TXREG"]
+
+    for number, raw in enumerate(stimulus.splitlines(), start=1):
+        stripped = raw.strip()
+        if not stripped or stripped.startswith("#"):
+            continue
+        try:
+            _stimulus_line(sc, stripped if not stripped.startswith("rx") else raw.lstrip(),
+                           stand_ins)
+        except ProtocolError as exc:
+            raise ProtocolError(f"stimulus line {number}: {exc.message}") from None
+    L += ["log off", 'FSCL.file = "/dev/null"', 'FSDA.file = "/dev/null"',
+          'FSYNC.file = "/dev/null"', "cycles", "quit"]
+    return "\n".join(L) + "\n", s
+
+
+def _sensor_levels(levels: list[int]) -> list[str]:
+    return [f"PS{i}.voltage = {5.0 if v else 0.0}" for i, v in enumerate(levels)]
+
+
+def _stimulus_line(sc: _Script, line: str, stand_ins: dict[str, tuple[str, int | None]]) -> None:
+    s, L = sc.setup, sc.lines
+    if line == "rx" or line.startswith("rx "):
+        if not sc.booted:
+            raise ProtocolError("rx before boot")
+        L += [f"U1.tx = {b:#04x}" for b in unescape(line[3:])]
+        return
+    words = line.split("#", 1)[0].split()
+    cmd, args = words[0], words[1:]
+    if cmd == "boot" and not args:
+        if sc.booted:
+            raise ProtocolError("a second boot is not supported in gpsim")
+        sc.booted = True
+        sc.run_to(s.boot_cycles)
+    elif cmd == "tick" and len(args) <= 1:
+        n = int(args[0]) if args else 1
+        sc.run_to(sc.now + n * s.tick_cycles)
+    elif cmd == "sensor" and args:
+        values = {int(a) for a in args}
+        if len(values) != 1:
+            raise ProtocolError("gpsim's sensor stand-in returns one byte for every "
+                                "register: all readings must be equal")
+        L += _sensor_levels(_pin_levels(values.pop()))
+    elif cmd == "fault" and len(args) == 2 and args[0] == "sensor" and args[1] in ("on", "off"):
+        name, addr = stand_ins[args[0]]
+        if addr is None:
+            raise ProtocolError(f"no {args[0]} board")
+        L.append(f"{name}.Slave_Address = {UNUSED_ADDRESS if args[1] == 'on' else addr:#04x}")
+    elif cmd == "poke" and len(args) == 2:
+        L.append(f"EE.eeData[{int(args[0], 16):#x}] = {int(args[1], 16):#04x}")
+    elif cmd == "fault":
+        raise ProtocolError(f"{line!r}: only 'fault sensor on|off' works in gpsim; "
+                            + NO_WRITE_NACK)
+    else:
+        raise ProtocolError(f"{line!r} is not supported by the gpsim harness (boot, rx, "
+                            "tick, sensor, fault sensor, poke)")
+
+
+def run_stimulus(robot: Robot, stimulus: str, cod: Path, workdir: Path,
+                 tc: Toolchain | None = None, timeout: float = 120.0) -> GpsimRun:
+    """Run ``stimulus`` on the central firmware ``cod`` (a .cod file) in ``workdir``."""
+    workdir.mkdir(parents=True, exist_ok=True)
+    write_hex(build_image(robot), workdir / "image.hex")
+    cod_rel = Path(cod).resolve()
+    script, _setup = build_script(robot, stimulus, str(cod_rel), "image.hex")
+    out = run_gpsim(script, workdir, timeout=timeout, tc=tc, script_name="harness.stc")
+    if "***ERROR" in out:
+        raise ToolchainError("gpsim rejected a command:\n" + "\n".join(
+            line for line in out.splitlines() if "ERROR" in line or "while parsing" in line))
+    ends = re.findall(r"(\d+) = 0x[0-9A-Fa-f]+\s*$", out, re.M)
+    tx = [(c, v) for c, _, v in read_register_log(workdir / "regs.log", {"_TXREG"})]
+    transfers = decode_i2c(read_edges(workdir / "scl.txt"), read_edges(workdir / "sda.txt"))
+    if transfers and transfers[-1].stop is None:
+        transfers.pop()          # cut by the end of the run
+    return GpsimRun(output=out, tx=tx, transfers=transfers,
+                    sync_edges=read_edges(workdir / "sync.txt"),
+                    end_cycle=int(ends[-1]) if ends else 0)
+
+
+def _normalise(line: str) -> str:
+    """A trace line as compared: a refused transfer is its address and NACK only (the
+    PIC stops sending at the NACK; the Python trace lists what it wanted to send)."""
+    words = line.split()
+    if words[-1] == "NACK":
+        return f"{words[0]} {words[1]} NACK"
+    return line
+
+
+def projections(lines: list[str], eeprom: int, actuator: int | None,
+                sensor: int | None) -> dict[str, list[str]]:
+    """The parts of a trace that must be equal however bytes and ticks interleave:
+    the UART lines, the actuator writes, the EEPROM reads, the sensor reads."""
+    out: dict[str, list[str]] = {"uart": [], "actuator": [], "eeprom": [], "sensor": []}
+    by_addr = {eeprom: "eeprom", actuator: "actuator", sensor: "sensor"}
+    for line in lines:
+        if line.startswith("TX "):
+            out["uart"].append(line)
+        elif line[:2] in ("W ", "R "):
+            key = by_addr.get(int(line.split()[1], 16))
+            if key is None:
+                raise ToolchainError(f"I2C transfer to an unknown address: {line}")
+            out[key].append(_normalise(line))
+    return out
+
+
+def compare(python_trace: list[str], gpsim_trace: list[str], setup: GpsimSetup) -> list[str]:
+    """Differences between the two traces, one message per part; [] when they agree.
+
+    UART lines, actuator writes and EEPROM reads must be equal in order. Sensor reads
+    must be equal in content; gpsim may have a few more: the firmware's Timer2 runs
+    from reset, so ticks pass during the image check and the ``boot`` wait (the
+    Python core counts ticks from the end of ``boot``), and polls fall on every
+    ``poll_ticks``-th tick."""
+    a = projections(python_trace, setup.eeprom_address, setup.actuator_address,
+                    setup.sensor_address)
+    b = projections(gpsim_trace, setup.eeprom_address, setup.actuator_address,
+                    setup.sensor_address)
+    diffs = []
+    for key in ("uart", "actuator", "eeprom"):
+        if a[key] != b[key]:
+            first = next((i for i, (x, y) in enumerate(zip(a[key], b[key])) if x != y),
+                         min(len(a[key]), len(b[key])))
+            diffs.append(f"{key}: {len(a[key])} lines in Python, {len(b[key])} in gpsim; "
+                         f"first difference at {first}: "
+                         f"{a[key][first] if first < len(a[key]) else '-'} / "
+                         f"{b[key][first] if first < len(b[key]) else '-'}")
+    extra = setup.boot_cycles // setup.tick_cycles + 2
+    if set(a["sensor"]) != set(b["sensor"]) or not (
+            len(a["sensor"]) - 2 <= len(b["sensor"]) <= len(a["sensor"]) + extra):
+        diffs.append(f"sensor: Python {len(a['sensor'])} reads {sorted(set(a['sensor']))}, "
+                     f"gpsim {len(b['sensor'])} reads {sorted(set(b['sensor']))}")
+    return diffs
