@@ -28,6 +28,8 @@ IMAGE_CHECK_CHUNK = 32
 #: Fixed buffers of the generated firmware (docs/firmware.md).
 RX_RING_BYTES = 64
 TX_RING_BYTES = 32
+#: SDCC's software stack on the PIC: 128 bytes inside bank 2 (it must not cross a bank).
+PIC_STACK = {"bottom": 0x280, "size": 128}
 PORTS = "ABCDE"
 
 
@@ -43,6 +45,7 @@ def common_context(robot: Robot, board: Board) -> Context:
         "clock_hz": board.mcu.clock_hz,
         "oscillator": timing.oscillator(board.mcu.clock_hz),
         "sync_pin": _pin(board.sync.pin) if board.sync else None,
+        "pic_stack": PIC_STACK,
     }
 
 
