@@ -28,6 +28,10 @@ IMAGE_CHECK_CHUNK = 32
 #: Fixed buffers of the generated firmware (docs/firmware.md).
 RX_RING_BYTES = 64
 TX_RING_BYTES = 32
+#: Servo pulse ends closer than this are handled by one PWM interrupt.
+PWM_MERGE_US = 16
+#: ADC acquisition time before a conversion (datasheet: 12.86 us at 25 C; rounded up).
+ADC_ACQ_US = 15
 #: SDCC's software stack on the PIC: 128 bytes inside bank 2 (it must not cross a bank).
 PIC_STACK = {"bottom": 0x280, "size": 128}
 PORTS = "ABCDE"
@@ -164,6 +168,10 @@ def actuator_context(robot: Robot) -> Context:
     board = robot.actuator
     assert board is not None
     ctx = common_context(robot, board)
+    sync = ctx["sync_pin"]
+    if sync is None or sync["name"] != "RB0":
+        raise GenerateError(f"actuator board '{board.board}': the sync pin must be RB0 "
+                            f"(INT0), not {sync['name'] if sync else 'missing'}")
     pwm = timing.pwm_timing(board.mcu.clock_hz)
     servos = robot.servos
     ctx.update({
@@ -176,7 +184,10 @@ def actuator_context(robot: Robot) -> Context:
         "address": _slave_address(board),
         "pwm": {"t1con": pwm.t1con, "prescale": pwm.prescale, "frame": pwm.frame_counts,
                 "num": pwm.num, "den": pwm.den},
-        "ports_used": sorted({_pin(s.pin)["port"] for s in servos}),
+        "pwm_ports": [{"port": port, "mask": sum(_pin(s.pin)["mask"] for s in servos
+                                                 if _pin(s.pin)["port"] == port)}
+                      for port in sorted({_pin(s.pin)["port"] for s in servos})],
+        "pwm_merge_counts": pwm.counts(PWM_MERGE_US),
         "initial_regs": bytes(b for s in servos
                               for b in (s.stand_angle % 100,
                                         s.stand_angle // 100 + 10 * s.default_speed)),
@@ -196,6 +207,9 @@ def sensor_context(robot: Robot) -> Context:
         "n_sensors": len(sensors),
         "registers": 2 * len(sensors),
         "address": _slave_address(board),
+        # Timer0: 16-bit, Fosc/4, prescale 1:8 (T0CON 0x82): counts of the acquisition time
+        "t0con": 0x82,
+        "acq_counts": -(-ADC_ACQ_US * board.mcu.clock_hz // (4 * 8 * 1_000_000)),
         "adc": {"divisor": adc.divisor, "adcs2": adc.adcs2, "adcs": adc.adcs,
                 # ADCON1: right-justified (ADFM), ADCS2, PCFG=0000 (AN0..AN7 analog)
                 "adcon1": 0x80 | (adc.adcs2 << 6),
