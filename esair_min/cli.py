@@ -99,6 +99,94 @@ def eeprom(robot: str, output: str, raw: bool) -> None:
 
 @main.command()
 @ROBOT
+@click.option("--pty", is_flag=True,
+              help="Serve on a new pseudo-terminal; its path is the first line printed.")
+@click.option("--run", "run_s", type=float, metavar="SECONDS",
+              help="Instead: run headless for SECONDS of virtual time, print the output.")
+@click.option("--send", "sends", multiple=True, metavar="LINE",
+              help="With --run: command lines sent back to back after boot.")
+@click.option("--generate", type=click.Path(file_okay=False), metavar="DIR",
+              help="First generate the firmware and EEPROM image into DIR.")
+@click.option("--scenario", metavar="NAME|FILE",
+              help="Sensor readings over time (a file, or a name in ROBOT/scenarios/).")
+@click.option("--trace", type=click.Path(dir_okay=False), metavar="FILE",
+              help="Write the event trace (docs/trace-format.md, with @ time marks).")
+@click.option("--speed", type=float, default=1.0, show_default=True,
+              help="With --pty: virtual seconds per wall second.")
+@click.option("--nack-actuator", is_flag=True, help="Fault: the actuator board never ACKs.")
+@click.option("--no-sensor", is_flag=True, help="Fault: no sensor board on the bus.")
+@click.option("--corrupt-eeprom", is_flag=True, help="Fault: one byte of the image flipped.")
+@click.option("--noise", type=float, default=0.0, metavar="BYTES/S",
+              help="Fault: random bytes injected into the robot's receive line.")
+@click.option("--seed", type=int, default=0, show_default=True, help="Seed of the faults.")
+@_friendly
+def emulate(robot: str, pty: bool, run_s: float | None, sends: tuple[str, ...],
+            generate: str | None, scenario: str | None, trace: str | None, speed: float,
+            nack_actuator: bool, no_sensor: bool, corrupt_eeprom: bool, noise: float,
+            seed: int) -> None:
+    """Run the emulated robot behind a pseudo-terminal (--pty) or headless (--run).
+
+    With --pty it serves until Ctrl-C or SIGTERM; when standard output is a terminal,
+    a live view shows servos, sensors, the last lines and errors.
+    """
+    from pathlib import Path
+
+    from .emulator.faults import Faults
+    from .emulator.serve import EmulateOptions, emulate as run_emulator
+
+    opts = EmulateOptions(
+        pty=pty, run_s=run_s, sends=sends, generate=Path(generate) if generate else None,
+        scenario=scenario, trace=Path(trace) if trace else None, speed=speed,
+        faults=Faults(nack_actuator, no_sensor, corrupt_eeprom, noise, seed))
+    run_emulator(load(robot), opts)
+
+
+@main.command()
+@click.argument("port")
+@click.argument("commands", nargs=-1, required=True)
+@click.option("--baud", type=int, default=9600, show_default=True,
+              help="Baud rate of a real serial port.")
+@click.option("--timeout", type=float, default=2.0, show_default=True,
+              help="Seconds to wait for each reply.")
+@click.option("--notices", is_flag=True, help="Also print '!' notice lines.")
+@click.option("--checksum", is_flag=True, help="Append the *HH checksum to each line.")
+@_friendly
+def send(port: str, commands: tuple[str, ...], baud: int, timeout: float, notices: bool,
+         checksum: bool) -> None:
+    """Send command lines and print one reply per line; exit 1 if any reply is an error.
+
+    PORT is a serial device, the pty of 'esair emulate --pty', or an esair:// URL
+    (esair://boards/papaman?speed=max).
+    """
+    from .send import open_port, send_commands
+
+    ser = open_port(port, baud, timeout)
+    try:
+        failures = send_commands(ser, commands, timeout, click.echo, notices, checksum)
+    finally:
+        ser.close()
+    if failures:
+        sys.exit(1)
+
+
+@main.command()
+@click.argument("trace", type=click.Path(dir_okay=False))
+@click.option("-o", "--output", required=True, metavar="PNG", help="Image to write.")
+@click.option("--robot", "robot", default="papaman", show_default=True,
+              help="The robot the trace came from (servo names, limits, actuator address).")
+@click.option("--targets", is_flag=True, help="Also draw the decoded targets (dashed).")
+@_friendly
+def plot(trace: str, output: str, robot: str, targets: bool) -> None:
+    """Plot servo angles over time from an event trace: positions simulated from its
+    actuator writes with the emulator's servo model (--targets adds the targets)."""
+    from .plot import plot_trace
+
+    n = plot_trace(load(robot), trace, output, targets)
+    click.echo(f"{n} ticks -> {output}")
+
+
+@main.command()
+@ROBOT
 @click.option("-o", "--output", required=True, metavar="DIR",
               help="Output folder: one sub-folder per board (central, actuator, sensor).")
 @_friendly
@@ -111,6 +199,21 @@ def generate(robot: str, output: str) -> None:
     result = generate_robot(load(robot), Path(output))
     click.echo(f"{', '.join(result.boards)}: {len(result.written)} files written, "
                f"{len(result.unchanged)} unchanged in {output}")
+
+
+@main.command()
+@ROBOT
+@click.option("-o", "--output", required=True, metavar="DIR",
+              help="Output folder: one sub-folder per board, each built for the PIC18F452.")
+@_friendly
+def build(robot: str, output: str) -> None:
+    """Generate every board's firmware, build it for the PIC18F452 and print its footprint."""
+    from pathlib import Path
+
+    from .build import build_robot, summary_lines
+
+    for line in summary_lines(build_robot(load(robot), Path(output))):
+        click.echo(line)
 
 
 if __name__ == "__main__":  # pragma: no cover

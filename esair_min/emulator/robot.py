@@ -187,6 +187,17 @@ class Emulator:
         candidates = [t for t in (self.clock.next_event(), self.uart.tx_next()) if t is not None]
         return min(candidates) if candidates else None
 
+    def _step(self, limit_ns: int) -> None:
+        """Run to the next thing that happens (an event or a byte reaching the host),
+        never past ``limit_ns``; always makes progress."""
+        clock = self.clock
+        before = clock.now
+        nxt = self.next_event_ns()
+        if nxt is None or nxt > limit_ns:
+            clock.run_until(limit_ns)
+        elif clock.run_until(nxt) == 0 and clock.now == before:
+            clock.run_until(limit_ns)      # cannot happen; guards against a stall
+
     # -- the host side of the serial line ---------------------------------------------
     def write(self, data: bytes) -> None:
         """The host sends ``data`` now; it reaches the board at line rate."""
@@ -208,10 +219,7 @@ class Emulator:
         end = self.clock.now + seconds_to_ns(max_s)
         clock = self.clock
         while not self.idle and clock.now < end:
-            nxt = self.next_event_ns()
-            if nxt is None:
-                break
-            clock.run_until(min(max(nxt, clock.now), end))
+            self._step(end)
 
     def command(self, line: str | bytes, timeout_s: float = 2.0) -> list[str]:
         """Send one line (CR LF added) and run until its reply reached the host.
@@ -225,8 +233,7 @@ class Emulator:
         buf = bytearray()
         end = self.clock.now + seconds_to_ns(timeout_s)
         while self.clock.now < end:
-            nxt = self.next_event_ns()
-            self.clock.run_until(end if nxt is None else min(max(nxt, self.clock.now), end))
+            self._step(end)
             buf += self.read()
             while b"\n" in buf:
                 raw, _, rest = bytes(buf).partition(b"\n")

@@ -40,6 +40,7 @@ class Uart:
         # board -> host
         self._tx_wire: deque[tuple[int, int]] = deque()   # (delivery ns, byte)
         self._tx_free = 0
+        self._host_buf = bytearray()                       # delivered, not read yet
         self.tx_bytes = 0
 
     # --- host -> board -------------------------------------------------------------
@@ -78,6 +79,11 @@ class Uart:
             self.ring.append(b)
 
     @property
+    def rx_free_ns(self) -> int:
+        """When the last byte the host wrote will have reached the board."""
+        return max(self._rx_free, self.clock.now)
+
+    @property
     def rx_idle(self) -> bool:
         """Nothing on the wire towards the board and nothing waiting in the ring."""
         return not self._rx_wire and not self.ring
@@ -94,21 +100,30 @@ class Uart:
         self._tx_free = t
         self.tx_bytes += len(data)
 
-    def host_read(self) -> bytes:
-        """Every byte that has completely reached the host by now."""
+    def _deliver(self) -> None:
         wire = self._tx_wire
-        if not wire:
+        if wire and wire[0][0] <= self.clock.now:
+            now = self.clock.now
+            out = self._host_buf
+            while wire and wire[0][0] <= now:
+                out.append(wire.popleft()[1])
+
+    def host_read(self) -> bytes:
+        """Every byte that has completely reached the host by now (and was not read)."""
+        self._deliver()
+        if not self._host_buf:
             return b""
-        now = self.clock.now
-        out = bytearray()
-        while wire and wire[0][0] <= now:
-            out.append(wire.popleft()[1])
-        return bytes(out)
+        out = bytes(self._host_buf)
+        self._host_buf.clear()
+        return out
 
     def tx_next(self) -> int | None:
         """When the next byte reaches the host, or None when nothing is being sent."""
+        self._deliver()
         return self._tx_wire[0][0] if self._tx_wire else None
 
     @property
     def tx_idle(self) -> bool:
+        """Nothing still being sent to the host (bytes delivered but unread do not count)."""
+        self._deliver()
         return not self._tx_wire

@@ -1,0 +1,24 @@
+"""A trace writer for long runs: lines go to the file only (not kept in memory)."""
+
+from __future__ import annotations
+
+from typing import TextIO
+
+from ..trace import TraceWriter
+
+
+class FileTraceWriter(TraceWriter):
+    """:class:`TraceWriter` that streams to ``stream`` without keeping every line.
+
+    ``lines`` keeps only the first line (the header); an emulator serving a person for
+    hours would otherwise hold its whole trace in memory.
+    """
+
+    def __init__(self, stream: TextIO):
+        super().__init__(stream)
+
+    def _emit(self, line: str) -> None:
+        if not self.lines:
+            self.lines.append(line)
+        assert self.stream is not None
+        self.stream.write(line + "\n")

@@ -1,0 +1,140 @@
+"""``esair plot``: servo angles over time from an event trace (docs/trace-format.md).
+
+The trace's ``W`` lines to the actuator board's address are decoded into register
+writes. The plot shows **simulated servo positions**: the register map is replayed
+through the emulator's servo model tick by tick (latched on the sync tick after the
+write, then moved by *speed* degrees per tick toward the target, 0 = at once), exactly
+as the emulated actuator board moves. With ``targets=True`` the decoded targets are
+drawn too, as dashed steps. ``!R`` notices (reactions firing) are marked.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from .emulator.actuator import ServoBank, stand_registers
+from .errors import EsairError
+from .robot import Robot
+
+PANEL = 6     # servos per panel
+TAIL_TICKS = 100   # ticks plotted after the last event at most, while servos still move
+
+
+@dataclass
+class TraceEvents:
+    last_tick: int = 0
+    writes: dict[int, list[bytes]] = field(default_factory=dict)   # tick -> W payloads
+    reactions: list[tuple[int, str]] = field(default_factory=list)  # (tick, name)
+
+
+def read_trace(path: Path | str, actuator: int) -> TraceEvents:
+    try:
+        text = Path(path).read_text(encoding="ascii", errors="replace")
+    except OSError as exc:
+        raise EsairError(f"cannot read the trace {path}: {exc.strerror}") from None
+    lines = text.splitlines()
+    if not lines or lines[0].strip() != "# esair-trace 1":
+        raise EsairError(f"{path}: not an event trace (its first line must be "
+                         "'# esair-trace 1')")
+    ev = TraceEvents()
+    tick = 0
+    for no, line in enumerate(lines[1:], start=2):
+        parts = line.split()
+        if not parts:
+            continue
+        try:
+            if parts[0] == "T":
+                tick = int(parts[1])
+                ev.last_tick = max(ev.last_tick, tick)
+            elif parts[0] == "W" and int(parts[1], 16) == actuator and parts[-1] == "ACK":
+                ev.writes.setdefault(tick, []).append(bytes.fromhex(parts[2]))
+            elif parts[0] == "TX":
+                msg = bytes.fromhex(parts[1]).decode("latin-1").strip()
+                if msg.startswith("!R "):
+                    ev.reactions.append((tick, msg[3:]))
+        except (IndexError, ValueError):
+            raise EsairError(f"{path}:{no}: malformed trace line: {line!r}") from None
+    return ev
+
+
+def replay(robot: Robot, ev: TraceEvents) -> tuple[list[int], list[list[int]], list[list[int]]]:
+    """(ticks, positions per tick, targets per tick) replayed through the servo model."""
+    servos = robot.servos
+    regs = bytearray(stand_registers(servos))
+    bank = ServoBank(servos)
+    ticks, pos, tgt = [0], [list(bank.angles)], [list(bank.targets)]
+    for payload in ev.writes.get(0, []):
+        _apply(regs, payload)
+    k = 0
+    while True:
+        k += 1
+        moving = bank.angles != bank.targets
+        if k > ev.last_tick and (not moving or k > ev.last_tick + TAIL_TICKS):
+            break
+        bank.latch(regs)          # sync pin: latch what was written during the last tick
+        bank.step()
+        for payload in ev.writes.get(k, []):
+            _apply(regs, payload)
+        ticks.append(k)
+        pos.append(list(bank.angles))
+        tgt.append(list(bank.targets))
+    return ticks, pos, tgt
+
+
+def _apply(regs: bytearray, payload: bytes) -> None:
+    if not payload:
+        return
+    p = payload[0] % len(regs)
+    for b in payload[1:]:
+        regs[p] = b
+        p = (p + 1) % len(regs)
+
+
+def plot_trace(robot: Robot, trace: Path | str, out: Path | str, targets: bool = False) -> int:
+    """Draw the servo angles of ``trace`` into the PNG ``out``; returns the ticks drawn."""
+    act = robot.peer("actuator")
+    if act is None or not robot.servos:
+        raise EsairError(f"robot {robot.name} has no actuator board to plot")
+    ev = read_trace(trace, act.address)
+    if not ev.writes:
+        raise EsairError(f"{trace}: no writes to the actuator board (address "
+                         f"0x{act.address:02X}) in this trace")
+    ticks, pos, tgt = replay(robot, ev)
+    period = robot.central.timer2.period_s if robot.central.timer2 else 0.0
+    t = [k * period for k in ticks]
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    servos = robot.servos
+    panels = [list(range(i, min(i + PANEL, len(servos)))) for i in range(0, len(servos), PANEL)]
+    fig, axes = plt.subplots(len(panels), 1, figsize=(11, 3.2 * len(panels)), sharex=True,
+                             squeeze=False)
+    for ax, idx in zip(axes[:, 0], panels):
+        for i in idx:
+            line, = ax.plot(t, [p[i] for p in pos], label=servos[i].name, linewidth=1.4)
+            if targets:
+                ax.step(t, [g[i] for g in tgt], where="post", linestyle="--",
+                        linewidth=0.8, color=line.get_color())
+        for k, name in ev.reactions:
+            ax.axvline(k * period, color="red", linewidth=0.8, linestyle=":")
+        ax.set_ylabel("angle (°)")
+        ax.grid(True, alpha=0.3)
+        ax.legend(loc="upper right", fontsize=7, ncol=2)
+    what = "simulated positions" + (" and targets (dashed)" if targets else "")
+    title = f"{robot.name}: servo {what} from {Path(trace).name}"
+    if ev.reactions:
+        title += f"  (red: reaction {ev.reactions[0][1]} fired)"
+    axes[0, 0].set_title(title, fontsize=10)
+    axes[-1, 0].set_xlabel(f"time (s), tick × {period * 1e3:.4g} ms")
+    fig.tight_layout()
+    try:
+        fig.savefig(out, dpi=110)
+    except OSError as exc:
+        raise EsairError(f"cannot write {out}: {exc.strerror}") from None
+    finally:
+        plt.close(fig)
+    return len(ticks)

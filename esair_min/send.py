@@ -1,0 +1,80 @@
+"""``esair send``: send command lines to a robot and collect one reply per line.
+
+Works with anything pySerial opens: a serial device (``/dev/ttyUSB0``), the pty of
+``esair emulate --pty``, or an ``esair://`` URL (an in-process emulator).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from typing import Any, Callable, Sequence
+
+from .errors import EsairError
+from .protocol import add_checksum
+
+
+@dataclass(frozen=True)
+class Exchange:
+    command: str
+    reply: str
+    notices: tuple[str, ...]
+
+    @property
+    def failed(self) -> bool:
+        return not self.reply.startswith("OK")
+
+
+def open_port(port: str, baud: int, timeout: float) -> Any:
+    """A pySerial port for a device path or a URL (``esair://`` included)."""
+    import serial
+
+    import esair_min.emulator  # noqa: F401  (registers the esair:// URL scheme)
+
+    try:
+        return serial.serial_for_url(port, baudrate=baud, timeout=min(timeout, 0.1))
+    except (serial.SerialException, ValueError, OSError) as exc:
+        raise EsairError(f"cannot open {port}: {exc}") from None
+
+
+def exchange(ser: Any, command: str, timeout: float, checksum: bool = False) -> Exchange:
+    """Send one line; read lines until one that is not a ``!`` notice, or time out."""
+    try:
+        line = command.encode("ascii")
+    except UnicodeEncodeError:
+        raise EsairError(f"command {command!r} is not ASCII") from None
+    if checksum:
+        line = add_checksum(command).encode("ascii")
+    ser.write(line + b"\r\n")
+    notices: list[str] = []
+    buf = bytearray()
+    deadline = time.monotonic() + timeout
+    while True:
+        got = ser.readline()
+        buf += got
+        if buf.endswith(b"\n"):
+            text = buf.decode("latin-1").rstrip("\r\n")
+            buf.clear()
+            if not text:
+                continue
+            if text.startswith("!"):
+                notices.append(text)
+                continue
+            return Exchange(command, text, tuple(notices))
+        if time.monotonic() >= deadline:
+            raise EsairError(f"no reply to {command!r} within {timeout:g} s")
+
+
+def send_commands(ser: Any, commands: Sequence[str], timeout: float,
+                  echo: Callable[[str], None], notices: bool = False,
+                  checksum: bool = False) -> int:
+    """Send each command, print its notices (if asked) and reply; return the errors."""
+    failures = 0
+    for cmd in commands:
+        ex = exchange(ser, cmd, timeout, checksum)
+        if notices:
+            for n in ex.notices:
+                echo(n)
+        echo(ex.reply)
+        failures += ex.failed
+    return failures
