@@ -59,6 +59,7 @@ class CentralCore:
         self._eeprom_abytes = eep.address_bytes if eep else 2
         self._image = build_image(robot) if eep else b""   # "compiled into the firmware"
         self._lines = LineAssembler()
+        self._feed = self._lines.feed
         self._speeds = list(self._default_speeds)
         self._targets = list(self._stand)
         self._player = Player(bus, self._eeprom or 0, self._eeprom_abytes,
@@ -158,7 +159,7 @@ class CentralCore:
         if self._held is not None:
             self._lines.note_overrun()
             return
-        r = self._lines.feed(b)
+        r = self._feed(b)
         if r is not None:
             self._line(r)
 
