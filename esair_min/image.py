@@ -96,6 +96,13 @@ def build_image(robot: Robot) -> bytes:
     """The motion image of ``robot``'s central board (docs/eeprom-format.md)."""
     servos = robot.servos
     layout = robot.layout
+    length = layout.total_bytes
+    eeprom = robot.eeprom
+    if eeprom is not None and length > eeprom.size_bytes:
+        raise ImageError(f"the motion image needs {length} bytes but EEPROM "
+                         f"'{eeprom.name}' has {eeprom.size_bytes}")
+    if length > 0xFFFF:
+        raise ImageError(f"the motion image needs {length} bytes, more than 65535")
     by_number = {m.number: m for m in robot.motions}
     directory = bytearray()
     frames = bytearray()
@@ -118,14 +125,7 @@ def build_image(robot: Robot) -> bytes:
                                      f"{angle} encodes to high byte {high}, more than 255")
                 frames += bytes((angle % 100, high))
     body = bytes(directory + frames)
-    length = HEADER_BYTES + len(body)
-    assert length == layout.total_bytes
-    eeprom = robot.eeprom
-    if eeprom is not None and length > eeprom.size_bytes:
-        raise ImageError(f"the motion image needs {length} bytes but EEPROM "
-                         f"'{eeprom.name}' has {eeprom.size_bytes}")
-    if length > 0xFFFF:
-        raise ImageError(f"the motion image needs {length} bytes, more than 65535")
+    assert HEADER_BYTES + len(body) == length
     header = ImageHeader(MAGIC, VERSION, len(layout.slots), length, crc16_ccitt(body))
     return header.pack() + body
 

@@ -625,3 +625,10 @@ def test_harness_main(tmp_path, capsys):
     assert harness_main([str(ROOT / "boards" / "papaman"), str(tmp_path / "none.txt")]) == 1
     assert capsys.readouterr().err == f"error: {tmp_path / 'none.txt'}: No such file or directory\n"
     assert harness_main([]) == 2
+
+
+def test_harness_main_with_a_bad_robot(tmp_path, capsys):
+    script = tmp_path / "s.txt"
+    script.write_text("boot\n")
+    assert harness_main([str(tmp_path / "nothing"), str(script)]) == 1
+    assert capsys.readouterr().err.startswith("error: ")

@@ -189,3 +189,15 @@ def test_cli_eeprom(tmp_path):
     assert res.exit_code == 1
     assert res.output == (f"error: cannot write {tmp_path / 'no' / 'x.bin'}: "
                           "No such file or directory\n")
+
+
+def test_build_refuses_an_image_beyond_16_bits():
+    dance = PAPAMAN.motion("dance")
+    motions = tuple(dance.model_copy(update={"name": f"m{i}", "number": i}) for i in range(90))
+    robot = with_eeprom_size(PAPAMAN, 131072)
+    boards = tuple(b.model_copy(update={"motions": motions, "reactions": ()})
+                   if b.role == "central" else b for b in robot.boards)
+    robot = dataclasses.replace(robot, boards=boards)
+    with pytest.raises(ImageError) as e:
+        build_image(robot)
+    assert str(e.value) == "the motion image needs 69668 bytes, more than 65535"
