@@ -107,6 +107,7 @@ class Serial(SerialBase):
         from ..resources import resolve_robot
         from ..trace import TraceWriter
         from ..validate import load_robot
+        faults = _faults(opts)
         try:
             robot = load_robot(resolve_robot(robot_arg))
             trace = None
@@ -114,7 +115,7 @@ class Serial(SerialBase):
                 self._trace_file = open(opts["trace"], "w", encoding="ascii")
                 trace = TraceWriter(self._trace_file)
             self.emulator = Emulator(robot, scenario=opts.get("scenario"),
-                                     faults=_faults(opts), trace=trace)
+                                     faults=faults, trace=trace)
         except (EsairError, OSError) as exc:
             if self._trace_file is not None:
                 self._trace_file.close()
