@@ -95,16 +95,13 @@ def build_robot(robot: Robot, out_dir: Path, tc: Toolchain | None = None) -> lis
 
 
 def summary_lines(builds: list[BoardBuild]) -> list[str]:
-    """The footprint table ``esair build`` prints."""
-    rows = [("board", "program bytes", "of", "RAM bytes", "of", "(stack)")]
+    """The footprint table ``esair build`` prints (RAM includes the software stack)."""
+    rows = [("board", "program memory", "RAM (with stack)", "stack")]
     for b in builds:
         u = b.usage
-        rows.append((b.role, str(u.program_bytes), f"{FLASH_BYTES} ({u.program_bytes / FLASH_BYTES:.1%})",
-                     str(u.data_bytes), f"{RAM_BYTES} ({u.data_bytes / RAM_BYTES:.1%})",
-                     f"{u.stack_bytes} B stack"))
+        rows.append((b.role,
+                     f"{u.program_bytes} B of {FLASH_BYTES} ({u.program_bytes / FLASH_BYTES:.1%})",
+                     f"{u.data_bytes} B of {RAM_BYTES} ({u.data_bytes / RAM_BYTES:.1%})",
+                     f"{u.stack_bytes} B"))
     widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
-    out = []
-    for r in rows:
-        out.append("  ".join(c.ljust(w) if i in (0, 2, 4, 5) else c.rjust(w)
-                             for i, (c, w) in enumerate(zip(r, widths))).rstrip())
-    return out
+    return ["  ".join(c.ljust(w) for c, w in zip(r, widths)).rstrip() for r in rows]

@@ -149,32 +149,54 @@ def _pin_levels(value: int) -> list[int]:
     return [(b >> i) & 1 for i in range(8)]
 
 
-def build_script(robot: Robot, stimulus: str, cod_name: str, image_name: str) -> tuple[str, GpsimSetup]:
-    """The gpsim command file running ``stimulus`` on firmware ``cod_name``."""
+def build_script(robot: Robot, stimulus: str, cod_name: str, image_name: str,
+                 after_boot: tuple[str, ...] = (),
+                 epilogue: tuple[str, ...] = ()) -> tuple[str, GpsimSetup]:
+    """The gpsim command file running ``stimulus`` on firmware ``cod_name``.
+
+    ``after_boot``: commands inserted right after the ``boot`` wait (the benchmarks set
+    their breakpoints there); ``epilogue``: commands run after the last stimulus line."""
     s = GpsimSetup.from_robot(robot)
     sc = _Script(s)
-    L = sc.lines
-    L += [f"load {cod_name}", "p18f452.BreakOnInvalidRegisterWrite = false",
-          f"frequency {s.clock_hz}", "module library libgpsim_modules.so.0",
-          # the PC end of the serial link
-          "module load usart U1", f"U1.txbaud = {s.baud}", f"U1.rxbaud = {s.baud}",
-          "node ntx", "node nrx", "attach ntx portc6 U1.RXPIN", "attach nrx portc7 U1.TXPIN",
-          # the I2C bus: pull-ups, recorders, the motion EEPROM
-          "module load pullup PSCL", "module load pullup PSDA",
-          "module load FileRecorder FSCL", "module load FileRecorder FSDA",
-          "module load FileRecorder FSYNC",
-          "FSCL.digital = true", "FSDA.digital = true", "FSYNC.digital = true",
-          'FSCL.file = "scl.txt"', 'FSDA.file = "sda.txt"', 'FSYNC.file = "sync.txt"',
-          "module load e24xx256 EE"]
-    scl, sda = ["nscl", "portc3", "PSCL.pin", "FSCL.pin", "EE.SCL"], \
-        ["nsda", "portc4", "PSDA.pin", "FSDA.pin", "EE.SDA"]
+    sc.lines += setup_lines(s, cod_name, image_name)
+    for number, raw in enumerate(stimulus.splitlines(), start=1):
+        stripped = raw.strip()
+        if not stripped or stripped.startswith("#"):
+            continue
+        try:
+            _stimulus_line(sc, stripped if not stripped.startswith("rx") else raw.lstrip())
+        except ProtocolError as exc:
+            raise ProtocolError(f"stimulus line {number}: {exc.message}") from None
+        if stripped == "boot":
+            sc.lines += after_boot
+    sc.lines += epilogue
+    sc.lines += ["log off", 'FSCL.file = "/dev/null"', 'FSDA.file = "/dev/null"',
+                 'FSYNC.file = "/dev/null"', "cycles", "quit"]
+    return "\n".join(sc.lines) + "\n", s
+
+
+def setup_lines(s: GpsimSetup, cod_name: str, image_name: str) -> list[str]:
+    """Processor, modules, nodes and recorders (see the module docstring)."""
+    L = [f"load {cod_name}", "p18f452.BreakOnInvalidRegisterWrite = false",
+         f"frequency {s.clock_hz}", "module library libgpsim_modules.so.0",
+         # the PC end of the serial link
+         "module load usart U1", f"U1.txbaud = {s.baud}", f"U1.rxbaud = {s.baud}",
+         "node ntx", "node nrx", "attach ntx portc6 U1.RXPIN", "attach nrx portc7 U1.TXPIN",
+         # the I2C bus: pull-ups, recorders, the motion EEPROM
+         "module load pullup PSCL", "module load pullup PSDA",
+         "module load FileRecorder FSCL", "module load FileRecorder FSDA",
+         "module load FileRecorder FSYNC",
+         "FSCL.digital = true", "FSDA.digital = true", "FSYNC.digital = true",
+         'FSCL.file = "scl.txt"', 'FSDA.file = "sda.txt"', 'FSYNC.file = "sync.txt"',
+         "module load e24xx256 EE"]
+    scl = ["nscl", "portc3", "PSCL.pin", "FSCL.pin", "EE.SCL"]
+    sda = ["nsda", "portc4", "PSDA.pin", "FSDA.pin", "EE.SDA"]
     # chip-select pins: the e24xx256 answers at 0x50 | A2A1A0
     for bit in range(3):
         if s.eeprom_address >> bit & 1:
             L += [f"module load pullup PA{bit}", f"node na{bit}",
                   f"attach na{bit} EE.A{bit} PA{bit}.pin"]
-    stand_ins = {"actuator": ("ACT", s.actuator_address), "sensor": ("SEN", s.sensor_address)}
-    for name, addr in stand_ins.values():
+    for name, addr in (("ACT", s.actuator_address), ("SEN", s.sensor_address)):
         if addr is None:
             continue
         L += [f"module load i2c2par {name}", f"{name}.Slave_Address = {addr:#04x}"]
@@ -185,31 +207,19 @@ def build_script(robot: Robot, stimulus: str, cod_name: str, image_name: str) ->
         for i in range(8):
             L += [f"module load pullup PS{i}", f"node nsp{i}", f"attach nsp{i} SEN.p{i} PS{i}.pin"]
         L += _sensor_levels(_pin_levels(0))
-    L += [f"node {scl[0]}", f"node {sda[0]}", "attach " + " ".join(scl), "attach " + " ".join(sda),
-          f"node nsync", f"attach nsync {s.sync_pin} FSYNC.pin",
-          f"load e EE {image_name}",
-          "log on regs.log", "log w _TXREG"]
-
-    for number, raw in enumerate(stimulus.splitlines(), start=1):
-        stripped = raw.strip()
-        if not stripped or stripped.startswith("#"):
-            continue
-        try:
-            _stimulus_line(sc, stripped if not stripped.startswith("rx") else raw.lstrip(),
-                           stand_ins)
-        except ProtocolError as exc:
-            raise ProtocolError(f"stimulus line {number}: {exc.message}") from None
-    L += ["log off", 'FSCL.file = "/dev/null"', 'FSDA.file = "/dev/null"',
-          'FSYNC.file = "/dev/null"', "cycles", "quit"]
-    return "\n".join(L) + "\n", s
+    L += [f"node {scl[0]}", f"node {sda[0]}", "attach " + " ".join(scl),
+          "attach " + " ".join(sda), "node nsync", f"attach nsync {s.sync_pin} FSYNC.pin",
+          f"load e EE {image_name}", "log on regs.log", "log w _TXREG"]
+    return L
 
 
 def _sensor_levels(levels: list[int]) -> list[str]:
     return [f"PS{i}.voltage = {5.0 if v else 0.0}" for i, v in enumerate(levels)]
 
 
-def _stimulus_line(sc: _Script, line: str, stand_ins: dict[str, tuple[str, int | None]]) -> None:
+def _stimulus_line(sc: _Script, line: str) -> None:
     s, L = sc.setup, sc.lines
+    stand_ins = {"actuator": ("ACT", s.actuator_address), "sensor": ("SEN", s.sensor_address)}
     if line == "rx" or line.startswith("rx "):
         if not sc.booted:
             raise ProtocolError("rx before boot")

@@ -1,0 +1,255 @@
+"""Exact cycle counts of the central board's PIC firmware, measured in gpsim.
+
+- **Decoder**: execution breakpoints on the first instruction of ``core_rx_byte`` and
+  on its ``RETURN`` (addresses from gplink's listing); a stream of command lines goes
+  in at line rate through the usart module; each call is timed from its first
+  instruction to the end of its RETURN (2 cycles), minus any interrupt that ran
+  inside it. The n-th call gets the n-th byte of the stream.
+- **ISR**: breakpoints on the high-priority vector (0x0008) and on the ISR's RETFIE;
+  an ISR whose span holds a rising edge of the sync pin is a Timer2 tick.
+- **Tick to frame**: from the gpsim harness run (:mod:`esair_min.gpsim_harness`): the
+  cycles from the sync pin's rising edge (set in the Timer2 ISR) to the last byte
+  (its ACK clock) and to the STOP of the actuator write that follows on that tick.
+"""
+
+from __future__ import annotations
+
+import re
+import statistics
+from dataclasses import dataclass
+from pathlib import Path
+
+from .gpsim_harness import GpsimRun, GpsimSetup, _Script, _stimulus_line, setup_lines
+from .gpsim_wave import read_edges
+from .harness import unescape
+from .image import build_image, write_hex
+from .robot import Robot
+from .toolchain import Toolchain, ToolchainError, run_gpsim
+
+ISR_VECTOR = 0x0008          # PIC18 high-priority interrupt vector
+RETURN_CYCLES = 2            # RETURN / RETFIE
+MAX_REPLY = 80               # bytes of the longest reply line (TX interrupts per command)
+
+_LABEL_RE = re.compile(r"^\s+(_\w+):\s*$")
+_INSN_RE = re.compile(r"^([0-9a-f]{6})\s+[0-9a-f]{4}\s+(\w+)")
+
+
+@dataclass(frozen=True)
+class FunctionSpan:
+    entry: int
+    exits: tuple[int, ...]    # addresses of its RETURN / RETFIE instructions
+
+
+def function_spans(lst_text: str) -> dict[str, FunctionSpan]:
+    """Entry and exit addresses of every C function in a gplink listing (``_name``)."""
+    spans: dict[str, FunctionSpan] = {}
+    name: str | None = None
+    entry: int | None = None
+    exits: list[int] = []
+    expect_name = False       # the first label of a pCode block names the function
+
+    def close() -> None:
+        if name is not None and entry is not None:
+            spans[name] = FunctionSpan(entry, tuple(exits))
+
+    for line in lst_text.splitlines():
+        if "Starting pCode block" in line:
+            close()
+            name, entry, exits, expect_name = None, None, [], True
+            continue
+        m = _LABEL_RE.match(line)
+        if m:
+            if expect_name:
+                name, expect_name = m.group(1), False
+            continue
+        i = _INSN_RE.match(line)
+        if i and name is not None:
+            addr, op = int(i.group(1), 16), i.group(2).lower()
+            if entry is None:
+                entry = addr
+            if op in ("return", "retfie"):
+                exits.append(addr)
+    close()
+    return spans
+
+
+@dataclass(frozen=True)
+class Hit:
+    cycle: int
+    addr: int
+
+
+_HIT_RE = re.compile(r"Execution at \S+\((0x[0-9a-fA-F]+)\)|(?:^|> )(\d+) = 0x[0-9A-Fa-f]+\s*$",
+                     re.M)
+
+
+def parse_hits(output: str) -> list[Hit]:
+    """Breakpoint hits from a script of ``run`` + ``cycles`` pairs: each ``Execution at``
+    line is paired with the ``cycles`` printed right after it."""
+    hits: list[Hit] = []
+    pending: int | None = None
+    for m in _HIT_RE.finditer(output):
+        if m.group(1):
+            pending = int(m.group(1), 16)
+        elif pending is not None:
+            hits.append(Hit(int(m.group(2)), pending))
+            pending = None
+    return hits
+
+
+@dataclass(frozen=True)
+class Interval:
+    start: int
+    end: int                  # cycle after the last instruction
+
+
+def _pair(hits: list[Hit], entry: int, exits: set[int]) -> list[Interval]:
+    out, start = [], None
+    for h in hits:
+        if h.addr == entry and start is None:
+            start = h.cycle
+        elif h.addr in exits and start is not None:
+            out.append(Interval(start, h.cycle + RETURN_CYCLES))
+            start = None
+    return out
+
+
+@dataclass(frozen=True)
+class DecoderFigures:
+    chars: list[int]          # cycles of each non-terminator byte
+    line_ends: list[tuple[str, int]]   # (the line, cycles of its terminator byte)
+    isr: list[int]            # cycles of every ISR run
+    isr_tick: list[int]       # cycles of the ISR runs that handled a Timer2 tick
+    total_bytes: int
+
+    @property
+    def all_bytes(self) -> list[int]:
+        return self.chars + [c for _, c in self.line_ends]
+
+
+def rx_stream(stimulus: str) -> bytes:
+    """The bytes of every ``rx`` line of a stimulus script, in order."""
+    out = bytearray()
+    for raw in stimulus.splitlines():
+        line = raw.lstrip()
+        if line == "rx" or line.startswith("rx "):
+            out += unescape(line[3:])
+    return bytes(out)
+
+
+def bench_script(robot: Robot, stimulus: str, cod: str, breaks: list[str]) -> tuple[str, int]:
+    """A gpsim command file that plays ``stimulus`` with execution breakpoints set.
+
+    With breakpoints, ``run`` stops at every hit, so each ``tick N`` after a command
+    becomes ``break c T`` and enough ``run`` + ``cycles`` pairs for every hit expected
+    before T (decoder calls and RX interrupts per byte, TX interrupts per reply byte,
+    a tick interrupt per tick). Extra pairs only delay the next command (at most one
+    tick each: the tick interrupt always stops the run). Returns the script and the
+    planned end cycle."""
+    sc = _Script(GpsimSetup.from_robot(robot))
+    s = sc.setup
+    sc.lines += setup_lines(s, cod, "image.hex")
+    line_bytes = 0
+    for raw in stimulus.splitlines():
+        line = raw.strip()
+        if not line or line.startswith("#"):
+            continue
+        words = line.split()
+        if words[0] == "rx":
+            data = unescape(raw.lstrip()[3:])
+            sc.lines += [f"U1.tx = {b:#04x}" for b in data]
+            line_bytes += len(data)
+        elif words[0] == "tick":
+            n = int(words[1]) if len(words) > 1 else 1
+            sc.now += n * s.tick_cycles
+            hits = 2 * (2 * line_bytes + MAX_REPLY + 2 * n) + 10
+            sc.lines += [f"break c {sc.now}"] + ["run", "cycles"] * hits
+            line_bytes = 0
+        else:
+            _stimulus_line(sc, line)
+            if line == "boot":
+                sc.lines += breaks
+    sc.lines += ["log off", 'FSCL.file = "/dev/null"', 'FSDA.file = "/dev/null"',
+                 'FSYNC.file = "/dev/null"', "cycles", "quit"]
+    return "\n".join(sc.lines) + "\n", sc.now
+
+
+def measure_decoder(robot: Robot, stimulus: str, cod: Path, lst: Path, workdir: Path,
+                    tc: Toolchain | None = None) -> DecoderFigures:
+    """Play ``stimulus`` (a stimulus script) on the central firmware; time every decoder
+    call and every interrupt."""
+    spans = function_spans(Path(lst).read_text(errors="replace"))
+    for need in ("_core_rx_byte", "_isr"):
+        if need not in spans or not spans[need].exits:
+            raise ToolchainError(f"{lst}: no function {need} with a return in the listing")
+    dec, isr = spans["_core_rx_byte"], spans["_isr"]
+    workdir.mkdir(parents=True, exist_ok=True)
+    write_hex(build_image(robot), workdir / "image.hex")
+    breaks = [f"break e {dec.entry:#x}"] + [f"break e {a:#x}" for a in dec.exits] + \
+        [f"break e {ISR_VECTOR:#x}"] + [f"break e {a:#x}" for a in isr.exits]
+    script, _end = bench_script(robot, stimulus, str(Path(cod).resolve()), breaks)
+    out = run_gpsim(script, workdir, timeout=300, tc=tc, script_name="bench.stc")
+    hits = parse_hits(out)
+    calls = _pair(hits, dec.entry, set(dec.exits))
+    isrs = _pair(hits, ISR_VECTOR, set(isr.exits))
+    stream = rx_stream(stimulus)
+    if len(calls) != len(stream):
+        raise ToolchainError(f"{len(calls)} decoder calls seen for {len(stream)} bytes "
+                             "(bytes lost, or too few gpsim stops)")
+    sync_up = [c for c, v in read_edges(workdir / "sync.txt") if v == 1 and c > 0]
+    tick_isrs = [i for i in isrs if any(i.start <= c <= i.end for c in sync_up)]
+
+    def net(call: Interval) -> int:
+        inner = sum(i.end - i.start for i in isrs if call.start <= i.start and i.end <= call.end)
+        return call.end - call.start - inner
+
+    chars, ends, line = [], [], bytearray()
+    for b, call in zip(stream, calls):
+        cycles = net(call)
+        if b in (0x0A, 0x0D):
+            ends.append((line.decode("latin-1") + ("\\r" if b == 0x0D else "\\n"), cycles))
+            line.clear()
+        else:
+            line.append(b)
+            chars.append(cycles)
+    return DecoderFigures(chars=chars, line_ends=ends,
+                          isr=[i.end - i.start for i in isrs],
+                          isr_tick=[i.end - i.start for i in tick_isrs],
+                          total_bytes=len(stream))
+
+
+@dataclass(frozen=True)
+class FrameTiming:
+    to_last_byte: list[int]   # sync rising edge -> 9th clock of the last byte, cycles
+    to_stop: list[int]        # sync rising edge -> STOP
+    write: list[int]          # START -> STOP of each full-frame write
+    read: list[int]           # START -> STOP of each frame read from the EEPROM
+
+
+def frame_timing(run: GpsimRun, actuator: int, eeprom: int, frame_bytes: int) -> FrameTiming:
+    """Each full-frame write to the actuator (register byte + ``frame_bytes``): cycles
+    since the latest rising edge of the sync pin, and the bus time of each write and of
+    each frame-sized EEPROM read. When a tick's work overruns the next tick, the sync
+    pin stays high and the delay spans several ticks."""
+    ups = [c for c, v in run.sync_edges if v == 1 and c > 0]
+    last, stops, writes, reads = [], [], [], []
+    for t in run.transfers:
+        if not t.segments or t.stop is None:
+            continue
+        first, final = t.segments[0], t.segments[-1]
+        if final.reading and final.address == eeprom and len(final.data) == frame_bytes:
+            reads.append(t.stop - t.start)
+        if first.address != actuator or first.reading or len(first.data) != frame_bytes + 1:
+            continue
+        writes.append(t.stop - t.start)
+        edge = max((c for c in ups if c <= t.start), default=None)
+        if edge is not None:
+            last.append(t.last_byte_end - edge)
+            stops.append(t.stop - edge)
+    return FrameTiming(last, stops, writes, reads)
+
+
+def describe(values: list[int]) -> str:
+    if not values:
+        return "none"
+    return f"worst {max(values)}, mean {statistics.fmean(values):.1f}, n {len(values)}"
