@@ -269,3 +269,15 @@ def test_emulator_refuses_a_central_board_without_uart(robot):
     with pytest.raises(EsairError) as exc:
         Emulator(bad)
     assert str(exc.value) == "the central board needs uart: and tick: to be emulated"
+
+
+def test_bytes_sent_during_the_boot_image_check_overrun_the_ring(robot):
+    emu = Emulator(robot)                  # at reset: 35 EEPROM reads, about 110 ms
+    assert emu.bus.busy_until == pytest.approx(0.110e9, rel=0.01)
+    emu.write(b"v\r\n" * 40)               # 120 bytes at once: 125 ms on the line
+    emu.run_for(1.0)
+    replies = emu.read().decode().split("\r\n")
+    assert replies[0] == "!READY esair-min/1 image=ok"
+    assert replies[1] == "E12 input overrun"
+    assert emu.uart.overruns > 0
+    assert replies[-2].startswith("OK esair-min/1")    # and then it keeps working

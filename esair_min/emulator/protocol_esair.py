@@ -121,6 +121,7 @@ class Serial(SerialBase):
                 self._trace_file.close()
                 self._trace_file = None
             raise SerialException(f"cannot start the emulator: {exc}") from None
+        self.emulator.settle()      # booted (image checked, !READY sent) before use
         self._pacer = None if self._max else Pacer(self.emulator, factor)
         self._rx.clear()
         self.is_open = True

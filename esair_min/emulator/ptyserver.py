@@ -33,7 +33,8 @@ def serve_pty(emu: Emulator, on_path: Callable[[str], None],
               on_idle: Callable[[], None] | None = None) -> None:
     """Run ``emu`` in real time behind a pty until ``stop()``; ``on_idle`` runs each loop."""
     master, slave, path = open_pty()
-    pacer = Pacer(emu, factor)
+    emu.settle()               # the robot has booted (image checked, !READY sent) when the
+    pacer = Pacer(emu, factor)  # port appears: a program may write at once
     pending = bytearray()
     try:
         on_path(path)
