@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import re
 import subprocess
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from .errors import EsairError
@@ -19,6 +19,8 @@ from .toolchain import MapUsage, Toolchain, ToolchainError, find_toolchain, pars
 FLASH_BYTES = 32768      # PIC18F452 program memory
 RAM_BYTES = 1536         # PIC18F452 data memory (general purpose)
 _WARNING_RE = re.compile(r"warning", re.I)
+# sdcc's stack bounds, also when `#pragma stack` puts it in a section not named "stack"
+_STACK_RE = re.compile(r"^\s*_stack(_end)?\s+0x([0-9a-fA-F]+)\s+data\b", re.M)
 
 
 class BuildError(EsairError):
@@ -72,9 +74,13 @@ def build_board(folder: Path, tc: Toolchain, timeout: float = 300.0) -> MapUsage
     if not map_path.exists():
         raise BuildError(f"{folder}: make pic18f452 wrote no firmware.map")
     try:
-        return parse_map(map_path)
+        usage = parse_map(map_path)
     except ToolchainError as exc:
         raise BuildError(str(exc)) from None
+    bounds = {end: int(addr, 16) for end, addr in _STACK_RE.findall(map_path.read_text())}
+    if usage.stack_bytes == 0 and "" in bounds and "_end" in bounds:
+        usage = replace(usage, stack_bytes=bounds["_end"] - bounds[""] + 1)
+    return usage
 
 
 def _tail(text: str, lines: int = 30) -> str:

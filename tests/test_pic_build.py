@@ -17,8 +17,8 @@ from esair_min.resources import resolve_robot
 from esair_min.validate import load_robot
 
 GOAL_FLASH, GOAL_RAM = 8192, 512
-# Measured (program bytes, RAM bytes incl. the 256 B stack) + about 3 %.
-CEILINGS = {"central": (15_100, 590)}
+# Measured (program bytes, RAM bytes incl. the stack) + about 3 %.
+CEILINGS = {"central": (14_800, 420), "actuator": (7_500, 410), "sensor": (2_020, 176)}
 
 
 @pytest.fixture(scope="module")
@@ -35,8 +35,7 @@ def test_every_board_builds_with_its_map_and_symbols(builds):
     assert sorted(builds) == ["actuator", "central", "sensor"]
     for b in builds.values():
         assert b.hex.exists() and b.cod.exists()
-        assert b.usage.stack_bytes == 256
-        assert b.usage.stack_bytes < b.usage.data_bytes < 1536
+        assert 64 <= b.usage.stack_bytes < b.usage.data_bytes < 1536
         assert 0 < b.usage.program_bytes < 32768
 
 
