@@ -30,7 +30,7 @@ class Faults:
 
     def __post_init__(self) -> None:
         if not self.noise_per_s >= 0:
-            raise EsairError(f"noise rate {self.noise_per_s} must be 0 or more bytes per second")
+            raise EsairError(f"noise rate {self.noise_per_s:g} must be 0 or more bytes per second")
 
     @property
     def any(self) -> bool:

@@ -61,8 +61,14 @@ class _Stop:
         signal.signal(signal.SIGINT, self)
 
 
-def emulate(robot: Robot, opts: EmulateOptions, out: TextIO = sys.stdout,
-            log: Callable[[str], None] = lambda s: print(s, file=sys.stderr)) -> None:
+def emulate(robot: Robot, opts: EmulateOptions, out: TextIO | None = None,
+            log: Callable[[str], None] | None = None) -> None:
+    """Run ``esair emulate``: output (the pty path, or a headless run's lines) goes to
+    ``out`` (standard output), messages to ``log`` (standard error)."""
+    out = sys.stdout if out is None else out
+    if log is None:
+        def log(text: str) -> None:
+            print(text, file=sys.stderr)
     if not opts.pty and opts.run_s is None:
         raise EsairError("give --pty to serve the robot on a pseudo-terminal, or --run "
                          "SECONDS to run it headless")
