@@ -1,0 +1,133 @@
+"""Emulator benchmark: simulated seconds per wall second, and the bus-time ratios.
+
+1. PAPA-MAN dancing headless in virtual time: the host keeps the serial line busy at
+   line rate with a mix of commands (PLY03 restarts the dance whenever it has ended,
+   oab100, s, and a 39-character speeds line), the balance reaction polls the sensor
+   board every 5 ticks. Prints simulated seconds per wall second (goal: >= 200x).
+2. On the same I2C bus model (TimedBus over the emulated devices, 100 kHz): bus time of
+   one frame update written as one burst vs the thesis's two 3-byte transactions per
+   servo, and the EEPROM read of one frame as one sequential read vs the thesis's
+   per-byte random reads each followed by a 6 ms delay.
+
+Run: python bench/emulator.py [--seconds 60]. Prints ratios; asserts nothing.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+from esair_min.devices import Eeprom24, RegisterSlave, SimpleBus  # noqa: E402
+from esair_min.emulator import Emulator  # noqa: E402
+from esair_min.emulator.clock import NS_PER_S  # noqa: E402
+from esair_min.emulator.i2c import TimedBus  # noqa: E402
+from esair_min.image import build_image  # noqa: E402
+from esair_min.validate import load_robot  # noqa: E402
+
+MIX = [b"PLY03\r\n", b"oab100\r\n", b"s\r\n", b"a" + b"002" * 12 + b"\r\n"]
+THESIS_DELAY_S = 0.006
+
+
+def dancing(robot, seconds: float) -> dict:
+    emu = Emulator(robot, scenario="quiet")
+    emu.settle()
+    state = {"i": 0, "out": 0}
+    batch = b"".join(MIX)
+    ahead_ns = 50_000_000        # keep 50 ms of bytes queued on the line: never idle
+
+    def top_up() -> None:
+        while emu.uart.rx_free_ns - emu.clock.now < ahead_ns:
+            emu.write(batch)
+        state["out"] += len(emu.read())
+        emu.clock.after(10_000_000, top_up)
+
+    top_up()
+    frames0 = emu.bus.stats.by_address.get(0x10, 0)
+    t0 = time.perf_counter()
+    emu.run_for(seconds)
+    wall = time.perf_counter() - t0
+    state["out"] += len(emu.read())
+    busy_ticks = emu.bus.stats.bits / robot.central.i2c.speed_hz
+    return {
+        "wall": wall, "sim": seconds, "ticks": emu.ticks, "rx": emu.uart.rx_bytes,
+        "tx": state["out"], "replies": emu.replies.count, "overruns": emu.uart.overruns,
+        "actuator_bits": emu.bus.stats.by_address.get(0x10, 0) - frames0,
+        "bus_load": busy_ticks / (emu.clock.now / NS_PER_S),
+        "backlog_s": (emu.uart._tx_free - emu.clock.now) / NS_PER_S,
+    }
+
+
+def bus_model(robot) -> dict:
+    central = robot.central
+    eep, act = robot.eeprom, robot.peer("actuator")
+    n = len(robot.servos)
+    now = [0]
+    eeprom = Eeprom24(eep.size_bytes, eep.address, eep.address_bytes, build_image(robot))
+    slave = RegisterSlave(act.address, act.registers)
+    bus = TimedBus(SimpleBus([eeprom, slave]), central.i2c.speed_hz, lambda: now[0])
+    frame_at = robot.layout.slots[3].offset
+    abytes = eep.address_bytes
+
+    def timed(fn) -> float:
+        start = bus.busy_until
+        fn()
+        return (bus.busy_until - start) / NS_PER_S
+
+    frame = eeprom.memory[frame_at:frame_at + 2 * n]
+    burst = timed(lambda: bus.write(act.address, bytes([0]) + frame))
+
+    def thesis_write() -> None:
+        for m in range(n):
+            bus.write(act.address, bytes([2 * m, frame[2 * m]]))
+            bus.write(act.address, bytes([2 * m + 1, frame[2 * m + 1]]))
+
+    per_servo = timed(thesis_write)
+    seq = timed(lambda: bus.write_read(eep.address, frame_at.to_bytes(abytes, "big"), 2 * n))
+
+    def thesis_read() -> None:
+        for k in range(2 * n):
+            bus.write_read(eep.address, (frame_at + k).to_bytes(abytes, "big"), 1)
+            bus.busy_until += int(THESIS_DELAY_S * NS_PER_S)     # delay_ms(6), bus idle
+
+    per_byte = timed(thesis_read)
+    return {"burst": burst, "per_servo": per_servo, "seq": seq, "per_byte": per_byte,
+            "tick": central.timer2.period_s, "speed": central.i2c.speed_hz, "n": n}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--seconds", type=float, default=60.0, help="simulated seconds")
+    args = ap.parse_args()
+    robot = load_robot(ROOT / "boards" / "papaman")
+
+    d = dancing(robot, args.seconds)
+    print(f"PAPA-MAN dancing, balance polling, commands at line rate "
+          f"({robot.central.uart.baud} baud), headless:")
+    print(f"  {d['sim']:.0f} simulated s in {d['wall']:.2f} wall s: "
+          f"{d['sim'] / d['wall']:.0f}x real time (goal >= 200x)")
+    print(f"  {d['ticks']} ticks, {d['rx']} bytes in, {d['tx']} bytes out, "
+          f"{d['replies']} lines sent, {d['overruns']} overruns, "
+          f"I2C bus busy {d['bus_load']:.0%} of the time, "
+          f"reply backlog at the end {d['backlog_s'] * 1e3:.0f} ms")
+
+    b = bus_model(robot)
+    ms = 1e3
+    print(f"One frame of {b['n']} servos on the I2C bus model at {b['speed'] // 1000} kHz "
+          f"(tick {b['tick'] * ms:.4g} ms):")
+    print(f"  write: one burst {b['burst'] * ms:.2f} ms vs thesis 2 x 3-byte transactions "
+          f"per servo {b['per_servo'] * ms:.2f} ms: {b['per_servo'] / b['burst']:.2f}x")
+    print(f"  EEPROM read: one sequential read {b['seq'] * ms:.2f} ms vs thesis per-byte "
+          f"reads + 6 ms delays {b['per_byte'] * ms:.1f} ms: {b['per_byte'] / b['seq']:.1f}x")
+    ours, theirs = b["burst"] + b["seq"], b["per_servo"] + b["per_byte"]
+    print(f"  frame update (read + write): {ours * ms:.2f} ms = {ours / b['tick']:.0%} of a "
+          f"tick vs thesis {theirs * ms:.1f} ms = {theirs / b['tick']:.1f} ticks: "
+          f"{theirs / ours:.1f}x")
+
+
+if __name__ == "__main__":
+    main()
