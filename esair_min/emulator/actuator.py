@@ -76,10 +76,14 @@ class ActuatorBoard:
         self.regs = regs
         self.bank = ServoBank(servos)
         self.syncs = 0
+        self._latched: bytes | None = None
 
     def sync(self) -> None:
         self.syncs += 1
-        self.bank.latch(self.regs)
+        snapshot = bytes(self.regs)
+        if snapshot != self._latched:       # same map, same targets: nothing to decode
+            self._latched = snapshot
+            self.bank.latch(snapshot)
         self.bank.step()
 
     @property

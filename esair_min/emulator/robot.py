@@ -18,6 +18,7 @@ Everything happens on a :class:`~.clock.VirtualClock`, so a run is deterministic
 from __future__ import annotations
 
 import random
+import re
 from collections import deque
 from pathlib import Path
 from typing import Callable
@@ -36,6 +37,7 @@ from .scenario import Scenario, load_scenario, quiet, resolve_scenario
 from .uart import Uart
 
 HISTORY = 20     # lines kept in each of the state views
+_EOL = re.compile(rb"\r\n|\r|\n")
 
 
 class _MarkingBus:
@@ -64,23 +66,23 @@ class _Lines:
         self.count = 0
 
     def feed(self, data: bytes) -> list[str]:
-        done = []
-        for b in data:
-            if b in (10, 13):
-                if b == 10 and self._cr:
-                    self._cr = False
-                    continue
-                self._cr = b == 13
-                if self._buf:
-                    done.append(self._buf.decode("latin-1"))
-                    self._buf.clear()
-            else:
-                self._cr = False
-                if len(self._buf) < 200:
-                    self._buf.append(b)
-        self.last.extend(done)
-        self.count += len(done)
-        return done
+        if self._cr and data[:1] == b"\n":          # CR LF split across two chunks
+            data = data[1:]
+            self._cr = False
+        if not data:
+            return []
+        self._cr = data[-1] == 13
+        parts = _EOL.split(data)
+        self._buf += parts[0]
+        if len(parts) == 1:
+            del self._buf[200:]
+            return []
+        done = [bytes(self._buf)] + parts[1:-1]
+        self._buf = bytearray(parts[-1][:200])
+        out = [d.decode("latin-1") for d in done if d]
+        self.last.extend(out)
+        self.count += len(out)
+        return out
 
 
 class Emulator:
