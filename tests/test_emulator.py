@@ -300,3 +300,14 @@ def test_live_view_shows_servos_sensors_lines_and_errors(robot):
     assert "l_toe_in" in text and "680" in text                    # sensors, pushed
     assert "oaf120" in text and "E01 unknown command" in text      # lines
     assert "errors: E01 unknown command" in text
+
+
+def test_line_views_split_cr_lf_and_crlf_across_chunks():
+    from esair_min.emulator.robot import _Lines
+
+    lines = _Lines(3)
+    assert lines.feed(b"ab\r") == ["ab"]
+    assert lines.feed(b"\ncd\n\nef") == ["cd"]          # CR LF split: one line end
+    assert lines.feed(b"\r\r\n") == ["ef"]
+    assert lines.feed(b"g\nh") == ["g"]
+    assert list(lines.last) == ["cd", "ef", "g"] and lines.count == 4

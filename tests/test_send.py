@@ -134,3 +134,20 @@ def test_generate_then_emulate_the_generated_image(monkeypatch, tmp_path):
     assert calls == [("papaman", out)]
     assert r.exit_code == 0
     assert r.stdout.splitlines() == ["!READY esair-min/1 image=bad", "E09 motion image invalid"]
+
+
+def test_generate_writes_the_image_when_the_generator_does_not(monkeypatch, tmp_path):
+    from esair_min.image import build_image, read_hex
+    from esair_min.resources import resolve_robot
+    from esair_min.validate import load_robot
+
+    fake = types.ModuleType("codegen")
+    fake.generate_robot = lambda robot, out: (out / "central").mkdir(parents=True)
+    monkeypatch.setitem(sys.modules, "codegen", fake)
+    out = tmp_path / "build"
+    r = emulate("--run", "0.2", "--generate", str(out), "--send", "PLY03")
+    assert r.exit_code == 0
+    assert r.stdout.splitlines() == ["!READY esair-min/1 image=ok", "OK"]
+    robot = load_robot(resolve_robot("boards/papaman"))
+    image = read_hex(out / "papaman-eeprom.hex", 32768)
+    assert image[:len(build_image(robot))] == build_image(robot)

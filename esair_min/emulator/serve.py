@@ -29,20 +29,27 @@ class EmulateOptions:
 
 
 def generate_first(robot: Robot, out_dir: Path, log: Callable[[str], None]) -> bytes | None:
-    """Generate the firmware and EEPROM image into ``out_dir`` (codegen); return the
-    generated EEPROM image if the generator wrote exactly one ``*eeprom*.hex``."""
+    """Generate the firmware (codegen) and the EEPROM image into ``out_dir``; return the
+    image the emulated EEPROM is loaded with.
+
+    The image is the generator's if it wrote exactly one ``*eeprom*.hex``; otherwise
+    it is built here and written as ``<robot>-eeprom.hex`` next to the firmware."""
     try:
         from codegen import generate_robot  # type: ignore[attr-defined]
     except ImportError:
         raise EsairError("--generate needs the firmware generator (codegen.generate_robot), "
                          "which this installation does not have yet") from None
-    generate_robot(robot, Path(out_dir))
+    out_dir = Path(out_dir)
+    generate_robot(robot, out_dir)
     log(f"generated {robot.name} into {out_dir}")
-    hexes = sorted(Path(out_dir).rglob("*eeprom*.hex"))
-    if len(hexes) != 1 or robot.eeprom is None:
+    if robot.eeprom is None:
         return None
-    from ..image import read_hex
+    from ..image import build_image, read_hex, write_hex
 
+    hexes = sorted(out_dir.rglob("*eeprom*.hex"))
+    if len(hexes) != 1:
+        hexes = [out_dir / f"{robot.name}-eeprom.hex"]
+        write_hex(build_image(robot), hexes[0])
     log(f"EEPROM loaded from {hexes[0]}")
     return read_hex(hexes[0], robot.eeprom.size_bytes)
 
