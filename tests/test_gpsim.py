@@ -165,3 +165,21 @@ def test_listing_and_hit_parsers(central, tmp_path):
                    "  Wrote: 0x004F to _TXREG(0x0FAD) was 0x0000\n"
                    "  Wrote: 0x0024 to _TXSTA(0x0FAC) was 0x0026\n")
     assert read_register_log(log, {"_TXREG"}) == [(0x3C94, "_TXREG", 0x4F)]
+
+
+def test_actuator_pulse_widths_match_commanded_angles(robot, tmp_path):
+    """The actuator firmware alone: a register map written into its RAM, the sync line
+    falls, every servo's pulse must match pulse_min + span * angle / 180 within 1 %."""
+    from esair_min.gpsim_servo import measure_pulses
+
+    out = tmp_path / "fw"
+    generate_robot(robot, out)
+    folder = out / "actuator"
+    build_board(folder, toolchain())
+    angles = [s.min_angle + (s.max_angle - s.min_angle) * (k + 1) // 13
+              for k, s in enumerate(robot.servos)]
+    pulses = measure_pulses(robot, angles, folder / "build-pic" / "firmware.cod",
+                            folder / "firmware.map", tmp_path / "run")
+    report = [f"servo {p.index}: {p.angle} deg, expected {p.expected_us:.0f} us, "
+              f"measured {p.measured_us:.1f} us ({p.error:+.2%})" for p in pulses]
+    assert all(abs(p.error) <= 0.01 for p in pulses), "\n".join(report)
