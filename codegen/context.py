@@ -35,6 +35,9 @@ ADC_ACQ_US = 15
 #: SDCC's software stack on the PIC: 128 bytes inside bank 2 (it must not cross a bank).
 PIC_STACK = {"bottom": 0x280, "size": 128}
 PORTS = "ABCDE"
+#: The central core's scalars live in the PIC's access bank from here (below it: the
+#: compiler's .registers; up to 0x7F: ours). gplink fails the build if they overlap.
+PIC_NEAR_BASE = 0x40
 
 
 def common_context(robot: Robot, board: Board) -> Context:
@@ -113,9 +116,13 @@ def central_context(robot: Robot) -> Context:
                           "notice": P.reaction_line(r.name)})
     group_masks = [{"name": g, "mask": sum(1 << i for i, s in enumerate(sensors)
                                            if s.group == g)} for g in groups]
+    for r in reactions:
+        r["mask_a"] = group_masks[r["group_a"]]["mask"]
+        r["mask_b"] = group_masks[r["group_b"]]["mask"]
     ver_pre, ver_post = _split_image_ok(
         P.ok_line(P.version_data(n, len(sensors), len(robot.motions), True, checksum)))
     ready_pre, ready_post = _split_image_ok(P.ready_line(True))
+    texts = _texts(ver_pre, ver_post, ready_pre, ready_post, reactions)
     t2, baud, i2c = board.timer2, board.baud, board.i2c_setting
     if t2 is None or baud is None or i2c is None:
         raise GenerateError(f"central board '{board.board}' needs tick:, uart: and an "
@@ -148,11 +155,9 @@ def central_context(robot: Robot) -> Context:
                      "registers": act.registers if act else 0},
         "sensor": {"present": int(sen is not None), "address": sen.address if sen else 0,
                    "registers": sen.registers if sen else 0},
-        "error_lines": [{"code": int(c), "line": P.ERROR_LINE[c], "notice": P.NOTICE_LINE[c]}
-                        for c in sorted(P.Code)],
-        "ok_line": P.OK_LINE,
-        "version_pre": ver_pre, "version_post": ver_post,
-        "ready_pre": ready_pre, "ready_post": ready_post,
+        "texts": texts,
+        "near_base": PIC_NEAR_BASE,
+        "text_pool_bytes": sum(len(t["text"]) + 1 for t in texts),
         "timer2": {"t2con": t2.t2con, "pr2": t2.pr2, "prescale": t2.prescale,
                    "postscale": t2.postscale, "period_us": round(t2.period_s * 1e6, 1)},
         "baud": {"spbrg": baud.spbrg, "brgh": baud.brgh, "rate": uart.baud if uart else 0,
@@ -162,6 +167,29 @@ def central_context(robot: Robot) -> Context:
         "tx_ring": TX_RING_BYTES,
     })
     return ctx
+
+
+def _texts(ver_pre: bytes, ver_post: bytes, ready_pre: bytes, ready_post: bytes,
+           reactions: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """Every text the central core sends, in one NUL-separated pool (es_text): the
+    error line of code c is text c (text 0 is empty); a notice is ``!`` then the error
+    line (esair_min.protocol builds NOTICE_LINE so); the reactions' notices last."""
+    codes = sorted(P.Code)
+    assert [int(c) for c in codes] == list(range(1, len(codes) + 1)), codes
+    assert all(P.NOTICE_LINE[c] == b"!" + P.ERROR_LINE[c] for c in codes)
+    items = [("NONE", b"")] + [(f"E{int(c):02d}", P.ERROR_LINE[c]) for c in codes]
+    items += [("BANG", b"!"), ("OK", P.OK_LINE), ("OK_SP", b"OK "), ("CRLF", b"\r\n"),
+              ("IMG_OK", b"ok"), ("IMG_BAD", b"bad"),
+              ("VERSION_PRE", ver_pre), ("VERSION_POST", ver_post),
+              ("READY_PRE", ready_pre), ("READY_POST", ready_post)]
+    items += [(f"R_{r['name'].upper()}", r["notice"]) for r in reactions]
+    texts, at = [], 0
+    for i, (name, text) in enumerate(items):
+        texts.append({"id": i, "name": name, "text": text, "at": at})
+        at += len(text) + 1
+    for r, t in zip(reactions, texts[len(texts) - len(reactions):]):
+        r["text_id"] = t["id"]
+    return texts
 
 
 def actuator_context(robot: Robot) -> Context:

@@ -33,6 +33,16 @@
 #define ES_SENSOR_ADDR     0x20
 #define ES_SENSOR_REGS     16u   /* bytes read by a poll or `s` */
 
+/* The PIC compiler keeps the core's scalars in the access bank (no bank switching):
+ * `ES_NEAR(n) uint8_t x;` places x at ES_NEAR_BASE + n, n < 64 (there it is global:
+ * SDCC 4.2.0 emits `static __at` variables twice); elsewhere x is a plain static. */
+#define ES_NEAR_BASE       0x40
+#if defined(__SDCC_pic16)
+#define ES_NEAR(n) __at(ES_NEAR_BASE + (n))
+#else
+#define ES_NEAR(n) static
+#endif
+
 /* The motion image compiled into the firmware (docs/eeprom-format.md). */
 #define ES_IMAGE_LENGTH    1070u
 #define ES_IMAGE_CRC       0x5B57u

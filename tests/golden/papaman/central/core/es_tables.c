@@ -10,34 +10,40 @@ const uint8_t es_prefix_pool[] = {
 };
 
 /* Command table, in board-file order: a line matches the first row whose prefix it
- * starts with and whose length it has (docs/protocol.md, Matching). */
-const es_command_t es_commands[ES_COMMANDS] = {
-    { 0u, 1u, 1u, ES_ACT_STAND, 0xFF },   /* stand */
-    { 1u, 1u, 6u, ES_ACT_MOTOR, 0xFF },   /* motor */
-    { 2u, 3u, 5u, ES_ACT_PLAY, 0xFF },   /* play */
-    { 5u, 1u, 37u, ES_ACT_SPEEDS, 0xFF },   /* speeds */
-    { 6u, 1u, 13u, ES_ACT_ANGLES, 0xFF },   /* angles */
-    { 7u, 1u, 1u, ES_ACT_VERSION, 0xFF },   /* version */
-    { 8u, 1u, 1u, ES_ACT_SENSORS, 0xFF },   /* sensors */
-    { 9u, 1u, 1u, ES_ACT_STOP, 0xFF },   /* stop */
-    { 10u, 3u, 3u, ES_ACT_PLAY, 0x01 },   /* sit */
-    { 13u, 3u, 3u, ES_ACT_PLAY, 0x03 },   /* dance */
+ * starts with and whose length it has (docs/protocol.md, Matching). Rows: */
+/* 0 stand: at 0, prefix 1, length 1, STAND */
+/* 1 motor: at 1, prefix 1, length 6, MOTOR */
+/* 2 play: at 2, prefix 3, length 5, PLAY */
+/* 3 speeds: at 5, prefix 1, length 37, SPEEDS */
+/* 4 angles: at 6, prefix 1, length 13, ANGLES */
+/* 5 version: at 7, prefix 1, length 1, VERSION */
+/* 6 sensors: at 8, prefix 1, length 1, SENSORS */
+/* 7 stop: at 9, prefix 1, length 1, STOP */
+/* 8 sit: at 10, prefix 3, length 3, PLAY, motion 1 */
+/* 9 dance: at 13, prefix 3, length 3, PLAY, motion 3 */
+const uint8_t es_cmd_at[ES_COMMANDS] = { 0u, 1u, 2u, 5u, 6u, 7u, 8u, 9u, 10u, 13u };
+const uint8_t es_cmd_plen[ES_COMMANDS] = { 1u, 1u, 3u, 1u, 1u, 1u, 1u, 1u, 3u, 3u };
+const uint8_t es_cmd_len[ES_COMMANDS] = { 1u, 6u, 5u, 37u, 13u, 1u, 1u, 1u, 3u, 3u };
+const uint8_t es_cmd_action[ES_COMMANDS] = {
+    ES_ACT_STAND,
+    ES_ACT_MOTOR,
+    ES_ACT_PLAY,
+    ES_ACT_SPEEDS,
+    ES_ACT_ANGLES,
+    ES_ACT_VERSION,
+    ES_ACT_SENSORS,
+    ES_ACT_STOP,
+    ES_ACT_PLAY,
+    ES_ACT_PLAY
 };
+const uint8_t es_cmd_motion[ES_COMMANDS] = { 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0x01, 0x03 };
 
-/* Servo limits (degrees), by servo index. */
-const es_limit_t es_limits[ES_SERVOS_DIM] = {
-    { 60u, 120u },   /* 0 l_hip_yaw */
-    { 60u, 120u },   /* 1 l_hip_roll */
-    { 20u, 160u },   /* 2 l_hip_pitch */
-    { 0u, 150u },   /* 3 l_knee */
-    { 40u, 140u },   /* 4 l_ankle_pitch */
-    { 60u, 120u },   /* 5 l_ankle_roll */
-    { 60u, 120u },   /* 6 r_hip_yaw */
-    { 60u, 120u },   /* 7 r_hip_roll */
-    { 20u, 160u },   /* 8 r_hip_pitch */
-    { 30u, 180u },   /* 9 r_knee */
-    { 40u, 140u },   /* 10 r_ankle_pitch */
-    { 60u, 120u },   /* 11 r_ankle_roll */
+/* Servo limits (degrees), by servo index: 0 l_hip_yaw, 1 l_hip_roll, 2 l_hip_pitch, 3 l_knee, 4 l_ankle_pitch, 5 l_ankle_roll, 6 r_hip_yaw, 7 r_hip_roll, 8 r_hip_pitch, 9 r_knee, 10 r_ankle_pitch, 11 r_ankle_roll. */
+const uint16_t es_lim_min[ES_SERVOS_DIM] = {
+60u, 60u, 20u, 0u, 40u, 60u, 60u, 60u, 20u, 30u, 40u, 60u
+};
+const uint16_t es_lim_max[ES_SERVOS_DIM] = {
+120u, 120u, 160u, 150u, 140u, 120u, 120u, 120u, 160u, 180u, 140u, 120u
 };
 
 /* Stand pose (degrees). */
@@ -51,71 +57,86 @@ const uint8_t es_default_speed[ES_SERVOS_DIM] = {
 };
 
 /* Motion directory: number, frames, delay ticks, EEPROM offset of the first frame. */
-const es_motion_t es_motions[ES_MOTIONS_DIM] = {
-    { 0u, 1u, 10u, 0x0026u },   /* stand */
-    { 1u, 3u, 20u, 0x003Eu },   /* sit */
-    { 2u, 4u, 25u, 0x0086u },   /* prostrate */
-    { 3u, 32u, 1u, 0x00E6u },   /* dance */
-    { 4u, 3u, 2u, 0x03E6u },   /* balance */
-};
+/* 0 stand */
+/* 1 sit */
+/* 2 prostrate */
+/* 3 dance */
+/* 4 balance */
+const uint8_t es_mot_number[ES_MOTIONS_DIM] = { 0u, 1u, 2u, 3u, 4u };
+const uint8_t es_mot_frames[ES_MOTIONS_DIM] = { 1u, 3u, 4u, 32u, 3u };
+const uint8_t es_mot_delay[ES_MOTIONS_DIM] = { 10u, 20u, 25u, 1u, 2u };
+const uint16_t es_mot_offset[ES_MOTIONS_DIM] = { 0x0026u, 0x003Eu, 0x0086u, 0x00E6u, 0x03E6u };
 
-/* Sensor groups: bit i set = sensor register pair i belongs to the group. */
-const uint8_t es_group_mask[ES_GROUPS_DIM] = {
-    0x0F,   /* left_foot */
-    0xF0,   /* right_foot */
-};
-
-/* Reactions: groups compared, threshold, samples, poll ticks, motion (index). */
-const es_reaction_t es_reactions[ES_REACTIONS_DIM] = {
-    { 0u, 1u, 400u, 3u, 5u, 4u },   /* auto_balance */
-};
-
-const char *const es_reaction_notice[ES_REACTIONS_DIM] = {
-    "!R auto_balance\015\012",
-};
+/* Reactions: sensor masks compared (bit i = sensor i), threshold, samples, poll
+ * ticks, motion (directory index), notice (text id). */
+/* 0 auto_balance: groups left_foot and right_foot */
+const uint8_t es_re_mask_a[ES_REACTIONS_DIM] = { 0x0F };
+const uint8_t es_re_mask_b[ES_REACTIONS_DIM] = { 0xF0 };
+const uint16_t es_re_threshold[ES_REACTIONS_DIM] = { 400u };
+const uint8_t es_re_samples[ES_REACTIONS_DIM] = { 3u };
+const uint8_t es_re_poll[ES_REACTIONS_DIM] = { 5u };
+const uint8_t es_re_motion[ES_REACTIONS_DIM] = { 4u };
+const uint8_t es_re_text[ES_REACTIONS_DIM] = { ES_T_R_AUTO_BALANCE };
 
 /* The image header compiled in: magic, version, count, length, CRC. */
 const uint8_t es_image_header[8] = {
     0x45, 0x4D, 0x01, 0x05, 0x2E, 0x04, 0x57, 0x5B
 };
 
-/* Reply and notice lines by error code (index 0 unused). */
-const char *const es_error_line[14] = {
-    "",
-    "E01 unknown command\015\012",
-    "E02 line too long\015\012",
-    "E03 bad argument\015\012",
-    "E04 outside limits\015\012",
-    "E05 speed/angle overflow\015\012",
-    "E06 bad checksum\015\012",
-    "E07 busy\015\012",
-    "E08 no such motion\015\012",
-    "E09 motion image invalid\015\012",
-    "E10 no answer on i2c\015\012",
-    "E11 checksum required\015\012",
-    "E12 input overrun\015\012",
-    "E13 bad character\015\012",
-};
+/* Every text the core sends (411 bytes): the error line of code c is text c;
+ * a notice is text ES_T_BANG then the error line. */
+const char es_text[] =
+    "" "\0"   /* 0 NONE */
+    "E01 unknown command\015\012" "\0"   /* 1 E01 */
+    "E02 line too long\015\012" "\0"   /* 2 E02 */
+    "E03 bad argument\015\012" "\0"   /* 3 E03 */
+    "E04 outside limits\015\012" "\0"   /* 4 E04 */
+    "E05 speed/angle overflow\015\012" "\0"   /* 5 E05 */
+    "E06 bad checksum\015\012" "\0"   /* 6 E06 */
+    "E07 busy\015\012" "\0"   /* 7 E07 */
+    "E08 no such motion\015\012" "\0"   /* 8 E08 */
+    "E09 motion image invalid\015\012" "\0"   /* 9 E09 */
+    "E10 no answer on i2c\015\012" "\0"   /* 10 E10 */
+    "E11 checksum required\015\012" "\0"   /* 11 E11 */
+    "E12 input overrun\015\012" "\0"   /* 12 E12 */
+    "E13 bad character\015\012" "\0"   /* 13 E13 */
+    "!" "\0"   /* 14 BANG */
+    "OK\015\012" "\0"   /* 15 OK */
+    "OK " "\0"   /* 16 OK_SP */
+    "\015\012" "\0"   /* 17 CRLF */
+    "ok" "\0"   /* 18 IMG_OK */
+    "bad" "\0"   /* 19 IMG_BAD */
+    "OK esair-min/1 servos=12 sensors=8 motions=5 image=" "\0"   /* 20 VERSION_PRE */
+    " checksum=off\015\012" "\0"   /* 21 VERSION_POST */
+    "!READY esair-min/1 image=" "\0"   /* 22 READY_PRE */
+    "\015\012" "\0"   /* 23 READY_POST */
+    "!R auto_balance\015\012" "\0"   /* 24 R_AUTO_BALANCE */
+    ;
 
-const char *const es_notice_line[14] = {
-    "",
-    "!E01 unknown command\015\012",
-    "!E02 line too long\015\012",
-    "!E03 bad argument\015\012",
-    "!E04 outside limits\015\012",
-    "!E05 speed/angle overflow\015\012",
-    "!E06 bad checksum\015\012",
-    "!E07 busy\015\012",
-    "!E08 no such motion\015\012",
-    "!E09 motion image invalid\015\012",
-    "!E10 no answer on i2c\015\012",
-    "!E11 checksum required\015\012",
-    "!E12 input overrun\015\012",
-    "!E13 bad character\015\012",
+const uint16_t es_text_at[ES_TEXTS] = {
+    0u,   /* NONE */
+    1u,   /* E01 */
+    23u,   /* E02 */
+    43u,   /* E03 */
+    62u,   /* E04 */
+    83u,   /* E05 */
+    110u,   /* E06 */
+    129u,   /* E07 */
+    140u,   /* E08 */
+    161u,   /* E09 */
+    188u,   /* E10 */
+    211u,   /* E11 */
+    235u,   /* E12 */
+    255u,   /* E13 */
+    275u,   /* BANG */
+    277u,   /* OK */
+    282u,   /* OK_SP */
+    286u,   /* CRLF */
+    289u,   /* IMG_OK */
+    292u,   /* IMG_BAD */
+    296u,   /* VERSION_PRE */
+    348u,   /* VERSION_POST */
+    364u,   /* READY_PRE */
+    390u,   /* READY_POST */
+    393u   /* R_AUTO_BALANCE */
 };
-
-const char es_ok_line[] = "OK\015\012";
-const char es_version_pre[] = "OK esair-min/1 servos=12 sensors=8 motions=5 image=";
-const char es_version_post[] = " checksum=off\015\012";
-const char es_ready_pre[] = "!READY esair-min/1 image=";
-const char es_ready_post[] = "\015\012";
