@@ -314,10 +314,13 @@ class Emulator:
 
     def _feed(self) -> None:
         """The superloop: feed the decoder while it is ready and the bus is free."""
+        ring = self.uart.ring
+        if not ring:
+            return
         uart, core, clock, bus = self.uart, self.core, self.clock, self.bus
-        ring = uart.ring
-        while ring and core.ready():
-            if bus.busy_until > clock.now:
+        ready, feed = core.ready, core.rx_byte
+        while ring and ready():
+            if bus.busy_until > clock._now:
                 if not self._feed_pending:
                     self._feed_pending = True
                     clock.schedule(bus.busy_until, self._feed_event)
@@ -325,7 +328,7 @@ class Emulator:
             if uart.overrun:
                 uart.overrun = False
                 core.rx_overrun()
-            core.rx_byte(ring.popleft())
+            feed(ring.popleft())
 
     def _schedule_noise(self) -> None:
         gap = self._rng.expovariate(self.faults.noise_per_s)
