@@ -115,7 +115,7 @@ def main() -> None:
     print(f"  {d['sim']:.0f} simulated s in {d['wall']:.2f} wall s: "
           f"{d['sim'] / d['wall']:.0f}x real time (goal >= 200x; median of {len(runs)} runs, "
           f"best {d['sim'] / runs[0]['wall']:.0f}x; per CPU second "
-          f"{d["sim"] / d["cpu"]:.0f}x)")
+          f"{d['sim'] / d['cpu']:.0f}x)")
     print(f"  {d['ticks']} ticks, {d['rx']} bytes in, {d['tx']} bytes out, "
           f"{d['replies']} lines sent, {d['overruns']} overruns, "
           f"I2C bus busy {d['bus_load']:.0%} of the time, "
