@@ -185,7 +185,8 @@ def _texts(ver_pre: bytes, ver_post: bytes, ready_pre: bytes, ready_post: bytes,
     items += [(f"R_{r['name'].upper()}", r["notice"]) for r in reactions]
     texts, at = [], 0
     for i, (name, text) in enumerate(items):
-        texts.append({"id": i, "name": name, "text": text, "at": at})
+        assert b"*/" not in text and b"\0" not in text, text   # shown in a C comment
+        texts.append({"id": i, "name": name, "text": text, "data": text + b"\0", "at": at})
         at += len(text) + 1
     for r, t in zip(reactions, texts[len(texts) - len(reactions):]):
         r["text_id"] = t["id"]
