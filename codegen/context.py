@@ -19,7 +19,7 @@ from esair_min.layout import HEADER_BYTES
 from esair_min.model import Board
 from esair_min.robot import Robot
 
-from . import timing
+from . import filters, timing
 
 Context = dict[str, Any]
 
@@ -156,6 +156,13 @@ def central_context(robot: Robot) -> Context:
         "sensor": {"present": int(sen is not None), "address": sen.address if sen else 0,
                    "registers": sen.registers if sen else 0},
         "texts": texts,
+        "actions": [{"name": a, "code": i} for i, a in enumerate(ACTIONS)],
+        "busy_last": BUSY_ACTIONS - 1,
+        "rom": _rom(rows, [{"min": s.min_angle, "max": s.max_angle, "stand": s.stand_angle,
+                            "speed": s.default_speed} for s in servos],
+                    [{"number": s.number, "frames": s.frames, "delay": s.delay_ticks,
+                      "offset": s.offset} for s in robot.layout.slots],
+                    reactions, bytes(pool), image[:HEADER_BYTES], texts),
         "near_base": PIC_NEAR_BASE,
         "text_pool_bytes": sum(len(t["text"]) + 1 for t in texts),
         "timer2": {"t2con": t2.t2con, "pr2": t2.pr2, "prescale": t2.prescale,
@@ -191,6 +198,76 @@ def _texts(ver_pre: bytes, ver_post: bytes, ready_pre: bytes, ready_post: bytes,
     for r, t in zip(reactions, texts[len(texts) - len(reactions):]):
         r["text_id"] = t["id"]
     return texts
+
+
+#: Command actions in the order of their ES_ACT_* codes: the four refused while a
+#: motion plays first (the core tests ``action <= ES_ACT_BUSY_LAST``).
+ACTIONS = ("STAND", "MOTOR", "PLAY", "ANGLES", "SPEEDS", "VERSION", "SENSORS", "STOP")
+BUSY_ACTIONS = 4
+
+
+def _u16(values: list[int]) -> bytes:
+    return b"".join(v.to_bytes(2, "little") for v in values)
+
+
+def _rom(commands: list[dict[str, Any]], servos: list[dict[str, Any]],
+         motions: list[dict[str, Any]], reactions: list[dict[str, Any]],
+         prefix_pool: bytes, header: bytes, texts: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """Every table of the central core as sections of one byte array (es_rom), columns
+    indexed by row, 16-bit values little-endian: the core reads flash through one
+    function. Each section: name (ES_R_<name>), at, what, lines of C initialiser."""
+    def col(rows: list[dict[str, Any]], key: str) -> bytes:
+        return bytes(r[key] for r in rows)
+
+    parts: list[tuple[str, str, list[bytes]]] = [
+        ("PREFIX", "command prefixes, shared where one is part of another", [prefix_pool]),
+        ("CMD_AT", "command rows: first prefix byte in ES_R_PREFIX", [col(commands, "at")]),
+        ("CMD_PLEN", "prefix length", [col(commands, "prefix_len")]),
+        ("CMD_LEN", "characters of a matching line, checksum excluded",
+         [col(commands, "length")]),
+        ("CMD_ACTION", "ES_ACT_*: " + " ".join(c["action"] for c in commands),
+         [bytes(ACTIONS.index(c["action"]) for c in commands)]),
+        ("CMD_MOTION", "fixed motion number, 0xFF: none", [col(commands, "motion")]),
+        ("LIM_MIN", "servos: minimum angle (16 bits)", [_u16([s["min"] for s in servos])]),
+        ("LIM_MAX", "maximum angle (16 bits)", [_u16([s["max"] for s in servos])]),
+        ("STAND", "stand pose (16 bits)", [_u16([s["stand"] for s in servos])]),
+        ("SPEED", "speed code after reset", [col(servos, "speed")]),
+        ("MOT_NUMBER", "motion directory: number (nn of PLYnn)", [col(motions, "number")]),
+        ("MOT_FRAMES", "frames", [col(motions, "frames")]),
+        ("MOT_DELAY", "ticks between frames", [col(motions, "delay")]),
+        ("MOT_OFFSET", "EEPROM offset of the first frame (16 bits)",
+         [_u16([m["offset"] for m in motions])]),
+        ("RE_MASK_A", "reactions: sensors of the first group (bit i = sensor i)",
+         [col(reactions, "mask_a")]),
+        ("RE_MASK_B", "sensors of the second group", [col(reactions, "mask_b")]),
+        ("RE_THRESHOLD", "threshold (16 bits)", [_u16([r["threshold"] for r in reactions])]),
+        ("RE_SAMPLES", "samples", [col(reactions, "samples")]),
+        ("RE_POLL", "poll ticks", [col(reactions, "poll_ticks")]),
+        ("RE_MOTION", "motion (directory index)", [col(reactions, "motion_index")]),
+        ("RE_TEXT", "notice (text id)", [col(reactions, "text_id")]),
+        ("HEADER", "the image header compiled in: magic, version, count, length, CRC",
+         [header]),
+        ("TEXT_AT", "where each text starts in ES_R_TEXT (16 bits)",
+         [_u16([t["at"] for t in texts])]),
+        ("TEXT", "every text sent, NUL-terminated; a notice is ! then the error line",
+         [t["data"] for t in texts]),
+    ]
+    out, at = [], 0
+    for name, what, chunks in parts:
+        lines = []
+        for chunk, t in zip(chunks, texts if name == "TEXT" else [None] * len(chunks)):
+            if t is not None:
+                lines.append(f"/* {t['id']} {t['name']} {filters.c_string(t['text'])} */")
+            if chunk:
+                lines += filters.c_bytes(chunk, 12, "").split("\n")
+        size = sum(len(c) for c in chunks)
+        out.append({"name": name, "at": at, "what": what, "size": size,
+                    "lines": [ln.rstrip(",") + "," if not ln.startswith("/*") else ln
+                              for ln in lines]})
+        at += size
+    if at > 0xFFFF:
+        raise GenerateError(f"the central board's tables need {at} bytes, more than 65535")
+    return out
 
 
 def actuator_context(robot: Robot) -> Context:

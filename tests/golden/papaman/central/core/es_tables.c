@@ -3,14 +3,8 @@
 /* The const tables the central core interprets (flash on the PIC). */
 #include "es_tables.h"
 
-/* Command prefixes, shared where one is part of another. */
-const uint8_t es_prefix_pool[] = {
-    0x74, 0x6F, 0x50, 0x4C, 0x59, 0x61, 0x63, 0x76, 0x73, 0x78, 0x53, 0x49,
-    0x54, 0x44, 0x4E, 0x43
-};
-
-/* Command table, in board-file order: a line matches the first row whose prefix it
- * starts with and whose length it has (docs/protocol.md, Matching). Rows: */
+/* Commands, in board-file order: a line matches the first row whose prefix it starts
+ * with and whose length it has (docs/protocol.md, Matching). */
 /* 0 stand: at 0, prefix 1, length 1, STAND */
 /* 1 motor: at 1, prefix 1, length 6, MOTOR */
 /* 2 play: at 2, prefix 3, length 5, PLAY */
@@ -21,72 +15,83 @@ const uint8_t es_prefix_pool[] = {
 /* 7 stop: at 9, prefix 1, length 1, STOP */
 /* 8 sit: at 10, prefix 3, length 3, PLAY, motion 1 */
 /* 9 dance: at 13, prefix 3, length 3, PLAY, motion 3 */
-const uint8_t es_cmd_at[ES_COMMANDS] = { 0u, 1u, 2u, 5u, 6u, 7u, 8u, 9u, 10u, 13u };
-const uint8_t es_cmd_plen[ES_COMMANDS] = { 1u, 1u, 3u, 1u, 1u, 1u, 1u, 1u, 3u, 3u };
-const uint8_t es_cmd_len[ES_COMMANDS] = { 1u, 6u, 5u, 37u, 13u, 1u, 1u, 1u, 3u, 3u };
-const uint8_t es_cmd_action[ES_COMMANDS] = {
-    ES_ACT_STAND,
-    ES_ACT_MOTOR,
-    ES_ACT_PLAY,
-    ES_ACT_SPEEDS,
-    ES_ACT_ANGLES,
-    ES_ACT_VERSION,
-    ES_ACT_SENSORS,
-    ES_ACT_STOP,
-    ES_ACT_PLAY,
-    ES_ACT_PLAY
-};
-const uint8_t es_cmd_motion[ES_COMMANDS] = { 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0x01, 0x03 };
-
-/* Servo limits (degrees), by servo index: 0 l_hip_yaw, 1 l_hip_roll, 2 l_hip_pitch, 3 l_knee, 4 l_ankle_pitch, 5 l_ankle_roll, 6 r_hip_yaw, 7 r_hip_roll, 8 r_hip_pitch, 9 r_knee, 10 r_ankle_pitch, 11 r_ankle_roll. */
-const uint16_t es_lim_min[ES_SERVOS_DIM] = {
-60u, 60u, 20u, 0u, 40u, 60u, 60u, 60u, 20u, 30u, 40u, 60u
-};
-const uint16_t es_lim_max[ES_SERVOS_DIM] = {
-120u, 120u, 160u, 150u, 140u, 120u, 120u, 120u, 160u, 180u, 140u, 120u
-};
-
-/* Stand pose (degrees). */
-const uint16_t es_stand[ES_SERVOS_DIM] = {
-90u, 90u, 90u, 90u, 90u, 90u, 90u, 90u, 90u, 90u, 90u, 90u
-};
-
-/* Speeds after reset (codes 0..25). */
-const uint8_t es_default_speed[ES_SERVOS_DIM] = {
-2u, 2u, 2u, 2u, 2u, 2u, 2u, 2u, 2u, 2u, 2u, 2u
-};
-
-/* Motion directory: number, frames, delay ticks, EEPROM offset of the first frame. */
-/* 0 stand */
-/* 1 sit */
-/* 2 prostrate */
-/* 3 dance */
-/* 4 balance */
-const uint8_t es_mot_number[ES_MOTIONS_DIM] = { 0u, 1u, 2u, 3u, 4u };
-const uint8_t es_mot_frames[ES_MOTIONS_DIM] = { 1u, 3u, 4u, 32u, 3u };
-const uint8_t es_mot_delay[ES_MOTIONS_DIM] = { 10u, 20u, 25u, 1u, 2u };
-const uint16_t es_mot_offset[ES_MOTIONS_DIM] = { 0x0026u, 0x003Eu, 0x0086u, 0x00E6u, 0x03E6u };
-
-/* Reactions: sensor masks compared (bit i = sensor i), threshold, samples, poll
- * ticks, motion (directory index), notice (text id). */
-/* 0 auto_balance: groups left_foot and right_foot */
-const uint8_t es_re_mask_a[ES_REACTIONS_DIM] = { 0x0F };
-const uint8_t es_re_mask_b[ES_REACTIONS_DIM] = { 0xF0 };
-const uint16_t es_re_threshold[ES_REACTIONS_DIM] = { 400u };
-const uint8_t es_re_samples[ES_REACTIONS_DIM] = { 3u };
-const uint8_t es_re_poll[ES_REACTIONS_DIM] = { 5u };
-const uint8_t es_re_motion[ES_REACTIONS_DIM] = { 4u };
-const uint8_t es_re_text[ES_REACTIONS_DIM] = { ES_T_R_AUTO_BALANCE };
-
-/* The image header compiled in: magic, version, count, length, CRC. */
-const uint8_t es_image_header[8] = {
-    0x45, 0x4D, 0x01, 0x05, 0x2E, 0x04, 0x57, 0x5B
-};
-
-/* Every text the core sends (411 bytes), each NUL-terminated: the error line
- * of code c is text c; a notice is text ES_T_BANG then the error line. Bytes, not a
- * string literal: SDCC would keep the literal as well as the array. */
-const uint8_t es_text[] = {
+/* Servos: index name min max stand speed. */
+/* 0 l_hip_yaw 60 120 90 2 */
+/* 1 l_hip_roll 60 120 90 2 */
+/* 2 l_hip_pitch 20 160 90 2 */
+/* 3 l_knee 0 150 90 2 */
+/* 4 l_ankle_pitch 40 140 90 2 */
+/* 5 l_ankle_roll 60 120 90 2 */
+/* 6 r_hip_yaw 60 120 90 2 */
+/* 7 r_hip_roll 60 120 90 2 */
+/* 8 r_hip_pitch 20 160 90 2 */
+/* 9 r_knee 30 180 90 2 */
+/* 10 r_ankle_pitch 40 140 90 2 */
+/* 11 r_ankle_roll 60 120 90 2 */
+/* Motion directory: number frames delay offset. */
+/* 0 stand 0 1 10 0x0026 */
+/* 1 sit 1 3 20 0x003E */
+/* 2 prostrate 2 4 25 0x0086 */
+/* 3 dance 3 32 1 0x00E6 */
+/* 4 balance 4 3 2 0x03E6 */
+/* Reactions: groups compared, threshold, samples, poll ticks, motion. */
+/* 0 auto_balance: left_foot vs right_foot, 400, 3, 5, slot 4 */
+const uint8_t es_rom[ES_ROM_BYTES] = {
+    /* 0 ES_R_PREFIX: command prefixes, shared where one is part of another */
+    0x74, 0x6F, 0x50, 0x4C, 0x59, 0x61, 0x63, 0x76, 0x73, 0x78, 0x53, 0x49,
+    0x54, 0x44, 0x4E, 0x43,
+    /* 16 ES_R_CMD_AT: command rows: first prefix byte in ES_R_PREFIX */
+    0x00, 0x01, 0x02, 0x05, 0x06, 0x07, 0x08, 0x09, 0x0A, 0x0D,
+    /* 26 ES_R_CMD_PLEN: prefix length */
+    0x01, 0x01, 0x03, 0x01, 0x01, 0x01, 0x01, 0x01, 0x03, 0x03,
+    /* 36 ES_R_CMD_LEN: characters of a matching line, checksum excluded */
+    0x01, 0x06, 0x05, 0x25, 0x0D, 0x01, 0x01, 0x01, 0x03, 0x03,
+    /* 46 ES_R_CMD_ACTION: ES_ACT_*: STAND MOTOR PLAY SPEEDS ANGLES VERSION SENSORS STOP PLAY PLAY */
+    0x00, 0x01, 0x02, 0x04, 0x03, 0x05, 0x06, 0x07, 0x02, 0x02,
+    /* 56 ES_R_CMD_MOTION: fixed motion number, 0xFF: none */
+    0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0x01, 0x03,
+    /* 66 ES_R_LIM_MIN: servos: minimum angle (16 bits) */
+    0x3C, 0x00, 0x3C, 0x00, 0x14, 0x00, 0x00, 0x00, 0x28, 0x00, 0x3C, 0x00,
+    0x3C, 0x00, 0x3C, 0x00, 0x14, 0x00, 0x1E, 0x00, 0x28, 0x00, 0x3C, 0x00,
+    /* 90 ES_R_LIM_MAX: maximum angle (16 bits) */
+    0x78, 0x00, 0x78, 0x00, 0xA0, 0x00, 0x96, 0x00, 0x8C, 0x00, 0x78, 0x00,
+    0x78, 0x00, 0x78, 0x00, 0xA0, 0x00, 0xB4, 0x00, 0x8C, 0x00, 0x78, 0x00,
+    /* 114 ES_R_STAND: stand pose (16 bits) */
+    0x5A, 0x00, 0x5A, 0x00, 0x5A, 0x00, 0x5A, 0x00, 0x5A, 0x00, 0x5A, 0x00,
+    0x5A, 0x00, 0x5A, 0x00, 0x5A, 0x00, 0x5A, 0x00, 0x5A, 0x00, 0x5A, 0x00,
+    /* 138 ES_R_SPEED: speed code after reset */
+    0x02, 0x02, 0x02, 0x02, 0x02, 0x02, 0x02, 0x02, 0x02, 0x02, 0x02, 0x02,
+    /* 150 ES_R_MOT_NUMBER: motion directory: number (nn of PLYnn) */
+    0x00, 0x01, 0x02, 0x03, 0x04,
+    /* 155 ES_R_MOT_FRAMES: frames */
+    0x01, 0x03, 0x04, 0x20, 0x03,
+    /* 160 ES_R_MOT_DELAY: ticks between frames */
+    0x0A, 0x14, 0x19, 0x01, 0x02,
+    /* 165 ES_R_MOT_OFFSET: EEPROM offset of the first frame (16 bits) */
+    0x26, 0x00, 0x3E, 0x00, 0x86, 0x00, 0xE6, 0x00, 0xE6, 0x03,
+    /* 175 ES_R_RE_MASK_A: reactions: sensors of the first group (bit i = sensor i) */
+    0x0F,
+    /* 176 ES_R_RE_MASK_B: sensors of the second group */
+    0xF0,
+    /* 177 ES_R_RE_THRESHOLD: threshold (16 bits) */
+    0x90, 0x01,
+    /* 179 ES_R_RE_SAMPLES: samples */
+    0x03,
+    /* 180 ES_R_RE_POLL: poll ticks */
+    0x05,
+    /* 181 ES_R_RE_MOTION: motion (directory index) */
+    0x04,
+    /* 182 ES_R_RE_TEXT: notice (text id) */
+    0x18,
+    /* 183 ES_R_HEADER: the image header compiled in: magic, version, count, length, CRC */
+    0x45, 0x4D, 0x01, 0x05, 0x2E, 0x04, 0x57, 0x5B,
+    /* 191 ES_R_TEXT_AT: where each text starts in ES_R_TEXT (16 bits) */
+    0x00, 0x00, 0x01, 0x00, 0x17, 0x00, 0x2B, 0x00, 0x3E, 0x00, 0x53, 0x00,
+    0x6E, 0x00, 0x81, 0x00, 0x8C, 0x00, 0xA1, 0x00, 0xBC, 0x00, 0xD3, 0x00,
+    0xEB, 0x00, 0xFF, 0x00, 0x13, 0x01, 0x15, 0x01, 0x1A, 0x01, 0x1E, 0x01,
+    0x21, 0x01, 0x24, 0x01, 0x28, 0x01, 0x5C, 0x01, 0x6C, 0x01, 0x86, 0x01,
+    0x89, 0x01,
+    /* 241 ES_R_TEXT: every text sent, NUL-terminated; a notice is ! then the error line */
     /* 0 NONE "" */
     0x00,
     /* 1 E01 "E01 unknown command\015\012" */
@@ -158,33 +163,5 @@ const uint8_t es_text[] = {
     0x0D, 0x0A, 0x00,
     /* 24 R_AUTO_BALANCE "!R auto_balance\015\012" */
     0x21, 0x52, 0x20, 0x61, 0x75, 0x74, 0x6F, 0x5F, 0x62, 0x61, 0x6C, 0x61,
-    0x6E, 0x63, 0x65, 0x0D, 0x0A, 0x00
-};
-
-const uint16_t es_text_at[ES_TEXTS] = {
-    0u,   /* NONE */
-    1u,   /* E01 */
-    23u,   /* E02 */
-    43u,   /* E03 */
-    62u,   /* E04 */
-    83u,   /* E05 */
-    110u,   /* E06 */
-    129u,   /* E07 */
-    140u,   /* E08 */
-    161u,   /* E09 */
-    188u,   /* E10 */
-    211u,   /* E11 */
-    235u,   /* E12 */
-    255u,   /* E13 */
-    275u,   /* BANG */
-    277u,   /* OK */
-    282u,   /* OK_SP */
-    286u,   /* CRLF */
-    289u,   /* IMG_OK */
-    292u,   /* IMG_BAD */
-    296u,   /* VERSION_PRE */
-    348u,   /* VERSION_POST */
-    364u,   /* READY_PRE */
-    390u,   /* READY_POST */
-    393u   /* R_AUTO_BALANCE */
+    0x6E, 0x63, 0x65, 0x0D, 0x0A, 0x00,
 };
