@@ -37,7 +37,7 @@ PIC_STACK = {"bottom": 0x280, "size": 128}
 PORTS = "ABCDE"
 #: The central core's scalars live in the PIC's access bank from here (below it: the
 #: compiler's .registers; up to 0x7F: ours). gplink fails the build if they overlap.
-PIC_NEAR_BASE = 0x40
+PIC_NEAR_BASE = 0x20
 
 
 def common_context(robot: Robot, board: Board) -> Context:

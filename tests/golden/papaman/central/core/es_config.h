@@ -34,9 +34,9 @@
 #define ES_SENSOR_REGS     16u   /* bytes read by a poll or `s` */
 
 /* The PIC compiler keeps the core's scalars in the access bank (no bank switching):
- * `ES_NEAR(n) uint8_t x;` places x at ES_NEAR_BASE + n, n < 64 (there it is global:
+ * `ES_NEAR(n) uint8_t x;` places x at ES_NEAR_BASE + n, n < 96 (there it is global:
  * SDCC 4.2.0 emits `static __at` variables twice); elsewhere x is a plain static. */
-#define ES_NEAR_BASE       0x40
+#define ES_NEAR_BASE       0x20
 #if defined(__SDCC_pic16)
 #define ES_NEAR(n) __at(ES_NEAR_BASE + (n))
 #else
