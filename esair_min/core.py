@@ -9,6 +9,7 @@ core is compared with, trace for trace.
 
 from __future__ import annotations
 
+import struct
 from typing import Callable, Protocol
 
 from . import protocol as P
@@ -55,6 +56,8 @@ class CentralCore:
         self._actuator = act.address if act else None
         self._sensor = sen.address if sen else None
         self._sensor_regs = sen.registers if sen else 0
+        self._n_sensors = len(robot.sensors)
+        self._readings = struct.Struct(f"<{self._n_sensors}H")
         self._eeprom = eep.address if eep else None
         self._eeprom_abytes = eep.address_bytes if eep else 2
         self._image = build_image(robot) if eep else b""   # "compiled into the firmware"
@@ -214,7 +217,7 @@ class CentralCore:
             self.send(P.OK_LINE)
             return None
         if action == "version":
-            self.send(P.ok_line(P.version_data(self._n, len(self.robot.sensors),
+            self.send(P.ok_line(P.version_data(self._n, self._n_sensors,
                                                len(self.robot.motions), self._image_ok,
                                                self._checksum)))
             return None
@@ -261,8 +264,7 @@ class CentralCore:
         regs = self.bus.write_read(self._sensor, b"\x00", self._sensor_regs)
         if regs is None or len(regs) != self._sensor_regs:
             return None
-        values = tuple(regs[2 * i] | (regs[2 * i + 1] << 8)
-                       for i in range(len(self.robot.sensors)))
+        values = self._readings.unpack_from(regs)   # (low, high) pair per sensor
         self._last_sensors = values
         return values
 

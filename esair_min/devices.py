@@ -71,11 +71,14 @@ class Eeprom24:
         if self.fault:
             return None
         self._set_pointer(wdata)
+        p, size = self.pointer, self.size
+        if 0 <= n and p + n <= size:                 # no wrap: one slice
+            self.pointer = (p + n) % size
+            return bytes(self.memory[p:p + n])
         out = bytearray(n)
-        p = self.pointer
         for i in range(n):
             out[i] = self.memory[p]
-            p = (p + 1) % self.size
+            p = (p + 1) % size
         self.pointer = p
         return bytes(out)
 
@@ -96,6 +99,11 @@ class RegisterSlave:
         if data:
             n = len(self.registers)
             p = data[0] % n
+            k = len(data) - 1
+            if p + k <= n:                           # no wrap: one slice
+                self.registers[p:p + k] = data[1:]
+                self.pointer = (p + k) % n
+                return True
             for b in data[1:]:
                 self.registers[p] = b
                 p = (p + 1) % n
@@ -107,6 +115,9 @@ class RegisterSlave:
             return None
         size = len(self.registers)
         p = wdata[0] % size if wdata else self.pointer
+        if 0 <= n and p + n <= size:                 # no wrap: one slice
+            self.pointer = (p + n) % size
+            return bytes(self.registers[p:p + n])
         out = bytearray(n)
         for i in range(n):
             out[i] = self.registers[p]

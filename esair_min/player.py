@@ -15,6 +15,10 @@ if TYPE_CHECKING:
     from .layout import MotionSlot
 
 
+#: frames whose check is remembered (a motion replays the same few frames)
+FRAME_CACHE = 1024
+
+
 class Player:
     """A non-blocking frame player: one sequential EEPROM read per frame, one burst
     write to the actuator board per frame, on ticks."""
@@ -35,6 +39,7 @@ class Player:
         self._next = 0                  # index of the frame held in _frame
         self._frame: bytes = b""
         self._wait = 0                  # ticks until the held frame is written
+        self._checked: dict[bytes, tuple[list[int], bytes] | bool] = {}   # frame -> _check
 
     def has(self, number: int) -> bool:
         return number in self.slots
@@ -70,6 +75,18 @@ class Player:
         self._frame = bytes(data)
         return True
 
+    def _check(self, frame: bytes) -> tuple[list[int], bytes] | bool:
+        """A frame's angles and its burst write, or False if a pair does not decode or
+        lies outside its servo's limits."""
+        angles = []
+        for i, (lo, hi) in enumerate(self.limits):
+            low = frame[2 * i]
+            angle = (frame[2 * i + 1] % 10) * 100 + low
+            if low >= 100 or not lo <= angle <= hi:
+                return False
+            angles.append(angle)
+        return angles, b"\x00" + frame
+
     def step(self) -> Code | None:
         """One tick. Returns the code of a notice when the motion stopped on an error."""
         if self.playing is None:
@@ -78,15 +95,16 @@ class Player:
         if self._wait > 0:
             return None
         frame = self._frame
-        angles = []
-        for i, (lo, hi) in enumerate(self.limits):
-            low = frame[2 * i]
-            angle = (frame[2 * i + 1] % 10) * 100 + low
-            if low >= 100 or not lo <= angle <= hi:
-                self.stop()
-                return Code.OUTSIDE_LIMITS
-            angles.append(angle)
-        if not self.bus.write(self.actuator, b"\x00" + frame):
+        checked = self._checked.get(frame)
+        if checked is None:
+            if len(self._checked) >= FRAME_CACHE:
+                self._checked.clear()
+            checked = self._checked[frame] = self._check(frame)
+        if checked is False:
+            self.stop()
+            return Code.OUTSIDE_LIMITS
+        angles, burst = checked
+        if not self.bus.write(self.actuator, burst):
             self.stop()
             return Code.NO_ANSWER
         self.targets[:] = angles

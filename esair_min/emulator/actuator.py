@@ -35,26 +35,48 @@ def step_toward(angle: int, target: int, speed: int) -> int:
 class ServoBank:
     """Angles, targets and speeds of a set of servos, stepped one sync tick at a time."""
 
+    #: register maps whose decoding is remembered (a dance latches the same few maps)
+    CACHE = 1024
+
     def __init__(self, servos: Sequence[Servo]):
         self.servos = tuple(servos)
         self.angles = [s.stand_angle for s in self.servos]
         self.targets = [s.stand_angle for s in self.servos]
         self.speeds = [s.default_speed for s in self.servos]
         self.bad_pairs = 0
+        self._decoded: dict[bytes, tuple[list[int], list[int], int]] = {}
+        self._pairs = tuple((2 * s.index, s.min_angle, s.max_angle) for s in self.servos)
+
+    def _decode(self, regs: Sequence[int]) -> tuple[list[int], list[int], int]:
+        """Targets, speeds and the number of bad pairs of a register map."""
+        targets, speeds, bad = [], [], 0
+        for at, lo, hi in self._pairs:
+            low, high = regs[at], regs[at + 1]
+            angle, speed = decode(low, high)
+            if low >= 100 or not lo <= angle <= hi:
+                bad += 1
+                angle = min(max(angle, lo), hi)
+            targets.append(angle)
+            speeds.append(speed)
+        return targets, speeds, bad
 
     def latch(self, regs: Sequence[int]) -> None:
         """Take new targets and speeds from a register map (2 bytes per servo)."""
-        for i, s in enumerate(self.servos):
-            low, high = regs[2 * s.index], regs[2 * s.index + 1]
-            angle, speed = decode(low, high)
-            if low >= 100 or not s.min_angle <= angle <= s.max_angle:
-                self.bad_pairs += 1
-                angle = min(max(angle, s.min_angle), s.max_angle)
-            self.targets[i] = angle
-            self.speeds[i] = speed
+        key = bytes(regs)
+        got = self._decoded.get(key)
+        if got is None:
+            if len(self._decoded) >= self.CACHE:
+                self._decoded.clear()
+            got = self._decoded[key] = self._decode(key)
+        targets, speeds, bad = got
+        self.targets[:] = targets
+        self.speeds[:] = speeds
+        self.bad_pairs += bad
 
     def step(self) -> None:
         a, t, v = self.angles, self.targets, self.speeds
+        if a == t:                   # every servo at its target (one C-level compare)
+            return
         for i in range(len(a)):
             if a[i] != t[i]:
                 a[i] = step_toward(a[i], t[i], v[i])

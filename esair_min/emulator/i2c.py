@@ -66,16 +66,22 @@ class TimedBus:
         self.busy_until = 0
         self.last_start = 0
         self.stats = BusStats()
+        self._ns: dict[int, int] = {}      # bits -> bus time, computed once per size
+        self._nack_bits = nack_bits()
 
     def _account(self, addr: int, bits: int, ok: bool) -> None:
         now = self._now()
         start = self.busy_until if self.busy_until > now else now
         self.last_start = start
-        self.busy_until = start + bits_ns(bits, self.speed_hz)
+        ns = self._ns.get(bits)
+        if ns is None:
+            ns = self._ns[bits] = bits_ns(bits, self.speed_hz)
+        self.busy_until = start + ns
         st = self.stats
         st.transactions += 1
         st.bits += bits
-        st.by_address[addr] = st.by_address.get(addr, 0) + bits
+        by = st.by_address
+        by[addr] = by.get(addr, 0) + bits
         if not ok:
             st.nacks += 1
 
@@ -86,11 +92,11 @@ class TimedBus:
 
     def write(self, addr: int, data: bytes) -> bool:
         ok = self.inner.write(addr, data)
-        self._account(addr, write_bits(len(data)) if ok else nack_bits(), ok)
+        self._account(addr, write_bits(len(data)) if ok else self._nack_bits, ok)
         return ok
 
     def write_read(self, addr: int, wdata: bytes, n: int) -> bytes | None:
         got = self.inner.write_read(addr, wdata, n)
         ok = got is not None
-        self._account(addr, write_read_bits(len(wdata), n) if ok else nack_bits(), ok)
+        self._account(addr, write_read_bits(len(wdata), n) if ok else self._nack_bits, ok)
         return got
