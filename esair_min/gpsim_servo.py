@@ -32,6 +32,7 @@ class ServoPulse:
     angle: int
     expected_us: float
     measured_us: float
+    period_us: float          # between the last two rising edges
 
     @property
     def error(self) -> float:
@@ -49,7 +50,7 @@ def regs_address(map_text: str) -> int:
 def measure_pulses(robot: Robot, angles: list[int], cod: Path, map_path: Path,
                    workdir: Path, tc: Toolchain | None = None) -> list[ServoPulse]:
     """Latch ``angles`` (speed 0: at once) into the actuator firmware; measure each
-    servo's last complete pulse."""
+    servo's last complete pulse and its last period."""
     act = robot.actuator
     if act is None or act.sync is None:
         raise ToolchainError("the robot has no actuator board with a sync pin")
@@ -80,9 +81,11 @@ def measure_pulses(robot: Robot, angles: list[int], cod: Path, map_path: Path,
         edges = [(c, v) for c, v in read_edges(workdir / f"servo{s.index}.txt")
                  if c > SETTLE_CYCLES]
         widths = [b[0] - a[0] for a, b in zip(edges, edges[1:]) if a[1] == 1 and b[1] == 0]
-        if not widths:
+        rises = [c for c, v in edges if v == 1]
+        if not widths or len(rises) < 2:
             raise ToolchainError(f"servo {s.index} ({s.pin}): no complete pulse in the "
                                  f"{RECORD_CYCLES * 1000 // cps} ms after the latch")
         expected = s.pulse_min_us + (s.pulse_max_us - s.pulse_min_us) * angle / 180
-        result.append(ServoPulse(s.index, angle, expected, widths[-1] * 1e6 / cps))
+        result.append(ServoPulse(s.index, angle, expected, widths[-1] * 1e6 / cps,
+                                 (rises[-1] - rises[-2]) * 1e6 / cps))
     return result
