@@ -23,29 +23,25 @@ class VirtualClock:
     """``schedule`` callbacks at virtual times; ``run_until`` runs them in time order."""
 
     def __init__(self) -> None:
-        self._now = 0
+        #: Virtual time in nanoseconds (read it; only the clock moves it).
+        self.now = 0
         self._queue: list[tuple[int, int, Callback]] = []
         self._seq = 0
         self._limit = -1          # how far the current run_until may go
 
     @property
-    def now(self) -> int:
-        """Virtual time in nanoseconds."""
-        return self._now
-
-    @property
     def now_s(self) -> float:
-        return self._now / NS_PER_S
+        return self.now / NS_PER_S
 
     def schedule(self, at_ns: int, callback: Callback) -> None:
         """Run ``callback`` at ``at_ns`` (never earlier than now)."""
-        if at_ns < self._now:
-            at_ns = self._now
+        if at_ns < self.now:
+            at_ns = self.now
         self._seq += 1
         heapq.heappush(self._queue, (at_ns, self._seq, callback))
 
     def after(self, delay_ns: int, callback: Callback) -> None:
-        self.schedule(self._now + delay_ns, callback)
+        self.schedule(self.now + delay_ns, callback)
 
     def next_event(self) -> int | None:
         """Time of the next pending event, or None when nothing is scheduled."""
@@ -59,10 +55,19 @@ class VirtualClock:
         as scheduling each one, without the heap."""
         q = self._queue
         if t_ns <= self._limit and (not q or t_ns < q[0][0]):
-            if t_ns > self._now:
-                self._now = t_ns
+            if t_ns > self.now:
+                self.now = t_ns
             return True
         return False
+
+    def inline_limit(self) -> int:
+        """The latest time the running event may move time on to itself (see
+        :meth:`advance_inline`): before the next pending event and within the run;
+        below ``now`` when nothing else may happen before the next event."""
+        q = self._queue
+        if q and q[0][0] <= self._limit:
+            return q[0][0] - 1
+        return self._limit
 
     def run_until(self, t_ns: int) -> int:
         """Run every event due at or before ``t_ns``, then set the time to ``t_ns``.
@@ -76,15 +81,15 @@ class VirtualClock:
         try:
             while q and q[0][0] <= t_ns:
                 at, _, cb = pop(q)
-                if at > self._now:
-                    self._now = at
+                if at > self.now:
+                    self.now = at
                 cb()
                 n += 1
         finally:
             self._limit = -1
-        if t_ns > self._now:
-            self._now = t_ns
+        if t_ns > self.now:
+            self.now = t_ns
         return n
 
     def run_for(self, seconds: float) -> int:
-        return self.run_until(self._now + seconds_to_ns(seconds))
+        return self.run_until(self.now + seconds_to_ns(seconds))

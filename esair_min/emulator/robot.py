@@ -34,7 +34,7 @@ from .clock import NS_PER_S, VirtualClock, seconds_to_ns
 from .faults import Faults, corrupt
 from .i2c import TimedBus
 from .scenario import Scenario, load_scenario, quiet, resolve_scenario
-from .uart import Uart
+from .uart import RX_BYTE, RX_HOLD, RX_TAKE, Uart
 
 HISTORY = 20     # lines kept in each of the state views
 _EOL = re.compile(rb"\r\n|\r|\n")
@@ -104,7 +104,6 @@ class Emulator:
         self.clock = VirtualClock()
         self.tick_s = central.timer2.period_s
         self._tick_ns_exact = central.timer2.period_s * NS_PER_S
-        self.uart = Uart(self.clock, central.uart.baud, self._feed)
         self._rng = random.Random(faults.seed)
 
         # -- the devices on the bus
@@ -162,6 +161,8 @@ class Emulator:
 
         # -- the central board
         self.core = CentralCore(robot, core_bus, self._send)
+        self.uart = Uart(self.clock, central.uart.baud, self._feed,
+                         rx_mode=self._rx_mode, direct=self.core.rx_byte)
         self.ticks = 0
         self._feed_pending = False
         self.clock.schedule(self._tick_time(1), self._tick)
@@ -308,6 +309,14 @@ class Emulator:
         self.core.tick()
         self._feed()
 
+    def _rx_mode(self) -> int:
+        """What the superloop would do with a byte arriving now (see :mod:`.uart`)."""
+        if not self.core.ready():
+            return RX_HOLD                  # until the tick sends the held write
+        if self.bus.busy_until > self.clock.now:
+            return RX_HOLD if self._feed_pending else RX_BYTE
+        return RX_TAKE
+
     def _feed_event(self) -> None:
         self._feed_pending = False
         self._feed()
@@ -320,7 +329,7 @@ class Emulator:
         uart, core, clock, bus = self.uart, self.core, self.clock, self.bus
         ready, feed = core.ready, core.rx_byte
         while ring and ready():
-            if bus.busy_until > clock._now:
+            if bus.busy_until > clock.now:
                 if not self._feed_pending:
                     self._feed_pending = True
                     clock.schedule(bus.busy_until, self._feed_event)

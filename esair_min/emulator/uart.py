@@ -5,6 +5,25 @@ the host are shifted in one after another; when one is complete it goes into the
 board's 64-byte receive ring (the PIC port's interrupt-fed ring). A byte that finds the
 ring full is dropped and the overrun flag is set (docs/trace-format.md). Bytes the
 board sends are shifted out one after another and reach the host when complete.
+
+Bytes on the wire are kept as the chunks they were written in, ``(t0, data)``: byte
+``i`` of a chunk is complete at ``t0 + (i + 1) * byte_ns``, exactly as if each had been
+scheduled on its own.
+
+Fast paths: before handling a byte the UART asks the board ``rx_mode()``:
+
+- ``RX_TAKE``: the board would feed a byte arriving now straight to its decoder (ready,
+  bus free). If the ring is empty and no overrun is pending, the bytes up to and
+  including the first CR or LF, as far as the next pending event, go to ``direct(b)``
+  one by one (not through the ring), time moving on to the last one's completion;
+- ``RX_HOLD``: the board will not touch the ring before its next pending event (it is
+  not ready, or busy on the bus with a feed already scheduled): every byte complete
+  before that event lands in the ring (or is lost to an overrun) at once;
+- ``RX_BYTE``: the bytes complete now land in the ring, then ``on_rx()``.
+
+The board's contract is that bytes other than CR and LF change nothing but its line
+buffer, and nothing can observe the line buffer or the ring between two events, so
+each fast path gives the same result as landing each byte at its own time.
 """
 
 from __future__ import annotations
@@ -15,6 +34,7 @@ from typing import Callable
 from .clock import NS_PER_S, VirtualClock
 
 RING_BYTES = 64
+RX_BYTE, RX_TAKE, RX_HOLD = 0, 1, 2     # answers of ``rx_mode`` (see above)
 
 
 def byte_time_ns(baud: int) -> int:
@@ -23,22 +43,29 @@ def byte_time_ns(baud: int) -> int:
 
 
 class Uart:
-    """Line-rate UART. ``on_rx`` is called after each byte lands in the ring."""
+    """Line-rate UART. ``on_rx`` is called after bytes land in the ring; ``rx_mode``
+    and ``direct`` enable the fast paths described above."""
 
-    def __init__(self, clock: VirtualClock, baud: int, on_rx: Callable[[], None]):
+    def __init__(self, clock: VirtualClock, baud: int, on_rx: Callable[[], None],
+                 rx_mode: Callable[[], int] | None = None,
+                 direct: Callable[[int], None] | None = None):
         self.clock = clock
         self.baud = baud
         self.byte_ns = byte_time_ns(baud)
         self._on_rx = on_rx
+        self._rx_mode = rx_mode
+        self._direct = direct
         # host -> board
-        self._rx_wire: deque[tuple[int, int]] = deque()   # (arrival ns, byte)
+        self._rx_wire: deque[tuple[int, bytes]] = deque()  # chunks (t0, data)
+        self._rx_pos = 0                                   # next byte of the first chunk
         self._rx_free = 0                                  # wire idle from this time
-        self.ring: deque[int] = deque()
+        self.ring: deque[int] = deque()                    # at most RING_BYTES
         self.overrun = False
         self.overruns = 0
         self.rx_bytes = 0
         # board -> host
-        self._tx_wire: deque[tuple[int, int]] = deque()   # (delivery ns, byte)
+        self._tx_wire: deque[tuple[int, bytes]] = deque()  # chunks (t0, data)
+        self._tx_pos = 0
         self._tx_free = 0
         self._host_buf = bytearray()                       # delivered, not read yet
         self.tx_bytes = 0
@@ -51,33 +78,90 @@ class Uart:
         now = self.clock.now
         t = self._rx_free if self._rx_free > now else now
         was_idle = not self._rx_wire
-        wire = self._rx_wire
-        step = self.byte_ns
-        for b in data:
-            t += step
-            wire.append((t, b))
-        self._rx_free = t
+        self._rx_wire.append((t, bytes(data)))
+        self._rx_free = t + len(data) * self.byte_ns
         if was_idle:
-            self.clock.schedule(wire[0][0], self._rx_arrive)
+            self.clock.schedule(t + self.byte_ns, self._rx_arrive)
+
+    def _land(self, until: int) -> int:
+        """Every byte on the wire complete at ``until`` goes into the ring (or is lost
+        to an overrun), in order; returns the completion time of the last (or -1)."""
+        wire, ring, step = self._rx_wire, self.ring, self.byte_ns
+        last_t = -1
+        while wire:
+            t0, data = wire[0]
+            pos = self._rx_pos
+            end = (until - t0) // step              # bytes of this chunk complete by then
+            if end <= pos:
+                break
+            if end > len(data):
+                end = len(data)
+            n = end - pos
+            self.rx_bytes += n
+            room = RING_BYTES - len(ring)
+            if n <= room:
+                ring.extend(data[pos:end])
+            else:
+                if room > 0:
+                    ring.extend(data[pos:pos + room])
+                self.overrun = True
+                self.overruns += n - max(room, 0)
+            last_t = t0 + end * step
+            if end < len(data):
+                self._rx_pos = end
+                break
+            wire.popleft()
+            self._rx_pos = 0
+        return last_t
 
     def _rx_arrive(self) -> None:
-        wire, ring, clock, on_rx = self._rx_wire, self.ring, self.clock, self._on_rx
+        """Runs when the first byte on the wire is complete; handles the following ones
+        inline while nothing else happens before them."""
+        wire, clock, step = self._rx_wire, self.clock, self.byte_ns
+        rx_mode, direct = self._rx_mode, self._direct
         while True:
             now = clock.now
-            while wire and wire[0][0] <= now:
-                b = wire.popleft()[1]
-                self.rx_bytes += 1
-                if len(ring) >= RING_BYTES:
-                    self.overrun = True
-                    self.overruns += 1
+            mode = RX_BYTE if rx_mode is None else rx_mode()
+            if mode == RX_TAKE and not self.ring and not self.overrun:
+                horizon = clock.inline_limit()
+                t0, data = wire[0]
+                pos = self._rx_pos
+                end = (horizon - t0) // step if horizon > now else (now - t0) // step
+                if end > len(data):
+                    end = len(data)
+                cr = data.find(13, pos, end)        # the run stops after a line end
+                if cr >= 0:
+                    end = cr + 1
+                lf = data.find(10, pos, end)
+                if lf >= 0:
+                    end = lf + 1
+                if end >= len(data):
+                    wire.popleft()
+                    self._rx_pos = 0
                 else:
-                    ring.append(b)
-            on_rx()
+                    self._rx_pos = end
+                self.rx_bytes += end - pos
+                t = t0 + end * step                 # the run's last byte is complete
+                if t > now:
+                    clock.advance_inline(t)         # within the horizon: always allowed
+                for b in data[pos:end]:
+                    direct(b)                       # type: ignore[misc]
+            elif mode == RX_HOLD:
+                horizon = clock.inline_limit()
+                t = self._land(horizon if horizon > now else now)
+                if t > now:
+                    clock.advance_inline(t)
+                self._on_rx()                       # does nothing, as for each byte
+            else:
+                self._land(now)
+                self._on_rx()
             if not wire:
                 return
             # the next byte: handled here if nothing else happens before it
-            if not clock.advance_inline(wire[0][0]):
-                clock.schedule(wire[0][0], self._rx_arrive)
+            t0 = wire[0][0]
+            t = t0 + (self._rx_pos + 1) * step
+            if t > clock.now and not clock.advance_inline(t):
+                clock.schedule(t, self._rx_arrive)
                 return
 
     def receive(self, b: int) -> None:
@@ -92,7 +176,8 @@ class Uart:
     @property
     def rx_free_ns(self) -> int:
         """When the last byte the host wrote will have reached the board."""
-        return max(self._rx_free, self.clock.now)
+        now = self.clock.now
+        return self._rx_free if self._rx_free > now else now
 
     @property
     def rx_idle(self) -> bool:
@@ -103,21 +188,31 @@ class Uart:
     def board_send(self, data: bytes, at_ns: int) -> None:
         """The board starts sending ``data`` at ``at_ns`` (behind earlier output)."""
         t = self._tx_free if self._tx_free > at_ns else at_ns
-        wire = self._tx_wire
-        step = self.byte_ns
-        for b in data:
-            t += step
-            wire.append((t, b))
+        if data:
+            self._tx_wire.append((t, bytes(data)))
+            t += len(data) * self.byte_ns
         self._tx_free = t
         self.tx_bytes += len(data)
 
     def _deliver(self) -> None:
         wire = self._tx_wire
-        if wire and wire[0][0] <= self.clock.now:
-            now = self.clock.now
-            out = self._host_buf
-            while wire and wire[0][0] <= now:
-                out.append(wire.popleft()[1])
+        if not wire:
+            return
+        now, step, out = self.clock.now, self.byte_ns, self._host_buf
+        while wire:
+            t0, data = wire[0]
+            pos = self._tx_pos
+            end = (now - t0) // step                # bytes of this chunk complete by now
+            if end <= pos:
+                return
+            if end >= len(data):
+                out += data[pos:] if pos else data
+                wire.popleft()
+                self._tx_pos = 0
+            else:
+                out += data[pos:end]
+                self._tx_pos = end
+                return
 
     def host_read(self) -> bytes:
         """Every byte that has completely reached the host by now (and was not read)."""
@@ -131,7 +226,9 @@ class Uart:
     def tx_next(self) -> int | None:
         """When the next byte reaches the host, or None when nothing is being sent."""
         self._deliver()
-        return self._tx_wire[0][0] if self._tx_wire else None
+        if not self._tx_wire:
+            return None
+        return self._tx_wire[0][0] + (self._tx_pos + 1) * self.byte_ns
 
     @property
     def tx_idle(self) -> bool:
