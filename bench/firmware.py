@@ -22,7 +22,7 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from esair_min.build import build_robot, summary_lines  # noqa: E402
-from esair_min.gpsim_bench import describe, frame_timing, measure_decoder  # noqa: E402
+from esair_min.gpsim_bench import describe, frame_slips, frame_timing, measure_decoder  # noqa: E402
 from esair_min.gpsim_harness import GpsimSetup, compare, run_stimulus  # noqa: E402
 from esair_min.harness import run_script  # noqa: E402
 from esair_min.resources import resolve_robot  # noqa: E402
@@ -82,16 +82,21 @@ def main(argv: list[str]) -> int:
         t = frame_timing(run, setup.actuator_address, setup.eeprom_address,
                          2 * len(robot.servos))
         wire = (2 * len(robot.servos) + 2) * 9 * (cps // 100_000)
+        read_wire = (2 * len(robot.servos) + 4) * 9 * (cps // 100_000)
+        slips = frame_slips(run, run_script(robot, stimulus), setup.actuator_address, tick)
+        dance = sum(1 for _, p in slips.gaps if p == 1)
         best = min(t.to_last_byte)
         print(f"\nframes on the I2C bus (tick = {tick} cycles = {tick / cps * 1e3:.4f} ms):")
         print(f"  sync tick -> last byte of a frame write, no backlog: {best} cycles = "
               f"{best / cps * 1e3:.3f} ms = {best / tick:.3f} of the tick (goal 0.25; the "
               f"wire alone needs {wire} = {wire / tick:.3f})")
         print(f"  frame write START..STOP: {describe(t.write)} = {max(t.write) / tick:.3f} "
-              f"of the tick; frame read: {describe(t.read)} = {max(t.read) / tick:.3f}")
+              f"of the tick = {max(t.write) / wire:.3f}x the wire ({wire}); frame read: "
+              f"{describe(t.read)} = {max(t.read) / tick:.3f} of the tick = "
+              f"{max(t.read) / read_wire:.3f}x the wire ({read_wire})")
         print(f"  write + read of the next frame = {(max(t.write) + max(t.read)) / tick:.3f} "
-              f"of the tick; worst sync -> last byte in the scenario (dance, a frame every "
-              f"tick): {max(t.to_last_byte)} cycles = {max(t.to_last_byte) / tick:.2f} ticks")
+              f"of the tick; the dance ({dance} consecutive-tick frames): {slips.slipped} "
+              f"slipped ticks, worst {slips.worst_late} ticks late")
     return 1 if diffs else 0
 
 

@@ -253,3 +253,47 @@ def describe(values: list[int]) -> str:
     if not values:
         return "none"
     return f"worst {max(values)}, mean {statistics.fmean(values):.1f}, n {len(values)}"
+
+
+@dataclass(frozen=True)
+class FrameSlips:
+    gaps: list[tuple[int, int]]   # per actuator write after the first: (gpsim, Python) ticks since the previous one
+    slipped: int                  # ticks gpsim lost where the Python core writes on consecutive ticks
+    worst_late: int               # most ticks a write of such a run came after its tick
+
+
+def frame_slips(run: GpsimRun, python_trace: list[str], actuator: int,
+                tick_cycles: int) -> FrameSlips:
+    """Ticks between consecutive actuator writes, in gpsim and in the Python core.
+
+    gpsim's tick of a write is counted from Timer2's period (``(start - first sync
+    rising edge) // tick``: when a tick's work overruns, the sync pin stays high and
+    rising edges go missing); the Python core's is the last ``T n`` before its ``W``
+    line. Writes are matched in order (``compare`` checks that they are equal). Only
+    the runs where the Python core writes a frame every tick (a dance with
+    ``delay_ticks: 1``) count: there each extra tick in gpsim is a slipped tick, and a
+    write is late by the ticks slipped since its run began."""
+    prefix = f"W {actuator:02X} "
+    py_ticks, tick = [], 0
+    for line in python_trace:
+        if line.startswith("T "):
+            tick = int(line.split()[1])
+        elif line.startswith(prefix):
+            py_ticks.append(tick)
+    ups = [c for c, v in run.sync_edges if v == 1 and c > 0]
+    if not ups:
+        return FrameSlips([], 0, 0)
+    g_ticks = [(t.start - ups[0]) // tick_cycles for t in run.transfers
+               if t.segments and t.segments[0].address == actuator
+               and not t.segments[0].reading]
+    pairs = list(zip(g_ticks, py_ticks))
+    gaps = [(g1 - g0, p1 - p0) for (g0, p0), (g1, p1) in zip(pairs, pairs[1:])]
+    slipped = late = worst = 0
+    for g, p in gaps:
+        if p != 1:
+            late = 0
+            continue
+        slipped += max(0, g - 1)
+        late = max(0, late + g - 1)
+        worst = max(worst, late)
+    return FrameSlips(gaps, slipped, worst)
