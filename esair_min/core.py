@@ -166,6 +166,17 @@ class CentralCore:
         if r is not None:
             self._line(r)
 
+    def rx_run(self, data: bytes) -> None:
+        """Bytes received back to back: exactly :meth:`rx_byte` of each in turn."""
+        feed, lines = self._feed, self._lines
+        for b in data:
+            if self._held is not None:
+                lines.note_overrun()
+                continue
+            r = feed(b)
+            if r is not None:
+                self._line(r)
+
     def _line(self, line: Code | bytes) -> None:
         if isinstance(line, Code):
             self.send(P.ERROR_LINE[line])

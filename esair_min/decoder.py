@@ -207,6 +207,9 @@ class CommandTable:
 
 def _digits(a: bytes, start: int, count: int) -> int:
     """The decimal number of ``a[start:start+count]``, or -1 if a char is not a digit."""
+    digits = a[start:start + count]
+    if count and len(digits) == count:       # bytes.isdigit: ASCII 0-9 only
+        return int(digits) if digits.isdigit() else -1
     v = 0
     for i in range(start, start + count):
         c = a[i]

@@ -35,8 +35,8 @@ def step_toward(angle: int, target: int, speed: int) -> int:
 class ServoBank:
     """Angles, targets and speeds of a set of servos, stepped one sync tick at a time."""
 
-    #: register maps whose decoding is remembered (a dance latches the same few maps)
-    CACHE = 1024
+    #: register maps and steps remembered (a dance repeats the same few of each)
+    CACHE = 4096
 
     def __init__(self, servos: Sequence[Servo]):
         self.servos = tuple(servos)
@@ -45,6 +45,7 @@ class ServoBank:
         self.speeds = [s.default_speed for s in self.servos]
         self.bad_pairs = 0
         self._decoded: dict[bytes, tuple[list[int], list[int], int]] = {}
+        self._steps: dict[tuple, list[int]] = {}      # (angles, targets, speeds) -> angles
         self._pairs = tuple((2 * s.index, s.min_angle, s.max_angle) for s in self.servos)
 
     def _decode(self, regs: Sequence[int]) -> tuple[list[int], list[int], int]:
@@ -62,7 +63,7 @@ class ServoBank:
 
     def latch(self, regs: Sequence[int]) -> None:
         """Take new targets and speeds from a register map (2 bytes per servo)."""
-        key = bytes(regs)
+        key = regs if type(regs) is bytes else bytes(regs)
         got = self._decoded.get(key)
         if got is None:
             if len(self._decoded) >= self.CACHE:
@@ -77,9 +78,13 @@ class ServoBank:
         a, t, v = self.angles, self.targets, self.speeds
         if a == t:                   # every servo at its target (one C-level compare)
             return
-        for i in range(len(a)):
-            if a[i] != t[i]:
-                a[i] = step_toward(a[i], t[i], v[i])
+        key = (tuple(a), tuple(t), tuple(v))     # a dance repeats the same steps
+        after = self._steps.get(key)
+        if after is None:
+            if len(self._steps) >= self.CACHE:
+                self._steps.clear()
+            after = self._steps[key] = [step_toward(*s) for s in zip(a, t, v)]
+        a[:] = after
 
 
 def stand_registers(servos: Sequence[Servo]) -> bytes:

@@ -66,6 +66,14 @@ class _Lines:
         self.count = 0
 
     def feed(self, data: bytes) -> list[str]:
+        if (not self._buf and not self._cr and data.endswith(b"\r\n")
+                and data.count(b"\n") == 1 and data.count(b"\r") == 1):
+            if len(data) == 2:                       # one whole line, as the board sends
+                return []
+            line = data[:-2].decode("latin-1")
+            self.last.append(line)
+            self.count += 1
+            return [line]
         if self._cr and data[:1] == b"\n":          # CR LF split across two chunks
             data = data[1:]
             self._cr = False
@@ -162,7 +170,7 @@ class Emulator:
         # -- the central board
         self.core = CentralCore(robot, core_bus, self._send)
         self.uart = Uart(self.clock, central.uart.baud, self._feed,
-                         rx_mode=self._rx_mode, direct=self.core.rx_byte)
+                         rx_mode=self._rx_mode, direct=self.core.rx_run)
         self.ticks = 0
         self._feed_pending = False
         self.clock.schedule(self._tick_time(1), self._tick)

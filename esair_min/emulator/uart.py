@@ -14,8 +14,8 @@ Fast paths: before handling a byte the UART asks the board ``rx_mode()``:
 
 - ``RX_TAKE``: the board would feed a byte arriving now straight to its decoder (ready,
   bus free). If the ring is empty and no overrun is pending, the bytes up to and
-  including the first CR or LF, as far as the next pending event, go to ``direct(b)``
-  one by one (not through the ring), time moving on to the last one's completion;
+  including the first CR or LF, as far as the next pending event, go to ``direct(run)``
+  (not through the ring), time moving on to the last one's completion;
 - ``RX_HOLD``: the board will not touch the ring before its next pending event (it is
   not ready, or busy on the bus with a feed already scheduled): every byte complete
   before that event lands in the ring (or is lost to an overrun) at once;
@@ -48,7 +48,7 @@ class Uart:
 
     def __init__(self, clock: VirtualClock, baud: int, on_rx: Callable[[], None],
                  rx_mode: Callable[[], int] | None = None,
-                 direct: Callable[[int], None] | None = None):
+                 direct: Callable[[bytes], None] | None = None):
         self.clock = clock
         self.baud = baud
         self.byte_ns = byte_time_ns(baud)
@@ -144,14 +144,12 @@ class Uart:
                 t = t0 + end * step                 # the run's last byte is complete
                 if t > now:
                     clock.advance_inline(t)         # within the horizon: always allowed
-                for b in data[pos:end]:
-                    direct(b)                       # type: ignore[misc]
+                direct(data[pos:end])               # type: ignore[misc]
             elif mode == RX_HOLD:
                 horizon = clock.inline_limit()
                 t = self._land(horizon if horizon > now else now)
                 if t > now:
-                    clock.advance_inline(t)
-                self._on_rx()                       # does nothing, as for each byte
+                    clock.advance_inline(t)         # (on_rx would do nothing: skipped)
             else:
                 self._land(now)
                 self._on_rx()
