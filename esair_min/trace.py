@@ -13,19 +13,33 @@ HEADER = "# esair-trace 1"
 class TraceWriter:
     """Collects trace lines (and writes each to ``stream`` if given).
 
+    With ``keep=False`` lines are only written to ``stream`` (or dropped without
+    one), and ``lines`` holds just the header: for long runs, whose whole trace would
+    not fit in memory.
+
     UART output is buffered and becomes one ``TX`` line per complete line (ending
     in LF), however the sender split it."""
 
-    def __init__(self, stream: TextIO | None = None):
+    def __init__(self, stream: TextIO | None = None, keep: bool = True):
         self.stream = stream
-        self.lines: list[str] = []
+        self.keep = keep
+        self.lines: list[str] = [HEADER]
         self._tx = bytearray()
-        self._emit(HEADER)
+        if stream is not None:
+            stream.write(HEADER + "\n")
+        if not keep:                    # the emitter chosen once, not tested per line
+            self._emit = self._drop if stream is None else self._write  # type: ignore
 
     def _emit(self, line: str) -> None:
         self.lines.append(line)
         if self.stream is not None:
             self.stream.write(line + "\n")
+
+    def _write(self, line: str) -> None:
+        self.stream.write(line + "\n")  # type: ignore[union-attr]
+
+    def _drop(self, line: str) -> None:
+        pass
 
     def tick(self, n: int) -> None:
         self._emit(f"T {n}")

@@ -113,7 +113,7 @@ class Serial(SerialBase):
             trace = None
             if "trace" in opts:
                 self._trace_file = open(opts["trace"], "w", encoding="ascii")
-                trace = TraceWriter(self._trace_file)
+                trace = TraceWriter(self._trace_file, keep=False)
             self.emulator = Emulator(robot, scenario=opts.get("scenario"),
                                      faults=faults, trace=trace)
         except (EsairError, OSError) as exc:

@@ -8,17 +8,9 @@ from ..trace import TraceWriter
 
 
 class FileTraceWriter(TraceWriter):
-    """:class:`TraceWriter` that streams to ``stream`` without keeping every line.
-
-    ``lines`` keeps only the first line (the header); an emulator serving a person for
-    hours would otherwise hold its whole trace in memory.
-    """
+    """:class:`TraceWriter` that streams to ``stream`` without keeping every line
+    (``keep=False``): ``lines`` holds only the header; an emulator serving a person
+    for hours would otherwise hold its whole trace in memory."""
 
     def __init__(self, stream: TextIO):
-        super().__init__(stream)
-
-    def _emit(self, line: str) -> None:
-        if not self.lines:
-            self.lines.append(line)
-        assert self.stream is not None
-        self.stream.write(line + "\n")
+        super().__init__(stream, keep=False)
