@@ -1,10 +1,15 @@
 """Exact cycle counts of the central board's PIC firmware, measured in gpsim.
 
-- **Decoder**: execution breakpoints on the first instruction of ``core_rx_byte`` and
-  on its ``RETURN`` (addresses from gplink's listing); a stream of command lines goes
-  in at line rate through the usart module; each call is timed from its first
-  instruction to the end of its RETURN (2 cycles), minus any interrupt that ran
-  inside it. The n-th call gets the n-th byte of the stream.
+- **Decoder**: the superloop's drain loop (``app_main``) takes a byte out of the
+  receive ring (``hal_uart_rx``), then handles a byte that does not end a line inline
+  (the fast path, ``ES_RX_CHAR``) or calls ``core_rx_end`` for a line end (the slow
+  path), and branches back to the loop's head. Execution breakpoints on the first
+  instruction of the loop's body (the byte is in hand) and on every branch from the
+  body back to the head (addresses from gplink's listing); a stream of command lines
+  goes in at line rate through the usart module; each byte is timed from the body's
+  first instruction to the end of its branch back (2 cycles), minus any interrupt
+  that ran inside. The n-th byte timed is the n-th byte of the stream; a breakpoint
+  on ``core_rx_end``'s entry tells which bytes took the slow path.
 - **ISR**: breakpoints on the high-priority vector (0x0008) and on the ISR's RETFIE;
   an ISR whose span holds a rising edge of the sync pin is a Timer2 tick.
 - **Tick to frame**: from the gpsim harness run (:mod:`esair_min.gpsim_harness`): the
@@ -31,7 +36,8 @@ RETURN_CYCLES = 2            # RETURN / RETFIE
 MAX_REPLY = 80               # bytes of the longest reply line (TX interrupts per command)
 
 _LABEL_RE = re.compile(r"^\s+(_\w+):\s*$")
-_INSN_RE = re.compile(r"^([0-9a-f]{6})\s+[0-9a-f]{4}\s+(\w+)")
+_INSN_RE = re.compile(r"^([0-9a-f]{6})\s+[0-9a-f]{4}\s+(\w+)(?:\s+(0x[0-9a-f]+))?")
+_SKIPS = ("bz", "bnz", "bc", "bnc", "bn", "bnn", "bov", "bnov")
 
 
 @dataclass(frozen=True)
@@ -71,6 +77,65 @@ def function_spans(lst_text: str) -> dict[str, FunctionSpan]:
                 exits.append(addr)
     close()
     return spans
+
+
+@dataclass(frozen=True)
+class DrainLoop:
+    """The superloop's receive loop in ``app_main``: ``while (ready && hal_uart_rx(&b))
+    { body }``."""
+    body: int                 # first instruction of the body: the byte is in hand
+    ends: tuple[int, ...]     # the body's branches back to the loop's head
+    head: int
+
+
+def _instructions(lst_text: str, function: str) -> list[tuple[int, str, int | None]]:
+    """(address, mnemonic, first operand if an address) of every instruction of a C
+    function (``_name``) in a gplink listing."""
+    out: list[tuple[int, str, int | None]] = []
+    name: str | None = None
+    expect_name = False
+    for line in lst_text.splitlines():
+        if "Starting pCode block" in line:
+            if name == function:
+                break
+            name, expect_name = None, True
+            continue
+        m = _LABEL_RE.match(line)
+        if m:
+            if expect_name:
+                name, expect_name = m.group(1), False
+            continue
+        i = _INSN_RE.match(line)
+        if i and name == function:
+            out.append((int(i.group(1), 16), i.group(2).lower(),
+                        int(i.group(3), 16) if i.group(3) else None))
+    return out
+
+
+def drain_loop(lst_text: str) -> DrainLoop:
+    """Find the drain loop in ``app_main``: the conditional branch after the call of
+    ``hal_uart_rx`` leaves the loop (its target is the exit), the instruction after it
+    starts the body, and every ``bra``/``goto`` in the body back before the body goes to
+    the head."""
+    spans = function_spans(lst_text)
+    if "_hal_uart_rx" not in spans:
+        raise ToolchainError("listing: no function _hal_uart_rx")
+    insns = _instructions(lst_text, "_app_main")
+    rx = spans["_hal_uart_rx"].entry
+    calls = [k for k, (_, op, arg) in enumerate(insns) if op == "call" and arg == rx]
+    if not calls:
+        raise ToolchainError("listing: _app_main does not call _hal_uart_rx")
+    k = next((j for j in range(calls[0] + 1, len(insns)) if insns[j][1] in _SKIPS), None)
+    if k is None or k + 1 >= len(insns) or insns[k][2] is None:
+        raise ToolchainError("listing: no loop exit after the call of _hal_uart_rx")
+    body, exit_at = insns[k + 1][0], insns[k][2]
+    back = [(a, t) for a, op, t in insns
+            if op in ("bra", "goto") and t is not None and body <= a < exit_at and t < body]
+    heads = {t for _, t in back}
+    if not back or len(heads) != 1:
+        raise ToolchainError(f"listing: the drain loop's body at {body:#x} has "
+                             f"{len(heads)} branch targets back (expected one head)")
+    return DrainLoop(body, tuple(a for a, _ in back), heads.pop())
 
 
 @dataclass(frozen=True)
@@ -116,8 +181,10 @@ def _pair(hits: list[Hit], entry: int, exits: set[int]) -> list[Interval]:
 
 @dataclass(frozen=True)
 class DecoderFigures:
-    chars: list[int]          # cycles of each non-terminator byte
+    chars: list[int]          # cycles of each byte that does not end a line (CR, LF)
+    slow_chars: int           # how many of those took the slow path (none: CR and LF only)
     line_ends: list[tuple[str, int]]   # (the line, cycles of its terminator byte)
+    slow_ends: int            # how many line ends went to core_rx_end (the slow path)
     isr: list[int]            # cycles of every ISR run
     isr_tick: list[int]       # cycles of the ISR runs that handled a Timer2 tick
     total_bytes: int
@@ -176,26 +243,30 @@ def bench_script(robot: Robot, stimulus: str, cod: str, breaks: list[str]) -> tu
 
 def measure_decoder(robot: Robot, stimulus: str, cod: Path, lst: Path, workdir: Path,
                     tc: Toolchain | None = None) -> DecoderFigures:
-    """Play ``stimulus`` (a stimulus script) on the central firmware; time every decoder
-    call and every interrupt."""
-    spans = function_spans(Path(lst).read_text(errors="replace"))
-    for need in ("_core_rx_byte", "_isr"):
+    """Play ``stimulus`` (a stimulus script) on the central firmware; time the drain
+    loop's work on every received byte and every interrupt."""
+    text = Path(lst).read_text(errors="replace")
+    spans = function_spans(text)
+    for need in ("_core_rx_end", "_isr"):
         if need not in spans or not spans[need].exits:
             raise ToolchainError(f"{lst}: no function {need} with a return in the listing")
-    dec, isr = spans["_core_rx_byte"], spans["_isr"]
+    loop, dec, isr = drain_loop(text), spans["_core_rx_end"], spans["_isr"]
     workdir.mkdir(parents=True, exist_ok=True)
     write_hex(build_image(robot), workdir / "image.hex")
-    breaks = [f"break e {dec.entry:#x}"] + [f"break e {a:#x}" for a in dec.exits] + \
-        [f"break e {ISR_VECTOR:#x}"] + [f"break e {a:#x}" for a in isr.exits]
+    breaks = [f"break e {loop.body:#x}"] + [f"break e {a:#x}" for a in loop.ends] + \
+        [f"break e {dec.entry:#x}", f"break e {ISR_VECTOR:#x}"] + \
+        [f"break e {a:#x}" for a in isr.exits]
     script, _end = bench_script(robot, stimulus, str(Path(cod).resolve()), breaks)
     out = run_gpsim(script, workdir, timeout=300, tc=tc, script_name="bench.stc")
     hits = parse_hits(out)
-    calls = _pair(hits, dec.entry, set(dec.exits))
+    calls = _pair(hits, loop.body, set(loop.ends))
+    slow = [any(c.start <= h.cycle < c.end for h in hits if h.addr == dec.entry)
+            for c in calls]
     isrs = _pair(hits, ISR_VECTOR, set(isr.exits))
     stream = rx_stream(stimulus)
     if len(calls) != len(stream):
-        raise ToolchainError(f"{len(calls)} decoder calls seen for {len(stream)} bytes "
-                             "(bytes lost, or too few gpsim stops)")
+        raise ToolchainError(f"{len(calls)} received bytes timed for {len(stream)} bytes "
+                             "sent (bytes lost, or too few gpsim stops)")
     sync_up = [c for c, v in read_edges(workdir / "sync.txt") if v == 1 and c > 0]
     tick_isrs = [i for i in isrs if any(i.start <= c <= i.end for c in sync_up)]
 
@@ -203,16 +274,19 @@ def measure_decoder(robot: Robot, stimulus: str, cod: Path, lst: Path, workdir: 
         inner = sum(i.end - i.start for i in isrs if call.start <= i.start and i.end <= call.end)
         return call.end - call.start - inner
 
-    chars, ends, line = [], [], bytearray()
-    for b, call in zip(stream, calls):
+    chars, ends, line, slow_chars, slow_ends = [], [], bytearray(), 0, 0
+    for b, call, took_slow in zip(stream, calls, slow):
         cycles = net(call)
         if b in (0x0A, 0x0D):
             ends.append((line.decode("latin-1") + ("\\r" if b == 0x0D else "\\n"), cycles))
             line.clear()
+            slow_ends += took_slow
         else:
             line.append(b)
             chars.append(cycles)
-    return DecoderFigures(chars=chars, line_ends=ends,
+            slow_chars += took_slow
+    return DecoderFigures(chars=chars, slow_chars=slow_chars, line_ends=ends,
+                          slow_ends=slow_ends,
                           isr=[i.end - i.start for i in isrs],
                           isr_tick=[i.end - i.start for i in tick_isrs],
                           total_bytes=len(stream))

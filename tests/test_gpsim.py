@@ -15,8 +15,8 @@ import pytest
 from codegen import generate_robot
 from esair_min.build import BuildError, build_board, toolchain
 from esair_min.errors import ProtocolError
-from esair_min.gpsim_bench import (frame_slips, frame_timing, function_spans, measure_decoder,
-                                   parse_hits)
+from esair_min.gpsim_bench import (drain_loop, frame_slips, frame_timing, function_spans,
+                                   measure_decoder, parse_hits)
 from esair_min.gpsim_harness import GpsimSetup, build_script, compare, run_stimulus
 from esair_min.gpsim_wave import decode_i2c, read_register_log
 from esair_min.harness import run_script
@@ -26,8 +26,13 @@ from esair_min.validate import load_robot
 SCENARIO = Path(__file__).parent / "fixtures" / "gpsim" / "papaman.txt"
 
 # Ceilings (instruction cycles at 20 MHz), measured values + headroom.
-DECODER_CHAR_WORST = 95          # measured 91
-DECODER_CHAR_MEAN = 85           # measured 81.6
+# Decoder: the superloop's drain loop from the byte in hand to the branch back to its
+# head (esair_min/gpsim_bench.py). Every byte that does not end a line takes the inline
+# fast path; a CR or LF calls core_rx_end (the bare call: a swallowed LF).
+DECODER_GOAL = 40                # issue 6: worst instruction cycles per ordinary byte
+DECODER_CHAR_WORST = 32          # measured 32 (63 when it was a call of core_rx_byte)
+DECODER_CHAR_MEAN = 32           # measured 31.6
+DECODER_LF_SWALLOWED = 60        # measured 60: overrun flag taken, core_rx_end, back
 TIMER2_ISR_WORST = 120           # measured 81 alone, 116 when a reply byte is served too
 ANY_ISR_WORST = 120              # measured 116 (TX with the 80-byte ring's wrap)
 TICK_TO_LAST_BYTE = 13_200       # measured 12_744 (2.55 ms) when no earlier tick overran
@@ -129,8 +134,11 @@ def test_decoder_and_isr_cycle_ceilings(robot, central, tmp_path):
     _, cod, lst = central
     figures = measure_decoder(robot, SCENARIO.read_text(), cod, lst, tmp_path)
     assert len(figures.chars) + len(figures.line_ends) == figures.total_bytes == 197
-    assert max(figures.chars) <= DECODER_CHAR_WORST
+    assert figures.slow_chars == 0 and figures.slow_ends == len(figures.line_ends) == 26
+    assert max(figures.chars) <= DECODER_CHAR_WORST <= DECODER_GOAL
     assert sum(figures.chars) / len(figures.chars) <= DECODER_CHAR_MEAN
+    swallowed = [c for line, c in figures.line_ends if line == "\\n"]
+    assert swallowed and max(swallowed) <= DECODER_LF_SWALLOWED
     assert figures.isr_tick and max(figures.isr_tick) <= TIMER2_ISR_WORST
     assert max(figures.isr) <= ANY_ISR_WORST
 
@@ -188,8 +196,10 @@ def test_sensor_stand_in_needs_equal_byte_pairs(robot):
 def test_listing_and_hit_parsers(central, tmp_path):
     _, _, lst = central
     spans = function_spans(lst.read_text())
-    assert spans["_core_rx_byte"].exits and spans["_isr"].exits
-    assert spans["_core_rx_byte"].entry < spans["_core_rx_byte"].exits[0]
+    assert spans["_core_rx_end"].exits and spans["_isr"].exits
+    assert spans["_core_rx_end"].entry < spans["_core_rx_end"].exits[0]
+    loop = drain_loop(lst.read_text())
+    assert loop.head < loop.body < min(loop.ends) and len(loop.ends) >= 2
     out = ("Hit a Breakpoint!\n1: p18f452 Execution at line_317c(0x317c)\n"
            "127: **gpsim> 1292722 = 0x0013B9B2\n")
     assert [(h.cycle, h.addr) for h in parse_hits(out)] == [(1292722, 0x317C)]
