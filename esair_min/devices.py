@@ -21,6 +21,18 @@ class Device(Protocol):
     def write_read(self, wdata: bytes, n: int) -> bytes | None: ...
 
 
+def read_wrapping(memory: bytearray, p: int, n: int) -> tuple[bytes, int]:
+    """``n`` bytes of ``memory`` from ``p`` on, wrapping at its end; and the next pointer."""
+    size = len(memory)
+    if p + n <= size:                                # no wrap: one slice
+        return bytes(memory[p:p + n]), (p + n) % size
+    out = bytearray(n)
+    for i in range(n):
+        out[i] = memory[p]
+        p = (p + 1) % size
+    return bytes(out), p
+
+
 class Eeprom24:
     """A 24LC256-class EEPROM: a memory address (high byte first) then data.
 
@@ -71,16 +83,8 @@ class Eeprom24:
         if self.fault:
             return None
         self._set_pointer(wdata)
-        p, size = self.pointer, self.size
-        if 0 <= n and p + n <= size:                 # no wrap: one slice
-            self.pointer = (p + n) % size
-            return bytes(self.memory[p:p + n])
-        out = bytearray(n)
-        for i in range(n):
-            out[i] = self.memory[p]
-            p = (p + 1) % size
-        self.pointer = p
-        return bytes(out)
+        data, self.pointer = read_wrapping(self.memory, self.pointer, n)
+        return data
 
 
 class RegisterSlave:
@@ -113,17 +117,9 @@ class RegisterSlave:
     def write_read(self, wdata: bytes, n: int) -> bytes | None:
         if self.fault:
             return None
-        size = len(self.registers)
-        p = wdata[0] % size if wdata else self.pointer
-        if 0 <= n and p + n <= size:                 # no wrap: one slice
-            self.pointer = (p + n) % size
-            return bytes(self.registers[p:p + n])
-        out = bytearray(n)
-        for i in range(n):
-            out[i] = self.registers[p]
-            p = (p + 1) % size
-        self.pointer = p
-        return bytes(out)
+        p = wdata[0] % len(self.registers) if wdata else self.pointer
+        data, self.pointer = read_wrapping(self.registers, p, n)
+        return data
 
     def set_readings(self, values: Sequence[int]) -> None:
         """Sensor board: store 10-bit readings as (low, high) register pairs."""

@@ -46,37 +46,38 @@ class FunctionSpan:
     exits: tuple[int, ...]    # addresses of its RETURN / RETFIE instructions
 
 
-def function_spans(lst_text: str) -> dict[str, FunctionSpan]:
-    """Entry and exit addresses of every C function in a gplink listing (``_name``)."""
-    spans: dict[str, FunctionSpan] = {}
-    name: str | None = None
-    entry: int | None = None
-    exits: list[int] = []
-    expect_name = False       # the first label of a pCode block names the function
+Insn = tuple[int, str, "int | None"]   # address, mnemonic, first operand if an address
 
-    def close() -> None:
-        if name is not None and entry is not None:
-            spans[name] = FunctionSpan(entry, tuple(exits))
 
+def _listing_functions(lst_text: str) -> dict[str, list[Insn]]:
+    """The instructions of every C function (``_name``) in a gplink listing, in order.
+
+    A function is a pCode block; the block's first label names it."""
+    out: dict[str, list[Insn]] = {}
+    current: list[Insn] | None = None
+    expect_name = False
     for line in lst_text.splitlines():
         if "Starting pCode block" in line:
-            close()
-            name, entry, exits, expect_name = None, None, [], True
+            current, expect_name = None, True
             continue
         m = _LABEL_RE.match(line)
         if m:
             if expect_name:
-                name, expect_name = m.group(1), False
+                current = out.setdefault(m.group(1), [])
+                expect_name = False
             continue
         i = _INSN_RE.match(line)
-        if i and name is not None:
-            addr, op = int(i.group(1), 16), i.group(2).lower()
-            if entry is None:
-                entry = addr
-            if op in ("return", "retfie"):
-                exits.append(addr)
-    close()
-    return spans
+        if i and current is not None:
+            current.append((int(i.group(1), 16), i.group(2).lower(),
+                            int(i.group(3), 16) if i.group(3) else None))
+    return out
+
+
+def function_spans(lst_text: str) -> dict[str, FunctionSpan]:
+    """Entry and exit addresses of every C function in a gplink listing (``_name``)."""
+    return {name: FunctionSpan(insns[0][0],
+                               tuple(a for a, op, _ in insns if op in ("return", "retfie")))
+            for name, insns in _listing_functions(lst_text).items() if insns}
 
 
 @dataclass(frozen=True)
@@ -88,28 +89,10 @@ class DrainLoop:
     head: int
 
 
-def _instructions(lst_text: str, function: str) -> list[tuple[int, str, int | None]]:
+def _instructions(lst_text: str, function: str) -> list[Insn]:
     """(address, mnemonic, first operand if an address) of every instruction of a C
     function (``_name``) in a gplink listing."""
-    out: list[tuple[int, str, int | None]] = []
-    name: str | None = None
-    expect_name = False
-    for line in lst_text.splitlines():
-        if "Starting pCode block" in line:
-            if name == function:
-                break
-            name, expect_name = None, True
-            continue
-        m = _LABEL_RE.match(line)
-        if m:
-            if expect_name:
-                name, expect_name = m.group(1), False
-            continue
-        i = _INSN_RE.match(line)
-        if i and name == function:
-            out.append((int(i.group(1), 16), i.group(2).lower(),
-                        int(i.group(3), 16) if i.group(3) else None))
-    return out
+    return _listing_functions(lst_text).get(function, [])
 
 
 def drain_loop(lst_text: str) -> DrainLoop:
