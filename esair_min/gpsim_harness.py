@@ -8,29 +8,35 @@ become a gpsim command file generated from the model:
 - an ``e24xx256`` at the EEPROM's address (A0..A2 tied by pull-ups) holds the robot's
   motion image, loaded with ``load e`` from an Intel HEX file;
 - an ``i2c2par`` module at the actuator board's address stands in for the actuator (it
-  ACKs every byte written), another at the sensor board's address stands in for the
-  sensor board (every byte read returns its 8 pins, set by pull-ups/pull-downs);
+  ACKs every byte written); the sensor board's stand-in is an ``e24xx024`` (256 bytes,
+  1-byte memory address: a register map) when its address is a free 0x50..0x57, with
+  the readings in its memory, else another ``i2c2par`` (every byte read returns its 8
+  pins, set by pull-ups/pull-downs, so all readings are equal);
 - ``FileRecorder`` modules record SCL, SDA and the sync pin; the bus is decoded from
   the waveforms (:mod:`esair_min.gpsim_wave`), like a logic analyser would.
 
 ``tick N`` runs N tick periods of simulated time (Timer2's exact instruction count);
-``boot`` runs until the start-up image check and the ``!READY`` line are done.
+``boot`` runs until the start-up image check and the ``!READY`` line are done, then
+on to a whole number of reaction poll periods of ticks (see :func:`boot_ticks`).
 Everything is deterministic. See docs/toolchain.md, section "gpsim harness".
 """
 
 from __future__ import annotations
 
+import math
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from .errors import ProtocolError
 from .gpsim_wave import I2cTransfer, decode_i2c, read_edges, read_register_log
+from .devices import RegisterSlave
 from .harness import unescape
 from .image import build_image, write_hex
 from .robot import Robot
 from .toolchain import Toolchain, ToolchainError, run_gpsim
 
+BOOT_LEAD = 0.125          # of a tick: where the boot wait (and so every tick N) ends
 UNUSED_ADDRESS = 0x7F      # an i2c2par moved here stops answering (fault on)
 NO_WRITE_NACK = ("gpsim 0.31's MSSP master keeps driving SDA with the last bit of a byte "
                  "during the ACK clock, so a missing device is seen as ACKing every byte "
@@ -49,6 +55,9 @@ class GpsimSetup:
     actuator_address: int | None
     sensor_address: int | None
     image_bytes: int
+    sensor_registers: int = 0
+    poll_period: int = 1      # ticks: the least common multiple of the reactions' polls
+    balances: tuple[tuple[tuple[int, ...], tuple[int, ...], int], ...] = ()  # a, b, threshold
 
     @classmethod
     def from_robot(cls, robot: Robot) -> GpsimSetup:
@@ -61,12 +70,32 @@ class GpsimSetup:
             raise ToolchainError(f"EEPROM address 0x{eep:02X}: gpsim's e24xx256 answers "
                                  "only at 0x50..0x57")
         act, sen = robot.peer("actuator"), robot.peer("sensor")
+        period = math.lcm(1, *(r.poll_ticks for r in central.reactions))
+        balances = tuple((tuple(i for i, x in enumerate(robot.sensors) if x.group == r.compare[0]),
+                          tuple(i for i, x in enumerate(robot.sensors) if x.group == r.compare[1]),
+                          r.threshold) for r in central.reactions)
         return cls(clock_hz=central.mcu.clock_hz, baud=central.uart.baud,
                    tick_cycles=central.timer2.instructions,
                    sync_pin=_gpsim_pin(central.sync.pin), eeprom_address=eep,
                    actuator_address=act.address if act else None,
                    sensor_address=sen.address if sen else None,
-                   image_bytes=len(build_image(robot)))
+                   image_bytes=len(build_image(robot)),
+                   sensor_registers=sen.registers if sen else 0, poll_period=period,
+                   balances=balances)
+
+    @property
+    def sensor_is_memory(self) -> bool:
+        """The sensor stand-in is an ``e24xx024`` (a free address in 0x50..0x57)."""
+        a = self.sensor_address
+        return a is not None and a & 0x78 == 0x50 and a != self.eeprom_address
+
+    @property
+    def sensor_fault_pin(self) -> int:
+        """The address pin of the ``e24xx024`` flipped by ``fault sensor on``: the
+        first that moves it to an address nobody else answers at."""
+        taken = {self.eeprom_address, self.actuator_address, self.sensor_address}
+        assert self.sensor_address is not None
+        return next(b for b in range(3) if self.sensor_address ^ (1 << b) not in taken)
 
     @property
     def cycles_per_second(self) -> int:
@@ -128,11 +157,22 @@ class GpsimRun:
 class _Script:
     """Builds the gpsim command file while keeping the simulated time."""
 
-    def __init__(self, setup: GpsimSetup):
+    def __init__(self, setup: GpsimSetup, boot_end: int | None = None):
         self.setup = setup
         self.lines: list[str] = []
         self.now = 0                 # cycle the simulation stops at after the last run
         self.booted = False
+        self.boot_end = setup.boot_cycles if boot_end is None else boot_end
+        self.readings = [0] * (setup.sensor_registers // 2)
+
+    def set_readings(self, values: list[int]) -> None:
+        self.readings[:len(values)] = values
+
+    def tipping(self) -> bool:
+        """Whether the readings set now tip a balance reaction."""
+        r = self.readings
+        return any(abs(sum(r[i] for i in a) - sum(r[i] for i in b)) > t
+                   for a, b, t in self.setup.balances)
 
     def run_to(self, cycle: int) -> None:
         self.now = max(self.now, cycle)
@@ -151,13 +191,16 @@ def _pin_levels(value: int) -> list[int]:
 
 def build_script(robot: Robot, stimulus: str, cod_name: str, image_name: str,
                  after_boot: tuple[str, ...] = (),
-                 epilogue: tuple[str, ...] = ()) -> tuple[str, GpsimSetup]:
+                 epilogue: tuple[str, ...] = (),
+                 boot_end: int | None = None) -> tuple[str, GpsimSetup]:
     """The gpsim command file running ``stimulus`` on firmware ``cod_name``.
 
     ``after_boot``: commands inserted right after the ``boot`` wait (the benchmarks set
-    their breakpoints there); ``epilogue``: commands run after the last stimulus line."""
+    their breakpoints there); ``epilogue``: commands run after the last stimulus line;
+    ``boot_end``: the cycle the ``boot`` wait ends at (:func:`boot_end`; default
+    ``GpsimSetup.boot_cycles``)."""
     s = GpsimSetup.from_robot(robot)
-    sc = _Script(s)
+    sc = _Script(s, boot_end)
     sc.lines += setup_lines(s, cod_name, image_name)
     for number, raw in enumerate(stimulus.splitlines(), start=1):
         stripped = raw.strip()
@@ -199,10 +242,19 @@ def setup_lines(s: GpsimSetup, cod_name: str, image_name: str) -> list[str]:
     for name, addr in (("ACT", s.actuator_address), ("SEN", s.sensor_address)):
         if addr is None:
             continue
-        L += [f"module load i2c2par {name}", f"{name}.Slave_Address = {addr:#04x}"]
+        if name == "SEN" and s.sensor_is_memory:
+            # a register map: its A0..A2 each on a pull-up at 5 V or 0 V (a fault moves one)
+            L.append("module load e24xx024 SEN")
+            for bit in range(3):
+                L += [f"module load pullup PSA{bit}", f"node nsa{bit}",
+                      f"attach nsa{bit} SEN.A{bit} PSA{bit}.pin"]
+            L += _address_levels(addr)
+            L += [f"SEN.eeData[{i:#x}] = 0x00" for i in range(s.sensor_registers)]
+        else:
+            L += [f"module load i2c2par {name}", f"{name}.Slave_Address = {addr:#04x}"]
         scl.append(f"{name}.SCL")
         sda.append(f"{name}.SDA")
-    if s.sensor_address is not None:
+    if s.sensor_address is not None and not s.sensor_is_memory:
         # each port pin of the sensor stand-in on its own node, pulled to 0 or 5 V
         for i in range(8):
             L += [f"module load pullup PS{i}", f"node nsp{i}", f"attach nsp{i} SEN.p{i} PS{i}.pin"]
@@ -211,6 +263,19 @@ def setup_lines(s: GpsimSetup, cod_name: str, image_name: str) -> list[str]:
           "attach " + " ".join(sda), "node nsync", f"attach nsync {s.sync_pin} FSYNC.pin",
           f"load e EE {image_name}", "log on regs.log", "log w _TXREG"]
     return L
+
+
+def _address_levels(address: int) -> list[str]:
+    """The e24xx024 stand-in's address pins for ``address`` (0x50..0x57)."""
+    return [f"PSA{b}.voltage = {5.0 if address >> b & 1 else 0.0}" for b in range(3)]
+
+
+def _sensor_bytes(s: GpsimSetup, values: list[int]) -> list[str]:
+    """The e24xx024 stand-in's memory for these readings: 10-bit (low, high) pairs in
+    register order, as the Python core's sensor board (same checks, same errors)."""
+    regs = RegisterSlave(0, s.sensor_registers)
+    regs.set_readings(values)
+    return [f"SEN.eeData[{i:#x}] = {b:#04x}" for i, b in enumerate(regs.registers)]
 
 
 def _sensor_levels(levels: list[int]) -> list[str]:
@@ -230,21 +295,34 @@ def _stimulus_line(sc: _Script, line: str) -> None:
     if cmd == "boot" and not args:
         if sc.booted:
             raise ProtocolError("a second boot is not supported in gpsim")
+        if sc.tipping():
+            raise ProtocolError("the readings set before boot tip a balance reaction: "
+                                "gpsim's firmware polls during the boot wait (its ticks "
+                                "run from reset), the Python core does not; set them "
+                                "after boot")
         sc.booted = True
-        sc.run_to(s.boot_cycles)
+        sc.run_to(sc.boot_end)
     elif cmd == "tick" and len(args) <= 1:
         n = int(args[0]) if args else 1
         sc.run_to(sc.now + n * s.tick_cycles)
+    elif cmd == "sensor" and args and s.sensor_is_memory:
+        L += _sensor_bytes(s, [int(a) for a in args])
+        sc.set_readings([int(a) for a in args])
     elif cmd == "sensor" and args:
         values = {int(a) for a in args}
         if len(values) != 1:
             raise ProtocolError("gpsim's sensor stand-in returns one byte for every "
                                 "register: all readings must be equal")
+        sc.set_readings([int(a) for a in args])
         L += _sensor_levels(_pin_levels(values.pop()))
     elif cmd == "fault" and len(args) == 2 and args[0] == "sensor" and args[1] in ("on", "off"):
         name, addr = stand_ins[args[0]]
         if addr is None:
             raise ProtocolError(f"no {args[0]} board")
+        if s.sensor_is_memory:
+            moved = addr ^ (1 << s.sensor_fault_pin) if args[1] == "on" else addr
+            L += _address_levels(moved)
+            return
         L.append(f"{name}.Slave_Address = {UNUSED_ADDRESS if args[1] == 'on' else addr:#04x}")
     elif cmd == "poke" and len(args) == 2:
         L.append(f"EE.eeData[{int(args[0], 16):#x}] = {int(args[1], 16):#04x}")
@@ -256,13 +334,42 @@ def _stimulus_line(sc: _Script, line: str) -> None:
                             "tick, sensor, fault sensor, poke)")
 
 
+def boot_end(robot: Robot, cod: Path, workdir: Path, tc: Toolchain | None = None) -> int:
+    """The cycle the ``boot`` wait ends at, so the reactions poll on the same ticks as in
+    the Python core, and a script line after a ``tick`` comes early in a tick period.
+
+    The firmware's Timer2 runs from reset, every tick is queued and served after
+    ``core_boot`` (where the poll countdowns start), while the Python core counts ticks
+    from the end of ``boot``: the wait must hold a whole number of poll periods. A
+    short gpsim run of the boot alone finds the ticks: the sync pin rises at a tick
+    only if the previous one was served (it stays high during the image check), so
+    tick 1 is the first rising edge and Timer2 is exactly periodic. The wait then ends
+    ``BOOT_LEAD`` of a tick after a tick, so every ``tick N`` ends there too and bytes
+    received next are decoded before the next tick if they fit in the rest of it.
+    Without reactions: ``GpsimSetup.boot_cycles`` (no run)."""
+    s = GpsimSetup.from_robot(robot)
+    if s.poll_period == 1:
+        return s.boot_cycles
+    script, _ = build_script(robot, "boot\n", str(Path(cod).resolve()), "image.hex")
+    workdir.mkdir(parents=True, exist_ok=True)
+    write_hex(build_image(robot), workdir / "image.hex")
+    run_gpsim(script, workdir, tc=tc, script_name="boot.stc")
+    rises = [c for c, v in read_edges(workdir / "sync.txt") if v == 1 and c > 0]
+    if not rises or rises[0] > s.boot_cycles:
+        raise ToolchainError("no tick (sync rising edge) during the boot wait")
+    done = (s.boot_cycles - rises[0]) // s.tick_cycles + 1      # ticks by boot_cycles
+    n = done + -done % s.poll_period
+    return rises[0] + (n - 1) * s.tick_cycles + int(BOOT_LEAD * s.tick_cycles)
+
+
 def run_stimulus(robot: Robot, stimulus: str, cod: Path, workdir: Path,
                  tc: Toolchain | None = None, timeout: float = 120.0) -> GpsimRun:
     """Run ``stimulus`` on the central firmware ``cod`` (a .cod file) in ``workdir``."""
     workdir.mkdir(parents=True, exist_ok=True)
-    write_hex(build_image(robot), workdir / "image.hex")
     cod_rel = Path(cod).resolve()
-    script, _setup = build_script(robot, stimulus, str(cod_rel), "image.hex")
+    end = boot_end(robot, cod_rel, workdir / "boot", tc)
+    write_hex(build_image(robot), workdir / "image.hex")
+    script, _setup = build_script(robot, stimulus, str(cod_rel), "image.hex", boot_end=end)
     out = run_gpsim(script, workdir, timeout=timeout, tc=tc, script_name="harness.stc")
     if "***ERROR" in out:
         raise ToolchainError("gpsim rejected a command:\n" + "\n".join(

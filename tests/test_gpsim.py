@@ -17,13 +17,17 @@ from esair_min.build import BuildError, build_board, toolchain
 from esair_min.errors import ProtocolError
 from esair_min.gpsim_bench import (drain_loop, frame_slips, frame_timing, function_spans,
                                    measure_decoder, parse_hits)
-from esair_min.gpsim_harness import GpsimSetup, build_script, compare, run_stimulus
+from esair_min import gpsim_harness
+from esair_min.gpsim_harness import GpsimSetup, boot_end, build_script, compare, run_stimulus
 from esair_min.gpsim_wave import decode_i2c, read_register_log
 from esair_min.harness import run_script
 from esair_min.resources import resolve_robot
 from esair_min.validate import load_robot
 
 SCENARIO = Path(__file__).parent / "fixtures" / "gpsim" / "papaman.txt"
+BALANCE = SCENARIO.with_name("balance.txt")
+BALANCE_EQUAL = SCENARIO.with_name("balance_equal.txt")
+BALANCE_LINE = b"!R auto_balance\r\n"
 
 # Ceilings (instruction cycles at 20 MHz), measured values + headroom.
 # Decoder: the superloop's drain loop from the byte in hand to the branch back to its
@@ -252,3 +256,105 @@ def test_actuator_pulse_widths_match_commanded_angles(robot, actuator_fw, tmp_pa
     # gpsim's Timer1 drifts ~1 cycle per compare reprogrammed (measured 20 000.6 ..
     # 20 002.8 us); the firmware adds exactly one frame of counts per period
     assert all(abs(p.period_us - 20_000) <= 20 for p in pulses), "\n".join(report)
+
+
+# -- the balance reaction on the PIC build ---------------------------------------------
+# PAPA-MAN with its sensor board moved to 0x51: gpsim's e24xx024 (A0 tied high) answers
+# there as a register map (1-byte register address, repeated START, 16 bytes read)
+# holding the readings, so the feet can differ and the reaction runs in gpsim.
+
+@pytest.fixture(scope="module")
+def tipping_robot(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("robot") / "papaman"
+    folder.mkdir()
+    for path in resolve_robot("papaman").glob("*.yaml"):
+        text = path.read_text()
+        if path.name in ("central.yaml", "sensor.yaml"):
+            assert text.count("address: 0x20") == 1
+            text = text.replace("address: 0x20", "address: 0x51")
+        (folder / path.name).write_text(text)
+    robot = load_robot(folder)
+    assert robot.peer("sensor").address == 0x51 and robot.sensor_board.i2c.address == 0x51
+    return robot
+
+
+@pytest.fixture(scope="module")
+def tipping_central(tipping_robot, tmp_path_factory):
+    out = tmp_path_factory.mktemp("fw_tip")
+    generate_robot(tipping_robot, out)
+    build_board(out / "central", toolchain())
+    return out / "central" / "build-pic" / "firmware.cod"
+
+
+@pytest.mark.parametrize("scenario, fires", [(BALANCE, 3), (BALANCE_EQUAL, 0)])
+def test_balance_reaction_gpsim_equals_python_core(tipping_robot, tipping_central, tmp_path,
+                                                   scenario, fires):
+    setup = GpsimSetup.from_robot(tipping_robot)
+    assert setup.sensor_is_memory and setup.poll_period == 5
+    run = run_stimulus(tipping_robot, scenario.read_text(), tipping_central, tmp_path)
+    python = run_script(tipping_robot, scenario.read_text())
+    assert compare(python, run.trace(), setup) == []
+    replies = [line for _, line in run.replies]
+    assert replies[:2] == [b"!READY esair-min/1 image=ok\r\n", b"OK\r\n"]
+    assert replies.count(BALANCE_LINE) == fires == python.count("TX " + BALANCE_LINE.hex().upper())
+    assert len(replies) == 2 + fires
+    # the readings really came from the e24xx024: the tipping ones too
+    reads = {t.trace_line() for t in run.transfers if t.segments[0].address == 0x51}
+    assert "R 51 00 16 2C012C012C012C016400640064006400" in reads or not fires
+    writes = [t for t in run.transfers if t.segments[0].address == 0x10]
+    dance = next(m for m in tipping_robot.motions if m.name == "dance")
+    balance = next(m for m in tipping_robot.motions if m.name == "balance")
+    if fires:   # pre-empted after 15 of its 32 frames; then the balance motion each time
+        assert len(writes) == 15 + fires * len(balance.frames) < len(dance.frames)
+    else:       # the whole dance, nothing else
+        assert len(writes) == len(dance.frames)
+
+
+def test_boot_end_holds_whole_poll_periods_and_ends_early_in_a_tick(tipping_robot,
+                                                                   tipping_central, tmp_path):
+    setup = GpsimSetup.from_robot(tipping_robot)
+    end = boot_end(tipping_robot, tipping_central, tmp_path)
+    rises = [c for c, v in gpsim_harness.read_edges(tmp_path / "sync.txt") if v == 1 and c > 0]
+    ticks = (end - rises[0]) // setup.tick_cycles + 1
+    assert end >= setup.boot_cycles and ticks % setup.poll_period == 0
+    assert (end - rises[0]) % setup.tick_cycles == int(gpsim_harness.BOOT_LEAD * setup.tick_cycles)
+
+
+def test_boot_end_needs_a_tick(tipping_robot, tmp_path, monkeypatch):
+    def no_ticks(script, workdir, **kw):
+        (workdir / "sync.txt").write_text("0 0\n")
+        return ""
+    monkeypatch.setattr(gpsim_harness, "run_gpsim", no_ticks)
+    with pytest.raises(gpsim_harness.ToolchainError,
+                       match="no tick \\(sync rising edge\\) during the boot wait"):
+        boot_end(tipping_robot, Path("fw.cod"), tmp_path)
+
+
+def test_sensor_memory_stand_in_script(tipping_robot):
+    script, setup = build_script(tipping_robot, "sensor 1 1023 300 0 1 1023 300 0\nboot\n"
+                                 "fault sensor on\nfault sensor off\n", "fw.cod", "image.hex")
+    lines = script.splitlines()
+    assert "module load e24xx024 SEN" in lines and "module load i2c2par SEN" not in lines
+    # 10-bit readings, (low, high) pairs in register order
+    assert lines[lines.index("SEN.eeData[0x0] = 0x01"):][:6] == [
+        "SEN.eeData[0x0] = 0x01", "SEN.eeData[0x1] = 0x00", "SEN.eeData[0x2] = 0xff",
+        "SEN.eeData[0x3] = 0x03", "SEN.eeData[0x4] = 0x2c", "SEN.eeData[0x5] = 0x01"]
+    # a fault flips A1 (0x53: nobody there; A0 would give 0x50, the motion EEPROM)
+    assert setup.sensor_fault_pin == 1
+    run = lines.index("run", lines.index("break c " + str(setup.boot_cycles)))
+    assert lines[run + 1:run + 7] == ["PSA0.voltage = 5.0", "PSA1.voltage = 5.0",
+                                      "PSA2.voltage = 0.0", "PSA0.voltage = 5.0",
+                                      "PSA1.voltage = 0.0", "PSA2.voltage = 0.0"]
+    with pytest.raises(ProtocolError, match="stimulus line 1: reading 1024 is not a 10-bit"):
+        build_script(tipping_robot, "sensor 1024\nboot\n", "fw.cod", "image.hex")
+
+
+def test_readings_that_tip_before_boot_are_refused(tipping_robot):
+    with pytest.raises(ProtocolError, match="stimulus line 2: the readings set before boot "
+                                            "tip a balance reaction: gpsim's firmware polls "
+                                            "during the boot wait"):
+        build_script(tipping_robot, "sensor 300 300 300 300 100 100 100 100\nboot\n",
+                     "fw.cod", "image.hex")
+    # exactly the threshold (400) does not tip
+    build_script(tipping_robot, "sensor 300 300 200 200 150 150 150 150\nboot\n",
+                 "fw.cod", "image.hex")
