@@ -297,7 +297,11 @@ def test_balance_reaction_gpsim_equals_python_core(tipping_robot, tipping_centra
     replies = [line for _, line in run.replies]
     assert replies[:2] == [b"!READY esair-min/1 image=ok\r\n", b"OK\r\n"]
     assert replies.count(BALANCE_LINE) == fires == python.count("TX " + BALANCE_LINE.hex().upper())
-    assert len(replies) == 2 + fires
+    if fires:
+        assert len(replies) == 2 + fires
+    else:       # then the sensor board stops answering (an address pin moved), and is back
+        assert replies[2:] == [b"E10 no answer on i2c\r\n", b"!E10 no answer on i2c\r\n",
+                               b"OK 255,765,1000,23,510,510,511,512\r\n"]
     # the readings really came from the e24xx024: the tipping ones too
     reads = {t.trace_line() for t in run.transfers if t.segments[0].address == 0x51}
     assert "R 51 00 16 2C012C012C012C016400640064006400" in reads or not fires
