@@ -73,7 +73,7 @@ def schema(indent: int) -> None:
     click.echo(json.dumps(doc, indent=indent, sort_keys=True))
 
 
-@main.command()
+@main.command(short_help="Write the EEPROM motion image (Intel HEX).")
 @ROBOT
 @click.option("-o", "--output", required=True, metavar="FILE",
               help="Where to write the image (Intel HEX, or raw with --bin).")
@@ -97,7 +97,7 @@ def eeprom(robot: str, output: str, raw: bool) -> None:
     click.echo(f"{image_summary(model, data)} -> {output}")
 
 
-@main.command()
+@main.command(short_help="Run the emulated robot on a pty (--pty) or headless (--run).")
 @ROBOT
 @click.option("--pty", is_flag=True,
               help="Serve on a new pseudo-terminal; its path is the first line printed.")
@@ -141,7 +141,7 @@ def emulate(robot: str, pty: bool, run_s: float | None, sends: tuple[str, ...],
     run_emulator(load(robot), opts)
 
 
-@main.command()
+@main.command(short_help="Send command lines to a port; print one reply per line.")
 @click.argument("port")
 @click.argument("commands", nargs=-1, required=True)
 @click.option("--baud", type=int, default=9600, show_default=True,
@@ -169,7 +169,7 @@ def send(port: str, commands: tuple[str, ...], baud: int, timeout: float, notice
         sys.exit(1)
 
 
-@main.command()
+@main.command(short_help="Draw servo angles over time from an event trace (PNG).")
 @click.argument("trace", type=click.Path(dir_okay=False))
 @click.option("-o", "--output", required=True, metavar="PNG", help="Image to write.")
 @click.option("--robot", "robot", default="papaman", show_default=True,
@@ -185,7 +185,7 @@ def plot(trace: str, output: str, robot: str, targets: bool) -> None:
     click.echo(f"{n} ticks -> {output}")
 
 
-@main.command()
+@main.command(short_help="Generate every board's C firmware (PIC and host ports).")
 @ROBOT
 @click.option("-o", "--output", required=True, metavar="DIR",
               help="Output folder: one sub-folder per board (central, actuator, sensor).")
@@ -201,7 +201,7 @@ def generate(robot: str, output: str) -> None:
                f"{len(result.unchanged)} unchanged in {output}")
 
 
-@main.command()
+@main.command(short_help="Generate and build every board for the PIC18F452; print sizes.")
 @ROBOT
 @click.option("-o", "--output", required=True, metavar="DIR",
               help="Output folder: one sub-folder per board, each built for the PIC18F452.")
