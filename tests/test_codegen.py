@@ -25,17 +25,11 @@ from esair_min.errors import GenerateError
 from esair_min.image import build_image
 from esair_min.model import Sync
 from esair_min.toolchain import find_toolchain, parse_map
-from esair_min.validate import load_robot
 
 ROOT = Path(__file__).resolve().parent.parent
 GOLDEN = ROOT / "tests" / "golden" / "papaman"
 GOLDEN_FILES = [f"{role}/core/{name}" for role in ("central", "actuator", "sensor")
                 for name in ("es_config.h", "es_tables.c")]
-
-
-@pytest.fixture(scope="module")
-def robot():
-    return load_robot(ROOT / "boards" / "papaman")
 
 
 @pytest.fixture(scope="module")

@@ -21,16 +21,10 @@ from esair_min.harness import run_script
 from esair_min.image import build_image, write_hex
 from esair_min.protocol import add_checksum
 from esair_min.trace import without_marks
-from esair_min.validate import load_robot
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENARIO = ROOT / "tests" / "scenarios" / "papaman.txt"
 SANITIZE = "-fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer"
-
-
-@pytest.fixture(scope="module")
-def robot():
-    return load_robot(ROOT / "boards" / "papaman")
 
 
 @pytest.fixture(scope="module")

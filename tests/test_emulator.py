@@ -15,15 +15,8 @@ from esair_min.devices import RegisterSlave, SimpleBus
 from esair_min.errors import EsairError
 from esair_min.protocol import parse_reply
 from esair_min.trace import TraceWriter, without_marks
-from esair_min.validate import load_robot
 
 ROOT = Path(__file__).resolve().parent.parent
-PAPAMAN = ROOT / "boards" / "papaman"
-
-
-@pytest.fixture(scope="module")
-def robot():
-    return load_robot(PAPAMAN)
 
 
 def booted(robot, **kw) -> Emulator:

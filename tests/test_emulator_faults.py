@@ -12,15 +12,9 @@ from esair_min.emulator.actuator import encode
 from esair_min.errors import EsairError
 from esair_min.protocol import parse_reply
 from esair_min.trace import TraceWriter
-from esair_min.validate import load_robot
 
 ROOT = Path(__file__).resolve().parent.parent
 FIX = ROOT / "tests" / "fixtures" / "scenarios"
-
-
-@pytest.fixture(scope="module")
-def robot():
-    return load_robot(ROOT / "boards" / "papaman")
 
 
 def tx_lines(tw: TraceWriter) -> list[tuple[int, str]]:

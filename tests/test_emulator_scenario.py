@@ -8,15 +8,9 @@ import pytest
 
 from esair_min.emulator.scenario import load_scenario, resolve_scenario
 from esair_min.errors import ConfigError
-from esair_min.validate import load_robot
 
 ROOT = Path(__file__).resolve().parent.parent
 FIX = ROOT / "tests" / "fixtures" / "scenarios"
-
-
-@pytest.fixture(scope="module")
-def robot():
-    return load_robot(ROOT / "boards" / "papaman")
 
 
 def test_push_yaml_and_csv_agree_while_tipping(robot):

@@ -46,11 +46,6 @@ PULSE_ERROR = 0.01               # servo pulse width vs the commanded angle; mea
 
 
 @pytest.fixture(scope="module")
-def robot():
-    return load_robot(resolve_robot("papaman"))
-
-
-@pytest.fixture(scope="module")
 def central(robot, tmp_path_factory):
     """The generated central firmware, built for the PIC: (folder, cod, lst)."""
     try:

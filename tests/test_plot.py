@@ -13,15 +13,9 @@ from esair_min.emulator import Emulator
 from esair_min.errors import EsairError
 from esair_min.plot import plot_trace, read_trace, replay
 from esair_min.trace import TraceWriter
-from esair_min.validate import load_robot
 
 ROOT = Path(__file__).resolve().parent.parent
 PNG = b"\x89PNG\r\n\x1a\n"
-
-
-@pytest.fixture(scope="module")
-def robot():
-    return load_robot(ROOT / "boards" / "papaman")
 
 
 @pytest.fixture(scope="module")
