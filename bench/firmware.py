@@ -84,8 +84,9 @@ def main(argv: list[str]) -> int:
         tick = setup.tick_cycles
         t = frame_timing(run, setup.actuator_address, setup.eeprom_address,
                          2 * len(robot.servos))
-        wire = (2 * len(robot.servos) + 2) * 9 * (cps // 100_000)
-        read_wire = (2 * len(robot.servos) + 4) * 9 * (cps // 100_000)
+        bit = cps // robot.central.i2c.speed_hz      # instruction cycles per I2C bit
+        wire = (2 * len(robot.servos) + 2) * 9 * bit
+        read_wire = (2 * len(robot.servos) + 4) * 9 * bit
         slips = frame_slips(run, run_script(robot, stimulus), setup.actuator_address, tick)
         dance = sum(1 for _, p in slips.gaps if p == 1)
         best = min(t.to_last_byte)
