@@ -29,6 +29,9 @@ def _friendly(fn: Callable[..., Any]) -> Callable[..., Any]:
 
 
 ROBOT = click.argument("robot", metavar="ROBOT")
+OUTPUT_DIR = click.option("-o", "--output", required=True, metavar="DIR",
+                          help="Output folder: one sub-folder per board "
+                               "(central, actuator, sensor).")
 
 
 def load(robot: str):
@@ -187,8 +190,7 @@ def plot(trace: str, output: str, robot: str, targets: bool) -> None:
 
 @main.command(short_help="Generate every board's C firmware (PIC and host ports).")
 @ROBOT
-@click.option("-o", "--output", required=True, metavar="DIR",
-              help="Output folder: one sub-folder per board (central, actuator, sensor).")
+@OUTPUT_DIR
 @_friendly
 def generate(robot: str, output: str) -> None:
     """Generate the C firmware of every board (core, hal.h, PIC and host ports, Makefile)."""
@@ -203,8 +205,7 @@ def generate(robot: str, output: str) -> None:
 
 @main.command(short_help="Generate and build every board for the PIC18F452; print sizes.")
 @ROBOT
-@click.option("-o", "--output", required=True, metavar="DIR",
-              help="Output folder: one sub-folder per board, each built for the PIC18F452.")
+@OUTPUT_DIR
 @_friendly
 def build(robot: str, output: str) -> None:
     """Generate every board's firmware, build it for the PIC18F452 and print its footprint."""
