@@ -69,19 +69,16 @@ def test_pair_formula():
     assert decode_pair(99, 255) == (599, 25)
 
 
-def test_pair_errors():
+@pytest.mark.parametrize("call, args, message", [
+    (encode_pair, (600, 25), "speed 25 with angle 600 encodes to high byte 256, more than 255"),
+    (encode_pair, (1000, 0), "angle 1000 is outside 0..999"),
+    (encode_pair, (10, 26), "speed 26 is outside 0..25"),
+    (decode_pair, (100, 3), "pair (100, 3) is not a servo encoding"),
+])
+def test_pair_errors(call, args, message):
     with pytest.raises(ProtocolError) as e:
-        encode_pair(600, 25)
-    assert str(e.value) == "speed 25 with angle 600 encodes to high byte 256, more than 255"
-    with pytest.raises(ProtocolError) as e:
-        encode_pair(1000, 0)
-    assert str(e.value) == "angle 1000 is outside 0..999"
-    with pytest.raises(ProtocolError) as e:
-        encode_pair(10, 26)
-    assert str(e.value) == "speed 26 is outside 0..25"
-    with pytest.raises(ProtocolError) as e:
-        decode_pair(100, 3)
-    assert str(e.value) == "pair (100, 3) is not a servo encoding"
+        call(*args)
+    assert str(e.value) == message
 
 
 def test_command_builders():
