@@ -25,9 +25,6 @@ Context = dict[str, Any]
 
 #: Bytes per EEPROM read while checking the image at reset (docs/protocol.md, Reset).
 IMAGE_CHECK_CHUNK = 32
-#: Fixed buffers of the generated firmware (docs/firmware.md).
-RX_RING_BYTES = 64
-TX_RING_BYTES = 32
 #: Servo pulse ends closer than this are handled by one PWM interrupt.
 PWM_MERGE_US = 16
 #: ADC acquisition time before a conversion (datasheet: 12.86 us at 25 C; rounded up).
@@ -170,8 +167,8 @@ def central_context(robot: Robot) -> Context:
         "baud": {"spbrg": baud.spbrg, "brgh": baud.brgh, "rate": uart.baud if uart else 0,
                  "error_percent": round(baud.error_percent, 2)},
         "i2c": {"sspadd": i2c.sspadd, "speed_hz": board.i2c.speed_hz},
-        "rx_ring": RX_RING_BYTES,
-        "tx_ring": TX_RING_BYTES,
+        "rx_ring": P.RX_RING,
+        "tx_ring": P.TX_RING,
     })
     return ctx
 

@@ -22,6 +22,11 @@ ANGLE_STEP = 3         # the `c` command: char '0'..'l' is 3*(char-0x30) degrees
 ANGLE_CODE_FIRST = 0x30
 ANGLE_CODE_LAST = 0x6C
 KEEP_CODE = "."
+#: The central board's UART rings (every port and the emulator): bytes received and
+#: not yet decoded, and bytes of replies not yet sent. The transmit ring holds the
+#: longest reply (``v`` with a checksum, 73 bytes) with one slot always free.
+RX_RING = 64
+TX_RING = 80
 
 
 class Code(IntEnum):

@@ -85,6 +85,12 @@ class TimedBus:
         if not ok:
             st.nacks += 1
 
+    def hold(self, until_ns: int) -> None:
+        """The master starts nothing before ``until_ns``: the superloop that drives it
+        is busy elsewhere (waiting for room in the UART transmit ring)."""
+        if until_ns > self.busy_until:
+            self.busy_until = until_ns
+
     def cursor(self) -> int:
         """When the bus is next free (never before now)."""
         now = self._now()

@@ -12,6 +12,9 @@ The central board runs :class:`~esair_min.core.CentralCore` over emulated periph
 
 The superloop feeds received bytes to the core whenever it is ready and the CPU is not
 busy on the bus: a byte that arrives during an I2C transfer is handled when it ends.
+A reply that does not fit in the UART's transmit ring keeps the superloop waiting for
+room (as on the PIC), and that counts as busy too: input that comes faster than its
+replies can leave overruns the receive ring, as on the board.
 Everything happens on a :class:`~.clock.VirtualClock`, so a run is deterministic.
 """
 
@@ -298,7 +301,7 @@ class Emulator:
         if self.trace is not None:
             self._mark(at)
             self.trace.tx(data)
-        self.uart.board_send(data, at)
+        self.bus.hold(self.uart.board_send(data, at))   # the superloop waits for room
         for line in self.replies.feed(data):
             if line.startswith("E") or line.startswith("!E"):
                 self.errors.append(line)

@@ -4,7 +4,9 @@ A byte takes 10 bit times (start, 8 data, stop) at the declared baud. Bytes writ
 the host are shifted in one after another; when one is complete it goes into the
 board's 64-byte receive ring (the PIC port's interrupt-fed ring). A byte that finds the
 ring full is dropped and the overrun flag is set (docs/trace-format.md). Bytes the
-board sends are shifted out one after another and reach the host when complete.
+board sends are shifted out one after another and reach the host when complete;
+:meth:`Uart.board_send` says when the board's 80-byte transmit ring had room for the
+last of them (the superloop waits for room, so output faster than the line stalls it).
 
 Bytes on the wire are kept as the chunks they were written in, ``(t0, data)``: byte
 ``i`` of a chunk is complete at ``t0 + (i + 1) * byte_ns``, exactly as if each had been
@@ -31,9 +33,10 @@ from __future__ import annotations
 from collections import deque
 from typing import Callable
 
+from ..protocol import RX_RING, TX_RING
 from .clock import NS_PER_S, VirtualClock
 
-RING_BYTES = 64
+RING_BYTES = RX_RING
 RX_BYTE, RX_TAKE, RX_HOLD = 0, 1, 2     # answers of ``rx_mode`` (see above)
 
 
@@ -183,14 +186,23 @@ class Uart:
         return not self._rx_wire and not self.ring
 
     # --- board -> host -------------------------------------------------------------
-    def board_send(self, data: bytes, at_ns: int) -> None:
-        """The board starts sending ``data`` at ``at_ns`` (behind earlier output)."""
+    def board_send(self, data: bytes, at_ns: int) -> int:
+        """The board puts ``data`` into its transmit ring at ``at_ns``, behind earlier
+        output; returns when the last byte found room there.
+
+        A byte leaves the ring for TXREG when the byte before it starts shifting out,
+        so byte ``b`` finds room once byte ``b - (TX_RING - 1)`` has left: ``TX_RING``
+        byte times before ``b`` itself starts (the ring keeps one slot free).
+        """
         t = self._tx_free if self._tx_free > at_ns else at_ns
-        if data:
-            self._tx_wire.append((t, bytes(data)))
-            t += len(data) * self.byte_ns
-        self._tx_free = t
+        if not data:
+            return at_ns
+        self._tx_wire.append((t, bytes(data)))
+        last_start = t + (len(data) - 1) * self.byte_ns
+        self._tx_free = t + len(data) * self.byte_ns
         self.tx_bytes += len(data)
+        room = last_start - TX_RING * self.byte_ns
+        return room if room > at_ns else at_ns
 
     def _deliver(self) -> None:
         wire = self._tx_wire
@@ -227,6 +239,12 @@ class Uart:
         if not self._tx_wire:
             return None
         return self._tx_wire[0][0] + (self._tx_pos + 1) * self.byte_ns
+
+    @property
+    def tx_backlog(self) -> int:
+        """Bytes the board has sent that have not completely reached the host."""
+        self._deliver()
+        return sum(len(d) for _, d in self._tx_wire) - self._tx_pos
 
     @property
     def tx_idle(self) -> bool:
