@@ -108,6 +108,55 @@ def i2c_master_setting(clock_hz: int, speed_hz: int) -> I2cSetting | None:
     return I2cSetting(sspadd, clock_hz / (4 * (sspadd + 1)))
 
 
+# -- I2C bus time -------------------------------------------------------------------
+#: Bit times of the parts of a transaction: START, STOP, repeated START; a byte with
+#: its ACK/NACK clock.
+START = STOP = RESTART = 1
+BYTE = 9
+#: The PIC port's MSSP master takes 1.09x (frame write) and 1.13x (frame read) the
+#: wire time in gpsim (docs/toolchain.md); bus budgets allow this much.
+FIRMWARE_BUS_OVERHEAD = 1.15
+
+
+def write_bits(n_data: int) -> int:
+    """Bit times of a write of ``n_data`` bytes (register/memory address included)."""
+    return START + BYTE + BYTE * n_data + STOP
+
+
+def write_read_bits(n_write: int, n_read: int) -> int:
+    """Bit times of a write of ``n_write`` bytes, repeated start, read of ``n_read``."""
+    return START + BYTE + BYTE * n_write + RESTART + BYTE + BYTE * n_read + STOP
+
+
+def nack_bits() -> int:
+    """Bit times of a transaction whose address byte is not acknowledged."""
+    return START + BYTE + STOP
+
+
+@dataclass(frozen=True)
+class TickBusLoad:
+    """The most I2C work one tick can hold while a motion plays a frame every tick:
+    the frame write (register pointer + 2 bytes per servo), the read of the next frame
+    from the EEPROM, and a sensor poll (0 without reactions), in bit times."""
+
+    write: int
+    read: int
+    poll: int
+
+    @property
+    def bits(self) -> int:
+        return self.write + self.read + self.poll
+
+    def seconds(self, speed_hz: int) -> float:
+        return self.bits / speed_hz
+
+
+def tick_bus_load(servos: int, eeprom_address_bytes: int, sensor_registers: int) -> TickBusLoad:
+    return TickBusLoad(write_bits(1 + 2 * servos),
+                       write_read_bits(eeprom_address_bytes, 2 * servos),
+                       write_read_bits(1, sensor_registers) if sensor_registers else 0)
+
+
 #: Analog channels of the PIC18F452 and the pins they share.
 ADC_PINS = {0: "RA0", 1: "RA1", 2: "RA2", 3: "RA3", 4: "RA5", 5: "RE0", 6: "RE1", 7: "RE2"}
 #: Pins taken by the on-chip peripherals when they are enabled.

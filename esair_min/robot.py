@@ -4,8 +4,21 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from .hardware import TickBusLoad, tick_bus_load
 from .layout import ImageLayout, image_layout
 from .model import Board, BoardDevice, Command, EepromDevice, Motion, Sensor, Servo
+
+
+def frame_bus_load(central: Board, actuator: Board | None,
+                   sensor: Board | None) -> TickBusLoad | None:
+    """The I2C work of one frame period while a motion plays (None without motions):
+    frame write, next frame read, and a sensor poll when reactions poll."""
+    eeprom = central.device("eeprom")
+    if actuator is None or not central.motions or not isinstance(eeprom, EepromDevice):
+        return None
+    polls = sensor is not None and bool(central.reactions)
+    return tick_bus_load(len(actuator.servos), eeprom.address_bytes,
+                         sensor.register_count if polls else 0)
 
 
 @dataclass(frozen=True)
@@ -19,6 +32,10 @@ class Robot:
 
     def board(self, role: str) -> Board | None:
         return next((b for b in self.boards if b.role == role), None)
+
+    @property
+    def frame_bus_load(self) -> TickBusLoad | None:
+        return frame_bus_load(self.central, self.actuator, self.sensor_board)
 
     def file_of(self, board: Board) -> str:
         return self.files[self.boards.index(board)]

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from .hardware import FIRMWARE_BUS_OVERHEAD
 from .robot import Robot
 
 
@@ -29,4 +30,11 @@ def robot_summary(robot: Robot) -> list[str]:
     i2c = c.i2c_setting
     if i2c is not None:
         lines.append(f"  I2C: {c.i2c.speed_hz} Hz, SSPADD {i2c.sspadd}")
+    load = robot.frame_bus_load
+    if load is not None and t2 is not None and c.i2c is not None:
+        wire = load.seconds(c.i2c.speed_hz)
+        poll = f" + sensor poll {load.poll}" if load.poll else ""
+        lines.append(f"  bus per frame: write {load.write} + next frame read {load.read}"
+                     f"{poll} bit times = {wire * 1e3:.2f} ms, {wire / t2.period_s:.0%} of a "
+                     f"tick ({wire * FIRMWARE_BUS_OVERHEAD / t2.period_s:.0%} on the PIC)")
     return lines

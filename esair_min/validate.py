@@ -17,7 +17,7 @@ from . import hardware
 from .errors import ConfigError, file_mark
 from .model import (DEFAULT_COMMANDS, Board, BoardDevice, Command, EepromDevice, Frame,
                     Motion)
-from .robot import Robot
+from .robot import Robot, frame_bus_load
 from .schema_errors import config_error, did_you_mean
 from .yamlload import Document, load_yaml
 
@@ -254,6 +254,36 @@ class _Checker:
             self.motion_rules(central, i, actuator)
         for i in range(len(central.reactions)):
             self.reaction_rules(central, i, by_role.get("sensor"))
+        self.bus_budget_rule(central, actuator, by_role.get("sensor"))
+
+    def bus_budget_rule(self, central: Board, actuator: Board | None,
+                        sensor: Board | None) -> None:
+        """A motion plays a frame every delay_ticks ticks: the frame write, the read of
+        the next frame and a sensor poll must fit in that time on the bus, with the
+        PIC master's overhead (hardware.FIRMWARE_BUS_OVERHEAD)."""
+        load = frame_bus_load(central, actuator, sensor)
+        t2 = central.timer2
+        if load is None or t2 is None:
+            return
+        motion = min(central.motions, key=lambda m: m.delay_ticks)
+        speed = central.i2c.speed_hz
+        need_s = load.seconds(speed) * hardware.FIRMWARE_BUS_OVERHEAD
+        have_s = motion.delay_ticks * t2.period_s
+        if need_s <= have_s:
+            return
+        fixes = [f"speed_hz: {hz} on every board" for hz in (100_000, 400_000) if hz > speed and
+                 hardware.i2c_master_setting(central.mcu.clock_hz, hz) is not None
+                 and load.seconds(hz) * hardware.FIRMWARE_BUS_OVERHEAD <= have_s]
+        ticks = math.ceil(need_s / t2.period_s)
+        fixes.append(f"delay_ticks: {ticks} for motion '{motion.name}'")
+        poll = f" + sensor poll {load.poll}" if load.poll else ""
+        self.fail(central, ("i2c", "speed_hz"),
+                  f"I2C at {speed} Hz is too slow for motion '{motion.name}' (a frame every "
+                  f"{'tick' if motion.delay_ticks == 1 else f'{motion.delay_ticks} ticks'}, "
+                  f"{have_s * 1e3:.2f} ms): frame write {load.write} + next frame read "
+                  f"{load.read}{poll} bit times = {load.seconds(speed) * 1e3:.2f} ms, "
+                  f"{need_s * 1e3:.2f} ms with the PIC master's overhead; use "
+                  + " or ".join(fixes))
 
     def peer_rules(self, central: Board, by_role: dict[str, Board]) -> None:
         names = {b.board: b for b in self.boards}

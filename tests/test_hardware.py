@@ -150,3 +150,16 @@ def test_papaman_eeprom_layout(papaman) -> None:
 ])
 def test_thesis_high_byte(angle: int, speed: int, high: int) -> None:
     assert encode_high(angle, speed) == high
+
+
+def test_frame_bus_load_in_bit_times():
+    # PAPA-MAN: 12 servos, 2-byte EEPROM addresses, 16 sensor registers
+    load = hardware.tick_bus_load(12, 2, 16)
+    assert (load.write, load.read, load.poll) == (236, 255, 174)
+    assert load.seconds(100_000) == pytest.approx(6.65e-3)
+    assert hardware.tick_bus_load(12, 2, 0).bits == 236 + 255     # no reactions: no poll
+    # 1 servo: START + address + pointer + 2 bytes + STOP; reads: pointer/address byte,
+    # repeated START, address, 2 bytes
+    one = hardware.tick_bus_load(1, 1, 2)
+    assert (one.write, one.read, one.poll) == (1 + 9 + 27 + 1, 1 + 9 + 9 + 1 + 9 + 18 + 1,
+                                               1 + 9 + 9 + 1 + 9 + 18 + 1)

@@ -35,6 +35,8 @@ EXPECTED = {
         "tests/fixtures/bad/ambiguous_commands/central.yaml:37:29: command 'stop' (prefix 't', 1-char lines) is ambiguous with 'stand' (prefix 't', 1-char lines): one line would match both; change one prefix",
     "ambiguous_play":
         "tests/fixtures/bad/ambiguous_play/central.yaml:38:29: command 'sit' (prefix 'PLY01', 5-char lines) is ambiguous with 'play' (prefix 'PLY', 5-char lines): one line would match both; change one prefix",
+    "bus_too_slow":
+        "tests/fixtures/bad/bus_too_slow/central.yaml:20:13: I2C at 100000 Hz is too slow for motion 'dance' (a frame every tick, 6.00 ms): frame write 236 + next frame read 255 + sensor poll 174 bit times = 6.65 ms, 7.65 ms with the PIC master's overhead; use speed_hz: 400000 on every board or delay_ticks: 2 for motion 'dance'",
     "bad_device_kind":
         "tests/fixtures/bad/bad_device_kind/central.yaml:23:14: 'kind' must be 'eeprom' or 'board', not text 'eprom' (did you mean 'eeprom'?)",
     "bad_name":

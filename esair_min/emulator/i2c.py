@@ -18,30 +18,16 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Callable, Protocol
 
+from ..hardware import BYTE, RESTART, START, STOP, nack_bits, write_bits, write_read_bits
 from .clock import NS_PER_S
 
-START = STOP = RESTART = 1
-BYTE = 9          # 8 data bits and the ACK bit
+__all__ = ["BYTE", "RESTART", "START", "STOP", "Bus", "BusStats", "TimedBus", "bits_ns",
+           "nack_bits", "write_bits", "write_read_bits"]
 
 
 class Bus(Protocol):
     def write(self, addr: int, data: bytes) -> bool: ...
     def write_read(self, addr: int, wdata: bytes, n: int) -> bytes | None: ...
-
-
-def write_bits(n_data: int) -> int:
-    """Bit times of a write of ``n_data`` bytes (register/memory address included)."""
-    return START + BYTE + BYTE * n_data + STOP
-
-
-def write_read_bits(n_write: int, n_read: int) -> int:
-    """Bit times of a write of ``n_write`` bytes, repeated start, read of ``n_read``."""
-    return START + BYTE + BYTE * n_write + RESTART + BYTE + BYTE * n_read + STOP
-
-
-def nack_bits() -> int:
-    """Bit times of a transaction whose address byte is not acknowledged."""
-    return START + BYTE + STOP
 
 
 def bits_ns(bits: int, speed_hz: int) -> int:
