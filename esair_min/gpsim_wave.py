@@ -62,16 +62,22 @@ class I2cTransfer:
     segments: list[I2cSegment] = field(default_factory=list)
     stop: int | None = None                      # cycle of the STOP
     last_byte_end: int = 0                       # cycle of the last byte's ACK clock
+    cut: bool = False                            # a held line ended it (no STOP)
 
     def trace_line(self) -> str:
         """The transfer as a docs/trace-format.md ``W`` or ``R`` line.
 
         A write whose address was not ACKed shows the bytes the master still sent
-        (the MSSP master usually stops at once, so none)."""
+        (the MSSP master usually stops at once, so none). A transfer cut by a held
+        line is a failed one: ``W aa <bytes on the wire> NACK`` or ``R aa <...> ? NACK``."""
         segs = self.segments
         if not segs:
             raise ToolchainError(f"I2C transfer at cycle {self.start} has no address byte")
         first = segs[0]
+        if self.cut:
+            kind = "R" if any(s.reading for s in segs) else "W"
+            count = " ?" if kind == "R" else ""
+            return f"{kind} {first.address:02X} {first.payload().hex().upper()}{count} NACK"
         if len(segs) == 1 and not first.reading:
             ok = first.addr_ack and all(a for _, a in first.data)
             return f"W {first.address:02X} {first.payload().hex().upper()} {'ACK' if ok else 'NACK'}"
@@ -88,13 +94,19 @@ class I2cTransfer:
         return f"R {read.address:02X} {wdata.hex().upper()} {len(read.data)} {got}"
 
 
-def decode_i2c(scl: list[tuple[int, int]], sda: list[tuple[int, int]]) -> list[I2cTransfer]:
+def decode_i2c(scl: list[tuple[int, int]], sda: list[tuple[int, int]],
+               holds: tuple[tuple[int, int], ...] = ()) -> list[I2cTransfer]:
     """Transfers seen on SCL/SDA edge lists (open-drain bus, idle high).
 
     START = SDA falls while SCL is high; STOP = SDA rises while SCL is high; a bit is
     SDA sampled at each SCL rising edge; 9 bits make a byte and its ACK (0 = ACK).
     The MSSP changes SDA only while SCL is low, so no two edges share a cycle; if
     they did, SCL would be taken first.
+
+    ``holds``: (first, last) cycles, inclusive, while something outside the master
+    held a line low (the harness's ``fault bus``/``fault sda``). Edges inside are not
+    decoded (the master's attempts cannot form a START); a transfer still open when a
+    hold begins is ``cut`` there, and the next START after it begins a new transfer.
     """
     events = sorted([(c, 0, v) for c, v in scl] + [(c, 1, v) for c, v in sda])
     level = [1, 1]                 # SCL, SDA
@@ -105,6 +117,11 @@ def decode_i2c(scl: list[tuple[int, int]], sda: list[tuple[int, int]]) -> list[I
         if level[pin] == v:
             continue
         level[pin] = v
+        if any(a <= cycle <= b for a, b in holds):
+            if cur is not None and cur.stop is None:
+                cur.cut = True
+            cur, bits = None, []
+            continue
         if pin == 1 and level[0] == 1:           # SDA moved while SCL high
             if v == 0:                           # START or repeated START
                 if cur is None or cur.stop is not None:
@@ -138,21 +155,26 @@ def decode_i2c(scl: list[tuple[int, int]], sda: list[tuple[int, int]]) -> list[I
     return out
 
 
-_INSN_RE = re.compile(r"^0x([0-9A-Fa-f]+) \S+ 0x[0-9A-Fa-f]+ ")
-_WROTE_RE = re.compile(r"^\s+Wrote: 0x([0-9A-Fa-f]+) to (\w+)\(")
+_INSN_RE = re.compile(r"^(?:\d+:\s*)?0x([0-9A-Fa-f]+) \S+ 0x[0-9A-Fa-f]+ ")
+_WROTE_RE = re.compile(r"^(?:\d+:)?\s+Wrote: 0x([0-9A-Fa-f]+) to (\w+)\(")
+_READ_RE = re.compile(r"^(?:\d+:)?\s+Read: 0x([0-9A-Fa-f]+) from (\w+)\(")
 
 
-def read_register_log(path: str | Path, names: set[str]) -> list[tuple[int, str, int]]:
+def read_register_log(path: str | Path, names: set[str],
+                      reads: bool = False) -> list[tuple[int, str, int]]:
     """``(cycle, register, value)`` for each write to one of ``names`` in a gpsim log
-    (``log on FILE`` + ``log w _REG``); names as gpsim spells them (``_TXREG``)."""
+    (``log on FILE`` + ``log w _REG``); names as gpsim spells them (``_TXREG``). With
+    ``reads``: each read instead (``log r _REG``). gpsim prefixes some lines with the
+    C source line (``994:``)."""
     out: list[tuple[int, str, int]] = []
     cycle = 0
+    access = _READ_RE if reads else _WROTE_RE
     for line in Path(path).read_text(errors="replace").splitlines():
         m = _INSN_RE.match(line)
         if m:
             cycle = int(m.group(1), 16)
             continue
-        w = _WROTE_RE.match(line)
+        w = access.match(line)
         if w and w.group(2) in names:
             out.append((cycle, w.group(2), int(w.group(1), 16)))
     return out
