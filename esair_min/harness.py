@@ -11,7 +11,7 @@ from collections import deque
 from pathlib import Path
 from typing import TextIO
 
-from .core import CentralCore
+from .core import Bus, CentralCore
 from .devices import Eeprom24, RegisterSlave, SimpleBus
 from .errors import EsairError, Mark, ProtocolError
 from .image import build_image, read_hex
@@ -19,6 +19,23 @@ from .robot import Robot
 from .trace import TraceWriter, TracingBus
 
 RX_BUFFER = 64   # bytes of the board's receive ring (as the PIC port's)
+BUS_LINES = ("bus", "sda")   # `fault bus`: SCL held low; `fault sda`: SDA held low
+
+
+class HeldBus:
+    """A bus whose SCL or SDA line can be held low (``fault bus`` / ``fault sda``): while
+    a line is held nothing reaches any device, so every transfer fails (the trace shows
+    it as not acknowledged; on the PIC each one ends in the I2C master's timeout)."""
+
+    def __init__(self, bus: Bus):
+        self.bus = bus
+        self.held: set[str] = set()        # "bus" (SCL) and/or "sda"
+
+    def write(self, addr: int, data: bytes) -> bool:
+        return not self.held and self.bus.write(addr, data)
+
+    def write_read(self, addr: int, wdata: bytes, n: int) -> bytes | None:
+        return None if self.held else self.bus.write_read(addr, wdata, n)
 
 
 class Rig:
@@ -34,7 +51,8 @@ class Rig:
         self.actuator = RegisterSlave(act.address, act.registers) if act else None
         self.sensor = RegisterSlave(sen.address, sen.registers) if sen else None
         devices = [d for d in (self.eeprom, self.actuator, self.sensor) if d is not None]
-        self.bus = TracingBus(SimpleBus(devices), self.writer)
+        self.lines = HeldBus(SimpleBus(devices))
+        self.bus = TracingBus(self.lines, self.writer)
         self.core = CentralCore(robot, self.bus, self.writer.tx)
         self.ring: deque[int] = deque()
         self.overrun = False
@@ -136,6 +154,11 @@ def run_line(rig: Rig, line: str, base: Path) -> None:
         dev = rig.device("sensor")
         assert isinstance(dev, RegisterSlave)
         dev.set_readings([_int(a, 10, "reading") for a in args])
+    elif cmd == "fault" and len(args) == 2 and args[0] in BUS_LINES and args[1] in ("on", "off"):
+        if args[1] == "on":
+            rig.lines.held.add(args[0])
+        else:
+            rig.lines.held.discard(args[0])
     elif cmd == "fault" and len(args) == 2 and args[1] in ("on", "off"):
         rig.device(args[0]).fault = args[1] == "on"
     elif cmd == "poke" and len(args) == 2:

@@ -115,7 +115,7 @@ step = st.one_of(
     st.just("tick"),
     (tips | tipping).map(lambda vs: "sensor " + " ".join(map(str, vs))),
     st.builds(lambda d, on: f"fault {d} {'on' if on else 'off'}",
-              st.sampled_from(["actuator", "sensor", "eeprom"]), st.booleans()),
+              st.sampled_from(["actuator", "sensor", "eeprom", "bus", "sda"]), st.booleans()),
     st.builds(lambda off, v: f"poke {off:X} {v:X}", st.integers(0, 1100), st.integers(0, 255)),
     st.just("boot"),
 )
@@ -131,6 +131,15 @@ def test_hypothesis_streams_same_trace(robot, firmware, tmp_path_factory, steps)
     script = "\n".join(steps) + "\n"
     path.write_text(script)
     assert_same(c_trace(firmware["plain"], path), py_trace(robot, script, path))
+
+
+@pytest.mark.parametrize("name", ["bus.txt", "bus_boot.txt"])
+def test_held_bus_scripts_same_trace(robot, firmware, name):
+    """`fault bus|sda on` (SCL/SDA held low): every transfer fails in both."""
+    path = ROOT / "tests" / "fixtures" / "gpsim" / name
+    c = c_trace(firmware["plain"], path)
+    assert sum(line.endswith(" NACK") for line in c) >= 10
+    assert_same(c, py_trace(robot, path.read_text(), path))
 
 
 def random_script(rng: random.Random, n_segments: int) -> str:
