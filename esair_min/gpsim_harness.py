@@ -13,7 +13,12 @@ become a gpsim command file generated from the model:
   the readings in its memory, else another ``i2c2par`` (every byte read returns its 8
   pins, set by pull-ups/pull-downs, so all readings are equal);
 - ``FileRecorder`` modules record SCL, SDA and the sync pin; the bus is decoded from
-  the waveforms (:mod:`esair_min.gpsim_wave`), like a logic analyser would.
+  the waveforms (:mod:`esair_min.gpsim_wave`), like a logic analyser would;
+- ``fault bus on`` / ``fault sda on`` set the SCL / SDA pull-up to 0 V: the line is held
+  low (a stuck bus, a slave holding SCL) until ``off`` puts it back at 5 V. The log also
+  records every write to SSPCON1 (the firmware's MSSP resets on an I2C timeout), every
+  read of RCREG (when each received byte was taken) and every write to PIE1 (TXIE is
+  set as each reply byte enters the transmit ring).
 
 ``tick N`` runs N tick periods of simulated time (Timer2's exact instruction count);
 ``boot`` runs until the start-up image check and the ``!READY`` line are done, then
@@ -37,6 +42,9 @@ from .robot import Robot
 from .toolchain import Toolchain, ToolchainError, run_gpsim
 
 BOOT_LEAD = 0.125          # of a tick: where the boot wait (and so every tick N) ends
+HOLD_PULLUPS = {"bus": "PSCL", "sda": "PSDA"}   # `fault bus|sda on`: this pull-up at 0 V
+SSPEN = 0x20               # SSPCON1: the MSSP on
+TXIE = 0x10                # PIE1: the transmit interrupt on
 UNUSED_ADDRESS = 0x7F      # an i2c2par moved here stops answering (fault on)
 NO_WRITE_NACK = ("gpsim 0.31's MSSP master keeps driving SDA with the last bit of a byte "
                  "during the ACK clock, so a missing device is seen as ACKing every byte "
@@ -130,6 +138,18 @@ class GpsimRun:
     sync_edges: list[tuple[int, int]]                  # (cycle, level) of the sync pin
     end_cycle: int
     replies: list[tuple[int, bytes]] = field(default_factory=list)   # (cycle of LF, line)
+    rx: list[tuple[int, int]] = field(default_factory=list)          # (cycle, byte) read from RCREG
+    bus_resets: list[int] = field(default_factory=list)   # cycles the firmware reset the MSSP
+    holds: tuple[tuple[int, int], ...] = ()                # cycles a line was held low
+    queued: list[int] = field(default_factory=list)  # cycle each TX byte entered the ring
+
+    def reply_times(self) -> list[tuple[int, bytes]]:
+        """(cycle its first byte entered the transmit ring, line) of every reply."""
+        out, at = [], 0
+        for _, line in self.replies:
+            out.append((self.queued[at], line))
+            at += len(line)
+        return out
 
     def __post_init__(self) -> None:
         line = bytearray()
@@ -149,7 +169,8 @@ class GpsimRun:
         for c, line in self.replies:
             events.append((c, 1, f"TX {line.hex().upper()}"))
         for t in self.transfers:
-            events.append((t.start, 2, t.trace_line()))
+            if t.segments:                   # a cut transfer may lack an address byte
+                events.append((t.start, 2, t.trace_line()))
         events.sort()
         return ["# esair-trace 1"] + [text for _, _, text in events]
 
@@ -164,6 +185,8 @@ class _Script:
         self.booted = False
         self.boot_end = setup.boot_cycles if boot_end is None else boot_end
         self.readings = [0] * (setup.sensor_registers // 2)
+        self.held: dict[str, int] = {}          # line -> cycle its hold began
+        self.holds: list[tuple[int, int]] = []  # (first, last) cycle of each hold
 
     def set_readings(self, values: list[int]) -> None:
         self.readings[:len(values)] = values
@@ -173,6 +196,15 @@ class _Script:
         r = self.readings
         return any(abs(sum(r[i] for i in a) - sum(r[i] for i in b)) > t
                    for a, b, t in self.setup.balances)
+
+    def hold(self, line: str, on: bool) -> None:
+        """Hold SCL (``bus``) or SDA (``sda``) low from now on, or release it."""
+        if on and line not in self.held:
+            self.held[line] = self.now
+        elif not on and line in self.held:
+            # the pull-up's edge comes one cycle after the break the script stopped at
+            self.holds.append((self.held.pop(line), self.now + 1))
+        self.lines.append(f"{HOLD_PULLUPS[line]}.voltage = {0.0 if on else 5.0}")
 
     def run_to(self, cycle: int) -> None:
         self.now = max(self.now, cycle)
@@ -199,6 +231,13 @@ def build_script(robot: Robot, stimulus: str, cod_name: str, image_name: str,
     their breakpoints there); ``epilogue``: commands run after the last stimulus line;
     ``boot_end``: the cycle the ``boot`` wait ends at (:func:`boot_end`; default
     ``GpsimSetup.boot_cycles``)."""
+    sc = _build(robot, stimulus, cod_name, image_name, after_boot, epilogue, boot_end)
+    return "\n".join(sc.lines) + "\n", sc.setup
+
+
+def _build(robot: Robot, stimulus: str, cod_name: str, image_name: str,
+           after_boot: tuple[str, ...], epilogue: tuple[str, ...],
+           boot_end: int | None) -> _Script:
     s = GpsimSetup.from_robot(robot)
     sc = _Script(s, boot_end)
     sc.lines += setup_lines(s, cod_name, image_name)
@@ -215,7 +254,8 @@ def build_script(robot: Robot, stimulus: str, cod_name: str, image_name: str,
     sc.lines += epilogue
     sc.lines += ["log off", 'FSCL.file = "/dev/null"', 'FSDA.file = "/dev/null"',
                  'FSYNC.file = "/dev/null"', "cycles", "quit"]
-    return "\n".join(sc.lines) + "\n", s
+    sc.holds += [(start, sc.now + 1) for start in sc.held.values()]   # held to the end
+    return sc
 
 
 def setup_lines(s: GpsimSetup, cod_name: str, image_name: str) -> list[str]:
@@ -261,7 +301,8 @@ def setup_lines(s: GpsimSetup, cod_name: str, image_name: str) -> list[str]:
         L += _sensor_levels(_pin_levels(0))
     L += [f"node {scl[0]}", f"node {sda[0]}", "attach " + " ".join(scl),
           "attach " + " ".join(sda), "node nsync", f"attach nsync {s.sync_pin} FSYNC.pin",
-          f"load e EE {image_name}", "log on regs.log", "log w _TXREG"]
+          f"load e EE {image_name}", "log on regs.log", "log w _TXREG",
+          "log w _SSPCON1", "log r _RCREG", "log w _PIE1"]
     return L
 
 
@@ -324,17 +365,20 @@ def _stimulus_line(sc: _Script, line: str) -> None:
             L += _address_levels(moved)
             return
         L.append(f"{name}.Slave_Address = {UNUSED_ADDRESS if args[1] == 'on' else addr:#04x}")
+    elif cmd == "fault" and len(args) == 2 and args[0] in HOLD_PULLUPS and args[1] in ("on", "off"):
+        sc.hold(args[0], args[1] == "on")
     elif cmd == "poke" and len(args) == 2:
         L.append(f"EE.eeData[{int(args[0], 16):#x}] = {int(args[1], 16):#04x}")
     elif cmd == "fault":
-        raise ProtocolError(f"{line!r}: only 'fault sensor on|off' works in gpsim; "
-                            + NO_WRITE_NACK)
+        raise ProtocolError(f"{line!r}: only 'fault sensor', 'fault bus' and 'fault sda' "
+                            "work in gpsim; " + NO_WRITE_NACK)
     else:
         raise ProtocolError(f"{line!r} is not supported by the gpsim harness (boot, rx, "
-                            "tick, sensor, fault sensor, poke)")
+                            "tick, sensor, fault sensor|bus|sda, poke)")
 
 
-def boot_end(robot: Robot, cod: Path, workdir: Path, tc: Toolchain | None = None) -> int:
+def boot_end(robot: Robot, cod: Path, workdir: Path, tc: Toolchain | None = None,
+             lead: float = BOOT_LEAD) -> int:
     """The cycle the ``boot`` wait ends at, so the reactions poll on the same ticks as in
     the Python core, and a script line after a ``tick`` comes early in a tick period.
 
@@ -344,8 +388,9 @@ def boot_end(robot: Robot, cod: Path, workdir: Path, tc: Toolchain | None = None
     short gpsim run of the boot alone finds the ticks: the sync pin rises at a tick
     only if the previous one was served (it stays high during the image check), so
     tick 1 is the first rising edge and Timer2 is exactly periodic. The wait then ends
-    ``BOOT_LEAD`` of a tick after a tick, so every ``tick N`` ends there too and bytes
-    received next are decoded before the next tick if they fit in the rest of it.
+    ``lead`` of a tick (default ``BOOT_LEAD``) after a tick, so every ``tick N`` ends
+    there too and bytes received next are decoded before the next tick if they fit in
+    the rest of it.
     Without reactions: ``GpsimSetup.boot_cycles`` (no run)."""
     s = GpsimSetup.from_robot(robot)
     if s.poll_period == 1:
@@ -359,29 +404,40 @@ def boot_end(robot: Robot, cod: Path, workdir: Path, tc: Toolchain | None = None
         raise ToolchainError("no tick (sync rising edge) during the boot wait")
     done = (s.boot_cycles - rises[0]) // s.tick_cycles + 1      # ticks by boot_cycles
     n = done + -done % s.poll_period
-    return rises[0] + (n - 1) * s.tick_cycles + int(BOOT_LEAD * s.tick_cycles)
+    return rises[0] + (n - 1) * s.tick_cycles + int(lead * s.tick_cycles)
 
 
 def run_stimulus(robot: Robot, stimulus: str, cod: Path, workdir: Path,
-                 tc: Toolchain | None = None, timeout: float = 120.0) -> GpsimRun:
-    """Run ``stimulus`` on the central firmware ``cod`` (a .cod file) in ``workdir``."""
+                 tc: Toolchain | None = None, timeout: float = 120.0,
+                 lead: float = BOOT_LEAD) -> GpsimRun:
+    """Run ``stimulus`` on the central firmware ``cod`` (a .cod file) in ``workdir``;
+    ``lead``: see :func:`boot_end`."""
     workdir.mkdir(parents=True, exist_ok=True)
     cod_rel = Path(cod).resolve()
-    end = boot_end(robot, cod_rel, workdir / "boot", tc)
+    end = boot_end(robot, cod_rel, workdir / "boot", tc, lead)
     write_hex(build_image(robot), workdir / "image.hex")
-    script, _setup = build_script(robot, stimulus, str(cod_rel), "image.hex", boot_end=end)
+    sc = _build(robot, stimulus, str(cod_rel), "image.hex", (), (), end)
+    script = "\n".join(sc.lines) + "\n"
     out = run_gpsim(script, workdir, timeout=timeout, tc=tc, script_name="harness.stc")
     if "***ERROR" in out:
         raise ToolchainError("gpsim rejected a command:\n" + "\n".join(
             line for line in out.splitlines() if "ERROR" in line or "while parsing" in line))
     ends = re.findall(r"(\d+) = 0x[0-9A-Fa-f]+\s*$", out, re.M)
-    tx = [(c, v) for c, _, v in read_register_log(workdir / "regs.log", {"_TXREG"})]
-    transfers = decode_i2c(read_edges(workdir / "scl.txt"), read_edges(workdir / "sda.txt"))
-    if transfers and transfers[-1].stop is None:
+    log = workdir / "regs.log"
+    tx = [(c, v) for c, _, v in read_register_log(log, {"_TXREG"})]
+    holds = tuple(sc.holds)
+    transfers = decode_i2c(read_edges(workdir / "scl.txt"), read_edges(workdir / "sda.txt"),
+                           holds)
+    if transfers and transfers[-1].stop is None and not transfers[-1].cut:
         transfers.pop()          # cut by the end of the run
     return GpsimRun(output=out, tx=tx, transfers=transfers,
                     sync_edges=read_edges(workdir / "sync.txt"),
-                    end_cycle=int(ends[-1]) if ends else 0)
+                    end_cycle=int(ends[-1]) if ends else 0,
+                    rx=[(c, v) for c, _, v in read_register_log(log, {"_RCREG"}, reads=True)],
+                    bus_resets=[c for c, _, v in read_register_log(log, {"_SSPCON1"})
+                                if not v & SSPEN],
+                    holds=holds,
+                    queued=[c for c, _, v in read_register_log(log, {"_PIE1"}) if v & TXIE])
 
 
 def _normalise(line: str) -> str:
@@ -410,18 +466,28 @@ def projections(lines: list[str], eeprom: int, actuator: int | None,
     return out
 
 
-def compare(python_trace: list[str], gpsim_trace: list[str], setup: GpsimSetup) -> list[str]:
+def compare(python_trace: list[str], gpsim_trace: list[str], setup: GpsimSetup,
+            held: bool = False) -> list[str]:
     """Differences between the two traces, one message per part; [] when they agree.
 
     UART lines, actuator writes and EEPROM reads must be equal in order. Sensor reads
     must be equal in content; gpsim may have a few more: the firmware's Timer2 runs
     from reset, so ticks pass during the image check and the ``boot`` wait (the
     Python core counts ticks from the end of ``boot``), and polls fall on every
-    ``poll_ticks``-th tick."""
+    ``poll_ticks``-th tick.
+
+    ``held``: the script held a bus line (``fault bus|sda``). Failed transfers (NACK
+    lines) are then left out on both sides: while a line is held the PIC's START is
+    refused (nothing on the wire) or its transfer is cut, while the Python core lists
+    every transfer it tried as not acknowledged. The replies say which failed."""
     a = projections(python_trace, setup.eeprom_address, setup.actuator_address,
                     setup.sensor_address)
     b = projections(gpsim_trace, setup.eeprom_address, setup.actuator_address,
                     setup.sensor_address)
+    if held:
+        for part in (a, b):
+            for key in ("actuator", "eeprom", "sensor"):
+                part[key] = [line for line in part[key] if not line.endswith(" NACK")]
     diffs = []
     for key in ("uart", "actuator", "eeprom"):
         if a[key] != b[key]:

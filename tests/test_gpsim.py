@@ -180,8 +180,9 @@ def test_decode_i2c_write_then_read_with_gpsim_repeated_start():
 
 
 def test_write_nack_faults_are_refused_with_the_reason(robot):
-    with pytest.raises(ProtocolError, match="only 'fault sensor on|off' works in gpsim; "
-                                            "gpsim 0.31's MSSP master keeps driving SDA"):
+    with pytest.raises(ProtocolError, match="only 'fault sensor', 'fault bus' and 'fault sda' "
+                                            "work in gpsim; gpsim 0.31's MSSP master keeps "
+                                            "driving SDA"):
         build_script(robot, "boot\nfault actuator on\n", "fw.cod", "image.hex")
 
 
