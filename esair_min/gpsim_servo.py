@@ -69,9 +69,11 @@ def recorder_lines(robot: Robot) -> list[str]:
     return lines
 
 
-def flush_lines(robot: Robot) -> list[str]:
-    """gpsim commands that close the recordings (run them before reading them)."""
-    return [f'FR{s.index}.file = "/dev/null"' for s in robot.servos]
+def flush_lines(robot: Robot, then: str | None = None) -> list[str]:
+    """gpsim commands that close the recordings (run them before reading them); with
+    ``then``, recording goes on in ``<then><i>.txt``."""
+    return [f'FR{s.index}.file = "{"/dev/null" if then is None else f"{then}{s.index}.txt"}"'
+            for s in robot.servos]
 
 
 def read_pulses(robot: Robot, angles: list[int], workdir: Path, after: int,
