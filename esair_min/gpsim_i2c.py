@@ -83,8 +83,8 @@ class GpsimSession:
     def __exit__(self, *exc) -> None:
         self.close()
 
-    def _fail(self, message: str) -> ToolchainError:
-        self.close()
+    def _fail(self, message: str, kill: bool = False) -> ToolchainError:
+        self.close(kill)
         return ToolchainError(message)
 
     def command(self, *lines: str) -> list[str]:
@@ -117,7 +117,8 @@ class GpsimSession:
             if not chunk:
                 what = "exited" if ready else f"timed out after {self.timeout} s"
                 tail = self._buf.decode("latin-1").splitlines()[-12:]
-                raise self._fail(f"gpsim {what} during: {_brief(lines)}\n" + "\n".join(tail))
+                raise self._fail(f"gpsim {what} during: {_brief(lines)}\n" + "\n".join(tail),
+                                 kill=True)
             self._buf += chunk
         out = [x for x in text.decode("latin-1").splitlines()
                if not x.startswith(_NOISE) and not x.startswith("**gpsim>")]
@@ -194,8 +195,9 @@ class GpsimSession:
                 return int(m.group(2), 0)
         raise ToolchainError(f"gpsim printed no value for {name!r}: {lines[-3:]}")
 
-    def close(self) -> None:
-        """Quit gpsim (killed if it does not exit at once); idempotent."""
+    def close(self, kill: bool = False) -> None:
+        """Quit gpsim (killed at once with ``kill``, or if it does not exit within
+        2 s); idempotent."""
         proc, self._proc = self._proc, None
         if proc is None:
             return
@@ -205,7 +207,7 @@ class GpsimSession:
         except (BrokenPipeError, OSError, ValueError):
             pass
         try:
-            proc.wait(timeout=2.0)
+            proc.wait(timeout=0.0 if kill else 2.0)
         except subprocess.TimeoutExpired:
             proc.kill()
             proc.wait()
@@ -362,8 +364,6 @@ class I2cMaster:
     def start(self) -> None:
         """START on an idle bus (both lines must read high)."""
         s, t = self.session, self.timing
-        if self._tail is not None:
-            raise I2cBusError("START inside a transfer: use repeated_start")
         scl, sda = self.levels(s.command(*self._reads))
         if not (scl and sda):
             raise I2cBusError(f"bus not idle at cycle {s.now} (SCL={scl}, SDA={sda}): "

@@ -208,7 +208,6 @@ def test_missing_slave_and_stuck_lines_are_errors(robot, sensor_cod, tmp_path):
         assert master.write_registers(0x7F, 0, b"\x01") == [False]
         with pytest.raises(I2cBusError, match="no ACK from 0x7F for the address"):
             master.read_registers(0x7F, 0, 2)
-        master.stretch_limit = 300
         session.command("module load pullup PSTUCK", "PSTUCK.resistance = 100",
                         "PSTUCK.voltage = 0.0", "attach nsda PSTUCK.pin",
                         "module load pullup PHOLD", "PHOLD.resistance = 100",
@@ -216,6 +215,16 @@ def test_missing_slave_and_stuck_lines_are_errors(robot, sensor_cod, tmp_path):
         with pytest.raises(I2cBusError, match=r"bus not idle at cycle \d+ \(SCL=1, SDA=0\): "
                                               "cannot send START"):
             master.start()
+        master.stretch_limit = 300
+        session.command("PSTUCK.voltage = 5.0")
+        master.start()
+        session.command("PSTUCK.voltage = 0.0")
+        with pytest.raises(I2cBusError, match=r"SDA held low at cycle \d+: cannot send a "
+                                              "repeated START"):
+            master.repeated_start()
+        with pytest.raises(I2cBusError, match=r"bus not released after STOP at cycle \d+ "
+                                              r"\(SCL=1, SDA=0\)"):
+            master.stop()
         session.command("PSTUCK.resistance = 10000000")
         master.start()
         session.command("PHOLD.voltage = 0.0")
@@ -224,3 +233,42 @@ def test_missing_slave_and_stuck_lines_are_errors(robot, sensor_cod, tmp_path):
                                               "slave stretches the clock without end or the "
                                               "line is stuck low"):
             master.write(robot.sensor_board.i2c.address << 1)
+
+
+def test_session_errors_name_the_cause_and_end_gpsim(robot, sensor_cod, tmp_path):
+    board = robot.sensor_board
+    with GpsimSession(tmp_path, timeout=60).start(sensor_cod, board.mcu.clock_hz) as s:
+        with pytest.raises(ToolchainError, match=r"gpsim rejected a command \(nosuch\): "
+                                                 r"\*\*\*ERROR"):
+            s.command("nosuch")
+        with pytest.raises(ToolchainError, match="gpsim session is not running"):
+            s.command("cycles")
+    with GpsimSession(tmp_path, timeout=60).start(sensor_cod, board.mcu.clock_hz) as s:
+        s.command("break e _hal_idle")           # a stop that is not the cycle asked for
+        with pytest.raises(ToolchainError, match=r"gpsim did not stop where expected "
+                                                 r"\(cycles \[100000\]\)"):
+            s.run_to(100_000)
+    with GpsimSession(tmp_path, timeout=60).start(sensor_cod, board.mcu.clock_hz) as s:
+        with pytest.raises(ToolchainError, match="gpsim exited during: quit"):
+            s.command("quit")
+    with GpsimSession(tmp_path, timeout=1.0).start(sensor_cod, board.mcu.clock_hz) as s:
+        with pytest.raises(ToolchainError, match=r"gpsim timed out after 1\.0 s during: "
+                                                 r"break c 500000000; run"):
+            s.run_to(500_000_000)                # 100 s of PIC time: far beyond 1 s
+        assert s._proc is None                   # killed, not left running
+    with pytest.raises(ToolchainError, match=r"gpsim printed no value for 'portc'"):
+        s.value("portc", ["_PORTB = 0x0"])
+    with pytest.raises(ToolchainError, match="pin 'SCL' is not a port pin"):
+        I2cMaster(s, I2cTiming.for_speed(100_000, 5_000_000), scl="SCL")
+
+
+def test_pulse_reading_errors(robot, tmp_path):
+    (tmp_path / "servo0.txt").write_text("0 0\n100 1\n")
+    with pytest.raises(ToolchainError, match=r"servo 0 \(RD0\): no complete pulse in the "
+                                             r"60 ms after the latch"):
+        gpsim_servo.read_pulses(robot, [90] * len(robot.servos), tmp_path, 0)
+
+    class NoActuator:
+        actuator = None
+    with pytest.raises(ToolchainError, match="the robot has no actuator board with a sync pin"):
+        gpsim_servo.recorder_lines(NoActuator())
