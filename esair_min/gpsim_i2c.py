@@ -8,7 +8,8 @@ line is a node with a ``pullup`` module on it; ``P.voltage = 0.0`` pulls the lin
 ``P.voltage = 5.0`` releases it (the PIC's own open-drain low still wins), and the
 ``portc`` command reads the pin levels, so the master sees the slave's ACKs, its data
 and its clock stretching. Between two bus moves the simulation runs to an exact
-instruction cycle (``break c N`` + ``run``), so the bus timing is exact to a cycle.
+instruction cycle (``break c N`` + ``run``), so the bus timing is exact to an
+instruction (gpsim stops between instructions: 1 or 2 cycles).
 
 :class:`GpsimSession` is the session (start, command, run_to, close; a wall-clock
 deadline, the process always killed); :class:`I2cMaster` drives the bus with the
@@ -28,6 +29,7 @@ import subprocess
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Self
 
 from .gpsim_harness import _gpsim_pin
 from .toolchain import _NOISE, Toolchain, ToolchainError, find_toolchain
@@ -77,7 +79,7 @@ class GpsimSession:
                      f"frequency {clock_hz}", "module library libgpsim_modules.so.0")
         return self
 
-    def __enter__(self) -> GpsimSession:
+    def __enter__(self) -> Self:
         return self
 
     def __exit__(self, *exc) -> None:
@@ -105,11 +107,12 @@ class GpsimSession:
         fd = proc.stdout.fileno()
         end = b"\n" + marker + b"\n"
         while True:
+            if self._buf.startswith(marker + b"\n"):
+                text, self._buf = b"", self._buf[len(marker) + 1:]
+                break
             at = self._buf.find(end)
-            if at >= 0 or self._buf.startswith(marker + b"\n"):
-                text, self._buf = self._buf[:max(at, 0)], self._buf[max(at, 0) + len(end):]
-                if at < 0:
-                    text, self._buf = b"", self._buf[len(marker):]
+            if at >= 0:
+                text, self._buf = self._buf[:at], self._buf[at + len(end):]
                 break
             left = self._deadline - time.monotonic()
             ready = select.select([fd], [], [], left)[0] if left > 0 else []
@@ -216,10 +219,10 @@ class GpsimSession:
 
 # I2C specification UM10204, table 10: minimum times in seconds (hd_dat: the 300 ns
 # a device needs to bridge SCL's undefined falling region).
-_STANDARD = dict(low=4.7e-6, high=4.0e-6, su_sta=4.7e-6, hd_sta=4.0e-6, su_sto=4.0e-6,
-                 buf=4.7e-6, su_dat=250e-9, hd_dat=300e-9)
-_FAST = dict(low=1.3e-6, high=0.6e-6, su_sta=0.6e-6, hd_sta=0.6e-6, su_sto=0.6e-6,
-             buf=1.3e-6, su_dat=100e-9, hd_dat=300e-9)
+_STANDARD = {"low": 4.7e-6, "high": 4.0e-6, "su_sta": 4.7e-6, "hd_sta": 4.0e-6,
+             "su_sto": 4.0e-6, "buf": 4.7e-6, "su_dat": 250e-9, "hd_dat": 300e-9}
+_FAST = {"low": 1.3e-6, "high": 0.6e-6, "su_sta": 0.6e-6, "hd_sta": 0.6e-6,
+         "su_sto": 0.6e-6, "buf": 1.3e-6, "su_dat": 100e-9, "hd_dat": 300e-9}
 
 
 @dataclass(frozen=True)

@@ -248,13 +248,13 @@ def test_session_errors_name_the_cause_and_end_gpsim(robot, sensor_cod, tmp_path
         with pytest.raises(ToolchainError, match=r"gpsim did not stop where expected "
                                                  r"\(cycles \[100000\]\)"):
             s.run_to(100_000)
-    with GpsimSession(tmp_path, timeout=60).start(sensor_cod, board.mcu.clock_hz) as s:
-        with pytest.raises(ToolchainError, match="gpsim exited during: quit"):
-            s.command("quit")
-    with GpsimSession(tmp_path, timeout=1.0).start(sensor_cod, board.mcu.clock_hz) as s:
-        with pytest.raises(ToolchainError, match=r"gpsim timed out after 1\.0 s during: "
-                                                 r"break c 500000000; run"):
-            s.run_to(500_000_000)                # 100 s of PIC time: far beyond 1 s
+    with (GpsimSession(tmp_path, timeout=60).start(sensor_cod, board.mcu.clock_hz) as s,
+          pytest.raises(ToolchainError, match="gpsim exited during: quit")):
+        s.command("quit")
+    with GpsimSession(tmp_path, timeout=2.0).start(sensor_cod, board.mcu.clock_hz) as s:
+        with pytest.raises(ToolchainError, match=r"gpsim timed out after 2\.0 s during: "
+                                                 r"break c 2000000000; run"):
+            s.run_to(2_000_000_000)              # 400 s of PIC time: far beyond 2 s
         assert s._proc is None                   # killed, not left running
     with pytest.raises(ToolchainError, match=r"gpsim printed no value for 'portc'"):
         s.value("portc", ["_PORTB = 0x0"])
