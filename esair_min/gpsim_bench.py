@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import re
 import statistics
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from .gpsim_harness import GpsimRun, GpsimSetup, _Script, _stimulus_line, setup_lines
@@ -164,13 +164,17 @@ def _pair(hits: list[Hit], entry: int, exits: set[int]) -> list[Interval]:
 
 @dataclass(frozen=True)
 class DecoderFigures:
-    chars: list[int]          # cycles of each byte that does not end a line (CR, LF)
+    chars: list[int]          # cycles of each byte that does not end a line (CR, LF),
+                              # no interrupt inside (see interrupted_chars)
     slow_chars: int           # how many of those took the slow path (none: CR and LF only)
     line_ends: list[tuple[str, int]]   # (the line, cycles of its terminator byte)
     slow_ends: int            # how many line ends went to core_rx_end (the slow path)
     isr: list[int]            # cycles of every ISR run
     isr_tick: list[int]       # cycles of the ISR runs that handled a Timer2 tick
     total_bytes: int
+    # such bytes left out of chars: an interrupt ran inside, and its span from the
+    # vector to RETFIE misses its entry and return (a cycle or two more than the byte)
+    interrupted_chars: int = 0
 
     @property
     def all_bytes(self) -> list[int]:
@@ -253,26 +257,29 @@ def measure_decoder(robot: Robot, stimulus: str, cod: Path, lst: Path, workdir: 
     sync_up = [c for c, v in read_edges(workdir / "sync.txt") if v == 1 and c > 0]
     tick_isrs = [i for i in isrs if any(i.start <= c <= i.end for c in sync_up)]
 
-    def net(call: Interval) -> int:
-        inner = sum(i.end - i.start for i in isrs if call.start <= i.start and i.end <= call.end)
-        return call.end - call.start - inner
+    def inside(call: Interval) -> list[Interval]:
+        return [i for i in isrs if call.start <= i.start and i.end <= call.end]
 
-    chars, ends, line, slow_chars, slow_ends = [], [], bytearray(), 0, 0
+    chars, ends, line, slow_chars, slow_ends, interrupted = [], [], bytearray(), 0, 0, 0
     for b, call, took_slow in zip(stream, calls, slow):
-        cycles = net(call)
+        inner = inside(call)
+        cycles = call.end - call.start - sum(i.end - i.start for i in inner)
         if b in (0x0A, 0x0D):
             ends.append((line.decode("latin-1") + ("\\r" if b == 0x0D else "\\n"), cycles))
             line.clear()
             slow_ends += took_slow
         else:
             line.append(b)
-            chars.append(cycles)
+            if inner:
+                interrupted += 1
+            else:
+                chars.append(cycles)
             slow_chars += took_slow
     return DecoderFigures(chars=chars, slow_chars=slow_chars, line_ends=ends,
                           slow_ends=slow_ends,
                           isr=[i.end - i.start for i in isrs],
                           isr_tick=[i.end - i.start for i in tick_isrs],
-                          total_bytes=len(stream))
+                          total_bytes=len(stream), interrupted_chars=interrupted)
 
 
 @dataclass(frozen=True)
@@ -281,15 +288,21 @@ class FrameTiming:
     to_stop: list[int]        # sync rising edge -> STOP
     write: list[int]          # START -> STOP of each full-frame write
     read: list[int]           # START -> STOP of each frame read from the EEPROM
+    # to_last_byte of the writes that come one tick after the previous one: frames of
+    # a motion played a frame per tick (the others wait for a command's own work)
+    played: list[int] = field(default_factory=list)
 
 
-def frame_timing(run: GpsimRun, actuator: int, eeprom: int, frame_bytes: int) -> FrameTiming:
+def frame_timing(run: GpsimRun, actuator: int, eeprom: int, frame_bytes: int,
+                 tick_cycles: int = 0) -> FrameTiming:
     """Each full-frame write to the actuator (register byte + ``frame_bytes``): cycles
     since the latest rising edge of the sync pin, and the bus time of each write and of
     each frame-sized EEPROM read. When a tick's work overruns the next tick, the sync
-    pin stays high and the delay spans several ticks."""
+    pin stays high and the delay spans several ticks. With ``tick_cycles``, the writes
+    within a quarter tick of one tick after the previous write are also in ``played``."""
     ups = [c for c, v in run.sync_edges if v == 1 and c > 0]
-    last, stops, writes, reads = [], [], [], []
+    last, stops, writes, reads, played = [], [], [], [], []
+    prev = None
     for t in run.transfers:
         if not t.segments or t.stop is None:
             continue
@@ -303,7 +316,11 @@ def frame_timing(run: GpsimRun, actuator: int, eeprom: int, frame_bytes: int) ->
         if edge is not None:
             last.append(t.last_byte_end - edge)
             stops.append(t.stop - edge)
-    return FrameTiming(last, stops, writes, reads)
+            if (tick_cycles and prev is not None
+                    and abs(t.start - prev - tick_cycles) < tick_cycles // 4):
+                played.append(t.last_byte_end - edge)
+        prev = t.start
+    return FrameTiming(last, stops, writes, reads, played)
 
 
 def describe(values: list[int]) -> str:

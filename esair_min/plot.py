@@ -2,8 +2,9 @@
 
 The trace's ``W`` lines to the actuator board's address are decoded into register
 writes. The plot shows **simulated servo positions**: the register map is replayed
-through the emulator's servo model tick by tick (latched on the sync tick after the
-write, then moved by *speed* degrees per tick toward the target, 0 = at once), exactly
+through the emulator's servo model tick by tick (latched at the sync edge that follows
+the tick's writes, then moved by *speed* degrees per tick toward the target, 0 = at
+once), exactly
 as the emulated actuator board moves. With ``targets=True`` the decoded targets are
 drawn too, as dashed steps. ``!R`` notices (reactions firing) are marked.
 """
@@ -72,10 +73,10 @@ def replay(robot: Robot, ev: TraceEvents) -> tuple[list[int], list[list[int]], l
         moving = bank.angles != bank.targets
         if k > ev.last_tick and (not moving or k > ev.last_tick + TAIL_TICKS):
             break
-        bank.latch(regs)          # sync pin: latch what was written during the last tick
-        bank.step()
         for payload in ev.writes.get(k, []):
             _apply(regs, payload)
+        bank.latch(regs)          # sync pin: latch what this tick wrote
+        bank.step()
         ticks.append(k)
         pos.append(list(bank.angles))
         tgt.append(list(bank.targets))

@@ -152,12 +152,14 @@ def test_motor_command_moves_servo_at_its_speed(robot):
     emu = booted(robot)
     assert emu.command("oaf120") == ["OK"]           # motor a, speed f = 5, 120 degrees
     assert emu.core.targets[0] == 120
+    # latched at the sync edge after the write (the reply came at that tick), then 5
+    # degrees per tick
+    assert emu.servo_angles[0] == 95
     seen = []
     for _ in range(8):
         emu.run_until(emu._tick_time(emu.ticks + 1))
         seen.append(emu.servo_angles[0])
-    # latched at the sync tick after the write, then 5 degrees per tick
-    assert seen == [95, 100, 105, 110, 115, 120, 120, 120]
+    assert seen == [100, 105, 110, 115, 120, 120, 120, 120]
     assert emu.servo_targets[0] == 120
 
 

@@ -39,7 +39,7 @@ DECODER_CHAR_MEAN = 32           # measured 31.6
 DECODER_LF_SWALLOWED = 60        # measured 60: overrun flag taken, core_rx_end, back
 TIMER2_ISR_WORST = 120           # measured 81 alone, 116 when a reply byte is served too
 ANY_ISR_WORST = 120              # measured 116 (TX with the 80-byte ring's wrap)
-TICK_TO_LAST_BYTE = 13_200       # measured 12_744 (2.55 ms) when no earlier tick overran
+TICK_TO_LAST_BYTE = 14_300       # dance frames: measured 12_761..13_893 (2.55..2.78 ms)
 FRAME_WRITE = 13_200             # measured 12_770: START..STOP of 1 + 25 bytes (wire 26 x 9 x 52)
 FRAME_READ = 14_600              # measured 14_157: 3 bytes, repeated START, 24 bytes read
 PULSE_ERROR = 0.01               # servo pulse width vs the commanded angle; measured <= 0.11 %
@@ -89,10 +89,14 @@ def test_compare_reports_a_changed_reply_and_a_changed_servo_byte(robot, scenari
 
 
 def test_frame_timing_on_the_bus(robot, scenario_run):
-    timing = frame_timing(scenario_run, 0x10, 0x50, 24)
+    timing = frame_timing(scenario_run, 0x10, 0x50, 24, GpsimSetup.from_robot(robot).tick_cycles)
     assert len(timing.write) > 40 and len(timing.read) > 30
-    # the wire alone needs 26 bytes x 9 bits x 50 cycles (100 kHz at 5 MIPS)
-    assert 26 * 9 * 50 < min(timing.to_last_byte) <= TICK_TO_LAST_BYTE
+    # the wire alone needs 26 bytes x 9 bits x 50 cycles (100 kHz at 5 MIPS); every
+    # frame of the dance (a frame per tick) starts at its tick: its angles were checked
+    # when it was read, and a poll tick's overrun delays the next by ~1 300 cycles
+    assert len(timing.played) >= 30
+    assert 26 * 9 * 50 < min(timing.to_last_byte) <= min(timing.played)
+    assert max(timing.played) <= TICK_TO_LAST_BYTE
     assert max(timing.write) <= FRAME_WRITE
     assert max(timing.read) <= FRAME_READ
     assert all(s > b for s, b in zip(timing.to_stop, timing.to_last_byte))
@@ -132,7 +136,9 @@ def test_frame_slips_counts_lost_ticks():
 def test_decoder_and_isr_cycle_ceilings(robot, central, tmp_path):
     _, cod, lst = central
     figures = measure_decoder(robot, SCENARIO.read_text(), cod, lst, tmp_path)
-    assert len(figures.chars) + len(figures.line_ends) == figures.total_bytes == 197
+    assert (len(figures.chars) + figures.interrupted_chars + len(figures.line_ends)
+            == figures.total_bytes == 197)
+    assert figures.interrupted_chars <= 3
     assert figures.slow_chars == 0 and figures.slow_ends == len(figures.line_ends) == 26
     assert max(figures.chars) <= DECODER_CHAR_WORST <= DECODER_GOAL
     assert sum(figures.chars) / len(figures.chars) <= DECODER_CHAR_MEAN

@@ -38,7 +38,7 @@ def test_replay_follows_the_servo_model(robot, dance_trace):
     assert len(ev.writes) == 1 + 32          # the motor command, then 32 dance frames
     ticks, pos, tgt = replay(robot, ev)
     motor_tick = min(ev.writes)
-    k = ticks.index(motor_tick + 1)
+    k = ticks.index(motor_tick)             # latched at the edge after the write
     assert [p[0] for p in pos[k:k + 6]] == [95, 100, 105, 110, 115, 120]
     assert tgt[-1] == list(robot.motion("dance").frames[-1].angles) == pos[-1]
 

@@ -7,8 +7,8 @@ The central board runs :class:`~esair_min.core.CentralCore` over emulated periph
   to the 24LC256 holding the generated motion image, the actuator board's register map
   and the sensor board's register map;
 - Timer2, ticking at the computed period (``robot.central.timer2.period_s``): each tick
-  pulses the sync pin (the actuator board latches its registers and steps its servos),
-  then the core's ``tick()`` runs.
+  runs the core's ``tick()``, then drops the sync pin (the actuator board latches its
+  registers and steps its servos), as the PIC port does after the tick's writes.
 
 The superloop feeds received bytes to the core whenever it is ready and the CPU is not
 busy on the bus: a byte that arrives during an I2C transfer is handled when it ends.
@@ -274,7 +274,7 @@ class Emulator:
 
     @property
     def servo_targets(self) -> list[int]:
-        """Targets latched by the actuator board (one sync tick after the write)."""
+        """Targets latched by the actuator board (at the sync edge after the write)."""
         return self.actuator.targets if self.actuator else []
 
     @property
@@ -312,12 +312,12 @@ class Emulator:
         k = self.ticks + 1
         self.ticks = k
         self.clock.schedule(self._tick_time(k + 1), self._tick)
-        if self.actuator is not None:
-            self.actuator.sync()
         if self.trace is not None:
             self._mark_cursor()
             self.trace.tick(k)
         self.core.tick()
+        if self.actuator is not None:
+            self.actuator.sync()        # the falling edge, after the tick's writes
         self._feed()
 
     def _rx_mode(self) -> int:
