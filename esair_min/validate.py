@@ -130,6 +130,13 @@ class _Checker:
             if i2c.devices:
                 self.fail(b, ("i2c", "devices"), "an I2C slave has no 'devices' (only a "
                           "master talks to devices)", key=True)
+            byte = hardware.i2c_byte_cycles(b.mcu.clock_hz, i2c.speed_hz)
+            if byte < hardware.SLAVE_BYTE_CYCLES:
+                self.fail(b, ("i2c", "speed_hz"), f"at {i2c.speed_hz} Hz a byte lasts "
+                          f"{byte} instruction cycles at {b.mcu.clock_hz} Hz, fewer than the "
+                          f"{hardware.SLAVE_BYTE_CYCLES} the generated I2C slave needs to take "
+                          "one (measured in gpsim); use speed_hz: 100000 on every board, or "
+                          "a faster clock_hz")
             return
         if i2c.address is not None:
             self.fail(b, ("i2c", "address"), "an I2C master has no own 'address'; remove it",
@@ -271,9 +278,12 @@ class _Checker:
         have_s = motion.delay_ticks * t2.period_s
         if need_s <= have_s:
             return
+        slaves = [b for b in (actuator, sensor) if b is not None]
         fixes = [f"speed_hz: {hz} on every board" for hz in (100_000, 400_000) if hz > speed and
                  hardware.i2c_master_setting(central.mcu.clock_hz, hz) is not None
-                 and load.seconds(hz) * hardware.FIRMWARE_BUS_OVERHEAD <= have_s]
+                 and load.seconds(hz) * hardware.FIRMWARE_BUS_OVERHEAD <= have_s
+                 and all(hardware.i2c_byte_cycles(b.mcu.clock_hz, hz)
+                         >= hardware.SLAVE_BYTE_CYCLES for b in slaves)]
         ticks = math.ceil(need_s / t2.period_s)
         fixes.append(f"delay_ticks: {ticks} for motion '{motion.name}'")
         poll = f" + sensor poll {load.poll}" if load.poll else ""

@@ -36,7 +36,7 @@ EXPECTED = {
     "ambiguous_play":
         "tests/fixtures/bad/ambiguous_play/central.yaml:38:29: command 'sit' (prefix 'PLY01', 5-char lines) is ambiguous with 'play' (prefix 'PLY', 5-char lines): one line would match both; change one prefix",
     "bus_too_slow":
-        "tests/fixtures/bad/bus_too_slow/central.yaml:20:13: I2C at 100000 Hz is too slow for motion 'dance' (a frame every tick, 6.00 ms): frame write 236 + next frame read 255 + sensor poll 174 bit times = 6.65 ms, 7.65 ms with the PIC master's overhead; use speed_hz: 400000 on every board or delay_ticks: 2 for motion 'dance'",
+        "tests/fixtures/bad/bus_too_slow/central.yaml:21:13: I2C at 100000 Hz is too slow for motion 'dance' (a frame every tick, 6.00 ms): frame write 236 + next frame read 255 + sensor poll 174 bit times = 6.65 ms, 7.65 ms with the PIC master's overhead; use delay_ticks: 2 for motion 'dance'",
     "bad_device_kind":
         "tests/fixtures/bad/bad_device_kind/central.yaml:23:14: 'kind' must be 'eeprom' or 'board', not text 'eprom' (did you mean 'eeprom'?)",
     "bad_name":
@@ -199,6 +199,8 @@ EXPECTED = {
         "tests/fixtures/bad/wrong_type_i2c/sensor.yaml:10:6: 'i2c' must be a mapping of keys, not text 'slave 0x20'",
     "wrong_type_yes_no":
         "tests/fixtures/bad/wrong_type_yes_no/sensor.yaml:15:43: 'group' must be text, not true (YAML reads unquoted yes/no/on/off/true/false as true/false: quote it)",
+    "slave_too_slow":
+        "tests/fixtures/bad/slave_too_slow/actuator.yaml:14:13: at 400000 Hz a byte lasts 112 instruction cycles at 20000000 Hz, fewer than the 180 the generated I2C slave needs to take one (measured in gpsim); use speed_hz: 100000 on every board, or a faster clock_hz",
     "yaml_syntax":
         "tests/fixtures/bad/yaml_syntax/central.yaml:5:5: YAML syntax error: expected ',' or '}', but got ':'",
     "yaml_tab":
