@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 from codegen import generate_robot
-from esair_min.build import BuildError, build_board, toolchain
+from esair_min.build import build_board, toolchain
 from esair_min.errors import ProtocolError
 from esair_min.gpsim_bench import (drain_loop, frame_slips, frame_timing, function_spans,
                                    measure_decoder, parse_hits)
@@ -46,16 +46,9 @@ PULSE_ERROR = 0.01               # servo pulse width vs the commanded angle; mea
 
 
 @pytest.fixture(scope="module")
-def central(robot, tmp_path_factory):
+def central(pic_firmware):
     """The generated central firmware, built for the PIC: (folder, cod, lst)."""
-    try:
-        tc = toolchain()
-    except BuildError as exc:
-        pytest.fail(str(exc), pytrace=False)
-    out = tmp_path_factory.mktemp("fw")
-    generate_robot(robot, out)
-    folder = out / "central"
-    build_board(folder, tc)
+    folder = pic_firmware("central")
     return folder, folder / "build-pic" / "firmware.cod", folder / "build-pic" / "firmware.lst"
 
 

@@ -15,8 +15,6 @@ from pathlib import Path
 
 import pytest
 
-from codegen import generate_robot
-from esair_min.build import BuildError, build_board, toolchain
 from esair_min.errors import ProtocolError
 from esair_min.gpsim_harness import (GpsimRun, GpsimSetup, build_script, compare, projections,
                                      run_stimulus)
@@ -39,23 +37,16 @@ STAND = "W 10 005A145A145A145A145A145A145A145A145A145A145A145A14 ACK"
 # reply's first byte entering the transmit ring.
 TIMEOUT_MIN = 8192             # the SSPIF countdown: 4 x 256 polls of 8 cycles
 HELD_WRITE_E10 = 38_800        # `t`: waits for the tick, then the START times out; measured 37_625
-BUS_COMMAND_E10 = 13_400       # PLY01, s, DNC: the read at once times out; measured 12_962 (DNC)
+BUS_COMMAND_E10 = 13_400       # PLY01, s, DNC: the read at once times out; measured 13_035 (DNC)
 NO_BUS_REPLY = 3_100           # v, x, E01, E06, E03 with the bus held; measured 2_943 (E01)
-MOTION_NOTICE = 15_100         # sync tick -> !E10 of a frame write refused; measured 14_659
+MOTION_NOTICE = 9_900          # sync tick -> !E10 of a frame write refused; measured 9_549
 CUT_NOTICE = 17_700            # hold begins mid-write -> !E10; measured 17_117
 
 
 @pytest.fixture(scope="module")
-def central(robot, tmp_path_factory):
+def central(pic_firmware):
     """The generated central firmware built for the PIC: its .cod file."""
-    try:
-        tc = toolchain()
-    except BuildError as exc:
-        pytest.fail(str(exc), pytrace=False)
-    out = tmp_path_factory.mktemp("fw")
-    generate_robot(robot, out)
-    build_board(out / "central", tc)
-    return out / "central" / "build-pic" / "firmware.cod"
+    return pic_firmware("central") / "build-pic" / "firmware.cod"
 
 
 @pytest.fixture(scope="module")
