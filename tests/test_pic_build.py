@@ -17,8 +17,9 @@ from esair_min.resources import resolve_robot
 from esair_min.validate import load_robot
 
 GOAL_FLASH, GOAL_RAM = 8192, 512
-# Measured (program bytes, RAM bytes incl. the stack) + about 3 %.
-CEILINGS = {"central": (8_370, 476), "actuator": (7_250, 436), "sensor": (2_020, 176)}
+# Measured (program bytes, RAM bytes incl. the stack) + about 3 %. The peers' RAM: the
+# I2C slave's byte queue in the access bank (actuator 462, sensor 180 bytes measured).
+CEILINGS = {"central": (8_370, 476), "actuator": (7_250, 476), "sensor": (2_020, 185)}
 
 
 @pytest.fixture(scope="module")
