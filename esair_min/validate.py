@@ -130,13 +130,11 @@ class _Checker:
             if i2c.devices:
                 self.fail(b, ("i2c", "devices"), "an I2C slave has no 'devices' (only a "
                           "master talks to devices)", key=True)
-            byte = hardware.i2c_byte_cycles(b.mcu.clock_hz, i2c.speed_hz)
-            if byte < hardware.SLAVE_BYTE_CYCLES:
-                self.fail(b, ("i2c", "speed_hz"), f"at {i2c.speed_hz} Hz a byte lasts "
-                          f"{byte} instruction cycles at {b.mcu.clock_hz} Hz, fewer than the "
-                          f"{hardware.SLAVE_BYTE_CYCLES} the generated I2C slave needs to take "
-                          "one (measured in gpsim); use speed_hz: 100000 on every board, or "
-                          "a faster clock_hz")
+            if i2c.speed_hz != hardware.SLAVE_SPEED_HZ:
+                self.fail(b, ("i2c", "speed_hz"), f"the generated I2C slave runs at "
+                          f"{hardware.SLAVE_SPEED_HZ} Hz only (at {i2c.speed_hz} Hz a byte it "
+                          "takes late could be mistaken for its address); use speed_hz: "
+                          f"{hardware.SLAVE_SPEED_HZ} on every board")
             return
         if i2c.address is not None:
             self.fail(b, ("i2c", "address"), "an I2C master has no own 'address'; remove it",
@@ -278,14 +276,7 @@ class _Checker:
         have_s = motion.delay_ticks * t2.period_s
         if need_s <= have_s:
             return
-        slaves = [b for b in (actuator, sensor) if b is not None]
-        fixes = [f"speed_hz: {hz} on every board" for hz in (100_000, 400_000) if hz > speed and
-                 hardware.i2c_master_setting(central.mcu.clock_hz, hz) is not None
-                 and load.seconds(hz) * hardware.FIRMWARE_BUS_OVERHEAD <= have_s
-                 and all(hardware.i2c_byte_cycles(b.mcu.clock_hz, hz)
-                         >= hardware.SLAVE_BYTE_CYCLES for b in slaves)]
-        ticks = math.ceil(need_s / t2.period_s)
-        fixes.append(f"delay_ticks: {ticks} for motion '{motion.name}'")
+        ticks = math.ceil(need_s / t2.period_s)     # (the slaves allow no faster bus)
         poll = f" + sensor poll {load.poll}" if load.poll else ""
         self.fail(central, ("i2c", "speed_hz"),
                   f"I2C at {speed} Hz is too slow for motion '{motion.name}' (a frame every "
@@ -293,7 +284,7 @@ class _Checker:
                   f"{have_s * 1e3:.2f} ms): frame write {load.write} + next frame read "
                   f"{load.read}{poll} bit times = {load.seconds(speed) * 1e3:.2f} ms, "
                   f"{need_s * 1e3:.2f} ms with the PIC master's overhead; use "
-                  + " or ".join(fixes))
+                  f"delay_ticks: {ticks} for motion '{motion.name}' or a longer tick")
 
     def peer_rules(self, central: Board, by_role: dict[str, Board]) -> None:
         names = {b.board: b for b in self.boards}
@@ -318,10 +309,12 @@ class _Checker:
                           f"device '{dev.name}' declares {dev.registers} registers but board "
                           f"'{peer.board}' has {peer.register_count} "
                           f"(2 per servo and per sensor); set registers: {peer.register_count}")
-            if peer.i2c.speed_hz != central.i2c.speed_hz:
-                self.fail(peer, ("i2c", "speed_hz"),
-                          f"bus speed {peer.i2c.speed_hz} Hz differs from the master's "
-                          f"{central.i2c.speed_hz} Hz; use speed_hz: {central.i2c.speed_hz}")
+            if peer.i2c.speed_hz != central.i2c.speed_hz:     # the peer's is the slaves' own
+                self.fail(central, ("i2c", "speed_hz"),
+                          f"bus speed {central.i2c.speed_hz} Hz differs from the "
+                          f"{peer.i2c.speed_hz} Hz of board '{peer.board}' "
+                          f"({self.doc(peer).mark(('i2c', 'speed_hz'))}); use speed_hz: "
+                          f"{peer.i2c.speed_hz}")
         for b in self.boards:
             if b.role != "central" and b.board not in reached:
                 self.fail(b, ("board",), f"board '{b.board}' is not among the central "

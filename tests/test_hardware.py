@@ -164,9 +164,3 @@ def test_frame_bus_load_in_bit_times():
     assert (one.write, one.read, one.poll) == (1 + 9 + 27 + 1, 1 + 9 + 9 + 1 + 9 + 18 + 1,
                                                1 + 9 + 9 + 1 + 9 + 18 + 1)
 
-
-def test_i2c_byte_cycles():
-    # 9 bit times (8 data + ACK) in instruction cycles (Fosc / 4)
-    assert hardware.i2c_byte_cycles(20_000_000, 100_000) == 450
-    assert hardware.i2c_byte_cycles(20_000_000, 400_000) == 112
-    assert hardware.i2c_byte_cycles(40_000_000, 400_000) == 225

@@ -36,7 +36,7 @@ EXPECTED = {
     "ambiguous_play":
         "tests/fixtures/bad/ambiguous_play/central.yaml:38:29: command 'sit' (prefix 'PLY01', 5-char lines) is ambiguous with 'play' (prefix 'PLY', 5-char lines): one line would match both; change one prefix",
     "bus_too_slow":
-        "tests/fixtures/bad/bus_too_slow/central.yaml:21:13: I2C at 100000 Hz is too slow for motion 'dance' (a frame every tick, 6.00 ms): frame write 236 + next frame read 255 + sensor poll 174 bit times = 6.65 ms, 7.65 ms with the PIC master's overhead; use delay_ticks: 2 for motion 'dance'",
+        "tests/fixtures/bad/bus_too_slow/central.yaml:21:13: I2C at 100000 Hz is too slow for motion 'dance' (a frame every tick, 6.00 ms): frame write 236 + next frame read 255 + sensor poll 174 bit times = 6.65 ms, 7.65 ms with the PIC master's overhead; use delay_ticks: 2 for motion 'dance' or a longer tick",
     "bad_device_kind":
         "tests/fixtures/bad/bad_device_kind/central.yaml:23:14: 'kind' must be 'eeprom' or 'board', not text 'eprom' (did you mean 'eeprom'?)",
     "bad_name":
@@ -120,7 +120,7 @@ EXPECTED = {
     "peer_address":
         "tests/fixtures/bad/peer_address/central.yaml:24:57: device 'feet' is at 0x20 here but board 'sensor' answers at 0x21 (tests/fixtures/bad/peer_address/sensor.yaml:13:12); make the two addresses agree",
     "peer_bus_speed":
-        "tests/fixtures/bad/peer_bus_speed/sensor.yaml:12:13: bus speed 400000 Hz differs from the master's 100000 Hz; use speed_hz: 100000",
+        "tests/fixtures/bad/peer_bus_speed/central.yaml:21:13: bus speed 400000 Hz differs from the 100000 Hz of board 'actuator' (tests/fixtures/bad/peer_bus_speed/actuator.yaml:13:13); use speed_hz: 100000",
     "peer_registers":
         "tests/fixtures/bad/peer_registers/central.yaml:24:78: device 'servos' declares 22 registers but board 'actuator' has 24 (2 per servo and per sensor); set registers: 24",
     "pin_not_on_part":
@@ -199,8 +199,8 @@ EXPECTED = {
         "tests/fixtures/bad/wrong_type_i2c/sensor.yaml:10:6: 'i2c' must be a mapping of keys, not text 'slave 0x20'",
     "wrong_type_yes_no":
         "tests/fixtures/bad/wrong_type_yes_no/sensor.yaml:15:43: 'group' must be text, not true (YAML reads unquoted yes/no/on/off/true/false as true/false: quote it)",
-    "slave_too_slow":
-        "tests/fixtures/bad/slave_too_slow/actuator.yaml:14:13: at 400000 Hz a byte lasts 112 instruction cycles at 20000000 Hz, fewer than the 180 the generated I2C slave needs to take one (measured in gpsim); use speed_hz: 100000 on every board, or a faster clock_hz",
+    "slave_speed":
+        "tests/fixtures/bad/slave_speed/actuator.yaml:14:13: the generated I2C slave runs at 100000 Hz only (at 400000 Hz a byte it takes late could be mistaken for its address); use speed_hz: 100000 on every board",
     "yaml_syntax":
         "tests/fixtures/bad/yaml_syntax/central.yaml:5:5: YAML syntax error: expected ',' or '}', but got ':'",
     "yaml_tab":
