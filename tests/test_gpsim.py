@@ -210,12 +210,9 @@ def test_listing_and_hit_parsers(central, tmp_path):
 
 
 @pytest.fixture(scope="module")
-def actuator_fw(robot, tmp_path_factory):
+def actuator_fw(pic_firmware):
     """The generated actuator firmware, built for the PIC: (cod, map)."""
-    out = tmp_path_factory.mktemp("fw_act")
-    generate_robot(robot, out)
-    folder = out / "actuator"
-    build_board(folder, toolchain())
+    folder = pic_firmware("actuator")
     return folder / "build-pic" / "firmware.cod", folder / "firmware.map"
 
 
