@@ -119,14 +119,16 @@ def eeprom(robot: str, output: str, raw: bool) -> None:
 @click.option("--nack-actuator", is_flag=True, help="Fault: the actuator board never ACKs.")
 @click.option("--no-sensor", is_flag=True, help="Fault: no sensor board on the bus.")
 @click.option("--corrupt-eeprom", is_flag=True, help="Fault: one byte of the image flipped.")
+@click.option("--stuck-bus", is_flag=True,
+              help="Fault: SCL held low; every I2C transfer times out (E10).")
 @click.option("--noise", type=float, default=0.0, metavar="BYTES/S",
               help="Fault: random bytes injected into the robot's receive line.")
 @click.option("--seed", type=int, default=0, show_default=True, help="Seed of the faults.")
 @_friendly
 def emulate(robot: str, pty: bool, run_s: float | None, sends: tuple[str, ...],
             generate: str | None, scenario: str | None, trace: str | None, speed: float,
-            nack_actuator: bool, no_sensor: bool, corrupt_eeprom: bool, noise: float,
-            seed: int) -> None:
+            nack_actuator: bool, no_sensor: bool, corrupt_eeprom: bool, stuck_bus: bool,
+            noise: float, seed: int) -> None:
     """Run the emulated robot behind a pseudo-terminal (--pty) or headless (--run).
 
     With --pty it serves until Ctrl-C or SIGTERM; when standard output is a terminal,
@@ -140,7 +142,7 @@ def emulate(robot: str, pty: bool, run_s: float | None, sends: tuple[str, ...],
     opts = EmulateOptions(
         pty=pty, run_s=run_s, sends=sends, generate=Path(generate) if generate else None,
         scenario=scenario, trace=Path(trace) if trace else None, speed=speed,
-        faults=Faults(nack_actuator, no_sensor, corrupt_eeprom, noise, seed))
+        faults=Faults(nack_actuator, no_sensor, corrupt_eeprom, noise, seed, stuck_bus))
     run_emulator(load(robot), opts)
 
 

@@ -116,6 +116,11 @@ BYTE = 9
 #: The PIC port's MSSP master takes 1.09x (frame write) and 1.13x (frame read) the
 #: wire time in gpsim (docs/toolchain.md); bus budgets allow this much.
 FIRMWARE_BUS_OVERHEAD = 1.15
+#: A transfer on a stuck bus (SCL or SDA held low) on the PIC port's MSSP master: the
+#: SSPIF countdown runs out, then bus_recover resets the MSSP and clears the bus (nine
+#: SCL pulses, STOP); instruction cycles measured in gpsim (docs/toolchain.md).
+I2C_TIMEOUT_CYCLES = 8_200
+I2C_BUS_CLEAR_CYCLES = 725
 #: The bus speed the generated I2C slave firmware (actuator, sensor) is verified at. It
 #: takes every byte at 400 kHz too in gpsim, but there a byte it takes late, after the
 #: master's next START, could be mistaken for its address (docs/toolchain.md).

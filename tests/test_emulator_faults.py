@@ -117,7 +117,36 @@ def test_fault_at_run_time_and_recovery(robot):
     assert emu.command("t") == ["OK"]
     with pytest.raises(EsairError) as exc:
         emu.set_fault("motor", True)
-    assert str(exc.value) == "no device 'motor' to fault (actuator, sensor or eeprom)"
+    assert str(exc.value) == "no device 'motor' to fault (actuator, sensor, eeprom or bus)"
+
+
+def test_stuck_bus_times_out_like_the_pic(robot):
+    """SCL held low: every transfer fails after the PIC master's timeout and bus clear
+    (8200 + 725 cycles at 20 MHz = 1.785 ms, measured in gpsim), commands that do not
+    need the bus answer as usual, and releasing the bus brings everything back."""
+    emu = Emulator(robot)
+    emu.settle()
+    emu.read()
+    emu.set_fault("bus", True)
+    emu.write(b"s\r\n")                     # the sensor read at once: one timeout
+    emu.run_until(emu.clock.now + 2 * emu.uart.byte_ns)        # the CR is in
+    assert emu.bus.busy_until - emu.bus.last_start == 1_785_000
+    emu.run_for(0.1)
+    # the reply, then the balance reaction's poll fails too (one notice)
+    assert emu.read() == b"E10 no answer on i2c\r\n!E10 no answer on i2c\r\n"
+    assert emu.command("v")[-1].startswith("OK esair-min/1")
+    assert emu.command("t") == ["E10 no answer on i2c"]
+    assert emu.command("PLY03") == ["E10 no answer on i2c"]
+    emu.set_fault("bus", False)
+    assert emu.command("t") == ["OK"]
+    assert emu.command("PLY03") == ["OK"]
+
+
+def test_stuck_bus_from_reset_fails_the_image_check(robot):
+    emu = Emulator(robot, faults=Faults(bus_stuck=True))
+    emu.settle()
+    assert emu.read() == b"!READY esair-min/1 image=bad\r\n"
+    assert emu.command("PLY01") == ["E09 motion image invalid"]
 
 
 def test_noise_gets_error_replies_and_never_hangs(robot):

@@ -55,6 +55,19 @@ def test_url_options_scenario_faults_and_trace(tmp_path):
     assert "TX " + b"!R auto_balance\r\n".hex().upper() in text
 
 
+def test_url_stuck_bus():
+    port = serial.serial_for_url("esair://papaman?speed=max&stuck=bus", timeout=2)
+    try:
+        assert port.readline() == b"!READY esair-min/1 image=bad\r\n"
+        port.write(b"v\r\n")
+        assert port.readline().startswith(b"OK esair-min/1 ")
+        port.write(b"t\r\n")
+        lines = [port.readline() for _ in range(2)]   # the reply, the balance poll's notice
+        assert sorted(lines) == [b"!E10 no answer on i2c\r\n", b"E10 no answer on i2c\r\n"]
+    finally:
+        port.close()
+
+
 def test_real_time_port_takes_line_time():
     port = serial.serial_for_url("esair://papaman", timeout=2)
     try:
@@ -78,10 +91,11 @@ def test_parse_url():
 
 @pytest.mark.parametrize("url, message", [
     ("esair://papaman?colour=red", "unknown option 'colour' in 'esair://papaman?colour=red' "
-     "(known: speed, scenario, trace, nack, absent, corrupt, noise, seed)"),
+     "(known: speed, scenario, trace, nack, absent, corrupt, stuck, noise, seed)"),
     ("esair://?speed=max", "esair:// URL names no robot (e.g. esair://boards/papaman)"),
     ("esair://papaman?speed=fast", "speed='fast': use real, max or a factor > 0"),
     ("esair://papaman?nack=sensor", "option nack='sensor': only nack=actuator exists"),
+    ("esair://papaman?stuck=sda", "option stuck='sda': only stuck=bus exists"),
     ("esair://papaman?noise=lots", "bad number in URL options: could not convert string to "
      "float: 'lots'"),
     ("esair://papaman?scenario=pusj", "cannot start the emulator: no scenario 'pusj' (did you "

@@ -19,7 +19,10 @@ class Faults:
     - ``corrupt_eeprom``: one byte of the motion image is flipped (``!READY image=bad``,
       ``PLY`` answers ``E09``);
     - ``noise_per_s``: random bytes injected into the board's receive line at this mean
-      rate (bytes per second), drawn from a generator seeded with ``seed``.
+      rate (bytes per second), drawn from a generator seeded with ``seed``;
+    - ``bus_stuck``: SCL held low: every I2C transfer fails after the PIC master's
+      timeout and bus clear (1.79 ms at 20 MHz), so everything on the bus answers
+      ``E10`` and the image check at reset fails (``image=bad``).
     """
 
     actuator_nack: bool = False
@@ -27,6 +30,7 @@ class Faults:
     corrupt_eeprom: bool = False
     noise_per_s: float = 0.0
     seed: int = 0
+    bus_stuck: bool = False
 
     def __post_init__(self) -> None:
         if not self.noise_per_s >= 0:
@@ -35,12 +39,13 @@ class Faults:
     @property
     def any(self) -> bool:
         return (self.actuator_nack or self.sensor_absent or self.corrupt_eeprom
-                or self.noise_per_s > 0)
+                or self.bus_stuck or self.noise_per_s > 0)
 
     def describe(self) -> str:
         parts = [name for name, on in (("actuator NACKs", self.actuator_nack),
                                        ("sensor board absent", self.sensor_absent),
-                                       ("corrupt EEPROM", self.corrupt_eeprom)) if on]
+                                       ("corrupt EEPROM", self.corrupt_eeprom),
+                                       ("I2C bus stuck", self.bus_stuck)) if on]
         if self.noise_per_s > 0:
             parts.append(f"line noise {self.noise_per_s:g} B/s (seed {self.seed})")
         return ", ".join(parts) or "none"

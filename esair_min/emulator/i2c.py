@@ -5,7 +5,9 @@ Every transaction is counted in bit times (time = bits / speed):
 - write: START (1) + address byte and ACK (9) + each data byte and ACK (9) + STOP (1);
 - write then read: START + address + the written bytes, repeated START (1) + address
   (9) + each read byte and ACK/NACK (9) + STOP;
-- a device that does not acknowledge its address: START + address (9) + STOP.
+- a device that does not acknowledge its address: START + address (9) + STOP;
+- on a stuck bus (``stuck``): nothing reaches a device and each transaction fails
+  after the master's timeout and bus clear (``stuck_ns``).
 
 :class:`TimedBus` wraps the devices' bus (``write``/``write_read``, the core's ``Bus``
 protocol), so the core cannot tell it from the real thing, and keeps a time cursor:
@@ -45,10 +47,15 @@ class BusStats:
 class TimedBus:
     """A :class:`Bus` that accounts bus time at ``speed_hz`` against a clock."""
 
-    def __init__(self, inner: Bus, speed_hz: int, now: Callable[[], int]):
+    def __init__(self, inner: Bus, speed_hz: int, now: Callable[[], int],
+                 stuck_ns: int = 0):
         self.inner = inner
         self.speed_hz = speed_hz
         self._now = now
+        #: SCL held low: no device is reached, every transaction fails after
+        #: ``stuck_ns`` (the master's timeout and bus clear)
+        self.stuck = False
+        self.stuck_ns = stuck_ns
         self.busy_until = 0
         self.last_start = 0
         self.stats = BusStats()
@@ -59,9 +66,12 @@ class TimedBus:
         now = self._now()
         start = self.busy_until if self.busy_until > now else now
         self.last_start = start
-        ns = self._ns.get(bits)
-        if ns is None:
-            ns = self._ns[bits] = bits_ns(bits, self.speed_hz)
+        if self.stuck:
+            ns = self.stuck_ns
+        else:
+            ns = self._ns.get(bits)
+            if ns is None:
+                ns = self._ns[bits] = bits_ns(bits, self.speed_hz)
         self.busy_until = start + ns
         st = self.stats
         st.transactions += 1
@@ -83,12 +93,12 @@ class TimedBus:
         return self.busy_until if self.busy_until > now else now
 
     def write(self, addr: int, data: bytes) -> bool:
-        ok = self.inner.write(addr, data)
+        ok = not self.stuck and self.inner.write(addr, data)
         self._account(addr, write_bits(len(data)) if ok else self._nack_bits, ok)
         return ok
 
     def write_read(self, addr: int, wdata: bytes, n: int) -> bytes | None:
-        got = self.inner.write_read(addr, wdata, n)
+        got = None if self.stuck else self.inner.write_read(addr, wdata, n)
         ok = got is not None
         self._account(addr, write_read_bits(len(wdata), n) if ok else self._nack_bits, ok)
         return got

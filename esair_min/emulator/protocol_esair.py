@@ -40,7 +40,7 @@ from .robot import Emulator
 
 SCHEME = "esair://"
 MAX_BLOCK_S = 60.0        # virtual seconds a read with timeout=None waits at speed=max
-OPTIONS = ("speed", "scenario", "trace", "nack", "absent", "corrupt", "noise", "seed")
+OPTIONS = ("speed", "scenario", "trace", "nack", "absent", "corrupt", "stuck", "noise", "seed")
 
 
 def parse_url(url: str) -> tuple[str, dict[str, str]]:
@@ -62,7 +62,7 @@ def parse_url(url: str) -> tuple[str, dict[str, str]]:
 
 
 def _faults(opts: dict[str, str]) -> Faults:
-    checks = {"nack": "actuator", "absent": "sensor", "corrupt": "eeprom"}
+    checks = {"nack": "actuator", "absent": "sensor", "corrupt": "eeprom", "stuck": "bus"}
     for key, want in checks.items():
         if key in opts and opts[key] != want:
             raise SerialException(f"option {key}={opts[key]!r}: only {key}={want} exists")
@@ -72,7 +72,8 @@ def _faults(opts: dict[str, str]) -> Faults:
     except ValueError as exc:
         raise SerialException(f"bad number in URL options: {exc}") from None
     return Faults(actuator_nack="nack" in opts, sensor_absent="absent" in opts,
-                  corrupt_eeprom="corrupt" in opts, noise_per_s=noise, seed=seed)
+                  corrupt_eeprom="corrupt" in opts, noise_per_s=noise, seed=seed,
+                  bus_stuck="stuck" in opts)
 
 
 class Serial(SerialBase):

@@ -26,6 +26,7 @@ from collections import deque
 from pathlib import Path
 from typing import Callable
 
+from .. import hardware
 from ..core import CentralCore
 from ..devices import Eeprom24, RegisterSlave, SimpleBus
 from ..errors import EsairError
@@ -143,7 +144,10 @@ class Emulator:
             devices.append(self.sensor_slave)
         self.devices = SimpleBus(devices)
 
-        self.bus = TimedBus(self.devices, central.i2c.speed_hz, lambda: self.clock.now)
+        stuck_cycles = hardware.I2C_TIMEOUT_CYCLES + hardware.I2C_BUS_CLEAR_CYCLES
+        self.bus = TimedBus(self.devices, central.i2c.speed_hz, lambda: self.clock.now,
+                            stuck_ns=stuck_cycles * 4 * NS_PER_S // central.mcu.clock_hz)
+        self.bus.stuck = faults.bus_stuck
         self.trace = trace
         self._last_mark = -1
         core_bus = self.bus
@@ -260,11 +264,16 @@ class Emulator:
 
     # -- faults at run time --------------------------------------------------------------
     def set_fault(self, device: str, on: bool) -> None:
-        """``actuator``, ``sensor`` or ``eeprom`` stops (on) or starts acknowledging."""
+        """``actuator``, ``sensor`` or ``eeprom`` stops (on) or starts acknowledging;
+        ``bus``: SCL is held low (on) or released."""
+        if device == "bus":
+            self.bus.stuck = on
+            return
         dev = {"actuator": self.actuator_slave, "sensor": self.sensor_slave,
                "eeprom": self.eeprom}.get(device)
         if dev is None:
-            raise EsairError(f"no device '{device}' to fault (actuator, sensor or eeprom)")
+            raise EsairError(f"no device '{device}' to fault (actuator, sensor, eeprom "
+                             "or bus)")
         dev.fault = on
 
     # -- state views ---------------------------------------------------------------------
