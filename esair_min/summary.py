@@ -36,5 +36,5 @@ def robot_summary(robot: Robot) -> list[str]:
         poll = f" + sensor poll {load.poll}" if load.poll else ""
         lines.append(f"  bus per frame: write {load.write} + next frame read {load.read}"
                      f"{poll} bit times = {wire * 1e3:.2f} ms, {wire / t2.period_s:.0%} of a "
-                     f"tick ({wire * FIRMWARE_BUS_OVERHEAD / t2.period_s:.0%} on the PIC)")
+                     f"tick on the wire (the PIC master needs {FIRMWARE_BUS_OVERHEAD}x that)")
     return lines

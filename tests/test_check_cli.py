@@ -24,7 +24,7 @@ robot 'papaman': 3 boards (actuator [actuator], central [central], sensor [senso
   tick: 8.9856 ms (Timer2 prescale 16, PR2 233, postscale 12 at 20000000 Hz)
   UART: 9600 baud, SPBRG 129 BRGH=1, error +0.16 %
   I2C: 100000 Hz, SSPADD 49
-  bus per frame: write 236 + next frame read 255 + sensor poll 174 bit times = 6.65 ms, 74% of a tick (85% on the PIC)
+  bus per frame: write 236 + next frame read 255 + sensor poll 174 bit times = 6.65 ms, 74% of a tick on the wire (the PIC master needs 1.15x that)
 ok
 """
 
