@@ -19,7 +19,7 @@ from esair_min.gpsim_bench import (drain_loop, frame_slips, frame_timing, functi
                                    measure_decoder, parse_hits)
 from esair_min import gpsim_harness
 from esair_min.gpsim_harness import GpsimSetup, boot_end, build_script, compare, run_stimulus
-from esair_min.gpsim_wave import decode_i2c, read_register_log
+from esair_min.gpsim_wave import read_register_log
 from esair_min.harness import run_script
 from esair_min.resources import resolve_robot
 from esair_min.validate import load_robot
@@ -139,43 +139,6 @@ def test_decoder_and_isr_cycle_ceilings(robot, central, tmp_path):
     assert swallowed and max(swallowed) <= DECODER_LF_SWALLOWED
     assert figures.isr_tick and max(figures.isr_tick) <= TIMER2_ISR_WORST
     assert max(figures.isr) <= ANY_ISR_WORST
-
-
-def test_decode_i2c_write_then_read_with_gpsim_repeated_start():
-    # W 50 [01], repeated START drawn as gpsim 0.31 does (SDA low, SCL high, SDA high,
-    # SCL low, SCL high, SDA low), R 50 one byte A5, master NACK, STOP.
-    scl, sda, t = [(0, 1)], [(0, 1)], 100
-
-    def edge(pin, v):
-        nonlocal t
-        t += 10
-        pin.append((t, v))
-
-    def byte(value, ack):
-        for bit in [(value >> (7 - i)) & 1 for i in range(8)] + [0 if ack else 1]:
-            edge(sda, bit)
-            edge(scl, 1)
-            edge(scl, 0)
-
-    edge(sda, 0)                  # START
-    edge(scl, 0)
-    byte(0xA0, True)
-    byte(0x01, True)
-    edge(sda, 0)
-    edge(scl, 1)
-    edge(sda, 1)                  # looks like a STOP ...
-    edge(scl, 0)                  # ... but SCL falls again: a repeated START follows
-    edge(scl, 1)
-    edge(sda, 0)
-    edge(scl, 0)
-    byte(0xA1, True)
-    byte(0xA5, False)
-    edge(sda, 0)
-    edge(scl, 1)
-    edge(sda, 1)                  # STOP
-    transfers = decode_i2c(scl, sda)
-    assert [x.trace_line() for x in transfers] == ["R 50 01 1 A5"]
-    assert transfers[0].stop == t
 
 
 def test_write_nack_faults_are_refused_with_the_reason(robot):

@@ -18,7 +18,6 @@ import pytest
 from esair_min.errors import ProtocolError
 from esair_min.gpsim_harness import (GpsimRun, GpsimSetup, build_script, compare, projections,
                                      run_stimulus)
-from esair_min.gpsim_wave import decode_i2c, read_register_log
 from esair_min.harness import run_script
 
 FIXTURES = Path(__file__).parent / "fixtures" / "gpsim"
@@ -191,64 +190,6 @@ def test_a_transfer_cut_mid_byte_fails_and_the_bus_recovers(robot, central, tmp_
 
 
 # -- the harness's pieces, without gpsim ---------------------------------------------
-
-def test_a_hold_cuts_the_open_transfer_and_its_edges_are_not_decoded():
-    """W 10 [01 02], cut by a hold after one data bit; inside the hold the master's
-    blind clocking and a refused START; after it a new write W 10 [03]."""
-    scl, sda, t = [(0, 1)], [(0, 1)], 100
-
-    def edge(pin, v):
-        nonlocal t
-        t += 10
-        pin.append((t, v))
-
-    def byte(value, ack, bits=9):
-        for bit in ([(value >> (7 - i)) & 1 for i in range(8)] + [0 if ack else 1])[:bits]:
-            edge(sda, bit)
-            edge(scl, 1)
-            edge(scl, 0)
-
-    def start():
-        edge(sda, 0)
-        edge(scl, 0)
-
-    start()
-    byte(0x20, True)
-    byte(0x01, True)
-    byte(0x02, True, bits=1)
-    hold_from = t + 1
-    edge(scl, 1)
-    edge(scl, 0)                                   # the pull-up at 0 V
-    edge(sda, 1)
-    edge(sda, 0)                                   # a START attempt, refused
-    hold_to = t + 5
-    edge(scl, 1)                                   # released
-    edge(sda, 1)
-    start()
-    byte(0x20, True)
-    byte(0x03, True)
-    edge(sda, 0)
-    edge(scl, 1)
-    edge(sda, 1)                                   # STOP
-    plain = decode_i2c(scl, sda)
-    assert not any(x.cut for x in plain)           # without the hold: a STOP at the release
-    cut, whole = decode_i2c(scl, sda, ((hold_from, hold_to),))
-    assert (cut.cut, cut.stop, cut.trace_line()) == (True, None, "W 10 01 NACK")
-    assert (whole.cut, whole.trace_line()) == (False, "W 10 03 ACK")
-
-
-def test_register_log_lines_with_a_source_line_prefix(tmp_path):
-    log = tmp_path / "r.log"
-    log.write_text("968: 0x000000000019D012 p18f452 0x1EF2 0x9AC6 bcf\t_SSPCON1,5,0\n"
-                   "994:   Wrote: 0x0008 to _SSPCON1(0x0FC6) was 0x0028\n"
-                   "0x000000000019D013 p18f452 0x1EF4 0x8AC6 bsf\t_SSPCON1,5,0\n"
-                   "996:   Wrote: 0x0028 to _SSPCON1(0x0FC6) was 0x0008\n"
-                   "0x0000000000003C94 p18f452 0x01AC 0xC000 movff\t_RCREG,REG000\n"
-                   "  Read: 0x000D from _RCREG(0x0FAE)\n")
-    assert read_register_log(log, {"_SSPCON1"}) == [(0x19D012, "_SSPCON1", 0x08),
-                                                    (0x19D013, "_SSPCON1", 0x28)]
-    assert read_register_log(log, {"_RCREG"}, reads=True) == [(0x3C94, "_RCREG", 0x0D)]
-
 
 def test_hold_commands_in_the_gpsim_script(robot):
     script, _ = build_script(robot, "fault bus on\nboot\nfault sda on\nfault bus off\n"
