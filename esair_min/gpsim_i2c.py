@@ -147,24 +147,27 @@ class GpsimSession:
                 last = cycle
             batch += ["echo @@", *commands]
         out = self.command(*batch)
-        steps: list[tuple[int, list[str]]] = []
-        stops = 0
-        for line in out:
-            m = _CYCLE_BREAK_RE.search(line)
-            if m:
-                if stops >= len(targets) or int(m.group(1)) != targets[stops]:
-                    break
-                stops += 1
-            elif (c := _CYCLES_RE.match(line)):
-                self.now = int(c.group(1))
-            elif line.startswith("@@"):
-                steps.append((self.now, []))
-            elif steps:
-                steps[-1][1].append(line)
-        if stops != len(targets) or len(steps) != len(plan):
+        stops = [int(m.group(1)) for line in out if (m := _CYCLE_BREAK_RE.search(line))]
+        steps = self._marked(out)
+        if stops != targets or len(steps) != len(plan):
             raise self._fail(f"gpsim did not stop where expected (cycles {targets}):\n"
                              + "\n".join(out[-10:]))
         return steps
+
+    def _marked(self, out: list[str]) -> list[tuple[int, list[str]]]:
+        """Output split at each ``echo @@`` marker: (the cycle then, the lines up to the
+        next marker); every ``cycles`` line moves :attr:`now`."""
+        marked: list[tuple[int, list[str]]] = []
+        for line in out:
+            if _CYCLE_BREAK_RE.search(line):
+                continue
+            if (c := _CYCLES_RE.match(line)):
+                self.now = int(c.group(1))
+            elif line.startswith("@@"):
+                marked.append((self.now, []))
+            elif marked:
+                marked[-1][1].append(line)
+        return marked
 
     def run_to(self, cycle: int, *before: str, after: tuple[str, ...] = ()) -> list[str]:
         """Run on to instruction cycle ``cycle`` (see :meth:`run_plan`); ``before`` and
@@ -175,14 +178,7 @@ class GpsimSession:
         """One batch of ``count`` single instruction steps, ``commands`` after each:
         (cycle after the step, the commands' output) for each step."""
         out = self.command(*(["step", "cycles", "echo @@", *commands] * count))
-        polls: list[tuple[int, list[str]]] = []
-        for line in out:
-            if (c := _CYCLES_RE.match(line)):
-                self.now = int(c.group(1))
-            elif line.startswith("@@"):
-                polls.append((self.now, []))
-            elif polls:
-                polls[-1][1].append(line)
+        polls = self._marked(out)
         if len(polls) != count:
             raise self._fail(f"gpsim did not stop where expected ({len(polls)} of {count} "
                              "steps):\n" + "\n".join(out[-10:]))
