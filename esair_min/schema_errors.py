@@ -153,6 +153,19 @@ def _tags(root: type[BaseModel], loc: tuple[Any, ...]) -> list[str]:
     return [t for m in _models_at(root, loc) if (t := _tag_of(m)) is not None]
 
 
+#: What a value of the wrong type should have been, by pydantic error type.
+_MUST_BE = {
+    "int_type": "an integer", "int_parsing": "an integer", "int_from_float": "an integer",
+    "float_type": "a number", "float_parsing": "a number",
+    "finite_number": "a finite number",
+    "bool_type": "true or false",
+    "string_type": "text",
+    "model_type": "a mapping of keys", "model_attributes_type": "a mapping of keys",
+    "dict_type": "a mapping of keys",
+    "tuple_type": "a list", "list_type": "a list",
+}
+
+
 def _describe(err: dict[str, Any], key: str, model: type[BaseModel] | None,
               tags: list[str]) -> str:
     kind = err["type"]
@@ -168,20 +181,9 @@ def _describe(err: dict[str, Any], key: str, model: type[BaseModel] | None,
         return f"unknown key {quote(key)}{hint}"
     if value is None and kind.endswith("_type"):
         return f"{quote(key)} has no value; give it one or remove the key"
-    if kind in ("int_type", "int_parsing", "int_from_float"):
-        return f"{quote(key)} must be an integer, not {_show(value)}"
-    if kind in ("float_type", "float_parsing"):
-        return f"{quote(key)} must be a number, not {_show(value)}"
-    if kind == "finite_number":
-        return f"{quote(key)} must be a finite number, not {_show(value)}"
-    if kind == "bool_type":
-        return f"{quote(key)} must be true or false, not {_show(value)}"
-    if kind == "string_type":
-        return f"{quote(key)} must be text, not {_show(value)}{_yes_no_hint(value)}"
-    if kind in ("model_type", "model_attributes_type", "dict_type"):
-        return f"{quote(key)} must be a mapping of keys, not {_show(value)}"
-    if kind in ("tuple_type", "list_type"):
-        return f"{quote(key)} must be a list, not {_show(value)}"
+    if kind in _MUST_BE:
+        hint = _yes_no_hint(value) if kind == "string_type" else ""
+        return f"{quote(key)} must be {_MUST_BE[kind]}, not {_show(value)}{hint}"
     if kind == "string_pattern_mismatch":
         pattern = ctx.get("pattern", "")
         return f"{quote(key)} must be {_PATTERN_TEXT.get(pattern, 'of the form ' + pattern)}, " \
