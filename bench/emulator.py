@@ -29,13 +29,13 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from esair_min.devices import Eeprom24, RegisterSlave, SimpleBus  # noqa: E402
+from esair_min.core.devices import Eeprom24, RegisterSlave, SimpleBus  # noqa: E402
 from esair_min.emulator import Emulator  # noqa: E402
 from esair_min.emulator.clock import NS_PER_S  # noqa: E402
 from esair_min.emulator.i2c import TimedBus  # noqa: E402
-from esair_min.image import build_image  # noqa: E402
-from esair_min.trace import TraceWriter  # noqa: E402
-from esair_min.validate import load_robot  # noqa: E402
+from esair_min.core.image import build_image  # noqa: E402
+from esair_min.core.trace import TraceWriter  # noqa: E402
+from esair_min.model.validate import load_robot  # noqa: E402
 
 # 96 bytes in, about 75 bytes of replies out: a load the board sustains (with replies
 # longer than the lines, its transmit ring fills and its receive ring overruns)

@@ -21,12 +21,12 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from esair_min.build import build_robot, summary_lines  # noqa: E402
-from esair_min.gpsim_bench import describe, frame_slips, frame_timing, measure_decoder  # noqa: E402
-from esair_min.gpsim_harness import GpsimSetup, compare, run_stimulus  # noqa: E402
-from esair_min.harness import run_script  # noqa: E402
+from esair_min.pic.build import build_robot, summary_lines  # noqa: E402
+from esair_min.pic.gpsim_bench import describe, frame_slips, frame_timing, measure_decoder  # noqa: E402
+from esair_min.pic.gpsim_harness import GpsimSetup, compare, run_stimulus  # noqa: E402
+from esair_min.core.harness import run_script  # noqa: E402
 from esair_min.resources import resolve_robot  # noqa: E402
-from esair_min.validate import load_robot  # noqa: E402
+from esair_min.model.validate import load_robot  # noqa: E402
 
 SCENARIO = ROOT / "tests" / "fixtures" / "gpsim" / "papaman.txt"
 GOAL_PER_BYTE = 40

@@ -2,7 +2,7 @@
 
 Templates loop over these values and copy them; they compute nothing. The context of
 a board is a plain dict of str/int/bytes/lists of dicts, built from the frozen model
-(and esair_min.hardware, layout, image, protocol) only.
+(and esair_min.model.hardware, layout, image, protocol) only.
 """
 
 from __future__ import annotations
@@ -11,13 +11,13 @@ from pathlib import Path
 from typing import Any
 
 from esair_min import __version__
-from esair_min import protocol as P
+from esair_min.core import protocol as P
 from esair_min.errors import GenerateError
-from esair_min.hardware import ADC_PINS
-from esair_min.image import build_image
-from esair_min.layout import HEADER_BYTES
-from esair_min.model import Board
-from esair_min.robot import Robot
+from esair_min.model.hardware import ADC_PINS
+from esair_min.core.image import build_image
+from esair_min.model.layout import HEADER_BYTES
+from esair_min.model.board import Board
+from esair_min.model.robot import Robot
 
 from . import filters, timing
 
@@ -177,7 +177,7 @@ def _texts(ver_pre: bytes, ver_post: bytes, ready_pre: bytes, ready_post: bytes,
            reactions: list[dict[str, Any]]) -> list[dict[str, Any]]:
     """Every text the central core sends, in one NUL-separated pool (es_text): the
     error line of code c is text c (text 0 is empty); a notice is ``!`` then the error
-    line (esair_min.protocol builds NOTICE_LINE so); the reactions' notices last."""
+    line (esair_min.core.protocol builds NOTICE_LINE so); the reactions' notices last."""
     codes = sorted(P.Code)
     assert [int(c) for c in codes] == list(range(1, len(codes) + 1)), codes
     assert all(P.NOTICE_LINE[c] == b"!" + P.ERROR_LINE[c] for c in codes)

@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from esair_min.robot import Robot
+from esair_min.model.robot import Robot
 
 from .context import board_context
 from .render import render_board

@@ -1,4 +1,4 @@
-"""Port numbers that esair_min.hardware does not compute: software PWM timing (Timer1),
+"""Port numbers that esair_min.model.hardware does not compute: software PWM timing (Timer1),
 the ADC conversion clock, the oscillator config and the I2C slave address register.
 
 Pure functions of the model's numbers; the templates only copy the results.

@@ -5,8 +5,8 @@ from pathlib import Path
 import pytest
 
 from codegen import generate_robot
-from esair_min.build import BuildError, build_board, toolchain
-from esair_min.validate import load_robot
+from esair_min.pic.build import BuildError, build_board, toolchain
+from esair_min.model.validate import load_robot
 
 ROOT = Path(__file__).resolve().parent.parent
 

@@ -105,7 +105,7 @@ def test_help_lists_every_command_with_one_line() -> None:
 def _models() -> list[type]:
     from pydantic import BaseModel
 
-    from esair_min import model
+    from esair_min.model import board as model
 
     return [cls for cls in vars(model).values()
             if isinstance(cls, type) and issubclass(cls, BaseModel)

@@ -22,9 +22,9 @@ from codegen.render import render_board
 from esair_min import __version__
 from esair_min.cli import main as cli
 from esair_min.errors import GenerateError
-from esair_min.image import build_image
-from esair_min.model import Sync
-from esair_min.toolchain import find_toolchain, parse_map
+from esair_min.core.image import build_image
+from esair_min.model.board import Sync
+from esair_min.pic.toolchain import find_toolchain, parse_map
 
 ROOT = Path(__file__).resolve().parent.parent
 GOLDEN = ROOT / "tests" / "golden" / "papaman"

@@ -8,15 +8,15 @@ from pathlib import Path
 
 import pytest
 
-from esair_min.core import CentralCore
-from esair_min.devices import Eeprom24, NullBus, RegisterSlave, SimpleBus
+from esair_min.core.central import CentralCore
+from esair_min.core.devices import Eeprom24, NullBus, RegisterSlave, SimpleBus
 from esair_min.errors import ProtocolError
-from esair_min.harness import Rig, main as harness_main, run_script, unescape
-from esair_min.image import build_image, write_hex
-from esair_min.protocol import add_checksum
-from esair_min.robot import Robot
-from esair_min.trace import TraceWriter, TracingBus, without_marks
-from esair_min.validate import load_robot
+from esair_min.core.harness import Rig, main as harness_main, run_script, unescape
+from esair_min.core.image import build_image, write_hex
+from esair_min.core.protocol import add_checksum
+from esair_min.model.robot import Robot
+from esair_min.core.trace import TraceWriter, TracingBus, without_marks
+from esair_min.model.validate import load_robot
 
 ROOT = Path(__file__).resolve().parents[1]
 PAPAMAN = load_robot(ROOT / "boards" / "papaman")

@@ -8,15 +8,15 @@ from pathlib import Path
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from esair_min.core import CentralCore
-from esair_min.decoder import CommandTable, Decoded
-from esair_min.devices import Eeprom24, RegisterSlave, SimpleBus
-from esair_min.image import build_image
-from esair_min.protocol import (MAX_LINE, add_checksum, decode_pair, encode_angles,
+from esair_min.core.central import CentralCore
+from esair_min.core.decoder import CommandTable, Decoded
+from esair_min.core.devices import Eeprom24, RegisterSlave, SimpleBus
+from esair_min.core.image import build_image
+from esair_min.core.protocol import (MAX_LINE, add_checksum, decode_pair, encode_angles,
                                 encode_motor, encode_pair, encode_play, encode_speeds,
                                 parse_reply)
-from esair_min.robot import Robot
-from esair_min.validate import load_robot
+from esair_min.model.robot import Robot
+from esair_min.model.validate import load_robot
 
 ROOT = Path(__file__).resolve().parents[1]
 PAPAMAN = load_robot(ROOT / "boards" / "papaman")

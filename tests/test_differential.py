@@ -2,7 +2,7 @@
 
 The central board's firmware is generated for PAPA-MAN and built with gcc (warnings are
 errors), once plainly and once under AddressSanitizer and UBSan. Both it and the Python
-harness (esair_min.harness) run the same stimulus scripts (docs/trace-format.md);
+harness (esair_min.core.harness) run the same stimulus scripts (docs/trace-format.md);
 their traces must be equal line for line (``@`` time marks ignored).
 """
 
@@ -17,10 +17,10 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from codegen import generate_robot
-from esair_min.harness import run_script
-from esair_min.image import build_image, write_hex
-from esair_min.protocol import add_checksum
-from esair_min.trace import without_marks
+from esair_min.core.harness import run_script
+from esair_min.core.image import build_image, write_hex
+from esair_min.core.protocol import add_checksum
+from esair_min.core.trace import without_marks
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENARIO = ROOT / "tests" / "scenarios" / "papaman.txt"

@@ -11,10 +11,10 @@ from esair_min.emulator.actuator import ServoBank, decode, encode, step_toward
 from esair_min.emulator.i2c import (TimedBus, bits_ns, nack_bits, write_bits,
                                     write_read_bits)
 from esair_min.emulator.uart import RING_BYTES, byte_time_ns
-from esair_min.devices import RegisterSlave, SimpleBus
+from esair_min.core.devices import RegisterSlave, SimpleBus
 from esair_min.errors import EsairError
-from esair_min.protocol import TX_RING, parse_reply
-from esair_min.trace import TraceWriter, without_marks
+from esair_min.core.protocol import TX_RING, parse_reply
+from esair_min.core.trace import TraceWriter, without_marks
 
 ROOT = Path(__file__).resolve().parent.parent
 

@@ -10,8 +10,8 @@ import pytest
 from esair_min.emulator import Emulator, Faults
 from esair_min.emulator.actuator import encode
 from esair_min.errors import EsairError
-from esair_min.protocol import parse_reply
-from esair_min.trace import TraceWriter
+from esair_min.core.protocol import parse_reply
+from esair_min.core.trace import TraceWriter
 
 ROOT = Path(__file__).resolve().parent.parent
 FIX = ROOT / "tests" / "fixtures" / "scenarios"

@@ -8,13 +8,13 @@ from pathlib import Path
 
 from hypothesis import given, settings, strategies as st
 
-from esair_min.core import CentralCore
-from esair_min.devices import Eeprom24, RegisterSlave, SimpleBus
+from esair_min.core.central import CentralCore
+from esair_min.core.devices import Eeprom24, RegisterSlave, SimpleBus
 from esair_min.emulator import Emulator
 from esair_min.emulator.tracefile import FileTraceWriter
-from esair_min.image import build_image
-from esair_min.trace import HEADER, TraceWriter, TracingBus
-from esair_min.validate import load_robot
+from esair_min.core.image import build_image
+from esair_min.core.trace import HEADER, TraceWriter, TracingBus
+from esair_min.model.validate import load_robot
 
 ROOT = Path(__file__).resolve().parents[1]
 PAPAMAN = load_robot(ROOT / "boards" / "papaman")

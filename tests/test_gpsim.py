@@ -13,16 +13,16 @@ from pathlib import Path
 import pytest
 
 from codegen import generate_robot
-from esair_min.build import build_board, toolchain
+from esair_min.pic.build import build_board, toolchain
 from esair_min.errors import ProtocolError
-from esair_min.gpsim_bench import (drain_loop, frame_slips, frame_timing, function_spans,
+from esair_min.pic.gpsim_bench import (drain_loop, frame_slips, frame_timing, function_spans,
                                    measure_decoder, parse_hits)
-from esair_min import gpsim_harness
-from esair_min.gpsim_harness import GpsimSetup, boot_end, build_script, compare, run_stimulus
-from esair_min.gpsim_wave import read_register_log
-from esair_min.harness import run_script
+from esair_min.pic import gpsim_harness
+from esair_min.pic.gpsim_harness import GpsimSetup, boot_end, build_script, compare, run_stimulus
+from esair_min.pic.gpsim_wave import read_register_log
+from esair_min.core.harness import run_script
 from esair_min.resources import resolve_robot
-from esair_min.validate import load_robot
+from esair_min.model.validate import load_robot
 
 SCENARIO = Path(__file__).parent / "fixtures" / "gpsim" / "papaman.txt"
 BALANCE = SCENARIO.with_name("balance.txt")
@@ -31,7 +31,7 @@ BALANCE_LINE = b"!R auto_balance\r\n"
 
 # Ceilings (instruction cycles at 20 MHz), measured values + headroom.
 # Decoder: the superloop's drain loop from the byte in hand to the branch back to its
-# head (esair_min/gpsim_bench.py). Every byte that does not end a line takes the inline
+# head (esair_min/pic/gpsim_bench.py). Every byte that does not end a line takes the inline
 # fast path; a CR or LF calls core_rx_end (the bare call: a swallowed LF).
 DECODER_GOAL = 40                # issue 6: worst instruction cycles per ordinary byte
 DECODER_CHAR_WORST = 32          # measured 32 (63 when it was a call of core_rx_byte)
@@ -198,7 +198,7 @@ def test_actuator_pulse_widths_match_commanded_angles(robot, actuator_fw, tmp_pa
     """The actuator firmware alone: a register map written into its RAM, the sync line
     falls, every servo's pulse must match pulse_min + span * angle / 180 within 1 %
     (measured: within 0.15 %) and the frame stays 20 ms."""
-    from esair_min.gpsim_servo import measure_pulses
+    from esair_min.pic.gpsim_servo import measure_pulses
 
     cod, map_path = actuator_fw
     angles = _angle_sets(robot.servos)[name]

@@ -1,6 +1,6 @@
 """The actuator and sensor boards' PIC I2C slave firmware under a real I2C master.
 
-gpsim runs one firmware at a time; :mod:`esair_min.gpsim_i2c` drives SCL and SDA from
+gpsim runs one firmware at a time; :mod:`esair_min.pic.gpsim_i2c` drives SCL and SDA from
 Python (pull-up modules on the bus nodes, the pins read back with ``portc``), so the
 slave code that answers the central board runs for real: frames written and read back
 over I2C, servo pulses measured, ADC readings read as the register map, and frames
@@ -18,13 +18,13 @@ from pathlib import Path
 
 import pytest
 
-from esair_min import gpsim_servo
-from esair_min.gpsim_harness import _gpsim_pin
-from esair_min.gpsim_i2c import GpsimSession, I2cBusError, I2cMaster, I2cTiming
-from esair_min.gpsim_wave import read_edges
-from esair_min.hardware import ADC_PINS
-from esair_min.protocol import encode_pair
-from esair_min.toolchain import ToolchainError
+from esair_min.pic import gpsim_servo
+from esair_min.pic.gpsim_harness import _gpsim_pin
+from esair_min.pic.gpsim_i2c import GpsimSession, I2cBusError, I2cMaster, I2cTiming
+from esair_min.pic.gpsim_wave import read_edges
+from esair_min.model.hardware import ADC_PINS
+from esair_min.core.protocol import encode_pair
+from esair_min.pic.toolchain import ToolchainError
 
 PULSE_ERROR = 0.01           # servo pulse width vs the commanded (clamped) angle
 SETTLE = 150_000             # cycles: start-up and a first PWM frame (30 ms)

@@ -1,9 +1,9 @@
 """The bus decoder and the register-log reader of the gpsim harness
-(esair_min/gpsim_wave.py), on waveforms and logs written by hand: no gpsim needed."""
+(esair_min/pic/gpsim_wave.py), on waveforms and logs written by hand: no gpsim needed."""
 
 from __future__ import annotations
 
-from esair_min.gpsim_wave import decode_i2c, read_register_log
+from esair_min.pic.gpsim_wave import decode_i2c, read_register_log
 
 
 class Wave:

@@ -1,6 +1,6 @@
 """Computed hardware values against the PIC18FXX2 datasheet formulas (DS39564).
 
-The formulas are written out here on their own, so a slip in esair_min/hardware.py
+The formulas are written out here on their own, so a slip in esair_min/model/hardware.py
 cannot hide behind itself:
   Timer2 period = 4/Fosc * prescale * (PR2 + 1) * postscale      (section 13)
   async baud    = Fosc / (16 * (SPBRG + 1)) with BRGH=1, 64 with BRGH=0 (section 16)
@@ -15,9 +15,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from esair_min import hardware
-from esair_min.layout import DIR_ENTRY_BYTES, HEADER_BYTES
-from esair_min.validate import encode_high, load_robot
+from esair_min.model import hardware
+from esair_min.model.layout import DIR_ENTRY_BYTES, HEADER_BYTES
+from esair_min.model.validate import encode_high, load_robot
 
 ROOT = Path(__file__).resolve().parent.parent
 

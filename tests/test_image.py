@@ -11,11 +11,11 @@ from click.testing import CliRunner
 
 from esair_min.cli import main
 from esair_min.errors import ImageError
-from esair_min.image import (build_image, crc16_ccitt, header_of, image_summary, parse_image,
+from esair_min.core.image import (build_image, crc16_ccitt, header_of, image_summary, parse_image,
                              read_hex, write_hex)
-from esair_min.model import Frame
-from esair_min.robot import Robot
-from esair_min.validate import load_robot
+from esair_min.model.board import Frame
+from esair_min.model.robot import Robot
+from esair_min.model.validate import load_robot
 
 ROOT = Path(__file__).resolve().parents[1]
 PAPAMAN = load_robot(ROOT / "boards" / "papaman")

@@ -11,10 +11,10 @@ from __future__ import annotations
 import pytest
 from click.testing import CliRunner
 
-from esair_min.build import BuildError, build_board, build_robot, summary_lines, toolchain
+from esair_min.pic.build import BuildError, build_board, build_robot, summary_lines, toolchain
 from esair_min.cli import main
 from esair_min.resources import resolve_robot
-from esair_min.validate import load_robot
+from esair_min.model.validate import load_robot
 
 GOAL_FLASH, GOAL_RAM = 8192, 512
 # Measured (program bytes, RAM bytes incl. the stack) + about 3 %. The peers' RAM: the

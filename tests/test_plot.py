@@ -11,8 +11,8 @@ from click.testing import CliRunner
 from esair_min.cli import main
 from esair_min.emulator import Emulator
 from esair_min.errors import EsairError
-from esair_min.plot import plot_trace, read_trace, replay
-from esair_min.trace import TraceWriter
+from esair_min.cli.plot import plot_trace, read_trace, replay
+from esair_min.core.trace import TraceWriter
 
 ROOT = Path(__file__).resolve().parent.parent
 PNG = b"\x89PNG\r\n\x1a\n"

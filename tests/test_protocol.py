@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from esair_min.errors import ProtocolError
-from esair_min.protocol import (ERROR_LINE, ERROR_TEXT, NOTICE_LINE, Code, add_checksum,
+from esair_min.core.protocol import (ERROR_LINE, ERROR_TEXT, NOTICE_LINE, Code, add_checksum,
                                 angle_code, decode_pair, encode_angles, encode_motor,
                                 encode_pair, encode_play, encode_sensors, encode_speeds,
                                 encode_stand, encode_stop, encode_version, frame_line,

@@ -21,9 +21,9 @@ import pytest
 import serial
 
 from esair_min.emulator.actuator import encode
-from esair_min.plot import read_trace, replay
-from esair_min.trace import without_marks
-from esair_min.validate import load_robot
+from esair_min.cli.plot import read_trace, replay
+from esair_min.core.trace import without_marks
+from esair_min.model.validate import load_robot
 
 ROOT = Path(__file__).resolve().parent.parent
 START_TIMEOUT = 30

@@ -115,7 +115,7 @@ def test_generate_without_the_generator(monkeypatch, tmp_path):
 def test_generate_then_emulate_the_generated_image(monkeypatch, tmp_path):
     """--generate calls codegen.generate_robot(robot, DIR) first, then loads the EEPROM
     image it wrote: here a fake generator writes a corrupt image, and the robot says so."""
-    from esair_min.image import build_image, write_hex
+    from esair_min.core.image import build_image, write_hex
 
     calls = []
 
@@ -137,9 +137,9 @@ def test_generate_then_emulate_the_generated_image(monkeypatch, tmp_path):
 
 
 def test_generate_writes_the_image_when_the_generator_does_not(monkeypatch, tmp_path):
-    from esair_min.image import build_image, read_hex
+    from esair_min.core.image import build_image, read_hex
     from esair_min.resources import resolve_robot
-    from esair_min.validate import load_robot
+    from esair_min.model.validate import load_robot
 
     fake = types.ModuleType("codegen")
     fake.generate_robot = lambda robot, out: (out / "central").mkdir(parents=True)

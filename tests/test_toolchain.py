@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from esair_min.toolchain import (ToolchainError, Toolchain, compile_and_link, find_toolchain,
+from esair_min.pic.toolchain import (ToolchainError, Toolchain, compile_and_link, find_toolchain,
                                  parse_map, run_gpsim)
 
 FIXTURES = Path(__file__).parent / "fixtures" / "pic"

@@ -18,8 +18,8 @@ from click.testing import CliRunner
 
 from esair_min.cli import main
 from esair_min.errors import ConfigError
-from esair_min.validate import load_robot
-from esair_min.yamlload import MAX_FILE_BYTES, load_yaml
+from esair_min.model.validate import load_robot
+from esair_min.config.yamlload import MAX_FILE_BYTES, load_yaml
 
 ROOT = Path(__file__).resolve().parent.parent
 BAD = Path("tests/fixtures/bad")

@@ -18,9 +18,9 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from pydantic import BaseModel
 
-from esair_min import model
+from esair_min.model import board as model
 from esair_min.errors import ConfigError
-from esair_min.validate import load_robot
+from esair_min.model.validate import load_robot
 
 ROOT = Path(__file__).resolve().parent.parent
 PAPAMAN = ROOT / "boards" / "papaman"

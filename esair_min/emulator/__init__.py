@@ -9,10 +9,10 @@ from __future__ import annotations
 
 import serial as _serial
 
-from .clock import VirtualClock
-from .faults import Faults
-from .robot import Emulator
-from .scenario import Scenario, load_scenario, resolve_scenario
+from esair_min.emulator.clock import VirtualClock
+from esair_min.emulator.faults import Faults
+from esair_min.emulator.robot import Emulator
+from esair_min.emulator.scenario import Scenario, load_scenario, resolve_scenario
 
 if __name__ not in _serial.protocol_handler_packages:
     _serial.protocol_handler_packages.append(__name__)

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from typing import MutableSequence, Sequence
 
-from ..model import Servo
+from esair_min.model.board import Servo
 
 
 def encode(angle: int, speed: int) -> tuple[int, int]:

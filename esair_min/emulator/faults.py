@@ -5,7 +5,7 @@ from __future__ import annotations
 import random
 from dataclasses import dataclass
 
-from ..errors import EsairError
+from esair_min.errors import EsairError
 
 
 @dataclass(frozen=True)

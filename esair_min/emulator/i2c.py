@@ -20,8 +20,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Callable, Protocol
 
-from ..hardware import BYTE, RESTART, START, STOP, nack_bits, write_bits, write_read_bits
-from .clock import NS_PER_S
+from esair_min.model.hardware import BYTE, RESTART, START, STOP, nack_bits, write_bits, write_read_bits
+from esair_min.emulator.clock import NS_PER_S
 
 __all__ = ["BYTE", "RESTART", "START", "STOP", "Bus", "BusStats", "TimedBus", "bits_ns",
            "nack_bits", "write_bits", "write_read_bits"]

@@ -8,7 +8,7 @@ from rich.console import Group
 from rich.table import Table
 from rich.text import Text
 
-from .robot import Emulator
+from esair_min.emulator.robot import Emulator
 
 BAR = 20
 

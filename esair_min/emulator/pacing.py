@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import time
 
-from .clock import NS_PER_S
-from .robot import Emulator
+from esair_min.emulator.clock import NS_PER_S
+from esair_min.emulator.robot import Emulator
 
 
 class Pacer:

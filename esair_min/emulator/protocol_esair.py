@@ -32,11 +32,11 @@ import urllib.parse
 
 from serial.serialutil import PortNotOpenError, SerialBase, SerialException, to_bytes
 
-from ..errors import EsairError
-from .clock import NS_PER_S, seconds_to_ns
-from .faults import Faults
-from .pacing import Pacer
-from .robot import Emulator
+from esair_min.errors import EsairError
+from esair_min.emulator.clock import NS_PER_S, seconds_to_ns
+from esair_min.emulator.faults import Faults
+from esair_min.emulator.pacing import Pacer
+from esair_min.emulator.robot import Emulator
 
 SCHEME = "esair://"
 MAX_BLOCK_S = 60.0        # virtual seconds a read with timeout=None waits at speed=max
@@ -105,9 +105,9 @@ class Serial(SerialBase):
                 factor = 0.0
             if not factor > 0:
                 raise SerialException(f"speed={speed!r}: use real, max or a factor > 0")
-        from ..resources import resolve_robot
-        from ..trace import TraceWriter
-        from ..validate import load_robot
+        from esair_min.resources import resolve_robot
+        from esair_min.core.trace import TraceWriter
+        from esair_min.model.validate import load_robot
         faults = _faults(opts)
         try:
             robot = load_robot(resolve_robot(robot_arg))

@@ -14,8 +14,8 @@ import select
 import tty
 from typing import Callable
 
-from .pacing import Pacer
-from .robot import Emulator
+from esair_min.emulator.pacing import Pacer
+from esair_min.emulator.robot import Emulator
 
 MAX_PENDING = 65536
 

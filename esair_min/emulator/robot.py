@@ -1,6 +1,6 @@
 """The whole emulated robot: central, actuator and sensor boards on one virtual I2C bus.
 
-The central board runs :class:`~esair_min.core.CentralCore` over emulated peripherals:
+The central board runs :class:`~esair_min.core.central.CentralCore` over emulated peripherals:
 
 - its UART (:mod:`.uart`) at line rate, with the 64-byte receive ring;
 - the I2C master on a :class:`~.i2c.TimedBus` (bus time at the declared speed, NACKs)
@@ -26,19 +26,19 @@ from collections import deque
 from pathlib import Path
 from typing import Callable
 
-from .. import hardware
-from ..core import CentralCore
-from ..devices import Eeprom24, RegisterSlave, SimpleBus
-from ..errors import EsairError
-from ..image import build_image
-from ..robot import Robot
-from ..trace import TraceWriter, TracingBus
-from .actuator import ActuatorBoard, stand_registers
-from .clock import NS_PER_S, VirtualClock, seconds_to_ns
-from .faults import Faults, corrupt
-from .i2c import TimedBus
-from .scenario import Scenario, load_scenario, quiet, resolve_scenario
-from .uart import RX_BYTE, RX_HOLD, RX_TAKE, Uart
+from esair_min.model import hardware
+from esair_min.core.central import CentralCore
+from esair_min.core.devices import Eeprom24, RegisterSlave, SimpleBus
+from esair_min.errors import EsairError
+from esair_min.core.image import build_image
+from esair_min.model.robot import Robot
+from esair_min.core.trace import TraceWriter, TracingBus
+from esair_min.emulator.actuator import ActuatorBoard, stand_registers
+from esair_min.emulator.clock import NS_PER_S, VirtualClock, seconds_to_ns
+from esair_min.emulator.faults import Faults, corrupt
+from esair_min.emulator.i2c import TimedBus
+from esair_min.emulator.scenario import Scenario, load_scenario, quiet, resolve_scenario
+from esair_min.emulator.uart import RX_BYTE, RX_HOLD, RX_TAKE, Uart
 
 HISTORY = 20     # lines kept in each of the state views
 _EOL = re.compile(rb"\r\n|\r|\n")

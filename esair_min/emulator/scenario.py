@@ -28,8 +28,8 @@ from typing import Any, Sequence
 
 import yaml
 
-from ..errors import ConfigError, Mark, file_mark
-from ..model import Sensor
+from esair_min.errors import ConfigError, Mark, file_mark
+from esair_min.model.board import Sensor
 
 ADC_MAX = 1023
 DEFAULT_IDLE = 512

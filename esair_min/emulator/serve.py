@@ -9,10 +9,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, TextIO
 
-from ..errors import EsairError
-from ..robot import Robot
-from .faults import Faults
-from .robot import Emulator
+from esair_min.errors import EsairError
+from esair_min.model.robot import Robot
+from esair_min.emulator.faults import Faults
+from esair_min.emulator.robot import Emulator
 
 
 @dataclass
@@ -44,7 +44,7 @@ def generate_first(robot: Robot, out_dir: Path, log: Callable[[str], None]) -> b
     log(f"generated {robot.name} into {out_dir}")
     if robot.eeprom is None:
         return None
-    from ..image import build_image, read_hex, write_hex
+    from esair_min.core.image import build_image, read_hex, write_hex
 
     hexes = sorted(out_dir.rglob("*eeprom*.hex"))
     if len(hexes) != 1:
@@ -87,7 +87,7 @@ def emulate(robot: Robot, opts: EmulateOptions, out: TextIO | None = None,
     with ExitStack() as stack:
         trace = None
         if opts.trace is not None:
-            from .tracefile import FileTraceWriter
+            from esair_min.emulator.tracefile import FileTraceWriter
 
             try:
                 f = stack.enter_context(open(opts.trace, "w", encoding="ascii"))
@@ -104,7 +104,7 @@ def emulate(robot: Robot, opts: EmulateOptions, out: TextIO | None = None,
 
 
 def _serve(emu: Emulator, opts: EmulateOptions, out: TextIO) -> None:
-    from .ptyserver import serve_pty
+    from esair_min.emulator.ptyserver import serve_pty
 
     stop = _Stop()
     stop.install()
@@ -123,7 +123,7 @@ def _serve(emu: Emulator, opts: EmulateOptions, out: TextIO) -> None:
             if not live or "path" not in state:
                 return
             if view is None:
-                from .liveview import LiveView
+                from esair_min.emulator.liveview import LiveView
 
                 view = stack.enter_context(LiveView(emu, state["path"]))
             view.poll()

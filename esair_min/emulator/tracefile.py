@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import TextIO
 
-from ..trace import TraceWriter
+from esair_min.core.trace import TraceWriter
 
 
 class FileTraceWriter(TraceWriter):

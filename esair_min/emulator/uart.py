@@ -33,8 +33,8 @@ from __future__ import annotations
 from collections import deque
 from typing import Callable
 
-from ..protocol import RX_RING, TX_RING
-from .clock import NS_PER_S, VirtualClock
+from esair_min.core.protocol import RX_RING, TX_RING
+from esair_min.emulator.clock import NS_PER_S, VirtualClock
 
 RING_BYTES = RX_RING
 RX_BYTE, RX_TAKE, RX_HOLD = 0, 1, 2     # answers of ``rx_mode`` (see above)

@@ -13,13 +13,13 @@ from typing import Any, Iterable
 
 from pydantic import ValidationError
 
-from . import hardware
-from .errors import ConfigError, file_mark
-from .model import (DEFAULT_COMMANDS, Board, BoardDevice, Command, EepromDevice, Frame,
+from esair_min.model import hardware
+from esair_min.errors import ConfigError, file_mark
+from esair_min.model.board import (DEFAULT_COMMANDS, Board, BoardDevice, Command, EepromDevice, Frame,
                     Motion)
-from .robot import Robot, frame_bus_load
-from .schema_errors import config_error, did_you_mean
-from .yamlload import Document, load_yaml
+from esair_min.model.robot import Robot, frame_bus_load
+from esair_min.config.schema_errors import config_error, did_you_mean
+from esair_min.config.yamlload import Document, load_yaml
 
 #: Longest command line, checksum suffix ``*HH`` included (docs/protocol.md).
 MAX_LINE = 40
@@ -326,7 +326,7 @@ class _Checker:
                       "devices (kind: eeprom)", key=True)
         if isinstance(eeprom, EepromDevice):
             servos = len(by_role["actuator"].servos) if "actuator" in by_role else 0
-            from .layout import image_layout
+            from esair_min.model.layout import image_layout
             need = image_layout(central.motions, servos).total_bytes
             index = central.i2c.devices.index(eeprom)
             if need > 0xFFFF:

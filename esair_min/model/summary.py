@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from .hardware import FIRMWARE_BUS_OVERHEAD
-from .robot import Robot
+from esair_min.model.hardware import FIRMWARE_BUS_OVERHEAD
+from esair_min.model.robot import Robot
 
 
 def robot_summary(robot: Robot) -> list[str]:

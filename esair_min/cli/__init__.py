@@ -9,9 +9,9 @@ from typing import Any, Callable
 
 import click
 
-from . import __version__
-from .errors import EsairError
-from .resources import resolve_robot
+from esair_min import __version__
+from esair_min.errors import EsairError
+from esair_min.resources import resolve_robot
 
 
 def _friendly(fn: Callable[..., Any]) -> Callable[..., Any]:
@@ -35,7 +35,7 @@ OUTPUT_DIR = click.option("-o", "--output", required=True, metavar="DIR",
 
 
 def load(robot: str):
-    from .validate import load_robot
+    from esair_min.model.validate import load_robot
 
     return load_robot(resolve_robot(robot))
 
@@ -56,7 +56,7 @@ def main() -> None:
 @_friendly
 def check(robot: str) -> None:
     """Validate a robot's board files and print a short summary."""
-    from .summary import robot_summary
+    from esair_min.model.summary import robot_summary
 
     model = load(robot)
     for line in robot_summary(model):
@@ -68,7 +68,7 @@ def check(robot: str) -> None:
 @click.option("--indent", default=2, show_default=True, help="JSON indentation.")
 def schema(indent: int) -> None:
     """Print the JSON Schema of the board file format (for editors)."""
-    from .model import Board
+    from esair_min.model.board import Board
 
     doc = Board.model_json_schema()
     doc["$schema"] = "https://json-schema.org/draft/2020-12/schema"
@@ -84,8 +84,8 @@ def schema(indent: int) -> None:
 @_friendly
 def eeprom(robot: str, output: str, raw: bool) -> None:
     """Build the EEPROM motion image of a robot and write it as Intel HEX."""
-    from .errors import ImageError
-    from .image import build_image, image_summary, write_hex
+    from esair_min.errors import ImageError
+    from esair_min.core.image import build_image, image_summary, write_hex
 
     model = load(robot)
     data = build_image(model)
@@ -136,8 +136,8 @@ def emulate(robot: str, pty: bool, run_s: float | None, sends: tuple[str, ...],
     """
     from pathlib import Path
 
-    from .emulator.faults import Faults
-    from .emulator.serve import EmulateOptions, emulate as run_emulator
+    from esair_min.emulator.faults import Faults
+    from esair_min.emulator.serve import EmulateOptions, emulate as run_emulator
 
     opts = EmulateOptions(
         pty=pty, run_s=run_s, sends=sends, generate=Path(generate) if generate else None,
@@ -163,7 +163,7 @@ def send(port: str, commands: tuple[str, ...], baud: int, timeout: float, notice
     PORT is a serial device, the pty of 'esair emulate --pty', or an esair:// URL
     (esair://boards/papaman?speed=max).
     """
-    from .send import open_port, send_commands
+    from esair_min.cli.send import open_port, send_commands
 
     ser = open_port(port, baud, timeout)
     try:
@@ -184,7 +184,7 @@ def send(port: str, commands: tuple[str, ...], baud: int, timeout: float, notice
 def plot(trace: str, output: str, robot: str, targets: bool) -> None:
     """Plot servo angles over time from an event trace: positions simulated from its
     actuator writes with the emulator's servo model (--targets adds the targets)."""
-    from .plot import plot_trace
+    from esair_min.cli.plot import plot_trace
 
     n = plot_trace(load(robot), trace, output, targets)
     click.echo(f"{n} ticks -> {output}")
@@ -213,7 +213,7 @@ def build(robot: str, output: str) -> None:
     """Generate every board's firmware, build it for the PIC18F452 and print its footprint."""
     from pathlib import Path
 
-    from .build import build_robot, summary_lines
+    from esair_min.pic.build import build_robot, summary_lines
 
     for line in summary_lines(build_robot(load(robot), Path(output))):
         click.echo(line)

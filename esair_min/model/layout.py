@@ -1,7 +1,7 @@
 """Where each motion lives in the EEPROM image (docs/eeprom-format.md).
 
 Layout only (sizes and offsets, needed by validation to say "EEPROM too small");
-the bytes themselves are built by :mod:`esair_min.image`.
+the bytes themselves are built by :mod:`esair_min.core.image`.
 """
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Sequence
 
-from .model import Motion
+from esair_min.model.board import Motion
 
 MAGIC = b"EM"
 VERSION = 1

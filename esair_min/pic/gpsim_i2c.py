@@ -31,8 +31,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Self
 
-from .gpsim_harness import _gpsim_pin
-from .toolchain import _NOISE, Toolchain, ToolchainError, find_toolchain
+from esair_min.pic.gpsim_harness import _gpsim_pin
+from esair_min.pic.toolchain import _NOISE, Toolchain, ToolchainError, find_toolchain
 
 _CYCLE_BREAK_RE = re.compile(r"cycle break: 0x[0-9a-fA-F]+ = (\d+)")
 _CYCLES_RE = re.compile(r"^(\d+) = 0x[0-9A-Fa-f]+\s*$")

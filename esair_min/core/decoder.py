@@ -8,7 +8,7 @@ Two pieces, both without I/O:
   code, checking in the order of the contract: checksum (E06/E11), matching (E01/E03),
   then (after the caller's E07 check) the arguments (E03).
 
-Execution (limits, overflow, motions, the bus) belongs to :mod:`esair_min.core`.
+Execution (limits, overflow, motions, the bus) belongs to :mod:`esair_min.core.central`.
 """
 
 from __future__ import annotations
@@ -16,8 +16,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Sequence, Union
 
-from .model import Command
-from .protocol import (ANGLE_CODE_FIRST, ANGLE_CODE_LAST, ANGLE_STEP, CHECKSUM_CHARS,
+from esair_min.model.board import Command
+from esair_min.core.protocol import (ANGLE_CODE_FIRST, ANGLE_CODE_LAST, ANGLE_STEP, CHECKSUM_CHARS,
                        MAX_LINE, MAX_SPEED, Code)
 
 CR = 0x0D

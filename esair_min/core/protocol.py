@@ -11,7 +11,7 @@ from dataclasses import dataclass
 from enum import IntEnum
 from typing import Iterable, Sequence
 
-from .errors import ProtocolError
+from esair_min.errors import ProtocolError
 
 PROTOCOL_NAME = "esair-min/1"
 MAX_LINE = 40          # characters of a line, terminator excluded, checksum suffix included

@@ -12,7 +12,7 @@
   on ``core_rx_end``'s entry tells which bytes took the slow path.
 - **ISR**: breakpoints on the high-priority vector (0x0008) and on the ISR's RETFIE;
   an ISR whose span holds a rising edge of the sync pin is a Timer2 tick.
-- **Tick to frame**: from the gpsim harness run (:mod:`esair_min.gpsim_harness`): the
+- **Tick to frame**: from the gpsim harness run (:mod:`esair_min.pic.gpsim_harness`): the
   cycles from the sync pin's rising edge (set in the Timer2 ISR) to the last byte
   (its ACK clock) and to the STOP of the actuator write that follows on that tick.
 """
@@ -24,12 +24,12 @@ import statistics
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .gpsim_harness import GpsimRun, GpsimSetup, _Script, _stimulus_line, setup_lines
-from .gpsim_wave import read_edges
-from .harness import unescape
-from .image import build_image, write_hex
-from .robot import Robot
-from .toolchain import Toolchain, ToolchainError, run_gpsim
+from esair_min.pic.gpsim_harness import GpsimRun, GpsimSetup, _Script, _stimulus_line, setup_lines
+from esair_min.pic.gpsim_wave import read_edges
+from esair_min.core.harness import unescape
+from esair_min.core.image import build_image, write_hex
+from esair_min.model.robot import Robot
+from esair_min.pic.toolchain import Toolchain, ToolchainError, run_gpsim
 
 ISR_VECTOR = 0x0008          # PIC18 high-priority interrupt vector
 RETURN_CYCLES = 2            # RETURN / RETFIE

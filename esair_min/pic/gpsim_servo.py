@@ -7,7 +7,7 @@ the bytes a frame write would leave there; then the sync line (RB0 through a pul
 firmware latches, and ``FileRecorder`` modules record every servo pin. Pulse widths
 are measured on the recordings and compared with ``pulse_min + (pulse_max -
 pulse_min) * angle / 180``. The recorders, sync line and pulse measurement are shared
-with the real I2C master of :mod:`esair_min.gpsim_i2c` (tests/test_gpsim_slaves.py).
+with the real I2C master of :mod:`esair_min.pic.gpsim_i2c` (tests/test_gpsim_slaves.py).
 """
 
 from __future__ import annotations
@@ -16,11 +16,11 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 
-from .gpsim_harness import _gpsim_pin
-from .gpsim_wave import read_edges
-from .model import Servo
-from .robot import Robot
-from .toolchain import Toolchain, ToolchainError, run_gpsim
+from esair_min.pic.gpsim_harness import _gpsim_pin
+from esair_min.pic.gpsim_wave import read_edges
+from esair_min.model.board import Servo
+from esair_min.model.robot import Robot
+from esair_min.pic.toolchain import Toolchain, ToolchainError, run_gpsim
 
 SETTLE_CYCLES = 150_000       # 30 ms at 5 MIPS: start-up and a first PWM frame
 RECORD_CYCLES = 300_000       # 60 ms after the latch: three 20 ms frames

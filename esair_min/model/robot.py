@@ -4,9 +4,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from .hardware import TickBusLoad, tick_bus_load
-from .layout import ImageLayout, image_layout
-from .model import Board, BoardDevice, Command, EepromDevice, Motion, Sensor, Servo
+from esair_min.model.hardware import TickBusLoad, tick_bus_load
+from esair_min.model.layout import ImageLayout, image_layout
+from esair_min.model.board import Board, BoardDevice, Command, EepromDevice, Motion, Sensor, Servo
 
 
 def frame_bus_load(central: Board, actuator: Board | None,

@@ -10,30 +10,19 @@ core is compared with, trace for trace.
 from __future__ import annotations
 
 import struct
-from typing import Callable, Protocol
+from typing import Callable
 
-from . import protocol as P
-from .decoder import CommandTable, LineAssembler, Row
-from .image import build_image, crc16_ccitt
-from .layout import HEADER_BYTES
-from .player import BalanceReaction, Player
-from .protocol import Code
-from .robot import Robot
+from esair_min.core import protocol as P
+from esair_min.core.bus import Bus
+from esair_min.core.decoder import CommandTable, LineAssembler, Row
+from esair_min.core.image import build_image, crc16_ccitt
+from esair_min.model.layout import HEADER_BYTES
+from esair_min.core.player import BalanceReaction, Player
+from esair_min.core.protocol import Code
+from esair_min.model.robot import Robot
 
 #: Bytes per EEPROM read while checking the image at reset (docs/protocol.md, Reset).
 CHECK_CHUNK = 32
-
-
-class Bus(Protocol):
-    """The only hardware boundary of the core: I2C master transactions."""
-
-    def write(self, addr: int, data: bytes) -> bool:
-        """Write ``data`` to 7-bit address ``addr``; True if acknowledged."""
-        ...
-
-    def write_read(self, addr: int, wdata: bytes, n: int) -> bytes | None:
-        """Write ``wdata``, repeated start, read ``n`` bytes; None if not acknowledged."""
-        ...
 
 
 class CentralCore:

@@ -10,8 +10,8 @@ import time
 from dataclasses import dataclass
 from typing import Any, Callable, Sequence
 
-from .errors import EsairError
-from .protocol import add_checksum
+from esair_min.errors import EsairError
+from esair_min.core.protocol import add_checksum
 
 
 @dataclass(frozen=True)

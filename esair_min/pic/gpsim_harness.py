@@ -13,7 +13,7 @@ become a gpsim command file generated from the model:
   the readings in its memory, else another ``i2c2par`` (every byte read returns its 8
   pins, set by pull-ups/pull-downs, so all readings are equal);
 - ``FileRecorder`` modules record SCL, SDA and the sync pin; the bus is decoded from
-  the waveforms (:mod:`esair_min.gpsim_wave`), like a logic analyser would;
+  the waveforms (:mod:`esair_min.pic.gpsim_wave`), like a logic analyser would;
 - ``fault bus on`` / ``fault sda on`` set the SCL / SDA pull-up to 0 V: the line is held
   low (a stuck bus, a slave holding SCL) until ``off`` puts it back at 5 V. The log also
   records every write to SSPCON1 (the firmware's MSSP resets on an I2C timeout), every
@@ -33,13 +33,13 @@ import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .errors import ProtocolError
-from .gpsim_wave import I2cTransfer, decode_i2c, read_edges, read_register_log
-from .devices import RegisterSlave
-from .harness import unescape
-from .image import build_image, write_hex
-from .robot import Robot
-from .toolchain import Toolchain, ToolchainError, run_gpsim
+from esair_min.errors import ProtocolError
+from esair_min.pic.gpsim_wave import I2cTransfer, decode_i2c, read_edges, read_register_log
+from esair_min.core.devices import RegisterSlave
+from esair_min.core.harness import unescape
+from esair_min.core.image import build_image, write_hex
+from esair_min.model.robot import Robot
+from esair_min.pic.toolchain import Toolchain, ToolchainError, run_gpsim
 
 BOOT_LEAD = 0.125          # of a tick: where the boot wait (and so every tick N) ends
 HOLD_PULLUPS = {"bus": "PSCL", "sda": "PSDA"}   # `fault bus|sda on`: this pull-up at 0 V

@@ -2,7 +2,7 @@
 
 Each board folder's own Makefile does the build (``make -B pic18f452``, so every file is
 compiled again and every warning is seen); any warning from sdcc, gpasm or gplink is a
-failure. The footprint comes from the gplink map (:func:`esair_min.toolchain.parse_map`).
+failure. The footprint comes from the gplink map (:func:`esair_min.pic.toolchain.parse_map`).
 """
 
 from __future__ import annotations
@@ -12,9 +12,9 @@ import subprocess
 from dataclasses import dataclass, replace
 from pathlib import Path
 
-from .errors import EsairError
-from .robot import Robot
-from .toolchain import MapUsage, Toolchain, ToolchainError, find_toolchain, parse_map
+from esair_min.errors import EsairError
+from esair_min.model.robot import Robot
+from esair_min.pic.toolchain import MapUsage, Toolchain, ToolchainError, find_toolchain, parse_map
 
 FLASH_BYTES = 32768      # PIC18F452 program memory
 RAM_BYTES = 1536         # PIC18F452 data memory (general purpose)

@@ -3,8 +3,8 @@
 These classes are the single definition of the board file format: the validator
 builds them from YAML, ``esair schema`` prints their JSON Schema, the generator and
 the emulator read them. Rules that involve more than one field or more than one
-board live in :mod:`esair_min.validate`; values derived from the datasheet live in
-:mod:`esair_min.hardware` and are exposed here as properties.
+board live in :mod:`esair_min.model.validate`; values derived from the datasheet live in
+:mod:`esair_min.model.hardware` and are exposed here as properties.
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ from typing import Annotated, Literal, Union
 
 from pydantic import BaseModel, ConfigDict, Field, StrictBool, StrictFloat, StrictInt, StrictStr
 
-from . import hardware
+from esair_min.model import hardware
 
 Name = Annotated[StrictStr, Field(pattern=r"^[a-z][a-z0-9_]{0,23}$",
                                   description="lower-case identifier, at most 24 chars")]

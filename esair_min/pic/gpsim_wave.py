@@ -13,7 +13,7 @@ import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .toolchain import ToolchainError
+from esair_min.pic.toolchain import ToolchainError
 
 
 def read_edges(path: str | Path) -> list[tuple[int, int]]:

@@ -1,47 +1,33 @@
 """The EEPROM motion image (docs/eeprom-format.md): build, parse, Intel HEX.
 
-The layout (offsets and sizes) comes from :mod:`esair_min.layout`; this module makes
+The layout (offsets and sizes) comes from :mod:`esair_min.model.layout`; this module makes
 and checks the bytes.
 """
 
 from __future__ import annotations
 
+import binascii
 import struct
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from .errors import ImageError
-from .layout import DIR_ENTRY_BYTES, HEADER_BYTES, MAGIC, VERSION
+from esair_min.errors import ImageError
+from esair_min.model.layout import DIR_ENTRY_BYTES, HEADER_BYTES, MAGIC, VERSION
 
 if TYPE_CHECKING:
-    from .robot import Robot
+    from esair_min.model.robot import Robot
 
 BLANK = 0xFF
-
-
-def _crc_table() -> tuple[int, ...]:
-    table = []
-    for i in range(256):
-        crc = i << 8
-        for _ in range(8):
-            crc = ((crc << 1) ^ 0x1021) if crc & 0x8000 else (crc << 1)
-        table.append(crc & 0xFFFF)
-    return tuple(table)
-
-
-_CRC_TABLE = _crc_table()
 
 
 def crc16_ccitt(data: bytes | bytearray, crc: int = 0xFFFF) -> int:
     """CRC-16/CCITT-FALSE: poly 0x1021, init 0xFFFF, no reflection, no final XOR.
 
     ``crc16_ccitt(b"123456789") == 0x29B1``. Pass ``crc`` to continue a running CRC.
+    The standard library's ``binascii.crc_hqx`` is this CRC (it was a hand-made table).
     """
-    t = _CRC_TABLE
-    for b in data:
-        crc = ((crc << 8) & 0xFFFF) ^ t[(crc >> 8) ^ b]
-    return crc
+    return binascii.crc_hqx(data, crc)
 
 
 @dataclass(frozen=True)

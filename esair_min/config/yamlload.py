@@ -16,7 +16,7 @@ from typing import Any
 
 import yaml
 
-from .errors import ConfigError, Mark, file_mark
+from esair_min.errors import ConfigError, Mark, file_mark
 
 Path_ = tuple[Any, ...]
 

@@ -15,8 +15,8 @@ from typing import Any, Union
 
 from pydantic import BaseModel, ValidationError
 
-from .errors import ConfigError
-from .yamlload import Document, kind_of
+from esair_min.errors import ConfigError
+from esair_min.config.yamlload import Document, kind_of
 
 _PATTERN_TEXT = {
     r"^[a-z][a-z0-9_]{0,23}$": "a lower-case name (a-z, 0-9, _; at most 24 characters, "

@@ -14,9 +14,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .emulator.actuator import ServoBank, stand_registers
-from .errors import EsairError
-from .robot import Robot
+from esair_min.emulator.actuator import ServoBank, stand_registers
+from esair_min.errors import EsairError
+from esair_min.model.robot import Robot
 
 PANEL = 6     # servos per panel
 TAIL_TICKS = 100   # ticks plotted after the last event at most, while servos still move

@@ -1,6 +1,6 @@
 """The frame player and the balance reaction (docs/protocol.md), stepped per tick.
 
-Both talk to the hardware only through a :class:`~esair_min.core.Bus`; neither keeps
+Both talk to the hardware only through a :class:`~esair_min.core.bus.Bus`; neither keeps
 time other than the ticks it is stepped with.
 """
 
@@ -8,11 +8,11 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Sequence
 
-from .protocol import Code
+from esair_min.core.protocol import Code
 
 if TYPE_CHECKING:
-    from .core import Bus
-    from .layout import MotionSlot
+    from esair_min.core.bus import Bus
+    from esair_min.model.layout import MotionSlot
 
 
 #: frames whose check is remembered (a motion replays the same few frames)
