@@ -1,0 +1,17 @@
+"""The MIN serial link: one MIN robot (PAPA-MAN) as seen from the host.
+
+- :class:`Link` (``link.py``): the serial link itself, independent of the STD runtime;
+- :class:`RobotCommands` (``commands.py``): lines built and checked from the board files;
+- :func:`line_budget` (``budget.py``): the line's time budget at the robot's baud;
+- the errors (``errors.py``).
+
+See docs/std-papaman.md.
+"""
+
+from .budget import LineBudget, line_budget
+from .commands import RobotCommands
+from .errors import LinkDown, LinkError, RobotRefused
+from .link import Exchange, Link
+
+__all__ = ["Exchange", "LineBudget", "Link", "LinkDown", "LinkError", "RobotCommands",
+           "RobotRefused", "line_budget"]

@@ -1,0 +1,119 @@
+"""The emulated robot as a child process behind a pty, at a stable path.
+
+``esair emulate ROBOT --pty`` prints the pty it serves on its first line. A pty's name
+changes each time the emulator starts, as a USB serial adapter's may when it is plugged
+in again; :class:`EmulatedRobot` keeps a symbolic link (``port``) pointing at the
+current pty, as udev does for a real adapter (``/dev/serial/by-id/...``). The link is
+removed while no emulator runs, so a driver reopening ``port`` fails until the robot is
+back. ``kill()`` (SIGKILL: the robot "pulled") and ``start()`` again are what the
+fault tests and ``esair std run`` use; ``stop()`` ends the child for good.
+"""
+
+from __future__ import annotations
+
+import os
+import select
+import signal
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+from typing import Sequence
+
+from .errors import LinkError
+
+START_TIMEOUT_S = 30.0
+
+
+class EmulatedRobot:
+    """``esair emulate ROBOT --pty ARGS`` as a child process; ``port`` is a stable path."""
+
+    def __init__(self, robot: str | Path, args: Sequence[str] = (),
+                 port: str | Path | None = None):
+        self.robot = str(robot)
+        self.args = tuple(args)
+        self._tmp: tempfile.TemporaryDirectory[str] | None = None
+        if port is None:
+            self._tmp = tempfile.TemporaryDirectory(prefix="esair-robot-")
+            port = Path(self._tmp.name) / "robot.tty"
+        self.port = str(port)
+        self.pty: str | None = None
+        self.proc: subprocess.Popen[bytes] | None = None
+        self._errors = None
+        self.starts = 0
+
+    def start(self, extra: Sequence[str] = ()) -> str:
+        """Start the emulator (``extra`` arguments for this start only); return ``port``."""
+        if self.running:
+            raise LinkError(f"the emulated robot on {self.port} is already running")
+        env = dict(os.environ)
+        root = str(Path(__file__).resolve().parents[3])
+        env["PYTHONPATH"] = root + os.pathsep + env.get("PYTHONPATH", "")
+        cmd = [sys.executable, "-m", "esair_min.cli", "emulate", self.robot, "--pty",
+               *self.args, *extra]
+        errors = tempfile.TemporaryFile()      # not a pipe: nobody has to drain it
+        proc = subprocess.Popen(cmd, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
+                                stderr=errors, env=env, start_new_session=True)
+        self.proc, self._errors = proc, errors
+        assert proc.stdout is not None
+        ready, _, _ = select.select([proc.stdout], [], [], START_TIMEOUT_S)
+        line = proc.stdout.readline().decode(errors="replace").strip() if ready else ""
+        if not line.startswith("/dev/"):
+            self._reap(signal.SIGKILL)
+            errors.seek(0)
+            err = errors.read().decode(errors="replace").strip()
+            raise LinkError(f"the emulator did not start ({' '.join(cmd[2:])}): "
+                            f"{err.splitlines()[-1] if err else 'no pty path printed'}")
+        self.pty = line
+        tmp = self.port + ".new"
+        if os.path.lexists(tmp):
+            os.unlink(tmp)
+        os.symlink(line, tmp)
+        os.replace(tmp, self.port)
+        self.starts += 1
+        return self.port
+
+    @property
+    def running(self) -> bool:
+        return self.proc is not None and self.proc.poll() is None
+
+    def kill(self) -> None:
+        """Pull the robot: SIGKILL the emulator and remove the port's link."""
+        self._unlink()
+        self._reap(signal.SIGKILL)
+
+    def stop(self) -> None:
+        """End the emulator (SIGTERM, then SIGKILL) and clean up."""
+        self._unlink()
+        self._reap(signal.SIGTERM)
+        if self._tmp is not None:
+            self._tmp.cleanup()
+            self._tmp = None
+
+    def __enter__(self) -> "EmulatedRobot":
+        self.start()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()
+
+    def _unlink(self) -> None:
+        if os.path.islink(self.port):
+            os.unlink(self.port)
+
+    def _reap(self, sig: int) -> None:
+        proc, self.proc = self.proc, None
+        if proc is None:
+            return
+        if proc.poll() is None:
+            proc.send_signal(sig)
+            try:
+                proc.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait(timeout=10)
+        for f in (proc.stdout, self._errors):
+            if f is not None:
+                f.close()
+        self._errors = None
+        self.pty = None

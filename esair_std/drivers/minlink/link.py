@@ -1,0 +1,427 @@
+"""One MIN robot's serial link: one command in flight, replies matched, notices apart.
+
+A single I/O thread owns the port (pySerial: a device, a pty, an ``esair://`` URL, whose
+in-process emulator is not thread-safe, so nothing else touches the port). Callers of
+:meth:`Link.command` take turns: the line is handed to the I/O thread, which writes it
+and waits for the next line that answers a command; ``!`` lines go to the notices
+stream (bounded; what overflows is counted). An ``Enn`` reply raises
+:class:`RobotRefused` in the caller, naming the command and the code.
+
+The protocol's replies carry no sequence number, so the link keeps them matched by
+never having two commands out and by resynchronising whenever it cannot be sure:
+
+- an ``OK`` whose shape cannot answer the command in flight (a ``v`` reply to ``s``...)
+  is a stray, counted, not a reply;
+- an error that only a damaged line can cause (E01 E02 E03 E06 E12 E13: the link only
+  sends well-formed lines) may be the answer to a line that noise made up, so the link
+  waits ``settle_s`` for a later, plausible ``OK`` before it reports the error;
+- no reply within ``timeout``, or a port error: the link is **down**. The command in
+  flight fails with :class:`LinkDown`, the port is closed, and the I/O thread reopens
+  it with exponential backoff; it is up again once a ``v`` probe is answered by the robot
+  of the board files (servo and sensor count, checksum setting). While down, commands
+  fail at once with :class:`LinkDown`; ``on_state`` reports every change.
+
+:meth:`close` stops and joins the I/O thread and closes the port.
+"""
+
+from __future__ import annotations
+
+import collections
+import threading
+import time
+from dataclasses import dataclass, field
+from typing import Any, Callable
+
+from esair_min.errors import ProtocolError
+from esair_min.protocol import Code, parse_reply
+from esair_min.robot import Robot
+
+from .budget import line_budget
+from .commands import VERSION_PREFIX, RobotCommands
+from .errors import LinkDown, LinkError, RobotRefused
+
+#: Reply codes a well-formed line cannot get: the line was damaged on the wire.
+WIRE_CODES = frozenset({Code.UNKNOWN, Code.TOO_LONG, Code.BAD_ARGUMENT, Code.BAD_CHECKSUM,
+                        Code.OVERRUN, Code.BAD_CHARACTER})
+MAX_LINE_BYTES = 256        # a longer line from the robot is garbage: dropped, counted
+POLL_S = 0.05               # the I/O thread's longest wait on a port it can wake
+POLL_S_NO_CANCEL = 0.002    # ... on a port without cancel_read (esair://)
+RESYNC = b"\r\n"            # an empty line: no reply, but it ends a line noise began
+RESYNC_IDLE_S = 0.25        # a command after this long a silence is sent after RESYNC
+
+
+@dataclass
+class Exchange:
+    """One command and its fate. Times are ``time.monotonic()``."""
+
+    line: str
+    wire: bytes
+    timeout: float
+    sent: bool = False
+    t_sent: float = 0.0
+    t_reply: float = 0.0
+    data: str | None = None
+    error: LinkError | None = None
+    settle_until: float | None = None
+    first_error: RobotRefused | None = None
+    done: threading.Event = field(default_factory=threading.Event)
+
+
+StateCallback = Callable[[bool, str], None]
+NoticeCallback = Callable[[str, float], None]
+
+
+class Link:
+    """The serial link to one MIN robot (see the module docstring)."""
+
+    def __init__(self, robot: Robot, port: str, *, baud: int | None = None,
+                 timeout: float = 1.0, backoff: tuple[float, float] = (0.05, 2.0),
+                 notice_capacity: int = 256, on_state: StateCallback | None = None,
+                 on_notice: NoticeCallback | None = None):
+        if not timeout > 0:
+            raise LinkError(f"link timeout {timeout:g} s must be more than 0")
+        self.robot = robot
+        self.port = port
+        self.commands = RobotCommands(robot)
+        self.budget = line_budget(robot)
+        self.baud = baud or self.budget.baud
+        self.timeout = timeout
+        self.backoff = backoff
+        self.settle_s = (self.budget.line_s(2 * 44) + 2 * self.budget.tick_s)
+        self.on_state = on_state
+        self.on_notice = on_notice
+        self.stats: collections.Counter[str] = collections.Counter()
+        self._notices: collections.deque[tuple[str, float]] = collections.deque(
+            maxlen=notice_capacity)
+        self._lock = threading.Lock()          # guards _slot, _port, _up, _reason
+        self._turn = threading.Lock()          # one command in flight
+        self._stop = threading.Event()
+        self._port: Any = None
+        self._slot: Exchange | None = None
+        self._up = False
+        self._reason = "not opened"
+        self._buf = bytearray()
+        self._thread: threading.Thread | None = None
+        self._poll = POLL_S
+        self._last_write = 0.0
+
+    # -- life cycle -----------------------------------------------------------------------
+    def open(self) -> None:
+        """Connect (raises :class:`LinkError` if the robot cannot be reached now), then
+        start the I/O thread."""
+        if self._thread is not None:
+            raise LinkError(f"link to {self.port} is already open")
+        self._port = self._connect()
+        self._up, self._reason = True, "up"
+        self._thread = threading.Thread(target=self._run, name=f"minlink-io:{self.port}",
+                                        daemon=True)
+        self._thread.start()
+
+    def close(self) -> None:
+        """Stop the I/O thread, close the port, fail a command still in flight."""
+        self._stop.set()
+        self._wake()
+        if self._thread is not None:
+            self._thread.join(timeout=5)
+        with self._lock:
+            self._up, self._reason = False, "closed"
+            port, self._port = self._port, None
+            self._fail_slot(LinkDown(f"link to {self.port} closed"))
+        _close_quietly(port)
+
+    def __enter__(self) -> "Link":
+        self.open()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    @property
+    def up(self) -> bool:
+        return self._up
+
+    @property
+    def reason(self) -> str:
+        return self._reason
+
+    @property
+    def alive(self) -> bool:
+        """True while the I/O thread runs."""
+        return self._thread is not None and self._thread.is_alive()
+
+    # -- commands -------------------------------------------------------------------------
+    def exchange(self, line: str, timeout: float | None = None) -> Exchange:
+        """Send ``line``, wait for its reply; raise on an ``Enn`` reply or a link down."""
+        timeout = self.timeout if timeout is None else timeout
+        if self._stop.is_set():
+            raise LinkDown(f"link to {self.port} is closed: {line!r} not sent")
+        if not self._up:
+            raise LinkDown(f"link to {self.port} is down ({self._reason}): {line!r} not sent")
+        if not self._turn.acquire(timeout=timeout):
+            raise LinkError(f"link to {self.port} busy: {line!r} waited {timeout:g} s for "
+                            f"its turn; not sent")
+        try:
+            ex = Exchange(line, self.commands.wire(line), timeout)
+            with self._lock:
+                if not self._up:
+                    raise LinkDown(f"link to {self.port} is down ({self._reason}): "
+                                   f"{line!r} not sent")
+                self._slot = ex
+            self._wake()
+            # the I/O thread owns the deadline; this wait is only a safety net
+            if not ex.done.wait(timeout + self.settle_s + 5.0):
+                raise LinkError(f"link to {self.port}: the I/O thread did not answer")
+        finally:
+            self._turn.release()
+        if ex.error is not None:
+            raise ex.error
+        return ex
+
+    def command(self, line: str, timeout: float | None = None) -> str:
+        """Send ``line``; return the reply's data (after ``OK ``, empty for a bare ``OK``)."""
+        data = self.exchange(line, timeout).data
+        assert data is not None
+        return data
+
+    def motor(self, servo: str, angle: object, speed: object = None) -> None:
+        self.command(self.commands.motor(servo, angle, speed))
+
+    def play(self, motion: object) -> None:
+        self.command(self.commands.play(motion))
+
+    def stand(self) -> None:
+        self.command(self.commands.prefix("stand"))
+
+    def stop(self) -> None:
+        self.command(self.commands.prefix("stop"))
+
+    def feet(self) -> dict[str, object]:
+        return self.commands.feet(self.command(self.commands.prefix("sensors")))
+
+    def version(self) -> str:
+        return self.command(self.commands.prefix("version"))
+
+    # -- notices --------------------------------------------------------------------------
+    def notices(self) -> list[tuple[str, float]]:
+        """Drain the notices received (``!`` removed) with their ``time.time()``."""
+        with self._lock:
+            out = list(self._notices)
+            self._notices.clear()
+        return out
+
+    # -- the I/O thread -------------------------------------------------------------------
+    def _wake(self) -> None:
+        port = self._port
+        cancel = getattr(port, "cancel_read", None)
+        if cancel is not None:
+            try:
+                cancel()
+            except Exception:  # noqa: BLE001 - a port closing under us: the loop sees it
+                pass
+
+    def _run(self) -> None:
+        while not self._stop.is_set():
+            if self._port is None:
+                self._reconnect()
+                continue
+            try:
+                self._service()
+            except (OSError, Exception) as exc:  # noqa: BLE001 - pySerial's errors vary
+                if self._stop.is_set():
+                    break
+                self._down(_describe(exc))
+
+    def _service(self) -> None:
+        port = self._port
+        ex = self._slot
+        if ex is not None and not ex.sent:
+            now = time.monotonic()
+            port.write(ex.wire if now - self._last_write < RESYNC_IDLE_S else RESYNC + ex.wire)
+            ex.sent, ex.t_sent = True, now
+            self._last_write = now
+            self.stats["sent"] += 1
+        data = port.read(1)
+        if data:
+            more = port.in_waiting
+            if more:
+                data += port.read(more)
+            self._take(data)
+        now = time.monotonic()
+        ex = self._slot
+        if ex is None or not ex.sent or ex.done.is_set():
+            return
+        if ex.settle_until is not None and now >= ex.settle_until:
+            assert ex.first_error is not None
+            self._last_write = 0.0          # the next command resyncs the robot's line
+            self._finish(ex, error=ex.first_error)
+        elif ex.settle_until is None and now - ex.t_sent > ex.timeout:
+            self.stats["timeouts"] += 1
+            self._down(f"no reply to {ex.line!r} within {ex.timeout:g} s")
+
+    def _take(self, data: bytes) -> None:
+        self._buf += data
+        while True:
+            i = self._buf.find(b"\n")
+            if i < 0:
+                if len(self._buf) > MAX_LINE_BYTES:
+                    self._buf.clear()
+                    self.stats["garbled"] += 1
+                return
+            raw = bytes(self._buf[:i])
+            del self._buf[:i + 1]
+            text = raw.decode("latin-1").strip("\r")
+            if text:
+                self._line(text)
+
+    def _line(self, text: str) -> None:
+        if text.startswith("!"):
+            self.stats["notices"] += 1
+            t = time.time()
+            with self._lock:
+                if len(self._notices) == self._notices.maxlen:
+                    self.stats["notices_dropped"] += 1
+                self._notices.append((text[1:], t))
+            if self.on_notice is not None:
+                self.on_notice(text[1:], t)
+            return
+        try:
+            reply = parse_reply(text)
+        except ProtocolError:
+            self.stats["garbled"] += 1
+            return
+        ex = self._slot
+        if ex is None or not ex.sent or ex.done.is_set():
+            self.stats["strays"] += 1
+            return
+        if reply.kind == "ok":
+            if self.commands.plausible(ex.line, reply.data):
+                self._finish(ex, data=reply.data)
+            else:
+                self.stats["strays"] += 1
+            return
+        assert reply.code is not None
+        refused = RobotRefused(ex.line, reply.code, text)
+        if ex.settle_until is not None:
+            self.stats["strays"] += 1
+        elif reply.code in WIRE_CODES:
+            ex.first_error = refused
+            ex.settle_until = time.monotonic() + self.settle_s
+        else:
+            self._finish(ex, error=refused)
+
+    def _finish(self, ex: Exchange, data: str | None = None,
+                error: LinkError | None = None) -> None:
+        ex.t_reply = time.monotonic()
+        ex.data, ex.error = data, error
+        self.stats["refused" if isinstance(error, RobotRefused) else "ok"] += 1
+        with self._lock:
+            if self._slot is ex:
+                self._slot = None
+        ex.done.set()
+
+    def _fail_slot(self, error: LinkError) -> None:
+        """(lock held) Fail the command in flight, if any."""
+        ex, self._slot = self._slot, None
+        if ex is not None and not ex.done.is_set():
+            if ex.sent:
+                error = LinkDown(f"link to {self.port} went down while {ex.line!r} waited for "
+                                 f"its reply ({error})")
+            else:
+                error = LinkDown(f"link to {self.port} is down ({error}): {ex.line!r} not sent")
+            ex.error = error
+            ex.done.set()
+
+    def _down(self, reason: str) -> None:
+        with self._lock:
+            port, self._port = self._port, None
+            self._up, self._reason = False, reason
+            self._fail_slot(LinkError(reason))
+        self._buf.clear()
+        _close_quietly(port)
+        self.stats["downs"] += 1
+        if self.on_state is not None:
+            self.on_state(False, reason)
+
+    def _reconnect(self) -> None:
+        delay = self.backoff[0]
+        while not self._stop.wait(delay):
+            try:
+                port = self._connect()
+            except LinkError as exc:
+                self._reason = f"reconnecting: {exc}"
+                delay = min(delay * 2, self.backoff[1])
+                continue
+            with self._lock:
+                if self._stop.is_set():
+                    _close_quietly(port)
+                    return
+                self._port, self._up, self._reason = port, True, "up"
+            self.stats["reconnects"] += 1
+            if self.on_state is not None:
+                self.on_state(True, "up")
+            return
+
+    def _connect(self) -> Any:
+        """Open the port and probe it with ``v``; the robot must be the board files' one."""
+        import serial
+
+        import esair_min.emulator  # noqa: F401  (registers esair://)
+
+        try:
+            port = serial.serial_for_url(self.port, baudrate=self.baud, timeout=POLL_S,
+                                         write_timeout=self.timeout)
+        except (serial.SerialException, ValueError, OSError) as exc:
+            raise LinkError(f"cannot open {self.port}: {_describe(exc)}") from None
+        try:
+            if getattr(port, "cancel_read", None) is None:
+                port.timeout = POLL_S_NO_CANCEL
+            self._poll = port.timeout
+            port.reset_input_buffer()
+            self._probe(port)
+        except LinkError:
+            _close_quietly(port)
+            raise
+        except Exception as exc:  # noqa: BLE001 - pySerial's errors vary
+            _close_quietly(port)
+            raise LinkError(f"cannot open {self.port}: {_describe(exc)}") from None
+        return port
+
+    def _probe(self, port: Any, attempts: int = 3) -> None:
+        """Send ``v`` until a version reply comes (a noisy line may damage a few). A line
+        end goes first: it ends whatever noise left in the robot's line buffer."""
+        wire = RESYNC + self.commands.wire(self.commands.prefix("version"))
+        buf = bytearray()
+        for _ in range(attempts):
+            port.write(wire)
+            deadline = time.monotonic() + self.timeout
+            while time.monotonic() < deadline:
+                buf += port.read(1)
+                if b"\n" not in buf:
+                    continue
+                raw, _, rest = bytes(buf).partition(b"\n")
+                buf[:] = rest
+                text = raw.decode("latin-1").strip("\r")
+                if text.startswith("!"):
+                    self._line(text)
+                elif text.startswith("OK " + VERSION_PREFIX):
+                    self.commands.check_version(text[3:])
+                    return
+                elif text.startswith("E11") and not self.commands.checksum:
+                    raise LinkError(f"the robot on {self.port} requires checksums (E11) but "
+                                    f"the board files of {self.robot.name} say "
+                                    f"require_checksum: false ({self.robot.source})")
+        raise LinkError(f"no answer to 'v' from {self.port} within {self.timeout:g} s")
+
+
+def _describe(exc: BaseException) -> str:
+    text = str(exc) or type(exc).__name__
+    return text
+
+
+def _close_quietly(port: Any) -> None:
+    if port is None:
+        return
+    try:
+        port.close()
+    except Exception:  # noqa: BLE001 - closing a port that already failed
+        pass
