@@ -14,8 +14,8 @@ from pathlib import Path
 import pytest
 import serial
 
-from esair_min.protocol import Code
-from esair_min.validate import load_robot
+from esair_min.core.protocol import Code
+from esair_min.model.validate import load_robot
 from esair_std.drivers.minlink import Link, LinkDown, LinkError, RobotRefused, line_budget
 from esair_std.drivers.minlink.link import WIRE_CODES
 

@@ -15,3 +15,12 @@ from .link import Exchange, Link
 
 __all__ = ["Exchange", "LineBudget", "Link", "LinkDown", "LinkError", "RobotCommands",
            "RobotRefused", "line_budget"]
+
+
+def __getattr__(name: str):
+    # the STD driver needs the runtime's classes: imported only when asked for, so the
+    # link itself works without them
+    if name == "MinLink":
+        from .driver import MinLink
+        return MinLink
+    raise AttributeError(name)

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from esair_min.robot import Robot
+from esair_min.model.robot import Robot
 
 from .commands import RobotCommands
 from .errors import LinkError

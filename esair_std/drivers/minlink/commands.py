@@ -9,9 +9,9 @@ a :class:`LinkError` naming the servo, the value and the board file.
 from __future__ import annotations
 
 from esair_min.errors import ProtocolError
-from esair_min.model import Servo
-from esair_min.protocol import MAX_SPEED, encode_pair, frame_line
-from esair_min.robot import Robot
+from esair_min.model.board import Servo
+from esair_min.core.protocol import MAX_SPEED, encode_pair, frame_line
+from esair_min.model.robot import Robot
 
 from .errors import LinkError
 

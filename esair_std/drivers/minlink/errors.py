@@ -7,7 +7,7 @@ Library code raises these; the STD driver turns them into the runtime's
 from __future__ import annotations
 
 from esair_min.errors import EsairError
-from esair_min.protocol import Code
+from esair_min.core.protocol import Code
 
 
 class LinkError(EsairError):

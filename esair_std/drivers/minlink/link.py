@@ -33,8 +33,8 @@ from dataclasses import dataclass, field
 from typing import Any, Callable
 
 from esair_min.errors import ProtocolError
-from esair_min.protocol import Code, parse_reply
-from esair_min.robot import Robot
+from esair_min.core.protocol import Code, parse_reply
+from esair_min.model.robot import Robot
 
 from .budget import line_budget
 from .commands import VERSION_PREFIX, RobotCommands
