@@ -1,0 +1,110 @@
+"""Behavior: the user's deliberative component (thesis 3.4).
+
+A subclass sets ``period`` (seconds between ``step()`` calls; ``None``: ``run()`` once)
+and overrides the life-cycle methods it needs. It reaches resources only through
+registration + the Sensor/Actuator Connections (``attach_sensor``/``attach_actuator``)
+and other behaviors only through the Behavior Supervisor (``put``/``get``/``state``).
+The runtime builds the object and calls every method on the behavior's own thread
+(thread mode) or in its own process (process mode): the same code runs in both.
+"""
+
+from __future__ import annotations
+
+import logging
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .connections import ActuatorHandle, SensorHandle
+
+STATES = ("starting", "running", "busy", "stopped", "failed")
+
+
+class _Component:
+    """What behaviors and reactions share: name, options, log, the host link."""
+
+    period: float | None = None
+    deadline: float | None = None   # seconds one call may take; None: 10 x period, >= 0.1 s
+    _esair: Any = None              # the host (set by the runtime before __init__)
+
+    @property
+    def name(self) -> str:
+        return self._esair.name
+
+    @property
+    def options(self) -> dict:
+        return self._esair.spec.options
+
+    @property
+    def log(self) -> logging.Logger:
+        return logging.getLogger(f"esair_std.{self._esair.name}")
+
+    # life cycle (override what you need)
+    def start(self) -> None:
+        """Called once on the component's thread before the first step."""
+
+    def step(self) -> None:
+        """Called every ``period`` seconds; must return quickly."""
+
+    def stop(self) -> None:
+        """Called once when the component is removed or the runtime stops."""
+
+    def detached(self, resource: str) -> None:
+        """The resource was removed; its handle no longer works (the component runs on)."""
+
+
+class Behavior(_Component):
+    """Base class of user behaviors (see the module docstring and docs/std.md)."""
+
+    def run(self) -> None:
+        """With ``period = None``: called once after start(); the behavior is ``busy``
+        (takes no data) until it returns, then it serves puts and gets until removed."""
+
+    def receive(self, sender: str, data: Any) -> None:
+        """The BS delivers another behavior's ``put(self.name, data)``."""
+
+    def provide(self, requester: str) -> Any:
+        """The BS asks for data on another behavior's ``get(self.name)``."""
+        return None
+
+    # resources: registration with the RS, then the SC / AC
+    def attach_sensor(self, name: str, keep: int = 64) -> "SensorHandle":
+        """Register for ``read`` and attach through the SC. ``keep`` bounds the samples
+        kept between two ``samples()`` calls (older ones are overwritten and counted).
+        Raises Refused with the reason."""
+        return self._esair.attach_sensor(name, keep)
+
+    def attach_actuator(self, name: str) -> "ActuatorHandle":
+        """Register for ``command`` and attach through the AC. Raises Refused."""
+        return self._esair.attach_actuator(name)
+
+    def configure(self, resource: str, key: str, value: Any) -> Any:
+        """ioctl-like setting, checked by the RS (needs ``configure`` level)."""
+        return self._esair.configure(resource, key, value)
+
+    # other behaviors, through the BS
+    def put(self, name: str, data: Any, timeout: float = 1.0) -> bool:
+        """Deliver ``data`` to behavior ``name``; False (counted, logged) on failure."""
+        return self._esair.put(name, data, timeout)
+
+    def get(self, name: str, timeout: float = 1.0) -> Any:
+        """Ask behavior ``name`` for data (its ``provide()``); None (counted) on failure."""
+        return self._esair.get(name, timeout)
+
+    def state(self, name: str) -> str | None:
+        """Any component's state (None: no such component)."""
+        return self._esair.state_of(name)
+
+    def enable_reaction(self, name: str) -> None:
+        self._esair.set_reaction(name, True)
+
+    def disable_reaction(self, name: str) -> None:
+        self._esair.set_reaction(name, False)
+
+    @property
+    def busy(self) -> bool:
+        return self._esair.busy
+
+    @busy.setter
+    def busy(self, value: bool) -> None:
+        """True: state ``busy`` (puts and gets are refused, the BS retries)."""
+        self._esair.busy = bool(value)

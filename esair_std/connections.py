@@ -1,0 +1,172 @@
+"""Sensor Connection (SC) and Actuator Connection (AC), and the behavior's ends of them.
+
+SC: routes each sensor's samples to every attached behavior (many per sensor); a sample
+no attached behavior asked for is not kept. Attaching needs a granted registration.
+AC: routes commands of attached behaviors to actuators; no memory, no arbitration.
+Attaching needs a registration at ``command`` level.
+
+Thread mode: the SC routes samples itself (``route``), the AC forwards to the actuator's
+host. Process mode: samples travel straight from the sensor's process to subscribed
+behaviors and commands straight to the actuator's process (the data flow does not pass
+the runtime); the SC/AC tables here are still the ones consulted and listed, and the RS
+pushes every grant/revoke to the actuator's host, which checks each command against it.
+"""
+
+from __future__ import annotations
+
+import threading
+from collections import deque
+from typing import Any, Callable
+
+from .errors import Refused
+from .level import Level
+from .sample import Sample
+
+
+class SensorHandle:
+    """A behavior's end of the SC for one sensor: a bounded buffer of samples."""
+
+    def __init__(self, resource: str, keep: int, state_fn: Callable[[str], str | None]):
+        self.resource = resource
+        self._buf: deque[Sample] = deque(maxlen=max(1, int(keep)))
+        self._lock = threading.Lock()
+        self._latest: Sample | None = None
+        self._state_fn = state_fn
+        self.received = 0          # samples that reached this handle
+        self.overwritten = 0       # samples dropped because samples() was not called in time
+        self.detached = False
+
+    def push(self, sample: Sample) -> None:
+        """Called by the connection (never user code); O(1), never blocks."""
+        with self._lock:
+            if len(self._buf) == self._buf.maxlen:
+                self.overwritten += 1
+            self._buf.append(sample)
+            self._latest = sample
+            self.received += 1
+
+    def latest(self) -> Sample | None:
+        """The newest sample, or None before the first."""
+        return self._latest
+
+    def samples(self) -> list[Sample]:
+        """Every sample that arrived since the last call (oldest first), at most ``keep``."""
+        with self._lock:
+            out = list(self._buf)
+            self._buf.clear()
+        return out
+
+    @property
+    def state(self) -> str:
+        if self.detached:
+            return "detached"
+        return self._state_fn(self.resource) or "gone"
+
+    def counters(self) -> dict:
+        return {"received": self.received, "overwritten": self.overwritten}
+
+
+class ActuatorHandle:
+    """A behavior's end of the AC for one actuator."""
+
+    def __init__(self, resource: str, send_fn: Callable[[str, Any, float], Any],
+                 state_fn: Callable[[str], str | None]):
+        self.resource = resource
+        self._send = send_fn
+        self._state_fn = state_fn
+        self.sent = 0
+        self.failed = 0
+        self.detached = False
+
+    def send(self, command: Any, timeout: float = 1.0) -> Any:
+        """The actuator's ``write()`` result; CommandError / ResourceLost on failure."""
+        try:
+            result = self._send(self.resource, command, timeout)
+        except Exception:
+            self.failed += 1
+            raise
+        self.sent += 1
+        return result
+
+    @property
+    def state(self) -> str:
+        if self.detached:
+            return "detached"
+        return self._state_fn(self.resource) or "gone"
+
+    def counters(self) -> dict:
+        return {"sent": self.sent, "failed": self.failed}
+
+
+class SensorConnection:
+    """Who is attached to which sensor; in thread mode also the router."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._attached: dict[str, dict[str, SensorHandle | None]] = {}
+        self.routed = 0
+        self.unrouted = 0    # samples with nobody attached: not kept
+
+    def attach(self, behavior: str, resource: str, handle: SensorHandle | None) -> None:
+        with self._lock:
+            self._attached.setdefault(resource, {})[f"{behavior}#{id(handle)}"] = handle
+
+    def detach(self, behavior: str, resource: str | None = None) -> list[str]:
+        """Detach ``behavior`` from ``resource`` (or from every sensor)."""
+        gone = []
+        with self._lock:
+            for res, table in self._attached.items():
+                if resource is not None and res != resource:
+                    continue
+                for key in [k for k in table if k.split("#")[0] == behavior]:
+                    h = table.pop(key)
+                    if h is not None:
+                        h.detached = True
+                    gone.append(res)
+        return gone
+
+    def drop_resource(self, resource: str) -> list[str]:
+        """The sensor is removed: every handle detached; returns the behaviors."""
+        with self._lock:
+            table = self._attached.pop(resource, {})
+        for h in table.values():
+            if h is not None:
+                h.detached = True
+        return sorted({k.split("#")[0] for k in table})
+
+    def attached_to(self, resource: str) -> list[str]:
+        with self._lock:
+            return sorted({k.split("#")[0] for k in self._attached.get(resource, {})})
+
+    def route(self, resource: str, sample: Sample) -> None:
+        """Thread mode: hand the sample to every attached handle (never blocks)."""
+        table = self._attached.get(resource)
+        if not table:
+            self.unrouted += 1
+            return
+        for h in list(table.values()):
+            if h is not None:
+                h.push(sample)
+        self.routed += 1
+
+
+class ActuatorConnection:
+    """Routes commands of attached behaviors; checks the RS's registration table."""
+
+    def __init__(self, rs: Any) -> None:
+        self._rs = rs
+        self.routed = 0
+        self.refused = 0
+
+    def check(self, sender: str, resource: str) -> None:
+        if self._rs.granted(sender, resource) < Level.command:
+            self.refused += 1
+            raise Refused(f"behavior {sender!r} is not registered to command {resource!r}")
+
+    def command(self, sender: str, resource: str, command: Any, timeout: float,
+                direct: bool = False) -> Any:
+        if not direct:
+            self.check(sender, resource)
+        host = self._rs.host_of(resource)
+        self.routed += 1
+        return host.command(sender, resource, command, timeout)

@@ -1,0 +1,256 @@
+"""The host of one resource entry: a Sensor, an Actuator, or a Driver and its children.
+
+One thread per entry (thread mode) or the agent process's main worker (process mode)
+opens the device, polls the sensors that set ``rate_hz``, and runs every ``write()`` and
+``configure()`` from one bounded command queue: user code never runs on the caller's
+(the AC's, a transport) thread.
+"""
+
+from __future__ import annotations
+
+import logging
+import queue
+import threading
+import time
+from typing import Any
+
+from ..errors import CommandError, ComponentError, ResourceLost
+from ..resource import Actuator, Driver, Sensor
+from ..sample import Sample
+from ..spec import Spec
+from ..transport import codec
+from .host import build
+
+COMMANDS = 256
+
+log = logging.getLogger("esair_std.resource")
+
+
+class Slot:
+    """One resource (a sensor or an actuator) as its host keeps it."""
+
+    def __init__(self, host: "ResourceHost", name: str, obj: Any, options: dict):
+        self.host = host
+        self.name = name
+        self.obj = obj
+        self.options = options
+        self.kind = "sensor" if isinstance(obj, Sensor) else "actuator"
+        self.state = "ready"
+        self.reason = ""
+        self.seq = 0
+        self.next_poll = 0.0
+        self._lock = threading.Lock()
+        self.c = dict(reported=0, commands=0, command_errors=0, polls_late=0)
+        self.granted: set[str] = set()
+
+    def report(self, value: Any) -> None:
+        value = codec.copy(value)
+        with self._lock:
+            self.seq += 1
+            sample = Sample(value, self.seq, time.time(), self.name)
+            self.c["reported"] += 1
+        self.host.port.publish(self.name, sample)
+
+    def set_state(self, state: str, reason: str) -> None:
+        self.state, self.reason = state, reason
+        self.host.port.resource_state_changed(self.name, state, reason)
+
+
+class ResourceHost:
+    def __init__(self, spec: Spec, cls: type, port: Any):
+        self.spec = spec
+        self.name = spec.name
+        self.kind = "resource"
+        self.cls = cls
+        self.port = port
+        self.options = spec.options
+        self.driver: Any = None
+        self.slots: dict[str, Slot] = {}
+        self.commands: queue.Queue = queue.Queue(maxsize=COMMANDS)
+        self._stop = threading.Event()
+        self._opened = threading.Event()
+        self._error: str | None = None
+        self.state = "starting"
+        self.c = dict(commands_refused=0)
+        self.thread = threading.Thread(target=self._main, name=f"esair:{self.name}", daemon=True)
+
+    # ---- life cycle (called by the RS / the agent)
+    def start(self, timeout: float = 10.0) -> dict[str, str]:
+        """Open the device on the host thread; the children ``{name: kind}``."""
+        self.thread.start()
+        if not self._opened.wait(timeout):
+            self._stop.set()
+            raise ComponentError(f"resource {self.name!r} did not open within {timeout:g} s")
+        if self._error is not None:
+            raise ComponentError(f"resource {self.name!r} failed to open: {self._error}")
+        self.state = "ready"
+        return self.children()
+
+    def children(self) -> dict[str, str]:
+        return {n: s.kind for n, s in self.slots.items()}
+
+    def stop(self, timeout: float = 2.0) -> None:
+        self._stop.set()
+        try:
+            self.commands.put_nowait(None)
+        except queue.Full:
+            pass
+        if self.thread.is_alive() and threading.current_thread() is not self.thread:
+            self.thread.join(timeout)
+        self.state = "stopped"
+
+    # ---- requests (any thread)
+    def _submit(self, resource: str, op: str, args: tuple, timeout: float) -> Any:
+        slot = self.slots.get(resource)
+        if slot is None:
+            raise ResourceLost(resource, "no such resource")
+        if slot.state == "lost":
+            raise ResourceLost(resource, f"lost: {slot.reason}" if slot.reason else "lost")
+        if self._stop.is_set():
+            raise ResourceLost(resource, "removed")
+        done = threading.Event()
+        box: list = []
+        try:
+            self.commands.put_nowait((slot, op, args, box, done))
+        except queue.Full:
+            self.c["commands_refused"] += 1
+            raise CommandError(resource, "command queue full") from None
+        if not done.wait(timeout):
+            raise CommandError(resource, f"no answer within {timeout:g} s")
+        ok, value = box[0]
+        if ok:
+            return value
+        if isinstance(value, ResourceLost):
+            raise value
+        raise CommandError(resource, value)
+
+    def command(self, sender: str, resource: str, command: Any, timeout: float) -> Any:
+        slot = self.slots.get(resource)
+        if slot is not None and slot.kind != "actuator":
+            raise CommandError(resource, "is a sensor: it takes no commands")
+        return self._submit(resource, "write", (codec.copy(command),), timeout)
+
+    def configure(self, resource: str, key: str, value: Any, timeout: float = 2.0) -> Any:
+        return self._submit(resource, "configure", (str(key), codec.copy(value)), timeout)
+
+    def grant(self, who: str, resource: str) -> None:
+        if resource in self.slots:
+            self.slots[resource].granted.add(who)
+
+    def revoke(self, who: str, resource: str | None = None) -> None:
+        for name, slot in self.slots.items():
+            if resource is None or name == resource:
+                slot.granted.discard(who)
+
+    def states(self) -> dict[str, tuple[str, str]]:
+        return {n: (s.state, s.reason) for n, s in self.slots.items()}
+
+    def counters(self) -> dict:
+        out: dict = dict(self.c)
+        for n, s in self.slots.items():
+            out[n] = dict(s.c, seq=s.seq, state=s.state)
+        return out
+
+    # ---- the host thread
+    def _open(self) -> None:
+        obj = build(self.cls, self)
+        if isinstance(obj, Driver):
+            self.driver = obj
+            obj.open()
+            kids = obj.resources()
+            if not isinstance(kids, dict) or not kids:
+                raise ComponentError("resources() gave no {child: Sensor|Actuator} dict")
+            items = [(f"{self.name}.{k}", v) for k, v in kids.items()]
+        elif isinstance(obj, (Sensor, Actuator)):
+            items = [(self.name, obj)]
+        else:
+            raise ComponentError(f"{self.spec.class_path} is not a Sensor, Actuator or Driver")
+        for name, child in items:
+            if not isinstance(child, (Sensor, Actuator)):
+                raise ComponentError(f"{name}: not a Sensor or Actuator")
+            slot = Slot(self, name, child, self.spec.options)
+            child._esair = slot
+            self.slots[name] = slot
+        for slot in self.slots.values():
+            if slot.obj is not self.driver:
+                slot.obj.open()
+
+    def _main(self) -> None:
+        try:
+            self._open()
+        except Exception as exc:  # noqa: BLE001 - the user's open() failed
+            self._error = f"{type(exc).__name__}: {exc}"
+            self._opened.set()
+            self._close()
+            return
+        self._opened.set()
+        now = time.monotonic()
+        for s in self.slots.values():
+            s.next_poll = now
+        while not self._stop.is_set():
+            wait = self._poll()
+            try:
+                item = self.commands.get(timeout=wait)
+            except queue.Empty:
+                continue
+            if item is None:
+                break
+            self._run(*item)
+        self._close()
+
+    def _poll(self) -> float:
+        """Read the sensors that are due; seconds until the next one is."""
+        wait = 0.5
+        now = time.monotonic()
+        for s in self.slots.values():
+            rate = getattr(s.obj, "rate_hz", None) if s.kind == "sensor" else None
+            if not rate or s.state == "lost":
+                continue
+            if now >= s.next_poll:
+                try:
+                    value = s.obj.read()
+                    if value is not None:
+                        s.report(value)
+                except Exception as exc:  # noqa: BLE001 - a failing read loses the device
+                    s.set_state("lost", f"read() raised {type(exc).__name__}: {exc}")
+                    continue
+                s.next_poll += 1.0 / float(rate)
+                now = time.monotonic()
+                if s.next_poll < now:
+                    s.c["polls_late"] += 1
+                    s.next_poll = now + 1.0 / float(rate)
+            wait = min(wait, max(0.0, s.next_poll - now))
+        return wait
+
+    def _run(self, slot: Slot, op: str, args: tuple, box: list, done: threading.Event) -> None:
+        try:
+            if slot.state == "lost":
+                raise ResourceLost(slot.name, f"lost: {slot.reason}" if slot.reason else "lost")
+            if op == "write":
+                slot.c["commands"] += 1
+                value = codec.copy(slot.obj.write(*args))
+            else:
+                value = codec.copy(slot.obj.configure(*args))
+            box.append((True, value))
+        except ResourceLost as exc:
+            box.append((False, exc))
+        except CommandError as exc:
+            slot.c["command_errors"] += 1
+            box.append((False, exc.reason))
+        except Exception as exc:  # noqa: BLE001 - reaches the sender as CommandError
+            slot.c["command_errors"] += 1
+            box.append((False, f"{type(exc).__name__}: {exc}"))
+        done.set()
+
+    def _close(self) -> None:
+        for s in self.slots.values():
+            if s.obj is not self.driver:
+                try:
+                    s.obj.close()
+                except Exception as exc:  # noqa: BLE001
+                    log.warning("%s: close() raised %s", s.name, exc)
+        if self.driver is not None:
+            try:
+                self.driver.close()
+            except Exception as exc:  # noqa: BLE001
+                log.warning("%s: close() raised %s", self.name, exc)

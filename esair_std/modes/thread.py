@@ -1,0 +1,125 @@
+"""Thread mode: every component a thread of the runtime's process; no network.
+
+``LocalPort`` is what a hosted component calls to reach the runtime's BS/RS/SC/AC: plain
+method calls. The process-mode agent's ZenohPort offers the same methods over Zenoh, and
+the runtime's control server answers them by calling this same LocalPort.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from ..errors import ComponentError
+from ..level import Level
+from ..spec import Spec, import_class
+from .host import ComponentHost
+from .reshost import ResourceHost
+
+START_TIMEOUT = 10.0
+
+
+class LocalPort:
+    def __init__(self, rt: Any):
+        self.rt = rt
+
+    def _uses(self, who: str) -> dict | None:
+        rec = self.rt.bs.records.get(who)
+        if rec is None:
+            return {}                          # unknown: nothing listed, every request refused
+        return None if rec.spec.kind == "reaction" else rec.spec.uses
+
+    def _check_direct(self, who: str, resource: str) -> None:
+        rec = self.rt.bs.records.get(who)
+        if rec is None or rec.spec.kind != "reaction" or resource not in rec.spec.resources:
+            from ..errors import Refused
+            raise Refused(f"{who!r} is not a reaction listing {resource!r}")
+
+    # registration, SC, AC
+    def register(self, who: str, resource: str, level: Any) -> int:
+        return int(self.rt.rs.register(who, resource, Level.parse(level), self._uses(who)))
+
+    def attach_sensor(self, who: str, resource: str, handle: Any, direct: bool = False) -> None:
+        if direct:
+            self._check_direct(who, resource)
+            self.rt.rs.register(who, resource, Level.read, None)
+        else:
+            self.register(who, resource, Level.read)
+        self.rt.sc.attach(who, resource, handle)
+
+    def command(self, who: str, resource: str, command: Any, timeout: float,
+                direct: bool = False) -> Any:
+        if direct:
+            self._check_direct(who, resource)
+        return self.rt.ac.command(who, resource, command, timeout, direct=direct)
+
+    def configure(self, who: str | None, resource: str, key: str, value: Any) -> Any:
+        return self.rt.rs.configure(who, resource, key, value)
+
+    def kind_of(self, resource: str) -> str | None:
+        return self.rt.rs.kind_of(resource)
+
+    def resource_state(self, resource: str) -> str | None:
+        return self.rt.rs.state_of(resource)
+
+    # BS
+    def put(self, who: str, target: str, data: Any, timeout: float) -> tuple[bool, str]:
+        return self.rt.bs.put(who, target, data, timeout)
+
+    def get(self, who: str, target: str, timeout: float) -> tuple[bool, Any]:
+        return self.rt.bs.get(who, target, timeout)
+
+    def state_of(self, name: str) -> str | None:
+        return self.rt.state(name)
+
+    def set_reaction(self, who: str, name: str, enabled: bool) -> None:
+        self.rt.bs.set_reaction(name, enabled)
+
+    # hosts report
+    def state_changed(self, name: str, generation: int, phase: str, reason: str) -> None:
+        if phase == "failed":
+            self.rt.bs.failed(name, generation, reason)
+
+    def publish(self, resource: str, sample: Any) -> None:
+        self.rt.sc.route(resource, sample)
+
+    def resource_state_changed(self, resource: str, state: str, reason: str) -> None:
+        self.rt.rs.set_state(resource, state, reason)
+
+
+class ThreadMode:
+    name = "thread"
+
+    def __init__(self, rt: Any):
+        self.rt = rt
+        self.port = LocalPort(rt)
+
+    def start_component(self, spec: Spec, generation: int) -> ComponentHost:
+        cls = import_class(spec.class_path, spec.base_dir, spec.where)
+        from ..behavior import Behavior
+        from ..reaction import Reaction
+        want = Behavior if spec.kind == "behavior" else Reaction
+        if not issubclass(cls, want):
+            raise ComponentError(f"{spec.class_path} is not a {want.__name__}")
+        host = ComponentHost(spec, cls, self.port, generation)
+        host.start()
+        if not host.started.wait(START_TIMEOUT):
+            host.stop(0.1)
+            raise ComponentError(f"{spec.kind} {spec.name!r} did not start within"
+                                 f" {START_TIMEOUT:g} s")
+        return host
+
+    def start_resource(self, spec: Spec) -> ResourceHost:
+        cls = import_class(spec.class_path, spec.base_dir, spec.where)
+        host = ResourceHost(spec, cls, self.port)
+        host.start(START_TIMEOUT)
+        return host
+
+    def open(self) -> None:
+        pass
+
+    def watch(self, now: float) -> None:
+        for rec in list(self.rt.bs.records.values()):
+            rec.host.check(now)
+
+    def close(self) -> None:
+        pass

@@ -1,0 +1,100 @@
+"""Sensor, Actuator and Driver: the agents of a driver (thesis 3.4).
+
+The runtime calls ``open()`` before use and ``close()`` at removal, on the resource's
+own host thread (thread mode) or process (process mode). A Sensor either sets
+``rate_hz`` (``read()`` is polled at that rate; returning None reports nothing) or
+calls ``self.report(value)`` itself (from any thread). An Actuator's ``write(command)``
+runs for each command; its return value is the sender's ``send()`` result, an
+exception raised in it reaches the sender as CommandError. A Driver provides several
+resources (``resources()``), named ``<entry>.<child>`` in the deployment.
+"""
+
+from __future__ import annotations
+
+import logging
+from typing import Any
+
+from .errors import CommandError
+
+
+class _Agent:
+    _esair: Any = None   # the host's slot for this resource (set by the runtime)
+
+    @property
+    def name(self) -> str:
+        return self._esair.name
+
+    @property
+    def options(self) -> dict:
+        return self._esair.options
+
+    @property
+    def log(self) -> logging.Logger:
+        return logging.getLogger(f"esair_std.{self._esair.name}")
+
+    def open(self) -> None:
+        """Acquire the device. Raising here makes the resource fail to deploy."""
+
+    def close(self) -> None:
+        """Release the device."""
+
+    def mark_lost(self, reason: str) -> None:
+        """The device is gone: state ``lost``; commands fail at once with ResourceLost."""
+        self._esair.set_state("lost", reason)
+
+    def mark_ready(self) -> None:
+        self._esair.set_state("ready", "")
+
+
+class Sensor(_Agent):
+    rate_hz: float | None = None
+
+    def read(self) -> Any:
+        """Polled at ``rate_hz``; the value returned is reported (None: nothing)."""
+        return None
+
+    def report(self, value: Any) -> None:
+        """Report one sample now (numbered, time-stamped, routed by the SC)."""
+        self._esair.report(value)
+
+    def configure(self, key: str, value: Any) -> Any:
+        if key == "rate_hz":
+            self.rate_hz = float(value)
+            return self.rate_hz
+        raise CommandError(self.name, f"no setting {key!r}")
+
+
+class Actuator(_Agent):
+    def write(self, command: Any) -> Any:
+        raise CommandError(self.name, "write() is not implemented")
+
+    def configure(self, key: str, value: Any) -> Any:
+        raise CommandError(self.name, f"no setting {key!r}")
+
+
+class Driver:
+    """One device link giving several resources; one host (thread or process) for all."""
+
+    _esair: Any = None
+
+    @property
+    def name(self) -> str:
+        return self._esair.name
+
+    @property
+    def options(self) -> dict:
+        return self._esair.spec.options
+
+    @property
+    def log(self) -> logging.Logger:
+        return logging.getLogger(f"esair_std.{self._esair.name}")
+
+    def open(self) -> None:
+        """Open the link (before resources())."""
+
+    def resources(self) -> dict[str, "Sensor | Actuator"]:
+        """The child resources: ``{child_name: Sensor() or Actuator()}``."""
+        return {}
+
+    def close(self) -> None:
+        """Close the link (after every child's close())."""

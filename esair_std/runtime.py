@@ -1,0 +1,251 @@
+"""Runtime: one robot's deployment running in thread or process mode.
+
+    with Runtime("lab.yaml", mode="process") as rt:
+        rt.put("logger", {"hello": 1})
+        print(rt.ls())
+
+The mode decides where components live (threads of this process, or one OS process per
+component joined by Zenoh), never what they do. The runtime owns the four resident
+components (BS, RS, SC, AC) and, when asked (``control=True``, always in process mode),
+serves the control endpoint that ``esair std ...`` and agent processes talk to.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import socket
+import threading
+import time
+from pathlib import Path
+from typing import Any
+
+from . import spec as specmod
+from .bs import BehaviorSupervisor
+from .connections import ActuatorConnection, SensorConnection
+from .errors import ControlError, StdError
+from .level import Level
+from .rs import ResourceSupervisor
+from .spec import Spec
+
+log = logging.getLogger("esair_std.runtime")
+MODES = ("thread", "process")
+WATCH_PERIOD = 0.005
+
+
+class Runtime:
+    def __init__(self, deployment: str | Path | dict | Any, mode: str | None = None,
+                 endpoint: str | None = None, control: bool | None = None):
+        self.deployment = specmod.load(deployment)
+        self.robot = self.deployment.robot
+        self.mode_name = mode or getattr(self.deployment, "mode", None) or "thread"
+        if self.mode_name not in MODES:
+            raise ControlError(f"unknown mode {self.mode_name!r} (expected thread or process)")
+        self.endpoint = endpoint or self.deployment.endpoint
+        self.control = (self.mode_name == "process") if control is None else bool(control)
+        self.base_dir = str(getattr(self.deployment, "base_dir", None) or os.getcwd())
+        self.hostname = socket.gethostname()
+        self.sc = SensorConnection()
+        self.rs = ResourceSupervisor(self._start_resource, self.sc, self._detached)
+        self.ac = ActuatorConnection(self.rs)
+        self.bs = BehaviorSupervisor(self._start_component, self.rs)
+        self.server: Any = None
+        self._stop = threading.Event()
+        self._watch: threading.Thread | None = None
+        self.started_at = 0.0
+        if self.mode_name == "thread":
+            from .modes.thread import ThreadMode
+            self.mode: Any = ThreadMode(self)
+        else:
+            from .modes.process import ProcessMode
+            self.mode = ProcessMode(self)
+
+    # ---- life cycle
+    def start(self) -> "Runtime":
+        try:
+            if self.control:
+                from .modes.control import ControlServer
+                self.server = ControlServer(self)
+                self.server.start()
+            self.mode.open()
+            res, beh, rea = specmod.specs_of(self.deployment)
+            for s in res:
+                self.rs.add(s)
+            for s in rea + beh:
+                self.bs.add(s)
+            self.bs.start()
+            self._watch = threading.Thread(target=self._watchdog, name="esair:watch",
+                                           daemon=True)
+            self._watch.start()
+        except BaseException:
+            self.stop()
+            raise
+        self.started_at = time.time()
+        return self
+
+    def stop(self) -> None:
+        self._stop.set()
+        self.bs.stop_all()
+        self.rs.stop_all()
+        if self._watch is not None and self._watch.is_alive():
+            self._watch.join(1.0)
+        if self.server is not None:
+            self.server.close()
+            self.server = None
+        self.mode.close()
+
+    def __enter__(self) -> "Runtime":
+        return self.start()
+
+    def __exit__(self, *exc: Any) -> None:
+        self.stop()
+
+    def _watchdog(self) -> None:
+        while not self._stop.wait(WATCH_PERIOD):
+            try:
+                self.mode.watch(time.monotonic())
+            except Exception as exc:  # noqa: BLE001 - keep watching
+                log.error("watchdog: %s", exc)
+
+    def _start_component(self, spec: Spec, generation: int) -> Any:
+        return self.mode.start_component(spec, generation)
+
+    def _start_resource(self, spec: Spec) -> Any:
+        return self.mode.start_resource(spec)
+
+    def _detached(self, behavior: str, resource: str) -> None:
+        self.bs.notify_detached(behavior, resource)
+
+    # ---- control (the CLI's verbs; also the Python API)
+    def state(self, name: str) -> str | None:
+        s = self.bs.state_of(name)
+        if s is None:
+            s = self.rs.state_of(name)
+            if s is None and name in self.rs.entries:
+                s = self.rs.entries[name][1].state
+        return s
+
+    def ls(self) -> list[dict]:
+        rows = []
+        for name, rec in list(self.bs.records.items()):
+            rows.append(dict(name=name, kind=rec.spec.kind, state=rec.host.state,
+                             pid=getattr(rec.host, "pid", os.getpid()),
+                             host=getattr(rec.host, "hostname", self.hostname),
+                             restarts=rec.restarts, reason=_reason(rec),
+                             **{"class": rec.spec.class_path}))
+        for entry, (spec, host) in list(self.rs.entries.items()):
+            for res, (e, kind) in list(self.rs.resources.items()):
+                if e != entry:
+                    continue
+                st, why = self.rs.states.get(res, ("?", ""))
+                rows.append(dict(name=res, kind=kind, state=st,
+                                 pid=getattr(host, "pid", os.getpid()),
+                                 host=getattr(host, "hostname", self.hostname), restarts=0,
+                                 reason=why, attached=self.sc.attached_to(res),
+                                 **{"class": spec.class_path}))
+        return rows
+
+    def add(self, name: str, class_path: str, uses: dict | None = None,
+            period: float | None = None, options: dict | None = None,
+            restart: tuple[int, float] = (0, 0.0), kind: str = "behavior",
+            resources: tuple = (), enabled: bool = True) -> str:
+        _check_name(name)
+        s = Spec(kind, name, class_path, dict(options or {}), self.base_dir,
+                 period=period, has_period=period is not None,
+                 uses={k: Level.parse(v).name for k, v in (uses or {}).items()},
+                 restart_max=int(restart[0]), restart_within=float(restart[1]),
+                 resources=tuple(resources), enabled=enabled)
+        rec = self.bs.request(self.bs.add, s)
+        return rec.host.state
+
+    def remove(self, name: str) -> None:
+        self.bs.request(self.bs.remove, name)
+
+    def add_resource(self, name: str, class_path: str, allow: dict | None = None,
+                     options: dict | None = None) -> dict[str, str]:
+        _check_name(name)
+        if name in self.bs.records:
+            raise ControlError(f"a {self.bs.records[name].spec.kind} named {name!r} is"
+                               " already deployed")
+        s = Spec("resource", name, class_path, dict(options or {}), self.base_dir,
+                 allow={k: Level.parse(v).name for k, v in (allow or {}).items()})
+        return self.rs.add(s)
+
+    def remove_resource(self, name: str) -> list[str]:
+        return self.rs.remove(name)
+
+    def put(self, name: str, data: Any, timeout: float = 1.0, sender: str = "operator") -> None:
+        ok, why = self.bs.put(sender, name, data, timeout)
+        if not ok:
+            raise ControlError(f"put to {name!r} failed: {why}")
+
+    def get(self, name: str, timeout: float = 1.0, requester: str = "operator") -> Any:
+        ok, value = self.bs.get(requester, name, timeout)
+        if not ok:
+            raise ControlError(f"get from {name!r} failed: {value}")
+        return value
+
+    def configure(self, resource: str, key: str, value: Any) -> Any:
+        return self.rs.configure(None, resource, key, value)
+
+    def reaction(self, name: str, enabled: bool) -> None:
+        self.bs.set_reaction(name, enabled)
+
+    def inspect(self, name: str) -> dict:
+        rec = self.bs.records.get(name)
+        if rec is not None:
+            return dict(name=name, kind=rec.spec.kind, state=rec.host.state,
+                        restarts=rec.restarts, reason=_reason(rec),
+                        counters=rec.host.counters())
+        if name in self.rs.resources or name in self.rs.entries:
+            entry = self.rs.resources[name][0] if name in self.rs.resources else name
+            host = self.rs.entries[entry][1]
+            counters = host.counters()
+            st = self.rs.states.get(name, (host.state, ""))
+            return dict(name=name, kind=self.rs.kind_of(name) or "resource", state=st[0],
+                        reason=st[1], attached=self.sc.attached_to(name),
+                        grants={w: str(lv) for (w, r), lv in self.rs.grants.items()
+                                if r == name},
+                        counters=counters.get(name, counters))
+        raise ControlError(f"no component {name!r}")
+
+    def wait_state(self, name: str, states: str | tuple, timeout: float = 10.0) -> str:
+        """Wait until ``name`` is in one of ``states``; its state (for tests, scripts)."""
+        want = (states,) if isinstance(states, str) else tuple(states)
+        deadline = time.monotonic() + timeout
+        while True:
+            s = self.state(name)
+            if s in want:
+                return s
+            if time.monotonic() > deadline:
+                raise ControlError(f"{name!r} is {s}, not {'/'.join(want)}, after {timeout:g} s")
+            time.sleep(0.002)
+
+    def summary(self) -> list[dict]:
+        """Per component: state, samples delivered/overwritten, puts ok/failed, restarts."""
+        rows = []
+        for row in self.ls():
+            try:
+                info = self.inspect(row["name"])
+            except StdError:
+                continue
+            c = info.get("counters", {})
+            recv = sum(v.get("received", 0) for v in c.values() if isinstance(v, dict))
+            over = sum(v.get("overwritten", 0) for v in c.values() if isinstance(v, dict))
+            rows.append(dict(name=row["name"], kind=row["kind"], state=row["state"],
+                             samples=recv if row["kind"] in ("behavior", "reaction")
+                             else c.get("reported", 0),
+                             overwritten=over, puts_ok=c.get("puts_ok", 0),
+                             puts_failed=c.get("puts_failed", 0),
+                             restarts=row.get("restarts", 0)))
+        return rows
+
+
+def _reason(rec: Any) -> str:
+    return rec.reason if rec.host.state == "failed" else ""
+
+
+def _check_name(name: str) -> None:
+    import re
+    if not re.fullmatch(r"[a-z][a-z0-9_]*", name or ""):
+        raise ControlError(f"name {name!r} is not of the form [a-z][a-z0-9_]*")

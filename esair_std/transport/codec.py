@@ -1,0 +1,43 @@
+"""The wire format: JSON, size-capped. Used by both modes so that data handed from one
+component to another obeys the same rules (and is copied) whichever mode runs."""
+
+from __future__ import annotations
+
+import json
+from typing import Any
+
+from ..errors import TransportError
+
+MAX_BYTES = 256 * 1024
+
+
+def encode(obj: Any) -> bytes:
+    try:
+        data = json.dumps(obj, separators=(",", ":"), allow_nan=False).encode()
+    except (TypeError, ValueError) as exc:
+        raise TransportError(f"data is not JSON-serialisable: {exc}") from None
+    if len(data) > MAX_BYTES:
+        raise TransportError(f"message of {len(data)} bytes is over the {MAX_BYTES}-byte cap")
+    return data
+
+
+def decode(data: bytes) -> Any:
+    if len(data) > MAX_BYTES:
+        raise TransportError(f"message of {len(data)} bytes is over the {MAX_BYTES}-byte cap")
+    try:
+        return json.loads(data)
+    except (UnicodeDecodeError, ValueError) as exc:
+        raise TransportError(f"message is not JSON: {exc}") from None
+
+
+def copy(obj: Any) -> Any:
+    """What the receiver gets: the value after one trip through the wire format."""
+    return decode(encode(obj))
+
+
+def decode_request(data: bytes) -> dict:
+    """A control or component request: a JSON object, else TransportError."""
+    obj = decode(data)
+    if not isinstance(obj, dict):
+        raise TransportError("request is not a JSON object")
+    return obj

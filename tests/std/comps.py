@@ -1,0 +1,213 @@
+"""Components the STD tests deploy (imported by the runtime and by agent processes)."""
+
+from __future__ import annotations
+
+import os
+import time
+
+from esair_std import Actuator, Behavior, Driver, Reaction, Sensor
+
+
+class Counter(Sensor):
+    """Reports 1, 2, 3... at ``rate_hz`` (option ``rate``)."""
+
+    def open(self):
+        self.n = 0
+        self.rate_hz = float(self.options.get("rate", 200))
+
+    def read(self):
+        self.n += 1
+        return self.n
+
+
+class Recorder(Actuator):
+    """Keeps the commands; ``{"fail": msg}`` raises; ``{"lost": why}`` marks it lost."""
+
+    def open(self):
+        self.log_ = []
+        self.gain = 1
+
+    def write(self, command):
+        if isinstance(command, dict) and "fail" in command:
+            raise ValueError(command["fail"])
+        if isinstance(command, dict) and "lost" in command:
+            self.mark_lost(command["lost"])
+            return "marking lost"
+        self.log_.append(command)
+        return {"n": len(self.log_), "gain": self.gain}
+
+    def configure(self, key, value):
+        if key == "gain":
+            self.gain = value
+            return value
+        return super().configure(key, value)
+
+
+class BadOpen(Sensor):
+    def open(self):
+        raise OSError("no such device /dev/nothing")
+
+
+class Pair(Driver):
+    """A driver with two children: ``<entry>.count`` (sensor) and ``<entry>.rec``."""
+
+    def resources(self):
+        return {"count": Counter(), "rec": Recorder()}
+
+
+class Sink(Behavior):
+    """Takes puts; provide() gives what it received (sender, data) so far."""
+
+    def start(self):
+        self.got = []
+
+    def receive(self, sender, data):
+        self.got.append([sender, data])
+
+    def provide(self, requester):
+        return {"got": self.got, "pid": os.getpid()}
+
+
+class Watcher(Behavior):
+    """Attaches to the sensor named in options['sensor'] and keeps every seq it saw;
+    provide() reports them compactly (count, first, last, gaps)."""
+
+    period = 0.01
+
+    def start(self):
+        self.h = self.attach_sensor(self.options.get("sensor", "count"),
+                                    keep=int(self.options.get("keep", 4096)))
+        self.seqs = []
+        self.detach_notices = []
+
+    def step(self):
+        if self.options.get("slow"):
+            time.sleep(float(self.options["slow"]))
+        self.seqs.extend(s.seq for s in self.h.samples())
+
+    def detached(self, resource):
+        self.detach_notices.append(resource)
+
+    def provide(self, requester):
+        s = self.seqs
+        gaps = sum(1 for a, b in zip(s, s[1:]) if b != a + 1)
+        return {"n": len(s), "first": s[0] if s else None, "last": s[-1] if s else None,
+                "gaps": gaps, "overwritten": self.h.overwritten, "state": self.h.state,
+                "notices": self.detach_notices}
+
+
+class Pusher(Behavior):
+    """Puts a numbered message to options['to'] every step; provide() gives its tally."""
+
+    period = 0.01
+
+    def start(self):
+        self.n = 0
+        self.ok = 0
+        self.failed = 0
+
+    def step(self):
+        self.n += 1
+        if self.put(self.options.get("to", "sink"), {"n": self.n}, timeout=0.5):
+            self.ok += 1
+        else:
+            self.failed += 1
+
+    def provide(self, requester):
+        return {"n": self.n, "ok": self.ok, "failed": self.failed}
+
+
+class Faulty(Behavior):
+    """Fails on demand: option 'fail' = 'raise' | 'hang' | 'start'; runs otherwise."""
+
+    period = 0.01
+
+    def start(self):
+        if self.options.get("fail") == "start":
+            raise RuntimeError("refuses to start")
+        self.steps = 0
+
+    def step(self):
+        self.steps += 1
+        if self.steps == 3 and self.options.get("fail") == "raise":
+            raise RuntimeError("boom")
+        if self.steps == 3 and self.options.get("fail") == "hang":
+            time.sleep(3.0)
+
+    def receive(self, sender, data):
+        if data == "raise":
+            raise RuntimeError("told to raise")
+
+    def provide(self, requester):
+        return {"pid": os.getpid(), "steps": self.steps}
+
+
+class Commander(Behavior):
+    """Attaches to options['actuator'] (level per options['level'], default command)."""
+
+    def start(self):
+        self.act = self.attach_actuator(self.options.get("actuator", "rec"))
+
+    def receive(self, sender, data):
+        pass
+
+    def provide(self, requester):
+        try:
+            return {"ok": self.act.send({"angle": 1}), "state": self.act.state}
+        except Exception as exc:  # noqa: BLE001
+            return {"error": type(exc).__name__, "message": str(exc), "state": self.act.state}
+
+
+class Guard(Reaction):
+    """Watches 'count', commands 'rec' when the count passes a multiple of 10."""
+
+    period = 0.01
+
+    def start(self):
+        self.count = self.resource("count")
+        self.rec = self.resource("rec")
+        self.fired = 0
+
+    def step(self):
+        for s in self.count.samples():
+            if s.seq % 10 == 0:
+                self.rec.send({"guard": s.seq})
+                self.fired += 1
+
+
+class Probe(Behavior):
+    """Runs one API call per request: put it {"do": method, "args": [...]}, then get()
+    the outcome {"ok": result} or {"error": ExceptionType, "message": str}."""
+
+    def start(self):
+        self.todo = None
+        self.handles = {}
+        self.notices = []
+
+    def receive(self, sender, data):
+        self.todo = data
+
+    def detached(self, resource):
+        self.notices.append(resource)
+
+    def provide(self, requester):
+        todo, self.todo = self.todo, None
+        if todo is None:
+            return {"notices": self.notices}
+        do, args = todo["do"], todo.get("args", [])
+        try:
+            if do == "send":
+                out = self.handles[args[0]].send(*args[1:])
+            elif do == "handle_state":
+                out = self.handles[args[0]].state
+            elif do == "latest":
+                s = self.handles[args[0]].latest()
+                out = None if s is None else [s.seq, s.value, s.source]
+            else:
+                out = getattr(self, do)(*args)
+                if do in ("attach_sensor", "attach_actuator"):
+                    self.handles[args[0]] = out
+                    out = out.state
+        except Exception as exc:  # noqa: BLE001
+            return {"error": type(exc).__name__, "message": str(exc)}
+        return {"ok": out}
