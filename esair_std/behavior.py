@@ -38,6 +38,11 @@ class _Component:
     def log(self) -> logging.Logger:
         return logging.getLogger(f"esair_std.{self._esair.name}")
 
+    @property
+    def stopping(self) -> bool:
+        """True once the runtime asked this component to stop (a long run() checks it)."""
+        return self._esair.stopping
+
     # life cycle (override what you need)
     def start(self) -> None:
         """Called once on the component's thread before the first step."""
@@ -77,8 +82,13 @@ class Behavior(_Component):
         """Register for ``command`` and attach through the AC. Raises Refused."""
         return self._esair.attach_actuator(name)
 
+    def register(self, resource: str, level: str = "read") -> str:
+        """Register with the RS for ``level`` (read, command, configure) without attaching;
+        attach_* register for you. Raises Refused with the reason."""
+        return self._esair.register(resource, level)
+
     def configure(self, resource: str, key: str, value: Any) -> Any:
-        """ioctl-like setting, checked by the RS (needs ``configure`` level)."""
+        """ioctl-like setting, checked by the RS (needs a registration at ``configure``)."""
         return self._esair.configure(resource, key, value)
 
     # other behaviors, through the BS

@@ -18,7 +18,7 @@ import threading
 from collections import deque
 from typing import Any, Callable
 
-from .errors import Refused
+from .errors import Refused, ResourceLost
 from .level import Level
 from .sample import Sample
 
@@ -80,6 +80,9 @@ class ActuatorHandle:
 
     def send(self, command: Any, timeout: float = 1.0) -> Any:
         """The actuator's ``write()`` result; CommandError / ResourceLost on failure."""
+        if self.detached:
+            self.failed += 1
+            raise ResourceLost(self.resource, "detached: the resource was removed")
         try:
             result = self._send(self.resource, command, timeout)
         except Exception:

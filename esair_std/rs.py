@@ -145,8 +145,8 @@ class ResourceSupervisor:
         if who is not None and self.granted(who, resource) < Level.configure:
             self.refusals += 1
             have = self.grants.get((who, resource))
-            raise Refused(f"behavior {who!r} is registered for {have} on {resource!r},"
-                          f" configure needs configure" if have else
+            raise Refused(f"behavior {who!r} is registered for {have} on {resource!r}:"
+                          " configure needs the configure level" if have else
                           f"behavior {who!r} is not registered for {resource!r}")
         return host.configure(resource, key, value)
 

@@ -242,7 +242,9 @@ class Runtime:
 
 
 def _reason(rec: Any) -> str:
-    return rec.reason if rec.host.state == "failed" else ""
+    if rec.host.state != "failed":
+        return ""
+    return getattr(rec.host, "reason", "") or rec.reason
 
 
 def _check_name(name: str) -> None:

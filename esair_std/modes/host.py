@@ -90,6 +90,10 @@ class ComponentHost:
         self.deadline = float(dl) if dl else (max(10 * self.period, 0.1) if self.period else 1.0)
         self.thread = threading.Thread(target=self._main, name=f"esair:{self.name}", daemon=True)
 
+    @property
+    def stopping(self) -> bool:
+        return self._stop.is_set()
+
     # ---- state, seen from other threads
     @property
     def state(self) -> str:
@@ -177,6 +181,11 @@ class ComponentHost:
         self.port.attach_sensor(self.name, resource, h)
         self.handles[f"sensor:{resource}"] = h
         return h
+
+    def register(self, resource: str, level: str) -> str:
+        lv = Level.parse(level)
+        self.port.register(self.name, resource, lv)
+        return lv.name
 
     def attach_actuator(self, resource: str) -> ActuatorHandle:
         self.port.register(self.name, resource, Level.command)

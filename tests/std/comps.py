@@ -211,3 +211,19 @@ class Probe(Behavior):
         except Exception as exc:  # noqa: BLE001
             return {"error": type(exc).__name__, "message": str(exc)}
         return {"ok": out}
+
+
+class BusyRun(Behavior):
+    """run() that lasts until the behavior is stopped: busy all along."""
+
+    def run(self):
+        while not self.stopping:
+            time.sleep(0.005)
+
+
+class RunOnce(Behavior):
+    def run(self):
+        self.ran = 1
+
+    def provide(self, requester):
+        return {"ran": self.ran}

@@ -1,6 +1,63 @@
+"""STD test helpers: every rule runs in both modes (the ``mode`` fixture)."""
+
+import socket
 import sys
+import time
 from pathlib import Path
+
+import pytest
 
 HERE = str(Path(__file__).resolve().parent)
 if HERE not in sys.path:
     sys.path.insert(0, HERE)
+
+from esair_std import Runtime  # noqa: E402
+
+MODES = ["thread"]  # process joins when process mode lands
+
+
+def free_endpoint() -> str:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return f"tcp/127.0.0.1:{s.getsockname()[1]}"
+
+
+@pytest.fixture(params=MODES)
+def mode(request):
+    return request.param
+
+
+@pytest.fixture
+def start(mode):
+    """start(deployment_dict) -> a started Runtime in this test's mode; stopped after."""
+    started = []
+
+    def _start(dep, **kw):
+        dep = dict(dep)
+        dep.setdefault("robot", "t")
+        rt = Runtime(dep, mode=mode, endpoint=free_endpoint(), **kw)
+        rt.start()
+        started.append(rt)
+        return rt
+
+    yield _start
+    for rt in started:
+        rt.stop()
+
+
+def wait_for(fn, timeout=10.0, what="condition"):
+    """Poll fn() until it returns a truthy value (state-based; no timing asserted)."""
+    deadline = time.monotonic() + timeout
+    while True:
+        v = fn()
+        if v:
+            return v
+        if time.monotonic() > deadline:
+            raise AssertionError(f"timed out waiting for {what}; last value {v!r}")
+        time.sleep(0.005)
+
+
+def call(rt, probe, do, *args):
+    """Make behavior ``probe`` (comps.Probe) run ``do(*args)``; its outcome."""
+    rt.put(probe, {"do": do, "args": list(args)}, timeout=5.0)
+    return rt.get(probe, timeout=5.0)

@@ -1,0 +1,114 @@
+"""Behavior Supervisor: deploy in order, add/remove at run time, put/get/state mediation."""
+
+import pytest
+from conftest import call, wait_for
+
+from esair_std.errors import ComponentError, ControlError
+
+SINKS = {"behaviors": {"sink": {"class": "comps:Sink"},
+                       "probe": {"class": "comps:Probe"}}}
+
+
+def test_deploys_in_file_order_and_lists(start):
+    rt = start({"behaviors": {"b2": {"class": "comps:Sink"}, "a1": {"class": "comps:Sink"},
+                              "c0": {"class": "comps:Sink"}}})
+    rows = rt.ls()
+    assert [r["name"] for r in rows] == ["b2", "a1", "c0"]
+    assert {r["state"] for r in rows} == {"running"}
+    assert {r["kind"] for r in rows} == {"behavior"}
+
+
+def test_put_delivers_in_order_and_get_provides(start):
+    rt = start(SINKS)
+    for i in range(20):
+        rt.put("sink", {"i": i})
+    got = rt.get("sink")["got"]
+    assert got == [["operator", {"i": i}] for i in range(20)]
+
+
+def test_put_from_behavior_and_state(start):
+    rt = start(SINKS)
+    assert call(rt, "probe", "put", "sink", [1, 2], 1.0) == {"ok": True}
+    assert rt.get("sink")["got"] == [["probe", [1, 2]]]
+    assert call(rt, "probe", "state", "sink") == {"ok": "running"}
+    assert call(rt, "probe", "state", "nobody") == {"ok": None}
+
+
+def test_put_and_get_to_unknown_fail_at_once_with_reason(start):
+    rt = start(SINKS)
+    assert call(rt, "probe", "put", "sinc", 1, 5.0) == {"ok": False}
+    assert call(rt, "probe", "get", "sinc", 5.0) == {"ok": None}
+    counters = rt.inspect("probe")["counters"]
+    assert counters["puts_failed"] == 1 and counters["gets_failed"] == 1
+    with pytest.raises(ControlError) as e:
+        rt.put("sinc", 1)
+    assert str(e.value) == "put to 'sinc' failed: no behavior 'sinc' (did you mean 'sink'?)"
+    with pytest.raises(ControlError) as e:
+        rt.get("nobody")
+    assert str(e.value) == "get from 'nobody' failed: no behavior 'nobody'"
+
+
+def test_put_to_a_busy_behavior_retries_then_reports(start):
+    rt = start({"behaviors": {"slow": {"class": "comps:Faulty", "period": 0.01},
+                              "probe": {"class": "comps:Probe"}}})
+    # a behavior that is busy (run() never ends) takes no data: the BS retries until
+    # the timeout, then the sender is told
+    rt.add("busy", "comps:BusyRun")
+    assert rt.state("busy") == "busy"
+    with pytest.raises(ControlError) as e:
+        rt.put("busy", 1, timeout=0.1)
+    assert str(e.value) == "put to 'busy' failed: 'busy' did not take the data within 0.1 s (busy)"
+    with pytest.raises(ControlError) as e:
+        rt.get("busy", timeout=0.1)
+    assert str(e.value) == "get from 'busy' failed: 'busy' gave no data within 0.1 s (busy)"
+    assert call(rt, "probe", "put", "busy", 1, 0.05) == {"ok": False}
+
+
+def test_put_data_must_be_json(start):
+    rt = start(SINKS)
+    with pytest.raises(ControlError) as e:
+        rt.put("sink", {1, 2})
+    assert str(e.value).startswith("put to 'sink' failed: data is not JSON-serialisable:")
+    assert rt.get("sink")["got"] == []
+
+
+def test_add_and_remove_while_running(start):
+    rt = start(SINKS)
+    assert rt.add("late", "comps:Sink") == "running"
+    rt.put("late", "hello")
+    assert rt.get("late")["got"] == [["operator", "hello"]]
+    rt.remove("late")
+    assert rt.state("late") is None
+    with pytest.raises(ControlError) as e:
+        rt.remove("late")
+    assert str(e.value) == "no behavior or reaction 'late'"
+    rt.put("sink", "still here")
+    assert rt.get("sink")["got"] == [["operator", "still here"]]
+
+
+def test_add_bad_class_changes_nothing(start):
+    rt = start(SINKS)
+    before = rt.ls()
+    with pytest.raises(ComponentError) as e:
+        rt.add("x", "comps:Nope")
+    assert str(e.value) == "module 'comps' has no class 'Nope'"
+    with pytest.raises(ComponentError) as e:
+        rt.add("x", "no_such_module_xyz:Nope")
+    assert str(e.value) == ("cannot import module 'no_such_module_xyz' "
+                            "(No module named 'no_such_module_xyz')")
+    with pytest.raises(ComponentError) as e:
+        rt.add("x", "comps:Counter")
+    assert str(e.value) == "comps:Counter is not a Behavior"
+    with pytest.raises(ControlError) as e:
+        rt.add("sink", "comps:Sink")
+    assert str(e.value) == "a behavior named 'sink' is already deployed"
+    with pytest.raises(ControlError) as e:
+        rt.add("Bad-Name", "comps:Sink")
+    assert str(e.value) == "name 'Bad-Name' is not of the form [a-z][a-z0-9_]*"
+    assert [(r["name"], r["state"]) for r in rt.ls()] == [(r["name"], r["state"]) for r in before]
+
+
+def test_run_once_behavior_then_serves(start):
+    rt = start({"behaviors": {"once": {"class": "comps:RunOnce"}}})
+    wait_for(lambda: rt.state("once") == "running", what="run() finished")
+    assert rt.get("once") == {"ran": 1}
