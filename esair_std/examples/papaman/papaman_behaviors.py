@@ -1,0 +1,160 @@
+"""PAPA-MAN's host behaviors (docs/std-papaman.md; thesis ch. 5.2 operations).
+
+- ``Sequencer`` plays the operations it is given (``esair std put sequencer
+  '["stand_up", "dance"]'``) one after another on ``papaman.motion``;
+- ``BalanceWatcher`` reads the feet at 50 Hz and, when the load shifts from one foot to
+  the other, stops the motion and stands the robot up (beside the firmware's own
+  auto-balance reaction, whose ``!R`` notices it counts);
+- ``Logger`` ``get``s the others' state twice a second and keeps the last records.
+"""
+
+from __future__ import annotations
+
+import collections
+import time
+from typing import Any
+
+from esair_std import Behavior, CommandError, ResourceLost
+
+#: thesis ch. 5.2 operations -> the robot's motions (boards/papaman/central.yaml)
+OPERATIONS = {"stand_up": "stand", "sit_down": "sit", "prostrate": "prostrate",
+              "dance": "dance", "auto_balance": "balance"}
+QUEUE = 32          # operations waiting; more are refused (counted)
+TICK_S = 0.0089856  # PAPA-MAN's Timer2 tick
+MARGIN_TICKS = 3
+#: frames x delay_ticks of each motion (central.yaml): how long it plays
+MOTION_TICKS = {"stand": 1 * 10, "sit": 3 * 20, "prostrate": 4 * 25, "dance": 32 * 1,
+                "balance": 3 * 2}
+
+
+class Sequencer(Behavior):
+    """Plays queued operations in order; E07 busy means "not yet": tried again."""
+
+    def start(self) -> None:
+        self.motion = self.attach_actuator("papaman.motion")
+        self.queue: collections.deque[str] = collections.deque()
+        self.playing: str | None = None
+        self.until = 0.0
+        self.done: list[str] = []
+        self.refused = 0
+        self.errors: list[str] = []
+
+    def receive(self, sender: str, data: Any) -> None:
+        ops = [data] if isinstance(data, str) else data
+        if not isinstance(ops, list):
+            self.refused += 1
+            self.log.warning("%s sent %r: expected an operation or a list of them", sender, data)
+            return
+        for op in ops:
+            if op == "stop":
+                self.queue.clear()
+                self._send("stop", "stop")
+            elif op not in OPERATIONS or len(self.queue) >= QUEUE:
+                self.refused += 1
+                self.log.warning("operation %r refused (known: %s; queue %d/%d)", op,
+                                 ", ".join(OPERATIONS), len(self.queue), QUEUE)
+            else:
+                self.queue.append(op)
+
+    def step(self) -> None:
+        now = time.monotonic()
+        if self.playing is not None and now >= self.until:
+            self.done.append(self.playing)
+            self.playing = None
+        if self.playing is None and self.queue:
+            op = self.queue[0]
+            motion = OPERATIONS[op]
+            if self._send(op, {"play": motion}):
+                self.queue.popleft()
+                # the first frame is written at the tick after the reply; a margin of
+                # ticks for the robot's clock against this one
+                ticks = MOTION_TICKS[motion] + 1 + MARGIN_TICKS
+                self.playing, self.until = op, now + ticks * TICK_S
+
+    def _send(self, op: str, command: Any) -> bool:
+        try:
+            self.motion.send(command, timeout=2.0)
+            return True
+        except CommandError as exc:
+            if "E07 busy" not in str(exc):      # busy: the robot is still moving
+                self.errors.append(f"{op}: {exc}")
+                self.queue.clear()
+        except ResourceLost as exc:
+            self.errors.append(f"{op}: {exc}")      # kept queued: tried when back
+        return False
+
+    def provide(self, requester: str) -> Any:
+        return {"playing": self.playing, "queued": list(self.queue), "done": self.done[-20:],
+                "refused": self.refused, "errors": self.errors[-5:]}
+
+
+class BalanceWatcher(Behavior):
+    """Stops the motion and stands up when the feet's load shifts (host side)."""
+
+    def start(self) -> None:
+        self.feet = self.attach_sensor("papaman.feet", keep=8)
+        self.notices = self.attach_sensor("papaman.notices", keep=64)
+        self.motion = self.attach_actuator("papaman.motion")
+        self.threshold = int(self.options.get("threshold", 400))
+        self.need = int(self.options.get("samples", 2))
+        self.tipping = 0
+        self.reactions: list[dict] = []
+        self.firmware = 0
+        self.samples = 0
+        self.ages: collections.deque[float] = collections.deque(maxlen=1000)
+        self.errors: list[str] = []
+
+    def step(self) -> None:
+        for n in self.notices.samples():
+            if n.value.get("notice", "").startswith("R "):
+                self.firmware += 1
+        fresh = self.feet.samples()
+        if not fresh:
+            return
+        self.ages.append(time.time() - fresh[-1].t)     # the newest sample's age, now
+        for s in fresh:
+            self.samples += 1
+            groups = list(s.value["groups"].values())
+            shift = abs(groups[0] - groups[1]) if len(groups) == 2 else 0
+            self.tipping = self.tipping + 1 if shift > self.threshold else 0
+            if self.tipping >= self.need:
+                self.tipping = 0
+                self._react(shift, s.seq)
+
+    def _react(self, shift: int, seq: int) -> None:
+        done = []
+        for command in ("stop", "stand"):
+            try:
+                done.append(self.motion.send(command, timeout=2.0))
+            except (CommandError, ResourceLost) as exc:
+                self.errors.append(str(exc))
+        self.reactions.append({"shift": shift, "seq": seq, "sent": done, "t": time.time()})
+
+    def provide(self, requester: str) -> Any:
+        ages = sorted(self.ages)
+        return {"reactions": self.reactions[-10:], "firmware_reactions": self.firmware,
+                "samples": self.samples, "errors": self.errors[-5:],
+                "age_p50_ms": ages[len(ages) // 2] * 1e3 if ages else None,
+                "age_p99_ms": ages[int(len(ages) * 0.99)] * 1e3 if ages else None}
+
+
+class Logger(Behavior):
+    """Gets the sequencer's and the watcher's state; keeps the last ``keep`` records."""
+
+    def start(self) -> None:
+        self.records: collections.deque[dict] = collections.deque(
+            maxlen=int(self.options.get("keep", 100)))
+        self.failed = 0
+
+    def step(self) -> None:
+        record: dict[str, Any] = {"t": time.time()}
+        for name in ("sequencer", "watcher"):
+            value = self.get(name, timeout=0.2)
+            if value is None:
+                self.failed += 1
+            record[name] = value
+        self.records.append(record)
+        self.log.info("%s", record)
+
+    def provide(self, requester: str) -> Any:
+        return {"records": list(self.records)[-5:], "failed": self.failed}

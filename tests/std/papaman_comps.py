@@ -1,0 +1,39 @@
+"""Behaviors the PAPA-MAN end-to-end tests deploy beside the example's own."""
+
+from __future__ import annotations
+
+from esair_std import Behavior, CommandError, ResourceLost
+
+
+class Mover(Behavior):
+    """Sends options['moves'] ([servo, angle, speed] each) once, in order, to
+    papaman.servo.<servo>; provide() tells what each send gave."""
+
+    def start(self):
+        self.results = []
+        self.handles = {}
+
+    def run(self):
+        for servo, angle, speed in self.options["moves"]:
+            name = f"papaman.servo.{servo}"
+            if name not in self.handles:
+                self.handles[name] = self.attach_actuator(name)
+            try:
+                self.results.append(["ok", self.handles[name].send(
+                    {"angle": angle, "speed": speed}, timeout=2.0)])
+            except (CommandError, ResourceLost) as exc:
+                self.results.append([type(exc).__name__, str(exc)])
+
+    def receive(self, sender, data):
+        """{"servo": s, "angle": a}: one more move, its outcome kept."""
+        name = f"papaman.servo.{data['servo']}"
+        h = self.handles.get(name) or self.attach_actuator(name)
+        self.handles[name] = h
+        try:
+            self.results.append(["ok", h.send({"angle": data["angle"]}, timeout=2.0)])
+        except (CommandError, ResourceLost) as exc:
+            self.results.append([type(exc).__name__, str(exc)])
+
+    def provide(self, requester):
+        return {"results": self.results,
+                "states": {n: h.state for n, h in self.handles.items()}}

@@ -1,0 +1,160 @@
+"""PAPA-MAN under STD, end to end, in every mode: the runtime -> the MinLink driver ->
+a pty -> `esair emulate` (central, actuator and sensor boards on the virtual I2C bus)
+-> the actuator board's registers, asserted on the emulator's trace.
+
+The emulated robot is a child process at a stable port (EmulatedRobot), so a test can
+pull it and plug it back; its trace is read after it stopped.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import pytest
+import yaml
+
+from conftest import wait_for
+from esair_min.core.trace import without_marks
+from esair_min.emulator.actuator import encode
+from esair_min.model.validate import load_robot
+from esair_std.drivers.minlink.emulated import EmulatedRobot
+
+ROOT = Path(__file__).resolve().parents[2]
+PAPAMAN = ROOT / "boards" / "papaman"
+EXAMPLE = ROOT / "esair_std" / "examples" / "papaman" / "papaman.yaml"
+ACTUATOR = 0x10
+
+
+@pytest.fixture(scope="module")
+def robot():
+    return load_robot(PAPAMAN)
+
+
+@pytest.fixture
+def emulated(tmp_path):
+    """emulated(*args) -> a running EmulatedRobot with --trace; stopped after the test."""
+    made = []
+
+    def _start(*args):
+        emu = EmulatedRobot(PAPAMAN, ["--trace", str(tmp_path / f"trace{len(made)}.txt"),
+                                      *args])
+        made.append(emu)
+        emu.start()
+        emu.trace = tmp_path / f"trace{len(made) - 1}.txt"
+        return emu
+
+    yield _start
+    for emu in made:
+        emu.stop()
+
+
+def example(port: str, **extra) -> dict:
+    """The bundled example deployment, pointed at ``port``."""
+    dep = yaml.safe_load(EXAMPLE.read_text())
+    dep["resources"]["papaman"]["port"] = port
+    dep["resources"]["papaman"].pop("emulate", None)
+    for entry in dep["behaviors"].values():
+        entry["class"] = "esair_std.examples.papaman." + entry["class"]
+    dep["behaviors"].update(extra)
+    dep["resources"]["papaman"]["allow"].update({name: "command" for name in extra})
+    return dep
+
+
+def actuator_writes(trace: Path) -> list[tuple[int, bytes]]:
+    """(tick, bytes) of every acknowledged write to the actuator board, in order."""
+    tick, out = 0, []
+    for line in without_marks(trace.read_text().splitlines()):
+        if line.startswith("T "):
+            tick = int(line[2:])
+        elif line.startswith(f"W {ACTUATOR:02X} ") and line.endswith(" ACK"):
+            out.append((tick, bytes.fromhex(line.split()[2])))
+    return out
+
+
+def test_servo_commands_arrive_in_order_within_limits(start, emulated, robot):
+    emu = emulated()
+    moves = [["l_knee", 120, 3], ["r_hip_pitch", 30, 0], ["l_knee", 151, 2],  # > 150
+             ["l_ankle_roll", 60, 5], ["r_knee", 29, 1], ["l_knee", 0, 25]]    # < 30
+    rt = start(example(emu.port, mover={"class": "papaman_comps:Mover", "moves": moves,
+                                        "uses": {"papaman.servo.*": "command"}}))
+    rt.wait_state("mover", "running")
+    got = wait_for(lambda: (r := rt.get("mover"))["results"] and len(r["results"]) == 6 and r,
+                   what="six moves")
+    rt.stop()
+    emu.stop()
+    assert [r[0] for r in got["results"]] == ["ok", "ok", "CommandError", "ok",
+                                             "CommandError", "ok"]
+    assert got["results"][1][1] == "oia030"
+    assert got["results"][2][1] == (
+        f"papaman.servo.l_knee: servo l_knee: angle 151 is outside its limits 0..150 "
+        f"({PAPAMAN / 'actuator.yaml'}); not sent")
+    servos = {s.name: s for s in robot.servos}
+    sent = [m for m in moves if servos[m[0]].min_angle <= m[1] <= servos[m[0]].max_angle]
+    two_reg = [(w[0], w[1:]) for _, w in actuator_writes(emu.trace) if len(w) == 3]
+    assert two_reg == [(2 * servos[s].index, bytes(encode(a, v))) for s, a, v in sent]
+
+
+def test_a_put_starts_the_dance(start, emulated, robot):
+    emu = emulated()
+    rt = start(example(emu.port))
+    rt.wait_state("sequencer", "running")
+    rt.put("sequencer", ["dance"], timeout=2.0)
+    wait_for(lambda: rt.get("sequencer")["done"] == ["dance"], what="the dance played")
+    rt.stop()
+    emu.stop()
+    dance = robot.motion("dance")
+    frames = [b"\x00" + b"".join(bytes(encode(a, f.speeds()[i])) for i, a in enumerate(f.angles))
+              for f in dance.frames]
+    writes = [(t, w) for t, w in actuator_writes(emu.trace) if len(w) == 25]
+    assert [w for _, w in writes] == frames                       # every frame, in order
+    ticks = [t for t, _ in writes]
+    assert ticks == list(range(ticks[0], ticks[0] + len(frames)))  # one per tick
+
+
+def test_the_push_reaches_the_watcher_and_its_stop_the_robot(start, emulated, robot):
+    emu = emulated("--scenario", "push")
+    rt = start(example(emu.port))
+    rt.wait_state("watcher", "running")
+    got = wait_for(lambda: (w := rt.get("watcher"))["reactions"] and w, timeout=15,
+                   what="the watcher's reaction")
+    rt.stop()
+    emu.stop()
+    reaction = got["reactions"][0]
+    assert reaction["shift"] == 1360 and reaction["sent"] == ["x", "t"]
+    # in the trace: the firmware's own reaction (its notice), then the host's stand pose
+    # (every servo to its stand angle at its default speed), written after the tilt began
+    stand = b"\x00" + b"".join(bytes(encode(s.stand_angle, s.default_speed))
+                               for s in robot.servos)
+    onset = math.ceil(1.100 / robot.central.timer2.period_s)
+    lines = without_marks(emu.trace.read_text().splitlines())
+    fired = lines.index("TX " + b"!R auto_balance\r\n".hex().upper())
+    writes = actuator_writes(emu.trace)
+    assert any(t >= onset and w == stand for t, w in writes)
+    assert fired < len(lines) and got["firmware_reactions"] >= 1
+
+
+def test_resources_are_lost_while_the_robot_is_pulled(start, emulated):
+    emu = emulated()
+    rt = start(example(emu.port, mover={"class": "papaman_comps:Mover", "moves": [],
+                                        "uses": {"papaman.servo.*": "command"}}))
+    rt.put("mover", {"servo": "l_knee", "angle": 100}, timeout=2.0)
+    wait_for(lambda: rt.get("mover")["results"] == [["ok", "odc100"]], what="first move")
+    emu.kill()
+    rows = wait_for(lambda: [r for r in rt.ls() if r["name"].startswith("papaman.")
+                             and r["state"] == "lost"], what="resources lost")
+    names = {r["name"] for r in rows}
+    assert {"papaman.motion", "papaman.feet", "papaman.notices",
+            "papaman.servo.l_knee"} <= names and len(names) == 15
+    assert all(r["reason"].startswith("link down: ") for r in rows)
+    rt.put("mover", {"servo": "l_knee", "angle": 110}, timeout=2.0)
+    res = wait_for(lambda: len((r := rt.get("mover"))["results"]) == 2 and r, what="2nd move")
+    kind, text = res["results"][1]
+    assert kind == "ResourceLost" and text.startswith("papaman.servo.l_knee: lost: link down: ")
+    assert res["states"]["papaman.servo.l_knee"] == "lost"
+    emu.start()                                             # plugged back
+    wait_for(lambda: all(r["state"] == "ready" for r in rt.ls()
+                         if r["name"].startswith("papaman.")), what="resources ready")
+    rt.put("mover", {"servo": "l_knee", "angle": 120}, timeout=2.0)
+    res = wait_for(lambda: len((r := rt.get("mover"))["results"]) == 3 and r, what="3rd move")
+    assert res["results"][2] == ["ok", "odc120"]
