@@ -49,5 +49,6 @@ class TransportError(StdError):
     """The engine (Zenoh) could not open a session, reach a peer, or decode a message."""
 
 
-class DeployError(ConfigError):
-    """A deployment file that cannot become a valid deployment."""
+class DeployError(StdError, ConfigError):
+    """A deployment file (or dict) that cannot become a valid deployment, or a
+    component class named in it that cannot be imported (esair_std.deploy)."""

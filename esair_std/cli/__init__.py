@@ -1,0 +1,41 @@
+"""``esair std``: the STD command group, mounted in esair_min's ``esair`` command.
+
+Each concern adds its commands from its own module (deploy: check, schema). Only the
+CLI turns errors into exit status 1 and one ``error: ...`` line (:func:`friendly`).
+"""
+
+from __future__ import annotations
+
+import sys
+from functools import wraps
+from typing import Any, Callable
+
+import click
+
+from esair_min.errors import EsairError
+
+
+def friendly(fn: Callable[..., Any]) -> Callable[..., Any]:
+    """Run ``fn``; an EsairError becomes one line on stderr and exit status 1."""
+
+    @wraps(fn)
+    def wrapper(*args: Any, **kwargs: Any) -> Any:
+        try:
+            return fn(*args, **kwargs)
+        except EsairError as exc:
+            click.echo(f"error: {exc}", err=True)
+            sys.exit(1)
+
+    return wrapper
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+def std() -> None:
+    """ESAIR STD: the host runtime. Deploy a robot's resources (drivers), behaviors
+    and reactions from a deployment file (docs/std-deployment.md)."""
+
+
+from . import deploy as _deploy  # noqa: E402  (registers its commands on std)
+
+for _cmd in _deploy.COMMANDS:
+    std.add_command(_cmd)

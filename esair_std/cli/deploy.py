@@ -1,0 +1,48 @@
+"""``esair std check FILE`` and ``esair std schema``: the deployment file."""
+
+from __future__ import annotations
+
+import json
+
+import click
+
+from . import friendly
+
+
+@click.command()
+@click.argument("file", metavar="FILE")
+@click.option("--no-import", is_flag=True,
+              help="Do not import the classes (their modules run code when imported).")
+@friendly
+def check(file: str, no_import: bool) -> None:
+    """Check a deployment file and print a short summary.
+
+    Every class is imported (from the file's folder first, then sys.path) unless
+    --no-import is given. Notes (e.g. an allow naming a behavior the file does not
+    list) are printed but do not fail the check.
+    """
+    from esair_std.deploy import load_classes, load_document, notes
+    from esair_std.deploy.summary import deployment_summary
+
+    dep, doc = load_document(file)
+    if not no_import:
+        classes = load_classes(dep)
+    for line in deployment_summary(dep):
+        click.echo(line)
+    if not no_import:
+        click.echo(f"  classes: {len(classes)} imported")
+    for mark, text in notes(dep, doc):
+        click.echo(f"note: {mark}: {text}")
+    click.echo("ok")
+
+
+@click.command()
+@click.option("--indent", default=2, show_default=True, help="JSON indentation.")
+def schema(indent: int) -> None:
+    """Print the JSON Schema of the deployment file format (for editors)."""
+    from esair_std.deploy import deployment_schema
+
+    click.echo(json.dumps(deployment_schema(), indent=indent, sort_keys=True))
+
+
+COMMANDS = (check, schema)

@@ -1,0 +1,212 @@
+"""Checks on the raw data of a deployment, before the model sees it.
+
+What pydantic cannot word well is checked here, on whatever shape the data has
+(wrong types are left to the model, which words those): the top-level keys, the
+names of components (also across sections), misspelt keys of an entry (every other
+key is an option), the ``module:Class`` form, the endpoint, the names in ``uses``,
+``allow`` and a reaction's ``resources``. The result is the data the model is built
+from: each entry's options gathered under ``options``.
+"""
+
+from __future__ import annotations
+
+import difflib
+import ipaddress
+import re
+from typing import Any
+
+from esair_min.errors import Mark
+from esair_min.schema_errors import did_you_mean, quote
+from esair_min.yamlload import Document, kind_of
+
+from ..errors import DeployError
+from .marks import PathMark
+from .model import (CHILD_PATTERN, CLASS_PATTERN, KIND, NAME_PATTERN, PROTOCOLS,
+                    REF_PATTERN, SECTIONS, BehaviorSpec, ReactionSpec, ResourceSpec,
+                    top_keys)
+
+SPECS = {"resources": ResourceSpec, "behaviors": BehaviorSpec, "reactions": ReactionSpec}
+NAME_TEXT = "a lower-case name (a-z, 0-9, _; at most 32 characters, starting with a letter)"
+#: An unknown key this close to a known one is taken for a typo, not an option.
+TYPO_CUTOFF = 0.8
+
+
+def show(value: Any) -> str:
+    """``text 'x'``, ``an integer 3``: a value as the YAML file has it."""
+    kind = kind_of(value)
+    if value is None:
+        return kind
+    text = repr(value) if isinstance(value, str) else str(value)
+    return f"{kind} {text if len(text) <= 40 else text[:37] + '...'}"
+
+
+def at(mark: Mark) -> str:
+    """``line 7`` in a file, the value's path in a dict."""
+    return str(mark) if isinstance(mark, PathMark) else f"line {mark.line}"
+
+
+def check_raw(doc: Document) -> dict[str, Any]:
+    """Check ``doc.data``; return it with each entry's options under ``options``."""
+    data = doc.data
+    if not isinstance(data, dict):
+        raise DeployError(f"a deployment must be a mapping of keys (robot:, resources:, "
+                          f"behaviors:, ...), not {kind_of(data)}", doc.mark(()))
+    keys = top_keys()
+    for key in data:
+        if key not in keys:
+            hint = did_you_mean(key, keys) or f" (allowed here: {', '.join(keys)})"
+            raise DeployError(f"unknown key {quote(key)}{hint}", doc.mark((key,), key=True))
+    robot = data.get("robot")
+    if isinstance(robot, str) and not re.match(NAME_PATTERN, robot):
+        raise DeployError(f"'robot' must be {NAME_TEXT}, not {show(robot)}",
+                          doc.mark(("robot",)))
+    if isinstance(data.get("endpoint"), str):
+        check_endpoint(data["endpoint"], doc)
+    out = dict(data)
+    seen: dict[str, tuple[str, Any]] = {}
+    for section in SECTIONS:
+        entries = data.get(section)
+        if entries is None and section in data:
+            out[section] = {}            # an empty section (all entries commented out)
+        if not isinstance(entries, dict):
+            continue
+        out[section] = {name: _entry(doc, section, name, entry, seen)
+                        for name, entry in entries.items()}
+    return out
+
+
+def _entry(doc: Document, section: str, name: str, entry: Any,
+           seen: dict[str, tuple[str, Any]]) -> Any:
+    kind = KIND[section]
+    loc = (section, name)
+    if not re.match(NAME_PATTERN, name):
+        raise DeployError(f"{kind} name {quote(name)} must be {NAME_TEXT}",
+                          doc.mark(loc, key=True))
+    if name in seen:
+        other, mark = seen[name]
+        raise DeployError(f"name {quote(name)} is already used by {other} ({at(mark)}); resources, "
+                          "behaviors and reactions need distinct names",
+                          doc.mark(loc, key=True))
+    seen[name] = (f"a {kind}", doc.mark(loc, key=True))
+    if not isinstance(entry, dict):
+        return entry                     # the model words a wrong type
+    own = SPECS[section].KEYS
+    entry_out: dict[str, Any] = {}
+    options: dict[str, Any] = {}
+    for key, value in entry.items():
+        if key in own:
+            entry_out[key] = value
+            continue
+        _not_a_typo(doc, section, loc + (key,), key)
+        options[key] = value
+    given = entry.get("options")
+    if isinstance(given, dict):
+        for key in given:
+            if key in options:
+                raise DeployError(f"option {quote(key)} is given twice (also at "
+                                  f"{at(doc.mark(loc + (key,), key=True))}); keep one",
+                                  doc.mark(loc + ("options", key), key=True))
+        options.update(given)
+    if options or "options" in entry:
+        entry_out["options"] = options if isinstance(given, dict) or given is None else given
+    _check_class(doc, entry, loc)
+    _check_refs(doc, section, entry, loc)
+    if section == "resources" and "rate_hz" in options:
+        where = ("options", "rate_hz") if "rate_hz" in (given or {}) else ("rate_hz",)
+        _check_rate(doc, options["rate_hz"], loc + where)
+    return entry_out
+
+
+def _not_a_typo(doc: Document, section: str, loc: tuple[Any, ...], key: str) -> None:
+    """An unknown key becomes an option, unless it looks like a misspelt key."""
+    own = SPECS[section].KEYS
+    close = difflib.get_close_matches(key, own, n=1, cutoff=TYPO_CUTOFF)
+    if close:
+        raise DeployError(f"unknown key {quote(key)} (did you mean '{close[0]}'?); to pass "
+                          "it to the component as an option, put it under 'options:'",
+                          doc.mark(loc, key=True))
+    for other in SECTIONS:
+        if other != section and key in SPECS[other].KEYS:
+            raise DeployError(f"{quote(key)} is a key of {other}, not of a {KIND[section]}; "
+                              "to pass it to the component as an option, put it under "
+                              "'options:'", doc.mark(loc, key=True))
+
+
+def _check_class(doc: Document, entry: dict[str, Any], loc: tuple[Any, ...]) -> None:
+    value = entry.get("class")
+    if not isinstance(value, str) or re.match(CLASS_PATTERN, value):
+        return
+    hint = ""
+    if ":" not in value and "." in value:
+        guess = value[::-1].replace(".", ":", 1)[::-1]
+        if re.match(CLASS_PATTERN, guess):
+            hint = f" (did you mean '{guess}'?)"
+    raise DeployError(f"'class' must be module:Class (a module path, a colon, a class "
+                      f"name), not {show(value)}{hint}", doc.mark(loc + ("class",)))
+
+
+def _check_refs(doc: Document, section: str, entry: dict[str, Any],
+                loc: tuple[Any, ...]) -> None:
+    """The names in ``uses``/``allow`` (patterns allowed) and a reaction's resources."""
+    for key, what in (("uses", "a resource name, entry.child or a pattern"),
+                      ("allow", "a behavior name or a pattern")):
+        refs = entry.get(key) if key in SPECS[section].KEYS else None
+        if not isinstance(refs, dict):
+            continue
+        for ref in refs:
+            if not re.match(REF_PATTERN, ref):
+                raise DeployError(f"{quote(ref)} in {quote(key)} must be {what} (a-z, 0-9, "
+                                  "_, '.', '-' and the wildcards * ? [ ] !)",
+                                  doc.mark(loc + (key, ref), key=True))
+    refs = entry.get("resources") if section == "reactions" else None
+    if isinstance(refs, list):
+        for i, ref in enumerate(refs):
+            if isinstance(ref, str) and not re.match(CHILD_PATTERN, ref):
+                raise DeployError(f"'resources[{i}]' must be a resource name or entry.child "
+                                  f"(lower-case names joined by '.'), not {show(ref)}",
+                                  doc.mark(loc + ("resources", i)))
+
+
+def _check_rate(doc: Document, value: Any, loc: tuple[Any, ...]) -> None:
+    ok = isinstance(value, (int, float)) and not isinstance(value, bool)
+    if not ok or not 0 < value < float("inf"):
+        raise DeployError(f"'rate_hz' must be a number greater than 0 (samples per "
+                          f"second), not {show(value)}", doc.mark(loc))
+
+
+ENDPOINT_FORM = "PROTOCOL/HOST:PORT such as tcp/127.0.0.1:7447"
+_HOST = re.compile(r"^(?=.{1,253}$)[A-Za-z0-9_]([A-Za-z0-9_-]*[A-Za-z0-9_])?"
+                   r"(\.[A-Za-z0-9_]([A-Za-z0-9_-]*[A-Za-z0-9_])?)*$")
+
+
+def check_endpoint(text: str, doc: Document, loc: tuple[Any, ...] = ("endpoint",)) -> None:
+    """A Zenoh locator the runtime can listen on; one precise message per fault."""
+    mark = doc.mark(loc)
+    key = quote(loc[-1])
+    proto, slash, rest = text.partition("/")
+    if not slash:
+        raise DeployError(f"{key} must be {ENDPOINT_FORM}, not {show(text)}", mark)
+    if proto == "unixsock-stream" and rest:
+        return
+    if proto not in PROTOCOLS:
+        hint = did_you_mean(proto, PROTOCOLS + ("unixsock-stream",))
+        raise DeployError(f"{key} protocol {quote(proto)} is not one of "
+                          f"{', '.join(PROTOCOLS)} or unixsock-stream{hint}", mark)
+    host, colon, port = rest.rpartition(":")
+    if not colon or not host:
+        raise DeployError(f"{key} needs a host and a port: {ENDPOINT_FORM}, not "
+                          f"{show(text)}", mark)
+    if not port.isdigit() or int(port) > 65535:
+        raise DeployError(f"{key} port must be a number from 0 to 65535, not "
+                          f"{quote(port)}", mark)
+    if host.startswith("[") and host.endswith("]"):
+        try:
+            ipaddress.IPv6Address(host[1:-1])
+            return
+        except ValueError:
+            pass
+    elif _HOST.match(host):
+        return
+    hint = " (write an IPv6 address in brackets: [::1])" if ":" in host else ""
+    raise DeployError(f"{key} host {quote(host)} is not an IP address or host name{hint}",
+                      mark)

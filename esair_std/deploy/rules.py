@@ -1,0 +1,93 @@
+"""Rules across entries of a valid deployment: what ``uses`` and ``resources`` name
+must exist, and a behavior's ``uses`` level must be granted by the resource's
+``allow`` -- checked when the file is loaded, so a bad policy never reaches the RS.
+
+``allow`` may name behaviors the file does not list: they may be added while the
+robot runs (``esair std add``). :func:`notes` lists those names for ``esair std
+check`` (with a did-you-mean when one looks like a listed behavior's typo).
+"""
+
+from __future__ import annotations
+
+import difflib
+from fnmatch import fnmatchcase
+
+from esair_min.errors import Mark
+from esair_min.schema_errors import quote
+from esair_min.yamlload import Document
+
+from ..errors import DeployError
+from ..level import Level
+from .model import BehaviorSpec, Deployment
+
+WILDCARDS = set("*?[")
+
+
+def resource_entries(dep: Deployment, ref: str) -> list[str]:
+    """The resource entries a ``uses``/``resources`` name refers to: its first part
+    (before any '.') is an entry name or a pattern over entry names."""
+    top = ref.split(".", 1)[0]
+    return [name for name in dep.resources if fnmatchcase(name, top)]
+
+
+def _suggest(ref: str, names: list[str]) -> str:
+    """`` (did you mean 'knee'?)`` for a misspelt entry (its child part kept)."""
+    top, dot, rest = ref.partition(".")
+    close = difflib.get_close_matches(top, names, n=1, cutoff=0.6)
+    return f" (did you mean '{close[0]}{dot}{rest}'?)" if close else ""
+
+
+def check_rules(dep: Deployment, doc: Document) -> None:
+    """Raise DeployError at the first reference or level the deployment cannot honour."""
+    names = list(dep.resources)
+    for spec in dep.behaviors.values():
+        for ref, level in spec.uses.items():
+            loc = ("behaviors", spec.name, "uses", ref)
+            entries = resource_entries(dep, ref)
+            if not entries:
+                raise DeployError(f"behavior {quote(spec.name)} uses unknown resource "
+                                  f"{quote(ref)}{_suggest(ref, names)}",
+                                  doc.mark(loc, key=True))
+            _check_grant(dep, spec, ref, level, entries, doc.mark(loc))
+    for spec in dep.reactions.values():
+        for i, ref in enumerate(spec.resources):
+            if not resource_entries(dep, ref):
+                raise DeployError(f"reaction {quote(spec.name)} names unknown resource "
+                                  f"{quote(ref)}{_suggest(ref, names)}",
+                                  doc.mark(("reactions", spec.name, "resources", i)))
+
+
+def _check_grant(dep: Deployment, spec: BehaviorSpec, ref: str, level: Level,
+                 entries: list[str], mark: Mark) -> None:
+    grants = [g for e in entries if (g := dep.resources[e].granted(spec.name)) is not None]
+    best = max(grants, default=None)
+    if best is not None and best >= level:
+        return
+    head = f"behavior {quote(spec.name)} uses {quote(ref)} at level '{level.name}', but "
+    if len(entries) == 1:
+        res = f"resource {quote(entries[0])}"
+        if best is None:
+            raise DeployError(f"{head}{res} does not allow it (add "
+                              f"'{spec.name}: {level.name}' to its allow)", mark)
+        raise DeployError(f"{head}{res} allows it only up to '{best.name}'", mark)
+    those = f"the resources it names ({', '.join(entries)})"
+    if best is None:
+        raise DeployError(f"{head}none of {those} allows it", mark)
+    raise DeployError(f"{head}{those} allow it only up to '{best.name}'", mark)
+
+
+def notes(dep: Deployment, doc: Document) -> list[tuple[Mark, str]]:
+    """Remarks that are not errors: ``allow`` names no behavior of this file lists."""
+    out: list[tuple[Mark, str]] = []
+    behaviors = list(dep.behaviors)
+    for res in dep.resources.values():
+        for pattern in res.allow:
+            if WILDCARDS & set(pattern) or pattern in dep.behaviors:
+                continue
+            close = difflib.get_close_matches(pattern, behaviors, n=1, cutoff=0.6)
+            hint = f" (did you mean '{close[0]}'?)" if close else ""
+            out.append((doc.mark(("resources", res.name, "allow", pattern), key=True),
+                        f"resource {quote(res.name)} allows {quote(pattern)}, which is not "
+                        f"a behavior of this file{hint}; one added at run time may use it"))
+    return out
+
