@@ -40,7 +40,21 @@ def load(robot: str):
     return load_robot(resolve_robot(robot))
 
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+class _Esair(click.Group):
+    """The ``esair`` group; ``esair std ...`` (ESAIR STD) is imported only when used."""
+
+    def list_commands(self, ctx: click.Context) -> list[str]:
+        return sorted([*super().list_commands(ctx), "std"])
+
+    def get_command(self, ctx: click.Context, name: str) -> click.Command | None:
+        if name == "std":
+            from esair_std.cli import std
+
+            return std
+        return super().get_command(ctx, name)
+
+
+@click.group(cls=_Esair, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="esair")
 def main() -> None:
     """ESAIR MIN: describe each board of a robot in YAML, check it, generate its

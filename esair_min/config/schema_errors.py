@@ -61,6 +61,8 @@ def _models_at(root: type[BaseModel], loc: tuple[Any, ...]) -> list[type[BaseMod
             for t in _unwrap(tp):
                 if isinstance(part, int) and typing.get_origin(t) is tuple:
                     nxt.extend(a for a in typing.get_args(t) if a is not Ellipsis)
+                elif isinstance(part, str) and typing.get_origin(t) is dict:
+                    nxt.append(typing.get_args(t)[1])     # a mapping of names to models
                 elif isinstance(t, type) and issubclass(t, BaseModel) and isinstance(part, str):
                     if part in t.model_fields:
                         nxt.append(t.model_fields[part].annotation)

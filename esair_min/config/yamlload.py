@@ -76,6 +76,18 @@ class Document:
             loc = loc[:-1]
 
 
+@dataclass(frozen=True)
+class FileKind:
+    """How messages name the file being read: board files and STD deployment files."""
+
+    name: str = "board file"
+    description: str = "a board description"
+    keys: str = "board:, role:, i2c:, ..."
+
+
+BOARD_FILE = FileKind()
+
+
 def _mark(path: str, node: yaml.Node) -> Mark:
     m = node.start_mark
     return Mark(path, m.line + 1, m.column + 1)
@@ -85,8 +97,9 @@ _PLAIN_TAGS = ("tag:yaml.org,2002:map", "tag:yaml.org,2002:seq")
 
 
 class _Builder:
-    def __init__(self, path: str, loader: yaml.SafeLoader):
+    def __init__(self, path: str, loader: yaml.SafeLoader, kind: FileKind = BOARD_FILE):
         self.path = path
+        self.kind = kind
         self.loader = loader
         self.nodes = 0
         self.open: set[int] = set()   # ids of the collections being built (cycle check)
@@ -112,7 +125,7 @@ class _Builder:
                               "(endless recursion); remove that alias",
                               _mark(self.path, node))
         if len(loc) >= MAX_DEPTH:
-            raise ConfigError(f"nested more than {MAX_DEPTH} levels deep; a board file "
+            raise ConfigError(f"nested more than {MAX_DEPTH} levels deep; a {self.kind.name} "
                               "needs far fewer", _mark(self.path, node))
         if node.tag not in _PLAIN_TAGS:
             raise ConfigError(f"cannot read value: unsupported tag '{node.tag}' (remove the "
@@ -160,18 +173,22 @@ class _Builder:
         return out
 
 
-def load_yaml(path: Path | str) -> Document:
-    """Load ``path``; raise :class:`ConfigError` with a mark for anything unreadable."""
+def load_yaml(path: Path | str, kind: FileKind = BOARD_FILE) -> Document:
+    """Load ``path``; raise :class:`ConfigError` with a mark for anything unreadable.
+
+    ``kind`` names the file in messages (a board file unless told otherwise).
+    """
+    what_file = kind.name
     p = Path(path)
     name = str(path)
     if not p.exists():
         raise ConfigError("no such file or folder", file_mark(name))
     if p.is_dir():
-        raise ConfigError("is a folder, but a board file (YAML) was expected here; "
+        raise ConfigError(f"is a folder, but a {what_file} (YAML) was expected here; "
                           "rename or move it", file_mark(name))
     if not p.is_file():
-        raise ConfigError("is not a regular file (a device or pipe?); a board file is "
-                          "expected here", file_mark(name))
+        raise ConfigError("is not a regular file (a device or pipe?); a "
+                          f"{what_file} is expected here", file_mark(name))
     try:
         raw = p.read_bytes()
     except OSError as exc:
@@ -179,12 +196,12 @@ def load_yaml(path: Path | str) -> Document:
                           file_mark(name)) from None
     if len(raw) > MAX_FILE_BYTES:
         raise ConfigError(f"file is {len(raw)} bytes, larger than the {MAX_FILE_BYTES} "
-                          "bytes a board file may have", file_mark(name))
+                          f"bytes a {what_file} may have", file_mark(name))
     try:
         text = raw.decode("utf-8")
     except UnicodeDecodeError as exc:
-        raise ConfigError(f"not a text file (invalid UTF-8 at byte {exc.start}); a board "
-                          "file is UTF-8 YAML", file_mark(name)) from None
+        raise ConfigError(f"not a text file (invalid UTF-8 at byte {exc.start}); a "
+                          f"{what_file} is UTF-8 YAML", file_mark(name)) from None
     try:
         loader = yaml.SafeLoader(text)
     except yaml.reader.ReaderError as exc:
@@ -206,17 +223,17 @@ def load_yaml(path: Path | str) -> Document:
         raise ConfigError(f"YAML error: {_one_line(str(exc))}", file_mark(name)) from None
     except RecursionError:
         raise ConfigError(f"nested too deeply to read (more than {MAX_DEPTH} levels are "
-                          "never needed in a board file)", file_mark(name)) from None
+                          f"never needed in a {what_file})", file_mark(name)) from None
     finally:
         loader.dispose()
     if node is None or (isinstance(node, yaml.ScalarNode) and node.tag.endswith(":null")):
-        raise ConfigError("file is empty, expected a board description (board:, role:, "
-                          "i2c:, ...)", file_mark(name))
+        raise ConfigError(f"file is empty, expected {kind.description} ({kind.keys})",
+                          file_mark(name))
     if not isinstance(node, yaml.MappingNode):
         what = "a list" if isinstance(node, yaml.SequenceNode) else "a single value"
-        raise ConfigError(f"the file is {what}; a board file must be a mapping of keys "
-                          "(board:, role:, i2c:, ...)", _mark(name, node))
-    builder = _Builder(name, loader)
+        raise ConfigError(f"the file is {what}; a {what_file} must be a mapping of keys "
+                          f"({kind.keys})", _mark(name, node))
+    builder = _Builder(name, loader, kind)
     data = builder.build(node, ())
     return Document(name, data, builder.value_marks, builder.key_marks)
 

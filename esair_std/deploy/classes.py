@@ -22,7 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from esair_min.errors import Mark
-from esair_min.schema_errors import quote
+from esair_min.config.schema_errors import quote
 
 from ..errors import DeployError
 from .model import CLASS_PATTERN, ComponentSpec, Deployment
@@ -87,8 +87,8 @@ def _import(module_name: str, base: Path | None, mark: Mark | None) -> Any:
     except ModuleNotFoundError as exc:
         if exc.name and (module_name == exc.name or module_name.startswith(exc.name + ".")):
             hint = _module_hint(exc.name, base)
-            raise DeployError(f"no module named {quote(exc.name)} (looked in the "
-                              f"deployment's folder, then sys.path){hint}", mark) from None
+            raise DeployError(f"no module named {quote(exc.name)}{hint}; looked in the "
+                              "deployment's folder, then sys.path", mark) from None
         raise DeployError(_failed(module_name, exc), mark) from None
     except (Exception, SystemExit) as exc:  # noqa: BLE001 - user code may raise anything
         raise DeployError(_failed(module_name, exc), mark) from None

@@ -16,14 +16,17 @@ from typing import Any
 from pydantic import ValidationError
 
 from esair_min.errors import ConfigError
-from esair_min.schema_errors import config_error
-from esair_min.yamlload import Document, load_yaml
+from esair_min.config.schema_errors import config_error
+from esair_min.config.yamlload import Document, FileKind, load_yaml
 
 from ..errors import DeployError
 from .marks import dict_document
 from .model import SECTIONS, Deployment
 from .raw import check_raw
 from .rules import check_rules
+
+#: How esair_min's YAML loader names a deployment file in its messages.
+DEPLOYMENT_FILE = FileKind("deployment file", "a deployment", "robot:, resources:, behaviors:, ...")
 
 
 def load_deployment(source: str | Path | Mapping[str, Any], *,
@@ -47,7 +50,7 @@ def read_document(source: str | Path | Mapping[str, Any]) -> Document:
         raise DeployError(f"a deployment is a file path or a mapping, not "
                           f"{type(source).__name__}")
     try:
-        return load_yaml(source)
+        return load_yaml(source, DEPLOYMENT_FILE)
     except DeployError:
         raise
     except ConfigError as exc:

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 from typing import Any, Mapping
 
 from esair_min.errors import Mark
-from esair_min.yamlload import Document
+from esair_min.config.yamlload import Document
 
 from ..errors import DeployError
 
@@ -77,4 +77,5 @@ def dict_document(data: Mapping[str, Any]) -> Document:
                 open_ids.discard(id(value))
         return value
 
-    return Document("<dict>", walk(dict(data), ()), value_marks, key_marks)
+    root = data if isinstance(data, dict) else dict(data)
+    return Document("<dict>", walk(root, ()), value_marks, key_marks)

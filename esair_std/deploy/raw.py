@@ -16,8 +16,8 @@ import re
 from typing import Any
 
 from esair_min.errors import Mark
-from esair_min.schema_errors import did_you_mean, quote
-from esair_min.yamlload import Document, kind_of
+from esair_min.config.schema_errors import did_you_mean, quote
+from esair_min.config.yamlload import Document, kind_of
 
 from ..errors import DeployError
 from .marks import PathMark
@@ -103,13 +103,18 @@ def _entry(doc: Document, section: str, name: str, entry: Any,
     if isinstance(given, dict):
         for key in given:
             if key in options:
-                raise DeployError(f"option {quote(key)} is given twice (also at "
-                                  f"{at(doc.mark(loc + (key,), key=True))}); keep one",
+                raise DeployError(f"option {quote(key)} is given both as a key of the entry "
+                                  "and under 'options:'; keep one",
                                   doc.mark(loc + ("options", key), key=True))
         options.update(given)
     if options or "options" in entry:
         entry_out["options"] = options if isinstance(given, dict) or given is None else given
     _check_class(doc, entry, loc)
+    if "period" in own:
+        _check_seconds(doc, entry.get("period"), loc + ("period",))
+    restart = entry.get("restart") if "restart" in own else None
+    if isinstance(restart, dict):
+        _check_seconds(doc, restart.get("within"), loc + ("restart", "within"))
     _check_refs(doc, section, entry, loc)
     if section == "resources" and "rate_hz" in options:
         where = ("options", "rate_hz") if "rate_hz" in (given or {}) else ("rate_hz",)
@@ -165,6 +170,13 @@ def _check_refs(doc: Document, section: str, entry: dict[str, Any],
                 raise DeployError(f"'resources[{i}]' must be a resource name or entry.child "
                                   f"(lower-case names joined by '.'), not {show(ref)}",
                                   doc.mark(loc + ("resources", i)))
+
+
+def _check_seconds(doc: Document, value: Any, loc: tuple[Any, ...]) -> None:
+    """A duration must be > 0 (other faults -- text, inf -- are the model's to word)."""
+    if isinstance(value, (int, float)) and not isinstance(value, bool) and value <= 0:
+        raise DeployError(f"{quote(loc[-1])} must be greater than 0 (seconds), not {value}",
+                          doc.mark(loc))
 
 
 def _check_rate(doc: Document, value: Any, loc: tuple[Any, ...]) -> None:

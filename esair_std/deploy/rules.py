@@ -13,8 +13,8 @@ import difflib
 from fnmatch import fnmatchcase
 
 from esair_min.errors import Mark
-from esair_min.schema_errors import quote
-from esair_min.yamlload import Document
+from esair_min.config.schema_errors import quote
+from esair_min.config.yamlload import Document
 
 from ..errors import DeployError
 from ..level import Level
