@@ -1,0 +1,209 @@
+"""The deployment's ``security:`` section and the Zenoh configuration it becomes.
+
+Two layers keep strangers out of a robot (docs/std-network.md, "Security"):
+
+* the **link**: the control endpoint is ``tls/HOST:PORT`` with client certificates
+  (mTLS: a peer without a certificate signed by ``ca`` never gets a session), and/or
+  Zenoh user/password authentication (``users``: a ``name:password`` file; a peer
+  without a valid login never gets a session);
+* **access control** (Zenoh ACL, default deny): each remote agent, known by its
+  certificate's common name or its user name, may touch only the keys its role needs
+  (:func:`acl_rules`); the runtime's own component processes on this computer come in
+  over the loopback interface and are allowed everything (``local: true``).
+
+The RS/AC checks (registration against the deployment's ``allow``) stay on top of both.
+
+Zenoh 1.10 keys used (checked against real sessions in tests/test_std_security.py):
+``transport/link/tls/{root_ca_certificate, listen_certificate, listen_private_key,
+connect_certificate, connect_private_key, enable_mtls, verify_name_on_connect}`` —
+``enable_mtls`` must be true on BOTH sides, else the connecting side sends no
+certificate; ``transport/auth/usrpwd/{user, password, dictionary_file}``;
+``transport/link/tx/lease`` (ms; a silent peer is dropped after it); ``access_control``
+(``enabled, default_permission, rules, subjects, policies``; subjects by
+``cert_common_names``, ``usernames``, ``interfaces``).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+from ..errors import TransportError
+
+NAME = r"^[A-Za-z0-9][A-Za-z0-9_.-]*$"
+ALL_MESSAGES = ["put", "delete", "declare_subscriber", "query", "reply", "declare_queryable",
+                "liveliness_token", "liveliness_query", "declare_liveliness_subscriber"]
+LOOPBACK = "lo"
+
+
+class AgentIdentity(BaseModel):
+    """Who a remote agent is on the link: its certificate's CN or its user name."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+    cn: str | None = Field(None, pattern=NAME)
+    user: str | None = Field(None, pattern=NAME)
+
+    @model_validator(mode="after")
+    def _one(self):
+        if (self.cn is None) == (self.user is None):
+            raise ValueError("give exactly one of 'cn' (certificate common name) or 'user'")
+        return self
+
+
+class Security(BaseModel):
+    """The ``security:`` section of a deployment (all paths relative to its folder)."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+    ca: Path | None = None            # CA that signed the peers' certificates
+    cert: Path | None = None          # this computer's certificate (PEM)
+    key: Path | None = None           # its private key (PEM)
+    mtls: bool = True                 # peers must show a certificate signed by ca
+    verify_name: bool = True          # the server certificate must name the host connected to
+    users: Path | None = None         # "name:password" lines: peers must log in
+    user: str | None = None           # this side's login (an agent's), with password_file
+    password_file: Path | None = None
+    lease_ms: int = Field(3000, ge=200, le=60000)   # a silent peer is gone after this
+    local: bool = True                # loopback peers (this computer's processes) trusted
+    agents: dict[str, AgentIdentity] = {}            # remote agents let in (ACL, default deny)
+
+    @model_validator(mode="after")
+    def _consistent(self):
+        if (self.cert is None) != (self.key is None):
+            raise ValueError("'cert' and 'key' go together")
+        if self.mtls and self.cert is not None and self.ca is None:
+            raise ValueError("mtls needs 'ca' (the authority that signed the peers' certificates)")
+        if (self.user is None) != (self.password_file is None):
+            raise ValueError("'user' and 'password_file' go together")
+        return self
+
+
+def _file(base: Path, path: Path | None, what: str) -> str | None:
+    if path is None:
+        return None
+    full = path if path.is_absolute() else base / path
+    if not full.is_file():
+        raise TransportError(f"security: {what} {full}: no such file")
+    return str(full)
+
+
+def _password(base: Path, sec: Security) -> str | None:
+    path = _file(base, sec.password_file, "password_file")
+    if path is None:
+        return None
+    text = Path(path).read_text().strip()
+    if not text or "\n" in text:
+        raise TransportError(f"security: password_file {path}: must hold one line, the password")
+    return text
+
+
+def session_inserts(sec: Security | None, base_dir: str | Path = ".", *,
+                    listen: bool) -> dict[str, Any]:
+    """The zenoh config entries (``Config.insert_json5`` path -> value) for ``sec``.
+
+    ``listen``: this session accepts peers (control center) rather than only connecting.
+    Without ``sec`` only the lease default applies. The ACL is not included: see
+    :func:`access_control` (it needs the robot's name and grants)."""
+    if sec is None:
+        return {}
+    base = Path(base_dir)
+    out: dict[str, Any] = {"transport/link/tx/lease": sec.lease_ms}
+    tls = "transport/link/tls/"
+    ca = _file(base, sec.ca, "ca")
+    cert, key = _file(base, sec.cert, "cert"), _file(base, sec.key, "key")
+    if ca:
+        out[tls + "root_ca_certificate"] = ca
+    if cert:
+        side = "listen" if listen else "connect"
+        out[f"{tls}{side}_certificate"] = cert
+        out[f"{tls}{side}_private_key"] = key
+        out[tls + "enable_mtls"] = sec.mtls
+    out[tls + "verify_name_on_connect"] = sec.verify_name
+    users = _file(base, sec.users, "users")
+    if users:
+        _check_dictionary(users)
+        out["transport/auth/usrpwd/dictionary_file"] = users
+    if sec.user is not None:
+        out["transport/auth/usrpwd/user"] = sec.user
+        out["transport/auth/usrpwd/password"] = _password(base, sec)
+    return out
+
+
+def _check_dictionary(path: str) -> None:
+    for n, line in enumerate(Path(path).read_text().splitlines(), 1):
+        if line.strip() and (":" not in line or not line.split(":", 1)[0] or
+                             not line.split(":", 1)[1]):
+            raise TransportError(f"security: users {path}:{n}: expected 'name:password'")
+
+
+def _rule(rid: str, messages: list[str], flows: list[str], keys: list[str]) -> dict:
+    return {"id": rid, "messages": messages, "flows": flows, "permission": "allow",
+            "key_exprs": keys}
+
+
+def agent_rules(robot: str, agent: str, reads: list[str], commands: list[str],
+                provides: list[str] = ()) -> list[dict]:
+    """ACL rules for one remote agent of robot ``robot`` (rule ids ``<agent>.<n>``).
+
+    The agent may: ask the control queryables (ctl/**) and get their replies; hold and
+    watch liveliness tokens; serve its own behavior key (bs/<agent>/**); subscribe to the
+    sensors it ``reads``; query the actuators it ``commands``; and, when it hosts
+    resources (``provides``), publish their samples and serve their commands."""
+    k = f"esair/{robot}"
+    ingress, egress, both = ["ingress"], ["egress"], ["ingress", "egress"]
+    rules = [
+        _rule("ctl", ["query"], ingress, [f"{k}/ctl/**"]),
+        _rule("ctl-reply", ["reply"], egress, [f"{k}/ctl/**"]),
+        _rule("alive", ["liveliness_token", "liveliness_query", "declare_liveliness_subscriber"],
+              both, [f"{k}/alive/**"]),
+        _rule("bs", ["declare_queryable", "reply"], ingress, [f"{k}/bs/{agent}", f"{k}/bs/{agent}/**"]),
+        _rule("bs-query", ["query"], egress, [f"{k}/bs/{agent}", f"{k}/bs/{agent}/**"]),
+    ]
+    if reads:
+        keys = [f"{k}/sensor/{r}" for r in reads]
+        rules += [_rule("read", ["declare_subscriber"], ingress, keys),
+                  _rule("read-put", ["put"], egress, keys)]
+    if commands:
+        keys = [f"{k}/actuator/{r}" for r in commands]
+        rules += [_rule("command", ["query"], ingress, keys),
+                  _rule("command-reply", ["reply"], egress, keys)]
+    for r in provides:
+        rules += [_rule(f"sensor-{r}", ["put"], ingress, [f"{k}/sensor/{r}"]),
+                  _rule(f"actuator-{r}", ["declare_queryable", "reply"], ingress,
+                        [f"{k}/actuator/{r}"]),
+                  _rule(f"actuator-{r}-query", ["query"], egress, [f"{k}/actuator/{r}"])]
+    for n, rule in enumerate(rules):
+        rule["id"] = f"{agent}.{n}.{rule['id']}"
+    return rules
+
+
+def access_control(sec: Security | None, robot: str,
+                   grants: dict[str, dict[str, list[str]]] | None = None) -> dict | None:
+    """The ``access_control`` config of the control center, or None when ``sec`` lists
+    no agents (no ACL: the link layer alone decides who gets a session).
+
+    ``grants``: agent -> {"reads": [...], "commands": [...], "provides": [...]}, from the
+    deployment's ``allow``/``uses`` (agents not in it get only ctl/alive/bs keys)."""
+    if sec is None or not sec.agents:
+        return None
+    grants = grants or {}
+    rules, subjects, policies = [], [], []
+    if sec.local:
+        rules.append(_rule("local", ALL_MESSAGES, ["ingress", "egress"], ["**"]))
+        subjects.append({"id": "local", "interfaces": [LOOPBACK]})
+        policies.append({"rules": ["local"], "subjects": ["local"]})
+    for agent, ident in sec.agents.items():
+        g = grants.get(agent, {})
+        mine = agent_rules(robot, agent, g.get("reads", []), g.get("commands", []),
+                           g.get("provides", []))
+        rules += mine
+        subject = {"id": f"agent.{agent}"}
+        if ident.cn is not None:
+            subject["cert_common_names"] = [ident.cn]
+        else:
+            subject["usernames"] = [ident.user]
+        subjects.append(subject)
+        policies.append({"rules": [r["id"] for r in mine], "subjects": [subject["id"]]})
+    return {"enabled": True, "default_permission": "deny", "rules": rules,
+            "subjects": subjects, "policies": policies}
