@@ -10,6 +10,7 @@ each answer is one JSON line on stdout:
     sub KEY                subscriber on KEY; each sample -> {"sample": KEY, "payload": ...}
     alive KEY              liveliness subscriber on KEY (history): {"alive"|"gone": KEY}
     token KEY              liveliness token on KEY                               -> {"ok": "token"}
+    rtt KEY N              N queries in a row   -> {"rtt": [seconds or null, ...]}
     get KEY TIMEOUT [DATA] query; -> {"replies": [...], "errors": [...]}
     put KEY DATA           publish                                               -> {"ok": "put"}
     zid                    -> {"zid": ..., "peers": [...]}
@@ -84,6 +85,13 @@ def main():
                 else:
                     errors.append(r.err.payload.to_string())
             out({"replies": replies, "errors": errors})
+        elif cmd == "rtt":                 # rtt KEY N: N queries one after the other
+            times = []
+            for _ in range(int(args[1])):
+                t0 = time.perf_counter()
+                ok = [r for r in session.get(args[0], timeout=2.0, payload="x") if r.ok is not None]
+                times.append(time.perf_counter() - t0 if ok else None)
+            out({"rtt": times})
         elif cmd == "put":
             session.put(args[0], args[1])
             out({"ok": "put"})
