@@ -12,6 +12,7 @@ each answer is one JSON line on stdout:
     token KEY              liveliness token on KEY                               -> {"ok": "token"}
     rtt KEY N              N queries in a row   -> {"rtt": [seconds or null, ...]}
     get KEY TIMEOUT [DATA] query; -> {"replies": [...], "errors": [...]}
+    stream KEY HZ SECONDS  publish 1, 2, 3... at HZ for SECONDS (in a thread)  -> {"ok": "stream"}
     put KEY DATA           publish                                               -> {"ok": "put"}
     zid                    -> {"zid": ..., "peers": [...]}
 The first answer is {"ok": "open"} or {"error": why zenoh.open failed} (then it exits).
@@ -41,15 +42,27 @@ def out(obj):
         sys.stdout.flush()
 
 
+def _stream(session, key, hz, seconds):
+    pub = session.declare_publisher(key)
+    period, n = 1.0 / hz, 0
+    start = time.perf_counter()
+    while time.perf_counter() - start < seconds:
+        n += 1
+        pub.put(str(n))
+        delay = start + n * period - time.perf_counter()
+        if delay > 0:
+            time.sleep(delay)
+
+
 def main():
     import zenoh
     zenoh.init_log_from_env_or("error")
-    conf = zenoh.Config()
-    for key, value in json.loads(sys.argv[1]).items():
-        conf.insert_json5(key, json.dumps(value))
     try:
+        conf = zenoh.Config()
+        for key, value in json.loads(sys.argv[1]).items():
+            conf.insert_json5(key, json.dumps(value))
         session = zenoh.open(conf)
-    except zenoh.ZError as exc:
+    except Exception as exc:
         out({"error": str(exc).split(" at ")[0]})
         return
     keep = []
@@ -92,6 +105,10 @@ def main():
                 ok = [r for r in session.get(args[0], timeout=2.0, payload="x") if r.ok is not None]
                 times.append(time.perf_counter() - t0 if ok else None)
             out({"rtt": times})
+        elif cmd == "stream":              # stream KEY HZ SECONDS: payloads 1, 2, 3...
+            threading.Thread(target=_stream, args=(session, args[0], float(args[1]),
+                                                   float(args[2])), daemon=True).start()
+            out({"ok": "stream"})
         elif cmd == "put":
             session.put(args[0], args[1])
             out({"ok": "put"})
