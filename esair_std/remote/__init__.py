@@ -1,0 +1,1 @@
+"""ESAIR STD across computers: remote agents, their identity, robots joined."""
