@@ -202,9 +202,9 @@ EXPECTED = {
     "slave_speed":
         "tests/fixtures/bad/slave_speed/actuator.yaml:14:13: the generated I2C slave runs at 100000 Hz only (at 400000 Hz a byte it takes late could be mistaken for its address); use speed_hz: 100000 on every board",
     "yaml_syntax":
-        "tests/fixtures/bad/yaml_syntax/central.yaml:5:5: YAML syntax error: expected ',' or '}', but got ':'",
+        "tests/fixtures/bad/yaml_syntax/central.yaml:4:6: this '{' starts a mapping that is not closed before line 5; end it with '}'",
     "yaml_tab":
-        "tests/fixtures/bad/yaml_tab/central.yaml:5:1: YAML syntax error: found character '\\t' that cannot start any token (indent with spaces, not tabs)",
+        "tests/fixtures/bad/yaml_tab/central.yaml:5:1: a tab character: YAML indents with spaces only; replace the tab by spaces",
 }
 
 #: Cases whose path is not the fixture folder itself.
@@ -285,8 +285,8 @@ def test_file_too_large(tmp_path: Path) -> None:
 
 @pytest.mark.parametrize("text, message", [
     ("---\n", "1:1: file is empty, expected a board description (board:, role:, i2c:, ...)"),
-    ("a: 1\n---\nb: 2\n", "2:1: YAML syntax error: expected a single document in the stream, "
-     "but found another document"),
+    ("a: 1\n---\nb: 2\n", "2:1: a second YAML document starts here ('---'), but one "
+     "document is expected; remove this line and what follows it, or merge the two"),
     ("a: *nowhere\n", "1:4: YAML syntax error: found undefined alias 'nowhere'"),
     ("base: &b {x: 1}\nc:\n  <<: *b\n",
      "3:3: keys must be plain names (no merge keys, lists or mappings as keys)"),

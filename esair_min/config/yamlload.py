@@ -16,6 +16,7 @@ from typing import Any
 
 import yaml
 
+from esair_min.config.yamlerrors import explain
 from esair_min.errors import ConfigError, Mark, file_mark
 
 Path_ = tuple[Any, ...]
@@ -211,13 +212,14 @@ def load_yaml(path: Path | str, kind: FileKind = BOARD_FILE) -> Document:
     except yaml.reader.ReaderError as exc:
         raise _reader_error(exc, text, name) from None
     except yaml.MarkedYAMLError as exc:
+        plain = explain(exc, text)
+        if plain is not None:
+            raise ConfigError(plain.message, Mark(name, plain.line + 1, plain.col + 1)) from None
         m = exc.problem_mark or exc.context_mark
         mark = Mark(name, m.line + 1, m.column + 1) if m else file_mark(name)
         problem = exc.problem or exc.context or "invalid YAML"
         if problem.startswith("but ") and exc.context:
             problem = f"{exc.context}, {problem}"
-        if "'\\t'" in problem:
-            problem += " (indent with spaces, not tabs)"
         raise ConfigError(f"YAML syntax error: {_one_line(problem)}", mark) from None
     except yaml.YAMLError as exc:
         raise ConfigError(f"YAML error: {_one_line(str(exc))}", file_mark(name)) from None

@@ -110,6 +110,11 @@ def _load_yaml(path: str, text: str, r: _Reader) -> Scenario:
         node = yaml.compose(text, Loader=yaml.SafeLoader)
         data = yaml.safe_load(text)
     except yaml.MarkedYAMLError as exc:
+        from esair_min.config.yamlerrors import explain
+
+        plain = explain(exc, text)
+        if plain is not None:
+            raise ConfigError(plain.message, Mark(path, plain.line + 1, plain.col + 1)) from None
         m = exc.problem_mark
         mark = Mark(path, m.line + 1, m.column + 1) if m else file_mark(path)
         raise ConfigError(f"YAML syntax error: {exc.problem}", mark) from None
