@@ -9,7 +9,8 @@ Deployment entry (the entry's name is the robot's name in resource names)::
                                   # or "emulate": the driver starts `esair emulate ROBOT
                                   # --pty` as its child process and uses its pty
       emulate: {scenario: push, trace: t.txt, noise: 5}   # that child's options
-      feet_hz: 8                  # `s` polls per second (refused beyond the line budget)
+      feet_hz: 8                  # `s` polls per second (refused beyond the line budget;
+                                  # 0: not polled)
       feet_share: 0.5             # the share of the line the polls may use
       timeout: 1.0                # seconds for a reply; longer means the link is down
       allow: {"*": command}
@@ -121,6 +122,8 @@ class FeetSensor(Sensor):
         self.polls = 0
 
     def open(self) -> None:
+        if not self.hz:
+            return
         self._thread = threading.Thread(target=self._run, name=f"minlink-feet:{self.name}",
                                         daemon=True)
         self._thread.start()
@@ -137,6 +140,9 @@ class FeetSensor(Sensor):
                 self.link.budget.check_feet_hz(hz, self.share)
             except (TypeError, ValueError, LinkError) as exc:
                 raise CommandError(self.name, str(exc)) from None
+            if not self.hz and hz:
+                self.hz = hz
+                self.open()
             self.hz = hz
             return hz
         raise CommandError(self.name, f"no setting {key!r} (settings: rate_hz)")
@@ -211,7 +217,8 @@ class MinLink(Driver):
         self.link = Link(robot, "", timeout=float(opts.get("timeout", 1.0)))
         hz = float(opts.get("feet_hz", DEFAULT_FEET_HZ))
         share = float(opts.get("feet_share", DEFAULT_FEET_SHARE))
-        self.link.budget.check_feet_hz(hz, share)          # refused before anything starts
+        if hz != 0:                                         # 0: the feet are not polled
+            self.link.budget.check_feet_hz(hz, share)      # refused before anything starts
         if port == "emulate":
             self.emulated = EmulatedRobot(path, emulate_args(opts.get("emulate") or {}))
             port = self.emulated.start()

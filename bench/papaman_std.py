@@ -1,0 +1,183 @@
+"""PAPA-MAN under STD: latency, sample age and throughput of the MIN link, side by side.
+
+Figures (one run, every column measured in this process, medians where repeated):
+
+1. behavior command -> actuator register write, in the emulator's virtual time: a
+   behavior sends servo commands (``oMSAAA``) through the AC to the MinLink driver and
+   the in-process emulator (``esair://``, real time); the send's wall time is mapped to
+   virtual time by the port's pacer, and the write is the ``@`` mark of the matching
+   ``W 10`` transaction in the trace plus its 38 bit times on the bus. Goal: within one
+   tick plus the command's line time at the robot's baud. With the feet polled (8 Hz) a
+   command may wait for an `s` exchange in flight (up to 50.7 ms): shown apart.
+2. feet sample age when the balance watcher reads it (the example's watcher, 50 Hz
+   steps, feet polled at 8 Hz): goal p99 <= one poll period + 2 ms.
+3. commands per second the link sustains, one in flight, against the emulator behind
+   a real pty (feet not polled): pySerial alone (write a line, read a line: the
+   baseline), the Link, and a behavior through STD, for ``x`` (the
+   line's own limit: 2 bytes up to CR out, 4 back) and ``oMSAAA`` (the write waits for
+   the next tick: the limit is one command per 2 ticks). Goal >= 90 % of the line.
+
+Run: python bench/papaman_std.py [--n 200]. Prints figures; asserts nothing.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "bench"))
+
+from esair_min.model.validate import load_robot  # noqa: E402
+from esair_std import Runtime, StdError  # noqa: E402
+from esair_std.drivers.minlink import Link, line_budget  # noqa: E402
+from esair_std.drivers.minlink.emulated import EmulatedRobot  # noqa: E402
+
+PAPAMAN = ROOT / "boards" / "papaman"
+EXAMPLE = "esair_std.examples.papaman.papaman_behaviors"
+
+
+def pct(xs: list[float], q: float) -> float:
+    xs = sorted(xs)
+    return xs[min(len(xs) - 1, int(q * len(xs)))]
+
+
+def deployment(port: str, mode: str, behaviors: dict, feet_hz: float = 0) -> dict:
+    uses = {"papaman.servo.*": "command", "papaman.motion": "command"}
+    return {"robot": "papaman", "mode": mode,
+            "resources": {"papaman": {"class": "esair_std.drivers.minlink:MinLink",
+                                      "robot": str(PAPAMAN), "port": port,
+                                      "feet_hz": feet_hz, "allow": {"*": "command"}}},
+            "behaviors": {name: dict(b, uses=b.get("uses", uses))
+                          for name, b in behaviors.items()}}
+
+
+def wait(rt: Runtime, name: str, key: str, timeout: float = 120) -> dict:
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        try:
+            v = rt.get(name, timeout=2.0)
+        except StdError:                  # busy while its run() runs
+            v = None
+        if v and v.get(key):
+            return v
+        time.sleep(0.05)
+    raise SystemExit(f"{name} did not finish")
+
+
+def command_to_write(mode: str, n: int, feet_hz: float) -> dict:
+    """Figure 1: behavior send -> register write (virtual time), in ms."""
+    trace = Path(tempfile.mkdtemp(prefix="esair-bench-")) / "trace.txt"
+    url = f"esair://{PAPAMAN}?trace={trace}"
+    dep = deployment(url, mode, {"stepper": {"class": "papaman_std_comps:Stepper",
+                                             "n": n, "every": 0.0373}}, feet_hz)
+    with Runtime(dep, mode=mode) as rt:
+        port = rt.rs.entries["papaman"][1].driver.link._port     # the in-process robot
+        pacer = port._pacer
+        wall0 = time.time() - time.monotonic() + pacer._t0_wall  # pacer's t0 on time.time()
+        got = wait(rt, "stepper", "done")
+    virt0 = pacer._t0_virtual / 1e9
+    sent = [virt0 + (t - wall0) * pacer.factor for t in got["sent"]]
+    writes, mark = [], 0.0
+    for line in trace.read_text().splitlines():
+        if line.startswith("@ "):
+            mark = int(line[2:]) / 1e6
+        elif line.startswith("W 10 ") and len(line.split()[2]) == 6:
+            writes.append(mark + 38 / 100_000)            # 38 bit times at 100 kHz
+    lat = [(w - s) * 1e3 for s, w in zip(sent, writes)]
+    return {"n": len(lat), "p50": statistics.median(lat), "p99": pct(lat, 0.99),
+            "max": max(lat), "errors": got["errors"]}
+
+
+def sample_age(mode: str, seconds: float) -> dict:
+    with EmulatedRobot(PAPAMAN) as emu:
+        dep = deployment(emu.port, mode, {"watcher": {
+            "class": f"{EXAMPLE}:BalanceWatcher", "period": 0.02,
+            "uses": {"papaman.feet": "read", "papaman.notices": "read",
+                     "papaman.motion": "command"}}}, feet_hz=8)
+        with Runtime(dep, mode=mode) as rt:
+            time.sleep(seconds)
+            w = rt.get("watcher", timeout=2.0)
+    return {"samples": w["samples"], "p50": w["age_p50_ms"], "p99": w["age_p99_ms"]}
+
+
+def rates(mode: str | None, n: int) -> dict:
+    """Figure 3: commands per second, x and oMSAAA; the Link alone when mode is "link",
+    pySerial alone (write a line, readline) when mode is "pyserial"."""
+    robot = load_robot(PAPAMAN)
+    out = {}
+    with EmulatedRobot(PAPAMAN) as emu:
+        if mode == "pyserial":
+            import serial
+            with serial.Serial(emu.port, b_baud(robot), timeout=2) as p:
+                p.reset_input_buffer()
+                for key, line in (("x", b"x\r\n"), ("o", b"odc100\r\n")):
+                    t0 = time.perf_counter()
+                    for _ in range(n):
+                        p.write(line)
+                        while p.readline().startswith(b"!"):    # the boot notice
+                            pass
+                    out[key] = n / (time.perf_counter() - t0)
+            return out
+        if mode == "link":
+            with Link(robot, emu.port) as link:
+                for key, line in (("x", "x"), ("o", "odc100")):
+                    t0 = time.perf_counter()
+                    for _ in range(n):
+                        link.command(line)
+                    out[key] = n / (time.perf_counter() - t0)
+            return out
+        for key, to, cmd in (("x", "papaman.motion", "stop"),
+                             ("o", "papaman.servo.l_knee", {"angle": 100})):
+            dep = deployment(emu.port, mode, {"blaster": {
+                "class": "papaman_std_comps:Blaster", "to": to, "command": cmd, "n": n}})
+            with Runtime(dep, mode=mode) as rt:
+                got = wait(rt, "blaster", "took")
+            out[key] = n / got["took"]
+    return out
+
+
+def b_baud(robot) -> int:
+    return line_budget(robot).baud
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--n", type=int, default=200, help="commands per figure")
+    ap.add_argument("--age-seconds", type=float, default=10.0)
+    ap.add_argument("--modes", default="thread", help="comma-separated STD modes")
+    args = ap.parse_args()
+    robot = load_robot(PAPAMAN)
+    b = line_budget(robot)
+    goal1 = (b.tick_s + b.line_s(len("odc100\r\n") - 1)) * 1e3
+    lim_x = 1 / b.command_s(3, 4, False)
+    lim_o = 1 / b.command_s(8, 4, True)
+    modes = args.modes.split(",")
+    print(f"PAPA-MAN at {b.baud} baud, tick {b.tick_s * 1e3:.2f} ms; load average "
+          f"{os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
+    print(f"\n1. behavior command -> register write (virtual time; goal <= {goal1:.2f} ms "
+          f"= tick + line time of oMSAAA)")
+    for m, hz in [(m, hz) for m in modes for hz in (0, 8)]:
+        r = command_to_write(m, args.n, hz)
+        print(f"   {m:8s} feet {hz} Hz  n={r['n']}  p50 {r['p50']:.2f} ms  p99 {r['p99']:.2f} ms  "
+              f"max {r['max']:.2f} ms  ({r['p99'] / goal1:.0%} of the goal at p99)")
+    print("\n2. feet sample age at the watcher's read (goal p99 <= 125 + 2 ms)")
+    for m in modes:
+        r = sample_age(m, args.age_seconds)
+        print(f"   {m:8s} samples={r['samples']}  p50 {r['p50']:.1f} ms  p99 {r['p99']:.1f} ms")
+    print(f"\n3. commands per second, one in flight (limits: x {lim_x:.1f}/s, "
+          f"oMSAAA {lim_o:.1f}/s; goal >= 90 %)")
+    for m in ["pyserial", "link", *modes]:
+        r = rates(m, args.n)
+        print(f"   {m:8s} x {r['x']:6.1f}/s ({r['x'] / lim_x:.0%})   "
+              f"oMSAAA {r['o']:5.1f}/s ({r['o'] / lim_o:.0%})")
+
+
+if __name__ == "__main__":
+    main()

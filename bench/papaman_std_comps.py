@@ -1,0 +1,58 @@
+"""Behaviors bench/papaman_std.py deploys (imported by the runtime or an agent)."""
+
+from __future__ import annotations
+
+import time
+
+from esair_std import Behavior
+
+
+class Stepper(Behavior):
+    """Sends options['n'] servo commands to papaman.servo.l_knee, one every
+    options['every'] seconds (phase drifting against the robot's tick), and keeps
+    the wall time (time.time()) just before each send."""
+
+    def start(self):
+        self.knee = self.attach_actuator("papaman.servo.l_knee")
+        self.sent = []
+        self.errors = 0
+
+    def run(self):
+        n, every = int(self.options["n"]), float(self.options["every"])
+        for i in range(n):
+            if self.stopping:
+                return
+            t = time.time()
+            try:
+                self.knee.send({"angle": 100 + (i % 2) * 10, "speed": 0}, timeout=2.0)
+                self.sent.append(t)
+            except Exception:  # noqa: BLE001 - counted
+                self.errors += 1
+            time.sleep(max(0.0, every - (time.time() - t)))
+
+    def provide(self, requester):
+        return {"sent": self.sent, "errors": self.errors, "done": len(self.sent) + self.errors
+                == int(self.options["n"])}
+
+
+class Blaster(Behavior):
+    """Sends options['n'] copies of options['command'] to options['to'] back to back;
+    provide() gives the wall time they took."""
+
+    def start(self):
+        self.h = self.attach_actuator(self.options["to"])
+        self.took = None
+        self.errors = 0
+
+    def run(self):
+        cmd, n = self.options["command"], int(self.options["n"])
+        t0 = time.perf_counter()
+        for _ in range(n):
+            try:
+                self.h.send(cmd, timeout=2.0)
+            except Exception:  # noqa: BLE001 - counted
+                self.errors += 1
+        self.took = time.perf_counter() - t0
+
+    def provide(self, requester):
+        return {"took": self.took, "errors": self.errors}
