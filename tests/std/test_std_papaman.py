@@ -61,10 +61,11 @@ def example(port: str, **extra) -> dict:
     return dep
 
 
-def actuator_writes(trace: Path) -> list[tuple[int, bytes]]:
+def actuator_writes(trace: Path | list[str]) -> list[tuple[int, bytes]]:
     """(tick, bytes) of every acknowledged write to the actuator board, in order."""
     tick, out = 0, []
-    for line in without_marks(trace.read_text().splitlines()):
+    lines = trace if isinstance(trace, list) else trace.read_text().splitlines()
+    for line in without_marks(lines):
         if line.startswith("T "):
             tick = int(line[2:])
         elif line.startswith(f"W {ACTUATOR:02X} ") and line.endswith(" ACK"):
