@@ -172,3 +172,23 @@ def test_no_agents_no_acl_and_local_peers_trusted():
     assert acl["default_permission"] == "deny"
     assert {"id": "local", "interfaces": ["lo"]} in acl["subjects"]
     assert {"id": "agent.a", "cert_common_names": ["a"]} in acl["subjects"]
+
+
+def test_the_deployment_file_carries_the_section(tmp_path):
+    from esair_std.deploy import DeployError, load_deployment
+
+    path = tmp_path / "lab.yaml"
+    path.write_text("robot: lab\nendpoint: tls/10.77.0.1:7447\nsecurity:\n"
+                    "  ca: ca.pem\n  cert: server.pem\n  key: server.key\n"
+                    "  agents:\n    locate: {cn: locate}\n")
+    dep = load_deployment(path)
+    assert dep.security.agents["locate"].cn == "locate" and dep.security.lease_ms == 2000
+    path.write_text("robot: lab\nsecurity:\n  ca: ca.pem\n  cert: server.pem\n  agent: {}\n")
+    with pytest.raises(DeployError) as exc:
+        load_deployment(path)
+    assert str(exc.value) == f"{path}:5:3: unknown key 'agent' (did you mean 'agents'?)"
+    path.write_text("robot: lab\nsecurity:\n  agents:\n    Locate: {cn: x}\n")
+    with pytest.raises(DeployError) as exc:
+        load_deployment(path)
+    assert str(exc.value).endswith("agent name 'Locate' is not a component name "
+                                   "([a-z][a-z0-9_]*, at most 32 characters)")

@@ -28,56 +28,13 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
-
+from ..deploy.security import SecuritySpec
 from ..errors import TransportError
 
-NAME = r"^[A-Za-z0-9][A-Za-z0-9_.-]*$"
 ALL_MESSAGES = ["put", "delete", "declare_subscriber", "query", "reply", "declare_queryable",
                 "liveliness_token", "liveliness_query", "declare_liveliness_subscriber"]
 LOOPBACK = "lo"
-
-
-class AgentIdentity(BaseModel):
-    """Who a remote agent is on the link: its certificate's CN or its user name."""
-
-    model_config = ConfigDict(frozen=True, extra="forbid")
-    cn: str | None = Field(None, pattern=NAME)
-    user: str | None = Field(None, pattern=NAME)
-
-    @model_validator(mode="after")
-    def _one(self):
-        if (self.cn is None) == (self.user is None):
-            raise ValueError("give exactly one of 'cn' (certificate common name) or 'user'")
-        return self
-
-
-class Security(BaseModel):
-    """The ``security:`` section of a deployment (all paths relative to its folder)."""
-
-    model_config = ConfigDict(frozen=True, extra="forbid")
-    ca: Path | None = None            # CA that signed the peers' certificates
-    cert: Path | None = None          # this computer's certificate (PEM)
-    key: Path | None = None           # its private key (PEM)
-    mtls: bool = True                 # peers must show a certificate signed by ca
-    verify_name: bool = True          # the server certificate must name the host connected to
-    users: Path | None = None         # "name:password" lines: peers must log in
-    user: str | None = None           # this side's login (an agent's), with password_file
-    password_file: Path | None = None
-    lease_ms: int = Field(2000, ge=200, le=60000)   # a silent peer is gone after this
-    local: bool = True                # loopback peers (this computer's processes) trusted
-    agents: dict[str, AgentIdentity] = {}            # remote agents let in (ACL, default deny)
-
-    @model_validator(mode="after")
-    def _consistent(self):
-        if (self.cert is None) != (self.key is None):
-            raise ValueError("'cert' and 'key' go together")
-        if self.mtls and self.cert is not None and self.ca is None:
-            raise ValueError("mtls needs 'ca' (the authority that signed the peers' certificates)")
-        if (self.user is None) != (self.password_file is None):
-            raise ValueError("'user' and 'password_file' go together")
-        return self
-
+Security = SecuritySpec        # the deployment's section, as the transport calls it
 
 LEASE_MS = 2000          # default link lease of every STD session (zenoh's own: 10 s)
 RETRY = {"period_init_ms": 100, "period_max_ms": 250, "period_increase_factor": 1.5}
