@@ -103,9 +103,11 @@ def test_yaml_empty_sections_and_ipv6(tmp_path):
     assert (dep.endpoint, dep.resources, dep.behaviors) == ("tcp/[::1]:7447", {}, {})
 
 
-def test_security_is_kept_as_given():
-    dep = load_deployment({"robot": "r", "security": {"tls": {"ca": "ca.pem"}}})
-    assert dep.security is not None and dep.security.model_extra == {"tls": {"ca": "ca.pem"}}
+def test_security_is_the_transport_section():
+    dep = load_deployment({"robot": "r", "security": {"ca": "ca.pem", "cert": "s.pem",
+                                                      "key": "s.key"}})
+    assert (str(dep.security.ca), dep.security.mtls, dep.security.lease_ms) == ("ca.pem", True,
+                                                                                2000)
 
 
 def test_model_dump_round_trip():
