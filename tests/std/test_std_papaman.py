@@ -147,11 +147,10 @@ def test_resources_are_lost_while_the_robot_is_pulled(start, emulated):
     rt.put("mover", {"servo": "l_knee", "angle": 100}, timeout=2.0)
     wait_for(lambda: rt.get("mover")["results"] == [["ok", "odc100"]], what="first move")
     emu.kill()
-    rows = wait_for(lambda: [r for r in rt.ls() if r["name"].startswith("papaman.")
-                             and r["state"] == "lost"], what="resources lost")
+    rows = wait_for(lambda: len(lost := [r for r in rt.ls() if r["name"].startswith(
+        "papaman.") and r["state"] == "lost"]) == 15 and lost, what="resources lost")
     names = {r["name"] for r in rows}
-    assert {"papaman.motion", "papaman.feet", "papaman.notices",
-            "papaman.servo.l_knee"} <= names and len(names) == 15
+    assert {"papaman.motion", "papaman.feet", "papaman.notices", "papaman.servo.l_knee"} <= names
     assert all(r["reason"].startswith("link down: ") for r in rows)
     rt.put("mover", {"servo": "l_knee", "angle": 110}, timeout=2.0)
     res = wait_for(lambda: len((r := rt.get("mover"))["results"]) == 2 and r, what="2nd move")
