@@ -9,6 +9,7 @@ pull it and plug it back; its trace is read after it stopped.
 from __future__ import annotations
 
 import math
+import threading
 from pathlib import Path
 
 import pytest
@@ -54,7 +55,8 @@ def example(port: str, **extra) -> dict:
     """The bundled example deployment, pointed at ``port``."""
     dep = yaml.safe_load(EXAMPLE.read_text())
     dep["resources"]["papaman"]["port"] = port
-    dep["resources"]["papaman"].pop("emulate", None)
+    if port != "emulate":
+        dep["resources"]["papaman"].pop("emulate", None)
     for entry in dep["behaviors"].values():
         entry["class"] = "esair_std.examples.papaman." + entry["class"]
     dep["behaviors"].update(extra)
@@ -163,3 +165,51 @@ def test_resources_are_lost_while_the_robot_is_pulled(start, emulated):
     rt.put("mover", {"servo": "l_knee", "angle": 120}, timeout=2.0)
     res = wait_for(lambda: len((r := rt.get("mover"))["results"]) == 3 and r, what="3rd move")
     assert res["results"][2] == ["ok", "odc120"]
+
+
+def test_board_faults_surface_on_the_right_resource(start, emulated):
+    emu = emulated("--nack-actuator")
+    rt = start(example(emu.port, mover={"class": "papaman_comps:Mover", "moves": [],
+                                        "uses": {"papaman.servo.*": "command"}}))
+    rt.put("mover", {"servo": "l_knee", "angle": 100}, timeout=2.0)
+    got = wait_for(lambda: (r := rt.get("mover"))["results"] and r, what="the move")
+    assert got["results"] == [["CommandError", "papaman.servo.l_knee: robot refused "
+                                               "'odc100': E10 no answer on i2c"]]
+    assert rt.state("papaman.feet") == "ready"            # the sensor board answers
+    rt.stop()
+    emu.stop()
+    emu = emulated("--stuck-bus")
+    rt = start(example(emu.port))
+    row = wait_for(lambda: [r for r in rt.ls() if r["name"] == "papaman.feet"
+                            and r["state"] == "lost"], what="feet lost")[0]
+    assert row["reason"] == "robot refused 's': E10 no answer on i2c"
+    assert rt.state("papaman.motion") == "ready"           # the link itself is up
+
+
+def _processes_with(text: str) -> list[int]:
+    pids = []
+    for proc in Path("/proc").iterdir():
+        try:
+            if proc.name.isdigit() and text.encode() in (proc / "cmdline").read_bytes():
+                pids.append(int(proc.name))
+        except OSError:
+            pass
+    return pids
+
+
+def test_the_example_runs_its_own_emulated_robot(start, tmp_path):
+    trace = tmp_path / "own.txt"
+    dep = example("emulate")
+    dep["resources"]["papaman"]["emulate"]["trace"] = str(trace)
+    rt = start(dep)
+    assert len(_processes_with(str(trace))) == 1          # `esair emulate ... --trace`
+    rt.wait_state("sequencer", "running")
+    rt.put("sequencer", ["stand_up", "dance"], timeout=2.0)
+    wait_for(lambda: rt.get("sequencer")["done"] == ["stand_up", "dance"], what="two ops")
+    logged = wait_for(lambda: (g := rt.get("logger"))["records"] and g, what="a record")
+    assert set(logged["records"][-1]) == {"t", "sequencer", "watcher"}
+    rt.stop()
+    assert _processes_with(str(trace)) == []               # the child is gone
+    assert not [t for t in threading.enumerate() if t.name.startswith("minlink")]
+    frames = [w for _, w in actuator_writes(trace) if len(w) == 25]
+    assert len(frames) == 1 + 32                           # stand's frame, the dance's 32

@@ -6,7 +6,8 @@ in again; :class:`EmulatedRobot` keeps a symbolic link (``port``) pointing at th
 current pty, as udev does for a real adapter (``/dev/serial/by-id/...``). The link is
 removed while no emulator runs, so a driver reopening ``port`` fails until the robot is
 back. ``kill()`` (SIGKILL: the robot "pulled") and ``start()`` again are what the
-fault tests and ``esair std run`` use; ``stop()`` ends the child for good.
+fault tests and ``esair std run`` use; ``stop()`` ends the child for good. The child gets
+SIGTERM if the thread that started it ends first (an agent process killed outright).
 """
 
 from __future__ import annotations
@@ -23,6 +24,17 @@ from typing import Sequence
 from .errors import LinkError
 
 START_TIMEOUT_S = 30.0
+
+
+def _die_with_parent() -> None:
+    """In the child before exec: SIGTERM when the thread that started it ends (Linux
+    PR_SET_PDEATHSIG), so an agent process killed outright leaves no emulator behind."""
+    try:
+        import ctypes
+
+        ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGTERM)   # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):
+        pass
 
 
 class EmulatedRobot:
@@ -53,7 +65,8 @@ class EmulatedRobot:
                *self.args, *extra]
         errors = tempfile.TemporaryFile()      # not a pipe: nobody has to drain it
         proc = subprocess.Popen(cmd, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
-                                stderr=errors, env=env, start_new_session=True)
+                                stderr=errors, env=env, start_new_session=True,
+                                preexec_fn=_die_with_parent)
         self.proc, self._errors = proc, errors
         assert proc.stdout is not None
         ready, _, _ = select.select([proc.stdout], [], [], START_TIMEOUT_S)
