@@ -95,7 +95,8 @@ def main(argv: list[str]) -> int:
         if t.played:
             worst = max(t.played)
             print(f"  sync tick -> last byte of a frame write, frames played one per tick: "
-                  f"{describe(t.played)} cycles; worst {worst / cps * 1e3:.3f} ms = "
+                  f"{describe(t.played)}, best {min(t.played)} cycles; worst "
+                  f"{worst / cps * 1e3:.3f} ms = "
                   f"{worst / tick:.3f} of the tick (goal 0.25; the wire alone needs "
                   f"{wire} = {wire / tick:.3f})")
         print(f"  every frame write (commands' writes wait for the command's own I2C "

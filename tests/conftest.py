@@ -37,3 +37,21 @@ def pic_firmware(robot, tmp_path_factory):
         return built[role]
 
     return board
+
+
+@pytest.fixture(scope="session")
+def fast_robot(tmp_path_factory):
+    """PAPA-MAN with its UART at 115200 baud (a test-only copy): 64 bytes arrive within
+    one tick, so a held write can overrun the receive ring on the PIC in gpsim and in
+    the emulator as in the Python harness (which has no line rate)."""
+    folder = tmp_path_factory.mktemp("fast") / "papaman"
+    folder.mkdir()
+    for path in (ROOT / "boards" / "papaman").glob("*.yaml"):
+        text = path.read_text()
+        if path.name == "central.yaml":
+            assert text.count("baud: 9600") == 1
+            text = text.replace("baud: 9600", "baud: 115200")
+        (folder / path.name).write_text(text)
+    robot = load_robot(folder)
+    assert robot.central.uart.baud == 115200
+    return robot

@@ -315,10 +315,13 @@ def test_line_ends():
 def test_overrun_while_a_write_is_held():
     rig = booted()
     # t is held until the tick: the 64-byte receive buffer fills, bytes are lost.
-    rig.rx(b"t\r\n" + b"v" * 70 + b"\r\n" + b"x\r\n")
-    assert rig.overrun
+    sent = b"t\r\n" + b"v" * 70 + b"\r\n" + b"x\r\n"
+    rig.rx(sent)
+    assert rig.lost and len(rig.ring) == 64
+    assert rig.dropped == list(range(2 + 64, len(sent)))   # all after the 64 that fit
     assert tx(ticks(rig)) == [OK]                # the LF of t's CRLF is swallowed
     assert rig.core.line_length == 40             # the v line (63 bytes), cut by the loss
+    # the next byte in carries the loss: the v line runs on through the gap to x's CR
     assert say(rig, "x") == [b"E12 input overrun\r\n"]
     assert say(rig, "x") == [OK]                  # the decoder starts afresh
 
@@ -327,22 +330,22 @@ def test_overrun_of_an_empty_line_and_crlf():
     rig = booted()
     rig.rx(b"t\r")
     rig.rx(b"v" * 64 + b"\r")                     # 64 bytes fill the buffer; CR is lost
-    assert tx(ticks(rig)) == [OK]                 # v*64 is fed, the decoder told first
-    assert say(rig, b"", b"\n") == [b"E12 input overrun\r\n"]
+    assert tx(ticks(rig)) == [OK]                 # v*64 is fed; no loss seen yet
+    assert say(rig, b"", b"\n") == [b"E12 input overrun\r\n"]   # the LF after the gap
     rig.core.rx_overrun()
     assert say(rig, b"", b"\n") == [b"E12 input overrun\r\n"]   # even when empty
     rig.rx(b"x\r")
-    rig.core.rx_overrun()                         # told between CR and LF: LF swallowed
-    assert say(rig, b"", b"\n") == []
-    assert say(rig, "x") == [b"E12 input overrun\r\n"]
+    rig.core.rx_overrun()         # lost between CR and LF: the LF is not x's CRLF any more
+    assert say(rig, b"", b"\n") == [b"E12 input overrun\r\n"]
+    assert say(rig, "x") == [OK]
 
 
 def test_bytes_fed_while_not_ready_count_as_lost():
     rig = booted()
-    say(rig, "t")
-    rig.core.rx_byte(ord("x"))                    # a misbehaving caller
-    rig.tick()
-    assert say(rig, "v", b"\r") == [b"E12 input overrun\r\n"]
+    say(rig, "t")                                 # held; its LF waits in the ring
+    rig.core.rx_byte(ord("x"))                    # a misbehaving caller: x is lost there
+    assert tx(ticks(rig)) == [OK, b"E12 input overrun\r\n"]   # the LF ends the damage
+    assert say(rig, "v", b"\r")[0].startswith(b"OK esair-min/1")
 
 
 def test_decoder_buffer_never_grows():

@@ -21,6 +21,7 @@ from esair_min.core.harness import run_script
 from esair_min.core.image import build_image, write_hex
 from esair_min.core.protocol import add_checksum
 from esair_min.core.trace import without_marks
+from overrun_streams import scripts as overrun_scripts
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENARIO = ROOT / "tests" / "scenarios" / "papaman.txt"
@@ -131,6 +132,31 @@ def test_hypothesis_streams_same_trace(robot, firmware, tmp_path_factory, steps)
     script = "\n".join(steps) + "\n"
     path.write_text(script)
     assert_same(c_trace(firmware["plain"], path), py_trace(robot, script, path))
+
+
+@settings(max_examples=100, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture,
+                                 HealthCheck.too_slow, HealthCheck.data_too_large])
+@given(overrun_scripts)
+def test_overrunning_streams_same_trace(robot, firmware, steps):
+    """Bursts that overrun the 64-byte receive ring while writes are held (issue 10):
+    the C ring marks each loss where the Python one does."""
+    path = firmware["dir"] / "hyp_overrun.txt"
+    script = "\n".join(steps) + "\n"
+    path.write_text(script)
+    assert_same(c_trace(firmware["plain"], path), py_trace(robot, script, path))
+
+
+@pytest.mark.parametrize("name", sorted(p.name for p in (ROOT / "tests" / "fixtures" / "overrun")
+                                        .glob("*.txt")))
+def test_overrun_scripts_same_trace(robot, firmware, name):
+    """Issue 10's reproducer and the loss cases of tests/fixtures/overrun, plain and
+    under ASan/UBSan."""
+    path = ROOT / "tests" / "fixtures" / "overrun" / name
+    py = py_trace(robot, path.read_text(), path)
+    assert "TX " + b"E12 input overrun\r\n".hex().upper() in py
+    for binary in ("plain", "san"):
+        assert_same(c_trace(firmware[binary], path), py)
 
 
 @pytest.mark.parametrize("name", ["bus.txt", "bus_boot.txt"])

@@ -143,7 +143,11 @@ class CentralCore:
         return self._held is None
 
     def rx_overrun(self) -> None:
-        """The receive buffer lost bytes: the line being received is answered E12."""
+        """The receive ring lost bytes right before the next byte to be fed (the port
+        marks the loss at its place in the ring): the line being received is damaged
+        from its start through the gap to the next line end, which answers it
+        ``E12 input overrun`` once; it moves nothing. Lines that ended before the gap
+        were complete and run as usual."""
         self._lines.note_overrun()
 
     def rx_byte(self, b: int) -> None:

@@ -48,12 +48,16 @@ class LineAssembler:
         self.length = 0
         self.overflow = False      # a byte past the 40th was dropped
         self.bad = False           # a byte outside 0x20..0x7E was received
-        self.overrun = False       # the receive buffer lost bytes during this line
+        self.overrun = False       # bytes were lost inside this line (it is damaged)
         self.after_cr = False      # the previous byte was CR (a following LF is swallowed)
 
     def note_overrun(self) -> None:
-        """Bytes of the line being received were lost: answer it E12 at its end."""
+        """Bytes were lost at this point of the stream (between the byte fed last and
+        the next one): the line being received is damaged from its start through the
+        gap to the next line end, and is answered E12 there, once, even if no byte of
+        it arrived. A CR before the gap no longer pairs with an LF after it."""
         self.overrun = True
+        self.after_cr = False
 
     def feed(self, b: int) -> LineResult | None:
         """One received byte; at a non-empty line end, the line or its error code."""

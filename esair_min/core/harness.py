@@ -20,6 +20,7 @@ from esair_min.model.robot import Robot
 from esair_min.core.trace import TraceWriter, TracingBus
 
 RX_BUFFER = 64   # bytes of the board's receive ring (as the PIC port's)
+GAP = 0x100      # ring mark: bytes were lost just before this one
 BUS_LINES = ("bus", "sda")   # `fault bus`: SCL held low; `fault sda`: SDA held low
 
 
@@ -40,7 +41,12 @@ class HeldBus:
 
 
 class Rig:
-    """A central core wired to simple devices, a trace writer and a receive ring."""
+    """A central core wired to simple devices, a trace writer and a receive ring.
+
+    The ring marks a loss where it happened: a byte that finds the ring full is
+    dropped, and the next byte that gets in carries the mark :data:`GAP` (bytes were
+    lost just before it). Feeding such a byte first tells the core (``rx_overrun``),
+    so the lines that ended before the loss run and the damaged one is answered E12."""
 
     def __init__(self, robot: Robot, stream: TextIO | None = None):
         self.robot = robot
@@ -55,31 +61,37 @@ class Rig:
         self.lines = HeldBus(SimpleBus(devices))
         self.bus = TracingBus(self.lines, self.writer)
         self.core = CentralCore(robot, self.bus, self.writer.tx)
-        self.ring: deque[int] = deque()
-        self.overrun = False
+        self.ring: deque[int] = deque()    # bytes, GAP set on the first after a loss
+        self.lost = False                  # bytes were lost since the last one got in
+        self.received = 0                  # bytes offered to the ring since the start
+        self.dropped: list[int] = []       # which of them (0-based) were lost
 
     def boot(self) -> None:
         """Reset: the receive ring is emptied, then the core boots."""
         self.ring.clear()
-        self.overrun = False
+        self.lost = False
         self.core.boot()
 
     def feed(self) -> None:
         """Bytes from the ring to the decoder while it is ready."""
-        core = self.core
-        while self.ring and core.ready():
-            if self.overrun:
-                self.overrun = False
+        core, ring = self.core, self.ring
+        while ring and core.ready():
+            b = ring.popleft()
+            if b & GAP:
                 core.rx_overrun()
-            core.rx_byte(self.ring.popleft())
+            core.rx_byte(b & 0xFF)
 
     def rx(self, data: bytes) -> None:
-        """Each byte into the ring (dropped, flagging an overrun, if full), then feed."""
+        """Each byte into the ring (dropped if it is full: the next one that gets in
+        carries the mark), then feed."""
         for b in data:
             if len(self.ring) >= RX_BUFFER:
-                self.overrun = True
+                self.lost = True
+                self.dropped.append(self.received)
             else:
-                self.ring.append(b)
+                self.ring.append(b | GAP if self.lost else b)
+                self.lost = False
+            self.received += 1
             self.feed()
 
     def tick(self, n: int = 1) -> None:

@@ -38,7 +38,7 @@ from esair_min.emulator.clock import NS_PER_S, VirtualClock, seconds_to_ns
 from esair_min.emulator.faults import Faults, corrupt
 from esair_min.emulator.i2c import TimedBus
 from esair_min.emulator.scenario import Scenario, load_scenario, quiet, resolve_scenario
-from esair_min.emulator.uart import RX_BYTE, RX_HOLD, RX_TAKE, Uart
+from esair_min.emulator.uart import GAP, RX_BYTE, RX_HOLD, RX_TAKE, Uart
 
 HISTORY = 20     # lines kept in each of the state views
 _EOL = re.compile(rb"\r\n|\r|\n")
@@ -346,7 +346,7 @@ class Emulator:
         ring = self.uart.ring
         if not ring:
             return
-        uart, core, clock, bus = self.uart, self.core, self.clock, self.bus
+        core, clock, bus = self.core, self.clock, self.bus
         ready, feed = core.ready, core.rx_byte
         while ring and ready():
             if bus.busy_until > clock.now:
@@ -354,10 +354,10 @@ class Emulator:
                     self._feed_pending = True
                     clock.schedule(bus.busy_until, self._feed_event)
                 return
-            if uart.overrun:
-                uart.overrun = False
+            b = ring.popleft()
+            if b & GAP:                 # bytes were lost right before this one
                 core.rx_overrun()
-            feed(ring.popleft())
+            feed(b & 0xFF)
 
     def _schedule_noise(self) -> None:
         gap = self._rng.expovariate(self.faults.noise_per_s)

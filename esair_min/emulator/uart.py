@@ -3,7 +3,9 @@
 A byte takes 10 bit times (start, 8 data, stop) at the declared baud. Bytes written by
 the host are shifted in one after another; when one is complete it goes into the
 board's 64-byte receive ring (the PIC port's interrupt-fed ring). A byte that finds the
-ring full is dropped and the overrun flag is set (docs/trace-format.md). Bytes the
+ring full is dropped, and the next byte that gets in carries the mark :data:`GAP`
+(bytes were lost just before it: docs/trace-format.md), so the board knows where the
+loss is, not just that there was one. Bytes the
 board sends are shifted out one after another and reach the host when complete;
 :meth:`Uart.board_send` says when the board's 80-byte transmit ring had room for the
 last of them (the superloop waits for room, so output faster than the line stalls it).
@@ -37,6 +39,7 @@ from esair_min.core.protocol import RX_RING, TX_RING
 from esair_min.emulator.clock import NS_PER_S, VirtualClock
 
 RING_BYTES = RX_RING
+GAP = 0x100                             # ring mark: bytes were lost just before this one
 RX_BYTE, RX_TAKE, RX_HOLD = 0, 1, 2     # answers of ``rx_mode`` (see above)
 
 
@@ -62,9 +65,9 @@ class Uart:
         self._rx_wire: deque[tuple[int, bytes]] = deque()  # chunks (t0, data)
         self._rx_pos = 0                                   # next byte of the first chunk
         self._rx_free = 0                                  # wire idle from this time
-        self.ring: deque[int] = deque()                    # at most RING_BYTES
-        self.overrun = False
-        self.overruns = 0
+        self.ring: deque[int] = deque()                    # at most RING_BYTES, GAP marks
+        self.overrun = False            # bytes lost since the last one got into the ring
+        self.overruns = 0               # bytes lost in all
         self.rx_bytes = 0
         # board -> host
         self._tx_wire: deque[tuple[int, bytes]] = deque()  # chunks (t0, data)
@@ -102,6 +105,12 @@ class Uart:
             n = end - pos
             self.rx_bytes += n
             room = RING_BYTES - len(ring)
+            if room > 0 and self.overrun:         # the first byte in after a loss
+                ring.append(data[pos] | GAP)
+                self.overrun = False
+                pos += 1
+                n -= 1
+                room -= 1
             if n <= room:
                 ring.extend(data[pos:end])
             else:
@@ -172,7 +181,8 @@ class Uart:
             self.overrun = True
             self.overruns += 1
         else:
-            self.ring.append(b)
+            self.ring.append(b | GAP if self.overrun else b)
+            self.overrun = False
 
     @property
     def rx_free_ns(self) -> int:
