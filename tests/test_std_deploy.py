@@ -16,7 +16,9 @@ from click.testing import CliRunner
 from esair_min.cli import main
 from esair_std import Level
 from esair_std.deploy import (DEFAULT_ENDPOINT, BehaviorSpec, DeployError, Deployment,
-                              deployment_schema, load_class, load_classes, load_deployment)
+                              ReactionSpec, ResourceSpec, RestartPolicy, SecuritySpec,
+                              bundled_examples, deployment_schema, load_class, load_classes,
+                              load_deployment, resolve_deployment)
 
 LAB = Path("tests/fixtures/std_lab")
 EXAMPLE = LAB / "lab.yaml"
@@ -189,3 +191,35 @@ def test_load_class_then_sys_path():
     with pytest.raises(DeployError) as info:
         load_class("json:dumps")
     assert str(info.value) == "'json:dumps' is a function, not a class"
+
+
+def test_bundled_example_by_name_and_folder():
+    for arg in ("papaman", "esair_std/examples/papaman"):
+        result = CliRunner().invoke(main, ["std", "check", "--no-import", arg])
+        assert result.exit_code == 0, result.output
+        assert result.output.startswith("robot 'papaman': mode thread")
+    assert resolve_deployment("papaman").name == "papaman.yaml"
+    assert "papaman" in bundled_examples()
+
+
+DOC = Path("docs/std-deployment.md").read_text()
+
+
+@pytest.mark.parametrize("model", [Deployment, ResourceSpec, BehaviorSpec, ReactionSpec,
+                                   RestartPolicy, SecuritySpec])
+def test_every_key_is_documented_in_its_section(model):
+    """docs/std-deployment.md has a section per model, '## ... (Model)', with a table
+    row for each key of the file format."""
+    head = DOC.index(f"({model.__name__})")
+    section = DOC[head:DOC.find("\n## ", head)]
+    keys = [f.alias or n for n, f in model.model_fields.items() if not f.exclude]
+    for key in keys:
+        assert f"| `{key}` |" in section, f"{model.__name__}.{key} not documented"
+
+
+def test_std_group_is_mounted_in_esair():
+    result = CliRunner().invoke(main, ["--help"])
+    assert result.exit_code == 0 and "\n  std " in result.output
+    result = CliRunner().invoke(main, ["std", "--help"])
+    assert result.exit_code == 0
+    assert "check" in result.output and "schema" in result.output

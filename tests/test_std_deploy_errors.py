@@ -7,6 +7,7 @@ are cases under tests/fixtures/std_lab/, next to the modules they import.
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import pytest
@@ -139,6 +140,10 @@ IMPORT_EXPECTED = {
         ":9:19: importing module 'broken_raises' failed at tests/fixtures/std_lab/broken_raises.py:3: ZeroDivisionError: division by zero",
     "import_syntax":
         ":9:19: importing module 'broken_syntax' failed at tests/fixtures/std_lab/broken_syntax.py:3: SyntaxError: invalid syntax",
+    "import_wrong_base":
+        ":11:19: 'lab_drivers:Feet' is not a Behavior (it must derive from esair_std.Behavior)",
+    "import_wrong_base_resource":
+        ":7:18: 'lab:Guard' is not a Sensor, Actuator or Driver (it must derive from esair_std.Sensor, esair_std.Actuator or esair_std.Driver)",
 }
 
 
@@ -180,6 +185,13 @@ def test_check_cli_import_error():
     # --no-import checks the file only
     result = CliRunner().invoke(main, ["std", "check", "--no-import", path])
     assert result.exit_code == 0 and result.output.endswith("ok\n")
+
+
+def test_unknown_bundled_example():
+    result = CliRunner().invoke(main, ["std", "check", "papamn"])
+    assert (result.exit_code, result.output) == (
+        1, "error: papamn:1:1: no such file, and no bundled example named 'papamn' (did you "
+           "mean 'papaman'?) (bundled: papaman)\n")
 
 
 def test_missing_and_folder_files(tmp_path):
@@ -270,10 +282,7 @@ def test_load_class_from_a_string_has_no_mark():
 
 
 def test_load_class_checks_the_base_class():
-    class Base:
-        pass
-
     with pytest.raises(DeployError) as info:
-        load_class("lab:Follow", LAB, expect=Base)
-    assert str(info.value) == ("'lab:Follow' is not a Base (its class must derive from "
-                               "esair_std.Base)")
+        load_class("lab:Follow", LAB, expect=json.JSONDecoder)
+    assert str(info.value) == ("'lab:Follow' is not a JSONDecoder (it must derive from "
+                               "json.decoder.JSONDecoder)")

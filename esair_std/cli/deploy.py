@@ -10,21 +10,24 @@ from . import friendly
 
 
 @click.command()
-@click.argument("file", metavar="FILE")
+@click.argument("file", metavar="FILE|NAME")
 @click.option("--no-import", is_flag=True,
               help="Do not import the classes (their modules run code when imported).")
 @friendly
 def check(file: str, no_import: bool) -> None:
     """Check a deployment file and print a short summary.
 
+    FILE is a deployment file, a folder holding FOLDER/FOLDER.yaml, or the name of a
+    bundled example (papaman).
+
     Every class is imported (from the file's folder first, then sys.path) unless
     --no-import is given. Notes (e.g. an allow naming a behavior the file does not
     list) are printed but do not fail the check.
     """
-    from esair_std.deploy import load_classes, load_document, notes
+    from esair_std.deploy import load_classes, load_document, notes, resolve_deployment
     from esair_std.deploy.summary import deployment_summary
 
-    dep, doc = load_document(file)
+    dep, doc = load_document(resolve_deployment(file))
     if not no_import:
         classes = load_classes(dep)
     for line in deployment_summary(dep):

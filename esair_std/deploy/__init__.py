@@ -2,6 +2,7 @@
 
 from ..errors import DeployError
 from ..level import Level
+from .bundled import bundled_examples, resolve_deployment
 from .classes import expected_bases, load_class, load_classes
 from .loader import load_deployment, load_document
 from .model import (DEFAULT_ENDPOINT, BehaviorSpec, ComponentSpec, Deployment,
@@ -14,5 +15,5 @@ __all__ = [
     "DEFAULT_ENDPOINT", "BehaviorSpec", "ComponentSpec", "DeployError", "Deployment", "Level",
     "ReactionSpec", "ResourceSpec", "RestartPolicy", "SecuritySpec", "deployment_schema",
     "expected_bases", "load_class", "load_classes", "load_deployment", "load_document",
-    "notes", "resource_entries",
+    "notes", "resource_entries", "bundled_examples", "resolve_deployment",
 ]

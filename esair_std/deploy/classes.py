@@ -63,12 +63,22 @@ def load_class(spec: ComponentSpec | str, base_dir: str | Path | None = None, *,
     if expect is not None:
         bases = expect if isinstance(expect, tuple) else (expect,)
         if not issubclass(cls, bases):
-            names = [b.__name__ for b in bases]
-            which = names[0] if len(names) == 1 else \
-                ", ".join(names[:-1]) + " or " + names[-1]
-            raise DeployError(f"'{path}' is not {_a(which)} (its class must derive from "
-                              f"esair_std.{' / esair_std.'.join(names)})", mark)
+            raise DeployError(f"'{path}' is not {_a(_or([b.__name__ for b in bases]))} "
+                              f"(it must derive from {_or([_qual(b) for b in bases])})", mark)
     return cls
+
+
+def _or(words: list[str]) -> str:
+    return words[0] if len(words) == 1 else ", ".join(words[:-1]) + " or " + words[-1]
+
+
+def _qual(cls: type) -> str:
+    """``esair_std.Behavior`` for the public classes, else the class's full name."""
+    import esair_std
+
+    if getattr(esair_std, cls.__name__, None) is cls:
+        return f"esair_std.{cls.__name__}"
+    return f"{cls.__module__}.{cls.__qualname__}"
 
 
 def _a(noun: str) -> str:
