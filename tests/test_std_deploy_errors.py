@@ -106,7 +106,7 @@ EXPECTED = {
     "security_not_mapping":
         ":3:11: 'security' must be a mapping of keys, not true",
     "tab_indent":
-        ":3:1: YAML syntax error: found character '\\t' that cannot start any token (indent with spaces, not tabs)",
+        ":3:1: a tab character: YAML indents with spaces only; replace the tab by spaces",
     "top_key_misspelt":
         ":8:1: unknown key 'behaviours' (did you mean 'behaviors'?)",
     "top_key_unknown":
