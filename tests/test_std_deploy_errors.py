@@ -103,6 +103,10 @@ EXPECTED = {
         ":2:8: 'robot' must be a lower-case name (a-z, 0-9, _; at most 32 characters, starting with a letter), not text 'Lab'",
     "section_not_mapping":
         ":12:12: 'reactions' must be a mapping of keys, not a list ['guard']",
+    "security_ca_not_text":
+        ":4:7: 'ca' must be a path (text), not an integer 5",
+    "security_cert_without_key":
+        ":3:11: 'security': 'cert' and 'key' go together",
     "security_not_mapping":
         ":3:11: 'security' must be a mapping of keys, not true",
     "tab_indent":

@@ -165,6 +165,7 @@ _MUST_BE = {
     "model_type": "a mapping of keys", "model_attributes_type": "a mapping of keys",
     "dict_type": "a mapping of keys",
     "tuple_type": "a list", "list_type": "a list",
+    "path_type": "a path (text)",
 }
 
 
@@ -217,6 +218,9 @@ def _describe(err: dict[str, Any], key: str, model: type[BaseModel] | None,
             ctx.get("actual_length")
         return f"{quote(key)} must have {'at least' if kind == 'too_short' else 'at most'} " \
                f"{_plural(n, 'item')}, not {actual}"
+    if kind == "value_error" and ctx.get("error") is not None:
+        # A model's own check (a model_validator's ValueError): its words, not pydantic's.
+        return f"{quote(key)}: {' '.join(str(ctx['error']).split())}"
     msg = err.get("msg", "invalid value")
     return f"{quote(key)}: {msg[0].lower() + msg[1:]}"
 
