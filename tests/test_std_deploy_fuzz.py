@@ -99,3 +99,24 @@ def test_example_with_one_change(where, value, how, key, as_file):
 def test_the_example_itself_loads():
     check(copy.deepcopy(EXAMPLE), True)
     check(copy.deepcopy(EXAMPLE), False)
+
+
+yaml_text = st.lists(st.sampled_from(
+    ["robot: lab\n", "resources:\n", "  feet: {class: 'a:B', allow: {'*': read}}\n",
+     "behaviors:\n", "  f: {class: 'a:C', uses: {feet: command}}\n", "  - x\n", "\t",
+     ": ", "{", "}", "[", "]", "'", '"', "&a ", "*a ", "!!python/object ", "\n", "  ",
+     "period: 0\n", "key", "#", "---\n", "\x00", "é"]), max_size=20).map("".join)
+
+
+@SETTINGS
+@given(text=yaml_text)
+def test_any_text(text):
+    with tempfile.TemporaryDirectory() as tmp:
+        f = Path(tmp) / "d.yaml"
+        f.write_text(text, encoding="utf-8")
+        try:
+            result = load_deployment(f)
+        except DeployError as exc:
+            assert exc.mark is not None and "\n" not in str(exc)
+            return
+    assert isinstance(result, Deployment)
