@@ -77,28 +77,50 @@ def check_raw(doc: Document) -> dict[str, Any]:
 
 def _entry(doc: Document, section: str, name: str, entry: Any,
            seen: dict[str, tuple[str, Any]]) -> Any:
-    kind = KIND[section]
+    """Check one entry's name and values; its own keys plus ``options``."""
     loc = (section, name)
-    if not re.match(NAME_PATTERN, name):
-        raise DeployError(f"{kind} name {quote(name)} must be {NAME_TEXT}",
-                          doc.mark(loc, key=True))
-    if name in seen:
-        other, mark = seen[name]
-        raise DeployError(f"name {quote(name)} is already used by {other} ({at(mark)}); resources, "
-                          "behaviors and reactions need distinct names",
-                          doc.mark(loc, key=True))
-    seen[name] = (f"a {kind}", doc.mark(loc, key=True))
+    _check_name(doc, section, name, seen)
     if not isinstance(entry, dict):
         return entry                     # the model words a wrong type
+    out = _split_options(doc, section, entry, loc)
+    _check_class(doc, entry, loc)
+    if "period" in SPECS[section].KEYS:
+        _check_seconds(doc, entry.get("period"), loc + ("period",))
+    restart = entry.get("restart") if "restart" in SPECS[section].KEYS else None
+    if isinstance(restart, dict):
+        _check_seconds(doc, restart.get("within"), loc + ("restart", "within"))
+    _check_refs(doc, section, entry, loc)
+    options = out.get("options")
+    if section == "resources" and isinstance(options, dict) and "rate_hz" in options:
+        written = ("rate_hz",) if "rate_hz" in entry else ("options", "rate_hz")
+        _check_rate(doc, options["rate_hz"], loc + written)
+    return out
+
+
+def _check_name(doc: Document, section: str, name: str,
+                seen: dict[str, tuple[str, Any]]) -> None:
+    kind = KIND[section]
+    mark = doc.mark((section, name), key=True)
+    if not re.match(NAME_PATTERN, name):
+        raise DeployError(f"{kind} name {quote(name)} must be {NAME_TEXT}", mark)
+    if name in seen:
+        other, first = seen[name]
+        raise DeployError(f"name {quote(name)} is already used by {other} ({at(first)}); "
+                          "resources, behaviors and reactions need distinct names", mark)
+    seen[name] = (f"a {kind}", mark)
+
+
+def _split_options(doc: Document, section: str, entry: dict[str, Any],
+                   loc: tuple[Any, ...]) -> dict[str, Any]:
+    """The entry's own keys, and every other key (and those under ``options:``)
+    gathered under ``options``."""
     own = SPECS[section].KEYS
-    entry_out: dict[str, Any] = {}
+    out = {k: v for k, v in entry.items() if k in own}
     options: dict[str, Any] = {}
     for key, value in entry.items():
-        if key in own:
-            entry_out[key] = value
-            continue
-        _not_a_typo(doc, section, loc + (key,), key)
-        options[key] = value
+        if key not in own:
+            _not_a_typo(doc, section, loc + (key,), key)
+            options[key] = value
     given = entry.get("options")
     if isinstance(given, dict):
         for key in given:
@@ -107,19 +129,11 @@ def _entry(doc: Document, section: str, name: str, entry: Any,
                                   "and under 'options:'; keep one",
                                   doc.mark(loc + ("options", key), key=True))
         options.update(given)
+    elif given is not None:
+        return out                       # 'options' of a wrong type: the model words it
     if options or "options" in entry:
-        entry_out["options"] = options if isinstance(given, dict) or given is None else given
-    _check_class(doc, entry, loc)
-    if "period" in own:
-        _check_seconds(doc, entry.get("period"), loc + ("period",))
-    restart = entry.get("restart") if "restart" in own else None
-    if isinstance(restart, dict):
-        _check_seconds(doc, restart.get("within"), loc + ("restart", "within"))
-    _check_refs(doc, section, entry, loc)
-    if section == "resources" and "rate_hz" in options:
-        where = ("options", "rate_hz") if "rate_hz" in (given or {}) else ("rate_hz",)
-        _check_rate(doc, options["rate_hz"], loc + where)
-    return entry_out
+        out["options"] = options
+    return out
 
 
 def _not_a_typo(doc: Document, section: str, loc: tuple[Any, ...], key: str) -> None:
