@@ -18,6 +18,8 @@ class Mark:
     col: int
 
     def __str__(self) -> str:
+        if self.line <= 0:                 # a path as a whole (it may not exist)
+            return self.path
         return f"{self.path}:{self.line}:{self.col}"
 
 
@@ -54,3 +56,9 @@ class GenerateError(EsairError):
 def file_mark(path: Path | str) -> Mark:
     """The mark of a whole file (its first line)."""
     return Mark(str(path), 1, 1)
+
+
+def path_mark(path: Path | str) -> Mark:
+    """The mark of a path without a place in it (a file or folder that is missing):
+    printed as the path alone, with no line:col."""
+    return Mark(str(path), 0, 0)

@@ -6,7 +6,8 @@ The documented entry point (docs/trace-format.md); the harness itself is
 
 import sys
 
+from esair_min.cli.pipes import quiet_on_closed_pipe
 from esair_min.core.harness import main
 
 if __name__ == "__main__":  # pragma: no cover
-    sys.exit(main())
+    sys.exit(quiet_on_closed_pipe(main))     # `... | head`: a quiet exit, no error

@@ -37,8 +37,20 @@ def examples_dir() -> Path:
     return _data_dir("esair_min.boards", "boards")
 
 
+def bundled_examples() -> list[str]:
+    """Names of the example robots that ship with ESAIR MIN."""
+    return sorted(d.name for d in examples_dir().iterdir()
+                  if d.is_dir() and any(d.glob("*.yaml")))
+
+
 def resolve_robot(arg: str) -> Path:
-    """A robot path as given, or the name of a bundled example (``papaman``)."""
+    """A robot path as given, or the name of a bundled example (``papaman``).
+
+    A path that does not exist is refused (ConfigError, no line:col); a bare name
+    gets a did-you-mean among the bundled examples."""
+    from esair_min.config.schema_errors import did_you_mean
+    from esair_min.errors import ConfigError, path_mark
+
     p = Path(arg)
     if p.exists():
         return p
@@ -47,4 +59,10 @@ def resolve_robot(arg: str) -> Path:
         return example
     if len(p.parts) == 2 and p.parts[0] == "boards" and (examples_dir() / p.parts[1]).is_dir():
         return examples_dir() / p.parts[1]
-    return p
+    if not p.is_absolute() and len(p.parts) == 1 and not p.suffix:
+        names = bundled_examples()
+        hint = did_you_mean(arg, names) or (
+            f" (bundled: {', '.join(names)})" if names else "")
+        raise ConfigError("no such file or folder, and no bundled example robot of that "
+                          f"name{hint}", path_mark(arg))
+    raise ConfigError("no such file or folder", path_mark(arg))

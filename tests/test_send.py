@@ -74,6 +74,32 @@ def test_non_ascii_command():
     assert (r.exit_code, r.output) == (1, "error: command 't\u00e9' is not ASCII\n")
 
 
+@pytest.mark.parametrize("commands, message", [
+    (["", "v"], "command '' is empty: the robot ignores empty lines and sends no reply; "
+                "give one command per argument"),
+    (["v", "t\rx"], "command 't\\rx' holds a line end; give each line as its own argument"),
+    (["v", "t\u00e9"], "command 't\u00e9' is not ASCII"),
+])
+def test_a_bad_command_sends_nothing(commands, message):
+    """Every command is checked before the first is sent: nothing reaches the robot."""
+    from esair_min.cli.send import send_commands
+    from esair_min.errors import EsairError
+
+    class Port:
+        written = b""
+
+        def write(self, data):
+            self.written += data
+
+    port = Port()
+    with pytest.raises(EsairError) as exc:
+        send_commands(port, commands, 0.1, print)
+    assert str(exc.value) == message
+    assert port.written == b""
+    r = send(URL, *commands)
+    assert (r.exit_code, r.output) == (1, f"error: {message}\n")
+
+
 # -- esair emulate: headless runs and option errors ----------------------------------------
 
 def emulate(*args: str):
@@ -90,7 +116,11 @@ def test_headless_run_prints_the_output():
     ((), "give --pty to serve the robot on a pseudo-terminal, or --run SECONDS to run it "
          "headless"),
     (("--pty", "--run", "1"), "--pty and --run exclude each other"),
-    (("--run", "1", "--speed", "0"), "--speed 0 must be more than 0"),
+    (("--pty", "--speed", "0"), "--speed 0 must be more than 0"),
+    (("--pty", "--send", "v"), "--send works with --run only; with --pty, send lines from "
+                               "another terminal: esair send PORT LINE..."),
+    (("--run", "1", "--speed", "5"), "--speed works with --pty only; --run runs as fast as "
+                                     "the host can"),
     (("--run", "-1"), "--run -1 must be 0 or more seconds"),
     (("--run", "1", "--noise", "-2"), "noise rate -2 must be 0 or more bytes per second"),
     (("--run", "1", "--trace", "/nonexistent/dir/t.txt"),

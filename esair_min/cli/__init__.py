@@ -24,6 +24,11 @@ def _friendly(fn: Callable[..., Any]) -> Callable[..., Any]:
         except EsairError as exc:
             click.echo(f"error: {exc}", err=True)
             sys.exit(1)
+        except BrokenPipeError:               # `esair ... | head`: a quiet exit
+            from esair_min.cli.pipes import CLOSED_PIPE_STATUS, silence_stdout
+
+            silence_stdout()
+            sys.exit(CLOSED_PIPE_STATUS)
 
     return wrapper
 
@@ -69,9 +74,23 @@ def main() -> None:
 @ROBOT
 @_friendly
 def check(robot: str) -> None:
-    """Validate a robot's board files and print a short summary."""
-    from esair_min.model.summary import robot_summary
+    """Validate a robot's board files and print a short summary.
 
+    Given one board file that is not a whole robot (an actuator or sensor board, or a
+    central board with peers), checks that board on its own rules and says which rules
+    need the robot's folder.
+    """
+    from esair_min.model.summary import board_summary, robot_summary
+    from esair_min.model.validate import check_board_alone, is_whole_robot
+
+    path = resolve_robot(robot)
+    if path.is_file():
+        board = check_board_alone(path)
+        if not is_whole_robot(board):
+            for line in board_summary(board, str(path.parent)):
+                click.echo(line)
+            click.echo("ok")
+            return
     model = load(robot)
     for line in robot_summary(model):
         click.echo(line)
@@ -128,8 +147,8 @@ def eeprom(robot: str, output: str, raw: bool) -> None:
               help="Sensor readings over time (a file, or a name in ROBOT/scenarios/).")
 @click.option("--trace", type=click.Path(dir_okay=False), metavar="FILE",
               help="Write the event trace (docs/trace-format.md, with @ time marks).")
-@click.option("--speed", type=float, default=1.0, show_default=True,
-              help="With --pty: virtual seconds per wall second.")
+@click.option("--speed", type=float, metavar="FACTOR",
+              help="With --pty: virtual seconds per wall second (default 1: real time).")
 @click.option("--nack-actuator", is_flag=True, help="Fault: the actuator board never ACKs.")
 @click.option("--no-sensor", is_flag=True, help="Fault: no sensor board on the bus.")
 @click.option("--corrupt-eeprom", is_flag=True, help="Fault: one byte of the image flipped.")
@@ -140,13 +159,16 @@ def eeprom(robot: str, output: str, raw: bool) -> None:
 @click.option("--seed", type=int, default=0, show_default=True, help="Seed of the faults.")
 @_friendly
 def emulate(robot: str, pty: bool, run_s: float | None, sends: tuple[str, ...],
-            generate: str | None, scenario: str | None, trace: str | None, speed: float,
+            generate: str | None, scenario: str | None, trace: str | None, speed: float | None,
             nack_actuator: bool, no_sensor: bool, corrupt_eeprom: bool, stuck_bus: bool,
             noise: float, seed: int) -> None:
     """Run the emulated robot behind a pseudo-terminal (--pty) or headless (--run).
 
     With --pty it serves until Ctrl-C or SIGTERM; when standard output is a terminal,
-    a live view shows servos, sensors, the last lines and errors.
+    a live view shows servos, sensors, each command with its reply, and errors.
+    With --run, Ctrl-C stops the run and keeps what ran (output printed, trace
+    written; exit status 130). Options that do not apply (--send with --pty, --speed
+    with --run) are refused.
     """
     from pathlib import Path
 
@@ -157,7 +179,9 @@ def emulate(robot: str, pty: bool, run_s: float | None, sends: tuple[str, ...],
         pty=pty, run_s=run_s, sends=sends, generate=Path(generate) if generate else None,
         scenario=scenario, trace=Path(trace) if trace else None, speed=speed,
         faults=Faults(nack_actuator, no_sensor, corrupt_eeprom, noise, seed, stuck_bus))
-    run_emulator(load(robot), opts)
+    status = run_emulator(load(robot), opts)
+    if status:
+        sys.exit(status)
 
 
 @main.command(short_help="Send command lines to a port; print one reply per line.")

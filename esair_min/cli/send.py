@@ -37,12 +37,24 @@ def open_port(port: str, baud: int, timeout: float) -> Any:
         raise EsairError(f"cannot open {port}: {exc}") from None
 
 
-def exchange(ser: Any, command: str, timeout: float, checksum: bool = False) -> Exchange:
-    """Send one line; read lines until one that is not a ``!`` notice, or time out."""
+def check_command(command: str) -> None:
+    """Refuse a command line that would get no reply or not be one line."""
+    if not command:
+        raise EsairError(f"command {command!r} is empty: the robot ignores empty lines and "
+                         "sends no reply; give one command per argument")
+    if "\r" in command or "\n" in command:
+        raise EsairError(f"command {command!r} holds a line end; give each line as its "
+                         "own argument")
     try:
-        line = command.encode("ascii")
+        command.encode("ascii")
     except UnicodeEncodeError:
         raise EsairError(f"command {command!r} is not ASCII") from None
+
+
+def exchange(ser: Any, command: str, timeout: float, checksum: bool = False) -> Exchange:
+    """Send one line; read lines until one that is not a ``!`` notice, or time out."""
+    check_command(command)
+    line = command.encode("ascii")
     if checksum:
         line = add_checksum(command).encode("ascii")
     ser.write(line + b"\r\n")
@@ -68,7 +80,11 @@ def exchange(ser: Any, command: str, timeout: float, checksum: bool = False) -> 
 def send_commands(ser: Any, commands: Sequence[str], timeout: float,
                   echo: Callable[[str], None], notices: bool = False,
                   checksum: bool = False) -> int:
-    """Send each command, print its notices (if asked) and reply; return the errors."""
+    """Send each command, print its notices (if asked) and reply; return the errors.
+
+    Every command is checked before the first is sent: a bad one sends nothing."""
+    for cmd in commands:
+        check_command(cmd)
     failures = 0
     for cmd in commands:
         ex = exchange(ser, cmd, timeout, checksum)

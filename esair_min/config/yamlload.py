@@ -17,7 +17,7 @@ from typing import Any
 import yaml
 
 from esair_min.config.yamlerrors import explain
-from esair_min.errors import ConfigError, Mark, file_mark
+from esair_min.errors import ConfigError, Mark, file_mark, path_mark
 
 Path_ = tuple[Any, ...]
 
@@ -183,7 +183,7 @@ def load_yaml(path: Path | str, kind: FileKind = BOARD_FILE) -> Document:
     p = Path(path)
     name = str(path)
     if not p.exists():
-        raise ConfigError("no such file or folder", file_mark(name))
+        raise ConfigError("no such file or folder", path_mark(name))
     if p.is_dir():
         raise ConfigError(f"is a folder, but a {what_file} (YAML) was expected here; "
                           "rename or move it", file_mark(name))

@@ -58,11 +58,11 @@ def render(emu: Emulator, path: str = "") -> Group:
 class LiveView:
     """Refreshes a rich Live display at most ``hz`` times a second (call :meth:`poll`)."""
 
-    def __init__(self, emu: Emulator, path: str, hz: float = 5.0):
+    def __init__(self, emu: Emulator, port, hz: float = 5.0):
         from rich.live import Live
 
         self.emu = emu
-        self.path = path
+        self.path = port.path
         self.period = 1.0 / hz
         self._next = 0.0
         self.live = Live(render(emu, path), auto_refresh=False, transient=False)

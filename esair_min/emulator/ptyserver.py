@@ -1,23 +1,42 @@
 """Serve an emulated robot on a pseudo-terminal, paced by the wall clock.
 
 ``serve_pty`` opens a pty pair (raw mode), reports the slave's path, then shuttles
-bytes between the master side and the emulator until ``stop()`` returns True. The
-server keeps its own handle on the slave, so clients may open and close the port as
-often as they like. Output written while no client listens waits in the pty (up to
-``MAX_PENDING`` bytes, then the oldest is dropped, as a wire nobody listens to).
+bytes between the master side and the emulator until ``stop()`` returns True.
+
+Like a real serial line, the port only carries bytes while a program has it open:
+what the robot sends while nobody has the port open is dropped (counted in
+:attr:`PtyPort.dropped`), and what a program left unread when it closed the port is
+discarded, so a program opening the port late never reads old notices. The server
+does not keep the slave side open itself (the kernel then tells it, by POLLHUP on the
+master, whether any program has); programs may open and close the port as often as
+they like.
 """
 
 from __future__ import annotations
 
 import os
 import select
+import termios
 import tty
+from dataclasses import dataclass
 from typing import Callable
 
 from esair_min.emulator.pacing import Pacer
 from esair_min.emulator.robot import Emulator
 
-MAX_PENDING = 65536
+#: Longest wait between two looks at the port while nobody has it open (s).
+IDLE_POLL_S = 0.02
+
+
+@dataclass
+class PtyPort:
+    """The port's state, for a display: its path, whether a program has it open, and
+    how many bytes the robot sent while none had."""
+
+    path: str = ""
+    open: bool = False
+    dropped: int = 0
+    opened: int = 0          # how many times a program opened it
 
 
 def open_pty() -> tuple[int, int, str]:
@@ -28,44 +47,83 @@ def open_pty() -> tuple[int, int, str]:
     return master, slave, os.ttyname(slave)
 
 
+def _discard_unread(path: str) -> None:
+    """Drop what the robot sent that the last program did not read before closing."""
+    try:
+        fd = os.open(path, os.O_RDWR | os.O_NOCTTY | os.O_NONBLOCK)
+    except OSError:
+        return
+    try:
+        termios.tcflush(fd, termios.TCIFLUSH)
+    except termios.error:
+        pass
+    finally:
+        os.close(fd)
+
+
 def serve_pty(emu: Emulator, on_path: Callable[[str], None],
               stop: Callable[[], bool], factor: float = 1.0,
-              on_idle: Callable[[], None] | None = None) -> None:
-    """Run ``emu`` in real time behind a pty until ``stop()``; ``on_idle`` runs each loop."""
+              on_idle: Callable[[], None] | None = None,
+              port: PtyPort | None = None) -> None:
+    """Run ``emu`` in real time behind a pty until ``stop()``; ``on_idle`` runs each loop;
+    ``port`` (if given) is kept up to date."""
     master, slave, path = open_pty()
+    os.close(slave)            # a program opening the port is then visible (no POLLHUP)
+    port = PtyPort() if port is None else port
+    port.path = path
     emu.settle()               # the robot has booted (image checked, !READY sent) when the
     pacer = Pacer(emu, factor)  # port appears: a program may write at once
+    poller = select.poll()
+    poller.register(master, select.POLLIN)
     pending = bytearray()
     try:
         on_path(path)
         while not stop():
             pacer.sync()
+            events = dict(poller.poll(0)).get(master, 0)
+            was_open, port.open = port.open, not events & select.POLLHUP
+            if was_open and not port.open:
+                _discard_unread(path)
+            elif port.open and not was_open:
+                port.opened += 1
             pending += emu.read()
-            if len(pending) > MAX_PENDING:
-                del pending[:len(pending) - MAX_PENDING]
-            if pending:
+            if not port.open:
+                port.dropped += len(pending)      # nobody listens: lost, as on a wire
+                pending.clear()
+            elif pending:
                 try:
                     n = os.write(master, pending)
                     del pending[:n]
                 except (BlockingIOError, InterruptedError):
                     pass
-            wait = 0.002 if pending else pacer.wall_until_next(0.02)
-            try:
-                ready, _, _ = select.select([master], [], [], wait)
-            except InterruptedError:
-                continue
-            if ready:
-                try:
-                    data = os.read(master, 4096)
-                except (BlockingIOError, InterruptedError):
-                    data = b""
-                except OSError:       # EIO: no client; we hold the slave, so rare
-                    data = b""
+                except OSError:                  # the program closed the port meanwhile
+                    port.dropped += len(pending)
+                    pending.clear()
+            wait = 0.002 if pending else pacer.wall_until_next(IDLE_POLL_S)
+            if events & select.POLLIN:
+                data = _read(master)
                 if data:
                     pacer.sync()
                     emu.write(data)
+            if port.open:
+                try:
+                    poller.poll(int(wait * 1000))    # wakes when the program writes
+                except InterruptedError:
+                    pass
+            else:
+                # POLLHUP would wake poll() at once: sleep, then look again
+                select.select([], [], [], wait)
             if on_idle is not None:
                 on_idle()
     finally:
         os.close(master)
-        os.close(slave)
+
+
+def _read(master: int) -> bytes:
+    """What the program wrote (also after it closed the port: the kernel keeps it)."""
+    try:
+        return os.read(master, 4096)
+    except (BlockingIOError, InterruptedError):
+        return b""
+    except OSError:            # EIO: nobody has the port open and nothing is left
+        return b""

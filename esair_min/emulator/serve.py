@@ -11,6 +11,7 @@ from typing import Callable, TextIO
 
 from esair_min.errors import EsairError
 from esair_min.model.robot import Robot
+from esair_min.emulator.clock import NS_PER_S, seconds_to_ns
 from esair_min.emulator.faults import Faults
 from esair_min.emulator.robot import Emulator
 
@@ -24,7 +25,7 @@ class EmulateOptions:
     scenario: str | None = None
     trace: Path | None = None
     faults: Faults = field(default_factory=Faults)
-    speed: float = 1.0
+    speed: float | None = None    # with --pty only; None: real time (1)
     live: bool | None = None      # None: when stdout is a terminal
 
 
@@ -54,35 +55,61 @@ def generate_first(robot: Robot, out_dir: Path, log: Callable[[str], None]) -> b
     return read_hex(hexes[0], robot.eeprom.size_bytes)
 
 
+#: Exit status of a headless run stopped by Ctrl-C (128 + SIGINT, as shells report it).
+INTERRUPTED = 130
+#: A headless run advances in steps of this much virtual time, printing as it goes.
+RUN_STEP_NS = 50_000_000
+
+
 class _Stop:
-    """Set by SIGINT/SIGTERM: the serving loop ends and the command exits 0."""
+    """Set by SIGINT/SIGTERM: the loop ends at its next step (the previous handlers are
+    put back by :meth:`restore`)."""
 
     def __init__(self) -> None:
         self.flag = False
+        self._old: dict[int, object] = {}
 
     def __call__(self, signum=None, frame=None) -> None:
         self.flag = True
 
     def install(self) -> None:
-        signal.signal(signal.SIGTERM, self)
-        signal.signal(signal.SIGINT, self)
+        for sig in (signal.SIGTERM, signal.SIGINT):
+            self._old[sig] = signal.signal(sig, self)
+
+    def restore(self) -> None:
+        for sig, old in self._old.items():
+            signal.signal(sig, old)   # type: ignore[arg-type]
 
 
-def emulate(robot: Robot, opts: EmulateOptions, out: TextIO | None = None,
-            log: Callable[[str], None] | None = None) -> None:
-    """Run ``esair emulate``: output (the pty path, or a headless run's lines) goes to
-    ``out`` (standard output), messages to ``log`` (standard error)."""
-    out = sys.stdout if out is None else out
-    if log is None:
-        def log(text: str) -> None:
-            print(text, file=sys.stderr)
+def check_options(opts: EmulateOptions) -> None:
+    """Refuse options that would be ignored, with the reason."""
     if not opts.pty and opts.run_s is None:
         raise EsairError("give --pty to serve the robot on a pseudo-terminal, or --run "
                          "SECONDS to run it headless")
     if opts.pty and opts.run_s is not None:
         raise EsairError("--pty and --run exclude each other")
-    if not opts.speed > 0:
+    if opts.pty and opts.sends:
+        raise EsairError("--send works with --run only; with --pty, send lines from another "
+                         "terminal: esair send PORT LINE...")
+    if opts.run_s is not None and opts.speed is not None:
+        raise EsairError("--speed works with --pty only; --run runs as fast as the host can")
+    if opts.speed is not None and not opts.speed > 0:
         raise EsairError(f"--speed {opts.speed:g} must be more than 0")
+    if opts.run_s is not None and opts.run_s < 0:
+        raise EsairError(f"--run {opts.run_s:g} must be 0 or more seconds")
+
+
+def emulate(robot: Robot, opts: EmulateOptions, out: TextIO | None = None,
+            log: Callable[[str], None] | None = None) -> int:
+    """Run ``esair emulate``: output (the pty path, or a headless run's lines) goes to
+    ``out`` (standard output), messages to ``log`` (standard error). Returns the exit
+    status: 0, or :data:`INTERRUPTED` when Ctrl-C stopped a headless run (what ran is
+    kept: output printed, trace written)."""
+    out = sys.stdout if out is None else out
+    if log is None:
+        def log(text: str) -> None:
+            print(text, file=sys.stderr)
+    check_options(opts)
     image = generate_first(robot, opts.generate, log) if opts.generate else None
     with ExitStack() as stack:
         trace = None
@@ -90,7 +117,9 @@ def emulate(robot: Robot, opts: EmulateOptions, out: TextIO | None = None,
             from esair_min.emulator.tracefile import FileTraceWriter
 
             try:
-                f = stack.enter_context(open(opts.trace, "w", encoding="ascii"))
+                # served in real time, the trace is written line by line (tail -f works)
+                f = stack.enter_context(open(opts.trace, "w", encoding="ascii",
+                                             buffering=1 if opts.pty else -1))
             except OSError as exc:
                 raise EsairError(f"cannot write the trace {opts.trace}: {exc.strerror}") from None
             trace = FileTraceWriter(f)
@@ -99,47 +128,84 @@ def emulate(robot: Robot, opts: EmulateOptions, out: TextIO | None = None,
         stack.callback(emu.close)
         if opts.pty:
             _serve(emu, opts, out)
-        else:
-            _run(emu, opts, out)
+            return 0
+        return _run(emu, opts, out, log)
 
 
 def _serve(emu: Emulator, opts: EmulateOptions, out: TextIO) -> None:
-    from esair_min.emulator.ptyserver import serve_pty
+    from esair_min.emulator.ptyserver import PtyPort, serve_pty
 
     stop = _Stop()
     stop.install()
     live = out.isatty() if opts.live is None else opts.live
     view = None
-    state: dict[str, str] = {}
+    port = PtyPort()
 
     def on_path(path: str) -> None:
-        state["path"] = path
         out.write(path + "\n")
         out.flush()
 
     with ExitStack() as stack:
         def on_idle() -> None:
             nonlocal view
-            if not live or "path" not in state:
+            if not live:
                 return
             if view is None:
                 from esair_min.emulator.liveview import LiveView
 
-                view = stack.enter_context(LiveView(emu, state["path"]))
+                view = stack.enter_context(LiveView(emu, port))
             view.poll()
 
-        serve_pty(emu, on_path, lambda: stop.flag, opts.speed, on_idle)
+        try:
+            serve_pty(emu, on_path, lambda: stop.flag, opts.speed or 1.0, on_idle, port)
+        finally:
+            stop.restore()
 
 
-def _run(emu: Emulator, opts: EmulateOptions, out: TextIO) -> None:
-    """Headless: send the lines back to back once the robot is ready, run, print output."""
+def _run(emu: Emulator, opts: EmulateOptions, out: TextIO,
+         log: Callable[[str], None]) -> int:
+    """Headless: send the lines back to back once the robot is ready, run, print output
+    as it comes. Ctrl-C (or SIGTERM) stops at the next step and keeps what ran."""
     assert opts.run_s is not None
-    if opts.run_s < 0:
-        raise EsairError(f"--run {opts.run_s:g} must be 0 or more seconds")
-    emu.settle(max_s=1.0)          # boot: the image check and !READY
-    if opts.sends:
-        emu.write(b"".join(s.encode("latin-1") + b"\r\n" for s in opts.sends))
-    emu.run_for(opts.run_s)
-    data = emu.read()
-    out.write(data.decode("latin-1").replace("\r\n", "\n"))
-    out.flush()
+    stop = _Stop()
+    stop.install()
+    try:
+        emu.settle(max_s=1.0)          # boot: the image check and !READY
+        if opts.sends:
+            emu.write(b"".join(s.encode("latin-1") + b"\r\n" for s in opts.sends))
+        start = emu.clock.now
+        end = start + seconds_to_ns(opts.run_s)
+        printer = _Printer(out)
+        while not stop.flag:
+            printer(emu.read())
+            if emu.clock.now >= end:
+                break
+            emu.run_until(min(end, emu.clock.now + RUN_STEP_NS))
+        printer(emu.read(), last=True)
+    finally:
+        stop.restore()
+    if stop.flag:
+        log(f"interrupted after {(emu.clock.now - start) / NS_PER_S:.3f} s of the "
+            f"{opts.run_s:g} s run (virtual time): the output so far is printed"
+            + (f" and the trace {opts.trace} is complete up to there" if opts.trace else ""))
+        return INTERRUPTED
+    return 0
+
+
+class _Printer:
+    """Writes what the robot sent, CR LF as newlines (a CR LF split between two reads
+    included)."""
+
+    def __init__(self, out: TextIO):
+        self.out = out
+        self.cr = False
+
+    def __call__(self, data: bytes, last: bool = False) -> None:
+        if self.cr:
+            data = b"\r" + data
+        self.cr = data.endswith(b"\r") and not last
+        if self.cr:
+            data = data[:-1]
+        if data:
+            self.out.write(data.decode("latin-1").replace("\r\n", "\n"))
+            self.out.flush()

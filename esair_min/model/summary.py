@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from esair_min.model.hardware import FIRMWARE_BUS_OVERHEAD
+from esair_min.model.board import Board
 from esair_min.model.robot import Robot
 
 
@@ -38,3 +39,19 @@ def robot_summary(robot: Robot) -> list[str]:
                      f"{poll} bit times = {wire * 1e3:.2f} ms, {wire / t2.period_s:.0%} of a "
                      f"tick on the wire (the PIC master needs {FIRMWARE_BUS_OVERHEAD}x that)")
     return lines
+
+
+def board_summary(board: Board, folder: str) -> list[str]:
+    """What ``esair check`` prints for one board file checked on its own."""
+    parts = [f"servos: {len(board.servos)}"] if board.servos else []
+    if board.sensors:
+        parts.append(f"sensors: {len(board.sensors)}")
+    if board.role == "central":
+        parts += [f"commands: {len(board.commands or ())}", f"motions: {len(board.motions)}",
+                  f"reactions: {len(board.reactions)}"]
+    where = (f"I2C slave at 0x{board.i2c.address:02X}" if board.i2c.address is not None
+             else "I2C master")
+    return [f"board '{board.board}' [{board.role}], {where}: {', '.join(parts) or 'no parts'}",
+            "  checked on its own: the rules between boards (addresses, register counts, "
+            "motions against servos, reactions against sensor groups) need all of the "
+            f"robot's board files: esair check {folder}"]

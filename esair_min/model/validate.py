@@ -441,6 +441,18 @@ def load_board(path: Path | str) -> tuple[Board, Document]:
     return board, doc
 
 
+def check_board_alone(path: Path | str) -> Board:
+    """One board file checked on its own: every rule that needs no other board."""
+    board, doc = load_board(path)
+    _Checker([board], [doc]).board_rules(board)
+    return board
+
+
+def is_whole_robot(board: Board) -> bool:
+    """A board file that is a robot by itself: a central board with no peer boards."""
+    return board.role == "central" and board.device("board") is None
+
+
 def board_files(path: Path | str) -> list[Path]:
     """The board files of a robot folder (``*.yaml``/``*.yml``, sorted), or ``[path]``."""
     p = Path(path)
@@ -464,10 +476,14 @@ def load_robot(path: Path | str) -> Robot:
     checker = _Checker(boards, docs)
     for b in boards:
         checker.board_rules(b)
-    checker.robot_rules()
     p = Path(path)
+    if not p.is_dir() and boards[0].role != "central":
+        raise ConfigError(f"this {boards[0].role} board alone is not a robot, which needs "
+                          "its central board too; give the folder that holds all its board "
+                          f"files ({p.parent})", docs[0].mark(("role",)))
+    checker.robot_rules()
     name = p.name if p.is_dir() else p.stem
     return Robot(name, str(path), tuple(boards), tuple(str(f) for f in files))
 
 
-__all__ = ["load_robot", "load_board", "board_files", "encode_high", "MAX_LINE", "Command"]
+__all__ = ["load_robot", "load_board", "check_board_alone", "is_whole_robot", "board_files", "encode_high", "MAX_LINE", "Command"]
