@@ -100,7 +100,7 @@ def test_parse_url():
      "float: 'lots'"),
     ("esair://papaman?scenario=pusj", "cannot start the emulator: no scenario 'pusj' (did you "
      "mean 'push'?): give a file, or one of the robot's scenarios (push, quiet)"),
-    ("esair://no/such/robot", "cannot start the emulator: no/such/robot:1:1: no such file or "
+    ("esair://no/such/robot", "cannot start the emulator: no/such/robot: no such file or "
      "folder"),
 ])
 def test_url_errors(url, message):

@@ -201,7 +201,7 @@ def test_unknown_bundled_example():
 def test_missing_and_folder_files(tmp_path):
     with pytest.raises(DeployError) as info:
         load_deployment(tmp_path / "nope.yaml")
-    assert str(info.value) == f"{tmp_path}/nope.yaml:1:1: no such file or folder"
+    assert str(info.value) == f"{tmp_path}/nope.yaml: no such file or folder"   # no invented line:col
     with pytest.raises(DeployError) as info:
         load_deployment(tmp_path)
     assert str(info.value) == (f"{tmp_path}:1:1: is a folder, but a deployment file (YAML) "
