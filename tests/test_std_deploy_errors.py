@@ -194,7 +194,7 @@ def test_check_cli_import_error():
 def test_unknown_bundled_example():
     result = CliRunner().invoke(main, ["std", "check", "papamn"])
     assert (result.exit_code, result.output) == (
-        1, "error: papamn:1:1: no such file, and no bundled example named 'papamn' (did you "
+        1, "error: papamn: no such file, and no bundled example named 'papamn' (did you "
            "mean 'papaman'?) (bundled: papaman)\n")
 
 

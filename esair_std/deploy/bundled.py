@@ -6,7 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from esair_min.config.schema_errors import did_you_mean
-from esair_min.errors import file_mark
+from esair_min.errors import path_mark
 
 from ..errors import DeployError
 
@@ -34,5 +34,5 @@ def resolve_deployment(arg: str | Path) -> Path:
         names = bundled_examples()
         raise DeployError(f"no such file, and no bundled example named '{arg}'"
                           f"{did_you_mean(str(arg), names)} (bundled: "
-                          f"{', '.join(names) or 'none'})", file_mark(str(arg)))
+                          f"{', '.join(names) or 'none'})", path_mark(str(arg)))
     return p
