@@ -25,7 +25,7 @@ ROOT = Path(__file__).resolve().parents[2]
 PAPAMAN = ROOT / "boards" / "papaman"
 EXAMPLE = ROOT / "esair_std" / "examples" / "papaman" / "papaman.yaml"
 ACTUATOR = 0x10
-LATER_MS = 2000
+LATER_MS = 5000   # process mode (an OS process per component) may take seconds to deploy
 
 
 @pytest.fixture(scope="module")
@@ -125,7 +125,9 @@ def test_the_push_reaches_the_watcher_and_its_stop_the_robot(start, emulated, ro
     emu = emulated("--scenario", str(tmp_path / "push_later.yaml"))
     rt = start(example(emu.port))
     rt.wait_state("watcher", "running")
-    got = wait_for(lambda: (w := rt.get("watcher"))["reactions"] and w, timeout=15,
+    # stop, then stand (tried again while the firmware's own balance motion plays: E07)
+    got = wait_for(lambda: (w := rt.get("watcher"))["reactions"]
+                   and w["reactions"][0]["sent"] == ["x", "t"] and w, timeout=15,
                    what="the watcher's reaction")
     rt.stop()
     emu.stop()

@@ -22,6 +22,7 @@ OPERATIONS = {"stand_up": "stand", "sit_down": "sit", "prostrate": "prostrate",
 QUEUE = 32          # operations waiting; more are refused (counted)
 TICK_S = 0.0089856  # PAPA-MAN's Timer2 tick
 MARGIN_TICKS = 3
+STAND_RETRY_S = 1.0  # the watcher's stand, while the robot is busy
 #: frames x delay_ticks of each motion (central.yaml): how long it plays
 MOTION_TICKS = {"stand": 1 * 10, "sit": 3 * 20, "prostrate": 4 * 25, "dance": 32 * 1,
                 "balance": 3 * 2}
@@ -103,8 +104,11 @@ class BalanceWatcher(Behavior):
         self.samples = 0
         self.ages: collections.deque[float] = collections.deque(maxlen=1000)
         self.errors: list[str] = []
+        self.standing: tuple[dict, float] | None = None
 
     def step(self) -> None:
+        if self.standing is not None:
+            self._stand()
         for n in self.notices.samples():
             if n.value.get("notice", "").startswith("R "):
                 self.firmware += 1
@@ -122,13 +126,31 @@ class BalanceWatcher(Behavior):
                 self._react(shift, s.seq)
 
     def _react(self, shift: int, seq: int) -> None:
-        done = []
-        for command in ("stop", "stand"):
-            try:
-                done.append(self.motion.send(command, timeout=2.0))
-            except (CommandError, ResourceLost) as exc:
-                self.errors.append(str(exc))
-        self.reactions.append({"shift": shift, "seq": seq, "sent": done, "t": time.time()})
+        record = {"shift": shift, "seq": seq, "sent": [], "t": time.time()}
+        self.reactions.append(record)
+        if self._send("stop", record):
+            self.standing = (record, time.monotonic() + STAND_RETRY_S)
+            self._stand()
+
+    def _stand(self) -> None:
+        """Stand up; while the robot is busy (the firmware's own balance motion playing,
+        E07) try again each step for STAND_RETRY_S."""
+        record, until = self.standing
+        if self._send("stand", record, busy_ok=True) is not None or time.monotonic() > until:
+            self.standing = None
+
+    def _send(self, command: str, record: dict, busy_ok: bool = False) -> bool | None:
+        """True: sent; False: failed (kept in errors); None: busy, to be tried again."""
+        try:
+            record["sent"].append(self.motion.send(command, timeout=2.0))
+            return True
+        except CommandError as exc:
+            if busy_ok and "E07 busy" in str(exc):
+                return None
+            self.errors.append(str(exc))
+        except ResourceLost as exc:
+            self.errors.append(str(exc))
+        return False
 
     def provide(self, requester: str) -> Any:
         ages = sorted(self.ages)
