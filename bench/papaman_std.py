@@ -6,7 +6,7 @@ Figures (one run, every column measured in this process, medians where repeated)
    behavior sends servo commands (``oMSAAA``) through the AC to the MinLink driver and
    the in-process emulator (``esair://``, real time); the send's wall time is mapped to
    virtual time by the port's pacer, and the write is the ``@`` mark of the matching
-   ``W 10`` transaction in the trace plus its 38 bit times on the bus. Goal: within one
+   ``W 10`` transaction in the trace (its start: 38 bit times, 0.38 ms, follow). Goal: within one
    tick plus the command's line time at the robot's baud. With the feet polled (8 Hz) a
    command may wait for an `s` exchange in flight (up to 50.7 ms): shown apart.
 2. feet sample age when the balance watcher reads it (the example's watcher, 50 Hz
@@ -104,7 +104,7 @@ def command_to_write(mode: str, n: int, feet_hz: float) -> dict:
         if line.startswith("@ "):
             mark = int(line[2:]) / 1e6
         elif line.startswith("W 10 ") and len(line.split()[2]) == 6:
-            writes.append(mark + 38 / 100_000)            # 38 bit times at 100 kHz
+            writes.append(mark)             # the write starts (its 38 bit times follow)
     lat = [(w - s) * 1e3 for s, w in zip(sent, writes)]
     return {"n": len(lat), "p50": statistics.median(lat), "p90": pct(lat, 0.9),
             "p99": pct(lat, 0.99),
