@@ -38,6 +38,8 @@ class SensorHandle:
 
     def push(self, sample: Sample) -> None:
         """Called by the connection (never user code); O(1), never blocks."""
+        if self.detached:
+            return
         with self._lock:
             if len(self._buf) == self._buf.maxlen:
                 self.overwritten += 1

@@ -206,6 +206,7 @@ class ComponentHost:
                 h = SensorHandle(resource, 64, self.port.resource_state)
                 self.port.attach_sensor(self.name, resource, h, direct=True)
             elif kind == "actuator":
+                self.port.register(self.name, resource, Level.command)
                 h = ActuatorHandle(resource, lambda r, c, t: self.port.command(
                     self.name, r, c, t, direct=True), self.port.resource_state)
             else:

@@ -12,9 +12,9 @@ import logging
 import queue
 import threading
 import time
-from typing import Any
+from typing import Any, Callable
 
-from ..errors import CommandError, ComponentError, ResourceLost
+from ..errors import CommandError, ComponentError, ResourceLost, StdError
 from ..resource import Actuator, Driver, Sensor
 from ..sample import Sample
 from ..spec import Spec
@@ -100,21 +100,38 @@ class ResourceHost:
         self.state = "stopped"
 
     # ---- requests (any thread)
-    def _submit(self, resource: str, op: str, args: tuple, timeout: float) -> Any:
+    def submit(self, resource: str, op: str, args: tuple,
+               on_done: Callable[[bool, Any], None], timeout: float = 1.0) -> None:
+        """Queue ``op`` (write | configure) for the host thread; ``on_done(ok, value)`` is
+        called once, from the host thread (or here if it cannot be queued). ``value`` is
+        the result, or a ResourceLost / the error's text."""
         slot = self.slots.get(resource)
         if slot is None:
-            raise ResourceLost(resource, "no such resource")
+            return on_done(False, ResourceLost(resource, "no such resource"))
         if slot.state == "lost":
-            raise ResourceLost(resource, f"lost: {slot.reason}" if slot.reason else "lost")
+            return on_done(False, ResourceLost(
+                resource, f"lost: {slot.reason}" if slot.reason else "lost"))
         if self._stop.is_set():
-            raise ResourceLost(resource, "removed")
-        done = threading.Event()
-        box: list = []
+            return on_done(False, ResourceLost(resource, "removed"))
+        if op == "write" and slot.kind != "actuator":
+            return on_done(False, "is a sensor: it takes no commands")
         try:
-            self.commands.put_nowait((slot, op, args, box, done))
+            args = tuple(codec.copy(a) for a in args)
+            self.commands.put_nowait((slot, op, args, on_done, time.monotonic() + timeout))
         except queue.Full:
             self.c["commands_refused"] += 1
-            raise CommandError(resource, "command queue full") from None
+            on_done(False, "command queue full")
+        except StdError as exc:
+            on_done(False, exc.message)
+
+    def _submit(self, resource: str, op: str, args: tuple, timeout: float) -> Any:
+        done = threading.Event()
+        box: list = []
+
+        def finished(ok: bool, value: Any) -> None:
+            box.append((ok, value))
+            done.set()
+        self.submit(resource, op, args, finished, timeout)
         if not done.wait(timeout):
             raise CommandError(resource, f"no answer within {timeout:g} s")
         ok, value = box[0]
@@ -125,13 +142,10 @@ class ResourceHost:
         raise CommandError(resource, value)
 
     def command(self, sender: str, resource: str, command: Any, timeout: float) -> Any:
-        slot = self.slots.get(resource)
-        if slot is not None and slot.kind != "actuator":
-            raise CommandError(resource, "is a sensor: it takes no commands")
-        return self._submit(resource, "write", (codec.copy(command),), timeout)
+        return self._submit(resource, "write", (command,), timeout)
 
     def configure(self, resource: str, key: str, value: Any, timeout: float = 2.0) -> Any:
-        return self._submit(resource, "configure", (str(key), codec.copy(value)), timeout)
+        return self._submit(resource, "configure", (str(key), value), timeout)
 
     def grant(self, who: str, resource: str) -> None:
         if resource in self.slots:
@@ -222,7 +236,10 @@ class ResourceHost:
             wait = min(wait, max(0.0, s.next_poll - now))
         return wait
 
-    def _run(self, slot: Slot, op: str, args: tuple, box: list, done: threading.Event) -> None:
+    def _run(self, slot: Slot, op: str, args: tuple, on_done: Any, expires: float) -> None:
+        if time.monotonic() > expires:       # the sender gave up: do not act late
+            slot.c["expired"] = slot.c.get("expired", 0) + 1
+            return on_done(False, "expired in the queue")
         try:
             if slot.state == "lost":
                 raise ResourceLost(slot.name, f"lost: {slot.reason}" if slot.reason else "lost")
@@ -231,16 +248,15 @@ class ResourceHost:
                 value = codec.copy(slot.obj.write(*args))
             else:
                 value = codec.copy(slot.obj.configure(*args))
-            box.append((True, value))
         except ResourceLost as exc:
-            box.append((False, exc))
+            return on_done(False, exc)
         except CommandError as exc:
             slot.c["command_errors"] += 1
-            box.append((False, exc.reason))
+            return on_done(False, exc.reason)
         except Exception as exc:  # noqa: BLE001 - reaches the sender as CommandError
             slot.c["command_errors"] += 1
-            box.append((False, f"{type(exc).__name__}: {exc}"))
-        done.set()
+            return on_done(False, f"{type(exc).__name__}: {exc}")
+        on_done(True, value)
 
     def _close(self) -> None:
         for s in self.slots.values():

@@ -117,6 +117,12 @@ class ThreadMode:
     def open(self) -> None:
         pass
 
+    def hello(self, body: dict) -> None:
+        raise ComponentError("this runtime runs in thread mode: it hosts no agents")
+
+    def reported(self, name: str, generation: int, phase: str, reason: str) -> None:
+        raise ComponentError("this runtime runs in thread mode: it hosts no agents")
+
     def watch(self, now: float) -> None:
         for rec in list(self.rt.bs.records.values()):
             rec.host.check(now)

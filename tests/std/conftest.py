@@ -13,7 +13,7 @@ if HERE not in sys.path:
 
 from esair_std import Runtime  # noqa: E402
 
-MODES = ["thread"]  # process joins when process mode lands
+MODES = ["thread", "process"]
 
 
 def free_endpoint() -> str:
@@ -43,6 +43,26 @@ def start(mode):
     yield _start
     for rt in started:
         rt.stop()
+    assert agent_children() == [], "agent processes left behind"
+
+
+def agent_children() -> list[int]:
+    """Agent processes whose parent is this test process."""
+    import os
+    out = []
+    for d in os.listdir("/proc"):
+        if not d.isdigit():
+            continue
+        try:
+            with open(f"/proc/{d}/stat") as f:
+                ppid = int(f.read().rsplit(")", 1)[1].split()[1])
+            with open(f"/proc/{d}/cmdline", "rb") as f:
+                cmd = f.read()
+        except OSError:
+            continue
+        if ppid == os.getpid() and b"esair_std.modes.agent" in cmd:
+            out.append(int(d))
+    return out
 
 
 def wait_for(fn, timeout=10.0, what="condition"):

@@ -68,3 +68,23 @@ def test_a_failing_receive_fails_only_the_receiver(start):
     if rt.mode_name == "process":
         assert rt.get("faulty")["pid"] != pid
     assert_others_lost_nothing(rt)
+
+
+@pytest.mark.parametrize("mode", ["process"])      # a thread has no process to kill
+def test_sigkilled_behavior_process_is_failed_and_restarted(start, mode):
+    import os
+    import signal
+    rt = start(with_faulty("none", {"max": 1, "within": 60}))
+    victim = [r for r in rt.ls() if r["name"] == "faulty"][0]["pid"]
+    os.kill(victim, signal.SIGKILL)
+    wait_for(lambda: rt.inspect("faulty")["restarts"] == 1 and rt.state("faulty") == "running",
+             what="restart after SIGKILL")
+    row = [r for r in rt.ls() if r["name"] == "faulty"][0]
+    assert row["pid"] != victim
+    wait_for(lambda: rt.get("pusher")["ok"] >= 20, what="20 puts")
+    assert_others_lost_nothing(rt)
+    os.kill(row["pid"], signal.SIGKILL)          # the policy allows one: now it stays failed
+    wait_for(lambda: rt.state("faulty") == "failed", what="failed for good")
+    assert rt.inspect("faulty")["reason"] in ("its process is gone (liveliness token lost)",
+                                              "process exited with status -9")
+    assert_others_lost_nothing(rt)

@@ -1,0 +1,332 @@
+"""The component-host process: ``python -m esair_std.modes.agent --connect tcp/H:P
+--robot R --spec JSON``. Hosts one behavior, reaction or resource entry and joins it to
+the runtime over Zenoh. A local child of the runtime and an agent on another computer
+(``esair std agent --connect``) run this same code.
+
+It exits when the runtime says stop, when its stdin closes (the local parent died), or
+when the runtime's liveliness token goes away. Zenoh callbacks here only copy into the
+host's mailbox or answer at once; user code runs on the host's thread.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import os
+import socket
+import sys
+import threading
+import time
+from typing import Any
+
+from ..errors import CommandError, Refused, ResourceLost, StdError, TransportError
+from ..level import Level
+from ..sample import Sample
+from ..spec import Spec, import_class
+from ..transport import keys
+from ..transport.bus import Bus, Request
+
+log = logging.getLogger("esair_std.agent")
+_ERRORS = {"Refused": Refused, "CommandError": CommandError, "ResourceLost": ResourceLost}
+RUNTIME_GRACE = 1.0     # seconds without the runtime's token before leaving
+
+
+class ZenohPort:
+    """What a hosted component calls to reach the runtime: the LocalPort's methods,
+    carried as ``ctl/<verb>`` requests, plus direct sensor subscriptions and actuator
+    requests (the data flow does not pass the runtime)."""
+
+    def __init__(self, bus: Bus, robot: str):
+        self.bus = bus
+        self.robot = robot
+        self._pubs: dict[str, Any] = {}
+
+    def _ctl(self, verb: str, body: dict, timeout: float = 5.0) -> Any:
+        r = self.bus.request(keys.ctl(self.robot, verb), body, timeout)
+        if r is None:
+            raise TransportError(f"the runtime did not answer {verb!r} within {timeout:g} s")
+        if "error" in r:
+            cls = _ERRORS.get(r.get("type"))
+            if cls is Refused or cls is None:
+                raise (Refused if cls else StdError)(r["error"])
+            raise cls(r.get("resource", body.get("resource", "?")), r.get("reason", r["error"]))
+        return r.get("ok")
+
+    def register(self, who: str, resource: str, level: Any) -> int:
+        return self._ctl("register", {"who": who, "resource": resource,
+                                      "level": Level.parse(level).name})
+
+    def attach_sensor(self, who: str, resource: str, handle: Any, direct: bool = False) -> None:
+        self._ctl("attach", {"who": who, "resource": resource, "direct": direct})
+        self.bus.subscribe(keys.sensor(self.robot, resource),
+                           lambda obj: handle.push(Sample.from_wire(obj)))
+
+    def command(self, who: str, resource: str, command: Any, timeout: float,
+                direct: bool = False) -> Any:
+        r = self.bus.request(keys.actuator(self.robot, resource),
+                             {"from": who, "cmd": command, "timeout": timeout}, timeout + 0.5)
+        if r is None:
+            raise ResourceLost(resource, "no answer: its host is gone")
+        if "error" in r:
+            cls = _ERRORS.get(r.get("type"), CommandError)
+            raise Refused(r["error"]) if cls is Refused else cls(resource, r["error"])
+        return r.get("ok")
+
+    def configure(self, who: str | None, resource: str, key: str, value: Any) -> Any:
+        return self._ctl("configure", {"who": who, "resource": resource, "key": key,
+                                       "value": value})
+
+    def kind_of(self, resource: str) -> str | None:
+        return self._ctl("kind", {"resource": resource})
+
+    def resource_state(self, resource: str) -> str | None:
+        return self._ctl("state", {"name": resource}, 2.0)
+
+    def put(self, who: str, target: str, data: Any, timeout: float) -> tuple[bool, str]:
+        try:
+            r = self._ctl("put", {"from": who, "to": target, "data": data, "timeout": timeout},
+                          timeout + 2.0)
+        except StdError as exc:
+            return False, exc.message
+        return bool(r["delivered"]), r["reason"]
+
+    def get(self, who: str, target: str, timeout: float) -> tuple[bool, Any]:
+        try:
+            r = self._ctl("get", {"from": who, "to": target, "timeout": timeout}, timeout + 2.0)
+        except StdError as exc:
+            return False, exc.message
+        return (True, r["data"]) if r["ok"] else (False, r["reason"])
+
+    def state_of(self, name: str) -> str | None:
+        return self._ctl("state", {"name": name}, 2.0)
+
+    def set_reaction(self, who: str, name: str, enabled: bool) -> None:
+        from ..errors import ControlError
+        r = self.bus.request(keys.ctl(self.robot, "reaction"),
+                             {"who": who, "name": name, "enabled": bool(enabled)}, 5.0)
+        if r is None or "error" in r:
+            raise ControlError(r["error"] if r else "the runtime did not answer")
+
+    def state_changed(self, name: str, generation: int, phase: str, reason: str) -> None:
+        try:
+            self._ctl("report", {"name": name, "generation": generation, "phase": phase,
+                                 "reason": reason}, 2.0)
+        except StdError as exc:
+            log.error("%s: report %s not delivered: %s", name, phase, exc)
+
+    def publish(self, resource: str, sample: Sample) -> None:
+        pub = self._pubs.get(resource)
+        if pub is None:
+            pub = self._pubs[resource] = self.bus.publisher(keys.sensor(self.robot, resource))
+        pub(sample.to_wire())
+
+    def resource_state_changed(self, resource: str, state: str, reason: str) -> None:
+        try:
+            self._ctl("resstate", {"resource": resource, "state": state, "reason": reason}, 2.0)
+        except StdError as exc:
+            log.error("%s: state %s not delivered: %s", resource, state, exc)
+
+
+class Agent:
+    def __init__(self, bus: Bus, robot: str, spec: Spec, generation: int):
+        self.bus = bus
+        self.robot = robot
+        self.spec = spec
+        self.generation = generation
+        self.port = ZenohPort(bus, robot)
+        self.done = threading.Event()
+        self.host: Any = None
+
+    def hello(self, **extra: Any) -> None:
+        body = dict(name=self.spec.name, kind=self.spec.kind, generation=self.generation,
+                    pid=os.getpid(), host=socket.gethostname(), **extra)
+        r = self.bus.request(keys.ctl(self.robot, "hello"), body, 10.0)
+        if r is None or "error" in r:
+            raise TransportError(f"runtime refused hello: {r and r.get('error')}")
+
+    # ---- behavior / reaction
+    def run_component(self) -> None:
+        from .host import ComponentHost
+        from ..behavior import Behavior
+        from ..reaction import Reaction
+        try:
+            cls = import_class(self.spec.class_path, self.spec.base_dir, self.spec.where)
+            want = Behavior if self.spec.kind == "behavior" else Reaction
+            if not issubclass(cls, want):
+                raise StdError(f"{self.spec.class_path} is not a {want.__name__}")
+        except StdError as exc:
+            self.hello(error=exc.message)
+            raise SystemExit(0) from None
+        host = self.host = ComponentHost(self.spec, cls, self.port, self.generation)
+        self.bus.serve(keys.bs(self.robot, self.spec.name), self._on_bs)
+        self.bus.token(keys.alive(self.robot, self.spec.kind, self.spec.name))
+        self.hello()
+        host.start()
+        threading.Thread(target=self._watchdog, daemon=True, name="esair:watch").start()
+
+    def _watchdog(self) -> None:
+        while not self.done.wait(0.005):
+            self.host.check(time.monotonic())
+
+    def _on_bs(self, req: Request) -> None:
+        b = req.body
+        if b is None:
+            req.reply({"error": f"bad request: {req.error}", "type": "ControlError"})
+            return
+        op, host = b.get("op"), self.host
+        if op == "offer":
+            req.reply({"ok": host.offer(str(b.get("from")), b.get("data"))})
+        elif op == "provide":
+            if host.request_provide(str(b.get("from")),
+                                    lambda v: req.reply({"ok": list(v)})) != "queued":
+                req.reply({"ok": ["busy", host.state]})
+        elif op == "state":
+            req.reply({"ok": host.state})
+        elif op == "detached":
+            host.notify_detached(str(b.get("resource")))
+            req.reply({"ok": None})
+        elif op == "enable":
+            host.set_enabled(bool(b.get("enabled")))
+            req.reply({"ok": None})
+        elif op == "counters":
+            req.reply({"ok": host.counters()})
+        elif op == "stop":
+            req.reply({"ok": None})
+            self.done.set()
+        else:
+            req.reply({"error": f"unknown op {op!r}", "type": "ControlError"})
+
+    # ---- resource entry
+    def run_resource(self) -> None:
+        from ..resource import Driver
+        from .reshost import ResourceHost
+        try:
+            cls = import_class(self.spec.class_path, self.spec.base_dir, self.spec.where)
+            host = self.host = ResourceHost(self.spec, cls, self.port)
+            kids = host.start()
+        except StdError as exc:
+            self.hello(error=exc.message)
+            raise SystemExit(0) from None
+        for name, kind in kids.items():
+            if kind == "actuator":
+                self.bus.serve(keys.actuator(self.robot, name), self._on_actuator)
+        self.bus.serve(keys.rs(self.robot, self.spec.name), self._on_rs)
+        kind = "driver" if isinstance(host.driver, Driver) else next(iter(kids.values()))
+        self.bus.token(keys.alive(self.robot, kind, self.spec.name))
+        self.hello(children=kids)
+
+    def _on_actuator(self, req: Request) -> None:
+        b = req.body
+        if b is None:
+            req.reply({"error": f"bad request: {req.error}", "type": "ControlError"})
+            return
+        res = req.key.rsplit("/", 1)[-1]
+        slot = self.host.slots.get(res)
+        who = str(b.get("from"))
+        if slot is None or who not in slot.granted:
+            req.reply({"error": f"behavior {who!r} is not registered to command {res!r}",
+                       "type": "Refused"})
+            return
+        t = b.get("timeout", 1.0)
+        self.host.submit(res, "write", (b.get("cmd"),), self._answer(req),
+                         float(t) if isinstance(t, (int, float)) else 1.0)
+
+    @staticmethod
+    def _answer(req: Request):
+        def done(ok: bool, value: Any) -> None:
+            if ok:
+                req.reply({"ok": value})
+            elif isinstance(value, StdError):
+                req.reply({"error": getattr(value, "reason", value.message),
+                           "type": type(value).__name__})
+            else:
+                req.reply({"error": str(value), "type": "CommandError"})
+        return done
+
+    def _on_rs(self, req: Request) -> None:
+        b = req.body
+        if b is None:
+            req.reply({"error": f"bad request: {req.error}", "type": "ControlError"})
+            return
+        op, host = b.get("op"), self.host
+        if op == "configure":
+            host.submit(str(b.get("resource")), "configure",
+                        (str(b.get("key")), b.get("value")), self._answer(req), 2.0)
+        elif op == "grant":
+            host.grant(str(b.get("who")), str(b.get("resource")))
+            req.reply({"ok": None})
+        elif op == "revoke":
+            host.revoke(str(b.get("who")), b.get("resource"))
+            req.reply({"ok": None})
+        elif op == "counters":
+            req.reply({"ok": host.counters()})
+        elif op == "stop":
+            req.reply({"ok": None})
+            self.done.set()
+        else:
+            req.reply({"error": f"unknown op {op!r}", "type": "ControlError"})
+
+    # ---- leaving
+    def watch_runtime(self) -> None:
+        lost = {"t": None}
+
+        def on_alive(key: str, alive: bool) -> None:
+            if keys.parse_alive(self.robot, key) == ("runtime", "runtime"):
+                lost["t"] = None if alive else time.monotonic()
+                if not alive:
+                    threading.Timer(RUNTIME_GRACE, self._runtime_gone, (lost,)).start()
+        self.bus.watch_alive(keys.alive(self.robot, "runtime", "runtime"), on_alive)
+
+    def _runtime_gone(self, lost: dict) -> None:
+        if lost["t"] is not None:
+            log.warning("%s: the runtime is gone; leaving", self.spec.name)
+            self.done.set()
+
+
+def _stdin_watch(done: threading.Event) -> None:
+    try:
+        while sys.stdin.buffer.read(1):
+            pass
+    except (OSError, ValueError):
+        pass
+    done.set()
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(prog="python -m esair_std.modes.agent")
+    p.add_argument("--connect", required=True, help="the runtime's endpoint, tcp/HOST:PORT")
+    p.add_argument("--robot", required=True)
+    p.add_argument("--spec", required=True, help="the component's spec (JSON)")
+    p.add_argument("--generation", type=int, default=1)
+    p.add_argument("--no-stdin", action="store_true", help="do not leave when stdin closes")
+    p.add_argument("--session-options", default="{}", help="extra Zenoh config (JSON)")
+    a = p.parse_args(argv)
+    logging.basicConfig(level=logging.WARNING, format="%(name)s: %(message)s")
+    spec = Spec.from_json(json.loads(a.spec))
+    bus = Bus(connect=[a.connect], options=json.loads(a.session_options))
+    agent = Agent(bus, a.robot, spec, a.generation)
+    if not a.no_stdin:
+        threading.Thread(target=_stdin_watch, args=(agent.done,), daemon=True).start()
+    code = 0
+    try:
+        agent.watch_runtime()
+        if spec.kind == "resource":
+            agent.run_resource()
+        else:
+            agent.run_component()
+        agent.done.wait()
+    except SystemExit:
+        code = 0
+    except StdError as exc:
+        log.error("%s: %s", spec.name, exc)
+        code = 1
+    finally:
+        if agent.host is not None:
+            agent.host.stop(1.0)
+        bus.close()
+    os._exit(code)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,204 @@
+"""The control endpoint: ``esair/<robot>/ctl/<verb>`` queryables of the runtime.
+
+Zenoh's callback only queues the request (a bounded queue; when full the asker is told
+at once); a small pool of worker threads answers. Every answer is a JSON object:
+``{"ok": ...}`` or ``{"error": message, "type": ErrorType}``. Garbage (not JSON, not an
+object, missing or wrong fields, unknown verb) gets an error and changes nothing.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import queue
+import threading
+from typing import Any, Callable
+
+from ..errors import ControlError, StdError
+from ..level import Level
+from ..sample import Sample  # noqa: F401 - documented payload type
+from ..transport import keys
+from ..transport.bus import Bus, Request
+from ..transport.session import check_endpoint
+
+log = logging.getLogger("esair_std.control")
+WORKERS = 8
+PENDING = 256
+
+
+def _need(body: dict, field: str, kind: type | tuple = str) -> Any:
+    if field not in body:
+        raise ControlError(f"bad request: missing {field!r}")
+    v = body[field]
+    if not isinstance(v, kind) or isinstance(v, bool) and kind is not bool:
+        names = kind.__name__ if isinstance(kind, type) else "/".join(k.__name__ for k in kind)
+        raise ControlError(f"bad request: {field!r} must be a {names}")
+    return v
+
+
+def _timeout(body: dict, default: float = 1.0) -> float:
+    t = body.get("timeout", default)
+    if isinstance(t, bool) or not isinstance(t, (int, float)) or not 0 <= t <= 3600:
+        raise ControlError("bad request: 'timeout' must be a number of seconds (0-3600)")
+    return float(t)
+
+
+class ControlServer:
+    def __init__(self, rt: Any):
+        self.rt = rt
+        self.endpoint = check_endpoint(rt.endpoint)
+        self.bus: Bus | None = None
+        self._q: queue.Queue = queue.Queue(maxsize=PENDING)
+        self._workers: list[threading.Thread] = []
+        self.c = dict(requests=0, bad_requests=0, refused_full=0)
+        self.verbs: dict[str, Callable[[dict], Any]] = {
+            "ping": self.v_ping, "ls": self.v_ls, "add": self.v_add, "remove": self.v_remove,
+            "add-resource": self.v_add_resource, "remove-resource": self.v_remove_resource,
+            "put": self.v_put, "get": self.v_get, "configure": self.v_configure,
+            "reaction": self.v_reaction, "inspect": self.v_inspect, "state": self.v_state,
+            "register": self.v_register, "attach": self.v_attach, "kind": self.v_kind,
+            "report": self.v_report, "resstate": self.v_resstate, "hello": self.v_hello,
+        }
+
+    def start(self) -> None:
+        self.bus = Bus(listen=[self.endpoint], options=getattr(self.rt, "session_options", None))
+        for _ in range(WORKERS):
+            t = threading.Thread(target=self._work, name="esair:ctl", daemon=True)
+            t.start()
+            self._workers.append(t)
+        self.bus.serve(keys.ctl(self.rt.robot, "*"), self._enqueue)
+        self.token = self.bus.token(keys.alive(self.rt.robot, "runtime", "runtime"))
+
+    def close(self) -> None:
+        for _ in self._workers:
+            try:
+                self._q.put_nowait(None)
+            except queue.Full:
+                pass
+        if self.bus is not None:
+            self.bus.close()
+
+    def _enqueue(self, req: Request) -> None:
+        try:
+            self._q.put_nowait(req)
+        except queue.Full:
+            self.c["refused_full"] += 1
+            req.reply({"error": "runtime busy: too many requests waiting", "type": "ControlError"})
+
+    def _work(self) -> None:
+        while True:
+            req = self._q.get()
+            if req is None:
+                return
+            req.reply(self.answer(req.key.rsplit("/", 1)[-1], req.body, req.error))
+
+    def answer(self, verb: str, body: dict | None, error: str = "") -> dict:
+        self.c["requests"] += 1
+        try:
+            if body is None:
+                raise ControlError(f"bad request: {error}")
+            fn = self.verbs.get(verb)
+            if fn is None:
+                raise ControlError(f"unknown control verb {verb!r}")
+            return {"ok": fn(body)}
+        except StdError as exc:
+            if str(exc).startswith(("bad request", "unknown control verb")):
+                self.c["bad_requests"] += 1
+            out = {"error": str(exc), "type": type(exc).__name__}
+            if hasattr(exc, "resource"):
+                out.update(resource=exc.resource, reason=exc.reason)
+            return out
+        except Exception as exc:  # noqa: BLE001 - a bug must not kill the worker
+            log.exception("control %s", verb)
+            return {"error": f"internal error: {type(exc).__name__}: {exc}", "type": "StdError"}
+
+    # ---- user verbs (the CLI)
+    def v_ping(self, b: dict) -> dict:
+        return {"robot": self.rt.robot, "mode": self.rt.mode_name, "pid": os.getpid()}
+
+    def v_ls(self, b: dict) -> list:
+        return self.rt.ls()
+
+    def v_add(self, b: dict) -> str:
+        uses = b.get("uses") or {}
+        if not isinstance(uses, dict):
+            raise ControlError("bad request: 'uses' must be an object")
+        opts = b.get("options") or {}
+        if not isinstance(opts, dict):
+            raise ControlError("bad request: 'options' must be an object")
+        period = b.get("period")
+        if period is not None and (isinstance(period, bool) or not isinstance(period, (int, float))
+                                   or period <= 0):
+            raise ControlError("bad request: 'period' must be a positive number")
+        try:
+            uses = {str(k): Level.parse(v) for k, v in uses.items()}
+        except ValueError as exc:
+            raise ControlError(f"bad request: {exc}") from None
+        return self.rt.add(_need(b, "name"), _need(b, "class"), uses=uses, period=period,
+                           options=opts)
+
+    def v_remove(self, b: dict) -> None:
+        self.rt.remove(_need(b, "name"))
+
+    def v_add_resource(self, b: dict) -> dict:
+        allow = b.get("allow") or {}
+        opts = b.get("options") or {}
+        if not isinstance(allow, dict) or not isinstance(opts, dict):
+            raise ControlError("bad request: 'allow' and 'options' must be objects")
+        try:
+            allow = {str(k): Level.parse(v) for k, v in allow.items()}
+        except ValueError as exc:
+            raise ControlError(f"bad request: {exc}") from None
+        return self.rt.add_resource(_need(b, "name"), _need(b, "class"), allow=allow,
+                                    options=opts)
+
+    def v_remove_resource(self, b: dict) -> list:
+        return self.rt.remove_resource(_need(b, "name"))
+
+    def v_put(self, b: dict) -> dict:
+        ok, why = self.rt.bs.put(b.get("from") or "operator", _need(b, "to"),
+                                 b.get("data"), _timeout(b))
+        return {"delivered": ok, "reason": why}
+
+    def v_get(self, b: dict) -> dict:
+        ok, value = self.rt.bs.get(b.get("from") or "operator", _need(b, "to"), _timeout(b))
+        return {"ok": ok, "data": value if ok else None, "reason": "" if ok else value}
+
+    def v_configure(self, b: dict) -> Any:
+        who = b.get("who")
+        return self.rt.rs.configure(who if isinstance(who, str) else None,
+                                    _need(b, "resource"), _need(b, "key"), b.get("value"))
+
+    def v_reaction(self, b: dict) -> None:
+        self.rt.bs.set_reaction(_need(b, "name"), _need(b, "enabled", bool))
+
+    def v_inspect(self, b: dict) -> dict:
+        return self.rt.inspect(_need(b, "name"))
+
+    def v_state(self, b: dict) -> str | None:
+        return self.rt.state(_need(b, "name"))
+
+    # ---- agent verbs (component processes)
+    def v_register(self, b: dict) -> int:
+        try:
+            level = Level.parse(_need(b, "level"))
+        except ValueError as exc:
+            raise ControlError(f"bad request: {exc}") from None
+        return self.rt.mode.port.register(_need(b, "who"), _need(b, "resource"), level)
+
+    def v_attach(self, b: dict) -> None:
+        self.rt.mode.port.attach_sensor(_need(b, "who"), _need(b, "resource"), None,
+                                        direct=bool(b.get("direct")))
+
+    def v_kind(self, b: dict) -> str | None:
+        return self.rt.rs.kind_of(_need(b, "resource"))
+
+    def v_report(self, b: dict) -> None:
+        self.rt.mode.reported(_need(b, "name"), _need(b, "generation", int),
+                              _need(b, "phase"), str(b.get("reason", "")))
+
+    def v_resstate(self, b: dict) -> None:
+        self.rt.rs.set_state(_need(b, "resource"), _need(b, "state"), str(b.get("reason", "")))
+
+    def v_hello(self, b: dict) -> None:
+        self.rt.mode.hello(b)

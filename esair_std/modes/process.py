@@ -1,0 +1,325 @@
+"""Process mode: each behavior, reaction and resource entry its own OS process, started
+as ``python -m esair_std.modes.agent`` and joined to the runtime over Zenoh; the four
+resident components (BS, RS, SC, AC) stay in the runtime's process.
+
+The runtime sees each child through a proxy with the same methods as the thread-mode
+hosts (offer, provide, state, stop, configure, grant...), answered by the agent over the
+``bs/<name>`` and ``rs/<entry>`` queryables. A child is failed when its liveliness token
+goes (SIGKILL: milliseconds), when its process exits, or when it says so itself.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import os
+import subprocess
+import sys
+import threading
+import time
+from typing import Any
+
+from ..errors import CommandError, ComponentError, Refused, ResourceLost, StdError
+from ..spec import Spec
+from ..transport import keys
+from .thread import LocalPort
+
+log = logging.getLogger("esair_std.process")
+START_TIMEOUT = 20.0
+_ERRORS = {"CommandError": CommandError, "ResourceLost": ResourceLost, "Refused": Refused}
+
+
+def agent_command(endpoint: str, robot: str, spec: Spec, generation: int) -> list[str]:
+    return [sys.executable, "-m", "esair_std.modes.agent", "--connect", endpoint,
+            "--robot", robot, "--generation", str(generation),
+            "--spec", json.dumps(spec.to_json())]
+
+
+class _Child:
+    """What component and resource proxies share: the process, hello, stop."""
+
+    def __init__(self, mode: "ProcessMode", spec: Spec, generation: int):
+        self.mode = mode
+        self.bus = mode.bus
+        self.robot = mode.rt.robot
+        self.spec = spec
+        self.name = spec.name
+        self.generation = generation
+        self.phase = "starting"
+        self.reason = ""
+        self.pid: int | None = None
+        self.hostname = ""
+        self.info: dict = {}
+        self.hello = threading.Event()
+        self.proc: subprocess.Popen | None = None
+
+    def spawn(self) -> None:
+        env = dict(os.environ)
+        paths = [p for p in sys.path if p and os.path.isdir(p)]
+        env["PYTHONPATH"] = os.pathsep.join(paths)
+        self.proc = subprocess.Popen(
+            agent_command(self.mode.rt.endpoint, self.robot, self.spec, self.generation),
+            stdin=subprocess.PIPE, env=env, cwd=self.mode.rt.base_dir)
+        self.pid = self.proc.pid
+
+    def wait_hello(self) -> None:
+        deadline = time.monotonic() + START_TIMEOUT
+        while not self.hello.wait(0.02):
+            code = self.proc.poll() if self.proc else None
+            if code is not None:
+                raise ComponentError(f"{self.spec.kind} {self.name!r}: its process exited"
+                                     f" with status {code} before it started")
+            if time.monotonic() > deadline:
+                self.kill()
+                raise ComponentError(f"{self.spec.kind} {self.name!r} did not start within"
+                                     f" {START_TIMEOUT:g} s")
+        if self.info.get("error"):
+            self.kill()
+            raise ComponentError(self.info["error"])
+
+    def ask(self, key: str, body: dict, timeout: float) -> Any:
+        try:
+            return self.bus.request(key, body, timeout)
+        except StdError:
+            return None
+
+    def exited(self) -> int | None:
+        return self.proc.poll() if self.proc is not None else None
+
+    def kill(self) -> None:
+        if self.proc is None:
+            return
+        try:
+            if self.proc.stdin:
+                self.proc.stdin.close()
+        except OSError:
+            pass
+        if self.proc.poll() is None:
+            self.proc.kill()
+        try:
+            self.proc.wait(2.0)
+        except subprocess.TimeoutExpired:
+            log.error("%s (pid %s) did not die", self.name, self.pid)
+
+    def stop_process(self, key: str, timeout: float) -> None:
+        if self.proc is not None and self.proc.poll() is None:
+            self.ask(key, {"op": "stop", "timeout": timeout}, min(timeout, 1.0))
+            try:
+                self.proc.wait(timeout + 0.5)
+            except subprocess.TimeoutExpired:
+                pass
+        self.kill()
+
+
+class ProcessComponent(_Child):
+    """The runtime's view of a behavior or reaction living in an agent process."""
+
+    @property
+    def key(self) -> str:
+        return keys.bs(self.robot, self.name)
+
+    @property
+    def state(self) -> str:
+        if self.phase in ("failed", "stopped", "starting"):
+            return self.phase
+        r = self.ask(self.key, {"op": "state"}, 0.5)
+        return r["ok"] if isinstance(r, dict) and "ok" in r else self.phase
+
+    def offer(self, sender: str, data: Any) -> str:
+        if self.phase in ("failed", "stopped"):
+            return self.phase
+        r = self.ask(self.key, {"op": "offer", "from": sender, "data": data}, 1.0)
+        return r.get("ok", "gone") if isinstance(r, dict) else "gone"
+
+    def provide(self, requester: str, timeout: float) -> tuple:
+        if self.phase in ("failed", "stopped"):
+            return ("busy", self.phase)
+        r = self.ask(self.key, {"op": "provide", "from": requester, "timeout": timeout},
+                     timeout + 0.05)
+        if isinstance(r, dict) and isinstance(r.get("ok"), list) and len(r["ok"]) == 2:
+            return tuple(r["ok"])
+        return ("busy", "no answer")
+
+    def notify_detached(self, resource: str) -> None:
+        self.ask(self.key, {"op": "detached", "resource": resource}, 1.0)
+
+    def set_enabled(self, enabled: bool) -> None:
+        self.ask(self.key, {"op": "enable", "enabled": bool(enabled)}, 1.0)
+
+    def counters(self) -> dict:
+        r = self.ask(self.key, {"op": "counters"}, 1.0)
+        return r["ok"] if isinstance(r, dict) and "ok" in r else {}
+
+    def check(self, now: float) -> None:
+        code = self.exited()
+        if code is not None and self.phase not in ("failed", "stopped"):
+            self.mode.reported(self.name, self.generation, "failed",
+                               f"process exited with status {code}")
+
+    def stop(self, timeout: float = 2.0) -> None:
+        if self.phase != "failed":
+            self.phase = "stopped"
+        self.stop_process(self.key, timeout)
+
+
+class ProcessResource(_Child):
+    """The runtime's view of a resource entry (and its children) in an agent process."""
+
+    state = "ready"
+
+    @property
+    def key(self) -> str:
+        return keys.rs(self.robot, self.name)
+
+    def children(self) -> dict[str, str]:
+        return dict(self.info.get("children", {}))
+
+    def _call(self, resource: str, body: dict, timeout: float) -> Any:
+        r = self.ask(self.key, body, timeout + 0.5)
+        if r is None:
+            raise ResourceLost(resource, "its host process does not answer")
+        if "error" in r:
+            cls = _ERRORS.get(r.get("type"), CommandError)
+            if cls is Refused:
+                raise Refused(r["error"])
+            raise cls(resource, r["error"])
+        return r.get("ok")
+
+    def command(self, sender: str, resource: str, command: Any, timeout: float) -> Any:
+        r = self.ask(keys.actuator(self.robot, resource),
+                     {"from": sender, "cmd": command, "timeout": timeout}, timeout + 0.5)
+        if r is None:
+            raise ResourceLost(resource, "its host process does not answer")
+        if "error" in r:
+            cls = _ERRORS.get(r.get("type"), CommandError)
+            raise cls(resource, r["error"]) if cls is not Refused else Refused(r["error"])
+        return r.get("ok")
+
+    def configure(self, resource: str, key: str, value: Any, timeout: float = 2.0) -> Any:
+        return self._call(resource, {"op": "configure", "resource": resource, "key": key,
+                                     "value": value, "timeout": timeout}, timeout)
+
+    def grant(self, who: str, resource: str) -> None:
+        self._call(resource, {"op": "grant", "who": who, "resource": resource}, 1.0)
+
+    def revoke(self, who: str, resource: str | None = None) -> None:
+        self.ask(self.key, {"op": "revoke", "who": who, "resource": resource}, 1.0)
+
+    def counters(self) -> dict:
+        r = self.ask(self.key, {"op": "counters"}, 1.0)
+        return r["ok"] if isinstance(r, dict) and "ok" in r else {}
+
+    def stop(self, timeout: float = 2.0) -> None:
+        self.state = "stopped"
+        self.stop_process(self.key, timeout)
+
+
+class ProcessMode:
+    name = "process"
+
+    def __init__(self, rt: Any):
+        self.rt = rt
+        self.port = LocalPort(rt)
+        self._pending: dict[tuple[str, int], _Child] = {}
+        self._resources: dict[str, ProcessResource] = {}
+        self._lock = threading.Lock()
+
+    @property
+    def bus(self) -> Any:
+        return self.rt.server.bus
+
+    def open(self) -> None:
+        self.bus.watch_alive(keys.alive_all(self.rt.robot), self._alive)
+
+    def _alive(self, key: str, alive: bool) -> None:
+        parsed = keys.parse_alive(self.rt.robot, key)
+        if parsed is None or alive:
+            return
+        kind, name = parsed
+        rec = self.rt.bs.records.get(name)
+        if rec is not None and isinstance(rec.host, ProcessComponent):
+            host = rec.host
+            if host.phase in ("running", "busy") and host.hello.is_set():
+                self.reported(name, host.generation, "failed", "its process is gone"
+                              " (liveliness token lost)")
+        elif kind in ("sensor", "actuator", "driver") and name in self._resources:
+            host = self._resources[name]
+            if host.state != "stopped":
+                for res in host.children():
+                    self.rt.rs.set_state(res, "lost", "its host process is gone")
+
+    def hello(self, b: dict) -> None:
+        name, gen = b.get("name"), b.get("generation", 0)
+        with self._lock:
+            child = self._pending.get((name, gen))
+        if child is None:
+            raise ComponentError(f"no component {name!r} (generation {gen}) is starting")
+        child.info = b
+        child.pid = b.get("pid", child.pid)
+        child.hostname = b.get("host", "")
+        child.hello.set()
+
+    def reported(self, name: str, generation: int, phase: str, reason: str) -> None:
+        rec = self.rt.bs.records.get(name)
+        host = rec.host if rec is not None else None
+        if not isinstance(host, ProcessComponent) or host.generation != generation:
+            with self._lock:
+                host = self._pending.get((name, generation))
+            if not isinstance(host, ProcessComponent):
+                return
+        if host.phase in ("failed", "stopped"):
+            return
+        host.phase = phase
+        if phase == "failed":
+            host.reason = reason
+            self.port.state_changed(name, generation, phase, reason)
+
+    def start_component(self, spec: Spec, generation: int) -> ProcessComponent:
+        child = ProcessComponent(self, spec, generation)
+        with self._lock:
+            self._pending[(spec.name, generation)] = child
+        try:
+            child.spawn()
+            child.wait_hello()
+            deadline = time.monotonic() + START_TIMEOUT
+            while child.phase == "starting":
+                if child.exited() is not None:
+                    child.phase = "failed"
+                    child.reason = f"process exited with status {child.exited()}"
+                    break
+                if time.monotonic() > deadline:
+                    child.kill()
+                    raise ComponentError(f"{spec.kind} {spec.name!r} did not start within"
+                                         f" {START_TIMEOUT:g} s")
+                time.sleep(0.001)
+        except BaseException:
+            child.kill()
+            raise
+        finally:
+            with self._lock:
+                self._pending.pop((spec.name, generation), None)
+        return child
+
+    def start_resource(self, spec: Spec) -> ProcessResource:
+        child = ProcessResource(self, spec, 1)
+        with self._lock:
+            self._pending[(spec.name, 1)] = child
+        try:
+            child.spawn()
+            child.wait_hello()
+        except BaseException:
+            child.kill()
+            raise
+        finally:
+            with self._lock:
+                self._pending.pop((spec.name, 1), None)
+        self._resources[spec.name] = child
+        return child
+
+    def watch(self, now: float) -> None:
+        for rec in list(self.rt.bs.records.values()):
+            rec.host.check(now)
+
+    def close(self) -> None:
+        for res in self._resources.values():
+            res.kill()

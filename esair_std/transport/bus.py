@@ -1,0 +1,155 @@
+"""A small API over one Zenoh session: JSON requests with a timeout, queryables whose
+handlers may answer later from another thread, publishers, subscribers, liveliness.
+
+Callbacks given here run on Zenoh's threads: they must copy and return (the callers in
+modes/ only enqueue or answer at once; user code never runs on them).
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+from typing import Any, Callable
+
+import zenoh
+
+from ..errors import TransportError
+from . import codec
+from .session import open_session
+
+log = logging.getLogger("esair_std.transport")
+
+
+class Request:
+    """One received query: ``body`` (decoded JSON or None if garbage), ``error`` (why it
+    could not be decoded), ``reply(obj)`` once, from any thread."""
+
+    __slots__ = ("_query", "body", "error", "key", "_done")
+
+    def __init__(self, query: Any):
+        self._query = query
+        self.key = str(query.key_expr)
+        self._done = False
+        self.body: dict | None = None
+        self.error = ""
+        payload = query.payload
+        try:
+            self.body = codec.decode_request(payload.to_bytes() if payload is not None else b"{}")
+        except TransportError as exc:
+            self.error = exc.message
+
+    def reply(self, obj: Any) -> None:
+        if self._done:
+            return
+        self._done = True
+        try:
+            try:
+                data = codec.encode(obj)
+            except TransportError as exc:
+                data = codec.encode({"error": exc.message, "type": "TransportError"})
+            self._query.reply(self._query.key_expr, data)
+        except Exception as exc:  # noqa: BLE001 - the asker is gone; nothing to tell
+            log.debug("reply on %s not sent: %s", self.key, exc)
+        finally:
+            self._query.drop()     # a held query stalls the asker until its timeout
+
+
+class Bus:
+    def __init__(self, listen: list[str] | None = None, connect: list[str] | None = None,
+                 options: dict | None = None):
+        self.session = open_session(listen, connect, options)
+        self._decl: list[Any] = []
+        self._lock = threading.Lock()
+        self.closed = False
+
+    def _keep(self, obj: Any) -> Any:
+        with self._lock:
+            self._decl.append(obj)
+        return obj
+
+    # request/reply
+    def request(self, key: str, body: dict, timeout: float) -> Any:
+        """The first reply's JSON, or None when nobody answers (no queryable / timeout)."""
+        data = codec.encode(body)
+        try:
+            replies = self.session.get(key, payload=data, timeout=max(0.001, timeout))
+            for reply in replies:
+                ok = reply.ok
+                if ok is None:
+                    continue
+                return codec.decode(ok.payload.to_bytes())
+        except TransportError:
+            raise
+        except Exception as exc:  # noqa: BLE001 - session closed etc.
+            raise TransportError(f"request on {key} failed: {exc}") from None
+        return None
+
+    def serve(self, key: str, handler: Callable[[Request], None]) -> Any:
+        def cb(query: Any) -> None:
+            try:
+                handler(Request(query))
+            except Exception as exc:  # noqa: BLE001 - never let a handler kill the thread
+                log.error("handler on %s: %s", key, exc)
+        return self._keep(self.session.declare_queryable(key, cb))
+
+    # pub/sub
+    def publisher(self, key: str) -> Callable[[Any], None]:
+        pub = self._keep(self.session.declare_publisher(
+            key, congestion_control=zenoh.CongestionControl.BLOCK))
+
+        def put(obj: Any) -> None:
+            pub.put(codec.encode(obj))
+        return put
+
+    def subscribe(self, key: str, callback: Callable[[Any], None]) -> Any:
+        def cb(sample: Any) -> None:
+            try:
+                callback(codec.decode(sample.payload.to_bytes()))
+            except Exception as exc:  # noqa: BLE001
+                log.error("subscriber on %s: %s", key, exc)
+        return self._keep(self.session.declare_subscriber(key, cb))
+
+    def unsubscribe(self, sub: Any) -> None:
+        with self._lock:
+            if sub in self._decl:
+                self._decl.remove(sub)
+        try:
+            sub.undeclare()
+        except Exception:  # noqa: BLE001
+            pass
+
+    # liveliness
+    def token(self, key: str) -> Any:
+        return self._keep(self.session.liveliness().declare_token(key))
+
+    def watch_alive(self, key: str, callback: Callable[[str, bool], None]) -> Any:
+        def cb(sample: Any) -> None:
+            try:
+                callback(str(sample.key_expr), sample.kind == zenoh.SampleKind.PUT)
+            except Exception as exc:  # noqa: BLE001
+                log.error("liveliness on %s: %s", key, exc)
+        return self._keep(self.session.liveliness().declare_subscriber(key, cb, history=True))
+
+    def alive(self, key: str, timeout: float = 1.0) -> list[str]:
+        """The keys of the live tokens matching ``key``."""
+        out = []
+        for reply in self.session.liveliness().get(key, timeout=timeout):
+            if reply.ok is not None:
+                out.append(str(reply.ok.key_expr))
+        return out
+
+    def close(self) -> None:
+        if self.closed:
+            return
+        self.closed = True
+        with self._lock:
+            decl, self._decl = self._decl, []
+        for d in reversed(decl):
+            try:
+                d.undeclare()
+            except Exception:  # noqa: BLE001
+                pass
+        try:
+            self.session.close()
+        except Exception:  # noqa: BLE001
+            pass

@@ -1,0 +1,47 @@
+"""One function opens every Zenoh session: peer mode, explicit endpoints, multicast
+scouting off (containers and CI have no multicast), so a session finds exactly the
+peers it is told about. ``options`` carries extra Zenoh config (TLS, ACL, ...) as
+{json5 path: JSON value} pairs, added by the security layer."""
+
+from __future__ import annotations
+
+import json
+from typing import Any
+
+import zenoh
+
+from ..errors import TransportError
+
+
+def open_session(listen: list[str] | None = None, connect: list[str] | None = None,
+                 options: dict[str, Any] | None = None) -> "zenoh.Session":
+    cfg = zenoh.Config()
+    try:
+        cfg.insert_json5("mode", '"peer"')
+        cfg.insert_json5("scouting/multicast/enabled", "false")
+        # gossip runs over the sessions already open (no multicast): agents that connect
+        # to the runtime learn of each other and connect directly (the data flow).
+        cfg.insert_json5("scouting/gossip/enabled", "true")
+        if listen:
+            cfg.insert_json5("listen/endpoints", json.dumps(list(listen)))
+        if connect:
+            cfg.insert_json5("connect/endpoints", json.dumps(list(connect)))
+            # keep trying to reach the runtime if it is not up yet (agents, the CLI)
+            cfg.insert_json5("connect/timeout_ms", "2000")
+        for path, value in (options or {}).items():
+            cfg.insert_json5(path, json.dumps(value))
+    except Exception as exc:  # zenoh raises ZError for bad endpoints / config
+        raise TransportError(f"bad session config: {exc}") from None
+    try:
+        return zenoh.open(cfg)
+    except Exception as exc:  # noqa: BLE001 - e.g. the endpoint is in use
+        where = ", ".join(listen or connect or [])
+        raise TransportError(f"cannot open a Zenoh session on {where}: {exc}") from None
+
+
+def check_endpoint(endpoint: str) -> str:
+    """``tcp/HOST:PORT`` (or another Zenoh locator) as given; a clear error otherwise."""
+    proto, sep, rest = endpoint.partition("/")
+    if not sep or not proto or ":" not in rest:
+        raise TransportError(f"endpoint {endpoint!r} is not of the form tcp/HOST:PORT")
+    return endpoint
