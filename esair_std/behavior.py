@@ -23,7 +23,7 @@ class _Component:
     """What behaviors and reactions share: name, options, log, the host link."""
 
     period: float | None = None
-    deadline: float | None = None   # seconds one call may take; None: 10 x period, >= 0.1 s
+    deadline: float | None = None   # seconds one call may take; None: 10 x period, >= 1 s
     _esair: Any = None              # the host (set by the runtime before __init__)
 
     @property

@@ -34,6 +34,7 @@ class SensorHandle:
         self._state_fn = state_fn
         self.received = 0          # samples that reached this handle
         self.overwritten = 0       # samples dropped because samples() was not called in time
+        self._draining = False     # samples() was called: the reader wants every sample
         self.detached = False
 
     def push(self, sample: Sample) -> None:
@@ -41,7 +42,7 @@ class SensorHandle:
         if self.detached:
             return
         with self._lock:
-            if len(self._buf) == self._buf.maxlen:
+            if len(self._buf) == self._buf.maxlen and self._draining:
                 self.overwritten += 1
             self._buf.append(sample)
             self._latest = sample
@@ -54,6 +55,7 @@ class SensorHandle:
     def samples(self) -> list[Sample]:
         """Every sample that arrived since the last call (oldest first), at most ``keep``."""
         with self._lock:
+            self._draining = True
             out = list(self._buf)
             self._buf.clear()
         return out

@@ -67,6 +67,8 @@ class Runtime:
                 from .modes.control import ControlServer
                 self.server = ControlServer(self)
                 self.server.start()
+            from .deploy import load_classes
+            load_classes(self.deployment)     # every class, errors at file:line:col
             self.mode.open()
             res, beh, rea = specmod.specs_of(self.deployment)
             for s in res:

@@ -134,9 +134,6 @@ def specs_of(deployment: Any) -> tuple[list[Spec], list[Spec], list[Spec]]:
 def load(deployment: Any):
     """A Deployment from a path, a dict or an already loaded Deployment."""
     if isinstance(deployment, (str, Path, dict)):
-        try:
-            from .deploy import load_deployment
-        except ImportError:  # until the deployment loader lands on main
-            from ._deploy_standin import load_deployment
+        from .deploy import load_deployment
         return load_deployment(deployment)
     return deployment

@@ -37,5 +37,9 @@ def std() -> None:
 
 from . import deploy as _deploy  # noqa: E402  (registers its commands on std)
 
-for _cmd in _deploy.COMMANDS:
+from . import control as _control  # noqa: E402
+from . import run as _run  # noqa: E402
+from . import top as _top  # noqa: E402
+
+for _cmd in [*_deploy.COMMANDS, _run.run_cmd, *_control.COMMANDS, _top.top_cmd]:
     std.add_command(_cmd)

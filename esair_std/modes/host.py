@@ -87,7 +87,7 @@ class ComponentHost:
         period = spec.period if spec.has_period else getattr(cls, "period", None)
         self.period = float(period) if period else None
         dl = spec.options.get("deadline", getattr(cls, "deadline", None))
-        self.deadline = float(dl) if dl else (max(10 * self.period, 0.1) if self.period else 1.0)
+        self.deadline = float(dl) if dl else max(10 * (self.period or 0.1), 1.0)
         self.thread = threading.Thread(target=self._main, name=f"esair:{self.name}", daemon=True)
 
     @property

@@ -240,13 +240,25 @@ class ProcessMode:
         if rec is not None and isinstance(rec.host, ProcessComponent):
             host = rec.host
             if host.phase in ("running", "busy") and host.hello.is_set():
-                self.reported(name, host.generation, "failed", "its process is gone"
-                              " (liveliness token lost)")
+                threading.Thread(target=self._token_lost, args=(host,), daemon=True).start()
         elif kind in ("sensor", "actuator", "driver") and name in self._resources:
             host = self._resources[name]
             if host.state != "stopped":
                 for res in host.children():
                     self.rt.rs.set_state(res, "lost", "its host process is gone")
+
+    def _token_lost(self, host: ProcessComponent) -> None:
+        """A component's token went. A local child must be dead too (its socket closes
+        a moment before it can be reaped); a token of an older generation going late
+        while this one lives is ignored. A remote agent's token is believed."""
+        if host.proc is not None:
+            deadline = time.monotonic() + 0.1
+            while host.proc.poll() is None:
+                if time.monotonic() > deadline:
+                    return
+                time.sleep(0.0005)
+        self.reported(host.name, host.generation, "failed",
+                      "its process is gone (liveliness token lost)")
 
     def hello(self, b: dict) -> None:
         name, gen = b.get("name"), b.get("generation", 0)

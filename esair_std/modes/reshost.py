@@ -185,6 +185,9 @@ class ResourceHost:
             slot = Slot(self, name, child, self.spec.options)
             child._esair = slot
             self.slots[name] = slot
+        rate = self.spec.options.get("rate_hz")
+        if isinstance(obj, Sensor) and isinstance(rate, (int, float)) and rate > 0:
+            obj.rate_hz = float(rate)         # the deployment's rate_hz wins
         for slot in self.slots.values():
             if slot.obj is not self.driver:
                 slot.obj.open()

@@ -25,8 +25,12 @@ def decode(data: bytes) -> Any:
     if len(data) > MAX_BYTES:
         raise TransportError(f"message of {len(data)} bytes is over the {MAX_BYTES}-byte cap")
     try:
-        return json.loads(data)
-    except (UnicodeDecodeError, ValueError) as exc:
+        text = bytes(data).decode("utf-8")
+    except UnicodeDecodeError:
+        raise TransportError("message is not UTF-8 text") from None
+    try:
+        return json.loads(text)
+    except ValueError as exc:
         raise TransportError(f"message is not JSON: {exc}") from None
 
 

@@ -16,7 +16,7 @@ BASE = {
 
 def with_faulty(fail, restart=None):
     dep = {k: dict(v) for k, v in BASE.items()}
-    f = {"class": "comps:Faulty", "fail": fail, "uses": {"count": "read"}}
+    f = {"class": "comps:Faulty", "fail": fail, "uses": {"count": "read"}, "deadline": 0.3}
     if restart:
         f["restart"] = restart
     dep["behaviors"]["faulty"] = f
@@ -35,7 +35,7 @@ def assert_others_lost_nothing(rt):
 
 @pytest.mark.parametrize("fail,reason", [
     ("raise", "RuntimeError: boom"),
-    ("hang", "step() ran over its 0.1 s deadline"),
+    ("hang", "step() ran over its 0.3 s deadline"),
     ("start", "RuntimeError: refuses to start"),
 ])
 def test_failure_is_contained(start, fail, reason):

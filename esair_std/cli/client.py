@@ -1,0 +1,64 @@
+"""The control client used by ``esair std ls/add/...``: one Zenoh session connected to
+the runtime's control endpoint, one request per command."""
+
+from __future__ import annotations
+
+import os
+from typing import Any
+
+from ..errors import CommandError, ControlError, Refused, ResourceLost, TransportError
+from ..transport import keys
+from ..transport.bus import Bus
+from ..transport.session import check_endpoint
+
+DEFAULT_ENDPOINT = "tcp/127.0.0.1:7447"
+_ERRORS = {"Refused": Refused}
+
+
+def default_endpoint() -> str:
+    return os.environ.get("ESAIR_STD_ENDPOINT", DEFAULT_ENDPOINT)
+
+
+class Client:
+    def __init__(self, endpoint: str | None = None, robot: str | None = None,
+                 timeout: float = 5.0):
+        self.endpoint = check_endpoint(endpoint or default_endpoint())
+        self.timeout = timeout
+        self.bus = Bus(connect=[self.endpoint])
+        try:
+            self.robot = robot or self._find_robot()
+        except BaseException:
+            self.bus.close()
+            raise
+
+    def _find_robot(self) -> str:
+        r = self.bus.request("esair/*/ctl/ping", {}, 2.0)
+        if r is None:
+            # the session may still be connecting: one more try
+            r = self.bus.request("esair/*/ctl/ping", {}, 3.0)
+        if r is None or "ok" not in r:
+            raise TransportError(f"no ESAIR STD runtime answers on {self.endpoint} "
+                                 "(is `esair std run` running?)")
+        return r["ok"]["robot"]
+
+    def call(self, verb: str, body: dict | None = None, timeout: float | None = None) -> Any:
+        r = self.bus.request(keys.ctl(self.robot, verb), body or {}, timeout or self.timeout)
+        if r is None:
+            raise TransportError(f"the runtime of robot {self.robot!r} on {self.endpoint} "
+                                 f"did not answer {verb!r}")
+        if "error" in r:
+            t = r.get("type")
+            if t in ("CommandError", "ResourceLost") and "resource" in r:
+                raise (CommandError if t == "CommandError" else ResourceLost)(
+                    r["resource"], r.get("reason", r["error"]))
+            raise _ERRORS.get(t, ControlError)(r["error"])
+        return r.get("ok")
+
+    def close(self) -> None:
+        self.bus.close()
+
+    def __enter__(self) -> "Client":
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.close()

@@ -1,0 +1,73 @@
+"""``esair std top``: a live view (rich) of a running robot's components, their states
+and rates (steps, samples, commands per second), refreshed from the control endpoint."""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import click
+
+from .control import control
+
+COLOURS = {"running": "green", "ready": "green", "busy": "yellow", "starting": "cyan",
+           "failed": "bold red", "lost": "bold red", "stopped": "dim"}
+
+
+def _rate_source(kind: str, counters: dict) -> int:
+    if kind in ("behavior", "reaction"):
+        return int(counters.get("steps", 0)) + sum(
+            int(v.get("received", 0)) for v in counters.values() if isinstance(v, dict))
+    return int(counters.get("reported", 0)) + int(counters.get("commands", 0))
+
+
+def snapshot(c: Any) -> list[dict]:
+    rows = []
+    for row in c.call("ls"):
+        try:
+            info = c.call("inspect", {"name": row["name"]})
+        except Exception:  # noqa: BLE001 - removed meanwhile
+            continue
+        row["count"] = _rate_source(row["kind"], info.get("counters", {}))
+        rows.append(row)
+    return rows
+
+
+def render(rows: list[dict], before: dict[str, tuple[float, int]], robot: str) -> Any:
+    from rich.table import Table
+    now = time.monotonic()
+    t = Table(title=f"ESAIR STD — robot {robot}", expand=False)
+    for col in ("name", "kind", "state", "pid", "host", "restarts", "events/s", "reason"):
+        t.add_column(col, justify="right" if col in ("pid", "restarts", "events/s") else "left")
+    for r in rows:
+        t0, n0 = before.get(r["name"], (now, r["count"]))
+        rate = (r["count"] - n0) / (now - t0) if now > t0 else 0.0
+        before[r["name"]] = (now, r["count"])
+        st = r["state"]
+        t.add_row(r["name"], r["kind"], f"[{COLOURS.get(st, 'white')}]{st}[/]", str(r["pid"]),
+                  r["host"], str(r.get("restarts", 0)), f"{rate:.0f}", r.get("reason", ""))
+    return t
+
+
+@click.command("top")
+@click.option("--interval", type=click.FloatRange(min=0.1), default=1.0, show_default=True,
+              help="Seconds between refreshes.")
+@click.option("--count", type=click.IntRange(min=1), default=None,
+              help="Stop after this many refreshes (default: until Ctrl-C).")
+@control
+def top_cmd(c: Any, interval: float, count: int | None) -> None:
+    """Live table of components: state, pid, host, restarts and events per second."""
+    from rich.console import Console
+    from rich.live import Live
+    before: dict[str, tuple[float, int]] = {}
+    console = Console()
+    n = 0
+    with Live(render(snapshot(c), before, c.robot), console=console,
+              auto_refresh=False) as live:
+        try:
+            while count is None or n < count:
+                time.sleep(interval)
+                live.update(render(snapshot(c), before, c.robot), refresh=True)
+                n += 1
+        except KeyboardInterrupt:
+            pass

@@ -1,0 +1,158 @@
+"""The control CLI end to end: `esair std run` in one process, every control command
+from other processes, garbage on the control endpoint; in both modes."""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+
+import pytest
+from conftest import MODES, free_endpoint, wait_for
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+
+
+def esair(*args, check=True):
+    r = subprocess.run([sys.executable, "-m", "esair_min.cli", "std", *args],
+                       capture_output=True, text=True, timeout=60, cwd=HERE,
+                       env=dict(os.environ, COLUMNS="200"))
+    if check and r.returncode != 0:
+        raise AssertionError(f"esair std {' '.join(args)}: {r.returncode}\n{r.stderr}")
+    return r
+
+
+@pytest.fixture(scope="module", params=MODES)
+def robot_mode(request):
+    """One robot per mode for this module (the tests run in file order: the one that
+    changes the robot comes last)."""
+    mode = request.param
+    ep = free_endpoint()
+    proc = subprocess.Popen([sys.executable, "-m", "esair_min.cli", "std", "run", "lab",
+                             "--mode", mode, "-e", ep], cwd=HERE,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        def deployed():
+            r = esair("ls", "--json", "-e", ep, check=False)
+            return r.returncode == 0 and len(json.loads(r.stdout)) == 10
+        wait_for(lambda: proc.poll() is not None or deployed(), timeout=60,
+                 what="the robot deployed")
+        assert proc.poll() is None, proc.communicate()
+        yield ep, mode
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        out, err = proc.communicate(timeout=30)
+        assert proc.returncode == 0, err
+        assert leftover(ep) == []
+
+
+def leftover(ep):
+    """Processes still running whose command line names this endpoint."""
+    out = []
+    for d in os.listdir("/proc"):
+        if d.isdigit():
+            try:
+                with open(f"/proc/{d}/cmdline", "rb") as f:
+                    if ep.encode() in f.read():
+                        out.append(int(d))
+            except OSError:
+                pass
+    return out
+
+
+@pytest.fixture
+def robot(robot_mode):
+    return robot_mode[0]
+
+
+@pytest.mark.parametrize("args,message", [
+    (["put", "nobody", "1"], "error: put to 'nobody' failed: no behavior 'nobody'\n"),
+    (["get", "logge"], "error: get from 'logge' failed: no behavior 'logge' "
+                       "(did you mean 'logger'?)\n"),
+    (["remove", "nobody"], "error: no behavior or reaction 'nobody'\n"),
+    (["add", "x", "lab:Nope"], "error: module 'lab' has no class 'Nope'\n"),
+    (["add", "x", "lab:Logger", "--uses", "arm"],
+     "error: --uses 'arm' is not of the form NAME=VALUE\n"),
+    (["configure", "arm", "speed", "99"], "error: arm: speed 99 out of range 1-9\n"),
+    (["reaction", "gard", "enable"], "error: no reaction 'gard' (did you mean 'guard'?)\n"),
+    (["add-resource", "bad", "esair_std.drivers.sim:Nope"],
+     "error: module 'esair_std.drivers.sim' has no class 'Nope'\n"),
+    (["remove-resource", "bench.fan"], "error: 'bench.fan' is part of 'bench': remove 'bench'\n"),
+    (["inspect", "nobody"], "error: no component 'nobody'\n"),
+])
+def test_cli_errors_are_one_clear_line(robot, args, message):
+    r = esair(*args, "-e", robot, check=False)
+    assert (r.returncode, r.stderr) == (1, message)
+    assert len(json.loads(esair("ls", "--json", "-e", robot).stdout)) == 10
+
+
+def test_garbage_on_the_control_endpoint(robot):
+    from esair_std.transport.bus import Bus
+    bus = Bus(connect=[robot])
+    try:
+        key = "esair/lab/ctl/"
+        replies = []
+        for verb, payload in [("ls", b"\xff\xfe not json"), ("ls", b"{nope"),
+                                  ("ls", b"[1, 2]"),
+                              ("put", b'{"to": 5}'), ("frobnicate", b"{}"),
+                              ("put", b'{"to": "logger", "timeout": "soon"}'),
+                              ("add", b'{"name": "x"}'), ("reaction", b'{"name": "guard"}'),
+                              ("ls", b"x" * 300_000)]:
+            got = bus.session.get(key + verb, payload=payload, timeout=5.0)
+            replies += [json.loads(r.ok.payload.to_bytes()) for r in got if r.ok]
+        assert [r.get("error") for r in replies] == [
+            "bad request: message is not UTF-8 text",
+            "bad request: message is not JSON: Expecting property name enclosed in double "
+            "quotes: line 1 column 2 (char 1)",
+            "bad request: request is not a JSON object",
+            "bad request: 'to' must be a str",
+            "unknown control verb 'frobnicate'",
+            "bad request: 'timeout' must be a number of seconds (0-3600)",
+            "bad request: missing 'class'",
+            "bad request: missing 'enabled'",
+            "bad request: message of 300000 bytes is over the 262144-byte cap",
+        ]
+    finally:
+        bus.close()
+    rows = json.loads(esair("ls", "--json", "-e", robot).stdout)
+    assert len(rows) == 10 and all(r["state"] in ("running", "ready") for r in rows)
+
+
+def test_no_runtime_is_a_clear_error():
+    ep = free_endpoint()
+    r = esair("ls", "-e", ep, check=False)
+    assert (r.returncode, r.stderr) == (
+        1, f"error: no ESAIR STD runtime answers on {ep} (is `esair std run` running?)\n")
+    r = esair("ls", "-e", "localhost", check=False)
+    assert (r.returncode, r.stderr) == (
+        1, "error: endpoint 'localhost' is not of the form tcp/HOST:PORT\n")
+
+
+def test_cli_controls_a_running_robot(robot_mode):
+    ep, mode = robot_mode
+    rows = json.loads(esair("ls", "--json", "-e", ep).stdout)
+    names = [r["name"] for r in rows]
+    assert names == ["guard", "follow", "logger", "tuner", "keeper", "wave", "ticks", "arm",
+                     "bench.temp", "bench.fan"]
+    pids = {r["pid"] for r in rows}
+    assert len(pids) == (1 if mode == "thread" else 9)     # 5 components + 4 resource entries
+    wait_for(lambda: json.loads(esair("get", "logger", "-e", ep).stdout)["received"] > 0,
+             what="follow putting to logger")
+    assert esair("add", "spare", "lab:Logger", "-e", ep).stdout == "spare: running\n"
+    assert esair("put", "spare", '{"hi": 1}', "-e", ep).stdout == "delivered\n"
+    assert json.loads(esair("get", "spare", "-e", ep).stdout) == {
+        "received": 1, "last": {"from": "operator", "data": {"hi": 1}}}
+    assert esair("remove", "spare", "-e", ep).stdout == "spare: removed\n"
+    assert esair("configure", "arm", "speed", "8", "-e", ep).stdout == "8\n"
+    assert esair("reaction", "guard", "disable", "-e", ep).stdout == "guard: disabled\n"
+    assert esair("reaction", "guard", "enable", "-e", ep).stdout == "guard: enabled\n"
+    info = json.loads(esair("inspect", "wave", "-e", ep).stdout)
+    assert info["kind"] == "sensor" and info["counters"]["reported"] > 0
+    assert esair("add-resource", "spare_ticks", "esair_std.drivers.sim:Counter",
+                 "--allow", "*=read", "-o", "rate_hz=5", "-e", ep).stdout == (
+        "spare_ticks: sensor ready\n")
+    assert esair("remove-resource", "wave", "-e", ep).stdout == (
+        "wave: removed (detached: follow)\n")
+    assert json.loads(esair("ls", "--json", "-e", ep).stdout)[1]["state"] == "running"
+    top = esair("top", "--count", "1", "--interval", "0.2", "-e", ep).stdout
+    assert "follow" in top and "spare_ticks" in top
