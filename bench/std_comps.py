@@ -1,0 +1,100 @@
+"""Components of bench/std.py (imported by the runtime and by agent processes)."""
+
+from __future__ import annotations
+
+import os
+import time
+
+from esair_std import Behavior, Sensor
+
+
+def _pcts(xs: list[float]) -> dict:
+    xs = sorted(xs)
+    if not xs:
+        return {"n": 0}
+    return {"n": len(xs), "p50": xs[len(xs) // 2], "p99": xs[min(len(xs) - 1, int(len(xs) * 0.99))],
+            "max": xs[-1]}
+
+
+class Ticker(Sensor):
+    """Reports its own count at ``rate_hz``."""
+
+    def open(self):
+        self.n = 0
+
+    def read(self):
+        self.n += 1
+        return self.n
+
+
+class Echo(Behavior):
+    def start(self):
+        self.got = 0
+
+    def receive(self, sender, data):
+        self.got += 1
+
+    def provide(self, requester):
+        return self.got
+
+
+class Pinger(Behavior):
+    """run(): ``n`` puts and ``n`` gets to 'echo', timed (seconds); provide() the figures."""
+
+    def run(self):
+        n = int(self.options.get("n", 2000))
+        puts, gets, failed = [], [], 0
+        for i in range(n):
+            t = time.perf_counter()
+            ok = self.put("echo", {"i": i}, timeout=1.0)
+            puts.append(time.perf_counter() - t)
+            failed += not ok
+        for _ in range(n):
+            t = time.perf_counter()
+            v = self.get("echo", timeout=1.0)
+            gets.append(time.perf_counter() - t)
+            failed += v is None
+        self.result = {"put": _pcts(puts), "get": _pcts(gets), "failed": failed}
+
+    def provide(self, requester):
+        return getattr(self, "result", None)
+
+
+class Latency(Behavior):
+    """Attaches to options['sensor']; polls every ``period`` and keeps sample ages
+    (arrival seen in step - sample.t), every seq seen, and when the first came."""
+
+    period = 0.001
+
+    def start(self):
+        self.h = self.attach_sensor(self.options.get("sensor", "tick"),
+                                    keep=int(self.options.get("keep", 4096)))
+        self.ages = []
+        self.seqs = []
+        self.first = None
+        self.slow = float(self.options.get("slow", 0))
+
+    def step(self):
+        if self.slow:
+            time.sleep(self.slow)
+        now = time.time()
+        got = self.h.samples()
+        if got and self.first is None:
+            self.first = now
+        for s in got:
+            self.ages.append(now - s.t)
+            self.seqs.append(s.seq)
+
+    def provide(self, requester):
+        s = self.seqs
+        return {"ages": _pcts(self.ages[50:]), "n": len(s), "first_seq": s[0] if s else None,
+                "last_seq": s[-1] if s else None,
+                "gaps": sum(1 for a, b in zip(s, s[1:]) if b != a + 1),
+                "overwritten": self.h.overwritten, "first_t": self.first, "pid": os.getpid()}
+
+
+class Idle(Behavior):
+    period = 0.1
+
+    def step(self):
+        pass
