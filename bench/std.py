@@ -102,6 +102,8 @@ s = open_session(listen=[sys.argv[1]])
 q = s.declare_queryable("bench/echo", lambda query: (query.reply(query.key_expr, query.payload), query.drop()))
 print("ready", flush=True)
 sys.stdin.read()
+import os
+os._exit(0)
 """
 
 
@@ -191,7 +193,7 @@ def sigkill(times: int) -> tuple[list[float], list[float]]:
             while host.phase != "failed":
                 time.sleep(0.0002)
             failed.append(time.perf_counter() - t0)
-            while not (rec.generation > gen and rec.host.phase == "running"):
+            while not (rec.generation > gen and getattr(rec.host, "phase", "") == "running"):
                 time.sleep(0.0005)
             restarted.append(time.perf_counter() - t0)
             time.sleep(0.2)

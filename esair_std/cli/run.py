@@ -10,7 +10,7 @@ import threading
 
 import click
 
-from ..examples import resolve_deployment
+from ..deploy.bundled import resolve_deployment
 from . import friendly
 
 

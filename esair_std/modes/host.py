@@ -277,11 +277,13 @@ class ComponentHost:
             self.obj.start()
             if self._stop.is_set():
                 return
+            runs = (self.period is None and isinstance(self.obj, Behavior)
+                    and type(self.obj).run is not Behavior.run)
+            self.busy = runs               # busy from the moment it is seen running
             self._set_phase("running")
             self.started.set()
             if self.period is None:
-                if isinstance(self.obj, Behavior) and type(self.obj).run is not Behavior.run:
-                    self.busy = True
+                if runs:
                     try:
                         self.obj.run()
                     finally:
