@@ -107,6 +107,56 @@ os._exit(0)
 """
 
 
+ZENOH_RELAY = """
+import queue, sys, threading
+from esair_std.transport.session import open_session
+s = open_session(listen=[sys.argv[1]], connect=[sys.argv[2]])
+q = queue.Queue()
+def work():
+    while True:
+        query = q.get()
+        replies = list(s.get("bench/echo", payload=query.payload.to_bytes(), timeout=1.0))
+        query.reply(query.key_expr, replies[0].ok.payload.to_bytes())
+        query.drop()
+threading.Thread(target=work, daemon=True).start()
+r = s.declare_queryable("bench/relay", q.put)
+print("ready", flush=True)
+sys.stdin.read()
+import os
+os._exit(0)
+"""
+
+
+def zenoh_relay_round_trip(n: int) -> float:
+    """The mediation's floor: A gets from R, whose worker thread gets from E first."""
+    from esair_std.transport.session import open_session
+    e_ep, r_ep = free_endpoint(), free_endpoint()
+    echo = subprocess.Popen([sys.executable, "-c", ZENOH_SERVER, e_ep], stdin=subprocess.PIPE,
+                            stdout=subprocess.PIPE, text=True, cwd=ROOT)
+    relay = None
+    try:
+        echo.stdout.readline()
+        relay = subprocess.Popen([sys.executable, "-c", ZENOH_RELAY, r_ep, e_ep],
+                                 stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
+                                 cwd=ROOT)
+        relay.stdout.readline()
+        s = open_session(connect=[r_ep])
+        payload = json.dumps({"from": "pinger", "to": "echo", "data": {"i": 0}}).encode()
+        wait(lambda: list(s.get("bench/relay", payload=payload, timeout=1.0)))
+        times = []
+        for _ in range(n):
+            t0 = time.perf_counter()
+            list(s.get("bench/relay", payload=payload, timeout=1.0))
+            times.append(time.perf_counter() - t0)
+        s.close()
+        return pct(times, 0.5)
+    finally:
+        for p in (relay, echo):
+            if p is not None:
+                p.stdin.close()
+                p.wait(5)
+
+
 def zenoh_get_round_trip(n: int) -> float:
     from esair_std.transport.session import open_session
     ep = free_endpoint()
@@ -268,6 +318,9 @@ def main() -> None:
         f"{p['put']['p50']*1e6:.0f} us / {z*1e6:.0f} us = {r:.2f}x", "<= 2.5x", r <= 2.5)
     row("process: get p50", f"{p['get']['p50']*1e6:.0f} us = {p['get']['p50']/z:.2f}x zenoh",
         "(no goal)", None)
+    relay = zenoh_relay_round_trip(n // 2)
+    row("  reference: raw zenoh get through a relay", f"{relay*1e6:.0f} us = {relay/z:.2f}x "
+        "zenoh", "(the BS's floor)", None)
 
     secs = 4.0 if a.quick else 10.0
     for mode, goal in (("thread", 3e-3), ("process", 10e-3)):

@@ -7,6 +7,7 @@ import os
 import signal
 import sys
 import threading
+from typing import Any
 
 import click
 
@@ -23,6 +24,24 @@ def _table(rows: list[dict], cols: list[str]) -> str:
     return "\n".join(line.rstrip() for line in out)
 
 
+def _with_port(path: Any, port: str) -> Any:
+    """The deployment with ``port`` set on every resource that has a ``port`` option."""
+    import yaml
+
+    from ..deploy import load_deployment
+    try:
+        raw = yaml.safe_load(open(path))
+    except (OSError, yaml.YAMLError):
+        return path                      # loading it reports the error at file:line:col
+    if not isinstance(raw, dict):
+        return path
+    for entry in (raw.get("resources") or {}).values():
+        if isinstance(entry, dict) and "port" in entry:
+            entry["port"] = port
+            entry.pop("emulate", None)
+    return load_deployment(raw, base_dir=os.path.dirname(os.path.abspath(path)))
+
+
 SUMMARY_COLS = ["name", "kind", "state", "samples", "overwritten", "puts_ok", "puts_failed",
                 "restarts"]
 
@@ -37,15 +56,20 @@ SUMMARY_COLS = ["name", "kind", "state", "samples", "overwritten", "puts_ok", "p
               help="Control endpoint to listen on (default: the file's).")
 @click.option("--no-control", is_flag=True,
               help="Thread mode: open no control endpoint (no network at all).")
+@click.option("--port", default=None, metavar="DEVICE",
+              help="Set the `port` option of every resource that has one (a serial device, "
+                   "a pty, an esair:// URL), e.g. the real robot's /dev/ttyUSB0.")
 @friendly
 def run_cmd(deployment: str, mode: str | None, seconds: float | None, endpoint: str | None,
-            no_control: bool) -> None:
+            no_control: bool, port: str | None) -> None:
     """Deploy FILE (a deployment file, or a bundled example such as `lab`) and run it
     until Ctrl-C, or for --run SECONDS. Other terminals control it with `esair std ls`,
     `add`, `remove`, `put`, ... over the control endpoint."""
     from ..runtime import Runtime
 
-    path = resolve_deployment(deployment)
+    path: Any = resolve_deployment(deployment)
+    if port is not None:
+        path = _with_port(path, port)
     rt = Runtime(path, mode=mode, endpoint=endpoint,
                  control=None if not no_control else False)
     if rt.mode_name == "thread" and not no_control:

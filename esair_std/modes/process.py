@@ -131,6 +131,14 @@ class ProcessComponent(_Child):
         r = self.ask(self.key, {"op": "offer", "from": sender, "data": data}, 1.0)
         return r.get("ok", "gone") if isinstance(r, dict) else "gone"
 
+    def offer_async(self, sender: str, data: Any, done: Any) -> None:
+        """``offer`` without waiting: ``done(result)`` on a Zenoh thread."""
+        if self.phase in ("failed", "stopped"):
+            return done(self.phase)
+        self.bus.request_async(self.key, {"op": "offer", "from": sender, "data": data}, 1.0,
+                               lambda r: done(r.get("ok", "gone") if isinstance(r, dict)
+                                              else "gone"))
+
     def provide(self, requester: str, timeout: float) -> tuple:
         if self.phase in ("failed", "stopped"):
             return ("busy", self.phase)
