@@ -43,6 +43,14 @@ def _timeout(body: dict, default: float = 1.0) -> float:
     return float(t)
 
 
+def _valid_timeout(body: dict) -> bool:
+    try:
+        _timeout(body)
+    except ControlError:
+        return False
+    return True
+
+
 class ControlServer:
     def __init__(self, rt: Any):
         self.rt = rt
@@ -81,7 +89,7 @@ class ControlServer:
     def _enqueue(self, req: Request) -> None:
         b = req.body
         if (req.key.endswith("/ctl/put") and b is not None and isinstance(b.get("to"), str)
-                and isinstance(b.get("from", ""), str)):
+                and isinstance(b.get("from", ""), str) and _valid_timeout(b)):
             # fast path: the first offer straight from this callback, answered from the
             # reply's; a busy target goes on through a worker (retries until the timeout)
             def first(delivered: bool) -> None:
