@@ -599,24 +599,7 @@ def test_harness_rx_is_verbatim():
     assert tx(lines)[-1] == b"E03 bad argument\r\n"      # "x #" is 3 chars
 
 
-@pytest.mark.parametrize("script, message", [
-    ("boot\nfrobnicate\n", "s.txt:2:1: bad script line 'frobnicate' (boot, rx TEXT, "
-     "tick [N], sensor V..., fault DEVICE on|off, poke OFFSET BYTE, image PATH)"),
-    ("tick x\n", "s.txt:1:1: tick count 'x' is not a decimal number"),
-    ("tick -1\n", "s.txt:1:1: tick count -1 is negative"),
-    ("poke 10 1FF\n", "s.txt:1:1: poke 0x10 0x1ff is outside the 32768-byte EEPROM or a byte"),
-    ("poke zz 1\n", "s.txt:1:1: offset 'zz' is not a hex number"),
-    ("sensor 1 2000\n", "s.txt:1:1: reading 2000 is not a 10-bit value"),
-    ("fault motor on\n", "s.txt:1:1: no device 'motor' (actuator, sensor or eeprom)"),
-    ("\n\nrx a\\q\n", r"s.txt:3:1: unknown escape '\\q' (use \r \n \xHH \\)"),
-    ("rx \\x4\n", r"s.txt:1:1: unknown escape '\\x4' (use \r \n \xHH \\)"),
-    ("rx a\tb\n", r"s.txt:1:1: character '\t' in rx text (write it as \xHH)"),
-    ("image nowhere.hex\n", "s.txt:1:1: cannot read nowhere.hex: No such file or directory"),
-])
-def test_harness_script_errors(script, message):
-    with pytest.raises(ProtocolError) as e:
-        run_script(PAPAMAN, script, "s.txt")
-    assert str(e.value) == message
+# Bad scripts: tests/test_script.py (the same error on the Python and the C side).
 
 
 def test_harness_main(tmp_path, capsys):
@@ -626,7 +609,8 @@ def test_harness_main(tmp_path, capsys):
     out = capsys.readouterr().out.splitlines()
     assert out[0] == "# esair-trace 1" and out[-1] == "TX 4F4B0D0A"
     assert harness_main([str(ROOT / "boards" / "papaman"), str(tmp_path / "none.txt")]) == 1
-    assert capsys.readouterr().err == f"error: {tmp_path / 'none.txt'}: No such file or directory\n"
+    assert capsys.readouterr().err == (f"error: cannot read {tmp_path / 'none.txt'}: "
+                                       "No such file or directory\n")
     assert harness_main([]) == 2
 
 

@@ -304,7 +304,8 @@ def test_sensor_memory_stand_in_script(tipping_robot):
     assert lines[run + 1:run + 7] == ["PSA0.voltage = 5.0", "PSA1.voltage = 5.0",
                                       "PSA2.voltage = 0.0", "PSA0.voltage = 5.0",
                                       "PSA1.voltage = 0.0", "PSA2.voltage = 0.0"]
-    with pytest.raises(ProtocolError, match="stimulus line 1: reading 1024 is not a 10-bit"):
+    with pytest.raises(ProtocolError, match="stimulus line 1: reading '1024' is not a decimal "
+                                            "number from 0 to 1023"):
         build_script(tipping_robot, "sensor 1024\nboot\n", "fw.cod", "image.hex")
 
 

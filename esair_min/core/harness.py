@@ -16,8 +16,12 @@ from esair_min.core.central import CentralCore
 from esair_min.core.devices import Eeprom24, RegisterSlave, SimpleBus
 from esair_min.errors import EsairError, Mark, ProtocolError
 from esair_min.core.image import build_image, read_hex
-from esair_min.model.robot import Robot
+from esair_min.core.script import (BLANK, LineError, decimal, hexadecimal, line_text,
+                                   script_lines, unescape, words)
 from esair_min.core.trace import TraceWriter, TracingBus
+from esair_min.model.robot import Robot
+
+__all__ = ["Rig", "run_line", "run_script", "main", "unescape"]
 
 RX_BUFFER = 64   # bytes of the board's receive ring (as the PIC port's)
 GAP = 0x100      # ring mark: bytes were lost just before this one
@@ -107,66 +111,33 @@ class Rig:
         return dev
 
 
-def unescape(text: str) -> bytes:
-    r"""The bytes of an ``rx`` text: C escapes ``\r`` ``\n`` ``\xHH`` ``\\``."""
-    out = bytearray()
-    i = 0
-    while i < len(text):
-        c = text[i]
-        if c != "\\":
-            if not 0x20 <= ord(c) <= 0x7E:
-                raise ProtocolError(f"character {c!r} in rx text (write it as \\xHH)")
-            out.append(ord(c))
-            i += 1
-            continue
-        e = text[i + 1: i + 2]
-        if e == "r":
-            out.append(0x0D)
-        elif e == "n":
-            out.append(0x0A)
-        elif e == "\\":
-            out.append(0x5C)
-        elif e == "x" and _is_hex(text[i + 2: i + 4]):
-            out.append(int(text[i + 2: i + 4], 16))
-            i += 2
-        else:
-            raise ProtocolError(f"unknown escape {text[i:i + 4]!r} (use \\r \\n \\xHH \\\\)")
-        i += 2
-    return bytes(out)
+TICKS_MAX = 1_000_000      # `tick N`: at most this many ticks in one line
+READING_MAX = 1023         # a sensor reading is a 10-bit value
+COMMANDS = ("boot, rx TEXT, tick [N], sensor V..., fault DEVICE on|off, poke OFFSET BYTE, "
+            "image PATH")
 
 
-def _is_hex(s: str) -> bool:
-    return len(s) == 2 and all(c in "0123456789abcdefABCDEF" for c in s)
-
-
-def _int(word: str, base: int, what: str) -> int:
-    try:
-        return int(word, base)
-    except ValueError:
-        raise ProtocolError(f"{what} {word!r} is not a {'hex' if base == 16 else 'decimal'} "
-                            f"number") from None
-
-
-def run_line(rig: Rig, line: str, base: Path) -> None:
-    """One script line (comments and blank lines already removed for non-rx lines)."""
-    if line == "rx" or line.startswith("rx "):
-        rig.rx(unescape(line[3:]))
+def run_line(rig: Rig, text: str, base: str = "") -> None:
+    """One script line's text (line end removed, checked by ``line_text``); ``base``:
+    the script's folder with its trailing ``/`` (or ""), for ``image``."""
+    body = text.lstrip(BLANK)
+    if not body or body.startswith("#"):
         return
-    words = line.split("#", 1)[0].split()
-    if not words:
+    if body == "rx" or body.startswith("rx "):
+        rig.rx(unescape(body[3:], len(text) - len(body) + 4))
         return
-    cmd, args = words[0], words[1:]
+    command = body.split("#", 1)[0].rstrip(BLANK)
+    cmd, *args = words(command)
     if cmd == "boot" and not args:
         rig.boot()
     elif cmd == "tick" and len(args) <= 1:
-        n = _int(args[0], 10, "tick count") if args else 1
-        if n < 0:
-            raise ProtocolError(f"tick count {n} is negative")
-        rig.tick(n)
+        rig.tick(decimal(args[0], "tick count", TICKS_MAX) if args else 1)
     elif cmd == "sensor" and args:
         dev = rig.device("sensor")
         assert isinstance(dev, RegisterSlave)
-        dev.set_readings([_int(a, 10, "reading") for a in args])
+        if 2 * len(args) > len(dev.registers):
+            raise LineError(f"{len(args)} readings for {len(dev.registers) // 2} sensors")
+        dev.set_readings([decimal(a, "reading", READING_MAX) for a in args])
     elif cmd == "fault" and len(args) == 2 and args[0] in BUS_LINES and args[1] in ("on", "off"):
         if args[1] == "on":
             rig.lines.held.add(args[0])
@@ -177,29 +148,29 @@ def run_line(rig: Rig, line: str, base: Path) -> None:
     elif cmd == "poke" and len(args) == 2:
         dev = rig.device("eeprom")
         assert isinstance(dev, Eeprom24)
-        dev.poke(_int(args[0], 16, "offset"), _int(args[1], 16, "byte"))
+        dev.poke(hexadecimal(args[0], "poke offset", dev.size - 1),
+                 hexadecimal(args[1], "poke byte", 0xFF))
     elif cmd == "image" and len(args) == 1:
         dev = rig.device("eeprom")
         assert isinstance(dev, Eeprom24)
-        path = Path(args[0]) if Path(args[0]).is_absolute() else base / args[0]
-        dev.load(read_hex(path, dev.size))
+        dev.load(read_hex(args[0] if args[0].startswith("/") else base + args[0], dev.size))
     else:
-        raise ProtocolError(f"bad script line {line!r} (boot, rx TEXT, tick [N], "
-                            f"sensor V..., fault DEVICE on|off, poke OFFSET BYTE, image PATH)")
+        raise LineError(f"bad script line '{command}' ({COMMANDS})")
 
 
-def run_script(robot: Robot, script: str, path: str = "<script>",
+def run_script(robot: Robot, script: str | bytes, path: str = "<script>",
                stream: TextIO | None = None) -> list[str]:
-    """Run a stimulus script; the trace lines. Errors name the script line."""
+    """Run a stimulus script (text, or the bytes of a file) line by line; the trace
+    lines. An error names the script's path, line and column; the trace of the lines
+    before it is written to ``stream`` already, as the host C port does."""
+    data = script.encode("utf-8") if isinstance(script, str) else script
     rig = Rig(robot, stream)
-    base = Path(path).parent
-    for number, raw in enumerate(script.splitlines(), start=1):
-        line = raw.rstrip("\r\n")
-        stripped = line.strip()
-        if not stripped or stripped.startswith("#"):
-            continue
+    base = path[:path.rfind("/") + 1]
+    for number, raw in script_lines(data):
         try:
-            run_line(rig, line.lstrip() if stripped.startswith("rx") else stripped, base)
+            run_line(rig, line_text(raw), base)
+        except LineError as exc:
+            raise ProtocolError(exc.message, Mark(path, number, exc.column)) from None
         except EsairError as exc:
             raise ProtocolError(exc.message, Mark(path, number, 1)) from None
     rig.writer.close()
@@ -216,13 +187,14 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     try:
         robot = load_robot(resolve_robot(args[0]))
-        script = Path(args[1]).read_text(encoding="utf-8")
-        run_script(robot, script, args[1], sys.stdout)
+        try:
+            data = Path(args[1]).read_bytes()
+        except OSError as exc:
+            raise ProtocolError(f"cannot read {args[1]}: {exc.strerror}") from None
+        run_script(robot, data, args[1], sys.stdout)
     except EsairError as exc:
+        sys.stdout.flush()
         print(f"error: {exc}", file=sys.stderr)
-        return 1
-    except OSError as exc:
-        print(f"error: {args[1]}: {exc.strerror}", file=sys.stderr)
         return 1
     return 0
 

@@ -7,6 +7,7 @@ and checks the bytes.
 from __future__ import annotations
 
 import binascii
+import io
 import struct
 from dataclasses import dataclass
 from pathlib import Path
@@ -202,11 +203,13 @@ def read_hex(path: Path | str, size: int) -> bytes:
     """The ``size`` bytes of EEPROM an Intel HEX file describes (blank bytes 0xFF)."""
     from intelhex import HexReaderError, IntelHex
 
-    ih = IntelHex()
     try:
-        ih.loadhex(str(path))
+        data = Path(path).read_bytes()
     except OSError as exc:
         raise ImageError(f"cannot read {path}: {exc.strerror}") from None
+    ih = IntelHex()
+    try:     # any byte is one character (latin-1); lines end at CR, LF or CRLF
+        ih.loadhex(io.StringIO(data.decode("latin-1"), newline=None))
     except HexReaderError as exc:
         raise ImageError(f"{path}: not a valid Intel HEX file ({exc})") from None
     if len(ih) and ih.maxaddr() >= size:

@@ -36,7 +36,9 @@ from pathlib import Path
 from esair_min.errors import ProtocolError
 from esair_min.pic.gpsim_wave import I2cTransfer, decode_i2c, read_edges, read_register_log
 from esair_min.core.devices import RegisterSlave
-from esair_min.core.harness import unescape
+from esair_min.core.harness import READING_MAX, TICKS_MAX
+from esair_min.core.script import (BLANK, decimal, hexadecimal, line_text, script_lines,
+                                   unescape, words)
 from esair_min.core.image import build_image, write_hex
 from esair_min.model.robot import Robot
 from esair_min.pic.toolchain import Toolchain, ToolchainError, run_gpsim
@@ -45,6 +47,7 @@ BOOT_LEAD = 0.125          # of a tick: where the boot wait (and so every tick N
 HOLD_PULLUPS = {"bus": "PSCL", "sda": "PSDA"}   # `fault bus|sda on`: this pull-up at 0 V
 SSPEN = 0x20               # SSPCON1: the MSSP on
 TXIE = 0x10                # PIE1: the transmit interrupt on
+E24XX256_BYTES = 32768     # the motion EEPROM stand-in's size
 UNUSED_ADDRESS = 0x7F      # an i2c2par moved here stops answering (fault on)
 NO_WRITE_NACK = ("gpsim 0.31's MSSP master keeps driving SDA with the last bit of a byte "
                  "during the ACK clock, so a missing device is seen as ACKing every byte "
@@ -241,12 +244,13 @@ def _build(robot: Robot, stimulus: str, cod_name: str, image_name: str,
     s = GpsimSetup.from_robot(robot)
     sc = _Script(s, boot_end)
     sc.lines += setup_lines(s, cod_name, image_name)
-    for number, raw in enumerate(stimulus.splitlines(), start=1):
-        stripped = raw.strip()
-        if not stripped or stripped.startswith("#"):
-            continue
-        try:
-            _stimulus_line(sc, stripped if not stripped.startswith("rx") else raw.lstrip())
+    for number, raw in script_lines(stimulus.encode("utf-8")):
+        try:        # read as the Python harness and the host C port read it
+            text = line_text(raw)
+            stripped = text.strip(BLANK)
+            if not stripped or stripped.startswith("#"):
+                continue
+            _stimulus_line(sc, stripped if not stripped.startswith("rx") else text.lstrip(BLANK))
         except ProtocolError as exc:
             raise ProtocolError(f"stimulus line {number}: {exc.message}") from None
         if stripped == "boot":
@@ -331,8 +335,7 @@ def _stimulus_line(sc: _Script, line: str) -> None:
             raise ProtocolError("rx before boot")
         L += [f"U1.tx = {b:#04x}" for b in unescape(line[3:])]
         return
-    words = line.split("#", 1)[0].split()
-    cmd, args = words[0], words[1:]
+    cmd, *args = words(line.split("#", 1)[0])
     if cmd == "boot" and not args:
         if sc.booted:
             raise ProtocolError("a second boot is not supported in gpsim")
@@ -344,17 +347,19 @@ def _stimulus_line(sc: _Script, line: str) -> None:
         sc.booted = True
         sc.run_to(sc.boot_end)
     elif cmd == "tick" and len(args) <= 1:
-        n = int(args[0]) if args else 1
+        n = decimal(args[0], "tick count", TICKS_MAX) if args else 1
         sc.run_to(sc.now + n * s.tick_cycles)
     elif cmd == "sensor" and args and s.sensor_is_memory:
-        L += _sensor_bytes(s, [int(a) for a in args])
-        sc.set_readings([int(a) for a in args])
+        readings = [decimal(a, "reading", READING_MAX) for a in args]
+        L += _sensor_bytes(s, readings)
+        sc.set_readings(readings)
     elif cmd == "sensor" and args:
-        values = {int(a) for a in args}
+        readings = [decimal(a, "reading", READING_MAX) for a in args]
+        values = set(readings)
         if len(values) != 1:
             raise ProtocolError("gpsim's sensor stand-in returns one byte for every "
                                 "register: all readings must be equal")
-        sc.set_readings([int(a) for a in args])
+        sc.set_readings(readings)
         L += _sensor_levels(_pin_levels(values.pop()))
     elif cmd == "fault" and len(args) == 2 and args[0] == "sensor" and args[1] in ("on", "off"):
         name, addr = stand_ins[args[0]]
@@ -368,7 +373,8 @@ def _stimulus_line(sc: _Script, line: str) -> None:
     elif cmd == "fault" and len(args) == 2 and args[0] in HOLD_PULLUPS and args[1] in ("on", "off"):
         sc.hold(args[0], args[1] == "on")
     elif cmd == "poke" and len(args) == 2:
-        L.append(f"EE.eeData[{int(args[0], 16):#x}] = {int(args[1], 16):#04x}")
+        offset = hexadecimal(args[0], "poke offset", E24XX256_BYTES - 1)
+        L.append(f"EE.eeData[{offset:#x}] = {hexadecimal(args[1], 'poke byte', 0xFF):#04x}")
     elif cmd == "fault":
         raise ProtocolError(f"{line!r}: only 'fault sensor', 'fault bus' and 'fault sda' "
                             "work in gpsim; " + NO_WRITE_NACK)
