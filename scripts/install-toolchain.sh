@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Idempotent installer for the ESAIR MIN PIC18F452 toolchain (issue 6).
 #
-#   * Debian packages: gputils, gpsim (+ build deps when SDCC has to be built);
+#   * Debian packages: gputils, gpsim, tmux (the live view's tests) (+ build deps when SDCC has to be built);
 #     iproute2 for the STD network-namespace tests (tests/netns.py, issue 12)
 #   * SDCC 4.2.0+dfsg built from Debian's *source* package, pic16 port only
 #   * device support generated from gputils' p18f452.inc:
@@ -20,7 +20,7 @@ BUILD_DIR="${ESAIR_BUILD_DIR:-/var/tmp/esair-toolchain-build}"
 JOBS="${ESAIR_JOBS:-$(nproc)}"
 SCRIPT_DIR="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 SDCC_UPSTREAM="4.2.0+dfsg"
-RUNTIME_PKGS="gputils gpsim iproute2"
+RUNTIME_PKGS="gputils gpsim iproute2 tmux"
 BUILD_PKGS="bison flex libboost-dev zlib1g-dev make g++ gcc dpkg-dev"
 DISABLED_PORTS="mcs51 z80 z180 r2k r2ka r3ka sm83 tlcs90 ez80_z80 z80n ds390 ds400 pic14 hc08 s08 stm8 pdk13 pdk14 pdk15 mos6502"
 

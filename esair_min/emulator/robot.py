@@ -38,6 +38,7 @@ from esair_min.emulator.clock import NS_PER_S, VirtualClock, seconds_to_ns
 from esair_min.emulator.faults import Faults, corrupt
 from esair_min.emulator.i2c import TimedBus
 from esair_min.emulator.scenario import Scenario, load_scenario, quiet, resolve_scenario
+from esair_min.emulator.transcript import Transcript
 from esair_min.emulator.uart import GAP, RX_BYTE, RX_HOLD, RX_TAKE, Uart
 
 HISTORY = 20     # lines kept in each of the state views
@@ -158,7 +159,9 @@ class Emulator:
         self.commands = _Lines(HISTORY)      # lines the host sent
         self.replies = _Lines(HISTORY)       # lines the board sent (notices included)
         self.errors: deque[str] = deque(maxlen=HISTORY)
+        self.transcript = Transcript(2 * HISTORY, GAP)   # each line the decoder got, its reply
         self.on_line: Callable[[str], None] | None = None
+        self.on_tick: Callable[[], None] | None = None   # after each tick's sync edge
 
         # -- scenario
         sensors = robot.sensors
@@ -177,7 +180,7 @@ class Emulator:
         # -- the central board
         self.core = CentralCore(robot, core_bus, self._send)
         self.uart = Uart(self.clock, central.uart.baud, self._feed,
-                         rx_mode=self._rx_mode, direct=self.core.rx_run)
+                         rx_mode=self._rx_mode, direct=self._rx_direct)
         self.ticks = 0
         self._feed_pending = False
         self.clock.schedule(self._tick_time(1), self._tick)
@@ -312,6 +315,7 @@ class Emulator:
             self.trace.tx(data)
         self.bus.hold(self.uart.board_send(data, at))   # the superloop waits for room
         for line in self.replies.feed(data):
+            self.transcript.board_line(line)
             if line.startswith("E") or line.startswith("!E"):
                 self.errors.append(line)
             if self.on_line is not None:
@@ -327,6 +331,8 @@ class Emulator:
         self.core.tick()
         if self.actuator is not None:
             self.actuator.sync()        # the falling edge, after the tick's writes
+        if self.on_tick is not None:
+            self.on_tick()
         self._feed()
 
     def _rx_mode(self) -> int:
@@ -336,6 +342,11 @@ class Emulator:
         if self.bus.busy_until > self.clock.now:
             return RX_HOLD if self._feed_pending else RX_BYTE
         return RX_TAKE
+
+    def _rx_direct(self, data: bytes) -> None:
+        """A run of bytes straight to the decoder (the UART's fast path)."""
+        self.transcript.rx(data)
+        self.core.rx_run(data)
 
     def _feed_event(self) -> None:
         self._feed_pending = False
@@ -347,7 +358,7 @@ class Emulator:
         if not ring:
             return
         core, clock, bus = self.core, self.clock, self.bus
-        ready, feed = core.ready, core.rx_byte
+        ready, feed, seen = core.ready, core.rx_byte, self.transcript.rx_byte
         while ring and ready():
             if bus.busy_until > clock.now:
                 if not self._feed_pending:
@@ -355,6 +366,7 @@ class Emulator:
                     clock.schedule(bus.busy_until, self._feed_event)
                 return
             b = ring.popleft()
+            seen(b)
             if b & GAP:                 # bytes were lost right before this one
                 core.rx_overrun()
             feed(b & 0xFF)
