@@ -10,11 +10,13 @@ overrun, the row shows the damaged line (``⋯`` where bytes are missing) next t
 
 from __future__ import annotations
 
+import re
 from collections import deque
 from dataclasses import dataclass
 
 GAP_MARK = "⋯"          # where bytes were lost in the line
 MAX_KEEP = 80            # characters of a line kept for display
+_LINE_END = re.compile(rb"[\r\n]")
 
 
 @dataclass
@@ -42,9 +44,17 @@ class Transcript:
 
     # -- what the decoder receives ---------------------------------------------------
     def rx(self, data: bytes) -> None:
-        """Bytes fed to the decoder back to back."""
-        for b in data:
-            self.rx_byte(b)
+        """Bytes fed to the decoder back to back (no gap flags: a run of whole bytes)."""
+        parts = _LINE_END.split(data)
+        self._keep(parts[0])
+        for part in parts[1:]:
+            self._end()
+            self._keep(part)
+
+    def _keep(self, part: bytes) -> None:
+        room = MAX_KEEP - len(self._buf)
+        if part and room > 0:
+            self._buf += part[:room]
 
     def rx_byte(self, b: int) -> None:
         """One byte fed to the decoder (with the ring's gap flag, if bytes were lost
