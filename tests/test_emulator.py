@@ -316,16 +316,19 @@ def test_bytes_sent_during_the_boot_image_check_overrun_the_ring(robot):
 def test_live_view_shows_servos_sensors_lines_and_errors(robot):
     from rich.console import Console
 
-    from esair_min.emulator.liveview import render
+    from esair_min.emulator.liveview import Motion, render
+    from esair_min.emulator.ptyserver import PtyPort
 
     emu = booted(robot, scenario="push")
+    motion = Motion(emu)
     emu.command("oaf120")
     emu.command("zz")
     emu.run_for(1.2)
     console = Console(record=True, width=140, color_system=None)
-    console.print(render(emu, "/dev/pts/9"))
+    console.print(render(emu, motion, PtyPort("/dev/pts/9"), 140, 40))
     text = console.export_text()
     assert "papaman /dev/pts/9" in text and "tick " in text
+    assert "  oaf120 → OK" in text and "  zz     → E01 unknown command" in text
     assert "l_hip_yaw" in text and "r_ankle_roll" in text          # servos
     assert "l_toe_in" in text and "680" in text                    # sensors, pushed
     assert "oaf120" in text and "E01 unknown command" in text      # lines
