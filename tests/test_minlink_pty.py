@@ -55,7 +55,7 @@ def test_robot_pulled_mid_motion_and_plugged_back(tmp_path, robot):
                 link.stand()
             assert str(exc.value).startswith(f"link to {port} is down (")
             assert str(exc.value).endswith("): 't' not sent")
-            assert states[0][0] is False
+            assert _wait(lambda: states, 3) and states[0][0] is False   # reported after .up drops
             # reconnect attempts fail while the robot is away
             assert _wait(lambda: "reconnecting: cannot open" in link.reason, 5), link.reason
             assert not link.up
