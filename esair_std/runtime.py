@@ -237,7 +237,8 @@ class Runtime:
             rows.append(dict(name=row["name"], kind=row["kind"], state=row["state"],
                              samples=recv if row["kind"] in ("behavior", "reaction")
                              else c.get("reported", 0),
-                             overwritten=over, puts_ok=c.get("puts_ok", 0),
+                             overwritten=over, commands=c.get("commands", 0),
+                             puts_ok=c.get("puts_ok", 0),
                              puts_failed=c.get("puts_failed", 0),
                              restarts=row.get("restarts", 0)))
         return rows

@@ -7,6 +7,7 @@ import os
 import signal
 import sys
 import threading
+import time
 from typing import Any
 
 import click
@@ -42,8 +43,32 @@ def _with_port(path: Any, port: str) -> Any:
     return load_deployment(raw, base_dir=os.path.dirname(os.path.abspath(path)))
 
 
-SUMMARY_COLS = ["name", "kind", "state", "samples", "overwritten", "puts_ok", "puts_failed",
-                "restarts"]
+class _Local:
+    """The runtime seen through the control client's one method (for the live table)."""
+
+    def __init__(self, rt: Any):
+        self.rt = rt
+        self.robot = rt.robot
+
+    def call(self, verb: str, body: dict | None = None) -> Any:
+        return self.rt.ls() if verb == "ls" else self.rt.inspect((body or {})["name"])
+
+
+def _live(rt: Any, stop: threading.Event, seconds: float | None) -> None:
+    from rich.live import Live
+
+    from .top import render, snapshot
+    local, before = _Local(rt), {}
+    end = None if seconds is None else time.monotonic() + seconds
+    with Live(render(snapshot(local), before, rt.robot), auto_refresh=False) as live:
+        while not stop.wait(1.0):
+            live.update(render(snapshot(local), before, rt.robot), refresh=True)
+            if end is not None and time.monotonic() >= end:
+                break
+
+
+SUMMARY_COLS = ["name", "kind", "state", "samples", "overwritten", "commands", "puts_ok",
+                "puts_failed", "restarts"]
 
 
 @click.command("run")
@@ -59,9 +84,12 @@ SUMMARY_COLS = ["name", "kind", "state", "samples", "overwritten", "puts_ok", "p
 @click.option("--port", default=None, metavar="DEVICE",
               help="Set the `port` option of every resource that has one (a serial device, "
                    "a pty, an esair:// URL), e.g. the real robot's /dev/ttyUSB0.")
+@click.option("--top/--no-top", "top", default=None,
+              help="Show the live table of `esair std top` while running (default: when "
+                   "the output is a terminal and --run is not given).")
 @friendly
 def run_cmd(deployment: str, mode: str | None, seconds: float | None, endpoint: str | None,
-            no_control: bool, port: str | None) -> None:
+            no_control: bool, port: str | None, top: bool | None) -> None:
     """Deploy FILE (a deployment file, or a bundled example such as `lab`) and run it
     until Ctrl-C, or for --run SECONDS. Other terminals control it with `esair std ls`,
     `add`, `remove`, `put`, ... over the control endpoint."""
@@ -80,8 +108,13 @@ def run_cmd(deployment: str, mode: str | None, seconds: float | None, endpoint: 
         where = f", control endpoint {rt.endpoint}" if rt.control else ""
         click.echo(f"robot {rt.robot!r} running in {rt.mode_name} mode{where} "
                    f"({len(rt.ls())} components)", err=True)
+        if top is None:
+            top = seconds is None and sys.stdout.isatty()
         try:
-            stop.wait(seconds)
+            if top:
+                _live(rt, stop, seconds)
+            else:
+                stop.wait(seconds)
         except KeyboardInterrupt:
             pass
         if seconds is not None:

@@ -156,3 +156,33 @@ def test_cli_controls_a_running_robot(robot_mode):
     assert json.loads(esair("ls", "--json", "-e", ep).stdout)[1]["state"] == "running"
     top = esair("top", "--count", "1", "--interval", "0.2", "-e", ep).stdout
     assert "follow" in top and "spare_ticks" in top
+
+
+@pytest.mark.parametrize("mode", MODES)
+def test_run_headless_prints_a_summary(mode):
+    ep = free_endpoint()
+    r = esair("run", "lab", "--mode", mode, "--run", "1.5", "-e", ep)
+    lines = r.stdout.splitlines()
+    assert lines[0].split() == ["NAME", "KIND", "STATE", "SAMPLES", "OVERWRITTEN", "COMMANDS",
+                                "PUTS_OK", "PUTS_FAILED", "RESTARTS"]
+    rows = {line.split()[0]: line.split() for line in lines[1:]}
+    assert list(rows) == ["guard", "follow", "logger", "tuner", "keeper", "wave", "ticks",
+                          "arm", "bench.temp", "bench.fan"]
+    assert rows["wave"][2] == "ready" and int(rows["wave"][3]) > 0
+    assert rows["follow"][2] == "running" and int(rows["follow"][3]) > 0
+    assert int(rows["arm"][5]) > 0                       # commands the actuator carried out
+    assert r.stderr.startswith(f"robot 'lab' running in {mode} mode, control endpoint {ep}")
+    assert leftover(ep) == []
+
+
+def test_agents_leave_when_the_runtime_is_killed():
+    ep = free_endpoint()
+    proc = subprocess.Popen([sys.executable, "-m", "esair_min.cli", "std", "run", "lab",
+                             "--mode", "process", "-e", ep], cwd=HERE,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        wait_for(lambda: len(leftover(ep)) >= 10, timeout=60, what="the agents")
+    finally:
+        proc.kill()
+        proc.wait(10)
+    wait_for(lambda: leftover(ep) == [], timeout=30, what="every agent gone")
