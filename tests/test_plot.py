@@ -85,11 +85,6 @@ def test_plot_errors(robot, tmp_path, dance_trace):
     with pytest.raises(EsairError) as exc:
         plot_trace(robot, bad, tmp_path / "x.png")
     assert str(exc.value) == f"{bad}:3: malformed trace line: 'W zz 00 ACK'"
-    bad.write_text("# esair-trace 1\nT 1\nT 2\n")
-    with pytest.raises(EsairError) as exc:
-        plot_trace(robot, bad, tmp_path / "x.png")
-    assert str(exc.value) == (f"{bad}: no writes to the actuator board (address 0x10) in "
-                              "this trace")
     with pytest.raises(EsairError) as exc:
         plot_trace(robot, tmp_path / "none.txt", tmp_path / "x.png")
     assert str(exc.value) == f"cannot read the trace {tmp_path / 'none.txt'}: No such file or directory"
@@ -101,3 +96,83 @@ def test_plot_errors(robot, tmp_path, dance_trace):
     with pytest.raises(EsairError) as exc:
         plot_trace(alone, dance_trace, tmp_path / "x.png")
     assert str(exc.value) == "robot papaman has no actuator board to plot"
+
+
+def _figure(robot, trace, targets=False):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from esair_min.cli.plotdraw import draw
+
+    ev = read_trace(trace, 0x10, 0x20)
+    ticks, pos, tgt = replay(robot, ev)
+    return ev, draw(robot, ev, ticks, pos, tgt, robot.central.timer2.period_s, targets,
+                    Path(trace).name)
+
+
+@pytest.fixture(scope="module")
+def push_trace(robot, tmp_path_factory):
+    path = tmp_path_factory.mktemp("plot") / "push.txt"
+    with path.open("w") as f:
+        emu = Emulator(robot, scenario="push", trace=TraceWriter(f))
+        emu.settle()
+        emu.command("PLY03")
+        emu.run_for(2.5)
+        emu.close()
+    return path
+
+
+def test_one_panel_per_joint_the_feet_below_and_the_legend_outside(robot, push_trace):
+    import matplotlib.pyplot as plt
+
+    ev, fig = _figure(robot, push_trace, targets=True)
+    try:
+        axes = fig.get_axes()
+        titles = [ax.get_title(loc="left") for ax in axes]
+        assert titles[:12] == [s.name for s in robot.servos if s.name.startswith("l_")] + \
+            [s.name for s in robot.servos if s.name.startswith("r_")]
+        assert titles[12:] == ["foot sensors as the central board read them (ADC counts)",
+                               "what the balance reaction compares"]
+        assert len({ax.get_xlim() for ax in axes}) == 1          # one time axis for all
+        # the reaction fired and is marked on every panel, feet and balance included
+        assert ev.reactions and all(
+            sum(1 for l in ax.get_lines() if l.get_color() == "red") == len(ev.reactions)
+            for ax in axes)
+        # the feet: each group's sum as read; the push shows, the threshold is drawn
+        feet = axes[12].get_lines()
+        assert max(feet[0].get_ydata()) == 680 * 4 and min(feet[1].get_ydata()) == 340 * 4
+        assert any(list(l.get_ydata()) == [400, 400] for l in axes[13].get_lines())
+        # the figure legend stands above every panel: outside the data
+        fig.canvas.draw()
+        renderer = fig.canvas.get_renderer()
+        legend = fig.legends[0].get_window_extent(renderer)
+        assert all(legend.y0 >= ax.get_window_extent(renderer).y1 for ax in axes)
+        assert [t.get_text() for t in fig.legends[0].get_texts()] == [
+            "simulated position", "target", "reaction fired (auto_balance)"]
+    finally:
+        plt.close(fig)
+
+
+def test_an_idle_trace_is_drawn_flat_with_a_note(robot, tmp_path):
+    import matplotlib.pyplot as plt
+
+    idle = tmp_path / "idle.txt"
+    with idle.open("w") as f:
+        emu = Emulator(robot, trace=TraceWriter(f))
+        emu.run_for(0.5)
+        emu.close()
+    ev, fig = _figure(robot, idle)
+    try:
+        assert not ev.writes and ev.readings
+        assert fig._suptitle.get_text().endswith(
+            "no writes to the actuator board in this trace: the servos held the stand pose "
+            "throughout")
+        for ax, s in zip(fig.get_axes()[:12], sorted(robot.servos, key=lambda s: s.name[0])):
+            ys = set(ax.get_lines()[0].get_ydata())
+            assert len(ys) == 1                                    # flat
+    finally:
+        plt.close(fig)
+    out = tmp_path / "idle.png"
+    r = CliRunner().invoke(main, ["plot", str(idle), "-o", str(out)])
+    assert r.exit_code == 0, r.output
+    assert out.read_bytes()[:8] == PNG

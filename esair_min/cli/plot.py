@@ -7,6 +7,13 @@ the tick's writes, then moved by *speed* degrees per tick toward the target, 0 =
 once), exactly
 as the emulated actuator board moves. With ``targets=True`` the decoded targets are
 drawn too, as dashed steps. ``!R`` notices (reactions firing) are marked.
+
+Layout: one small panel per joint (left leg and right leg side by side), so curves
+that coincide never hide each other; below them, on the same time axis, the foot
+sensors as the central board read them (the ``R`` lines from the sensor board: each
+group's sum) and the difference a balance reaction compares with its threshold; the
+legend stands above the panels, outside the data. A trace without actuator writes is
+drawn too: flat at the stand pose, with a note saying so.
 """
 
 from __future__ import annotations
@@ -18,7 +25,6 @@ from esair_min.emulator.actuator import ServoBank, stand_registers
 from esair_min.errors import EsairError
 from esair_min.model.robot import Robot
 
-PANEL = 6     # servos per panel
 TAIL_TICKS = 100   # ticks plotted after the last event at most, while servos still move
 
 
@@ -27,9 +33,12 @@ class TraceEvents:
     last_tick: int = 0
     writes: dict[int, list[bytes]] = field(default_factory=dict)   # tick -> W payloads
     reactions: list[tuple[int, str]] = field(default_factory=list)  # (tick, name)
+    readings: list[tuple[int, tuple[int, ...]]] = field(default_factory=list)  # sensor reads
 
 
-def read_trace(path: Path | str, actuator: int) -> TraceEvents:
+def read_trace(path: Path | str, actuator: int, sensor: int | None = None) -> TraceEvents:
+    """The events of a trace file: actuator writes and (given the sensor board's
+    address) sensor readings by tick, and the reactions that fired."""
     try:
         text = Path(path).read_text(encoding="ascii", errors="replace")
     except OSError as exc:
@@ -50,6 +59,11 @@ def read_trace(path: Path | str, actuator: int) -> TraceEvents:
                 ev.last_tick = max(ev.last_tick, tick)
             elif parts[0] == "W" and int(parts[1], 16) == actuator and parts[-1] == "ACK":
                 ev.writes.setdefault(tick, []).append(bytes.fromhex(parts[2]))
+            elif (parts[0] == "R" and sensor is not None and int(parts[1], 16) == sensor
+                  and parts[4] != "NACK"):
+                data = bytes.fromhex(parts[4])
+                ev.readings.append((tick, tuple(int.from_bytes(data[i:i + 2], "little")
+                                                for i in range(0, len(data) - 1, 2))))
             elif parts[0] == "TX":
                 msg = bytes.fromhex(parts[1]).decode("latin-1").strip()
                 if msg.startswith("!R "):
@@ -97,45 +111,23 @@ def plot_trace(robot: Robot, trace: Path | str, out: Path | str, targets: bool =
     act = robot.peer("actuator")
     if act is None or not robot.servos:
         raise EsairError(f"robot {robot.name} has no actuator board to plot")
-    ev = read_trace(trace, act.address)
-    if not ev.writes:
-        raise EsairError(f"{trace}: no writes to the actuator board (address "
-                         f"0x{act.address:02X}) in this trace")
+    sen = robot.peer("sensor")
+    ev = read_trace(trace, act.address, sen.address if sen else None)
     ticks, pos, tgt = replay(robot, ev)
     period = robot.central.timer2.period_s if robot.central.timer2 else 0.0
-    t = [k * period for k in ticks]
 
     import matplotlib
 
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from esair_min.cli.plotdraw import draw
 
-    servos = robot.servos
-    panels = [list(range(i, min(i + PANEL, len(servos)))) for i in range(0, len(servos), PANEL)]
-    fig, axes = plt.subplots(len(panels), 1, figsize=(11, 3.2 * len(panels)), sharex=True,
-                             squeeze=False)
-    for ax, idx in zip(axes[:, 0], panels):
-        for i in idx:
-            line, = ax.plot(t, [p[i] for p in pos], label=servos[i].name, linewidth=1.4)
-            if targets:
-                ax.step(t, [g[i] for g in tgt], where="post", linestyle="--",
-                        linewidth=0.8, color=line.get_color())
-        for k, name in ev.reactions:
-            ax.axvline(k * period, color="red", linewidth=0.8, linestyle=":")
-        ax.set_ylabel("angle (°)")
-        ax.grid(True, alpha=0.3)
-        ax.legend(loc="upper right", fontsize=7, ncol=2)
-    what = "simulated positions" + (" and targets (dashed)" if targets else "")
-    title = f"{robot.name}: servo {what} from {Path(trace).name}"
-    if ev.reactions:
-        title += f"  (red: reaction {ev.reactions[0][1]} fired)"
-    axes[0, 0].set_title(title, fontsize=10)
-    axes[-1, 0].set_xlabel(f"time (s), tick × {period * 1e3:.4g} ms")
-    fig.tight_layout()
+    fig = draw(robot, ev, ticks, pos, tgt, period, targets, Path(trace).name)
     try:
-        fig.savefig(out, dpi=110)
+        fig.savefig(out, dpi=100)
     except OSError as exc:
         raise EsairError(f"cannot write {out}: {exc.strerror}") from None
     finally:
+        import matplotlib.pyplot as plt
+
         plt.close(fig)
     return len(ticks)
