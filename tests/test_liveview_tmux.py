@@ -71,8 +71,10 @@ def tmux(request):
 def clean(text: str, width: int) -> bool:
     """One whole view drawn for ``width`` columns (not a copy made for another size)."""
     rows = text.splitlines()
-    return (bool(rows) and rows[0].startswith("papaman /dev/pts/") and "errors:" in text
-            and text.count("papaman /dev/pts/") == 1 and all(len(r) <= width for r in rows))
+    return (len(rows) > 2 and rows[0].startswith("papaman /dev/pts/") and "errors:" in text
+            and text.count("papaman /dev/pts/") == 1 and all(len(r) <= width for r in rows)
+            # the second servo column starts where a frame for this width puts it
+            and rows[2].find("│ servo") == (width - 3) // 2 + 1)
 
 
 def send(port: str, *lines: str) -> list[str]:
@@ -127,9 +129,9 @@ def test_no_stale_screen_after_resizing(tmux):
     for width, height in ((100, 30), (70, 22), (120, 40)):
         tmux("resize-window", "-t", "v", "-x", str(width), "-y", str(height))
 
-        tmux.wait(lambda t, w=width: clean(t, w) and any(len(r) > 60 for r in t.splitlines()),
-                  f"one clean view at {width}x{height}")
+        tmux.wait(lambda t, w=width: clean(t, w), f"one clean view at {width}x{height}")
     everything = tmux.screen(history=True)              # what scrolled away included
+    assert clean(everything.rstrip("\n"), 120)          # nothing left of other sizes
     assert everything.count("papaman /dev/pts/") == 1, everything
     assert everything.count("serial line:") == 1
     assert len(re.findall(r"^servo ", everything, re.M)) == 1

@@ -12,6 +12,7 @@ decoder received it with its own reply; ``!`` notices are rows of their own.
 from __future__ import annotations
 
 import os
+import signal
 import sys
 import time
 from collections import deque
@@ -217,6 +218,8 @@ class LiveView:
         self.motion = Motion(emu)
         self.period = 1.0 / hz
         self._next = 0.0
+        self._resize = False
+        self._old_winch = None
         self.console = Console()
         self.live = Live(console=self.console, screen=True, auto_refresh=False,
                          redirect_stdout=False, redirect_stderr=False)
@@ -234,14 +237,25 @@ class LiveView:
     def __enter__(self) -> "LiveView":
         self.live.__enter__()
         self.live.update(self.frame(), refresh=True)
+        self._old_winch = signal.signal(signal.SIGWINCH, self._resized)
         return self
 
     def __exit__(self, *exc) -> None:
+        signal.signal(signal.SIGWINCH, self._old_winch)
         self.live.__exit__(*exc)
         self.emu.on_tick = None
 
+    def _resized(self, signum=None, frame=None) -> None:
+        self._resize = True
+
     def poll(self) -> None:
         now = time.monotonic()
+        if self._resize:
+            # the terminal changed size: clear what it kept of the old screen and
+            # repaint at once (cells beyond a narrower frame would show again later)
+            self._resize = False
+            self.console.clear()
+            self._next = 0.0
         if now >= self._next:
             self._next = now + self.period
             self.live.update(self.frame(), refresh=True)
