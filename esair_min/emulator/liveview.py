@@ -137,7 +137,8 @@ def _servos(emu: Emulator, motion: Motion, width: int) -> list[Text]:
         namew = max(namew + spark - 4, 4)
         spark = 4
     angles, targets = emu.servo_angles, emu.servo_targets
-    head = f"{'servo':<{namew}} ang tgt  " + ("recent motion" if spark >= 13 else "motion")
+    label = "recent motion" if spark >= 13 else ("motion" if spark >= 6 else "")
+    head = f"{'servo':<{namew}} ang tgt  {label}"
     rows = [Text(" │ ".join([_fit(head, colw).ljust(colw)] * cols), "dim")]
     per = -(-len(servos) // cols)
     for r in range(per):
