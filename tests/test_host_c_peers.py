@@ -127,3 +127,27 @@ def test_sensor_round_robin_and_fault(boards, tmp_path):
                 "fault adc on\nadc 0 1\nstep 8\nread 0 4\nfault adc off\nstep 6\nread 0 2\n"
                 "step 1\nread 0 2\n", tmp_path)
     assert lines == ["R BC020000", "R BC022C01", "R BC022C01", "R BC02", "R 0100"]
+
+
+# -- the peers' scripts are read by the shared rules (docs/trace-format.md) --------------
+
+@pytest.mark.parametrize("role, script, message", [
+    ("actuator", b"write 0 " + b"01 " * 5000 + b"\nsync\nbogus\n",
+     "3:1: bad script line 'bogus' (write REG B..., sync [N], read REG N)"),
+    ("actuator", b"sync 1_0\n", "1:1: sync count '1_0' is not a decimal number from 0 to 1000000"),
+    ("actuator", b"write 0 1FF\n", "1:1: byte '1FF' is not a hex number from 0 to FF"),
+    ("actuator", b"# \x0b\n", r"1:3: control character 0x0B (in an rx text write it as \x0B)"),
+    ("sensor", b"adc 8 100\n", "1:1: adc channel '8' is not a decimal number from 0 to 7"),
+    ("sensor", b"step\r\n# caf\xe9\n", "2:6: not UTF-8 text (byte 0xE9)"),
+    ("sensor", b"fault adc maybe\n",
+     "1:1: bad script line 'fault' (adc CH V, fault adc on|off, step [N], read REG N)"),
+])
+def test_peer_scripts_bad_lines(boards, tmp_path, role, script, message):
+    """Lines of any length (a 15 kB write line is one line), control characters, UTF-8
+    and numbers as on the central board; under ASan/UBSan, stderr is only the error."""
+    path = tmp_path / "s.txt"
+    path.write_bytes(script)
+    proc = subprocess.run([str(boards / role / "firmware_host"), str(path)],
+                          capture_output=True, timeout=60)
+    assert proc.returncode == 1
+    assert proc.stderr.decode() == f"error: {path}:{message}\n"

@@ -68,6 +68,7 @@ class Uart:
         self.ring: deque[int] = deque()                    # at most RING_BYTES, GAP marks
         self.overrun = False            # bytes lost since the last one got into the ring
         self.overruns = 0               # bytes lost in all
+        self.dropped: list[int] | None = None   # set to [] to keep which (tests)
         self.rx_bytes = 0
         # board -> host
         self._tx_wire: deque[tuple[int, bytes]] = deque()  # chunks (t0, data)
@@ -103,6 +104,7 @@ class Uart:
             if end > len(data):
                 end = len(data)
             n = end - pos
+            index0 = self.rx_bytes - pos        # data[k] is byte index0 + k of the stream
             self.rx_bytes += n
             room = RING_BYTES - len(ring)
             if room > 0 and self.overrun:         # the first byte in after a loss
@@ -118,6 +120,8 @@ class Uart:
                     ring.extend(data[pos:pos + room])
                 self.overrun = True
                 self.overruns += n - max(room, 0)
+                if self.dropped is not None:
+                    self.dropped.extend(range(index0 + pos + max(room, 0), index0 + end))
             last_t = t0 + end * step
             if end < len(data):
                 self._rx_pos = end
@@ -180,6 +184,8 @@ class Uart:
         if len(self.ring) >= RING_BYTES:
             self.overrun = True
             self.overruns += 1
+            if self.dropped is not None:
+                self.dropped.append(self.rx_bytes - 1)
         else:
             self.ring.append(b | GAP if self.overrun else b)
             self.overrun = False
