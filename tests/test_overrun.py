@@ -275,7 +275,6 @@ def test_emulator_no_actuator_write_from_a_line_that_lost_bytes(fast_robot, step
     emu.settle()
     emu.uart.dropped = []
     oracle = Oracle(emu.core, emu.core.bus, emu.actuator_slave.address, emu.uart.dropped)
-    emu.uart._direct = oracle.rx_run
     oracle.boot(0)
     for data, ms in steps:
         oracle.sent += data
