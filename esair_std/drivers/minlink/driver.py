@@ -242,9 +242,11 @@ class MinLink(Driver):
         return self.children
 
     def close(self) -> None:
-        self.link.close()
-        if self.emulated is not None:
-            self.emulated.stop()
+        link, emulated = getattr(self, "link", None), getattr(self, "emulated", None)
+        if link is not None:               # open() may have failed before either existed
+            link.close()
+        if emulated is not None:
+            emulated.stop()
 
     def _link_state(self, up: bool, reason: str) -> None:
         for child in self.children.values():
