@@ -46,7 +46,7 @@ from esair_min.errors import EsairError
 from esair_min.model.validate import load_robot
 from esair_min.resources import resolve_robot
 
-from .budget import DEFAULT_FEET_SHARE
+from .budget import DEFAULT_FEET_SHARE, line_budget
 from .emulated import EmulatedRobot
 from .errors import LinkDown, LinkError, RobotRefused
 from .link import Link
@@ -214,11 +214,10 @@ class MinLink(Driver):
             raise LinkError(f"{self.name}: robot {robot_arg!r}: {exc}") from None
         self.children: dict[str, Any] = {}
         self.emulated: EmulatedRobot | None = None
-        self.link = Link(robot, "", timeout=float(opts.get("timeout", 1.0)))
         hz = float(opts.get("feet_hz", DEFAULT_FEET_HZ))
         share = float(opts.get("feet_share", DEFAULT_FEET_SHARE))
         if hz != 0:                                         # 0: the feet are not polled
-            self.link.budget.check_feet_hz(hz, share)      # refused before anything starts
+            line_budget(robot).check_feet_hz(hz, share)    # refused before anything starts
         if port == "emulate":
             self.emulated = EmulatedRobot(path, emulate_args(opts.get("emulate") or {}))
             port = self.emulated.start()
