@@ -183,6 +183,13 @@ class NoticeSensor(Sensor):
             self.report({"notice": text})
 
 
+def _number(opts: dict, key: str, default: float) -> float:
+    value = opts.get(key, default)
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise LinkError(f"option {key!r} must be a number, got {value!r}")
+    return float(value)
+
+
 def emulate_args(opts: dict) -> list[str]:
     """``esair emulate`` arguments from the ``emulate:`` option of the entry."""
     if not isinstance(opts, dict):
@@ -214,15 +221,16 @@ class MinLink(Driver):
             raise LinkError(f"{self.name}: robot {robot_arg!r}: {exc}") from None
         self.children: dict[str, Any] = {}
         self.emulated: EmulatedRobot | None = None
-        hz = float(opts.get("feet_hz", DEFAULT_FEET_HZ))
-        share = float(opts.get("feet_share", DEFAULT_FEET_SHARE))
+        hz = _number(opts, "feet_hz", DEFAULT_FEET_HZ)
+        share = _number(opts, "feet_share", DEFAULT_FEET_SHARE)
+        timeout = _number(opts, "timeout", 1.0)
         if hz != 0:                                         # 0: the feet are not polled
             line_budget(robot).check_feet_hz(hz, share)    # refused before anything starts
         if port == "emulate":
             self.emulated = EmulatedRobot(path, emulate_args(opts.get("emulate") or {}))
             port = self.emulated.start()
         self.notices = NoticeSensor()
-        self.link = Link(robot, str(port), timeout=float(opts.get("timeout", 1.0)),
+        self.link = Link(robot, str(port), timeout=timeout,
                          on_state=self._link_state, on_notice=self.notices.notice)
         try:
             self.link.open()
