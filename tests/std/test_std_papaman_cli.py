@@ -1,0 +1,115 @@
+"""`esair std run papaman`, the newcomer's command, end to end in both modes: its own
+emulated robot as a child process, `esair std put` to the sequencer from another
+process, nothing left behind; `--port` pointing the same deployment at another robot
+(`--top` shows the live table); a feet rate beyond the line's budget refused in one
+line."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from conftest import MODES, free_endpoint, wait_for
+
+from esair_std.drivers.minlink.emulated import EmulatedRobot
+
+HERE = Path(__file__).resolve().parent
+ROOT = HERE.parents[1]
+EXAMPLE = ROOT / "esair_std" / "examples" / "papaman"
+
+
+def esair(*args: str, check: bool = True) -> subprocess.CompletedProcess:
+    r = subprocess.run([sys.executable, "-m", "esair_min.cli", "std", *args],
+                       capture_output=True, text=True, timeout=90, cwd=HERE,
+                       env=dict(os.environ, COLUMNS="200"))
+    if check and r.returncode != 0:
+        raise AssertionError(f"esair std {' '.join(args)}: {r.returncode}\n{r.stderr}")
+    return r
+
+
+def descendants(pid: int) -> set[int]:
+    children: dict[int, list[int]] = {}
+    for d in os.listdir("/proc"):
+        if d.isdigit():
+            try:
+                with open(f"/proc/{d}/stat") as f:
+                    ppid = int(f.read().rsplit(")", 1)[1].split()[1])
+            except (OSError, IndexError, ValueError):
+                continue
+            children.setdefault(ppid, []).append(int(d))
+    out, todo = set(), [pid]
+    while todo:
+        for c in children.get(todo.pop(), []):
+            out.add(c)
+            todo.append(c)
+    return out
+
+
+def emulators(pids: set[int]) -> set[int]:
+    out = set()
+    for p in pids:
+        try:
+            with open(f"/proc/{p}/cmdline", "rb") as f:
+                if b"emulate" in f.read().split(b"\0"):
+                    out.add(p)
+        except OSError:
+            pass
+    return out
+
+
+@pytest.mark.parametrize("mode", MODES)
+def test_esair_std_run_papaman(mode):
+    ep = free_endpoint()
+    proc = subprocess.Popen([sys.executable, "-m", "esair_min.cli", "std", "run", "papaman",
+                             "--mode", mode, "-e", ep], cwd=HERE, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    try:
+        def deployed():
+            r = esair("ls", "--json", "-e", ep, check=False)
+            return r.returncode == 0 and sum(row["state"] in ("running", "ready")
+                                             for row in json.loads(r.stdout)) == 18
+        wait_for(lambda: proc.poll() is not None or deployed(), timeout=60, what="deployed")
+        assert proc.poll() is None, proc.communicate()
+        robots = emulators(descendants(proc.pid))
+        assert len(robots) == 1                         # its own emulated PAPA-MAN
+        esair("put", "sequencer", '["stand_up", "dance"]', "-e", ep)
+        wait_for(lambda: json.loads(esair("get", "sequencer", "-e", ep).stdout)["done"]
+                 == ["stand_up", "dance"], timeout=20, what="two operations played")
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        out, err = proc.communicate(timeout=30)
+    assert proc.returncode == 0, err
+    assert not [p for p in robots if os.path.exists(f"/proc/{p}")]
+
+
+def test_port_points_the_deployment_at_another_robot(tmp_path):
+    trace = tmp_path / "t.txt"
+    with EmulatedRobot(ROOT / "boards" / "papaman", ["--trace", str(trace)]) as emu:
+        r = esair("run", "papaman", "--run", "2", "--port", emu.port, "--top",
+                  "-e", free_endpoint())
+        table, _, summary = r.stdout.rpartition("NAME ")
+        assert "ESAIR STD — robot papaman" in table and "papaman.notices" in table
+        rows = {line.split()[0]: line.split()[2] for line in summary.splitlines()[1:]}
+        assert rows["papaman.motion"] == "ready" and rows["papaman.feet"] == "ready"
+    # the robot behind --port answered the link's probe and the feet polls
+    assert "TX " + b"OK 512,512,512,512,512,512,512,512\r\n".hex().upper() in trace.read_text()
+
+
+@pytest.mark.parametrize("mode", MODES)
+def test_a_feet_rate_beyond_the_line_is_refused(tmp_path, mode):
+    text = (EXAMPLE / "papaman.yaml").read_text()
+    assert "feet_hz: 8 " in text
+    (tmp_path / "fast.yaml").write_text(text.replace("feet_hz: 8 ", "feet_hz: 50"))
+    (tmp_path / "papaman_behaviors.py").write_text(
+        (EXAMPLE / "papaman_behaviors.py").read_text())
+    r = esair("run", str(tmp_path / "fast.yaml"), "--run", "1", "--mode", mode,
+              "-e", free_endpoint(), check=False)
+    assert (r.returncode, r.stderr) == (
+        1, "error: resource 'papaman' failed to open: LinkError: feet poll rate 50 Hz exceeds "
+           "the line's budget: at 9600 baud one 's' exchange takes up to 50.7 ms (3 bytes out, "
+           "44 back), so 50% of the line allows at most 9.9 Hz\n")
