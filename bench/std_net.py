@@ -21,9 +21,11 @@ nothing. Parts 2-5 need the STD runtime's process mode (esair_std.modes.agent).
 from __future__ import annotations
 
 import argparse
+import json
 import statistics
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -31,6 +33,7 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "tests"))
 
 import netns  # noqa: E402
+from netstd import Center, Proc  # noqa: E402
 from zpeer import Peer  # noqa: E402
 
 from esair_std.transport.certs import make_certs  # noqa: E402
@@ -68,9 +71,103 @@ def raw_get(net, n: int, sec_center: Security | None, sec_agent: Security | None
     return [t for t in times if t is not None]
 
 
+BENCH = """
+robot: lab
+mode: process
+endpoint: ENDPOINT
+SECURITY
+resources:
+  arm: {class: "netcomps:Wheel", allow: {putbench: command}}
+behaviors:
+  sink: {class: "netcomps:Sink"}
+"""
+TLS_SECTION = """security:
+  ca: pki/ca.pem
+  cert: pki/server.pem
+  key: pki/server.key
+  agents: {putbench: {cn: putbench}}"""
+
+
+def remote_agent(host, endpoint: str, name: str, class_path: str, kind: str, **kw) -> Proc:
+    args = dict(endpoint=endpoint, name=name, class_path=class_path, kind=kind, robot="lab",
+                hostname="bench-pc", **kw)
+    return Proc(host, [sys.executable, "-m", "esair_std.remote.agent", json.dumps(args)])
+
+
+def remote_put(net, base: Path, n: int, tls: bool) -> dict:
+    """Remote put round trips (agent in host 1 -> BS in host 0 -> local behavior), the
+    remote agent's join and one registration."""
+    folder = base / ("tls" if tls else "tcp")
+    folder.mkdir()
+    sec = None
+    if tls:
+        make_certs(folder / "pki", clients=["putbench"], hosts=[net[0].addr])
+        d = folder / "pki"
+        sec = {"ca": str(d / "ca.pem"), "cert": str(d / "putbench.pem"),
+               "key": str(d / "putbench.key")}
+    dep = BENCH.replace("SECURITY", TLS_SECTION if tls else "")
+    center = Center(net[0], folder, dep, tls)
+    t0 = time.monotonic()
+    agent = remote_agent(net[1], center.endpoint, "putbench", "netcomps:PutBench", "behavior",
+                         uses={"arm": "command"}, options={"n": n, "actuator": "arm"}, sec=sec)
+    line = agent.wait_line("joined robot", 60)
+    start_s = time.monotonic() - t0              # interpreter, imports, session, join
+    join_ms = float(line.rsplit(" in ", 1)[1].split()[0])
+    ctl = (lambda *a: center.ctl(*a, endpoint=center.local)) if tls else center.ctl
+    got = netns.wait_for(lambda: json.loads(ctl("get", "putbench", "--timeout", "2")),
+                         60 + n * 0.05, what="the put bench")
+    center.run.proc.terminate()
+    center.run.wait_exit(30)
+    agent.proc.kill()
+    return {"times": got["times"], "failed": got["failed"], "join_ms": join_ms,
+            "start_s": start_s,
+            "register_ms": got["register_s"] * 1e3}
+
+
+STREAM = """
+robot: lab
+mode: process
+endpoint: ENDPOINT
+behaviors:
+  idle: {class: "netcomps:Idle"}
+"""
+
+
+def stream(net, base: Path, seconds: float, down: float) -> dict:
+    """A remote sensor at 1 kHz to a local behavior: loss with the link up; then the link
+    down for ``down`` s and up: time to the first sample delivered again."""
+    folder = base / "stream"
+    center = Center(net[0], folder, STREAM)
+    remote_agent(net[1], center.endpoint, "ticks", "netcomps:Counter", "resource",
+                 allow={"stats": "read"}, options={"rate": 1000})
+    netns.wait_for(lambda: center.state("ticks") == "ready", 60, what="remote sensor")
+    center.ctl("add", "stats", "netcomps:StreamStats", "--uses", "ticks=read")
+    first = center.get("stats")
+    t0 = time.monotonic()
+    time.sleep(seconds)
+    up = center.get("stats")
+    elapsed = time.monotonic() - t0
+    net[1].link(up=False)
+    time.sleep(down)
+    t_up = time.time()
+    net[1].link(up=True)
+    after = netns.wait_for(lambda: (lambda s: s if len(s["holes"]) > len(up["holes"]) else None)(
+        center.get("stats")), 30, what="samples after the partition")
+    hole = after["holes"][len(up["holes"])]
+    center.run.proc.terminate()
+    center.run.wait_exit(30)
+    span = up["last"] - (first["last"] or up["first"])
+    got = up["count"] - first["count"]
+    return {"expected": span, "received": got, "holes_up": up["holes"][len(first["holes"]):],
+            "overwritten": up["overwritten"], "restore_s": hole[2] - t_up,
+            "lost_in_partition": hole[1] - hole[0] - 1, "rate": span / elapsed}
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--n", type=int, default=2000, help="round trips per figure")
+    ap.add_argument("--seconds", type=float, default=5.0, help="1 kHz stream, link up")
+    ap.add_argument("--down", type=float, default=3.0, help="partition length (s)")
     args = ap.parse_args()
     why = netns.unavailable()
     if why:
@@ -88,13 +185,31 @@ def main() -> None:
         print(f"   tcp           {fmt(figures['raw_tcp'])}")
         print(f"   tls (mTLS)    {fmt(figures['raw_tls'])}   "
               f"TLS/tcp p50 {statistics.median(figures['raw_tls']) / statistics.median(figures['raw_tcp']):.2f}x")
-        try:
-            import runtime_bench  # noqa: F401  (parts 2-5, once process mode exists)
-        except ImportError:
-            print("2-5. remote put / stream / partition / registration: need the STD "
-                  "runtime's process mode (not on this tree)")
-            return
-        runtime_bench.run(net, base, args, figures)
+        for label, tls in (("tcp", False), ("tls", True)):
+            figures[f"put_{label}"] = remote_put(net, base, args.n, tls)
+        raw, put = figures["raw_tcp"], figures["put_tcp"]["times"]
+        print("2. remote put (agent -> BS -> local behavior) vs raw zenoh query, same link")
+        for label in ("tcp", "tls"):
+            r = figures[f"put_{label}"]
+            print(f"   put {label:<9} {fmt(r['times'])}   failed {r['failed']}")
+        print(f"   ratio put/raw (tcp)  p50 {pct(put, .5) / pct(raw, .5):.2f}x  "
+              f"p99 {pct(put, .99) / pct(raw, .99):.2f}x   (goal <= 2.5x)")
+        tput = figures["put_tls"]["times"]
+        print(f"   TLS cost on put      p50 {pct(tput, .5) / pct(put, .5):.2f}x  "
+              f"p99 {pct(tput, .99) / pct(put, .99):.2f}x")
+        st = stream(net, base, args.seconds, args.down)
+        print(f"3. remote sensor at 1 kHz ({st['rate']:.0f} samples/s measured), link up "
+              f"{args.seconds:g} s: {st['expected'] - st['received']} lost of "
+              f"{st['expected']} (holes {st['holes_up']}, overwritten {st['overwritten']})"
+              "   (goal 0)")
+        print(f"4. link down {args.down:g} s, up: first sample again after "
+              f"{st['restore_s'] * 1e3:.0f} ms (goal <= 2000 ms); "
+              f"{st['lost_in_partition']} samples lost, shown by the sequence numbers")
+        for label in ("tcp", "tls"):
+            r = figures[f"put_{label}"]
+            print(f"5. remote agent ({label}): join + hello {r['join_ms']:.1f} ms, one "
+                  f"registration (command) {r['register_ms']:.1f} ms   (goal <= 300 ms); "
+                  f"from process start {r['start_s']:.2f} s (Python, imports, session)")
 
 
 if __name__ == "__main__":

@@ -37,6 +37,7 @@ class ResourceSupervisor:
         self.states: dict[str, tuple[str, str]] = {}       # resource -> (state, reason)
         self.grants: dict[tuple[str, str], Level] = {}     # (who, resource) -> level
         self.refusals = 0
+        self.refused_on: dict[str, int] = {}               # resource -> registrations refused
 
     # ---- phases 1-2
     def add(self, spec: Spec) -> dict[str, str]:
@@ -87,6 +88,14 @@ class ResourceSupervisor:
 
     # ---- phase 3
     def register(self, who: str, resource: str, level: Level, uses: dict | None) -> Level:
+        try:
+            return self._register(who, resource, level, uses)
+        except Refused:
+            with self._lock:
+                self.refused_on[resource] = self.refused_on.get(resource, 0) + 1
+            raise
+
+    def _register(self, who: str, resource: str, level: Level, uses: dict | None) -> Level:
         """Grant ``who`` the ``level`` on ``resource`` or raise Refused with the reason.
         ``uses`` None: a reaction (its resources are fixed in the deployment)."""
         level = Level.parse(level)

@@ -35,8 +35,10 @@ WATCH_PERIOD = 0.005
 
 class Runtime:
     def __init__(self, deployment: str | Path | dict | Any, mode: str | None = None,
-                 endpoint: str | None = None, control: bool | None = None):
+                 endpoint: str | None = None, control: bool | None = None,
+                 join: list[str] | None = None):
         self.deployment = specmod.load(deployment)
+        self.join = list(join or [])     # other robots' control endpoints (remote/robots.py)
         self.robot = self.deployment.robot
         self.mode_name = mode or getattr(self.deployment, "mode", None) or "thread"
         if self.mode_name not in MODES:
@@ -50,6 +52,10 @@ class Runtime:
         self.ac = ActuatorConnection(self.rs)
         self.bs = BehaviorSupervisor(self._start_component, self.rs)
         self.server: Any = None
+        self.session_options: dict | None = None
+        self.extra_listen: list[str] = []
+        self.local_endpoint: str | None = None     # where local children connect
+        self.center: Any = None                    # remote agents (process mode)
         self._stop = threading.Event()
         self._watch: threading.Thread | None = None
         self.started_at = 0.0
@@ -64,6 +70,9 @@ class Runtime:
     def start(self) -> "Runtime":
         try:
             if self.control:
+                from .remote.center import Center, session
+                self.session_options, self.extra_listen, self.local_endpoint = session(self)
+                self.center = Center(self)
                 from .modes.control import ControlServer
                 self.server = ControlServer(self)
                 self.server.start()
@@ -208,6 +217,7 @@ class Runtime:
                         reason=st[1], attached=self.sc.attached_to(name),
                         grants={w: str(lv) for (w, r), lv in self.rs.grants.items()
                                 if r == name},
+                        refused=self.rs.refused_on.get(name, 0),
                         counters=counters.get(name, counters))
         raise ControlError(f"no component {name!r}")
 

@@ -75,7 +75,9 @@ def _kill_and_delete(name: str) -> None:
             pass
     for pid in pids:                       # reap what is ours, wait for the rest
         _wait_gone(int(pid))
-    _ip("netns", "delete", name, check=False)
+    proc = _ip("netns", "delete", name, check=False)
+    if proc.returncode:
+        print("NETNS DELETE", name, proc.stderr, file=sys.stderr)
 
 
 def _wait_gone(pid: int, timeout: float = 5.0) -> None:

@@ -12,6 +12,8 @@ each answer is one JSON line on stdout:
     token KEY              liveliness token on KEY                               -> {"ok": "token"}
     rtt KEY N              N queries in a row   -> {"rtt": [seconds or null, ...]}
     get KEY TIMEOUT [DATA] query; -> {"replies": [...], "errors": [...]}
+    getx KEY KIND          query with a bad payload (KIND of BAD) -> {"replies": [...]}
+    putx KEY KIND          publish a bad payload                         -> {"ok": "putx"}
     stream KEY HZ SECONDS  publish 1, 2, 3... at HZ for SECONDS (in a thread)  -> {"ok": "stream"}
     put KEY DATA           publish                                               -> {"ok": "put"}
     zid                    -> {"zid": ..., "peers": [...]}
@@ -40,6 +42,19 @@ def out(obj):
     with _lock:
         sys.stdout.write(json.dumps(obj) + "\n")
         sys.stdout.flush()
+
+
+BAD = {                                  # payloads no ESAIR STD key must choke on
+    "binary": bytes(range(256)),
+    "notjson": b"{not json",
+    "array": b"[1, 2, 3]",
+    "number": b"42",
+    "empty": b"",
+    "nulls": b'{"op": null, "from": null, "name": null, "who": null, "to": null}',
+    "types": b'{"op": 7, "from": [], "to": {}, "name": 1.5, "timeout": "x", "level": []}',
+    "deep": b"[" * 100000 + b"]" * 100000,
+    "big": b'{"op": "offer", "data": "' + b"x" * 400_000 + b'"}',
+}
 
 
 def _stream(session, key, hz, seconds):
@@ -109,6 +124,16 @@ def main():
             threading.Thread(target=_stream, args=(session, args[0], float(args[1]),
                                                    float(args[2])), daemon=True).start()
             out({"ok": "stream"})
+        elif cmd in ("getx", "putx"):      # getx/putx KEY KIND: a bad payload of KIND
+            data = BAD[args[1]]
+            if cmd == "putx":
+                session.put(args[0], data)
+                out({"ok": "putx"})
+            else:
+                replies = [r.ok.payload.to_bytes()[:100000].decode(errors="replace")
+                           for r in session.get(args[0], timeout=3.0, payload=data)
+                           if r.ok is not None]
+                out({"replies": replies})
         elif cmd == "put":
             session.put(args[0], args[1])
             out({"ok": "put"})

@@ -41,5 +41,9 @@ from . import control as _control  # noqa: E402
 from . import run as _run  # noqa: E402
 from . import top as _top  # noqa: E402
 
-for _cmd in [*_deploy.COMMANDS, _run.run_cmd, *_control.COMMANDS, _top.top_cmd]:
+from . import agent as _agent  # noqa: E402  (many computers: docs/std-network.md)
+from . import certs as _certs  # noqa: E402
+
+for _cmd in [*_deploy.COMMANDS, _run.run_cmd, *_control.COMMANDS, _top.top_cmd,
+             _agent.agent_cmd, _certs.certs]:
     std.add_command(_cmd)

@@ -87,9 +87,13 @@ SUMMARY_COLS = ["name", "kind", "state", "samples", "overwritten", "commands", "
 @click.option("--top/--no-top", "top", default=None,
               help="Show the live table of `esair std top` while running (default: when "
                    "the output is a terminal and --run is not given).")
+@click.option("--join", "join", multiple=True, metavar="tcp/HOST:PORT",
+              help="Another robot's control endpoint to join (repeat): behaviors then put "
+                   "to and get from its behaviors as ROBOT/NAME.")
 @friendly
 def run_cmd(deployment: str, mode: str | None, seconds: float | None, endpoint: str | None,
-            no_control: bool, port: str | None, top: bool | None) -> None:
+            no_control: bool, port: str | None, top: bool | None,
+            join: tuple[str, ...]) -> None:
     """Deploy FILE (a deployment file, or a bundled example such as `lab`) and run it
     until Ctrl-C, or for --run SECONDS. Other terminals control it with `esair std ls`,
     `add`, `remove`, `put`, ... over the control endpoint."""
@@ -99,13 +103,15 @@ def run_cmd(deployment: str, mode: str | None, seconds: float | None, endpoint: 
     if port is not None:
         path = _with_port(path, port)
     rt = Runtime(path, mode=mode, endpoint=endpoint,
-                 control=None if not no_control else False)
+                 control=None if not no_control else False, join=list(join))
     if rt.mode_name == "thread" and not no_control:
         rt.control = True
     stop = threading.Event()
     old = signal.signal(signal.SIGTERM, lambda *_: stop.set())
     with rt:
         where = f", control endpoint {rt.endpoint}" if rt.control else ""
+        if rt.local_endpoint:       # secured endpoint: this computer's processes come here
+            where += f" (local: {rt.local_endpoint})"
         click.echo(f"robot {rt.robot!r} running in {rt.mode_name} mode{where} "
                    f"({len(rt.ls())} components)", err=True)
         if top is None:

@@ -66,10 +66,13 @@ class ControlServer:
             "reaction": self.v_reaction, "inspect": self.v_inspect, "state": self.v_state,
             "register": self.v_register, "attach": self.v_attach, "kind": self.v_kind,
             "report": self.v_report, "resstate": self.v_resstate, "hello": self.v_hello,
+            "join": self.v_join,
         }
 
     def start(self) -> None:
-        self.bus = Bus(listen=[self.endpoint], options=getattr(self.rt, "session_options", None))
+        self.bus = Bus(listen=[self.endpoint, *getattr(self.rt, "extra_listen", [])],
+                       connect=list(getattr(self.rt, "join", None) or []) or None,
+                       options=getattr(self.rt, "session_options", None))
         for _ in range(WORKERS):
             t = threading.Thread(target=self._work, name="esair:ctl", daemon=True)
             t.start()
@@ -184,12 +187,21 @@ class ControlServer:
         return self.rt.remove_resource(_need(b, "name"))
 
     def v_put(self, b: dict) -> dict:
-        ok, why = self.rt.bs.put(b.get("from") or "operator", _need(b, "to"),
-                                 b.get("data"), _timeout(b))
+        sender, to = b.get("from") or "operator", _need(b, "to")
+        if "/" in to:                             # another robot's behavior: remote/robots.py
+            from ..remote import robots
+            ok, why = robots.put(self.rt, str(sender), to, b.get("data"), _timeout(b))
+        else:
+            ok, why = self.rt.bs.put(sender, to, b.get("data"), _timeout(b))
         return {"delivered": ok, "reason": why}
 
     def v_get(self, b: dict) -> dict:
-        ok, value = self.rt.bs.get(b.get("from") or "operator", _need(b, "to"), _timeout(b))
+        sender, to = b.get("from") or "operator", _need(b, "to")
+        if "/" in to:
+            from ..remote import robots
+            ok, value = robots.get(self.rt, str(sender), to, _timeout(b))
+        else:
+            ok, value = self.rt.bs.get(sender, to, _timeout(b))
         return {"ok": ok, "data": value if ok else None, "reason": "" if ok else value}
 
     def v_configure(self, b: dict) -> Any:
@@ -230,3 +242,8 @@ class ControlServer:
 
     def v_hello(self, b: dict) -> None:
         self.rt.mode.hello(b)
+
+    def v_join(self, b: dict) -> dict:
+        if self.rt.mode_name != "process":
+            raise ControlError("this runtime runs in thread mode: it takes no remote agents")
+        return self.rt.center.join(b)

@@ -22,6 +22,7 @@ from typing import Any
 from ..errors import CommandError, ComponentError, Refused, ResourceLost, StdError
 from ..spec import Spec
 from ..transport import keys
+from ..transport.security import link_inserts
 from .thread import LocalPort
 
 log = logging.getLogger("esair_std.process")
@@ -30,9 +31,12 @@ _ERRORS = {"CommandError": CommandError, "ResourceLost": ResourceLost, "Refused"
 
 
 def agent_command(endpoint: str, robot: str, spec: Spec, generation: int) -> list[str]:
+    # children listen on the loopback only: nobody from another computer reaches them
+    # past the control endpoint's security (remote agents go through the runtime)
+    options = {"listen/endpoints": ["tcp/127.0.0.1:0"], **link_inserts()}
     return [sys.executable, "-m", "esair_std.modes.agent", "--connect", endpoint,
             "--robot", robot, "--generation", str(generation),
-            "--spec", json.dumps(spec.to_json())]
+            "--spec", json.dumps(spec.to_json()), "--session-options", json.dumps(options)]
 
 
 class _Child:
@@ -52,13 +56,19 @@ class _Child:
         self.info: dict = {}
         self.hello = threading.Event()
         self.proc: subprocess.Popen | None = None
+        self.remote = spec.name in mode.remote   # a remote agent (esair_std.remote): not ours
+        self.quiet = False                       # remote: do not tell it to stop
+        self.rejoining = False
 
     def spawn(self) -> None:
+        if self.remote:
+            return                               # already running on its own computer
         env = dict(os.environ)
         paths = [p for p in sys.path if p and os.path.isdir(p)]
         env["PYTHONPATH"] = os.pathsep.join(paths)
         self.proc = subprocess.Popen(
-            agent_command(self.mode.rt.endpoint, self.robot, self.spec, self.generation),
+            agent_command(self.mode.rt.local_endpoint or self.mode.rt.endpoint, self.robot,
+                          self.spec, self.generation),
             stdin=subprocess.PIPE, env=env, cwd=self.mode.rt.base_dir)
         self.pid = self.proc.pid
 
@@ -102,6 +112,10 @@ class _Child:
             log.error("%s (pid %s) did not die", self.name, self.pid)
 
     def stop_process(self, key: str, timeout: float) -> None:
+        if self.remote:
+            if not self.quiet:
+                self.ask(key, {"op": "stop", "timeout": timeout}, min(timeout, 0.5))
+            return
         if self.proc is not None and self.proc.poll() is None:
             self.ask(key, {"op": "stop", "timeout": timeout}, min(timeout, 1.0))
             try:
@@ -120,7 +134,7 @@ class ProcessComponent(_Child):
 
     @property
     def state(self) -> str:
-        if self.phase in ("failed", "stopped", "starting"):
+        if self.phase in ("failed", "stopped", "starting", "lost"):
             return self.phase
         r = self.ask(self.key, {"op": "state"}, 0.5)
         return r["ok"] if isinstance(r, dict) and "ok" in r else self.phase
@@ -231,6 +245,7 @@ class ProcessMode:
         self._pending: dict[tuple[str, int], _Child] = {}
         self._resources: dict[str, ProcessResource] = {}
         self._lock = threading.Lock()
+        self.remote: dict[str, dict] = {}         # name -> {host, pid} of remote agents
 
     @property
     def bus(self) -> Any:
@@ -247,7 +262,9 @@ class ProcessMode:
         rec = self.rt.bs.records.get(name)
         if rec is not None and isinstance(rec.host, ProcessComponent):
             host = rec.host
-            if host.phase in ("running", "busy") and host.hello.is_set():
+            if host.remote and host.hello.is_set():
+                self.rt.center.lost(host)
+            elif host.phase in ("running", "busy") and host.hello.is_set():
                 threading.Thread(target=self._token_lost, args=(host,), daemon=True).start()
         elif kind in ("sensor", "actuator", "driver") and name in self._resources:
             host = self._resources[name]
@@ -277,6 +294,12 @@ class ProcessMode:
         child.info = b
         child.pid = b.get("pid", child.pid)
         child.hostname = b.get("host", "")
+        if child.rejoining:                      # a remote resource back after a partition
+            child.rejoining = False
+            with self._lock:
+                self._pending.pop((name, gen), None)
+            for res in child.children():
+                self.rt.rs.set_state(res, "ready", "")
         child.hello.set()
 
     def reported(self, name: str, generation: int, phase: str, reason: str) -> None:

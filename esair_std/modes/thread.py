@@ -63,6 +63,9 @@ class LocalPort:
 
     # BS
     def put(self, who: str, target: str, data: Any, timeout: float) -> tuple[bool, str]:
+        if "/" in target:                          # robot/behavior: remote/robots.py
+            from ..remote import robots
+            return robots.put(self.rt, who, target, data, timeout)
         return self.rt.bs.put(who, target, data, timeout)
 
     def get(self, who: str, target: str, timeout: float) -> tuple[bool, Any]:

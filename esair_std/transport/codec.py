@@ -32,6 +32,8 @@ def decode(data: bytes) -> Any:
         return json.loads(text)
     except ValueError as exc:
         raise TransportError(f"message is not JSON: {exc}") from None
+    except RecursionError:
+        raise TransportError("message is not JSON: nested too deeply") from None
 
 
 def copy(obj: Any) -> Any:

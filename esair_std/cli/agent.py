@@ -1,0 +1,94 @@
+"""``esair std agent``: run a behavior or a resource on this computer as a remote agent of
+a robot's control center (docs/std-network.md)."""
+
+from __future__ import annotations
+
+import logging
+import os
+
+import click
+
+from . import friendly
+
+
+def _pairs(items: tuple[str, ...], what: str) -> dict[str, str]:
+    out = {}
+    for item in items:
+        key, sep, val = item.partition("=")
+        if not sep or not key or not val:
+            raise click.BadParameter(f"{item!r} is not of the form NAME=LEVEL", param_hint=what)
+        out[key] = val
+    return out
+
+
+def _value(text: str):
+    import json
+    try:
+        return json.loads(text)
+    except ValueError:
+        return text
+
+
+@click.command("agent")
+@click.option("--connect", "endpoint", required=True, metavar="tcp/HOST:PORT",
+              help="The control center's endpoint (tls/HOST:PORT when it requires TLS).")
+@click.argument("name")
+@click.argument("class_path", metavar="module:Class")
+@click.option("--uses", multiple=True, metavar="RESOURCE=LEVEL",
+              help="A resource the behavior registers for (read, command, configure); repeat.")
+@click.option("--allow", multiple=True, metavar="BEHAVIOR=LEVEL",
+              help="For a sensor/actuator/driver: who may use it, up to which level; repeat.")
+@click.option("--period", type=float, default=None, help="Seconds between step() calls.")
+@click.option("-o", "--option", "options", multiple=True, metavar="KEY=VALUE",
+              help="An option for the component (self.options; VALUE is JSON or text).")
+@click.option("--robot", default=None, help="The robot's name (found by asking when not given).")
+@click.option("--ca", type=click.Path(dir_okay=False), help="CA certificate (TLS).")
+@click.option("--cert", type=click.Path(dir_okay=False), help="This agent's certificate (mTLS).")
+@click.option("--key", type=click.Path(dir_okay=False), help="This agent's private key (mTLS).")
+@click.option("--user", default=None, help="Login name (user/password authentication).")
+@click.option("--password-file", type=click.Path(dir_okay=False),
+              help="File holding the password of --user.")
+@click.option("--host-name", default=None, help="The name `esair std ls` shows for this "
+                                                "computer (default: its hostname).")
+@friendly
+def agent_cmd(endpoint, name, class_path, uses, allow, period, options, robot, ca, cert, key,
+              user, password_file, host_name) -> None:
+    """Run NAME (a Behavior, Sensor, Actuator or Driver class module:Class, imported from
+    the current folder first) here, as an agent of the control center at --connect.
+
+    It joins the control center (its identity checked when the robot lists its agents),
+    registers like a local component and stays until told to stop (Ctrl-C, `esair std
+    remove NAME`). When the link is lost it keeps running and joins again by itself
+    when the link returns."""
+    from pydantic import ValidationError
+
+    from ..behavior import Behavior
+    from ..errors import ControlError
+    from ..resource import Actuator, Driver, Sensor
+    from ..remote.agent import run
+    from ..spec import import_class
+    from ..transport.security import SecuritySpec
+
+    logging.basicConfig(level=logging.WARNING, format="%(name)s: %(message)s")
+    cls = import_class(class_path, os.getcwd())
+    if isinstance(cls, type) and issubclass(cls, Behavior):
+        kind = "behavior"
+    elif isinstance(cls, type) and issubclass(cls, (Sensor, Actuator, Driver)):
+        kind = "resource"
+    else:
+        raise click.BadParameter(f"{class_path} is not a Behavior, Sensor, Actuator or Driver",
+                                 param_hint="module:Class")
+    sec = None
+    if any((ca, cert, key, user, password_file)):
+        try:
+            sec = SecuritySpec(ca=ca, cert=cert, key=key, user=user,
+                               password_file=password_file, mtls=cert is not None)
+        except ValidationError as exc:
+            raise ControlError(exc.errors()[0]["msg"].removeprefix("Value error, ")) from None
+    opts = {k: _value(v) for k, v in _pairs(options, "--option").items()}
+    if kind == "resource":
+        opts_spec = {"allow": _pairs(allow, "--allow")}
+    else:
+        opts_spec = {"uses": _pairs(uses, "--uses")}
+    raise SystemExit(run(endpoint, name, class_path, kind, period=period, options=opts,
+                         robot=robot, sec=sec, hostname=host_name, **opts_spec))

@@ -1,0 +1,223 @@
+"""A remote agent: one behavior or resource on another computer (``esair std agent``).
+
+It is the component-host process of process mode (:mod:`esair_std.modes.agent`) with
+three differences:
+
+* its session is a Zenoh **client** of the control center (it listens on nothing; all
+  its traffic goes through the control center's session, where the access control is);
+* before its hello it **joins** (``ctl/join``): the control center checks who it is
+  (a proof signed with its certificate's key, or an HMAC of its password) and adds it
+  like a local component, spawning nothing;
+* it **outlives partitions**: when the control center's liveliness token goes it keeps
+  running (its puts fail, counted; its sensor handles see no samples); when the token
+  comes back it joins again and registers again for every resource it had registered
+  for, by itself. It leaves when told to stop or on SIGINT/SIGTERM.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import os
+import signal
+import socket
+import threading
+import time
+from pathlib import Path
+from typing import Any
+
+from ..errors import StdError, TransportError
+from ..level import Level
+from ..modes.agent import Agent, ZenohPort
+from ..spec import Spec
+from ..transport import keys
+from ..transport.bus import Bus
+from ..transport.security import SecuritySpec, link_inserts, session_inserts
+from .identity import prove_with_cert, prove_with_password
+
+log = logging.getLogger("esair_std.remote")
+
+
+class RemotePort(ZenohPort):
+    """ZenohPort that remembers registrations so that they can be made again."""
+
+    def __init__(self, bus: Bus, robot: str):
+        super().__init__(bus, robot)
+        self.registered: dict[str, Level] = {}     # resource -> level
+        self.attached: set[str] = set()            # sensors attached (subscribed once)
+
+    def register(self, who: str, resource: str, level: Any) -> int:
+        out = super().register(who, resource, level)
+        lv = Level.parse(level)
+        self.registered[resource] = max(lv, self.registered.get(resource, lv))
+        return out
+
+    def attach_sensor(self, who: str, resource: str, handle: Any, direct: bool = False) -> None:
+        super().attach_sensor(who, resource, handle, direct)
+        self.attached.add(resource)
+
+    def register_again(self, who: str) -> list[str]:
+        """After a re-join: every registration and attachment again; what failed."""
+        failed = []
+        for resource, level in list(self.registered.items()):
+            try:
+                super().register(who, resource, level)
+            except StdError as exc:
+                failed.append(f"{resource}: {exc}")
+        for resource in list(self.attached):
+            try:
+                self._ctl("attach", {"who": who, "resource": resource, "direct": False})
+            except StdError as exc:
+                failed.append(f"{resource}: {exc}")
+        return failed
+
+
+class RemoteAgent(Agent):
+    def __init__(self, bus: Bus, robot: str, spec: Spec, proof_fn: Any, hostname: str):
+        super().__init__(bus, robot, spec, 1)
+        self.port = RemotePort(bus, robot)
+        self.proof_fn = proof_fn
+        self.hostname = hostname
+        self.joined = threading.Event()
+        self.c = dict(joins=0, partitions=0)
+        self._rejoin_lock = threading.Lock()
+
+    def join(self) -> None:
+        body = {"spec": self.spec.to_json(), "proof": self.proof_fn(),
+                "host": self.hostname, "pid": os.getpid()}
+        r = self.bus.request(keys.ctl(self.robot, "join"), body, 15.0)
+        if r is None:
+            raise TransportError(f"the control center of robot {self.robot!r} did not answer"
+                                 " the join")
+        if "error" in r:
+            raise TransportError(f"join refused: {r['error']}")
+        self.c["joins"] += 1
+
+    def hello(self, **extra: Any) -> None:
+        t0 = time.perf_counter()
+        self.join()
+        body = dict(name=self.spec.name, kind=self.spec.kind, generation=self.generation,
+                    pid=os.getpid(), host=self.hostname, **extra)
+        r = self.bus.request(keys.ctl(self.robot, "hello"), body, 10.0)
+        if r is None or "error" in r:
+            raise TransportError(f"runtime refused hello: {r and r.get('error')}")
+        self.joined.set()
+        log.info("%s joined robot %r in %.1f ms", self.spec.name, self.robot,
+                 (time.perf_counter() - t0) * 1e3)
+
+    def watch_runtime(self) -> None:
+        def on_alive(key: str, alive: bool) -> None:
+            if keys.parse_alive(self.robot, key) != ("runtime", "runtime"):
+                return
+            if not alive:
+                if self.joined.is_set():
+                    self.joined.clear()
+                    self.c["partitions"] += 1
+                    log.warning("%s: the control center is unreachable; waiting for it",
+                                self.spec.name)
+            elif self.c["joins"] and not self.joined.is_set():
+                threading.Thread(target=self._rejoin, daemon=True, name="esair:rejoin").start()
+        self.bus.watch_alive(keys.alive(self.robot, "runtime", "runtime"), on_alive)
+
+    def _rejoin(self) -> None:
+        with self._rejoin_lock:
+            while not self.joined.is_set() and not self.done.is_set():
+                try:
+                    if self.spec.kind == "resource":
+                        self.hello(children=self.host.children())
+                    else:
+                        self.hello()
+                        state = self.host.state if self.host is not None else "running"
+                        self.port.state_changed(self.spec.name, self.generation,
+                                                "running" if state == "busy" else state, "")
+                        failed = self.port.register_again(self.spec.name)
+                        for f in failed:
+                            log.error("%s: registration not made again: %s", self.spec.name, f)
+                    log.warning("%s: joined the control center again", self.spec.name)
+                except StdError as exc:
+                    log.error("%s: join again failed: %s; retrying", self.spec.name, exc)
+                    time.sleep(0.5)
+
+
+def component_spec(name: str, class_path: str, kind: str, uses: dict, period: float | None,
+                   options: dict, allow: dict | None = None) -> Spec:
+    return Spec(kind, name, class_path, dict(options), os.getcwd(), period=period,
+                has_period=period is not None,
+                uses={k: Level.parse(v).name for k, v in uses.items()},
+                allow={k: Level.parse(v).name for k, v in (allow or {}).items()})
+
+
+def session_options(sec: SecuritySpec | None) -> dict:
+    """The remote agent's Zenoh options: a client, the link settings, its credentials."""
+    opts = {"mode": "client", "listen/endpoints": [], **link_inserts()}
+    opts.update(session_inserts(sec, ".", listen=False))
+    return opts
+
+
+def proof_maker(robot_fn: Any, name: str, sec: SecuritySpec | None) -> Any:
+    def proof() -> dict | None:
+        if sec is None:
+            return None
+        if sec.cert is not None:
+            return prove_with_cert(robot_fn(), name, sec.cert, sec.key)
+        if sec.user is not None:
+            password = Path(sec.password_file).read_text().strip()
+            return prove_with_password(robot_fn(), name, sec.user, password)
+        return None
+    return proof
+
+
+def find_robot(bus: Bus, endpoint: str) -> str:
+    for wait in (2.0, 3.0):
+        r = bus.request("esair/*/ctl/ping", {}, wait)
+        if r is not None and "ok" in r:
+            return r["ok"]["robot"]
+    raise TransportError(f"no ESAIR STD control center answers on {endpoint}")
+
+
+def run(endpoint: str, name: str, class_path: str, kind: str, uses: dict | None = None,
+        period: float | None = None, options: dict | None = None, robot: str | None = None,
+        sec: SecuritySpec | None = None, hostname: str | None = None,
+        allow: dict | None = None, ready: Any = None) -> int:
+    """Run the agent until it is told to stop or signalled; its exit status."""
+    spec = component_spec(name, class_path, kind, uses or {}, period, options or {}, allow)
+    try:
+        bus = Bus(connect=[endpoint], options=session_options(sec))
+    except TransportError as exc:
+        raise TransportError(f"cannot reach the control center at {endpoint}: "
+                             f"{str(exc).split(': ', 1)[-1]}") from None
+    try:
+        robot = robot or find_robot(bus, endpoint)
+        agent = RemoteAgent(bus, robot, spec, proof_maker(lambda: robot, name, sec),
+                            hostname or socket.gethostname())
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(sig, lambda *_: agent.done.set())
+        agent.watch_runtime()
+        if kind == "resource":
+            agent.run_resource()
+        else:
+            agent.run_component()
+        if ready is not None:
+            ready(agent)
+        while not agent.done.wait(0.2):
+            pass
+        return 0
+    finally:
+        host = locals().get("agent")
+        if host is not None and host.host is not None:
+            host.host.stop(1.0)
+        bus.close()
+
+
+def main_json(argv: list[str]) -> int:      # pragma: no cover - used by tests/bench
+    """python -m esair_std.remote.agent JSON: run(**JSON) (the CLI is `esair std agent`)."""
+    kw = json.loads(argv[0])
+    if kw.get("sec"):
+        kw["sec"] = SecuritySpec.model_validate(kw["sec"])
+    return run(**kw)
+
+
+if __name__ == "__main__":  # pragma: no cover
+    import sys
+    logging.basicConfig(level=logging.INFO, format="%(name)s: %(message)s")
+    sys.exit(main_json(sys.argv[1:]))

@@ -1,0 +1,201 @@
+"""The control center's side of remote agents (process mode; docs/std-network.md).
+
+* :func:`session` — the runtime's Zenoh session from the deployment's ``security:``
+  section: TLS / logins / lease / access control on the control endpoint and, when the
+  endpoint is secured, a second listener on the loopback interface for the runtime's own
+  children (they are trusted as ``local``; the secured endpoint is for other computers).
+* :class:`Center` — the ``ctl/join`` verb: a remote agent asks to be part of the robot.
+  Its identity is checked (``security.agents`` + :mod:`esair_std.remote.identity`), then
+  it is added like a local component, except that nothing is spawned: the agent is
+  already running on its own computer. A behavior whose liveliness token goes is marked
+  ``lost`` and its registrations are dropped; if it is not back within ``lost_grace``
+  seconds it is ``failed``. A resource's children are ``lost`` and ``ready`` again when
+  it joins again. A lost agent that joins again replaces its old record.
+"""
+
+from __future__ import annotations
+
+import logging
+import socket
+import threading
+import time
+from pathlib import Path
+from typing import Any
+
+from ..errors import ControlError, Refused
+from ..spec import Spec
+from ..transport.security import access_control, link_inserts, session_inserts
+from .identity import Verifier
+
+log = logging.getLogger("esair_std.remote")
+JOIN_WAIT = 10.0
+
+
+def _free_loopback_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def grants_for(deployment: Any, agent: str) -> dict[str, list[str]]:
+    """What the deployment's ``allow`` lets ``agent`` read / command, and what it hosts
+    (its own name): the keys Zenoh's ACL opens for it."""
+    reads, commands = [], []
+    for name, spec in getattr(deployment, "resources", {}).items():
+        level = spec.granted(agent)
+        if level is None:
+            continue
+        keys = [name, f"{name}.$*"]
+        reads += keys
+        if int(level) >= 2:
+            commands += keys
+    return {"reads": reads, "commands": commands, "provides": [agent, f"{agent}.$*"]}
+
+
+def session(rt: Any) -> tuple[dict, list[str], str | None]:
+    """(zenoh options, extra listen endpoints, endpoint for local children or None)."""
+    sec = getattr(rt.deployment, "security", None)
+    if sec is None:
+        return link_inserts(), [], None
+    base = Path(rt.base_dir)
+    options = session_inserts(sec, base, listen=True)
+    grants = {a: grants_for(rt.deployment, a) for a in sec.agents}
+    acl = access_control(sec, rt.robot, grants)
+    if acl:
+        options["access_control"] = acl
+    local = f"tcp/127.0.0.1:{_free_loopback_port()}"
+    return options, [local], local
+
+
+class Center:
+    """Remote agents of one runtime (process mode)."""
+
+    def __init__(self, rt: Any):
+        self.rt = rt
+        sec = getattr(rt.deployment, "security", None)
+        self.sec = sec
+        self.lost_grace = 3 * (sec.lease_ms if sec else 2000) / 1000.0
+        base = Path(rt.base_dir)
+        full = (lambda p: None if p is None else (p if p.is_absolute() else base / p))
+        self.verifier = (Verifier(full(sec.ca), full(sec.users))
+                         if sec is not None and sec.agents else None)
+        self.c = dict(joins=0, joins_refused=0, lost=0, back=0)
+        self._lock = threading.Lock()
+
+    # ---- ctl/join
+    def join(self, b: dict) -> dict:
+        try:
+            return self._join(b)
+        except (Refused, ControlError):
+            self.c["joins_refused"] += 1
+            raise
+
+    def _join(self, b: dict) -> dict:
+        spec_json = b.get("spec")
+        if not isinstance(spec_json, dict):
+            raise ControlError("bad request: 'spec' must be an object")
+        try:
+            spec = Spec.from_json(spec_json)
+        except TypeError as exc:
+            raise ControlError(f"bad request: spec: {exc}") from None
+        if spec.kind not in ("behavior", "resource"):
+            raise ControlError("bad request: a remote agent hosts a behavior or a resource")
+        name = spec.name
+        self._check_identity(name, b.get("proof"))
+        # a remote component never restarts from here: its process is not ours to start
+        spec = Spec.from_json({**spec.to_json(), "restart_max": 0, "base_dir": None})
+        info = {"host": str(b.get("host", "?"))[:64], "pid": b.get("pid")}
+        mode = self.rt.mode
+        if spec.kind == "resource":
+            return self._join_resource(spec, info)
+        rec = self.rt.bs.records.get(name)
+        if rec is not None:
+            host = rec.host
+            if not getattr(host, "remote", False) or host.phase not in ("lost", "failed"):
+                raise ControlError(f"a {rec.spec.kind} named {name!r} is already deployed")
+            host.quiet = True                     # do not tell the (returning) agent to stop
+            self.rt.bs.request(self.rt.bs.remove, name)
+            self.c["back"] += 1
+        mode.remote[name] = info
+        box: list = []
+        threading.Thread(target=self._add, args=(spec, box), daemon=True,
+                         name=f"esair:join:{name}").start()
+        deadline = time.monotonic() + JOIN_WAIT
+        while (name, 1) not in mode._pending and not box:
+            if time.monotonic() > deadline:
+                raise ControlError(f"{name!r}: the behavior supervisor did not take it in time")
+            time.sleep(0.001)
+        if box and not box[0][0]:
+            raise box[0][1]
+        self.c["joins"] += 1
+        return {"generation": 1, "robot": self.rt.robot}
+
+    def _add(self, spec: Spec, box: list) -> None:
+        try:
+            self.rt.bs.request(self.rt.bs.add, spec, timeout=JOIN_WAIT + 20)
+            box.append((True, None))
+        except Exception as exc:  # noqa: BLE001 - handed to the join request
+            box.append((False, exc))
+            self.rt.mode.remote.pop(spec.name, None)
+
+    def _join_resource(self, spec: Spec, info: dict) -> dict:
+        mode = self.rt.mode
+        entry = self.rt.rs.entries.get(spec.name)
+        if entry is not None:
+            host = entry[1]
+            if not getattr(host, "remote", False):
+                raise ControlError(f"a resource named {spec.name!r} is already deployed")
+            host.rejoining = True                 # its hello sets its children ready again
+            mode.remote[spec.name] = info
+            mode._pending[(spec.name, 1)] = host
+            host.hello.clear()
+            self.c["back"] += 1
+            return {"generation": 1, "robot": self.rt.robot}
+        if spec.name in self.rt.bs.records:
+            raise ControlError(f"a {self.rt.bs.records[spec.name].spec.kind} named "
+                               f"{spec.name!r} is already deployed")
+        mode.remote[spec.name] = info
+        box: list = []
+        threading.Thread(target=self._add_resource, args=(spec, box), daemon=True).start()
+        deadline = time.monotonic() + JOIN_WAIT
+        while (spec.name, 1) not in mode._pending and not box:
+            if time.monotonic() > deadline:
+                raise ControlError(f"{spec.name!r}: the resource supervisor did not take it")
+            time.sleep(0.001)
+        if box and not box[0][0]:
+            raise box[0][1]
+        self.c["joins"] += 1
+        return {"generation": 1, "robot": self.rt.robot}
+
+    def _add_resource(self, spec: Spec, box: list) -> None:
+        try:
+            self.rt.rs.add(spec)
+            box.append((True, None))
+        except Exception as exc:  # noqa: BLE001 - handed to the join request
+            box.append((False, exc))
+            self.rt.mode.remote.pop(spec.name, None)
+
+    def _check_identity(self, name: str, proof: Any) -> None:
+        if self.verifier is None:
+            return                                 # no agents listed: the link decides
+        ident = self.sec.agents.get(name)
+        if ident is None:
+            raise Refused(f"{name}: not an agent of this robot (security.agents)")
+        self.verifier.check(self.rt.robot, name, proof, cn=ident.cn, user=ident.user)
+
+    # ---- liveliness
+    def lost(self, host: Any) -> None:
+        """A remote behavior's token went: lost now, failed after lost_grace."""
+        if host.phase in ("failed", "stopped", "lost"):
+            return
+        host.phase, host.reason = "lost", "remote agent unreachable (liveliness token lost)"
+        self.c["lost"] += 1
+        self.rt.rs.release(host.name)
+        log.warning("%s: remote agent lost", host.name)
+        threading.Timer(self.lost_grace, self._grace_over, (host,)).start()
+
+    def _grace_over(self, host: Any) -> None:
+        rec = self.rt.bs.records.get(host.name)
+        if rec is not None and rec.host is host and host.phase == "lost":
+            self.rt.mode.reported(host.name, host.generation, "failed",
+                                  f"remote agent unreachable for {self.lost_grace:g} s")

@@ -1,0 +1,63 @@
+"""Robots talking to robots: a behavior of robot ``a`` puts to (or gets from) behavior
+``turn`` of robot ``b`` by naming it ``b/turn``, once the two control centers are joined
+(``esair std run FILE --join tcp/B_HOST:PORT`` on one of them: their Zenoh sessions
+connect; every key starts with the robot's name, so nothing collides).
+
+The request goes to b's control center (``esair/b/ctl/put`` / ``ctl/get``) with the
+sender named ``a/<behavior>``; b's BS delivers it like any put, with the same retry,
+timeout and failure rules. Only put and get cross: resources stay with their robot.
+"""
+
+from __future__ import annotations
+
+import re
+from typing import Any
+
+from ..transport import keys
+
+ROBOT_NAME = re.compile(r"^[a-z][a-z0-9_]{0,31}$")
+
+
+def split(target: str) -> tuple[str, str] | None:
+    """("b", "turn") for "b/turn"; None for a local name."""
+    robot, sep, name = target.partition("/")
+    return (robot, name) if sep else None
+
+
+def put(rt: Any, sender: str, target: str, data: Any, timeout: float) -> tuple[bool, str]:
+    robot, name = split(target)
+    if not ROBOT_NAME.match(robot) or not name:
+        return False, f"{target!r} is not of the form robot/behavior"
+    if robot == rt.robot:
+        return rt.bs.put(sender, name, data, timeout)
+    r = _ask(rt, robot, "put", {"from": f"{rt.robot}/{sender}", "to": name, "data": data,
+                                "timeout": timeout}, timeout)
+    if isinstance(r, str):
+        return False, r
+    return bool(r.get("delivered")), str(r.get("reason", ""))
+
+
+def get(rt: Any, requester: str, target: str, timeout: float) -> tuple[bool, Any]:
+    robot, name = split(target)
+    if not ROBOT_NAME.match(robot) or not name:
+        return False, f"{target!r} is not of the form robot/behavior"
+    if robot == rt.robot:
+        return rt.bs.get(requester, name, timeout)
+    r = _ask(rt, robot, "get", {"from": f"{rt.robot}/{requester}", "to": name,
+                                "timeout": timeout}, timeout)
+    if isinstance(r, str):
+        return False, r
+    return (True, r.get("data")) if r.get("ok") else (False, str(r.get("reason", "")))
+
+
+def _ask(rt: Any, robot: str, verb: str, body: dict, timeout: float) -> dict | str:
+    server = getattr(rt, "server", None)
+    if server is None or server.bus is None:
+        return f"robot {robot!r} is out of reach: this runtime has no control endpoint"
+    r = server.bus.request(keys.ctl(robot, verb), body, timeout + 2.0)
+    if r is None:
+        return f"robot {robot!r} did not answer (not joined, or unreachable)"
+    if "error" in r:
+        return f"robot {robot!r}: {r['error']}"
+    ok = r.get("ok")
+    return ok if isinstance(ok, dict) else f"robot {robot!r}: bad answer"

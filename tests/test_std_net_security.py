@@ -1,0 +1,153 @@
+"""Nobody gets in where they don't belong (issue 12 item 3), against a real control
+center with a TLS (mTLS) endpoint and access control, from another network namespace:
+checked at the Zenoh layer (no session, or the ACL drops it) AND at the RS (join with a
+proof of identity, registration against `allow`), so a gap in one is caught by the
+other. Garbage and oversized messages on every key the runtime and its agents listen on
+are refused without a crash."""
+
+from __future__ import annotations
+
+import pytest
+
+from esair_std.transport.certs import make_certs
+from esair_std.transport.security import SecuritySpec, session_inserts
+from netns import make_net, wait_for
+from netstd import Center, agent
+from zpeer import Peer
+
+SECURE = """
+robot: lab
+mode: process
+endpoint: ENDPOINT
+security:
+  ca: pki/ca.pem
+  cert: pki/server.pem
+  key: pki/server.key
+  lease_ms: 1000
+  agents:
+    pusher: {cn: pusher}
+    reader: {cn: reader}
+    intruder: {cn: intruder}    # let through the ACL to ctl on purpose: the RS must stop it
+resources:
+  arm: {class: "netcomps:Wheel", allow: {pusher: command, reader: read}}
+  mic: {class: "netcomps:Counter", rate: 50, allow: {pusher: read, reader: read}}
+behaviors:
+  idle: {class: "netcomps:Idle"}
+"""
+ARM, MIC = "esair/lab/actuator/arm", "esair/lab/sensor/mic"
+
+
+@pytest.fixture(scope="module")
+def secure(tmp_path_factory):
+    """One control center with a TLS endpoint for the module (its start is the slow part)."""
+    folder = tmp_path_factory.mktemp("secure")
+    net = make_net(2)
+    try:
+        make_certs(folder / "pki", clients=["pusher", "reader", "intruder", "stranger"],
+                   hosts=[net[0].addr])
+        make_certs(folder / "other", clients=["pusher"], hosts=[net[0].addr])
+        center = Center(net[0], folder, SECURE, tls=True)
+        center.pki = folder / "pki"
+        center.folder = folder
+        yield net, center
+    finally:
+        net.close()
+
+
+def _creds(center, who: str, pki: str = "pki") -> list[str]:
+    """Certificate options; --robot: with access control on, a wildcard ping is denied."""
+    d = center.folder / pki
+    return ["--robot", "lab", "--ca", str(center.pki / "ca.pem"),
+            "--cert", str(d / f"{who}.pem"), "--key", str(d / f"{who}.key")]
+
+
+def _raw(net, center, who: str) -> Peer:
+    """A raw Zenoh client with `who`'s (valid) certificate: past TLS, subject to the ACL."""
+    d = center.pki
+    sec = SecuritySpec(ca=d / "ca.pem", cert=d / f"{who}.pem", key=d / f"{who}.key")
+    peer = Peer(net[1], {"mode": "client", "scouting/multicast/enabled": False,
+                         "connect/endpoints": [center.endpoint], "listen/endpoints": [],
+                         **session_inserts(sec, ".", listen=False)})
+    assert peer.error is None, peer.error
+    return peer
+
+
+def _ctl(center, *args):
+    """esair std ... on the control center's computer, over its loopback listener
+    (the TLS endpoint wants certificates; local processes are trusted)."""
+    return center.ctl(*args, endpoint=center.local)
+
+
+@pytest.fixture(scope="module")
+def local(secure):
+    center = secure[1]
+    assert center.local.startswith("tcp/127.0.0.1:")
+    return center
+
+
+@pytest.mark.parametrize("who, pki", [(None, None), ("pusher", "other")])
+def test_no_certificate_or_a_wrong_one_gets_no_session(secure, who, pki):
+    net, center = secure
+    creds = ["--ca", str(center.pki / "ca.pem")] + (_creds(center, who, pki)[4:] if who else [])
+    proc = agent(net[1], center.endpoint, "pusher", "netcomps:Pusher", "--uses", "arm=command",
+                 *creds)
+    assert proc.wait_exit(60) == 1
+    assert proc.lines[-1].startswith(
+        f"error: cannot reach the control center at {center.endpoint}: "), proc.output()
+
+
+def test_acl_stops_a_valid_certificate_that_is_no_agent_of_the_robot(secure, local):
+    net, center = secure
+    stranger = _raw(net, center, "stranger")
+    assert stranger.get("esair/lab/ctl/ping", 1.0) == []           # cannot ask anything
+    assert stranger.cmd(f"getx {ARM} nulls")["replies"] == []       # nor command the arm
+    stranger.cmd(f"sub {MIC}")
+    reader = _raw(net, center, "reader")                            # an agent that may read
+    reader.cmd(f"sub {MIC}")
+    assert reader.wait_event(lambda e: e.get("sample") == MIC, 10)
+    assert stranger.samples(MIC) == []                              # nor read the sensor
+    assert reader.cmd(f"getx {ARM} nulls")["replies"] == []         # read grant: no command
+    stranger.close()
+    reader.close()
+
+
+def test_rs_refuses_a_join_under_someone_elses_name(secure, local):
+    """`intruder` is an agent of the robot, so the ACL lets it ask ctl/join; it claims
+    to be `pusher` with its own certificate: the RS's identity check refuses it."""
+    net, center = secure
+    proc = agent(net[1], center.endpoint, "pusher", "netcomps:Pusher", "--uses", "arm=command",
+                 *_creds(center, "intruder"))
+    assert proc.wait_exit(60) == 1
+    assert proc.lines[-1] == ("error: join refused: pusher: certificate is not "
+                              "'pusher''s"), proc.output()
+    assert "pusher" not in {r["name"] for r in __import__("json").loads(
+        _ctl(center, "ls", "--json"))}
+
+
+def test_a_registered_agent_works_and_a_read_behavior_cannot_command(secure, local):
+    net, center = secure
+    pusher = agent(net[1], center.endpoint, "pusher", "netcomps:Pusher",
+                   "--uses", "arm=command", *_creds(center, "pusher"))
+    reader = agent(net[1], center.endpoint, "reader", "netcomps:Pusher", "--uses", "arm=read",
+                   *_creds(center, "reader"))
+    import json
+    get = lambda name: json.loads(_ctl(center, "get", name, "--timeout", "2"))  # noqa: E731
+
+    def running():
+        assert pusher.proc.poll() is None and reader.proc.poll() is None, (
+            pusher.output() + reader.output())
+        rows = {r["name"]: r["state"] for r in json.loads(_ctl(center, "ls", "--json"))}
+        return rows.get("pusher") == rows.get("reader") == "running"
+    wait_for(running, 30, what="pusher and reader running")
+    wait_for(lambda: (get("pusher")["last"] or {}).get("n", 0) >= 2, 30, what="pusher's commands")
+    wait_for(lambda: get("reader")["errors"], 30, what="reader's refusal")
+    assert get("reader")["errors"] == ["behavior 'reader' lists 'arm' for read in its uses, "
+                                       "not command"]
+    assert get("reader")["sent"] == 0
+    arm = json.loads(_ctl(center, "inspect", "arm"))
+    assert arm["grants"] == {"pusher": "command"} and arm["refused"] >= 1
+    rows = {r["name"]: r for r in json.loads(_ctl(center, "ls", "--json"))}
+    assert rows["pusher"]["host"] == f"pc-{net[1].addr}"
+    pusher.proc.terminate()
+    reader.proc.terminate()
+    assert pusher.wait_exit(30) == 0 and reader.wait_exit(30) == 0
