@@ -48,7 +48,8 @@ class Pusher(Behavior):
             return
         self.sent += 1
         try:
-            self.last = self.arm.send({"push": self.sent}, timeout=1.0)
+            # well inside the step deadline (1 s): a partition must not make it hang
+            self.last = self.arm.send({"push": self.sent}, timeout=0.2)
         except (CommandError, ResourceLost, Refused) as exc:
             self.errors = (self.errors + [str(exc)])[-5:]
 

@@ -79,8 +79,11 @@ class Center:
 
     def ctl(self, *args: str, check: bool = True, endpoint: str | None = None) -> str:
         """An `esair std` control command run on the control center's computer."""
-        proc = self.host.run(*cli(*args, "-e", endpoint or self.endpoint, "-r", self.robot),
-                             check=False, timeout=60)
+        cmd = cli(*args, "-e", endpoint or self.endpoint, "-r", self.robot)
+        proc = self.host.run(*cmd, check=False, timeout=60)
+        if proc.returncode and "did not answer" in proc.stderr:
+            # while a link is being cut the control endpoint may answer late: ask once more
+            proc = self.host.run(*cmd, check=False, timeout=60)
         if check and proc.returncode:
             raise AssertionError(f"esair std {' '.join(args)}: {proc.stderr or proc.stdout}")
         return proc.stdout if not proc.returncode else proc.stderr

@@ -134,8 +134,8 @@ class ProcessComponent(_Child):
 
     @property
     def state(self) -> str:
-        if self.phase in ("failed", "stopped", "starting", "lost"):
-            return self.phase
+        if self.remote or self.phase in ("failed", "stopped", "starting", "lost"):
+            return self.phase        # a remote agent reports its phases: no round trip
         r = self.ask(self.key, {"op": "state"}, 0.5)
         return r["ok"] if isinstance(r, dict) and "ok" in r else self.phase
 

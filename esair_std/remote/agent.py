@@ -129,7 +129,8 @@ class RemoteAgent(Agent):
                         self.hello()
                         state = self.host.state if self.host is not None else "running"
                         self.port.state_changed(self.spec.name, self.generation,
-                                                "running" if state == "busy" else state, "")
+                                                "running" if state == "busy" else state,
+                                                getattr(self.host, "reason", ""))
                         failed = self.port.register_again(self.spec.name)
                         for f in failed:
                             log.error("%s: registration not made again: %s", self.spec.name, f)
