@@ -113,9 +113,11 @@ def remote_put(net, base: Path, n: int, tls: bool) -> dict:
     line = agent.wait_line("joined robot", 60)
     start_s = time.monotonic() - t0              # interpreter, imports, session, join
     join_ms = float(line.rsplit(" in ", 1)[1].split()[0])
-    ctl = (lambda *a: center.ctl(*a, endpoint=center.local)) if tls else center.ctl
-    got = netns.wait_for(lambda: json.loads(ctl("get", "putbench", "--timeout", "2")),
-                         60 + n * 0.05, what="the put bench")
+    def result():                # busy while its run() goes on: no data until it ends
+        out = center.ctl("get", "putbench", "--timeout", "2", check=False,
+                         endpoint=center.local if tls else None)
+        return None if out.startswith("error") else json.loads(out)
+    got = netns.wait_for(result, 60 + n * 0.05, interval=0.5, what="the put bench")
     center.run.proc.terminate()
     center.run.wait_exit(30)
     agent.proc.kill()
