@@ -12,7 +12,6 @@ from typing import Any
 
 import click
 
-from ..deploy.bundled import resolve_deployment
 from . import friendly
 
 
@@ -97,6 +96,7 @@ def run_cmd(deployment: str, mode: str | None, seconds: float | None, endpoint: 
     """Deploy FILE (a deployment file, or a bundled example such as `lab`) and run it
     until Ctrl-C, or for --run SECONDS. Other terminals control it with `esair std ls`,
     `add`, `remove`, `put`, ... over the control endpoint."""
+    from ..deploy.bundled import resolve_deployment
     from ..runtime import Runtime
 
     path: Any = resolve_deployment(deployment)
