@@ -186,3 +186,19 @@ def test_agents_leave_when_the_runtime_is_killed():
         proc.kill()
         proc.wait(10)
     wait_for(lambda: leftover(ep) == [], timeout=30, what="every agent gone")
+
+
+def test_run_refuses_bad_input_with_one_line(tmp_path):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text('robot: lab\nbehaviors:\n  x: {class: "nomod:X"}\n')
+    r = esair("run", str(bad), "--run", "1", "-e", free_endpoint(), check=False)
+    assert (r.returncode, r.stderr) == (
+        1, f"error: {bad}:3:14: no module named 'nomod'; looked in the deployment's folder, "
+           "then sys.path\n")
+    r = esair("run", "nosuch", "--run", "1", check=False)
+    assert (r.returncode, r.stderr) == (
+        1, "error: nosuch: no such file, and no bundled example named 'nosuch' "
+           "(bundled: lab, papaman)\n")
+    r = esair("run", "lab", "--run", "1", "-e", "tcp/127.0.0.1", check=False)
+    assert (r.returncode, r.stderr) == (
+        1, "error: endpoint 'tcp/127.0.0.1' is not of the form tcp/HOST:PORT\n")
