@@ -132,7 +132,7 @@ def test_cli_controls_a_running_robot(robot_mode):
     ep, mode = robot_mode
     rows = json.loads(esair("ls", "--json", "-e", ep).stdout)
     names = [r["name"] for r in rows]
-    assert names == ["guard", "follow", "logger", "tuner", "keeper", "wave", "ticks", "arm",
+    assert names == ["guard", "logger", "follow", "tuner", "keeper", "wave", "ticks", "arm",
                      "bench.temp", "bench.fan"]
     pids = {r["pid"] for r in rows}
     assert len(pids) == (1 if mode == "thread" else 9)     # 5 components + 4 resource entries
@@ -153,7 +153,9 @@ def test_cli_controls_a_running_robot(robot_mode):
         "spare_ticks: sensor ready\n")
     assert esair("remove-resource", "wave", "-e", ep).stdout == (
         "wave: removed (detached: follow)\n")
-    assert json.loads(esair("ls", "--json", "-e", ep).stdout)[1]["state"] == "running"
+    follow = [r for r in json.loads(esair("ls", "--json", "-e", ep).stdout)
+              if r["name"] == "follow"]
+    assert follow[0]["state"] == "running"          # detached, still running
     top = esair("top", "--count", "1", "--interval", "0.2", "-e", ep).stdout
     assert "follow" in top and "spare_ticks" in top
 
@@ -161,17 +163,18 @@ def test_cli_controls_a_running_robot(robot_mode):
 @pytest.mark.parametrize("mode", MODES)
 def test_run_headless_prints_a_summary(mode):
     ep = free_endpoint()
-    r = esair("run", "lab", "--mode", mode, "--run", "1.5", "-e", ep)
+    r = esair("run", "lab", "--mode", mode, "--run", "3", "-e", ep)
     lines = r.stdout.splitlines()
     assert lines[0].split() == ["NAME", "KIND", "STATE", "SAMPLES", "OVERWRITTEN", "COMMANDS",
                                 "PUTS_OK", "PUTS_FAILED", "RESTARTS"]
     rows = {line.split()[0]: line.split() for line in lines[1:]}
-    assert list(rows) == ["guard", "follow", "logger", "tuner", "keeper", "wave", "ticks",
+    assert list(rows) == ["guard", "logger", "follow", "tuner", "keeper", "wave", "ticks",
                           "arm", "bench.temp", "bench.fan"]
     assert rows["wave"][2] == "ready" and int(rows["wave"][3]) > 0
     assert rows["follow"][2] == "running" and int(rows["follow"][3]) > 0
     assert int(rows["arm"][5]) > 0                       # commands the actuator carried out
-    assert r.stderr.startswith(f"robot 'lab' running in {mode} mode, control endpoint {ep}")
+    assert (f"robot 'lab' running in {mode} mode, control endpoint {ep} (10 components)"
+            in r.stderr.splitlines())
     assert leftover(ep) == []
 
 
