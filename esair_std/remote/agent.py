@@ -173,7 +173,8 @@ def find_robot(bus: Bus, endpoint: str) -> str:
         r = bus.request("esair/*/ctl/ping", {}, wait)
         if r is not None and "ok" in r:
             return r["ok"]["robot"]
-    raise TransportError(f"no ESAIR STD control center answers on {endpoint}")
+    raise TransportError(f"no ESAIR STD control center answers on {endpoint} (with access "
+                         "control on, name the robot: --robot NAME)")
 
 
 def run(endpoint: str, name: str, class_path: str, kind: str, uses: dict | None = None,
