@@ -319,7 +319,7 @@ def test_live_view_shows_servos_sensors_lines_and_errors(robot):
     from esair_min.emulator.liveview import Motion, render
     from esair_min.emulator.ptyserver import PtyPort
 
-    emu = booted(robot, scenario="push")
+    emu = booted(robot, scenario="push", transcript=True)
     motion = Motion(emu)
     emu.command("oaf120")
     emu.command("zz")

@@ -37,7 +37,8 @@ def test_a_line_that_lost_bytes_shows_where():
 
 
 def test_the_emulator_keeps_the_transcript(robot):
-    emu = Emulator(robot, scenario="push")
+    assert Emulator(robot).transcript is None          # off unless asked for (speed)
+    emu = Emulator(robot, scenario="push", transcript=True)
     emu.settle()
     for line in ("v", "PLY03", "PLY01", "x"):
         emu.command(line)

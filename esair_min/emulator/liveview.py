@@ -114,7 +114,8 @@ def render(emu: Emulator, motion: Motion, port, width: int, height: int) -> Text
                "red" if errs else "dim")
     room = height - len(lines) - 2
     lines.append(Text(_fit("serial line: received → reply, notices apart", width), "bold"))
-    lines += _transcript(list(emu.transcript.rows), width, max(room, 1))
+    rows = list(emu.transcript.rows) if emu.transcript is not None else []
+    lines += _transcript(rows, width, max(room, 1))
     lines.append(err)
     out = Text()
     for i, line in enumerate(lines[:height]):

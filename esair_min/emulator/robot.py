@@ -108,7 +108,7 @@ class Emulator:
 
     def __init__(self, robot: Robot, scenario: Scenario | str | Path | None = None,
                  faults: Faults = Faults(), trace: TraceWriter | None = None,
-                 eeprom_image: bytes | None = None):
+                 eeprom_image: bytes | None = None, transcript: bool = False):
         central = robot.central
         if central.uart is None or central.timer2 is None:
             raise EsairError("the central board needs uart: and tick: to be emulated")
@@ -159,7 +159,7 @@ class Emulator:
         self.commands = _Lines(HISTORY)      # lines the host sent
         self.replies = _Lines(HISTORY)       # lines the board sent (notices included)
         self.errors: deque[str] = deque(maxlen=HISTORY)
-        self.transcript = Transcript(2 * HISTORY, GAP)   # each line the decoder got, its reply
+        self.transcript: Transcript | None = None   # see keep_transcript()
         self.on_line: Callable[[str], None] | None = None
         self.on_tick: Callable[[], None] | None = None   # after each tick's sync edge
 
@@ -180,12 +180,14 @@ class Emulator:
         # -- the central board
         self.core = CentralCore(robot, core_bus, self._send)
         self.uart = Uart(self.clock, central.uart.baud, self._feed,
-                         rx_mode=self._rx_mode, direct=self._rx_direct)
+                         rx_mode=self._rx_mode, direct=self.core.rx_run)
         self.ticks = 0
         self._feed_pending = False
         self.clock.schedule(self._tick_time(1), self._tick)
         if faults.noise_per_s > 0:
             self._schedule_noise()
+        if transcript:                  # before boot: its !READY is the first row
+            self.keep_transcript()
         self.core.boot()
 
     # -- time ----------------------------------------------------------------------------
@@ -314,8 +316,10 @@ class Emulator:
             self._mark(at)
             self.trace.tx(data)
         self.bus.hold(self.uart.board_send(data, at))   # the superloop waits for room
+        tr = self.transcript
         for line in self.replies.feed(data):
-            self.transcript.board_line(line)
+            if tr is not None:
+                tr.board_line(line)
             if line.startswith("E") or line.startswith("!E"):
                 self.errors.append(line)
             if self.on_line is not None:
@@ -344,9 +348,19 @@ class Emulator:
         return RX_TAKE
 
     def _rx_direct(self, data: bytes) -> None:
-        """A run of bytes straight to the decoder (the UART's fast path)."""
-        self.transcript.rx(data)
+        """A run of bytes straight to the decoder (the UART's fast path), recorded."""
+        self.transcript.rx(data)           # type: ignore[union-attr]
         self.core.rx_run(data)
+
+    def keep_transcript(self) -> Transcript:
+        """Record each line the decoder receives with its reply, and the notices
+        (``transcript.rows``), from now on (``Emulator(..., transcript=True)``: from
+        reset). For a display; it costs about a tenth of the emulator's speed, so it
+        is off unless asked for."""
+        if self.transcript is None:
+            self.transcript = Transcript(2 * HISTORY, GAP)
+            self.uart._direct = self._rx_direct
+        return self.transcript
 
     def _feed_event(self) -> None:
         self._feed_pending = False
@@ -358,18 +372,26 @@ class Emulator:
         if not ring:
             return
         core, clock, bus = self.core, self.clock, self.bus
-        ready, feed, seen = core.ready, core.rx_byte, self.transcript.rx_byte
-        while ring and ready():
-            if bus.busy_until > clock.now:
-                if not self._feed_pending:
-                    self._feed_pending = True
-                    clock.schedule(bus.busy_until, self._feed_event)
-                return
-            b = ring.popleft()
-            seen(b)
-            if b & GAP:                 # bytes were lost right before this one
-                core.rx_overrun()
-            feed(b & 0xFF)
+        ready, feed = core.ready, core.rx_byte
+        tr = self.transcript
+        got: list[int] = []                 # for the transcript, handed over in one go
+        keep = got.append if tr is not None else None
+        try:
+            while ring and ready():
+                if bus.busy_until > clock.now:
+                    if not self._feed_pending:
+                        self._feed_pending = True
+                        clock.schedule(bus.busy_until, self._feed_event)
+                    return
+                b = ring.popleft()
+                if keep is not None:
+                    keep(b)
+                if b & GAP:                 # bytes were lost right before this one
+                    core.rx_overrun()
+                feed(b & 0xFF)
+        finally:
+            if tr is not None:
+                tr.rx_ring(got)
 
     def _schedule_noise(self) -> None:
         gap = self._rng.expovariate(self.faults.noise_per_s)

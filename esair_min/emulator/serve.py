@@ -123,8 +123,9 @@ def emulate(robot: Robot, opts: EmulateOptions, out: TextIO | None = None,
             except OSError as exc:
                 raise EsairError(f"cannot write the trace {opts.trace}: {exc.strerror}") from None
             trace = FileTraceWriter(f)
+        live = opts.pty and (out.isatty() if opts.live is None else opts.live)
         emu = Emulator(robot, scenario=opts.scenario, faults=opts.faults, trace=trace,
-                       eeprom_image=image)
+                       eeprom_image=image, transcript=live)
         stack.callback(emu.close)
         if opts.pty:
             _serve(emu, opts, out)

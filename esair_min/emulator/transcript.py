@@ -38,6 +38,7 @@ class Transcript:
     def __init__(self, keep: int = 40, gap_flag: int = 0x100):
         self.rows: deque[Row] = deque(maxlen=keep)
         self._waiting: deque[Row] = deque(maxlen=keep)
+        self._early: deque[str] = deque(maxlen=keep)
         self._buf = bytearray()
         self._text: list[str] = []     # pieces of the current line (gap marks between)
         self._gap_flag = gap_flag
@@ -55,6 +56,16 @@ class Transcript:
         room = MAX_KEEP - len(self._buf)
         if part and room > 0:
             self._buf += part[:room]
+
+    def rx_ring(self, got: list[int]) -> None:
+        """Bytes taken from the receive ring in one go (gap flags included)."""
+        if not got:
+            return
+        if max(got) <= 0xFF:
+            self.rx(bytes(got))
+            return
+        for b in got:
+            self.rx_byte(b)
 
     def rx_byte(self, b: int) -> None:
         """One byte fed to the decoder (with the ring's gap flag, if bytes were lost
@@ -80,7 +91,10 @@ class Transcript:
         self._text.clear()
         row = Row("line", text)
         self.rows.append(row)
-        self._waiting.append(row)
+        if self._early:                          # its reply was recorded first
+            row.reply = self._early.popleft()
+        else:
+            self._waiting.append(row)
 
     # -- what the board sends ---------------------------------------------------------
     def board_line(self, line: str) -> None:
@@ -88,5 +102,5 @@ class Transcript:
             self.rows.append(Row("notice", line))
         elif self._waiting:
             self._waiting.popleft().reply = line
-        else:                                    # a reply to a line no longer kept
-            self.rows.append(Row("line", "", line))
+        else:       # its line is still being recorded (the ring's bytes go in batches)
+            self._early.append(line)
