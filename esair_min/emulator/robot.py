@@ -180,7 +180,7 @@ class Emulator:
         # -- the central board
         self.core = CentralCore(robot, core_bus, self._send)
         self.uart = Uart(self.clock, central.uart.baud, self._feed,
-                         rx_mode=self._rx_mode, direct=self.core.rx_run)
+                         rx_mode=self._rx_mode, direct=self._rx_core)
         self.ticks = 0
         self._feed_pending = False
         self.clock.schedule(self._tick_time(1), self._tick)
@@ -346,6 +346,10 @@ class Emulator:
         if self.bus.busy_until > self.clock.now:
             return RX_HOLD if self._feed_pending else RX_BYTE
         return RX_TAKE
+
+    def _rx_core(self, data: bytes) -> None:
+        """A run of bytes straight to the decoder (the UART's fast path)."""
+        self.core.rx_run(data)
 
     def _rx_direct(self, data: bytes) -> None:
         """A run of bytes straight to the decoder (the UART's fast path), recorded."""
