@@ -61,11 +61,14 @@ class Tmux:
 
 @pytest.fixture
 def tmux(request):
-    t = Tmux(f"esair-test-{os.getpid()}-{request.node.name[:40]}")
+    name = f"esair-test-{os.getpid()}-{request.node.name[:40]}"
+    t = Tmux(name)
+    socket = Path(os.environ.get("TMUX_TMPDIR", "/tmp")) / f"tmux-{os.getuid()}" / name
     try:
         yield t
     finally:
         subprocess.run(t.base + ["kill-server"], capture_output=True, timeout=30)
+        socket.unlink(missing_ok=True)          # the server leaves its socket file
 
 
 def clean(text: str, width: int) -> bool:
