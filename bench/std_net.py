@@ -94,10 +94,10 @@ def remote_agent(host, endpoint: str, name: str, class_path: str, kind: str, **k
     return Proc(host, [sys.executable, "-m", "esair_std.remote.agent", json.dumps(args)])
 
 
-def remote_put(net, base: Path, n: int, tls: bool) -> dict:
+def remote_put(net, base: Path, n: int, tls: bool, round_: int = 0) -> dict:
     """Remote put round trips (agent in host 1 -> BS in host 0 -> local behavior), the
     remote agent's join and one registration."""
-    folder = base / ("tls" if tls else "tcp")
+    folder = base / f"{'tls' if tls else 'tcp'}{round_}"
     folder.mkdir()
     sec = None
     if tls:
@@ -170,6 +170,7 @@ def main() -> None:
     ap.add_argument("--n", type=int, default=2000, help="round trips per figure")
     ap.add_argument("--seconds", type=float, default=5.0, help="1 kHz stream, link up")
     ap.add_argument("--down", type=float, default=3.0, help="partition length (s)")
+    ap.add_argument("--repeat", type=int, default=3, help="rounds of raw/put figures")
     args = ap.parse_args()
     why = netns.unavailable()
     if why:
@@ -180,25 +181,34 @@ def main() -> None:
         make_certs(base, clients=["agent"], hosts=[net[0].addr])
         tls_center = Security(ca="ca.pem", cert="server.pem", key="server.key")
         tls_agent = Security(ca="ca.pem", cert="agent.pem", key="agent.key")
-        figures["raw_tcp"] = raw_get(net, args.n, None, None, f"tcp/{net[0].addr}:7447", base)
-        figures["raw_tls"] = raw_get(net, args.n, tls_center, tls_agent,
-                                     f"tls/{net[0].addr}:7448", base)
-        print("1. raw zenoh query/reply across the veth link")
-        print(f"   tcp           {fmt(figures['raw_tcp'])}")
-        print(f"   tls (mTLS)    {fmt(figures['raw_tls'])}   "
-              f"TLS/tcp p50 {statistics.median(figures['raw_tls']) / statistics.median(figures['raw_tcp']):.2f}x")
-        for label, tls in (("tcp", False), ("tls", True)):
-            figures[f"put_{label}"] = remote_put(net, base, args.n, tls)
-        raw, put = figures["raw_tcp"], figures["put_tcp"]["times"]
-        print("2. remote put (agent -> BS -> local behavior) vs raw zenoh query, same link")
-        for label in ("tcp", "tls"):
-            r = figures[f"put_{label}"]
-            print(f"   put {label:<9} {fmt(r['times'])}   failed {r['failed']}")
-        print(f"   ratio put/raw (tcp)  p50 {pct(put, .5) / pct(raw, .5):.2f}x  "
-              f"p99 {pct(put, .99) / pct(raw, .99):.2f}x   (goal <= 2.5x)")
-        tput = figures["put_tls"]["times"]
-        print(f"   TLS cost on put      p50 {pct(tput, .5) / pct(put, .5):.2f}x  "
-              f"p99 {pct(tput, .99) / pct(put, .99):.2f}x")
+        rounds = []              # raw and remote put interleaved: the machine is shared
+        for r in range(args.repeat):
+            f = {"raw_tcp": raw_get(net, args.n, None, None, f"tcp/{net[0].addr}:7447", base),
+                 "put_tcp": remote_put(net, base, args.n, False, r),
+                 "raw_tls": raw_get(net, args.n, tls_center, tls_agent,
+                                    f"tls/{net[0].addr}:7448", base),
+                 "put_tls": remote_put(net, base, args.n, True, r)}
+            rounds.append(f)
+        print("1-2. raw zenoh query/reply vs remote put (agent -> BS -> local behavior), "
+              "same veth link")
+        for r, f in enumerate(rounds):
+            print(f"   round {r + 1}: raw tcp {fmt(f['raw_tcp'])}")
+            print(f"            put tcp {fmt(f['put_tcp']['times'])}  "
+                  f"failed {f['put_tcp']['failed']}")
+            print(f"            raw tls {fmt(f['raw_tls'])}")
+            print(f"            put tls {fmt(f['put_tls']['times'])}  "
+                  f"failed {f['put_tls']['failed']}")
+
+        def med(fn):
+            return statistics.median(fn(f) for f in rounds)
+        for q, name in ((0.5, "p50"), (0.99, "p99")):
+            ratio = med(lambda f: pct(f["put_tcp"]["times"], q) / pct(f["raw_tcp"], q))
+            tls_raw = med(lambda f: pct(f["raw_tls"], q) / pct(f["raw_tcp"], q))
+            tls_put = med(lambda f: pct(f["put_tls"]["times"], q) /
+                          pct(f["put_tcp"]["times"], q))
+            print(f"   {name} (median of {len(rounds)} rounds): put/raw {ratio:.2f}x "
+                  f"(goal <= 2.5x); TLS cost: raw {tls_raw:.2f}x, put {tls_put:.2f}x")
+        figures = rounds[-1]
         st = stream(net, base, args.seconds, args.down)
         print(f"3. remote sensor at 1 kHz ({st['rate']:.0f} samples/s measured), link up "
               f"{args.seconds:g} s: {st['expected'] - st['received']} lost of "
