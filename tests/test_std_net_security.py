@@ -151,3 +151,48 @@ def test_a_registered_agent_works_and_a_read_behavior_cannot_command(secure, loc
     pusher.proc.terminate()
     reader.proc.terminate()
     assert pusher.wait_exit(30) == 0 and reader.wait_exit(30) == 0
+
+
+LOGINS = """
+robot: lab
+mode: process
+endpoint: ENDPOINT
+security:
+  users: users.txt
+  agents:
+    pusher: {user: pusher}
+resources:
+  arm: {class: "netcomps:Wheel", allow: {pusher: command}}
+behaviors:
+  idle: {class: "netcomps:Idle"}
+"""
+
+
+def test_user_password_logins_with_the_runtime(tmp_path, monkeypatch):
+    """Logins instead of certificates: a good one joins (its proof an HMAC of the
+    password) and commands the arm; a wrong password gets no session at all."""
+    import json
+
+    (tmp_path / "users.txt").write_text("pusher:s3cret\noperator:op-pw\n")
+    (tmp_path / "good").write_text("s3cret\n")
+    (tmp_path / "bad").write_text("guess\n")
+    # the operator's own login for `esair std get` (the control CLI reads it from here)
+    monkeypatch.setenv("ESAIR_STD_SESSION", json.dumps({
+        "transport/auth/usrpwd/user": "operator", "transport/auth/usrpwd/password": "op-pw"}))
+    with make_net(2) as net:
+        center = Center(net[0], tmp_path, LOGINS)
+        login = ["--robot", "lab", "--user", "pusher", "--password-file"]
+        wrong = agent(net[1], center.endpoint, "pusher", "netcomps:Pusher",
+                      "--uses", "arm=command", *login, str(tmp_path / "bad"))
+        assert wrong.wait_exit(60) == 1
+        assert wrong.lines[-1].startswith(
+            f"error: cannot reach the control center at {center.endpoint}: "), wrong.output()
+        good = agent(net[1], center.endpoint, "pusher", "netcomps:Pusher",
+                     "--uses", "arm=command", *login, str(tmp_path / "good"))
+
+        def pushed():
+            assert good.proc.poll() is None, good.output()
+            out = center.ctl("get", "pusher", "--timeout", "2", endpoint=center.local,
+                             check=False)
+            return not out.startswith("error") and (json.loads(out)["last"] or {}).get("n", 0)
+        wait_for(pushed, 30, what="pusher's commands through a login")

@@ -3,6 +3,7 @@ the runtime's control endpoint, one request per command."""
 
 from __future__ import annotations
 
+import json
 import os
 from typing import Any
 
@@ -24,7 +25,14 @@ class Client:
                  timeout: float = 5.0):
         self.endpoint = check_endpoint(endpoint or default_endpoint())
         self.timeout = timeout
-        self.bus = Bus(connect=[self.endpoint])
+        # ESAIR_STD_SESSION: extra Zenoh options as JSON, e.g. a login when the robot's
+        # security section lists users (docs/std-network.md)
+        extra = os.environ.get("ESAIR_STD_SESSION") or "{}"
+        try:
+            options = json.loads(extra)
+        except ValueError:
+            raise TransportError("ESAIR_STD_SESSION is not a JSON object") from None
+        self.bus = Bus(connect=[self.endpoint], options=options)
         try:
             self.robot = robot or self._find_robot()
         except BaseException:

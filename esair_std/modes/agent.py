@@ -304,7 +304,9 @@ def main(argv: list[str] | None = None) -> int:
     a = p.parse_args(argv)
     logging.basicConfig(level=logging.WARNING, format="%(name)s: %(message)s")
     spec = Spec.from_json(json.loads(a.spec))
-    bus = Bus(connect=[a.connect], options=json.loads(a.session_options))
+    options = json.loads(a.session_options)
+    options.update(json.loads(os.environ.get("ESAIR_STD_SESSION") or "{}"))  # a login
+    bus = Bus(connect=[a.connect], options=options)
     agent = Agent(bus, a.robot, spec, a.generation)
     if not a.no_stdin:
         threading.Thread(target=_stdin_watch, args=(agent.done,), daemon=True).start()

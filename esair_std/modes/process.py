@@ -66,6 +66,9 @@ class _Child:
         env = dict(os.environ)
         paths = [p for p in sys.path if p and os.path.isdir(p)]
         env["PYTHONPATH"] = os.pathsep.join(paths)
+        child_login = getattr(self.mode.rt, "child_session", None)
+        if child_login:                          # the runtime's own login (security.users)
+            env["ESAIR_STD_SESSION"] = json.dumps(child_login)
         self.proc = subprocess.Popen(
             agent_command(self.mode.rt.local_endpoint or self.mode.rt.endpoint, self.robot,
                           self.spec, self.generation),

@@ -15,8 +15,12 @@
 
 from __future__ import annotations
 
+import atexit
 import logging
+import os
+import secrets
 import socket
+import tempfile
 import threading
 import time
 from pathlib import Path
@@ -52,6 +56,23 @@ def grants_for(deployment: Any, agent: str) -> dict[str, list[str]]:
     return {"reads": reads, "commands": commands, "provides": [agent, f"{agent}.$*"]}
 
 
+def _local_login(options: dict, rt: Any) -> None:
+    """With ``users`` every session must log in, the runtime's own children too: a login
+    made for this run is added to a copy of the users file; children get it in their
+    environment (rt.child_session), not on their command line."""
+    users = options.get("transport/auth/usrpwd/dictionary_file")
+    if not users:
+        return
+    user, password = f"esair-local-{secrets.token_hex(4)}", secrets.token_hex(16)
+    fd, path = tempfile.mkstemp(prefix="esair-users-", suffix=".txt")
+    with os.fdopen(fd, "w") as f:
+        f.write(Path(users).read_text().rstrip("\n") + f"\n{user}:{password}\n")
+    atexit.register(lambda: os.path.exists(path) and os.unlink(path))
+    options["transport/auth/usrpwd/dictionary_file"] = path
+    rt.child_session = {"transport/auth/usrpwd/user": user,
+                        "transport/auth/usrpwd/password": password}
+
+
 def session(rt: Any) -> tuple[dict, list[str], str | None]:
     """(zenoh options, extra listen endpoints, endpoint for local children or None)."""
     sec = getattr(rt.deployment, "security", None)
@@ -59,6 +80,7 @@ def session(rt: Any) -> tuple[dict, list[str], str | None]:
         return link_inserts(), [], None
     base = Path(rt.base_dir)
     options = session_inserts(sec, base, listen=True)
+    _local_login(options, rt)
     grants = {a: grants_for(rt.deployment, a) for a in sec.agents}
     acl = access_control(sec, rt.robot, grants)
     if acl:
