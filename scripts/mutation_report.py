@@ -1,0 +1,86 @@
+"""The summary of a mutmut run (scripts/mutation.sh): kill rates, and the survivors
+checked against the equivalent mutants listed in docs/mutation.md.
+
+An equivalent mutant is listed as a table row of docs/mutation.md whose first cell is
+the mutant's name in backticks and whose second cell is the mutated line in backticks
+(``|`` written ``\\|``): a row only counts when mutmut's diff of that mutant shows this
+line, so a list left stale by a code change is reported rather than trusted.
+
+    python scripts/mutation_report.py     # after mutmut run, from the checkout's root
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+DOC = ROOT / "docs" / "mutation.md"
+ROW = re.compile(r"^\|\s*`([^`]+__mutmut_\d+)`\s*\|\s*`((?:[^`\\]|\\.)*)`\s*\|")
+
+
+def listed_equivalents() -> dict[str, str]:
+    """Mutant name -> the mutated line (stripped), from docs/mutation.md."""
+    out = {}
+    for line in DOC.read_text().splitlines():
+        m = ROW.match(line)
+        if m:
+            out[m.group(1)] = m.group(2).replace("\\|", "|").strip()
+    return out
+
+
+def mutmut(*args: str) -> str:
+    return subprocess.run(["mutmut", *args], cwd=ROOT, capture_output=True, text=True,
+                          check=True).stdout
+
+
+def added_lines(name: str) -> list[str]:
+    """The lines mutant ``name`` adds (its diff's ``+`` lines, stripped)."""
+    diff = mutmut("show", name)
+    return [ln[1:].strip() for ln in diff.splitlines()
+            if ln.startswith("+") and not ln.startswith("+++")]
+
+
+def main() -> int:
+    mutmut("export-cicd-stats")
+    stats = json.loads((ROOT / "mutants" / "mutmut-cicd-stats.json").read_text())
+    status = {}
+    for line in mutmut("results", "--all", "true").splitlines():
+        name, _, state = line.strip().rpartition(": ")
+        if name:
+            status[name] = state
+    equivalents = listed_equivalents()
+    alive = sorted(n for n, s in status.items() if s not in ("killed", "timeout", "skipped"))
+    confirmed, unlisted, stale = [], [], []
+    for name in alive:
+        wanted = equivalents.get(name)
+        if wanted is not None and wanted in added_lines(name):
+            confirmed.append(name)
+        else:
+            unlisted.append(name)
+    for name, wanted in equivalents.items():
+        if name not in confirmed:
+            stale.append((name, wanted, status.get(name, "no such mutant")))
+
+    killed = stats["killed"] + stats["timeout"]
+    tested = stats["total"] - stats["skipped"]
+    print(f"mutants: {stats['total']} ({stats['skipped']} skipped), killed {killed} "
+          f"(timeouts {stats['timeout']}), survived {stats['survived']}, "
+          f"no tests {stats['no_tests']}, suspicious {stats['suspicious']}")
+    print(f"kill rate: {killed}/{tested} = {100 * killed / tested:.1f} %")
+    real = tested - len(confirmed)
+    print(f"equivalent (docs/mutation.md): {len(confirmed)}")
+    print(f"non-equivalent kill rate: {killed}/{real} = {100 * killed / real:.1f} %")
+    for name in unlisted:
+        print(f"\nnot killed, not a listed equivalent: {name} ({status[name]})")
+        print(mutmut("show", name).rstrip())
+    for name, wanted, state in stale:
+        print(f"\nstale entry in docs/mutation.md: {name} `{wanted}` ({state})")
+    return 1 if unlisted or stale else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
