@@ -4,9 +4,9 @@
 # Mutates esair_min/core/{decoder,central,player,protocol,image}.py and runs, for each
 # mutant, the fast in-process tests that cover the core ([tool.mutmut] in
 # pyproject.toml: test_core, test_decoder_props, test_protocol, test_image,
-# test_boundaries; no gpsim, no host C, no pty). Then prints the kill rate, the
-# survivors that docs/mutation.md does not list as equivalent, and the listed
-# equivalents that no longer survive.
+# test_overrun, test_boundaries, test_core_edges; no gpsim, no host C, no pty).
+# Then prints the kill rate, the survivors that docs/mutation.md does not list as
+# equivalent, and the listed equivalents that no longer survive.
 #
 # Slow (tens of minutes on a shared 2-core machine): NOT part of the test suite or CI.
 #

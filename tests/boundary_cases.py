@@ -263,7 +263,7 @@ def checksum_case() -> Case:
 def ring_case(extra: int) -> Case:
     """The 64-byte receive ring: ``t`` holds the decoder until the tick while
     ``x`` CR lines fill the ring. 64 bytes all wait and are all answered; byte 65 is
-    lost and one line is answered E12 (docs/protocol.md)."""
+    lost, and the line it belonged to is answered E12 (docs/protocol.md)."""
     c = Case(f"ring {RX_RING + extra}")
     c.script.append("rx t\\r")
     c.script.append("rx " + "x\\r" * (RX_RING // 2) + "x" * extra)

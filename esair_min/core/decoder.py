@@ -25,8 +25,6 @@ LF = 0x0A
 _HEX = b"0123456789ABCDEF"
 _STAR = 0x2A
 _DOT = 0x2E
-_ZERO = 0x30
-_NINE = 0x39
 _A = 0x61
 _Z = 0x7A
 
@@ -210,14 +208,7 @@ class CommandTable:
 
 
 def _digits(a: bytes, start: int, count: int) -> int:
-    """The decimal number of ``a[start:start+count]``, or -1 if a char is not a digit."""
+    """The decimal number of the ``count`` characters of ``a`` from ``start``, or -1 if
+    one is not a digit (a matched line always has them all: its length is the row's)."""
     digits = a[start:start + count]
-    if count and len(digits) == count:       # bytes.isdigit: ASCII 0-9 only
-        return int(digits) if digits.isdigit() else -1
-    v = 0
-    for i in range(start, start + count):
-        c = a[i]
-        if c < _ZERO or c > _NINE:
-            return -1
-        v = v * 10 + c - _ZERO
-    return v
+    return int(digits) if len(digits) == count and digits.isdigit() else -1   # ASCII 0-9
