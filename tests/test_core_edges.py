@@ -233,6 +233,7 @@ def test_decode_pair_ranges():
 
 def test_parse_reply_keeps_the_text_and_strips_only_the_terminator():
     assert parse_reply(b"OK 1,2,MAX \r\n").data == "1,2,MAX "
+    assert parse_reply(b"!X\r\n").data == "X"
     e = parse_reply("E04 outside limits\r\n")
     assert (e.kind, e.code, e.data) == ("error", Code.OUTSIDE_LIMITS, "E04 outside limits")
     with pytest.raises(ProtocolError) as err:
