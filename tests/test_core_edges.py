@@ -197,6 +197,7 @@ def test_polls_are_skipped_while_the_reaction_motion_plays():
 # -- the reaction alone ------------------------------------------------------------------
 
 def test_the_count_restarts_after_firing_and_after_a_failed_poll():
+    assert BalanceReaction("r", [0], [1], 10, 3, 1, 4).failed() is True   # notice due
     r = BalanceReaction("r", [0], [1], threshold=10, samples=3, poll_ticks=1, motion=4)
     tip = [100, 0]
     assert [r.sample(tip) for _ in range(6)] == [False, False, True, False, False, True]
