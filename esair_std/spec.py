@@ -6,14 +6,11 @@ Keeping it here means the runtime reads the deployment model in one place only.
 
 from __future__ import annotations
 
-import importlib
 import os
-import sys
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
-from .errors import ComponentError
 from .level import Level
 
 KINDS = ("behavior", "reaction", "resource")
@@ -50,37 +47,6 @@ class Spec:
     def uses_level(self, resource: str) -> Level | None:
         from .level import best_match
         return best_match(self.uses, resource)
-
-
-def import_class(class_path: str, base_dir: str | None, where: str = "") -> type:
-    """``module:Class`` imported from ``base_dir`` first, then sys.path."""
-    at = f"{where}: " if where else ""
-    module_name, sep, cls_name = class_path.partition(":")
-    if not sep or not module_name or not cls_name:
-        raise ComponentError(f"{at}class {class_path!r} is not of the form module:Class")
-    added = False
-    if base_dir and base_dir not in sys.path:
-        sys.path.insert(0, base_dir)
-        added = True
-    try:
-        module = importlib.import_module(module_name)
-    except ModuleNotFoundError as exc:
-        raise ComponentError(f"{at}cannot import module {module_name!r} ({exc})") from None
-    except Exception as exc:  # noqa: BLE001 - user module failing on import
-        raise ComponentError(
-            f"{at}module {module_name!r} failed on import: {type(exc).__name__}: {exc}"
-        ) from None
-    finally:
-        if added:
-            sys.path.remove(base_dir)
-    obj = module
-    for part in cls_name.split("."):
-        obj = getattr(obj, part, None)
-        if obj is None:
-            raise ComponentError(f"{at}module {module_name!r} has no class {cls_name!r}")
-    if not isinstance(obj, type):
-        raise ComponentError(f"{at}{class_path!r} is not a class")
-    return obj
 
 
 def _where(entry: Any) -> str:

@@ -66,11 +66,11 @@ def agent_cmd(endpoint, name, class_path, uses, allow, period, options, robot, c
     from ..errors import ControlError
     from ..resource import Actuator, Driver, Sensor
     from ..remote.agent import run
-    from ..spec import import_class
+    from ..classes import component_class
     from ..transport.security import SecuritySpec
 
     logging.basicConfig(level=logging.WARNING, format="%(name)s: %(message)s")
-    cls = import_class(class_path, os.getcwd())
+    cls = component_class(class_path, os.getcwd())
     if isinstance(cls, type) and issubclass(cls, Behavior):
         kind = "behavior"
     elif isinstance(cls, type) and issubclass(cls, (Sensor, Actuator, Driver)):

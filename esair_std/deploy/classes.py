@@ -1,153 +1,15 @@
-"""Import the class a deployment entry names (``module:Class``).
+"""Import every class of a deployment, checking each kind's base class.
 
-The module is imported from the deployment file's folder first, then ``sys.path``:
-the folder is moved to the front of ``sys.path`` (and stays there, so the user's
-modules can import their neighbours later), and a module of the same name already
-imported from elsewhere is imported afresh from the folder. Every failure is one
-:class:`DeployError` at the entry's ``class:`` value, with a did-you-mean.
-Imports are serialised by a lock (``sys.path`` and ``sys.modules`` are global).
+The importer itself is :func:`esair_std.classes.load_class` (one for the deployment
+check, the runtime and agents); it is re-exported here.
 """
 
 from __future__ import annotations
 
-import difflib
-import importlib
-import os
-import pkgutil
-import re
-import sys
-import threading
-import traceback
-from pathlib import Path
-from typing import Any
+from ..classes import load_class
+from .model import Deployment
 
-from esair_min.errors import Mark
-from esair_min.config.schema_errors import quote
-
-from ..errors import DeployError
-from .model import CLASS_PATTERN, ComponentSpec, Deployment
-
-_lock = threading.RLock()
-
-
-def load_class(spec: ComponentSpec | str, base_dir: str | Path | None = None, *,
-               mark: Mark | None = None, expect: tuple[type, ...] | type | None = None,
-               ) -> type:
-    """The class ``spec`` names: a spec of a loaded deployment (its ``class_path``,
-    ``base_dir`` and ``class_mark`` are used) or a ``module:Class`` string.
-
-    ``base_dir`` (or the spec's) is searched before ``sys.path``; ``expect`` is the
-    base class(es) the class must derive from. Raises DeployError (at ``mark`` or the
-    spec's ``class:`` value) for a malformed path, a missing or failing module, a
-    missing attribute, something that is not a class, or a wrong base class.
-    """
-    if isinstance(spec, ComponentSpec):
-        path, base, mark = spec.class_path, base_dir or spec.base_dir, mark or spec.class_mark
-    else:
-        path, base = spec, base_dir
-    if not isinstance(path, str) or not re.match(CLASS_PATTERN, path):
-        raise DeployError(f"'class' must be module:Class (a module path, a colon, a class "
-                          f"name), not {path!r}", mark)
-    module_name, class_name = path.split(":")
-    with _lock:
-        module = _import(module_name, Path(base).resolve() if base else None, mark)
-    cls = getattr(module, class_name, None)
-    if cls is None:
-        names = [n for n, v in vars(module).items() if isinstance(v, type)]
-        close = difflib.get_close_matches(class_name, names, n=1, cutoff=0.6)
-        hint = f" (did you mean '{close[0]}'?)" if close else ""
-        raise DeployError(f"module {quote(module_name)} has no class {quote(class_name)}"
-                          f"{hint}", mark)
-    if not isinstance(cls, type):
-        raise DeployError(f"'{path}' is {_a(type(cls).__name__)}, not a class", mark)
-    if expect is not None:
-        bases = expect if isinstance(expect, tuple) else (expect,)
-        if not issubclass(cls, bases):
-            raise DeployError(f"'{path}' is not {_a(_or([b.__name__ for b in bases]))} "
-                              f"(it must derive from {_or([_qual(b) for b in bases])})", mark)
-    return cls
-
-
-def _or(words: list[str]) -> str:
-    return words[0] if len(words) == 1 else ", ".join(words[:-1]) + " or " + words[-1]
-
-
-def _qual(cls: type) -> str:
-    """``esair_std.Behavior`` for the public classes, else the class's full name."""
-    import esair_std
-
-    if getattr(esair_std, cls.__name__, None) is cls:
-        return f"esair_std.{cls.__name__}"
-    return f"{cls.__module__}.{cls.__qualname__}"
-
-
-def _a(noun: str) -> str:
-    return f"an {noun}" if noun[:1].lower() in "aeiou" else f"a {noun}"
-
-
-def _import(module_name: str, base: Path | None, mark: Mark | None) -> Any:
-    if base is not None:
-        folder = str(base)
-        if folder in sys.path:
-            sys.path.remove(folder)
-        sys.path.insert(0, folder)
-        _forget_if_elsewhere(module_name.split(".")[0], base)
-    try:
-        return importlib.import_module(module_name)
-    except ModuleNotFoundError as exc:
-        if exc.name and (module_name == exc.name or module_name.startswith(exc.name + ".")):
-            hint = _module_hint(exc.name, base)
-            raise DeployError(f"no module named {quote(exc.name)}{hint}; looked in the "
-                              "deployment's folder, then sys.path", mark) from None
-        raise DeployError(_failed(module_name, exc), mark) from None
-    except (Exception, SystemExit) as exc:  # noqa: BLE001 - user code may raise anything
-        raise DeployError(_failed(module_name, exc), mark) from None
-
-
-def _forget_if_elsewhere(top: str, base: Path) -> None:
-    """If ``top`` is in the folder but was imported from elsewhere, import it afresh."""
-    here = base / top
-    if not (here.with_suffix(".py").is_file() or (here / "__init__.py").is_file()):
-        return
-    loaded = sys.modules.get(top)
-    origin = getattr(loaded, "__file__", None)
-    if loaded is None or (origin and Path(origin).resolve().is_relative_to(base)):
-        return
-    for name in [n for n in sys.modules if n == top or n.startswith(top + ".")]:
-        del sys.modules[name]
-
-
-def _module_hint(missing: str, base: Path | None) -> str:
-    parent, _, leaf = missing.rpartition(".")
-    names: list[str] = []
-    if parent:
-        pkg = sys.modules.get(parent)
-        if pkg is not None and hasattr(pkg, "__path__"):
-            names = [m.name for m in pkgutil.iter_modules(pkg.__path__)]
-    elif base is not None and base.is_dir():
-        names = [m.name for m in pkgutil.iter_modules([str(base)])]
-    close = difflib.get_close_matches(leaf, names, n=1, cutoff=0.6)
-    return f" (did you mean '{parent + '.' if parent else ''}{close[0]}'?)" if close else ""
-
-
-def _failed(module_name: str, exc: BaseException) -> str:
-    """``importing module 'lab' failed at lab.py:3: ZeroDivisionError: division by zero``."""
-    where = ""
-    if isinstance(exc, SyntaxError) and exc.filename:
-        where = f" at {_show_path(exc.filename)}:{exc.lineno}"
-        text = f"SyntaxError: {exc.msg}"
-    else:
-        frames = [f for f in traceback.extract_tb(exc.__traceback__)
-                  if not f.filename.startswith("<frozen")]
-        if frames:
-            where = f" at {_show_path(frames[-1].filename)}:{frames[-1].lineno}"
-        text = f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
-    return f"importing module {quote(module_name)} failed{where}: {' '.join(text.split())}"
-
-
-def _show_path(filename: str) -> str:
-    rel = os.path.relpath(filename)
-    return filename if rel.startswith("..") else rel
+__all__ = ["expected_bases", "load_class", "load_classes"]
 
 
 def load_classes(dep: Deployment) -> dict[str, type]:

@@ -21,13 +21,12 @@ from pydantic import (BaseModel, ConfigDict, Field, PlainSerializer, PlainValida
 from pydantic.json_schema import SkipJsonSchema
 from pydantic_core import PydanticCustomError
 
+from ..classes import CLASS_PATTERN   # ``module:Class``: the importer's own pattern
 from ..level import Level
 from .security import SecuritySpec
 
 #: A component or robot name: also a Zenoh key chunk, so no '.', '*', '/', '$', '?'.
 NAME_PATTERN = r"^[a-z][a-z0-9_]{0,31}$"
-#: ``module:Class`` -- a dotted module path, a colon, a class name.
-CLASS_PATTERN = r"^[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*:[A-Za-z_][A-Za-z0-9_]*$"
 #: A resource in ``uses``/``allow``/reaction ``resources``: a name, ``entry.child``
 #: (a driver's child) and, in ``uses`` and ``allow``, fnmatch wildcards.
 REF_PATTERN = r"^[a-z0-9_.*?\[\]!-]{1,96}$"

@@ -23,7 +23,8 @@ from typing import Any
 from ..errors import CommandError, Refused, ResourceLost, StdError, TransportError
 from ..level import Level
 from ..sample import Sample
-from ..spec import Spec, import_class
+from ..classes import component_class
+from ..spec import Spec
 from ..transport import keys
 from ..transport.bus import Bus, Request
 
@@ -148,13 +149,9 @@ class Agent:
     # ---- behavior / reaction
     def run_component(self) -> None:
         from .host import ComponentHost
-        from ..behavior import Behavior
-        from ..reaction import Reaction
         try:
-            cls = import_class(self.spec.class_path, self.spec.base_dir, self.spec.where)
-            want = Behavior if self.spec.kind == "behavior" else Reaction
-            if not issubclass(cls, want):
-                raise StdError(f"{self.spec.class_path} is not a {want.__name__}")
+            cls = component_class(self.spec.class_path, self.spec.base_dir, self.spec.where,
+                                  self.spec.kind)
         except StdError as exc:
             self.hello(error=exc.message)
             raise SystemExit(0) from None
@@ -202,7 +199,7 @@ class Agent:
         from ..resource import Driver
         from .reshost import ResourceHost
         try:
-            cls = import_class(self.spec.class_path, self.spec.base_dir, self.spec.where)
+            cls = component_class(self.spec.class_path, self.spec.base_dir, self.spec.where)
             host = self.host = ResourceHost(self.spec, cls, self.port)
             kids = host.start()
         except StdError as exc:

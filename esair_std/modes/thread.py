@@ -11,7 +11,8 @@ from typing import Any
 
 from ..errors import ComponentError
 from ..level import Level
-from ..spec import Spec, import_class
+from ..classes import component_class
+from ..spec import Spec
 from .host import ComponentHost
 from .reshost import ResourceHost
 
@@ -97,12 +98,7 @@ class ThreadMode:
         self.port = LocalPort(rt)
 
     def start_component(self, spec: Spec, generation: int) -> ComponentHost:
-        cls = import_class(spec.class_path, spec.base_dir, spec.where)
-        from ..behavior import Behavior
-        from ..reaction import Reaction
-        want = Behavior if spec.kind == "behavior" else Reaction
-        if not issubclass(cls, want):
-            raise ComponentError(f"{spec.class_path} is not a {want.__name__}")
+        cls = component_class(spec.class_path, spec.base_dir, spec.where, spec.kind)
         host = ComponentHost(spec, cls, self.port, generation)
         host.start()
         if not host.started.wait(START_TIMEOUT):
@@ -112,7 +108,7 @@ class ThreadMode:
         return host
 
     def start_resource(self, spec: Spec) -> ResourceHost:
-        cls = import_class(spec.class_path, spec.base_dir, spec.where)
+        cls = component_class(spec.class_path, spec.base_dir, spec.where)
         host = ResourceHost(spec, cls, self.port)
         host.start(START_TIMEOUT)
         return host

@@ -94,8 +94,8 @@ def test_add_bad_class_changes_nothing(start):
     assert str(e.value) == "module 'comps' has no class 'Nope'"
     with pytest.raises(ComponentError) as e:
         rt.add("x", "no_such_module_xyz:Nope")
-    assert str(e.value) == ("cannot import module 'no_such_module_xyz' "
-                            "(No module named 'no_such_module_xyz')")
+    assert str(e.value) == ("no module named 'no_such_module_xyz'; "
+                            "looked in the deployment's folder, then sys.path")
     with pytest.raises(ComponentError) as e:
         rt.add("x", "comps:Counter")
     assert str(e.value) == "comps:Counter is not a Behavior"
