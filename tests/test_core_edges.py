@@ -347,6 +347,10 @@ def test_hex_addresses(tmp_path):
     assert str(e.value) == f"{path}: data at address 0xF, beyond the 15-byte EEPROM"
     write_hex(b"\x01\x02", path)
     assert read_hex(path, 4) == b"\x01\x02\xff\xff"
+    cr = tmp_path / "cr.hex"              # lines ended by CR alone are lines too
+    cr.write_bytes(path.read_bytes().replace(b"\r\n", b"\n").replace(b"\n", b"\r"))
+    assert b"\n" not in cr.read_bytes()
+    assert read_hex(cr, 4) == b"\x01\x02\xff\xff"
 
 
 def test_summary_of_a_robot_without_an_eeprom():
