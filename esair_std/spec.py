@@ -65,32 +65,36 @@ def _entries(group: Any):
     return [(e.name, e) for e in (group or ())]
 
 
+def _period(entry: Any) -> tuple[float | None, bool]:
+    """An entry's ``period`` and whether the deployment set it (maybe to None)."""
+    period = getattr(entry, "period", None)
+    fields = getattr(entry, "model_fields_set", None)
+    return period, ("period" in fields) if fields is not None else period is not None
+
+
 def specs_of(deployment: Any) -> tuple[list[Spec], list[Spec], list[Spec]]:
     """The resources, behaviors and reactions of a loaded deployment, in file order."""
     base = getattr(deployment, "base_dir", None)
+
+    def folder(e: Any) -> str:
+        return str(getattr(e, "base_dir", None) or base or os.getcwd())
+
     res, beh, rea = [], [], []
     for name, e in _entries(deployment.resources):
-        res.append(Spec("resource", name, e.class_path, dict(e.options or {}),
-                        str(getattr(e, "base_dir", None) or base or os.getcwd()),
+        res.append(Spec("resource", name, e.class_path, dict(e.options or {}), folder(e),
                         allow=_level_map(getattr(e, "allow", {})), where=_where(e)))
     for name, e in _entries(deployment.behaviors):
         restart = getattr(e, "restart", None)
-        period = getattr(e, "period", None)
-        fields = getattr(e, "model_fields_set", None)
-        has_period = ("period" in fields) if fields is not None else period is not None
-        beh.append(Spec("behavior", name, e.class_path, dict(e.options or {}),
-                        str(getattr(e, "base_dir", None) or base or os.getcwd()),
+        period, has_period = _period(e)
+        beh.append(Spec("behavior", name, e.class_path, dict(e.options or {}), folder(e),
                         period=period, has_period=has_period,
                         uses=_level_map(getattr(e, "uses", {})),
                         restart_max=int(getattr(restart, "max", 0) or 0) if restart else 0,
                         restart_within=float(getattr(restart, "within", 0) or 0) if restart else 0.0,
                         where=_where(e)))
     for name, e in _entries(deployment.reactions):
-        period = getattr(e, "period", None)
-        fields = getattr(e, "model_fields_set", None)
-        has_period = ("period" in fields) if fields is not None else period is not None
-        rea.append(Spec("reaction", name, e.class_path, dict(e.options or {}),
-                        str(getattr(e, "base_dir", None) or base or os.getcwd()),
+        period, has_period = _period(e)
+        rea.append(Spec("reaction", name, e.class_path, dict(e.options or {}), folder(e),
                         period=period, has_period=has_period,
                         resources=tuple(getattr(e, "resources", ()) or ()),
                         enabled=bool(getattr(e, "enabled", True)), where=_where(e)))

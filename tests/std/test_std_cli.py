@@ -3,23 +3,13 @@ from other processes, garbage on the control endpoint; in both modes."""
 
 import json
 import os
-import signal
 import subprocess
 import sys
 
 import pytest
-from conftest import MODES, free_endpoint, wait_for
+from conftest import MODES, esair, free_endpoint, processes, std_run, wait_for
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-
-
-def esair(*args, check=True):
-    r = subprocess.run([sys.executable, "-m", "esair_min.cli", "std", *args],
-                       capture_output=True, text=True, timeout=60, cwd=HERE,
-                       env=dict(os.environ, COLUMNS="200"))
-    if check and r.returncode != 0:
-        raise AssertionError(f"esair std {' '.join(args)}: {r.returncode}\n{r.stderr}")
-    return r
 
 
 @pytest.fixture(scope="module", params=MODES)
@@ -28,36 +18,18 @@ def robot_mode(request):
     changes the robot comes last)."""
     mode = request.param
     ep = free_endpoint()
-    proc = subprocess.Popen([sys.executable, "-m", "esair_min.cli", "std", "run", "lab",
-                             "--mode", mode, "-e", ep], cwd=HERE,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    try:
-        def deployed():
-            r = esair("ls", "--json", "-e", ep, check=False)
-            return r.returncode == 0 and len(json.loads(r.stdout)) == 10
-        wait_for(lambda: proc.poll() is not None or deployed(), timeout=60,
-                 what="the robot deployed")
-        assert proc.poll() is None, proc.communicate()
+
+    def deployed():
+        r = esair("ls", "--json", "-e", ep, check=False)
+        return r.returncode == 0 and len(json.loads(r.stdout)) == 10
+    with std_run("lab", mode, ep, deployed, "the robot deployed"):
         yield ep, mode
-    finally:
-        proc.send_signal(signal.SIGTERM)
-        out, err = proc.communicate(timeout=30)
-        assert proc.returncode == 0, err
-        assert leftover(ep) == []
+    assert leftover(ep) == []
 
 
 def leftover(ep):
     """Processes still running whose command line names this endpoint."""
-    out = []
-    for d in os.listdir("/proc"):
-        if d.isdigit():
-            try:
-                with open(f"/proc/{d}/cmdline", "rb") as f:
-                    if ep.encode() in f.read():
-                        out.append(int(d))
-            except OSError:
-                pass
-    return out
+    return [pid for pid, _, cmd in processes() if ep.encode() in cmd]
 
 
 @pytest.fixture

@@ -8,13 +8,10 @@ from __future__ import annotations
 
 import json
 import os
-import signal
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
-from conftest import MODES, free_endpoint, wait_for
+from conftest import MODES, esair, free_endpoint, processes, std_run, wait_for
 
 from esair_std.drivers.minlink.emulated import EmulatedRobot
 
@@ -23,25 +20,10 @@ ROOT = HERE.parents[1]
 EXAMPLE = ROOT / "esair_std" / "examples" / "papaman"
 
 
-def esair(*args: str, check: bool = True) -> subprocess.CompletedProcess:
-    r = subprocess.run([sys.executable, "-m", "esair_min.cli", "std", *args],
-                       capture_output=True, text=True, timeout=90, cwd=HERE,
-                       env=dict(os.environ, COLUMNS="200"))
-    if check and r.returncode != 0:
-        raise AssertionError(f"esair std {' '.join(args)}: {r.returncode}\n{r.stderr}")
-    return r
-
-
 def descendants(pid: int) -> set[int]:
     children: dict[int, list[int]] = {}
-    for d in os.listdir("/proc"):
-        if d.isdigit():
-            try:
-                with open(f"/proc/{d}/stat") as f:
-                    ppid = int(f.read().rsplit(")", 1)[1].split()[1])
-            except (OSError, IndexError, ValueError):
-                continue
-            children.setdefault(ppid, []).append(int(d))
+    for p, ppid, _ in processes():
+        children.setdefault(ppid, []).append(p)
     out, todo = set(), [pid]
     while todo:
         for c in children.get(todo.pop(), []):
@@ -51,39 +33,23 @@ def descendants(pid: int) -> set[int]:
 
 
 def emulators(pids: set[int]) -> set[int]:
-    out = set()
-    for p in pids:
-        try:
-            with open(f"/proc/{p}/cmdline", "rb") as f:
-                if b"emulate" in f.read().split(b"\0"):
-                    out.add(p)
-        except OSError:
-            pass
-    return out
+    return {p for p, _, cmd in processes() if p in pids and b"emulate" in cmd.split(b"\0")}
 
 
 @pytest.mark.parametrize("mode", MODES)
 def test_esair_std_run_papaman(mode):
     ep = free_endpoint()
-    proc = subprocess.Popen([sys.executable, "-m", "esair_min.cli", "std", "run", "papaman",
-                             "--mode", mode, "-e", ep], cwd=HERE, stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True)
-    try:
-        def deployed():
-            r = esair("ls", "--json", "-e", ep, check=False)
-            return r.returncode == 0 and sum(row["state"] in ("running", "ready")
-                                             for row in json.loads(r.stdout)) == 18
-        wait_for(lambda: proc.poll() is not None or deployed(), timeout=60, what="deployed")
-        assert proc.poll() is None, proc.communicate()
+
+    def deployed():
+        r = esair("ls", "--json", "-e", ep, check=False)
+        return r.returncode == 0 and sum(row["state"] in ("running", "ready")
+                                         for row in json.loads(r.stdout)) == 18
+    with std_run("papaman", mode, ep, deployed) as proc:
         robots = emulators(descendants(proc.pid))
         assert len(robots) == 1                         # its own emulated PAPA-MAN
         esair("put", "sequencer", '["stand_up", "dance"]', "-e", ep)
         wait_for(lambda: json.loads(esair("get", "sequencer", "-e", ep).stdout)["done"]
                  == ["stand_up", "dance"], timeout=20, what="two operations played")
-    finally:
-        proc.send_signal(signal.SIGTERM)
-        out, err = proc.communicate(timeout=30)
-    assert proc.returncode == 0, err
     assert not [p for p in robots if os.path.exists(f"/proc/{p}")]
 
 
