@@ -19,11 +19,10 @@ if TYPE_CHECKING:  # pragma: no cover
 STATES = ("starting", "running", "busy", "stopped", "failed")
 
 
-class _Component:
-    """What behaviors and reactions share: name, options, log, the host link."""
+class _Hosted:
+    """What a component with a host of its own shares (behaviors, reactions, drivers):
+    name, options, log."""
 
-    period: float | None = None
-    deadline: float | None = None   # seconds one call may take; None: 10 x period, >= 1 s
     _esair: Any = None              # the host (set by the runtime before __init__)
 
     @property
@@ -37,6 +36,13 @@ class _Component:
     @property
     def log(self) -> logging.Logger:
         return logging.getLogger(f"esair_std.{self._esair.name}")
+
+
+class _Component(_Hosted):
+    """What behaviors and reactions share: name, options, log, the host link."""
+
+    period: float | None = None
+    deadline: float | None = None   # seconds one call may take; None: 10 x period, >= 1 s
 
     @property
     def stopping(self) -> bool:

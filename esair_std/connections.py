@@ -23,7 +23,21 @@ from .level import Level
 from .sample import Sample
 
 
-class SensorHandle:
+class _Handle:
+    """What a behavior's two ends share: the resource's state as it sees it."""
+
+    resource: str
+    detached: bool
+    _state_fn: Callable[[str], str | None]
+
+    @property
+    def state(self) -> str:
+        if self.detached:
+            return "detached"
+        return self._state_fn(self.resource) or "gone"
+
+
+class SensorHandle(_Handle):
     """A behavior's end of the SC for one sensor: a bounded buffer of samples."""
 
     def __init__(self, resource: str, keep: int, state_fn: Callable[[str], str | None]):
@@ -60,17 +74,11 @@ class SensorHandle:
             self._buf.clear()
         return out
 
-    @property
-    def state(self) -> str:
-        if self.detached:
-            return "detached"
-        return self._state_fn(self.resource) or "gone"
-
     def counters(self) -> dict:
         return {"received": self.received, "overwritten": self.overwritten}
 
 
-class ActuatorHandle:
+class ActuatorHandle(_Handle):
     """A behavior's end of the AC for one actuator."""
 
     def __init__(self, resource: str, send_fn: Callable[[str, Any, float], Any],
@@ -94,12 +102,6 @@ class ActuatorHandle:
             raise
         self.sent += 1
         return result
-
-    @property
-    def state(self) -> str:
-        if self.detached:
-            return "detached"
-        return self._state_fn(self.resource) or "gone"
 
     def counters(self) -> dict:
         return {"sent": self.sent, "failed": self.failed}

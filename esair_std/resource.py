@@ -14,6 +14,7 @@ from __future__ import annotations
 import logging
 from typing import Any
 
+from .behavior import _Hosted
 from .errors import CommandError
 
 
@@ -72,22 +73,8 @@ class Actuator(_Agent):
         raise CommandError(self.name, f"no setting {key!r}")
 
 
-class Driver:
+class Driver(_Hosted):
     """One device link giving several resources; one host (thread or process) for all."""
-
-    _esair: Any = None
-
-    @property
-    def name(self) -> str:
-        return self._esair.name
-
-    @property
-    def options(self) -> dict:
-        return self._esair.spec.options
-
-    @property
-    def log(self) -> logging.Logger:
-        return logging.getLogger(f"esair_std.{self._esair.name}")
 
     def open(self) -> None:
         """Open the link (before resources())."""
