@@ -21,7 +21,8 @@ def robot_mode(request):
 
     def deployed():
         r = esair("ls", "--json", "-e", ep, check=False)
-        return r.returncode == 0 and len(json.loads(r.stdout)) == 10
+        rows = json.loads(r.stdout) if r.returncode == 0 else []
+        return len(rows) == 10 and all(x["state"] in ("running", "ready") for x in rows)
     with std_run("lab", mode, ep, deployed, "the robot deployed"):
         yield ep, mode
     assert leftover(ep) == []
