@@ -4,7 +4,7 @@ These classes are the single definition of the deployment file format: the loade
 builds them from YAML (or a dict), ``esair std schema`` prints their JSON Schema and
 the runtime reads them. Rules that involve more than one entry (``uses`` against
 ``allow``, names across sections) live in :mod:`esair_std.deploy.rules`; class imports
-in :mod:`esair_std.deploy.classes`. Build a Deployment with
+in :mod:`esair_std.classes` (the runtime's importer too). Build a Deployment with
 :func:`esair_std.deploy.load_deployment`, which also fills the fields marked
 *set by the loader* below (they are not keys of the file).
 """
