@@ -4,33 +4,12 @@ from __future__ import annotations
 
 import json
 import sys
-from functools import wraps
-from typing import Any, Callable
 
 import click
 
 from esair_min import __version__
-from esair_min.errors import EsairError
+from esair_min.cli.pipes import friendly
 from esair_min.resources import resolve_robot
-
-
-def _friendly(fn: Callable[..., Any]) -> Callable[..., Any]:
-    """Run ``fn``; an EsairError becomes one line on stderr and exit status 1."""
-
-    @wraps(fn)
-    def wrapper(*args: Any, **kwargs: Any) -> Any:
-        try:
-            return fn(*args, **kwargs)
-        except EsairError as exc:
-            click.echo(f"error: {exc}", err=True)
-            sys.exit(1)
-        except BrokenPipeError:               # `esair ... | head`: a quiet exit
-            from esair_min.cli.pipes import CLOSED_PIPE_STATUS, silence_stdout
-
-            silence_stdout()
-            sys.exit(CLOSED_PIPE_STATUS)
-
-    return wrapper
 
 
 ROBOT = click.argument("robot", metavar="ROBOT")
@@ -72,7 +51,7 @@ def main() -> None:
 
 @main.command()
 @ROBOT
-@_friendly
+@friendly
 def check(robot: str) -> None:
     """Validate a robot's board files and print a short summary.
 
@@ -114,7 +93,7 @@ def schema(indent: int) -> None:
 @click.option("-o", "--output", required=True, metavar="FILE",
               help="Where to write the image (Intel HEX, or raw with --bin).")
 @click.option("--bin", "raw", is_flag=True, help="Write raw bytes instead of Intel HEX.")
-@_friendly
+@friendly
 def eeprom(robot: str, output: str, raw: bool) -> None:
     """Build the EEPROM motion image of a robot and write it as Intel HEX."""
     from esair_min.errors import ImageError
@@ -157,7 +136,7 @@ def eeprom(robot: str, output: str, raw: bool) -> None:
 @click.option("--noise", type=float, default=0.0, metavar="BYTES/S",
               help="Fault: random bytes injected into the robot's receive line.")
 @click.option("--seed", type=int, default=0, show_default=True, help="Seed of the faults.")
-@_friendly
+@friendly
 def emulate(robot: str, pty: bool, run_s: float | None, sends: tuple[str, ...],
             generate: str | None, scenario: str | None, trace: str | None, speed: float | None,
             nack_actuator: bool, no_sensor: bool, corrupt_eeprom: bool, stuck_bus: bool,
@@ -193,7 +172,7 @@ def emulate(robot: str, pty: bool, run_s: float | None, sends: tuple[str, ...],
               help="Seconds to wait for each reply.")
 @click.option("--notices", is_flag=True, help="Also print '!' notice lines.")
 @click.option("--checksum", is_flag=True, help="Append the *HH checksum to each line.")
-@_friendly
+@friendly
 def send(port: str, commands: tuple[str, ...], baud: int, timeout: float, notices: bool,
          checksum: bool) -> None:
     """Send command lines and print one reply per line; exit 1 if any reply is an error.
@@ -218,7 +197,7 @@ def send(port: str, commands: tuple[str, ...], baud: int, timeout: float, notice
 @click.option("--robot", "robot", default="papaman", show_default=True,
               help="The robot the trace came from (servo names, limits, actuator address).")
 @click.option("--targets", is_flag=True, help="Also draw the decoded targets (dashed).")
-@_friendly
+@friendly
 def plot(trace: str, output: str, robot: str, targets: bool) -> None:
     """Plot servo angles over time from an event trace: positions simulated from its
     actuator writes with the emulator's servo model (--targets adds the targets)."""
@@ -231,7 +210,7 @@ def plot(trace: str, output: str, robot: str, targets: bool) -> None:
 @main.command(short_help="Generate every board's C firmware (PIC and host ports).")
 @ROBOT
 @OUTPUT_DIR
-@_friendly
+@friendly
 def generate(robot: str, output: str) -> None:
     """Generate the C firmware of every board (core, hal.h, PIC and host ports, Makefile)."""
     from pathlib import Path
@@ -246,7 +225,7 @@ def generate(robot: str, output: str) -> None:
 @main.command(short_help="Generate and build every board for the PIC18F452; print sizes.")
 @ROBOT
 @OUTPUT_DIR
-@_friendly
+@friendly
 def build(robot: str, output: str) -> None:
     """Generate every board's firmware, build it for the PIC18F452 and print its footprint."""
     from pathlib import Path

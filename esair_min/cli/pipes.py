@@ -9,7 +9,12 @@ from __future__ import annotations
 
 import os
 import sys
-from typing import Callable
+from functools import wraps
+from typing import Any, Callable
+
+import click
+
+from esair_min.errors import EsairError
 
 CLOSED_PIPE_STATUS = 141
 
@@ -65,3 +70,22 @@ def quiet_on_closed_pipe(main: Callable[[], int | None]) -> int:
         return CLOSED_PIPE_STATUS
     finally:
         sys.stdout = real
+
+
+def friendly(fn: Callable[..., Any]) -> Callable[..., Any]:
+    """A CLI command's wrapper, the one place errors become exit codes (``esair`` and
+    ``esair std`` alike): an EsairError is one ``error: ...`` line on stderr and exit
+    status 1; a closed standard output (``esair ... | head``) a quiet exit (141)."""
+
+    @wraps(fn)
+    def wrapper(*args: Any, **kwargs: Any) -> Any:
+        try:
+            return fn(*args, **kwargs)
+        except EsairError as exc:
+            click.echo(f"error: {exc}", err=True)
+            sys.exit(1)
+        except BrokenPipeError:
+            silence_stdout()
+            sys.exit(CLOSED_PIPE_STATUS)
+
+    return wrapper

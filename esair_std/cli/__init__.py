@@ -6,27 +6,9 @@ CLI turns errors into exit status 1 and one ``error: ...`` line (:func:`friendly
 
 from __future__ import annotations
 
-import sys
-from functools import wraps
-from typing import Any, Callable
-
 import click
 
-from esair_min.errors import EsairError
-
-
-def friendly(fn: Callable[..., Any]) -> Callable[..., Any]:
-    """Run ``fn``; an EsairError becomes one line on stderr and exit status 1."""
-
-    @wraps(fn)
-    def wrapper(*args: Any, **kwargs: Any) -> Any:
-        try:
-            return fn(*args, **kwargs)
-        except EsairError as exc:
-            click.echo(f"error: {exc}", err=True)
-            sys.exit(1)
-
-    return wrapper
+from esair_min.cli.pipes import friendly  # noqa: F401  (the commands' error wrapper)
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
