@@ -1,10 +1,12 @@
 """Fixtures shared by the test modules."""
 
+import subprocess
 from pathlib import Path
 
 import pytest
 
 from codegen import generate_robot
+from esair_min.core.image import build_image, write_hex
 from esair_min.pic.build import BuildError, build_board, toolchain
 from esair_min.model.validate import load_robot
 
@@ -37,6 +39,27 @@ def pic_firmware(robot, tmp_path_factory):
         return built[role]
 
     return board
+
+
+#: gcc flags of the sanitized host builds (address and undefined behaviour, no recovery)
+SANITIZE = "-fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer"
+
+
+@pytest.fixture(scope="session")
+def central_host(robot, tmp_path_factory):
+    """PAPA-MAN's central board built for the host port, plainly (``plain``) and with
+    ASan+UBSan (``san``), in ``dir`` with the EEPROM image ``papaman.hex``."""
+    out = tmp_path_factory.mktemp("gen")
+    generate_robot(robot, out)
+    central = out / "central"
+    for args in (["HOST_BIN=firmware_host"],
+                 ["HOST_BIN=firmware_host_san", f"SANITIZE={SANITIZE}"]):
+        proc = subprocess.run(["make", "-s", "host", *args], cwd=central,
+                              capture_output=True, text=True, timeout=300)
+        assert proc.returncode == 0, proc.stdout + proc.stderr
+    write_hex(build_image(robot), central / "papaman.hex")
+    return {"plain": central / "firmware_host", "san": central / "firmware_host_san",
+            "dir": central}
 
 
 @pytest.fixture(scope="session")

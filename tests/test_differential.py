@@ -16,32 +16,19 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from codegen import generate_robot
 from esair_min.core.harness import run_script
-from esair_min.core.image import build_image, write_hex
 from esair_min.core.protocol import add_checksum
 from esair_min.core.trace import without_marks
 from overrun_streams import scripts as overrun_scripts
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENARIO = ROOT / "tests" / "scenarios" / "papaman.txt"
-SANITIZE = "-fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer"
 
 
 @pytest.fixture(scope="module")
-def firmware(robot, tmp_path_factory):
+def firmware(central_host):
     """Paths of the plain and the sanitized host build of the central board."""
-    out = tmp_path_factory.mktemp("gen")
-    generate_robot(robot, out)
-    central = out / "central"
-    for args in (["HOST_BIN=firmware_host"],
-                 ["HOST_BIN=firmware_host_san", f"SANITIZE={SANITIZE}"]):
-        proc = subprocess.run(["make", "-s", "host", *args], cwd=central,
-                              capture_output=True, text=True, timeout=300)
-        assert proc.returncode == 0, proc.stdout + proc.stderr
-    write_hex(build_image(robot), central / "papaman.hex")
-    return {"plain": central / "firmware_host", "san": central / "firmware_host_san",
-            "dir": central}
+    return central_host
 
 
 def c_trace(binary: Path, script_path: Path) -> list[str]:

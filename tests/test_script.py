@@ -13,13 +13,11 @@ from pathlib import Path
 
 import pytest
 
-from codegen import generate_robot
 from esair_min.core.harness import main as harness_main
 from esair_min.core.image import build_image, write_hex
 
 ROOT = Path(__file__).resolve().parent.parent
 PAPAMAN = str(ROOT / "boards" / "papaman")
-SANITIZE = "-fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer"
 COMMANDS = ("(boot, rx TEXT, tick [N], sensor V..., fault DEVICE on|off, poke OFFSET BYTE, "
             "image PATH)")
 NOT_TICKS = "is not a decimal number from 0 to 1000000"
@@ -27,17 +25,9 @@ UNKNOWN_ESCAPE = r"unknown escape (use \r \n \xHH \\)"
 
 
 @pytest.fixture(scope="module")
-def hosts(robot, tmp_path_factory):
+def hosts(central_host):
     """The central board's host port, built plainly and with ASan+UBSan."""
-    out = tmp_path_factory.mktemp("gen")
-    generate_robot(robot, out)
-    central = out / "central"
-    for args in (["HOST_BIN=firmware_host"],
-                 ["HOST_BIN=firmware_host_san", f"SANITIZE={SANITIZE}"]):
-        proc = subprocess.run(["make", "-s", "host", *args], cwd=central,
-                              capture_output=True, text=True, timeout=300)
-        assert proc.returncode == 0, proc.stdout + proc.stderr
-    return [central / "firmware_host", central / "firmware_host_san"]
+    return [central_host["plain"], central_host["san"]]
 
 
 def both(hosts, capsys, script: Path) -> tuple[int, str, str]:
