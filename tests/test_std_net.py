@@ -78,8 +78,8 @@ def test_partition_marks_remote_agents_lost_and_they_come_back_by_themselves(net
     idle_before = center.get("idle")
 
     net[1].link(up=False)                                  # the partition
-    wait_for(lambda: center.state("pusher") == "lost", 15, what="pusher marked lost")
-    wait_for(lambda: center.state("ticks") == "lost", 15, what="ticks marked lost")
+    wait_for(lambda: center.state("pusher") == "lost", 45, what="pusher marked lost")
+    wait_for(lambda: center.state("ticks") == "lost", 45, what="ticks marked lost")
     assert center.inspect("arm")["grants"] == {}           # its registrations dropped
     seen_at_loss = len(center.get("watch2")["seqs"])
     assert center.state("watch2") == "running" and center.state("idle") == "running"
