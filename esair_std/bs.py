@@ -223,26 +223,22 @@ class BehaviorSupervisor:
             time.sleep(min(delay, left))
             delay = min(delay * 2, 0.01)
 
-    def put_first(self, sender: str, target: str, data: Any,
+    def put_first(self, sender: str, target: str, data: Any, timeout: float,
                   done: Callable[[bool], None]) -> bool:
         """Process mode's fast path: the first offer without blocking a thread.
-        False: not tried (use ``put``). Else ``done(delivered)`` is called once, from a
-        transport thread; when not delivered, the caller goes on with ``put`` (retries
-        until the timeout)."""
+        ``data`` was decoded from the wire just now (it is a copy already). False: not
+        tried (use ``put``). Else ``done(delivered)`` is called once, from a transport
+        thread, within ``timeout``; when not delivered, the caller goes on with ``put``
+        (retries until the rest of the timeout)."""
         rec, _why = self._target(target)
         if rec is None or not hasattr(rec.host, "offer_async"):
-            return False
-        try:
-            data = codec.copy(data)
-        except TransportError:
             return False
 
         def result(r: str) -> None:
             if r == "delivered":
                 self.c["puts_ok"] += 1
             done(r == "delivered")
-        rec.host.offer_async(sender, data, result)
-        return True
+        return rec.host.offer_async(sender, data, result, timeout)
 
     def get(self, requester: str, target: str, timeout: float) -> tuple[bool, Any]:
         deadline = time.monotonic() + max(0.0, float(timeout))

@@ -219,6 +219,9 @@ class Runtime:
                                 if r == name},
                         refused=self.rs.refused_on.get(name, 0),
                         counters=counters.get(name, counters))
+        if name == "runtime" and self.server is not None:
+            return dict(name="runtime", kind="runtime", state="running",
+                        counters=self.server.counters())
         raise ControlError(f"no component {name!r}")
 
     def wait_state(self, name: str, states: str | tuple, timeout: float = 10.0) -> str:

@@ -146,7 +146,10 @@ def test_garbage_and_oversized_messages_are_refused_without_a_crash(net, tmp_pat
                 else:
                     assert set(answer) >= {"error", "type"}, (key, kind, answer)
                 answered += 1
-    for key in ("esair/lab/sensor/ticks", "esair/lab/sensor/none"):
+    for key in ("esair/lab/sensor/ticks", "esair/lab/sensor/none",      # samples: the put's
+                "esair/lab/ctl/put/pusher", "esair/lab/ctl/put/nobody",  # path too
+                "esair/lab/bs/pusher/offer", "esair/lab/bs/idle/result",
+                "esair/lab/bs/pusher/answer"):
         for kind in GARBAGE:
             bad.cmd(f"putx {key} {kind}")
     assert answered >= len(keys) * 6                    # refused out loud, not ignored

@@ -27,6 +27,7 @@ from ..classes import component_class
 from ..spec import Spec
 from ..transport import keys
 from ..transport.bus import Bus, Request
+from ..transport.calls import SampleCaller, SampleServer
 
 log = logging.getLogger("esair_std.agent")
 _ERRORS = {"Refused": Refused, "CommandError": CommandError, "ResourceLost": ResourceLost}
@@ -42,6 +43,7 @@ class ZenohPort:
         self.bus = bus
         self.robot = robot
         self._pubs: dict[str, Any] = {}
+        self._calls: dict[str, SampleCaller] = {}
 
     def _ctl(self, verb: str, body: dict, timeout: float = 5.0) -> Any:
         r = self.bus.request(keys.ctl(self.robot, verb), body, timeout)
@@ -85,12 +87,31 @@ class ZenohPort:
         return self._ctl("state", {"name": resource}, 2.0)
 
     def put(self, who: str, target: str, data: Any, timeout: float) -> tuple[bool, str]:
+        """Through the BS, as samples (transport/calls.py: the put's fast path)."""
+        calls = self._calls.get(who)
+        if calls is None:
+            calls = self._calls[who] = SampleCaller(
+                self.bus, keys.bs_answer(self.robot, who), lambda _k: "runtime")
         try:
-            r = self._ctl("put", {"from": who, "to": target, "data": data, "timeout": timeout},
-                          timeout + 2.0)
+            r = calls.wait(keys.ctl_put(self.robot, who), "runtime",
+                           {"to": target, "data": data, "timeout": timeout}, timeout + 2.0)
         except StdError as exc:
             return False, exc.message
-        return bool(r["delivered"]), r["reason"]
+        if not isinstance(r, dict):
+            return False, f"the runtime did not answer 'put' within {timeout + 2.0:g} s"
+        ok = r.get("ok")
+        if not isinstance(ok, dict):
+            return False, str(r.get("error", "the runtime's answer made no sense"))
+        return bool(ok.get("delivered")), str(ok.get("reason", ""))
+
+    def put_counters(self) -> dict:
+        """The put path's samples (transport/calls.py): sent, answered, timed out,
+        answers refused."""
+        out: dict = {}
+        for calls in self._calls.values():
+            for k, v in calls.c.items():
+                out[k] = out.get(k, 0) + v
+        return out
 
     def get(self, who: str, target: str, timeout: float) -> tuple[bool, Any]:
         try:
@@ -157,6 +178,9 @@ class Agent:
             raise SystemExit(0) from None
         host = self.host = ComponentHost(self.spec, cls, self.port, self.generation)
         self.bus.serve(keys.bs(self.robot, self.spec.name), self._on_bs)
+        self.offers = SampleServer(self.bus, keys.bs_offer(self.robot, self.spec.name),
+                                   lambda _k: keys.bs_result(self.robot, self.spec.name),
+                                   self._on_offer)
         self.bus.token(keys.alive(self.robot, self.spec.kind, self.spec.name))
         self.hello()
         host.start()
@@ -165,6 +189,14 @@ class Agent:
     def _watchdog(self) -> None:
         while not self.done.wait(0.005):
             self.host.check(time.monotonic())
+
+    def _on_offer(self, _key: str, body: dict, answer: Any) -> None:
+        """A put's first offer (transport/calls.py): answered before the behavior's
+        thread is woken."""
+        r = self.host.offer(str(body.get("from")), body.get("data"), wake=False)
+        answer({"r": r})
+        if r == "delivered":
+            self.host.wake()
 
     def _on_bs(self, req: Request) -> None:
         b = req.body
@@ -187,7 +219,8 @@ class Agent:
             host.set_enabled(bool(b.get("enabled")))
             req.reply({"ok": None})
         elif op == "counters":
-            req.reply({"ok": host.counters()})
+            req.reply({"ok": {**host.counters(), "offer_samples": dict(self.offers.c),
+                              "put_samples": self.port.put_counters()}})
         elif op == "stop":
             req.reply({"ok": None})
             self.done.set()

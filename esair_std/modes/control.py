@@ -12,6 +12,7 @@ import logging
 import os
 import queue
 import threading
+import time
 from typing import Any, Callable
 
 from ..errors import ControlError, StdError
@@ -19,6 +20,7 @@ from ..level import Level
 from ..sample import Sample  # noqa: F401 - documented payload type
 from ..transport import keys
 from ..transport.bus import Bus, Request
+from ..transport.calls import SampleServer
 from ..transport.session import check_endpoint
 
 log = logging.getLogger("esair_std.control")
@@ -51,6 +53,15 @@ def _valid_timeout(body: dict) -> bool:
     return True
 
 
+class _SampleRequest:
+    """A request that came as a sample: the face of transport.bus.Request."""
+
+    __slots__ = ("key", "body", "error", "reply")
+
+    def __init__(self, key: str, body: dict, answer: Callable[[dict], None]):
+        self.key, self.body, self.error, self.reply = key, body, "", answer
+
+
 class ControlServer:
     def __init__(self, rt: Any):
         self.rt = rt
@@ -78,7 +89,20 @@ class ControlServer:
             t.start()
             self._workers.append(t)
         self.bus.serve(keys.ctl(self.rt.robot, "*"), self._enqueue)
+        robot = self.rt.robot
+        self.puts = SampleServer(self.bus, keys.ctl_put(robot, "*"),
+                                 lambda key: keys.bs_answer(robot, keys.name_in(key)),
+                                 self._on_put_sample)
         self.token = self.bus.token(keys.alive(self.rt.robot, "runtime", "runtime"))
+
+    def counters(self) -> dict:
+        """The control endpoint's own counters (``esair std inspect runtime``): requests,
+        garbage refused, requests refused while full, and the put path's samples."""
+        out = dict(self.c, put_samples=dict(self.puts.c))
+        offers = getattr(self.rt.mode, "offers", None)
+        if offers is not None:
+            out["offers"] = dict(offers.c)
+        return out
 
     def close(self) -> None:
         for _ in self._workers:
@@ -94,20 +118,32 @@ class ControlServer:
         if (req.key.endswith("/ctl/put") and b is not None and isinstance(b.get("to"), str)
                 and isinstance(b.get("from", ""), str) and _valid_timeout(b)):
             # fast path: the first offer straight from this callback, answered from the
-            # reply's; a busy target goes on through a worker (retries until the timeout)
+            # offer's answer; a busy target goes on through a worker (retries until the
+            # rest of the timeout)
+            timeout = _timeout(b)
+            deadline = time.monotonic() + timeout
+
             def first(delivered: bool) -> None:
                 if delivered:
                     self.c["requests"] += 1
                     req.reply({"ok": {"delivered": True, "reason": ""}})
                 else:
+                    b["timeout"] = max(0.0, deadline - time.monotonic())
                     self._to_worker(req)
             try:
                 if self.rt.bs.put_first(b.get("from") or "operator", b["to"], b.get("data"),
-                                        first):
+                                        timeout, first):
                     return
             except Exception as exc:  # noqa: BLE001 - fall back to the ordinary path
                 log.debug("put fast path: %s", exc)
         self._to_worker(req)
+
+    def _on_put_sample(self, key: str, body: dict, answer: Callable[[dict], None]) -> None:
+        """A component process's put, as a sample on ``ctl/put/<sender>``
+        (transport/calls.py): the same handling as the ``ctl/put`` query, the sender
+        named by the key (which a remote agent's ACL lets only it use)."""
+        body["from"] = keys.name_in(key)
+        self._enqueue(_SampleRequest(keys.ctl(self.rt.robot, "put"), body, answer))
 
     def _to_worker(self, req: Request) -> None:
         try:

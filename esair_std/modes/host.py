@@ -118,7 +118,10 @@ class ComponentHost:
                 self._phase = "stopped"
 
     # ---- the BS's requests (any thread; never run user code here)
-    def offer(self, sender: str, data: Any) -> str:
+    def offer(self, sender: str, data: Any, wake: bool = True) -> str:
+        """Take ``data`` into the mailbox: "delivered", else why not. ``wake=False``:
+        the caller calls ``wake()`` itself (after answering, so the behavior's thread
+        does not take the GIL from the answer)."""
         if self._phase != "running" or self.busy:
             self.c["refused"] += 1
             return "busy" if self._phase in ("running", "busy", "starting") else self._phase
@@ -127,8 +130,12 @@ class ComponentHost:
         except queue.Full:
             self.c["refused"] += 1
             return "busy"
-        self._wake.set()
+        if wake:
+            self._wake.set()
         return "delivered"
+
+    def wake(self) -> None:
+        self._wake.set()
 
     def request_provide(self, requester: str, reply: Any) -> str:
         """Queue a provide() call; ``reply((status, data))`` is called from the host thread."""

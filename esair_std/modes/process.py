@@ -22,6 +22,7 @@ from typing import Any
 from ..errors import CommandError, ComponentError, Refused, ResourceLost, StdError
 from ..spec import Spec
 from ..transport import keys
+from ..transport.calls import SampleCaller
 from ..transport.security import link_inserts
 from .thread import LocalPort
 
@@ -148,13 +149,21 @@ class ProcessComponent(_Child):
         r = self.ask(self.key, {"op": "offer", "from": sender, "data": data}, 1.0)
         return r.get("ok", "gone") if isinstance(r, dict) else "gone"
 
-    def offer_async(self, sender: str, data: Any, done: Any) -> None:
-        """``offer`` without waiting: ``done(result)`` on a Zenoh thread."""
+    def offer_async(self, sender: str, data: Any, done: Any, timeout: float) -> bool:
+        """``offer`` without waiting: ``done(result)`` on a Zenoh thread, or "gone"
+        after ``timeout`` (transport/calls.py). False: not sent, use ``offer``."""
         if self.phase in ("failed", "stopped"):
-            return done(self.phase)
-        self.bus.request_async(self.key, {"op": "offer", "from": sender, "data": data}, 1.0,
-                               lambda r: done(r.get("ok", "gone") if isinstance(r, dict)
-                                              else "gone"))
+            done(self.phase)
+            return True
+        def answer(a: Any) -> None:
+            r = a.get("r") if isinstance(a, dict) else None
+            done(r if isinstance(r, str) else "gone")
+        try:
+            return self.mode.offers.call(keys.bs_offer(self.robot, self.name), self.name,
+                                         {"from": sender, "data": data}, min(timeout, 1.0),
+                                         answer)
+        except StdError:
+            return False
 
     def provide(self, requester: str, timeout: float) -> tuple:
         if self.phase in ("failed", "stopped"):
@@ -255,6 +264,8 @@ class ProcessMode:
         return self.rt.server.bus
 
     def open(self) -> None:
+        self.offers = SampleCaller(self.bus, keys.bs_result(self.rt.robot, "*"),
+                                   lambda key: keys.name_in(key, 2))
         self.bus.watch_alive(keys.alive_all(self.rt.robot), self._alive)
 
     def _alive(self, key: str, alive: bool) -> None:
@@ -367,5 +378,8 @@ class ProcessMode:
             rec.host.check(now)
 
     def close(self) -> None:
+        offers = getattr(self, "offers", None)
+        if offers is not None:
+            offers.close()
         for res in self._resources.values():
             res.kill()

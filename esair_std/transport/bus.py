@@ -2,7 +2,11 @@
 handlers may answer later from another thread, publishers, subscribers, liveliness.
 
 Callbacks given here run on Zenoh's threads: they must copy and return (the callers in
-modes/ only enqueue or answer at once; user code never runs on them).
+modes/ only enqueue or answer at once; user code never runs on them). Queryable and
+subscriber callbacks run directly on Zenoh's network thread (``indirect=False``):
+zenoh-python's default hands each one to a Python thread of its own first, which cost
+50-100 us a hop here (bench/std.py); since ours only copy, enqueue or answer, the hand-off
+buys nothing. Liveliness callbacks, which may take locks of the runtime, keep it.
 """
 
 from __future__ import annotations
@@ -111,29 +115,53 @@ class Bus:
             finish(None)
 
     def serve(self, key: str, handler: Callable[[Request], None]) -> Any:
+        """``handler(request)`` on Zenoh's network thread: it must enqueue or answer."""
         def cb(query: Any) -> None:
             try:
                 handler(Request(query))
             except Exception as exc:  # noqa: BLE001 - never let a handler kill the thread
                 log.error("handler on %s: %s", key, exc)
-        return self._keep(self.session.declare_queryable(key, cb))
+        return self._keep(self.session.declare_queryable(
+            key, zenoh.handlers.Callback(cb, indirect=False)))
 
     # pub/sub
-    def publisher(self, key: str) -> Callable[[Any], None]:
-        pub = self._keep(self.session.declare_publisher(
-            key, congestion_control=zenoh.CongestionControl.BLOCK))
+    def publisher(self, key: str, drop: bool = False) -> Callable[[Any], None]:
+        """``put(obj)`` for ``key``. ``drop``: never wait for a congested link (for
+        messages whose loss the sender notices by a timeout), sent at once (express)."""
+        if drop:
+            pub = self._keep(self.session.declare_publisher(
+                key, congestion_control=zenoh.CongestionControl.DROP, express=True))
+        else:
+            pub = self._keep(self.session.declare_publisher(
+                key, congestion_control=zenoh.CongestionControl.BLOCK))
 
         def put(obj: Any) -> None:
             pub.put(codec.encode(obj))
         return put
 
-    def subscribe(self, key: str, callback: Callable[[Any], None]) -> Any:
+    def subscribe(self, key: str, callback: Callable[..., None], *,
+                  with_key: bool = False,
+                  garbage: Callable[[str], None] | None = None) -> Any:
+        """``callback(obj)`` (or ``callback(key, obj)``) on Zenoh's network thread for
+        each sample's decoded JSON; garbage (not UTF-8 JSON, over the size cap) is dropped
+        and told to ``garbage(why)``, else logged."""
         def cb(sample: Any) -> None:
             try:
-                callback(codec.decode(sample.payload.to_bytes()))
+                try:
+                    obj = codec.decode(sample.payload.to_bytes())
+                except TransportError as exc:
+                    if garbage is None:
+                        raise
+                    garbage(exc.message)
+                    return
+                if with_key:
+                    callback(str(sample.key_expr), obj)
+                else:
+                    callback(obj)
             except Exception as exc:  # noqa: BLE001
                 log.error("subscriber on %s: %s", key, exc)
-        return self._keep(self.session.declare_subscriber(key, cb))
+        return self._keep(self.session.declare_subscriber(
+            key, zenoh.handlers.Callback(cb, indirect=False)))
 
     def unsubscribe(self, sub: Any) -> None:
         with self._lock:

@@ -2,6 +2,10 @@
 
     esair/<robot>/ctl/<verb>           control queryables of the runtime
     esair/<robot>/bs/<behavior>        BS -> behavior (offer, provide, state, detached...)
+    esair/<robot>/ctl/put/<sender>     sender -> BS: a put from a component process (sample)
+    esair/<robot>/bs/<behavior>/offer  BS -> behavior: that put's first offer (sample)
+    esair/<robot>/bs/<behavior>/result behavior -> BS: the offer's answer (sample)
+    esair/<robot>/bs/<sender>/answer   BS -> sender: the put's outcome (sample)
     esair/<robot>/rs/<entry>           RS -> resource host (configure, grant, revoke...)
     esair/<robot>/sensor/<resource>    sensor samples, published by the sensor's host
     esair/<robot>/actuator/<resource>  commands, a queryable on the actuator's host
@@ -23,6 +27,22 @@ def bs(robot: str, name: str) -> str:
     return f"esair/{robot}/bs/{name}"
 
 
+def ctl_put(robot: str, sender: str) -> str:
+    return f"esair/{robot}/ctl/put/{sender}"
+
+
+def bs_answer(robot: str, name: str) -> str:
+    return f"esair/{robot}/bs/{name}/answer"
+
+
+def bs_offer(robot: str, name: str) -> str:
+    return f"esair/{robot}/bs/{name}/offer"
+
+
+def bs_result(robot: str, name: str) -> str:
+    return f"esair/{robot}/bs/{name}/result"
+
+
 def rs(robot: str, entry: str) -> str:
     return f"esair/{robot}/rs/{entry}"
 
@@ -41,6 +61,12 @@ def alive(robot: str, kind: str, name: str) -> str:
 
 def alive_all(robot: str) -> str:
     return f"esair/{robot}/alive/**"
+
+
+def name_in(key: str, from_end: int = 1) -> str:
+    """The chunk of ``key`` that names a component: the last (``from_end=1``), the
+    one before it (2)..."""
+    return key.rsplit("/", from_end)[-from_end]
 
 
 def parse_alive(robot: str, key: str) -> tuple[str, str] | None:

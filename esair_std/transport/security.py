@@ -116,19 +116,23 @@ def agent_rules(robot: str, agent: str, reads: list[str], commands: list[str],
                 provides: list[str] = ()) -> list[dict]:
     """ACL rules for one remote agent of robot ``robot`` (rule ids ``<agent>.<n>``).
 
-    The agent may: ask the control queryables (ctl/**) and get their replies; hold and
-    watch liveliness tokens; serve its own behavior key (bs/<agent>/**); subscribe to the
+    The agent may: ask the control queryables (ctl/**) and get their replies; send its
+    puts as samples on its own ctl/put/<agent> (transport/calls.py); hold and
+    watch liveliness tokens; serve its own behavior keys (bs/<agent>/**: queries, and the
+    offer/result samples of a put's fast path); subscribe to the
     sensors it ``reads``; query the actuators it ``commands``; and, when it hosts
     resources (``provides``), publish their samples and serve their commands."""
     k = f"esair/{robot}"
     ingress, egress, both = ["ingress"], ["egress"], ["ingress", "egress"]
     rules = [
         _rule("ctl", ["query"], ingress, [f"{k}/ctl/**"]),
+        _rule("ctl-put", ["put"], ingress, [f"{k}/ctl/put/{agent}"]),
         _rule("ctl-reply", ["reply"], egress, [f"{k}/ctl/**"]),
         _rule("alive", ["liveliness_token", "liveliness_query", "declare_liveliness_subscriber"],
               both, [f"{k}/alive/**"]),
-        _rule("bs", ["declare_queryable", "reply"], ingress, [f"{k}/bs/{agent}", f"{k}/bs/{agent}/**"]),
-        _rule("bs-query", ["query"], egress, [f"{k}/bs/{agent}", f"{k}/bs/{agent}/**"]),
+        _rule("bs", ["declare_queryable", "reply", "declare_subscriber", "put"], ingress,
+              [f"{k}/bs/{agent}", f"{k}/bs/{agent}/**"]),
+        _rule("bs-query", ["query", "put"], egress, [f"{k}/bs/{agent}", f"{k}/bs/{agent}/**"]),
     ]
     if reads:
         keys = [f"{k}/sensor/{r}" for r in reads]

@@ -5,6 +5,7 @@ import json
 import os
 import subprocess
 import sys
+import time
 
 import pytest
 from conftest import MODES, esair, free_endpoint, processes, std_run, wait_for
@@ -178,3 +179,49 @@ def test_run_refuses_bad_input_with_one_line(tmp_path):
     r = esair("run", "lab", "--run", "1", "-e", "tcp/127.0.0.1", check=False)
     assert (r.returncode, r.stderr) == (
         1, "error: endpoint 'tcp/127.0.0.1' is not of the form tcp/HOST:PORT\n")
+
+
+def test_the_put_samples_answer_or_count_garbage(robot_mode):
+    """A component process's put travels as samples (transport/calls.py): a good one is
+    answered on the sender's own answer key, a bad one with its error, garbage without an
+    id is counted where ``esair std inspect runtime`` shows it; nothing else changes."""
+    import queue
+
+    import zenoh
+
+    from esair_std.transport.bus import Bus
+    ep, _mode = robot_mode
+    bus = Bus(connect=[ep])
+    answers: queue.Queue = queue.Queue()
+    try:
+        before = json.loads(esair("inspect", "runtime", "-e", ep).stdout)["counters"]
+        bus.subscribe("esair/lab/bs/tester/answer", answers.put)
+        time.sleep(0.5)                             # the subscription reaches the runtime
+        for payload in [b"\xff not json", b"[1]", b'{"to": "logger"}', b'{"id": "7"}',
+                        b'{"id": true, "to": "logger"}', b"x" * 300_000]:
+            bus.session.put("esair/lab/ctl/put/tester", payload)
+        for key in ("esair/lab/bs/logger/result", "esair/lab/bs/logger/answer"):
+            bus.session.put(key, b'{"id": 1, "r": "delivered"}')
+        for body in [{"id": 1, "to": "logger", "data": {"n": 1}, "timeout": 1.0},
+                     {"id": 2, "to": 5},
+                     {"id": 3, "to": "nobody", "data": 1, "timeout": 0.2},
+                     {"id": 4, "to": "logger", "data": 1, "timeout": "soon"}]:
+            bus.session.put("esair/lab/ctl/put/tester", json.dumps(body).encode(),
+                            congestion_control=zenoh.CongestionControl.BLOCK)
+        got = sorted((answers.get(timeout=10) for _ in range(4)), key=lambda a: a["id"])
+        assert got == [
+            {"id": 1, "ok": {"delivered": True, "reason": ""}},
+            {"id": 2, "error": "bad request: 'to' must be a str", "type": "ControlError"},
+            {"id": 3, "ok": {"delivered": False, "reason": "no behavior 'nobody'"}},
+            {"id": 4, "error": "bad request: 'timeout' must be a number of seconds (0-3600)",
+             "type": "ControlError"},
+        ]
+        after = json.loads(esair("inspect", "runtime", "-e", ep).stdout)["counters"]
+        assert (after["put_samples"]["bad_requests"]
+                - before["put_samples"]["bad_requests"]) == 6    # 3 not JSON/object, 3 ids
+        assert after["put_samples"]["requests"] - before["put_samples"]["requests"] >= 4
+        assert answers.empty()
+    finally:
+        bus.close()
+    rows = json.loads(esair("ls", "--json", "-e", ep).stdout)
+    assert len(rows) == 10 and all(r["state"] in ("running", "ready") for r in rows)
