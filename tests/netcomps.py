@@ -128,10 +128,16 @@ class Idle(Behavior):
 
 
 class Sink(Behavior):
-    """Takes every put at once."""
+    """Takes every put at once; provide(): how many from whom."""
+
+    def start(self):
+        self.senders = {}
 
     def receive(self, sender, data):
-        pass
+        self.senders[sender] = self.senders.get(sender, 0) + 1
+
+    def provide(self, requester):
+        return self.senders
 
 
 class PutBench(Behavior):

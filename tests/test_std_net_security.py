@@ -28,11 +28,13 @@ security:
     pusher: {cn: pusher}
     reader: {cn: reader}
     intruder: {cn: intruder}    # let through the ACL to ctl on purpose: the RS must stop it
+    putter: {cn: putter}
 resources:
   arm: {class: "netcomps:Wheel", allow: {pusher: command, reader: read}}
   mic: {class: "netcomps:Counter", rate: 50, allow: {pusher: read, reader: read}}
 behaviors:
   idle: {class: "netcomps:Idle"}
+  sink: {class: "netcomps:Sink"}
 """
 ARM, MIC = "esair/lab/actuator/arm", "esair/lab/sensor/mic"
 
@@ -43,7 +45,7 @@ def secure(tmp_path_factory):
     folder = tmp_path_factory.mktemp("secure")
     net = make_net(2)
     try:
-        make_certs(folder / "pki", clients=["pusher", "reader", "intruder", "stranger"],
+        make_certs(folder / "pki", clients=["pusher", "reader", "intruder", "stranger", "putter"],
                    hosts=[net[0].addr])
         make_certs(folder / "other", clients=["pusher"], hosts=[net[0].addr])
         center = Center(net[0], folder, SECURE, tls=True)
@@ -196,3 +198,35 @@ def test_user_password_logins_with_the_runtime(tmp_path, monkeypatch):
                              check=False)
             return not out.startswith("error") and (json.loads(out)["last"] or {}).get("n", 0)
         wait_for(pushed, 30, what="pusher's commands through a login")
+
+
+def test_a_remote_behavior_puts_through_the_bs_and_nobody_puts_in_its_name(secure, local):
+    """A put travels as samples on keys that name the sender (transport/calls.py): the
+    ACL lets a remote agent use only its own, so nobody puts in another's name."""
+    import json
+    net, center = secure
+    putter = agent(net[1], center.endpoint, "putter", "netcomps:PutBench", "-o", "n=200",
+                   *_creds(center, "putter"))
+    get = lambda name: json.loads(_ctl(center, "get", name, "--timeout", "2"))  # noqa: E731
+    def finished():              # no behavior 'putter' until it joins; None until done
+        out = center.ctl("get", "putter", "--timeout", "2", check=False,
+                         endpoint=center.local)
+        return None if out.startswith("error") else json.loads(out)
+    done = wait_for(finished, 60, what="putter's 200 puts")
+    assert (done["failed"], len(done["times"])) == (0, 200), putter.output()
+    assert get("sink") == {"putter": 200}
+    forger = _raw(net, center, "pusher")     # an agent of the robot, not the putter
+    answer = "esair/lab/bs/pusher/answer"
+    forger.cmd(f"sub {answer}")
+    for key in ("esair/lab/ctl/put/putter", "esair/lab/ctl/put/idle"):      # not its keys
+        forger.cmd(f'put {key} {{"id":1,"to":"sink","data":"forged"}}')
+    stranger = _raw(net, center, "stranger")                                # no agent
+    stranger.cmd('put esair/lab/ctl/put/stranger {"id":1,"to":"sink","data":"x"}')
+    forger.cmd('put esair/lab/ctl/put/pusher {"id":2,"to":"sink","data":"mine"}')
+    ev = forger.wait_event(lambda e: e.get("sample") == answer, 20)         # after the forgeries
+    assert json.loads(ev["payload"]) == {"ok": {"delivered": True, "reason": ""}, "id": 2}
+    assert get("sink") == {"putter": 200, "pusher": 1}
+    forger.close()
+    stranger.close()
+    putter.proc.terminate()
+    assert putter.wait_exit(30) == 0

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import itertools
 import logging
+import queue
 import threading
 import time
 from typing import Any, Callable
@@ -90,16 +91,13 @@ class SampleCaller:
 
     def wait(self, key: str, peer: str, body: dict, timeout: float) -> Any:
         """``call`` from a thread that waits: the answer, or None."""
-        box: list = []
-        ready = threading.Event()
-
-        def done(answer: Any) -> None:
-            box.append(answer)
-            ready.set()
-        if not self.call(key, peer, body, timeout, done):
+        box: queue.SimpleQueue = queue.SimpleQueue()
+        if not self.call(key, peer, body, timeout, box.put):
             return None
-        ready.wait(timeout + 1.0)
-        return box[0] if box else None
+        try:
+            return box.get(timeout=timeout + 1.0)
+        except queue.Empty:
+            return None
 
     def _finish(self, oid: int, answer: Any) -> None:
         with self._lock:

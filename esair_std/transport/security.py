@@ -127,6 +127,9 @@ def agent_rules(robot: str, agent: str, reads: list[str], commands: list[str],
     rules = [
         _rule("ctl", ["query"], ingress, [f"{k}/ctl/**"]),
         _rule("ctl-put", ["put"], ingress, [f"{k}/ctl/put/{agent}"]),
+        # the BS's subscriber on ctl/put/* must be declared to the agent, or zenoh never
+        # routes the agent's puts to it (a declaration is checked as a message too)
+        _rule("ctl-put-sub", ["declare_subscriber"], egress, [f"{k}/ctl/put/*"]),
         _rule("ctl-reply", ["reply"], egress, [f"{k}/ctl/**"]),
         _rule("alive", ["liveliness_token", "liveliness_query", "declare_liveliness_subscriber"],
               both, [f"{k}/alive/**"]),
