@@ -5,17 +5,46 @@ Library code raises these; only the CLI turns them into an exit status.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from pathlib import Path
 
 
-@dataclass(frozen=True)
 class Mark:
-    """A place in a file: 1-based line and column, as editors show them."""
+    """A place in a file: 1-based line and column, as editors show them. Immutable,
+    compared and hashed by value. (A plain class rather than a frozen dataclass: every
+    ESAIR STD agent process imports this module, and importing ``dataclasses`` pulls in
+    ``inspect``, ``ast``, ``dis`` and ``tokenize``: 1.2 MB of RSS per process.)"""
 
-    path: str
-    line: int
-    col: int
+    __slots__ = ("path", "line", "col")
+    _fields: tuple[str, ...] = __slots__
+
+    def __init__(self, path: str, line: int, col: int):
+        object.__setattr__(self, "path", path)
+        object.__setattr__(self, "line", line)
+        object.__setattr__(self, "col", col)
+
+    def __setattr__(self, name: str, value: object) -> None:
+        raise AttributeError(f"cannot assign to field {name!r} of an immutable "
+                             f"{type(self).__name__}")
+
+    __delattr__ = __setattr__
+
+    def _key(self) -> tuple:
+        return tuple(getattr(self, name) for name in self._fields)
+
+    def __eq__(self, other: object) -> bool:
+        if type(other) is not type(self):
+            return NotImplemented
+        return self._key() == other._key()  # type: ignore[attr-defined]
+
+    def __hash__(self) -> int:
+        return hash(self._key())
+
+    def __repr__(self) -> str:
+        shown = ", ".join(f"{name}={getattr(self, name)!r}" for name in self._fields)
+        return f"{type(self).__name__}({shown})"
+
+    def __reduce__(self) -> tuple:
+        return (type(self), self._key())
 
     def __str__(self) -> str:
         if self.line <= 0:                 # a path as a whole (it may not exist)

@@ -11,19 +11,17 @@ Imports are serialised by a lock (``sys.path`` and ``sys.modules`` are global).
 :func:`component_class` is the runtime's door to it: a spec that travelled as JSON
 has no mark, only its ``where`` text, and a failure there is a component failure
 (:class:`ComponentError`). This module imports neither pydantic nor the deployment
-model, so an agent process stays small.
+model, so an agent process stays small; what only an error message needs (difflib,
+pkgutil, traceback) is imported when the error happens.
 """
 
 from __future__ import annotations
 
-import difflib
 import importlib
 import os
-import pkgutil
 import re
 import sys
 import threading
-import traceback
 from pathlib import Path
 from typing import Any
 
@@ -61,6 +59,7 @@ def load_class(spec: Any, base_dir: str | Path | None = None, *,
         module = _import(module_name, Path(base).resolve() if base else None, mark)
     cls = getattr(module, class_name, None)
     if cls is None:
+        import difflib
         names = [n for n, v in vars(module).items() if isinstance(v, type)]
         close = difflib.get_close_matches(class_name, names, n=1, cutoff=0.6)
         hint = f" (did you mean '{close[0]}'?)" if close else ""
@@ -126,6 +125,8 @@ def _forget_if_elsewhere(top: str, base: Path) -> None:
 
 
 def _module_hint(missing: str, base: Path | None) -> str:
+    import difflib
+    import pkgutil
     parent, _, leaf = missing.rpartition(".")
     names: list[str] = []
     if parent:
@@ -145,6 +146,7 @@ def _failed(module_name: str, exc: BaseException) -> str:
         where = f" at {_show_path(exc.filename)}:{exc.lineno}"
         text = f"SyntaxError: {exc.msg}"
     else:
+        import traceback
         frames = [f for f in traceback.extract_tb(exc.__traceback__)
                   if not f.filename.startswith("<frozen")]
         if frames:

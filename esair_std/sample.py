@@ -2,19 +2,44 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Any
 
 
-@dataclass(frozen=True)
 class Sample:
     """One reading: ``seq`` numbers every sample of a sensor from 1, ``t`` is
-    ``time.time()`` when the sensor reported it, ``source`` the sensor's name."""
+    ``time.time()`` when the sensor reported it, ``source`` the sensor's name.
+    Immutable, compared by value (a plain class, not a dataclass: see esair_min's Mark)."""
 
-    value: Any
-    seq: int
-    t: float
-    source: str
+    __slots__ = ("value", "seq", "t", "source")
+
+    def __init__(self, value: Any, seq: int, t: float, source: str):
+        object.__setattr__(self, "value", value)
+        object.__setattr__(self, "seq", seq)
+        object.__setattr__(self, "t", t)
+        object.__setattr__(self, "source", source)
+
+    def __setattr__(self, name: str, value: object) -> None:
+        raise AttributeError(f"cannot assign to field {name!r} of an immutable Sample")
+
+    __delattr__ = __setattr__
+
+    def _key(self) -> tuple:
+        return (self.value, self.seq, self.t, self.source)
+
+    def __eq__(self, other: object) -> bool:
+        if type(other) is not Sample:
+            return NotImplemented
+        return self._key() == other._key()  # type: ignore[attr-defined]
+
+    def __hash__(self) -> int:
+        return hash(self._key())
+
+    def __repr__(self) -> str:
+        return (f"Sample(value={self.value!r}, seq={self.seq!r}, t={self.t!r}, "
+                f"source={self.source!r})")
+
+    def __reduce__(self) -> tuple:
+        return (Sample, self._key())
 
     def to_wire(self) -> dict:
         return {"v": self.value, "seq": self.seq, "t": self.t, "src": self.source}

@@ -7,7 +7,6 @@ Keeping it here means the runtime reads the deployment model in one place only.
 from __future__ import annotations
 
 import os
-from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -16,25 +15,54 @@ from .level import Level
 KINDS = ("behavior", "reaction", "resource")
 
 
-@dataclass(frozen=True)
 class Spec:
-    kind: str                                   # behavior | reaction | resource
-    name: str
-    class_path: str                             # module:Class
-    options: dict = field(default_factory=dict)
-    base_dir: str | None = None
-    period: float | None = None                 # None: the class's own
-    has_period: bool = False                    # the deployment set period (maybe to None)
-    uses: dict = field(default_factory=dict)    # behavior: resource (or glob) -> level name
-    restart_max: int = 0
-    restart_within: float = 0.0
-    allow: dict = field(default_factory=dict)   # resource: behavior (or glob) -> level name
-    resources: tuple = ()                       # reaction: the resources it reaches
-    enabled: bool = True                        # reaction
-    where: str = ""                             # file:line:col of the entry, for messages
+    """One component to deploy. Immutable, compared by value. (A plain class rather than
+    a frozen dataclass: an agent process builds one, and importing ``dataclasses`` costs
+    1.2 MB of RSS in each; see esair_min's Mark.)"""
+
+    __slots__ = ("kind", "name", "class_path", "options", "base_dir", "period", "has_period",
+                 "uses", "restart_max", "restart_within", "allow", "resources", "enabled",
+                 "where")
+
+    def __init__(self, kind: str, name: str, class_path: str, options: dict | None = None,
+                 base_dir: str | None = None, period: float | None = None,
+                 has_period: bool = False, uses: dict | None = None, restart_max: int = 0,
+                 restart_within: float = 0.0, allow: dict | None = None,
+                 resources: tuple = (), enabled: bool = True, where: str = ""):
+        values = dict(
+            kind=kind,                           # behavior | reaction | resource
+            name=name,
+            class_path=class_path,               # module:Class
+            options={} if options is None else options,
+            base_dir=base_dir,
+            period=period,                       # None: the class's own
+            has_period=has_period,               # the deployment set period (maybe to None)
+            uses={} if uses is None else uses,   # behavior: resource (or glob) -> level name
+            restart_max=restart_max,
+            restart_within=restart_within,
+            allow={} if allow is None else allow,  # resource: behavior (or glob) -> level
+            resources=resources,                 # reaction: the resources it reaches
+            enabled=enabled,                     # reaction
+            where=where)                         # file:line:col of the entry, for messages
+        for key, value in values.items():
+            object.__setattr__(self, key, value)
+
+    def __setattr__(self, name: str, value: object) -> None:
+        raise AttributeError(f"cannot assign to field {name!r} of an immutable Spec")
+
+    __delattr__ = __setattr__
+    __hash__ = None  # type: ignore[assignment]   # its dicts are not hashable
+
+    def __eq__(self, other: object) -> bool:
+        if type(other) is not Spec:
+            return NotImplemented
+        return all(getattr(self, k) == getattr(other, k) for k in self.__slots__)
+
+    def __repr__(self) -> str:
+        return "Spec(" + ", ".join(f"{k}={getattr(self, k)!r}" for k in self.__slots__) + ")"
 
     def to_json(self) -> dict:
-        d = asdict(self)
+        d = {k: _copy(getattr(self, k)) for k in self.__slots__}
         d["resources"] = list(self.resources)
         return d
 
@@ -47,6 +75,15 @@ class Spec:
     def uses_level(self, resource: str) -> Level | None:
         from .level import best_match
         return best_match(self.uses, resource)
+
+
+def _copy(value: Any) -> Any:
+    """A deep copy of JSON-like data (dicts, lists, tuples), as dataclasses.asdict made."""
+    if isinstance(value, dict):
+        return {k: _copy(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return type(value)(_copy(v) for v in value)
+    return value
 
 
 def _where(entry: Any) -> str:

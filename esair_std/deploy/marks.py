@@ -8,7 +8,6 @@ the same checks and messages then serve both.
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass
 from typing import Any, Mapping
 
 from esair_min.errors import Mark
@@ -22,11 +21,15 @@ MAX_DEPTH = 32
 _PLAIN = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 
 
-@dataclass(frozen=True)
 class PathMark(Mark):
     """A place in a dict: shown as the dotted path of the value."""
 
-    where: str = ROOT
+    __slots__ = ("where",)
+    _fields = Mark._fields + __slots__
+
+    def __init__(self, path: str, line: int, col: int, where: str = ROOT):
+        super().__init__(path, line, col)
+        object.__setattr__(self, "where", where)
 
     def __str__(self) -> str:
         return self.where
