@@ -15,7 +15,8 @@ side by side in one run on this machine.
                (goal <= 30 MB RSS)
 
 Sample ages are measured in the behavior's step (period 1 ms): they include up to one
-step of polling. Run: python bench/std.py [--quick]. Prints the figures; asserts nothing.
+step of polling. Run: python bench/std.py [--quick] [--memory]. Prints the figures;
+asserts nothing. --memory prints only the memory rows (a few seconds).
 """
 
 from __future__ import annotations
@@ -355,11 +356,17 @@ def memory() -> tuple[dict, list[tuple[int, int]], int]:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--quick", action="store_true", help="fewer repetitions")
+    ap.add_argument("--memory", action="store_true", help="only the memory (RSS) rows")
     a = ap.parse_args()
     n = 500 if a.quick else 2000
     print(f"ESAIR STD bench ({os.cpu_count()} cores, load {os.getloadavg()[0]:.1f})")
     print(f"  {'goal':<46} {'measured':<30} {'target':<16} verdict")
+    if not a.memory:
+        speed(a.quick, n)
+    memory_rows()
 
+
+def speed(quick: bool, n: int) -> None:
     q = queue_round_trip(n)
     t = put_get("thread", n)
     r = t["put"]["p50"] / q
@@ -370,7 +377,7 @@ def main() -> None:
         f"{t['get']['p50']*1e6:.0f} us = {r:.2f}x queue", "(no goal)", None)
 
     rounds = []          # raw get and put interleaved: the machine is shared and noisy
-    for _ in range(1 if a.quick else 3):
+    for _ in range(1 if quick else 3):
         z = zenoh_get_round_trip(n // 4)
         rounds.append((put_get("process", n // 4), z))
     rounds.sort(key=lambda pz: pz[0]["put"]["p50"] / pz[1])
@@ -390,7 +397,7 @@ def main() -> None:
     row("  reference: 4 raw samples A-R-E-R-A", f"{floor*1e6:.0f} us = {floor/z:.2f}x "
         "zenoh", "(floor by samples)", None)
 
-    secs = 4.0 if a.quick else 10.0
+    secs = 4.0 if quick else 10.0
     for mode, goal in (("thread", 3e-3), ("process", 10e-3)):
         lat = latency(mode, 50, secs)
         ages = lat["ages"]
@@ -399,7 +406,7 @@ def main() -> None:
             f"<= {goal*1e3:.0f} ms", ages["p99"] <= goal)
 
     for mode in ("thread", "process"):
-        fast, slow, reported = fanout(mode, 2.0 if a.quick else 5.0)
+        fast, slow, reported = fanout(mode, 2.0 if quick else 5.0)
         lost = sum(f["gaps"] for f in fast)
         got = sum(f["n"] for f in fast)
         row(f"{mode}: 1 kHz to 8 behaviors: samples lost",
@@ -409,7 +416,7 @@ def main() -> None:
             slow["overwritten"] > 0 and slow["gaps"] > 0)
 
     for mode, goal in (("thread", 0.020), ("process", 0.300)):
-        firsts, removes = add_remove(mode, 3 if a.quick else 8)
+        firsts, removes = add_remove(mode, 3 if quick else 8)
         med = pct(firsts, 0.5)
         row(f"{mode}: add -> first sample, median (max)",
             f"{med*1e3:.1f} ms ({max(firsts)*1e3:.1f} ms)", f"<= {goal*1e3:.0f} ms", med <= goal)
@@ -417,7 +424,7 @@ def main() -> None:
         row(f"{mode}: remove, median (max)", f"{med*1e3:.1f} ms ({max(removes)*1e3:.1f} ms)",
             "<= 100 ms", med <= 0.1)
 
-    failed, restarted = sigkill(3 if a.quick else 8)
+    failed, restarted = sigkill(3 if quick else 8)
     med = pct(failed, 0.5)
     row("process: SIGKILL -> failed, median (max)",
         f"{med*1e3:.1f} ms ({max(failed)*1e3:.1f} ms)", "<= 50 ms", max(failed) <= 0.05)
@@ -425,6 +432,8 @@ def main() -> None:
     row("process: SIGKILL -> restarted, median (max)",
         f"{med*1e3:.0f} ms ({max(restarted)*1e3:.0f} ms)", "<= 1 s", max(restarted) <= 1.0)
 
+
+def memory_rows() -> None:
     thread_rss, procs, own = memory()
     row("thread: RSS with 10 behaviors (no control)", f"{thread_rss['0']/1024:.1f} MB",
         "<= 60 MB", thread_rss["0"] <= 60 * 1024)
