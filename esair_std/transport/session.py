@@ -24,7 +24,7 @@ def open_session(listen: list[str] | None = None, connect: list[str] | None = No
         cfg.insert_json5("scouting/gossip/enabled", "true")
         # no shared memory: STD's messages are small JSON, and zenoh's SHM transport would
         # copy every message of 3 KB or more between local processes into a 16 MiB pool
-        # mapped by each; off, a session costs 0.4-0.7 MB less RSS, and big messages go
+        # mapped by each; off, an agent has 0.2-0.5 MB less RSS, and big messages go
         # over the link in batches, as they do between computers.
         cfg.insert_json5("transport/shared_memory/enabled", "false")
         if listen:

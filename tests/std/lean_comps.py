@@ -1,0 +1,47 @@
+"""Components that report which modules their process has imported (the agent stays
+lean: every module costs each component process RSS; see docs/std.md, Measured)."""
+
+from __future__ import annotations
+
+import sys
+
+from esair_std import Behavior, Sensor
+
+#: modules an agent process does not need (the deployment loader's pydantic and yaml,
+#: the CLI's click and rich, dataclasses' inspect, argparse, socket, error-only helpers)
+HEAVY = ("pydantic", "yaml", "click", "rich", "jinja2", "cryptography", "dataclasses",
+         "inspect", "argparse", "socket", "difflib", "pkgutil")
+
+
+def heavy_imported() -> list[str]:
+    return [m for m in HEAVY if m in sys.modules]
+
+
+class Counting(Sensor):
+    """Reports 1, 2, 3... at 200 Hz; configure('modules', _) gives heavy_imported()."""
+
+    rate_hz = 200
+
+    def open(self):
+        self.n = 0
+
+    def read(self):
+        self.n += 1
+        return self.n
+
+    def configure(self, key, value):
+        if key == "modules":
+            return heavy_imported()
+        return super().configure(key, value)
+
+
+class Listening(Behavior):
+    """Attaches to 'count'; provide() gives (samples received, heavy_imported())."""
+
+    period = 0.01
+
+    def start(self):
+        self.h = self.attach_sensor("count")
+
+    def provide(self, requester):
+        return [self.h.received, heavy_imported()]

@@ -1,0 +1,47 @@
+"""A component process imports only what it needs (RSS per process, issue 11: <= 30 MB;
+bench/std.py measures it): none of the deployment loader's, the CLI's or error-only
+modules, while it runs a sensor and a behavior attached to it. Process mode only: in
+thread mode the components share the runtime's process, which loads the deployment."""
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+from conftest import agent_children, free_endpoint, wait_for
+from esair_std import Runtime
+
+HERE = Path(__file__).resolve().parent
+
+
+def test_agent_processes_import_no_heavy_module():
+    dep = {"robot": "t",
+           "resources": {"count": {"class": "lean_comps:Counting", "allow": {"*": "read"}}},
+           "behaviors": {"listen": {"class": "lean_comps:Listening",
+                                    "uses": {"count": "read"}}}}
+    rt = Runtime(dep, mode="process", endpoint=free_endpoint())
+    rt.start()
+    try:
+        received, behavior_heavy = wait_for(
+            lambda: (lambda r: r if r[0] > 0 else None)(rt.get("listen", timeout=2.0)),
+            what="a sample at the behavior")
+        sensor_heavy = rt.configure("count", "modules", 1)
+        pids = {r["name"]: r["pid"] for r in rt.ls()}
+    finally:
+        rt.stop()
+    assert agent_children() == [], "agent processes left behind"
+    assert pids["listen"] != os.getpid() and pids["count"] != os.getpid()
+    assert behavior_heavy == []
+    assert sensor_heavy == []
+
+
+def test_the_check_can_fail():
+    """The same list in a process that loads a deployment: pydantic and yaml show."""
+    code = ("import sys; sys.path.insert(0, '.'); import lean_comps\n"
+            "from esair_std.deploy import load_deployment\n"
+            "load_deployment({'robot': 't'})\n"
+            "print(' '.join(lean_comps.heavy_imported()))")
+    out = subprocess.run([sys.executable, "-c", code], cwd=HERE, capture_output=True,
+                         text=True, timeout=60)
+    assert out.returncode == 0, out.stderr
+    assert {"pydantic", "yaml"} <= set(out.stdout.split())
