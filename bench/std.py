@@ -11,8 +11,8 @@ side by side in one run on this machine.
                remove (goal <= 100 ms)
   SIGKILL      a behavior process killed -> marked failed (goal <= 50 ms), restarted
                (goal <= 1 s)
-  memory       thread mode with 10 behaviors (goal <= 60 MB RSS); per component process
-               (goal <= 30 MB RSS)
+  memory       thread mode with 10 behaviors (goal <= 60 MB RSS); per component process,
+               also after 20 puts of 50 KB to one (goal <= 30 MB RSS)
 
 Sample ages are measured in the behavior's step (period 1 ms): they include up to one
 step of polling. Run: python bench/std.py [--quick] [--memory]. Prints the figures;
@@ -350,6 +350,11 @@ def memory() -> tuple[dict, list[tuple[int, int]], int]:
         pids = {r["pid"] for r in rt.ls()}
         procs = [rss_kb(p) for p in sorted(pids)]
         own = rss_kb(os.getpid())[0]
+        b0 = next(r["pid"] for r in rt.ls() if r["name"] == "b0")
+        for _ in range(20):                      # big messages between local processes
+            rt.put("b0", "x" * 50_000, timeout=2.0)
+        time.sleep(0.2)
+        procs.append(("big", rss_kb(b0)[0]))
     return out, procs, own
 
 
@@ -439,6 +444,8 @@ def memory_rows() -> None:
         "<= 60 MB", thread_rss["0"] <= 60 * 1024)
     row("thread: RSS with 10 behaviors + control", f"{thread_rss['1']/1024:.1f} MB",
         "<= 60 MB", thread_rss["1"] <= 60 * 1024)
+    big = [r for tag, r in procs if tag == "big"]
+    procs = [p for p in procs if p[0] != "big"]
     rss = [r for r, _ in procs if r]
     pss = [p for _, p in procs if p]
     row("process: RSS per component process, max (mean)",
@@ -447,6 +454,8 @@ def memory_rows() -> None:
     if pss:
         row("process: PSS per component process, mean", f"{sum(pss)/len(pss)/1024:.1f} MB",
             "(shared pages split)", None)
+    row("process: a behavior's RSS after 20 50-KB puts", f"{big[0]/1024:.1f} MB", "<= 30 MB",
+        big[0] <= 30 * 1024)
     row("process: the bench+runtime process RSS", f"{own/1024:.1f} MB", "(no goal)", None)
 
 
