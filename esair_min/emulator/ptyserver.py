@@ -14,9 +14,11 @@ they like.
 
 from __future__ import annotations
 
+import math
 import os
 import select
 import termios
+import time
 import tty
 from dataclasses import dataclass
 from typing import Callable
@@ -24,8 +26,10 @@ from typing import Callable
 from esair_min.emulator.pacing import Pacer
 from esair_min.emulator.robot import Emulator
 
-#: Longest wait between two looks at the port while nobody has it open (s).
+#: Longest wait between two looks at the port while nothing is due (s).
 IDLE_POLL_S = 0.02
+#: Wait before trying again to hand the program bytes the pty had no room for (s).
+WRITE_RETRY_S = 0.002
 
 
 @dataclass
@@ -86,6 +90,12 @@ def serve_pty(emu: Emulator, on_path: Callable[[str], None],
                 _discard_unread(path)
             elif port.open and not was_open:
                 port.opened += 1
+            if events & select.POLLIN:
+                # input first: its bytes start on the wire now, and the sleep below
+                # must already know when they (and the reply) next need a look
+                data = _read(master)
+                if data:
+                    emu.write(data)
             pending += emu.read()
             if not port.open:
                 port.dropped += len(pending)      # nobody listens: lost, as on a wire
@@ -99,24 +109,29 @@ def serve_pty(emu: Emulator, on_path: Callable[[str], None],
                 except OSError:                  # the program closed the port meanwhile
                     port.dropped += len(pending)
                     pending.clear()
-            wait = 0.002 if pending else pacer.wall_until_next(IDLE_POLL_S)
-            if events & select.POLLIN:
-                data = _read(master)
-                if data:
-                    pacer.sync()
-                    emu.write(data)
-            if port.open:
-                try:
-                    poller.poll(int(wait * 1000))    # wakes when the program writes
-                except InterruptedError:
-                    pass
-            else:
-                # POLLHUP would wake poll() at once: sleep, then look again
-                select.select([], [], [], wait)
             if on_idle is not None:
                 on_idle()
+            wait = WRITE_RETRY_S if pending else pacer.wall_until_next(IDLE_POLL_S)
+            if wait > 0:
+                # select: microsecond timeouts (poll's are whole ms: a byte is ~1 ms)
+                _sleep(master if port.open else None, wait, poller)
     finally:
         os.close(master)
+
+
+def _sleep(fd: int | None, wait: float, poller: "select.poll") -> None:
+    """Sleep ``wait`` seconds or until ``fd`` (if given) is readable. select() takes
+    microseconds (poll() whole milliseconds, and a byte at 9600 baud is ~1 ms); poll(),
+    rounded up, only for a descriptor beyond select()'s reach."""
+    try:
+        select.select([] if fd is None else [fd], [], [], wait)
+    except ValueError:                           # fd >= FD_SETSIZE
+        if fd is None:
+            time.sleep(wait)
+        else:
+            poller.poll(math.ceil(wait * 1000))
+    except InterruptedError:
+        pass
 
 
 def _read(master: int) -> bytes:
