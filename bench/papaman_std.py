@@ -87,7 +87,10 @@ def wait(rt: Runtime, name: str, key: str, timeout: float = 120) -> dict:
 
 
 def command_to_write(mode: str, n: int, feet_hz: float) -> dict:
-    """Figure 1: behavior send -> register write (virtual time), in ms."""
+    """Figure 1: behavior send -> register write (virtual time), in ms; split at the
+    moment the I/O thread writes the line to the port (``host``: send -> port write,
+    the STD and Link path; ``robot``: port write -> register write, the line time and
+    the wait for the tick, in the emulator alone)."""
     trace = Path(tempfile.mkdtemp(prefix="esair-bench-")) / "trace.txt"
     url = f"esair://{PAPAMAN}?trace={trace}"
     dep = deployment(url, mode, {"stepper": {"class": "papaman_std_comps:Stepper",
@@ -96,6 +99,16 @@ def command_to_write(mode: str, n: int, feet_hz: float) -> dict:
         port = rt.rs.entries["papaman"][1].driver.link._port     # the in-process robot
         pacer = port._pacer
         wall0 = time.time() - time.monotonic() + pacer._t0_wall  # pacer's t0 on time.time()
+        written: list[float] = []
+        write = port.write
+
+        def timed_write(data, _write=write):       # the port's virtual time at the write
+            out = _write(data)
+            if data.lstrip(b"\r\n")[:1] == b"o":
+                written.append(port.emulator.clock.now / 1e9)
+            return out
+
+        port.write = timed_write                   # the Link calls its port's write
         got = wait(rt, "stepper", "done")
     virt0 = pacer._t0_virtual / 1e9
     sent = [virt0 + (t - wall0) * pacer.factor for t in got["sent"]]
@@ -106,9 +119,13 @@ def command_to_write(mode: str, n: int, feet_hz: float) -> dict:
         elif line.startswith("W 10 ") and len(line.split()[2]) == 6:
             writes.append(mark)             # the write starts (its 38 bit times follow)
     lat = [(w - s) * 1e3 for s, w in zip(sent, writes)]
+    k = len(written)                # the first sends may precede timed_write
+    host = [(w - s) * 1e3 for s, w in zip(sent[len(sent) - k:], written)]
+    robot = [(w - s) * 1e3 for s, w in zip(written, writes[len(writes) - k:])]
     return {"n": len(lat), "p50": statistics.median(lat), "p90": pct(lat, 0.9),
-            "p99": pct(lat, 0.99),
-            "max": max(lat), "errors": got["errors"]}
+            "p99": pct(lat, 0.99), "max": max(lat), "errors": got["errors"],
+            "host_p50": statistics.median(host), "host_p99": pct(host, 0.99),
+            "robot_min": min(robot), "robot_max": max(robot)}
 
 
 def sample_age(mode: str, seconds: float) -> dict:
@@ -187,6 +204,9 @@ def main() -> None:
         print(f"   {m:8s} feet {hz} Hz  n={r['n']}  p50 {r['p50']:.2f} ms  p90 {r['p90']:.2f} ms  "
               f"p99 {r['p99']:.2f} ms  "
               f"max {r['max']:.2f} ms  ({r['p99'] / goal1:.0%} of the goal at p99)")
+        print(f"   {'':8s} {'':10s} send -> port write (STD + Link): p50 {r['host_p50']:.2f} ms  "
+              f"p99 {r['host_p99']:.2f} ms;  port write -> register write (line + tick "
+              f"wait): {r['robot_min']:.2f} .. {r['robot_max']:.2f} ms")
     print("\n2. feet sample age at the watcher's read (goal p99 <= 125 + 2 ms)")
     for m in modes:
         r = sample_age(m, args.age_seconds)

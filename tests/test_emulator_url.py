@@ -107,3 +107,31 @@ def test_url_errors(url, message):
     with pytest.raises(serial.SerialException) as exc:
         serial.serial_for_url(url)
     assert str(exc.value) == message
+
+
+def test_real_time_port_cancel_read_ends_a_waiting_read():
+    """cancel_read (pySerial's, which the MIN link uses to wake its I/O thread) ends a
+    read that would otherwise wait for ever, from another thread or before the read."""
+    import threading
+
+    port = serial.serial_for_url("esair://boards/papaman", timeout=None)
+    try:
+        port.reset_input_buffer()               # the !READY: nothing else will come
+        got: list[bytes] = []
+        reader = threading.Thread(target=lambda: got.append(port.read(1)), daemon=True)
+        reader.start()
+        reader.join(0.2)
+        assert reader.is_alive()                # waiting: the robot sends nothing
+        port.cancel_read()
+        reader.join(30)
+        assert not reader.is_alive() and got == [b""]
+        port.cancel_read()                      # before the read: the next one ends at once
+        reader = threading.Thread(target=lambda: got.append(port.read(1)), daemon=True)
+        reader.start()
+        reader.join(30)
+        assert not reader.is_alive() and got == [b"", b""]
+        port.timeout = 2                        # and the port still answers
+        port.write(b"x\r\n")
+        assert port.readline() == b"OK\r\n"
+    finally:
+        port.close()

@@ -27,6 +27,7 @@ The port's baud rate setting is ignored: bytes travel at the robot's declared ba
 
 from __future__ import annotations
 
+import threading
 import time
 import urllib.parse
 
@@ -85,6 +86,7 @@ class Serial(SerialBase):
         self._max = False
         self._rx = bytearray()
         self._trace_file = None
+        self._cancel = threading.Event()
         super().__init__(*args, **kwargs)
 
     # -- opening and closing -------------------------------------------------------------
@@ -189,11 +191,18 @@ class Serial(SerialBase):
                 if left is not None and left <= 0:
                     break
                 nap = self._pacer.wall_until_next(0.01)
-                time.sleep(max(1e-4, nap if left is None else min(nap, left)))
+                if self._cancel.wait(max(1e-4, nap if left is None else min(nap, left))):
+                    break
                 self._pull()
+            self._cancel.clear()
         out = bytes(self._rx[:size])
         del self._rx[:size]
         return out
+
+    def cancel_read(self) -> None:
+        """End a ``read`` waiting in another thread now, with what it has (as pySerial's
+        POSIX ports do; called before the read, it ends the next one at once)."""
+        self._cancel.set()
 
     def write(self, data) -> int:
         if not self.is_open:

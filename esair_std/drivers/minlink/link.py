@@ -45,7 +45,7 @@ WIRE_CODES = frozenset({Code.UNKNOWN, Code.TOO_LONG, Code.BAD_ARGUMENT, Code.BAD
                         Code.OVERRUN, Code.BAD_CHARACTER})
 MAX_LINE_BYTES = 256        # a longer line from the robot is garbage: dropped, counted
 POLL_S = 0.05               # the I/O thread's longest wait on a port it can wake
-POLL_S_NO_CANCEL = 0.002    # ... on a port without cancel_read (esair://)
+POLL_S_NO_CANCEL = 0.002    # ... on a port without cancel_read
 RESYNC = b"\r\n"            # an empty line: no reply, but it ends a line noise began
 RESYNC_IDLE_S = 0.25        # a command after this long a silence is sent after RESYNC
 
