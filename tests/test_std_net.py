@@ -78,14 +78,19 @@ def test_partition_marks_remote_agents_lost_and_they_come_back_by_themselves(net
     idle_before = center.get("idle")
 
     net[1].link(up=False)                                  # the partition
-    wait_for(lambda: center.state("pusher") == "lost", 45, what="pusher marked lost")
-    wait_for(lambda: center.state("ticks") == "lost", 45, what="ticks marked lost")
+    # the center says when it marks an agent lost / failed (esair std run's output): an
+    # event, not a poll of `esair std ls`, which may answer late during a cut
+    center.run.wait_line("pusher: remote agent lost", 30)
+    wait_for(lambda: center.state("ticks") == "lost", 30, what="ticks marked lost")
     assert center.inspect("arm")["grants"] == {}           # its registrations dropped
     seen_at_loss = len(center.get("watch2")["seqs"])
     assert center.state("watch2") == "running" and center.state("idle") == "running"
     assert center.get("idle") > idle_before                # local behaviors go on
+    # the link stays down past 3 leases: the remote behavior is failed ...
+    center.run.wait_line("pusher failed (remote agent unreachable for 4.5 s)", 30)
+    assert center.ls()["pusher"]["reason"] == "remote agent unreachable for 4.5 s"
 
-    net[1].link(up=True)
+    net[1].link(up=True)                                   # ... and comes back by itself
     wait_for(lambda: center.state("pusher") == "running" and center.state("ticks") == "ready",
              20, what="remote agents back")
     wait_for(lambda: center.inspect("arm")["grants"] == {"pusher": "command"}, 10,
@@ -97,6 +102,8 @@ def test_partition_marks_remote_agents_lost_and_they_come_back_by_themselves(net
     assert len(gaps) == 1, gaps                  # exactly one hole, the partition's
     (before, after), = gaps
     assert after > before + 1 and seqs == sorted(seqs)
+    sent_back = center.get("pusher")["sent"]     # its get works again, and it commands
+    wait_for(lambda: center.get("pusher")["sent"] > sent_back, 10, what="pusher stepping")
     assert center.get("pusher")["last"]["n"] > 0
 
 
