@@ -3,8 +3,10 @@ a robot's control center (docs/std-network.md)."""
 
 from __future__ import annotations
 
+import json
 import logging
 import os
+import sys
 
 import click
 
@@ -65,7 +67,6 @@ def agent_cmd(endpoint, name, class_path, uses, allow, period, options, robot, c
     from ..behavior import Behavior
     from ..errors import ControlError
     from ..resource import Actuator, Driver, Sensor
-    from ..remote.agent import run
     from ..classes import component_class
     from ..transport.security import SecuritySpec
 
@@ -90,5 +91,10 @@ def agent_cmd(endpoint, name, class_path, uses, allow, period, options, robot, c
         opts_spec = {"allow": _pairs(allow, "--allow")}
     else:
         opts_spec = {"uses": _pairs(uses, "--uses")}
-    raise SystemExit(run(endpoint, name, class_path, kind, period=period, options=opts,
-                         robot=robot, sec=sec, hostname=host_name, **opts_spec))
+    kw = dict(endpoint=endpoint, name=name, class_path=class_path, kind=kind, period=period,
+              options=opts, robot=robot, hostname=host_name, log="WARNING", **opts_spec,
+              sec=sec.model_dump(mode="json") if sec is not None else None)
+    sys.stdout.flush()
+    sys.stderr.flush()
+    # options checked: become the lean agent process (no click, pydantic, yaml in it)
+    os.execv(sys.executable, [sys.executable, "-m", "esair_std.remote.agent", json.dumps(kw)])

@@ -20,7 +20,6 @@ import json
 import logging
 import os
 import signal
-import socket
 import threading
 import time
 from pathlib import Path
@@ -32,7 +31,7 @@ from ..modes.agent import Agent, ZenohPort
 from ..spec import Spec
 from ..transport import keys
 from ..transport.bus import Bus
-from ..transport.security import SecuritySpec, link_inserts, session_inserts
+from ..transport.security import link_inserts, session_inserts
 from .identity import prove_with_cert, prove_with_password
 
 log = logging.getLogger("esair_std.remote")
@@ -148,14 +147,14 @@ def component_spec(name: str, class_path: str, kind: str, uses: dict, period: fl
                 allow={k: Level.parse(v).name for k, v in (allow or {}).items()})
 
 
-def session_options(sec: SecuritySpec | None) -> dict:
+def session_options(sec: Any) -> dict:
     """The remote agent's Zenoh options: a client, the link settings, its credentials."""
     opts = {"mode": "client", "listen/endpoints": [], **link_inserts()}
     opts.update(session_inserts(sec, ".", listen=False))
     return opts
 
 
-def proof_maker(robot_fn: Any, name: str, sec: SecuritySpec | None) -> Any:
+def proof_maker(robot_fn: Any, name: str, sec: Any) -> Any:
     def proof() -> dict | None:
         if sec is None:
             return None
@@ -179,7 +178,7 @@ def find_robot(bus: Bus, endpoint: str) -> str:
 
 def run(endpoint: str, name: str, class_path: str, kind: str, uses: dict | None = None,
         period: float | None = None, options: dict | None = None, robot: str | None = None,
-        sec: SecuritySpec | None = None, hostname: str | None = None,
+        sec: Any = None, hostname: str | None = None,
         allow: dict | None = None, ready: Any = None) -> int:
     """Run the agent until it is told to stop or signalled; its exit status."""
     spec = component_spec(name, class_path, kind, uses or {}, period, options or {}, allow)
@@ -191,7 +190,7 @@ def run(endpoint: str, name: str, class_path: str, kind: str, uses: dict | None 
     try:
         robot = robot or find_robot(bus, endpoint)
         agent = RemoteAgent(bus, robot, spec, proof_maker(lambda: robot, name, sec),
-                            hostname or socket.gethostname())
+                            hostname or os.uname().nodename)
         for sig in (signal.SIGINT, signal.SIGTERM):
             signal.signal(sig, lambda *_: agent.done.set())
         agent.watch_runtime()
@@ -211,15 +210,38 @@ def run(endpoint: str, name: str, class_path: str, kind: str, uses: dict | None 
         bus.close()
 
 
-def main_json(argv: list[str]) -> int:      # pragma: no cover - used by tests/bench
-    """python -m esair_std.remote.agent JSON: run(**JSON) (the CLI is `esair std agent`)."""
+_PATHS = ("ca", "cert", "key", "users", "password_file")
+
+
+class _Security:
+    """A security section already validated by ``esair std agent`` (its pydantic model,
+    dumped to JSON): the fields the transport reads, without loading pydantic here."""
+
+    def __init__(self, fields: dict):
+        for k, v in fields.items():
+            setattr(self, k, Path(v) if k in _PATHS and v is not None else v)
+
+
+def main_json(argv: list[str]) -> int:
+    """``python -m esair_std.remote.agent JSON``: ``run(**JSON)``, an error as one
+    ``error: ...`` line and status 1 (as the CLI). ``esair std agent`` validates its
+    options, then becomes this process (os.execv), so a remote agent carries neither
+    the CLI nor pydantic (RSS per component process, docs/std.md)."""
+    import sys
     kw = json.loads(argv[0])
+    logging.basicConfig(level=getattr(logging, kw.pop("log", "INFO")),
+                        format="%(name)s: %(message)s")
     if kw.get("sec"):
-        kw["sec"] = SecuritySpec.model_validate(kw["sec"])
-    return run(**kw)
+        kw["sec"] = _Security(kw["sec"])
+    try:
+        return run(**kw)
+    except StdError as exc:
+        print(f"error: {exc}", file=sys.stderr, flush=True)
+        return 1
+    except KeyboardInterrupt:
+        return 130
 
 
 if __name__ == "__main__":  # pragma: no cover
     import sys
-    logging.basicConfig(level=logging.INFO, format="%(name)s: %(message)s")
     sys.exit(main_json(sys.argv[1:]))

@@ -26,15 +26,26 @@ certificate; ``transport/auth/usrpwd/{user, password, dictionary_file}``;
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from ..deploy.security import SecuritySpec
+if TYPE_CHECKING:
+    from ..deploy.security import SecuritySpec as Security
+
 from ..errors import TransportError
 
 ALL_MESSAGES = ["put", "delete", "declare_subscriber", "query", "reply", "declare_queryable",
                 "liveliness_token", "liveliness_query", "declare_liveliness_subscriber"]
 LOOPBACK = "lo"
-Security = SecuritySpec        # the deployment's section, as the transport calls it
+
+
+def __getattr__(name: str) -> Any:
+    """``SecuritySpec`` / ``Security`` (the deployment's section, as the transport calls
+    it), imported on first use: it is a pydantic model, and an agent process that only
+    reads a validated section's fields (any object with them) need not load pydantic."""
+    if name in ("SecuritySpec", "Security"):
+        from ..deploy.security import SecuritySpec
+        return SecuritySpec
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 LEASE_MS = 2000          # default link lease of every STD session (zenoh's own: 10 s)
 RETRY = {"period_init_ms": 100, "period_max_ms": 250, "period_increase_factor": 1.5}

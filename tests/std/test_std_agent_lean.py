@@ -45,3 +45,30 @@ def test_the_check_can_fail():
                          text=True, timeout=60)
     assert out.returncode == 0, out.stderr
     assert {"pydantic", "yaml"} <= set(out.stdout.split())
+
+
+def test_a_remote_agent_imports_no_heavy_module_either():
+    """`esair std agent` checks its options with click and pydantic, then becomes the lean
+    agent process (os.execv): the running agent has neither (it was 48 MB RSS with them)."""
+    dep = {"robot": "t",
+           "resources": {"count": {"class": "lean_comps:Counting", "allow": {"*": "read"}}}}
+    ep = free_endpoint()
+    rt = Runtime(dep, mode="process", endpoint=ep)
+    rt.start()
+    proc = subprocess.Popen([sys.executable, "-m", "esair_min.cli", "std", "agent", "--connect",
+                             ep, "listen", "lean_comps:Listening", "--uses", "count=read"],
+                            cwd=HERE, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                            text=True)
+    try:
+        received, heavy = wait_for(
+            lambda: (lambda r: r if r and r[0] > 0 else None)(
+                rt.get("listen", timeout=2.0) if "listen" in rt.bs.records else None),
+            timeout=60, what="a sample at the remote behavior")
+        pid = {r["name"]: r["pid"] for r in rt.ls()}["listen"]
+    finally:
+        proc.terminate()
+        out, _ = proc.communicate(timeout=30)
+        rt.stop()
+    assert pid == proc.pid                      # the same process, become the agent
+    assert heavy == [], out
+    assert proc.returncode == 0, out
