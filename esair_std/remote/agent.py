@@ -32,7 +32,6 @@ from ..spec import Spec
 from ..transport import keys
 from ..transport.bus import Bus
 from ..transport.security import link_inserts, session_inserts
-from .identity import prove_with_cert, prove_with_password
 
 log = logging.getLogger("esair_std.remote")
 
@@ -158,6 +157,7 @@ def proof_maker(robot_fn: Any, name: str, sec: Any) -> Any:
     def proof() -> dict | None:
         if sec is None:
             return None
+        from .identity import prove_with_cert, prove_with_password   # hashlib: OpenSSL
         if sec.cert is not None:
             return prove_with_cert(robot_fn(), name, sec.cert, sec.key)
         if sec.user is not None:

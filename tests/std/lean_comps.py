@@ -8,9 +8,10 @@ import sys
 from esair_std import Behavior, Sensor
 
 #: modules an agent process does not need (the deployment loader's pydantic and yaml,
-#: the CLI's click and rich, dataclasses' inspect, argparse, socket, error-only helpers)
+#: the CLI's click and rich, dataclasses' inspect, argparse, socket, error-only helpers,
+#: hashlib's OpenSSL: only a remote agent with credentials proves who it is)
 HEAVY = ("pydantic", "yaml", "click", "rich", "jinja2", "cryptography", "dataclasses",
-         "inspect", "argparse", "socket", "difflib", "pkgutil")
+         "inspect", "argparse", "socket", "difflib", "pkgutil", "_hashlib")
 
 
 def heavy_imported() -> list[str]:
