@@ -286,7 +286,10 @@ class ProcessMode:
         if rec is not None and isinstance(rec.host, ProcessComponent):
             host = rec.host
             if host.remote and host.hello.is_set():
-                self.rt.center.lost(host)
+                # not on this Zenoh thread: losing an agent revokes its grants (requests
+                # to resource hosts); blocking here stalled the session's other links
+                threading.Thread(target=self.rt.center.lost, args=(host,), daemon=True,
+                                 name="esair:lost").start()
             elif host.phase in ("running", "busy") and host.hello.is_set():
                 threading.Thread(target=self._token_lost, args=(host,), daemon=True).start()
         elif kind in ("sensor", "actuator", "driver") and name in self._resources:
