@@ -30,6 +30,8 @@ from ..transport.calls import SampleCaller, SampleServer
 
 log = logging.getLogger("esair_std.agent")
 _ERRORS = {"Refused": Refused, "CommandError": CommandError, "ResourceLost": ResourceLost}
+ANSWER_MARGIN = 0.5     # a put waits its timeout plus this for the BS's answer: a behavior
+                        # putting across a cut link must not overrun its step (was 2 s)
 RUNTIME_GRACE = 1.0     # seconds without the runtime's token before leaving
 
 
@@ -93,11 +95,13 @@ class ZenohPort:
                 self.bus, keys.bs_answer(self.robot, who), lambda _k: "runtime")
         try:
             r = calls.wait(keys.ctl_put(self.robot, who), "runtime",
-                           {"to": target, "data": data, "timeout": timeout}, timeout + 2.0)
+                           {"to": target, "data": data, "timeout": timeout},
+                           timeout + ANSWER_MARGIN)
         except StdError as exc:
             return False, exc.message
         if not isinstance(r, dict):
-            return False, f"the runtime did not answer 'put' within {timeout + 2.0:g} s"
+            return False, (f"the runtime did not answer 'put' within "
+                           f"{timeout + ANSWER_MARGIN:g} s")
         ok = r.get("ok")
         if not isinstance(ok, dict):
             return False, str(r.get("error", "the runtime's answer made no sense"))
