@@ -92,6 +92,7 @@ class ResourceSupervisor:
             return self._register(who, resource, level, uses)
         except Refused:
             with self._lock:
+                self.refusals += 1
                 self.refused_on[resource] = self.refused_on.get(resource, 0) + 1
             raise
 
@@ -101,28 +102,22 @@ class ResourceSupervisor:
         level = Level.parse(level)
         with self._lock:
             if resource not in self.resources:
-                self.refusals += 1
                 raise Refused(f"no resource {resource!r}{_hint(resource, list(self.resources))}")
             entry, kind = self.resources[resource]
             if level > Level.read and kind == "sensor":
-                self.refusals += 1
                 raise Refused(f"{resource!r} is a sensor: it takes no commands")
             if uses is not None:
                 mine = best_match(uses, resource)
                 if mine is None:
-                    self.refusals += 1
                     raise Refused(f"behavior {who!r} does not list {resource!r} in its uses")
                 if level > mine:
-                    self.refusals += 1
                     raise Refused(f"behavior {who!r} lists {resource!r} for {mine} in its uses,"
                                   f" not {level}")
                 allow = self.entries[entry][0].allow
                 allowed = best_match(allow, who)
                 if allowed is None:
-                    self.refusals += 1
                     raise Refused(f"resource {resource!r} does not allow behavior {who!r}")
                 if level > allowed:
-                    self.refusals += 1
                     raise Refused(f"resource {resource!r} allows behavior {who!r} up to"
                                   f" {allowed}, not {level}")
             prev = self.grants.get((who, resource))

@@ -4,18 +4,15 @@ remote agents; tests/ is on their PYTHONPATH)."""
 from __future__ import annotations
 
 from esair_std import Actuator, Behavior, CommandError, Refused, ResourceLost, Sensor
+from esair_std.drivers.sim import Counter as SimCounter
 
 
-class Counter(Sensor):
-    """Reports 1, 2, 3... at option ``rate`` Hz."""
+class Counter(SimCounter):
+    """The shipped counter (1, 2, 3...) at option ``rate`` Hz, 200 by default."""
 
     def open(self):
-        self.n = 0
+        super().open()
         self.rate_hz = float(self.options.get("rate", 200))
-
-    def read(self):
-        self.n += 1
-        return self.n
 
 
 class Wheel(Actuator):

@@ -6,18 +6,15 @@ import os
 import time
 
 from esair_std import Actuator, Behavior, Driver, Reaction, Sensor
+from esair_std.drivers.sim import Counter as SimCounter
 
 
-class Counter(Sensor):
-    """Reports 1, 2, 3... at ``rate_hz`` (option ``rate``)."""
+class Counter(SimCounter):
+    """The shipped counter (1, 2, 3...) at option ``rate`` Hz, 200 by default."""
 
     def open(self):
-        self.n = 0
+        super().open()
         self.rate_hz = float(self.options.get("rate", 200))
-
-    def read(self):
-        self.n += 1
-        return self.n
 
 
 class Recorder(Actuator):
