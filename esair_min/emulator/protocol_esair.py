@@ -87,6 +87,9 @@ class Serial(SerialBase):
         self._rx = bytearray()
         self._trace_file = None
         self._cancel = threading.Event()
+        # one reader and one writer thread may use the port at once, as with pySerial's
+        # POSIX ports: every call into the emulator holds this lock (a read's wait does not)
+        self._emu_lock = threading.Lock()
         super().__init__(*args, **kwargs)
 
     # -- opening and closing -------------------------------------------------------------
@@ -131,7 +134,8 @@ class Serial(SerialBase):
 
     def close(self) -> None:
         if self.is_open and self.emulator is not None:
-            self.emulator.close()
+            with self._emu_lock:
+                self.emulator.close()
             if self._trace_file is not None:
                 self._trace_file.close()
                 self._trace_file = None
@@ -143,17 +147,19 @@ class Serial(SerialBase):
     # -- time ----------------------------------------------------------------------------
     def _pull(self) -> None:
         assert self.emulator is not None
-        if self._pacer is not None:
-            self._pacer.sync()
-        self._rx += self.emulator.read()
+        with self._emu_lock:
+            if self._pacer is not None:
+                self._pacer.sync()
+            self._rx += self.emulator.read()
 
     def _advance_max(self, until_ns: int) -> None:
         emu = self.emulator
         assert emu is not None
-        nxt = emu.next_event_ns()
-        t = until_ns if nxt is None else min(max(nxt, emu.clock.now), until_ns)
-        emu.run_until(t)
-        self._rx += emu.read()
+        with self._emu_lock:
+            nxt = emu.next_event_ns()
+            t = until_ns if nxt is None else min(max(nxt, emu.clock.now), until_ns)
+            emu.run_until(t)
+            self._rx += emu.read()
 
     # -- the port API --------------------------------------------------------------------
     @property
@@ -163,9 +169,10 @@ class Serial(SerialBase):
         if self._max:
             emu = self.emulator
             assert emu is not None
-            emu.run_for(emu.tick_s)
-            emu.settle()
-            self._rx += emu.read()
+            with self._emu_lock:
+                emu.run_for(emu.tick_s)
+                emu.settle()
+                self._rx += emu.read()
         else:
             self._pull()
         return len(self._rx)
@@ -178,8 +185,9 @@ class Serial(SerialBase):
         timeout = self._timeout
         if self._max:
             wait = MAX_BLOCK_S if timeout is None else timeout
-            end = emu.clock.now + seconds_to_ns(wait)
-            self._rx += emu.read()
+            with self._emu_lock:
+                end = emu.clock.now + seconds_to_ns(wait)
+                self._rx += emu.read()
             while len(self._rx) < size and emu.clock.now < end:
                 self._advance_max(end)
         else:
@@ -190,7 +198,8 @@ class Serial(SerialBase):
                 left = None if deadline is None else deadline - time.monotonic()
                 if left is not None and left <= 0:
                     break
-                nap = self._pacer.wall_until_next(0.01)
+                with self._emu_lock:
+                    nap = self._pacer.wall_until_next(0.01)
                 if self._cancel.wait(max(1e-4, nap if left is None else min(nap, left))):
                     break
                 self._pull()
@@ -208,10 +217,11 @@ class Serial(SerialBase):
         if not self.is_open:
             raise PortNotOpenError()
         data = to_bytes(data)
-        if self._pacer is not None:
-            self._pacer.sync()
         assert self.emulator is not None
-        self.emulator.write(data)
+        with self._emu_lock:
+            if self._pacer is not None:
+                self._pacer.sync()
+            self.emulator.write(data)
         return len(data)
 
     def flush(self) -> None:
@@ -221,9 +231,11 @@ class Serial(SerialBase):
         emu = self.emulator
         assert emu is not None
         if self._max:
-            emu.run_until(emu.uart.rx_free_ns)
+            with self._emu_lock:
+                emu.run_until(emu.uart.rx_free_ns)
         else:
-            left = (emu.uart.rx_free_ns - emu.clock.now) / NS_PER_S
+            with self._emu_lock:
+                left = (emu.uart.rx_free_ns - emu.clock.now) / NS_PER_S
             if left > 0:
                 time.sleep(left / (self._pacer.factor if self._pacer else 1.0))
         if not self._max:
@@ -232,10 +244,11 @@ class Serial(SerialBase):
     def reset_input_buffer(self) -> None:
         if not self.is_open:
             raise PortNotOpenError()
-        if self._pacer is not None:
-            self._pacer.sync()
         assert self.emulator is not None
-        self.emulator.read()
+        with self._emu_lock:
+            if self._pacer is not None:
+                self._pacer.sync()
+            self.emulator.read()
         self._rx.clear()
 
     def reset_output_buffer(self) -> None:

@@ -1,9 +1,10 @@
 """One MIN robot's serial link: one command in flight, replies matched, notices apart.
 
-A single I/O thread owns the port (pySerial: a device, a pty, an ``esair://`` URL, whose
-in-process emulator is not thread-safe, so nothing else touches the port). Callers of
-:meth:`Link.command` take turns: the line is handed to the I/O thread, which writes it
-and waits for the next line that answers a command; ``!`` lines go to the notices
+An I/O thread reads the port (pySerial: a device, a pty, an ``esair://`` URL); callers of
+:meth:`Link.command` take turns and write their line themselves (one reader and one
+writer at a time, as pySerial's ports allow: no hand-off to another thread before the
+bytes leave, which cost 0.05-0.15 ms a command), then wait for the I/O thread to see the
+next line that answers it; ``!`` lines go to the notices
 stream (bounded; what overflows is counted). An ``Enn`` reply raises
 :class:`RobotRefused` in the caller, naming the command and the code.
 
@@ -163,11 +164,22 @@ class Link:
         try:
             ex = Exchange(line, self.commands.wire(line), timeout)
             with self._lock:
-                if not self._up:
+                port = self._port
+                if not self._up or port is None:
                     raise LinkDown(f"link to {self.port} is down ({self._reason}): "
                                    f"{line!r} not sent")
+                now = time.monotonic()
+                wire = ex.wire if now - self._last_write < RESYNC_IDLE_S else RESYNC + ex.wire
+                # sent before the write: its reply may come before write() returns
+                ex.sent, ex.t_sent = True, now
+                self._last_write = now
                 self._slot = ex
-            self._wake()
+            try:
+                port.write(wire)
+                self.stats["sent"] += 1
+            except Exception as exc:  # noqa: BLE001 - pySerial's errors vary
+                ex.sent = False                 # the error says: not sent
+                self._down(_describe(exc), port)
             # the I/O thread owns the deadline; this wait is only a safety net
             if not ex.done.wait(timeout + self.settle_s + 5.0):
                 raise LinkError(f"link to {self.port}: the I/O thread did not answer")
@@ -224,22 +236,16 @@ class Link:
             if self._port is None:
                 self._reconnect()
                 continue
+            port = self._port
             try:
                 self._service()
             except (OSError, Exception) as exc:  # noqa: BLE001 - pySerial's errors vary
                 if self._stop.is_set():
                     break
-                self._down(_describe(exc))
+                self._down(_describe(exc), port)
 
     def _service(self) -> None:
         port = self._port
-        ex = self._slot
-        if ex is not None and not ex.sent:
-            now = time.monotonic()
-            port.write(ex.wire if now - self._last_write < RESYNC_IDLE_S else RESYNC + ex.wire)
-            ex.sent, ex.t_sent = True, now
-            self._last_write = now
-            self.stats["sent"] += 1
         data = port.read(1)
         if data:
             more = port.in_waiting
@@ -331,8 +337,13 @@ class Link:
             ex.error = error
             ex.done.set()
 
-    def _down(self, reason: str) -> None:
+    def _down(self, reason: str, failed: Any = None) -> None:
+        """The link is down: fail the command in flight, close the port (the I/O thread
+        reopens it). ``failed``: the port an error came from; if the link has moved on
+        from it (the other thread took it down first), nothing more is done."""
         with self._lock:
+            if failed is not None and self._port is not failed:
+                return
             port, self._port = self._port, None
             self._up, self._reason = False, reason
             self._fail_slot(LinkError(reason))
