@@ -37,7 +37,8 @@ class Stepper(Behavior):
 
 class Blaster(Behavior):
     """Sends options['n'] copies of options['command'] to options['to'] back to back;
-    provide() gives the wall time they took."""
+    provide() gives the time they took, and the wall clock (time.time()) as each one
+    ended (several blasters at once: the link's sustained rate)."""
 
     def start(self):
         self.h = self.attach_actuator(self.options["to"])
@@ -46,13 +47,16 @@ class Blaster(Behavior):
 
     def run(self):
         cmd, n = self.options["command"], int(self.options["n"])
+        self.done_at = []
         t0 = time.perf_counter()
         for _ in range(n):
             try:
                 self.h.send(cmd, timeout=2.0)
             except Exception:  # noqa: BLE001 - counted
                 self.errors += 1
+            self.done_at.append(time.time())
         self.took = time.perf_counter() - t0
 
     def provide(self, requester):
-        return {"took": self.took, "errors": self.errors}
+        return {"took": self.took, "errors": self.errors,
+                "done_at": getattr(self, "done_at", None)}
