@@ -137,6 +137,25 @@ class Sink(Behavior):
         return self.senders
 
 
+class Putter(Behavior):
+    """A local behavior that puts to the local ``sink`` every step (1 s timeout);
+    provide(): how many puts were delivered and how many failed."""
+
+    period = 0.05
+
+    def start(self):
+        self.ok = self.failed = 0
+
+    def step(self):
+        if self.put("sink", {"n": self.ok}, timeout=1.0):
+            self.ok += 1
+        else:
+            self.failed += 1
+
+    def provide(self, requester):
+        return {"ok": self.ok, "failed": self.failed}
+
+
 class PutBench(Behavior):
     """bench/std_net.py: ``n`` puts to ``to`` one after the other; provide(): the round
     trips (seconds), and the registration time of one actuator and one sensor."""

@@ -81,12 +81,6 @@ class Center:
         """An `esair std` control command run on the control center's computer."""
         cmd = cli(*args, "-e", endpoint or self.endpoint, "-r", self.robot)
         proc = self.host.run(*cmd, check=False, timeout=60)
-        for _ in range(3):
-            if not (proc.returncode and "did not answer" in proc.stderr):
-                break
-            # while a link is being cut the control endpoint may answer late (seen: two
-            # 5 s CLI timeouts in a row, once in a clean-clone run): ask again, at most 3x
-            proc = self.host.run(*cmd, check=False, timeout=60)
         if check and proc.returncode:
             raise AssertionError(f"esair std {' '.join(args)}: {proc.stderr or proc.stdout}")
         return proc.stdout if not proc.returncode else proc.stderr

@@ -21,7 +21,7 @@ from ..sample import Sample  # noqa: F401 - documented payload type
 from ..transport import keys
 from ..transport.bus import Bus, Request
 from ..transport.calls import SampleServer
-from ..transport.session import check_endpoint
+from ..transport.session import check_endpoint, hub_runtime
 
 log = logging.getLogger("esair_std.control")
 WORKERS = 8
@@ -81,6 +81,7 @@ class ControlServer:
         }
 
     def start(self) -> None:
+        hub_runtime()          # before the session: it routes for every agent
         self.bus = Bus(listen=[self.endpoint, *getattr(self.rt, "extra_listen", [])],
                        connect=list(getattr(self.rt, "join", None) or []) or None,
                        options=getattr(self.rt, "session_options", None))

@@ -21,7 +21,7 @@ from typing import Any
 
 from ..errors import CommandError, ComponentError, Refused, ResourceLost, StdError
 from ..spec import Spec
-from ..transport import keys
+from ..transport import keys, session
 from ..transport.calls import SampleCaller
 from ..transport.security import link_inserts
 from .thread import LocalPort
@@ -76,6 +76,8 @@ class _Child:
         # glibc gives each thread that allocates its own malloc arena (zenoh's threads,
         # the component's): two arenas hold the same data in 0.1-0.35 MB less RSS
         env.setdefault("MALLOC_ARENA_MAX", "2")
+        if session.hub_runtime_set:              # the control center's, not a child's
+            env.pop("ZENOH_RUNTIME", None)
         child_login = getattr(self.mode.rt, "child_session", None)
         if child_login:                          # the runtime's own login (security.users)
             env["ESAIR_STD_SESSION"] = json.dumps(child_login)
