@@ -37,7 +37,7 @@ from netstd import Center, Proc  # noqa: E402
 from zpeer import Peer  # noqa: E402
 
 from esair_std.transport.certs import make_certs  # noqa: E402
-from esair_std.transport.security import Security, session_inserts  # noqa: E402
+from esair_std.transport.security import Security, SecuritySpec, session_inserts  # noqa: E402
 
 
 def pct(values: list[float], q: float) -> float:
@@ -103,8 +103,9 @@ def remote_put(net, base: Path, n: int, tls: bool, round_: int = 0) -> dict:
     if tls:
         make_certs(folder / "pki", clients=["putbench"], hosts=[net[0].addr])
         d = folder / "pki"
-        sec = {"ca": str(d / "ca.pem"), "cert": str(d / "putbench.pem"),
-               "key": str(d / "putbench.key")}
+        # what `esair std agent --ca --cert --key` hands the lean agent process
+        sec = SecuritySpec(ca=d / "ca.pem", cert=d / "putbench.pem",
+                           key=d / "putbench.key").model_dump(mode="json")
     dep = BENCH.replace("SECURITY", TLS_SECTION if tls else "")
     center = Center(net[0], folder, dep, tls)
     t0 = time.monotonic()
