@@ -250,7 +250,8 @@ def main() -> None:
     print("\n2. feet sample age at the watcher's read (goal p99 <= 125 + 2 ms)")
     for m in modes:
         r = sample_age(m, args.age_seconds)
-        print(f"   {m:8s} samples={r['samples']}  p50 {r['p50']:.1f} ms  p99 {r['p99']:.1f} ms")
+        print(f"   {m:8s} samples={r['samples']}  p50 {r['p50']:.1f} ms  p99 {r['p99']:.1f} ms"
+              f"  ({r['p99'] / 127:.0%} of the goal at p99)")
     turn = x_turnaround_s(robot)
     lim_xf = None if turn is None else 1 / (1 / lim_x + turn)
     print(f"\n3. commands per second, median of {args.repeat} (limits: x {lim_x:.1f}/s, "
