@@ -184,6 +184,13 @@ class Agent:
         self.offers = SampleServer(self.bus, keys.bs_offer(self.robot, self.spec.name),
                                    lambda _k: keys.bs_result(self.robot, self.spec.name),
                                    self._on_offer)
+        # deliveries into the room this host reserves for the BS, and its reports of
+        # that room (modes/process.py: ProcessComponent.deliver_reserved)
+        self.delivers = dict(samples=0, bad=0)
+        self.bus.subscribe(keys.bs_deliver(self.robot, self.spec.name), self._on_deliver,
+                           garbage=self._bad_delivery)
+        self._credit = self.bus.publisher(keys.bs_credit(self.robot, self.spec.name))
+        host.on_room = self._report_room
         self.bus.token(keys.alive(self.robot, self.spec.kind, self.spec.name))
         self.hello()
         host.start()
@@ -192,6 +199,22 @@ class Agent:
     def _watchdog(self) -> None:
         while not self.done.wait(0.005):
             self.host.check(time.monotonic())
+
+    def _report_room(self) -> None:
+        self._credit({"gen": self.generation, "open": self.host.open,
+                      "room": self.host.room()})
+
+    def _bad_delivery(self, _why: str) -> None:
+        self.delivers["bad"] += 1
+
+    def _on_deliver(self, obj: Any) -> None:
+        """A put the BS delivered into reserved room (on Zenoh's thread: enqueue only)."""
+        sender = obj.get("from") if isinstance(obj, dict) else None
+        if not isinstance(sender, str) or "data" not in obj:
+            self.delivers["bad"] += 1
+            return
+        self.delivers["samples"] += 1
+        self.host.deliver_reserved(sender, obj["data"])
 
     def _on_offer(self, _key: str, body: dict, answer: Any) -> None:
         """A put's first offer (transport/calls.py): answered before the behavior's
@@ -223,6 +246,7 @@ class Agent:
             req.reply({"ok": None})
         elif op == "counters":
             req.reply({"ok": {**host.counters(), "offer_samples": dict(self.offers.c),
+                              "deliver_samples": dict(self.delivers),
                               "put_samples": self.port.put_counters()}})
         elif op == "stop":
             req.reply({"ok": None})

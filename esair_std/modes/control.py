@@ -103,6 +103,7 @@ class ControlServer:
         offers = getattr(self.rt.mode, "offers", None)
         if offers is not None:
             out["offers"] = dict(offers.c)
+            out["credit_reports"] = dict(self.rt.mode.credits)
         return out
 
     def close(self) -> None:

@@ -23,6 +23,8 @@ from ..spec import Spec
 from ..transport import codec
 
 INBOX = 64          # deliveries + provide requests waiting for the behavior's thread
+RESERVED = 16       # more mailbox slots, reserved for the BS's deliveries into room
+                    # (process mode: modes/process.py, ComponentHost.deliver_reserved)
 NOTICES = 64        # detach notices waiting for the behavior's thread
 
 log = logging.getLogger("esair_std.host")
@@ -65,11 +67,15 @@ class ComponentHost:
         self.cls = cls
         self.port = port
         self.generation = generation
-        self.inbox: queue.Queue = queue.Queue(maxsize=INBOX)
+        self.inbox: queue.Queue = queue.Queue(maxsize=INBOX + RESERVED)
+        self._reserved_in = 0          # reserved slots in use (their items in inbox)
+        self.taken = 0                 # reserved deliveries taken out, ever
+        self._told_taken = 0           # ``taken`` when on_room was last called
+        self.on_room: Any = None       # process mode: tells the BS (open, room()) anew
         self.notices: deque = deque()
         self._phase = "starting"        # starting | running | busy | stopped | failed
         self.reason = ""
-        self.busy = False
+        self._busy = False
         self.enabled = spec.enabled
         self.obj: Any = None
         self.handles: dict[str, Any] = {}
@@ -82,7 +88,8 @@ class ComponentHost:
         self._call_name = ""
         self.started = threading.Event()   # set when running (or failed while starting)
         self.c = dict(steps=0, late_steps=0, received=0, provided=0, refused=0,
-                      puts_ok=0, puts_failed=0, gets_ok=0, gets_failed=0, notices_dropped=0)
+                      puts_ok=0, puts_failed=0, gets_ok=0, gets_failed=0, notices_dropped=0,
+                      reserved=0, reserved_refused=0)
         self.last_failure = ""
         period = spec.period if spec.has_period else getattr(cls, "period", None)
         self.period = float(period) if period else None
@@ -98,9 +105,42 @@ class ComponentHost:
     @property
     def state(self) -> str:
         p = self._phase
-        if p == "running" and (self.busy or self.inbox.full()):
+        if p == "running" and (self._busy or self._full()):
             return "busy"
         return p
+
+    @property
+    def busy(self) -> bool:
+        return self._busy
+
+    @busy.setter
+    def busy(self, value: bool) -> None:
+        changed = bool(value) != self._busy
+        self._busy = bool(value)
+        if changed:
+            self._room_changed()
+
+    @property
+    def open(self) -> bool:
+        """Takes data now: running and not busy (the mailbox's room is room())."""
+        return self._phase == "running" and not self._busy
+
+    def room(self) -> int:
+        """How many deliveries into reserved room the BS may have sent, ever: what it
+        may send beyond those already taken out (a running total, so a report that is
+        late or lost is made good by the next)."""
+        return self.taken + RESERVED
+
+    def _full(self) -> bool:
+        return self.inbox.qsize() - self._reserved_in >= INBOX
+
+    def _room_changed(self) -> None:
+        if self.on_room is not None:
+            self._told_taken = self.taken
+            try:
+                self.on_room()
+            except Exception as exc:  # noqa: BLE001 - the BS falls back to asking
+                log.debug("%s: room not reported: %s", self.name, exc)
 
     def start(self) -> None:
         self.thread.start()
@@ -122,9 +162,12 @@ class ComponentHost:
         """Take ``data`` into the mailbox: "delivered", else why not. ``wake=False``:
         the caller calls ``wake()`` itself (after answering, so the behavior's thread
         does not take the GIL from the answer)."""
-        if self._phase != "running" or self.busy:
+        if self._phase != "running" or self._busy:
             self.c["refused"] += 1
             return "busy" if self._phase in ("running", "busy", "starting") else self._phase
+        if self._full():
+            self.c["refused"] += 1
+            return "busy"
         try:
             self.inbox.put_nowait(("deliver", sender, data))
         except queue.Full:
@@ -134,12 +177,34 @@ class ComponentHost:
             self._wake.set()
         return "delivered"
 
+    def deliver_reserved(self, sender: str, data: Any) -> bool:
+        """The BS's delivery into room this host reserved for it (it sends no more than
+        room() allows): taken into the mailbox, False (counted) if it finds no room —
+        a stopped host, or more than reported (garbage)."""
+        with self._lock:
+            ok = self._phase not in ("failed", "stopped") and self._reserved_in < RESERVED
+            if ok:
+                self._reserved_in += 1
+        if ok:
+            try:
+                self.inbox.put_nowait(("reserved", sender, data))
+            except queue.Full:          # offers raced past INBOX: not lost silently
+                with self._lock:
+                    self._reserved_in -= 1
+                ok = False
+        if not ok:
+            self.c["reserved_refused"] += 1
+            return False
+        self.c["reserved"] += 1
+        self._wake.set()
+        return True
+
     def wake(self) -> None:
         self._wake.set()
 
     def request_provide(self, requester: str, reply: Any) -> str:
         """Queue a provide() call; ``reply((status, data))`` is called from the host thread."""
-        if self._phase != "running" or self.busy:
+        if self._phase != "running" or self._busy or self._full():
             return "busy"
         try:
             self.inbox.put_nowait(("provide", requester, reply))
@@ -255,6 +320,7 @@ class ComponentHost:
                 return
             self._phase = phase
         self.port.state_changed(self.name, self.generation, phase, "")
+        self._room_changed()
 
     def _fail(self, reason: str) -> None:
         with self._lock:
@@ -267,6 +333,7 @@ class ComponentHost:
         self._wake.set()
         log.warning("%s failed: %s", self.name, reason)
         self.port.state_changed(self.name, self.generation, "failed", reason)
+        self._room_changed()
 
     def _timed(self, what: str, fn: Any, *args: Any) -> Any:
         self._call_name = what
@@ -342,7 +409,15 @@ class ComponentHost:
                 if self.inbox.empty() and not self.notices:
                     self._wake.wait(left)
                 continue
-            if item[0] == "deliver":
+            if item[0] == "reserved":
+                with self._lock:
+                    self._reserved_in -= 1
+                    self.taken += 1
+                if self.taken - self._told_taken >= RESERVED // 2:
+                    self._room_changed()
+                self._timed("receive", self.obj.receive, item[1], item[2])
+                self.c["received"] += 1
+            elif item[0] == "deliver":
                 self._timed("receive", self.obj.receive, item[1], item[2])
                 self.c["received"] += 1
             elif item[0] == "provide":

@@ -21,13 +21,15 @@ from typing import Any
 
 from ..errors import CommandError, ComponentError, Refused, ResourceLost, StdError
 from ..spec import Spec
-from ..transport import keys, session
+from ..transport import codec, keys, session
 from ..transport.calls import SampleCaller
 from ..transport.security import link_inserts
 from .thread import LocalPort
 
 log = logging.getLogger("esair_std.process")
 START_TIMEOUT = 20.0
+RESERVED_BYTES = 8192    # a put this small may go into a component's reserved room: at
+                         # most host.RESERVED of them under way fit any link's queue
 _ERRORS = {"CommandError": CommandError, "ResourceLost": ResourceLost, "Refused": Refused}
 
 
@@ -141,7 +143,20 @@ class _Child:
 
 
 class ProcessComponent(_Child):
-    """The runtime's view of a behavior or reaction living in an agent process."""
+    """The runtime's view of a behavior or reaction living in an agent process.
+
+    The BS knows a local component's state without asking it each time: the component
+    reports (on ``bs/<name>/credit``) whether it takes data and how much mailbox room it
+    has reserved for the BS (a running total, ComponentHost.room()). While both say yes,
+    a put is delivered into that room with one sample (``bs/<name>/deliver``) and the
+    sender is told at once; else the BS asks, as offer() does, and retries. Only for
+    local children and small data: the room is then sure to be there when the sample
+    arrives (loopback, at most RESERVED of them under way), so "delivered" is never a
+    guess. A remote agent, across a link that may be cut, is always asked."""
+
+    credit_open = False      # the last report: the component takes data
+    credit_room = 0          # deliveries into reserved room it allows, ever
+    credit_sent = 0          # deliveries into reserved room sent, ever
 
     @property
     def key(self) -> str:
@@ -154,9 +169,40 @@ class ProcessComponent(_Child):
         r = self.ask(self.key, {"op": "state"}, 0.5)
         return r["ok"] if isinstance(r, dict) and "ok" in r else self.phase
 
+    def credit(self, open_: bool, room: int) -> None:
+        with self.mode.credit_lock:
+            self.credit_open = open_
+            self.credit_room = max(self.credit_room, room)
+
+    def deliver_reserved(self, sender: str, data: Any) -> bool:
+        """Deliver ``data`` into the room the component reserved: True if sent (the
+        sender may be told "delivered"), False to ask it instead."""
+        if self.remote or self.phase != "running" or not self.credit_open:
+            return False
+        try:
+            body = codec.encode({"from": sender, "data": data})
+        except StdError:
+            return False
+        if len(body) > RESERVED_BYTES:
+            return False
+        with self.mode.credit_lock:
+            if not self.credit_open or self.credit_sent >= self.credit_room:
+                return False
+            self.credit_sent += 1
+        try:
+            self.mode.deliver(self.name, body)
+        except Exception as exc:  # noqa: BLE001 - not sent: ask instead
+            log.debug("delivery to %s not sent: %s", self.name, exc)
+            with self.mode.credit_lock:
+                self.credit_sent -= 1
+            return False
+        return True
+
     def offer(self, sender: str, data: Any) -> str:
         if self.phase in ("failed", "stopped"):
             return self.phase
+        if self.deliver_reserved(sender, data):
+            return "delivered"
         r = self.ask(self.key, {"op": "offer", "from": sender, "data": data}, 1.0)
         return r.get("ok", "gone") if isinstance(r, dict) else "gone"
 
@@ -166,6 +212,10 @@ class ProcessComponent(_Child):
         if self.phase in ("failed", "stopped"):
             done(self.phase)
             return True
+        if self.deliver_reserved(sender, data):
+            done("delivered")
+            return True
+
         def answer(a: Any) -> None:
             r = a.get("r") if isinstance(a, dict) else None
             done(r if isinstance(r, str) else "gone")
@@ -277,7 +327,34 @@ class ProcessMode:
     def open(self) -> None:
         self.offers = SampleCaller(self.bus, keys.bs_result(self.rt.robot, "*"),
                                    lambda key: keys.name_in(key, 2))
+        self.credit_lock = threading.Lock()
+        self.credits = dict(reports=0, bad_reports=0)
+        self._deliver_pubs: dict[str, Any] = {}
+        self.bus.subscribe(keys.bs_credit(self.rt.robot, "*"), self._on_credit,
+                           with_key=True, garbage=self._bad_credit)
         self.bus.watch_alive(keys.alive_all(self.rt.robot), self._alive)
+
+    def _bad_credit(self, _why: str) -> None:
+        self.credits["bad_reports"] += 1
+
+    def _on_credit(self, key: str, obj: Any) -> None:
+        """A component's report of its room (on Zenoh's thread: record only)."""
+        gen = obj.get("gen") if isinstance(obj, dict) else None
+        room = obj.get("room") if isinstance(obj, dict) else None
+        host = (self._component(keys.name_in(key, 2), gen)
+                if isinstance(gen, int) and isinstance(room, int) else None)
+        if host is None or host.remote:
+            self.credits["bad_reports"] += 1
+            return
+        self.credits["reports"] += 1
+        host.credit(obj.get("open") is True, room)
+
+    def deliver(self, name: str, body: bytes) -> None:
+        pub = self._deliver_pubs.get(name)
+        if pub is None:
+            pub = self._deliver_pubs[name] = self.bus.publisher(
+                keys.bs_deliver(self.rt.robot, name), drop=True, raw=True)
+        pub(body)
 
     def _alive(self, key: str, alive: bool) -> None:
         parsed = keys.parse_alive(self.rt.robot, key)
@@ -330,14 +407,19 @@ class ProcessMode:
                 self.rt.rs.set_state(res, "ready", "")
         child.hello.set()
 
-    def reported(self, name: str, generation: int, phase: str, reason: str) -> None:
+    def _component(self, name: str, generation: Any) -> ProcessComponent | None:
+        """The component ``name`` of that generation, deployed or still starting."""
         rec = self.rt.bs.records.get(name)
         host = rec.host if rec is not None else None
         if not isinstance(host, ProcessComponent) or host.generation != generation:
             with self._lock:
                 host = self._pending.get((name, generation))
-            if not isinstance(host, ProcessComponent):
-                return
+        return host if isinstance(host, ProcessComponent) else None
+
+    def reported(self, name: str, generation: int, phase: str, reason: str) -> None:
+        host = self._component(name, generation)
+        if host is None:
+            return
         if host.phase in ("failed", "stopped"):
             return
         host.phase = phase

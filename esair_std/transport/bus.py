@@ -125,15 +125,19 @@ class Bus:
             key, zenoh.handlers.Callback(cb, indirect=False)))
 
     # pub/sub
-    def publisher(self, key: str, drop: bool = False) -> Callable[[Any], None]:
+    def publisher(self, key: str, drop: bool = False, raw: bool = False) -> Callable[[Any], None]:
         """``put(obj)`` for ``key``. ``drop``: never wait for a congested link (for
-        messages whose loss the sender notices by a timeout), sent at once (express)."""
+        messages whose loss the sender notices by a timeout), sent at once (express).
+        ``raw``: ``put(data)`` takes the bytes already encoded (codec.encode)."""
         if drop:
             pub = self._keep(self.session.declare_publisher(
                 key, congestion_control=zenoh.CongestionControl.DROP, express=True))
         else:
             pub = self._keep(self.session.declare_publisher(
                 key, congestion_control=zenoh.CongestionControl.BLOCK))
+
+        if raw:
+            return pub.put
 
         def put(obj: Any) -> None:
             pub.put(codec.encode(obj))

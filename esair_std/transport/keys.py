@@ -6,6 +6,8 @@
     esair/<robot>/bs/<behavior>/offer  BS -> behavior: that put's first offer (sample)
     esair/<robot>/bs/<behavior>/result behavior -> BS: the offer's answer (sample)
     esair/<robot>/bs/<sender>/answer   BS -> sender: the put's outcome (sample)
+    esair/<robot>/bs/<behavior>/credit behavior -> BS: open or not, room reserved (sample)
+    esair/<robot>/bs/<behavior>/deliver BS -> behavior: a put into reserved room (sample)
     esair/<robot>/rs/<entry>           RS -> resource host (configure, grant, revoke...)
     esair/<robot>/sensor/<resource>    sensor samples, published by the sensor's host
     esair/<robot>/actuator/<resource>  commands, a queryable on the actuator's host
@@ -41,6 +43,14 @@ def bs_offer(robot: str, name: str) -> str:
 
 def bs_result(robot: str, name: str) -> str:
     return f"esair/{robot}/bs/{name}/result"
+
+
+def bs_credit(robot: str, name: str) -> str:
+    return f"esair/{robot}/bs/{name}/credit"
+
+
+def bs_deliver(robot: str, name: str) -> str:
+    return f"esair/{robot}/bs/{name}/deliver"
 
 
 def rs(robot: str, entry: str) -> str:

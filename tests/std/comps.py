@@ -224,3 +224,44 @@ class RunOnce(Behavior):
 
     def provide(self, requester):
         return {"ran": self.ran}
+
+
+class SlowSink(Sink):
+    """A Sink whose receive() takes ``options.ms`` milliseconds: its mailbox fills."""
+
+    def receive(self, sender, data):
+        time.sleep(float(self.options.get("ms", 3)) / 1000)
+        super().receive(sender, data)
+
+
+class Burst(Behavior):
+    """run(): ``options.n`` puts to ``options.to`` as fast as they go (timeout 5 s);
+    provide() gives each put's outcome, in order."""
+
+    def run(self):
+        to, n = self.options["to"], int(self.options["n"])
+        self.ok = [self.put(to, {"i": i}, timeout=5.0) for i in range(n)]
+
+    def provide(self, requester):
+        return {"ok": self.ok}
+
+
+class Gate(Behavior):
+    """Makes itself busy on a put of "close", free again ``options.hold`` s later."""
+
+    period = 0.01
+
+    def start(self):
+        self.got, self.until = [], None
+
+    def receive(self, sender, data):
+        self.got.append(data)
+        if data == "close":
+            self.busy, self.until = True, time.monotonic() + float(self.options["hold"])
+
+    def step(self):
+        if self.until is not None and time.monotonic() >= self.until:
+            self.busy, self.until = False, None
+
+    def provide(self, requester):
+        return {"got": self.got}

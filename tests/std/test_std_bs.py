@@ -112,3 +112,46 @@ def test_run_once_behavior_then_serves(start):
     rt = start({"behaviors": {"once": {"class": "comps:RunOnce"}}})
     wait_for(lambda: rt.state("once") == "running", what="run() finished")
     assert rt.get("once") == {"ran": 1}
+
+
+def test_bursts_from_two_senders_arrive_once_each_in_order(start, mode):
+    """Two behaviors put as fast as they can to one whose receive() is slow, so its
+    mailbox fills and the BS must wait for room: every put said delivered is received
+    exactly once, in each sender's order, and none said failed is received. In process
+    mode some go into the room the target reserves for the BS (counted as reserved)."""
+    rt = start({"behaviors": {
+        "sink": {"class": "comps:SlowSink", "ms": 2},
+        "a": {"class": "comps:Burst", "to": "sink", "n": 150},
+        "b": {"class": "comps:Burst", "to": "sink", "n": 150}}})
+
+    def outcome(sender):
+        try:
+            return rt.get(sender, timeout=0.5)       # refused while its run() goes on
+        except ControlError:
+            return None
+    outcomes = {s: wait_for(lambda s=s: outcome(s), 60, what=s)["ok"] for s in ("a", "b")}
+    wait_for(lambda: len(rt.get("sink")["got"]) >= sum(sum(o) for o in outcomes.values()),
+             30, what="the sink to take every delivered put")
+    got = rt.get("sink")["got"]
+    for sender, ok in outcomes.items():
+        assert [d["i"] for s, d in got if s == sender] == [i for i, y in enumerate(ok) if y]
+    assert all(outcomes["a"]) and all(outcomes["b"])
+    counters = rt.inspect("sink")["counters"]
+    assert counters["received"] == 300 and counters["reserved_refused"] == 0
+    if mode == "process":        # the rest waited for room in the mailbox, asked
+        assert 0 < counters["reserved"] < 300
+    else:
+        assert counters["reserved"] == 0
+
+
+def test_a_behavior_busy_by_its_own_word_takes_nothing_until_free(start):
+    rt = start({"behaviors": {"gate": {"class": "comps:Gate", "hold": 1.5}}})
+    rt.put("gate", "close")
+    wait_for(lambda: rt.state("gate") == "busy", 5, what="the gate to close")
+    with pytest.raises(ControlError) as e:
+        rt.put("gate", "in vain", timeout=0.2)
+    assert str(e.value) == ("put to 'gate' failed: 'gate' did not take the data within "
+                            "0.2 s (busy)")
+    rt.put("gate", "later", timeout=5.0)          # the BS retries until it is free again
+    assert rt.state("gate") == "running"
+    assert wait_for(lambda: rt.get("gate"), 5, what="the gate")["got"] == ["close", "later"]

@@ -202,6 +202,17 @@ def test_the_put_samples_answer_or_count_garbage(robot_mode):
             bus.session.put("esair/lab/ctl/put/tester", payload)
         for key in ("esair/lab/bs/logger/result", "esair/lab/bs/logger/answer"):
             bus.session.put(key, b'{"id": 1, "r": "delivered"}')
+        logger_before = json.loads(esair("inspect", "logger", "-e", ep).stdout)["counters"]
+        # a behavior's reports of its room, and deliveries into it (modes/process.py):
+        # garbage, a report of another generation, a delivery with no sender
+        for key, payload in [("esair/lab/bs/logger/credit", b"\xff"),
+                             ("esair/lab/bs/logger/credit", b'{"gen": 99, "room": 9999, "open": true}'),
+                             ("esair/lab/bs/logger/credit", b'{"gen": 1, "room": "all"}'),
+                             ("esair/lab/bs/nobody/credit", b'{"gen": 1, "room": 9999, "open": true}'),
+                             ("esair/lab/bs/logger/deliver", b"[1, 2]"),
+                             ("esair/lab/bs/logger/deliver", b'{"data": 1}'),
+                             ("esair/lab/bs/logger/deliver", b"x" * 300_000)]:
+            bus.session.put(key, payload, congestion_control=zenoh.CongestionControl.BLOCK)
         for body in [{"id": 1, "to": "logger", "data": {"n": 1}, "timeout": 1.0},
                      {"id": 2, "to": 5},
                      {"id": 3, "to": "nobody", "data": 1, "timeout": 0.2},
@@ -221,6 +232,15 @@ def test_the_put_samples_answer_or_count_garbage(robot_mode):
                 - before["put_samples"]["bad_requests"]) == 6    # 3 not JSON/object, 3 ids
         assert after["put_samples"]["requests"] - before["put_samples"]["requests"] >= 4
         assert answers.empty()
+        logger = json.loads(esair("inspect", "logger", "-e", ep).stdout)["counters"]
+        if _mode == "process":
+            assert (after["credit_reports"]["bad_reports"]
+                    - before["credit_reports"]["bad_reports"]) == 4
+            assert (logger["deliver_samples"]["bad"]
+                    - logger_before["deliver_samples"]["bad"]) == 3
+        else:                        # thread mode listens on none of these keys
+            assert "credit_reports" not in after and "deliver_samples" not in logger
+        assert logger["reserved_refused"] == logger_before["reserved_refused"] == 0
     finally:
         bus.close()
     rows = json.loads(esair("ls", "--json", "-e", ep).stdout)
