@@ -1,15 +1,18 @@
-"""Requests and answers carried as samples, matched by an id: the put's fast path.
+"""Requests and answers carried as samples, matched by an id: the put's path.
 
-Process mode's ``put`` is mediated: the sender asks the runtime's BS, the BS offers the
-data to the target's process, the target's answer goes back the same way, so a put
-crosses the network four times. In zenoh-python a query/reply costs more than a sample
-each way (side by side in bench/std.py: a relay through queries 2.3-2.5x a raw get,
-through samples 1.7x), so the put takes samples:
+Process mode's ``put`` is mediated: the sender asks the runtime's BS, which delivers
+into room the target reserved for it and answers at once (modes/process.py), or else
+offers the data to the target's process and answers with the target's word. In
+zenoh-python a query/reply costs more than a sample each way (side by side in
+bench/std.py: a relay through queries 2.3-2.5x a raw get, through samples 1.7x), so the
+put takes samples:
 
     sender  --ctl/put/<sender>-->      BS    (SampleServer in the runtime)
     BS      --bs/<target>/offer-->     target (SampleServer in the target's agent)
     target  --bs/<target>/result-->    BS    (SampleCaller of the runtime)
     BS      --bs/<sender>/answer-->    sender (SampleCaller of the sender's agent)
+
+(the offer and its result only when the target has no reserved room for the put).
 
 Every key names the process it comes from or goes to, so the ACL of a remote agent
 (transport/security.py) lets it send and receive only its own. Callbacks run on Zenoh's
