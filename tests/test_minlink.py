@@ -6,6 +6,7 @@ pySerial's esair:// URL (real time), one command in flight.
 
 from __future__ import annotations
 
+import collections
 import shutil
 import threading
 import time
@@ -170,3 +171,45 @@ def test_board_faults_surface_on_the_command(robot):
         assert link.version().endswith("image=bad checksum=off")
         assert link.up
     assert _io_threads() == []
+
+
+def test_callers_at_once_queue_in_order_and_each_gets_its_own_reply(robot):
+    """Four threads command one link at once: one command is in flight, the others wait
+    in a queue and go out in arrival order as soon as the reply before them is matched;
+    every caller gets the reply of its own command (shape checked), none is lost."""
+    shapes = {"v": lambda d: d.startswith("esair-min/1 servos=12"),
+              "s": lambda d: len(d.split(",")) == 8, "x": lambda d: d == ""}
+    got: dict[str, list[bool]] = {}
+    with Link(robot, URL) as link:
+        def caller(line: str) -> None:
+            got[line] = [shapes[line](link.command(line)) for _ in range(25)]
+        threads = [threading.Thread(target=caller, args=(line,)) for line in ("v", "s", "x")]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join(30)
+        stats = dict(link.stats)
+        assert link._queue == collections.deque() and link._slot is None
+    assert got == {line: [True] * 25 for line in ("v", "s", "x")}
+    assert stats["sent"] == stats["ok"] == 75 and stats.get("strays", 0) == 0
+
+
+def test_a_command_waiting_its_turn_fails_not_sent(robot):
+    """A command that cannot get its turn within its timeout fails saying it was not
+    sent (counted as busy); the one in flight is answered."""
+    with Link(robot, URL + "?speed=1") as link:
+        out: dict[str, object] = {}
+
+        def slow() -> None:                       # 's' at 9600 baud: ~50 ms on the line
+            out["s"] = len(link.command("s").split(","))
+        t = threading.Thread(target=slow)
+        t.start()
+        deadline = time.monotonic() + 5
+        while link._slot is None and time.monotonic() < deadline:
+            time.sleep(0.0005)
+        with pytest.raises(LinkError) as exc:
+            link.command("x", timeout=0.001)
+        assert str(exc.value) == (f"link to {URL}?speed=1 busy: 'x' waited 0.001 s for its "
+                                  f"turn; not sent")
+        t.join(5)
+        assert out == {"s": 8} and link.stats["busy"] == 1 and not link._queue

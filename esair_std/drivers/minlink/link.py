@@ -1,10 +1,12 @@
 """One MIN robot's serial link: one command in flight, replies matched, notices apart.
 
-An I/O thread reads the port (pySerial: a device, a pty, an ``esair://`` URL); callers of
-:meth:`Link.command` take turns and write their line themselves (one reader and one
-writer at a time, as pySerial's ports allow: no hand-off to another thread before the
-bytes leave, which cost 0.05-0.15 ms a command), then wait for the I/O thread to see the
-next line that answers it; ``!`` lines go to the notices
+An I/O thread reads the port (pySerial: a device, a pty, an ``esair://`` URL). A caller
+of :meth:`Link.command` that finds the link idle writes its line itself (no hand-off to
+another thread before the bytes leave, which cost 0.05-0.15 ms a command); one that finds
+a command in flight waits in a queue (FIFO, bounded), and the I/O thread writes the next
+queued line the moment it has matched the reply before it, so the line never idles
+while commands wait (one writer at a time, as pySerial's ports allow). Each caller then
+waits for the I/O thread to see the line that answers its command; ``!`` lines go to the notices
 stream (bounded; what overflows is counted). An ``Enn`` reply raises
 :class:`RobotRefused` in the caller, naming the command and the code.
 
@@ -49,6 +51,7 @@ POLL_S = 0.05               # the I/O thread's longest wait on a port it can wak
 POLL_S_NO_CANCEL = 0.002    # ... on a port without cancel_read
 RESYNC = b"\r\n"            # an empty line: no reply, but it ends a line noise began
 RESYNC_IDLE_S = 0.25        # a command after this long a silence is sent after RESYNC
+QUEUE_MAX = 64              # commands waiting for their turn; more are refused, not sent
 
 
 @dataclass
@@ -65,6 +68,7 @@ class Exchange:
     error: LinkError | None = None
     settle_until: float | None = None
     first_error: RobotRefused | None = None
+    started: threading.Event = field(default_factory=threading.Event)   # its turn came
     done: threading.Event = field(default_factory=threading.Event)
 
 
@@ -94,8 +98,9 @@ class Link:
         self.stats: collections.Counter[str] = collections.Counter()
         self._notices: collections.deque[tuple[str, float]] = collections.deque(
             maxlen=notice_capacity)
-        self._lock = threading.Lock()          # guards _slot, _port, _up, _reason
-        self._turn = threading.Lock()          # one command in flight
+        self._lock = threading.Lock()          # guards _slot, _queue, _port, _up, _reason
+        self._write_lock = threading.Lock()    # one writer at a time
+        self._queue: collections.deque[Exchange] = collections.deque()
         self._stop = threading.Event()
         self._port: Any = None
         self._slot: Exchange | None = None
@@ -158,36 +163,57 @@ class Link:
             raise LinkDown(f"link to {self.port} is closed: {line!r} not sent")
         if not self._up:
             raise LinkDown(f"link to {self.port} is down ({self._reason}): {line!r} not sent")
-        if not self._turn.acquire(timeout=timeout):
-            raise LinkError(f"link to {self.port} busy: {line!r} waited {timeout:g} s for "
-                            f"its turn; not sent")
-        try:
-            ex = Exchange(line, self.commands.wire(line), timeout)
+        ex = Exchange(line, self.commands.wire(line), timeout)
+        start = None
+        with self._lock:
+            if not self._up or self._port is None:
+                raise LinkDown(f"link to {self.port} is down ({self._reason}): "
+                               f"{line!r} not sent")
+            if self._slot is None and not self._queue:
+                start = self._start(ex)
+            elif len(self._queue) >= QUEUE_MAX:
+                self.stats["busy"] += 1
+                raise LinkError(f"link to {self.port} busy: {QUEUE_MAX} commands wait; "
+                                f"{line!r} not sent")
+            else:
+                self._queue.append(ex)
+        if start is not None:
+            self._write(ex, *start)
+        elif not ex.started.wait(timeout):
             with self._lock:
-                port = self._port
-                if not self._up or port is None:
-                    raise LinkDown(f"link to {self.port} is down ({self._reason}): "
-                                   f"{line!r} not sent")
-                now = time.monotonic()
-                wire = ex.wire if now - self._last_write < RESYNC_IDLE_S else RESYNC + ex.wire
-                # sent before the write: its reply may come before write() returns
-                ex.sent, ex.t_sent = True, now
-                self._last_write = now
-                self._slot = ex
-            try:
-                port.write(wire)
-                self.stats["sent"] += 1
-            except Exception as exc:  # noqa: BLE001 - pySerial's errors vary
-                ex.sent = False                 # the error says: not sent
-                self._down(_describe(exc), port)
-            # the I/O thread owns the deadline; this wait is only a safety net
-            if not ex.done.wait(timeout + self.settle_s + 5.0):
-                raise LinkError(f"link to {self.port}: the I/O thread did not answer")
-        finally:
-            self._turn.release()
+                waiting = ex in self._queue
+                if waiting:
+                    self._queue.remove(ex)
+            if waiting:
+                self.stats["busy"] += 1
+                raise LinkError(f"link to {self.port} busy: {line!r} waited {timeout:g} s "
+                                f"for its turn; not sent")
+        # the I/O thread owns the deadline; this wait is only a safety net
+        if not ex.done.wait(timeout + self.settle_s + 5.0):
+            raise LinkError(f"link to {self.port}: the I/O thread did not answer")
         if ex.error is not None:
             raise ex.error
         return ex
+
+    def _start(self, ex: Exchange) -> tuple[Any, bytes]:
+        """(lock held) ``ex`` is in flight from now: the port and the bytes to write."""
+        now = time.monotonic()
+        wire = ex.wire if now - self._last_write < RESYNC_IDLE_S else RESYNC + ex.wire
+        # sent before the write: its reply may come before write() returns
+        ex.sent, ex.t_sent = True, now
+        self._last_write = now
+        self._slot = ex
+        ex.started.set()
+        return self._port, wire
+
+    def _write(self, ex: Exchange, port: Any, wire: bytes) -> None:
+        try:
+            with self._write_lock:
+                port.write(wire)
+            self.stats["sent"] += 1
+        except Exception as exc:  # noqa: BLE001 - pySerial's errors vary
+            ex.sent = False                 # the error says: not sent
+            self._down(_describe(exc), port)
 
     def command(self, line: str, timeout: float | None = None) -> str:
         """Send ``line``; return the reply's data (after ``OK ``, empty for a bare ``OK``)."""
@@ -320,13 +346,24 @@ class Link:
         ex.t_reply = time.monotonic()
         ex.data, ex.error = data, error
         self.stats["refused" if isinstance(error, RobotRefused) else "ok"] += 1
+        nxt = start = None
         with self._lock:
             if self._slot is ex:
                 self._slot = None
+                if self._queue and self._up and self._port is not None:
+                    nxt = self._queue.popleft()
+                    start = self._start(nxt)
+        if nxt is not None:                 # the next command goes out before this
+            self._write(nxt, *start)        # one's caller is woken
         ex.done.set()
 
     def _fail_slot(self, error: LinkError) -> None:
-        """(lock held) Fail the command in flight, if any."""
+        """(lock held) Fail the command in flight, if any, and those waiting their turn."""
+        for q in self._queue:
+            q.error = LinkDown(f"link to {self.port} is down ({error}): {q.line!r} not sent")
+            q.started.set()
+            q.done.set()
+        self._queue.clear()
         ex, self._slot = self._slot, None
         if ex is not None and not ex.done.is_set():
             if ex.sent:
