@@ -33,6 +33,7 @@ _ERRORS = {"Refused": Refused, "CommandError": CommandError, "ResourceLost": Res
 ANSWER_MARGIN = 0.5     # a put waits its timeout plus this for the BS's answer: a behavior
                         # putting across a cut link must not overrun its step (was 2 s)
 RUNTIME_GRACE = 1.0     # seconds without the runtime's token before leaving
+HELLO_S = 10.0          # how long an agent asks the runtime to take its hello
 
 
 class ZenohPort:
@@ -166,7 +167,16 @@ class Agent:
     def hello(self, **extra: Any) -> None:
         body = dict(name=self.spec.name, kind=self.spec.kind, generation=self.generation,
                     pid=os.getpid(), host=os.uname().nodename, **extra)
-        r = self.bus.request(keys.ctl(self.robot, "hello"), body, 10.0)
+        # a behavior's session returns from open before the runtime's declarations may
+        # have come (process.py: connect_scouted off), so nobody answering at first is
+        # asked again, for up to HELLO_S
+        deadline = time.monotonic() + HELLO_S
+        while True:
+            r = self.bus.request(keys.ctl(self.robot, "hello"), body,
+                                 max(0.001, deadline - time.monotonic()))
+            if r is not None or time.monotonic() >= deadline:
+                break
+            time.sleep(0.002)
         if r is None or "error" in r:
             raise TransportError(f"runtime refused hello: {r and r.get('error')}")
 
