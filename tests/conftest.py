@@ -5,7 +5,7 @@ from pathlib import Path
 
 import pytest
 
-from codegen import generate_robot
+from esair_min.codegen import generate_robot
 from esair_min.core.image import build_image, write_hex
 from esair_min.pic.build import BuildError, build_board, toolchain
 from esair_min.model.validate import load_robot

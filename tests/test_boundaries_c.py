@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 from boundary_cases import OK, READY, RX_RING, STAND, Case, all_cases, burst, events, ring_case
-from codegen import generate_robot
+from esair_min.codegen import generate_robot
 from esair_min.core.trace import without_marks
 
 CASES = all_cases()

@@ -16,9 +16,9 @@ from pathlib import Path
 import pytest
 from click.testing import CliRunner
 
-from codegen import generate_robot, render_robot
-from codegen.filters import c_string, hex2, hex4
-from codegen.render import render_board
+from esair_min.codegen import generate_robot, render_robot
+from esair_min.codegen.filters import c_string, hex2, hex4
+from esair_min.codegen.render import render_board
 from esair_min import __version__
 from esair_min.cli import main as cli
 from esair_min.errors import GenerateError

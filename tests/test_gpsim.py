@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from codegen import generate_robot
+from esair_min.codegen import generate_robot
 from esair_min.pic.build import build_board, toolchain
 from esair_min.errors import ProtocolError
 from esair_min.pic.gpsim_bench import (drain_loop, frame_slips, frame_timing, function_spans,

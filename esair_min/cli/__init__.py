@@ -215,7 +215,7 @@ def generate(robot: str, output: str) -> None:
     """Generate the C firmware of every board (core, hal.h, PIC and host ports, Makefile)."""
     from pathlib import Path
 
-    from codegen import generate_robot
+    from esair_min.codegen import generate_robot
 
     result = generate_robot(load(robot), Path(output))
     click.echo(f"{', '.join(result.boards)}: {len(result.written)} files written, "

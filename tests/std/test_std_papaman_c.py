@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 from c_robot import CFirmwareRobot
-from codegen import generate_robot
+from esair_min.codegen import generate_robot
 from conftest import wait_for
 from esair_min.emulator.actuator import encode
 from test_std_papaman import actuator_writes, example
