@@ -16,7 +16,7 @@ from esair_min.core import protocol as P
 from esair_min.errors import GenerateError
 from esair_min.model.hardware import ADC_PINS
 from esair_min.core.image import build_image
-from esair_min.model.layout import HEADER_BYTES
+from esair_min.components.motion.layout import HEADER_BYTES
 from esair_min.model.board import Board
 from esair_min.model.robot import Robot
 
@@ -223,7 +223,7 @@ def _texts(ver_pre: bytes, ver_post: bytes, ready_pre: bytes, ready_post: bytes,
         assert b"*/" not in text and b"\0" not in text, text   # shown in a C comment
         texts.append({"id": i, "name": name, "text": text, "data": text + b"\0", "at": at})
         at += len(text) + 1
-    for r, t in zip(reactions, texts[len(texts) - len(reactions):]):
+    for r, t in zip(reactions, texts[len(texts) - len(reactions):], strict=True):
         r["text_id"] = t["id"]
     return texts
 

@@ -1,50 +1,21 @@
 """Kind ``motion``: a stored motion on the central board, frames written to the actuator
 one after the other from the EEPROM image (docs/eeprom-format.md). Its image is built
-by :mod:`esair_min.core.image` over :mod:`esair_min.model.layout`, its player is
+by :mod:`esair_min.core.image` over :mod:`.layout`, its player is
 ``firmware_templates/central`` and :mod:`esair_min.core.player`.
 """
 
 from __future__ import annotations
 
-from typing import Annotated, Any
-
-from pydantic import Field, StrictInt
+from typing import Any
 
 from esair_min.components.base import Checker, Component
+from esair_min.components.motion.layout import image_layout
+from esair_min.components.motion.schema import MAX_FRAMES, MAX_MOTIONS, Frame, Motion
 from esair_min.components.servo import encode_high, overflow
-from esair_min.model.types import Angle, Name, Section, Speed
-
-MAX_MOTIONS = 100
-MAX_FRAMES = 255
-
-
-class Frame(Section):
-    """One pose: an angle per servo (by index) and a speed (one, or one per servo)."""
-
-    angles: tuple[Angle, ...]
-    speed: Speed | tuple[Speed, ...] = 0
-
-    def speeds(self) -> tuple[int, ...]:
-        if isinstance(self.speed, int):
-            return (self.speed,) * len(self.angles)
-        return self.speed
-
-
-class Motion(Section):
-    """A stored motion: frames played one per tick group from the EEPROM."""
-
-    name: Name
-    number: Annotated[StrictInt, Field(ge=0, lt=MAX_MOTIONS)] = Field(
-        description="the nn of PLYnn")
-    delay_ticks: Annotated[StrictInt, Field(ge=1, le=255)] = Field(
-        1, description="ticks from one frame's write to the next")
-    frames: Annotated[tuple[Frame, ...], Field(min_length=1, max_length=MAX_FRAMES)]
 
 
 def storage_rules(checker: Checker, central: Any, by_role: dict[str, Any]) -> None:
     """Motions need an EEPROM, and their image must fit it and its 16-bit offsets."""
-    from esair_min.model.layout import image_layout
-
     eeprom = central.device("eeprom")
     if central.motions and eeprom is None:
         checker.fail(central, ("motions",), "motions need an EEPROM: add one to the I2C "
@@ -115,3 +86,6 @@ COMPONENT = Component(
     kind="motion", section="motions", schema=Motion, roles=("central",),
     description="the stored motions (central only)",
     unique=("name", "number"), robot_rules=robot_rules)
+
+__all__ = ["COMPONENT", "MAX_FRAMES", "MAX_MOTIONS", "Frame", "Motion", "directory_rows",
+           "image_layout", "robot_rules", "storage_rules"]
