@@ -5,6 +5,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+from esair_min.components import COMPONENTS
+from esair_min.errors import GenerateError
 from esair_min.model.robot import Robot
 
 from .context import board_context
@@ -28,6 +30,12 @@ class GenerateResult:
 
 def render_robot(robot: Robot) -> dict[str, str]:
     """``{"<role>/<path>": text}`` for every board of ``robot`` (nothing written)."""
+    missing = sorted({k.kind for b in robot.boards for k in COMPONENTS
+                      if not k.generated and k.items(b)})
+    if missing:
+        raise GenerateError(f"robot '{robot.name}': no firmware templates yet for the device "
+                            f"kinds {', '.join(missing)}; 'esair check' validates the robot, "
+                            "and their Python cores (esair_min.components) model it")
     files: dict[str, str] = {}
     for board in sorted(robot.boards, key=lambda b: b.role):
         for rel, text in render_board(board.role, board_context(robot, board.role)).items():

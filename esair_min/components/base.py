@@ -52,7 +52,9 @@ class Component:
     boards of ``roles``; ``unique`` names the fields no two items of a board share;
     ``registers_per_item`` is what each item adds to its board's I2C register map.
     ``board_rules(checker, board)`` and ``robot_rules(checker, central, by_role)`` raise
-    through the checker; ``pins(item)`` lists the pins an item claims.
+    through the checker; ``pins(item)`` lists the pins an item claims. A kind with
+    ``many=False`` is one optional settings object (``base:``) instead of a list;
+    ``summary(board)`` gives the lines ``esair check`` prints about it.
     """
 
     kind: str
@@ -65,4 +67,18 @@ class Component:
     board_rules: Callable[[Checker, Any], None] = _no_rules
     robot_rules: Callable[[Checker, Any, dict[str, Any]], None] = _no_robot_rules
     pins: Callable[[Any], list[PinClaim]] = _no_pins
+    many: bool = True
+    generated: bool = True        # the generator has C templates for it
+    summary: Callable[[Any], list[str]] | None = None
     extra: dict[str, Any] = field(default_factory=dict)
+
+    def items(self, board: Any) -> tuple[Any, ...]:
+        """The kind's items on ``board``: its list, or its one settings object."""
+        value = getattr(board, self.section)
+        if self.many:
+            return value
+        return () if value is None else (value,)
+
+    def item_loc(self, i: int) -> tuple[Any, ...]:
+        """Where item ``i`` is in the board file."""
+        return (self.section, i) if self.many else (self.section,)

@@ -137,7 +137,7 @@ class Reaction(Section):
     motion: Name = Field(description="motion played when it fires (pre-empts others)")
 
 
-Role = Literal["central", "actuator", "sensor"]
+Role = Literal["central", "actuator", "sensor", "drive"]
 
 
 class BoardCore(Section):
@@ -178,14 +178,15 @@ class BoardCore(Section):
     @property
     def register_count(self) -> int:
         """Size of this board's register map as an I2C slave."""
-        return sum(c.registers_per_item * len(getattr(self, c.section)) for c in COMPONENTS)
+        return sum(c.registers_per_item * len(c.items(self)) for c in COMPONENTS)
 
     def device(self, kind: str) -> EepromDevice | BoardDevice | None:
         return next((d for d in self.i2c.devices if d.kind == kind), None)
 
 
 def _component_sections() -> dict[str, Any]:
-    return {c.section: (tuple[c.schema, ...], Field((), description=c.description))
+    return {c.section: ((tuple[c.schema, ...], Field((), description=c.description)) if c.many
+                        else (c.schema | None, Field(None, description=c.description)))
             for c in COMPONENTS}
 
 

@@ -34,6 +34,7 @@ CORE_SECTIONS = {
     "central": {"uart", "tick", "sync", "commands", "reactions"},
     "actuator": {"sync"},
     "sensor": set(),
+    "drive": set(),
 }
 ROLE_SECTIONS = {role: sections | {c.section for c in COMPONENTS if role in c.roles}
                  for role, sections in CORE_SECTIONS.items()}
@@ -68,8 +69,9 @@ class _Checker:
                 self.fail(b, (section,), f"'{section}' does not belong on {_an(b.role)} board "
                           f"({_an(b.role)} board may have: {', '.join(sorted(allowed))}); "
                           f"remove it, or check 'role: {b.role}'", key=True)
-        required = {"central": ["uart", "tick", "sync"], "actuator": ["sync", "servos"],
-                    "sensor": ["sensors"]}[b.role]
+        required = {"central": ["uart", "tick"] + ([] if b.base else ["sync"]),
+                    "actuator": ["sync", "servos"], "sensor": ["sensors"],
+                    "drive": ["motors"]}[b.role]
         for section in required:
             if not getattr(b, section):
                 if section in data:
@@ -79,7 +81,7 @@ class _Checker:
         self.i2c_rules(b)
         self.clock_rules(b)
         for c in COMPONENTS:
-            for field in c.unique:
+            for field in c.unique if c.many else ():
                 self.unique(b, c.section, field)
         self.unique(b, "reactions", "name")
         for c in COMPONENTS:
@@ -191,9 +193,9 @@ class _Checker:
         if b.sync is not None:
             claim(b.sync.pin, "the sync line", ("sync", "pin"))
         for c in COMPONENTS:
-            for i, item in enumerate(getattr(b, c.section)):
+            for i, item in enumerate(c.items(b)):
                 for pin, what, loc in c.pins(item):
-                    claim(pin, what, (c.section, i) + loc)
+                    claim(pin, what, c.item_loc(i) + loc)
 
     # -- across boards ------------------------------------------------------------
     def robot_rules(self) -> None:
@@ -352,7 +354,8 @@ def load_board(path: Path | str) -> tuple[Board, Document]:
     except ValidationError as exc:
         raise config_error(exc, doc, Board) from None
     if board.role == "central" and board.commands is None:
-        board = board.model_copy(update={"commands": DEFAULT_COMMANDS})
+        # An omni base's commands are fixed (docs/protocol.md, STARFISH): no table.
+        board = board.model_copy(update={"commands": () if board.base else DEFAULT_COMMANDS})
     return board, doc
 
 
