@@ -20,6 +20,12 @@ def robot():
 
 
 @pytest.fixture(scope="session")
+def starfish():
+    """The validated STARFISH robot of boards/starfish (frozen: safe to share)."""
+    return load_robot(ROOT / "boards" / "starfish")
+
+
+@pytest.fixture(scope="session")
 def pic_firmware(robot, tmp_path_factory):
     """PAPA-MAN's generated firmware, each board built for the PIC18F452 on first use:
     ``pic_firmware("central")`` is the board's folder (``build-pic/firmware.cod`` in

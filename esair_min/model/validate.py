@@ -15,7 +15,7 @@ from pydantic import ValidationError
 
 from esair_min.model import hardware
 from esair_min.errors import ConfigError, file_mark
-from esair_min.components import COMPONENTS, motion
+from esair_min.components import COMPONENTS, motion, omni_base
 from esair_min.components.servo import encode_high
 from esair_min.model.board import DEFAULT_COMMANDS, Board, BoardDevice, Command, EepromDevice
 from esair_min.model.robot import Robot, frame_bus_load
@@ -286,6 +286,7 @@ class _Checker:
                           f"board's I2C devices, so nothing can reach it; add it there "
                           f"(kind: board, board: {b.board})")
         motion.storage_rules(self, central, by_role)
+        omni_base.pairing_rules(self, central, by_role)
 
     def command_rules(self, central: Board, n: int, by_role: dict[str, Board]) -> None:
         commands = central.commands or ()

@@ -69,6 +69,8 @@ class World:
         self._v = (0.0, 0.0, 0.0)
         self._rng = random.Random(self.options.seed)
         self._touching = False
+        self._checked = (self.pose.x, self.pose.y)
+        self._margin = -1.0                  # no clearance measured yet
 
     @property
     def velocity(self) -> tuple[float, float, float]:
@@ -90,13 +92,27 @@ class World:
                     pose.theta + omega * dt_s)
 
     def _clear(self, pose: Pose) -> bool:
-        return self.room.clearance(pose.x, pose.y) >= self.options.radius_mm
+        # The body moved at most hypot(dx, dy) since the last clearance measured: while
+        # that stays below the margin it had, no wall can be nearer than its radius.
+        moved = math.hypot(pose.x - self._checked[0], pose.y - self._checked[1])
+        if moved < self._margin:
+            return True
+        clearance = self.room.clearance(pose.x, pose.y)
+        ok = clearance >= self.options.radius_mm
+        if ok:
+            self._checked = (pose.x, pose.y)
+            self._margin = clearance - self.options.radius_mm
+        return ok
 
     def step(self, dt_s: float, vx: float, vy: float, omega: float) -> Step:
         """Advance ``dt_s`` seconds with the commanded body velocity (robot frame)."""
         if not dt_s > 0:
             raise ValueError(f"a step needs a time above 0 s, not {dt_s}")
         v = self._follow((vx, vy, omega), dt_s)
+        if v == (0.0, 0.0, 0.0) or v == (0, 0, 0):          # at rest: only time passes
+            self._v = (0.0, 0.0, 0.0)
+            self.t_s += dt_s
+            return Step(0.0, 0.0, 0.0, dt_s, False)
         opts = self.options
         if opts.slip or opts.slip_noise:
             keep = 1.0 - opts.slip - self._rng.gauss(0.0, opts.slip_noise)

@@ -35,12 +35,17 @@ def wheels_of(drive: Any) -> list[Wheel]:
     return wheel_table(sorted(drive.motors, key=lambda m: m.index))
 
 
+def pairing_rules(checker: Checker, central: Any, by_role: dict[str, Any]) -> None:
+    """A drive board and a base come together (checked before the command table)."""
+    drive = by_role.get("drive")
+    if central.base is None and drive is not None:
+        checker.fail(drive, ("role",), "a drive board needs 'base:' on the central board "
+                     "(the omni-wheel kinematics that drive it)")
+
+
 def robot_rules(checker: Checker, central: Any, by_role: dict[str, Any]) -> None:
     drive = by_role.get("drive")
     if central.base is None:
-        if drive is not None:
-            checker.fail(drive, ("role",), "a drive board needs 'base:' on the central board "
-                         "(the omni-wheel kinematics that drive it)")
         return
     if drive is None:
         checker.fail(central, ("base",), "'base' needs a drive board (role: drive) with "

@@ -61,15 +61,21 @@ def determinant(wheels: list[Wheel]) -> float:
     return a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g)
 
 
-def body_velocity(wheels: list[Wheel], speeds: list[float]) -> tuple[float, float, float]:
-    """(vx, vy mm/s, omega rad/s) that the three rim speeds give (Cramer's rule)."""
-    m = matrix(wheels)
+def inverse(wheels: list[Wheel]) -> list[list[float]]:
+    """The map from three rim speeds to (vx, vy mm/s, omega rad/s): the matrix's inverse."""
+    (a, b, c), (d, e, f), (g, h, i) = matrix(wheels)
     det = determinant(wheels)
-    out = []
-    for col in range(3):
-        mc = [row[:] for row in m]
-        for k in range(3):
-            mc[k][col] = speeds[k]
-        (a, b, c), (d, e, f), (g, h, i) = mc
-        out.append((a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g)) / det)
-    return out[0], out[1], out[2]
+    return [[(e * i - f * h) / det, (c * h - b * i) / det, (b * f - c * e) / det],
+            [(f * g - d * i) / det, (a * i - c * g) / det, (c * d - a * f) / det],
+            [(d * h - e * g) / det, (b * g - a * h) / det, (a * e - b * d) / det]]
+
+
+def body_velocity(wheels: list[Wheel], speeds: list[float],
+                  inv: list[list[float]] | None = None) -> tuple[float, float, float]:
+    """(vx, vy mm/s, omega rad/s) that the three rim speeds give (``inv``: the
+    precomputed :func:`inverse`)."""
+    m = inv if inv is not None else inverse(wheels)
+    s0, s1, s2 = speeds
+    return (m[0][0] * s0 + m[0][1] * s1 + m[0][2] * s2,
+            m[1][0] * s0 + m[1][1] * s1 + m[1][2] * s2,
+            m[2][0] * s0 + m[2][1] * s1 + m[2][2] * s2)

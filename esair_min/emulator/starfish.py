@@ -1,0 +1,130 @@
+"""STARFISH emulated in Python: the central board's core, the drive board, the two
+flow sensors and the robot's body in a 2-D room (:mod:`esair_min.world`), on one
+virtual clock.
+
+Events: the central board's tick (its Timer2 period: flow polls, watchdog), the drive
+board's control tick (:data:`~esair_min.components.dc_motor.core.CONTROL_TICK_MS`:
+ramps and duties) and the world's steps between them (the body moves with the wheels'
+rim speeds through the omni kinematics; each flow sensor sees the floor move under it).
+A command line is decoded when it is given (the UART's byte time is not modelled here).
+The trace keeps, per central tick, the virtual time, the true pose and the wheels' rim
+speeds; ``i2c`` keeps every write to the drive board.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+from esair_min.components.dc_motor.core import CONTROL_TICK_MS, DriveCore
+from esair_min.components.omni_base.core import StarfishCore
+from esair_min.components.omni_base.kinematics import body_velocity, inverse
+from esair_min.components.optical_flow.core import Adns2610
+from esair_min.world import World
+
+
+@dataclass(frozen=True)
+class TraceRow:
+    t_s: float
+    x: float
+    y: float
+    theta: float
+    wheels: tuple[float, ...]
+    collided: bool
+
+
+@dataclass
+class FlowOptions:
+    """The floor as the flow sensors see it."""
+
+    noise: float = 0.02        # standard deviation of the counts, fraction of the motion
+    surface: int = 90          # SQUAL
+    seed: int = 1
+
+
+@dataclass
+class StarfishSim:
+    robot: Any
+    world: World = field(default_factory=World)
+    flow_options: FlowOptions = field(default_factory=FlowOptions)
+    keep_trace: bool = True
+
+    def __post_init__(self) -> None:
+        central = self.robot.central
+        self.drive = DriveCore(self.robot.board("drive"))
+        fo = self.flow_options
+        self.sensors = [Adns2610(cpi=f.cpi, surface=fo.surface, noise=fo.noise, seed=fo.seed + i)
+                        for i, f in enumerate(central.flow_sensors)]
+        self.mounts = [(float(f.mount_x_mm), float(f.mount_y_mm), math.radians(f.mount_angle_deg))
+                       for f in central.flow_sensors]
+        self.i2c: list[tuple[int, int, bytes]] = []      # (t_ns, address, data)
+        self.core = StarfishCore(self.robot, self._write, self.sensors)
+        self.t_ns = 0
+        self._next_central = self.core.tick_ns
+        self._drive_ns = CONTROL_TICK_MS * 1_000_000
+        self._next_drive = self._drive_ns
+        self.notices = bytearray()
+        self.trace: list[TraceRow] = []
+        self._inv = inverse(self.core.wheels)
+        self._collided = False
+
+    def _write(self, address: int, data: bytes) -> bool:
+        self.i2c.append((self.t_ns, address, bytes(data)))
+        if address != self.drive.address or not data:
+            return False
+        self.drive.write(data[0], data[1:])
+        return True
+
+    # -- the link ------------------------------------------------------------------------
+    def send(self, line: str | bytes) -> bytes:
+        """A command line (terminator added): the reply bytes."""
+        raw = line.encode() if isinstance(line, str) else bytes(line)
+        return self.core.feed(raw + b"\r\n")
+
+    def command(self, line: str | bytes) -> str:
+        return self.send(line).decode().strip()
+
+    # -- time ----------------------------------------------------------------------------
+    def _move(self, dt_s: float) -> None:
+        vx, vy, w = body_velocity(self.core.wheels, self.drive.rim_speeds(), self._inv)
+        step = self.world.step(dt_s, vx, vy, w)
+        if step.vx == 0.0 and step.vy == 0.0 and step.omega == 0.0:
+            self._collided = self._collided or step.collided
+            return
+        for sensor, (px, py, phi) in zip(self.sensors, self.mounts, strict=True):
+            ux = (step.vx - step.omega * py) * dt_s
+            uy = (step.vy + step.omega * px) * dt_s
+            c, s = math.cos(phi), math.sin(phi)
+            sensor.move(c * ux + s * uy, -s * ux + c * uy, dt_s)
+        self._collided = self._collided or step.collided
+
+    def run_until(self, t_ns: int) -> None:
+        self._collided = False
+        while True:
+            nxt = min(self._next_central, self._next_drive)
+            if nxt > t_ns:
+                break
+            if nxt > self.t_ns:
+                self._move((nxt - self.t_ns) / 1e9)
+                self.t_ns = nxt
+            if nxt == self._next_drive:
+                self.drive.tick()
+                self._next_drive += self._drive_ns
+            if nxt == self._next_central:
+                self.notices += self.core.tick()
+                self._next_central += self.core.tick_ns
+                if self.keep_trace:
+                    p = self.world.pose
+                    self.trace.append(TraceRow(self.t_ns / 1e9, p.x, p.y, p.theta,
+                                               tuple(self.drive.rim_speeds()), self._collided))
+        if t_ns > self.t_ns:
+            self._move((t_ns - self.t_ns) / 1e9)
+            self.t_ns = t_ns
+
+    def run_for(self, seconds: float) -> None:
+        self.run_until(self.t_ns + round(seconds * 1e9))
+
+    @property
+    def now_s(self) -> float:
+        return self.t_ns / 1e9
