@@ -128,3 +128,57 @@ class StarfishSim:
     @property
     def now_s(self) -> float:
         return self.t_ns / 1e9
+
+
+@dataclass(frozen=True)
+class SquareRun:
+    """What :func:`drive_square` measured: the true pose and the flow odometry's pose at
+    the end, the largest distance between them along the way, and the odometry polls."""
+
+    true_end: tuple[float, float, float]
+    odometry_end: tuple[float, float, float]
+    max_error_mm: float
+    polls: int
+    refused: int
+
+    @property
+    def end_error_mm(self) -> float:
+        return math.hypot(self.true_end[0] - self.odometry_end[0],
+                          self.true_end[1] - self.odometry_end[1])
+
+
+def drive_square(sim: StarfishSim, side_mm: float, speed_mm_s: int = 250,
+                 period_s: float = 0.05, laps: int = 1) -> SquareRun:
+    """A host driving a square (no turning: an omni base slides along each side): it
+    sends the leg's velocity and asks for the odometry every ``period_s`` (so the
+    watchdog stays fed), integrates the flow counts and compares with the world."""
+    from esair_min.components.omni_base.core import velocity_line
+    from esair_min.components.optical_flow.odometry import FlowOdometry, parse_odometry
+
+    p = sim.world.pose
+    odo = FlowOdometry(sim.robot.central.flow_sensors, p.x, p.y, p.theta)
+    legs = [(speed_mm_s, 0), (0, speed_mm_s), (-speed_mm_s, 0), (0, -speed_mm_s)]
+    worst, polls, refused = 0.0, 0, 0
+    est = (p.x, p.y, p.theta)
+
+    def poll() -> None:
+        nonlocal worst, polls, est
+        _, sensors = parse_odometry(sim.command("O"))
+        est = odo.update([(dx, dy) for dx, dy, _ in sensors])
+        polls += 1
+        now = sim.world.pose
+        worst = max(worst, math.hypot(est[0] - now.x, est[1] - now.y))
+
+    poll()
+    for _ in range(laps):
+        for vx, vy in legs:
+            for _ in range(round(side_mm / speed_mm_s / period_s)):
+                if sim.command(velocity_line(vx, vy, 0)) != "OK":
+                    refused += 1
+                sim.run_for(period_s)
+                poll()
+    sim.command("x")
+    sim.run_for(0.3)
+    poll()
+    end = sim.world.pose
+    return SquareRun((end.x, end.y, end.theta), est, worst, polls, refused)

@@ -64,6 +64,7 @@ class StarfishCore:
         self.max_w = base.max_omega_mrad_s
         t2 = central.timer2
         self.tick_ns = round(t2.period_s * 1e9)
+        self.watchdog_ms = base.watchdog_ms
         self.watchdog_ticks = -(-base.watchdog_ms * 1_000_000 // self.tick_ns)
         self.require_checksum = bool(central.uart and central.uart.require_checksum)
         self.flow_names = [f.name for f in central.flow_sensors]
@@ -120,8 +121,7 @@ class StarfishCore:
             reply = self._odometry()
         else:
             reply = (f"OK {PROTOCOL_NAME} starfish wheels={len(self.wheels)} "
-                     f"flow={len(self.flow_names)} watchdog="
-                     f"{self.watchdog_ticks * self.tick_ns // 1_000_000} "
+                     f"flow={len(self.flow_names)} watchdog={self.watchdog_ms} "
                      f"checksum={'on' if self.require_checksum else 'off'}").encode() + b"\r\n"
         if reply != ERROR_LINE[Code.BAD_ARGUMENT] and reply != ERROR_LINE[Code.OUTSIDE_LIMITS]:
             self.idle_ticks = 0                  # a valid command feeds the watchdog
