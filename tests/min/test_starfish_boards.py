@@ -21,16 +21,16 @@ from esair_min.model.validate import ROLE_SECTIONS, load_robot
 BAD = Path("tests/fixtures/bad_starfish")
 
 EXPECTED = {
-    "base_without_drive": "tests/fixtures/bad_starfish/base_without_drive/central.yaml:22:1: 'base' needs a drive board (role: drive) with 3 motors in this robot",
-    "ccp_wrong_pin": "tests/fixtures/bad_starfish/ccp_wrong_pin/drive.yaml:22:38: motor 'right': CCP2 drives pin RC1 on the pic18f452, not RD2; set pwm_pin: RC1 or pwm: software",
-    "commands_on_base": "tests/fixtures/bad_starfish/commands_on_base/central.yaml:27:1: an omni base's commands are fixed (docs/protocol.md, STARFISH); remove 'commands'",
-    "drive_without_base": "tests/fixtures/bad_starfish/drive_without_base/drive.yaml:7:7: a drive board needs 'base:' on the central board (the omni-wheel kinematics that drive it)",
-    "index_gap": "tests/fixtures/bad_starfish/index_gap/drive.yaml:22:26: motor 'right': index 3 leaves a gap; motor indices must run 0..2 and index 2 is missing",
-    "limit_above_full": "tests/fixtures/bad_starfish/limit_above_full/drive.yaml:19:61: motor 'front': limit_mm_s 900 is above its full speed (754 mm/s at 300 rpm with a 24 mm wheel); lower the limit",
-    "pin_twice": "tests/fixtures/bad_starfish/pin_twice/drive.yaml:20:52: pin RD0 is used twice: by motor 'front' direction and by motor 'left' direction; give motor 'left' direction another pin",
-    "singular_wheels": "tests/fixtures/bad_starfish/singular_wheels/drive.yaml:17:1: the wheels' mount angles do not let the base move in every direction (the kinematics cannot be inverted); place the wheels at different angles, e.g. 90, 210, 330",
-    "three_flow": "tests/fixtures/bad_starfish/three_flow/central.yaml:32:5: at most 2 flow sensors fit the odometry reply; remove 1",
-    "two_wheels": "tests/fixtures/bad_starfish/two_wheels/drive.yaml:17:1: an omni base has 3 wheels, but this drive board has 2 motors",
+    "base_without_drive": "tests/fixtures/bad_starfish/base_without_drive/central.yaml:22:1: 'base' needs a drive board (role: drive) with 3 motors in this robot",  # noqa: E501
+    "ccp_wrong_pin": "tests/fixtures/bad_starfish/ccp_wrong_pin/drive.yaml:22:38: motor 'right': CCP2 drives pin RC1 on the pic18f452, not RD2; set pwm_pin: RC1 or pwm: software",  # noqa: E501
+    "commands_on_base": "tests/fixtures/bad_starfish/commands_on_base/central.yaml:27:1: an omni base's commands are fixed (docs/protocol.md, STARFISH); remove 'commands'",  # noqa: E501
+    "drive_without_base": "tests/fixtures/bad_starfish/drive_without_base/drive.yaml:7:7: a drive board needs 'base:' on the central board (the omni-wheel kinematics that drive it)",  # noqa: E501
+    "index_gap": "tests/fixtures/bad_starfish/index_gap/drive.yaml:22:26: motor 'right': index 3 leaves a gap; motor indices must run 0..2 and index 2 is missing",  # noqa: E501
+    "limit_above_full": "tests/fixtures/bad_starfish/limit_above_full/drive.yaml:19:61: motor 'front': limit_mm_s 900 is above its full speed (754 mm/s at 300 rpm with a 24 mm wheel); lower the limit",  # noqa: E501
+    "pin_twice": "tests/fixtures/bad_starfish/pin_twice/drive.yaml:20:52: pin RD0 is used twice: by motor 'front' direction and by motor 'left' direction; give motor 'left' direction another pin",  # noqa: E501
+    "singular_wheels": "tests/fixtures/bad_starfish/singular_wheels/drive.yaml:17:1: the wheels' mount angles do not let the base move in every direction (the kinematics cannot be inverted); place the wheels at different angles, e.g. 90, 210, 330",  # noqa: E501
+    "three_flow": "tests/fixtures/bad_starfish/three_flow/central.yaml:32:5: at most 2 flow sensors fit the odometry reply; remove 1",  # noqa: E501
+    "two_wheels": "tests/fixtures/bad_starfish/two_wheels/drive.yaml:17:1: an omni base has 3 wheels, but this drive board has 2 motors",  # noqa: E501
 }
 
 
