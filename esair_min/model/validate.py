@@ -405,4 +405,5 @@ def load_robot(path: Path | str) -> Robot:
     return Robot(name, str(path), tuple(boards), tuple(str(f) for f in files))
 
 
-__all__ = ["load_robot", "load_board", "check_board_alone", "is_whole_robot", "board_files", "encode_high", "MAX_LINE", "Command"]
+__all__ = ["load_robot", "load_board", "check_board_alone", "is_whole_robot", "board_files", "encode_high",
+           "MAX_LINE", "Command"]

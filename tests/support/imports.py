@@ -24,9 +24,9 @@ def modules() -> dict[str, Path]:
             rel = path.relative_to(folder).with_suffix("")
             if "codegen" in rel.parts and prefix == "esair_min":
                 continue
-            if any(p in ("examples", "fixtures") for p in rel.parts[:-1]) and prefix == "esair_std":
-                if rel.parts[-1] != "__init__":
-                    continue
+            if (prefix == "esair_std" and rel.parts[-1] != "__init__"
+                    and any(p in ("examples", "fixtures") for p in rel.parts[:-1])):
+                continue
             parts = [p for p in rel.parts if p != "__init__"]
             found[".".join([prefix, *parts])] = path
     return found
