@@ -24,6 +24,10 @@ from esair_min.components.optical_flow.core import Adns2610
 from esair_min.world import World
 
 
+#: What the central board sends at reset.
+READY_LINE = b"!READY esair-min/1 starfish\r\n"
+
+
 @dataclass(frozen=True)
 class TraceRow:
     t_s: float
@@ -67,6 +71,8 @@ class StarfishSim:
         self.notices = bytearray()
         self.trace: list[TraceRow] = []
         self._inv = inverse(self.core.wheels)
+        self._out = bytearray()
+        self._booted = False
         self._collided = False
 
     def _write(self, address: int, data: bytes) -> bool:
@@ -128,6 +134,40 @@ class StarfishSim:
     @property
     def now_s(self) -> float:
         return self.t_ns / 1e9
+
+    # -- the serial side, as esair_min.emulator.ptyserver and Pacer drive an emulator ----
+    @property
+    def clock(self) -> StarfishSim:
+        return self                       # ``clock.now``: the virtual time in ns
+
+    @property
+    def now(self) -> int:
+        return self.t_ns
+
+    def next_event_ns(self) -> int | None:
+        return min(self._next_central, self._next_drive)
+
+    def settle(self, max_s: float = 1.0) -> None:
+        """Boot: the central board says it is ready (once)."""
+        if not self._booted:
+            self._booted = True
+            self._out += READY_LINE
+
+    def write(self, data: bytes) -> None:
+        """Bytes from the host, decoded at the current virtual time."""
+        self._out += self.core.feed(bytes(data))
+
+    def read(self) -> bytes:
+        """What the robot sent since the last read: replies and notices."""
+        if self.notices:
+            self._out += self.notices
+            self.notices.clear()
+        out = bytes(self._out)
+        self._out.clear()
+        return out
+
+    def close(self) -> None:
+        return None
 
 
 @dataclass(frozen=True)
