@@ -2,10 +2,11 @@
 flow sensors and the robot's body in a 2-D room (:mod:`esair_min.world`), on one
 virtual clock.
 
-Events: the central board's tick (its Timer2 period: flow polls, watchdog), the drive
+Events: the central board's tick (its Timer2 period: flow polls, watchdog) and the drive
 board's control tick (:data:`~esair_min.components.dc_motor.core.CONTROL_TICK_MS`:
-ramps and duties) and the world's steps between them (the body moves with the wheels'
-rim speeds through the omni kinematics; each flow sensor sees the floor move under it).
+ramps and duties). The world steps once per central tick (and at the end of a run),
+with each wheel's mean rim speed since its last step, through the omni kinematics; each
+flow sensor then sees the floor move under it.
 A command line is decoded when it is given (the UART's byte time is not modelled here).
 The trace keeps, per central tick, the virtual time, the true pose and the wheels' rim
 speeds; ``i2c`` keeps every write to the drive board.
@@ -71,6 +72,9 @@ class StarfishSim:
         self.notices = bytearray()
         self.trace: list[TraceRow] = []
         self._inv = inverse(self.core.wheels)
+        self._frames = [(px, py, math.cos(phi), math.sin(phi)) for px, py, phi in self.mounts]
+        self._acc_dt = 0.0
+        self._acc_travel = [0.0] * len(self.core.wheels)
         self._out = bytearray()
         self._booted = False
         self._collided = False
@@ -92,18 +96,30 @@ class StarfishSim:
         return self.send(line).decode().strip()
 
     # -- time ----------------------------------------------------------------------------
-    def _move(self, dt_s: float) -> None:
-        vx, vy, w = body_velocity(self.core.wheels, self.drive.rim_speeds(), self._inv)
-        step = self.world.step(dt_s, vx, vy, w)
-        if step.vx == 0.0 and step.vy == 0.0 and step.omega == 0.0:
-            self._collided = self._collided or step.collided
+    def _advance(self, dt_s: float) -> None:
+        """Time passes with the wheels as they are: their travel is kept until the next
+        move (the drive board's ticks fall between the central board's; one world step
+        per central tick, with each wheel's mean rim speed since the last)."""
+        self._acc_dt += dt_s
+        for k, v in enumerate(self.drive.rim_speeds()):
+            self._acc_travel[k] += v * dt_s
+
+    def _move(self) -> None:
+        dt_s = self._acc_dt
+        if dt_s <= 0:
             return
-        for sensor, (px, py, phi) in zip(self.sensors, self.mounts, strict=True):
+        speeds = [t / dt_s for t in self._acc_travel]
+        self._acc_dt = 0.0
+        self._acc_travel = [0.0] * len(speeds)
+        vx, vy, w = body_velocity(self.core.wheels, speeds, self._inv)
+        step = self.world.step(dt_s, vx, vy, w)
+        self._collided = self._collided or step.collided
+        if step.vx == 0.0 and step.vy == 0.0 and step.omega == 0.0:
+            return
+        for sensor, (px, py, c, s) in zip(self.sensors, self._frames, strict=True):
             ux = (step.vx - step.omega * py) * dt_s
             uy = (step.vy + step.omega * px) * dt_s
-            c, s = math.cos(phi), math.sin(phi)
             sensor.move(c * ux + s * uy, -s * ux + c * uy, dt_s)
-        self._collided = self._collided or step.collided
 
     def run_until(self, t_ns: int) -> None:
         self._collided = False
@@ -112,12 +128,13 @@ class StarfishSim:
             if nxt > t_ns:
                 break
             if nxt > self.t_ns:
-                self._move((nxt - self.t_ns) / 1e9)
+                self._advance((nxt - self.t_ns) / 1e9)
                 self.t_ns = nxt
             if nxt == self._next_drive:
                 self.drive.tick()
                 self._next_drive += self._drive_ns
             if nxt == self._next_central:
+                self._move()                     # the floor has moved under the sensors
                 self.notices += self.core.tick()
                 self._next_central += self.core.tick_ns
                 if self.keep_trace:
@@ -125,8 +142,9 @@ class StarfishSim:
                     self.trace.append(TraceRow(self.t_ns / 1e9, p.x, p.y, p.theta,
                                                tuple(self.drive.rim_speeds()), self._collided))
         if t_ns > self.t_ns:
-            self._move((t_ns - self.t_ns) / 1e9)
+            self._advance((t_ns - self.t_ns) / 1e9)
             self.t_ns = t_ns
+        self._move()
 
     def run_for(self, seconds: float) -> None:
         self.run_until(self.t_ns + round(seconds * 1e9))

@@ -123,8 +123,8 @@ class StarfishCore:
             reply = (f"OK {PROTOCOL_NAME} starfish wheels={len(self.wheels)} "
                      f"flow={len(self.flow_names)} watchdog={self.watchdog_ms} "
                      f"checksum={'on' if self.require_checksum else 'off'}").encode() + b"\r\n"
-        if reply != ERROR_LINE[Code.BAD_ARGUMENT] and reply != ERROR_LINE[Code.OUTSIDE_LIMITS]:
-            self.idle_ticks = 0                  # a valid command feeds the watchdog
+        if reply.startswith(b"OK"):
+            self.idle_ticks = 0                  # a command carried out feeds the watchdog
         return reply
 
     def _drive(self, action: str, args: list[int]) -> bytes:
