@@ -244,6 +244,9 @@ def generate(robot: str, output: str) -> None:
     result = generate_robot(load(robot), Path(output))
     click.echo(f"{', '.join(result.boards)}: {len(result.written)} files written, "
                f"{len(result.unchanged)} unchanged in {output}")
+    for skipped in result.skipped:
+        click.echo(f"not generated: {skipped}: no firmware templates for these device kinds "
+                   "yet (their Python cores run in the emulator)")
 
 
 @main.command(short_help="Generate and build every board for the PIC18F452; print sizes.")

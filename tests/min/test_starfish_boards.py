@@ -68,13 +68,28 @@ def test_pwm_auto_follows_the_pin(starfish):
     assert drive.register_count == 6 and starfish.peer("drive").registers == 6
 
 
-def test_generate_names_the_kinds_without_templates(starfish):
+def test_generate_skips_the_board_whose_kinds_have_no_templates(starfish, tmp_path):
+    files = render_robot(starfish)
+    assert sorted(files) == ["central/Makefile", "central/core/es_config.h",
+                             "central/core/omni.c", "central/core/omni.h", "central/hal.h",
+                             "central/main.c", "central/ports/host/hal_host.c"]
+    result = CliRunner().invoke(main, ["generate", "starfish", "-o", str(tmp_path)])
+    assert result.exit_code == 0
+    assert result.output == (
+        f"central: 7 files written, 0 unchanged in {tmp_path}\n"
+        "not generated: drive (dc_motor): no firmware templates for these device kinds yet "
+        "(their Python cores run in the emulator)\n")
+
+
+def test_a_robot_with_nothing_to_generate_is_refused(starfish):
+    import dataclasses
+
+    drive_only = dataclasses.replace(starfish, boards=(starfish.board("drive"),),
+                                     files=(starfish.files[1],))
     with pytest.raises(GenerateError) as exc:
-        render_robot(starfish)
-    assert str(exc.value) == (
-        "robot 'starfish': no firmware templates yet for the device kinds dc_motor, "
-        "omni_base, optical_flow; 'esair check' validates the robot, and their Python "
-        "cores (esair_min.components) model it")
+        render_robot(drive_only)
+    assert str(exc.value) == "robot 'starfish': no firmware templates yet for the device " \
+        "kinds dc_motor"
 
 
 def test_every_kind_is_a_board_section_on_its_roles():

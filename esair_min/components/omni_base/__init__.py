@@ -77,6 +77,6 @@ def summary(central: Any) -> list[str]:
 
 
 COMPONENT = Component(
-    generated=False, kind="omni_base", section="base", schema=OmniBase, roles=("central",), many=False,
+    kind="omni_base", section="base", schema=OmniBase, roles=("central",), many=False,
     description="an omni-wheel base driven through a drive board (central only)",
     robot_rules=robot_rules, summary=summary)

@@ -41,6 +41,16 @@ def signed_field(a: bytes) -> int | None:
     return -v if a[0] == 0x2D else v
 
 
+def watchdog_ticks(watchdog_ms: int, tick_ns: int) -> int:
+    """Whole ticks of ``tick_ns`` covering ``watchdog_ms`` (rounded up)."""
+    return -(-watchdog_ms * 1_000_000 // tick_ns)
+
+
+def version_line(robot: str, wheels: int, flow: int, watchdog_ms: int, checksum: bool) -> bytes:
+    return (f"OK {PROTOCOL_NAME} {robot} wheels={wheels} flow={flow} watchdog={watchdog_ms} "
+            f"checksum={'on' if checksum else 'off'}").encode() + b"\r\n"
+
+
 def velocity_line(vx: int, vy: int, omega: int) -> str:
     """The command line for a body velocity (mm/s, mm/s, mrad/s)."""
     return "V" + "".join(f"{v:+05d}" for v in (vx, vy, omega))
@@ -57,6 +67,7 @@ class StarfishCore:
                  flow: Sequence[FlowReader] = ()):
         central = robot.central
         base = central.base
+        self.name = robot.name
         drive = robot.board("drive")
         self.wheels = wheel_table(sorted(drive.motors, key=lambda m: m.index))
         self.drive_address = drive.i2c.address
@@ -65,7 +76,7 @@ class StarfishCore:
         t2 = central.timer2
         self.tick_ns = round(t2.period_s * 1e9)
         self.watchdog_ms = base.watchdog_ms
-        self.watchdog_ticks = -(-base.watchdog_ms * 1_000_000 // self.tick_ns)
+        self.watchdog_ticks = watchdog_ticks(base.watchdog_ms, self.tick_ns)
         self.require_checksum = bool(central.uart and central.uart.require_checksum)
         self.flow_names = [f.name for f in central.flow_sensors]
         self.flow = list(flow)
@@ -120,9 +131,8 @@ class StarfishCore:
         elif action == "odometry":
             reply = self._odometry()
         else:
-            reply = (f"OK {PROTOCOL_NAME} starfish wheels={len(self.wheels)} "
-                     f"flow={len(self.flow_names)} watchdog={self.watchdog_ms} "
-                     f"checksum={'on' if self.require_checksum else 'off'}").encode() + b"\r\n"
+            reply = version_line(self.name, len(self.wheels), len(self.flow_names),
+                                 self.watchdog_ms, self.require_checksum)
         if reply.startswith(b"OK"):
             self.idle_ticks = 0                  # a command carried out feeds the watchdog
         return reply

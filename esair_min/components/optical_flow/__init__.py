@@ -52,6 +52,6 @@ def summary(b: Any) -> list[str]:
 
 
 COMPONENT = Component(
-    generated=False, kind="optical_flow", section="flow_sensors", schema=FlowSensor, roles=("central",),
+    kind="optical_flow", section="flow_sensors", schema=FlowSensor, roles=("central",),
     description="the optical-flow sensors (central only)",
     unique=("name",), board_rules=board_rules, pins=pins, summary=summary)
