@@ -11,7 +11,11 @@ from esair_min.model.board import Board
 from esair_min.model.robot import Robot
 
 from .context import board_context
+from .drive import drive_context
 from .omni import omni_central_context
+
+#: Template folders whose context is not PAPA-MAN's role builders' (codegen/context.py).
+EXTRA_BUILDERS = {"omni_central": omni_central_context, "drive": drive_context}
 from .render import render_board
 from .writer import write_tree
 
@@ -55,8 +59,8 @@ def render_robot(robot: Robot) -> dict[str, str]:
         if board.role in skipped:
             continue
         folder = template_folder(board)
-        ctx = omni_central_context(robot) if folder == "omni_central" else \
-            board_context(robot, board.role)
+        builder = EXTRA_BUILDERS.get(folder)
+        ctx = builder(robot) if builder else board_context(robot, board.role)
         for rel, text in render_board(folder, ctx).items():
             files[f"{board.role}/{rel}"] = text
     if not files:

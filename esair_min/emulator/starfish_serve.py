@@ -18,13 +18,11 @@ RUN_STEP_S = 0.05
 
 
 def _refuse(opts: Any) -> None:
-    for flag, used in (("--generate", opts.generate is not None),
-                       ("--scenario", opts.scenario is not None),
+    for flag, used in (("--scenario", opts.scenario is not None),
                        ("the fault options", opts.faults.describe() != "none")):
         if used:
-            raise EsairError(f"{flag} does not apply to a robot with an omni base (STARFISH): "
-                             "its firmware is not generated yet and its faults are the "
-                             "world's")
+            raise EsairError(f"{flag}: not for a robot with an omni base (STARFISH), whose "
+                             "sensors and faults are its room's (docs/emulator.md)")
 
 
 def make_sim(robot: Robot, room_path: Any = None) -> StarfishSim:
@@ -37,6 +35,11 @@ def make_sim(robot: Robot, room_path: Any = None) -> StarfishSim:
 def emulate_starfish(robot: Robot, opts: Any, out: TextIO, log: Callable[[str], None],
                      _serve_loop: Any, printer: Any) -> int:
     _refuse(opts)
+    if opts.generate is not None:
+        from esair_min.codegen import generate_robot
+
+        generate_robot(robot, opts.generate)
+        log(f"generated {robot.name} into {opts.generate}")
     sim = make_sim(robot, opts.room)
     with ExitStack() as stack:
         flush: Callable[[], None] = lambda: None    # noqa: E731

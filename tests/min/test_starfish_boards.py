@@ -68,22 +68,33 @@ def test_pwm_auto_follows_the_pin(starfish):
     assert drive.register_count == 6 and starfish.peer("drive").registers == 6
 
 
-def test_generate_skips_the_board_whose_kinds_have_no_templates(starfish, tmp_path):
+def test_generate_starfish(starfish, tmp_path):
     files = render_robot(starfish)
-    assert sorted(files) == ["central/Makefile", "central/core/es_config.h",
-                             "central/core/omni.c", "central/core/omni.h", "central/hal.h",
-                             "central/main.c", "central/ports/host/hal_host.c"]
+    assert sorted(files) == [
+        "central/Makefile", "central/core/es_config.h", "central/core/omni.c",
+        "central/core/omni.h", "central/hal.h", "central/main.c",
+        "central/ports/host/hal_host.c",
+        "drive/Makefile", "drive/core/drive.c", "drive/core/drive.h", "drive/core/es_config.h",
+        "drive/hal.h", "drive/main.c", "drive/ports/host/hal_host.c"]
     result = CliRunner().invoke(main, ["generate", "starfish", "-o", str(tmp_path)])
-    assert result.exit_code == 0
+    assert (result.exit_code, result.output) == (
+        0, f"central, drive: 14 files written, 0 unchanged in {tmp_path}\n")
+
+
+def test_a_board_whose_kinds_have_no_templates_is_skipped(starfish, tmp_path, monkeypatch):
+    import dataclasses
+
+    from esair_min.codegen import generate as gen
+
+    kinds = tuple(dataclasses.replace(k, generated=False) if k.kind == "dc_motor" else k
+                  for k in COMPONENTS)
+    monkeypatch.setattr(gen, "COMPONENTS", kinds)
+    assert sorted({name.split("/")[0] for name in render_robot(starfish)}) == ["central"]
+    result = CliRunner().invoke(main, ["generate", "starfish", "-o", str(tmp_path)])
     assert result.output == (
         f"central: 7 files written, 0 unchanged in {tmp_path}\n"
         "not generated: drive (dc_motor): no firmware templates for these device kinds yet "
         "(their Python cores run in the emulator)\n")
-
-
-def test_a_robot_with_nothing_to_generate_is_refused(starfish):
-    import dataclasses
-
     drive_only = dataclasses.replace(starfish, boards=(starfish.board("drive"),),
                                      files=(starfish.files[1],))
     with pytest.raises(GenerateError) as exc:

@@ -108,10 +108,10 @@ def test_room_file_and_refused_options(tmp_path):
     assert result.exit_code == 0
     assert "pose after 0.1 s: x 3000.0 mm, y 2000.0 mm" in result.stderr
     for args, message in [
-        (["--scenario", "push"], "--scenario does not apply to a robot with an omni base "
-         "(STARFISH): its firmware is not generated yet and its faults are the world's"),
-        (["--stuck-bus"], "the fault options does not apply to a robot with an omni base "
-         "(STARFISH): its firmware is not generated yet and its faults are the world's"),
+        (["--scenario", "push"], "--scenario: not for a robot with an omni base (STARFISH), "
+         "whose sensors and faults are its room's (docs/emulator.md)"),
+        (["--stuck-bus"], "the fault options: not for a robot with an omni base (STARFISH), "
+         "whose sensors and faults are its room's (docs/emulator.md)"),
     ]:
         result = CliRunner().invoke(main, ["emulate", "starfish", "--run", "1", *args])
         assert (result.exit_code, result.stderr) == (1, f"error: {message}\n")
@@ -119,6 +119,14 @@ def test_room_file_and_refused_options(tmp_path):
                                        str(room)])
     assert (result.exit_code, result.stderr) == (
         1, "error: --room is for a robot with an omni base (STARFISH); this robot has none\n")
+
+
+def test_generate_first(tmp_path):
+    result = CliRunner().invoke(main, ["emulate", "starfish", "--run", "0.1", "--generate",
+                                       str(tmp_path / "fw")])
+    assert result.exit_code == 0
+    assert result.stderr.startswith(f"generated starfish into {tmp_path / 'fw'}\n")
+    assert (tmp_path / "fw" / "drive" / "core" / "drive.c").is_file()
 
 
 def test_trace_and_plot_of_a_headless_run(tmp_path):

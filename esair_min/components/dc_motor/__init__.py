@@ -98,7 +98,7 @@ def summary(b: Any) -> list[str]:
 
 
 COMPONENT = Component(
-    generated=False, kind="dc_motor", section="motors", schema=DcMotor, roles=("drive",),
+    kind="dc_motor", section="motors", schema=DcMotor, roles=("drive",),
     description="the wheel motors (drive board only, at least one)",
     unique=("name", "index"), registers_per_item=2, board_rules=board_rules, pins=pins,
     summary=summary)
