@@ -13,11 +13,11 @@ from esair_min.model.robot import Robot
 from .context import board_context
 from .drive import drive_context
 from .omni import omni_central_context
+from .render import render_board
+from .writer import write_tree
 
 #: Template folders whose context is not PAPA-MAN's role builders' (codegen/context.py).
 EXTRA_BUILDERS = {"omni_central": omni_central_context, "drive": drive_context}
-from .render import render_board
-from .writer import write_tree
 
 
 @dataclass(frozen=True)
