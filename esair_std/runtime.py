@@ -48,7 +48,8 @@ class Runtime:
         self.base_dir = str(getattr(self.deployment, "base_dir", None) or os.getcwd())
         self.hostname = socket.gethostname()
         self.sc = SensorConnection()
-        self.rs = ResourceSupervisor(self._start_resource, self.sc, self._detached)
+        self.rs = ResourceSupervisor(self._start_resource, self.sc, self._detached,
+                                     self._attached, self._uses_of)
         self.ac = ActuatorConnection(self.rs)
         self.bs = BehaviorSupervisor(self._start_component, self.rs)
         self.server: Any = None
@@ -84,6 +85,7 @@ class Runtime:
                 self.rs.add(s)
             for s in rea + beh:
                 self.bs.add(s)
+            self.rs.start()
             self.bs.start()
             self._watch = threading.Thread(target=self._watchdog, name="esair:watch",
                                            daemon=True)
@@ -121,11 +123,22 @@ class Runtime:
     def _start_component(self, spec: Spec, generation: int) -> Any:
         return self.mode.start_component(spec, generation)
 
-    def _start_resource(self, spec: Spec) -> Any:
-        return self.mode.start_resource(spec)
+    def _start_resource(self, spec: Spec, generation: int) -> Any:
+        return self.mode.start_resource(spec, generation)
 
     def _detached(self, behavior: str, resource: str) -> None:
         self.bs.notify_detached(behavior, resource)
+
+    def _attached(self, behavior: str, resource: str) -> None:
+        self.bs.notify_attached(behavior, resource)
+
+    def _uses_of(self, who: str) -> dict | None:
+        """What ``who`` may register for: its ``uses`` (None: a reaction, fixed in the
+        deployment; {}: not deployed, nothing)."""
+        rec = self.bs.records.get(who)
+        if rec is None:
+            return {}
+        return None if rec.spec.kind == "reaction" else rec.spec.uses
 
     # ---- control (the CLI's verbs; also the Python API)
     def state(self, name: str) -> str | None:
@@ -143,6 +156,7 @@ class Runtime:
                              pid=getattr(rec.host, "pid", os.getpid()),
                              host=getattr(rec.host, "hostname", self.hostname),
                              restarts=rec.restarts, reason=_reason(rec),
+                             detached=self.rs.detached_of(name),
                              **{"class": rec.spec.class_path}))
         for entry, (spec, host) in list(self.rs.entries.items()):
             for res, (e, kind) in list(self.rs.resources.items()):
@@ -151,7 +165,8 @@ class Runtime:
                 st, why = self.rs.states.get(res, ("?", ""))
                 rows.append(dict(name=res, kind=kind, state=st,
                                  pid=getattr(host, "pid", os.getpid()),
-                                 host=getattr(host, "hostname", self.hostname), restarts=0,
+                                 host=getattr(host, "hostname", self.hostname),
+                                 restarts=self.rs.restarts_of(entry),
                                  reason=why, attached=self.sc.attached_to(res),
                                  **{"class": spec.class_path}))
         return rows
@@ -173,17 +188,19 @@ class Runtime:
         self.bs.request(self.bs.remove, name)
 
     def add_resource(self, name: str, class_path: str, allow: dict | None = None,
-                     options: dict | None = None) -> dict[str, str]:
+                     options: dict | None = None,
+                     restart: tuple[int, float] = (0, 0.0)) -> dict[str, str]:
         _check_name(name)
         if name in self.bs.records:
             raise ControlError(f"a {self.bs.records[name].spec.kind} named {name!r} is"
                                " already deployed")
         s = Spec("resource", name, class_path, dict(options or {}), self.base_dir,
-                 allow={k: Level.parse(v).name for k, v in (allow or {}).items()})
-        return self.rs.add(s)
+                 allow={k: Level.parse(v).name for k, v in (allow or {}).items()},
+                 restart_max=int(restart[0]), restart_within=float(restart[1]))
+        return self.rs.request(self.rs.add, s)
 
     def remove_resource(self, name: str) -> list[str]:
-        return self.rs.remove(name)
+        return self.rs.request(self.rs.remove, name)
 
     def put(self, name: str, data: Any, timeout: float = 1.0, sender: str = "operator") -> None:
         ok, why = self.bs.put(sender, name, data, timeout)

@@ -251,6 +251,9 @@ class Agent:
         elif op == "detached":
             host.notify_detached(str(b.get("resource")))
             req.reply({"ok": None})
+        elif op == "attached":
+            host.notify_attached(str(b.get("resource")))
+            req.reply({"ok": None})
         elif op == "enable":
             host.set_enabled(bool(b.get("enabled")))
             req.reply({"ok": None})
@@ -271,6 +274,7 @@ class Agent:
         try:
             cls = component_class(self.spec.class_path, self.spec.base_dir, self.spec.where)
             host = self.host = ResourceHost(self.spec, cls, self.port)
+            host.on_failed = lambda _reason: self.done.set()    # exits non-zero: main()
             kids = host.start()
         except StdError as exc:
             self.hello(error=exc.message)
@@ -430,6 +434,8 @@ def main(argv: list[str] | None = None) -> int:
         if agent.host is not None:
             agent.host.stop(1.0)
         bus.close()
+    if agent.host is not None and getattr(agent.host, "state", "") == "failed":
+        code = 1                  # its component failed: a supervisor (systemd) may restart
     os._exit(code)
 
 

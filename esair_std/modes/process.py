@@ -33,6 +33,16 @@ RESERVED_BYTES = 8192    # a put this small may go into a component's reserved r
 _ERRORS = {"CommandError": CommandError, "ResourceLost": ResourceLost, "Refused": Refused}
 
 
+def _exits(proc: subprocess.Popen, timeout: float) -> bool:
+    """Whether ``proc`` has exited, waiting up to ``timeout`` (its socket closes a
+    moment before it can be reaped)."""
+    try:
+        proc.wait(timeout)
+    except subprocess.TimeoutExpired:
+        return False
+    return True
+
+
 def agent_command(endpoint: str, robot: str, spec: Spec, generation: int) -> list[str]:
     # children listen on the loopback only: nobody from another computer reaches them
     # past the control endpoint's security (remote agents go through the runtime)
@@ -243,6 +253,9 @@ class ProcessComponent(_Child):
     def notify_detached(self, resource: str) -> None:
         self.ask(self.key, {"op": "detached", "resource": resource}, 1.0)
 
+    def notify_attached(self, resource: str) -> None:
+        self.ask(self.key, {"op": "attached", "resource": resource}, 1.0)
+
     def set_enabled(self, enabled: bool) -> None:
         self.ask(self.key, {"op": "enable", "enabled": bool(enabled)}, 1.0)
 
@@ -265,7 +278,7 @@ class ProcessComponent(_Child):
 class ProcessResource(_Child):
     """The runtime's view of a resource entry (and its children) in an agent process."""
 
-    state = "ready"
+    state = "ready"          # "failed" when its process is gone, "stopped" when stopped
 
     @property
     def key(self) -> str:
@@ -311,6 +324,8 @@ class ProcessResource(_Child):
 
     def stop(self, timeout: float = 2.0) -> None:
         self.state = "stopped"
+        if self.mode._resources.get(self.name) is self:
+            del self.mode._resources[self.name]
         self.stop_process(self.key, timeout)
 
 
@@ -378,22 +393,34 @@ class ProcessMode:
                 threading.Thread(target=self._token_lost, args=(host,), daemon=True).start()
         elif kind in ("sensor", "actuator", "driver") and name in self._resources:
             host = self._resources[name]
-            if host.state != "stopped":
+            if host.state in ("stopped", "failed") or not host.hello.is_set():
+                return
+            if host.remote:                      # back when it joins again (center.py)
                 for res in host.children():
                     self.rt.rs.set_state(res, "lost", "its host process is gone")
+            else:
+                threading.Thread(target=self._resource_lost, args=(host,), daemon=True,
+                                 name="esair:lost").start()
 
     def _token_lost(self, host: ProcessComponent) -> None:
         """A component's token went. A local child must be dead too (its socket closes
         a moment before it can be reaped); a token of an older generation going late
         while this one lives is ignored. A remote agent's token is believed."""
-        if host.proc is not None:
-            deadline = time.monotonic() + 0.1
-            while host.proc.poll() is None:
-                if time.monotonic() > deadline:
-                    return
-                time.sleep(0.0005)
+        if host.proc is not None and not _exits(host.proc, 0.1):
+            return
         self.reported(host.name, host.generation, "failed",
                       "its process is gone (liveliness token lost)")
+
+    def _resource_lost(self, host: ProcessResource) -> None:
+        """A local resource host's token went: failed (its RS restarts it by its policy)
+        once its process is gone too; a late token of an older generation is ignored."""
+        if host.proc is not None and not _exits(host.proc, 0.1):
+            return
+        if self._resources.get(host.name) is not host or host.state != "ready":
+            return
+        host.state = "failed"
+        host.reason = "its host process is gone"
+        self.rt.rs.failed(host.name, host.generation, host.reason)
 
     def hello(self, b: dict) -> None:
         name, gen = b.get("name"), b.get("generation", 0)
@@ -458,10 +485,10 @@ class ProcessMode:
                 self._pending.pop((spec.name, generation), None)
         return child
 
-    def start_resource(self, spec: Spec) -> ProcessResource:
-        child = ProcessResource(self, spec, 1)
+    def start_resource(self, spec: Spec, generation: int = 1) -> ProcessResource:
+        child = ProcessResource(self, spec, generation)
         with self._lock:
-            self._pending[(spec.name, 1)] = child
+            self._pending[(spec.name, generation)] = child
         try:
             child.spawn()
             child.wait_hello()
@@ -470,7 +497,7 @@ class ProcessMode:
             raise
         finally:
             with self._lock:
-                self._pending.pop((spec.name, 1), None)
+                self._pending.pop((spec.name, generation), None)
         self._resources[spec.name] = child
         return child
 

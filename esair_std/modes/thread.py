@@ -107,9 +107,10 @@ class ThreadMode:
                                  f" {START_TIMEOUT:g} s")
         return host
 
-    def start_resource(self, spec: Spec) -> ResourceHost:
+    def start_resource(self, spec: Spec, generation: int = 1) -> ResourceHost:
         cls = component_class(spec.class_path, spec.base_dir, spec.where)
         host = ResourceHost(spec, cls, self.port)
+        host.on_failed = lambda reason: self.rt.rs.failed(spec.name, generation, reason)
         host.start(START_TIMEOUT)
         return host
 
