@@ -32,6 +32,8 @@ log = logging.getLogger("esair_std.agent")
 _ERRORS = {"Refused": Refused, "CommandError": CommandError, "ResourceLost": ResourceLost}
 ANSWER_MARGIN = 0.5     # a put waits its timeout plus this for the BS's answer: a behavior
                         # putting across a cut link must not overrun its step (was 2 s)
+HOST_MARGIN = 0.05      # a command's host drops it this long before its sender gives up,
+                        # so the sender, answered or not, gives up at its timeout
 RUNTIME_GRACE = 1.0     # seconds without the runtime's token before leaving
 HELLO_S = 10.0          # how long an agent asks the runtime to take its hello
 
@@ -46,6 +48,7 @@ class ZenohPort:
         self.robot = robot
         self._pubs: dict[str, Any] = {}
         self._calls: dict[str, SampleCaller] = {}
+        self._routes: dict[str, Any] = {}        # actuator -> transport.bus.Route
 
     def _ctl(self, verb: str, body: dict, timeout: float = 5.0) -> Any:
         r = self.bus.request(keys.ctl(self.robot, verb), body, timeout)
@@ -69,14 +72,39 @@ class ZenohPort:
 
     def command(self, who: str, resource: str, command: Any, timeout: float,
                 direct: bool = False) -> Any:
-        r = self.bus.request(keys.actuator(self.robot, resource),
-                             {"from": who, "cmd": command, "timeout": timeout}, timeout + 0.5)
+        """The actuator's answer, within ``timeout``. When no host answers its key yet,
+        the runtime says why: a resource that is lost fails at once with its reason; one
+        that is ready (its host's declarations still on their way, e.g. at start-up) is
+        waited for, up to the timeout."""
+        deadline = time.monotonic() + timeout
+        key = keys.actuator(self.robot, resource)
+        route = self._routes.get(resource)
+        if route is None:
+            route = self._routes[resource] = self.bus.route(key)
+        if not route.ready.is_set():
+            self._lost_or_coming(resource)
+            route.ready.wait(max(0.0, deadline - time.monotonic()))
+        left = deadline - time.monotonic()
+        r = None
+        if left > 0:
+            r = self.bus.request(key, {"from": who, "cmd": command,
+                                       "timeout": max(0.0, left - HOST_MARGIN)}, left)
         if r is None:
-            raise ResourceLost(resource, "no answer: its host is gone")
+            self._lost_or_coming(resource)
+            raise ResourceLost(resource, f"no answer within {timeout:g} s")
         if "error" in r:
             cls = _ERRORS.get(r.get("type"), CommandError)
             raise Refused(r["error"]) if cls is Refused else cls(resource, r["error"])
         return r.get("ok")
+
+    def _lost_or_coming(self, resource: str) -> None:
+        """ResourceLost with the runtime's reason unless ``resource`` is ready."""
+        try:
+            state, why = self._ctl("resinfo", {"resource": resource}, 2.0)
+        except StdError:
+            return
+        if state != "ready":
+            raise ResourceLost(resource, f"{state}: {why}" if why else str(state))
 
     def configure(self, who: str | None, resource: str, key: str, value: Any) -> Any:
         return self._ctl("configure", {"who": who, "resource": resource, "key": key,
@@ -274,7 +302,7 @@ class Agent:
         try:
             cls = component_class(self.spec.class_path, self.spec.base_dir, self.spec.where)
             host = self.host = ResourceHost(self.spec, cls, self.port)
-            host.on_failed = lambda _reason: self.done.set()    # exits non-zero: main()
+            host.on_failed = self._resource_failed                # exits non-zero: main()
             kids = host.start()
         except StdError as exc:
             self.hello(error=exc.message)
@@ -286,6 +314,12 @@ class Agent:
         kind = "driver" if isinstance(host.driver, Driver) else next(iter(kids.values()))
         self.bus.token(keys.alive(self.robot, kind, self.spec.name))
         self.hello(children=kids)
+
+    def _resource_failed(self, reason: str) -> None:
+        """The resource host's thread died: the runtime told why, then this process ends
+        (status 1), and its RS restarts it by its policy."""
+        self.port.state_changed(self.spec.name, self.generation, "failed", reason)
+        self.done.set()
 
     def _on_actuator(self, req: Request) -> None:
         b = req.body

@@ -449,6 +449,12 @@ class ProcessMode:
         return host if isinstance(host, ProcessComponent) else None
 
     def reported(self, name: str, generation: int, phase: str, reason: str) -> None:
+        res = self._resources.get(name)
+        if res is not None and res.generation == generation and not res.remote:
+            if phase == "failed" and res.state == "ready":     # its host thread died
+                res.state, res.reason = "failed", reason
+                self.rt.rs.failed(name, generation, reason)
+            return
         host = self._component(name, generation)
         if host is None:
             return

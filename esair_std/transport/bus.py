@@ -58,6 +58,31 @@ class Request:
             self._query.drop()     # a held query stalls the asker until its timeout
 
 
+class Route:
+    """Whether some queryable answers ``key`` now (Zenoh's matching status), kept in
+    ``ready`` (an Event: wait on it, never poll)."""
+
+    def __init__(self, session: Any, key: str):
+        self.ready = threading.Event()
+        self._querier = session.declare_querier(key)
+        self._listener = self._querier.declare_matching_listener(self._status)
+        if self._querier.matching_status.matching:
+            self.ready.set()
+
+    def _status(self, status: Any) -> None:
+        if status.matching:
+            self.ready.set()
+        else:
+            self.ready.clear()
+
+    def undeclare(self) -> None:
+        for d in (self._listener, self._querier):
+            try:
+                d.undeclare()
+            except Exception:  # noqa: BLE001 - the session is closing
+                pass
+
+
 class Bus:
     def __init__(self, listen: list[str] | None = None, connect: list[str] | None = None,
                  options: dict | None = None):
@@ -87,6 +112,10 @@ class Bus:
         except Exception as exc:  # noqa: BLE001 - session closed etc.
             raise TransportError(f"request on {key} failed: {exc}") from None
         return None
+
+    def route(self, key: str) -> Route:
+        """A :class:`Route` to ``key`` (undeclared when the bus closes)."""
+        return self._keep(Route(self.session, key))
 
     def request_async(self, key: str, body: dict, timeout: float,
                       done: Callable[[Any], None]) -> None:

@@ -30,6 +30,8 @@ class Recorder(Actuator):
         if isinstance(command, dict) and "lost" in command:
             self.mark_lost(command["lost"])
             return "marking lost"
+        if isinstance(command, dict) and "die" in command:
+            raise SystemExit(command["die"])      # past every handler: the host dies
         self.log_.append(command)
         return {"n": len(self.log_), "gain": self.gain}
 
@@ -265,3 +267,37 @@ class Gate(Behavior):
 
     def provide(self, requester):
         return {"got": self.got}
+
+
+class Tally(Actuator):
+    """Counts the steps' commands per tag and records every stop() (configure "log")."""
+
+    def open(self):
+        self.steps = {}
+        self.stopped = []
+
+    def write(self, command):
+        if "stopped" in command:
+            self.stopped.append(command["stopped"])
+        else:
+            self.steps[str(command["step"])] = self.steps.get(str(command["step"]), 0) + 1
+        return None
+
+    def configure(self, key, value):
+        return {"steps": self.steps, "stopped": self.stopped}
+
+
+class Looper(Behavior):
+    """Reads the sensor and commands ``tally`` every step; its stop() commands it once."""
+
+    def start(self):
+        self.h = self.attach_sensor("count")
+        self.act = self.attach_actuator("tally")
+        self.tag = self.options["tag"]
+
+    def step(self):
+        self.h.samples()
+        self.act.send({"step": self.tag})
+
+    def stop(self):
+        self.act.send({"stopped": self.tag})

@@ -1,0 +1,143 @@
+"""One supervisor for behaviors and resources (esair_std/supervisor.py): a resource's
+host that dies comes back under its ``restart`` policy and the behaviors that used it
+work again; a resource removed and added again re-attaches them (or they are listed as
+detached); a behavior is stopped before its registrations are released, so its stop()
+runs once, with its handles working, even under a 1 kHz stream."""
+
+import os
+import signal
+
+import pytest
+from conftest import call, wait_for
+
+from esair_std.errors import ControlError
+
+DEP = {
+    "resources": {
+        "count": {"class": "comps:Counter", "rate": 100, "allow": {"*": "read"}},
+        "rec": {"class": "comps:Recorder", "allow": {"probe": "command"},
+                "restart": {"max": 1, "within": 60}},
+    },
+    "behaviors": {
+        "probe": {"class": "comps:Probe", "uses": {"count": "read", "rec": "command"}},
+    },
+}
+
+
+def row(rt, name):
+    return [r for r in rt.ls() if r["name"] == name][0]
+
+
+def test_a_dead_resource_host_restarts_under_its_policy(start):
+    rt = start(DEP)
+    assert call(rt, "probe", "attach_actuator", "rec") == {"ok": "ready"}
+    assert call(rt, "probe", "send", "rec", "a") == {"ok": {"n": 1, "gain": 1}}
+    out = call(rt, "probe", "send", "rec", {"die": "unplugged"})
+    assert out["error"] == "ResourceLost"
+    wait_for(lambda: row(rt, "rec")["restarts"] == 1 and rt.state("rec") == "ready",
+             what="the resource restarted")
+    # the behavior's handle works again: same registration, a new device instance
+    assert call(rt, "probe", "handle_state", "rec") == {"ok": "ready"}
+    assert call(rt, "probe", "send", "rec", "b") == {"ok": {"n": 1, "gain": 1}}
+    assert rt.inspect("rec")["grants"] == {"probe": "command"}
+    assert rt.state("probe") == "running"
+    # the policy allows one restart: the next death leaves it lost, with the reason
+    call(rt, "probe", "send", "rec", {"die": "unplugged again"})
+    wait_for(lambda: row(rt, "rec")["reason"].endswith("(stays failed)"), what="lost for good")
+    assert row(rt, "rec")["state"] == "lost"
+    assert row(rt, "rec")["reason"] == "its host died: SystemExit: unplugged again (stays failed)"
+    assert call(rt, "probe", "send", "rec", "c") == {
+        "error": "ResourceLost",
+        "message": "rec: lost: its host died: SystemExit: unplugged again (stays failed)"}
+    assert call(rt, "probe", "handle_state", "rec") == {"ok": "lost"}
+    assert rt.state("probe") == "running"
+
+
+@pytest.mark.parametrize("mode", ["process"])      # a thread has no process to kill
+def test_sigkilled_resource_process_comes_back(start, mode):
+    rt = start(DEP)
+    assert call(rt, "probe", "attach_actuator", "rec") == {"ok": "ready"}
+    assert call(rt, "probe", "attach_sensor", "count") == {"ok": "ready"}
+    victim = row(rt, "rec")["pid"]
+    os.kill(victim, signal.SIGKILL)
+    wait_for(lambda: row(rt, "rec")["restarts"] == 1 and rt.state("rec") == "ready",
+             what="restart after SIGKILL")
+    assert row(rt, "rec")["pid"] != victim
+    assert call(rt, "probe", "send", "rec", "x") == {"ok": {"n": 1, "gain": 1}}
+    os.kill(row(rt, "rec")["pid"], signal.SIGKILL)
+    wait_for(lambda: row(rt, "rec")["reason"].endswith("(stays failed)"), what="lost for good")
+    assert row(rt, "rec")["state"] == "lost"
+    assert row(rt, "rec")["reason"] == "its host process is gone (stays failed)"
+    out = call(rt, "probe", "send", "rec", "y")
+    assert out["error"] == "ResourceLost"
+    assert rt.state("probe") == "running"
+    assert rt.state("count") == "ready"                # another resource: untouched
+
+
+def test_a_resource_added_again_re_attaches_its_behaviors(start):
+    rt = start(DEP)
+    assert call(rt, "probe", "attach_actuator", "rec") == {"ok": "ready"}
+    assert call(rt, "probe", "attach_sensor", "count") == {"ok": "ready"}
+    wait_for(lambda: call(rt, "probe", "latest", "count")["ok"], what="a sample")
+    assert rt.remove_resource("rec") == ["probe"]
+    assert rt.remove_resource("count") == ["probe"]
+    assert row(rt, "probe")["detached"] == ["count", "rec"]
+    assert call(rt, "probe", "send", "rec", 1) == {
+        "error": "ResourceLost", "message": "rec: detached: the resource was removed"}
+    rt.add_resource("rec", "comps:Recorder", allow={"probe": "command"})
+    rt.add_resource("count", "comps:Counter", allow={"*": "read"}, options={"rate": 100})
+    assert row(rt, "probe")["detached"] == []
+    assert call(rt, "probe", "handle_state", "rec") == {"ok": "ready"}
+    assert call(rt, "probe", "send", "rec", 2) == {"ok": {"n": 1, "gain": 1}}
+    assert rt.inspect("count")["attached"] == ["probe"]
+    last = call(rt, "probe", "latest", "count")["ok"]        # the old counter's last
+    wait_for(lambda: call(rt, "probe", "latest", "count")["ok"] != last,
+             what="samples of the new counter")
+    # added again with a policy that no longer lets it command: it stays detached
+    rt.remove_resource("rec")
+    rt.add_resource("rec", "comps:Recorder", allow={"probe": "read"})
+    assert row(rt, "probe")["detached"] == ["rec"]
+    assert call(rt, "probe", "handle_state", "rec") == {"ok": "detached"}
+    assert call(rt, "probe", "send", "rec", 3) == {
+        "error": "ResourceLost", "message": "rec: detached: the resource was removed"}
+    assert rt.inspect("rec")["grants"] == {}
+    assert rt.state("probe") == "running"
+
+
+def test_a_resource_restart_policy_is_checked(tmp_path):
+    from esair_std.deploy import load_deployment
+    from esair_std.errors import DeployError
+    f = tmp_path / "d.yaml"
+    f.write_text("robot: r\nresources:\n  c: {class: 'comps:Counter', restart: {max: 2, within: 0}}\n")
+    with pytest.raises(DeployError) as e:
+        load_deployment(str(f))
+    assert str(e.value) == f"{f}:3:57: 'within' must be greater than 0 (seconds), not 0"
+    f.write_text("robot: r\nresources:\n  c: {class: 'comps:Counter', restart: {max: 2, within: 5}}\n")
+    dep = load_deployment(str(f))
+    assert (dep.resources["c"].restart.max, dep.resources["c"].restart.within) == (2, 5.0)
+    assert dep.resources["c"].options == {}
+
+
+LOOP = {
+    "resources": {
+        "count": {"class": "comps:Counter", "rate": 1000, "allow": {"*": "read"}},
+        "tally": {"class": "comps:Tally", "allow": {"loop": "command"}},
+    },
+}
+
+
+def test_remove_stops_first_and_stop_runs_once_under_load(start):
+    rt = start(LOOP)
+    for tag in range(8):
+        rt.add("loop", "comps:Looper", uses={"count": "read", "tally": "command"},
+               period=0.001, options={"tag": tag})
+        wait_for(lambda t=tag: rt.configure("tally", "log", None)["steps"].get(str(t), 0) >= 20,
+                 what="steps under way")
+        rt.remove("loop")
+        log = rt.configure("tally", "log", None)
+        assert log["stopped"] == list(range(tag + 1))      # exactly once, each time
+        assert rt.state("loop") is None
+        assert rt.inspect("tally")["grants"] == {}
+        assert rt.inspect("count")["attached"] == []
+    with pytest.raises(ControlError):
+        rt.remove("loop")
