@@ -18,7 +18,7 @@ import threading
 from collections import deque
 from typing import Any, Callable
 
-from .errors import Refused, ResourceLost
+from .errors import CommandError, Refused, ResourceLost, StdError
 from .level import Level
 from .sample import Sample
 
@@ -91,15 +91,22 @@ class ActuatorHandle(_Handle):
         self.detached = False
 
     def send(self, command: Any, timeout: float = 1.0) -> Any:
-        """The actuator's ``write()`` result; CommandError / ResourceLost on failure."""
+        """The actuator's ``write()`` result. Raises only CommandError (the actuator
+        refused or failed it, no answer within ``timeout``, or the sender is not, or no
+        longer, registered to command it: "refused: ...") or ResourceLost (removed,
+        lost, its host gone)."""
         if self.detached:
             self.failed += 1
             raise ResourceLost(self.resource, "detached: the resource was removed")
         try:
             result = self._send(self.resource, command, timeout)
-        except Exception:
+        except (CommandError, ResourceLost):
             self.failed += 1
             raise
+        except StdError as exc:       # Refused, a command that is not JSON (TransportError)
+            self.failed += 1
+            why = f"refused: {exc.message}" if isinstance(exc, Refused) else exc.message
+            raise CommandError(self.resource, why) from None
         self.sent += 1
         return result
 

@@ -197,6 +197,8 @@ class Probe(Behavior):
         try:
             if do == "send":
                 out = self.handles[args[0]].send(*args[1:])
+            elif do == "send_set":                  # a command that is not JSON
+                out = self.handles[args[0]].send({1, 2})
             elif do == "handle_state":
                 out = self.handles[args[0]].state
             elif do == "latest":
@@ -287,7 +289,7 @@ class Tally(Actuator):
         return {"steps": self.steps, "stopped": self.stopped}
 
 
-class Looper(Behavior):
+class StreamStepper(Behavior):
     """Reads the sensor and commands ``tally`` every step; its stop() commands it once."""
 
     def start(self):
@@ -301,3 +303,14 @@ class Looper(Behavior):
 
     def stop(self):
         self.act.send({"stopped": self.tag})
+
+
+class Eager(Behavior):
+    """Attaches options['actuator'] in start() and commands it at once."""
+
+    def start(self):
+        self.act = self.attach_actuator(self.options.get("actuator", "rec"))
+        self.first = self.act.send({"eager": 1})
+
+    def provide(self, requester):
+        return {"first": self.first}
