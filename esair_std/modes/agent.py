@@ -91,7 +91,7 @@ class ZenohPort:
                                        "timeout": max(0.0, left - HOST_MARGIN)}, left)
         if r is None:
             self._lost_or_coming(resource)
-            raise ResourceLost(resource, f"no answer within {timeout:g} s")
+            raise CommandError(resource, f"no answer within {timeout:g} s")
         if "error" in r:
             cls = _ERRORS.get(r.get("type"), CommandError)
             raise Refused(r["error"]) if cls is Refused else cls(resource, r["error"])
