@@ -202,7 +202,9 @@ def run(endpoint: str, name: str, class_path: str, kind: str, uses: dict | None 
             ready(agent)
         while not agent.done.wait(0.2):
             pass
-        return 0
+        # its component failed: exit status 1, so a supervisor of the process (systemd's
+        # Restart=on-failure) starts it again
+        return 1 if getattr(agent.host, "state", "") == "failed" else 0
     finally:
         host = locals().get("agent")
         if host is not None and host.host is not None:

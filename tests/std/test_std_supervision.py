@@ -191,3 +191,29 @@ def _answers(port):
         return port.state_of("recorder") == "ready"
     except StdError:
         return False
+
+
+def test_a_behavior_configures_a_sensor_its_allow_grants(start):
+    rt = start({"resources": {"count": {"class": "comps:Counter", "rate": 100,
+                                        "allow": {"tuner": "configure", "*": "read"}}},
+                "behaviors": {"tuner": {"class": "comps:Probe", "uses": {"count": "configure"}},
+                              "other": {"class": "comps:Probe", "uses": {"count": "read"}}}})
+    assert call(rt, "tuner", "register", "count", "configure") == {"ok": "configure"}
+    assert call(rt, "tuner", "configure", "count", "rate_hz", 50) == {"ok": 50.0}
+    assert rt.inspect("count")["grants"] == {"tuner": "configure"}
+    assert call(rt, "tuner", "attach_actuator", "count") == {
+        "error": "Refused", "message": "'count' is a sensor: it takes no commands"}
+    assert call(rt, "other", "configure", "count", "rate_hz", 5) == {
+        "error": "Refused", "message": "behavior 'other' is not registered for 'count'"}
+
+
+@pytest.mark.parametrize("mode", ["process"])      # an agent process: process mode
+def test_an_agent_whose_component_failed_exits_non_zero(start, mode):
+    rt = start({"behaviors": {"faulty": {"class": "comps:Faulty", "fail": "raise"},
+                              "fine": {"class": "comps:Sink"}}})
+    wait_for(lambda: rt.state("faulty") == "failed", what="failed")
+    proc = rt.bs.records["faulty"].host.proc
+    assert proc.wait(10) == 1
+    fine = rt.bs.records["fine"].host.proc
+    rt.remove("fine")
+    assert fine.wait(10) == 0
