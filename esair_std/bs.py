@@ -28,9 +28,11 @@ class BehaviorSupervisor(Supervisor):
     """Behaviors and reactions on the generic supervisor (supervisor.py), plus the
     mediator (phase 3)."""
 
-    def __init__(self, start_host: Callable[[Spec, int], Any], rs: Any):
+    def __init__(self, start_host: Callable[[Spec, int], Any], rs: Any,
+                 forget: Callable[[str], None] | None = None):
         super().__init__("bs", start_host)   # mode: (spec, generation) -> started host
         self._rs = rs
+        self._forget = forget or (lambda _name: None)   # the mode's tables for a name
         self.c.update(puts_ok=0, puts_failed=0, gets_ok=0, gets_failed=0)
 
     # ---- phases 1-2
@@ -55,6 +57,8 @@ class BehaviorSupervisor(Supervisor):
 
     def released(self, name: str, rec: Record, why: str) -> None:
         self._rs.release(name)
+        if why == "removed":
+            self._forget(name)
 
     # ---- phase 3: the mediator
     def _target(self, name: str) -> tuple[Record | None, str]:

@@ -51,7 +51,7 @@ class Runtime:
         self.rs = ResourceSupervisor(self._start_resource, self.sc, self._detached,
                                      self._attached, self._uses_of)
         self.ac = ActuatorConnection(self.rs)
-        self.bs = BehaviorSupervisor(self._start_component, self.rs)
+        self.bs = BehaviorSupervisor(self._start_component, self.rs, self._forget)
         self.server: Any = None
         self.session_options: dict | None = None
         self.extra_listen: list[str] = []
@@ -125,6 +125,11 @@ class Runtime:
 
     def _start_resource(self, spec: Spec, generation: int) -> Any:
         return self.mode.start_resource(spec, generation)
+
+    def _forget(self, name: str) -> None:
+        forget = getattr(self.mode, "forget", None)
+        if forget is not None:
+            forget(name)
 
     def _detached(self, behavior: str, resource: str) -> None:
         self.bs.notify_detached(behavior, resource)

@@ -376,6 +376,20 @@ class ProcessMode:
                 keys.bs_deliver(self.rt.robot, name), drop=True, raw=True)
         pub(body)
 
+    def forget(self, name: str) -> None:
+        """Component ``name`` was removed: the publishers kept for it go (the BS's
+        deliveries and offers to it, the answers to its puts), so the runtime's tables
+        stay bounded however many differently named components come and go."""
+        robot = self.rt.robot
+        if self._deliver_pubs.pop(name, None) is not None:
+            self.bus.undeclare(keys.bs_deliver(robot, name))
+        offers = getattr(self, "offers", None)
+        if offers is not None:
+            offers.forget(keys.bs_offer(robot, name))
+        puts = getattr(self.rt.server, "puts", None)
+        if puts is not None:
+            puts.forget(keys.ctl_put(robot, name))
+
     def _alive(self, key: str, alive: bool) -> None:
         parsed = keys.parse_alive(self.rt.robot, key)
         if parsed is None or alive:

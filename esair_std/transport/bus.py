@@ -88,6 +88,7 @@ class Bus:
                  options: dict | None = None):
         self.session = open_session(listen, connect, options)
         self._decl: list[Any] = []
+        self._pub_of: dict[str, tuple] = {}     # key -> its publishers (``undeclare``)
         self._lock = threading.Lock()
         self.closed = False
 
@@ -157,7 +158,8 @@ class Bus:
     def publisher(self, key: str, drop: bool = False, raw: bool = False) -> Callable[[Any], None]:
         """``put(obj)`` for ``key``. ``drop``: never wait for a congested link (for
         messages whose loss the sender notices by a timeout), sent at once (express).
-        ``raw``: ``put(data)`` takes the bytes already encoded (codec.encode)."""
+        ``raw``: ``put(data)`` takes the bytes already encoded (codec.encode). A table of
+        publishers per peer gives them back with :meth:`undeclare` when the peer goes."""
         if drop:
             pub = self._keep(self.session.declare_publisher(
                 key, congestion_control=zenoh.CongestionControl.DROP, express=True))
@@ -166,11 +168,26 @@ class Bus:
                 key, congestion_control=zenoh.CongestionControl.BLOCK))
 
         if raw:
-            return pub.put
-
-        def put(obj: Any) -> None:
-            pub.put(codec.encode(obj))
+            put = pub.put
+        else:
+            def put(obj: Any) -> None:
+                pub.put(codec.encode(obj))
+        with self._lock:
+            self._pub_of[key] = self._pub_of.get(key, ()) + (pub,)
         return put
+
+    def undeclare(self, key: str) -> None:
+        """Undeclare the publishers made for ``key`` (their ``put`` fails after)."""
+        with self._lock:
+            pubs = self._pub_of.pop(key, ())
+            for pub in pubs:
+                if pub in self._decl:
+                    self._decl.remove(pub)
+        for pub in pubs:
+            try:
+                pub.undeclare()
+            except Exception:  # noqa: BLE001 - the session is closing
+                pass
 
     def subscribe(self, key: str, callback: Callable[..., None], *,
                   with_key: bool = False,

@@ -92,6 +92,14 @@ class SampleCaller:
             self._finish(oid, None)
         return True
 
+    def forget(self, key: str) -> None:
+        """The peer behind ``key`` is gone: its publisher is given back (bounded tables
+        however many peers come and go); a later call declares it again."""
+        with self._lock:
+            pub = self._pubs.pop(key, None)
+        if pub is not None:
+            self.bus.undeclare(key)
+
     def wait(self, key: str, peer: str, body: dict, timeout: float) -> Any:
         """``call`` from a thread that waits: the answer, or None."""
         box: queue.SimpleQueue = queue.SimpleQueue()
@@ -157,6 +165,14 @@ class SampleServer:
 
     def _garbage(self, _why: str) -> None:
         self.c["bad_requests"] += 1
+
+    def forget(self, request_key: str) -> None:
+        """The peer sending on ``request_key`` is gone: its answer publisher is given
+        back; a later request declares it again."""
+        with self._lock:
+            pub = self._pubs.pop(request_key, None)
+        if pub is not None:
+            self.bus.undeclare(self.answer_key(request_key))
 
     def _publisher(self, request_key: str) -> Callable[[Any], None] | None:
         pub = self._pubs.get(request_key)

@@ -217,3 +217,23 @@ def test_an_agent_whose_component_failed_exits_non_zero(start, mode):
     fine = rt.bs.records["fine"].host.proc
     rt.remove("fine")
     assert fine.wait(10) == 0
+
+
+@pytest.mark.parametrize("mode", ["process"])      # the BS's publishers: process mode
+def test_the_runtimes_tables_stay_bounded_as_components_come_and_go(start, mode):
+    """Differently named behaviors added, put to, putting, removed: what the runtime
+    keeps per name (the BS's deliver and offer publishers, the answers to a sender's
+    puts) goes with them (bench/std_churn.py: 2 000 cycles, RSS)."""
+    rt = start({"behaviors": {"sink": {"class": "comps:Sink"}}})
+    sizes = []
+    for i in range(25):
+        name = f"p{i}"
+        rt.add(name, "comps:Pusher", period=0.01)
+        wait_for(lambda n=name: rt.get(n)["ok"] >= 2, what="puts from it")
+        rt.put(name, {"hello": i})
+        rt.remove(name)
+        sizes.append((len(rt.mode._deliver_pubs), len(rt.mode.offers._pubs),
+                      len(rt.server.puts._pubs), len(rt.server.bus._pub_of)))
+        assert name not in rt.mode._deliver_pubs
+    assert sizes[-1] == sizes[0] and max(sizes) == sizes[0], sizes
+    assert rt.get("sink")["got"][-1][0] == "p24"
