@@ -281,3 +281,4 @@ class ResourceSupervisor(Supervisor):
     def set_state(self, resource: str, state: str, reason: str) -> None:
         if resource in self.resources:
             self.states[resource] = (state, reason)
+            self.on_change()

@@ -30,7 +30,8 @@ from .spec import Spec
 
 log = logging.getLogger("esair_std.runtime")
 MODES = ("thread", "process")
-WATCH_PERIOD = 0.005
+WATCH_IDLE = 1.0      # the watchdog's longest sleep (a component added meanwhile wakes it)
+WAIT_RECHECK = 0.1    # wait_state: how often a state no event announces (busy) is looked at
 
 
 class Runtime:
@@ -58,6 +59,10 @@ class Runtime:
         self.local_endpoint: str | None = None     # where local children connect
         self.center: Any = None                    # remote agents (process mode)
         self._stop = threading.Event()
+        self._kick = threading.Event()      # wakes the watchdog: a component started
+        self._changed = threading.Condition()   # a state changed (wait_state waits on it)
+        self._version = 0
+        self.bs.on_change = self.rs.on_change = self.note_change
         self._watch: threading.Thread | None = None
         self.started_at = 0.0
         if self.mode_name == "thread":
@@ -98,6 +103,7 @@ class Runtime:
 
     def stop(self) -> None:
         self._stop.set()
+        self._kick.set()
         self.bs.stop_all()
         self.rs.stop_all()
         if self._watch is not None and self._watch.is_alive():
@@ -114,14 +120,25 @@ class Runtime:
         self.stop()
 
     def _watchdog(self) -> None:
-        while not self._stop.wait(WATCH_PERIOD):
+        """Sleeps until a host's deadline can next be reached (ComponentHost.check), not
+        a fixed tick: idle components cost no wake-ups."""
+        wait = 0.0
+        while True:
+            self._kick.wait(wait)
+            self._kick.clear()
+            if self._stop.is_set():
+                return
             try:
-                self.mode.watch(time.monotonic())
+                nxt = self.mode.watch(time.monotonic())
             except Exception as exc:  # noqa: BLE001 - keep watching
                 log.error("watchdog: %s", exc)
+                nxt = None
+            wait = WATCH_IDLE if nxt is None else min(max(nxt, 0.001), WATCH_IDLE)
 
     def _start_component(self, spec: Spec, generation: int) -> Any:
-        return self.mode.start_component(spec, generation)
+        host = self.mode.start_component(spec, generation)
+        self._kick.set()                    # its deadline joins the watchdog's
+        return host
 
     def _start_resource(self, spec: Spec, generation: int) -> Any:
         return self.mode.start_resource(spec, generation)
@@ -246,17 +263,29 @@ class Runtime:
                         counters=self.server.counters())
         raise ControlError(f"no component {name!r}")
 
+    def note_change(self) -> None:
+        """A component's state changed (supervisors, hosts, agents' reports)."""
+        with self._changed:
+            self._version += 1
+            self._changed.notify_all()
+
     def wait_state(self, name: str, states: str | tuple, timeout: float = 10.0) -> str:
-        """Wait until ``name`` is in one of ``states``; its state (for tests, scripts)."""
+        """Wait until ``name`` is in one of ``states``; its state (for tests, scripts).
+        Woken by every change the runtime is told of; ``busy`` (a behavior's own flag,
+        not an event) is looked at again every WAIT_RECHECK seconds."""
         want = (states,) if isinstance(states, str) else tuple(states)
         deadline = time.monotonic() + timeout
         while True:
+            seen = self._version
             s = self.state(name)
             if s in want:
                 return s
-            if time.monotonic() > deadline:
+            left = deadline - time.monotonic()
+            if left <= 0:
                 raise ControlError(f"{name!r} is {s}, not {'/'.join(want)}, after {timeout:g} s")
-            time.sleep(0.002)
+            with self._changed:
+                self._changed.wait_for(lambda v=seen: self._version != v,
+                                       min(left, WAIT_RECHECK))
 
     def summary(self) -> list[dict]:
         """Per component: state, samples delivered/overwritten, puts ok/failed, restarts."""

@@ -132,6 +132,7 @@ class Supervisor:
         self._thread = threading.Thread(target=self._main, name=f"esair:{name}", daemon=True)
         self._closing = False
         self.c = dict(restarts=0)
+        self.on_change: Callable[[], None] = lambda: None   # a child's state changed
 
     # ---- what a subclass says
     def released(self, name: str, rec: Record, why: str) -> None:
@@ -177,6 +178,7 @@ class Supervisor:
             raise
         if _state(host) == "failed":
             self._failed(spec.name, 1, getattr(host, "reason", ""))
+        self.on_change()
         return rec
 
     def remove_child(self, name: str) -> Record:
@@ -184,6 +186,7 @@ class Supervisor:
         says)."""
         rec = self.records[name]
         self._stop_child(name, rec)
+        self.on_change()
         return rec
 
     def _stop_child(self, name: str, rec: Record) -> None:
@@ -239,6 +242,12 @@ class Supervisor:
                 log.error("supervisor: %s", value[1])
 
     def _failed(self, name: str, generation: int, reason: str) -> None:
+        try:
+            self._fail(name, generation, reason)
+        finally:
+            self.on_change()
+
+    def _fail(self, name: str, generation: int, reason: str) -> None:
         rec = self.records.get(name)
         if (rec is None or rec.generation != generation or self._closing or rec.removing
                 or rec.handled >= generation):
@@ -274,7 +283,7 @@ class Supervisor:
             rec.host.stop()
             return
         if _state(rec.host) == "failed":
-            self._failed(name, rec.generation, getattr(rec.host, "reason", ""))
+            self._fail(name, rec.generation, getattr(rec.host, "reason", ""))
             return
         self.restarted(name, rec)
 

@@ -196,15 +196,18 @@ class Agent:
         body = dict(name=self.spec.name, kind=self.spec.kind, generation=self.generation,
                     pid=os.getpid(), host=os.uname().nodename, **extra)
         # a behavior's session returns from open before the runtime's declarations may
-        # have come (process.py: connect_scouted off), so nobody answering at first is
-        # asked again, for up to HELLO_S
+        # have come (process.py: connect_scouted off): it waits for the runtime's hello
+        # queryable to be known (Zenoh's matching status, an event), for up to HELLO_S
         deadline = time.monotonic() + HELLO_S
-        while True:
+        route = self.bus.route(keys.ctl(self.robot, "hello"))
+        r = None
+        while r is None:
+            left = deadline - time.monotonic()
+            if left <= 0 or not route.ready.wait(left):
+                break
             r = self.bus.request(keys.ctl(self.robot, "hello"), body,
                                  max(0.001, deadline - time.monotonic()))
-            if r is not None or time.monotonic() >= deadline:
-                break
-            time.sleep(0.002)
+        route.undeclare()
         if r is None or "error" in r:
             raise TransportError(f"runtime refused hello: {r and r.get('error')}")
 
@@ -235,8 +238,11 @@ class Agent:
         threading.Thread(target=self._watchdog, daemon=True, name="esair:watch").start()
 
     def _watchdog(self) -> None:
-        while not self.done.wait(0.005):
-            self.host.check(time.monotonic())
+        """Sleeps until the host's current call could reach its deadline (check())."""
+        wait = 0.0
+        while not self.done.wait(wait):
+            nxt = self.host.check(time.monotonic())
+            wait = RUNTIME_GRACE if nxt is None else max(nxt, 0.001)
 
     def _report_room(self) -> None:
         self._credit({"gen": self.generation, "open": self.host.open,

@@ -243,12 +243,22 @@ class ComponentHost:
     def set_enabled(self, enabled: bool) -> None:
         self.enabled = bool(enabled)
 
-    def check(self, now: float) -> None:
-        """Watchdog: a user call running past the deadline fails the component."""
+    def check(self, now: float) -> float | None:
+        """Watchdog: a user call running past the deadline fails the component. The
+        seconds until it needs checking again (a call now running reaches its deadline;
+        none running: a call starting now could not overrun sooner), None when never
+        (stopped or failed): the watchdog sleeps that long instead of polling."""
+        if self._phase in ("failed", "stopped"):
+            return None
         started = self._call_started
-        if started is not None and now - started > self.deadline:
+        if started is None:
+            return self.deadline
+        left = started + self.deadline - now
+        if left < 0:
             self._abandoned = True
             self._fail(f"{self._call_name}() ran over its {self.deadline:g} s deadline")
+            return None
+        return left + 0.001
 
     def counters(self) -> dict:
         out = dict(self.c)

@@ -33,16 +33,6 @@ RESERVED_BYTES = 8192    # a put this small may go into a component's reserved r
 _ERRORS = {"CommandError": CommandError, "ResourceLost": ResourceLost, "Refused": Refused}
 
 
-def _exits(proc: subprocess.Popen, timeout: float) -> bool:
-    """Whether ``proc`` has exited, waiting up to ``timeout`` (its socket closes a
-    moment before it can be reaped)."""
-    try:
-        proc.wait(timeout)
-    except subprocess.TimeoutExpired:
-        return False
-    return True
-
-
 def agent_command(endpoint: str, robot: str, spec: Spec, generation: int) -> list[str]:
     # children listen on the loopback only: nobody from another computer reaches them
     # past the control endpoint's security (remote agents go through the runtime)
@@ -79,6 +69,8 @@ class _Child:
         self.hostname = ""
         self.info: dict = {}
         self.hello = threading.Event()
+        self.ended = threading.Event()           # its process exited (not yet reaped)
+        self.changed = threading.Event()         # hello, a phase reported, or ended
         self.proc: subprocess.Popen | None = None
         self.remote = spec.name in mode.remote   # a remote agent (esair_std.remote): not ours
         self.quiet = False                       # remote: do not tell it to stop
@@ -103,18 +95,42 @@ class _Child:
                           self.spec, self.generation),
             stdin=subprocess.PIPE, env=env, cwd=self.mode.rt.base_dir)
         self.pid = self.proc.pid
+        threading.Thread(target=self._watch_exit, args=(self.proc.pid,), daemon=True,
+                         name=f"esair:exit:{self.name}").start()
+
+    def _watch_exit(self, pid: int) -> None:
+        """Blocks until the process exits (waitid with WNOWAIT: Popen still reaps it),
+        then tells: an event, never a periodic poll."""
+        try:
+            os.waitid(os.P_PID, pid, os.WEXITED | os.WNOWAIT)
+        except ChildProcessError:               # already reaped by Popen
+            pass
+        self.ended.set()
+        self.changed.set()
+        self.on_exit()
+
+    def on_exit(self) -> None:
+        """Its process exited (from its exit watcher's thread)."""
+
+    def note(self) -> None:
+        """Something a waiter of ``changed`` looks at changed."""
+        self.changed.set()
 
     def wait_hello(self) -> None:
         deadline = time.monotonic() + START_TIMEOUT
-        while not self.hello.wait(0.02):
-            code = self.proc.poll() if self.proc else None
-            if code is not None:
+        while True:
+            self.changed.clear()
+            if self.hello.is_set():
+                break
+            if self.ended.is_set():
                 raise ComponentError(f"{self.spec.kind} {self.name!r}: its process exited"
-                                     f" with status {code} before it started")
-            if time.monotonic() > deadline:
+                                     f" with status {self.exited()} before it started")
+            left = deadline - time.monotonic()
+            if left <= 0:
                 self.kill()
                 raise ComponentError(f"{self.spec.kind} {self.name!r} did not start within"
                                      f" {START_TIMEOUT:g} s")
+            self.changed.wait(left)
         if self.info.get("error"):
             self.kill()
             raise ComponentError(self.info["error"])
@@ -263,11 +279,13 @@ class ProcessComponent(_Child):
         r = self.ask(self.key, {"op": "counters"}, 1.0)
         return r["ok"] if isinstance(r, dict) and "ok" in r else {}
 
-    def check(self, now: float) -> None:
-        code = self.exited()
-        if code is not None and self.phase not in ("failed", "stopped"):
+    def check(self, now: float) -> float | None:
+        return None              # its agent watches the deadlines; its exit is an event
+
+    def on_exit(self) -> None:
+        if self.phase not in ("failed", "stopped"):
             self.mode.reported(self.name, self.generation, "failed",
-                               f"process exited with status {code}")
+                               f"process exited with status {self.exited()}")
 
     def stop(self, timeout: float = 2.0) -> None:
         if self.phase != "failed":
@@ -322,6 +340,9 @@ class ProcessResource(_Child):
         r = self.ask(self.key, {"op": "counters"}, 1.0)
         return r["ok"] if isinstance(r, dict) and "ok" in r else {}
 
+    def on_exit(self) -> None:
+        self.mode.resource_gone(self)
+
     def stop(self, timeout: float = 2.0) -> None:
         self.state = "stopped"
         if self.mode._resources.get(self.name) is self:
@@ -338,6 +359,7 @@ class ProcessMode:
         self._pending: dict[tuple[str, int], _Child] = {}
         self._resources: dict[str, ProcessResource] = {}
         self._lock = threading.Lock()
+        self._pending_cond = threading.Condition(self._lock)   # _pending changed
         self.remote: dict[str, dict] = {}         # name -> {host, pid} of remote agents
 
     @property
@@ -413,22 +435,23 @@ class ProcessMode:
                 for res in host.children():
                     self.rt.rs.set_state(res, "lost", "its host process is gone")
             else:
-                threading.Thread(target=self._resource_lost, args=(host,), daemon=True,
+                threading.Thread(target=self.resource_gone, args=(host, 0.1), daemon=True,
                                  name="esair:lost").start()
 
     def _token_lost(self, host: ProcessComponent) -> None:
         """A component's token went. A local child must be dead too (its socket closes
         a moment before it can be reaped); a token of an older generation going late
         while this one lives is ignored. A remote agent's token is believed."""
-        if host.proc is not None and not _exits(host.proc, 0.1):
+        if host.proc is not None and not host.ended.wait(0.1):
             return
         self.reported(host.name, host.generation, "failed",
                       "its process is gone (liveliness token lost)")
 
-    def _resource_lost(self, host: ProcessResource) -> None:
-        """A local resource host's token went: failed (its RS restarts it by its policy)
-        once its process is gone too; a late token of an older generation is ignored."""
-        if host.proc is not None and not _exits(host.proc, 0.1):
+    def resource_gone(self, host: ProcessResource, wait: float = 0.0) -> None:
+        """A local resource host's token went or its process exited: failed (its RS
+        restarts it by its policy) once its process is gone; a late token of an older
+        generation is ignored."""
+        if host.proc is not None and not host.ended.wait(wait):
             return
         if self._resources.get(host.name) is not host or host.state != "ready":
             return
@@ -452,6 +475,18 @@ class ProcessMode:
             for res in child.children():
                 self.rt.rs.set_state(res, "ready", "")
         child.hello.set()
+        child.note()
+
+    def pending_changed(self) -> None:
+        with self._pending_cond:
+            self._pending_cond.notify_all()
+
+    def wait_pending(self, name: str, done: Any, timeout: float) -> bool:
+        """Wait until generation 1 of ``name`` is starting (its hello may come) or
+        ``done()``; False after ``timeout``."""
+        with self._pending_cond:
+            return self._pending_cond.wait_for(
+                lambda: (name, 1) in self._pending or done(), timeout)
 
     def _component(self, name: str, generation: Any) -> ProcessComponent | None:
         """The component ``name`` of that generation, deployed or still starting."""
@@ -475,28 +510,36 @@ class ProcessMode:
         if host.phase in ("failed", "stopped"):
             return
         host.phase = phase
+        host.note()
         if phase == "failed":
             host.reason = reason
             self.port.state_changed(name, generation, phase, reason)
+        else:
+            self.rt.note_change()
 
     def start_component(self, spec: Spec, generation: int) -> ProcessComponent:
         child = ProcessComponent(self, spec, generation)
         with self._lock:
             self._pending[(spec.name, generation)] = child
+            self._pending_cond.notify_all()
         try:
             child.spawn()
             child.wait_hello()
             deadline = time.monotonic() + START_TIMEOUT
-            while child.phase == "starting":
-                if child.exited() is not None:
+            while True:                          # its first report: running or failed
+                child.changed.clear()
+                if child.phase != "starting":
+                    break
+                if child.ended.is_set():
                     child.phase = "failed"
                     child.reason = f"process exited with status {child.exited()}"
                     break
-                if time.monotonic() > deadline:
+                left = deadline - time.monotonic()
+                if left <= 0:
                     child.kill()
                     raise ComponentError(f"{spec.kind} {spec.name!r} did not start within"
                                          f" {START_TIMEOUT:g} s")
-                time.sleep(0.001)
+                child.changed.wait(left)
         except BaseException:
             child.kill()
             raise
@@ -509,6 +552,7 @@ class ProcessMode:
         child = ProcessResource(self, spec, generation)
         with self._lock:
             self._pending[(spec.name, generation)] = child
+            self._pending_cond.notify_all()
         try:
             child.spawn()
             child.wait_hello()
@@ -521,9 +565,8 @@ class ProcessMode:
         self._resources[spec.name] = child
         return child
 
-    def watch(self, now: float) -> None:
-        for rec in list(self.rt.bs.records.values()):
-            rec.host.check(now)
+    def watch(self, now: float) -> float | None:
+        return None        # agents watch their deadlines; exits and tokens are events
 
     def close(self) -> None:
         offers = getattr(self, "offers", None)

@@ -22,7 +22,6 @@ import secrets
 import socket
 import tempfile
 import threading
-import time
 from pathlib import Path
 from typing import Any
 
@@ -142,11 +141,8 @@ class Center:
         box: list = []
         threading.Thread(target=self._add, args=(spec, box), daemon=True,
                          name=f"esair:join:{name}").start()
-        deadline = time.monotonic() + JOIN_WAIT
-        while (name, 1) not in mode._pending and not box:
-            if time.monotonic() > deadline:
-                raise ControlError(f"{name!r}: the behavior supervisor did not take it in time")
-            time.sleep(0.001)
+        if not mode.wait_pending(name, lambda: bool(box), JOIN_WAIT):
+            raise ControlError(f"{name!r}: the behavior supervisor did not take it in time")
         if box and not box[0][0]:
             raise box[0][1]
         self.c["joins"] += 1
@@ -159,6 +155,7 @@ class Center:
         except Exception as exc:  # noqa: BLE001 - handed to the join request
             box.append((False, exc))
             self.rt.mode.remote.pop(spec.name, None)
+        self.rt.mode.pending_changed()
 
     def _join_resource(self, spec: Spec, info: dict) -> dict:
         mode = self.rt.mode
@@ -179,11 +176,8 @@ class Center:
         mode.remote[spec.name] = info
         box: list = []
         threading.Thread(target=self._add_resource, args=(spec, box), daemon=True).start()
-        deadline = time.monotonic() + JOIN_WAIT
-        while (spec.name, 1) not in mode._pending and not box:
-            if time.monotonic() > deadline:
-                raise ControlError(f"{spec.name!r}: the resource supervisor did not take it")
-            time.sleep(0.001)
+        if not mode.wait_pending(spec.name, lambda: bool(box), JOIN_WAIT):
+            raise ControlError(f"{spec.name!r}: the resource supervisor did not take it")
         if box and not box[0][0]:
             raise box[0][1]
         self.c["joins"] += 1
@@ -191,11 +185,12 @@ class Center:
 
     def _add_resource(self, spec: Spec, box: list) -> None:
         try:
-            self.rt.rs.add(spec)
+            self.rt.rs.request(self.rt.rs.add, spec, timeout=JOIN_WAIT + 20)
             box.append((True, None))
         except Exception as exc:  # noqa: BLE001 - handed to the join request
             box.append((False, exc))
             self.rt.mode.remote.pop(spec.name, None)
+        self.rt.mode.pending_changed()
 
     def _check_identity(self, name: str, proof: Any) -> None:
         if self.verifier is None:
