@@ -8,8 +8,8 @@
 
 CPU is user + system time from /proc/<pid>/stat of every process of the set, over a
 window of --window seconds after --settle seconds; "% of a core" = CPU seconds per
-wall second x 100. Run: python bench/std_idle.py [--window S] [--settle S]. Prints the
-figures; asserts nothing.
+wall second x 100. Run: python bench/std_idle.py [--window S] [--settle S]
+[--before OTHER_CHECKOUT]. Prints the figures; asserts nothing.
 """
 
 from __future__ import annotations
@@ -44,6 +44,8 @@ import json, signal, sys, zenoh
 conf = zenoh.Config()
 conf.insert_json5("scouting/multicast/enabled", "false")
 conf.insert_json5(sys.argv[1], json.dumps([sys.argv[2]]))
+if sys.argv[1] == "connect/endpoints":      # as an agent: it dials the runtime only
+    conf.insert_json5("scouting/gossip/autoconnect", json.dumps({"peer": []}))
 s = zenoh.open(conf)
 print("up", flush=True)
 signal.sigwait([signal.SIGTERM])
@@ -96,8 +98,8 @@ def measure(pids: list[int], window: float) -> float:
     return 100.0 * (b - a) / TICK / (t1 - t0)
 
 
-def started(cmd: list[str]) -> subprocess.Popen:
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT), str(BENCH)]))
+def started(cmd: list[str], root: Path = ROOT) -> subprocess.Popen:
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(root), str(BENCH)]))
     p = subprocess.Popen(cmd, stdout=subprocess.PIPE, text=True, env=env)
     if p.stdout.readline().strip() != "up":
         raise SystemExit(f"{cmd[:3]} did not start")
@@ -114,9 +116,9 @@ def stopped(procs: list[subprocess.Popen]) -> None:
             p.kill()
 
 
-def runtime(mode: str, window: float, settle: float) -> tuple[float, int]:
-    code = RUNTIME.format(root=str(ROOT), bench=str(BENCH), mode=mode, ep=free_endpoint())
-    p = started([sys.executable, "-c", code])
+def runtime(mode: str, window: float, settle: float, root: Path = ROOT) -> tuple[float, int]:
+    code = RUNTIME.format(root=str(root), bench=str(BENCH), mode=mode, ep=free_endpoint())
+    p = started([sys.executable, "-c", code], root)
     try:
         time.sleep(settle)
         pids = family(p.pid)
@@ -141,18 +143,27 @@ def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--window", type=float, default=10.0)
     ap.add_argument("--settle", type=float, default=3.0)
+    ap.add_argument("--before", type=Path, default=None,
+                    help="another checkout (e.g. a worktree of main): its runtime measured "
+                         "too, in the same run")
     a = ap.parse_args()
     base, n_base = bare(a.window, a.settle)
-    proc, n_proc = runtime("process", a.window, a.settle)
-    thread, _ = runtime("thread", a.window, a.settle)
-    ratio = proc / base if base else float("inf")
+    trees = [("", ROOT)] + ([("before: ", a.before.resolve())] if a.before else [])
+    out = {"bare": base}
     print(f"  {'idle CPU, % of a core':<52} {'measured':<22} goal")
     print(f"  {f'11 bare Zenoh sessions ({n_base} processes)':<52} {base:6.2f} %")
-    print(f"  {f'process mode, 10 idle behaviors ({n_proc} processes)':<52} {proc:6.2f} % "
-          f"({ratio:.2f}x)   <= 1.5x  {'met' if ratio <= 1.5 else 'MISSED'}")
-    print(f"  {'thread mode, 10 idle behaviors':<52} {thread:6.2f} %"
-          f"{'':14}<= 0.5 %  {'met' if thread <= 0.5 else 'MISSED'}")
-    print(json.dumps({"bare": base, "process": proc, "ratio": ratio, "thread": thread}))
+    for label, root in trees:
+        proc, n_proc = runtime("process", a.window, a.settle, root)
+        thread, _ = runtime("thread", a.window, a.settle, root)
+        ratio = proc / base if base else float("inf")
+        what = f"{label}process mode, 10 idle behaviors ({n_proc} processes)"
+        print(f"  {what:<52} {proc:6.2f} % ({ratio:.2f}x)   <= 1.5x  "
+              f"{'met' if ratio <= 1.5 else 'MISSED'}")
+        what = f"{label}thread mode, 10 idle behaviors"
+        print(f"  {what:<52} {thread:6.2f} %{'':14}<= 0.5 %  "
+              f"{'met' if thread <= 0.5 else 'MISSED'}")
+        out[f"{label}process"], out[f"{label}ratio"], out[f"{label}thread"] = proc, ratio, thread
+    print(json.dumps(out))
 
 
 if __name__ == "__main__":

@@ -30,10 +30,10 @@ from ..transport.calls import SampleCaller, SampleServer
 
 log = logging.getLogger("esair_std.agent")
 _ERRORS = {"Refused": Refused, "CommandError": CommandError, "ResourceLost": ResourceLost}
-ANSWER_MARGIN = 0.5     # a put waits its timeout plus this for the BS's answer: a behavior
-                        # putting across a cut link must not overrun its step (was 2 s)
-HOST_MARGIN = 0.05      # a command's host drops it this long before its sender gives up,
-                        # so the sender, answered or not, gives up at its timeout
+MARGIN = 0.05           # the far side of a put, get or command (the BS, the actuator's host)
+                        # gives up this long before the asker, whose call then returns
+                        # at its timeout, answered or not (a cut link, a stopped host):
+                        # a behavior whose timeouts fit its step deadline never overruns
 RUNTIME_GRACE = 1.0     # seconds without the runtime's token before leaving
 HELLO_S = 10.0          # how long an agent asks the runtime to take its hello
 
@@ -82,25 +82,30 @@ class ZenohPort:
         if route is None:
             route = self._routes[resource] = self.bus.route(key)
         if not route.ready.is_set():
-            self._lost_or_coming(resource)
+            self._lost_or_coming(resource, deadline)
             route.ready.wait(max(0.0, deadline - time.monotonic()))
         left = deadline - time.monotonic()
         r = None
         if left > 0:
             r = self.bus.request(key, {"from": who, "cmd": command,
-                                       "timeout": max(0.0, left - HOST_MARGIN)}, left)
+                                       "timeout": max(0.0, left - MARGIN)}, left)
         if r is None:
-            self._lost_or_coming(resource)
+            if deadline - time.monotonic() > 0:    # early: nobody answers its key now
+                self._lost_or_coming(resource, deadline)
             raise CommandError(resource, f"no answer within {timeout:g} s")
         if "error" in r:
             cls = _ERRORS.get(r.get("type"), CommandError)
             raise Refused(r["error"]) if cls is Refused else cls(resource, r["error"])
         return r.get("ok")
 
-    def _lost_or_coming(self, resource: str) -> None:
-        """ResourceLost with the runtime's reason unless ``resource`` is ready."""
+    def _lost_or_coming(self, resource: str, deadline: float) -> None:
+        """ResourceLost with the runtime's reason unless ``resource`` is ready (or the
+        runtime does not say before ``deadline``)."""
+        left = deadline - time.monotonic()
+        if left <= 0:
+            return
         try:
-            state, why = self._ctl("resinfo", {"resource": resource}, 2.0)
+            state, why = self._ctl("resinfo", {"resource": resource}, left)
         except StdError:
             return
         if state != "ready":
@@ -124,13 +129,12 @@ class ZenohPort:
                 self.bus, keys.bs_answer(self.robot, who), lambda _k: "runtime")
         try:
             r = calls.wait(keys.ctl_put(self.robot, who), "runtime",
-                           {"to": target, "data": data, "timeout": timeout},
-                           timeout + ANSWER_MARGIN)
+                           {"to": target, "data": data,
+                            "timeout": max(0.0, timeout - MARGIN)}, timeout)
         except StdError as exc:
             return False, exc.message
         if not isinstance(r, dict):
-            return False, (f"the runtime did not answer 'put' within "
-                           f"{timeout + ANSWER_MARGIN:g} s")
+            return False, f"the runtime did not answer 'put' within {timeout:g} s"
         ok = r.get("ok")
         if not isinstance(ok, dict):
             return False, str(r.get("error", "the runtime's answer made no sense"))
@@ -147,7 +151,8 @@ class ZenohPort:
 
     def get(self, who: str, target: str, timeout: float) -> tuple[bool, Any]:
         try:
-            r = self._ctl("get", {"from": who, "to": target, "timeout": timeout}, timeout + 2.0)
+            r = self._ctl("get", {"from": who, "to": target,
+                                  "timeout": max(0.0, timeout - MARGIN)}, max(0.001, timeout))
         except StdError as exc:
             return False, exc.message
         return (True, r["data"]) if r["ok"] else (False, r["reason"])

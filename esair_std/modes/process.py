@@ -10,6 +10,7 @@ goes (SIGKILL: milliseconds), when its process exits, or when it says so itself.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import logging
 import os
@@ -24,6 +25,7 @@ from ..spec import Spec
 from ..transport import codec, keys, session
 from ..transport.calls import SampleCaller
 from ..transport.security import link_inserts
+from .agent import MARGIN
 from .thread import LocalPort
 
 log = logging.getLogger("esair_std.process")
@@ -101,10 +103,8 @@ class _Child:
     def _watch_exit(self, pid: int) -> None:
         """Blocks until the process exits (waitid with WNOWAIT: Popen still reaps it),
         then tells: an event, never a periodic poll."""
-        try:
+        with contextlib.suppress(ChildProcessError):     # already reaped by Popen
             os.waitid(os.P_PID, pid, os.WEXITED | os.WNOWAIT)
-        except ChildProcessError:               # already reaped by Popen
-            pass
         self.ended.set()
         self.changed.set()
         self.on_exit()
@@ -261,7 +261,7 @@ class ProcessComponent(_Child):
         if self.phase in ("failed", "stopped"):
             return ("busy", self.phase)
         r = self.ask(self.key, {"op": "provide", "from": requester, "timeout": timeout},
-                     timeout + 0.05)
+                     timeout)
         if isinstance(r, dict) and isinstance(r.get("ok"), list) and len(r["ok"]) == 2:
             return tuple(r["ok"])
         return ("busy", "no answer")
@@ -318,7 +318,8 @@ class ProcessResource(_Child):
 
     def command(self, sender: str, resource: str, command: Any, timeout: float) -> Any:
         r = self.ask(keys.actuator(self.robot, resource),
-                     {"from": sender, "cmd": command, "timeout": timeout}, timeout + 0.5)
+                     {"from": sender, "cmd": command, "timeout": max(0.0, timeout - MARGIN)},
+                     timeout)
         if r is None:
             raise ResourceLost(resource, "its host process does not answer")
         if "error" in r:

@@ -11,6 +11,7 @@ buys nothing. Liveliness callbacks, which may take locks of the runtime, keep it
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import threading
 from typing import Any, Callable
@@ -77,10 +78,8 @@ class Route:
 
     def undeclare(self) -> None:
         for d in (self._listener, self._querier):
-            try:
+            with contextlib.suppress(Exception):        # the session is closing
                 d.undeclare()
-            except Exception:  # noqa: BLE001 - the session is closing
-                pass
 
 
 class Bus:
@@ -184,10 +183,8 @@ class Bus:
                 if pub in self._decl:
                     self._decl.remove(pub)
         for pub in pubs:
-            try:
+            with contextlib.suppress(Exception):        # the session is closing
                 pub.undeclare()
-            except Exception:  # noqa: BLE001 - the session is closing
-                pass
 
     def subscribe(self, key: str, callback: Callable[..., None], *,
                   with_key: bool = False,

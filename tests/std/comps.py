@@ -5,7 +5,7 @@ from __future__ import annotations
 import os
 import time
 
-from esair_std import Actuator, Behavior, Driver, Reaction, Sensor
+from esair_std import Actuator, Behavior, CommandError, Driver, Reaction, ResourceLost, Sensor
 from esair_std.drivers.sim import Counter as SimCounter
 
 
@@ -314,3 +314,42 @@ class Eager(Behavior):
 
     def provide(self, requester):
         return {"first": self.first}
+
+
+class Steady(Behavior):
+    """Every step commands options['actuator'] with timeout options['timeout'] (and/or
+    puts to options['to']); counts what failed. Its deadline (option) is tight."""
+
+    period = 0.1
+
+    def start(self):
+        self.act = self.attach_actuator(self.options.get("actuator", "rec"))
+        self.sent = self.failed = 0
+
+    def step(self):
+        try:
+            self.act.send({"n": self.sent}, timeout=float(self.options["timeout"]))
+            self.sent += 1
+        except (CommandError, ResourceLost):
+            self.failed += 1
+
+    def provide(self, requester):
+        return {"sent": self.sent, "failed": self.failed}
+
+
+class SteadyPut(Behavior):
+    """Every step puts to options['to'] with timeout options['timeout']; counts."""
+
+    period = 0.1
+
+    def start(self):
+        self.ok = self.failed = 0
+
+    def step(self):
+        if self.put(self.options["to"], {"n": self.ok}, timeout=float(self.options["timeout"])):
+            self.ok += 1
+        else:
+            self.failed += 1
+
+    def provide(self, requester):
+        return {"ok": self.ok, "failed": self.failed}

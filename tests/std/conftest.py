@@ -12,6 +12,14 @@ from pathlib import Path
 import pytest
 
 HERE = str(Path(__file__).resolve().parent)
+ROOT = str(Path(HERE).parent.parent)
+
+
+def child_env(**extra: str) -> dict:
+    """The environment of a child ``esair`` process: this checkout first on its path (a
+    copy of the project installed in site-packages must not answer instead)."""
+    path = os.pathsep.join(p for p in (ROOT, os.environ.get("PYTHONPATH", "")) if p)
+    return dict(os.environ, PYTHONPATH=path, **extra)
 if HERE not in sys.path:
     sys.path.insert(0, HERE)
 
@@ -77,7 +85,7 @@ def esair(*args: str, check: bool = True, cwd: str | Path = HERE) -> subprocess.
     """``esair std ARGS`` in a child process (from ``cwd``, tests/std by default)."""
     r = subprocess.run([sys.executable, "-m", "esair_min.cli", "std", *args],
                        capture_output=True, text=True, timeout=90, cwd=cwd,
-                       env=dict(os.environ, COLUMNS="200"))
+                       env=child_env(COLUMNS="200"))
     if check and r.returncode != 0:
         raise AssertionError(f"esair std {' '.join(args)}: {r.returncode}\n{r.stderr}")
     return r
@@ -88,7 +96,7 @@ def std_run(deployment: str, mode: str, ep: str, deployed, what: str = "deployed
     """``esair std run DEPLOYMENT --mode MODE -e EP`` in a child process, yielded once
     ``deployed()`` holds; stopped with SIGTERM after, and it must exit with status 0."""
     proc = subprocess.Popen([sys.executable, "-m", "esair_min.cli", "std", "run", deployment,
-                             "--mode", mode, "-e", ep], cwd=HERE,
+                             "--mode", mode, "-e", ep], cwd=HERE, env=child_env(),
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         wait_for(lambda: proc.poll() is not None or deployed(), timeout=60, what=what)

@@ -7,6 +7,7 @@ runs once, with its handles working, even under a 1 kHz stream."""
 import json
 import os
 import signal
+import time
 
 import pytest
 from conftest import call, wait_for
@@ -237,3 +238,59 @@ def test_the_runtimes_tables_stay_bounded_as_components_come_and_go(start, mode)
         assert name not in rt.mode._deliver_pubs
     assert sizes[-1] == sizes[0] and max(sizes) == sizes[0], sizes
     assert rt.get("sink")["got"][-1][0] == "p24"
+
+
+@pytest.mark.parametrize("mode", ["process"])      # a host process to stop: process mode
+def test_a_command_to_a_stopped_host_returns_at_its_timeout(start, mode):
+    """A behavior whose command timeout (0.3 s) fits its step deadline (0.5 s) keeps
+    running while the actuator's host process is stopped (SIGSTOP): each send gives up
+    at its timeout (on main it waited 0.5 s more, overran, and the behavior failed)."""
+    rt = start({"resources": {"rec": {"class": "comps:Recorder",
+                                      "allow": {"steady": "command"}}},
+                "behaviors": {"steady": {"class": "comps:Steady", "uses": {"rec": "command"},
+                                         "timeout": 0.3, "deadline": 0.5}}})
+    wait_for(lambda: rt.get("steady")["sent"] >= 3, what="commands")
+    pid = row(rt, "rec")["pid"]
+    os.kill(pid, signal.SIGSTOP)
+    try:
+        wait_for(lambda: rt.get("steady")["failed"] >= 3, what="sends that gave up")
+    finally:
+        os.kill(pid, signal.SIGCONT)
+    sent = rt.get("steady")["sent"]
+    wait_for(lambda: rt.get("steady")["sent"] > sent, what="commands again")
+    assert rt.state("steady") == "running"
+    assert row(rt, "steady")["restarts"] == 0 and row(rt, "steady")["reason"] == ""
+
+
+def test_a_put_to_a_stopped_runtime_returns_at_its_timeout(tmp_path):
+    """A behavior's put (timeout 0.3 s, step deadline 0.5 s) while its runtime is
+    stopped (SIGSTOP, as a cut link looks to it): it gives up at its timeout, so the
+    behavior keeps running (on main it waited 0.5 s more, overran and was failed)."""
+    from conftest import esair, free_endpoint, std_run
+    dep = tmp_path / "putter.yaml"
+    dep.write_text("robot: stp\nmode: process\nbehaviors:\n"
+                   "  sink: {class: 'comps:Sink'}\n"
+                   "  putter: {class: 'comps:SteadyPut', to: sink, timeout: 0.3, deadline: 0.5}\n")
+    ep = free_endpoint()
+
+    def ls():
+        r = esair("ls", "--json", "-e", ep, "-r", "stp", check=False)
+        return {x["name"]: x for x in json.loads(r.stdout)} if r.returncode == 0 else {}
+
+    def got():
+        r = esair("get", "putter", "-e", ep, "-r", "stp", check=False)
+        return json.loads(r.stdout) if r.returncode == 0 else {}
+
+    with std_run(str(dep), "process", ep,
+                 lambda: got().get("ok", 0) >= 3) as proc:
+        proc.send_signal(signal.SIGSTOP)
+        try:
+            time.sleep(1.5)          # the putter's steps meanwhile: each put gives up
+        finally:
+            proc.send_signal(signal.SIGCONT)
+        wait_for(lambda: got().get("failed", 0) >= 2, what="puts that gave up")
+        ok = got()["ok"]
+        wait_for(lambda: got().get("ok", 0) > ok, what="puts again")
+        rows = ls()
+        assert rows["putter"]["state"] == "running", rows["putter"]
+        assert rows["putter"]["restarts"] == 0 and rows["putter"]["reason"] == ""
