@@ -27,7 +27,7 @@ from typing import Any
 
 from ..errors import ControlError, Refused
 from ..spec import Spec
-from ..transport.security import access_control, link_inserts, session_inserts
+from ..transport.security import LEASE_MS, access_control, link_inserts, session_inserts
 from .identity import Verifier
 
 log = logging.getLogger("esair_std.remote")
@@ -95,7 +95,8 @@ class Center:
         self.rt = rt
         sec = getattr(rt.deployment, "security", None)
         self.sec = sec
-        self.lost_grace = 3 * (sec.lease_ms if sec else 2000) / 1000.0
+        self.lease = (sec.lease_ms if sec else LEASE_MS) / 1000.0
+        self.lost_grace = 3 * self.lease
         base = Path(rt.base_dir)
         full = (lambda p: None if p is None else (p if p.is_absolute() else base / p))
         self.verifier = (Verifier(full(sec.ca), full(sec.users))
@@ -215,4 +216,7 @@ class Center:
         rec = self.rt.bs.records.get(host.name)
         if rec is not None and rec.host is host and host.phase == "lost":
             self.rt.mode.reported(host.name, host.generation, "failed",
-                                  f"remote agent unreachable for {self.lost_grace:g} s")
+                                  # its token went a lease (at least) after its
+                                  # last word, then the grace: a lower bound, true
+                                  f"remote agent unreachable for at least "
+                                  f"{self.lease + self.lost_grace:g} s")
