@@ -246,4 +246,9 @@ def main_json(argv: list[str]) -> int:
 
 if __name__ == "__main__":  # pragma: no cover
     import sys
-    sys.exit(main_json(sys.argv[1:]))
+    status = main_json(sys.argv[1:])
+    sys.stdout.flush()
+    sys.stderr.flush()
+    # no interpreter finalization: Zenoh's threads may still be calling into Python, and
+    # a thread ended under them aborted the process ("FATAL: exception not rethrown")
+    os._exit(status)
