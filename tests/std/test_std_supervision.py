@@ -10,18 +10,18 @@ import signal
 import time
 
 import pytest
-from conftest import call, wait_for
+from tests.support.std import call, esair, free_endpoint, std_run, wait_for
 
 from esair_std.errors import ControlError, StdError
 
 DEP = {
     "resources": {
-        "count": {"class": "comps:Counter", "rate": 100, "allow": {"*": "read"}},
-        "rec": {"class": "comps:Recorder", "allow": {"probe": "command"},
+        "count": {"class": "tests.support.comps:Counter", "rate": 100, "allow": {"*": "read"}},
+        "rec": {"class": "tests.support.comps:Recorder", "allow": {"probe": "command"},
                 "restart": {"max": 1, "within": 60}},
     },
     "behaviors": {
-        "probe": {"class": "comps:Probe", "uses": {"count": "read", "rec": "command"}},
+        "probe": {"class": "tests.support.comps:Probe", "uses": {"count": "read", "rec": "command"}},
     },
 }
 
@@ -86,8 +86,8 @@ def test_a_resource_added_again_re_attaches_its_behaviors(start):
     assert row(rt, "probe")["detached"] == ["count", "rec"]
     assert call(rt, "probe", "send", "rec", 1) == {
         "error": "ResourceLost", "message": "rec: detached: the resource was removed"}
-    rt.add_resource("rec", "comps:Recorder", allow={"probe": "command"})
-    rt.add_resource("count", "comps:Counter", allow={"*": "read"}, options={"rate": 100})
+    rt.add_resource("rec", "tests.support.comps:Recorder", allow={"probe": "command"})
+    rt.add_resource("count", "tests.support.comps:Counter", allow={"*": "read"}, options={"rate": 100})
     assert row(rt, "probe")["detached"] == []
     assert call(rt, "probe", "handle_state", "rec") == {"ok": "ready"}
     assert call(rt, "probe", "send", "rec", 2) == {"ok": {"n": 1, "gain": 1}}
@@ -97,7 +97,7 @@ def test_a_resource_added_again_re_attaches_its_behaviors(start):
              what="samples of the new counter")
     # added again with a policy that no longer lets it command: it stays detached
     rt.remove_resource("rec")
-    rt.add_resource("rec", "comps:Recorder", allow={"probe": "read"})
+    rt.add_resource("rec", "tests.support.comps:Recorder", allow={"probe": "read"})
     assert row(rt, "probe")["detached"] == ["rec"]
     assert call(rt, "probe", "handle_state", "rec") == {"ok": "detached"}
     assert call(rt, "probe", "send", "rec", 3) == {
@@ -110,11 +110,13 @@ def test_a_resource_restart_policy_is_checked(tmp_path):
     from esair_std.deploy import load_deployment
     from esair_std.errors import DeployError
     f = tmp_path / "d.yaml"
-    f.write_text("robot: r\nresources:\n  c: {class: 'comps:Counter', restart: {max: 2, within: 0}}\n")
+    f.write_text("robot: r\nresources:\n  c: {class: tests.support.comps:Counter,"
+                 " restart: {max: 2, within: 0}}\n")
     with pytest.raises(DeployError) as e:
         load_deployment(str(f))
     assert str(e.value) == f"{f}:3:57: 'within' must be greater than 0 (seconds), not 0"
-    f.write_text("robot: r\nresources:\n  c: {class: 'comps:Counter', restart: {max: 2, within: 5}}\n")
+    f.write_text("robot: r\nresources:\n  c: {class: tests.support.comps:Counter,"
+                 " restart: {max: 2, within: 5}}\n")
     dep = load_deployment(str(f))
     assert (dep.resources["c"].restart.max, dep.resources["c"].restart.within) == (2, 5.0)
     assert dep.resources["c"].options == {}
@@ -122,8 +124,8 @@ def test_a_resource_restart_policy_is_checked(tmp_path):
 
 LOOP = {
     "resources": {
-        "count": {"class": "comps:Counter", "rate": 1000, "allow": {"*": "read"}},
-        "tally": {"class": "comps:Tally", "allow": {"loop": "command"}},
+        "count": {"class": "tests.support.comps:Counter", "rate": 1000, "allow": {"*": "read"}},
+        "tally": {"class": "tests.support.comps:Tally", "allow": {"loop": "command"}},
     },
 }
 
@@ -131,7 +133,7 @@ LOOP = {
 def test_remove_stops_first_and_stop_runs_once_under_load(start):
     rt = start(LOOP)
     for tag in range(8):
-        rt.add("loop", "comps:StreamStepper", uses={"count": "read", "tally": "command"},
+        rt.add("loop", "tests.support.comps:StreamStepper", uses={"count": "read", "tally": "command"},
                period=0.001, options={"tag": tag})
         wait_for(lambda t=tag: rt.configure("tally", "log", None)["steps"].get(str(t), 0) >= 20,
                  what="steps under way")
@@ -169,10 +171,10 @@ def test_a_resource_coming_up_never_fails_a_behavior_at_start(start, mode):
     from esair_std.modes.process import agent_command
     from esair_std.spec import Spec
     from esair_std.transport.bus import Bus
-    rt = start({"resources": {"recorder": {"class": "comps:Recorder",
+    rt = start({"resources": {"recorder": {"class": "tests.support.comps:Recorder",
                                            "allow": {"eager": "command"}}}})
-    rt.add("eager", "comps:Sink", uses={"recorder": "command"})
-    cmd = agent_command(rt.endpoint, "t", Spec("behavior", "eager", "comps:Sink"), 1)
+    rt.add("eager", "tests.support.comps:Sink", uses={"recorder": "command"})
+    cmd = agent_command(rt.endpoint, "t", Spec("behavior", "eager", "tests.support.comps:Sink"), 1)
     options = json.loads(cmd[cmd.index("--session-options") + 1])
     answers = []
     for i in range(40):
@@ -195,10 +197,10 @@ def _answers(port):
 
 
 def test_a_behavior_configures_a_sensor_its_allow_grants(start):
-    rt = start({"resources": {"count": {"class": "comps:Counter", "rate": 100,
+    rt = start({"resources": {"count": {"class": "tests.support.comps:Counter", "rate": 100,
                                         "allow": {"tuner": "configure", "*": "read"}}},
-                "behaviors": {"tuner": {"class": "comps:Probe", "uses": {"count": "configure"}},
-                              "other": {"class": "comps:Probe", "uses": {"count": "read"}}}})
+                "behaviors": {"tuner": {"class": "tests.support.comps:Probe", "uses": {"count": "configure"}},
+                              "other": {"class": "tests.support.comps:Probe", "uses": {"count": "read"}}}})
     assert call(rt, "tuner", "register", "count", "configure") == {"ok": "configure"}
     assert call(rt, "tuner", "configure", "count", "rate_hz", 50) == {"ok": 50.0}
     assert rt.inspect("count")["grants"] == {"tuner": "configure"}
@@ -210,8 +212,8 @@ def test_a_behavior_configures_a_sensor_its_allow_grants(start):
 
 @pytest.mark.parametrize("mode", ["process"])      # an agent process: process mode
 def test_an_agent_whose_component_failed_exits_non_zero(start, mode):
-    rt = start({"behaviors": {"faulty": {"class": "comps:Faulty", "fail": "raise"},
-                              "fine": {"class": "comps:Sink"}}})
+    rt = start({"behaviors": {"faulty": {"class": "tests.support.comps:Faulty", "fail": "raise"},
+                              "fine": {"class": "tests.support.comps:Sink"}}})
     wait_for(lambda: rt.state("faulty") == "failed", what="failed")
     proc = rt.bs.records["faulty"].host.proc
     assert proc.wait(10) == 1
@@ -225,11 +227,11 @@ def test_the_runtimes_tables_stay_bounded_as_components_come_and_go(start, mode)
     """Differently named behaviors added, put to, putting, removed: what the runtime
     keeps per name (the BS's deliver and offer publishers, the answers to a sender's
     puts) goes with them (bench/std_churn.py: 2 000 cycles, RSS)."""
-    rt = start({"behaviors": {"sink": {"class": "comps:Sink"}}})
+    rt = start({"behaviors": {"sink": {"class": "tests.support.comps:Sink"}}})
     sizes = []
     for i in range(25):
         name = f"p{i}"
-        rt.add(name, "comps:Pusher", period=0.01)
+        rt.add(name, "tests.support.comps:Pusher", period=0.01)
         wait_for(lambda n=name: rt.get(n)["ok"] >= 2, what="puts from it")
         rt.put(name, {"hello": i})
         rt.remove(name)
@@ -245,9 +247,9 @@ def test_a_command_to_a_stopped_host_returns_at_its_timeout(start, mode):
     """A behavior whose command timeout (0.3 s) fits its step deadline (0.5 s) keeps
     running while the actuator's host process is stopped (SIGSTOP): each send gives up
     at its timeout (on main it waited 0.5 s more, overran, and the behavior failed)."""
-    rt = start({"resources": {"rec": {"class": "comps:Recorder",
+    rt = start({"resources": {"rec": {"class": "tests.support.comps:Recorder",
                                       "allow": {"steady": "command"}}},
-                "behaviors": {"steady": {"class": "comps:Steady", "uses": {"rec": "command"},
+                "behaviors": {"steady": {"class": "tests.support.comps:Steady", "uses": {"rec": "command"},
                                          "timeout": 0.3, "deadline": 0.5}}})
     wait_for(lambda: rt.get("steady")["sent"] >= 3, what="commands")
     pid = row(rt, "rec")["pid"]
@@ -266,11 +268,11 @@ def test_a_put_to_a_stopped_runtime_returns_at_its_timeout(tmp_path):
     """A behavior's put (timeout 0.3 s, step deadline 0.5 s) while its runtime is
     stopped (SIGSTOP, as a cut link looks to it): it gives up at its timeout, so the
     behavior keeps running (on main it waited 0.5 s more, overran and was failed)."""
-    from conftest import esair, free_endpoint, std_run
     dep = tmp_path / "putter.yaml"
     dep.write_text("robot: stp\nmode: process\nbehaviors:\n"
-                   "  sink: {class: 'comps:Sink'}\n"
-                   "  putter: {class: 'comps:SteadyPut', to: sink, timeout: 0.3, deadline: 0.5}\n")
+                   "  sink: {class: 'tests.support.comps:Sink'}\n"
+                   "  putter: {class: 'tests.support.comps:SteadyPut', to: sink,"
+                   " timeout: 0.3, deadline: 0.5}\n")
     ep = free_endpoint()
 
     def ls():
