@@ -114,7 +114,7 @@ def test_a_resource_restart_policy_is_checked(tmp_path):
                  " restart: {max: 2, within: 0}}\n")
     with pytest.raises(DeployError) as e:
         load_deployment(str(f))
-    assert str(e.value) == f"{f}:3:57: 'within' must be greater than 0 (seconds), not 0"
+    assert str(e.value) == f"{f}:3:69: 'within' must be greater than 0 (seconds), not 0"
     f.write_text("robot: r\nresources:\n  c: {class: tests.support.comps:Counter,"
                  " restart: {max: 2, within: 5}}\n")
     dep = load_deployment(str(f))
