@@ -296,3 +296,29 @@ def test_a_put_to_a_stopped_runtime_returns_at_its_timeout(tmp_path):
         rows = ls()
         assert rows["putter"]["state"] == "running", rows["putter"]
         assert rows["putter"]["restarts"] == 0 and rows["putter"]["reason"] == ""
+
+
+@pytest.mark.parametrize("mode", ["process"])      # remote agents join process mode only
+def test_a_remote_agent_whose_component_failed_exits_non_zero(start, mode):
+    """``esair std agent`` (here on the loopback) exits 1 once its behavior failed, so a
+    supervisor of the process (systemd's Restart=on-failure) starts it again; and it
+    leaves without finalizing the interpreter under Zenoh's threads."""
+    import subprocess
+    import sys
+
+    from tests.support.std import ROOT
+    rt = start({"behaviors": {"sink": {"class": "tests.support.comps:Sink"}}})
+    proc = subprocess.Popen([sys.executable, "-m", "esair_min.cli", "std", "agent",
+                             "--connect", rt.endpoint, "--robot", "t", "faulty",
+                             "tests.support.comps:Faulty", "-o", "fail=raise"],
+                            cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        wait_for(lambda: rt.state("faulty") == "failed", 30, what="the remote behavior failed")
+        _out, err = proc.communicate(timeout=30)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+    assert proc.returncode == 1, err
+    assert "FATAL" not in err
+    assert rt.ls()[-1]["reason"] == "RuntimeError: boom"
