@@ -152,6 +152,8 @@ class Supervisor:
     def request(self, fn: Callable[..., Any], *args: Any, timeout: float = 30.0) -> Any:
         """Run ``fn(*args)`` on the supervisor's thread (one request at a time); its result.
         Before ``start`` (phase 1) or on that thread itself, it runs here."""
+        if self._closing:
+            raise ControlError("the runtime is stopping")
         if not self._thread.is_alive() or threading.current_thread() is self._thread:
             return fn(*args)
         done = threading.Event()
