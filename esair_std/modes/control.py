@@ -76,7 +76,8 @@ class ControlServer:
             "put": self.v_put, "get": self.v_get, "configure": self.v_configure,
             "reaction": self.v_reaction, "inspect": self.v_inspect, "state": self.v_state,
             "register": self.v_register, "attach": self.v_attach, "kind": self.v_kind,
-            "report": self.v_report, "resstate": self.v_resstate, "hello": self.v_hello,
+            "report": self.v_report, "resstate": self.v_resstate,
+            "resinfo": self.v_resstate_get, "hello": self.v_hello,
             "join": self.v_join,
         }
 
@@ -277,6 +278,11 @@ class ControlServer:
 
     def v_resstate(self, b: dict) -> None:
         self.rt.rs.set_state(_need(b, "resource"), _need(b, "state"), str(b.get("reason", "")))
+
+    def v_resstate_get(self, b: dict) -> list:
+        """[state, reason] of a resource ("gone" when there is none)."""
+        state, why = self.rt.rs.states.get(_need(b, "resource"), ("gone", "no such resource"))
+        return [state, why]
 
     def v_hello(self, b: dict) -> None:
         self.rt.mode.hello(b)

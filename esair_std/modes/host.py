@@ -162,6 +162,9 @@ class ComponentHost:
         """Take ``data`` into the mailbox: "delivered", else why not. ``wake=False``:
         the caller calls ``wake()`` itself (after answering, so the behavior's thread
         does not take the GIL from the answer)."""
+        if self._stop.is_set():           # being removed: its stop() runs next
+            self.c["refused"] += 1
+            return "stopped"
         if self._phase != "running" or self._busy:
             self.c["refused"] += 1
             return "busy" if self._phase in ("running", "busy", "starting") else self._phase
@@ -204,7 +207,7 @@ class ComponentHost:
 
     def request_provide(self, requester: str, reply: Any) -> str:
         """Queue a provide() call; ``reply((status, data))`` is called from the host thread."""
-        if self._phase != "running" or self._busy or self._full():
+        if self._phase != "running" or self._busy or self._full() or self._stop.is_set():
             return "busy"
         try:
             self.inbox.put_nowait(("provide", requester, reply))
@@ -231,15 +234,31 @@ class ComponentHost:
         self.notices.append(resource)
         self._wake.set()
 
+    def notify_attached(self, resource: str) -> None:
+        """``resource`` is back (added again): the handles to it work again."""
+        for h in list(self.handles.values()) + list(self._direct.values()):
+            if h.resource == resource:
+                h.detached = False
+
     def set_enabled(self, enabled: bool) -> None:
         self.enabled = bool(enabled)
 
-    def check(self, now: float) -> None:
-        """Watchdog: a user call running past the deadline fails the component."""
+    def check(self, now: float) -> float | None:
+        """Watchdog: a user call running past the deadline fails the component. The
+        seconds until it needs checking again (a call now running reaches its deadline;
+        none running: a call starting now could not overrun sooner), None when never
+        (stopped or failed): the watchdog sleeps that long instead of polling."""
+        if self._phase in ("failed", "stopped"):
+            return None
         started = self._call_started
-        if started is not None and now - started > self.deadline:
+        if started is None:
+            return self.deadline
+        left = started + self.deadline - now
+        if left < 0:
             self._abandoned = True
             self._fail(f"{self._call_name}() ran over its {self.deadline:g} s deadline")
+            return None
+        return left + 0.001
 
     def counters(self) -> dict:
         out = dict(self.c)
