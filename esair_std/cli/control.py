@@ -12,11 +12,11 @@ import click
 
 from ..errors import ControlError
 from . import friendly
+from .options import endpoint_option
 from .run import _table
 
-ENDPOINT = click.option("-e", "--endpoint", default=None, metavar="tcp/HOST:PORT",
-                        help="The runtime's control endpoint (default tcp/127.0.0.1:7447, "
-                             "or $ESAIR_STD_ENDPOINT).")
+ENDPOINT = endpoint_option("The runtime's control endpoint (default: $ESAIR_STD_ENDPOINT, "
+                           "else tcp/127.0.0.1:7447).")
 ROBOT = click.option("-r", "--robot", default=None,
                      help="The robot's name (default: the one runtime answering).")
 
@@ -69,7 +69,8 @@ def ls_cmd(c: Any, as_json: bool) -> None:
 @click.argument("class_path", metavar="module:Class")
 @click.option("--uses", multiple=True, metavar="RES=LEVEL",
               help="A resource and the level it is used at (read, command, configure).")
-@click.option("--period", type=float, default=None, help="Seconds between steps.")
+@click.option("--period", type=click.FloatRange(min=0, min_open=True), default=None,
+              help="Seconds between steps.")
 @click.option("-o", "--option", "options", multiple=True, metavar="KEY=VALUE",
               help="An option (self.options); VALUE is JSON or text.")
 @control
@@ -121,7 +122,8 @@ def remove_resource_cmd(c: Any, name: str) -> None:
 @click.command("put")
 @click.argument("name")
 @click.argument("data")
-@click.option("--timeout", type=float, default=1.0, show_default=True)
+@click.option("--timeout", type=click.FloatRange(0, 3600), default=1.0, show_default=True,
+              help="Seconds to wait for the behavior.")
 @control
 def put_cmd(c: Any, name: str, data: str, timeout: float) -> None:
     """Deliver DATA (JSON, or text) to behavior NAME through the BS."""
@@ -134,7 +136,8 @@ def put_cmd(c: Any, name: str, data: str, timeout: float) -> None:
 
 @click.command("get")
 @click.argument("name")
-@click.option("--timeout", type=float, default=1.0, show_default=True)
+@click.option("--timeout", type=click.FloatRange(0, 3600), default=1.0, show_default=True,
+              help="Seconds to wait for the behavior.")
 @control
 def get_cmd(c: Any, name: str, timeout: float) -> None:
     """Ask behavior NAME for data (its provide()) through the BS; print it as JSON."""

@@ -14,6 +14,7 @@ import getopt
 import json
 import logging
 import os
+import signal
 import sys
 import threading
 import time
@@ -404,6 +405,9 @@ class _Args:
 
 
 def main(argv: list[str] | None = None) -> int:
+    # A terminal's Ctrl-C reaches the whole process group: the runtime stops its agents
+    # itself (one line, no traceback from each of them).
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     a = _Args(sys.argv[1:] if argv is None else argv)
     logging.basicConfig(level=logging.WARNING, format="%(name)s: %(message)s")
     spec = Spec.from_json(json.loads(a.spec))
