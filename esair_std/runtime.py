@@ -222,7 +222,9 @@ class Runtime:
         if name == "runtime" and self.server is not None:
             return dict(name="runtime", kind="runtime", state="running",
                         counters=self.server.counters())
-        raise ControlError(f"no component {name!r}")
+        from .bs import _hint
+        names = [*self.bs.records, *self.rs.entries, *self.rs.resources]
+        raise ControlError(f"no component {name!r}{_hint(name, names)}")
 
     def wait_state(self, name: str, states: str | tuple, timeout: float = 10.0) -> str:
         """Wait until ``name`` is in one of ``states``; its state (for tests, scripts)."""

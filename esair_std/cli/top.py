@@ -38,7 +38,9 @@ def render(rows: list[dict], before: dict[str, tuple[float, int]], robot: str) -
     now = time.monotonic()
     t = Table(title=f"ESAIR STD — robot {robot}", expand=False)
     for col in ("name", "kind", "state", "pid", "host", "restarts", "events/s", "reason"):
-        t.add_column(col, justify="right" if col in ("pid", "restarts", "events/s") else "left")
+        # one line a row: a long reason is cut (`esair std inspect NAME` has it whole)
+        t.add_column(col, justify="right" if col in ("pid", "restarts", "events/s") else "left",
+                     no_wrap=True, overflow="ellipsis")
     for r in rows:
         t0, n0 = before.get(r["name"], (now, r["count"]))
         rate = (r["count"] - n0) / (now - t0) if now > t0 else 0.0
