@@ -56,10 +56,14 @@ def pairs(items: tuple[str, ...], what: str) -> dict[str, str]:
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
 @control
 def ls_cmd(c: Any, as_json: bool) -> None:
-    """List components: name, kind, state, pid, host."""
-    rows = c.call("ls")
+    """List components: name, kind, state, pid, host, restarts, reason (a driver's row
+    before its children's). --json: {"robot", "endpoint", "components": [...]}, every
+    component with the keys name, kind, state, pid, host, restarts, reason, class,
+    parent and attached (docs/std.md)."""
+    rows = c.call("ls", {"all": True})
     if as_json:
-        click.echo(json.dumps(rows, indent=1))
+        click.echo(json.dumps({"robot": c.robot, "endpoint": c.endpoint,
+                               "components": rows}, indent=1))
         return
     click.echo(_table(rows, ["name", "kind", "state", "pid", "host", "restarts", "reason"]))
 
@@ -143,8 +147,38 @@ def get_cmd(c: Any, name: str, timeout: float) -> None:
     """Ask behavior NAME for data (its provide()) through the BS; print it as JSON."""
     r = c.call("get", {"to": name, "timeout": timeout}, timeout=timeout + 5)
     if not r["ok"]:
-        raise ControlError(f"get from {name!r} failed: {r['reason']}")
+        kind = c.call("kind", {"resource": name}) if r["reason"].startswith(
+            "no behavior") else None
+        hint = {"sensor": f" (a sensor: read it with `esair std sample {name}`)",
+                "actuator": f" (an actuator: command it with `esair std send {name} VALUE`)"
+                }.get(kind or "", "")
+        raise ControlError(f"get from {name!r} failed: {r['reason']}{hint}")
     click.echo(json.dumps(r["data"]))
+
+
+@click.command("sample")
+@click.argument("name")
+@click.option("--timeout", type=click.FloatRange(0, 3600), default=2.0, show_default=True,
+              help="Seconds to wait for a first sample.")
+@click.option("--meta", is_flag=True, help="Print {resource, seq, t, value}, not the value.")
+@control
+def sample_cmd(c: Any, name: str, timeout: float, meta: bool) -> None:
+    """Print the latest sample of sensor NAME as JSON (e.g. papaman.feet)."""
+    s = c.call("sample", {"name": name, "timeout": timeout}, timeout=timeout + 5)
+    click.echo(json.dumps(s if meta else s["value"]))
+
+
+@click.command("send")
+@click.argument("name")
+@click.argument("val", metavar="VALUE")
+@click.option("--timeout", type=click.FloatRange(0, 3600), default=1.0, show_default=True,
+              help="Seconds the actuator may take.")
+@control
+def send_cmd(c: Any, name: str, val: str, timeout: float) -> None:
+    """Send one command VALUE (JSON, or text) to actuator NAME as the operator; print the
+    actuator's answer. Refused unless its resource's allow grants `operator: command`."""
+    click.echo(json.dumps(c.call("send", {"name": name, "value": value(val),
+                                          "timeout": timeout}, timeout=timeout + 5)))
 
 
 @click.command("configure")
@@ -177,4 +211,4 @@ def inspect_cmd(c: Any, name: str) -> None:
 
 
 COMMANDS = [ls_cmd, add_cmd, remove_cmd, add_resource_cmd, remove_resource_cmd, put_cmd,
-            get_cmd, configure_cmd, reaction_cmd, inspect_cmd]
+            get_cmd, sample_cmd, send_cmd, configure_cmd, reaction_cmd, inspect_cmd]

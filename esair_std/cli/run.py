@@ -48,7 +48,10 @@ class _Local:
         self.robot = rt.robot
 
     def call(self, verb: str, body: dict | None = None) -> Any:
-        return self.rt.ls() if verb == "ls" else self.rt.inspect((body or {})["name"])
+        if verb == "ls":
+            from ..listing import components
+            return components(self.rt) if (body or {}).get("all") else self.rt.ls()
+        return self.rt.inspect((body or {})["name"])
 
 
 def _live(rt: Any, stop: threading.Event, seconds: float | None) -> None:

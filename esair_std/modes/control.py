@@ -77,8 +77,9 @@ class ControlServer:
             "reaction": self.v_reaction, "inspect": self.v_inspect, "state": self.v_state,
             "register": self.v_register, "attach": self.v_attach, "kind": self.v_kind,
             "report": self.v_report, "resstate": self.v_resstate, "hello": self.v_hello,
-            "join": self.v_join,
+            "join": self.v_join, "sample": self.v_sample, "send": self.v_send,
         }
+        self._operator: Any = None         # esair_std.operator.Operator, on first use
 
     def start(self) -> None:
         hub_runtime()          # before the session: it routes for every agent
@@ -186,6 +187,9 @@ class ControlServer:
         return {"robot": self.rt.robot, "mode": self.rt.mode_name, "pid": os.getpid()}
 
     def v_ls(self, b: dict) -> list:
+        if b.get("all"):                 # every row with the same keys, drivers too
+            from ..listing import components
+            return components(self.rt)
         return self.rt.ls()
 
     def v_add(self, b: dict) -> str:
@@ -255,6 +259,19 @@ class ControlServer:
 
     def v_state(self, b: dict) -> str | None:
         return self.rt.state(_need(b, "name"))
+
+    def _op(self) -> Any:
+        if self._operator is None:
+            from ..operator import Operator
+            self._operator = Operator(self.rt)
+        return self._operator
+
+    def v_sample(self, b: dict) -> dict:
+        s = self._op().sample(_need(b, "name"), _timeout(b, 2.0))
+        return {"resource": s.source, "seq": s.seq, "t": s.t, "value": s.value}
+
+    def v_send(self, b: dict) -> Any:
+        return self._op().send(_need(b, "name"), b.get("value"), _timeout(b))
 
     # ---- agent verbs (component processes)
     def v_register(self, b: dict) -> int:
