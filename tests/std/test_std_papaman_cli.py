@@ -43,7 +43,7 @@ def test_esair_std_run_papaman(mode):
     def deployed():
         r = esair("ls", "--json", "-e", ep, check=False)
         return r.returncode == 0 and sum(row["state"] in ("running", "ready")
-                                         for row in json.loads(r.stdout)) == 18
+                                         for row in json.loads(r.stdout)["components"]) == 19
     with std_run("papaman", mode, ep, deployed) as proc:
         robots = emulators(descendants(proc.pid))
         assert len(robots) == 1                         # its own emulated PAPA-MAN
