@@ -125,12 +125,23 @@ def remove_resource_cmd(c: Any, name: str) -> None:
 
 @click.command("put")
 @click.argument("name")
-@click.argument("data")
+@click.argument("data", required=False)
+@click.option("-f", "--file", "file", type=click.File("r", encoding="utf-8"), default=None,
+              metavar="FILE", help="Read DATA from FILE (- for standard input).")
 @click.option("--timeout", type=click.FloatRange(0, 3600), default=1.0, show_default=True,
               help="Seconds to wait for the behavior.")
 @control
-def put_cmd(c: Any, name: str, data: str, timeout: float) -> None:
-    """Deliver DATA (JSON, or text) to behavior NAME through the BS."""
+def put_cmd(c: Any, name: str, data: str | None, file: Any, timeout: float) -> None:
+    """Deliver DATA (JSON, or text) to behavior NAME through the BS. DATA `-` (or
+    --file FILE) reads it from standard input (or FILE): data too long for the command
+    line, up to the message cap of 256 KiB."""
+    if (data is None) == (file is None):
+        raise click.UsageError("give DATA, or --file FILE, not both" if data is not None
+                               else "give DATA (or - for standard input), or --file FILE")
+    if data == "-":
+        data = click.get_text_stream("stdin").read()
+    elif file is not None:
+        data = file.read()
     r = c.call("put", {"to": name, "data": value(data), "timeout": timeout},
                timeout=timeout + 5)
     if not r["delivered"]:

@@ -21,6 +21,8 @@ def _rate_source(kind: str, counters: dict) -> int:
     return int(counters.get("reported", 0)) + int(counters.get("commands", 0))
 
 
+#: Columns of the reason at most (the rest of a long reason: `esair std inspect NAME`).
+REASON_WIDTH = 48
 #: A driver's children sharing a prefix (``papaman.servo.*``) become one row from this many.
 GROUP_FROM = 3
 
@@ -77,21 +79,35 @@ def grouped(rows: list[dict]) -> list[dict]:
 
 def render(rows: list[dict], before: dict[str, tuple[float, int]], robot: str) -> Any:
     from rich.table import Table
+    from rich.text import Text
     now = time.monotonic()
-    t = Table(title=f"ESAIR STD — robot {robot}", expand=False)
-    for col in ("name", "kind", "state", "pid", "host", "restarts", "events/s", "reason"):
-        # one line a row: a long reason is cut (`esair std inspect NAME` has it whole)
-        t.add_column(col, justify="right" if col in ("pid", "restarts", "events/s") else "left",
-                     no_wrap=True, overflow="ellipsis")
+    cells = []
     for r in rows:
         t0, n0 = before.get(r["name"], (now, r["count"]))
         rate = (r["count"] - n0) / (now - t0) if now > t0 else 0.0
         before[r["name"]] = (now, r["count"])
-        st = r["state"]
-        colour = COLOURS.get(st.split()[0], "white")
-        t.add_row(r.get("label", r["name"]), r["kind"], f"[{colour}]{st}[/]", str(r["pid"]),
-                  r["host"], str(r.get("restarts", 0)), f"{rate:.0f}", r.get("reason", ""))
+        cells.append((r.get("label", r["name"]), r["kind"], r["state"], str(r["pid"]),
+                      r["host"], str(r.get("restarts", 0)), f"{rate:.0f}",
+                      r.get("reason", "")))
+    t = Table(title=f"ESAIR STD — robot {robot}", expand=False)
+    for i, col in enumerate(COLUMNS):
+        # One line a row: every column keeps its width, a long reason is cut (`esair std
+        # inspect NAME` has it whole).
+        width = max([len(col)] + [len(c[i]) for c in cells])
+        t.add_column(col, justify="right" if col in ("pid", "restarts", "events/s") else "left",
+                     no_wrap=col != "reason", overflow="ellipsis",
+                     min_width=None if col == "reason" else width,
+                     max_width=REASON_WIDTH if col == "reason" else None)
+    for c in cells:
+        colour = COLOURS.get(c[2].split()[0], "white")
+        # the reason's column may narrow (it is the one that gives way), its text stays
+        # on one line
+        t.add_row(*c[:2], f"[{colour}]{c[2]}[/]", *c[3:7],
+                  Text(c[7], no_wrap=True, overflow="ellipsis"))
     return t
+
+
+COLUMNS = ("name", "kind", "state", "pid", "host", "restarts", "events/s", "reason")
 
 
 @click.command("top")

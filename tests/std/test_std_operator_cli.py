@@ -144,10 +144,12 @@ def test_ctrl_c_stops_with_one_line_and_status_130(mode):
     try:
         wait_for(lambda: proc.poll() is not None or answers(ep), timeout=60,
                  what="the robot answering")
+        first = proc.stderr.readline()            # printed once every component started
         kids = children_of(proc.pid)
-        assert len(kids) == (0 if mode == "thread" else 9)
+        assert len(kids) == (0 if mode == "thread" else 9)  # 5 components, 4 resource entries
         os.killpg(proc.pid, signal.SIGINT)        # what a terminal's Ctrl-C does
         out, err = proc.communicate(timeout=60)
+        err = first + err
     finally:
         if proc.poll() is None:
             proc.kill()
@@ -181,3 +183,240 @@ def test_bad_option_values_are_usage_errors(args, message):
     r = esair(*args)
     assert r.returncode == 2
     assert r.stderr.splitlines()[-1] == f"Error: {message}"
+
+
+@pytest.fixture(scope="module", params=MODES)
+def lab(request):
+    """The lab robot (`esair std run lab`) in each mode: (endpoint, mode)."""
+    ep = free_endpoint()
+    proc = spawn_run("lab", "--mode", request.param, "-e", ep, "--no-top")
+    try:
+        wait_for(lambda: proc.poll() is not None or answers(ep), timeout=60,
+                 what="the robot answering")
+        assert proc.poll() is None, proc.communicate()
+        wait_for(lambda: all(r["state"] in ("running", "ready") for r in
+                             json.loads(esair("ls", "--json", "-e", ep).stdout)["components"]),
+                 what="every component running")
+        yield ep, request.param
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 0, err
+
+
+def error_of(*args: str, **kw) -> tuple[int, str]:
+    r = esair(*args, **kw)
+    return r.returncode, r.stderr
+
+
+# ---- 3. errors a user understands
+
+def test_a_port_in_use_is_said_in_plain_words(lab):
+    ep, _ = lab
+    assert error_of("run", "lab", "-e", ep, "--run", "1") == (
+        1, f"error: {ep}: port in use, choose another with -e\n")
+
+
+def test_inspect_has_a_did_you_mean(lab):
+    ep, _ = lab
+    assert error_of("inspect", "logge", "-e", ep) == (
+        1, "error: no component 'logge' (did you mean 'logger'?)\n")
+    assert error_of("inspect", "bench.tmp", "-e", ep) == (
+        1, "error: no component 'bench.tmp' (did you mean 'bench.temp'?)\n")
+
+
+@pytest.mark.parametrize("case,message", [
+    ("long_number", "4:34: a number of 5000 characters is too long to read (at most 4300 "
+                    "digits); quote it to keep it as text"),
+    ("tab_before_comment", "2:11: a tab before a comment: the YAML reader takes only spaces "
+                           "between a value and its '#'; replace the tab by spaces"),
+    ("tab_between_values", "2:7: a tab character between values: the YAML reader separates "
+                           "them with spaces only; replace the tab by spaces"),
+    ("allow_lone_bracket", "4:58: '[' in 'allow' has a '[' or ']' without its pair: in a "
+                           "pattern, [...] holds the characters one place may be, e.g. "
+                           "'arm[12]'"),
+])
+def test_deployment_faults_in_plain_words(case, message):
+    path = FIX / f"{case}.yaml"
+    assert error_of("check", "--no-import", str(path)) == (1, f"error: {path}:{message}\n")
+
+
+def test_brackets_in_pairs_are_a_pattern():
+    r = esair("check", "--no-import", str(FIX / "allow_brackets.yaml"))
+    assert r.returncode == 0, r.stderr
+    assert "allow arm[12]: read, [!x]*: command" in r.stdout
+
+
+def test_a_disconnected_serial_device_is_said_in_plain_words():
+    """pySerial's words for a pty whose other end closed (a robot unplugged), as the
+    link reports them (esair std ls shows them as the reason)."""
+    import pty
+
+    import serial
+
+    from esair_std.drivers.minlink.link import _describe
+    master, slave = pty.openpty()
+    port = serial.Serial(os.ttyname(slave), timeout=1)
+    os.close(master)
+    try:
+        with pytest.raises(serial.SerialException) as exc:
+            port.read(10)
+    finally:
+        port.close()
+        os.close(slave)
+    assert _describe(exc.value) == ("the device disconnected (unplugged, or another program "
+                                    "uses the port)")
+
+
+def test_the_live_table_keeps_one_line_a_row():
+    from rich.console import Console
+
+    from esair_std.cli.top import grouped, render
+    long = "link down: " + "x" * 300
+    rows = [dict(name="d", kind="driver", state="lost", pid=1, host="h", restarts=0,
+                 reason=long, parent="", count=0),
+            dict(name="d.feet", kind="sensor", state="lost", pid=1, host="h", restarts=0,
+                 reason=long, parent="d", count=0)]
+    console = Console(width=100, record=True)
+    console.print(render(grouped(rows), {}, "r"))
+    lines = console.export_text().splitlines()
+    assert len(lines) == 7                    # title, 3 rules, header, 2 rows
+    assert lines[4].startswith("│ d ") and lines[5].startswith("│   .feet ")
+    assert all(line.endswith(("┓", "┃", "┩", "│", "┘")) for line in lines[1:])
+
+
+# ---- 4. what the CLI promises
+
+def test_run_listens_on_esair_std_endpoint(tmp_path):
+    ep, other = free_endpoint(), free_endpoint()
+    dep = tmp_path / "lab.yaml"
+    text = (ROOT / "esair_std" / "examples" / "lab" / "lab.yaml").read_text()
+    dep.write_text(text.replace("endpoint: tcp/127.0.0.1:7447", f"endpoint: {other}"))
+    (tmp_path / "lab.py").write_text((ROOT / "esair_std" / "examples" / "lab" / "lab.py")
+                                     .read_text())
+    r = esair("run", str(dep), "--run", "0.5", env={"ESAIR_STD_ENDPOINT": ep})
+    assert r.returncode == 0, r.stderr
+    assert r.stderr.splitlines()[0] == (
+        f"robot 'lab' running in thread mode, control endpoint {ep} (10 components)")
+
+
+def test_add_is_refused_when_allow_grants_less(lab):
+    ep, _ = lab
+    assert error_of("add", "spy", "lab:Logger", "--uses", "arm=command", "-e", ep) == (
+        1, "error: behavior 'spy' uses 'arm' at level 'command', but resource 'arm' does "
+           "not allow it (add 'spy: command' to its allow)\n")
+    assert error_of("add", "spy", "lab:Logger", "--uses", "wave=configure", "-e", ep) == (
+        1, "error: behavior 'spy' uses 'wave' at level 'configure', but resource 'wave' "
+           "allows it only up to 'read'\n")
+    assert error_of("add", "spy", "lab:Logger", "--uses", "wav=read", "-e", ep) == (
+        1, "error: behavior 'spy' uses unknown resource 'wav' (did you mean 'wave'?)\n")
+    names = [r["name"] for r in json.loads(esair("ls", "--json", "-e", ep).stdout)[
+        "components"]]
+    assert "spy" not in names
+
+
+def test_add_exits_1_when_start_raises(lab):
+    ep, _ = lab
+    assert error_of("add", "shaky", "comps:Faulty", "-o", "fail=start", "-e", ep) == (
+        1, "error: behavior 'shaky' did not start: RuntimeError: refuses to start\n")
+    names = [r["name"] for r in json.loads(esair("ls", "--json", "-e", ep).stdout)[
+        "components"]]
+    assert "shaky" not in names
+    r = esair("add", "shaky", "comps:Faulty", "-e", ep)       # the name is free again
+    assert (r.returncode, r.stdout) == (0, "shaky: running\n")
+    assert esair("remove", "shaky", "-e", ep).returncode == 0
+
+
+def test_put_reads_data_from_a_file_or_stdin(lab, tmp_path):
+    ep, _ = lab
+    assert esair("add", "inbox", "lab:Logger", "-e", ep).returncode == 0
+    try:
+        big = list(range(40_000))                         # 228 KB of JSON
+        path = tmp_path / "big.json"
+        path.write_text(json.dumps(big))
+        assert len(path.read_bytes()) > 131072            # more than one argument may hold
+        r = esair("put", "inbox", "--file", str(path), "--timeout", "5", "-e", ep)
+        assert (r.returncode, r.stdout) == (0, "delivered\n"), r.stderr
+        got = json.loads(esair("get", "inbox", "-e", ep).stdout)
+        assert got["last"] == {"from": "operator", "data": big}
+        r = esair("put", "inbox", "-", "-e", ep, stdin='{"from": "stdin"}\n')
+        assert (r.returncode, r.stdout) == (0, "delivered\n"), r.stderr
+        got = json.loads(esair("get", "inbox", "-e", ep).stdout)
+        assert got == {"received": 2, "last": {"from": "operator", "data": {"from": "stdin"}}}
+        path.write_text(json.dumps(list(range(50_000))))  # 289 KB: over the message cap
+        assert error_of("put", "inbox", "-f", str(path), "-e", ep) == (
+            1, "error: message of 288920 bytes is over the 262144-byte cap\n")
+        r = esair("put", "inbox", "-e", ep)
+        assert (r.returncode, r.stderr.splitlines()[-1]) == (
+            2, "Error: give DATA (or - for standard input), or --file FILE")
+    finally:
+        esair("remove", "inbox", "-e", ep)
+
+
+# ---- 5. observe and command the robot
+
+def test_sample_reads_a_sensors_latest_sample(lab):
+    ep, _ = lab
+    r = esair("sample", "wave", "-e", ep)
+    assert r.returncode == 0, r.stderr
+    assert -1.0 <= json.loads(r.stdout) <= 1.0
+    meta = json.loads(esair("sample", "ticks", "--meta", "-e", ep).stdout)
+    assert meta["resource"] == "ticks" and meta["seq"] >= 1 and meta["value"] >= 0
+    later = json.loads(esair("sample", "ticks", "--meta", "-e", ep).stdout)
+    assert later["seq"] > meta["seq"]                      # the latest, not the first
+    assert error_of("sample", "arm", "-e", ep) == (1, "error: 'arm' is an actuator, not a "
+                                                      "sensor\n")
+    assert error_of("sample", "bench", "-e", ep) == (
+        1, "error: no sensor 'bench' ('bench' is a driver; its sensors: bench.temp)\n")
+    assert error_of("sample", "wav", "-e", ep) == (
+        1, "error: no sensor 'wav' (did you mean 'wave'?)\n")
+    assert error_of("get", "wave", "-e", ep) == (
+        1, "error: get from 'wave' failed: no behavior 'wave' (a sensor: read it with "
+           "`esair std sample wave`)\n")
+
+
+def test_send_commands_an_actuator_as_the_operator(lab):
+    ep, _ = lab
+    assert error_of("send", "arm", '{"angle": 10}', "-e", ep) == (
+        1, "error: 'arm' does not allow the operator (add 'operator: command' to the allow "
+           "of resource 'arm')\n")
+    assert error_of("send", "bench.fan", "1", "-e", ep) == (
+        1, "error: 'bench.fan' allows the operator only up to 'read' (add 'operator: "
+           "command' to the allow of resource 'bench')\n")
+    assert error_of("send", "wave", "1", "-e", ep) == (
+        1, "error: 'wave' is a sensor, not an actuator\n")
+    r = esair("add-resource", "pen", "esair_std.drivers.sim:Recorder", "--allow",
+              "operator=command", "-e", ep)
+    assert r.returncode == 0, r.stderr
+    try:
+        r = esair("send", "pen", '{"angle": 90}', "-e", ep)
+        assert (r.returncode, r.stdout) == (0, '{"count": 1, "speed": 5}\n'), r.stderr
+        assert error_of("send", "pen", '{"angle": 200}', "-e", ep) == (
+            1, "error: pen: angle 200 out of range 0-180\n")
+        info = json.loads(esair("inspect", "pen", "-e", ep).stdout)
+        assert info["grants"] == {"operator": "command"}
+    finally:
+        esair("remove-resource", "pen", "-e", ep)
+
+
+def test_ls_json_is_one_object_with_the_same_keys_for_every_component(lab):
+    ep, mode = lab
+    out = json.loads(esair("ls", "--json", "-e", ep).stdout)
+    assert list(out) == ["robot", "endpoint", "components"]
+    assert (out["robot"], out["endpoint"]) == ("lab", ep)
+    rows = {r["name"]: r for r in out["components"]}
+    keys = ["name", "kind", "state", "pid", "host", "restarts", "reason", "class", "parent",
+            "attached"]
+    assert all(list(r) == keys for r in rows.values())
+    assert list(rows) == ["guard", "logger", "follow", "tuner", "keeper", "wave", "ticks",
+                          "arm", "bench", "bench.temp", "bench.fan"]
+    assert (rows["bench"]["kind"], rows["bench"]["class"]) == (
+        "driver", "esair_std.drivers.sim:Bench")
+    assert rows["bench.fan"]["parent"] == "bench" and rows["arm"]["parent"] == ""
+    wait_for(lambda: json.loads(esair("ls", "--json", "-e", ep).stdout)["components"][2][
+        "attached"] == ["arm", "wave"], what="follow attached to wave and arm")
+    rows = {r["name"]: r for r in json.loads(esair("ls", "--json", "-e", ep).stdout)[
+        "components"]}
+    assert "follow" in rows["wave"]["attached"]
+    assert "follow" in rows["arm"]["attached"]           # an actuator's real attachments
+    assert rows["logger"]["attached"] == []
