@@ -345,7 +345,7 @@ def test_put_reads_data_from_a_file_or_stdin(lab, tmp_path):
         assert got == {"received": 2, "last": {"from": "operator", "data": {"from": "stdin"}}}
         path.write_text(json.dumps(list(range(50_000))))  # 289 KB: over the message cap
         assert error_of("put", "inbox", "-f", str(path), "-e", ep) == (
-            1, "error: message of 288920 bytes is over the 262144-byte cap\n")
+            1, "error: message of 288927 bytes is over the 262144-byte cap\n")
         r = esair("put", "inbox", "-e", ep)
         assert (r.returncode, r.stderr.splitlines()[-1]) == (
             2, "Error: give DATA (or - for standard input), or --file FILE")
@@ -420,3 +420,61 @@ def test_ls_json_is_one_object_with_the_same_keys_for_every_component(lab):
     assert "follow" in rows["wave"]["attached"]
     assert "follow" in rows["arm"]["attached"]           # an actuator's real attachments
     assert rows["logger"]["attached"] == []
+
+
+# ---- 5. the emulated robot's options, the live table / 6. copy an example
+
+def test_trace_and_scenario_reach_the_emulated_robot(tmp_path):
+    r = esair("run", "papaman", "--trace", "trace.txt", "--scenario", "push", "--run", "3",
+              "--no-control", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    trace = (tmp_path / "trace.txt").read_text()        # relative to where it was run
+    assert trace.startswith("# esair-trace 1\n@ 0\n")
+    assert error_of("run", "papaman", "--trace", "t.txt", "--port", "/dev/ttyUSB0",
+                    "--run", "0")[1].splitlines()[-1] == (
+        "Error: --trace is for the emulated robot, not --port /dev/ttyUSB0")
+
+
+@pytest.mark.parametrize("mode", MODES)
+def test_the_live_table_groups_a_drivers_children(robot, mode):
+    _, ep = robot("papaman", "--mode", mode)
+    wait_for(lambda: sum(r["state"] == "ready" for r in json.loads(
+        esair("ls", "--json", "-e", ep).stdout)["components"]) == 16, what="papaman ready")
+    out = esair("top", "--count", "1", "--interval", "0.1", "-e", ep).stdout
+    names = [line.split("│")[1].strip() for line in out.splitlines()
+             if line.startswith("│")]
+    assert names == ["sequencer", "watcher", "logger", "papaman", ".servo.* (12)",
+                     ".motion", ".feet", ".notices"]
+    # the bundled papaman grants the operator command: one command by hand
+    r = esair("send", "papaman.motion", "stand", "-e", ep)
+    assert (r.returncode, r.stdout) == (0, '"t"\n'), r.stderr
+    feet = json.loads(esair("sample", "papaman.feet", "-e", ep).stdout)
+    assert feet["groups"] == {"left_foot": 2048, "right_foot": 2048}
+
+
+def test_new_copies_an_example_that_checks_and_runs(tmp_path):
+    folder = tmp_path / "mybot"
+    r = esair("new", "papaman", str(folder), cwd=tmp_path)
+    assert (r.returncode, r.stdout) == (0, f"wrote {folder}/papaman.yaml\n"
+                                           f"wrote {folder}/papaman_behaviors.py\n"
+                                           f"run it: esair std run {folder}\n")
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    r = esair("check", str(folder), cwd=elsewhere)
+    assert r.returncode == 0 and r.stdout.endswith("classes: 4 imported\nok\n"), r.stderr
+    # relative paths in the deployment are relative to its folder, not to the cwd
+    dep = folder / "papaman.yaml"
+    text = dep.read_text()
+    assert text.count("emulate: {scenario: quiet}") == 1
+    dep.write_text(text.replace("emulate: {scenario: quiet}",
+                                "emulate: {scenario: quiet, trace: trace.txt}"))
+    r = esair("run", str(folder), "--run", "2", "--no-control", cwd=elsewhere)
+    assert r.returncode == 0, r.stderr
+    assert (folder / "trace.txt").read_text().startswith("# esair-trace 1\n")
+    assert not (elsewhere / "trace.txt").exists()
+    assert error_of("new", "papaman", str(folder)) == (
+        1, f"error: {folder}/papaman.yaml exists already: choose a new folder, or move it "
+           "away (nothing was written)\n")
+    assert error_of("new", "papamn", str(tmp_path / "x")) == (
+        1, "error: no bundled example named 'papamn' (did you mean 'papaman'?) (bundled: "
+           "lab, papaman)\n")
