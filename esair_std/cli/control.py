@@ -11,9 +11,10 @@ from typing import Any, Callable
 import click
 
 from ..errors import ControlError
-from . import friendly
+from esair_min.cli.pipes import friendly
+
 from .options import endpoint_option
-from .run import _table
+from .table import table as _table
 
 ENDPOINT = endpoint_option("The runtime's control endpoint (default: $ESAIR_STD_ENDPOINT, "
                            "else tcp/127.0.0.1:7447).")

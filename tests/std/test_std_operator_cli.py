@@ -7,49 +7,31 @@ from __future__ import annotations
 import json
 import os
 import signal
-import socket
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[2]
-STD = Path(__file__).resolve().parent
+from tests.support.std import MODES, ROOT, free_endpoint, wait_for
+
 FIX = ROOT / "tests" / "fixtures" / "std_operator"
-MODES = ["thread", "process"]
-
-
-def free_endpoint() -> str:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return f"tcp/127.0.0.1:{s.getsockname()[1]}"
+#: seconds each; the papaman tests run the emulator behind a pty
+pytestmark = pytest.mark.slow
 
 
 def environ(extra: dict | None = None) -> dict:
     """This checkout first on the children's path (not an installed copy)."""
-    path = os.pathsep.join([str(ROOT), str(STD), os.environ.get("PYTHONPATH", "")])
+    path = os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])
     return dict(os.environ, COLUMNS="200", PYTHONPATH=path, **(extra or {}))
 
 
-def esair(*args: str, cwd: str | Path = STD, env: dict | None = None,
+def esair(*args: str, cwd: str | Path = ROOT, env: dict | None = None,
           stdin: str | None = None) -> subprocess.CompletedProcess:
     """``esair std ARGS`` in a child process."""
     return subprocess.run([sys.executable, "-m", "esair_min.cli", "std", *args],
                           capture_output=True, text=True, timeout=90, cwd=cwd, input=stdin,
                           env=environ(env))
-
-
-def wait_for(fn, timeout: float = 30.0, what: str = "condition"):
-    deadline = time.monotonic() + timeout
-    while True:
-        v = fn()
-        if v:
-            return v
-        if time.monotonic() > deadline:
-            raise AssertionError(f"timed out waiting for {what}; last value {v!r}")
-        time.sleep(0.05)
 
 
 def children_of(pid: int) -> list[int]:
@@ -71,7 +53,7 @@ def children_of(pid: int) -> list[int]:
     return out
 
 
-def spawn_run(*args: str, cwd: str | Path = STD, env: dict | None = None) -> subprocess.Popen:
+def spawn_run(*args: str, cwd: str | Path = ROOT, env: dict | None = None) -> subprocess.Popen:
     """``esair std run ARGS`` in its own session, as a terminal runs it (a terminal's
     Ctrl-C goes to the whole process group)."""
     return subprocess.Popen([sys.executable, "-m", "esair_min.cli", "std", "run", *args],
@@ -89,7 +71,7 @@ def robot(request):
     answering on its control endpoint; SIGTERM and exit status 0 after the test."""
     started = []
 
-    def start(deployment: str, *args: str, cwd: str | Path = STD):
+    def start(deployment: str, *args: str, cwd: str | Path = ROOT):
         ep = free_endpoint()
         proc = spawn_run(deployment, "-e", ep, "--no-top", *args, cwd=cwd)
         started.append(proc)
@@ -247,6 +229,7 @@ def test_brackets_in_pairs_are_a_pattern():
     assert "allow arm[12]: read, [!x]*: command" in r.stdout
 
 
+@pytest.mark.pty
 def test_a_disconnected_serial_device_is_said_in_plain_words():
     """pySerial's words for a pty whose other end closed (a robot unplugged), as the
     link reports them (esair std ls shows them as the reason)."""
@@ -317,12 +300,12 @@ def test_add_is_refused_when_allow_grants_less(lab):
 
 def test_add_exits_1_when_start_raises(lab):
     ep, _ = lab
-    assert error_of("add", "shaky", "comps:Faulty", "-o", "fail=start", "-e", ep) == (
+    assert error_of("add", "shaky", "tests.support.comps:Faulty", "-o", "fail=start", "-e", ep) == (
         1, "error: behavior 'shaky' did not start: RuntimeError: refuses to start\n")
     names = [r["name"] for r in json.loads(esair("ls", "--json", "-e", ep).stdout)[
         "components"]]
     assert "shaky" not in names
-    r = esair("add", "shaky", "comps:Faulty", "-e", ep)       # the name is free again
+    r = esair("add", "shaky", "tests.support.comps:Faulty", "-e", ep)       # the name is free again
     assert (r.returncode, r.stdout) == (0, "shaky: running\n")
     assert esair("remove", "shaky", "-e", ep).returncode == 0
 
@@ -424,6 +407,7 @@ def test_ls_json_is_one_object_with_the_same_keys_for_every_component(lab):
 
 # ---- 5. the emulated robot's options, the live table / 6. copy an example
 
+@pytest.mark.pty
 def test_trace_and_scenario_reach_the_emulated_robot(tmp_path):
     r = esair("run", "papaman", "--trace", "trace.txt", "--scenario", "push", "--run", "3",
               "--no-control", cwd=tmp_path)
@@ -435,6 +419,7 @@ def test_trace_and_scenario_reach_the_emulated_robot(tmp_path):
         "Error: --trace is for the emulated robot, not --port /dev/ttyUSB0")
 
 
+@pytest.mark.pty
 @pytest.mark.parametrize("mode", MODES)
 def test_the_live_table_groups_a_drivers_children(robot, mode):
     _, ep = robot("papaman", "--mode", mode)
@@ -452,6 +437,7 @@ def test_the_live_table_groups_a_drivers_children(robot, mode):
     assert feet["groups"] == {"left_foot": 2048, "right_foot": 2048}
 
 
+@pytest.mark.pty
 def test_new_copies_an_example_that_checks_and_runs(tmp_path):
     folder = tmp_path / "mybot"
     r = esair("new", "papaman", str(folder), cwd=tmp_path)
