@@ -21,11 +21,12 @@ from typing import Any
 from .connections import SensorHandle
 from .errors import ControlError, Refused
 from .level import Level, best_match
+from .policy import PRINCIPALS
 from .sample import Sample
 from .transport import keys
 
 #: The principal name of the command line's operator in ``allow``.
-OPERATOR = "operator"
+OPERATOR = PRINCIPALS[0]
 
 
 class Operator:

@@ -10,6 +10,10 @@ from fnmatch import fnmatchcase
 
 from .level import Level, best_match
 
+#: Principals that are not behaviors: the command line's operator (``esair std send``,
+#: esair_std/operator.py) and the browser HMI. ``allow`` may name them.
+PRINCIPALS = ("operator", "hmi")
+
 
 def entries_named(ref: str, entries: list[str]) -> list[str]:
     """The resource entries a ``uses`` name refers to: its first part (before any '.')

@@ -16,7 +16,7 @@ from esair_min.config.schema_errors import quote
 from esair_min.config.yamlload import Document
 
 from ..errors import DeployError
-from ..policy import entries_named, grant_problem, suggest, unknown
+from ..policy import PRINCIPALS, entries_named, grant_problem, suggest, unknown
 from .model import Deployment
 
 WILDCARDS = set("*?[")
@@ -55,7 +55,7 @@ def notes(dep: Deployment, doc: Document) -> list[tuple[Mark, str]]:
     behaviors = list(dep.behaviors)
     for res in dep.resources.values():
         for pattern in res.allow:
-            if WILDCARDS & set(pattern) or pattern in dep.behaviors:
+            if WILDCARDS & set(pattern) or pattern in dep.behaviors or pattern in PRINCIPALS:
                 continue
             close = difflib.get_close_matches(pattern, behaviors, n=1, cutoff=0.6)
             hint = f" (did you mean '{close[0]}'?)" if close else ""
