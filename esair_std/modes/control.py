@@ -77,8 +77,10 @@ class ControlServer:
             "reaction": self.v_reaction, "inspect": self.v_inspect, "state": self.v_state,
             "register": self.v_register, "attach": self.v_attach, "kind": self.v_kind,
             "report": self.v_report, "resstate": self.v_resstate, "hello": self.v_hello,
-            "join": self.v_join, "sample": self.v_sample, "send": self.v_send,
+            "join": self.v_join,
         }
+        # the operator's verbs (esair std sample / send): esair_std/operator.py
+        self.verbs.update({"sample": self.v_sample, "send": self.v_send})
         self._operator: Any = None         # esair_std.operator.Operator, on first use
 
     def start(self) -> None:
