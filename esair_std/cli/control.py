@@ -131,9 +131,15 @@ def remove_resource_cmd(c: Any, name: str) -> None:
               metavar="FILE", help="Read DATA from FILE (- for standard input).")
 @click.option("--timeout", type=click.FloatRange(0, 3600), default=1.0, show_default=True,
               help="Seconds to wait for the behavior.")
+@click.option("--no-wait", is_flag=True,
+              help="Done when the data is in the behavior's mailbox, before its receive() "
+                   "ran (a refusal is then not reported here).")
 @control
-def put_cmd(c: Any, name: str, data: str | None, file: Any, timeout: float) -> None:
-    """Deliver DATA (JSON, or text) to behavior NAME through the BS. DATA `-` (or
+def put_cmd(c: Any, name: str, data: str | None, file: Any, timeout: float,
+            no_wait: bool) -> None:
+    """Deliver DATA (JSON, or text) to behavior NAME through the BS, as `operator`, and
+    wait until its receive() took it: a behavior refuses data by raising
+    esair_std.Refused("why") there, and the refusal is the error printed. DATA `-` (or
     --file FILE) reads it from standard input (or FILE): data too long for the command
     line, up to the message cap of 256 KiB."""
     if (data is None) == (file is None):
@@ -143,8 +149,8 @@ def put_cmd(c: Any, name: str, data: str | None, file: Any, timeout: float) -> N
         data = click.get_text_stream("stdin").read()
     elif file is not None:
         data = file.read()
-    r = c.call("put", {"to": name, "data": value(data), "timeout": timeout},
-               timeout=timeout + 5)
+    r = c.call("put", {"to": name, "data": value(data), "timeout": timeout,
+                       "wait": not no_wait}, timeout=timeout + 5)
     if not r["delivered"]:
         raise ControlError(f"put to {name!r} failed: {r['reason']}")
     click.echo("delivered")

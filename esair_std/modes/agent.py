@@ -247,6 +247,10 @@ class Agent:
             if host.request_provide(str(b.get("from")),
                                     lambda v: req.reply({"ok": list(v)})) != "queued":
                 req.reply({"ok": ["busy", host.state]})
+        elif op == "take":                  # a put its sender waits for
+            if host.request_take(str(b.get("from")), b.get("data"),
+                                 lambda v: req.reply({"ok": list(v)})) != "queued":
+                req.reply({"ok": ["busy", host.state]})
         elif op == "state":
             req.reply({"ok": host.state})
         elif op == "detached":

@@ -121,6 +121,7 @@ class ControlServer:
     def _enqueue(self, req: Request) -> None:
         b = req.body
         if (req.key.endswith("/ctl/put") and b is not None and isinstance(b.get("to"), str)
+                and not b.get("wait")
                 and isinstance(b.get("from", ""), str) and _valid_timeout(b)):
             # fast path: the first offer straight from this callback, answered from the
             # offer's answer; a busy target goes on through a worker (retries until the
@@ -235,6 +236,8 @@ class ControlServer:
         if "/" in to:                             # another robot's behavior: remote/robots.py
             from ..remote import robots
             ok, why = robots.put(self.rt, str(sender), to, b.get("data"), _timeout(b))
+        elif b.get("wait"):       # the sender waits for receive(): told if refused
+            ok, why = self.rt.bs.put_wait(sender, to, b.get("data"), _timeout(b))
         else:
             ok, why = self.rt.bs.put(sender, to, b.get("data"), _timeout(b))
         return {"delivered": ok, "reason": why}

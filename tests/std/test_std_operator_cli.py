@@ -421,7 +421,9 @@ def test_trace_and_scenario_reach_the_emulated_robot(tmp_path):
 
 @pytest.mark.pty
 @pytest.mark.parametrize("mode", MODES)
-def test_the_live_table_groups_a_drivers_children(robot, mode):
+def test_papaman_from_the_command_line(robot, mode):
+    """The live table groups the driver's children; a put the sequencer refuses says
+    why; one command by hand as the operator; the feet's latest sample."""
     _, ep = robot("papaman", "--mode", mode)
     wait_for(lambda: sum(r["state"] == "ready" for r in json.loads(
         esair("ls", "--json", "-e", ep).stdout)["components"]) == 16, what="papaman ready")
@@ -430,6 +432,18 @@ def test_the_live_table_groups_a_drivers_children(robot, mode):
              if line.startswith("│")]
     assert names == ["sequencer", "watcher", "logger", "papaman", ".servo.* (12)",
                      ".motion", ".feet", ".notices"]
+    # a behavior refuses a put by raising Refused in receive(): the sender is told why
+    assert error_of("put", "sequencer", '["dnce"]', "-e", ep) == (
+        1, "error: put to 'sequencer' failed: 'sequencer' refused it: unknown operation "
+           "'dnce' (known: stop, stand_up, sit_down, prostrate, dance, auto_balance); "
+           "nothing queued\n")
+    r = esair("put", "sequencer", '["stand_up"]', "-e", ep)
+    assert (r.returncode, r.stdout) == (0, "delivered\n"), r.stderr
+    rows = {r["name"]: r for r in json.loads(esair("ls", "--json", "-e", ep).stdout)[
+        "components"]}
+    assert rows["sequencer"]["state"] == "running"
+    info = json.loads(esair("inspect", "sequencer", "-e", ep).stdout)
+    assert info["counters"]["refused_puts"] == 1
     # the bundled papaman grants the operator command: one command by hand
     r = esair("send", "papaman.motion", "stand", "-e", ep)
     assert (r.returncode, r.stdout) == (0, '"t"\n'), r.stderr
