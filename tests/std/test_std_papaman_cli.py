@@ -59,7 +59,8 @@ def test_port_points_the_deployment_at_another_robot(tmp_path):
         r = esair("run", "papaman", "--run", "2", "--port", emu.port, "--top",
                   "-e", free_endpoint())
         table, _, summary = r.stdout.rpartition("NAME ")
-        assert "ESAIR STD — robot papaman" in table and "papaman.notices" in table
+        assert "ESAIR STD — robot papaman" in table and "│   .notices " in table
+        assert "│   .servo.* (12) " in table           # the driver's children grouped
         rows = {line.split()[0]: line.split()[2] for line in summary.splitlines()[1:]}
         assert rows["papaman.motion"] == "ready" and rows["papaman.feet"] == "ready"
     # the robot behind --port answered the link's probe and the feet polls
