@@ -389,7 +389,7 @@ def test_ls_json_is_one_object_with_the_same_keys_for_every_component(lab):
     assert (out["robot"], out["endpoint"]) == ("lab", ep)
     rows = {r["name"]: r for r in out["components"]}
     keys = ["name", "kind", "state", "pid", "host", "restarts", "reason", "class", "parent",
-            "attached"]
+            "attached", "detached"]
     assert all(list(r) == keys for r in rows.values())
     assert list(rows) == ["guard", "logger", "follow", "tuner", "keeper", "wave", "ticks",
                           "arm", "bench", "bench.temp", "bench.fan"]
