@@ -16,6 +16,7 @@ import pytest
 import serial
 
 from esair_min.core.protocol import Code
+from esair_min.model.identity import board_set_id
 from esair_min.model.validate import load_robot
 from esair_std.drivers.minlink import Link, LinkDown, LinkError, RobotRefused, line_budget
 from esair_std.drivers.minlink.link import WIRE_CODES
@@ -78,7 +79,7 @@ def test_commands_outside_the_board_files_are_refused_before_sending(robot):
 
 def test_replies_are_matched_and_errors_name_the_command(robot):
     with Link(robot, URL + "?scenario=push") as link:
-        assert link.version() == "esair-min/1 servos=12 sensors=8 motions=5 image=ok checksum=off"
+        assert link.version() == "esair-min/1 servos=12 sensors=8 motions=5 image=ok checksum=off id=831b"
         link.stand()
         link.motor("l_knee", 120, 3)
         with pytest.raises(RobotRefused) as exc:
@@ -113,7 +114,7 @@ def test_checksums_are_sent_when_the_board_file_requires_them(tmp_path, robot):
     strict = load_robot(folder)
     url = f"esair://{folder}"
     with Link(strict, url) as link:
-        assert link.version().endswith("checksum=on")
+        assert link.version().endswith(f"checksum=on id={board_set_id(strict)}")
         link.stand()                                  # sent as "t*74"
         link.motor("l_knee", 100)
         assert link.commands.wire("t") == b"t*74\r\n"
@@ -168,7 +169,7 @@ def test_board_faults_surface_on_the_command(robot):
     with Link(robot, URL + "?stuck=bus") as link:
         with pytest.raises(RobotRefused, match=r"^robot refused 's': E10 no answer on i2c$"):
             link.feet()
-        assert link.version().endswith("image=bad checksum=off")
+        assert link.version().endswith("image=bad checksum=off id=831b")
         assert link.up
     assert _io_threads() == []
 
@@ -196,7 +197,7 @@ def test_callers_at_once_queue_in_order_and_each_gets_its_own_reply(robot):
 
 def test_a_command_waiting_its_turn_fails_not_sent(robot):
     """A command that cannot get its turn within its timeout fails saying it was not
-    sent (counted as busy); the one in flight is answered."""
+    sent (counted as expired); the one in flight is answered."""
     with Link(robot, URL + "?speed=1") as link:
         out: dict[str, object] = {}
 
@@ -209,7 +210,7 @@ def test_a_command_waiting_its_turn_fails_not_sent(robot):
             time.sleep(0.0005)
         with pytest.raises(LinkError) as exc:
             link.command("x", timeout=0.001)
-        assert str(exc.value) == (f"link to {URL}?speed=1 busy: 'x' waited 0.001 s for its "
-                                  f"turn; not sent")
+        assert str(exc.value) == (f"link to {URL}?speed=1: 'x' not written within its "
+                                  f"deadline; dropped")
         t.join(5)
-        assert out == {"s": 8} and link.stats["busy"] == 1 and not link._queue
+        assert out == {"s": 8} and link.stats["expired"] == 1 and not link._queue

@@ -136,11 +136,14 @@ def eeprom(robot: str, output: str, raw: bool) -> None:
 @click.option("--noise", type=float, default=0.0, metavar="BYTES/S",
               help="Fault: random bytes injected into the robot's receive line.")
 @click.option("--seed", type=int, default=0, show_default=True, help="Seed of the faults.")
+@click.option("--instance", metavar="HEX8",
+              help="This boot's instance in the 'v' reply's id (8 hex digits; with --pty "
+                   "a random one by default, docs/protocol.md).")
 @friendly
 def emulate(robot: str, pty: bool, run_s: float | None, sends: tuple[str, ...],
             generate: str | None, scenario: str | None, trace: str | None, speed: float | None,
             nack_actuator: bool, no_sensor: bool, corrupt_eeprom: bool, stuck_bus: bool,
-            noise: float, seed: int) -> None:
+            noise: float, seed: int, instance: str | None) -> None:
     """Run the emulated robot behind a pseudo-terminal (--pty) or headless (--run).
 
     With --pty it serves until Ctrl-C or SIGTERM; when standard output is a terminal,
@@ -157,7 +160,8 @@ def emulate(robot: str, pty: bool, run_s: float | None, sends: tuple[str, ...],
     opts = EmulateOptions(
         pty=pty, run_s=run_s, sends=sends, generate=Path(generate) if generate else None,
         scenario=scenario, trace=Path(trace) if trace else None, speed=speed,
-        faults=Faults(nack_actuator, no_sensor, corrupt_eeprom, noise, seed, stuck_bus))
+        faults=Faults(nack_actuator, no_sensor, corrupt_eeprom, noise, seed, stuck_bus),
+        instance=instance)
     status = run_emulator(load(robot), opts)
     if status:
         sys.exit(status)
