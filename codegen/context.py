@@ -17,7 +17,6 @@ from esair_min.model.hardware import ADC_PINS
 from esair_min.core.image import build_image
 from esair_min.model.layout import HEADER_BYTES
 from esair_min.model.board import Board
-from esair_min.model.identity import board_set_id
 from esair_min.model.robot import Robot
 
 from . import filters, timing
@@ -118,8 +117,7 @@ def central_context(robot: Robot) -> Context:
         r["mask_a"] = group_masks[r["group_a"]]["mask"]
         r["mask_b"] = group_masks[r["group_b"]]["mask"]
     ver_pre, ver_post = _split_image_ok(
-        P.ok_line(P.version_data(n, len(sensors), len(robot.motions), True, checksum,
-                                 board_set_id(robot))))
+        P.ok_line(P.version_data(n, len(sensors), len(robot.motions), True, checksum)))
     ready_pre, ready_post = _split_image_ok(P.ready_line(True))
     texts = _texts(ver_pre, ver_post, ready_pre, ready_post, reactions)
     t2, baud, i2c = board.timer2, board.baud, board.i2c_setting

@@ -22,9 +22,9 @@ from click.testing import CliRunner
 from esair_min.cli import main
 
 ROOT = Path(__file__).resolve().parent.parent
-VERSION = "OK esair-min/1 servos=12 sensors=8 motions=5 image=ok checksum=off id=831b"
+VERSION = "OK esair-min/1 servos=12 sensors=8 motions=5 image=ok checksum=off"
 INSTANCE = "0123abcd"            # the pty emulators here boot with this instance
-VERSION_PTY = f"{VERSION}-{INSTANCE}"
+VERSION_PTY = f"{VERSION} id={INSTANCE}"
 
 
 def _env() -> dict[str, str]:

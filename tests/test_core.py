@@ -122,9 +122,9 @@ def test_boot_resets_the_state():
 
 def test_version():
     assert say(booted(), "v") == \
-        [b"OK esair-min/1 servos=12 sensors=8 motions=5 image=ok checksum=off id=831b\r\n"]
+        [b"OK esair-min/1 servos=12 sensors=8 motions=5 image=ok checksum=off\r\n"]
     assert say(booted(with_checksum()), "v*76") == \
-        [b"OK esair-min/1 servos=12 sensors=8 motions=5 image=ok checksum=on id=831b\r\n"]
+        [b"OK esair-min/1 servos=12 sensors=8 motions=5 image=ok checksum=on\r\n"]
 
 
 def test_stand_is_held_until_the_tick():
@@ -587,7 +587,7 @@ def test_harness_script(tmp_path):
     lines = run_script(PAPAMAN, script, str(tmp_path / "s.txt"))
     assert tx(lines) == [
         b"!READY esair-min/1 image=ok\r\n",
-        b"OK esair-min/1 servos=12 sensors=8 motions=5 image=ok checksum=off id=831b\r\n",
+        b"OK esair-min/1 servos=12 sensors=8 motions=5 image=ok checksum=off\r\n",
         b"OK 1,2,3,4,5,6,7,8\r\n", b"E10 no answer on i2c\r\n",
         b"!READY esair-min/1 image=bad\r\n"]
     assert "T 3" in lines and "T 1" in lines

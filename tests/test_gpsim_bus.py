@@ -29,7 +29,7 @@ CUT_LEAD = 0.25                           # bus_cut.txt: ticks end 1/4 tick afte
 E10 = b"E10 no answer on i2c\r\n"
 NOTICE = b"!E10 no answer on i2c\r\n"
 OK = b"OK\r\n"
-VERSION_OK = b"OK esair-min/1 servos=12 sensors=8 motions=5 image=ok checksum=off id=831b\r\n"
+VERSION_OK = b"OK esair-min/1 servos=12 sensors=8 motions=5 image=ok checksum=off\r\n"
 STAND = "W 10 005A145A145A145A145A145A145A145A145A145A145A145A14 ACK"
 
 # Instruction cycles (20 MHz): from the ISR's read of the CR that ends a line to the
@@ -154,7 +154,7 @@ def test_booting_with_the_bus_held_reports_a_bad_image(robot, central, tmp_path)
     assert compare(python, run.trace(), GpsimSetup.from_robot(robot), held=True) == []
     assert [line for _, line in run.replies] == [
         b"!READY esair-min/1 image=bad\r\n", NOTICE,
-        b"OK esair-min/1 servos=12 sensors=8 motions=5 image=bad checksum=off id=831b\r\n", E10,
+        b"OK esair-min/1 servos=12 sensors=8 motions=5 image=bad checksum=off\r\n", E10,
         b"E09 motion image invalid\r\n", OK, b"E09 motion image invalid\r\n",
         b"OK 514,514,514,514,514,514,514,514\r\n"]
     assert run.bus_resets[0] < run.replies[0][0]           # the header read timed out

@@ -16,7 +16,6 @@ import pytest
 import serial
 
 from esair_min.core.protocol import Code
-from esair_min.model.identity import board_set_id
 from esair_min.model.validate import load_robot
 from esair_std.drivers.minlink import Link, LinkDown, LinkError, RobotRefused, line_budget
 from esair_std.drivers.minlink.link import WIRE_CODES
@@ -79,7 +78,7 @@ def test_commands_outside_the_board_files_are_refused_before_sending(robot):
 
 def test_replies_are_matched_and_errors_name_the_command(robot):
     with Link(robot, URL + "?scenario=push") as link:
-        assert link.version() == "esair-min/1 servos=12 sensors=8 motions=5 image=ok checksum=off id=831b"
+        assert link.version() == "esair-min/1 servos=12 sensors=8 motions=5 image=ok checksum=off"
         link.stand()
         link.motor("l_knee", 120, 3)
         with pytest.raises(RobotRefused) as exc:
@@ -114,7 +113,7 @@ def test_checksums_are_sent_when_the_board_file_requires_them(tmp_path, robot):
     strict = load_robot(folder)
     url = f"esair://{folder}"
     with Link(strict, url) as link:
-        assert link.version().endswith(f"checksum=on id={board_set_id(strict)}")
+        assert link.version().endswith("checksum=on")
         link.stand()                                  # sent as "t*74"
         link.motor("l_knee", 100)
         assert link.commands.wire("t") == b"t*74\r\n"
@@ -169,7 +168,7 @@ def test_board_faults_surface_on_the_command(robot):
     with Link(robot, URL + "?stuck=bus") as link:
         with pytest.raises(RobotRefused, match=r"^robot refused 's': E10 no answer on i2c$"):
             link.feet()
-        assert link.version().endswith("image=bad checksum=off id=831b")
+        assert link.version().endswith("image=bad checksum=off")
         assert link.up
     assert _io_threads() == []
 

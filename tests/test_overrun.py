@@ -28,7 +28,7 @@ ROOT = Path(__file__).resolve().parents[1]
 FIXTURES = ROOT / "tests" / "fixtures" / "overrun"
 PAPAMAN = load_robot(ROOT / "boards" / "papaman")
 STAND = "W 10 00" + "5A14" * 12 + " ACK"
-VERSION = "OK esair-min/1 servos=12 sensors=8 motions=5 image=ok checksum=off id=831b"
+VERSION = "OK esair-min/1 servos=12 sensors=8 motions=5 image=ok checksum=off"
 E12 = "E12 input overrun"
 PROPERTY_EXAMPLES = 400
 CR, LF = 0x0D, 0x0A

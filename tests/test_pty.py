@@ -28,7 +28,7 @@ from esair_min.model.validate import load_robot
 ROOT = Path(__file__).resolve().parent.parent
 START_TIMEOUT = 30
 INSTANCE = "0123abcd"            # the emulators here boot with this instance
-VERSION = f"OK esair-min/1 servos=12 sensors=8 motions=5 image=ok checksum=off id=831b-{INSTANCE}"
+VERSION = f"OK esair-min/1 servos=12 sensors=8 motions=5 image=ok checksum=off id={INSTANCE}"
 
 
 def _env() -> dict[str, str]:

@@ -12,7 +12,7 @@ from click.testing import CliRunner
 from esair_min.cli import main
 
 URL = "esair://boards/papaman?speed=max"
-VERSION = "OK esair-min/1 servos=12 sensors=8 motions=5 image=ok checksum=off id=831b"
+VERSION = "OK esair-min/1 servos=12 sensors=8 motions=5 image=ok checksum=off"
 
 
 def send(*args: str):

@@ -45,5 +45,5 @@ def test_the_emulator_keeps_the_transcript(robot):
     rows = [(r.kind, r.text, r.reply) for r in emu.transcript.rows]
     assert rows[0] == ("notice", "!READY esair-min/1 image=ok", None)
     assert [r[1:] for r in rows[1:]] == [
-        ("v", "OK esair-min/1 servos=12 sensors=8 motions=5 image=ok checksum=off id=831b"),
+        ("v", "OK esair-min/1 servos=12 sensors=8 motions=5 image=ok checksum=off"),
         ("PLY03", "OK"), ("PLY01", "E07 busy"), ("x", "OK")]

@@ -16,7 +16,6 @@ from esair_min.core import protocol as P
 from esair_min.core.bus import Bus
 from esair_min.core.decoder import CommandTable, LineAssembler, Row
 from esair_min.core.image import build_image, crc16_ccitt
-from esair_min.model.identity import board_set_id
 from esair_min.model.layout import HEADER_BYTES
 from esair_min.core.player import BalanceReaction, Player
 from esair_min.core.protocol import Code
@@ -32,8 +31,9 @@ class CentralCore:
     def __init__(self, robot: Robot, bus: Bus, send: Callable[[bytes], None],
                  robot_id: str | None = None):
         self.robot = robot
-        # the v reply's id= (docs/protocol.md): the board set's, or the emulator's
-        self.robot_id = board_set_id(robot) if robot_id is None else robot_id
+        # the v reply's id= (docs/protocol.md, "Robot id"): an emulator's boot; the
+        # firmware has none
+        self.robot_id = robot_id
         self.bus = bus
         self.send = send
         servos = robot.servos

@@ -31,7 +31,7 @@ from esair_min.core.central import CentralCore
 from esair_min.core.devices import Eeprom24, RegisterSlave, SimpleBus
 from esair_min.errors import EsairError
 from esair_min.core.image import build_image
-from esair_min.model.identity import emulated_id
+from esair_min.model.identity import check_instance
 from esair_min.model.robot import Robot
 from esair_min.core.trace import TraceWriter, TracingBus
 from esair_min.emulator.actuator import ActuatorBoard, stand_registers
@@ -105,7 +105,7 @@ class Emulator:
     ``scenario`` is a :class:`Scenario`, a scenario file, or the name of one in the
     robot's ``scenarios/`` folder; None keeps every sensor at rest. ``trace`` receives
     the event trace (docs/trace-format.md) with ``@ <us>`` time marks. ``instance``
-    (8 hex digits) makes the ``v`` reply's id this boot's own (``id=BBBB-instance``).
+    (8 hex digits) is this boot's id in the ``v`` reply (``id=instance``).
     """
 
     def __init__(self, robot: Robot, scenario: Scenario | str | Path | None = None,
@@ -182,7 +182,7 @@ class Emulator:
 
         # -- the central board
         self.core = CentralCore(robot, core_bus, self._send,
-                                emulated_id(robot, instance) if instance else None)
+                                None if instance is None else check_instance(instance))
         self.uart = Uart(self.clock, central.uart.baud, self._feed,
                          rx_mode=self._rx_mode, direct=self._rx_core)
         self.ticks = 0

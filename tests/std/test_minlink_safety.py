@@ -15,20 +15,17 @@ from __future__ import annotations
 
 import os
 import signal
-import subprocess
-import sys
 import threading
 import time
 from pathlib import Path
 
 import pytest
 
-from esair_min.core.trace import without_marks
-from esair_min.model.identity import board_set_id
 from esair_min.model.validate import load_robot
-from esair_std.drivers.minlink import Link, LinkDown, LinkError
+from esair_std.drivers.minlink import Link, LinkDown
 from esair_std.drivers.minlink.emulated import EmulatedRobot
 from esair_std.drivers.minlink.errors import DifferentRobot, Expired
+from robot_ptys import frames, pty_number, replies, start_on_number, stop
 
 ROOT = Path(__file__).resolve().parents[2]
 PAPAMAN = ROOT / "boards" / "papaman"
@@ -54,83 +51,12 @@ def _io_threads() -> list[str]:
     return [t.name for t in threading.enumerate() if t.name.startswith("minlink")]
 
 
-def pty_number(pid: int) -> int:
-    """The /dev/pts number of the pty an `esair emulate --pty` process serves (the
-    tty-index of its /dev/ptmx descriptor)."""
-    for fd in os.listdir(f"/proc/{pid}/fd"):
-        try:
-            if os.readlink(f"/proc/{pid}/fd/{fd}") != "/dev/ptmx":
-                continue
-            with open(f"/proc/{pid}/fdinfo/{fd}") as f:
-                for line in f:
-                    if line.startswith("tty-index:"):
-                        return int(line.split()[1])
-        except OSError:
-            continue
-    raise AssertionError(f"process {pid} holds no pty master")
-
-
-def start_on_number(number: int, *args: str) -> tuple[subprocess.Popen, str]:
-    """Start `esair emulate papaman --pty ARGS` so that it gets /dev/pts/``number``, as
-    the next program opening a pty does once that number is free: every lower free
-    number is held here meanwhile (the kernel hands out the lowest free one)."""
-    held: list[tuple[int, int]] = []
-    end = time.monotonic() + 20
-    try:
-        while True:
-            master, slave = os.openpty()
-            got = int(os.ttyname(slave).rsplit("/", 1)[1])
-            if got == number:
-                os.close(master)
-                os.close(slave)
-                break
-            if got < number:
-                held.append((master, slave))
-                continue
-            os.close(master)                     # not free yet (released in the background)
-            os.close(slave)
-            assert time.monotonic() < end, f"/dev/pts/{number} never came free"
-            time.sleep(0.05)
-        env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
-        proc = subprocess.Popen([sys.executable, "-m", "esair_min.cli", "emulate", "papaman",
-                                 "--pty", *args], stdout=subprocess.PIPE,
-                                stderr=subprocess.DEVNULL, env=env, cwd=ROOT)
-        path = proc.stdout.readline().decode().strip()
-    finally:
-        for master, slave in held:
-            os.close(master)
-            os.close(slave)
-    assert path == f"/dev/pts/{number}", path
-    return proc, path
-
-
-def replies(trace: Path) -> list[bytes]:
-    """Every line the emulated robot sent, from its trace."""
-    return [bytes.fromhex(line[3:]) for line in without_marks(trace.read_text().splitlines())
-            if line.startswith("TX ")]
-
-
-def frames(trace: Path) -> int:
-    """How many whole-robot frames (12 servos: 25 bytes) went to the actuator board."""
-    return sum(1 for line in without_marks(trace.read_text().splitlines())
-               if line.startswith("W 10 ") and line.endswith(" ACK")
-               and len(bytes.fromhex(line.split()[2])) == 25)
-
-
-def stop(proc: subprocess.Popen) -> None:
-    if proc.poll() is None:
-        proc.send_signal(signal.SIGTERM)
-    proc.wait(timeout=10)
-    proc.stdout.close()
-
-
 # -- identity ---------------------------------------------------------------------------
 
 def test_the_version_reply_names_the_board_set_and_the_emulators_boot(robot):
     with EmulatedRobot(PAPAMAN, instance="0123abcd") as emu, Link(robot, emu.port) as link:
-        assert link.version().endswith(" checksum=off id=831b-0123abcd")
-        assert board_set_id(robot) == "831b"
-        assert link.robot_id == "831b-0123abcd" == emu.robot_id
+        assert link.version().endswith(" checksum=off id=0123abcd")
+        assert link.robot_id == "0123abcd"
     a, b = EmulatedRobot(PAPAMAN), EmulatedRobot(PAPAMAN)
     assert a.instance != b.instance                    # two robots, two ids
 
@@ -153,8 +79,8 @@ def test_a_robot_on_the_dead_robots_pty_number_is_refused(tmp_path, robot):
             _wait(lambda: not link.up, what="the link down")
             foreign, _ = start_on_number(number, "--instance", "bbbbbbbb",
                                          "--trace", str(tmp_path / "foreign.txt"))
-            why = (f"a different robot answers on {port} (id 831b-bbbbbbbb, "
-                   f"expected 831b-aaaaaaaa)")
+            why = (f"a different robot answers on {port} (id bbbbbbbb, "
+                   f"expected aaaaaaaa)")
             _wait(lambda: (False, why) in states, what="the refusal")
             with pytest.raises(LinkDown) as exc:
                 link.play("dance")
@@ -172,34 +98,16 @@ def test_a_robot_on_the_dead_robots_pty_number_is_refused(tmp_path, robot):
     got = replies(tmp_path / "foreign.txt")
     assert got[0] == b"!READY esair-min/1 image=ok\r\n"     # its boot, to nobody
     assert got[1:] and set(got[1:]) == {b"OK esair-min/1 servos=12 sensors=8 motions=5 image=ok "
-                                b"checksum=off id=831b-bbbbbbbb\r\n"}
+                                b"checksum=off id=bbbbbbbb\r\n"}
     assert frames(tmp_path / "foreign.txt") == 0
-    assert _io_threads() == []
-
-
-def test_a_robot_of_other_board_files_is_refused_at_the_first_connect(tmp_path, robot):
-    folder = tmp_path / "papaman"
-    folder.mkdir()
-    for f in PAPAMAN.glob("*.yaml"):
-        (folder / f.name).write_text(f.read_text())
-    central = folder / "central.yaml"
-    central.write_text(central.read_text().replace("description: PAPA-MAN central controller",
-                                                   "description: PAPA-MAN, another build"))
-    other = load_robot(folder)
-    assert board_set_id(other) != "831b"
-    with EmulatedRobot(folder, instance="0123abcd") as emu, pytest.raises(LinkError) as exc:
-        Link(robot, emu.port).open()
-    assert str(exc.value) == (
-        f"the robot on {emu.port} answers id={board_set_id(other)}-0123abcd: its firmware was "
-        f"built from other board files than those of papaman (id 831b, {PAPAMAN})")
     assert _io_threads() == []
 
 
 def test_a_known_robot_id_is_checked_at_the_first_connect(robot):
     with EmulatedRobot(PAPAMAN, instance="0123abcd") as emu, pytest.raises(DifferentRobot) as exc:
-        Link(robot, emu.port, expect_id="831b-99999999").open()
-    assert str(exc.value) == (f"a different robot answers on {emu.port} (id 831b-0123abcd, "
-                              f"expected 831b-99999999)")
+        Link(robot, emu.port, expect_id="99999999").open()
+    assert str(exc.value) == (f"a different robot answers on {emu.port} (id 0123abcd, "
+                              f"expected 99999999)")
 
 
 # -- deadlines --------------------------------------------------------------------------

@@ -62,7 +62,6 @@ from typing import Any
 from esair_std import Actuator, CommandError, Driver, ResourceLost, Sensor
 
 from esair_min.errors import EsairError
-from esair_min.model.identity import emulated_id
 from esair_min.model.validate import load_robot
 from esair_min.resources import resolve_robot
 
@@ -269,7 +268,7 @@ class MinLink(Driver):
                 emulate, dict) else None)
             self._restarts: collections.deque[float] = collections.deque()
             self.emulated = EmulatedRobot(path, emulate_args(emulate))
-            expect = emulated_id(robot, self.emulated.instance)
+            expect = self.emulated.instance
             port = self.emulated.start()
         self.notices = NoticeSensor()
         self.link = Link(robot, str(port), timeout=timeout,

@@ -10,8 +10,8 @@ fault tests and ``esair std run`` use; ``stop()`` ends the child for good. The c
 SIGTERM if the thread that started it ends first (an agent process killed outright).
 
 Identity: every child boots with this object's ``instance`` (``--instance``), so the
-robot answers ``v`` with ``id=BBBB-instance`` (:attr:`robot_id`) across its restarts,
-and no other emulator does. :meth:`wait_exit` reaps a child that exits by itself and
+robot answers ``v`` with ``id=instance`` across its restarts, and no other emulator
+does. :meth:`wait_exit` reaps a child that exits by itself and
 removes the port's link at once: the pty it served is no longer this robot's (the
 kernel gives its number to the next program that opens a pty). :meth:`held` says why
 the port must not be opened now, while no child of this object runs.
@@ -111,14 +111,6 @@ class EmulatedRobot:
     @property
     def running(self) -> bool:
         return self.proc is not None and self.proc.poll() is None
-
-    @property
-    def robot_id(self) -> str:
-        """The id its children answer, given the board set's (``BBBB``)."""
-        from esair_min.model.identity import emulated_id
-        from esair_min.model.validate import load_robot
-
-        return emulated_id(load_robot(self.robot), self.instance)
 
     def held(self) -> str | None:
         """None while a child of this object serves the port; else why not to open it."""

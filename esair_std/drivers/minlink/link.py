@@ -24,11 +24,11 @@ never having two commands out and by resynchronising whenever it cannot be sure:
   of the board files (servo and sensor count, checksum setting). While down, commands
   fail at once with :class:`LinkDown`; ``on_state`` reports every change.
 
-The robot must be the same one after every reconnect: the ``v`` reply's ``id=``
-(docs/protocol.md, "Robot id") must name the board files' board set, and once the link
-knows the robot's id (from ``expect_id``, or the first connect) a reconnect to another
-id is refused (:class:`DifferentRobot`, reported by ``on_state``), the port closed again
-at once: the only line it got was the ``v`` probe. ``may_open`` (if given) is asked
+The robot must be the same one after every reconnect: once the link knows the robot's
+``id=`` (docs/protocol.md, "Robot id"; from ``expect_id``, or the first connect, where
+a robot without one is known as such) a reconnect to a robot of another id is refused
+(:class:`DifferentRobot`, reported by ``on_state``), the port closed again at once: the
+only line it got was the read-only ``v`` probe. ``may_open`` (if given) is asked
 before each reconnect; a reason from it keeps the port closed (the driver's emulated
 robot that exited: its pty may belong to another program by now).
 
@@ -49,7 +49,6 @@ from typing import Any, Callable
 
 from esair_min.errors import ProtocolError
 from esair_min.core.protocol import Code, parse_reply
-from esair_min.model.identity import board_set_id
 from esair_min.model.robot import Robot
 
 from .budget import line_budget
@@ -111,8 +110,8 @@ class Link:
         self.settle_s = (self.budget.line_s(2 * 44) + 2 * self.budget.tick_s)
         self.on_state = on_state
         self.on_notice = on_notice
-        self.board_id = board_set_id(robot)
-        self.robot_id = expect_id          # learnt at the first connect when None
+        self.robot_id = expect_id          # the robot's id= (None: it answers none)
+        self._known = expect_id is not None  # else learnt at the first connect
         self.may_open = may_open
         self.up_since = 0.0                # time.monotonic() of the last connect
         self.stats: collections.Counter[str] = collections.Counter()
@@ -516,23 +515,15 @@ class Link:
         raise LinkError(f"no answer to 'v' from {self.port} within {self.timeout:g} s")
 
     def _check_identity(self, data: str) -> None:
-        """The ``v`` reply ``data``: the robot's ``id=`` must be the one the link knows
-        (a robot of another id is a different robot, whatever its model); the first time,
-        the board files' robot (counts, checksum) and board set; then the link knows it."""
+        """The ``v`` reply ``data``: once the link knows the robot, its ``id=`` (or its
+        lack of one) must be the same (another id is a different robot, whatever its
+        model); then the robot of the board files (counts, checksum); then it is known."""
         got = dict(f.split("=", 1) for f in data.split()[1:] if "=" in f).get("id")
-        if self.robot_id is not None and got != self.robot_id:
-            raise DifferentRobot(f"{DIFFERENT_ROBOT} {self.port} (id {got or '?'}, "
-                                 f"expected {self.robot_id})")
+        if self._known and got != self.robot_id:
+            raise DifferentRobot(f"{DIFFERENT_ROBOT} {self.port} (id {got or 'none'}, "
+                                 f"expected {self.robot_id or 'none'})")
         self.commands.check_version(data)
-        if got is None:
-            raise LinkError(f"the robot on {self.port} gives no id in its 'v' reply: its "
-                            f"firmware is older than the board files of {self.robot.name} "
-                            f"({self.robot.source}); build and flash it again")
-        if got.split("-")[0] != self.board_id:
-            raise LinkError(f"the robot on {self.port} answers id={got}: its firmware was "
-                            f"built from other board files than those of {self.robot.name} "
-                            f"(id {self.board_id}, {self.robot.source})")
-        self.robot_id = got
+        self.robot_id, self._known = got, True
 
 
 def _describe(exc: BaseException) -> str:
