@@ -22,7 +22,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from codegen import generate_robot  # noqa: E402
+from esair_min.codegen import generate_robot  # noqa: E402
 from esair_min.core.harness import run_script, unescape  # noqa: E402
 from esair_min.core.protocol import add_checksum  # noqa: E402
 from esair_min.model.validate import load_robot  # noqa: E402

@@ -198,7 +198,7 @@ def x_turnaround_s(robot) -> float | None:
     (RCREG) to the reply's first byte in TXREG, worst of 10 lines one tick apart (in
     seconds), or None without the toolchain."""
     try:
-        from codegen import generate_robot
+        from esair_min.codegen import generate_robot
         from esair_min.pic.build import build_board, toolchain
         from esair_min.pic.gpsim_harness import GpsimSetup, run_stimulus
 

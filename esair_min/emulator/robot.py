@@ -109,7 +109,7 @@ class Emulator:
     """
 
     def __init__(self, robot: Robot, scenario: Scenario | str | Path | None = None,
-                 faults: Faults = Faults(), trace: TraceWriter | None = None,
+                 faults: Faults = Faults(), trace: TraceWriter | None = None,  # noqa: B008 (frozen)
                  eeprom_image: bytes | None = None, transcript: bool = False,
                  instance: str | None = None):
         central = robot.central

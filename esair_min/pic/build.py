@@ -89,7 +89,7 @@ def _tail(text: str, lines: int = 30) -> str:
 
 def build_robot(robot: Robot, out_dir: Path, tc: Toolchain | None = None) -> list[BoardBuild]:
     """Generate every board of ``robot`` under ``out_dir`` and build each for the PIC."""
-    from codegen import generate_robot
+    from esair_min.codegen import generate_robot
 
     tc = tc or toolchain()
     result = generate_robot(robot, Path(out_dir))

@@ -25,7 +25,7 @@ from esair_min.model.validate import load_robot
 from esair_std.drivers.minlink import Link, LinkDown
 from esair_std.drivers.minlink.emulated import EmulatedRobot
 from esair_std.drivers.minlink.errors import DifferentRobot, Expired
-from robot_ptys import frames, pty_number, replies, start_on_number, stop
+from tests.support.robot_ptys import frames, pty_number, replies, start_on_number, stop
 
 ROOT = Path(__file__).resolve().parents[2]
 PAPAMAN = ROOT / "boards" / "papaman"

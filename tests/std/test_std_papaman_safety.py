@@ -19,12 +19,12 @@ from pathlib import Path
 import yaml
 
 from esair_std.drivers.minlink.emulated import EmulatedRobot
-from robot_ptys import frames, pty_number, replies, start_on_number, stop
+from tests.support.robot_ptys import frames, pty_number, replies, start_on_number, stop
 
 ROOT = Path(__file__).resolve().parents[2]
 PAPAMAN = ROOT / "boards" / "papaman"
 EXAMPLE = ROOT / "esair_std" / "examples" / "papaman" / "papaman.yaml"
-MOVER = {"class": "papaman_comps:Mover", "moves": [], "uses": {"papaman.servo.*": "command"}}
+MOVER = {"class": "tests.support.papaman_comps:Mover", "moves": [], "uses": {"papaman.servo.*": "command"}}
 VERSION = b"OK esair-min/1 servos=12 sensors=8 motions=5 image=ok checksum=off id="
 
 
