@@ -26,8 +26,10 @@ QUEUE = 32          # operations waiting; more are refused (counted)
 TICK_S = 0.0089856  # PAPA-MAN's Timer2 tick
 MARGIN_TICKS = 3
 STAND_RETRY_S = 1.0  # the watcher's stand, while the robot is busy
-DEADLINE_S = 5.0     # a queued operation not started by then is dropped (option deadline)
-SEND_TIMEOUT_S = 0.5  # each command's send timeout: within it written, or dropped
+OPERATION_DEADLINE_S = 5.0  # a queued operation not started by then is dropped (option
+                            # operation_deadline; "deadline" is the step watchdog's)
+SEND_TIMEOUT_S = 0.3  # each command's send timeout: written within it, or dropped; well
+                      # inside the 1 s step deadline, also in process mode
 #: frames x delay_ticks of each motion (central.yaml): how long it plays
 MOTION_TICKS = {"stand": 1 * 10, "sit": 3 * 20, "prostrate": 4 * 25, "dance": 32 * 1,
                 "balance": 3 * 2}
@@ -35,7 +37,8 @@ MOTION_TICKS = {"stand": 1 * 10, "sit": 3 * 20, "prostrate": 4 * 25, "dance": 32
 
 class Sequencer(Behavior):
     """Plays queued operations in order; E07 busy means "not yet": tried again until the
-    operation's ``deadline`` (option, seconds from its arrival; default 5). An operation
+    operation's deadline (option ``operation_deadline``, seconds from its arrival; default
+    5). An operation
     that cannot start by then, or that is queued when the link is lost, is dropped and
     reported."""
 
@@ -48,7 +51,7 @@ class Sequencer(Behavior):
         self.refused = 0
         self.dropped: list[str] = []
         self.errors: list[str] = []
-        self.deadline = float(self.options.get("deadline", DEADLINE_S))
+        self.deadline = float(self.options.get("operation_deadline", OPERATION_DEADLINE_S))
 
     def receive(self, sender: str, data: Any) -> None:
         ops = [data] if isinstance(data, str) else data
