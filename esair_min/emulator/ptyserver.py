@@ -98,14 +98,9 @@ def serve_pty(emu: Emulator, on_path: Callable[[str], None],
     poller.register(master, select.POLLIN)
     pending = bytearray()
     try:
+        last = time.monotonic()            # before the path shows: a stop from then on counts
         on_path(path)
-        last = time.monotonic()
         while not stop():
-            now = time.monotonic()
-            if now - last > STALL_S:             # stopped: the robot had no power
-                while stale := _read(master):
-                    port.stale += len(stale)
-            last = now
             pacer.sync()
             events = dict(poller.poll(0)).get(master, 0)
             was_open, port.open = port.open, not events & select.POLLHUP
@@ -113,12 +108,19 @@ def serve_pty(emu: Emulator, on_path: Callable[[str], None],
                 _discard_unread(path)
             elif port.open and not was_open:
                 port.opened += 1
-            if events & select.POLLIN:
+            data = _read(master) if events & select.POLLIN else b""
+            # checked after the read: a stop anywhere since the last check shows here
+            now = time.monotonic()
+            if now - last > STALL_S:             # stopped: the robot had no power
+                port.stale += len(data)
+                data = b""
+                while stale := _read(master):
+                    port.stale += len(stale)
+            last = now
+            if data:
                 # input first: its bytes start on the wire now, and the sleep below
                 # must already know when they (and the reply) next need a look
-                data = _read(master)
-                if data:
-                    emu.write(data)
+                emu.write(data)
             pending += emu.read()
             if not port.open:
                 port.dropped += len(pending)      # nobody listens: lost, as on a wire
