@@ -32,47 +32,67 @@ def pty_number(pid: int) -> int:
     raise AssertionError(f"process {pid} holds no pty master")
 
 
+#: `esair emulate` with its modules imported, waiting for a byte on stdin before it runs:
+#: from that byte to its pty takes milliseconds, not a Python start-up.
+_PRELOADED = ("import sys\n"
+              "import esair_min.emulator.ptyserver, esair_min.emulator.serve\n"
+              "from esair_min.cli import main\n"
+              "sys.stderr.write('ready\\n'); sys.stderr.flush()\n"
+              "sys.stdin.buffer.read(1)\n"
+              "main(sys.argv[1:])\n")
+
+
 def start_on_number(number: int, *args: str) -> tuple[subprocess.Popen, str]:
     """Start `esair emulate papaman --pty ARGS` so that it gets /dev/pts/``number``, as
     the next program opening a pty does once that number is free: every lower free
-    number is held here meanwhile (the kernel hands out the lowest free one). Another
-    program of this shared machine may take the number first: then it is tried again."""
+    number, and ``number`` itself, is held here until the emulator is about to open its
+    pty (the kernel hands out the lowest free number). Another program of this shared
+    machine may take the number first: then it is tried again."""
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
     for _ in range(5):
-        proc, path = _start_after(number, args)
+        proc = subprocess.Popen([sys.executable, "-c", _PRELOADED, "emulate", "papaman",
+                                 "--pty", *args], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                stderr=subprocess.PIPE, env=env, cwd=ROOT)
+        assert proc.stderr.readline() == b"ready\n"
+        held = _hold_up_to(number)
+        path = ""
+        try:
+            if held:
+                for fd in held.pop():            # ``number`` itself: free it now, then go
+                    os.close(fd)
+                proc.stdin.write(b"x")
+                proc.stdin.flush()
+                path = proc.stdout.readline().decode().strip()
+        finally:
+            for master, slave in held or ():
+                os.close(master)
+                os.close(slave)
         if path == f"/dev/pts/{number}":
             return proc, path
         stop(proc)
     raise AssertionError(f"/dev/pts/{number} went to other programs five times")
 
 
-def _start_after(number: int, args: tuple[str, ...]) -> tuple[subprocess.Popen, str]:
+def _hold_up_to(number: int, seconds: float = 20.0) -> list[tuple[int, int]] | None:
+    """Open ptys until the kernel gives ``number``: every pair opened up to it (it last);
+    None if it did not come free in ``seconds`` (another program holds it)."""
     held: list[tuple[int, int]] = []
-    end = time.monotonic() + 20
-    try:
-        while True:
-            master, slave = os.openpty()
-            got = int(os.ttyname(slave).rsplit("/", 1)[1])
+    end = time.monotonic() + seconds
+    while time.monotonic() < end:
+        master, slave = os.openpty()
+        got = int(os.ttyname(slave).rsplit("/", 1)[1])
+        if got <= number:
+            held.append((master, slave))
             if got == number:
-                os.close(master)
-                os.close(slave)
-                break
-            if got < number:
-                held.append((master, slave))
-                continue
-            os.close(master)                     # not free yet (released in the background)
-            os.close(slave)
-            assert time.monotonic() < end, f"/dev/pts/{number} never came free"
-            time.sleep(0.05)
-        env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
-        proc = subprocess.Popen([sys.executable, "-m", "esair_min.cli", "emulate", "papaman",
-                                 "--pty", *args], stdout=subprocess.PIPE,
-                                stderr=subprocess.DEVNULL, env=env, cwd=ROOT)
-        path = proc.stdout.readline().decode().strip()
-    finally:
-        for master, slave in held:
-            os.close(master)
-            os.close(slave)
-    return proc, path
+                return held
+            continue
+        os.close(master)                         # not free yet (released in the background)
+        os.close(slave)
+        time.sleep(0.02)
+    for master, slave in held:
+        os.close(master)
+        os.close(slave)
+    return None
 
 
 def replies(trace: Path) -> list[bytes]:
@@ -92,4 +112,6 @@ def stop(proc: subprocess.Popen) -> None:
     if proc.poll() is None:
         proc.send_signal(signal.SIGTERM)
     proc.wait(timeout=10)
-    proc.stdout.close()
+    for f in (proc.stdin, proc.stdout, proc.stderr):
+        if f is not None:
+            f.close()
