@@ -93,6 +93,39 @@ class BehaviorSupervisor(Supervisor):
             time.sleep(min(delay, left))
             delay = min(delay * 2, 0.01)
 
+    def put_wait(self, sender: str, target: str, data: Any, timeout: float) -> tuple[bool, str]:
+        """A put whose sender waits until the target's receive() ran: (True, "") when it
+        took the data, (False, why) when it refused it (raised Refused), failed, or took
+        no data within ``timeout`` (retried while busy)."""
+        try:
+            data = codec.copy(data)
+        except TransportError as exc:
+            self.c["puts_failed"] += 1
+            return False, exc.message
+        deadline = time.monotonic() + max(0.0, float(timeout))
+        delay = 0.0005
+        while True:
+            rec, why = self._target(target)
+            if rec is None:
+                self.c["puts_failed"] += 1
+                return False, why
+            take = getattr(rec.host, "take", None)     # None: still starting, or failed
+            status, why = (take(sender, data, max(0.001, deadline - time.monotonic()))
+                           if take is not None else ("busy", rec.host.state))
+            if status == "ok":
+                self.c["puts_ok"] += 1
+                return True, ""
+            left = deadline - time.monotonic()
+            if status in ("refused", "failed") or left <= 0:
+                self.c["puts_failed"] += 1
+                if status == "refused":
+                    return False, f"{target!r} refused it: {why}"
+                if status == "failed":
+                    return False, f"{target!r}: {why}"
+                return False, f"{target!r} did not take the data within {timeout:g} s ({why})"
+            time.sleep(min(delay, left))
+            delay = min(delay * 2, 0.01)
+
     def put_first(self, sender: str, target: str, data: Any, timeout: float,
                   done: Callable[[bool], None]) -> bool:
         """Process mode's fast path: the first offer without blocking a thread.

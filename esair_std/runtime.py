@@ -23,8 +23,9 @@ from typing import Any
 from . import spec as specmod
 from .bs import BehaviorSupervisor
 from .connections import ActuatorConnection, SensorConnection
-from .errors import ControlError, StdError
+from .errors import ComponentError, ControlError, Refused, StdError
 from .level import Level
+from .policy import uses_problem
 from .rs import ResourceSupervisor
 from .spec import Spec
 
@@ -203,7 +204,15 @@ class Runtime:
                  uses={k: Level.parse(v).name for k, v in (uses or {}).items()},
                  restart_max=int(restart[0]), restart_within=float(restart[1]),
                  resources=tuple(resources), enabled=enabled)
+        why = uses_problem(name, s.uses, {e: spec.allow for e, (spec, _h)
+                                          in list(self.rs.entries.items())})
+        if why is not None:        # as the deployment file's check refuses it
+            raise Refused(why)
         rec = self.bs.request(self.bs.add, s)
+        if rec.host.state == "failed":   # start() raised: nothing is left of it
+            reason = _reason(rec)
+            self.bs.request(self.bs.remove, name)
+            raise ComponentError(f"{kind} {name!r} did not start: {reason}")
         return rec.host.state
 
     def remove(self, name: str) -> None:
@@ -261,7 +270,9 @@ class Runtime:
         if name == "runtime" and self.server is not None:
             return dict(name="runtime", kind="runtime", state="running",
                         counters=self.server.counters())
-        raise ControlError(f"no component {name!r}")
+        from .bs import _hint
+        names = [*self.bs.records, *self.rs.entries, *self.rs.resources]
+        raise ControlError(f"no component {name!r}{_hint(name, names)}")
 
     def note_change(self) -> None:
         """A component's state changed (supervisors, hosts, agents' reports)."""

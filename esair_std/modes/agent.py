@@ -14,6 +14,7 @@ import getopt
 import json
 import logging
 import os
+import signal
 import sys
 import threading
 import time
@@ -285,6 +286,10 @@ class Agent:
             if host.request_provide(str(b.get("from")),
                                     lambda v: req.reply({"ok": list(v)})) != "queued":
                 req.reply({"ok": ["busy", host.state]})
+        elif op == "take":                  # a put its sender waits for
+            if host.request_take(str(b.get("from")), b.get("data"),
+                                 lambda v: req.reply({"ok": list(v)})) != "queued":
+                req.reply({"ok": ["busy", host.state]})
         elif op == "state":
             req.reply({"ok": host.state})
         elif op == "detached":
@@ -453,6 +458,9 @@ class _Args:
 
 
 def main(argv: list[str] | None = None) -> int:
+    # A terminal's Ctrl-C reaches the whole process group: the runtime stops its agents
+    # itself (one line, no traceback from each of them).
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     a = _Args(sys.argv[1:] if argv is None else argv)
     logging.basicConfig(level=logging.WARNING, format="%(name)s: %(message)s")
     spec = Spec.from_json(json.loads(a.spec))

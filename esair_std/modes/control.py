@@ -80,6 +80,9 @@ class ControlServer:
             "resinfo": self.v_resstate_get, "hello": self.v_hello,
             "join": self.v_join,
         }
+        # the operator's verbs (esair std sample / send): esair_std/operator.py
+        self.verbs.update({"sample": self.v_sample, "send": self.v_send})
+        self._operator: Any = None         # esair_std.operator.Operator, on first use
 
     def start(self) -> None:
         hub_runtime()          # before the session: it routes for every agent
@@ -119,6 +122,7 @@ class ControlServer:
     def _enqueue(self, req: Request) -> None:
         b = req.body
         if (req.key.endswith("/ctl/put") and b is not None and isinstance(b.get("to"), str)
+                and not b.get("wait")
                 and isinstance(b.get("from", ""), str) and _valid_timeout(b)):
             # fast path: the first offer straight from this callback, answered from the
             # offer's answer; a busy target goes on through a worker (retries until the
@@ -187,6 +191,9 @@ class ControlServer:
         return {"robot": self.rt.robot, "mode": self.rt.mode_name, "pid": os.getpid()}
 
     def v_ls(self, b: dict) -> list:
+        if b.get("all"):                 # every row with the same keys, drivers too
+            from ..listing import components
+            return components(self.rt)
         return self.rt.ls()
 
     def v_add(self, b: dict) -> str:
@@ -230,6 +237,8 @@ class ControlServer:
         if "/" in to:                             # another robot's behavior: remote/robots.py
             from ..remote import robots
             ok, why = robots.put(self.rt, str(sender), to, b.get("data"), _timeout(b))
+        elif b.get("wait"):       # the sender waits for receive(): told if refused
+            ok, why = self.rt.bs.put_wait(sender, to, b.get("data"), _timeout(b))
         else:
             ok, why = self.rt.bs.put(sender, to, b.get("data"), _timeout(b))
         return {"delivered": ok, "reason": why}
@@ -256,6 +265,19 @@ class ControlServer:
 
     def v_state(self, b: dict) -> str | None:
         return self.rt.state(_need(b, "name"))
+
+    def _op(self) -> Any:
+        if self._operator is None:
+            from ..operator import Operator
+            self._operator = Operator(self.rt)
+        return self._operator
+
+    def v_sample(self, b: dict) -> dict:
+        s = self._op().sample(_need(b, "name"), _timeout(b, 2.0))
+        return {"resource": s.source, "seq": s.seq, "t": s.t, "value": s.value}
+
+    def v_send(self, b: dict) -> Any:
+        return self._op().send(_need(b, "name"), b.get("value"), _timeout(b))
 
     # ---- agent verbs (component processes)
     def v_register(self, b: dict) -> int:

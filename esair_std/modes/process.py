@@ -266,6 +266,17 @@ class ProcessComponent(_Child):
             return tuple(r["ok"])
         return ("busy", "no answer")
 
+    def take(self, sender: str, data: Any, timeout: float) -> tuple:
+        """A put the sender waits for: receive() runs in the agent, its outcome answers
+        (ComponentHost.take)."""
+        if self.phase in ("failed", "stopped"):
+            return ("busy", self.phase)
+        r = self.ask(self.key, {"op": "take", "from": sender, "data": data,
+                                "timeout": timeout}, timeout + 0.05)
+        if isinstance(r, dict) and isinstance(r.get("ok"), list) and len(r["ok"]) == 2:
+            return tuple(r["ok"])
+        return ("busy", "no answer")
+
     def notify_detached(self, resource: str) -> None:
         self.ask(self.key, {"op": "detached", "resource": resource}, 1.0)
 
