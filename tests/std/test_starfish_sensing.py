@@ -103,10 +103,11 @@ def test_bad_frames_are_refused_by_name(frame, message):
 
 # --- GCC-PHAT localization --------------------------------------------------------------
 
-@pytest.mark.parametrize("snr, median_goal, p90_goal", [(20, 5, 10), (10, 5, 10), (0, 10, 20)])
-def test_localize_finds_the_true_bearing(snr, median_goal, p90_goal):
+@pytest.mark.parametrize("snr, echo, median_goal, p90_goal",
+                         [(20, 0.0, 5, 10), (10, 0.0, 5, 10), (0, 0.0, 10, 20), (10, 0.5, 5, 10)])
+def test_localize_finds_the_true_bearing(snr, echo, median_goal, p90_goal):
     src = (5.0, 3.0)
-    r = AudioRenderer(room_with(*src), snr_db=snr, seed=snr + 100)
+    r = AudioRenderer(room_with(*src), snr_db=snr, seed=snr + 100, reflection_gain=echo)
     loc = Localizer(DEFAULT_MICS, RATE)
     rng = np.random.default_rng(snr)
     errors, confidence = [], []
@@ -118,6 +119,23 @@ def test_localize_finds_the_true_bearing(snr, median_goal, p90_goal):
         confidence.append(conf)
     assert np.median(errors) <= median_goal and np.percentile(errors, 90) <= p90_goal, errors
     assert min(confidence) > 0.25
+
+
+def test_wall_echoes_arrive_later_than_the_direct_sound():
+    """Source and microphone 1 m from a wall: the echo's lag behind the direct sound is
+    the image path's extra length over c."""
+    room = room_with(1.0, 1.0)
+    r = AudioRenderer(room, mics=[(0.0, 0.0), (0.5, 0.0)], snr_db=60, seed=2, reflection_gain=0.6)
+    pose = (2.0, 1.0, 0.0)          # mic 0 at (2, 1), 1 m from the source; the wall
+    r.render(pose)                  # y = 0 is 1 m away from both
+    pcm = r.render(pose).astype(float)
+    direct = r._paths(np.array([2.0, 1.0]), (1.0, 1.0))
+    # direct 1 m; images across y=0 (1,-1), x=0 (-1,1), the inner wall x=3 (5,1),
+    # y=4 (1,7), x=6 (11,1)
+    assert sorted(round(d, 3) for d, _ in direct) == [1.0, 2.236, 3.0, 3.0, 6.083, 9.0]
+    ac = np.correlate(pcm[:, 0], pcm[:, 0], "full")[len(pcm) - 1:]
+    extra = (math.hypot(1, 2) - 1.0) / SPEED_OF_SOUND * RATE        # 58 samples
+    assert abs(int(np.argmax(ac[20:80])) + 20 - extra) <= 1
 
 
 def test_noise_alone_gives_no_confidence():

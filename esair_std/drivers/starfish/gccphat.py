@@ -28,12 +28,15 @@ DEFAULT_BAND = (250.0, 6000.0)
 
 
 def gcc_phat(x: np.ndarray, y: np.ndarray, rate: int, max_tau: float, interp: int = 16,
-             band: tuple[float, float] | None = DEFAULT_BAND) -> tuple[np.ndarray, np.ndarray]:
+             band: tuple[float, float] | None = DEFAULT_BAND,
+             phat: bool = True) -> tuple[np.ndarray, np.ndarray]:
     """The PHAT-weighted cross-correlation of x and y at lags -max_tau..max_tau (seconds):
-    (lags in seconds, correlation). A peak at lag L means x lags y by L."""
+    (lags in seconds, correlation). A peak at lag L means x lags y by L. ``phat=False``:
+    the plain cross-correlation (the bench's baseline), scaled by the mean magnitude."""
     n = len(x) + len(y)
     spec = fft.rfft(x, n=n) * np.conj(fft.rfft(y, n=n))
-    spec /= np.abs(spec) + 1e-12
+    mag = np.abs(spec) + 1e-12
+    spec = spec / mag if phat else spec / float(np.mean(mag))
     used = len(spec)
     if band is not None:
         f = fft.rfftfreq(n, 1.0 / rate)
@@ -54,7 +57,8 @@ class Localizer:
 
     def __init__(self, mics: Sequence[Sequence[float]], rate: int, interp: int = 16,
                  step_deg: float = 0.5, band: tuple[float, float] | None = DEFAULT_BAND,
-                 speed_of_sound: float = SPEED_OF_SOUND):
+                 speed_of_sound: float = SPEED_OF_SOUND, phat: bool = True):
+        self.phat = phat
         self.mics = np.asarray(mics, dtype=float)
         self.rate, self.interp, self.band, self.c = int(rate), int(interp), band, speed_of_sound
         self.pairs = list(itertools.combinations(range(len(self.mics)), 2))
@@ -79,7 +83,8 @@ class Localizer:
         x = pcm - pcm.mean(axis=0)
         power = np.zeros(len(self.bearings))
         for p, (i, j) in enumerate(self.pairs):
-            _, cc = gcc_phat(x[:, i], x[:, j], self.rate, self.max_tau, self.interp, self.band)
+            _, cc = gcc_phat(x[:, i], x[:, j], self.rate, self.max_tau, self.interp, self.band,
+                             self.phat)
             cc = cc[:2 * self.shift + 1]
             power += cc[np.clip(self.lag_index[p], 0, len(cc) - 1)]
         best = int(np.argmax(power))

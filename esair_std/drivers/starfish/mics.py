@@ -11,11 +11,16 @@ own position on the robot, hears that stream
   sinc kernel (scipy.signal.convolve);
 - attenuated as 1/distance (spherical spreading; ``level`` is the RMS at 1 m);
 - plus independent white noise per channel at the configured SNR, defined at the
-  array's centre against the source's RMS there (the noise stays when the source is
+  array's centre against the direct sound's RMS there (the noise stays when the source is
   silent, so a listener hears the room's noise floor);
 
-then quantised to int16 (clipped samples are counted). Only the direct path is
-rendered: no reflections, walls do not occlude sound.
+- with ``reflection_gain`` > 0, also the first-order echoes off every wall (image
+  sources: the source mirrored across the wall's line, heard where the mirrored path
+  meets the wall segment and both ends are on the wall's same side), each scaled by
+  that gain and 1/path length — the reverberation that makes GCC-PHAT earn its keep;
+
+then quantised to int16 (clipped samples are counted). Walls do not occlude sound, and
+echoes of echoes are not rendered.
 
 A frame on the wire is JSON (:func:`encode_frame`): ``seq``, ``n0`` (index of its first
 sample in the stream), ``rate``, ``channels``, ``n``, ``mics`` (the microphones'
@@ -62,8 +67,11 @@ class AudioRenderer:
 
     def __init__(self, room: Room, mics: Sequence[Sequence[float]] = DEFAULT_MICS,
                  rate: int = RATE, frame: int = FRAME, snr_db: float = 20.0, seed: int = 0,
-                 speed_of_sound: float = SPEED_OF_SOUND):
+                 speed_of_sound: float = SPEED_OF_SOUND, reflection_gain: float = 0.0):
         self.room = room
+        if not 0.0 <= reflection_gain < 1.0:
+            raise ValueError(f"reflection_gain must be in [0, 1), not {reflection_gain!r}")
+        self.reflection_gain = float(reflection_gain)
         self.mics = np.asarray(mics, dtype=float)
         if self.mics.ndim != 2 or self.mics.shape[1] != 2 or len(self.mics) < 2:
             raise ValueError("mics must be a list of at least two [x, y] positions")
@@ -76,7 +84,7 @@ class AudioRenderer:
         self.unit_rms = float(np.sqrt(np.mean(np.abs(h) ** 2)))   # white in -> band RMS
         # the source's history: enough for the longest delay the room allows
         x0, y0, x1, y1 = room.bounds()
-        self.max_delay = int(math.ceil(math.hypot(x1 - x0, y1 - y0) * 1.5 * self.rate / self.c))
+        self.max_delay = int(math.ceil(math.hypot(x1 - x0, y1 - y0) * 3.0 * self.rate / self.c))
         self.hist_len = self.max_delay + 2 * KERNEL_HALF + 2 + self.frame
         self.history = np.zeros(self.hist_len)
         self.n0 = 0                 # index of the next frame's first sample
@@ -90,6 +98,41 @@ class AudioRenderer:
         band = band / self.unit_rms if self.room.source.on else np.zeros(self.frame)
         self.history = np.concatenate([self.history[self.frame:], band])
 
+    def _paths(self, mic: np.ndarray, src: tuple[float, float]) -> list[tuple[float, float]]:
+        """(length, gain) of the direct path and of each first-order echo."""
+        s = np.asarray(src, dtype=float)
+        paths = [(max(float(np.hypot(*(mic - s))), 0.05), 1.0)]
+        if self.reflection_gain <= 0:
+            return paths
+        a, b = self.room.a, self.room.b
+        e = b - a
+        n = np.stack([-e[:, 1], e[:, 0]], axis=1) / np.hypot(e[:, 0], e[:, 1])[:, None]
+        side_s = ((s - a) * n).sum(axis=1)
+        side_m = ((mic - a) * n).sum(axis=1)
+        image = s[None, :] - 2 * side_s[:, None] * n                      # (walls, 2)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = side_m / (side_m - (-side_s))        # where mic -> image crosses the line
+            meet = mic[None, :] + t[:, None] * (image - mic[None, :])
+            u = ((meet - a) * e).sum(axis=1) / (e * e).sum(axis=1)
+        ok = (side_s * side_m > 0) & (u >= 0) & (u <= 1)
+        for w in np.nonzero(ok)[0]:
+            paths.append((float(np.hypot(*(mic - image[w]))), self.reflection_gain))
+        return paths
+
+    def _add_path(self, out: np.ndarray, dist: float, amplitude: float) -> None:
+        """Add the source's stream heard over a path of ``dist`` metres to ``out``."""
+        d = dist * self.rate / self.c
+        if d > self.max_delay:
+            return
+        whole = int(math.floor(d))
+        kern = _fractional_kernel(d - whole)
+        # the frame ends KERNEL_HALF samples before the newest source sample, so that the
+        # kernel of the nearest microphone has its future half in the history too;
+        # y[j] = sum_k h[k] s[j - whole - k]: the slice that the 'valid' convolution needs
+        stop = self.hist_len - whole
+        start = stop - self.frame - 2 * KERNEL_HALF
+        out += signal.convolve(self.history[start:stop], kern, mode="valid") * amplitude
+
     def render(self, pose: Sequence[float]) -> np.ndarray:
         """The next frame heard at ``pose`` (x, y, theta): int16 array (frame, channels)."""
         self._emit()
@@ -99,20 +142,10 @@ class AudioRenderer:
                           y + s * self.mics[:, 0] + c * self.mics[:, 1]], axis=1)
         src = self.room.source
         level = src.level
-        dist = np.maximum(np.hypot(world[:, 0] - src.x, world[:, 1] - src.y), 0.05)
-        delays = np.minimum(dist * self.rate / self.c, self.max_delay)
-        out = np.empty((self.frame, len(self.mics)))
-        # the frame ends KERNEL_HALF samples before the newest source sample, so that the
-        # kernel of the nearest microphone has its future half in the history too
-        end = self.hist_len - KERNEL_HALF
-        for i, d in enumerate(delays):
-            whole = int(math.floor(d))
-            kern = _fractional_kernel(d - whole)
-            # y[j] = sum_k h[k] s[j - whole - k]: the slice that the 'valid' convolution needs
-            stop = end - whole + KERNEL_HALF
-            start = stop - self.frame - 2 * KERNEL_HALF
-            seg = self.history[start:stop]
-            out[:, i] = signal.convolve(seg, kern, mode="valid") * (level / dist[i])
+        out = np.zeros((self.frame, len(self.mics)))
+        for i in range(len(self.mics)):
+            for dist, gain in self._paths(world[i], (src.x, src.y)):
+                self._add_path(out[:, i], dist, gain * level / dist)
         centre = max(math.hypot(x - src.x, y - src.y), 0.05)
         noise_rms = (level / centre) / (10.0 ** (self.snr_db / 20.0))
         out += self.rng.standard_normal(out.shape) * noise_rms
