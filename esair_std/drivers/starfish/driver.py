@@ -66,7 +66,7 @@ class StarfishError(ValueError):
 def _num(opts: dict, key: str, default: float, what: str = "") -> float:
     value = opts.get(key, default)
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise StarfishError(f"option {what}{key!r} must be a number, not {value!r}")
+        raise StarfishError(f"option '{what}{key}' must be a number, not {value!r}")
     return float(value)
 
 
@@ -179,41 +179,44 @@ class Starfish(Driver):
     """STARFISH's wheels, odometry, microphones, camera and radio (module docstring)."""
 
     def open(self) -> None:
-        opts = dict(self.options)
+        try:
+            self._open(dict(self.options))
+        except (RoomError, ValueError) as exc:          # StarfishError included
+            raise StarfishError(f"{self.name}: {exc}") from None
+
+    def _open(self, opts: dict) -> None:
         known = {"world", "room", "pose", "snr_db", "echo", "seed", "odometry_hz", "radio", "camera"}
         unknown = sorted(set(opts) - known)
         if unknown:
-            raise StarfishError(f"{self.name}: unknown option {unknown[0]!r} "
+            raise StarfishError(f"unknown option {unknown[0]!r} "
                                 f"(options: {', '.join(sorted(known))})")
         if opts.get("world", "standin") != "standin":
-            raise StarfishError(f"{self.name}: world {opts['world']!r} is not available "
+            raise StarfishError(f"world {opts['world']!r} is not available "
                                 "(only 'standin' until STARFISH's emulator lands)")
-        try:
-            self.room = Room.from_dict(opts.get("room"))
-        except RoomError as exc:
-            raise StarfishError(f"{self.name}: {exc}") from None
+        self.room = Room.from_dict(opts.get("room"))
         pose = opts.get("pose", [1.0, 1.0, 0.0])
-        if not isinstance(pose, list) or len(pose) != 3:
-            raise StarfishError(f"{self.name}: option 'pose' must be [x, y, heading], not {pose!r}")
-        self.world = StandInWorld(self.room, [_num({"p": v}, "p", 0, "pose ") for v in pose])
+        if not isinstance(pose, list) or len(pose) != 3 or not all(
+                isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in pose):
+            raise StarfishError(f"option 'pose' must be [x, y, heading], not {pose!r}")
+        self.world = StandInWorld(self.room, pose)
         self.audio = AudioRenderer(self.room, snr_db=_num(opts, "snr_db", 20.0),
                                    seed=int(_num(opts, "seed", 0)),
                                    reflection_gain=_num(opts, "echo", 0.5))
         radio = opts.get("radio") or {}
         cam = opts.get("camera") or {}
         if not isinstance(radio, dict) or not isinstance(cam, dict):
-            raise StarfishError(f"{self.name}: options 'radio' and 'camera' must be mappings")
+            raise StarfishError("options 'radio' and 'camera' must be mappings")
         self.radio = RadioModel(self.room, _num(radio, "range_m", 3.0, "radio."),
                                 _num(radio, "heal_m", 0.1, "radio."))
         self.pause_audio = bool(radio.get("pause_audio", True))
         self.picture_format = cam.get("format", "png")
         if self.picture_format not in ("png", "jpeg"):
-            raise StarfishError(f"{self.name}: camera.format must be 'png' or 'jpeg', "
+            raise StarfishError(f"camera.format must be 'png' or 'jpeg', "
                                 f"not {self.picture_format!r}")
         self.camera = Camera(self.room, fov_deg=_num(cam, "fov_deg", 60.0, "camera."))
         hz = _num(opts, "odometry_hz", 20.0)
         if not 0 < hz <= 200:
-            raise StarfishError(f"{self.name}: odometry_hz must be in (0, 200], not {hz:g}")
+            raise StarfishError(f"odometry_hz must be in (0, 200], not {hz:g}")
         self.children = {"wheels": Wheels(self), "odometry": Odometry(self, hz), "mics": Mics(self),
                          "camera": CameraShoot(self), "radio": Radio(self)}
 
