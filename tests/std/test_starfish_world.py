@@ -1,13 +1,16 @@
 """STARFISH's stand-in world, radio model and path planner (esair_std/drivers/starfish/)."""
 
 import math
+import sys
 
 import pytest
 
+from esair_std.drivers.starfish.linkswitch import LinkSwitch
 from esair_std.drivers.starfish.planner import NoPath, plan
 from esair_std.drivers.starfish.radio import RadioModel
 from esair_std.drivers.starfish.room import Room
 from esair_std.drivers.starfish.standin import CommandRefused, StandInWorld
+from tests.support.std import wait_for
 
 
 class Clock:
@@ -102,3 +105,27 @@ def test_no_path_says_so():
     with pytest.raises(NoPath) as exc:
         plan(room, (4.5, 1.0), (1.0, 1.0), margin=0.25)
     assert str(exc.value) == "no path from (4.50, 1.00) to (1.00, 1.00) keeps 0.25 m from the walls"
+
+
+def test_the_link_switch_runs_ip_for_the_newest_wanted_state(tmp_path):
+    log = tmp_path / "ip.log"
+    fake_ip = (sys.executable, "-c",
+               f"import sys; open({str(log)!r}, 'a').write(' '.join(sys.argv[1:]) + chr(10))")
+    sw = LinkSwitch("eth9", command=fake_ip)
+    sw.set(True)
+    wait_for(lambda: sw.applied is True, 20, "the link up")
+    sw.set(False)
+    wait_for(lambda: sw.applied is False, 20, "the link down")
+    sw.close()
+    assert log.read_text().splitlines() == ["eth9 up", "eth9 down"] and sw.failures == 0
+
+
+def test_a_failing_ip_is_counted_with_its_message():
+    sw = LinkSwitch("eth9", command=(sys.executable, "-c", "import sys; sys.exit('no such device')"))
+    sw.set(False)
+    wait_for(lambda: sw.failures >= 1, 20, "a failure")
+    sw.close()
+    assert sw.last_error == "no such device" and sw.applied is None
+    with pytest.raises(ValueError) as exc:
+        LinkSwitch("eth0; reboot")
+    assert str(exc.value) == "radio.device must be a network interface name, not 'eth0; reboot'"

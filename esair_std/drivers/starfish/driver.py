@@ -12,7 +12,7 @@ Deployment entry (the entry's name prefixes the resources' names)::
       echo: 0.5                 # wall echoes' gain (0: the direct sound only)
       seed: 0                   # the audio's random streams
       odometry_hz: 20
-      radio: {range_m: 3.0, heal_m: 0.1, pause_audio: true}
+      radio: {range_m: 3.0, heal_m: 0.1, pause_audio: true, device: eth1}
       camera: {format: png, fov_deg: 60}
       allow: {"*": read, patrol: command, turn_and_shoot: command}
 
@@ -35,7 +35,10 @@ Resources:
   With ``radio.pause_audio`` (the default), while the link is cut the microphone frames
   are not reported (``frames_paused`` counts them): on one computer, where the remote
   control center's behaviors run beside the robot's, that is the cut radio's effect on
-  what they hear. The namespace tests cut a real veth instead.
+  what they hear. With ``radio.device`` the driver also sets that network interface
+  down while the link is cut and up when it heals (``ip link set DEV down|up``,
+  linkswitch.py): the namespace tests and the two-computer demo cut the real link to
+  the remote control center this way (then set ``pause_audio: false``).
 
 ``world: standin`` is ``standin.py``, a stand-in for issue 22's emulated STARFISH (its
 boards and their world): the pose integrated from the commanded velocity. When that
@@ -53,6 +56,7 @@ from typing import Any
 from esair_std import Actuator, CommandError, Driver, Sensor
 
 from .camera import Camera, encode
+from .linkswitch import LinkSwitch
 from .mics import DEFAULT_MICS, FRAME, RATE, AudioRenderer, encode_frame
 from .radio import RadioModel
 from .room import Room, RoomError, Source
@@ -209,6 +213,11 @@ class Starfish(Driver):
         self.radio = RadioModel(self.room, _num(radio, "range_m", 3.0, "radio."),
                                 _num(radio, "heal_m", 0.1, "radio."))
         self.pause_audio = bool(radio.get("pause_audio", True))
+        unknown = sorted(set(radio) - {"range_m", "heal_m", "pause_audio", "device"})
+        if unknown:
+            raise StarfishError(f"unknown option 'radio.{unknown[0]}' (radio options: device, "
+                                "heal_m, pause_audio, range_m)")
+        self.link = LinkSwitch(str(radio["device"])) if radio.get("device") else None
         self.picture_format = cam.get("format", "png")
         if self.picture_format not in ("png", "jpeg"):
             raise StarfishError(f"camera.format must be 'png' or 'jpeg', "
@@ -222,12 +231,18 @@ class Starfish(Driver):
 
     def radio_state(self) -> dict:
         x, y, _ = self.world.pose()
-        return self.radio.update(x, y)
+        state = self.radio.update(x, y)
+        if self.link is not None:
+            self.link.set(state["up"])
+        return state
 
     def resources(self) -> dict[str, Any]:
         return self.children
 
     def close(self) -> None:
+        link = getattr(self, "link", None)
+        if link is not None:
+            link.close()
         world = getattr(self, "world", None)
         if world is not None:
             world.vx = world.vy = world.w = 0.0      # nothing moves once the driver is gone

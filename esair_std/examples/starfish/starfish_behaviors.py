@@ -118,6 +118,8 @@ class Localize(Behavior):
         self.localizer = None
         self.geometry = None
         self.frames = self.bad_frames = self.confident = self.published = 0
+        self.lost_frames = 0                 # holes in the frames' own sequence numbers
+        self.last_seq = None
         self.last = None
 
     def step(self):
@@ -129,6 +131,10 @@ class Localize(Behavior):
                 self.log.warning("frame %s: %s", s.seq, exc)
                 continue
             self.frames += 1
+            seq = s.value.get("seq")
+            if isinstance(seq, int) and self.last_seq is not None and seq > self.last_seq + 1:
+                self.lost_frames += seq - self.last_seq - 1
+            self.last_seq = seq if isinstance(seq, int) else self.last_seq
             key = (rate, mics.tobytes())
             if key != self.geometry:
                 self.localizer, self.geometry = self._Localizer(mics, rate), key
@@ -141,7 +147,8 @@ class Localize(Behavior):
                     self.published += 1
 
     def provide(self, requester):
-        return {"last": self.last, "frames": self.frames, "bad_frames": self.bad_frames,
+        return {"last": self.last, "frames": self.frames, "lost_frames": self.lost_frames,
+                "bad_frames": self.bad_frames,
                 "confident": self.confident, "published": self.published,
                 "overwritten": self.mics.overwritten}
 
