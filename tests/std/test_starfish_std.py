@@ -16,6 +16,8 @@ from esair_std.drivers.starfish import camera as cam
 from esair_std.drivers.starfish.room import wrap
 from tests.support.std import agent_children, free_endpoint, wait_for
 
+pytestmark = pytest.mark.slow          # runtimes in both modes, tens of seconds each
+
 B = "esair_std.examples.starfish.starfish_behaviors"
 ROOM = {"walls": [[0, 0, 6, 0], [6, 0, 6, 4], [6, 4, 0, 4], [0, 4, 0, 0], [3, 0, 3, 2.5]],
         "access_point": [1.0, 1.0], "source": {"x": 1.0, "y": 3.5, "on": False}}

@@ -55,12 +55,12 @@ from typing import Any
 
 from esair_std import Actuator, CommandError, Driver, Sensor
 
-from .camera import Camera, encode
 from .linkswitch import LinkSwitch
-from .mics import DEFAULT_MICS, FRAME, RATE, AudioRenderer, encode_frame
-from .radio import RadioModel
-from .room import Room, RoomError, Source
-from .standin import CommandRefused, StandInWorld
+
+# the world (numpy) and the camera (Pillow) are imported when the driver opens, not when
+# its module is imported: the runtime imports every class of a deployment to check it,
+# and would otherwise carry numpy and Pillow for the whole run
+RATE, FRAME = 16000, 1024
 
 
 class StarfishError(ValueError):
@@ -87,7 +87,7 @@ class Wheels(Actuator):
         vx, vy, w = (command.get(k, 0) for k in ("vx", "vy", "w"))
         try:
             self.robot.world.command(vx, vy, w)
-        except CommandRefused as exc:
+        except ValueError as exc:                  # standin.CommandRefused
             raise CommandError(self.name, str(exc)) from None
         return {"vx": vx, "vy": vy, "w": w}
 
@@ -128,11 +128,12 @@ class Mics(Sensor):
         if r.pause_audio and not r.radio_state()["up"]:
             self.frames_paused += 1
             return None
-        return encode_frame(pcm, r.audio.seq, n0, DEFAULT_MICS, time.time())
+        return r.encode_frame(pcm, r.audio.seq, n0, r.audio.mics.tolist(), time.time())
 
     def configure(self, key: str, value: Any) -> Any:
         r = self.robot
         if key == "source":
+            from .room import RoomError, Source
             try:
                 src = Source.from_dict(value)
             except RoomError as exc:
@@ -162,7 +163,7 @@ class CameraShoot(Actuator):
         if fmt not in ("png", "jpeg"):
             raise CommandError(self.name, f"picture format must be 'png' or 'jpeg', not {fmt!r}")
         pose = self.robot.world.pose()
-        data = encode(self.robot.camera.render(pose), fmt)
+        data = self.robot.encode_picture(self.robot.camera.render(pose), fmt)
         self.seq += 1
         return {"seq": self.seq, "t": time.time(), "pose": [round(v, 4) for v in pose],
                 "format": fmt, "w": self.robot.camera.width, "h": self.robot.camera.height,
@@ -185,10 +186,16 @@ class Starfish(Driver):
     def open(self) -> None:
         try:
             self._open(dict(self.options))
-        except (RoomError, ValueError) as exc:          # StarfishError included
+        except ValueError as exc:          # StarfishError, RoomError included
             raise StarfishError(f"{self.name}: {exc}") from None
 
     def _open(self, opts: dict) -> None:
+        from .camera import Camera, encode
+        from .mics import AudioRenderer, encode_frame
+        from .radio import RadioModel
+        from .room import Room
+        from .standin import StandInWorld
+        self.encode_frame, self.encode_picture = encode_frame, encode
         known = {"world", "room", "pose", "snr_db", "echo", "seed", "odometry_hz", "radio", "camera"}
         unknown = sorted(set(opts) - known)
         if unknown:

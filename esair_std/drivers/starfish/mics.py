@@ -8,7 +8,7 @@ own position on the robot, hears that stream
 
 - delayed by its distance to the source over the speed of sound — a fractional delay:
   the integer part by indexing the source's history, the fraction by a Kaiser-windowed
-  sinc kernel (scipy.signal.convolve);
+  sinc kernel (numpy.convolve);
 - attenuated as 1/distance (spherical spreading; ``level`` is the RMS at 1 m);
 - plus independent white noise per channel at the configured SNR, defined at the
   array's centre against the direct sound's RMS there (the noise stays when the source is
@@ -35,7 +35,6 @@ import math
 from typing import Any, Sequence
 
 import numpy as np
-from scipy import signal
 
 from .room import Room
 
@@ -49,6 +48,8 @@ DEFAULT_MICS = tuple((round(0.12 * math.cos(math.radians(a)), 6),
                       round(0.12 * math.sin(math.radians(a)), 6)) for a in (45, 135, 225, 315))
 KERNEL_HALF = 24                    # the fractional-delay kernel: 2*24+1 taps
 BAND_HZ = (300.0, 5000.0)           # the source's band
+BAND_TAPS = 129                     # its FIR band-pass (numpy only: the robot's driver
+                                    # process does not load scipy.signal, ~78 MB of RSS)
 
 
 class FrameError(ValueError):
@@ -78,10 +79,11 @@ class AudioRenderer:
         self.rate, self.frame, self.c = int(rate), int(frame), float(speed_of_sound)
         self.snr_db = float(snr_db)
         self.rng = np.random.default_rng(seed)
-        self.sos = signal.butter(6, BAND_HZ, btype="bandpass", fs=self.rate, output="sos")
-        self.zi = np.zeros((self.sos.shape[0], 2))
-        _, h = signal.sosfreqz(self.sos, worN=4096)
-        self.unit_rms = float(np.sqrt(np.mean(np.abs(h) ** 2)))   # white in -> band RMS
+        n = np.arange(BAND_TAPS) - (BAND_TAPS - 1) / 2
+        lo, hi = BAND_HZ[0] / self.rate, BAND_HZ[1] / self.rate
+        self.band = (2 * hi * np.sinc(2 * hi * n) - 2 * lo * np.sinc(2 * lo * n)) * np.kaiser(BAND_TAPS, 8.0)
+        self.unit_rms = float(np.sqrt(np.sum(self.band ** 2)))    # white in -> band RMS
+        self.white_tail = np.zeros(BAND_TAPS - 1)
         # the source's history: enough for the longest delay the room allows
         x0, y0, x1, y1 = room.bounds()
         self.max_delay = int(math.ceil(math.hypot(x1 - x0, y1 - y0) * 3.0 * self.rate / self.c))
@@ -93,9 +95,11 @@ class AudioRenderer:
 
     def _emit(self) -> None:
         """Append the source's next ``frame`` samples to the history."""
-        white = self.rng.standard_normal(self.frame)
-        band, self.zi = signal.sosfilt(self.sos, white, zi=self.zi)
-        band = band / self.unit_rms if self.room.source.on else np.zeros(self.frame)
+        white = np.concatenate([self.white_tail, self.rng.standard_normal(self.frame)])
+        self.white_tail = white[-(BAND_TAPS - 1):]
+        band = np.convolve(white, self.band, mode="valid") / self.unit_rms
+        if not self.room.source.on:
+            band = np.zeros(self.frame)
         self.history = np.concatenate([self.history[self.frame:], band])
 
     def _paths(self, mic: np.ndarray, src: tuple[float, float]) -> list[tuple[float, float]]:
@@ -131,7 +135,7 @@ class AudioRenderer:
         # y[j] = sum_k h[k] s[j - whole - k]: the slice that the 'valid' convolution needs
         stop = self.hist_len - whole
         start = stop - self.frame - 2 * KERNEL_HALF
-        out += signal.convolve(self.history[start:stop], kern, mode="valid") * amplitude
+        out += np.convolve(self.history[start:stop], kern, mode="valid") * amplitude
 
     def render(self, pose: Sequence[float]) -> np.ndarray:
         """The next frame heard at ``pose`` (x, y, theta): int16 array (frame, channels)."""

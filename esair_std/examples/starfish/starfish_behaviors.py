@@ -24,7 +24,16 @@ from pathlib import Path
 
 from esair_std import Behavior, CommandError, Reaction, ResourceLost
 
-from esair_std.drivers.starfish.room import Room, wrap
+# numpy and scipy (the room, the planner, GCC-PHAT) are imported in start() by the
+# components that need them, so patrol's process and the runtime do not carry them
+
+
+def wrap(angle: float) -> float:
+    """An angle in (-pi, pi]."""
+    a = math.fmod(angle + math.pi, 2 * math.pi)
+    if a <= 0:
+        a += 2 * math.pi
+    return a - math.pi
 
 
 def _clamp(v: float, lim: float) -> float:
@@ -159,9 +168,10 @@ class TurnAndShoot(Behavior):
     def start(self):
         self.patrol = self.options.get("patrol", "patrol")
         self.tolerance = math.radians(float(self.options.get("tolerance_deg", 1.5)))
-        self.max_turn = float(self.options.get("max_turn", 1500))        # mrad/s
+        self.max_turn = float(self.options.get("max_turn", 2500))        # mrad/s
         self.cooldown = float(self.options.get("cooldown", 5.0))          # s between shots
         self.turn_timeout = float(self.options.get("turn_timeout", 6.0))
+        self.gain = float(self.options.get("gain", 5000.0))               # mrad/s per rad
         self.store = Path(self.options.get("store", "starfish-pictures"))
         self.keep = int(self.options.get("keep", 20))
         self.odometry = self.attach_sensor("starfish.odometry", keep=64)
@@ -216,7 +226,7 @@ class TurnAndShoot(Behavior):
                 self.aborted += 1
                 self._done()
             else:
-                w = _clamp(err * 3000.0, self.max_turn)
+                w = _clamp(err * self.gain, self.max_turn)
                 w = math.copysign(max(abs(w), 150.0), w)
                 self.wheels.send({"w": round(w)}, timeout=0.5)
         except (CommandError, ResourceLost) as exc:
@@ -253,6 +263,7 @@ class Reconnect(Reaction):
 
     def start(self):
         from esair_std.drivers.starfish.planner import NoPath, plan
+        from esair_std.drivers.starfish.room import Room
         self._plan, self._NoPath = plan, NoPath
         self.room = Room.from_dict(self.options.get("room"))
         self.speed = float(self.options.get("speed", 250))
