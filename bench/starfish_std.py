@@ -12,13 +12,18 @@
    here also renders the audio and the pictures (simulation work a real robot's driver
    does not do); it is shown apart.
 
-    python bench/starfish_std.py [--shots 4] [--window 10]
+3. link lost -> the robot heading back (the first odometry step toward the access point
+   after the radio's cut; goal <= lease + 0.5 s = 2.5 s) and out of range -> link back,
+   beside the straight-line drive time from the cut to where it healed.
+
+    python bench/starfish_std.py [--shots 4] [--trips 3] [--window 10] [--only onset|link|load]
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import socket
 import subprocess
@@ -31,7 +36,9 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from esair_std import Runtime  # noqa: E402
-from esair_std.deploy import resolve_deployment  # noqa: E402
+from esair_std.deploy import load_deployment, resolve_deployment  # noqa: E402
+
+BENCH = Path(__file__).resolve().parent
 
 SOURCES = [(1.0, 3.5), (0.4, 0.4), (2.7, 3.7), (0.3, 2.0), (2.6, 0.3), (1.8, 3.7)]
 TURN_RATE = 2.5          # rad/s: turn_and_shoot's max_turn
@@ -86,6 +93,20 @@ def onset_to_picture(mode: str, shots: int) -> list[tuple[float, float]]:
             out.append((got["last"]["t"] - t0, turned / TURN_RATE))
             time.sleep(1.0)                   # the cooldown, and patrol drives again
     return out
+
+
+def link_trips(mode: str, trips: int) -> list[dict]:
+    """Out of range and back, ``trips`` times: patrol heads for (4.8, 3.2), beyond the
+    radio's 3 m; reconnect drives back; patrol goes on to (2.5, 3.2), then out again."""
+    dep = deployment(tempfile.gettempdir())
+    dep["resources"]["starfish"]["pose"] = [2.5, 3.2, 0.0]
+    dep["behaviors"]["patrol"]["waypoints"] = [[4.8, 3.2], [2.5, 3.2]]
+    dep["behaviors"]["tracker"] = {"class": "starfish_comps:Tracker", "deadline": 5, "uses": {
+        "starfish.radio": "read", "starfish.odometry": "read"}}
+    with Runtime(load_deployment(dep, base_dir=BENCH), mode=mode, endpoint=free_endpoint()) as rt:
+        done = wait(lambda: (lambda t: t if len(t) >= trips and t[trips - 1]["heal"] else None)(
+            rt.get("tracker")), 40 * trips)
+    return (done or [])[:trips]
 
 
 def proc_stat(pid: int) -> tuple[float, float]:
@@ -159,18 +180,44 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--shots", type=int, default=4)
     ap.add_argument("--window", type=float, default=10.0)
+    ap.add_argument("--trips", type=int, default=3)
+    ap.add_argument("--only", choices=["onset", "link", "load"], default=None, help="one figure only")
     args = ap.parse_args()
     print(f"load average {os.getloadavg()[0]:.1f}")
+    if args.only in (None, "onset"):
+        onset(args.shots)
+    if args.only in (None, "link"):
+        link(args.trips)
+    if args.only in (None, "load"):
+        print(f"3. robot side while patrolling, process mode, over {args.window:g} s")
+        robot_load(args.window)
+
+
+def onset(shots: int) -> None:
     print("1. sound onset -> picture taken (goal <= 2 s), beside the rotation alone at 2.5 rad/s")
     for mode in ("thread", "process"):
-        res = onset_to_picture(mode, args.shots)
+        res = onset_to_picture(mode, shots)
         if res:
             lat = sorted(r[0] for r in res)
             print(f"  {mode:>7}: " + ", ".join(f"{a:.2f} s (rotation {b:.2f} s)" for a, b in res)
                   + f"; median {lat[len(lat) // 2]:.2f} s = {lat[len(lat) // 2] / 2.0:.2f}x goal, "
                     f"max {lat[-1]:.2f} s")
-    print(f"2. robot side while patrolling, process mode, over {args.window:g} s")
-    robot_load(args.window)
+
+
+def link(n: int) -> None:
+    speed = 0.25   # m/s: reconnect's speed
+    print("2. link lost -> robot heading back (goal <= lease 2 s + 0.5 s); out of range -> link back, "
+          "beside the straight-line drive from the cut to where it healed at 0.25 m/s")
+    for mode in ("thread", "process"):
+        trips = link_trips(mode, n)
+        for t in trips:
+            back = t["back"] - t["cut"] if t["back"] else float("nan")
+            straight = math.dist(t["cut_xy"], t["heal_xy"]) / speed if t["cut_xy"] and t["heal_xy"] else 0
+            print(f"  {mode:>7}: heading back {back:.2f} s ({back / 2.5:.2f}x goal); link back after "
+                  f"{t['heal'] - t['cut']:.2f} s, straight line {straight:.2f} s "
+                  f"({(t['heal'] - t['cut']) / max(straight, 1e-9):.2f}x)")
+        if len(trips) < n:
+            print(f"  {mode:>7}: only {len(trips)} of {n} trips completed")
 
 
 if __name__ == "__main__":
