@@ -79,6 +79,8 @@ class ControlServer:
             "report": self.v_report, "resstate": self.v_resstate, "hello": self.v_hello,
             "join": self.v_join,
         }
+        from .observe import install as _observe   # outside principals: the HMI (observe.py)
+        self.observe = _observe(self)
 
     def start(self) -> None:
         hub_runtime()          # before the session: it routes for every agent
