@@ -12,17 +12,11 @@ from typing import Any
 
 import click
 
+from esair_min.cli.pipes import friendly
+
 from ..errors import ControlError
-from . import friendly
 
-
-def _table(rows: list[dict], cols: list[str]) -> str:
-    widths = {c: max(len(c), *(len(str(r.get(c, ""))) for r in rows)) if rows else len(c)
-              for c in cols}
-    out = ["  ".join(c.upper().ljust(widths[c]) for c in cols)]
-    for r in rows:
-        out.append("  ".join(str(r.get(c, "")).ljust(widths[c]) for c in cols))
-    return "\n".join(line.rstrip() for line in out)
+from .table import table as _table
 
 
 def _with_port(path: Any, port: str) -> Any:
