@@ -13,6 +13,7 @@ import sys
 import click
 
 from esair_min.cli.pipes import friendly
+
 from .client import default_endpoint
 
 DEFAULT_LISTEN = "127.0.0.1:8080"

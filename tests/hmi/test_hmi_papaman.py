@@ -9,13 +9,13 @@ import json
 
 import pytest
 import websockets
-from websockets.sync.client import connect
 import yaml
-from conftest import PAPAMAN, esair_std, open_page, wait_for
+from websockets.sync.client import connect
 
 from esair_min.core.trace import without_marks
 from esair_min.emulator.actuator import encode
 from esair_min.model.validate import load_robot
+from tests.support.hmi import PAPAMAN, esair_std, open_page, wait_for
 
 ACTUATOR = 0x10
 PUSH_LATER_MS = 2500       # the push comes this long after the robot is plugged back
@@ -95,7 +95,8 @@ def test_sigkill_of_the_robot_shows_the_banner_then_recovery(robot, browser):
     assert "lost" in page.locator("#linkbar").inner_text()
     robot.emu.start()
     page.wait_for_selector("#banner", state="hidden", timeout=20000)
-    page.wait_for_function("() => document.querySelector('#linkbar').textContent.includes('papaman link ready')")
+    page.wait_for_function(
+        "() => document.querySelector('#linkbar').textContent.includes('papaman link ready')")
     page.close()
     assert errors == []
 
