@@ -84,6 +84,7 @@ class HmiServer:
         self.pages: set[Page] = set()
         self.bridge: Bridge | None = None
         self.url = ""
+        self.commanded: dict[str, Any] = {}     # resource -> last command that went through
         self.c = dict(pages=0, frames=0, bad_frames=0, refused=0, dropped=0,
                       origin_refused=0, commands=0, command_errors=0)
         self._stop: asyncio.Event | None = None
@@ -142,7 +143,7 @@ class HmiServer:
         self.pages.add(page)
         self.c["pages"] += 1
         assert self.bridge is not None
-        hello = dict(self.bridge.hello(), role=page.role,
+        hello = dict(self.bridge.hello(), role=page.role, commanded=list(self.commanded.items()),
                      login=bool(self.auth.users) and page.role != "operator")
         self._send(page, json.dumps(hello, separators=(",", ":")))
         writer = asyncio.create_task(self._writer(page))
@@ -224,6 +225,15 @@ class HmiServer:
         page.role, page.user = "operator", str(user)
         self._reply(page, ident, True, {"role": "operator", "token": token, "user": user})
 
+    def _commanded(self, res: str, command: Any) -> None:
+        if res.endswith(".motion"):            # a motion moves every servo of its robot
+            entry = res[: -len(".motion")]
+            for key in [k for k in self.commanded if k.startswith(entry + ".servo.")]:
+                del self.commanded[key]
+        self.commanded.pop(res, None)
+        self.commanded[res] = command
+        self.emit({"t": "commanded", "r": res, "v": command})
+
     async def op_cmd(self, page: Page, ident: Any, obj: dict) -> None:
         res = _field(obj, "resource", str)
         if "command" not in obj:
@@ -233,7 +243,7 @@ class HmiServer:
         r = await self._call(page, ident, self.bridge.command, res, obj["command"],
                              what=f"{res} {json.dumps(obj['command'])}")
         if r is not None:
-            self.emit({"t": "commanded", "r": res, "v": obj["command"]})
+            self._commanded(res, obj["command"])
             self.emit({"t": "log", "level": "info", "ts": time.time(),
                        "text": f"{page.user or page.role}: {res} {json.dumps(obj['command'])}"
                                f" -> {r}"})
@@ -250,7 +260,7 @@ class HmiServer:
             r = await self._call(page, ident, self.bridge.command, res, "stop",
                                  what=f"STOP {res}")
             if r is not None:
-                self.emit({"t": "commanded", "r": res, "v": "stop"})
+                self._commanded(res, "stop")
         self.emit({"t": "log", "level": "warning", "text": f"STOP by {page.user or 'operator'}",
                    "ts": time.time()})
 

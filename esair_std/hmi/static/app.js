@@ -128,6 +128,7 @@ class App {
     this.generic = new Generic($("sensors"), $("actuators"), m.robots, this);
     this.components.update(m.rows); this.generic.rows(m.rows);
     for (const p of m.problems) this.log.add("warning", p);
+    for (const [res, v] of m.commanded || []) this.commanded(res, v, true);
     this.linkbar(); this.banner();
   }
 
@@ -142,7 +143,7 @@ class App {
     } else { this.generic.sample(m); this.dirty = true; }
   }
 
-  commanded(res, v) {
+  commanded(res, v, at_once) {
     if (!this.entry) return;
     if (res.startsWith(`${this.entry}.servo.`)) {
       const servo = res.slice(this.entry.length + 7);
@@ -153,7 +154,8 @@ class App {
       else if (v === "stop") this.pose.halt();
       else if (v && v.play !== undefined) {
         const mo = this.info.motions.find((x) => x.name === v.play || x.number === Number(v.play));
-        if (mo) this.pose.play(mo, this.info.tick_s, this.joints);
+        if (mo && at_once) { this.pose.set(mo.frames[mo.frames.length - 1]); this.joints.sync(this.pose.angles); }
+        else if (mo) this.pose.play(mo, this.info.tick_s, this.joints);
       }
     }
     this.dirty = true;
