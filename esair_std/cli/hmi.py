@@ -122,3 +122,61 @@ def hmi_password_cmd(file: str, user: str) -> None:
 
 
 COMMANDS = [hmi_cmd, hmi_password_cmd]
+
+
+@click.command("record")
+@click.argument("out", metavar="OUT.mcap", type=click.Path(dir_okay=False))
+@click.argument("names", nargs=-1, metavar="[NAMES]...")
+@click.option("-e", "--endpoint", default=None, metavar="tcp/HOST:PORT",
+              help="The runtime's control endpoint (default tcp/127.0.0.1:7447, or "
+                   "$ESAIR_STD_ENDPOINT).")
+@click.option("--seconds", type=click.FloatRange(min=0), default=None,
+              help="Record this long, then stop (default: until Ctrl-C).")
+@friendly
+def record_cmd(out: str, names: tuple[str, ...], endpoint: str | None,
+               seconds: float | None) -> None:
+    """Record every sample of the sensors NAMES (fnmatch patterns; default: all) to
+    OUT.mcap (JSON messages with a JSON schema: Foxglove, Lichtblick and PlotJuggler open
+    it), as the principal `record` (read, as the deployment's `allow` permits)."""
+    import threading
+
+    from ..record import Recorder
+    rec = Recorder(endpoint or default_endpoint(), out, list(names))
+    stop = threading.Event()
+    signal.signal(signal.SIGTERM, lambda *_: stop.set())
+    signal.signal(signal.SIGINT, lambda *_: stop.set())
+    rec.start()
+    click.echo(f"recording to {out}", err=True)
+    stop.wait(seconds)
+    c = rec.stop()
+    click.echo(f"{out}: {c['written']} samples on {c['channels']} channels, "
+               f"{c['dropped']} dropped, {c['gaps']} gaps in seq", err=True)
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(0)
+
+
+@click.command("replay")
+@click.argument("file", metavar="FILE.mcap", type=click.Path(exists=True, dir_okay=False))
+@click.option("-e", "--endpoint", default=None, metavar="tcp/HOST:PORT",
+              help="The runtime's control endpoint.")
+@click.option("--name", default="replay", show_default=True,
+              help="The resource entry: its sensors are NAME.<recorded sensor>.")
+@click.option("--speed", type=click.FloatRange(min=0, min_open=True), default=1.0,
+              show_default=True)
+@click.option("--loop", is_flag=True, help="Start again at the end.")
+@friendly
+def replay_cmd(file: str, endpoint: str | None, name: str, speed: float, loop: bool) -> None:
+    """Publish a recording as sensors of the running robot (a resource entry added
+    through the RS; `esair std remove-resource NAME` ends it)."""
+    from .client import Client
+    with Client(endpoint) as c:
+        kids = c.call("add-resource", {"name": name, "class": "esair_std.record.replay:Replay",
+                                       "allow": {"*": "read"},
+                                       "options": {"file": os.path.abspath(file),
+                                                   "speed": speed, "loop": loop}}, timeout=30)
+    for child, kind in kids.items():
+        click.echo(f"{child}: {kind} ready")
+
+
+COMMANDS += [record_cmd, replay_cmd]

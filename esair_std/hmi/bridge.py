@@ -62,6 +62,7 @@ class Bridge:
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self.c = dict(samples=0, samples_unwatched=0, ls_failed=0)
+        self.want: Callable[[str], bool] = lambda name: True    # the sensors to watch
 
     # ---- life cycle
     def start(self) -> None:
@@ -170,7 +171,7 @@ class Bridge:
             self.emit(_log("info", f"{name}: removed"))
 
     def _watch_new(self, rows: list[dict]) -> None:
-        present = {r["name"] for r in rows if r["kind"] == "sensor"}
+        present = {r["name"] for r in rows if r["kind"] == "sensor" and self.want(r["name"])}
         for name in list(self.watched):
             if name not in present:
                 del self.watched[name]        # removed: watched again if it comes back
