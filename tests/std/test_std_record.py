@@ -5,6 +5,9 @@ published again as sensors of the running robot."""
 from __future__ import annotations
 
 import json
+import signal
+import subprocess
+import sys
 
 import pytest
 from mcap.reader import make_reader
@@ -20,14 +23,23 @@ def test_record_then_replay(tmp_path, mode):
 
     def deployed():
         r = esair("ls", "--json", "-e", ep, check=False)
-        return r.returncode == 0 and all(row["state"] in ("running", "ready")
-                                         for row in json.loads(r.stdout))
+        return r.returncode == 0 and sum(row["state"] in ("running", "ready")
+                                         for row in json.loads(r.stdout)) == 18
     with std_run("papaman", mode, ep, deployed):
-        r = esair("record", str(out), "papaman.feet", "-e", ep, "--seconds", "2")
+        rec = subprocess.Popen([sys.executable, "-m", "esair_min.cli", "std", "record", str(out),
+                                "papaman.feet", "-e", ep], stderr=subprocess.PIPE, text=True)
+        assert rec.stderr.readline() == f"recording to {out}\n"      # watching from here
+
+        def seq():
+            return json.loads(esair("inspect", "papaman.feet", "-e", ep).stdout)["counters"]["seq"]
+        first = seq()
+        wait_for(lambda: seq() >= first + 5, timeout=30, what="five more feet samples")
+        rec.send_signal(signal.SIGTERM)
+        assert rec.wait(timeout=30) == 0
         samples = list(read_samples(out))
-        assert r.stderr.splitlines()[-1] == (
+        assert rec.stderr.read().splitlines()[-1] == (
             f"{out}: {len(samples)} samples on 1 channels, 0 dropped, 0 gaps in seq")
-        assert len(samples) >= 2                          # polled at 8 Hz while recording
+        assert len(samples) >= 5
         assert {s[0] for s in samples} == {"papaman.feet"}
         seqs = [s[1] for s in samples]
         assert seqs == list(range(seqs[0], seqs[0] + len(seqs)))
