@@ -22,7 +22,6 @@ from ..errors import StdError, TransportError
 from ..transport import keys
 from ..transport.bus import Bus
 from ..transport.session import check_endpoint
-from .robotinfo import entries_info
 
 log = logging.getLogger("esair_std.hmi")
 LS_PERIOD_S = 0.25
@@ -78,7 +77,8 @@ class Bridge:
                               "(is `esair std run` running?)")
         self.robot = r["ok"]["robot"]
         self.runtime_up = True
-        self.robots, self.problems = entries_info(self.call("describe"))
+        d = self.call("describe")       # the runtime reads the board files, not this process
+        self.robots, self.problems = d.get("robots", {}), d.get("problems", [])
         self.bus.subscribe(f"esair/{self.robot}/sensor/**", self._on_sample, with_key=True)
         self._poll_once(inspect=True)
         self._thread = threading.Thread(target=self._run, name="hmi:poll", daemon=True)

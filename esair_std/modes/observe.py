@@ -11,9 +11,9 @@ and the AC like any behavior.
 - ``command`` {who, resource, command, timeout}: register ``who`` for ``command`` (again
   the ``allow`` of the resource decides: ``hmi: command``) and send through the AC.
 - ``restart`` {name}: remove a behavior and add it again from its own spec.
-- ``describe``: per resource entry its class and, for a MIN robot link, the robot's
-  board files (a bundled example's name or an absolute folder), so a page can show
-  servo limits and motions.
+- ``describe``: per resource entry its class and, for a MIN robot link, what a page
+  needs of the robot's board files (hmi/robotinfo.py: servo limits, motions and their
+  frames, sensors, the balance threshold), read here where the board files are.
 
 A principal is any name of the form ``[a-z][a-z0-9_]*`` that is not a deployed behavior
 or reaction (it may not speak for one).
@@ -34,13 +34,15 @@ PRINCIPAL_USES = {"*": Level.command}
 
 
 class _Forward:
-    """An SC handle (thread mode) that publishes each sample for watchers outside."""
-
-    detached = False
+    """An SC handle (thread mode) that publishes each sample for watchers outside: one
+    per sensor, attached once (under the first watcher's name) however many watch it;
+    the SC marks it detached when the sensor is removed, and a later watch attaches it
+    again."""
 
     def __init__(self, put: Any):
         self._put = put
         self.published = 0
+        self.detached = True
 
     def push(self, sample: Any) -> None:
         self._put(sample.to_wire())
@@ -83,8 +85,9 @@ class Observe:
             if fwd is None:
                 put = self.server.bus.publisher(keys.sensor(self.rt.robot, res), drop=True)
                 fwd = self.forwards[res] = _Forward(put)
-            self.rt.sc.detach(who, res)        # one attachment per watcher and sensor
-            self.rt.sc.attach(who, res, fwd)
+            if fwd.detached:                   # each sample published once for all
+                fwd.detached = False
+                self.rt.sc.attach(who, res, fwd)
         else:
             self.rt.sc.attach(who, res, None)  # listed; the samples are on Zenoh already
         return {"key": keys.sensor(self.rt.robot, res)}
@@ -110,7 +113,7 @@ class Observe:
         return self.rt.bs.request(self.rt.bs.add, spec).host.state
 
     def v_describe(self, b: dict) -> dict:
-        out = {}
+        out: dict[str, Any] = {}
         for entry, (spec, _host) in list(self.rt.rs.entries.items()):
             d: dict[str, Any] = {"class": spec.class_path}
             robot = spec.options.get("robot") if isinstance(spec.options, dict) else None
@@ -118,7 +121,10 @@ class Observe:
                 path = os.path.join(spec.base_dir or "", robot)
                 d["robot"] = os.path.abspath(path) if os.path.exists(path) else robot
             out[entry] = d
-        return {"robot": self.rt.robot, "mode": self.rt.mode_name, "entries": out}
+        from ..hmi.robotinfo import entries_info     # the board model: only when asked
+        robots, problems = entries_info({"entries": out})
+        return {"robot": self.rt.robot, "mode": self.rt.mode_name, "entries": out,
+                "robots": robots, "problems": problems}
 
 
 def install(server: Any) -> Observe:

@@ -18,7 +18,8 @@ from esair_min.model.validate import load_robot
 from tests.support.hmi import PAPAMAN, esair_std, open_page, wait_for
 
 ACTUATOR = 0x10
-PUSH_LATER_MS = 2500       # the push comes this long after the robot is plugged back
+PUSH_LATER_MS = 5000       # the push comes this long after the robot is plugged back:
+                           # after the link is up again (it reconnects with a backoff)
 
 
 @pytest.fixture(scope="module")
@@ -108,6 +109,8 @@ def test_the_push_shows_on_the_feet_plot_with_the_reaction_marker(robot, browser
     (tmp_path / "push.yaml").write_text(yaml.safe_dump(push))
     page, errors = open_page(browser, robot.url)
     robot.restart_robot("--scenario", str(tmp_path / "push.yaml"))
+    page.wait_for_function("() => window.__hmi.link.papaman.state === 'ready' && "
+                           "window.__hmi.feet.markers.length == 0", timeout=30000)
     page.wait_for_function("() => window.__hmi.feet.markers.length > 0", timeout=30000)
     # the tipping samples are on the plot: |L - R| over the threshold
     assert page.evaluate("Math.max(...window.__hmi.feet.d)") > 400
