@@ -25,7 +25,8 @@ def _with_port(path: Any, port: str) -> Any:
 
     from ..deploy import load_deployment
     try:
-        raw = yaml.safe_load(open(path))
+        with open(path) as f:
+            raw = yaml.safe_load(f)
     except (OSError, yaml.YAMLError):
         return path                      # loading it reports the error at file:line:col
     if not isinstance(raw, dict):

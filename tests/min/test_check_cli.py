@@ -135,10 +135,14 @@ def test_every_python_package_is_installed() -> None:
 
     config = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]
     listed = set(config["packages"])
-    for top in ("esair_min", "codegen"):
+    for top, name in (("esair_min", "esair_min"), ("esair_std", "esair_std"),
+                      ("codegen", "esair_min.codegen")):
         for init in (ROOT / top).rglob("__init__.py"):
-            package = ".".join(init.parent.relative_to(ROOT).parts)
+            if "codegen" in init.relative_to(ROOT).parts[1:] and top == "esair_min":
+                continue                     # the checkout's link to the top-level codegen/
+            package = ".".join([name, *init.parent.relative_to(ROOT / top).parts])
             assert package in listed, f"{package} is missing from pyproject.toml packages"
+    assert "codegen" not in listed           # no top-level `codegen` in site-packages
     assert config["package-dir"] == {"esair_min.firmware_templates": "firmware_templates",
-                                     "esair_min.boards": "boards"}
+                                     "esair_min.boards": "boards", "esair_min.codegen": "codegen"}
     assert "**/*.yaml" in config["package-data"]["esair_min.boards"]

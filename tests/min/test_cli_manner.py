@@ -177,12 +177,12 @@ def wait_past(path: Path, line: str, us: int, timeout: float = 20) -> None:
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
         mark, at = 0, None
-        for l in path.read_text().splitlines():
-            if l.startswith("@ "):
-                mark = int(l[2:])
+        for ln in path.read_text().splitlines():
+            if ln.startswith("@ "):
+                mark = int(ln[2:])
                 if at is not None and mark >= at + us:
                     return
-            elif l == line and at is None:
+            elif ln == line and at is None:
                 at = mark
         time.sleep(0.05)
     raise AssertionError(f"the trace never went {us} us past {line!r}")

@@ -93,7 +93,7 @@ def command_line(draw) -> bytes:
 
 garbage = st.binary(min_size=1, max_size=70)
 tips = st.lists(st.integers(0, 1023), min_size=8, max_size=8)
-tipping = st.builds(lambda l, r: [l] * 4 + [r] * 4, st.integers(0, 1023), st.integers(0, 1023))
+tipping = st.builds(lambda ln, r: [ln] * 4 + [r] * 4, st.integers(0, 1023), st.integers(0, 1023))
 
 step = st.one_of(
     command_line().map(lambda b: f"rx {esc(b)}"),
@@ -183,8 +183,8 @@ def _random_step(rng: random.Random) -> str:
     if kind < 0.8:
         return f"tick {rng.randint(1, 25)}"
     if kind < 0.9:
-        l, r = rng.randint(0, 1023), rng.randint(0, 1023)
-        return "sensor " + " ".join(map(str, [l] * 4 + [r] * 4))
+        ln, r = rng.randint(0, 1023), rng.randint(0, 1023)
+        return "sensor " + " ".join(map(str, [ln] * 4 + [r] * 4))
     if kind < 0.95:
         return f"fault {rng.choice(['actuator', 'sensor', 'eeprom'])} {rng.choice(['on', 'off'])}"
     return f"poke {rng.randint(0, 1069):X} {rng.randrange(256):X}"

@@ -217,7 +217,7 @@ def test_back_to_back_commands_each_get_one_reply_in_order(robot):
     # (see the test above: the receive ring overruns, on the PIC in gpsim too)
     lines = ["t", "oab100", "v", "s", "zz", "a" + "002" * 12, "c" + "N" * 12, "x",
              "oab095", "PLY09", "t", "oal100"]
-    emu.write(b"".join(l.encode() + b"\r\n" for l in lines))
+    emu.write(b"".join(ln.encode() + b"\r\n" for ln in lines))
     emu.run_for(2.0)
     got = emu.read().decode().split("\r\n")[:-1]
     assert len(got) == len(lines)
@@ -263,7 +263,7 @@ def test_trace_marks_follow_bus_time(robot):
     def mark_before(k: int) -> int:
         return int(next(lines[m] for m in range(k, 0, -1) if lines[m].startswith("@ "))[2:])
 
-    i = next(k for k, l in enumerate(lines) if l.startswith("W 10"))
+    i = next(k for k, ln in enumerate(lines) if ln.startswith("W 10"))
     j = next(k for k in range(i, len(lines)) if lines[k] == "TX 4F4B0D0A")
     t_write, t_reply = mark_before(i), mark_before(j)
     # the reply leaves when the 236-bit burst ends: 2.36 ms at 100 kHz

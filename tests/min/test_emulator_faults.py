@@ -156,7 +156,7 @@ def test_noise_gets_error_replies_and_never_hangs(robot):
     chunk = ["v", "t", "s", "oab100", "x"]       # 20 bytes in, 117 bytes of replies out
     lines = chunk * 20
     for _ in range(20):                          # paced so the replies can leave
-        emu.write(b"".join(l.encode() + b"\r\n" for l in chunk))
+        emu.write(b"".join(ln.encode() + b"\r\n" for ln in chunk))
         emu.run_for(0.25)
     emu.run_for(2.0)                             # ~80 bytes of noise, no line end
     replies = [r for r in emu.read().decode("latin-1").split("\r\n")[:-1]]

@@ -64,7 +64,8 @@ class ActuatorModel:
                 self.speed[i] = high // 10
             step = self.speed[i]
             d = self.target[i] - self.pos[i]
-            self.pos[i] = self.target[i] if step == 0 or abs(d) <= step else self.pos[i] + (step if d > 0 else -step)
+            self.pos[i] = (self.target[i] if step == 0 or abs(d) <= step
+                           else self.pos[i] + (step if d > 0 else -step))
         return [(p, s.pulse_min_us + (s.pulse_max_us - s.pulse_min_us) * p // 180)
                 for p, s in zip(self.pos, self.servos)]
 

@@ -147,7 +147,7 @@ def test_a_short_dance_is_visible_at_real_speed(tmux):
     assert send(port, "PLY03") == ["OK"]                  # 0.29 s: about one redraw
     screen = tmux.wait(lambda t: "last: dance" in t, "the dance's summary")
     assert re.search(r"last: dance, 3[12] ticks \(0\.2[89] s\)", screen), screen
-    row = next(l for l in screen.splitlines() if l.startswith("l_hip_yaw"))
+    row = next(ln for ln in screen.splitlines() if ln.startswith("l_hip_yaw"))
     history = row.split("│")[0].split()[-1]
     assert len(history) >= 15 and len(set(history)) >= 4, row   # the swing, tick by tick
     print("\n--- after a 0.29 s dance ---\n" + screen)

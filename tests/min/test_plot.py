@@ -136,12 +136,12 @@ def test_one_panel_per_joint_the_feet_below_and_the_legend_outside(robot, push_t
         assert len({ax.get_xlim() for ax in axes}) == 1          # one time axis for all
         # the reaction fired and is marked on every panel, feet and balance included
         assert ev.reactions and all(
-            sum(1 for l in ax.get_lines() if l.get_color() == "red") == len(ev.reactions)
+            sum(1 for ln in ax.get_lines() if ln.get_color() == "red") == len(ev.reactions)
             for ax in axes)
         # the feet: each group's sum as read; the push shows, the threshold is drawn
         feet = axes[12].get_lines()
         assert max(feet[0].get_ydata()) == 680 * 4 and min(feet[1].get_ydata()) == 340 * 4
-        assert any(list(l.get_ydata()) == [400, 400] for l in axes[13].get_lines())
+        assert any(list(ln.get_ydata()) == [400, 400] for ln in axes[13].get_lines())
         # the figure legend stands above every panel: outside the data
         fig.canvas.draw()
         renderer = fig.canvas.get_renderer()
@@ -167,7 +167,7 @@ def test_an_idle_trace_is_drawn_flat_with_a_note(robot, tmp_path):
         assert fig._suptitle.get_text().endswith(
             "no writes to the actuator board in this trace: the servos held the stand pose "
             "throughout")
-        for ax, s in zip(fig.get_axes()[:12], sorted(robot.servos, key=lambda s: s.name[0])):
+        for ax, _servo in zip(fig.get_axes()[:12], sorted(robot.servos, key=lambda s: s.name[0])):
             ys = set(ax.get_lines()[0].get_ydata())
             assert len(ys) == 1                                    # flat
     finally:

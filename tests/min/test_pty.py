@@ -97,7 +97,7 @@ def test_commands_replies_and_servo_state(tmp_path, robot):
             assert ask(port, "c" + "N" * 10 + "P.") == "OK"
             time.sleep(0.5)                                    # servos reach their targets
     lines = without_marks(trace.read_text().splitlines())
-    writes = [l for l in lines if l.startswith("W 10")]
+    writes = [ln for ln in lines if ln.startswith("W 10")]
     assert writes[1] == "W 10 001433 ACK"                      # low 20, high 1 + 10*5
     # the angles line: servo 10 to 96 at the speed set by `a` (1), servo 11 kept at 90
     pairs = b"".join(bytes(encode(a, 1)) for a in [90] * 10 + [96, 90])
@@ -154,7 +154,7 @@ def test_one_reply_per_line_at_line_rate():
              "oal100"]
     with emulator() as (_, path):
         with serial.Serial(path, 9600, timeout=3) as port:
-            port.write(b"".join(l.encode() + b"\r\n" for l in lines))   # back to back
+            port.write(b"".join(ln.encode() + b"\r\n" for ln in lines))   # back to back
             replies = []
             while len(replies) < len(lines):
                 got = port.readline()

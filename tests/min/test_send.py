@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import os
-import sys
 import types
 
 import pytest
@@ -134,16 +133,8 @@ def test_emulate_errors(args, message):
     assert (r.exit_code, r.output) == (1, f"error: {message}\n")
 
 
-def test_generate_without_the_generator(monkeypatch, tmp_path):
-    monkeypatch.setitem(sys.modules, "codegen", types.ModuleType("codegen"))
-    r = emulate("--run", "0.1", "--generate", str(tmp_path / "out"))
-    assert (r.exit_code, r.output) == (
-        1, "error: --generate needs the firmware generator (codegen.generate_robot), which "
-           "this installation does not have yet\n")
-
-
 def test_generate_then_emulate_the_generated_image(monkeypatch, tmp_path):
-    """--generate calls codegen.generate_robot(robot, DIR) first, then loads the EEPROM
+    """--generate calls esair_min.codegen.generate_robot(robot, DIR) first, then loads the EEPROM
     image it wrote: here a fake generator writes a corrupt image, and the robot says so."""
     from esair_min.core.image import build_image, write_hex
 
@@ -158,7 +149,7 @@ def test_generate_then_emulate_the_generated_image(monkeypatch, tmp_path):
 
     fake = types.ModuleType("codegen")
     fake.generate_robot = generate_robot
-    monkeypatch.setitem(sys.modules, "codegen", fake)
+    monkeypatch.setattr("esair_min.codegen.generate_robot", fake.generate_robot)
     out = tmp_path / "build"
     r = emulate("--run", "0.2", "--generate", str(out), "--send", "PLY03")
     assert calls == [("papaman", out)]
@@ -173,7 +164,7 @@ def test_generate_writes_the_image_when_the_generator_does_not(monkeypatch, tmp_
 
     fake = types.ModuleType("codegen")
     fake.generate_robot = lambda robot, out: (out / "central").mkdir(parents=True)
-    monkeypatch.setitem(sys.modules, "codegen", fake)
+    monkeypatch.setattr("esair_min.codegen.generate_robot", fake.generate_robot)
     out = tmp_path / "build"
     r = emulate("--run", "0.2", "--generate", str(out), "--send", "PLY03")
     assert r.exit_code == 0

@@ -4,6 +4,7 @@ goes down and up, and nothing is left behind (processes, namespaces, stale runs)
 import os
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -73,7 +74,7 @@ def test_close_kills_processes_and_deletes_namespaces():
     stray = n[0].run("sh", "-c", "sleep 60 >/dev/null 2>&1 & echo $!").stdout.strip()
     n.close()
     assert proc.poll() is not None
-    assert not os.path.exists(f"/proc/{stray}") or "Z" in open(f"/proc/{stray}/stat").read().split()[2]
+    assert not os.path.exists(f"/proc/{stray}") or "Z" in Path(f"/proc/{stray}/stat").read_text().split()[2]
     assert not set(names) & set(netns.list_namespaces())
     n.close()                                   # idempotent
 
@@ -82,7 +83,7 @@ def test_close_runs_when_the_test_body_fails():
     with pytest.raises(ZeroDivisionError):
         with make_net(2) as n:
             names = list(n.names)
-            1 / 0
+            raise ZeroDivisionError("the test body fails")
     assert not set(names) & set(netns.list_namespaces())
 
 

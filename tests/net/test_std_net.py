@@ -26,7 +26,8 @@ behaviors:
 
 def test_remote_agent_registers_is_discovered_and_drives_a_local_actuator(net, tmp_path):  # noqa: F811
     center = Center(net[0], tmp_path, LAB)
-    pusher = agent(net[1], center.endpoint, "pusher", "tests.support.netcomps:Pusher", "--uses", "arm=command")
+    pusher = agent(net[1], center.endpoint, "pusher", "tests.support.netcomps:Pusher",
+                   "--uses", "arm=command")
     wait_for(lambda: center.state("pusher") == "running", 30, what="pusher running")
     row = center.ls()["pusher"]
     assert row["host"] == "pc-10.77.0.2" and row["kind"] == "behavior"
@@ -141,7 +142,8 @@ def test_local_puts_go_on_while_a_remote_stream_is_cut_again_and_again(net, tmp_
 
 def test_a_sigkilled_remote_agent_is_marked_failed(net, tmp_path):  # noqa: F811
     center = Center(net[0], tmp_path, PARTITION)
-    pusher = agent(net[1], center.endpoint, "pusher", "tests.support.netcomps:Pusher", "--uses", "arm=command")
+    pusher = agent(net[1], center.endpoint, "pusher", "tests.support.netcomps:Pusher",
+                   "--uses", "arm=command")
     wait_for(lambda: center.state("pusher") == "running", 30, what="pusher running")
     pusher.proc.kill()
     wait_for(lambda: center.state("pusher") == "failed", 15, what="pusher failed")

@@ -10,7 +10,8 @@ SINKS = {"behaviors": {"sink": {"class": "tests.support.comps:Sink"},
 
 
 def test_deploys_in_file_order_and_lists(start):
-    rt = start({"behaviors": {"b2": {"class": "tests.support.comps:Sink"}, "a1": {"class": "tests.support.comps:Sink"},
+    rt = start({"behaviors": {"b2": {"class": "tests.support.comps:Sink"},
+                              "a1": {"class": "tests.support.comps:Sink"},
                               "c0": {"class": "tests.support.comps:Sink"}}})
     rows = rt.ls()
     assert [r["name"] for r in rows] == ["b2", "a1", "c0"]

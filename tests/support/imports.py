@@ -8,6 +8,7 @@ defines, not a submodule."""
 from __future__ import annotations
 
 import ast
+import functools
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -24,9 +25,9 @@ def modules() -> dict[str, Path]:
             rel = path.relative_to(folder).with_suffix("")
             if "codegen" in rel.parts and prefix == "esair_min":
                 continue
-            if any(p in ("examples", "fixtures") for p in rel.parts[:-1]) and prefix == "esair_std":
-                if rel.parts[-1] != "__init__":
-                    continue
+            if (prefix == "esair_std" and rel.parts[-1] != "__init__"
+                    and any(p in ("examples", "fixtures") for p in rel.parts[:-1])):
+                continue
             parts = [p for p in rel.parts if p != "__init__"]
             found[".".join([prefix, *parts])] = path
     return found
@@ -40,6 +41,7 @@ def _resolve(mod: str, is_pkg: bool, node: ast.ImportFrom) -> str:
     return ".".join(base + ([node.module] if node.module else []))
 
 
+@functools.cache
 def graph() -> dict[str, set[str]]:
     """Module → the modules of ours it imports."""
     mods = modules()

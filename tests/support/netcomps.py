@@ -3,7 +3,7 @@ remote agents; tests/ is on their PYTHONPATH)."""
 
 from __future__ import annotations
 
-from esair_std import Actuator, Behavior, CommandError, Refused, ResourceLost, Sensor
+from esair_std import Actuator, Behavior, CommandError, Refused, ResourceLost
 from esair_std.drivers.sim import Counter as SimCounter
 
 
