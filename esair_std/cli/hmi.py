@@ -61,9 +61,12 @@ def tls_context(cert: str | None, key: str | None, client_ca: str | None) -> ssl
 @click.option("--tls-key", default=None, metavar="PEM", help="Its private key.")
 @click.option("--client-ca", default=None, metavar="PEM",
               help="Require browser certificates signed by this CA; such pages are operators.")
+@click.option("--record-dir", default=".", show_default=True, type=click.Path(file_okay=False),
+              help="Where the page's record button writes its MCAP files (and replay reads).")
 @friendly
 def hmi_cmd(endpoint: str | None, listen: str, password_file: str | None,
-            tls_cert: str | None, tls_key: str | None, client_ca: str | None) -> None:
+            tls_cert: str | None, tls_key: str | None, client_ca: str | None,
+            record_dir: str) -> None:
     """Serve the robot's remote control center: live link state, pose, joints,
     feet, components and log in a browser; commands through the RS as principal
     `hmi` (the deployment's `allow` decides what it may command). Prints the URL on
@@ -80,7 +83,8 @@ def hmi_cmd(endpoint: str | None, listen: str, password_file: str | None,
     os.environ.pop("ESAIR_HMI_PASSWORD", None)      # hashed in auth; not kept in the clear
     logging.basicConfig(level=logging.WARNING, format="hmi: %(message)s")
     logging.getLogger("websockets").setLevel(logging.ERROR)
-    server = HmiServer(endpoint or default_endpoint(), host, port, auth, tls)
+    server = HmiServer(endpoint or default_endpoint(), host, port, auth, tls,
+                       record_dir=record_dir)
 
     async def main() -> None:
         stop = asyncio.Event()

@@ -27,6 +27,9 @@ from websockets.datastructures import Headers
 from websockets.exceptions import ConnectionClosed
 from websockets.http11 import Request, Response
 
+from ..errors import StdError
+from ..record.mcapio import read_samples
+from ..record.tap import Tap
 from .auth import Auth
 from .bridge import Bridge, BridgeError
 
@@ -36,7 +39,8 @@ PAGE_QUEUE = 512            # messages waiting for one page
 MAX_FRAME = 64 * 1024       # bytes of one frame from a page
 CSP = ("default-src 'self'; img-src 'self' data:; style-src 'self' 'unsafe-inline'; "
        "connect-src 'self'; frame-ancestors 'none'")
-OPERATOR_OPS = {"cmd", "stop", "add", "remove", "restart"}
+OPERATOR_OPS = {"cmd", "stop", "add", "remove", "restart", "record"}
+LOAD_MAX = 50_000           # samples of a recording sent to a page for replay
 
 
 def load_static(root: Path = STATIC) -> dict[str, tuple[bytes, str]]:
@@ -75,7 +79,8 @@ def _field(frame: dict, name: str, kind: type | tuple) -> Any:
 
 class HmiServer:
     def __init__(self, endpoint: str, host: str, port: int, auth: Auth,
-                 tls: _ssl.SSLContext | None = None, who: str = "hmi"):
+                 tls: _ssl.SSLContext | None = None, who: str = "hmi",
+                 record_dir: str | Path = "."):
         self.endpoint, self.host, self.port = endpoint, host, port
         self.auth = auth
         self.tls = tls
@@ -85,6 +90,8 @@ class HmiServer:
         self.bridge: Bridge | None = None
         self.url = ""
         self.commanded: dict[str, Any] = {}     # resource -> last command that went through
+        self.record_dir = Path(record_dir)
+        self.tap: Tap | None = None
         self.c = dict(pages=0, frames=0, bad_frames=0, refused=0, dropped=0,
                       origin_refused=0, commands=0, command_errors=0)
         self._stop: asyncio.Event | None = None
@@ -92,6 +99,9 @@ class HmiServer:
 
     # ---- fan-out (any thread -> the loop)
     def emit(self, msg: dict) -> None:
+        tap = self.tap
+        if tap is not None and msg.get("t") == "s":
+            tap.put(msg)
         loop = self._loop
         if loop is not None and not loop.is_closed():
             loop.call_soon_threadsafe(self._broadcast, msg)
@@ -144,6 +154,7 @@ class HmiServer:
         self.c["pages"] += 1
         assert self.bridge is not None
         hello = dict(self.bridge.hello(), role=page.role, commanded=list(self.commanded.items()),
+                     recording=self.recording_state(),
                      login=bool(self.auth.users) and page.role != "operator")
         self._send(page, json.dumps(hello, separators=(",", ":")))
         writer = asyncio.create_task(self._writer(page))
@@ -285,6 +296,55 @@ class HmiServer:
         await self._call(page, ident, self.bridge.call, "restart", {"name": name}, 30.0,
                          what=f"restart {name}")
 
+    async def op_record(self, page: Page, ident: Any, obj: dict) -> None:
+        on = _field(obj, "on", bool)
+        if on and self.tap is None:
+            name = time.strftime(f"esair-{self.bridge.robot if self.bridge else 'robot'}-%Y%m%d-%H%M%S.mcap")
+            try:
+                self.tap = Tap(self.record_dir / name)
+            except StdError as exc:
+                self._reply(page, ident, False, str(exc))
+                return
+        elif not on and self.tap is not None:
+            tap, self.tap = self.tap, None
+            await asyncio.get_running_loop().run_in_executor(None, tap.stop)
+            self.emit({"t": "log", "level": "info", "ts": time.time(),
+                       "text": f"recorded {tap.path.name}: {tap.c['written']} samples, "
+                               f"{tap.c['dropped']} dropped"})
+        state = self.recording_state()
+        self._reply(page, ident, True, state)
+        self.emit(state)
+
+    def recording_state(self) -> dict:
+        tap = self.tap
+        return {"t": "recording", "on": tap is not None, "file": tap.path.name if tap else ""}
+
+    async def op_recordings(self, page: Page, ident: Any, obj: dict) -> None:
+        files = sorted(self.record_dir.glob("*.mcap"), key=lambda p: p.stat().st_mtime)
+        self._reply(page, ident, True, [{"file": p.name, "bytes": p.stat().st_size}
+                                        for p in files])
+
+    async def op_load(self, page: Page, ident: Any, obj: dict) -> None:
+        name = _field(obj, "file", str)
+        path = self.record_dir / name
+        if "/" in name or not name.endswith(".mcap") or not path.is_file():
+            self._reply(page, ident, False, f"no recording {name!r}")
+            return
+
+        def load() -> list:
+            out = []
+            for topic, seq, t, value in read_samples(path):
+                out.append([topic, seq, t, value])
+                if len(out) >= LOAD_MAX:
+                    break
+            return out
+        try:
+            samples = await asyncio.get_running_loop().run_in_executor(None, load)
+        except StdError as exc:
+            self._reply(page, ident, False, str(exc))
+            return
+        self._reply(page, ident, True, {"file": name, "samples": samples})
+
     # ---- life cycle
     async def serve(self, ready: Callable[[str], None], stop: asyncio.Event) -> None:
         self._loop = asyncio.get_running_loop()
@@ -301,3 +361,5 @@ class HmiServer:
                 await stop.wait()
         finally:
             self.bridge.close()
+            if self.tap is not None:
+                self.tap.stop()

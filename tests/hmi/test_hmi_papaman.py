@@ -15,6 +15,7 @@ from websockets.sync.client import connect
 from esair_min.core.trace import without_marks
 from esair_min.emulator.actuator import encode
 from esair_min.model.validate import load_robot
+from esair_std.record import read_samples
 from tests.support.hmi import PAPAMAN, esair_std, open_page, wait_for
 
 ACTUATOR = 0x10
@@ -116,6 +117,32 @@ def test_the_push_shows_on_the_feet_plot_with_the_reaction_marker(robot, browser
     assert page.evaluate("Math.max(...window.__hmi.feet.d)") > 400
     assert page.evaluate("window.__hmi.feet.markers[0].text") == "R auto_balance"
     page.wait_for_function("() => document.querySelector('#log').textContent.includes('!R auto_balance')")
+    page.close()
+    assert errors == []
+
+
+def test_record_button_then_replay_with_the_time_slider(robot, browser):
+    page, errors = open_page(browser, robot.url)
+    page.click("#record")
+    page.wait_for_function("() => window.__hmi.recordingOn")
+    seen = page.evaluate("window.__hmi.stats.samples")
+    page.wait_for_function(f"() => window.__hmi.stats.samples >= {seen + 6}")
+    page.click("#record")
+    page.wait_for_function("() => !window.__hmi.recordingOn")
+    (path,) = robot.tmp.glob("esair-papaman-*.mcap")
+    feet = [s for s in read_samples(path) if s[0] == "papaman.feet"]
+    assert len(feet) >= 3 and [s[1] for s in feet] == list(range(feet[0][1], feet[0][1] + len(feet)))
+    page.wait_for_function(f"() => [...document.querySelectorAll('#recordings option')]"
+                           f".some(o => o.value === '{path.name}')")
+    page.select_option("#recordings", path.name)
+    page.click("#load")
+    page.wait_for_function("() => window.__hmi.replay.active")
+    assert page.locator("#timeline").is_enabled()
+    assert page.evaluate("window.__hmi.feet.t.length") == len(feet)   # the slider at the end
+    page.locator("#timeline").fill("0")                  # the first sample only
+    assert page.evaluate("window.__hmi.feet.t") == [feet[0][2]]
+    page.click("#live-view")
+    page.wait_for_function("() => !window.__hmi.replay.active && window.__hmi.feet.t.length > 0")
     page.close()
     assert errors == []
 

@@ -6,6 +6,7 @@ import { Feet } from "./feet.js";
 import { Components } from "./components.js";
 import { Log } from "./log.js";
 import { Generic } from "./generic.js";
+import { Replay } from "./replay.js";
 
 const $ = (id) => document.getElementById(id);
 
@@ -26,6 +27,8 @@ class App {
     this.dirty = false;
     $("stop").addEventListener("click", () => this.stop());
     $("login").addEventListener("submit", (e) => { e.preventDefault(); this.login(); });
+    $("record").addEventListener("click", () => this.record());
+    this.replay = new Replay(this);
     window.__hmi = this;         // for tests and the bench
     this.connect();
     requestAnimationFrame((t) => this.frame(t));
@@ -68,6 +71,19 @@ class App {
     return r;
   }
 
+  async record() {
+    const r = await this.send({ op: "record", on: !this.recordingOn });
+    if (!r.ok) this.log.add("error", `record: ${r.error}`);
+    else { this.recording(r.result); this.replay.refresh(); }
+  }
+
+  recording(m) {
+    this.recordingOn = m.on;
+    $("record").classList.toggle("on", m.on);
+    $("record").textContent = m.on ? "■ stop rec" : "● rec";
+    $("record").title = m.on ? `recording to ${m.file}` : "record every sample the page receives to MCAP";
+  }
+
   async stop() {
     const r = await this.send({ op: "stop" });
     if (!r.ok) this.log.add("error", `STOP: ${r.error}`);
@@ -108,6 +124,7 @@ class App {
       case "log": this.log.add(m.level, m.text); return;
       case "commanded": return this.commanded(m.r, m.v);
       case "watched": return;
+      case "recording": return this.recording(m);
       default: this.log.add("warning", `unknown message ${m.t}`);
     }
   }
@@ -128,12 +145,15 @@ class App {
     this.generic = new Generic($("sensors"), $("actuators"), m.robots, this);
     this.components.update(m.rows); this.generic.rows(m.rows);
     for (const p of m.problems) this.log.add("warning", p);
+    this.recording(m.recording);
+    this.replay.refresh();
     for (const [res, v] of m.commanded || []) this.commanded(res, v, true);
     this.linkbar(); this.banner();
   }
 
   sample(m) {
     this.stats.samples++;
+    if (this.replay.active) return;               // the plot shows a recording
     if (this.entry && m.r === `${this.entry}.feet`) { this.feet.push(m); this.dirty = true; }
     else if (this.entry && m.r === `${this.entry}.notices`) {
       const text = (m.v && m.v.notice) || "";

@@ -54,6 +54,12 @@ export class Feet {
     this.last = { L, R, d: Math.abs(L - R), seq: m.q };
   }
 
+  clear() {
+    if (!this.top) return;
+    for (const a of [this.t, ...this.v, this.l, this.r, this.d, this.th]) a.length = 0;
+    this.markers = []; this.fresh = []; this.last = null;
+  }
+
   marker(ts, text) { this.markers.push({ ts, text }); this.lastMarker = { ts, text }; }
 
   drawMarkers(u) {
