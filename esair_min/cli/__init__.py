@@ -211,7 +211,12 @@ def send(port: str, commands: tuple[str, ...], baud: int, timeout: float, notice
 @friendly
 def plot(trace: str, output: str, robot: str, targets: bool) -> None:
     """Plot servo angles over time from an event trace: positions simulated from its
-    actuator writes with the emulator's servo model (--targets adds the targets)."""
+    actuator writes with the emulator's servo model (--targets adds the targets).
+    A FILE.mcap (`esair std record`) is drawn per channel, reactions marked."""
+    if trace.endswith(".mcap"):
+        from esair_min.cli.plotmcap import plot_mcap
+        click.echo(f"{plot_mcap(trace, output)} samples -> {output}")
+        return
     from esair_min.cli.plot import plot_trace
 
     n = plot_trace(load(robot), trace, output, targets)
