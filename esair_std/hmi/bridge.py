@@ -137,7 +137,7 @@ class Bridge:
 
     def _poll_once(self, inspect: bool) -> None:
         try:
-            rows = self.call("ls", timeout=1.0)
+            rows = self.call("ls", {"all": True}, timeout=1.0)   # as `esair std ls` shows
         except BridgeError as exc:
             self.c["ls_failed"] += 1
             if self.runtime_up:

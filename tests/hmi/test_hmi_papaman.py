@@ -42,8 +42,8 @@ def frame_bytes(papaman, motion: str) -> list[bytes]:
 def test_the_page_loads_without_errors_and_lists_every_component(robot, browser):
     page, errors = open_page(browser, robot.url)
     names = sorted(row["name"] for row in json.loads(
-        esair_std("ls", "--json", "-e", robot.endpoint).stdout))
-    assert len(names) == 18          # 3 behaviors, 12 servos, motion, feet, notices
+        esair_std("ls", "--json", "-e", robot.endpoint).stdout)["components"])
+    assert len(names) == 19          # 3 behaviors, the driver, 12 servos, motion, feet, notices
     page.wait_for_function(f"() => document.querySelectorAll('#components tbody tr').length == {len(names)}")
     shown = sorted(page.eval_on_selector_all("#components tbody tr", "rs => rs.map(r => r.dataset.name)"))
     assert shown == names
@@ -164,7 +164,7 @@ def test_a_viewer_without_login_gets_no_command_through(robot, browser):
     # nothing reached the robot: no PLY line on its UART and the watcher still runs
     rx = [ln for ln in robot.trace_lines()[before:] if ln.startswith("TX ")]
     assert all(bytes.fromhex(ln[3:]).startswith(b"OK ") or ln == "TX 4F4B0D0A" for ln in rx)
-    rows = json.loads(esair_std("ls", "--json", "-e", robot.endpoint).stdout)
+    rows = json.loads(esair_std("ls", "--json", "-e", robot.endpoint).stdout)["components"]
     assert [r["state"] for r in rows if r["name"] == "watcher"] == ["running"]
     page.close()
     assert errors == []

@@ -23,8 +23,8 @@ def test_record_then_replay(tmp_path, mode):
 
     def deployed():
         r = esair("ls", "--json", "-e", ep, check=False)
-        return r.returncode == 0 and sum(row["state"] in ("running", "ready")
-                                         for row in json.loads(r.stdout)) == 18
+        return r.returncode == 0 and sum(row["state"] in ("running", "ready") for row
+                                         in json.loads(r.stdout)["components"]) == 19
     with std_run("papaman", mode, ep, deployed):
         rec = subprocess.Popen([sys.executable, "-m", "esair_min.cli", "std", "record", str(out),
                                 "papaman.feet", "-e", ep], stderr=subprocess.PIPE, text=True)
