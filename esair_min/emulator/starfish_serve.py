@@ -66,8 +66,25 @@ def emulate_starfish(robot: Robot, opts: Any, out: TextIO, log: Callable[[str], 
                     out.write(path + "\n")
                     out.flush()
 
+                from esair_min.emulator.ptyserver import PtyPort
+
+                port = PtyPort()
+                live = out.isatty() if opts.live is None else opts.live
+                view = None
+
+                def on_idle() -> None:
+                    nonlocal view
+                    flush()
+                    if not live:
+                        return
+                    if view is None:          # after the path is printed, as PAPA-MAN's
+                        from esair_min.emulator.starfish_view import StarfishView
+
+                        view = stack.enter_context(StarfishView(sim, port, out=out))
+                    view.poll()
+
                 serve_pty(sim, on_path, lambda: stop.flag, opts.speed or 1.0,  # type: ignore[arg-type]
-                          flush)
+                          on_idle, port)
                 return 0
             sim.settle()
             if opts.sends:

@@ -144,3 +144,27 @@ def test_trace_and_plot_of_a_headless_run(tmp_path):
     result = CliRunner().invoke(main, ["plot", str(trace), "-o", str(png)])
     assert (result.exit_code, result.stderr) == (
         1, f"error: {trace}:2: not a STARFISH trace line: '@1.0 2 3'\n")
+
+
+def test_live_view_draws_the_room_and_the_robot(starfish):
+    from esair_min.emulator.ptyserver import PtyPort
+    from esair_min.emulator.starfish import StarfishSim
+    from esair_min.emulator.starfish_view import render
+    from esair_min.world import Pose, Room, World
+
+    sim = StarfishSim(starfish, World(room=Room.box(2000, 1000), pose=Pose(500, 500, 1.6)))
+    assert sim.command("V+0200+0000+0000") == "OK"
+    sim.run_for(0.3)
+    lines = render(sim, PtyPort(path="/dev/pts/9", open=True), 30, 10)
+    assert lines == [
+        "STARFISH  t     0.30 s  port /",
+        "pose x   498.0 mm  y   549.9 m",
+        "wheels (mm/s)   -198     +98  ",
+        "",
+        "#####################",
+        "#                   #",
+        "#    ^              #",
+        "#                   #",
+        "#                   #",
+        "#####################",
+    ]
