@@ -219,9 +219,14 @@ def plot(trace: str, output: str, robot: str, targets: bool) -> None:
     """Plot servo angles over time from an event trace: positions simulated from its
     actuator writes with the emulator's servo model (--targets adds the targets).
     A STARFISH trace (esair emulate starfish --trace) is drawn as the robot's path on
-    its room's map, with the wheels' speeds below."""
+    its room's map, with the wheels' speeds below. A FILE.mcap (`esair std record`) is
+    drawn per channel, reactions marked."""
     from esair_min.emulator.starfish_trace import is_starfish_trace
 
+    if trace.endswith(".mcap"):
+        from esair_min.cli.plotmcap import plot_mcap
+        click.echo(f"{plot_mcap(trace, output)} samples -> {output}")
+        return
     if is_starfish_trace(trace):
         from esair_min.cli.plotroom import plot_room
 
