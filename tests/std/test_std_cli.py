@@ -176,7 +176,7 @@ def test_run_refuses_bad_input_with_one_line(tmp_path):
     r = esair("run", "nosuch", "--run", "1", check=False)
     assert (r.returncode, r.stderr) == (
         1, "error: nosuch: no such file, and no bundled example named 'nosuch' "
-           "(bundled: lab, papaman)\n")
+           "(bundled: lab, papaman, starfish)\n")
     r = esair("run", "lab", "--run", "1", "-e", "tcp/127.0.0.1", check=False)
     assert (r.returncode, r.stderr.splitlines()[-1]) == (      # a usage error (issue 20)
         2, "Error: Invalid value for '-e' / '--endpoint' (env var: 'ESAIR_STD_ENDPOINT'): "

@@ -466,9 +466,9 @@ def test_new_copies_an_example_that_checks_and_runs(tmp_path):
     # relative paths in the deployment are relative to its folder, not to the cwd
     dep = folder / "papaman.yaml"
     text = dep.read_text()
-    assert text.count("emulate: {scenario: quiet}") == 1
-    dep.write_text(text.replace("emulate: {scenario: quiet}",
-                                "emulate: {scenario: quiet, trace: trace.txt}"))
+    assert text.count("      scenario: quiet\n") == 1
+    dep.write_text(text.replace("      scenario: quiet\n",
+                                "      scenario: quiet\n      trace: trace.txt\n"))
     r = esair("run", str(folder), "--run", "2", "--no-control", cwd=elsewhere)
     assert r.returncode == 0, r.stderr
     assert (folder / "trace.txt").read_text().startswith("# esair-trace 1\n")
@@ -478,4 +478,4 @@ def test_new_copies_an_example_that_checks_and_runs(tmp_path):
            "away (nothing was written)\n")
     assert error_of("new", "papamn", str(tmp_path / "x")) == (
         1, "error: no bundled example named 'papamn' (did you mean 'papaman'?) (bundled: "
-           "lab, papaman)\n")
+           "lab, papaman, starfish)\n")

@@ -5,9 +5,12 @@ changes each time the emulator starts, as a USB serial adapter's may when it is 
 in again; :class:`EmulatedRobot` keeps a symbolic link (``port``) pointing at the
 current pty, as udev does for a real adapter (``/dev/serial/by-id/...``). The link is
 removed while no emulator runs, so a driver reopening ``port`` fails until the robot is
-back. ``kill()`` (SIGKILL: the robot "pulled") and ``start()`` again are what the
-fault tests and ``esair std run`` use; ``stop()`` ends the child for good. The child gets
-SIGTERM if the thread that started it ends first (an agent process killed outright).
+back. ``kill()`` (SIGKILL: the robot "pulled") and ``start()`` again are what the fault
+tests do; under ``esair std run`` (``port: emulate``) the ``MinLink`` driver calls
+``start()`` in ``open()``, again only under its ``emulate: {restart: ...}`` policy
+after the child exited, and ``stop()`` (the child ended for good) in ``close()``. The
+child gets SIGTERM if the thread that started it ends first (an agent process killed
+outright).
 
 Identity: every child boots with this object's ``instance`` (``--instance``), so the
 robot answers ``v`` with ``id=instance`` across its restarts, and no other emulator
