@@ -93,6 +93,12 @@ def build_robot(robot: Robot, out_dir: Path, tc: Toolchain | None = None) -> lis
 
     tc = tc or toolchain()
     result = generate_robot(robot, Path(out_dir))
+    no_port = [role for role in result.boards
+               if not (Path(out_dir) / role / "ports" / "pic18f452").is_dir()]
+    if no_port:
+        raise BuildError(f"robot '{robot.name}': no PIC18F452 port yet for "
+                         f"{', '.join(no_port)} (their C runs on the host: make host in each "
+                         "board's folder; docs/firmware.md, \"STARFISH's boards\")")
     builds = []
     for role in result.boards:
         folder = Path(out_dir) / role

@@ -42,6 +42,10 @@ class Slot:
         self._lock = threading.Lock()
         self.c = dict(reported=0, commands=0, command_errors=0, polls_late=0)
         self.granted: set[str] = set()
+        # the command write() runs for: when it was queued and when its sender gives up
+        # (time.monotonic()), so a driver can drop what it could not do in time
+        self.asked: float | None = None
+        self.expires: float | None = None
 
     def report(self, value: Any) -> None:
         value = codec.copy(value)
@@ -71,6 +75,8 @@ class ResourceHost:
         self._opened = threading.Event()
         self._error: str | None = None
         self.state = "starting"
+        self.reason = ""
+        self.on_failed: Callable[[str], None] | None = None   # the host's thread died
         self.c = dict(commands_refused=0)
         self.thread = threading.Thread(target=self._main, name=f"esair:{self.name}", daemon=True)
 
@@ -117,7 +123,8 @@ class ResourceHost:
             return on_done(False, "is a sensor: it takes no commands")
         try:
             args = tuple(codec.copy(a) for a in args)
-            self.commands.put_nowait((slot, op, args, on_done, time.monotonic() + timeout))
+            now = time.monotonic()
+            self.commands.put_nowait((slot, op, args, on_done, now + timeout, now))
         except queue.Full:
             self.c["commands_refused"] += 1
             on_done(False, "command queue full")
@@ -204,6 +211,14 @@ class ResourceHost:
         now = time.monotonic()
         for s in self.slots.values():
             s.next_poll = now
+        try:
+            self._serve()
+        except BaseException as exc:  # noqa: BLE001 - the host dies: its supervisor decides
+            self._died(f"{type(exc).__name__}: {exc}")
+            return
+        self._close()
+
+    def _serve(self) -> None:
         while not self._stop.is_set():
             wait = self._poll()
             try:
@@ -213,7 +228,27 @@ class ResourceHost:
             if item is None:
                 break
             self._run(*item)
-        self._close()
+
+    def _died(self, reason: str) -> None:
+        """The host's thread ends without being asked (a user call raised past every
+        handler, e.g. SystemExit): the entry is failed, its supervisor restarts it."""
+        self.state, self.reason = "failed", f"its host died: {reason}"
+        log.error("%s: %s", self.name, self.reason)
+        for s in self.slots.values():
+            s.state, s.reason = "lost", self.reason
+        while True:                       # nothing queued is carried out any more
+            try:
+                item = self.commands.get_nowait()
+            except queue.Empty:
+                break
+            if item is not None:
+                item[3](False, ResourceLost(item[0].name, self.reason))
+        try:
+            self._close()
+        except BaseException as exc:  # noqa: BLE001
+            log.warning("%s: close after failure: %s", self.name, exc)
+        if self.on_failed is not None and not self._stop.is_set():
+            self.on_failed(self.reason)
 
     def _poll(self) -> float:
         """Read the sensors that are due; seconds until the next one is."""
@@ -239,7 +274,8 @@ class ResourceHost:
             wait = min(wait, max(0.0, s.next_poll - now))
         return wait
 
-    def _run(self, slot: Slot, op: str, args: tuple, on_done: Any, expires: float) -> None:
+    def _run(self, slot: Slot, op: str, args: tuple, on_done: Any, expires: float,
+             asked: float | None = None) -> None:
         if time.monotonic() > expires:       # the sender gave up: do not act late
             slot.c["expired"] = slot.c.get("expired", 0) + 1
             return on_done(False, "expired in the queue")
@@ -248,6 +284,7 @@ class ResourceHost:
                 raise ResourceLost(slot.name, f"lost: {slot.reason}" if slot.reason else "lost")
             if op == "write":
                 slot.c["commands"] += 1
+                slot.asked, slot.expires = asked, expires
                 value = codec.copy(slot.obj.write(*args))
             else:
                 value = codec.copy(slot.obj.configure(*args))
@@ -259,6 +296,9 @@ class ResourceHost:
         except Exception as exc:  # noqa: BLE001 - reaches the sender as CommandError
             slot.c["command_errors"] += 1
             return on_done(False, f"{type(exc).__name__}: {exc}")
+        except BaseException as exc:
+            on_done(False, ResourceLost(slot.name, f"its host died: {type(exc).__name__}: {exc}"))
+            raise
         on_done(True, value)
 
     def _close(self) -> None:

@@ -1,0 +1,26 @@
+"""STARFISH's central core compiled for the PIC18F452 (SDCC) and timed in gpsim, with a
+stub hal (its PIC port is not written yet): exact cycle counts and sizes."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from esair_min.codegen import generate_robot
+from esair_min.pic.build import BuildError, toolchain
+from esair_min.pic.starfish_bench import measure_core
+
+MAIN = Path("tests/fixtures/pic/starfish_core_bench.c")
+
+
+def test_core_cycles_and_size(starfish, tmp_path):
+    try:
+        tc = toolchain()
+    except BuildError as exc:
+        pytest.fail(str(exc), pytrace=False)
+    generate_robot(starfish, tmp_path / "fw")
+    got = measure_core(tmp_path / "fw" / "central", MAIN, tmp_path / "pic", tc)
+    assert got.kinematics == (3780, 3796, 3796)     # 0.76 ms at 20 MHz
+    assert (got.rx_char, got.rx_line, got.tick) == (66, 7906, 544)
+    assert (got.usage.program_bytes, got.usage.data_bytes) == (7918, 432)
