@@ -106,6 +106,9 @@ def link_trips(mode: str, trips: int) -> list[dict]:
     with Runtime(load_deployment(dep, base_dir=BENCH), mode=mode, endpoint=free_endpoint()) as rt:
         done = wait(lambda: (lambda t: t if len(t) >= trips and t[trips - 1]["heal"] else None)(
             rt.get("tracker")), 40 * trips)
+        if not done:
+            print(f"  {mode}: tracker {rt.get('tracker')}; "
+                  f"{[(c['name'], c['state'], c.get('reason')) for c in rt.ls()]}")
     return (done or [])[:trips]
 
 

@@ -119,7 +119,7 @@ def test_the_driver_refuses_bad_settings_by_name_and_changes_nothing(start):
 
 @pytest.mark.parametrize("options, message", [
     ({"snr": 3}, "starfish: unknown option 'snr' (options: camera, echo, odometry_hz, pose, radio, "
-                 "room, seed, snr_db, world)"),
+                 "room, room_file, seed, snr_db, world)"),
     ({"world": "emulator"}, "starfish: world 'emulator' is not available (only 'standin' until "
                             "STARFISH's emulator lands)"),
     ({"room": {"walls": []}}, "starfish: room.walls must be a non-empty list of [x1, y1, x2, y2]"),
@@ -135,3 +135,28 @@ def test_bad_driver_options_stop_the_start_with_the_reason(mode, options, messag
         pass
     assert str(exc.value) == f"resource 'starfish' failed to open: StarfishError: {message}"
     assert agent_children() == []
+
+
+def test_a_room_file_of_the_emulated_world_places_walls_source_and_radio(start, tmp_path):
+    room = tmp_path / "room.yaml"
+    room.write_text("box: [6000, 4000]\nwalls: [[3000, 0, 3000, 2500]]\n"
+                    "landmarks: [{name: bell, x: 1000, y: 3500, kind: sound},\n"
+                    "            {name: ap, x: 1000, y: 1000, kind: access_point}]\n")
+    rt = start({"resources": {"starfish": {"class": "esair_std.drivers.starfish:Starfish",
+                                           "room_file": str(room), "pose": [4.5, 1.0, 0.0],
+                                           "allow": {"*": "read"}}},
+                "behaviors": {"watcher": {"class": "tests.support.starfish_comps:RadioWatcher",
+                                          "uses": {"starfish.radio": "read"}}}})
+    # (4.5, 1.0) is behind the inner wall from the access point: the link is cut
+    w = get_when(rt, "watcher", lambda r: r["events"], 30, "the radio's state")
+    assert w["events"][0] == ["down", 3.5]
+    assert rt.configure("starfish.mics", "source", {"x": 1.0, "y": 3.5}) == \
+        {"x": 1.0, "y": 3.5, "on": True, "level": 0.1}
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("box: [6000]\n")
+    dep = {"robot": "t", "resources": {"starfish": {"class": "esair_std.drivers.starfish:Starfish",
+                                                    "room_file": str(bad), "allow": {"*": "read"}}}}
+    with pytest.raises(ComponentError) as exc, Runtime(dep, mode="thread", endpoint=free_endpoint()):
+        pass
+    assert str(exc.value) == (f"resource 'starfish' failed to open: StarfishError: starfish: "
+                              f"room_file: {bad}:1:1: 'box' is [width, depth] in mm")

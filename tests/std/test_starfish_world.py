@@ -129,3 +129,17 @@ def test_a_failing_ip_is_counted_with_its_message():
     with pytest.raises(ValueError) as exc:
         LinkSwitch("eth0; reboot")
     assert str(exc.value) == "radio.device must be a network interface name, not 'eth0; reboot'"
+
+
+def test_a_room_of_starfishs_emulated_world_converts_to_metres_and_kinds():
+    from esair_min.world import Landmark
+    from esair_min.world import Room as WorldRoom
+    from esair_std.drivers.starfish.room import from_world_room
+    world = WorldRoom.box(6000, 4000, landmarks=(Landmark("bell", 1000, 3500, "sound"),
+                                                 Landmark("ap", 1000, 1000, "access_point"),
+                                                 Landmark("pole", 5600, 400)))
+    room = from_world_room(world)
+    assert room.walls.tolist() == [[0, 0, 6, 0], [6, 0, 6, 4], [6, 4, 0, 4], [0, 4, 0, 0]]
+    assert room.source.to_dict() == {"x": 1.0, "y": 3.5, "on": False, "level": 0.1}
+    assert room.access_point == (1.0, 1.0)
+    assert [(lm["x"], lm["y"]) for lm in room.landmarks] == [(5.6, 0.4)]

@@ -7,6 +7,9 @@ Deployment entry (the entry's name prefixes the resources' names)::
       class: esair_std.drivers.starfish:Starfish
       world: standin            # the only world today: standin.py (see below)
       room: {...}               # room.py's format; missing keys from its DEFAULT_ROOM
+      room_file: room.yaml      # or: a room file of STARFISH's emulated world
+                                # (esair_min.world.load_room; landmark kinds 'sound'
+                                # and 'access_point' place the source and the radio)
       pose: [1.0, 1.0, 0.0]     # where the robot starts (x m, y m, heading rad)
       snr_db: 20                # the microphones' SNR at the array's centre
       echo: 0.5                 # wall echoes' gain (0: the direct sound only)
@@ -193,10 +196,11 @@ class Starfish(Driver):
         from .camera import Camera, encode
         from .mics import AudioRenderer, encode_frame
         from .radio import RadioModel
-        from .room import Room
+        from .room import Room, from_world_room
         from .standin import StandInWorld
         self.encode_frame, self.encode_picture = encode_frame, encode
-        known = {"world", "room", "pose", "snr_db", "echo", "seed", "odometry_hz", "radio", "camera"}
+        known = {"world", "room", "room_file", "pose", "snr_db", "echo", "seed", "odometry_hz", "radio",
+                 "camera"}
         unknown = sorted(set(opts) - known)
         if unknown:
             raise StarfishError(f"unknown option {unknown[0]!r} "
@@ -204,7 +208,17 @@ class Starfish(Driver):
         if opts.get("world", "standin") != "standin":
             raise StarfishError(f"world {opts['world']!r} is not available "
                                 "(only 'standin' until STARFISH's emulator lands)")
-        self.room = Room.from_dict(opts.get("room"))
+        if "room_file" in opts:
+            if "room" in opts:
+                raise StarfishError("give 'room' or 'room_file', not both")
+            from esair_min.errors import EsairError
+            from esair_min.world import load_room
+            try:
+                self.room = from_world_room(load_room(str(opts["room_file"])))
+            except (EsairError, OSError) as exc:
+                raise StarfishError(f"room_file: {exc}") from None
+        else:
+            self.room = Room.from_dict(opts.get("room"))
         pose = opts.get("pose", [1.0, 1.0, 0.0])
         if not isinstance(pose, list) or len(pose) != 3 or not all(
                 isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in pose):

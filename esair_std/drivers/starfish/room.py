@@ -214,3 +214,25 @@ def wrap(angle: float) -> float:
     if a <= 0:
         a += 2 * math.pi
     return a - math.pi
+
+
+PALETTE = [(40, 160, 60), (230, 200, 40), (40, 90, 220), (200, 90, 200), (60, 200, 200)]
+
+
+def from_world_room(world_room: Any, source_kind: str = "sound", radio_kind: str = "access_point",
+                    wall_height: float = 1.0) -> Room:
+    """A Room from STARFISH's emulated world's room (esair_min.world.Room, millimetres):
+    its walls; its first landmark of kind ``source_kind`` is the sound source (silent
+    until switched on), the first of kind ``radio_kind`` the access point, every other
+    landmark a pole in the palette's colours."""
+    walls = [[s.x0 / 1000, s.y0 / 1000, s.x1 / 1000, s.y1 / 1000] for s in world_room.walls]
+    source, ap, poles = None, None, []
+    for lm in world_room.landmarks:
+        if lm.kind == source_kind and source is None:
+            source = Source(lm.x / 1000, lm.y / 1000, on=False)
+        elif lm.kind == radio_kind and ap is None:
+            ap = (lm.x / 1000, lm.y / 1000)
+        else:
+            poles.append({"x": lm.x / 1000, "y": lm.y / 1000, "r": 0.12, "height": 0.8,
+                          "color": PALETTE[len(poles) % len(PALETTE)]})
+    return Room(walls, poles, source, ap if ap is not None else (0.0, 0.0), wall_height)

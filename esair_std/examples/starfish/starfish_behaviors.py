@@ -22,7 +22,7 @@ import math
 import time
 from pathlib import Path
 
-from esair_std import Behavior, CommandError, Reaction, ResourceLost
+from esair_std import Behavior, CommandError, Reaction, Refused, ResourceLost
 
 # numpy and scipy (the room, the planner, GCC-PHAT) are imported in start() by the
 # components that need them, so patrol's process and the runtime do not carry them
@@ -109,7 +109,7 @@ class Patrol(Behavior):
         try:
             self.wheels.send(command, timeout=0.3)
             return True
-        except (CommandError, ResourceLost) as exc:
+        except (CommandError, ResourceLost, Refused) as exc:
             self.log.warning("wheels: %s", exc)
             return False
 
@@ -248,7 +248,7 @@ class TurnAndShoot(Behavior):
                 w = _clamp(err * self.gain, self.max_turn)
                 w = math.copysign(max(abs(w), 150.0), w)
                 self.wheels.send({"w": round(w)}, timeout=0.5)
-        except (CommandError, ResourceLost) as exc:
+        except (CommandError, ResourceLost, Refused) as exc:
             self.log.warning("turn: %s", exc)
             self.aborted += 1
             self._done()
@@ -296,6 +296,7 @@ class Reconnect(Reaction):
         self.last_good = None
         self.path = None
         self.down = False
+        self.to_ap = False
         self.trips = self.arrived = self.no_path = 0
 
     def step(self):
@@ -311,6 +312,7 @@ class Reconnect(Reaction):
             return
         if not self.down:
             self.down = True
+            self.to_ap = False
             self.trips += 1
             # where the link was up, back_s before it dropped: the model's hysteresis
             # heals the link a little inside the edge where it was cut
@@ -328,6 +330,16 @@ class Reconnect(Reaction):
             self.path.pop(0)
             if not self.path:
                 self.arrived += 1
+                if not self.to_ap:
+                    # there and the link still down: the access point itself is sure to
+                    # be in range (the radio model's, or a moved access point's)
+                    self.to_ap = True
+                    try:
+                        self.path = self._plan(self.room, (pose["x"], pose["y"]),
+                                               self.room.access_point, margin=self.margin)
+                    except self._NoPath as exc:
+                        self.no_path += 1
+                        self.log.warning("reconnect: %s", exc)
         if self.path:
             self._send(drive_towards(pose, self.path[0], self.speed))
         else:
@@ -336,5 +348,5 @@ class Reconnect(Reaction):
     def _send(self, command):
         try:
             self.wheels.send(command, timeout=0.3)
-        except (CommandError, ResourceLost) as exc:
+        except (CommandError, ResourceLost, Refused) as exc:
             self.log.warning("wheels: %s", exc)
