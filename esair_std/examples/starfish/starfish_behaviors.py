@@ -51,8 +51,13 @@ def drive_towards(pose: dict, target: tuple[float, float], speed: float) -> dict
     return {"vx": round(v * (c * ux + s * uy)), "vy": round(v * (-s * ux + c * uy)), "w": 0}
 
 
+# deadline: a step that waits for the wheels (0.3 s at most) on a loaded computer must
+# not fail the component: 3 s, the same for every STARFISH component
+
+
 class Patrol(Behavior):
     period = 0.05
+    deadline = 3.0
 
     def start(self):
         pts = self.options.get("waypoints") or [[1.0, 1.0], [2.5, 1.0], [2.5, 3.2], [1.0, 3.2]]
@@ -102,7 +107,7 @@ class Patrol(Behavior):
 
     def _send(self, command) -> bool:
         try:
-            self.wheels.send(command, timeout=0.5)
+            self.wheels.send(command, timeout=0.3)
             return True
         except (CommandError, ResourceLost) as exc:
             self.log.warning("wheels: %s", exc)
@@ -116,6 +121,7 @@ class Patrol(Behavior):
 
 class Localize(Behavior):
     period = 0.05
+    deadline = 3.0
 
     def start(self):
         from esair_std.drivers.starfish.gccphat import Localizer   # numpy/scipy: remote side
@@ -123,6 +129,10 @@ class Localize(Behavior):
         self._Localizer, self._decode, self._FrameError = Localizer, decode_frame, FrameError
         self.target = self.options.get("target", "turn_and_shoot")
         self.min_confidence = float(self.options.get("min_confidence", 0.3))
+        # frames localized per step at most: a backlog (a slow or loaded computer) is
+        # skipped, newest kept, and counted, rather than the step overrunning its deadline
+        self.max_per_step = int(self.options.get("max_per_step", 3))
+        self.skipped = 0
         self.mics = self.attach_sensor("starfish.mics", keep=16)
         self.localizer = None
         self.geometry = None
@@ -132,7 +142,14 @@ class Localize(Behavior):
         self.last = None
 
     def step(self):
-        for s in self.mics.samples():
+        frames = self.mics.samples()
+        if len(frames) > self.max_per_step:
+            self.skipped += len(frames) - self.max_per_step
+            seq = frames[-self.max_per_step - 1].value.get("seq") if isinstance(
+                frames[-self.max_per_step - 1].value, dict) else None
+            self.last_seq = seq if isinstance(seq, int) else self.last_seq   # not lost: skipped
+            frames = frames[-self.max_per_step:]
+        for s in frames:
             try:
                 pcm, mics, rate = self._decode(s.value)
             except self._FrameError as exc:
@@ -157,6 +174,7 @@ class Localize(Behavior):
 
     def provide(self, requester):
         return {"last": self.last, "frames": self.frames, "lost_frames": self.lost_frames,
+                "skipped": self.skipped,
                 "bad_frames": self.bad_frames,
                 "confident": self.confident, "published": self.published,
                 "overwritten": self.mics.overwritten}
@@ -164,6 +182,7 @@ class Localize(Behavior):
 
 class TurnAndShoot(Behavior):
     period = 0.02
+    deadline = 3.0
 
     def start(self):
         self.patrol = self.options.get("patrol", "patrol")
@@ -260,6 +279,7 @@ class TurnAndShoot(Behavior):
 
 class Reconnect(Reaction):
     period = 0.05
+    deadline = 3.0
 
     def start(self):
         from esair_std.drivers.starfish.planner import NoPath, plan
@@ -315,6 +335,6 @@ class Reconnect(Reaction):
 
     def _send(self, command):
         try:
-            self.wheels.send(command, timeout=0.5)
+            self.wheels.send(command, timeout=0.3)
         except (CommandError, ResourceLost) as exc:
             self.log.warning("wheels: %s", exc)
