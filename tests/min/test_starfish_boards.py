@@ -121,11 +121,3 @@ def test_papaman_keeps_its_roles_and_registers(robot):
     assert ROLE_SECTIONS["actuator"] == {"servos", "sync"}
     assert ROLE_SECTIONS["sensor"] == {"sensors"}
     assert robot.actuator.register_count == 24 and robot.sensor_board.register_count == 16
-
-
-def test_build_says_there_is_no_pic_port_yet(tmp_path):
-    result = CliRunner().invoke(main, ["build", "starfish", "-o", str(tmp_path)])
-    assert (result.exit_code, result.stderr) == (
-        1, "error: robot 'starfish': no PIC18F452 port yet for central, drive (their C runs "
-        "on the host: make host in each board's folder; docs/firmware.md, \"STARFISH's "
-        "boards\")\n")
