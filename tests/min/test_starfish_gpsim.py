@@ -2,10 +2,13 @@
 starfish` builds both ports with SDCC (warnings are errors) and prints their exact
 footprints; the central board's PIC build in gpsim gives the same replies, the same
 I2C writes and the same flow-sensor register reads as the Python core for the same
-byte stream (esair_min/pic/starfish_gpsim.py), the watchdog stop included."""
+byte stream (esair_min/pic/starfish_gpsim.py), the watchdog stop included; the drive
+board's PIC build gives the Python core's duties and directions, and its timer
+interrupt (two CCP PWMs and one software PWM) is timed (esair_min/pic/starfish_drive.py)."""
 
 from __future__ import annotations
 
+from collections import Counter
 from pathlib import Path
 
 import pytest
@@ -14,6 +17,7 @@ from click.testing import CliRunner
 from esair_min.cli import main
 from esair_min.errors import ProtocolError
 from esair_min.pic.build import BuildError, toolchain
+from esair_min.pic.starfish_drive import python_drive, run_drive
 from esair_min.pic.starfish_gpsim import MARGIN, Setup, compare, differential, python_side
 
 SCENARIO = Path(__file__).resolve().parents[1] / "scenarios" / "starfish_gpsim.txt"
@@ -68,3 +72,23 @@ def test_a_line_ending_on_a_tick_is_refused(starfish):
     python = python_side(starfish, [(tick - 9000, ord("v")), (tick - MARGIN, 0x0D)], t2,
                          t2 + 3 * s.tick_cycles, [])
     assert python.replies[0].startswith("TX OK esair-min/1 starfish")
+
+
+# the drive board: (wanted speeds per wheel, control ticks) -- a ramp up to 300 mm/s on
+# every wheel (one backwards), a ramp down caught after 3 ticks, then speeds above the
+# limit (clamped to 600) with the third wheel reversed
+DRIVE_STEPS = [((300, -300, 300), 40), ((0, 0, 100), 3), ((700, -700, -600), 50)]
+
+
+def test_drive_in_gpsim_equals_the_python_core(built, starfish, tmp_path):
+    tc = toolchain()
+    _, out = built
+    got = run_drive(starfish, out / "drive", DRIVE_STEPS, tmp_path, tc)
+    assert got.steps == python_drive(starfish, out / "drive", DRIVE_STEPS)
+    # CCP 10-bit duties (of 1000) and the software duty (of 255), directions
+    assert [[(m.duty, m.dir_high) for m in row] for row in got.steps] == [
+        [(396, 1), (396, 0), (101, 1)], [(317, 1), (317, 0), (81, 1)],
+        [(796, 1), (796, 0), (203, 0)]]
+    # the timer interrupt, entry to RETFIE inclusive, over 230 interrupts at duty 203:
+    # 12 cycles with the software PWM pin on, 11 off, 16/17 when the control tick ends
+    assert got.isr_cycles == Counter({12: 190, 11: 38, 16: 1, 17: 1})
