@@ -272,3 +272,49 @@ def differential(robot: Robot, stimulus: str, cod: Path, workdir: Path,
     """(Python, gpsim) runs of ``stimulus``."""
     g, rx, t2, end, floors = run_gpsim_side(robot, stimulus, cod, workdir, tc)
     return python_side(robot, rx, t2, end, floors), g
+
+
+@dataclass(frozen=True)
+class CentralCycles:
+    kinematics: int           # core_kinematics of the velocity line
+    rx_line: int              # core_rx of its CR (parse, limits, kinematics, I2C write, reply)
+    tick: int                 # core_tick (two sensors' three registers, sums, watchdog)
+
+
+def measure_central(robot: Robot, cod: Path, lst: Path, workdir: Path, line: str,
+                    tc: Toolchain | None = None) -> CentralCycles:
+    """Cycles of the central firmware's functions in gpsim (execution breakpoints on
+    each function's entry and returns, ``cycles`` at each hit): ``line`` is sent after
+    the boot; the first core_kinematics, the longest core_rx (the line's CR) and the
+    first core_tick after the line are reported."""
+    from esair_min.pic.gpsim_bench import RETURN_CYCLES, function_spans, parse_hits
+
+    s = Setup.from_robot(robot)
+    spans = function_spans(lst.read_text(errors="replace"))
+    names: dict[int, tuple[str, bool]] = {}
+    for fn in ("_core_kinematics", "_core_rx", "_core_tick"):
+        if fn not in spans or not spans[fn].exits:
+            raise ToolchainError(f"{lst.name}: no function {fn} with a return")
+        names[spans[fn].entry] = (fn, True)
+        names.update({a: (fn, False) for a in spans[fn].exits})
+    script, _ = gpsim_script(s, "", str(Path(cod).resolve()))
+    head = script.split("\nlog on regs.log")[0].splitlines()
+    data = line.encode("ascii") + b"\r\n"
+    L = head + [f"break c {BOOT_CYCLES}", "run"] + [f"U1.tx = {b:#04x}" for b in data]
+    L += [f"break e {a:#x}" for a in sorted(names)]
+    L += [f"break c {BOOT_CYCLES + (len(data) + 2) * 6000 + 2 * s.tick_cycles}"]
+    L += ["run", "cycles"] * (2 * (len(data) + 8)) + ["quit"]
+    out = run_gpsim("\n".join(L) + "\n", workdir, timeout=300, tc=tc, script_name="bench.stc")
+    got: dict[str, list[int]] = {"_core_kinematics": [], "_core_rx": [], "_core_tick": []}
+    open_at: dict[str, int] = {}
+    for h in parse_hits(out):
+        if h.addr not in names:
+            continue
+        fn, entry = names[h.addr]
+        if entry:
+            open_at.setdefault(fn, h.cycle)
+        elif fn in open_at:
+            got[fn].append(h.cycle + RETURN_CYCLES - open_at.pop(fn))
+    if not got["_core_kinematics"] or len(got["_core_rx"]) < len(data) - 1 or not got["_core_tick"]:
+        raise ToolchainError(f"gpsim: spans timed {({k: len(v) for k, v in got.items()})}")
+    return CentralCycles(got["_core_kinematics"][0], max(got["_core_rx"]), got["_core_tick"][0])

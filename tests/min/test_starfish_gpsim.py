@@ -18,7 +18,8 @@ from esair_min.cli import main
 from esair_min.errors import ProtocolError
 from esair_min.pic.build import BuildError, toolchain
 from esair_min.pic.starfish_drive import python_drive, run_drive
-from esair_min.pic.starfish_gpsim import MARGIN, Setup, compare, differential, python_side
+from esair_min.pic.starfish_gpsim import (MARGIN, Setup, compare, differential, measure_central,
+                                          python_side)
 
 SCENARIO = Path(__file__).resolve().parents[1] / "scenarios" / "starfish_gpsim.txt"
 
@@ -92,3 +93,13 @@ def test_drive_in_gpsim_equals_the_python_core(built, starfish, tmp_path):
     # the timer interrupt, entry to RETFIE inclusive, over 230 interrupts at duty 203:
     # 12 cycles with the software PWM pin on, 11 off, 16/17 when the control tick ends
     assert got.isr_cycles == Counter({12: 190, 11: 38, 16: 1, 17: 1})
+
+
+def test_central_cycles_in_the_pic_build(built, starfish, tmp_path):
+    _, out = built
+    pic = out / "central" / "build-pic"
+    got = measure_central(starfish, pic / "firmware.cod", pic / "firmware.lst", tmp_path,
+                          "V-0345+0456-2789")
+    # kinematics 0.77 ms; the CR of the line 1.86 ms (interrupts served included); a tick
+    # 1.08 ms, of which 6 x tSRAD (100 us) is the flow sensors' own wait
+    assert (got.kinematics, got.rx_line, got.tick) == (3838, 9288, 5399)
