@@ -71,7 +71,7 @@ class Run:
 
 
 def _lines(stimulus: str) -> list[tuple[str, list[str], bytes]]:
-    out = []
+    out: list[tuple[str, list[str], bytes]] = []
     for number, text in enumerate(stimulus.splitlines(), start=1):
         if text.startswith("rx ") or text == "rx":
             out.append(("rx", [], unescape(text[3:]) + b"\r\n"))

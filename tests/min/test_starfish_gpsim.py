@@ -13,6 +13,8 @@ from pathlib import Path
 
 import pytest
 from click.testing import CliRunner
+from hypothesis import HealthCheck, assume, given, settings
+from hypothesis import strategies as st
 
 from esair_min.cli import main
 from esair_min.errors import ProtocolError
@@ -103,3 +105,30 @@ def test_central_cycles_in_the_pic_build(built, starfish, tmp_path):
     # kinematics 0.77 ms; the CR of the line 1.86 ms (interrupts served included); a tick
     # 1.08 ms, of which 6 x tSRAD (100 us) is the flow sensors' own wait
     assert (got.kinematics, got.rx_line, got.tick) == (3838, 9288, 5399)
+
+
+_FIELD = st.integers(-999, 999).map(lambda v: f"{v:+05d}")
+_LINE = st.one_of(
+    st.tuples(st.sampled_from("VW"), _FIELD, _FIELD, _FIELD).map("".join),
+    st.sampled_from(["O", "x", "v", "Q", "O*00", "V+0100", "V+0600+0000+0000", ""]))
+_STEP = st.one_of(
+    _LINE.map(lambda text: f"rx {text}"),
+    st.integers(1, 8).map(lambda n: f"tick {n}"),
+    st.tuples(st.integers(0, 1), st.integers(0, 1)).map(lambda f: f"floor {f[0]} {f[1]}"),
+    st.just("tick 55"))
+
+
+@settings(max_examples=4, deadline=None, derandomize=True,
+          suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+@given(steps=st.lists(_STEP, min_size=3, max_size=12))
+def test_central_in_gpsim_equals_the_python_core_on_generated_streams(built, starfish,
+                                                                      tmp_path, steps):
+    _, out = built
+    cod = out / "central" / "build-pic" / "firmware.cod"
+    stimulus = "\n".join(steps + ["tick 2"]) + "\n"
+    try:
+        python, gpsim = differential(starfish, stimulus, cod, tmp_path)
+    except ProtocolError as exc:        # a line ended on a tick: not a question of logic
+        assume(not str(exc).startswith("a line ends at cycle"))
+        raise
+    assert compare(python, gpsim) == []
