@@ -1,5 +1,6 @@
 """STARFISH's central core compiled for the PIC18F452 (SDCC) and timed in gpsim, with a
-stub hal (its PIC port is not written yet): exact cycle counts and sizes."""
+stub hal: the core's own cycle counts and sizes, exact (the port's build:
+tests/min/test_starfish_gpsim.py)."""
 
 from __future__ import annotations
 
