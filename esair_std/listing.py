@@ -1,6 +1,8 @@
 """``esair std ls``: one row per component, every row with the same keys.
 
-``name, kind, state, pid, host, restarts, reason, class, parent, attached``: a driver's
+``name, kind, state, pid, host, restarts, reason, class, parent, attached, detached``
+(``detached``: the resources a behavior was detached from and not attached to again;
+empty for a resource): a driver's
 entry is a row of its own (kind ``driver``, its state from its children: ``lost`` with
 the first lost child's reason when one is, else ``ready``), each child names it as
 ``parent``. ``attached`` is, for a sensor, who is attached to it through the SC; for an
@@ -16,7 +18,7 @@ from typing import Any
 from .level import Level
 
 KEYS = ("name", "kind", "state", "pid", "host", "restarts", "reason", "class", "parent",
-        "attached")
+        "attached", "detached")
 
 
 def components(rt: Any) -> list[dict]:
@@ -52,9 +54,11 @@ def components(rt: Any) -> list[dict]:
             rows.append(dict(name=entry, kind="driver",
                              state=lost[0]["state"] if lost else "ready",
                              pid=first.get("pid", os.getpid()),
-                             host=first.get("host", rt.hostname), restarts=0,
+                             host=first.get("host", rt.hostname),
+                             restarts=first.get("restarts", 0),
                              reason=lost[0]["reason"] if lost else "",
-                             **{"class": spec.class_path}, parent="", attached=[]))
+                             **{"class": spec.class_path}, parent="", attached=[],
+                             detached=[]))
         for k in kids:
             who = (commanders if k["kind"] == "actuator" else readers).get(k["name"], ())
             rows.append(_row(k, parent=entry if driver else "", attached=who))
@@ -63,5 +67,6 @@ def components(rt: Any) -> list[dict]:
 
 def _row(row: dict, parent: str, attached: Any) -> dict:
     out = {k: row.get(k, "") for k in KEYS}
-    out.update(parent=parent, attached=sorted(attached), restarts=row.get("restarts", 0))
+    out.update(parent=parent, attached=sorted(attached), restarts=row.get("restarts", 0),
+               detached=list(row.get("detached") or []))
     return out

@@ -130,6 +130,9 @@ build_sdcc() {
 
 say "prefix $PREFIX (log $LOG)"
 apt_install $RUNTIME_PKGS python3
+# the HMI's browser tests (tests/hmi): Playwright drives Debian's chromium headless
+# (`playwright install` downloads a browser of its own, which cannot work offline)
+apt_install chromium
 [ -f /usr/share/gputils/header/p18f452.inc ] || die "gputils' p18f452.inc not found"
 
 if [ "${ESAIR_FORCE_BUILD:-0}" != 1 ] && sdcc_works; then

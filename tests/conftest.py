@@ -97,7 +97,8 @@ _BY_MODULE = {
               "test_starfish_gpsim"},
     "pty": {"test_pty", "test_minlink_pty", "test_liveview_tmux", "test_std_papaman",
             "test_std_papaman_c", "test_std_papaman_cli", "test_gpsim_uart",
-            "test_starfish_pty"},
+            "test_starfish_pty", "test_pty_promise", "test_minlink_safety",
+            "test_std_papaman_safety"},
 }
 _BY_FIXTURE = {"pic_firmware": "gpsim"}
 #: modules of many subprocesses, C builds or long hypothesis runs (--durations: the

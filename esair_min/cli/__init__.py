@@ -147,13 +147,16 @@ def eeprom(robot: str, output: str, raw: bool) -> None:
 @click.option("--noise", type=float, default=0.0, metavar="BYTES/S",
               help="Fault: random bytes injected into the robot's receive line.")
 @click.option("--seed", type=int, default=0, show_default=True, help="Seed of the faults.")
+@click.option("--instance", metavar="HEX8",
+              help="This boot's instance in the 'v' reply's id (8 hex digits; with --pty "
+                   "a random one by default, docs/protocol.md).")
 @click.option("--room", type=click.Path(dir_okay=False), metavar="FILE",
               help="An omni-base robot's room (YAML: box, walls, landmarks); default 5 m x 5 m.")
 @friendly
 def emulate(robot: str, pty: bool, run_s: float | None, sends: tuple[str, ...],
             generate: str | None, scenario: str | None, trace: str | None, speed: float | None,
             nack_actuator: bool, no_sensor: bool, corrupt_eeprom: bool, stuck_bus: bool,
-            noise: float, seed: int, room: str | None) -> None:
+            noise: float, seed: int, room: str | None, instance: str | None) -> None:
     """Run the emulated robot behind a pseudo-terminal (--pty) or headless (--run).
 
     With --pty it serves until Ctrl-C or SIGTERM; when standard output is a terminal,
@@ -171,7 +174,7 @@ def emulate(robot: str, pty: bool, run_s: float | None, sends: tuple[str, ...],
         pty=pty, run_s=run_s, sends=sends, generate=Path(generate) if generate else None,
         scenario=scenario, trace=Path(trace) if trace else None, speed=speed,
         faults=Faults(nack_actuator, no_sensor, corrupt_eeprom, noise, seed, stuck_bus),
-        room=Path(room) if room else None)
+        room=Path(room) if room else None, instance=instance)
     status = run_emulator(load(robot), opts)
     if status:
         sys.exit(status)
@@ -216,9 +219,14 @@ def plot(trace: str, output: str, robot: str, targets: bool) -> None:
     """Plot servo angles over time from an event trace: positions simulated from its
     actuator writes with the emulator's servo model (--targets adds the targets).
     A STARFISH trace (esair emulate starfish --trace) is drawn as the robot's path on
-    its room's map, with the wheels' speeds below."""
+    its room's map, with the wheels' speeds below. A FILE.mcap (`esair std record`) is
+    drawn per channel, reactions marked."""
     from esair_min.emulator.starfish_trace import is_starfish_trace
 
+    if trace.endswith(".mcap"):
+        from esair_min.cli.plotmcap import plot_mcap
+        click.echo(f"{plot_mcap(trace, output)} samples -> {output}")
+        return
     if is_starfish_trace(trace):
         from esair_min.cli.plotroom import plot_room
 

@@ -28,8 +28,12 @@ CHECK_CHUNK = 32
 class CentralCore:
     """The central board's decoder, command execution, frame player and reaction."""
 
-    def __init__(self, robot: Robot, bus: Bus, send: Callable[[bytes], None]):
+    def __init__(self, robot: Robot, bus: Bus, send: Callable[[bytes], None],
+                 robot_id: str | None = None):
         self.robot = robot
+        # the v reply's id= (docs/protocol.md, "Robot id"): an emulator's boot; the
+        # firmware has none
+        self.robot_id = robot_id
         self.bus = bus
         self.send = send
         servos = robot.servos
@@ -223,7 +227,7 @@ class CentralCore:
         if action == "version":
             self.send(P.ok_line(P.version_data(self._n, self._n_sensors,
                                                len(self.robot.motions), self._image_ok,
-                                               self._checksum)))
+                                               self._checksum, self.robot_id)))
             return None
         if action == "sensors":
             values = self._read_sensors()

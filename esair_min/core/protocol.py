@@ -84,9 +84,12 @@ def ok_line(data: str | None = None) -> bytes:
 
 
 def version_data(servos: int, sensors: int, motions: int, image_ok: bool,
-                 checksum: bool) -> str:
+                 checksum: bool, robot_id: str | None = None) -> str:
+    """The ``v`` reply's data; ``robot_id`` (esair_min.model.identity) ends it as
+    ``id=...`` when given."""
     return (f"{PROTOCOL_NAME} servos={servos} sensors={sensors} motions={motions} "
-            f"image={'ok' if image_ok else 'bad'} checksum={'on' if checksum else 'off'}")
+            f"image={'ok' if image_ok else 'bad'} checksum={'on' if checksum else 'off'}"
+            + (f" id={robot_id}" if robot_id is not None else ""))
 
 
 # -- checksum -------------------------------------------------------------------------

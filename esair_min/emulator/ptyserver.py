@@ -6,10 +6,19 @@ bytes between the master side and the emulator until ``stop()`` returns True.
 Like a real serial line, the port only carries bytes while a program has it open:
 what the robot sends while nobody has the port open is dropped (counted in
 :attr:`PtyPort.dropped`), and what a program left unread when it closed the port is
-discarded, so a program opening the port late never reads old notices. The server
-does not keep the slave side open itself (the kernel then tells it, by POLLHUP on the
-master, whether any program has); programs may open and close the port as often as
-they like.
+discarded, so a program opening the port late never reads old notices. The robot has
+booted when the path is printed, and its boot notice (``!READY``) went to nobody: the
+first program that opens the port never reads it either (always the same, however soon
+it opens). The server does not keep the slave side open itself (the kernel then tells
+it, by POLLHUP on the master, whether any program has); programs may open and close
+the port as often as they like. When it discards unread bytes it first sets the line
+to wait for a byte (VMIN 1), so a program it races with gets "nothing yet", never an
+empty read (pySerial raises on one).
+
+A robot does not read its line while it has no power: when the server itself did not
+run for more than :data:`STALL_S` (the process was stopped, SIGSTOP), the bytes that
+programs wrote meanwhile are dropped, not played late (counted in
+:attr:`PtyPort.stale`), as they would be lost on a wire to a robot switched off.
 """
 
 from __future__ import annotations
@@ -30,6 +39,9 @@ from esair_min.emulator.robot import Emulator
 IDLE_POLL_S = 0.02
 #: Wait before trying again to hand the program bytes the pty had no room for (s).
 WRITE_RETRY_S = 0.002
+#: A pause of the server longer than this (s) is a robot without power: what programs
+#: wrote meanwhile is dropped.
+STALL_S = 1.0
 
 
 @dataclass
@@ -41,6 +53,7 @@ class PtyPort:
     open: bool = False
     dropped: int = 0
     opened: int = 0          # how many times a program opened it
+    stale: int = 0           # bytes programs wrote while the server was stopped: dropped
 
 
 def open_pty() -> tuple[int, int, str]:
@@ -58,6 +71,9 @@ def _discard_unread(path: str) -> None:
     except OSError:
         return
     try:
+        attrs = termios.tcgetattr(fd)
+        attrs[6][termios.VMIN], attrs[6][termios.VTIME] = 1, 0
+        termios.tcsetattr(fd, termios.TCSANOW, attrs)   # a racing read waits, never empty
         termios.tcflush(fd, termios.TCIFLUSH)
     except termios.error:
         pass
@@ -76,11 +92,13 @@ def serve_pty(emu: Emulator, on_path: Callable[[str], None],
     port = PtyPort() if port is None else port
     port.path = path
     emu.settle()               # the robot has booted (image checked, !READY sent) when the
-    pacer = Pacer(emu, factor)  # port appears: a program may write at once
+    port.dropped += len(emu.read())   # port appears: a program may write at once, and
+    pacer = Pacer(emu, factor)        # never reads the boot notice (it went to nobody)
     poller = select.poll()
     poller.register(master, select.POLLIN)
     pending = bytearray()
     try:
+        last = time.monotonic()            # before the path shows: a stop from then on counts
         on_path(path)
         while not stop():
             pacer.sync()
@@ -90,12 +108,19 @@ def serve_pty(emu: Emulator, on_path: Callable[[str], None],
                 _discard_unread(path)
             elif port.open and not was_open:
                 port.opened += 1
-            if events & select.POLLIN:
+            data = _read(master) if events & select.POLLIN else b""
+            # checked after the read: a stop anywhere since the last check shows here
+            now = time.monotonic()
+            if now - last > STALL_S:             # stopped: the robot had no power
+                port.stale += len(data)
+                data = b""
+                while stale := _read(master):
+                    port.stale += len(stale)
+            last = now
+            if data:
                 # input first: its bytes start on the wire now, and the sleep below
                 # must already know when they (and the reply) next need a look
-                data = _read(master)
-                if data:
-                    emu.write(data)
+                emu.write(data)
             pending += emu.read()
             if not port.open:
                 port.dropped += len(pending)      # nobody listens: lost, as on a wire

@@ -31,6 +31,7 @@ from esair_min.core.central import CentralCore
 from esair_min.core.devices import Eeprom24, RegisterSlave, SimpleBus
 from esair_min.errors import EsairError
 from esair_min.core.image import build_image
+from esair_min.model.identity import check_instance
 from esair_min.model.robot import Robot
 from esair_min.core.trace import TraceWriter, TracingBus
 from esair_min.emulator.actuator import ActuatorBoard, stand_registers
@@ -103,12 +104,14 @@ class Emulator:
 
     ``scenario`` is a :class:`Scenario`, a scenario file, or the name of one in the
     robot's ``scenarios/`` folder; None keeps every sensor at rest. ``trace`` receives
-    the event trace (docs/trace-format.md) with ``@ <us>`` time marks.
+    the event trace (docs/trace-format.md) with ``@ <us>`` time marks. ``instance``
+    (8 hex digits) is this boot's id in the ``v`` reply (``id=instance``).
     """
 
     def __init__(self, robot: Robot, scenario: Scenario | str | Path | None = None,
                  faults: Faults = Faults(), trace: TraceWriter | None = None,  # noqa: B008 (frozen)
-                 eeprom_image: bytes | None = None, transcript: bool = False):
+                 eeprom_image: bytes | None = None, transcript: bool = False,
+                 instance: str | None = None):
         central = robot.central
         if central.uart is None or central.timer2 is None:
             raise EsairError("the central board needs uart: and tick: to be emulated")
@@ -178,7 +181,8 @@ class Emulator:
             self.clock.schedule(at_ms * 1_000_000, lambda v=values: self._set_sensors(v))
 
         # -- the central board
-        self.core = CentralCore(robot, core_bus, self._send)
+        self.core = CentralCore(robot, core_bus, self._send,
+                                None if instance is None else check_instance(instance))
         self.uart = Uart(self.clock, central.uart.baud, self._feed,
                          rx_mode=self._rx_mode, direct=self._rx_core)
         self.ticks = 0

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import secrets
 import signal
 import sys
 from contextlib import ExitStack
@@ -14,6 +15,7 @@ from esair_min.model.robot import Robot
 from esair_min.emulator.clock import NS_PER_S, seconds_to_ns
 from esair_min.emulator.faults import Faults
 from esair_min.emulator.robot import Emulator
+from esair_min.model.identity import INSTANCE_RE
 
 
 @dataclass
@@ -28,6 +30,7 @@ class EmulateOptions:
     speed: float | None = None    # with --pty only; None: real time (1)
     live: bool | None = None      # None: when stdout is a terminal
     room: Path | None = None      # an omni-base robot's room (a YAML file); None: the default
+    instance: str | None = None   # the v reply's instance; None: random with --pty
 
 
 def generate_first(robot: Robot, out_dir: Path, log: Callable[[str], None]) -> bytes | None:
@@ -94,6 +97,8 @@ def check_options(opts: EmulateOptions) -> None:
         raise EsairError(f"--speed {opts.speed:g} must be more than 0")
     if opts.run_s is not None and opts.run_s < 0:
         raise EsairError(f"--run {opts.run_s:g} must be 0 or more seconds")
+    if opts.instance is not None and not INSTANCE_RE.fullmatch(opts.instance):
+        raise EsairError(f"--instance {opts.instance!r} must be 8 lowercase hex digits")
 
 
 def emulate(robot: Robot, opts: EmulateOptions, out: TextIO | None = None,
@@ -128,8 +133,11 @@ def emulate(robot: Robot, opts: EmulateOptions, out: TextIO | None = None,
                 raise EsairError(f"cannot write the trace {opts.trace}: {exc.strerror}") from None
             trace = FileTraceWriter(f)
         live = opts.pty and (out.isatty() if opts.live is None else opts.live)
+        instance = opts.instance
+        if instance is None and opts.pty:      # each boot on a pty is a robot of its own
+            instance = secrets.token_hex(4)
         emu = Emulator(robot, scenario=opts.scenario, faults=opts.faults, trace=trace,
-                       eeprom_image=image, transcript=live)
+                       eeprom_image=image, transcript=live, instance=instance)
         stack.callback(emu.close)
         if opts.pty:
             _serve(emu, opts, out)

@@ -25,7 +25,8 @@ from . import top as _top  # noqa: E402
 
 from . import agent as _agent  # noqa: E402  (many computers: docs/std-network.md)
 from . import certs as _certs  # noqa: E402
+from . import hmi as _hmi  # noqa: E402  (the remote control center: docs/hmi.md)
 
 for _cmd in [*_deploy.COMMANDS, _run.run_cmd, *_control.COMMANDS, _top.top_cmd,
-             _agent.agent_cmd, _certs.certs]:
+             _agent.agent_cmd, _certs.certs, *_hmi.COMMANDS]:
     std.add_command(_cmd)

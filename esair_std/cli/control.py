@@ -22,6 +22,10 @@ ROBOT = click.option("-r", "--robot", default=None,
                      help="The robot's name (default: the one runtime answering).")
 
 
+#: The most DATA one put carries: the message cap less room for the request around it.
+MAX_DATA = 256 * 1024 - 1024
+
+
 def control(fn: Callable[..., Any]) -> Callable[..., Any]:
     """Give ``fn`` a connected Client as its first argument."""
 
@@ -141,7 +145,7 @@ def put_cmd(c: Any, name: str, data: str | None, file: Any, timeout: float,
     wait until its receive() took it: a behavior refuses data by raising
     esair_std.Refused("why") there, and the refusal is the error printed. DATA `-` (or
     --file FILE) reads it from standard input (or FILE): data too long for the command
-    line, up to the message cap of 256 KiB."""
+    line, at most 255 KiB of JSON (one message)."""
     if (data is None) == (file is None):
         raise click.UsageError("give DATA, or --file FILE, not both" if data is not None
                                else "give DATA (or - for standard input), or --file FILE")
@@ -149,7 +153,12 @@ def put_cmd(c: Any, name: str, data: str | None, file: Any, timeout: float,
         data = click.get_text_stream("stdin").read()
     elif file is not None:
         data = file.read()
-    r = c.call("put", {"to": name, "data": value(data), "timeout": timeout,
+    obj = value(data)
+    size = len(json.dumps(obj, separators=(",", ":")).encode())     # as the wire has it
+    if size > MAX_DATA:
+        raise ControlError(f"DATA is {size} bytes of JSON, more than one message carries "
+                           f"({MAX_DATA} bytes)")
+    r = c.call("put", {"to": name, "data": obj, "timeout": timeout,
                        "wait": not no_wait}, timeout=timeout + 5)
     if not r["delivered"]:
         raise ControlError(f"put to {name!r} failed: {r['reason']}")

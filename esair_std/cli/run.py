@@ -14,7 +14,7 @@ import click
 
 from esair_min.cli.pipes import friendly
 
-from ..errors import TransportError
+from ..errors import ControlError, TransportError
 from .options import endpoint_option
 from .table import table as _table
 
@@ -93,10 +93,15 @@ INTERRUPTED = 130
 @click.option("--join", "join", multiple=True, metavar="tcp/HOST:PORT",
               help="Another robot's control endpoint to join (repeat): behaviors then put "
                    "to and get from its behaviors as ROBOT/NAME.")
+@click.option("--hmi", "hmi", is_flag=True,
+              help="Also serve the remote control center in a browser (`esair std hmi`, "
+                   "docs/hmi.md) and print its URL.")
+@click.option("--hmi-listen", default="127.0.0.1:8080", show_default=True,
+              metavar="HOST:PORT", help="Where --hmi serves the page.")
 @friendly
 def run_cmd(deployment: str, mode: str | None, seconds: float | None, endpoint: str | None,
             no_control: bool, port: str | None, trace: str | None, scenario: str | None,
-            top: bool | None, join: tuple[str, ...]) -> None:
+            top: bool | None, join: tuple[str, ...], hmi: bool, hmi_listen: str) -> None:
     """Deploy FILE (a deployment file, or a bundled example such as `lab`) and run it
     until Ctrl-C (exit status 130), or for --run SECONDS. Other terminals control it
     with `esair std ls`, `add`, `remove`, `put`, ... over the control endpoint."""
@@ -117,6 +122,8 @@ def run_cmd(deployment: str, mode: str | None, seconds: float | None, endpoint: 
                  control=None if not no_control else False, join=list(join))
     if rt.mode_name == "thread" and not no_control:
         rt.control = True
+    if hmi and not rt.control:
+        raise ControlError("--hmi needs the control endpoint (drop --no-control)")
     stop = threading.Event()
     ctrl_c = _CtrlC(stop)
     old = signal.signal(signal.SIGTERM, lambda *_: stop.set())
@@ -128,12 +135,21 @@ def run_cmd(deployment: str, mode: str | None, seconds: float | None, endpoint: 
                 where += f" (local: {rt.local_endpoint})"
             click.echo(f"robot {rt.robot!r} running in {rt.mode_name} mode{where} "
                        f"({len(rt.ls())} components)", err=True)
+            child = None
+            if hmi:
+                from ..hmi.child import HmiChild
+                child = HmiChild(rt.local_endpoint or rt.endpoint, hmi_listen)
+                click.echo(f"hmi: {child.start()}", err=True)
             if top is None:
                 top = seconds is None and sys.stdout.isatty()
-            if top:
-                _live(rt, stop, seconds)
-            else:
-                stop.wait(seconds)
+            try:
+                if top:
+                    _live(rt, stop, seconds)
+                else:
+                    stop.wait(seconds)
+            finally:
+                if child is not None:
+                    child.stop()
             ctrl_c.stopping = True
             if seconds is not None and not ctrl_c.hit:
                 click.echo(_table(rt.summary(), SUMMARY_COLS))

@@ -83,6 +83,8 @@ class ControlServer:
         # the operator's verbs (esair std sample / send): esair_std/operator.py
         self.verbs.update({"sample": self.v_sample, "send": self.v_send})
         self._operator: Any = None         # esair_std.operator.Operator, on first use
+        from .observe import install as _observe   # outside principals: the HMI (observe.py)
+        self.observe = _observe(self)
 
     def start(self) -> None:
         hub_runtime()          # before the session: it routes for every agent

@@ -42,6 +42,10 @@ class Slot:
         self._lock = threading.Lock()
         self.c = dict(reported=0, commands=0, command_errors=0, polls_late=0)
         self.granted: set[str] = set()
+        # the command write() runs for: when it was queued and when its sender gives up
+        # (time.monotonic()), so a driver can drop what it could not do in time
+        self.asked: float | None = None
+        self.expires: float | None = None
 
     def report(self, value: Any) -> None:
         value = codec.copy(value)
@@ -119,7 +123,8 @@ class ResourceHost:
             return on_done(False, "is a sensor: it takes no commands")
         try:
             args = tuple(codec.copy(a) for a in args)
-            self.commands.put_nowait((slot, op, args, on_done, time.monotonic() + timeout))
+            now = time.monotonic()
+            self.commands.put_nowait((slot, op, args, on_done, now + timeout, now))
         except queue.Full:
             self.c["commands_refused"] += 1
             on_done(False, "command queue full")
@@ -269,7 +274,8 @@ class ResourceHost:
             wait = min(wait, max(0.0, s.next_poll - now))
         return wait
 
-    def _run(self, slot: Slot, op: str, args: tuple, on_done: Any, expires: float) -> None:
+    def _run(self, slot: Slot, op: str, args: tuple, on_done: Any, expires: float,
+             asked: float | None = None) -> None:
         if time.monotonic() > expires:       # the sender gave up: do not act late
             slot.c["expired"] = slot.c.get("expired", 0) + 1
             return on_done(False, "expired in the queue")
@@ -278,6 +284,7 @@ class ResourceHost:
                 raise ResourceLost(slot.name, f"lost: {slot.reason}" if slot.reason else "lost")
             if op == "write":
                 slot.c["commands"] += 1
+                slot.asked, slot.expires = asked, expires
                 value = codec.copy(slot.obj.write(*args))
             else:
                 value = codec.copy(slot.obj.configure(*args))

@@ -23,6 +23,8 @@ from esair_min.cli import main
 
 ROOT = Path(__file__).resolve().parents[2]
 VERSION = "OK esair-min/1 servos=12 sensors=8 motions=5 image=ok checksum=off"
+INSTANCE = "0123abcd"            # the pty emulators here boot with this instance
+VERSION_PTY = f"{VERSION} id={INSTANCE}"
 
 
 def _env() -> dict[str, str]:
@@ -145,7 +147,7 @@ def test_a_closed_pipe_ends_quietly(argv, tmp_path):
 
 @contextlib.contextmanager
 def served(*args: str):
-    proc = subprocess.Popen(esair("emulate", "papaman", "--pty", *args), cwd=ROOT,
+    proc = subprocess.Popen(esair("emulate", "papaman", "--pty", "--instance", INSTANCE, *args), cwd=ROOT,
                             env=_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE)
     try:
         ready, _, _ = select.select([proc.stdout], [], [], 30)
@@ -217,7 +219,7 @@ def test_a_program_opening_late_reads_no_old_notices_and_the_trace_is_live(tmp_p
         fd = raw_open(path)
         try:
             os.write(fd, b"v\r\n")
-            assert first_line(fd) == VERSION.encode() + b"\r\n"   # no !READY, no !R
+            assert first_line(fd) == VERSION_PTY.encode() + b"\r\n"   # no !READY, no !R
         finally:
             os.close(fd)
 
@@ -228,7 +230,7 @@ def test_what_a_program_left_unread_is_gone_for_the_next(tmp_path):
         fd = raw_open(path)
         os.write(fd, b"v\r\n")
         time.sleep(0.3)                  # the port stays open while the reply comes
-        wait_for_line(trace, tx(VERSION + "\r\n"))
+        wait_for_line(trace, tx(VERSION_PTY + "\r\n"))
         os.close(fd)                     # ... and is closed with the reply unread
         time.sleep(0.2)
         fd = raw_open(path)
@@ -268,8 +270,8 @@ def test_miniterm_as_documented(tmp_path):
                 assert time.monotonic() < deadline
                 time.sleep(0.05)
             os.write(term, b"v\r")                       # the user types v, Enter
-            shown = screen(b"checksum=off")
-            assert shown.replace(b"\r", b"").split(b"\n")[:2] == [b"v", VERSION.encode()]
+            shown = screen(INSTANCE.encode())
+            assert shown.replace(b"\r", b"").split(b"\n")[:2] == [b"v", VERSION_PTY.encode()]
             os.write(term, b"tx\x7f\r")                  # t, x, Backspace, Enter
             assert b"E13 bad character" in screen(b"E13 bad character")
             os.write(term, b"\x1d")                      # Ctrl+] quits

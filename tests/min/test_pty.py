@@ -27,7 +27,8 @@ from esair_min.model.validate import load_robot
 
 ROOT = Path(__file__).resolve().parents[2]
 START_TIMEOUT = 30
-VERSION = "OK esair-min/1 servos=12 sensors=8 motions=5 image=ok checksum=off"
+INSTANCE = "0123abcd"            # the emulators here boot with this instance
+VERSION = f"OK esair-min/1 servos=12 sensors=8 motions=5 image=ok checksum=off id={INSTANCE}"
 
 
 def _env() -> dict[str, str]:
@@ -40,7 +41,8 @@ def _env() -> dict[str, str]:
 def emulator(*args: str, stop=signal.SIGTERM):
     """Yield (process, pty path); stop the process (and check it exits 0) afterwards."""
     proc = subprocess.Popen(
-        [sys.executable, "-m", "esair_min.cli", "emulate", "boards/papaman", "--pty", *args],
+        [sys.executable, "-m", "esair_min.cli", "emulate", "boards/papaman", "--pty",
+         "--instance", INSTANCE, *args],
         cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=_env())
     try:
         ready, _, _ = select.select([proc.stdout], [], [], START_TIMEOUT)

@@ -196,7 +196,7 @@ def test_callers_at_once_queue_in_order_and_each_gets_its_own_reply(robot):
 
 def test_a_command_waiting_its_turn_fails_not_sent(robot):
     """A command that cannot get its turn within its timeout fails saying it was not
-    sent (counted as busy); the one in flight is answered."""
+    sent (counted as expired); the one in flight is answered."""
     with Link(robot, URL + "?speed=1") as link:
         out: dict[str, object] = {}
 
@@ -209,7 +209,7 @@ def test_a_command_waiting_its_turn_fails_not_sent(robot):
             time.sleep(0.0005)
         with pytest.raises(LinkError) as exc:
             link.command("x", timeout=0.001)
-        assert str(exc.value) == (f"link to {URL}?speed=1 busy: 'x' waited 0.001 s for its "
-                                  f"turn; not sent")
+        assert str(exc.value) == (f"link to {URL}?speed=1: 'x' not written within its "
+                                  f"deadline; dropped")
         t.join(5)
-        assert out == {"s": 8} and link.stats["busy"] == 1 and not link._queue
+        assert out == {"s": 8} and link.stats["expired"] == 1 and not link._queue

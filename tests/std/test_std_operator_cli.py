@@ -314,7 +314,7 @@ def test_put_reads_data_from_a_file_or_stdin(lab, tmp_path):
     ep, _ = lab
     assert esair("add", "inbox", "lab:Logger", "-e", ep).returncode == 0
     try:
-        big = list(range(40_000))                         # 228 KB of JSON
+        big = list(range(40_000))                         # 229 KB of JSON
         path = tmp_path / "big.json"
         path.write_text(json.dumps(big))
         assert len(path.read_bytes()) > 131072            # more than one argument may hold
@@ -328,7 +328,8 @@ def test_put_reads_data_from_a_file_or_stdin(lab, tmp_path):
         assert got == {"received": 2, "last": {"from": "operator", "data": {"from": "stdin"}}}
         path.write_text(json.dumps(list(range(50_000))))  # 289 KB: over the message cap
         assert error_of("put", "inbox", "-f", str(path), "-e", ep) == (
-            1, "error: message of 288927 bytes is over the 262144-byte cap\n")
+            1, "error: DATA is 288891 bytes of JSON, more than one message carries "
+               "(261120 bytes)\n")
         r = esair("put", "inbox", "-e", ep)
         assert (r.returncode, r.stderr.splitlines()[-1]) == (
             2, "Error: give DATA (or - for standard input), or --file FILE")
@@ -389,7 +390,7 @@ def test_ls_json_is_one_object_with_the_same_keys_for_every_component(lab):
     assert (out["robot"], out["endpoint"]) == ("lab", ep)
     rows = {r["name"]: r for r in out["components"]}
     keys = ["name", "kind", "state", "pid", "host", "restarts", "reason", "class", "parent",
-            "attached"]
+            "attached", "detached"]
     assert all(list(r) == keys for r in rows.values())
     assert list(rows) == ["guard", "logger", "follow", "tuner", "keeper", "wave", "ticks",
                           "arm", "bench", "bench.temp", "bench.fan"]

@@ -277,7 +277,8 @@ def test_a_put_to_a_stopped_runtime_returns_at_its_timeout(tmp_path):
 
     def ls():
         r = esair("ls", "--json", "-e", ep, "-r", "stp", check=False)
-        return {x["name"]: x for x in json.loads(r.stdout)} if r.returncode == 0 else {}
+        rows = json.loads(r.stdout)["components"] if r.returncode == 0 else []
+        return {x["name"]: x for x in rows}
 
     def got():
         r = esair("get", "putter", "-e", ep, "-r", "stp", check=False)

@@ -8,11 +8,14 @@ Deployment entry (the entry's name is the robot's name in resource names)::
       port: /dev/ttyUSB0          # anything pySerial opens: device, pty, esair:// URL,
                                   # or "emulate": the driver starts `esair emulate ROBOT
                                   # --pty` as its child process and uses its pty
-      emulate: {scenario: push, trace: t.txt, noise: 5}   # that child's options
+      emulate: {scenario: push, trace: t.txt, noise: 5,   # that child's options, and
+                restart: {max: 3, within: 60}}      # its restart policy (default none)
       feet_hz: 8                  # `s` polls per second (refused beyond the line budget;
                                   # 0: not polled)
       feet_share: 0.5             # the share of the line the polls may use
       timeout: 1.0                # seconds for a reply; longer means the link is down
+      deadline: 0.5               # seconds from a command's arrival to its line written;
+                                  # later it is dropped, never sent (CommandError)
       allow: {"*": command}
 
 Resources, named from the board files:
@@ -31,11 +34,27 @@ Resources, named from the board files:
 An ``Enn`` reply reaches the sender as ``CommandError(resource, "robot refused 'LINE':
 Enn text")``. While the link is down every resource is ``lost`` (``esair std ls`` shows
 the reason) and commands fail at once with ``ResourceLost``; they are ``ready`` again
-when the link is back.
+when the link is back, on the same robot only: another robot answering on the port
+(another ``id=`` in its ``v`` reply) leaves them ``lost: a different robot answers on
+PORT (id X, expected Y)``.
+
+Deadlines: a command is written within ``deadline`` of its arrival and within the
+sender's ``send(..., timeout=T)``, whichever ends first, or it is dropped and the sender
+gets ``CommandError(resource, "link to PORT: 'LINE' not written within its deadline;
+dropped")``; one that arrived before the link last came back is dropped too ("... was
+asked before the link came back ..."). Nothing asked before a reconnect is written after.
+
+With ``port: emulate`` the driver owns the emulated robot: when it exits by itself the
+resources are ``lost: emulator exited (status N)`` (N as Python reports it: -9 is
+SIGKILL), the port is never opened again while no child runs, and the child is reaped at
+once (no zombie). ``emulate: {restart: {max: N, within: T}}`` restarts it, at most N
+times within T seconds, as behaviors' policy; the link takes back only its own child
+(the same ``--instance``).
 """
 
 from __future__ import annotations
 
+import collections
 import threading
 import time
 from pathlib import Path
@@ -50,9 +69,10 @@ from esair_min.resources import resolve_robot
 from .budget import DEFAULT_FEET_SHARE, line_budget
 from .emulated import EmulatedRobot
 from .errors import LinkDown, LinkError
-from .link import Link
+from .link import DIFFERENT_ROBOT, Link
 
 DEFAULT_FEET_HZ = 8.0
+DEFAULT_DEADLINE_S = 0.5
 
 
 class _LinkAgent:
@@ -60,10 +80,17 @@ class _LinkAgent:
 
     link: Link
     _esair: Any
+    deadline_s: float = DEFAULT_DEADLINE_S
 
     def _send(self, line: str) -> str:
+        # the resource host says when the command arrived and when its sender gives up
+        asked = getattr(self._esair, "asked", None)
+        expires = getattr(self._esair, "expires", None)
+        deadline = (time.monotonic() if asked is None else asked) + self.deadline_s
+        if expires is not None:
+            deadline = min(deadline, expires)
         try:
-            self.link.command(line)
+            self.link.command(line, deadline=deadline, asked=asked)
         except LinkDown as exc:
             raise ResourceLost(self.name, str(exc)) from None     # type: ignore[attr-defined]
         except LinkError as exc:
@@ -203,6 +230,8 @@ def emulate_args(opts: dict, base: Path | None = None) -> list[str]:
         raise LinkError(f"option 'emulate' must be a mapping, got {opts!r}")
     args: list[str] = []
     for key, value in opts.items():
+        if key == "restart":                # the driver's policy, not the child's
+            continue
         flag = "--" + str(key).replace("_", "-")
         if value is True:
             args.append(flag)
@@ -245,14 +274,28 @@ class MinLink(Driver):
         hz = _number(opts, "feet_hz", DEFAULT_FEET_HZ)
         share = _number(opts, "feet_share", DEFAULT_FEET_SHARE)
         timeout = _number(opts, "timeout", 1.0)
+        deadline = _number(opts, "deadline", DEFAULT_DEADLINE_S)
+        if not deadline > 0:
+            raise LinkError(f"{self.name}: option 'deadline' {deadline:g} must be more than 0 s")
         if hz != 0:                                         # 0: the feet are not polled
             line_budget(robot).check_feet_hz(hz, share)    # refused before anything starts
+        self._closing = threading.Event()
+        self._lost: str | None = None        # the emulator's exit, while it is not back
+        self._supervisor: threading.Thread | None = None
+        expect = None
         if port == "emulate":
-            self.emulated = EmulatedRobot(path, emulate_args(opts.get("emulate") or {}, base))
+            emulate = opts.get("emulate") or {}
+            self._policy = _restart_policy(emulate.get("restart") if isinstance(
+                emulate, dict) else None)
+            self._restarts: collections.deque[float] = collections.deque()
+            self.emulated = EmulatedRobot(path, emulate_args(emulate, base))
+            expect = self.emulated.instance
             port = self.emulated.start()
         self.notices = NoticeSensor()
         self.link = Link(robot, str(port), timeout=timeout,
-                         on_state=self._link_state, on_notice=self.notices.notice)
+                         on_state=self._link_state, on_notice=self.notices.notice,
+                         expect_id=expect,
+                         may_open=self.emulated.held if self.emulated is not None else None)
         try:
             self.link.open()
         except BaseException:
@@ -264,23 +307,93 @@ class MinLink(Driver):
         kids["motion"] = MotionActuator(self.link)
         kids["feet"] = FeetSensor(self.link, hz, share)
         kids["notices"] = self.notices
+        for kid in kids.values():
+            kid.deadline_s = deadline
         self.children = kids
+        if self.emulated is not None:
+            self._supervisor = threading.Thread(target=self._supervise, daemon=True,
+                                                name=f"minlink-emulator:{self.name}")
+            self._supervisor.start()
 
     def resources(self) -> dict[str, Any]:
         return self.children
 
     def close(self) -> None:
         link, emulated = getattr(self, "link", None), getattr(self, "emulated", None)
+        closing = getattr(self, "_closing", None)
+        if closing is not None:
+            closing.set()
         if link is not None:               # open() may have failed before either existed
             link.close()
         if emulated is not None:
-            emulated.stop()
+            emulated.stop()                # wakes the supervisor, which then ends
+        sup = getattr(self, "_supervisor", None)
+        if sup is not None and sup is not threading.current_thread():
+            sup.join(timeout=10)
 
     def _link_state(self, up: bool, reason: str) -> None:
+        if up:
+            self._lost = None
+        elif self._lost is not None:       # the emulator's exit says more than the port
+            reason = self._lost
+        elif not reason.startswith(DIFFERENT_ROBOT):
+            reason = f"link down: {reason}"
+        self._mark(up, reason)
+
+    def _mark(self, up: bool, reason: str) -> None:
         for child in self.children.values():
             if getattr(child, "_esair", None) is None:
                 continue
             if up:
                 child.mark_ready()
             else:
-                child.mark_lost(f"link down: {reason}")
+                child.mark_lost(reason)
+
+    # -- the emulated robot ------------------------------------------------------------
+    def _supervise(self) -> None:
+        """Reap the emulated robot when it exits by itself, mark the resources lost with
+        its status, restart it under the policy. Children started here get SIGTERM if
+        this thread ends first: it lives until close()."""
+        emulated = self.emulated
+        assert emulated is not None
+        while not self._closing.is_set():
+            code = emulated.wait_exit()
+            if code is None or self._closing.is_set():
+                return                     # stopped on purpose
+            reason = f"emulator exited (status {code})"
+            self._lost = reason
+            self._mark(False, reason)
+            now = time.monotonic()
+            most, within = self._policy
+            while self._restarts and now - self._restarts[0] > within:
+                self._restarts.popleft()
+            if len(self._restarts) >= most:
+                if most:
+                    self._lost = (f"{reason}; not restarted: {most} restart(s) within "
+                                  f"{within:g} s already")
+                    self._mark(False, self._lost)
+                return
+            self._restarts.append(now)
+            try:
+                emulated.start()
+            except LinkError as exc:
+                self._lost = f"{reason}; its restart failed: {exc}"
+                self._mark(False, self._lost)
+                return
+
+
+def _restart_policy(value: Any) -> tuple[int, float]:
+    """(max, within) of ``emulate: {restart: {max: N, within: T}}``; (0, 0): never."""
+    if value is None:
+        return 0, 0.0
+    if not isinstance(value, dict) or set(value) - {"max", "within"}:
+        raise LinkError(f"option 'emulate.restart' must be {{max: N, within: SECONDS}}, "
+                        f"got {value!r}")
+    most, within = value.get("max", 0), value.get("within", 0)
+    if isinstance(most, bool) or not isinstance(most, int) or most < 0:
+        raise LinkError(f"option 'emulate.restart.max' must be a whole number 0 or more, "
+                        f"got {most!r}")
+    if isinstance(within, bool) or not isinstance(within, (int, float)) or within < 0:
+        raise LinkError(f"option 'emulate.restart.within' must be 0 or more seconds, "
+                        f"got {within!r}")
+    return most, float(within)

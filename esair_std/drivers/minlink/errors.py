@@ -26,3 +26,11 @@ class RobotRefused(LinkError):
         self.command = command
         self.code = code
         self.text = text
+
+
+class DifferentRobot(LinkDown):
+    """Another robot answers on the port: the link stays down (nothing is sent to it)."""
+
+
+class Expired(LinkError):
+    """A command that could not be written within its deadline: dropped, never sent."""

@@ -24,6 +24,18 @@ never having two commands out and by resynchronising whenever it cannot be sure:
   of the board files (servo and sensor count, checksum setting). While down, commands
   fail at once with :class:`LinkDown`; ``on_state`` reports every change.
 
+The robot must be the same one after every reconnect: once the link knows the robot's
+``id=`` (docs/protocol.md, "Robot id"; from ``expect_id``, or the first connect, where
+a robot without one is known as such) a reconnect to a robot of another id is refused
+(:class:`DifferentRobot`, reported by ``on_state``), the port closed again at once: the
+only line it got was the read-only ``v`` probe. ``may_open`` (if given) is asked
+before each reconnect; a reason from it keeps the port closed (the driver's emulated
+robot that exited: its pty may belong to another program by now).
+
+Deadlines: a command carries one (``deadline``, a ``time.monotonic()``; by default its
+``timeout`` from the call). A command not written by then fails with :class:`Expired`
+and is dropped, never sent; so does one ``asked`` before the link last came up.
+
 :meth:`close` stops and joins the I/O thread and closes the port.
 """
 
@@ -41,7 +53,7 @@ from esair_min.model.robot import Robot
 
 from .budget import line_budget
 from .commands import VERSION_PREFIX, RobotCommands
-from .errors import LinkDown, LinkError, RobotRefused
+from .errors import DifferentRobot, Expired, LinkDown, LinkError, RobotRefused
 
 #: Reply codes a well-formed line cannot get: the line was damaged on the wire.
 WIRE_CODES = frozenset({Code.UNKNOWN, Code.TOO_LONG, Code.BAD_ARGUMENT, Code.BAD_CHECKSUM,
@@ -52,6 +64,7 @@ POLL_S_NO_CANCEL = 0.002    # ... on a port without cancel_read
 RESYNC = b"\r\n"            # an empty line: no reply, but it ends a line noise began
 RESYNC_IDLE_S = 0.25        # a command after this long a silence is sent after RESYNC
 QUEUE_MAX = 64              # commands waiting for their turn; more are refused, not sent
+DIFFERENT_ROBOT = "a different robot answers on"
 
 
 @dataclass
@@ -61,6 +74,7 @@ class Exchange:
     line: str
     wire: bytes
     timeout: float
+    deadline: float = float("inf")   # not written by then: Expired, dropped
     sent: bool = False
     t_sent: float = 0.0
     t_reply: float = 0.0
@@ -82,7 +96,8 @@ class Link:
     def __init__(self, robot: Robot, port: str, *, baud: int | None = None,
                  timeout: float = 1.0, backoff: tuple[float, float] = (0.05, 2.0),
                  notice_capacity: int = 256, on_state: StateCallback | None = None,
-                 on_notice: NoticeCallback | None = None):
+                 on_notice: NoticeCallback | None = None, expect_id: str | None = None,
+                 may_open: Callable[[], str | None] | None = None):
         if not timeout > 0:
             raise LinkError(f"link timeout {timeout:g} s must be more than 0")
         self.robot = robot
@@ -95,6 +110,10 @@ class Link:
         self.settle_s = (self.budget.line_s(2 * 44) + 2 * self.budget.tick_s)
         self.on_state = on_state
         self.on_notice = on_notice
+        self.robot_id = expect_id          # the robot's id= (None: it answers none)
+        self._known = expect_id is not None  # else learnt at the first connect
+        self.may_open = may_open
+        self.up_since = 0.0                # time.monotonic() of the last connect
         self.stats: collections.Counter[str] = collections.Counter()
         self._notices: collections.deque[tuple[str, float]] = collections.deque(
             maxlen=notice_capacity)
@@ -119,6 +138,7 @@ class Link:
             raise LinkError(f"link to {self.port} is already open")
         self._port = self._connect()
         self._up, self._reason = True, "up"
+        self.up_since = time.monotonic()
         self._thread = threading.Thread(target=self._run, name=f"minlink-io:{self.port}",
                                         daemon=True)
         self._thread.start()
@@ -156,19 +176,32 @@ class Link:
         return self._thread is not None and self._thread.is_alive()
 
     # -- commands -------------------------------------------------------------------------
-    def exchange(self, line: str, timeout: float | None = None) -> Exchange:
-        """Send ``line``, wait for its reply; raise on an ``Enn`` reply or a link down."""
+    def exchange(self, line: str, timeout: float | None = None, deadline: float | None = None,
+                 asked: float | None = None) -> Exchange:
+        """Send ``line``, wait for its reply; raise on an ``Enn`` reply or a link down.
+        ``deadline`` (``time.monotonic()``, default: ``timeout`` from now): written by
+        then or dropped (:class:`Expired`); ``asked``: when the command was asked, to
+        refuse one asked before the link came up (both only decide whether it is sent)."""
         timeout = self.timeout if timeout is None else timeout
+        now = time.monotonic()
+        deadline = now + timeout if deadline is None else min(deadline, now + timeout)
         if self._stop.is_set():
             raise LinkDown(f"link to {self.port} is closed: {line!r} not sent")
         if not self._up:
             raise LinkDown(f"link to {self.port} is down ({self._reason}): {line!r} not sent")
-        ex = Exchange(line, self.commands.wire(line), timeout)
+        ex = Exchange(line, self.commands.wire(line), timeout, deadline)
         start = None
         with self._lock:
             if not self._up or self._port is None:
                 raise LinkDown(f"link to {self.port} is down ({self._reason}): "
                                f"{line!r} not sent")
+            if asked is not None and asked < self.up_since:
+                self.stats["expired"] += 1
+                raise Expired(f"link to {self.port}: {line!r} was asked before the link "
+                              f"came back; dropped")
+            if now > deadline:
+                self.stats["expired"] += 1
+                raise Expired(self._expired_text(ex))
             if self._slot is None and not self._queue:
                 start = self._start(ex)
             elif len(self._queue) >= QUEUE_MAX:
@@ -179,21 +212,23 @@ class Link:
                 self._queue.append(ex)
         if start is not None:
             self._write(ex, *start)
-        elif not ex.started.wait(timeout):
+        elif not ex.started.wait(max(0.0, deadline - time.monotonic())):
             with self._lock:
                 waiting = ex in self._queue
                 if waiting:
                     self._queue.remove(ex)
             if waiting:
-                self.stats["busy"] += 1
-                raise LinkError(f"link to {self.port} busy: {line!r} waited {timeout:g} s "
-                                f"for its turn; not sent")
+                self.stats["expired"] += 1
+                raise Expired(self._expired_text(ex))
         # the I/O thread owns the deadline; this wait is only a safety net
         if not ex.done.wait(timeout + self.settle_s + 5.0):
             raise LinkError(f"link to {self.port}: the I/O thread did not answer")
         if ex.error is not None:
             raise ex.error
         return ex
+
+    def _expired_text(self, ex: Exchange) -> str:
+        return f"link to {self.port}: {ex.line!r} not written within its deadline; dropped"
 
     def _start(self, ex: Exchange) -> tuple[Any, bytes]:
         """(lock held) ``ex`` is in flight from now: the port and the bytes to write."""
@@ -215,9 +250,10 @@ class Link:
             ex.sent = False                 # the error says: not sent
             self._down(_describe(exc), port)
 
-    def command(self, line: str, timeout: float | None = None) -> str:
+    def command(self, line: str, timeout: float | None = None, deadline: float | None = None,
+                asked: float | None = None) -> str:
         """Send ``line``; return the reply's data (after ``OK ``, empty for a bare ``OK``)."""
-        data = self.exchange(line, timeout).data
+        data = self.exchange(line, timeout, deadline, asked).data
         assert data is not None
         return data
 
@@ -347,12 +383,21 @@ class Link:
         ex.data, ex.error = data, error
         self.stats["refused" if isinstance(error, RobotRefused) else "ok"] += 1
         nxt = start = None
+        expired: list[Exchange] = []
         with self._lock:
             if self._slot is ex:
                 self._slot = None
+                now = time.monotonic()
+                while self._queue and self._queue[0].deadline < now:
+                    expired.append(self._queue.popleft())      # never written late
                 if self._queue and self._up and self._port is not None:
                     nxt = self._queue.popleft()
                     start = self._start(nxt)
+        for late in expired:
+            self.stats["expired"] += 1
+            late.error = Expired(self._expired_text(late))
+            late.started.set()
+            late.done.set()
         if nxt is not None:                 # the next command goes out before this
             self._write(nxt, *start)        # one's caller is woken
         ex.done.set()
@@ -392,11 +437,19 @@ class Link:
 
     def _reconnect(self) -> None:
         delay = self.backoff[0]
+        told = ""
         while not self._stop.wait(delay):
+            held = self.may_open() if self.may_open is not None else None
             try:
+                if held is not None:
+                    raise LinkDown(held)
                 port = self._connect()
             except LinkError as exc:
                 self._reason = f"reconnecting: {exc}"
+                final = isinstance(exc, DifferentRobot) or held is not None
+                if final and str(exc) != told and self.on_state is not None:
+                    told = str(exc)                 # said once, not at every attempt
+                    self.on_state(False, told)
                 delay = min(delay * 2, self.backoff[1])
                 continue
             with self._lock:
@@ -404,6 +457,7 @@ class Link:
                     _close_quietly(port)
                     return
                 self._port, self._up, self._reason = port, True, "up"
+                self.up_since = time.monotonic()
             self.stats["reconnects"] += 1
             if self.on_state is not None:
                 self.on_state(True, "up")
@@ -452,13 +506,24 @@ class Link:
                 if text.startswith("!"):
                     self._line(text)
                 elif text.startswith("OK " + VERSION_PREFIX):
-                    self.commands.check_version(text[3:])
+                    self._check_identity(text[3:])
                     return
                 elif text.startswith("E11") and not self.commands.checksum:
                     raise LinkError(f"the robot on {self.port} requires checksums (E11) but "
                                     f"the board files of {self.robot.name} say "
                                     f"require_checksum: false ({self.robot.source})")
         raise LinkError(f"no answer to 'v' from {self.port} within {self.timeout:g} s")
+
+    def _check_identity(self, data: str) -> None:
+        """The ``v`` reply ``data``: once the link knows the robot, its ``id=`` (or its
+        lack of one) must be the same (another id is a different robot, whatever its
+        model); then the robot of the board files (counts, checksum); then it is known."""
+        got = dict(f.split("=", 1) for f in data.split()[1:] if "=" in f).get("id")
+        if self._known and got != self.robot_id:
+            raise DifferentRobot(f"{DIFFERENT_ROBOT} {self.port} (id {got or 'none'}, "
+                                 f"expected {self.robot_id or 'none'})")
+        self.commands.check_version(data)
+        self.robot_id, self._known = got, True
 
 
 #: pySerial's words for a port that went away, and a user's.

@@ -1,7 +1,10 @@
 """PAPA-MAN's host behaviors (docs/std-papaman.md; thesis ch. 5.2 operations).
 
 - ``Sequencer`` plays the operations it is given (``esair std put sequencer
-  '["stand_up", "dance"]'``) one after another on ``papaman.motion``;
+  '["stand_up", "dance"]'``) one after another on ``papaman.motion``; when the link is
+  lost it drops what it has queued, reporting each dropped operation (its ``dropped``
+  and ``errors``, and a warning in the log): nothing asked before an outage is played
+  after it;
 - ``BalanceWatcher`` reads the feet at 50 Hz and, when the load shifts from one foot to
   the other, stops the motion and stands the robot up (beside the firmware's own
   auto-balance reaction, whose ``!R`` notices it counts);
@@ -23,6 +26,10 @@ QUEUE = 32          # operations waiting; more are refused (counted)
 TICK_S = 0.0089856  # PAPA-MAN's Timer2 tick
 MARGIN_TICKS = 3
 STAND_RETRY_S = 1.0  # the watcher's stand, while the robot is busy
+OPERATION_DEADLINE_S = 5.0  # a queued operation not started by then is dropped (option
+                            # operation_deadline; "deadline" is the step watchdog's)
+SEND_TIMEOUT_S = 0.3  # each command's send timeout: written within it, or dropped; well
+                      # inside the 1 s step deadline, also in process mode
 #: frames x delay_ticks of each motion (central.yaml): how long it plays
 MOTION_TICKS = {"stand": 1 * 10, "sit": 3 * 20, "prostrate": 4 * 25, "dance": 32 * 1,
                 "balance": 3 * 2}
@@ -34,16 +41,22 @@ def _last_stop(ops: list) -> int:
 
 
 class Sequencer(Behavior):
-    """Plays queued operations in order; E07 busy means "not yet": tried again."""
+    """Plays queued operations in order; E07 busy means "not yet": tried again until the
+    operation's deadline (option ``operation_deadline``, seconds from its arrival; default
+    5). An operation
+    that cannot start by then, or that is queued when the link is lost, is dropped and
+    reported."""
 
     def start(self) -> None:
         self.motion = self.attach_actuator("papaman.motion")
-        self.queue: collections.deque[str] = collections.deque()
+        self.queue: collections.deque[tuple[str, float]] = collections.deque()
         self.playing: str | None = None
         self.until = 0.0
         self.done: list[str] = []
         self.refused = 0
+        self.dropped: list[str] = []
         self.errors: list[str] = []
+        self.deadline = float(self.options.get("operation_deadline", OPERATION_DEADLINE_S))
 
     def receive(self, sender: str, data: Any) -> None:
         """Queue the operations, all or none: raising Refused tells a sender that waits
@@ -62,20 +75,26 @@ class Sequencer(Behavior):
             self.refused += 1
             raise Refused(f"the queue holds {len(self.queue)} of {QUEUE} operations: no room "
                           f"for {len(queued)} more; nothing queued")
+        now = time.monotonic()
         for op in ops:
             if op == "stop":
-                self.queue.clear()
+                self._drop("stopped")
                 self._send("stop", "stop")
             elif len(self.queue) < QUEUE:
-                self.queue.append(op)
+                self.queue.append((op, now + self.deadline))
 
     def step(self) -> None:
         now = time.monotonic()
+        if self.queue and (state := self.motion.state) != "ready":
+            self._drop(f"papaman.motion is {state}")      # the link is lost: none waits
         if self.playing is not None and now >= self.until:
             self.done.append(self.playing)
             self.playing = None
+        while self.queue and self.queue[0][1] < now:
+            op, _ = self.queue.popleft()
+            self._dropped(op, f"not started within its {self.deadline:g} s deadline")
         if self.playing is None and self.queue:
-            op = self.queue[0]
+            op = self.queue[0][0]
             motion = OPERATIONS[op]
             if self._send(op, {"play": motion}):
                 self.queue.popleft()
@@ -86,19 +105,33 @@ class Sequencer(Behavior):
 
     def _send(self, op: str, command: Any) -> bool:
         try:
-            self.motion.send(command, timeout=2.0)
+            self.motion.send(command, timeout=SEND_TIMEOUT_S)
             return True
         except CommandError as exc:
             if "E07 busy" not in str(exc):      # busy: the robot is still moving
                 self.errors.append(f"{op}: {exc}")
-                self.queue.clear()
+                self._drop(f"{op} failed")
         except ResourceLost as exc:
-            self.errors.append(f"{op}: {exc}")      # kept queued: tried when back
+            self.errors.append(f"{op}: {exc}")
+            self._drop(f"the link is lost ({exc})")
         return False
 
+    def _drop(self, why: str) -> None:
+        """Drop every queued operation, each one reported."""
+        while self.queue:
+            op, _ = self.queue.popleft()
+            self._dropped(op, why)
+
+    def _dropped(self, op: str, why: str) -> None:
+        self.dropped.append(op)
+        self.errors.append(f"{op}: dropped: {why}")
+        self.log.warning("operation %r dropped: %s", op, why)
+
     def provide(self, requester: str) -> Any:
-        return {"playing": self.playing, "queued": list(self.queue), "done": self.done[-20:],
-                "refused": self.refused, "errors": self.errors[-5:]}
+        return {"playing": self.playing, "queued": [op for op, _ in self.queue],
+                "done": self.done[-20:], "refused": self.refused,
+                "dropped": self.dropped[-20:], "dropped_total": len(self.dropped),
+                "errors": self.errors[-5:]}
 
 
 class BalanceWatcher(Behavior):
@@ -119,6 +152,11 @@ class BalanceWatcher(Behavior):
         self.standing: tuple[dict, float] | None = None
 
     def step(self) -> None:
+        if self.standing is not None and (state := self.motion.state) != "ready":
+            record, _ = self.standing           # the link is lost: no stand after it
+            self.standing = None
+            self.errors.append(f"stand after the reaction at seq {record['seq']}: dropped: "
+                               f"papaman.motion is {state}")
         if self.standing is not None:
             self._stand()
         for n in self.notices.samples():
@@ -154,7 +192,7 @@ class BalanceWatcher(Behavior):
     def _send(self, command: str, record: dict, busy_ok: bool = False) -> bool | None:
         """True: sent; False: failed (kept in errors); None: busy, to be tried again."""
         try:
-            record["sent"].append(self.motion.send(command, timeout=2.0))
+            record["sent"].append(self.motion.send(command, timeout=SEND_TIMEOUT_S))
             return True
         except CommandError as exc:
             if busy_ok and "E07 busy" in str(exc):

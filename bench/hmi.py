@@ -1,0 +1,221 @@
+"""The HMI's figures (issue 21 item 6), side by side in one run.
+
+`esair std run DEPLOYMENT --hmi` with PAPA-MAN's board files at 115200 baud (a bench-only
+copy: at 9600 baud the line allows at most 9.9 feet polls a second) and the feet polled at
+50 Hz by its emulated robot, then, in headless chromium (Debian's):
+
+1. sample -> pixel: the sensor's time stamp (time.time() when reported) to the
+   requestAnimationFrame that drew it on the feet plot (performance.timeOrigin + now(),
+   the same clock on this one computer), every sample of 3 pages over the window;
+   goal p99 <= 50 ms;
+2. the HMI process's CPU (utime + stime from /proc over the window) with no page and with
+   3 pages open; goal <= 10 % of one core with 3;
+3. its RSS with 3 pages; goal <= 45 MB;
+4. page weight: the bytes of every response the page loads; goal <= 300 KB;
+5. commands per second through the runtime (the `command` verb, `x`, one in flight, as
+   the principal hmi) with no page and with 10 pages open; goal within 5 %;
+6. a 1 kHz sensor (esair_std.drivers.sim:Counter) recorded by `esair std record`'s
+   Recorder: samples lost (gaps in seq + queue drops); goal 0.
+
+The 10 pages compete with everything else for this computer's cores (chromium renders
+each at 50 Hz): run it on a quiet machine, and read the load printed with the figures.
+
+Run: python bench/hmi.py [--window 10] [--mode thread]. Prints figures; asserts nothing.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import re
+import shutil
+import signal
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+from esair_std.record import Recorder, read_samples  # noqa: E402
+from esair_std.transport.bus import Bus  # noqa: E402
+from tests.support.hmi import CHROMIUM, CHROMIUM_ARGS, free_port, wait_for  # noqa: E402
+
+TICK = os.sysconf("SC_CLK_TCK")
+
+
+def fast_robot(tmp: Path) -> Path:
+    folder = tmp / "papaman"
+    shutil.copytree(ROOT / "boards" / "papaman", folder)
+    central = folder / "central.yaml"
+    central.write_text(central.read_text().replace("baud: 9600", "baud: 115200"))
+    return folder
+
+
+def deployment(tmp: Path, mode: str) -> Path:
+    dep = {"robot": "papaman", "mode": mode, "endpoint": "tcp/127.0.0.1:7447",
+           "resources": {"papaman": {
+               "class": "esair_std.drivers.minlink:MinLink", "robot": str(fast_robot(tmp)),
+               "port": "emulate", "emulate": {"scenario": "quiet"}, "feet_hz": 50,
+               "allow": {"*": "read", "hmi": "command"}}}}
+    path = tmp / "bench.yaml"
+    path.write_text(json.dumps(dep))
+    return path
+
+
+def children(pid: int) -> list[tuple[int, bytes]]:
+    out = []
+    for d in os.listdir("/proc"):
+        if d.isdigit():
+            try:
+                stat = Path(f"/proc/{d}/stat").read_text()
+                cmd = Path(f"/proc/{d}/cmdline").read_bytes()
+            except OSError:
+                continue
+            if int(stat.rsplit(")", 1)[1].split()[1]) == pid:
+                out.append((int(d), cmd))
+    return out
+
+
+def cpu_s(pid: int) -> float:
+    f = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(f[11]) + int(f[12])) / TICK
+
+
+def rss_mb(pid: int) -> float:
+    m = re.search(r"VmRSS:\s+(\d+) kB", Path(f"/proc/{pid}/status").read_text())
+    return int(m.group(1)) / 1024 if m else float("nan")
+
+
+def cpu_share(pid: int, window: float) -> float:
+    c0, t0 = cpu_s(pid), time.monotonic()
+    time.sleep(window)
+    return (cpu_s(pid) - c0) / (time.monotonic() - t0)
+
+
+def command_rate(endpoint: str, robot: str, seconds: float) -> float:
+    bus = Bus(connect=[endpoint])
+    try:
+        key = f"esair/{robot}/ctl/command"
+        body = {"who": "hmi", "resource": "papaman.motion", "command": "stop", "timeout": 2.0}
+        wait_for(lambda: bus.request(key, body, 5.0) is not None, what="the runtime")
+        n, end = 0, time.monotonic() + seconds
+        while time.monotonic() < end:
+            r = bus.request(key, body, 5.0)
+            if r and "ok" in r:
+                n += 1
+        return n / seconds
+    finally:
+        bus.close()
+
+
+def pct(values: list[float], q: float) -> float:
+    s = sorted(values)
+    return s[min(len(s) - 1, int(len(s) * q))] if s else float("nan")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--window", type=float, default=10.0)
+    ap.add_argument("--mode", default="thread", choices=["thread", "process"])
+    args = ap.parse_args()
+    from playwright.sync_api import sync_playwright
+
+    tmp = Path(tempfile.mkdtemp(prefix="bench-hmi-"))
+    ep = f"tcp/127.0.0.1:{free_port()}"
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    err = open(tmp / "run.err", "w+")  # noqa: SIM115 - closed at the end
+    proc = subprocess.Popen([sys.executable, "-m", "esair_min.cli", "std", "run",
+                             str(deployment(tmp, args.mode)), "--hmi", "--hmi-listen",
+                             "127.0.0.1:0", "-e", ep, "--no-top"], stdout=subprocess.DEVNULL,
+                            stderr=err, env=env)
+    rows = []
+    try:
+        url = wait_for(lambda: (m := re.search(r"^hmi: (\S+)$", (tmp / "run.err").read_text(),
+                                               re.M)) and m.group(1), timeout=90, what="URL")
+        hmi = next(p for p, cmd in children(proc.pid) if b"hmi" in cmd.split(b"\0"))
+        time.sleep(2)
+        cpu0 = cpu_share(hmi, args.window)
+        rss0 = rss_mb(hmi)
+        with sync_playwright() as p:
+            browser = p.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
+            pages = []
+            for i in range(3):
+                page = browser.new_page(viewport={"width": 1280, "height": 800})
+                page.goto(url)
+                try:
+                    page.wait_for_function("() => window.__hmi && window.__hmi.feet && "
+                                           "window.__hmi.feet.t.length > 10")
+                except Exception:
+                    print("page", i, page.evaluate("() => [window.__hmi.wsUp, window.__hmi.stats"
+                          ".samples, window.__hmi.entry, JSON.stringify(window.__hmi.link)]"),
+                          page.locator("#log").inner_text()[:300], file=sys.stderr)
+                    raise
+                pages.append(page)
+            weight = pages[0].evaluate(
+                "() => Object.fromEntries(performance.getEntriesByType('navigation').concat("
+                "performance.getEntriesByType('resource')).map(e => [e.name, e.transferSize]))")
+            time.sleep(1)
+            for page in pages:
+                page.evaluate("() => { window.__hmi.stats.latencies.length = 0; }")
+            cpu3 = cpu_share(hmi, args.window)
+            rss3 = rss_mb(hmi)
+            lat = []
+            for page in pages:
+                lat += page.evaluate("() => window.__hmi.stats.latencies")
+            for _ in range(7):
+                page = browser.new_page(viewport={"width": 1280, "height": 800})
+                page.goto(url)
+                pages.append(page)
+            for page in pages:
+                page.wait_for_function("() => window.__hmi && window.__hmi.wsUp")
+            rate10 = command_rate(ep, "papaman", args.window / 2)
+            browser.close()
+        rate0 = command_rate(ep, "papaman", args.window / 2)
+        # 1 kHz recorded
+        add = subprocess.run([sys.executable, "-m", "esair_min.cli", "std", "add-resource",
+                              "counter", "esair_std.drivers.sim:Counter", "-o", "rate_hz=1000",
+                              "--allow", "*=read", "-e", ep], capture_output=True, text=True,
+                             env=env, timeout=60)
+        assert add.returncode == 0, add.stderr
+        rec = Recorder(ep, str(tmp / "k.mcap"), ["counter"])
+        rec.start()
+        time.sleep(args.window / 2)
+        c = rec.stop()
+        seqs = [s[1] for s in read_samples(tmp / "k.mcap")]
+        lost = (seqs[-1] - seqs[0] + 1 - len(seqs)) if seqs else -1
+        rows = [
+            ("sample -> pixel p99 (p50), 3 pages, feet at 50 Hz",
+             f"{pct(lat, 0.99):.1f} ms ({statistics.median(lat):.1f} ms), {len(lat)} samples",
+             "<= 50 ms", pct(lat, 0.99) / 50),
+            ("HMI CPU, no page / 3 pages", f"{cpu0 * 100:.1f} % / {cpu3 * 100:.1f} % of a core",
+             "<= 10 %", cpu3 / 0.10),
+            ("HMI RSS, no page / 3 pages", f"{rss0:.1f} / {rss3:.1f} MB", "<= 45 MB", rss3 / 45),
+            ("page weight", f"{sum(weight.values()) / 1024:.1f} KB in {len(weight)} responses",
+             "<= 300 KB", sum(weight.values()) / 1024 / 300),
+            ("commands/s (x via the runtime), no page / 10 pages",
+             f"{rate0:.1f} / {rate10:.1f} = {rate10 / rate0:.3f}x", ">= 0.95x",
+             0.95 / (rate10 / rate0) if rate10 else float("inf")),
+            ("record 1 kHz: samples lost (gaps + drops)",
+             f"{lost} + {c['dropped']} of {len(seqs)}", "0", float(lost + c["dropped"])),
+        ]
+    except BaseException:
+        print(f"run alive: {proc.poll() is None}; its children: {children(proc.pid)}",
+              file=sys.stderr)
+        raise
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        proc.wait(timeout=30)
+        err.close()
+    print(f"bench/hmi.py, mode {args.mode}, window {args.window:g} s, "
+          f"load {os.getloadavg()[0]:.1f}")
+    for name, got, goal, ratio in rows:
+        print(f"{name:52s} {got:44s} goal {goal:9s} {'met' if ratio <= 1 else 'NOT met'}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,186 @@
+"""``esair std hmi``: the remote control center in a browser (docs/hmi.md), and
+``esair std hmi-password`` to write its password file."""
+
+from __future__ import annotations
+
+import asyncio
+import getpass
+import os
+import signal
+import ssl
+import sys
+
+import click
+
+from esair_min.cli.pipes import friendly
+
+from .client import default_endpoint
+
+DEFAULT_LISTEN = "127.0.0.1:8080"
+
+
+def split_listen(listen: str) -> tuple[str, int]:
+    from ..errors import ControlError
+    host, sep, port = listen.rpartition(":")
+    host = host.strip("[]")
+    if not sep or not host or not port.isdigit() or not 0 <= int(port) <= 65535:
+        raise ControlError(f"--listen {listen!r} is not HOST:PORT (e.g. {DEFAULT_LISTEN})")
+    return host, int(port)
+
+
+def tls_context(cert: str | None, key: str | None, client_ca: str | None) -> ssl.SSLContext | None:
+    from ..errors import ControlError
+    if not cert and not client_ca:
+        return None
+    if not cert or not key:
+        raise ControlError("TLS needs --tls-cert and --tls-key (and --client-ca for client "
+                           "certificates)")
+    ctx = ssl.create_default_context(ssl.Purpose.CLIENT_AUTH)
+    try:
+        ctx.load_cert_chain(cert, key)
+        if client_ca:
+            ctx.load_verify_locations(client_ca)
+            ctx.verify_mode = ssl.CERT_REQUIRED
+    except (OSError, ssl.SSLError) as exc:
+        raise ControlError(f"TLS: {exc}") from None
+    return ctx
+
+
+@click.command("hmi")
+@click.option("-e", "--endpoint", default=None, metavar="tcp/HOST:PORT",
+              help="The runtime's control endpoint (default tcp/127.0.0.1:7447, or "
+                   "$ESAIR_STD_ENDPOINT).")
+@click.option("--listen", default=DEFAULT_LISTEN, show_default=True, metavar="HOST:PORT",
+              help="Where the page is served. Any address but loopback needs a login or "
+                   "client certificates. Port 0: any free port.")
+@click.option("--password-file", default=None, metavar="FILE",
+              help="USER:HASH lines (`esair std hmi-password`): pages are viewers until "
+                   "they log in. $ESAIR_HMI_PASSWORD gives user 'operator' a password.")
+@click.option("--tls-cert", default=None, metavar="PEM", help="Serve HTTPS with this "
+              "certificate (e.g. from `esair std certs`).")
+@click.option("--tls-key", default=None, metavar="PEM", help="Its private key.")
+@click.option("--client-ca", default=None, metavar="PEM",
+              help="Require browser certificates signed by this CA; such pages are operators.")
+@click.option("--record-dir", default=".", show_default=True, type=click.Path(file_okay=False),
+              help="Where the page's record button writes its MCAP files (and replay reads).")
+@friendly
+def hmi_cmd(endpoint: str | None, listen: str, password_file: str | None,
+            tls_cert: str | None, tls_key: str | None, client_ca: str | None,
+            record_dir: str) -> None:
+    """Serve the robot's remote control center: live link state, pose, joints,
+    feet, components and log in a browser; commands through the RS as principal
+    `hmi` (the deployment's `allow` decides what it may command). Prints the URL on
+    its first line and serves until Ctrl-C."""
+    import logging
+
+    from ..hmi.auth import Auth
+    from ..hmi.server import HmiServer
+
+    host, port = split_listen(listen)
+    tls = tls_context(tls_cert, tls_key, client_ca)
+    auth = Auth.from_options(host, password_file, dict(os.environ),
+                             client_certs=bool(client_ca))
+    os.environ.pop("ESAIR_HMI_PASSWORD", None)      # hashed in auth; not kept in the clear
+    logging.basicConfig(level=logging.WARNING, format="hmi: %(message)s")
+    logging.getLogger("websockets").setLevel(logging.ERROR)
+    server = HmiServer(endpoint or default_endpoint(), host, port, auth, tls,
+                       record_dir=record_dir)
+
+    async def main() -> None:
+        stop = asyncio.Event()
+        loop = asyncio.get_running_loop()
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            loop.add_signal_handler(sig, stop.set)
+
+        def ready(url: str) -> None:
+            click.echo(url)
+            sys.stdout.flush()
+        await server.serve(ready, stop)
+    asyncio.run(main())
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(0)      # as `esair std run`: no interpreter finalisation under Zenoh's threads
+
+
+@click.command("hmi-password")
+@click.argument("file", type=click.Path(dir_okay=False))
+@click.argument("user")
+@friendly
+def hmi_password_cmd(file: str, user: str) -> None:
+    """Add USER with a password (asked for, or read from standard input) to FILE, hashed
+    (scrypt); `esair std hmi --password-file FILE` then asks pages to log in."""
+    from ..errors import ControlError
+    from ..hmi.auth import hash_password, read_password_file
+    if ":" in user or not user.strip():
+        raise ControlError(f"user {user!r} must be a non-empty name without ':'")
+    users = read_password_file(file) if os.path.exists(file) else {}
+    password = (getpass.getpass(f"password for {user}: ") if sys.stdin.isatty()
+                else sys.stdin.readline().rstrip("\n"))
+    if not password:
+        raise ControlError("empty password")
+    users[user] = hash_password(password)
+    fd = os.open(file, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
+    with os.fdopen(fd, "w") as f:
+        f.writelines(f"{u}:{h}\n" for u, h in users.items())
+    click.echo(f"{user}: written to {file}")
+
+
+COMMANDS = [hmi_cmd, hmi_password_cmd]
+
+
+@click.command("record")
+@click.argument("out", metavar="OUT.mcap", type=click.Path(dir_okay=False))
+@click.argument("names", nargs=-1, metavar="[NAMES]...")
+@click.option("-e", "--endpoint", default=None, metavar="tcp/HOST:PORT",
+              help="The runtime's control endpoint (default tcp/127.0.0.1:7447, or "
+                   "$ESAIR_STD_ENDPOINT).")
+@click.option("--seconds", type=click.FloatRange(min=0), default=None,
+              help="Record this long, then stop (default: until Ctrl-C).")
+@friendly
+def record_cmd(out: str, names: tuple[str, ...], endpoint: str | None,
+               seconds: float | None) -> None:
+    """Record every sample of the sensors NAMES (fnmatch patterns; default: all) to
+    OUT.mcap (JSON messages with a JSON schema: Foxglove, Lichtblick and PlotJuggler open
+    it), as the principal `record` (read, as the deployment's `allow` permits)."""
+    import threading
+
+    from ..record import Recorder
+    rec = Recorder(endpoint or default_endpoint(), out, list(names))
+    stop = threading.Event()
+    signal.signal(signal.SIGTERM, lambda *_: stop.set())
+    signal.signal(signal.SIGINT, lambda *_: stop.set())
+    rec.start()
+    click.echo(f"recording to {out}", err=True)
+    stop.wait(seconds)
+    c = rec.stop()
+    click.echo(f"{out}: {c['written']} samples on {c['channels']} channels, "
+               f"{c['dropped']} dropped, {c['gaps']} gaps in seq", err=True)
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(0)
+
+
+@click.command("replay")
+@click.argument("file", metavar="FILE.mcap", type=click.Path(exists=True, dir_okay=False))
+@click.option("-e", "--endpoint", default=None, metavar="tcp/HOST:PORT",
+              help="The runtime's control endpoint.")
+@click.option("--name", default="replay", show_default=True,
+              help="The resource entry: its sensors are NAME.<recorded sensor>.")
+@click.option("--speed", type=click.FloatRange(min=0, min_open=True), default=1.0,
+              show_default=True)
+@click.option("--loop", is_flag=True, help="Start again at the end.")
+@friendly
+def replay_cmd(file: str, endpoint: str | None, name: str, speed: float, loop: bool) -> None:
+    """Publish a recording as sensors of the running robot (a resource entry added
+    through the RS; `esair std remove-resource NAME` ends it)."""
+    from .client import Client
+    with Client(endpoint) as c:
+        kids = c.call("add-resource", {"name": name, "class": "esair_std.record.replay:Replay",
+                                       "allow": {"*": "read"},
+                                       "options": {"file": os.path.abspath(file),
+                                                   "speed": speed, "loop": loop}}, timeout=30)
+    for child, kind in kids.items():
+        click.echo(f"{child}: {kind} ready")
+
+
+COMMANDS += [record_cmd, replay_cmd]

@@ -1,0 +1,216 @@
+"""STARFISH's room as plain geometry: wall segments, coloured landmarks (vertical
+cylinders), the sound source, the radio's access point — and the two questions the
+sensors ask of it: how far does a ray go (camera, radio) and is a segment blocked by a
+wall (line of sight).
+
+Units are metres and radians; world frame x right, y up, angles counter-clockwise from
++x. Everything here is pure computation on numpy arrays: no clock, no thread, no I/O,
+so the microphone renderer, the camera and the radio model use it the same way whether
+the robot's pose comes from the stand-in world (``standin.py``) or from STARFISH's
+emulator.
+
+A room from a dict (a deployment's ``room:`` option, or YAML)::
+
+    walls: [[0, 0, 6, 0], [6, 0, 6, 4], [6, 4, 0, 4], [0, 4, 0, 0],   # x1 y1 x2 y2
+            [3, 0, 3, 2.5]]
+    landmarks: [{x: 5.6, y: 0.4, r: 0.12, color: [40, 160, 60]}]
+    source: {x: 5.0, y: 3.0, on: true, level: 0.1}
+    access_point: [1.0, 2.0]
+    wall_height: 1.0
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Iterable
+
+import numpy as np
+
+EPS = 1e-9
+
+DEFAULT_ROOM: dict[str, Any] = {
+    # a 6 m x 4 m room; an inner wall from the bottom wall up to y = 2.5 splits it into
+    # two halves joined by a 1.5 m gap at the top (the radio's "behind a wall")
+    "walls": [[0, 0, 6, 0], [6, 0, 6, 4], [6, 4, 0, 4], [0, 4, 0, 0], [3, 0, 3, 2.5]],
+    "landmarks": [
+        {"x": 0.4, "y": 3.6, "r": 0.12, "color": [40, 160, 60]},     # green pole
+        {"x": 5.6, "y": 0.4, "r": 0.12, "color": [230, 200, 40]},    # yellow pole
+        {"x": 5.6, "y": 3.6, "r": 0.12, "color": [40, 90, 220]},     # blue pole
+    ],
+    "source": {"x": 1.0, "y": 3.2, "on": False, "level": 0.1},
+    "access_point": [1.0, 1.0],
+    "wall_height": 1.0,
+}
+
+SOURCE_COLOR = (220, 30, 30)        # the sound source's marker in pictures: red
+SOURCE_RADIUS = 0.08
+SOURCE_HEIGHT = 0.5
+
+
+class RoomError(ValueError):
+    """A room description that cannot be used (the message says which field)."""
+
+
+def _num(value: Any, what: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise RoomError(f"{what} must be a finite number, not {value!r}")
+    return float(value)
+
+
+def _color(value: Any, what: str) -> tuple[int, int, int]:
+    if (not isinstance(value, (list, tuple)) or len(value) != 3
+            or not all(isinstance(c, int) and not isinstance(c, bool) and 0 <= c <= 255
+                       for c in value)):
+        raise RoomError(f"{what} must be three integers 0-255, not {value!r}")
+    return (value[0], value[1], value[2])
+
+
+class Source:
+    """The room's sound source: where it is, whether it sounds, its level (RMS, in
+    full-scale units, heard at 1 m)."""
+
+    __slots__ = ("x", "y", "on", "level")
+
+    def __init__(self, x: float, y: float, on: bool = True, level: float = 0.1):
+        self.x, self.y, self.on, self.level = float(x), float(y), bool(on), float(level)
+
+    @classmethod
+    def from_dict(cls, d: Any, what: str = "source") -> "Source":
+        if not isinstance(d, dict):
+            raise RoomError(f"{what} must be a mapping with x, y (and on, level), not {d!r}")
+        unknown = set(d) - {"x", "y", "on", "level"}
+        if unknown:
+            raise RoomError(f"{what}: unknown field {sorted(unknown)[0]!r} (known: x, y, on, level)")
+        for k in ("x", "y"):
+            if k not in d:
+                raise RoomError(f"{what}: missing field {k!r}")
+        on = d.get("on", True)
+        if not isinstance(on, bool):
+            raise RoomError(f"{what}.on must be true or false, not {on!r}")
+        level = _num(d.get("level", 0.1), f"{what}.level")
+        if not 0 < level <= 1:
+            raise RoomError(f"{what}.level must be in (0, 1], not {level!r}")
+        return cls(_num(d["x"], f"{what}.x"), _num(d["y"], f"{what}.y"), on, level)
+
+    def to_dict(self) -> dict:
+        return {"x": self.x, "y": self.y, "on": self.on, "level": self.level}
+
+
+class Room:
+    """Walls (segments), landmarks (cylinders), the sound source and the access point."""
+
+    def __init__(self, walls: Iterable[Iterable[float]], landmarks: Iterable[dict] = (),
+                 source: Source | None = None, access_point: tuple[float, float] = (0.0, 0.0),
+                 wall_height: float = 1.0):
+        w = np.asarray([list(s) for s in walls], dtype=float)
+        if w.ndim != 2 or w.shape[1] != 4 or len(w) == 0:
+            raise RoomError("walls must be a list of [x1, y1, x2, y2] segments (at least one)")
+        if not np.isfinite(w).all():
+            raise RoomError("walls must hold finite numbers")
+        self.walls = w
+        self.a = w[:, 0:2]
+        self.b = w[:, 2:4]
+        if (np.hypot(*(self.b - self.a).T) < EPS).any():
+            raise RoomError("a wall segment has zero length")
+        self.landmarks = [dict(lm) for lm in landmarks]
+        self.source = source if source is not None else Source(0.0, 0.0, on=False)
+        self.access_point = (float(access_point[0]), float(access_point[1]))
+        self.wall_height = float(wall_height)
+
+    @classmethod
+    def from_dict(cls, d: dict | None = None) -> "Room":
+        """A room from a mapping (missing keys from DEFAULT_ROOM); RoomError on bad input."""
+        d = {} if d is None else d
+        if not isinstance(d, dict):
+            raise RoomError(f"room must be a mapping, not {type(d).__name__}")
+        unknown = set(d) - set(DEFAULT_ROOM)
+        if unknown:
+            raise RoomError(f"room: unknown field {sorted(unknown)[0]!r} "
+                            f"(known: {', '.join(DEFAULT_ROOM)})")
+        full = {**DEFAULT_ROOM, **d}
+        walls = full["walls"]
+        if not isinstance(walls, list) or not walls:
+            raise RoomError("room.walls must be a non-empty list of [x1, y1, x2, y2]")
+        for i, s in enumerate(walls):
+            if not isinstance(s, list) or len(s) != 4:
+                raise RoomError(f"room.walls[{i}] must be [x1, y1, x2, y2], not {s!r}")
+            for j, v in enumerate(s):
+                _num(v, f"room.walls[{i}][{j}]")
+        landmarks = []
+        for i, lm in enumerate(full["landmarks"] or []):
+            what = f"room.landmarks[{i}]"
+            if not isinstance(lm, dict):
+                raise RoomError(f"{what} must be a mapping with x, y, r, color")
+            unknown = set(lm) - {"x", "y", "r", "color", "height"}
+            if unknown:
+                raise RoomError(f"{what}: unknown field {sorted(unknown)[0]!r}")
+            r = _num(lm.get("r", 0.1), f"{what}.r")
+            if r <= 0:
+                raise RoomError(f"{what}.r must be > 0, not {r!r}")
+            landmarks.append({"x": _num(lm.get("x"), f"{what}.x"),
+                              "y": _num(lm.get("y"), f"{what}.y"), "r": r,
+                              "color": _color(lm.get("color"), f"{what}.color"),
+                              "height": _num(lm.get("height", 0.8), f"{what}.height")})
+        ap = full["access_point"]
+        if not isinstance(ap, list) or len(ap) != 2:
+            raise RoomError(f"room.access_point must be [x, y], not {ap!r}")
+        ap_xy = (_num(ap[0], "room.access_point[0]"), _num(ap[1], "room.access_point[1]"))
+        wh = _num(full["wall_height"], "room.wall_height")
+        if wh <= 0:
+            raise RoomError(f"room.wall_height must be > 0, not {wh!r}")
+        return cls(walls, landmarks, Source.from_dict(full["source"], "room.source"), ap_xy, wh)
+
+    # --- rays -----------------------------------------------------------------
+    def cast(self, origin: tuple[float, float], angles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """For rays from ``origin`` at ``angles`` (radians, world frame): the distance to
+        the first wall each one meets (inf if none) and that wall's index (-1)."""
+        o = np.asarray(origin, dtype=float)
+        d = np.stack([np.cos(angles), np.sin(angles)], axis=-1)          # (n, 2)
+        e = self.b - self.a                                              # (m, 2)
+        ao = self.a - o                                                  # (m, 2)
+        denom = d[:, None, 0] * e[None, :, 1] - d[:, None, 1] * e[None, :, 0]   # (n, m)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = (ao[None, :, 0] * e[None, :, 1] - ao[None, :, 1] * e[None, :, 0]) / denom
+            s = (ao[None, :, 0] * d[:, None, 1] - ao[None, :, 1] * d[:, None, 0]) / denom
+        hit = (np.abs(denom) > EPS) & (t > EPS) & (s >= -EPS) & (s <= 1 + EPS)
+        t = np.where(hit, t, np.inf)
+        idx = np.argmin(t, axis=1)
+        dist = t[np.arange(len(angles)), idx]
+        return dist, np.where(np.isfinite(dist), idx, -1)
+
+    def blocked(self, p: tuple[float, float], q: tuple[float, float]) -> bool:
+        """True if the segment p-q crosses a wall (strictly between its ends)."""
+        p_ = np.asarray(p, dtype=float)
+        r = np.asarray(q, dtype=float) - p_
+        length = float(np.hypot(*r))
+        if length < EPS:
+            return False
+        dist, _ = self.cast(tuple(p_), np.array([math.atan2(r[1], r[0])]))
+        return bool(dist[0] < length - 1e-6)
+
+    def clearance(self, p: tuple[float, float]) -> float:
+        """Distance from point p to the nearest wall."""
+        pt = np.asarray(p, dtype=float)
+        e = self.b - self.a
+        u = np.clip(((pt - self.a) * e).sum(axis=1) / (e * e).sum(axis=1), 0.0, 1.0)
+        nearest = self.a + u[:, None] * e
+        return float(np.min(np.hypot(*(pt - nearest).T)))
+
+    def bounds(self) -> tuple[float, float, float, float]:
+        xs = np.concatenate([self.walls[:, 0], self.walls[:, 2]])
+        ys = np.concatenate([self.walls[:, 1], self.walls[:, 3]])
+        return float(xs.min()), float(ys.min()), float(xs.max()), float(ys.max())
+
+
+def bearing_to(pose: tuple[float, float, float], x: float, y: float) -> float:
+    """The bearing of point (x, y) as seen from ``pose`` (x, y, theta), in the robot's
+    frame: radians in (-pi, pi], 0 straight ahead, positive to the left."""
+    return wrap(math.atan2(y - pose[1], x - pose[0]) - pose[2])
+
+
+def wrap(angle: float) -> float:
+    """An angle in (-pi, pi]."""
+    a = math.fmod(angle + math.pi, 2 * math.pi)
+    if a <= 0:
+        a += 2 * math.pi
+    return a - math.pi

@@ -1,0 +1,234 @@
+"""The HMI's side of the runtime: one Zenoh session to the control endpoint.
+
+The principal ``hmi`` registers with the RS like any behavior: ``watch`` (read) on every
+sensor the deployment's ``allow`` lets it read, ``command`` only where ``allow`` grants
+``hmi: command``. A poller thread asks ``ls`` four times a second (component states: a
+lost link shows within that) and ``inspect`` of each resource entry once a second (the
+link's counters); samples arrive on Zenoh's thread. Everything goes out through
+``emit(message)``, which must only hand the message over (the server's loop copies it
+into each browser's bounded queue).
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import os
+import threading
+import time
+from typing import Any, Callable
+
+from ..errors import StdError, TransportError
+from ..transport import keys
+from ..transport.bus import Bus
+from ..transport.session import check_endpoint
+
+log = logging.getLogger("esair_std.hmi")
+LS_PERIOD_S = 0.25
+INSPECT_EVERY = 4          # ls periods between two inspects of the resource entries
+PRINCIPAL = "hmi"
+
+Emit = Callable[[dict], None]
+
+
+class BridgeError(StdError):
+    """The runtime cannot be reached or refused the HMI."""
+
+
+class Bridge:
+    def __init__(self, endpoint: str, emit: Emit, who: str = PRINCIPAL,
+                 session_options: dict | None = None):
+        self.endpoint = check_endpoint(endpoint)
+        self.emit = emit
+        self.who = who
+        if session_options is None:
+            extra = os.environ.get("ESAIR_STD_SESSION") or "{}"
+            try:
+                session_options = json.loads(extra)
+            except ValueError:
+                raise BridgeError("ESAIR_STD_SESSION is not a JSON object") from None
+        self.options = session_options
+        self.bus: Bus | None = None
+        self.robot = ""
+        self.robots: dict[str, Any] = {}      # MIN link entry -> robot_info
+        self.problems: list[str] = []
+        self.rows: list[dict] = []
+        self.watched: dict[str, str] = {}     # sensor -> "ok" or the refusal
+        self.link: dict[str, dict] = {}
+        self.runtime_up = False
+        self._last_sample: dict[str, float] = {}
+        self._prev_counts: dict[str, tuple[float, int, int]] = {}
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+        self.c = dict(samples=0, samples_unwatched=0, ls_failed=0)
+        self.want: Callable[[str], bool] = lambda name: True    # the sensors to watch
+
+    # ---- life cycle
+    def start(self) -> None:
+        try:
+            self.bus = Bus(connect=[self.endpoint], options=self.options)
+        except TransportError as exc:
+            raise BridgeError(f"cannot open a session to {self.endpoint}: {exc}") from None
+        r = self.bus.request("esair/*/ctl/ping", {}, 2.0) or self.bus.request(
+            "esair/*/ctl/ping", {}, 3.0)
+        if r is None or "ok" not in r:
+            self.bus.close()
+            raise BridgeError(f"no ESAIR STD runtime answers on {self.endpoint} "
+                              "(is `esair std run` running?)")
+        self.robot = r["ok"]["robot"]
+        self.runtime_up = True
+        d = self.call("describe")       # the runtime reads the board files, not this process
+        self.robots, self.problems = d.get("robots", {}), d.get("problems", [])
+        self.bus.subscribe(f"esair/{self.robot}/sensor/**", self._on_sample, with_key=True)
+        self._poll_once(inspect=True)
+        self._thread = threading.Thread(target=self._run, name="hmi:poll", daemon=True)
+        self._thread.start()
+
+    def close(self) -> None:
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(2.0)
+        if self.bus is not None:
+            self.bus.close()
+
+    # ---- requests
+    def call(self, verb: str, body: dict | None = None, timeout: float = 5.0) -> Any:
+        """One control request; the ``ok`` value, or BridgeError with the runtime's
+        message (the error's type prefixed when it is a refusal)."""
+        assert self.bus is not None
+        r = self.bus.request(keys.ctl(self.robot, verb), body or {}, timeout)
+        if r is None:
+            raise BridgeError(f"the runtime did not answer {verb!r} within {timeout:g} s")
+        if "error" in r:
+            raise BridgeError(r["error"])
+        return r.get("ok")
+
+    def command(self, resource: str, command: Any, timeout: float = 2.0) -> Any:
+        return self.call("command", {"who": self.who, "resource": resource,
+                                     "command": command, "timeout": timeout},
+                         timeout=timeout + 3.0)
+
+    def hello(self) -> dict:
+        """What a newly connected page gets first."""
+        return {"t": "hello", "robot": self.robot, "robots": self.robots,
+                "problems": self.problems, "rows": self.rows, "link": self.link,
+                "watched": self.watched, "runtime_up": self.runtime_up}
+
+    # ---- samples (Zenoh's thread: hand over and return)
+    def _on_sample(self, key: str, obj: Any) -> None:
+        res = key.rsplit("/sensor/", 1)[-1]
+        if self.watched.get(res) != "ok" or not isinstance(obj, dict):
+            self.c["samples_unwatched"] += 1
+            return
+        self.c["samples"] += 1
+        self._last_sample[res] = time.time()
+        self.emit({"t": "s", "r": res, "q": obj.get("seq"), "ts": obj.get("t"),
+                   "v": obj.get("v")})
+
+    # ---- the poller
+    def _run(self) -> None:
+        n = 0
+        while not self._stop.wait(LS_PERIOD_S):
+            n += 1
+            try:
+                self._poll_once(inspect=n % INSPECT_EVERY == 0)
+            except Exception as exc:  # noqa: BLE001 - keep polling
+                log.error("hmi poll: %s", exc)
+
+    def _poll_once(self, inspect: bool) -> None:
+        try:
+            rows = self.call("ls", {"all": True}, timeout=1.0)   # as `esair std ls` shows
+        except BridgeError as exc:
+            self.c["ls_failed"] += 1
+            if self.runtime_up:
+                self.runtime_up = False
+                self.emit({"t": "runtime", "up": False, "reason": str(exc)})
+                self.emit(_log("error", f"runtime not answering: {exc}"))
+            return
+        if not self.runtime_up:
+            self.runtime_up = True
+            self.emit({"t": "runtime", "up": True, "reason": ""})
+            self.emit(_log("info", "runtime answers again"))
+        self._changes(self.rows, rows)
+        if rows != self.rows:
+            self.rows = rows
+            self.emit({"t": "ls", "rows": rows})
+        self._watch_new(rows)
+        self._link(rows, inspect)
+
+    def _changes(self, old: list[dict], new: list[dict]) -> None:
+        before = {r["name"]: r for r in old}
+        for r in new:
+            prev = before.pop(r["name"], None)
+            if prev is None:
+                if old:
+                    self.emit(_log("info", f"{r['name']}: added ({r['kind']}, {r['state']})"))
+            elif prev["state"] != r["state"]:
+                level = "error" if r["state"] in ("failed", "lost") else "info"
+                why = f": {r['reason']}" if r.get("reason") else ""
+                self.emit(_log(level, f"{r['name']}: {prev['state']} -> {r['state']}{why}"))
+        for name in before:
+            self.emit(_log("info", f"{name}: removed"))
+
+    def _watch_new(self, rows: list[dict]) -> None:
+        present = {r["name"] for r in rows if r["kind"] == "sensor" and self.want(r["name"])}
+        for name in list(self.watched):
+            if name not in present:
+                del self.watched[name]        # removed: watched again if it comes back
+        for name in sorted(present - set(self.watched)):
+            try:
+                self.call("watch", {"who": self.who, "resource": name})
+                self.watched[name] = "ok"
+            except BridgeError as exc:
+                self.watched[name] = str(exc)
+                self.emit(_log("warning", f"{name}: not shown: {exc}"))
+            self.emit({"t": "watched", "watched": dict(self.watched)})
+
+    def _link(self, rows: list[dict], inspect: bool) -> None:
+        """Per MIN link entry: state, last reply age, commands/s, errors."""
+        now = time.time()
+        out = {}
+        for entry in self.robots:
+            mine = [r for r in rows if r["name"].startswith(entry + ".")]
+            if not mine:
+                out[entry] = {"state": "gone", "reason": "not deployed"}
+                continue
+            lost = [r for r in mine if r["state"] != "ready"]
+            state = "ready" if not lost else "lost"
+            reason = lost[0].get("reason", "") if lost else ""
+            info = dict(self.link.get(entry, {}))
+            info.update(state=state, reason=reason, host=mine[0].get("host"),
+                        pid=mine[0].get("pid"))
+            last = max((t for r, t in self._last_sample.items()
+                        if r.startswith(entry + ".")), default=None)
+            info["reply_age_s"] = None if last is None else round(now - last, 3)
+            if inspect:
+                self._counters(entry, info, now)
+            out[entry] = info
+        if out != self.link:
+            for entry, info in out.items():
+                before = self.link.get(entry, {}).get("state")
+                if before is not None and before != info["state"]:
+                    self.emit(_log("error" if info["state"] != "ready" else "info",
+                                   f"link {entry}: {info['state']}"
+                                   + (f" ({info['reason']})" if info["reason"] else "")))
+            self.link = out
+            self.emit({"t": "link", "link": out})
+
+    def _counters(self, entry: str, info: dict, now: float) -> None:
+        try:
+            c = self.call("inspect", {"name": entry}, timeout=1.0).get("counters", {})
+        except BridgeError:
+            return
+        cmds = sum(v.get("commands", 0) for v in c.values() if isinstance(v, dict))
+        errs = sum(v.get("command_errors", 0) for v in c.values() if isinstance(v, dict))
+        prev = self._prev_counts.get(entry)
+        self._prev_counts[entry] = (now, cmds, errs)
+        if prev is not None and now > prev[0]:
+            info["commands_per_s"] = round((cmds - prev[1]) / (now - prev[0]), 1)
+        info["commands"] = cmds
+        info["errors"] = errs
+
+
+def _log(level: str, text: str) -> dict:
+    return {"t": "log", "level": level, "text": text, "ts": time.time()}

@@ -1,0 +1,58 @@
+"""What the page needs to know of a MIN robot, from its validated board files: each
+servo's limits and stand angle, the motions of its EEPROM image with their frames, the
+foot sensors and their groups, the balance reaction's threshold, the tick."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from esair_min.errors import EsairError
+from esair_min.model.validate import load_robot
+from esair_min.resources import resolve_robot
+
+from ..drivers.minlink.budget import line_budget
+
+MINLINK = "esair_std.drivers.minlink:MinLink"
+
+
+def robot_info(robot_arg: str) -> dict[str, Any]:
+    """The page's description of the robot of ``robot_arg`` (a bundled example's name,
+    a folder, a board file). Raises EsairError when it cannot be loaded."""
+    robot = load_robot(resolve_robot(robot_arg))
+    names = [s.name for s in robot.servos]
+    balance = None
+    for r in robot.central.reactions:
+        if r.kind == "balance":
+            balance = {"name": r.name, "compare": list(r.compare), "threshold": r.threshold,
+                       "samples": r.samples}
+            break
+    groups: dict[str, list[str]] = {}
+    for s in robot.sensors:
+        groups.setdefault(s.group, []).append(s.name)
+    return {
+        "name": robot.name,
+        "tick_s": line_budget(robot).tick_s,
+        "servos": [{"name": s.name, "index": s.index, "min": s.min_angle, "max": s.max_angle,
+                    "stand": s.stand_angle, "speed": s.default_speed} for s in robot.servos],
+        "motions": [{"name": m.name, "number": m.number, "delay_ticks": m.delay_ticks,
+                     "frames": [dict(zip(names, f.angles, strict=True)) for f in m.frames]}
+                    for m in robot.motions],
+        "sensors": [{"name": s.name, "group": s.group, "min": s.min, "max": s.max}
+                    for s in robot.sensors],
+        "groups": groups,
+        "balance": balance,
+    }
+
+
+def entries_info(describe: dict) -> tuple[dict[str, Any], list[str]]:
+    """Robot descriptions of the MIN link entries of a ``describe`` answer, and the
+    problems met (an entry whose board files cannot be read here gets generic panels)."""
+    robots, problems = {}, []
+    for entry, d in (describe.get("entries") or {}).items():
+        if d.get("class") != MINLINK:
+            continue
+        try:
+            robots[entry] = robot_info(str(d.get("robot", entry)))
+        except EsairError as exc:
+            problems.append(f"{entry}: board files not readable here: {exc}")
+    return robots, problems

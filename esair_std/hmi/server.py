@@ -1,0 +1,365 @@
+"""The web side of the HMI: static files and one WebSocket on one port (``websockets``).
+
+Each page gets the bridge's ``hello`` and then every message the bridge emits, through
+its own bounded queue (a page that cannot keep up loses messages, counted per page and
+in ``/status.json``; nobody else waits for it). Frames from a page are small JSON
+objects (``op``); anything else — not JSON, not an object, an unknown ``op``, a field of
+the wrong type, a binary frame — is a bad frame: counted, answered with an error,
+nothing changes. Commands need the operator role (auth.py). The WebSocket handshake is
+refused (403) when the browser's ``Origin`` is not this server's own: a page of another
+site cannot drive the robot through the user's browser.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import logging
+import mimetypes
+import ssl as _ssl
+import time
+from http import HTTPStatus
+from pathlib import Path
+from typing import Any, Callable
+
+from websockets.asyncio.server import ServerConnection, serve
+from websockets.datastructures import Headers
+from websockets.exceptions import ConnectionClosed
+from websockets.http11 import Request, Response
+
+from ..errors import StdError
+from ..record.mcapio import read_samples
+from ..record.tap import Tap
+from .auth import Auth
+from .bridge import Bridge, BridgeError
+
+log = logging.getLogger("esair_std.hmi")
+STATIC = Path(__file__).resolve().parent / "static"
+PAGE_QUEUE = 512            # messages waiting for one page
+MAX_FRAME = 64 * 1024       # bytes of one frame from a page
+CSP = ("default-src 'self'; img-src 'self' data:; style-src 'self' 'unsafe-inline'; "
+       "connect-src 'self'; frame-ancestors 'none'")
+OPERATOR_OPS = {"cmd", "stop", "add", "remove", "restart", "record"}
+LOAD_MAX = 50_000           # samples of a recording sent to a page for replay
+
+
+def load_static(root: Path = STATIC) -> dict[str, tuple[bytes, str]]:
+    files = {}
+    for path in sorted(root.rglob("*")):
+        if path.is_file() and not path.name.startswith("."):
+            ctype = mimetypes.guess_type(path.name)[0] or "application/octet-stream"
+            if path.suffix == ".js":
+                ctype = "text/javascript"
+            if ctype.startswith("text/"):
+                ctype += "; charset=utf-8"
+            files["/" + path.relative_to(root).as_posix()] = (path.read_bytes(), ctype)
+    files["/"] = files["/index.html"]
+    return files
+
+
+class BadFrame(Exception):
+    pass
+
+
+class Page:
+    def __init__(self, ws: ServerConnection, role: str):
+        self.ws = ws
+        self.role = role
+        self.user = ""
+        self.q: asyncio.Queue[str] = asyncio.Queue(PAGE_QUEUE)
+        self.dropped = 0
+
+
+def _field(frame: dict, name: str, kind: type | tuple) -> Any:
+    v = frame.get(name)
+    if not isinstance(v, kind) or isinstance(v, bool) and kind is not bool:
+        raise BadFrame(f"field {name!r} missing or of the wrong type")
+    return v
+
+
+class HmiServer:
+    def __init__(self, endpoint: str, host: str, port: int, auth: Auth,
+                 tls: _ssl.SSLContext | None = None, who: str = "hmi",
+                 record_dir: str | Path = "."):
+        self.endpoint, self.host, self.port = endpoint, host, port
+        self.auth = auth
+        self.tls = tls
+        self.who = who
+        self.files = load_static()
+        self.pages: set[Page] = set()
+        self.bridge: Bridge | None = None
+        self.url = ""
+        self.commanded: dict[str, Any] = {}     # resource -> last command that went through
+        self.record_dir = Path(record_dir)
+        self.tap: Tap | None = None
+        self.c = dict(pages=0, frames=0, bad_frames=0, refused=0, dropped=0,
+                      origin_refused=0, commands=0, command_errors=0)
+        self._stop: asyncio.Event | None = None
+        self._loop: asyncio.AbstractEventLoop | None = None
+
+    # ---- fan-out (any thread -> the loop)
+    def emit(self, msg: dict) -> None:
+        tap = self.tap
+        if tap is not None and msg.get("t") == "s":
+            tap.put(msg)
+        loop = self._loop
+        if loop is not None and not loop.is_closed():
+            loop.call_soon_threadsafe(self._broadcast, msg)
+
+    def _broadcast(self, msg: dict) -> None:
+        text = json.dumps(msg, separators=(",", ":"))
+        for page in list(self.pages):
+            self._send(page, text)
+
+    def _send(self, page: Page, text: str) -> None:
+        try:
+            page.q.put_nowait(text)
+        except asyncio.QueueFull:
+            page.dropped += 1
+            self.c["dropped"] += 1
+
+    def status(self) -> dict:
+        return {"counters": dict(self.c, open_pages=len(self.pages),
+                                 failed_logins=self.auth.failed_logins),
+                "bridge": dict(self.bridge.c) if self.bridge else {}}
+
+    # ---- HTTP
+    def _http(self, connection: ServerConnection, request: Request) -> Response | None:
+        path = request.path.split("?", 1)[0]
+        if path == "/ws":
+            origin = request.headers.get("Origin")
+            host = request.headers.get("Host", "")
+            scheme = "https" if self.tls else "http"
+            if origin is not None and origin != f"{scheme}://{host}":
+                self.c["origin_refused"] += 1
+                log.warning("WebSocket from origin %s refused (this server is %s://%s)",
+                            origin, scheme, host)
+                return connection.respond(HTTPStatus.FORBIDDEN, "origin refused\n")
+            return None
+        if path == "/status.json":
+            body, ctype = json.dumps(self.status()).encode(), "application/json"
+        elif path in self.files:
+            body, ctype = self.files[path]
+        else:
+            return connection.respond(HTTPStatus.NOT_FOUND, "not found\n")
+        headers = Headers([("Content-Type", ctype), ("Content-Length", str(len(body))),
+                           ("Cache-Control", "no-cache"), ("Content-Security-Policy", CSP),
+                           ("X-Content-Type-Options", "nosniff")])
+        return Response(200, "OK", headers, body)
+
+    # ---- one page
+    async def _page(self, ws: ServerConnection) -> None:
+        page = Page(ws, self.auth.first_role())
+        self.pages.add(page)
+        self.c["pages"] += 1
+        assert self.bridge is not None
+        hello = dict(self.bridge.hello(), role=page.role, commanded=list(self.commanded.items()),
+                     recording=self.recording_state(),
+                     login=bool(self.auth.users) and page.role != "operator")
+        self._send(page, json.dumps(hello, separators=(",", ":")))
+        writer = asyncio.create_task(self._writer(page))
+        try:
+            async for frame in ws:
+                self.c["frames"] += 1
+                try:
+                    await self._frame(page, frame)
+                except BadFrame as exc:
+                    self.c["bad_frames"] += 1
+                    self._reply(page, None, False, f"bad frame: {exc}")
+        except ConnectionClosed:
+            pass
+        finally:
+            self.pages.discard(page)
+            writer.cancel()
+
+    async def _writer(self, page: Page) -> None:
+        try:
+            while True:
+                await page.ws.send(await page.q.get())
+        except (ConnectionClosed, asyncio.CancelledError):
+            pass
+
+    def _reply(self, page: Page, ident: Any, ok: bool, value: Any) -> None:
+        msg = {"t": "ack", "id": ident, "ok": ok}
+        msg["result" if ok else "error"] = value
+        self._send(page, json.dumps(msg, separators=(",", ":")))
+
+    async def _frame(self, page: Page, frame: str | bytes) -> None:
+        if not isinstance(frame, str):
+            raise BadFrame("binary frames are not understood")
+        try:
+            obj = json.loads(frame)
+        except ValueError:
+            raise BadFrame("not JSON") from None
+        if not isinstance(obj, dict) or not isinstance(obj.get("op"), str):
+            raise BadFrame("expected an object with an 'op'")
+        op, ident = obj["op"], obj.get("id")
+        if ident is not None and not isinstance(ident, (int, str)):
+            raise BadFrame("field 'id' must be a number or a string")
+        handler = getattr(self, f"op_{op}", None)
+        if handler is None:
+            raise BadFrame(f"unknown op {op!r}")
+        if op in OPERATOR_OPS and page.role != "operator":
+            self.c["refused"] += 1
+            self._reply(page, ident, False, "viewers cannot command: log in as an operator")
+            return
+        await handler(page, ident, obj)
+
+    async def _call(self, page: Page, ident: Any, fn: Callable[..., Any], *args: Any,
+                    what: str = "") -> Any:
+        loop = asyncio.get_running_loop()
+        try:
+            result = await loop.run_in_executor(None, fn, *args)
+        except BridgeError as exc:
+            self.c["command_errors"] += 1
+            self._reply(page, ident, False, str(exc))
+            self.emit({"t": "log", "level": "error", "text": f"{what}: {exc}",
+                       "ts": time.time()})
+            return None
+        self._reply(page, ident, True, result)
+        return result
+
+    # ---- ops
+    async def op_ping(self, page: Page, ident: Any, obj: dict) -> None:
+        self._reply(page, ident, True, obj.get("ts"))
+
+    async def op_login(self, page: Page, ident: Any, obj: dict) -> None:
+        if "token" in obj:
+            user = self.auth.resume(obj["token"])
+            token = obj["token"] if user else None
+        else:
+            user = _field(obj, "user", str)
+            token = self.auth.login(user, _field(obj, "password", str))
+        if token is None:
+            self._reply(page, ident, False, "wrong user or password")
+            return
+        page.role, page.user = "operator", str(user)
+        self._reply(page, ident, True, {"role": "operator", "token": token, "user": user})
+
+    def _commanded(self, res: str, command: Any) -> None:
+        if res.endswith(".motion"):            # a motion moves every servo of its robot
+            entry = res[: -len(".motion")]
+            for key in [k for k in self.commanded if k.startswith(entry + ".servo.")]:
+                del self.commanded[key]
+        self.commanded.pop(res, None)
+        self.commanded[res] = command
+        self.emit({"t": "commanded", "r": res, "v": command})
+
+    async def op_cmd(self, page: Page, ident: Any, obj: dict) -> None:
+        res = _field(obj, "resource", str)
+        if "command" not in obj:
+            raise BadFrame("field 'command' missing")
+        self.c["commands"] += 1
+        assert self.bridge is not None
+        r = await self._call(page, ident, self.bridge.command, res, obj["command"],
+                             what=f"{res} {json.dumps(obj['command'])}")
+        if r is not None:
+            self._commanded(res, obj["command"])
+            self.emit({"t": "log", "level": "info", "ts": time.time(),
+                       "text": f"{page.user or page.role}: {res} {json.dumps(obj['command'])}"
+                               f" -> {r}"})
+
+    async def op_stop(self, page: Page, ident: Any, obj: dict) -> None:
+        assert self.bridge is not None
+        targets = [f"{e}.motion" for e in self.bridge.robots] or [
+            r["name"] for r in self.bridge.rows if r["name"].endswith(".motion")]
+        if not targets:
+            self._reply(page, ident, False, "no motion actuator to stop")
+            return
+        self.c["commands"] += 1
+        for res in targets:
+            r = await self._call(page, ident, self.bridge.command, res, "stop",
+                                 what=f"STOP {res}")
+            if r is not None:
+                self._commanded(res, "stop")
+        self.emit({"t": "log", "level": "warning", "text": f"STOP by {page.user or 'operator'}",
+                   "ts": time.time()})
+
+    async def op_add(self, page: Page, ident: Any, obj: dict) -> None:
+        body = {"name": _field(obj, "name", str), "class": _field(obj, "class", str),
+                "uses": obj.get("uses") or {}, "options": obj.get("options") or {}}
+        if not isinstance(body["uses"], dict) or not isinstance(body["options"], dict):
+            raise BadFrame("fields 'uses' and 'options' must be objects")
+        assert self.bridge is not None
+        await self._call(page, ident, self.bridge.call, "add", body, 30.0,
+                         what=f"add {body['name']}")
+
+    async def op_remove(self, page: Page, ident: Any, obj: dict) -> None:
+        assert self.bridge is not None
+        name = _field(obj, "name", str)
+        await self._call(page, ident, self.bridge.call, "remove", {"name": name}, 30.0,
+                         what=f"remove {name}")
+
+    async def op_restart(self, page: Page, ident: Any, obj: dict) -> None:
+        assert self.bridge is not None
+        name = _field(obj, "name", str)
+        await self._call(page, ident, self.bridge.call, "restart", {"name": name}, 30.0,
+                         what=f"restart {name}")
+
+    async def op_record(self, page: Page, ident: Any, obj: dict) -> None:
+        on = _field(obj, "on", bool)
+        if on and self.tap is None:
+            name = time.strftime(f"esair-{self.bridge.robot if self.bridge else 'robot'}-%Y%m%d-%H%M%S.mcap")
+            try:
+                self.tap = Tap(self.record_dir / name)
+            except StdError as exc:
+                self._reply(page, ident, False, str(exc))
+                return
+        elif not on and self.tap is not None:
+            tap, self.tap = self.tap, None
+            await asyncio.get_running_loop().run_in_executor(None, tap.stop)
+            self.emit({"t": "log", "level": "info", "ts": time.time(),
+                       "text": f"recorded {tap.path.name}: {tap.c['written']} samples, "
+                               f"{tap.c['dropped']} dropped"})
+        state = self.recording_state()
+        self._reply(page, ident, True, state)
+        self.emit(state)
+
+    def recording_state(self) -> dict:
+        tap = self.tap
+        return {"t": "recording", "on": tap is not None, "file": tap.path.name if tap else ""}
+
+    async def op_recordings(self, page: Page, ident: Any, obj: dict) -> None:
+        files = sorted(self.record_dir.glob("*.mcap"), key=lambda p: p.stat().st_mtime)
+        self._reply(page, ident, True, [{"file": p.name, "bytes": p.stat().st_size}
+                                        for p in files])
+
+    async def op_load(self, page: Page, ident: Any, obj: dict) -> None:
+        name = _field(obj, "file", str)
+        path = self.record_dir / name
+        if "/" in name or not name.endswith(".mcap") or not path.is_file():
+            self._reply(page, ident, False, f"no recording {name!r}")
+            return
+
+        def load() -> list:
+            out = []
+            for topic, seq, t, value in read_samples(path):
+                out.append([topic, seq, t, value])
+                if len(out) >= LOAD_MAX:
+                    break
+            return out
+        try:
+            samples = await asyncio.get_running_loop().run_in_executor(None, load)
+        except StdError as exc:
+            self._reply(page, ident, False, str(exc))
+            return
+        self._reply(page, ident, True, {"file": name, "samples": samples})
+
+    # ---- life cycle
+    async def serve(self, ready: Callable[[str], None], stop: asyncio.Event) -> None:
+        self._loop = asyncio.get_running_loop()
+        self.bridge = Bridge(self.endpoint, self.emit, who=self.who)
+        await self._loop.run_in_executor(None, self.bridge.start)
+        try:
+            async with serve(self._page, self.host, self.port, process_request=self._http,
+                             ssl=self.tls, max_size=MAX_FRAME, server_header=None,
+                             compression=None) as server:
+                port = server.sockets[0].getsockname()[1]
+                host = f"[{self.host}]" if ":" in self.host else self.host
+                self.url = f"{'https' if self.tls else 'http'}://{host}:{port}/"
+                ready(self.url)
+                await stop.wait()
+        finally:
+            self.bridge.close()
+            if self.tap is not None:
+                self.tap.stop()

@@ -1,0 +1,226 @@
+// The page: one WebSocket to `esair std hmi`; panels built from what the server says
+// (resource kinds, the robot's board files). No build step, no network but this server.
+import { Pose } from "./pose.js";
+import { Joints, Motions } from "./joints.js";
+import { Feet } from "./feet.js";
+import { Components } from "./components.js";
+import { Log } from "./log.js";
+import { Generic } from "./generic.js";
+import { Replay } from "./replay.js";
+
+const $ = (id) => document.getElementById(id);
+
+class App {
+  constructor() {
+    this.ws = null;
+    this.nextId = 1;
+    this.pending = new Map();
+    this.role = "viewer";
+    this.retry = 250;
+    this.link = {};
+    this.runtimeUp = true;
+    this.wsUp = false;
+    this.robots = {};
+    this.stats = { samples: 0, latencies: [] };
+    this.log = new Log($("log"), $("log-level"));
+    this.components = new Components($("components"), $("add"), this);
+    this.dirty = false;
+    $("stop").addEventListener("click", () => this.stop());
+    $("login").addEventListener("submit", (e) => { e.preventDefault(); this.login(); });
+    $("record").addEventListener("click", () => this.record());
+    this.replay = new Replay(this);
+    window.__hmi = this;         // for tests and the bench
+    this.connect();
+    requestAnimationFrame((t) => this.frame(t));
+  }
+
+  connect() {
+    const proto = location.protocol === "https:" ? "wss" : "ws";
+    const ws = new WebSocket(`${proto}://${location.host}/ws`);
+    this.ws = ws;
+    ws.onopen = () => {
+      this.wsUp = true; this.retry = 250;
+      const token = sessionStorage.getItem("esair-hmi-token");
+      if (token) this.send({ op: "login", token }).then((r) => { if (r.ok) this.setRole("operator"); });
+      this.banner();
+    };
+    ws.onmessage = (ev) => this.receive(JSON.parse(ev.data));
+    ws.onclose = () => {
+      this.wsUp = false; this.banner();
+      for (const [, p] of this.pending) p({ ok: false, error: "connection lost" });
+      this.pending.clear();
+      setTimeout(() => this.connect(), this.retry);
+      this.retry = Math.min(this.retry * 2, 2000);
+    };
+  }
+
+  send(msg) {
+    return new Promise((resolve) => {
+      if (!this.ws || this.ws.readyState !== WebSocket.OPEN) {
+        resolve({ ok: false, error: "not connected" }); return;
+      }
+      msg.id = this.nextId++;
+      this.pending.set(msg.id, resolve);
+      this.ws.send(JSON.stringify(msg));
+    });
+  }
+
+  async command(resource, command) {
+    const r = await this.send({ op: "cmd", resource, command });
+    if (!r.ok) this.log.add("error", `${resource} ${JSON.stringify(command)}: ${r.error}`);
+    return r;
+  }
+
+  async record() {
+    const r = await this.send({ op: "record", on: !this.recordingOn });
+    if (!r.ok) this.log.add("error", `record: ${r.error}`);
+    else { this.recording(r.result); this.replay.refresh(); }
+  }
+
+  recording(m) {
+    this.recordingOn = m.on;
+    $("record").classList.toggle("on", m.on);
+    $("record").textContent = m.on ? "■ stop rec" : "● rec";
+    $("record").title = m.on ? `recording to ${m.file}` : "record every sample the page receives to MCAP";
+  }
+
+  async stop() {
+    const r = await this.send({ op: "stop" });
+    if (!r.ok) this.log.add("error", `STOP: ${r.error}`);
+  }
+
+  async login() {
+    const r = await this.send({ op: "login", user: $("login-user").value, password: $("login-pass").value });
+    $("login-pass").value = "";
+    if (r.ok) {
+      sessionStorage.setItem("esair-hmi-token", r.result.token);
+      this.setRole("operator");
+      this.log.add("info", `logged in as ${r.result.user}`);
+    } else this.log.add("error", `login: ${r.error}`);
+  }
+
+  setRole(role, loginOffered) {
+    this.role = role;
+    document.body.classList.toggle("viewer", role !== "operator");
+    $("role").textContent = role;
+    $("stop").disabled = role !== "operator";
+    if (loginOffered !== undefined) this.loginOffered = loginOffered;
+    $("login").hidden = !(this.loginOffered && role !== "operator");
+  }
+
+  receive(m) {
+    switch (m.t) {
+      case "hello": return this.hello(m);
+      case "ack": {
+        const p = this.pending.get(m.id);
+        if (p) { this.pending.delete(m.id); p(m); }
+        else if (!m.ok) this.log.add("error", m.error);
+        return;
+      }
+      case "s": return this.sample(m);
+      case "ls": this.components.update(m.rows); this.generic.rows(m.rows); return;
+      case "link": this.link = m.link; this.linkbar(); this.banner(); return;
+      case "runtime": this.runtimeUp = m.up; this.banner(); return;
+      case "log": this.log.add(m.level, m.text); return;
+      case "commanded": return this.commanded(m.r, m.v);
+      case "watched": return;
+      case "recording": return this.recording(m);
+      default: this.log.add("warning", `unknown message ${m.t}`);
+    }
+  }
+
+  hello(m) {
+    $("robot-name").textContent = m.robot;
+    document.title = `ESAIR ${m.robot}`;
+    this.robots = m.robots;
+    this.link = m.link; this.runtimeUp = m.runtime_up;
+    this.setRole(m.role, m.login);
+    const [entry, info] = Object.entries(m.robots)[0] || [null, null];
+    this.entry = entry; this.info = info;
+    this.pose = new Pose($("pose"), $("pose-note"), info);
+    this.joints = new Joints($("joints"), $("live"), info, entry, this);
+    this.motions = new Motions($("motions"), info, entry, this);
+    this.feet = new Feet($("feet"), $("pause"), $("feet-note"), info);
+    $("feet-panel").hidden = !info;
+    this.generic = new Generic($("sensors"), $("actuators"), m.robots, this);
+    this.components.update(m.rows); this.generic.rows(m.rows);
+    for (const p of m.problems) this.log.add("warning", p);
+    this.recording(m.recording);
+    this.replay.refresh();
+    for (const [res, v] of m.commanded || []) this.commanded(res, v, true);
+    this.linkbar(); this.banner();
+  }
+
+  sample(m) {
+    this.stats.samples++;
+    if (this.replay.active) return;               // the plot shows a recording
+    if (this.entry && m.r === `${this.entry}.feet`) { this.feet.push(m); this.dirty = true; }
+    else if (this.entry && m.r === `${this.entry}.notices`) {
+      const text = (m.v && m.v.notice) || "";
+      const level = text.startsWith("E") ? "error" : text.startsWith("R ") ? "warning" : "info";
+      this.log.add(level, `${this.entry}: !${text}`);
+      if (text.startsWith("R ")) { this.feet.marker(m.ts, text); this.dirty = true; }
+    } else { this.generic.sample(m); this.dirty = true; }
+  }
+
+  commanded(res, v, at_once) {
+    if (!this.entry) return;
+    if (res.startsWith(`${this.entry}.servo.`)) {
+      const servo = res.slice(this.entry.length + 7);
+      const angle = typeof v === "object" ? v.angle : v;
+      this.pose.set({ [servo]: angle }); this.joints.set(servo, angle);
+    } else if (res === `${this.entry}.motion`) {
+      if (v === "stand") this.pose.play(this.info.motions.find((x) => x.name === "stand"), this.info.tick_s, this.joints);
+      else if (v === "stop") this.pose.halt();
+      else if (v && v.play !== undefined) {
+        const mo = this.info.motions.find((x) => x.name === v.play || x.number === Number(v.play));
+        if (mo && at_once) { this.pose.set(mo.frames[mo.frames.length - 1]); this.joints.sync(this.pose.angles); }
+        else if (mo) this.pose.play(mo, this.info.tick_s, this.joints);
+      }
+    }
+    this.dirty = true;
+  }
+
+  linkbar() {
+    const bar = $("linkbar"); bar.textContent = "";
+    const pill = (cls, text, title) => {
+      const s = document.createElement("span"); s.className = `pill ${cls}`;
+      s.textContent = text; if (title) s.title = title; bar.append(s);
+    };
+    pill(this.wsUp ? "ready" : "down", this.wsUp ? "hmi ready" : "hmi lost");
+    pill(this.runtimeUp ? "ready" : "down", this.runtimeUp ? "runtime ready" : "runtime lost");
+    for (const [entry, l] of Object.entries(this.link)) {
+      const state = l.state === "lost" ? "lost · reconnecting" : l.state;
+      const bits = [`${entry} link ${state}`];
+      if (l.reply_age_s != null) bits.push(`reply ${l.reply_age_s < 10 ? l.reply_age_s.toFixed(2) : ">10"} s ago`);
+      if (l.commands_per_s != null) bits.push(`${l.commands_per_s} cmd/s`);
+      if (l.errors != null) bits.push(`${l.errors} errors`);
+      pill(l.state, bits.join(" · "), `${l.host || ""} pid ${l.pid || "?"} ${l.reason || ""}`);
+    }
+  }
+
+  banner() {
+    const b = $("banner");
+    let text = "";
+    if (!this.wsUp) text = "Connection to the HMI server lost — reconnecting…";
+    else if (!this.runtimeUp) text = "The robot's runtime does not answer — retrying…";
+    else for (const [entry, l] of Object.entries(this.link)) {
+      if (l.state !== "ready") { text = `LINK LOST: ${entry} — ${l.reason || l.state} — reconnecting…`; break; }
+    }
+    b.textContent = text; b.hidden = !text;
+    this.linkbar();
+  }
+
+  frame(now) {
+    if (this.dirty) {
+      this.dirty = false;
+      const drawnAt = performance.timeOrigin + performance.now();
+      if (this.feet) this.feet.draw(drawnAt, this.stats.latencies);
+      if (this.generic) this.generic.draw();
+    }
+    if (this.pose && this.pose.animate(now)) this.joints.sync(this.pose.angles);
+    requestAnimationFrame((t) => this.frame(t));
+  }
+}
+
+window.addEventListener("DOMContentLoaded", () => new App());

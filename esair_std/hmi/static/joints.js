@@ -1,0 +1,58 @@
+// One slider per servo actuator, within the servo's limits from the board files; the
+// command is sent while dragging ("live", at most every 100 ms) or on release.
+const LIVE_MS = 100;
+
+export class Joints {
+  constructor(el, liveBox, info, entry, app) {
+    this.el = el; this.live = liveBox; this.app = app; this.entry = entry; this.inputs = {};
+    el.textContent = "";
+    if (!info) { el.textContent = "no servos"; return; }
+    for (const s of info.servos) {
+      const row = document.createElement("label"); row.className = "joint";
+      const name = document.createElement("span"); name.textContent = s.name;
+      const input = document.createElement("input");
+      Object.assign(input, { type: "range", min: s.min, max: s.max, step: 1, value: s.stand });
+      input.dataset.servo = s.name; input.title = `${s.name}: ${s.min}..${s.max}°`;
+      const out = document.createElement("output"); out.textContent = `${s.stand}°`;
+      let last = 0, timer = null;
+      const sendNow = () => { last = performance.now(); timer = null;
+        this.app.command(`${entry}.servo.${s.name}`, { angle: Number(input.value) }); };
+      input.addEventListener("input", () => {
+        out.textContent = `${input.value}°`; input.dataset.dragging = "1";
+        if (!this.live.checked) return;
+        const wait = LIVE_MS - (performance.now() - last);
+        if (wait <= 0) sendNow(); else if (!timer) timer = setTimeout(sendNow, wait);
+      });
+      input.addEventListener("change", () => {
+        delete input.dataset.dragging;
+        if (timer) { clearTimeout(timer); timer = null; }
+        sendNow();
+      });
+      row.append(name, input, out);
+      el.append(row);
+      this.inputs[s.name] = [input, out];
+    }
+  }
+
+  set(servo, angle) {
+    const io = this.inputs[servo];
+    if (!io || io[0].dataset.dragging) return;
+    io[0].value = angle; io[1].textContent = `${angle}°`;
+  }
+
+  sync(angles) { for (const [k, v] of Object.entries(angles)) this.set(k, v); }
+}
+
+// Buttons for the robot's motions (its EEPROM image) and stand.
+export class Motions {
+  constructor(el, info, entry, app) {
+    el.textContent = "";
+    if (!info) return;
+    const add = (label, command) => {
+      const b = document.createElement("button"); b.textContent = label; b.dataset.motion = label;
+      b.addEventListener("click", () => app.command(`${entry}.motion`, command));
+      el.append(b);
+    };
+    for (const m of info.motions) add(m.name, { play: m.name });
+  }
+}

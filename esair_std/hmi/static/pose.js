@@ -1,0 +1,116 @@
+// The robot's pose from the commanded angles (sent by a page, or a motion's frames as
+// the robot plays them, one frame each delay_ticks ticks). A biped whose servos are
+// named {l,r}_{hip_yaw,hip_roll,hip_pitch,knee,ankle_pitch,ankle_roll} (PAPA-MAN) is
+// drawn as a stick figure, front and side; any other robot's joints as dials.
+const LEG = ["hip_yaw", "hip_roll", "hip_pitch", "knee", "ankle_pitch", "ankle_roll"];
+const RAD = Math.PI / 180;
+// proportions of the figure (units of the thigh's length)
+const G = { torso: 1.3, hip: 0.45, thigh: 1, shank: 1, foot: 0.45, head: 0.25 };
+
+export class Pose {
+  constructor(el, note, info) {
+    this.el = el; this.info = info; this.angles = {}; this.motion = null; this.changed = true;
+    el.textContent = "";
+    if (!info) { note.textContent = "(no robot board files)"; return; }
+    for (const s of info.servos) this.angles[s.name] = s.stand;
+    this.biped = ["l", "r"].every((side) => LEG.every((j) => this.angles[`${side}_${j}`] !== undefined));
+    this.canvas = document.createElement("canvas");
+    this.canvas.width = 520; this.canvas.height = this.biped ? 300 : 60 + 90 * Math.ceil(info.servos.length / 6);
+    el.append(this.canvas);
+    note.textContent = this.biped ? "commanded · front and side" : "commanded · joints as dials";
+    this.draw();
+  }
+
+  set(angles) { Object.assign(this.angles, angles); this.changed = true; }
+
+  play(motion, tick_s, joints) {
+    if (!motion || !this.info) return;
+    this.motion = { motion, t0: performance.now(), frame_ms: motion.delay_ticks * tick_s * 1000, shown: -1 };
+  }
+
+  halt() { this.motion = null; }
+
+  // called each animation frame; true when the angles changed
+  animate(now) {
+    if (!this.info) return false;
+    if (this.motion) {
+      const m = this.motion;
+      const i = Math.min(m.motion.frames.length - 1, Math.floor((now - m.t0) / m.frame_ms));
+      if (i >= 0 && i !== m.shown) { m.shown = i; this.set(m.motion.frames[i]); }
+      if (now - m.t0 > m.frame_ms * m.motion.frames.length) this.motion = null;
+    }
+    if (!this.changed) return false;
+    this.changed = false;
+    this.draw();
+    return true;
+  }
+
+  draw() {
+    if (!this.canvas) return;
+    const c = this.canvas.getContext("2d");
+    c.clearRect(0, 0, this.canvas.width, this.canvas.height);
+    if (this.biped) { this.front(c, 130, 40, 55); this.side(c, 390, 40, 55); }
+    else this.dials(c);
+  }
+
+  a(name) { return (this.angles[name] ?? 90) - 90; }  // degrees from the stand angle
+
+  limb(c, x, y, ang, len, s) { const x2 = x + Math.sin(ang) * len * s, y2 = y + Math.cos(ang) * len * s;
+    c.lineTo(x2, y2); return [x2, y2]; }
+
+  front(c, cx, top, s) {
+    c.lineWidth = 5; c.lineCap = "round"; c.strokeStyle = "#1d2430";
+    c.font = "12px system-ui"; c.fillStyle = "#6b7280"; c.fillText("front", cx - 14, top - 22);
+    const hipY = top + G.torso * s;
+    c.beginPath(); c.arc(cx, top - 4, G.head * s, 0, 2 * Math.PI); c.stroke();
+    c.beginPath(); c.moveTo(cx, top + G.head * s - 4); c.lineTo(cx, hipY);
+    c.moveTo(cx - G.hip * s, hipY); c.lineTo(cx + G.hip * s, hipY); c.stroke();
+    for (const [side, dir] of [["l", 1], ["r", -1]]) {   // the robot's left is on our right
+      const roll = this.a(`${side}_hip_roll`) * RAD * dir;
+      const bend = Math.cos(this.a(`${side}_knee`) * RAD);   // a bent knee looks shorter
+      c.strokeStyle = side === "l" ? "#2563eb" : "#b45309";
+      c.beginPath(); c.moveTo(cx + dir * G.hip * s, hipY);
+      let [x, y] = this.limb(c, cx + dir * G.hip * s, hipY, roll, G.thigh * Math.abs(bend) ** 0.5, s);
+      [x, y] = this.limb(c, x, y, roll, G.shank * Math.abs(bend) ** 0.5, s);
+      const ankle = roll + this.a(`${side}_ankle_roll`) * RAD * dir;
+      c.moveTo(x - Math.cos(ankle) * G.foot * s * 0.6, y + Math.sin(ankle) * G.foot * s * 0.6);
+      c.lineTo(x + Math.cos(ankle) * G.foot * s * 0.6, y - Math.sin(ankle) * G.foot * s * 0.6);
+      c.stroke();
+    }
+  }
+
+  side(c, cx, top, s) {
+    c.lineWidth = 5; c.lineCap = "round";
+    c.font = "12px system-ui"; c.fillStyle = "#6b7280"; c.fillText("side", cx - 12, top - 22);
+    const hipY = top + G.torso * s;
+    c.strokeStyle = "#1d2430";
+    c.beginPath(); c.arc(cx, top - 4, G.head * s, 0, 2 * Math.PI); c.stroke();
+    c.beginPath(); c.moveTo(cx, top + G.head * s - 4); c.lineTo(cx, hipY); c.stroke();
+    for (const side of ["r", "l"]) {                     // the left leg drawn in front
+      const hip = this.a(`${side}_hip_pitch`) * RAD;
+      const knee = hip - this.a(`${side}_knee`) * RAD;
+      const ankle = knee + this.a(`${side}_ankle_pitch`) * RAD;
+      c.strokeStyle = side === "l" ? "#2563eb" : "#b45309";
+      c.beginPath(); c.moveTo(cx, hipY);
+      let [x, y] = this.limb(c, cx, hipY, hip, G.thigh, s);
+      [x, y] = this.limb(c, x, y, knee, G.shank, s);
+      c.lineTo(x + Math.cos(ankle) * G.foot * s, y - Math.sin(ankle) * G.foot * s);
+      c.stroke();
+    }
+  }
+
+  dials(c) {
+    const servos = this.info.servos;
+    servos.forEach((sv, i) => {
+      const x = 45 + (i % 6) * 80, y = 50 + Math.floor(i / 6) * 90, r = 30;
+      const frac = (a) => Math.PI * (0.75 + 1.5 * (a - sv.min) / Math.max(1, sv.max - sv.min));
+      c.lineWidth = 6; c.strokeStyle = "#d8dce3";
+      c.beginPath(); c.arc(x, y, r, frac(sv.min), frac(sv.max)); c.stroke();
+      const ang = this.angles[sv.name];
+      c.strokeStyle = "#2563eb"; c.beginPath(); c.arc(x, y, r, frac(sv.min), frac(ang)); c.stroke();
+      c.fillStyle = "#1d2430"; c.font = "12px system-ui"; c.textAlign = "center";
+      c.fillText(`${ang}°`, x, y + 4); c.fillStyle = "#6b7280"; c.font = "10px system-ui";
+      c.fillText(sv.name, x, y + r + 14); c.textAlign = "start";
+    });
+  }
+}

@@ -1,0 +1,60 @@
+"""MCAP files of samples: one channel per sensor, messages ``{"seq", "t", "value"}``
+encoded as JSON under the JSON schema :data:`SCHEMA`; log time = the sample's time."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any, BinaryIO, Iterator
+
+from mcap.reader import make_reader
+from mcap.writer import Writer
+
+from ..errors import StdError
+
+SCHEMA = {"type": "object", "title": "esair.Sample",
+          "properties": {"seq": {"type": "integer", "description": "the sensor's sample number, from 1"},
+                         "t": {"type": "number", "description": "seconds since the epoch, when reported"},
+                         "value": {"description": "the sensor's value"}},
+          "required": ["seq", "t", "value"]}
+
+
+class SampleWriter:
+    def __init__(self, f: BinaryIO):
+        self.w = Writer(f)
+        self.w.start(profile="", library="esair")
+        self.schema = self.w.register_schema(name="esair.Sample", encoding="jsonschema",
+                                             data=json.dumps(SCHEMA).encode())
+        self.channels: dict[str, int] = {}
+
+    def write(self, topic: str, seq: int, t: float, value: Any) -> None:
+        ch = self.channels.get(topic)
+        if ch is None:
+            ch = self.channels[topic] = self.w.register_channel(
+                topic=topic, message_encoding="json", schema_id=self.schema)
+        ns = int(t * 1e9)
+        self.w.add_message(channel_id=ch, log_time=ns, publish_time=ns, sequence=seq & 0xFFFFFFFF,
+                           data=json.dumps({"seq": seq, "t": t, "value": value},
+                                           separators=(",", ":")).encode())
+
+    def finish(self) -> None:
+        self.w.finish()
+
+
+def read_samples(path: str | Path) -> Iterator[tuple[str, int, float, Any]]:
+    """(topic, seq, t, value) of every message, in log time order."""
+    try:
+        f = open(path, "rb")  # noqa: SIM115 - closed by the with below
+    except OSError as exc:
+        raise StdError(f"cannot read {path}: {exc.strerror}") from None
+    with f:
+        try:
+            for _schema, channel, message in make_reader(f).iter_messages(log_time_order=True):
+                if channel.message_encoding != "json":
+                    continue
+                m = json.loads(message.data)
+                yield channel.topic, int(m["seq"]), float(m["t"]), m["value"]
+        except (ValueError, KeyError, TypeError) as exc:
+            raise StdError(f"{path} is not an MCAP recording of ESAIR samples: {exc}") from None
+        except Exception as exc:  # noqa: BLE001 - the mcap reader's own errors
+            raise StdError(f"{path} is not a readable MCAP file: {exc}") from None

@@ -1,0 +1,202 @@
+"""The remote control center against `esair std run papaman --hmi`, in a real headless
+chromium, both modes (the ``robot`` fixture): what a person clicks reaches the emulated
+robot (its trace), what the robot does shows on the page, link loss shows as a banner,
+a viewer cannot command, a page of another site cannot connect."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+import websockets
+import yaml
+from websockets.sync.client import connect
+
+from esair_min.core.trace import without_marks
+from esair_min.emulator.actuator import encode
+from esair_min.model.validate import load_robot
+from esair_std.record import read_samples
+from tests.support.hmi import PAPAMAN, esair_std, open_page, wait_for
+
+ACTUATOR = 0x10
+PUSH_LATER_MS = 5000       # the push comes this long after the robot is plugged back:
+                           # after the link is up again (it reconnects with a backoff)
+
+
+@pytest.fixture(scope="module")
+def papaman():
+    return load_robot(PAPAMAN)
+
+
+def actuator_writes(lines: list[str]) -> list[bytes]:
+    return [bytes.fromhex(line.split()[2]) for line in without_marks(lines)
+            if line.startswith(f"W {ACTUATOR:02X} ") and line.endswith(" ACK")]
+
+
+def frame_bytes(papaman, motion: str) -> list[bytes]:
+    m = papaman.motion(motion)
+    return [b"\x00" + b"".join(bytes(encode(a, f.speeds()[i])) for i, a in enumerate(f.angles))
+            for f in m.frames]
+
+
+def test_the_page_loads_without_errors_and_lists_every_component(robot, browser):
+    page, errors = open_page(browser, robot.url)
+    names = sorted(row["name"] for row in json.loads(
+        esair_std("ls", "--json", "-e", robot.endpoint).stdout)["components"])
+    assert len(names) == 19          # 3 behaviors, the driver, 12 servos, motion, feet, notices
+    page.wait_for_function(f"() => document.querySelectorAll('#components tbody tr').length == {len(names)}")
+    shown = sorted(page.eval_on_selector_all("#components tbody tr", "rs => rs.map(r => r.dataset.name)"))
+    assert shown == names
+    assert page.locator("#joints input[type=range]").count() == 12
+    assert page.locator("#motions button").all_inner_texts() == [
+        "stand", "sit", "prostrate", "dance", "balance"]
+    assert page.locator("#stop").is_visible() and page.locator("#stop").is_enabled()
+    page.wait_for_function("() => window.__hmi.feet.t.length > 2")       # feet samples drawn
+    assert page.locator("#banner").is_hidden()
+    page.close()
+    assert errors == []
+
+
+def test_dance_button_plays_the_dance_frames(robot, browser, papaman):
+    page, errors = open_page(browser, robot.url)
+    dance = frame_bytes(papaman, "dance")
+    before = len(actuator_writes(robot.trace_lines()))
+    page.click("#motions button[data-motion=dance]")
+
+    def danced():
+        writes = [w for w in actuator_writes(robot.trace_lines())[before:] if len(w) == 25]
+        return writes[-len(dance):] == dance and writes
+    wait_for(danced, what="the dance's 32 frames in the trace")
+    page.wait_for_function("() => document.querySelector('#log').textContent.includes('PLY03')")
+    page.close()
+    assert errors == []
+
+
+def test_a_slider_writes_that_servos_angle(robot, browser, papaman):
+    page, errors = open_page(browser, robot.url)
+    knee = next(s for s in papaman.servos if s.name == "r_knee")
+    want = bytes([2 * knee.index]) + bytes(encode(123, knee.default_speed))
+    before = len(actuator_writes(robot.trace_lines()))
+    slider = page.locator("#joints input[data-servo=r_knee]")
+    assert (slider.get_attribute("min"), slider.get_attribute("max")) == (
+        str(knee.min_angle), str(knee.max_angle))
+    slider.fill("123")            # input + change: sent on release
+    page.wait_for_function("() => document.querySelector('#log').textContent.includes('ojc123')")
+    wait_for(lambda: want in actuator_writes(robot.trace_lines())[before:],
+             what="r_knee's registers written with 123 degrees")
+    page.close()
+    assert errors == []
+
+
+def test_sigkill_of_the_robot_shows_the_banner_then_recovery(robot, browser):
+    page, errors = open_page(browser, robot.url)
+    assert page.locator("#banner").is_hidden()
+    robot.emu.kill()                                       # SIGKILL: the robot is pulled
+    page.wait_for_selector("#banner", state="visible", timeout=15000)
+    assert page.locator("#banner").inner_text().startswith("LINK LOST: papaman")
+    assert "lost" in page.locator("#linkbar").inner_text()
+    robot.emu.start()
+    page.wait_for_selector("#banner", state="hidden", timeout=20000)
+    page.wait_for_function(
+        "() => document.querySelector('#linkbar').textContent.includes('papaman link ready')")
+    page.close()
+    assert errors == []
+
+
+def test_the_push_shows_on_the_feet_plot_with_the_reaction_marker(robot, browser, tmp_path):
+    push = yaml.safe_load((PAPAMAN / "scenarios" / "push.yaml").read_text())
+    for step in push["steps"][1:]:
+        step["at_ms"] += PUSH_LATER_MS
+    (tmp_path / "push.yaml").write_text(yaml.safe_dump(push))
+    page, errors = open_page(browser, robot.url)
+    robot.restart_robot("--scenario", str(tmp_path / "push.yaml"))
+    page.wait_for_function("() => window.__hmi.link.papaman.state === 'ready' && "
+                           "window.__hmi.feet.markers.length == 0", timeout=30000)
+    page.wait_for_function("() => window.__hmi.feet.markers.length > 0", timeout=30000)
+    # the tipping samples are on the plot: |L - R| over the threshold
+    assert page.evaluate("Math.max(...window.__hmi.feet.d)") > 400
+    assert page.evaluate("window.__hmi.feet.markers[0].text") == "R auto_balance"
+    page.wait_for_function("() => document.querySelector('#log').textContent.includes('!R auto_balance')")
+    page.close()
+    assert errors == []
+
+
+def test_record_button_then_replay_with_the_time_slider(robot, browser):
+    page, errors = open_page(browser, robot.url)
+    page.click("#record")
+    page.wait_for_function("() => window.__hmi.recordingOn")
+    seen = page.evaluate("window.__hmi.stats.samples")
+    page.wait_for_function(f"() => window.__hmi.stats.samples >= {seen + 6}")
+    page.click("#record")
+    page.wait_for_function("() => !window.__hmi.recordingOn")
+    (path,) = robot.tmp.glob("esair-papaman-*.mcap")
+    feet = [s for s in read_samples(path) if s[0] == "papaman.feet"]
+    assert len(feet) >= 3 and [s[1] for s in feet] == list(range(feet[0][1], feet[0][1] + len(feet)))
+    page.wait_for_function(f"() => [...document.querySelectorAll('#recordings option')]"
+                           f".some(o => o.value === '{path.name}')")
+    page.select_option("#recordings", path.name)
+    page.click("#load")
+    page.wait_for_function("() => window.__hmi.replay.active")
+    assert page.locator("#timeline").is_enabled()
+    assert page.evaluate("window.__hmi.feet.t.length") == len(feet)   # the slider at the end
+    page.locator("#timeline").fill("0")                  # the first sample only
+    assert page.evaluate("window.__hmi.feet.t") == [feet[0][2]]
+    page.click("#live-view")
+    page.wait_for_function("() => !window.__hmi.replay.active && window.__hmi.feet.t.length > 0")
+    page.close()
+    assert errors == []
+
+
+def test_a_viewer_without_login_gets_no_command_through(robot, browser):
+    page, errors = open_page(browser, robot.url, login=False)
+    assert page.evaluate("window.__hmi.role") == "viewer"
+    assert page.locator("#stop").is_disabled()
+    assert page.locator("#login").is_visible()
+    refused = robot.status()["counters"]["refused"]
+    before = len(robot.trace_lines())
+    for frame in ({"op": "cmd", "resource": "papaman.motion", "command": {"play": "dance"}},
+                  {"op": "stop"}, {"op": "remove", "name": "watcher"}):
+        r = page.evaluate("f => window.__hmi.send(f)", frame)
+        assert (r["ok"], r["error"]) == (False, "viewers cannot command: log in as an operator")
+    assert robot.status()["counters"]["refused"] == refused + 3
+    r = page.evaluate("window.__hmi.send({op: 'login', user: 'operator', password: 'guess'})")
+    assert (r["ok"], r["error"]) == (False, "wrong user or password")
+    # nothing reached the robot: no PLY line on its UART and the watcher still runs
+    rx = [ln for ln in robot.trace_lines()[before:] if ln.startswith("TX ")]
+    assert all(bytes.fromhex(ln[3:]).startswith(b"OK ") or ln == "TX 4F4B0D0A" for ln in rx)
+    rows = json.loads(esair_std("ls", "--json", "-e", robot.endpoint).stdout)["components"]
+    assert [r["state"] for r in rows if r["name"] == "watcher"] == ["running"]
+    page.close()
+    assert errors == []
+
+
+def test_a_foreign_origin_is_refused_and_bad_frames_change_nothing(robot):
+    ws_url = robot.url.replace("http://", "ws://") + "ws"
+    host = robot.url.split("/")[2]
+
+    def go():
+        with pytest.raises(websockets.InvalidStatus) as exc:
+            connect(ws_url, origin="http://evil.example").close()
+        assert exc.value.response.status_code == 403
+        with connect(ws_url, origin=f"http://{host}") as ws:
+            hello = json.loads(ws.recv(timeout=10))
+            assert (hello["t"], hello["role"]) == ("hello", "viewer")
+            got = []
+            for frame in ["not json", b"\x00\x01", json.dumps([1]), json.dumps({"op": "nope"}),
+                          json.dumps({"op": "login", "user": 5, "password": "x"})]:
+                ws.send(frame)
+                while True:
+                    m = json.loads(ws.recv(timeout=10))
+                    if m["t"] == "ack":
+                        got.append(m["error"])
+                        break
+            return got
+    before = robot.status()["counters"]
+    got = go()
+    assert got == ["bad frame: not JSON", "bad frame: binary frames are not understood",
+                   "bad frame: expected an object with an 'op'", "bad frame: unknown op 'nope'",
+                   "bad frame: field 'user' missing or of the wrong type"]
+    after = robot.status()["counters"]
+    assert after["origin_refused"] == before["origin_refused"] + 1
+    assert after["bad_frames"] == before["bad_frames"] + 5
+    assert after["commands"] == before["commands"]

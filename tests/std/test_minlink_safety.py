@@ -1,0 +1,166 @@
+"""The MIN link never drives another robot and never writes a stale command (issue 19,
+items 1 and 2), against `esair emulate --pty` child processes on real ptys.
+
+- Identity: the `v` reply's id names the board set and the emulator's boot; after a
+  reconnect the link refuses a robot of another id, even one of the same board files
+  that got the dead robot's /dev/pts number.
+- Deadlines: a command not written within its deadline is dropped (never sent), one
+  asked before the link came back too; a robot stopped (SIGSTOP) for longer than its
+  power-loss pause does not play, when it resumes, what was written to it meanwhile.
+
+Every test ends with no I/O thread and no child process left.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import threading
+import time
+from pathlib import Path
+
+import pytest
+
+from esair_min.model.validate import load_robot
+from esair_std.drivers.minlink import Link, LinkDown
+from esair_std.drivers.minlink.emulated import EmulatedRobot
+from esair_std.drivers.minlink.errors import DifferentRobot, Expired
+from tests.support.robot_ptys import frames, pty_number, replies, start_on_number, stop
+
+ROOT = Path(__file__).resolve().parents[2]
+PAPAMAN = ROOT / "boards" / "papaman"
+
+
+@pytest.fixture(scope="module")
+def robot():
+    return load_robot(PAPAMAN)
+
+
+def _wait(cond, seconds: float = 10.0, what: str = "condition"):
+    end = time.monotonic() + seconds
+    while True:
+        v = cond()
+        if v:
+            return v
+        if time.monotonic() > end:
+            raise AssertionError(f"timed out waiting for {what}; last value {v!r}")
+        time.sleep(0.01)
+
+
+def _io_threads() -> list[str]:
+    return [t.name for t in threading.enumerate() if t.name.startswith("minlink")]
+
+
+# -- identity ---------------------------------------------------------------------------
+
+def test_the_version_reply_names_the_board_set_and_the_emulators_boot(robot):
+    with EmulatedRobot(PAPAMAN, instance="0123abcd") as emu, Link(robot, emu.port) as link:
+        assert link.version().endswith(" checksum=off id=0123abcd")
+        assert link.robot_id == "0123abcd"
+    a, b = EmulatedRobot(PAPAMAN), EmulatedRobot(PAPAMAN)
+    assert a.instance != b.instance                    # two robots, two ids
+
+
+def test_a_robot_on_the_dead_robots_pty_number_is_refused(tmp_path, robot):
+    """The robot is killed outright (its port's link still names /dev/pts/N); another
+    `esair emulate` of the same board files gets N; the link, reconnecting, asks it
+    `v` and refuses it: it sends nothing else, and says which robot answers."""
+    emu = EmulatedRobot(PAPAMAN, instance="aaaaaaaa")
+    states: list[tuple[bool, str]] = []
+    foreign = None
+    try:
+        port = emu.start()
+        number = pty_number(emu.proc.pid)
+        link = Link(robot, port, on_state=lambda up, why: states.append((up, why)))
+        link.open()
+        try:
+            link.stand()
+            os.kill(emu.proc.pid, signal.SIGKILL)        # not emu.kill(): the path stays
+            _wait(lambda: not link.up, what="the link down")
+            foreign, _ = start_on_number(number, "--instance", "bbbbbbbb",
+                                         "--trace", str(tmp_path / "foreign.txt"))
+            why = (f"a different robot answers on {port} (id bbbbbbbb, "
+                   f"expected aaaaaaaa)")
+            _wait(lambda: (False, why) in states, what="the refusal")
+            with pytest.raises(LinkDown) as exc:
+                link.play("dance")
+            assert str(exc.value) == (f"link to {port} is down (reconnecting: {why}): "
+                                      f"'PLY03' not sent")
+            assert not link.up and link.stats["reconnects"] == 0
+            assert states.count((False, why)) == 1        # said once, not at every attempt
+        finally:
+            link.close()
+    finally:
+        emu.stop()
+        if foreign is not None:
+            stop(foreign)
+    # the only line the other robot answered is the probe (a read-only `v`)
+    got = replies(tmp_path / "foreign.txt")
+    assert got[0] == b"!READY esair-min/1 image=ok\r\n"     # its boot, to nobody
+    assert got[1:] and set(got[1:]) == {b"OK esair-min/1 servos=12 sensors=8 motions=5 image=ok "
+                                b"checksum=off id=bbbbbbbb\r\n"}
+    assert frames(tmp_path / "foreign.txt") == 0
+    assert _io_threads() == []
+
+
+def test_a_known_robot_id_is_checked_at_the_first_connect(robot):
+    with EmulatedRobot(PAPAMAN, instance="0123abcd") as emu, pytest.raises(DifferentRobot) as exc:
+        Link(robot, emu.port, expect_id="99999999").open()
+    assert str(exc.value) == (f"a different robot answers on {emu.port} (id 0123abcd, "
+                              f"expected 99999999)")
+
+
+# -- deadlines --------------------------------------------------------------------------
+
+def test_a_command_not_written_within_its_deadline_is_dropped(tmp_path, robot):
+    """The robot stops (SIGSTOP) while a feet poll is in flight: a motion asked then
+    waits its turn, its deadline passes, it fails and is never written; when the robot
+    runs again it plays nothing."""
+    trace = tmp_path / "t.txt"
+    with EmulatedRobot(PAPAMAN, ["--trace", str(trace)]) as emu, \
+            Link(robot, emu.port, timeout=1.0) as link:
+        link.stand()
+        os.kill(emu.proc.pid, signal.SIGSTOP)
+        try:
+            poll = threading.Thread(target=lambda: pytest.raises(LinkDown, link.feet))
+            poll.start()
+            _wait(lambda: link._slot is not None, what="the poll in flight")
+            with pytest.raises(Expired) as exc:
+                link.command("PLY03", timeout=0.2)
+            assert str(exc.value) == (f"link to {emu.port}: 'PLY03' not written within "
+                                      f"its deadline; dropped")
+            poll.join(10)
+            assert not link.up and link.stats["expired"] == 1
+        finally:
+            os.kill(emu.proc.pid, signal.SIGCONT)
+        _wait(lambda: link.up, what="the link back")
+        asked = link.up_since - 0.001               # asked before it came back
+        with pytest.raises(Expired) as exc:
+            link.command("PLY03", asked=asked)
+        assert str(exc.value) == (f"link to {emu.port}: 'PLY03' was asked before the "
+                                  f"link came back; dropped")
+        link.stand()
+    assert frames(trace) == 2                           # the two stands, no dance
+    assert _io_threads() == []
+
+
+def test_what_a_stopped_robot_was_sent_is_not_played_when_it_resumes(tmp_path, robot):
+    """A line written to the robot while it was stopped (SIGSTOP, longer than its
+    power-loss pause): the link gives up on it, and the robot, resumed, never plays it."""
+    trace = tmp_path / "t.txt"
+    with EmulatedRobot(PAPAMAN, ["--trace", str(trace)]) as emu, \
+            Link(robot, emu.port, timeout=1.0) as link:
+        link.stand()
+        os.kill(emu.proc.pid, signal.SIGSTOP)
+        try:
+            with pytest.raises(LinkDown) as exc:
+                link.play("dance")                  # written, never answered
+            assert "went down while 'PLY03' waited for its reply" in str(exc.value)
+            time.sleep(1.5)                         # stopped for more than 1 s in all
+        finally:
+            os.kill(emu.proc.pid, signal.SIGCONT)
+        _wait(lambda: link.up, what="the link back")
+        assert link.version().startswith("esair-min/1 ")
+    assert frames(trace) == 1                           # the stand, no dance
+    assert replies(trace).count(b"OK\r\n") == 1      # the stand's: PLY03 never answered
+    assert _io_threads() == []

@@ -1,0 +1,39 @@
+"""Components the STARFISH tests deploy beside the example's (tests/std/test_starfish_std.py)."""
+
+from __future__ import annotations
+
+import math
+
+from esair_std import Behavior
+
+
+class RadioWatcher(Behavior):
+    """Records the radio link's cuts and heals with the robot's distance to the access
+    point then, and the nearest it came while the link was cut."""
+
+    period = 0.05
+
+    def start(self):
+        self.radio = self.attach_sensor("starfish.radio", keep=64)
+        self.ap = tuple(self.options.get("access_point", (1.0, 1.0)))
+        self.events = []
+        self.up = True
+        self.nearest_while_down = None
+
+    def step(self):
+        for s in self.radio.samples():
+            up, dist = s.value["up"], s.value["distance"]
+            if up != self.up:
+                self.events.append(["up" if up else "down", dist])
+                self.up = up
+                self.nearest_while_down = None if up else dist
+            elif not up:
+                self.nearest_while_down = min(self.nearest_while_down, dist)
+
+    def provide(self, requester):
+        return {"events": self.events, "up": self.up, "nearest_while_down": self.nearest_while_down,
+                "gaps": 0 if not self.radio.received else self.radio.overwritten}
+
+
+def true_bearing(pose, x, y):
+    return math.atan2(y - pose[1], x - pose[0]) - pose[2]
