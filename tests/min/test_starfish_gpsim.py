@@ -8,6 +8,7 @@ interrupt (two CCP PWMs and one software PWM) is timed (esair_min/pic/starfish_d
 
 from __future__ import annotations
 
+import dataclasses
 from collections import Counter
 from pathlib import Path
 
@@ -17,6 +18,7 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 from esair_min.cli import main
+from esair_min.codegen import generate_robot
 from esair_min.errors import ProtocolError
 from esair_min.pic.build import BuildError, toolchain
 from esair_min.pic.starfish_drive import python_drive, run_drive
@@ -132,3 +134,19 @@ def test_central_in_gpsim_equals_the_python_core_on_generated_streams(built, sta
         assume(not str(exc).startswith("a line ends at cycle"))
         raise
     assert compare(python, gpsim) == []
+
+
+def test_drive_with_three_software_pwms(built, starfish, tmp_path):
+    """The same drive board with every wheel on software PWM (``pwm: software``): the
+    duties still equal the Python core's, and the interrupt's cost per software PWM."""
+    drive = starfish.board("drive")
+    soft = drive.model_copy(update={"motors": tuple(m.model_copy(update={"pwm": "software"})
+                                                    for m in drive.motors)})
+    robot = dataclasses.replace(starfish, boards=tuple(soft if b is drive else b
+                                                       for b in starfish.boards))
+    generate_robot(robot, tmp_path / "gen")
+    got = run_drive(robot, tmp_path / "gen" / "drive", DRIVE_STEPS, tmp_path / "run", toolchain())
+    assert got.steps == python_drive(robot, tmp_path / "gen" / "drive", DRIVE_STEPS)
+    assert [m.duty for m in got.steps[-1]] == [203, 203, 203]
+    # 21 cycles with the three pins off, 24 on; 26 / 29 when the control tick ends
+    assert got.isr_cycles == Counter({24: 190, 21: 38, 26: 1, 29: 1})
