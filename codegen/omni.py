@@ -5,12 +5,15 @@ from __future__ import annotations
 
 from esair_min.components.omni_base.core import WATCHDOG_NOTICE, version_line, watchdog_ticks
 from esair_min.components.omni_base.kinematics import HALF, Q, wheel_table
-from esair_min.components.optical_flow.core import REG_DELTA_X, REG_DELTA_Y, REG_SQUAL
+from esair_min.components.optical_flow.core import REG_DELTA_X, REG_DELTA_Y, REG_SQUAL, T_SRAD_NS
 from esair_min.core import protocol as P
 from esair_min.errors import GenerateError
 from esair_min.model.robot import Robot
 
-from .context import Context, common_context
+from .context import Context, _clock_context, _pin, common_context
+
+#: Instruction cycles a turn of the tSRAD wait loop (DECFSZ + BRA).
+SRAD_TURN_CYCLES = 3
 
 
 def omni_central_context(robot: Robot) -> Context:
@@ -31,7 +34,9 @@ def omni_central_context(robot: Robot) -> Context:
                                                        base.watchdog_ms, checksum)}]
     ctx.update({
         "wheels": [{"s": w.s, "c": w.c, "r": w.r, "limit": w.limit_mm_s} for w in wheels],
-        "flow": [{"name": f.name} for f in board.flow_sensors],
+        "flow": [{"name": f.name, "sclk": _pin(f.sclk_pin), "sdio": _pin(f.sdio_pin)}
+                 for f in board.flow_sensors],
+        "srad_turns": srad_turns(board.mcu.clock_hz),
         "line_max": P.MAX_LINE,
         "require_checksum": int(checksum),
         "drive_address": drive.i2c.address,
@@ -42,5 +47,16 @@ def omni_central_context(robot: Robot) -> Context:
         "kin_half": HALF,
         "reg_delta_y": REG_DELTA_Y, "reg_delta_x": REG_DELTA_X, "reg_squal": REG_SQUAL,
         "texts": texts,
+        **_clock_context(board),
     })
     return ctx
+
+
+def srad_turns(clock_hz: int) -> int:
+    """Turns of the PIC port's tSRAD wait loop: at least T_SRAD_NS of instruction cycles."""
+    cycles = -(-T_SRAD_NS * clock_hz // 4 // 1_000_000_000)
+    turns = -(-cycles // SRAD_TURN_CYCLES)
+    if turns > 255:
+        raise GenerateError(f"clock {clock_hz} Hz: the tSRAD wait needs {turns} turns of "
+                            "its loop, more than 255")
+    return turns

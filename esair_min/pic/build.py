@@ -51,12 +51,14 @@ def toolchain() -> Toolchain:
         raise BuildError(str(exc)) from None
 
 
-def build_board(folder: Path, tc: Toolchain, timeout: float = 300.0) -> MapUsage:
+def build_board(folder: Path, tc: Toolchain, timeout: float = 300.0,
+                make_vars: tuple[str, ...] = ()) -> MapUsage:
     """``make -B pic18f452`` in one generated board folder; the map's usage.
+    ``make_vars``: extra ``NAME=value`` arguments of make.
 
     Raises BuildError when make fails or any tool prints a warning (the lines shown)."""
     cmd = ["make", "-B", "--no-print-directory", "-C", str(folder), "pic18f452",
-           f"PREFIX={tc.prefix}"]
+           f"PREFIX={tc.prefix}", *make_vars]
     try:
         proc = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
     except subprocess.TimeoutExpired:

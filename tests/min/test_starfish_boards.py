@@ -73,12 +73,13 @@ def test_generate_starfish(starfish, tmp_path):
     assert sorted(files) == [
         "central/Makefile", "central/core/es_config.h", "central/core/omni.c",
         "central/core/omni.h", "central/hal.h", "central/main.c",
-        "central/ports/host/hal_host.c",
+        "central/ports/host/hal_host.c", "central/ports/pic18f452/hal_pic.c",
         "drive/Makefile", "drive/core/drive.c", "drive/core/drive.h", "drive/core/es_config.h",
-        "drive/hal.h", "drive/main.c", "drive/ports/host/hal_host.c"]
+        "drive/hal.h", "drive/main.c", "drive/ports/host/hal_host.c",
+        "drive/ports/pic18f452/hal_pic.c"]
     result = CliRunner().invoke(main, ["generate", "starfish", "-o", str(tmp_path)])
     assert (result.exit_code, result.output) == (
-        0, f"central, drive: 14 files written, 0 unchanged in {tmp_path}\n")
+        0, f"central, drive: 16 files written, 0 unchanged in {tmp_path}\n")
 
 
 def test_a_board_whose_kinds_have_no_templates_is_skipped(starfish, tmp_path, monkeypatch):
@@ -92,7 +93,7 @@ def test_a_board_whose_kinds_have_no_templates_is_skipped(starfish, tmp_path, mo
     assert sorted({name.split("/")[0] for name in render_robot(starfish)}) == ["central"]
     result = CliRunner().invoke(main, ["generate", "starfish", "-o", str(tmp_path)])
     assert result.output == (
-        f"central: 7 files written, 0 unchanged in {tmp_path}\n"
+        f"central: 8 files written, 0 unchanged in {tmp_path}\n"
         "not generated: drive (dc_motor): no firmware templates for these device kinds yet "
         "(their Python cores run in the emulator)\n")
     drive_only = dataclasses.replace(starfish, boards=(starfish.board("drive"),),
@@ -121,11 +122,3 @@ def test_papaman_keeps_its_roles_and_registers(robot):
     assert ROLE_SECTIONS["actuator"] == {"servos", "sync"}
     assert ROLE_SECTIONS["sensor"] == {"sensors"}
     assert robot.actuator.register_count == 24 and robot.sensor_board.register_count == 16
-
-
-def test_build_says_there_is_no_pic_port_yet(tmp_path):
-    result = CliRunner().invoke(main, ["build", "starfish", "-o", str(tmp_path)])
-    assert (result.exit_code, result.stderr) == (
-        1, "error: robot 'starfish': no PIC18F452 port yet for central, drive (their C runs "
-        "on the host: make host in each board's folder; docs/firmware.md, \"STARFISH's "
-        "boards\")\n")

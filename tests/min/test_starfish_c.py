@@ -2,7 +2,7 @@
 host (gcc -Werror, plain and under ASan+UBSan) and the Python cores give the same trace
 for the same stimulus, on hand-written and hypothesis-generated scripts: the central
 board's replies, I2C writes and watchdog stops; the drive board's duties and direction
-pins tick by tick. (The PIC ports are not written yet.)"""
+pins tick by tick. (The PIC builds in gpsim: tests/min/test_starfish_gpsim.py.)"""
 
 from __future__ import annotations
 

@@ -15,9 +15,10 @@ from typing import Any
 
 CONTROL_TICK_MS = 10
 #: Software PWM: steps per period, and the timer interrupt's rate (the CCP units run at
-#: the hardware PWM frequency of Timer2).
+#: the hardware PWM frequency of Timer2, whose postscaled interrupt this is; a whole
+#: number of them make the control tick: codegen/drive.py).
 SOFT_PWM_STEPS = 64
-SOFT_PWM_ISR_HZ = 9600
+SOFT_PWM_ISR_HZ = 10000
 
 
 def to_s16(low: int, high: int) -> int:

@@ -1,0 +1,320 @@
+"""STARFISH's central board: its PIC18F452 firmware in gpsim against the Python core,
+on the same byte stream at the same times.
+
+Stimulus (one command a line, ``#`` comments):
+
+- ``rx TEXT``: the line TEXT and CR LF are sent at 9600 baud (gpsim's ``usart`` module;
+  lines queue behind each other at line rate); ``raw HH ...``: these bytes;
+- ``tick N``: N tick periods of simulated time pass (Timer2's exact instruction count);
+- ``floor S 0|1``: flow sensor S's SDIO line is pulled low / high from now on, so every
+  register read of it gives 0x00 / 0xFF (no ADNS-2610 model runs in gpsim: the pull
+  stands in for it; the firmware never waits on the sensor).
+
+gpsim runs the firmware with an ``i2c2par`` at the drive board's address (it ACKs every
+byte), ``FileRecorder`` modules on SCL/SDA and on every flow sensor's SCLK and SDIO, and
+a log of TXREG writes (replies), RCREG reads (when each byte was taken) and the T2CON
+write (when Timer2 started: tick k is Timer2's k-th period after it). The Python core
+(:class:`~esair_min.components.omni_base.core.StarfishCore`) is then fed the same
+events in the same order: each received byte at the cycle the firmware took it, each
+tick at its period's end; a line end closer than :data:`MARGIN` of a tick to a tick
+boundary is refused (which comes first would be a matter of a few cycles, not of the
+logic). Compared (:func:`compare`): the reply lines, the I2C writes (decoded from the
+waveforms like a logic analyser would) and every flow sensor's register reads
+(address byte and the data byte on the wire, decoded from SCLK/SDIO).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from esair_min.components.omni_base.core import StarfishCore
+from esair_min.core.script import unescape
+from esair_min.errors import ProtocolError
+from esair_min.model.robot import Robot
+from esair_min.pic.gpsim_harness import _gpsim_pin
+from esair_min.pic.gpsim_wave import decode_i2c, read_edges, read_register_log
+from esair_min.pic.toolchain import Toolchain, ToolchainError, run_gpsim
+
+BOOT_CYCLES = 40_000      # reset (SDCC's start-up, ~15 000 cycles), hal_init, core_init
+SERVED = 15_000           # cycles: a tick this long before the end has been served
+DRAIN_TICKS = 10          # after the last line: the replies leave the transmit ring (96 bytes)
+MARGIN = 500              # cycles: a line end this close to a tick is refused (ambiguous)
+T2CON_ADDR = 0xFCA
+
+
+@dataclass(frozen=True)
+class Setup:
+    clock_hz: int
+    baud: int
+    tick_cycles: int
+    drive_address: int
+    flow_pins: tuple[tuple[str, str], ...]     # (SCLK, SDIO) gpsim pin names per sensor
+
+    @classmethod
+    def from_robot(cls, robot: Robot) -> Setup:
+        c, drive = robot.central, robot.board("drive")
+        if c.uart is None or c.timer2 is None or drive is None or drive.i2c is None:
+            raise ToolchainError("STARFISH's gpsim harness needs uart:, tick: and a drive board")
+        return cls(c.mcu.clock_hz, c.uart.baud, c.timer2.instructions, drive.i2c.address,
+                   tuple((_gpsim_pin(f.sclk_pin), _gpsim_pin(f.sdio_pin))
+                         for f in c.flow_sensors))
+
+
+@dataclass
+class Run:
+    """What gpsim and the Python core did, as comparable lists."""
+
+    replies: list[str] = field(default_factory=list)       # "TX text"
+    writes: list[str] = field(default_factory=list)        # "W 30 00C800... ACK"
+    flow: list[list[str]] = field(default_factory=list)    # per sensor: "RR DD"
+
+
+def _lines(stimulus: str) -> list[tuple[str, list[str], bytes]]:
+    out: list[tuple[str, list[str], bytes]] = []
+    for number, text in enumerate(stimulus.splitlines(), start=1):
+        if text.startswith("rx ") or text == "rx":
+            out.append(("rx", [], unescape(text[3:]) + b"\r\n"))
+            continue
+        words = text.split("#", 1)[0].split()
+        if not words:
+            continue
+        cmd, args = words[0], words[1:]
+        try:
+            if cmd == "raw" and args:
+                out.append(("rx", [], bytes(int(a, 16) for a in args)))
+            elif cmd == "tick" and len(args) == 1 and int(args[0]) > 0:
+                out.append(("tick", args, b""))
+            elif cmd == "floor" and len(args) == 2 and args[1] in ("0", "1"):
+                out.append(("floor", args, b""))
+            else:
+                raise ValueError
+        except ValueError:
+            raise ProtocolError(f"stimulus line {number}: {text!r} is not rx TEXT, raw HH ..., "
+                                "tick N or floor S 0|1") from None
+    return out
+
+
+def gpsim_script(s: Setup, stimulus: str, cod: str) -> tuple[str, list[tuple[int, int, int]]]:
+    """The command file, and the floor changes ``(cycle, sensor, level)``."""
+    L = [f"load {cod}", "p18f452.BreakOnInvalidRegisterWrite = false",
+         f"frequency {s.clock_hz}", "module library libgpsim_modules.so.0",
+         "module load usart U1", f"U1.txbaud = {s.baud}", f"U1.rxbaud = {s.baud}",
+         "node ntx", "node nrx", "attach ntx portc6 U1.RXPIN", "attach nrx portc7 U1.TXPIN",
+         "module load pullup PSCL", "module load pullup PSDA",
+         "module load FileRecorder FSCL", "module load FileRecorder FSDA",
+         "FSCL.digital = true", "FSDA.digital = true",
+         'FSCL.file = "scl.txt"', 'FSDA.file = "sda.txt"',
+         "module load i2c2par DRV", f"DRV.Slave_Address = {s.drive_address:#04x}",
+         "node nscl", "node nsda", "attach nscl portc3 PSCL.pin FSCL.pin DRV.SCL",
+         "attach nsda portc4 PSDA.pin FSDA.pin DRV.SDA"]
+    for i, (sclk, sdio) in enumerate(s.flow_pins):
+        L += [f"module load pullup PF{i}", f"PF{i}.voltage = 0.0",
+              f"module load FileRecorder FC{i}", f"module load FileRecorder FD{i}",
+              f"FC{i}.digital = true", f"FD{i}.digital = true",
+              f'FC{i}.file = "sclk{i}.txt"', f'FD{i}.file = "sdio{i}.txt"',
+              f"node nfc{i}", f"node nfd{i}", f"attach nfc{i} {sclk} FC{i}.pin",
+              f"attach nfd{i} {sdio} PF{i}.pin FD{i}.pin"]
+    L += ["log on regs.log", "log w _TXREG", "log r _RCREG", "log w _T2CON"]
+    now = BOOT_CYCLES
+    L += [f"break c {now}", "run"]
+    floors: list[tuple[int, int, int]] = []
+    for cmd, args, data in _lines(stimulus):
+        if cmd == "rx":
+            L += [f"U1.tx = {b:#04x}" for b in data]
+        elif cmd == "tick":
+            now += int(args[0]) * s.tick_cycles
+            L += [f"break c {now}", "run"]
+        else:
+            sensor = int(args[0])
+            if sensor >= len(s.flow_pins):
+                raise ProtocolError(f"floor {sensor}: there are {len(s.flow_pins)} flow sensors")
+            floors.append((now, sensor, int(args[1])))
+            L.append(f"PF{sensor}.voltage = {5.0 if args[1] == '1' else 0.0}")
+    now += DRAIN_TICKS * s.tick_cycles
+    L += [f"break c {now}", "run", "log off", 'FSCL.file = "/dev/null"',
+          'FSDA.file = "/dev/null"']
+    L += [f'FC{i}.file = "/dev/null"\nFD{i}.file = "/dev/null"' for i in range(len(s.flow_pins))]
+    L += ["cycles", "quit"]
+    return "\n".join(L) + "\n", floors
+
+
+def decode_flow(sclk: list[tuple[int, int]], sdio: list[tuple[int, int]]) -> list[str]:
+    """``"RR DD"`` per register read: SDIO sampled at each rising SCLK edge, 16 bits a
+    read (the address byte the PIC sends, the data byte it reads)."""
+    bits = []
+    at, level = 0, 0
+    for c, v in sclk:
+        if v != 1 or c == 0:
+            continue
+        while at < len(sdio) and sdio[at][0] < c:
+            level = sdio[at][1]
+            at += 1
+        bits.append(level)
+    out = []
+    for k in range(0, len(bits) - 15, 16):
+        b = bits[k:k + 16]
+        addr = int("".join(map(str, b[:8])), 2)
+        data = int("".join(map(str, b[8:])), 2)
+        out.append(f"{addr:02X} {data:02X}")
+    return out
+
+
+def run_gpsim_side(robot: Robot, stimulus: str, cod: Path, workdir: Path,
+                   tc: Toolchain | None = None) -> tuple[Run, list[tuple[int, int]], int, int,
+                                                         list[tuple[int, int, int]]]:
+    """gpsim's Run, the bytes taken ``(cycle, byte)``, Timer2's start cycle, the end
+    cycle and the floor changes."""
+    s = Setup.from_robot(robot)
+    script, floors = gpsim_script(s, stimulus, str(Path(cod).resolve()))
+    out = run_gpsim(script, workdir, timeout=300, tc=tc, script_name="starfish.stc")
+    if "***ERROR" in out:
+        raise ToolchainError("gpsim rejected a command:\n" + out[-2000:])
+    log = workdir / "regs.log"
+    tx = [v for _, _, v in read_register_log(log, {"_TXREG"})]
+    rx = [(c, v) for c, _, v in read_register_log(log, {"_RCREG"}, reads=True)]
+    t2 = [c for c, _, _ in read_register_log(log, {"_T2CON"})]
+    if not t2:
+        raise ToolchainError("gpsim: the firmware never started Timer2")
+    run = Run()
+    run.replies = _reply_lines(bytes(tx))
+    transfers = decode_i2c(read_edges(workdir / "scl.txt"), read_edges(workdir / "sda.txt"))
+    run.writes = [t.trace_line() for t in transfers if t.segments and t.stop is not None]
+    run.flow = [decode_flow(read_edges(workdir / f"sclk{i}.txt"),
+                            read_edges(workdir / f"sdio{i}.txt"))
+                for i in range(len(s.flow_pins))]
+    ticks = sum(int(a[0]) for c, a, _ in _lines(stimulus) if c == "tick") + DRAIN_TICKS
+    end = BOOT_CYCLES + ticks * s.tick_cycles
+    return run, rx, t2[0], end, floors
+
+
+def _reply_lines(data: bytes) -> list[str]:
+    out = []
+    while b"\r\n" in data:
+        line, _, data = data.partition(b"\r\n")
+        out.append("TX " + line.decode("latin-1"))
+    return out
+
+
+class _Floor:
+    """A flow sensor whose SDIO is pulled to a level: every read gives 0x00 or 0xFF."""
+
+    def __init__(self, log: list[str]):
+        self.level = 0
+        self.log = log
+        self._reg = 0
+
+    def address(self, reg: int, t_ns: int) -> None:
+        self._reg = reg
+
+    def data(self, t_ns: int) -> int:
+        v = 0xFF if self.level else 0x00
+        self.log.append(f"{self._reg:02X} {v:02X}")
+        return v
+
+
+def python_side(robot: Robot, rx: list[tuple[int, int]], t2_start: int, end: int,
+                floors: list[tuple[int, int, int]]) -> Run:
+    """The Python core fed the gpsim run's events in their order (see the module doc)."""
+    s = Setup.from_robot(robot)
+    run = Run(flow=[[] for _ in s.flow_pins])
+    sensors = [_Floor(log) for log in run.flow]
+
+    def write(addr: int, data: bytes) -> bool:
+        run.writes.append(f"W {addr:02X} {data.hex().upper()} ACK")
+        return addr == s.drive_address
+
+    core = StarfishCore(robot, write, sensors)
+    # the last tick must have been served before the run ended
+    ticks = [t2_start + k * s.tick_cycles
+             for k in range(1, (end - t2_start) // s.tick_cycles + 1)
+             if t2_start + k * s.tick_cycles <= end - SERVED]
+    events: list[tuple[int, int, int]] = [(c, 1, b) for c, b in rx]
+    events += [(c, 0, -1) for c in ticks]
+    events += [(c, 2, 10 * sensor + level) for c, sensor, level in floors]
+    events.sort()
+    before = -1
+    for c, kind, b in events:
+        ends = kind == 1 and (b == 0x0D or (b == 0x0A and before != 0x0D))
+        before = b if kind == 1 else before
+        if ends and any(abs(c - t) < MARGIN for t in ticks):
+            raise ProtocolError(f"a line ends at cycle {c}, within {MARGIN} cycles of a tick: "
+                                "which comes first is not the logic's (move the line)")
+    pending = bytearray()
+    for _, kind, b in events:
+        if kind == 0:
+            pending += core.tick()
+        elif kind == 1:
+            pending += core.feed(bytes([b]))
+        else:
+            sensors[b // 10].level = b % 10
+    run.replies = _reply_lines(bytes(pending))
+    return run
+
+
+def compare(python: Run, gpsim: Run) -> list[str]:
+    """Differences, one message per part; [] when the runs agree."""
+    diffs = []
+    parts = [("replies", python.replies, gpsim.replies), ("I2C writes", python.writes, gpsim.writes)]
+    parts += [(f"flow sensor {i} reads", a, b)
+              for i, (a, b) in enumerate(zip(python.flow, gpsim.flow, strict=True))]
+    for name, a, b in parts:
+        if a != b:
+            first = next((i for i, (x, y) in enumerate(zip(a, b)) if x != y), min(len(a), len(b)))
+            diffs.append(f"{name}: {len(a)} in Python, {len(b)} in gpsim; first difference "
+                         f"at {first}: {a[first] if first < len(a) else '-'} / "
+                         f"{b[first] if first < len(b) else '-'}")
+    return diffs
+
+
+def differential(robot: Robot, stimulus: str, cod: Path, workdir: Path,
+                 tc: Toolchain | None = None) -> tuple[Run, Run]:
+    """(Python, gpsim) runs of ``stimulus``."""
+    g, rx, t2, end, floors = run_gpsim_side(robot, stimulus, cod, workdir, tc)
+    return python_side(robot, rx, t2, end, floors), g
+
+
+@dataclass(frozen=True)
+class CentralCycles:
+    kinematics: int           # core_kinematics of the velocity line
+    rx_line: int              # core_rx of its CR (parse, limits, kinematics, I2C write, reply)
+    tick: int                 # core_tick (two sensors' three registers, sums, watchdog)
+
+
+def measure_central(robot: Robot, cod: Path, lst: Path, workdir: Path, line: str,
+                    tc: Toolchain | None = None) -> CentralCycles:
+    """Cycles of the central firmware's functions in gpsim (execution breakpoints on
+    each function's entry and returns, ``cycles`` at each hit): ``line`` is sent after
+    the boot; the first core_kinematics, the longest core_rx (the line's CR) and the
+    first core_tick after the line are reported."""
+    from esair_min.pic.gpsim_bench import RETURN_CYCLES, function_spans, parse_hits
+
+    s = Setup.from_robot(robot)
+    spans = function_spans(lst.read_text(errors="replace"))
+    names: dict[int, tuple[str, bool]] = {}
+    for fn in ("_core_kinematics", "_core_rx", "_core_tick"):
+        if fn not in spans or not spans[fn].exits:
+            raise ToolchainError(f"{lst.name}: no function {fn} with a return")
+        names[spans[fn].entry] = (fn, True)
+        names.update({a: (fn, False) for a in spans[fn].exits})
+    script, _ = gpsim_script(s, "", str(Path(cod).resolve()))
+    head = script.split("\nlog on regs.log")[0].splitlines()
+    data = line.encode("ascii") + b"\r\n"
+    L = head + [f"break c {BOOT_CYCLES}", "run"] + [f"U1.tx = {b:#04x}" for b in data]
+    L += [f"break e {a:#x}" for a in sorted(names)]
+    L += [f"break c {BOOT_CYCLES + (len(data) + 2) * 6000 + 2 * s.tick_cycles}"]
+    L += ["run", "cycles"] * (2 * (len(data) + 8)) + ["quit"]
+    out = run_gpsim("\n".join(L) + "\n", workdir, timeout=300, tc=tc, script_name="bench.stc")
+    got: dict[str, list[int]] = {"_core_kinematics": [], "_core_rx": [], "_core_tick": []}
+    open_at: dict[str, int] = {}
+    for h in parse_hits(out):
+        if h.addr not in names:
+            continue
+        fn, entry = names[h.addr]
+        if entry:
+            open_at.setdefault(fn, h.cycle)
+        elif fn in open_at:
+            got[fn].append(h.cycle + RETURN_CYCLES - open_at.pop(fn))
+    if not got["_core_kinematics"] or len(got["_core_rx"]) < len(data) - 1 or not got["_core_tick"]:
+        raise ToolchainError(f"gpsim: spans timed {({k: len(v) for k, v in got.items()})}")
+    return CentralCycles(got["_core_kinematics"][0], max(got["_core_rx"]), got["_core_tick"][0])
