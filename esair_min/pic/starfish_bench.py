@@ -2,7 +2,8 @@
 
 The generated core (``core/omni.c``) alone, linked with a stub hal and a fixed main
 (tests/fixtures/pic/starfish_core_bench.c; the port's build is timed by
-:func:`esair_min.pic.starfish_gpsim.measure_central`): two calls of ``core_kinematics``, the line ``V-0345+0456-2789`` byte by byte into ``core_rx``, then
+:func:`esair_min.pic.starfish_gpsim.measure_central`): two calls of ``core_kinematics``, the
+line ``V-0345+0456-2789`` byte by byte into ``core_rx``, then
 one ``core_tick`` (two flow sensors read, no watchdog). Execution breakpoints on each
 function's entry and returns (addresses from gplink's listing), ``cycles`` at each hit.
 """
