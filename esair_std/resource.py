@@ -23,6 +23,7 @@ if TYPE_CHECKING:  # pragma: no cover
         """What a resource reaches through its slot (modes/reshost.py)."""
         name: str
         options: dict[str, Any]
+        host: Any          # the resource's host (a driver's children reach their driver)
 
         def report(self, value: Any) -> None: ...
         def set_state(self, state: str, reason: str) -> None: ...
