@@ -68,10 +68,10 @@ class TimedBus:
         self.last_start = start
         if self.stuck:
             ns = self.stuck_ns
-        elif (cached := self._ns.get(bits)) is not None:
-            ns = cached
         else:
-            ns = self._ns[bits] = bits_ns(bits, self.speed_hz)
+            ns = self._ns.get(bits)
+            if ns is None:
+                ns = self._ns[bits] = bits_ns(bits, self.speed_hz)
         self.busy_until = start + ns
         st = self.stats
         st.transactions += 1
