@@ -97,7 +97,7 @@ def central_context(robot: Robot) -> Context:
     act, sen = robot.peer("actuator"), robot.peer("sensor")
     sensors = robot.sensors
     groups: list[str] = []
-    reactions: list[dict[str, Any]] = []
+    reactions = []
     slot_numbers = [s.number for s in robot.layout.slots]
     for r in board.reactions:
         masks = []

@@ -224,7 +224,7 @@ class Runtime:
                         counters=self.server.counters())
         raise ControlError(f"no component {name!r}")
 
-    def wait_state(self, name: str, states: str | tuple[str, ...], timeout: float = 10.0) -> str:
+    def wait_state(self, name: str, states: str | tuple, timeout: float = 10.0) -> str:
         """Wait until ``name`` is in one of ``states``; its state (for tests, scripts)."""
         want = (states,) if isinstance(states, str) else tuple(states)
         deadline = time.monotonic() + timeout

@@ -395,8 +395,8 @@ class ProcessMode:
         self.reported(host.name, host.generation, "failed",
                       "its process is gone (liveliness token lost)")
 
-    def hello(self, b: dict[str, Any]) -> None:
-        name, gen = b.get("name", ""), b.get("generation", 0)
+    def hello(self, b: dict) -> None:
+        name, gen = b.get("name"), b.get("generation", 0)
         with self._lock:
             child = self._pending.get((name, gen))
         if child is None:

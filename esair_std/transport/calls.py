@@ -94,7 +94,7 @@ class SampleCaller:
 
     def wait(self, key: str, peer: str, body: dict[str, Any], timeout: float) -> Any:
         """``call`` from a thread that waits: the answer, or None."""
-        box: queue.SimpleQueue[Any] = queue.SimpleQueue()
+        box: queue.SimpleQueue = queue.SimpleQueue()
         if not self.call(key, peer, body, timeout, box.put):
             return None
         try:
