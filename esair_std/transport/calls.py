@@ -92,7 +92,7 @@ class SampleCaller:
             self._finish(oid, None)
         return True
 
-    def wait(self, key: str, peer: str, body: dict[str, Any], timeout: float) -> Any:
+    def wait(self, key: str, peer: str, body: dict, timeout: float) -> Any:
         """``call`` from a thread that waits: the answer, or None."""
         box: queue.SimpleQueue = queue.SimpleQueue()
         if not self.call(key, peer, body, timeout, box.put):
