@@ -98,3 +98,15 @@ class Idle(Behavior):
 
     def step(self):
         pass
+
+
+class Churn(Behavior):
+    """Puts once to 'echo' in start() and takes puts: one add/remove cycle of
+    bench/std_churn.py uses every per-name path of the runtime."""
+
+    def start(self):
+        self.got = 0
+        self.put("echo", {"from": self.name}, timeout=1.0)
+
+    def receive(self, sender, data):
+        self.got += 1

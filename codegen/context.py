@@ -11,11 +11,12 @@ from pathlib import Path
 from typing import Any
 
 from esair_min import __version__
+from esair_min.components import motion, pressure_sensor, servo
 from esair_min.core import protocol as P
 from esair_min.errors import GenerateError
 from esair_min.model.hardware import ADC_PINS
 from esair_min.core.image import build_image
-from esair_min.model.layout import HEADER_BYTES
+from esair_min.components.motion.layout import HEADER_BYTES
 from esair_min.model.board import Board
 from esair_min.model.robot import Robot
 
@@ -69,14 +70,36 @@ def _split_image_ok(line: bytes) -> tuple[bytes, bytes]:
 
 
 def central_context(robot: Robot) -> Context:
+    """The central board's context: one piece per feature, each from the model only."""
     board = robot.central
     ctx = common_context(robot, board)
     servos = robot.servos
-    n = len(servos)
-    numbers = {m.name: m.number for m in robot.motions}
-    uart = board.uart
-    checksum = bool(uart and uart.require_checksum)
+    commands = _command_context(robot)
+    motions = _motion_context(robot)
+    reactions = _reaction_context(robot)
+    texts = _texts(*_fixed_texts(robot), reactions["reactions"])
+    ctx.update({
+        "servos": servo.limit_rows(servos),
+        "n_servos": len(servos),
+        "frame_bytes": 2 * len(servos),
+        "n_sensors": len(robot.sensors),
+        **commands, **motions, **reactions, **_peer_context(robot),
+        "texts": texts,
+        "rom": _rom(commands["commands"], servo.limit_rows(servos), motions["motions"],
+                    reactions["reactions"], commands["prefix_pool"], motions["image_header"],
+                    texts),
+        "near_base": PIC_NEAR_BASE,
+        "text_pool_bytes": sum(len(t["text"]) + 1 for t in texts),
+        **_clock_context(board),
+    })
+    return ctx
 
+
+def _command_context(robot: Robot) -> Context:
+    """The command table: prefixes in one shared pool, one row per command."""
+    uart = robot.central.uart
+    n = len(robot.servos)
+    numbers = {m.name: m.number for m in robot.motions}
     pool = bytearray()
     rows = []
     for c in robot.commands:
@@ -91,54 +114,22 @@ def central_context(robot: Robot) -> Context:
         rows.append({"name": c.name, "at": at, "prefix_len": len(c.prefix), "length": length,
                      "action": c.action.upper(),
                      "motion": numbers[c.motion] if c.motion else 0xFF})
-
-    eeprom = robot.eeprom
-    image = build_image(robot) if eeprom is not None else b""
-    act, sen = robot.peer("actuator"), robot.peer("sensor")
-    sensors = robot.sensors
-    groups: list[str] = []
-    reactions = []
-    slot_numbers = [s.number for s in robot.layout.slots]
-    for r in board.reactions:
-        masks = []
-        for g in r.compare:
-            if g not in groups:
-                groups.append(g)
-            masks.append(sum(1 << i for i, s in enumerate(sensors) if s.group == g))
-        reactions.append({"name": r.name, "group_a": groups.index(r.compare[0]),
-                          "group_b": groups.index(r.compare[1]), "threshold": r.threshold,
-                          "samples": r.samples, "poll_ticks": r.poll_ticks,
-                          "motion": numbers[r.motion],
-                          "motion_index": slot_numbers.index(numbers[r.motion]),
-                          "notice": P.reaction_line(r.name)})
-    group_masks = [{"name": g, "mask": sum(1 << i for i, s in enumerate(sensors)
-                                           if s.group == g)} for g in groups]
-    for r in reactions:
-        r["mask_a"] = group_masks[r["group_a"]]["mask"]
-        r["mask_b"] = group_masks[r["group_b"]]["mask"]
-    ver_pre, ver_post = _split_image_ok(
-        P.ok_line(P.version_data(n, len(sensors), len(robot.motions), True, checksum)))
-    ready_pre, ready_post = _split_image_ok(P.ready_line(True))
-    texts = _texts(ver_pre, ver_post, ready_pre, ready_post, reactions)
-    t2, baud, i2c = board.timer2, board.baud, board.i2c_setting
-    if t2 is None or baud is None or i2c is None:
-        raise GenerateError(f"central board '{board.board}' needs tick:, uart: and an "
-                            f"I2C master")
-    ctx.update({
-        "servos": [{"name": s.name, "index": s.index, "min": s.min_angle, "max": s.max_angle,
-                    "stand": s.stand_angle, "speed": s.default_speed} for s in servos],
-        "n_servos": n,
-        "frame_bytes": 2 * n,
-        "n_sensors": len(sensors),
-        "require_checksum": int(checksum),
+    return {
+        "require_checksum": int(bool(uart and uart.require_checksum)),
         "line_max": P.MAX_LINE,
         "prefix_pool": bytes(pool),
         "commands": rows,
-        "motions": [{"name": s.name, "number": s.number, "frames": s.frames,
-                     "delay": s.delay_ticks, "offset": s.offset}
-                    for s in robot.layout.slots],
-        "groups": group_masks,
-        "reactions": reactions,
+        "actions": [{"name": a, "code": i} for i, a in enumerate(ACTIONS)],
+        "busy_last": BUSY_ACTIONS - 1,
+    }
+
+
+def _motion_context(robot: Robot) -> Context:
+    """The motion directory and the EEPROM image it points into."""
+    eeprom = robot.eeprom
+    image = build_image(robot) if eeprom is not None else b""
+    return {
+        "motions": motion.directory_rows(robot.layout.slots),
         "has_eeprom": int(eeprom is not None),
         "eeprom": ({"address": eeprom.address, "address_bytes": eeprom.address_bytes,
                     "size": eeprom.size_bytes} if eeprom else
@@ -148,20 +139,61 @@ def central_context(robot: Robot) -> Context:
         "image_length": len(image),
         "image_crc": int.from_bytes(image[6:8], "little") if image else 0xFFFF,
         "image_chunk": IMAGE_CHECK_CHUNK,
-        "actuator": {"present": int(act is not None), "address": act.address if act else 0,
-                     "registers": act.registers if act else 0},
-        "sensor": {"present": int(sen is not None), "address": sen.address if sen else 0,
-                   "registers": sen.registers if sen else 0},
-        "texts": texts,
-        "actions": [{"name": a, "code": i} for i, a in enumerate(ACTIONS)],
-        "busy_last": BUSY_ACTIONS - 1,
-        "rom": _rom(rows, [{"min": s.min_angle, "max": s.max_angle, "stand": s.stand_angle,
-                            "speed": s.default_speed} for s in servos],
-                    [{"number": s.number, "frames": s.frames, "delay": s.delay_ticks,
-                      "offset": s.offset} for s in robot.layout.slots],
-                    reactions, bytes(pool), image[:HEADER_BYTES], texts),
-        "near_base": PIC_NEAR_BASE,
-        "text_pool_bytes": sum(len(t["text"]) + 1 for t in texts),
+    }
+
+
+def _reaction_context(robot: Robot) -> Context:
+    """The reactions and the sensor groups they compare (as bit masks)."""
+    numbers = {m.name: m.number for m in robot.motions}
+    slot_numbers = [s.number for s in robot.layout.slots]
+    groups: list[str] = []
+    reactions = []
+    for r in robot.central.reactions:
+        for g in r.compare:
+            if g not in groups:
+                groups.append(g)
+        reactions.append({"name": r.name, "group_a": groups.index(r.compare[0]),
+                          "group_b": groups.index(r.compare[1]), "threshold": r.threshold,
+                          "samples": r.samples, "poll_ticks": r.poll_ticks,
+                          "motion": numbers[r.motion],
+                          "motion_index": slot_numbers.index(numbers[r.motion]),
+                          "notice": P.reaction_line(r.name)})
+    group_masks = [{"name": g, "mask": pressure_sensor.group_mask(robot.sensors, g)}
+                   for g in groups]
+    for r in reactions:
+        r["mask_a"] = group_masks[r["group_a"]]["mask"]
+        r["mask_b"] = group_masks[r["group_b"]]["mask"]
+    return {"groups": group_masks, "reactions": reactions}
+
+
+def _peer_context(robot: Robot) -> Context:
+    """Where the peer boards answer on the bus."""
+    def peer(role: str) -> dict[str, int]:
+        dev = robot.peer(role)
+        return {"present": int(dev is not None), "address": dev.address if dev else 0,
+                "registers": dev.registers if dev else 0}
+
+    return {"actuator": peer("actuator"), "sensor": peer("sensor")}
+
+
+def _fixed_texts(robot: Robot) -> tuple[bytes, bytes, bytes, bytes]:
+    """The version reply and the READY notice, each split around its image state."""
+    uart = robot.central.uart
+    checksum = bool(uart and uart.require_checksum)
+    ver_pre, ver_post = _split_image_ok(P.ok_line(P.version_data(
+        len(robot.servos), len(robot.sensors), len(robot.motions), True, checksum)))
+    ready_pre, ready_post = _split_image_ok(P.ready_line(True))
+    return ver_pre, ver_post, ready_pre, ready_post
+
+
+def _clock_context(board: Board) -> Context:
+    """Timer2, the baud divisor, the I2C master's SSPADD and the UART rings."""
+    t2, baud, i2c = board.timer2, board.baud, board.i2c_setting
+    if t2 is None or baud is None or i2c is None:
+        raise GenerateError(f"central board '{board.board}' needs tick:, uart: and an "
+                            f"I2C master")
+    uart = board.uart
+    return {
         "timer2": {"t2con": t2.t2con, "pr2": t2.pr2, "prescale": t2.prescale,
                    "postscale": t2.postscale, "period_us": round(t2.period_s * 1e6, 1)},
         "baud": {"spbrg": baud.spbrg, "brgh": baud.brgh, "rate": uart.baud if uart else 0,
@@ -169,8 +201,7 @@ def central_context(robot: Robot) -> Context:
         "i2c": {"sspadd": i2c.sspadd, "speed_hz": board.i2c.speed_hz},
         "rx_ring": P.RX_RING,
         "tx_ring": P.TX_RING,
-    })
-    return ctx
+    }
 
 
 def _texts(ver_pre: bytes, ver_post: bytes, ready_pre: bytes, ready_post: bytes,
@@ -192,7 +223,7 @@ def _texts(ver_pre: bytes, ver_post: bytes, ready_pre: bytes, ready_post: bytes,
         assert b"*/" not in text and b"\0" not in text, text   # shown in a C comment
         texts.append({"id": i, "name": name, "text": text, "data": text + b"\0", "at": at})
         at += len(text) + 1
-    for r, t in zip(reactions, texts[len(texts) - len(reactions):]):
+    for r, t in zip(reactions, texts[len(texts) - len(reactions):], strict=True):
         r["text_id"] = t["id"]
     return texts
 
@@ -291,9 +322,7 @@ def actuator_context(robot: Robot) -> Context:
                                                  if _pin(s.pin)["port"] == port)}
                       for port in sorted({_pin(s.pin)["port"] for s in servos})],
         "pwm_merge_counts": pwm.counts(PWM_MERGE_US),
-        "initial_regs": bytes(b for s in servos
-                              for b in (s.stand_angle % 100,
-                                        s.stand_angle // 100 + 10 * s.default_speed)),
+        "initial_regs": servo.initial_registers(servos),
     })
     return ctx
 

@@ -18,7 +18,7 @@ import threading
 from collections import deque
 from typing import Any, Callable
 
-from .errors import Refused, ResourceLost
+from .errors import CommandError, Refused, ResourceLost, StdError
 from .level import Level
 from .sample import Sample
 
@@ -91,15 +91,22 @@ class ActuatorHandle(_Handle):
         self.detached = False
 
     def send(self, command: Any, timeout: float = 1.0) -> Any:
-        """The actuator's ``write()`` result; CommandError / ResourceLost on failure."""
+        """The actuator's ``write()`` result. Raises only CommandError (the actuator
+        refused or failed it, no answer within ``timeout``, or the sender is not, or no
+        longer, registered to command it: "refused: ...") or ResourceLost (removed,
+        lost, its host gone)."""
         if self.detached:
             self.failed += 1
             raise ResourceLost(self.resource, "detached: the resource was removed")
         try:
             result = self._send(self.resource, command, timeout)
-        except Exception:
+        except (CommandError, ResourceLost):
             self.failed += 1
             raise
+        except StdError as exc:       # Refused, a command that is not JSON (TransportError)
+            self.failed += 1
+            why = f"refused: {exc.message}" if isinstance(exc, Refused) else exc.message
+            raise CommandError(self.resource, why) from None
         self.sent += 1
         return result
 
@@ -113,6 +120,7 @@ class SensorConnection:
     def __init__(self) -> None:
         self._lock = threading.Lock()
         self._attached: dict[str, dict[str, SensorHandle | None]] = {}
+        self._parked: dict[str, dict[str, SensorHandle | None]] = {}   # removed sensors
         self.routed = 0
         self.unrouted = 0    # samples with nobody attached: not kept
 
@@ -138,10 +146,37 @@ class SensorConnection:
         """The sensor is removed: every handle detached; returns the behaviors."""
         with self._lock:
             table = self._attached.pop(resource, {})
+            if table:
+                self._parked[resource] = dict(table)
         for h in table.values():
             if h is not None:
                 h.detached = True
         return sorted({k.split("#")[0] for k in table})
+
+    def restore(self, behavior: str, resource: str) -> None:
+        """The sensor is back (added again): ``behavior``'s handles attached again."""
+        with self._lock:
+            parked = self._parked.get(resource, {})
+            keys = [k for k in parked if k.split("#")[0] == behavior]
+            table = self._attached.setdefault(resource, {})
+            for key in keys:
+                h = table[key] = parked.pop(key)
+                if h is not None:
+                    h.detached = False
+            if not parked:
+                self._parked.pop(resource, None)
+            if not keys:                      # nothing parked (process mode): just listed
+                table[f"{behavior}#0"] = None
+
+    def forget(self, behavior: str) -> None:
+        """``behavior`` is gone: nothing of it kept for sensors that come back."""
+        with self._lock:
+            for res in list(self._parked):
+                table = self._parked[res]
+                for key in [k for k in table if k.split("#")[0] == behavior]:
+                    del table[key]
+                if not table:
+                    del self._parked[res]
 
     def attached_to(self, resource: str) -> list[str]:
         with self._lock:

@@ -12,12 +12,16 @@ samples and commands do not.
 from __future__ import annotations
 
 import difflib
+import logging
 import threading
 from typing import Any, Callable
 
-from .errors import ControlError, Refused, ResourceLost
+from .errors import ControlError, Refused, ResourceLost, StdError
 from .level import Level, best_match
 from .spec import Spec
+from .supervisor import Record, Supervisor
+
+log = logging.getLogger("esair_std.rs")
 
 
 def _hint(name: str, names: list[str]) -> str:
@@ -25,66 +29,147 @@ def _hint(name: str, names: list[str]) -> str:
     return f" (did you mean {close[0]!r}?)" if close else ""
 
 
-class ResourceSupervisor:
-    def __init__(self, start_host: Callable[[Spec], Any], sc: Any,
-                 on_detached: Callable[[str, str], None]):
-        self._start_host = start_host          # mode: Spec -> started host (children known)
+class ResourceSupervisor(Supervisor):
+    """Resource entries on the generic supervisor (supervisor.py), plus registration."""
+
+    # a resource being removed takes no new command while its device closes: its
+    # registrations end first (a behavior's are released after its stop(): bs.py)
+    release_before_stop = True
+
+    def __init__(self, start_host: Callable[[Spec, int], Any], sc: Any,
+                 on_detached: Callable[[str, str], None],
+                 on_attached: Callable[[str, str], None] | None = None,
+                 uses_of: Callable[[str], dict | None] | None = None):
+        super().__init__("rs", start_host)     # mode: (spec, generation) -> started host
         self._sc = sc
         self._on_detached = on_detached        # (behavior, resource): tell the behavior
+        self._on_attached = on_attached or (lambda _w, _r: None)
+        self._uses_of = uses_of or (lambda _w: {})
         self._lock = threading.RLock()
-        self.entries: dict[str, tuple[Spec, Any]] = {}     # entry -> (spec, host)
         self.resources: dict[str, tuple[str, str]] = {}    # resource -> (entry, kind)
         self.states: dict[str, tuple[str, str]] = {}       # resource -> (state, reason)
         self.grants: dict[tuple[str, str], Level] = {}     # (who, resource) -> level
+        self.parked: dict[tuple[str, str], Level] = {}     # grants on removed resources
         self.refusals = 0
         self.refused_on: dict[str, int] = {}               # resource -> registrations refused
+        self._told: dict[str, list] = {}                   # entry -> (who, resource) told
+        self.stays_detached: dict[str, set[str]] = {}      # who -> resources back, refused
+
+    @property
+    def entries(self) -> dict[str, tuple[Spec, Any]]:
+        """entry -> (spec, host) of every resource entry, in the order added."""
+        return {n: (r.spec, r.host) for n, r in list(self.records.items())}
+
+    def knows(self, name: str) -> bool:
+        return name in self.records or name in self.resources
 
     # ---- phases 1-2
     def add(self, spec: Spec) -> dict[str, str]:
+        """Start a resource entry (phase 1 here, later on the RS thread: ``request``);
+        its children ``{name: kind}``. Behaviors that held registrations on a resource
+        of the same name, removed before, are registered again (when ``uses`` and the
+        new ``allow`` still permit it) and told ``attached``."""
         with self._lock:
-            if spec.name in self.entries or spec.name in self.resources:
+            if spec.name in self.records or spec.name in self.resources:
                 raise ControlError(f"a resource named {spec.name!r} is already deployed")
-            host = self._start_host(spec)
-            kids = host.children()
+        rec = self.add_child(spec)
+        kids = rec.host.children()
+        with self._lock:
             clash = [k for k in kids if k in self.resources]
-            if clash:
-                host.stop()
-                raise ControlError(f"a resource named {clash[0]!r} is already deployed")
-            self.entries[spec.name] = (spec, host)
-            for child, kind in kids.items():
-                self.resources[child] = (spec.name, kind)
-                self.states[child] = ("ready", "")
-            return kids
+            if not clash:
+                for child, kind in kids.items():
+                    self.resources[child] = (spec.name, kind)
+                    self.states[child] = ("ready", "")
+        if clash:
+            self.records.pop(spec.name, None)
+            rec.host.stop()
+            raise ControlError(f"a resource named {clash[0]!r} is already deployed")
+        self._unpark(kids)
+        return kids
 
     def remove(self, entry: str) -> list[str]:
         """Remove a resource entry; the behaviors that were attached (told, keep running)."""
+        if entry not in self.records:
+            if entry in self.resources:
+                parent = self.resources[entry][0]
+                raise ControlError(f"{entry!r} is part of {parent!r}: remove {parent!r}")
+            raise ControlError(f"no resource {entry!r}{_hint(entry, list(self.records))}")
+        self.remove_child(entry)
+        return sorted({w for w, _ in self._told.pop(entry, [])})
+
+    def stop_all(self) -> None:
+        self.stop_children()
         with self._lock:
-            if entry not in self.entries:
-                if entry in self.resources:
-                    parent = self.resources[entry][0]
-                    raise ControlError(f"{entry!r} is part of {parent!r}: remove {parent!r}")
-                raise ControlError(f"no resource {entry!r}{_hint(entry, list(self.entries))}")
-            spec, host = self.entries.pop(entry)
-            kids = [r for r, (e, _k) in self.resources.items() if e == entry]
-            told: set[tuple[str, str]] = set()
+            self.resources.clear()
+
+    # ---- the supervisor's hooks
+    def released(self, name: str, rec: Record, why: str) -> None:
+        kids = [r for r, (e, _k) in list(self.resources.items()) if e == name]
+        if why == "failed":
+            # the registrations stay (the policy did not change): handles show the
+            # resource lost until it is back, then work again (``restarted``)
+            for res in kids:
+                self.set_state(res, "lost", rec.reason)
+            return
+        told: set[tuple[str, str]] = set()
+        with self._lock:
             for res in kids:
                 del self.resources[res]
                 self.states.pop(res, None)
                 for (who, r) in [k for k in self.grants if k[1] == res]:
-                    del self.grants[(who, r)]
+                    self.parked[(who, r)] = self.grants.pop((who, r))
                     told.add((who, r))
                 for who in self._sc.drop_resource(res):
                     told.add((who, res))
+                    self.parked.setdefault((who, res), Level.read)
+        self._told[name] = sorted(told)
         for who, res in sorted(told):
             self._on_detached(who, res)
-        host.stop()
-        return sorted({w for w, _ in told})
 
-    def stop_all(self) -> None:
-        for entry in reversed(list(self.entries)):
-            _spec, host = self.entries.pop(entry)
-            host.stop()
-        self.resources.clear()
+    def restarted(self, name: str, rec: Record) -> None:
+        """The entry runs again: its children ready, every registration on them given
+        to the new host (a behavior's handles work again without doing anything)."""
+        kids = rec.host.children()
+        gone = [r for r, (e, _k) in list(self.resources.items()) if e == name and r not in kids]
+        with self._lock:
+            for child, kind in kids.items():
+                self.resources[child] = (name, kind)
+            held = [(w, r) for (w, r), lv in self.grants.items()
+                    if r in kids and lv >= Level.command]
+        for who, res in held:
+            try:
+                rec.host.grant(who, res)
+            except StdError as exc:
+                log.error("%s: grant of %s to %s not restored: %s", name, res, who, exc)
+        for child in kids:
+            self.set_state(child, "ready", "")
+        for res in gone:                      # the new host no longer has it: removed
+            self.set_state(res, "lost", "not provided after the restart")
+
+    def gave_up(self, name: str, rec: Record) -> None:
+        why = rec.reason or "failed"
+        for res, (e, _k) in list(self.resources.items()):
+            if e == name:
+                self.set_state(res, "lost", f"{why} (stays failed)")
+
+    def _unpark(self, kids: dict[str, str]) -> None:
+        """Registrations held on removed resources named as these: granted again when
+        still permitted, else dropped (the behavior was told ``detached`` already)."""
+        with self._lock:
+            back = [(k, lv) for k, lv in self.parked.items() if k[1] in kids]
+            for k, _lv in back:
+                del self.parked[k]
+        for (who, res), level in back:
+            try:
+                self._register(who, res, level, self._uses_of(who))
+            except Refused as exc:
+                log.warning("%s stays detached from %s: %s", who, res, exc)
+                with self._lock:
+                    self.stays_detached.setdefault(who, set()).add(res)
+                continue
+            if kids[res] == "sensor":
+                self._sc.restore(who, res)
+            self._on_attached(who, res)
 
     # ---- phase 3
     def register(self, who: str, resource: str, level: Level, uses: dict | None) -> Level:
@@ -104,7 +189,9 @@ class ResourceSupervisor:
             if resource not in self.resources:
                 raise Refused(f"no resource {resource!r}{_hint(resource, list(self.resources))}")
             entry, kind = self.resources[resource]
-            if level > Level.read and kind == "sensor":
+            if level == Level.command and kind == "sensor":
+                # configure includes command, but a sensor's host runs no write(): the
+                # level is what configure() needs (docs/std.md)
                 raise Refused(f"{resource!r} is a sensor: it takes no commands")
             if uses is not None:
                 mine = best_match(uses, resource)
@@ -113,7 +200,7 @@ class ResourceSupervisor:
                 if level > mine:
                     raise Refused(f"behavior {who!r} lists {resource!r} for {mine} in its uses,"
                                   f" not {level}")
-                allow = self.entries[entry][0].allow
+                allow = self.records[entry].spec.allow
                 allowed = best_match(allow, who)
                 if allowed is None:
                     raise Refused(f"resource {resource!r} does not allow behavior {who!r}")
@@ -122,7 +209,7 @@ class ResourceSupervisor:
                                   f" {allowed}, not {level}")
             prev = self.grants.get((who, resource))
             self.grants[(who, resource)] = max(level, prev) if prev else level
-            host = self.entries[entry][1]
+            host = self.records[entry].host
         if level >= Level.command:
             host.grant(who, resource)
         return level
@@ -136,9 +223,13 @@ class ResourceSupervisor:
             keys = [k for k in self.grants if k[0] == who]
             for k in keys:
                 del self.grants[k]
-            hosts = {self.entries[self.resources[r][0]][1] for _w, r in keys
-                     if r in self.resources}
+            for k in [k for k in self.parked if k[0] == who]:
+                del self.parked[k]
+            self.stays_detached.pop(who, None)
+            hosts = {self.records[self.resources[r][0]].host for _w, r in keys
+                     if r in self.resources and self.resources[r][0] in self.records}
         self._sc.detach(who)
+        self._sc.forget(who)
         for host in hosts:
             host.revoke(who)
 
@@ -156,10 +247,28 @@ class ResourceSupervisor:
 
     # ---- lookups
     def host_of(self, resource: str) -> Any:
+        """The host of ``resource``; ResourceLost when there is none, or while it is
+        lost (its host failed and is restarting, or stays failed)."""
         with self._lock:
-            if resource not in self.resources:
+            r = self.resources.get(resource)
+            rec = self.records.get(r[0]) if r is not None else None
+            if rec is None:
                 raise ResourceLost(resource, "no such resource")
-            return self.entries[self.resources[resource][0]][1]
+            if rec.handled >= rec.generation or rec.host.state in ("starting", "failed"):
+                state, why = self.states.get(resource, ("lost", ""))
+                raise ResourceLost(resource, f"lost: {why}" if why else "lost")
+            return rec.host
+
+    def detached_of(self, who: str) -> list[str]:
+        """The resources ``who`` was detached from and is not attached to again."""
+        with self._lock:
+            out = {r for (w, r) in self.parked if w == who}
+            out |= self.stays_detached.get(who, set())
+        return sorted(out)
+
+    def restarts_of(self, entry: str) -> int:
+        rec = self.records.get(entry)
+        return rec.restarts if rec is not None else 0
 
     def kind_of(self, resource: str) -> str | None:
         r = self.resources.get(resource)
@@ -172,3 +281,4 @@ class ResourceSupervisor:
     def set_state(self, resource: str, state: str, reason: str) -> None:
         if resource in self.resources:
             self.states[resource] = (state, reason)
+            self.on_change()

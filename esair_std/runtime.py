@@ -23,14 +23,16 @@ from typing import Any
 from . import spec as specmod
 from .bs import BehaviorSupervisor
 from .connections import ActuatorConnection, SensorConnection
-from .errors import ControlError, StdError
+from .errors import ComponentError, ControlError, Refused, StdError
 from .level import Level
+from .policy import uses_problem
 from .rs import ResourceSupervisor
 from .spec import Spec
 
 log = logging.getLogger("esair_std.runtime")
 MODES = ("thread", "process")
-WATCH_PERIOD = 0.005
+WATCH_IDLE = 1.0      # the watchdog's longest sleep (a component added meanwhile wakes it)
+WAIT_RECHECK = 0.1    # wait_state: how often a state no event announces (busy) is looked at
 
 
 class Runtime:
@@ -48,15 +50,20 @@ class Runtime:
         self.base_dir = str(getattr(self.deployment, "base_dir", None) or os.getcwd())
         self.hostname = socket.gethostname()
         self.sc = SensorConnection()
-        self.rs = ResourceSupervisor(self._start_resource, self.sc, self._detached)
+        self.rs = ResourceSupervisor(self._start_resource, self.sc, self._detached,
+                                     self._attached, self._uses_of)
         self.ac = ActuatorConnection(self.rs)
-        self.bs = BehaviorSupervisor(self._start_component, self.rs)
+        self.bs = BehaviorSupervisor(self._start_component, self.rs, self._forget)
         self.server: Any = None
         self.session_options: dict | None = None
         self.extra_listen: list[str] = []
         self.local_endpoint: str | None = None     # where local children connect
         self.center: Any = None                    # remote agents (process mode)
         self._stop = threading.Event()
+        self._kick = threading.Event()      # wakes the watchdog: a component started
+        self._changed = threading.Condition()   # a state changed (wait_state waits on it)
+        self._version = 0
+        self.bs.on_change = self.rs.on_change = self.note_change
         self._watch: threading.Thread | None = None
         self.started_at = 0.0
         if self.mode_name == "thread":
@@ -84,6 +91,7 @@ class Runtime:
                 self.rs.add(s)
             for s in rea + beh:
                 self.bs.add(s)
+            self.rs.start()
             self.bs.start()
             self._watch = threading.Thread(target=self._watchdog, name="esair:watch",
                                            daemon=True)
@@ -96,6 +104,7 @@ class Runtime:
 
     def stop(self) -> None:
         self._stop.set()
+        self._kick.set()
         self.bs.stop_all()
         self.rs.stop_all()
         if self._watch is not None and self._watch.is_alive():
@@ -112,20 +121,47 @@ class Runtime:
         self.stop()
 
     def _watchdog(self) -> None:
-        while not self._stop.wait(WATCH_PERIOD):
+        """Sleeps until a host's deadline can next be reached (ComponentHost.check), not
+        a fixed tick: idle components cost no wake-ups."""
+        wait = 0.0
+        while True:
+            self._kick.wait(wait)
+            self._kick.clear()
+            if self._stop.is_set():
+                return
             try:
-                self.mode.watch(time.monotonic())
+                nxt = self.mode.watch(time.monotonic())
             except Exception as exc:  # noqa: BLE001 - keep watching
                 log.error("watchdog: %s", exc)
+                nxt = None
+            wait = WATCH_IDLE if nxt is None else min(max(nxt, 0.001), WATCH_IDLE)
 
     def _start_component(self, spec: Spec, generation: int) -> Any:
-        return self.mode.start_component(spec, generation)
+        host = self.mode.start_component(spec, generation)
+        self._kick.set()                    # its deadline joins the watchdog's
+        return host
 
-    def _start_resource(self, spec: Spec) -> Any:
-        return self.mode.start_resource(spec)
+    def _start_resource(self, spec: Spec, generation: int) -> Any:
+        return self.mode.start_resource(spec, generation)
+
+    def _forget(self, name: str) -> None:
+        forget = getattr(self.mode, "forget", None)
+        if forget is not None:
+            forget(name)
 
     def _detached(self, behavior: str, resource: str) -> None:
         self.bs.notify_detached(behavior, resource)
+
+    def _attached(self, behavior: str, resource: str) -> None:
+        self.bs.notify_attached(behavior, resource)
+
+    def _uses_of(self, who: str) -> dict | None:
+        """What ``who`` may register for: its ``uses`` (None: a reaction, fixed in the
+        deployment; {}: not deployed, nothing)."""
+        rec = self.bs.records.get(who)
+        if rec is None:
+            return {}
+        return None if rec.spec.kind == "reaction" else rec.spec.uses
 
     # ---- control (the CLI's verbs; also the Python API)
     def state(self, name: str) -> str | None:
@@ -143,6 +179,7 @@ class Runtime:
                              pid=getattr(rec.host, "pid", os.getpid()),
                              host=getattr(rec.host, "hostname", self.hostname),
                              restarts=rec.restarts, reason=_reason(rec),
+                             detached=self.rs.detached_of(name),
                              **{"class": rec.spec.class_path}))
         for entry, (spec, host) in list(self.rs.entries.items()):
             for res, (e, kind) in list(self.rs.resources.items()):
@@ -151,7 +188,8 @@ class Runtime:
                 st, why = self.rs.states.get(res, ("?", ""))
                 rows.append(dict(name=res, kind=kind, state=st,
                                  pid=getattr(host, "pid", os.getpid()),
-                                 host=getattr(host, "hostname", self.hostname), restarts=0,
+                                 host=getattr(host, "hostname", self.hostname),
+                                 restarts=self.rs.restarts_of(entry),
                                  reason=why, attached=self.sc.attached_to(res),
                                  **{"class": spec.class_path}))
         return rows
@@ -166,24 +204,34 @@ class Runtime:
                  uses={k: Level.parse(v).name for k, v in (uses or {}).items()},
                  restart_max=int(restart[0]), restart_within=float(restart[1]),
                  resources=tuple(resources), enabled=enabled)
+        why = uses_problem(name, s.uses, {e: spec.allow for e, (spec, _h)
+                                          in list(self.rs.entries.items())})
+        if why is not None:        # as the deployment file's check refuses it
+            raise Refused(why)
         rec = self.bs.request(self.bs.add, s)
+        if rec.host.state == "failed":   # start() raised: nothing is left of it
+            reason = _reason(rec)
+            self.bs.request(self.bs.remove, name)
+            raise ComponentError(f"{kind} {name!r} did not start: {reason}")
         return rec.host.state
 
     def remove(self, name: str) -> None:
         self.bs.request(self.bs.remove, name)
 
     def add_resource(self, name: str, class_path: str, allow: dict | None = None,
-                     options: dict | None = None) -> dict[str, str]:
+                     options: dict | None = None,
+                     restart: tuple[int, float] = (0, 0.0)) -> dict[str, str]:
         _check_name(name)
         if name in self.bs.records:
             raise ControlError(f"a {self.bs.records[name].spec.kind} named {name!r} is"
                                " already deployed")
         s = Spec("resource", name, class_path, dict(options or {}), self.base_dir,
-                 allow={k: Level.parse(v).name for k, v in (allow or {}).items()})
-        return self.rs.add(s)
+                 allow={k: Level.parse(v).name for k, v in (allow or {}).items()},
+                 restart_max=int(restart[0]), restart_within=float(restart[1]))
+        return self.rs.request(self.rs.add, s)
 
     def remove_resource(self, name: str) -> list[str]:
-        return self.rs.remove(name)
+        return self.rs.request(self.rs.remove, name)
 
     def put(self, name: str, data: Any, timeout: float = 1.0, sender: str = "operator") -> None:
         ok, why = self.bs.put(sender, name, data, timeout)
@@ -222,19 +270,33 @@ class Runtime:
         if name == "runtime" and self.server is not None:
             return dict(name="runtime", kind="runtime", state="running",
                         counters=self.server.counters())
-        raise ControlError(f"no component {name!r}")
+        from .bs import _hint
+        names = [*self.bs.records, *self.rs.entries, *self.rs.resources]
+        raise ControlError(f"no component {name!r}{_hint(name, names)}")
+
+    def note_change(self) -> None:
+        """A component's state changed (supervisors, hosts, agents' reports)."""
+        with self._changed:
+            self._version += 1
+            self._changed.notify_all()
 
     def wait_state(self, name: str, states: str | tuple, timeout: float = 10.0) -> str:
-        """Wait until ``name`` is in one of ``states``; its state (for tests, scripts)."""
+        """Wait until ``name`` is in one of ``states``; its state (for tests, scripts).
+        Woken by every change the runtime is told of; ``busy`` (a behavior's own flag,
+        not an event) is looked at again every WAIT_RECHECK seconds."""
         want = (states,) if isinstance(states, str) else tuple(states)
         deadline = time.monotonic() + timeout
         while True:
+            seen = self._version
             s = self.state(name)
             if s in want:
                 return s
-            if time.monotonic() > deadline:
+            left = deadline - time.monotonic()
+            if left <= 0:
                 raise ControlError(f"{name!r} is {s}, not {'/'.join(want)}, after {timeout:g} s")
-            time.sleep(0.002)
+            with self._changed:
+                self._changed.wait_for(lambda v=seen: self._version != v,
+                                       min(left, WAIT_RECHECK))
 
     def summary(self) -> list[dict]:
         """Per component: state, samples delivered/overwritten, puts ok/failed, restarts."""

@@ -123,6 +123,15 @@ def _period(entry: Any) -> tuple[float | None, bool]:
     return period, ("period" in fields) if fields is not None else period is not None
 
 
+def _restart(entry: Any) -> dict:
+    """An entry's ``restart: {max, within}`` as Spec fields (none: no restart)."""
+    restart = getattr(entry, "restart", None)
+    if not restart:
+        return {"restart_max": 0, "restart_within": 0.0}
+    return {"restart_max": int(getattr(restart, "max", 0) or 0),
+            "restart_within": float(getattr(restart, "within", 0) or 0)}
+
+
 def specs_of(deployment: Any) -> tuple[list[Spec], list[Spec], list[Spec]]:
     """The resources, behaviors and reactions of a loaded deployment, in file order."""
     base = getattr(deployment, "base_dir", None)
@@ -133,16 +142,14 @@ def specs_of(deployment: Any) -> tuple[list[Spec], list[Spec], list[Spec]]:
     res, beh, rea = [], [], []
     for name, e in _entries(deployment.resources):
         res.append(Spec("resource", name, e.class_path, dict(e.options or {}), folder(e),
-                        allow=_level_map(getattr(e, "allow", {})), where=_where(e)))
+                        allow=_level_map(getattr(e, "allow", {})), where=_where(e),
+                        **_restart(e)))
     for name, e in _entries(deployment.behaviors):
-        restart = getattr(e, "restart", None)
         period, has_period = _period(e)
         beh.append(Spec("behavior", name, e.class_path, dict(e.options or {}), folder(e),
                         period=period, has_period=has_period,
-                        uses=_level_map(getattr(e, "uses", {})),
-                        restart_max=int(getattr(restart, "max", 0) or 0) if restart else 0,
-                        restart_within=float(getattr(restart, "within", 0) or 0) if restart else 0.0,
-                        where=_where(e)))
+                        uses=_level_map(getattr(e, "uses", {})), where=_where(e),
+                        **_restart(e)))
     for name, e in _entries(deployment.reactions):
         period, has_period = _period(e)
         rea.append(Spec("reaction", name, e.class_path, dict(e.options or {}), folder(e),

@@ -20,6 +20,12 @@ def robot():
 
 
 @pytest.fixture(scope="session")
+def starfish():
+    """The validated STARFISH robot of boards/starfish (frozen: safe to share)."""
+    return load_robot(ROOT / "boards" / "starfish")
+
+
+@pytest.fixture(scope="session")
 def pic_firmware(robot, tmp_path_factory):
     """PAPA-MAN's generated firmware, each board built for the PIC18F452 on first use:
     ``pic_firmware("central")`` is the board's folder (``build-pic/firmware.cod`` in
@@ -89,7 +95,8 @@ _BY_MODULE = {
     "gpsim": {"test_gpsim", "test_gpsim_bus", "test_gpsim_overrun", "test_gpsim_slaves",
               "test_gpsim_uart", "test_toolchain", "test_pic_build"},
     "pty": {"test_pty", "test_minlink_pty", "test_liveview_tmux", "test_std_papaman",
-            "test_std_papaman_c", "test_std_papaman_cli", "test_gpsim_uart"},
+            "test_std_papaman_c", "test_std_papaman_cli", "test_gpsim_uart",
+            "test_starfish_pty"},
 }
 _BY_FIXTURE = {"pic_firmware": "gpsim"}
 #: modules of many subprocesses, C builds or long hypothesis runs (--durations: the

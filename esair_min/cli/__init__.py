@@ -147,11 +147,13 @@ def eeprom(robot: str, output: str, raw: bool) -> None:
 @click.option("--noise", type=float, default=0.0, metavar="BYTES/S",
               help="Fault: random bytes injected into the robot's receive line.")
 @click.option("--seed", type=int, default=0, show_default=True, help="Seed of the faults.")
+@click.option("--room", type=click.Path(dir_okay=False), metavar="FILE",
+              help="An omni-base robot's room (YAML: box, walls, landmarks); default 5 m x 5 m.")
 @friendly
 def emulate(robot: str, pty: bool, run_s: float | None, sends: tuple[str, ...],
             generate: str | None, scenario: str | None, trace: str | None, speed: float | None,
             nack_actuator: bool, no_sensor: bool, corrupt_eeprom: bool, stuck_bus: bool,
-            noise: float, seed: int) -> None:
+            noise: float, seed: int, room: str | None) -> None:
     """Run the emulated robot behind a pseudo-terminal (--pty) or headless (--run).
 
     With --pty it serves until Ctrl-C or SIGTERM; when standard output is a terminal,
@@ -168,7 +170,8 @@ def emulate(robot: str, pty: bool, run_s: float | None, sends: tuple[str, ...],
     opts = EmulateOptions(
         pty=pty, run_s=run_s, sends=sends, generate=Path(generate) if generate else None,
         scenario=scenario, trace=Path(trace) if trace else None, speed=speed,
-        faults=Faults(nack_actuator, no_sensor, corrupt_eeprom, noise, seed, stuck_bus))
+        faults=Faults(nack_actuator, no_sensor, corrupt_eeprom, noise, seed, stuck_bus),
+        room=Path(room) if room else None)
     status = run_emulator(load(robot), opts)
     if status:
         sys.exit(status)
@@ -202,7 +205,7 @@ def send(port: str, commands: tuple[str, ...], baud: int, timeout: float, notice
         sys.exit(1)
 
 
-@main.command(short_help="Draw servo angles over time from an event trace (PNG).")
+@main.command(short_help="Draw servo angles (or STARFISH's path) from a trace (PNG).")
 @click.argument("trace", type=click.Path(dir_okay=False))
 @click.option("-o", "--output", required=True, metavar="PNG", help="Image to write.")
 @click.option("--robot", "robot", default="papaman", show_default=True,
@@ -211,7 +214,17 @@ def send(port: str, commands: tuple[str, ...], baud: int, timeout: float, notice
 @friendly
 def plot(trace: str, output: str, robot: str, targets: bool) -> None:
     """Plot servo angles over time from an event trace: positions simulated from its
-    actuator writes with the emulator's servo model (--targets adds the targets)."""
+    actuator writes with the emulator's servo model (--targets adds the targets).
+    A STARFISH trace (esair emulate starfish --trace) is drawn as the robot's path on
+    its room's map, with the wheels' speeds below."""
+    from esair_min.emulator.starfish_trace import is_starfish_trace
+
+    if is_starfish_trace(trace):
+        from esair_min.cli.plotroom import plot_room
+
+        n = plot_room(trace, output)
+        click.echo(f"{n} ticks -> {output}")
+        return
     from esair_min.cli.plot import plot_trace
 
     n = plot_trace(load(robot), trace, output, targets)
@@ -231,6 +244,9 @@ def generate(robot: str, output: str) -> None:
     result = generate_robot(load(robot), Path(output))
     click.echo(f"{', '.join(result.boards)}: {len(result.written)} files written, "
                f"{len(result.unchanged)} unchanged in {output}")
+    for skipped in result.skipped:
+        click.echo(f"not generated: {skipped}: no firmware templates for these device kinds "
+                   "yet (their Python cores run in the emulator)")
 
 
 @main.command(short_help="Generate and build every board for the PIC18F452; print sizes.")

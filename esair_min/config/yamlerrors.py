@@ -327,6 +327,15 @@ def _bad_start(t: _Text, problem, context, pm, cm) -> Explained | None:
         return None
     ch = m.group(1)
     if ch == "\\t":
+        line = t.line(pm.line)
+        if line[pm.column:].lstrip(" \t").startswith("#"):
+            return Explained("a tab before a comment: the YAML reader takes only spaces "
+                             "between a value and its '#'; replace the tab by spaces",
+                             pm.line, pm.column)
+        if line[:pm.column].strip(" \t-"):
+            return Explained("a tab character between values: the YAML reader separates "
+                             "them with spaces only; replace the tab by spaces",
+                             pm.line, pm.column)
         return Explained("a tab character: YAML indents with spaces only; replace the tab "
                          "by spaces", pm.line, pm.column)
     return Explained(f"'{ch}' cannot start a value in YAML (it is reserved); put the value "

@@ -145,6 +145,10 @@ class _Builder:
         except (yaml.YAMLError, ValueError, TypeError, OverflowError) as exc:
             # ValueError & co.: a tagged or date-like scalar PyYAML cannot convert.
             problem = getattr(exc, "problem", None) or str(exc)
+            if "integer string conversion" in problem:
+                raise ConfigError(f"a number of {len(node.value)} characters is too long to "
+                                  "read (at most 4300 digits); quote it to keep it as text",
+                                  _mark(self.path, node)) from None
             raise ConfigError(f"cannot read value: {_one_line(problem)} "
                               "(quote the value, or remove its '!' tag)",
                               _mark(self.path, node)) from None

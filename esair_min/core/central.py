@@ -16,7 +16,7 @@ from esair_min.core import protocol as P
 from esair_min.core.bus import Bus
 from esair_min.core.decoder import CommandTable, LineAssembler, Row
 from esair_min.core.image import build_image, crc16_ccitt
-from esair_min.model.layout import HEADER_BYTES
+from esair_min.components.motion.layout import HEADER_BYTES
 from esair_min.core.player import BalanceReaction, Player
 from esair_min.core.protocol import Code
 from esair_min.model.robot import Robot

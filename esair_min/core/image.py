@@ -1,6 +1,6 @@
 """The EEPROM motion image (docs/eeprom-format.md): build, parse, Intel HEX.
 
-The layout (offsets and sizes) comes from :mod:`esair_min.model.layout`; this module makes
+The layout (offsets and sizes) comes from :mod:`esair_min.components.motion.layout`; this module makes
 and checks the bytes.
 """
 
@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from esair_min.errors import ImageError
-from esair_min.model.layout import DIR_ENTRY_BYTES, HEADER_BYTES, MAGIC, VERSION
+from esair_min.components.motion.layout import DIR_ENTRY_BYTES, HEADER_BYTES, MAGIC, VERSION
 
 if TYPE_CHECKING:
     from esair_min.model.robot import Robot

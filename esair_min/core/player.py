@@ -12,7 +12,7 @@ from esair_min.core.protocol import Code
 
 if TYPE_CHECKING:
     from esair_min.core.bus import Bus
-    from esair_min.model.layout import MotionSlot
+    from esair_min.components.motion.layout import MotionSlot
 
 
 #: frames whose check is remembered (a motion replays the same few frames)

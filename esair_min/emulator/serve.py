@@ -27,6 +27,7 @@ class EmulateOptions:
     faults: Faults = field(default_factory=Faults)
     speed: float | None = None    # with --pty only; None: real time (1)
     live: bool | None = None      # None: when stdout is a terminal
+    room: Path | None = None      # an omni-base robot's room (a YAML file); None: the default
 
 
 def generate_first(robot: Robot, out_dir: Path, log: Callable[[str], None]) -> bytes | None:
@@ -106,6 +107,13 @@ def emulate(robot: Robot, opts: EmulateOptions, out: TextIO | None = None,
         def log(text: str) -> None:
             print(text, file=sys.stderr)
     check_options(opts)
+    if robot.central.base is not None:
+        from esair_min.emulator.starfish_serve import emulate_starfish
+
+        return emulate_starfish(robot, opts, out, log, _serve_loop=_Stop, printer=_Printer)
+    if opts.room is not None:
+        raise EsairError("--room is for a robot with an omni base (STARFISH); this robot "
+                         "has none")
     image = generate_first(robot, opts.generate, log) if opts.generate else None
     with ExitStack() as stack:
         trace = None

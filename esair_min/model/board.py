@@ -9,29 +9,19 @@ board live in :mod:`esair_min.model.validate`; values derived from the datasheet
 
 from __future__ import annotations
 
-from typing import Annotated, Literal, Union
+from typing import Annotated, Any, Literal, Union
 
-from pydantic import BaseModel, ConfigDict, Field, StrictBool, StrictFloat, StrictInt, StrictStr
+from pydantic import Field, StrictBool, StrictInt, StrictStr, create_model
 
+from esair_min.components import COMPONENTS
+# The kinds' schemas and the shared types, re-exported: the board model is where
+# readers import them from.
+from esair_min.components.motion import MAX_FRAMES, MAX_MOTIONS, Frame, Motion  # noqa: F401
+from esair_min.components.pressure_sensor import MAX_SENSORS, Sensor  # noqa: F401
+from esair_min.components.servo import MAX_SERVOS, Servo  # noqa: F401
 from esair_min.model import hardware
-
-Name = Annotated[StrictStr, Field(pattern=r"^[a-z][a-z0-9_]{0,23}$",
-                                  description="lower-case identifier, at most 24 chars")]
-Pin = Annotated[StrictStr, Field(pattern=r"^R[A-E][0-7]$", description="port pin such as RB0")]
-Angle = Annotated[StrictInt, Field(ge=0, le=999, description="servo angle, degrees")]
-Speed = Annotated[StrictInt, Field(ge=0, le=25, description="speed code 0..25 (letters a..z)")]
-I2cAddress = Annotated[StrictInt, Field(ge=0x08, le=0x77, description="7-bit I2C address")]
-Number = Union[StrictInt, StrictFloat]
-
-MAX_SERVOS = 16
-MAX_SENSORS = 8
-MAX_MOTIONS = 100
-MAX_FRAMES = 255
-
-
-class Section(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
-
+from esair_min.model.types import (Angle, I2cAddress, Name, Number, Pin,  # noqa: F401
+                                   Section, Speed)
 
 class Mcu(Section):
     """The microcontroller and its oscillator."""
@@ -99,33 +89,6 @@ class I2c(Section):
     devices: tuple[Device, ...] = Field((), description="what a master talks to")
 
 
-class Servo(Section):
-    """A hobby servo on the actuator board (50 Hz PWM)."""
-
-    name: Name
-    index: Annotated[StrictInt, Field(ge=0, lt=MAX_SERVOS)] = Field(
-        description="motor number: letter a = 0; registers 2*index, 2*index+1")
-    pin: Pin
-    min_angle: Angle
-    max_angle: Angle
-    stand_angle: Angle
-    default_speed: Speed = 0
-    pulse_min_us: Annotated[StrictInt, Field(ge=200, le=3000)] = Field(
-        500, description="pulse width at 0 degrees")
-    pulse_max_us: Annotated[StrictInt, Field(ge=200, le=3000)] = Field(
-        2500, description="pulse width at 180 degrees")
-
-
-class Sensor(Section):
-    """An analog sensor on the sensor board (10-bit ADC, exposed as 2 registers)."""
-
-    name: Name
-    channel: Annotated[StrictInt, Field(ge=0, le=7)] = Field(description="ADC channel AN0..AN7")
-    group: Name = Field(description="group compared by reactions, e.g. left_foot")
-    min: Annotated[StrictInt, Field(ge=0, le=1023)] = 0
-    max: Annotated[StrictInt, Field(ge=0, le=1023)] = 1023
-
-
 Action = Literal["stand", "motor", "play", "speeds", "angles", "version", "sensors", "stop"]
 
 #: Characters of arguments each action takes after its prefix, per servo count N:
@@ -159,29 +122,6 @@ class Command(Section):
         return len(self.prefix) + self.arg_chars(servos)
 
 
-class Frame(Section):
-    """One pose: an angle per servo (by index) and a speed (one, or one per servo)."""
-
-    angles: tuple[Angle, ...]
-    speed: Speed | tuple[Speed, ...] = 0
-
-    def speeds(self) -> tuple[int, ...]:
-        if isinstance(self.speed, int):
-            return (self.speed,) * len(self.angles)
-        return self.speed
-
-
-class Motion(Section):
-    """A stored motion: frames played one per tick group from the EEPROM."""
-
-    name: Name
-    number: Annotated[StrictInt, Field(ge=0, lt=MAX_MOTIONS)] = Field(
-        description="the nn of PLYnn")
-    delay_ticks: Annotated[StrictInt, Field(ge=1, le=255)] = Field(
-        1, description="ticks from one frame's write to the next")
-    frames: Annotated[tuple[Frame, ...], Field(min_length=1, max_length=MAX_FRAMES)]
-
-
 class Reaction(Section):
     """Auto-balance: compare two sensor groups, play a motion when they disagree."""
 
@@ -197,11 +137,12 @@ class Reaction(Section):
     motion: Name = Field(description="motion played when it fires (pre-empts others)")
 
 
-Role = Literal["central", "actuator", "sensor"]
+Role = Literal["central", "actuator", "sensor", "drive"]
 
 
-class Board(Section):
-    """One board of a robot: one YAML file."""
+class BoardCore(Section):
+    """The sections every board may have and the central board's command table and
+    reactions; :class:`Board` adds one section per device kind."""
 
     board: Name = Field(description="the board's name, used by its peers")
     role: Role
@@ -211,11 +152,8 @@ class Board(Section):
     tick: Tick | None = None
     sync: Sync | None = None
     i2c: I2c
-    servos: tuple[Servo, ...] = ()
-    sensors: tuple[Sensor, ...] = ()
     commands: tuple[Command, ...] | None = Field(
         None, description="PC command table; omitted = the PAPA-MAN table")
-    motions: tuple[Motion, ...] = ()
     reactions: tuple[Reaction, ...] = ()
 
     # Values computed from the datasheet formulas (validated to be in range).
@@ -240,10 +178,20 @@ class Board(Section):
     @property
     def register_count(self) -> int:
         """Size of this board's register map as an I2C slave."""
-        return 2 * len(self.servos) + 2 * len(self.sensors)
+        return sum(c.registers_per_item * len(c.items(self)) for c in COMPONENTS)
 
     def device(self, kind: str) -> EepromDevice | BoardDevice | None:
         return next((d for d in self.i2c.devices if d.kind == kind), None)
+
+
+def _component_sections() -> dict[str, Any]:
+    return {c.section: ((tuple[c.schema, ...], Field((), description=c.description)) if c.many
+                        else (c.schema | None, Field(None, description=c.description)))
+            for c in COMPONENTS}
+
+
+Board = create_model("Board", __base__=BoardCore, __module__=__name__,
+                     __doc__="One board of a robot: one YAML file.", **_component_sections())
 
 
 #: The PAPA-MAN command table (shared/SPEC.md, docs/protocol.md): used when a central

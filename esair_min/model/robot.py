@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from esair_min.model.hardware import TickBusLoad, tick_bus_load
-from esair_min.model.layout import ImageLayout, image_layout
+from esair_min.components.motion.layout import ImageLayout, image_layout
 from esair_min.model.board import Board, BoardDevice, Command, EepromDevice, Motion, Sensor, Servo
 
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from esair_min.components import COMPONENTS
 from esair_min.model.hardware import FIRMWARE_BUS_OVERHEAD
 from esair_min.model.board import Board
 from esair_min.model.robot import Robot
@@ -38,6 +39,10 @@ def robot_summary(robot: Robot) -> list[str]:
         lines.append(f"  bus per frame: write {load.write} + next frame read {load.read}"
                      f"{poll} bit times = {wire * 1e3:.2f} ms, {wire / t2.period_s:.0%} of a "
                      f"tick on the wire (the PIC master needs {FIRMWARE_BUS_OVERHEAD}x that)")
+    for b in robot.boards:
+        for kind in COMPONENTS:
+            if kind.summary is not None and kind.items(b):
+                lines += kind.summary(b)
     return lines
 
 
@@ -46,6 +51,8 @@ def board_summary(board: Board, folder: str) -> list[str]:
     parts = [f"servos: {len(board.servos)}"] if board.servos else []
     if board.sensors:
         parts.append(f"sensors: {len(board.sensors)}")
+    if board.motors:
+        parts.append(f"motors: {len(board.motors)}")
     if board.role == "central":
         parts += [f"commands: {len(board.commands or ())}", f"motions: {len(board.motions)}",
                   f"reactions: {len(board.reactions)}"]

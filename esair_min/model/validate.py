@@ -15,8 +15,9 @@ from pydantic import ValidationError
 
 from esair_min.model import hardware
 from esair_min.errors import ConfigError, file_mark
-from esair_min.model.board import (DEFAULT_COMMANDS, Board, BoardDevice, Command, EepromDevice, Frame,
-                    Motion)
+from esair_min.components import COMPONENTS, motion, omni_base
+from esair_min.components.servo import encode_high
+from esair_min.model.board import DEFAULT_COMMANDS, Board, BoardDevice, Command, EepromDevice
 from esair_min.model.robot import Robot, frame_bus_load
 from esair_min.config.schema_errors import config_error, did_you_mean
 from esair_min.config.yamlload import Document, load_yaml
@@ -27,27 +28,18 @@ CHECKSUM_CHARS = 3
 BAUD_TOLERANCE = 0.02
 TICK_TOLERANCE = 0.01
 
-ROLE_SECTIONS = {
-    "central": {"uart", "tick", "sync", "commands", "motions", "reactions"},
-    "actuator": {"sync", "servos"},
-    "sensor": {"sensors"},
+#: The sections of the board core each role may have; each device kind adds its own
+#: section to the roles it names (esair_min.components).
+CORE_SECTIONS = {
+    "central": {"uart", "tick", "sync", "commands", "reactions"},
+    "actuator": {"sync"},
+    "sensor": set(),
+    "drive": set(),
 }
-OPTIONAL_SECTIONS = {"uart", "tick", "sync", "servos", "sensors", "commands", "motions",
-                     "reactions"}
-
-
-def encode_high(angle: int, speed: int) -> int:
-    """The thesis's high byte: angle/100 + 10*speed (may exceed a byte: check it)."""
-    return angle // 100 + 10 * speed
-
-
-def _overflow(speed: int, angle: int) -> str:
-    """Why a speed/angle pair does not fit the high byte, and what would."""
-    high = encode_high(angle, speed)
-    top = (255 - angle // 100) // 10
-    return (f"speed {speed} with angle {angle} encodes to high byte {high} "
-            f"(angle/100 + 10*speed), more than 255; at this angle use a speed of at "
-            f"most {top}")
+ROLE_SECTIONS = {role: sections | {c.section for c in COMPONENTS if role in c.roles}
+                 for role, sections in CORE_SECTIONS.items()}
+OPTIONAL_SECTIONS = {"uart", "tick", "sync", "commands", "reactions"} | {
+    c.section for c in COMPONENTS}
 
 
 def _an(word: str) -> str:
@@ -78,8 +70,9 @@ class _Checker:
                 self.fail(b, (section,), f"'{section}' does not belong on {_an(b.role)} board "
                           f"({_an(b.role)} board may have: {', '.join(sorted(allowed))}); "
                           f"remove it, or check 'role: {b.role}'", key=True)
-        required = {"central": ["uart", "tick", "sync"], "actuator": ["sync", "servos"],
-                    "sensor": ["sensors"]}[b.role]
+        required = {"central": ["uart", "tick"] + ([] if b.base else ["sync"]),
+                    "actuator": ["sync", "servos"], "sensor": ["sensors"],
+                    "drive": ["motors"]}[b.role]
         for section in required:
             if not getattr(b, section):
                 if section in data:
@@ -88,24 +81,12 @@ class _Checker:
                 self.fail(b, (), f"{_an(b.role)} board needs a '{section}:' section")
         self.i2c_rules(b)
         self.clock_rules(b)
-        self.unique(b, "servos", "name")
-        self.unique(b, "servos", "index")
-        self.unique(b, "sensors", "name")
-        self.unique(b, "sensors", "channel")
-        self.unique(b, "motions", "name")
-        self.unique(b, "motions", "number")
+        for c in COMPONENTS:
+            for field in c.unique if c.many else ():
+                self.unique(b, c.section, field)
         self.unique(b, "reactions", "name")
-        for i, s in enumerate(sorted(b.servos, key=lambda s: s.index)):
-            if s.index != i:
-                self.fail(b, ("servos", b.servos.index(s), "index"),
-                          f"servo '{s.name}': index {s.index} leaves a gap; servo indices "
-                          f"must run 0..{len(b.servos) - 1} and index {i} is missing")
-        for i in range(len(b.servos)):
-            self.servo_rules(b, i)
-        for i, s in enumerate(b.sensors):
-            if s.min >= s.max:
-                self.fail(b, ("sensors", i, "max"),
-                          f"sensor '{s.name}': max ({s.max}) must be above min ({s.min})")
+        for c in COMPONENTS:
+            c.board_rules(self, b)
         self.pin_rules(b)
 
     def unique(self, b: Board, section: str, field: str) -> None:
@@ -193,21 +174,6 @@ class _Checker:
                           f"within 1 %: nearest is {t2.period_ms:.4f} ms (prescale "
                           f"{t2.prescale}, PR2 {t2.pr2}, postscale {t2.postscale})")
 
-    def servo_rules(self, b: Board, i: int) -> None:
-        s = b.servos[i]
-        if s.min_angle > s.max_angle:
-            self.fail(b, ("servos", i, "max_angle"), f"servo '{s.name}': max_angle "
-                      f"({s.max_angle}) is below min_angle ({s.min_angle})")
-        if not s.min_angle <= s.stand_angle <= s.max_angle:
-            self.fail(b, ("servos", i, "stand_angle"), f"servo '{s.name}': stand_angle "
-                      f"{s.stand_angle} is outside its limits {s.min_angle}..{s.max_angle}")
-        if s.pulse_min_us >= s.pulse_max_us:
-            self.fail(b, ("servos", i, "pulse_max_us"), f"servo '{s.name}': pulse_max_us "
-                      f"({s.pulse_max_us}) must be above pulse_min_us ({s.pulse_min_us})")
-        if encode_high(s.stand_angle, s.default_speed) > 255:
-            self.fail(b, ("servos", i, "default_speed"), f"servo '{s.name}': default "
-                      f"{_overflow(s.default_speed, s.stand_angle)}")
-
     def pin_rules(self, b: Board) -> None:
         used: dict[str, str] = {}
 
@@ -227,11 +193,10 @@ class _Checker:
             claim(pin, "I2C", ("i2c",))
         if b.sync is not None:
             claim(b.sync.pin, "the sync line", ("sync", "pin"))
-        for i, s in enumerate(b.servos):
-            claim(s.pin, f"servo '{s.name}'", ("servos", i, "pin"))
-        for i, s in enumerate(b.sensors):
-            claim(hardware.ADC_PINS[s.channel], f"sensor '{s.name}' (AN{s.channel})",
-                  ("sensors", i, "channel"))
+        for c in COMPONENTS:
+            for i, item in enumerate(c.items(b)):
+                for pin, what, loc in c.pins(item):
+                    claim(pin, what, c.item_loc(i) + loc)
 
     # -- across boards ------------------------------------------------------------
     def robot_rules(self) -> None:
@@ -256,8 +221,8 @@ class _Checker:
         self.peer_rules(central, by_role)
         actuator = by_role.get("actuator")
         self.command_rules(central, len(actuator.servos) if actuator else 0, by_role)
-        for i in range(len(central.motions)):
-            self.motion_rules(central, i, actuator)
+        for c in COMPONENTS:
+            c.robot_rules(self, central, by_role)
         for i in range(len(central.reactions)):
             self.reaction_rules(central, i, by_role.get("sensor"))
         self.bus_budget_rule(central, actuator, by_role.get("sensor"))
@@ -321,28 +286,8 @@ class _Checker:
                 self.fail(b, ("board",), f"board '{b.board}' is not among the central "
                           f"board's I2C devices, so nothing can reach it; add it there "
                           f"(kind: board, board: {b.board})")
-        eeprom = central.device("eeprom")
-        if central.motions and eeprom is None:
-            self.fail(central, ("motions",), "motions need an EEPROM: add one to the I2C "
-                      "devices (kind: eeprom)", key=True)
-        if isinstance(eeprom, EepromDevice):
-            servos = len(by_role["actuator"].servos) if "actuator" in by_role else 0
-            from esair_min.model.layout import image_layout
-            need = image_layout(central.motions, servos).total_bytes
-            index = central.i2c.devices.index(eeprom)
-            if need > 0xFFFF:
-                self.fail(central, ("motions",), f"the motion image needs {need} bytes, "
-                          f"more than the 65535 its 16-bit offsets reach; use fewer or "
-                          f"shorter motions", key=True)
-            if need > eeprom.size_bytes:
-                self.fail(central, ("i2c", "devices", index, "size_bytes"),
-                          f"the motion image needs {need} bytes but EEPROM '{eeprom.name}' "
-                          f"has {eeprom.size_bytes} ({need - eeprom.size_bytes} bytes over); "
-                          f"use a larger EEPROM or fewer frames")
-            if eeprom.address_bytes == 1 and need > 256:
-                self.fail(central, ("i2c", "devices", index, "address_bytes"),
-                          f"a 1-byte memory address reaches 256 bytes, but the motion image "
-                          f"needs {need}; use address_bytes: 2")
+        motion.storage_rules(self, central, by_role)
+        omni_base.pairing_rules(self, central, by_role)
 
     def command_rules(self, central: Board, n: int, by_role: dict[str, Board]) -> None:
         commands = central.commands or ()
@@ -386,33 +331,6 @@ class _Checker:
                               f"no motion named '{c.motion}'"
                               f"{did_you_mean(c.motion, [m.name for m in central.motions])}")
 
-    def motion_rules(self, central: Board, i: int, actuator: Board | None) -> None:
-        m: Motion = central.motions[i]
-        servos = sorted(actuator.servos, key=lambda s: s.index) if actuator else []
-        if not servos:
-            self.fail(central, ("motions", i), "motions need an actuator board with servos")
-        for f, frame in enumerate(m.frames):
-            self.frame_rules(central, ("motions", i, "frames", f), m, f, frame, servos)
-
-    def frame_rules(self, central: Board, loc: tuple[Any, ...], m: Motion, f: int,
-                    frame: Frame, servos: list[Any]) -> None:
-        n = len(servos)
-        if len(frame.angles) != n:
-            self.fail(central, loc + ("angles",), f"motion '{m.name}' frame {f}: "
-                      f"{len(frame.angles)} angles given, the robot has {n} servos")
-        if not isinstance(frame.speed, int) and len(frame.speed) != n:
-            self.fail(central, loc + ("speed",), f"motion '{m.name}' frame {f}: "
-                      f"{len(frame.speed)} speeds given, the robot has {n} servos")
-        for k, (angle, speed, servo) in enumerate(zip(frame.angles, frame.speeds(), servos)):
-            if not servo.min_angle <= angle <= servo.max_angle:
-                self.fail(central, loc + ("angles", k), f"motion '{m.name}' frame {f}: angle "
-                          f"{angle} for servo '{servo.name}' is outside its limits "
-                          f"{servo.min_angle}..{servo.max_angle}")
-            if encode_high(angle, speed) > 255:
-                where = loc + (("speed",) if isinstance(frame.speed, int) else ("speed", k))
-                self.fail(central, where, f"motion '{m.name}' frame {f}, servo "
-                          f"'{servo.name}': {_overflow(speed, angle)}")
-
     def reaction_rules(self, central: Board, i: int, sensor: Board | None) -> None:
         r = central.reactions[i]
         groups = sorted({s.group for s in sensor.sensors}) if sensor else []
@@ -438,7 +356,8 @@ def load_board(path: Path | str) -> tuple[Board, Document]:
     except ValidationError as exc:
         raise config_error(exc, doc, Board) from None
     if board.role == "central" and board.commands is None:
-        board = board.model_copy(update={"commands": DEFAULT_COMMANDS})
+        # An omni base's commands are fixed (docs/protocol.md, STARFISH): no table.
+        board = board.model_copy(update={"commands": () if board.base else DEFAULT_COMMANDS})
     return board, doc
 
 

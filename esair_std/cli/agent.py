@@ -40,7 +40,8 @@ def _value(text: str):
               help="A resource the behavior registers for (read, command, configure); repeat.")
 @click.option("--allow", multiple=True, metavar="BEHAVIOR=LEVEL",
               help="For a sensor/actuator/driver: who may use it, up to which level; repeat.")
-@click.option("--period", type=float, default=None, help="Seconds between step() calls.")
+@click.option("--period", type=click.FloatRange(min=0, min_open=True), default=None,
+              help="Seconds between step() calls.")
 @click.option("-o", "--option", "options", multiple=True, metavar="KEY=VALUE",
               help="An option for the component (self.options; VALUE is JSON or text).")
 @click.option("--robot", default=None, help="The robot's name (found by asking when not given).")

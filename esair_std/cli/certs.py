@@ -17,7 +17,8 @@ from esair_min.errors import EsairError
 @click.option("--host", "hosts", multiple=True, metavar="HOST",
               help="A name or IP address agents connect to (repeat); it goes into the "
                    "server certificate (localhost and 127.0.0.1 always do).")
-@click.option("--days", default=365, show_default=True, help="Validity of every certificate.")
+@click.option("--days", type=click.IntRange(min=1), default=365, show_default=True,
+              help="Validity of every certificate.")
 def certs(folder: str, clients: tuple[str, ...], hosts: tuple[str, ...], days: int) -> None:
     """Make a test certificate authority (ca.pem, ca.key), a certificate for the control
     center (server.pem, server.key) and one per --client (NAME.pem, NAME.key) in DIR.

@@ -12,11 +12,12 @@ import click
 
 from ..errors import ControlError
 from esair_min.cli.pipes import friendly
+
+from .options import endpoint_option
 from .table import table as _table
 
-ENDPOINT = click.option("-e", "--endpoint", default=None, metavar="tcp/HOST:PORT",
-                        help="The runtime's control endpoint (default tcp/127.0.0.1:7447, "
-                             "or $ESAIR_STD_ENDPOINT).")
+ENDPOINT = endpoint_option("The runtime's control endpoint (default: $ESAIR_STD_ENDPOINT, "
+                           "else tcp/127.0.0.1:7447).")
 ROBOT = click.option("-r", "--robot", default=None,
                      help="The robot's name (default: the one runtime answering).")
 
@@ -56,10 +57,14 @@ def pairs(items: tuple[str, ...], what: str) -> dict[str, str]:
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
 @control
 def ls_cmd(c: Any, as_json: bool) -> None:
-    """List components: name, kind, state, pid, host."""
-    rows = c.call("ls")
+    """List components: name, kind, state, pid, host, restarts, reason (a driver's row
+    before its children's). --json: {"robot", "endpoint", "components": [...]}, every
+    component with the keys name, kind, state, pid, host, restarts, reason, class,
+    parent and attached (docs/std.md)."""
+    rows = c.call("ls", {"all": True})
     if as_json:
-        click.echo(json.dumps(rows, indent=1))
+        click.echo(json.dumps({"robot": c.robot, "endpoint": c.endpoint,
+                               "components": rows}, indent=1))
         return
     click.echo(_table(rows, ["name", "kind", "state", "pid", "host", "restarts", "reason"]))
 
@@ -69,7 +74,8 @@ def ls_cmd(c: Any, as_json: bool) -> None:
 @click.argument("class_path", metavar="module:Class")
 @click.option("--uses", multiple=True, metavar="RES=LEVEL",
               help="A resource and the level it is used at (read, command, configure).")
-@click.option("--period", type=float, default=None, help="Seconds between steps.")
+@click.option("--period", type=click.FloatRange(min=0, min_open=True), default=None,
+              help="Seconds between steps.")
 @click.option("-o", "--option", "options", multiple=True, metavar="KEY=VALUE",
               help="An option (self.options); VALUE is JSON or text.")
 @control
@@ -120,13 +126,31 @@ def remove_resource_cmd(c: Any, name: str) -> None:
 
 @click.command("put")
 @click.argument("name")
-@click.argument("data")
-@click.option("--timeout", type=float, default=1.0, show_default=True)
+@click.argument("data", required=False)
+@click.option("-f", "--file", "file", type=click.File("r", encoding="utf-8"), default=None,
+              metavar="FILE", help="Read DATA from FILE (- for standard input).")
+@click.option("--timeout", type=click.FloatRange(0, 3600), default=1.0, show_default=True,
+              help="Seconds to wait for the behavior.")
+@click.option("--no-wait", is_flag=True,
+              help="Done when the data is in the behavior's mailbox, before its receive() "
+                   "ran (a refusal is then not reported here).")
 @control
-def put_cmd(c: Any, name: str, data: str, timeout: float) -> None:
-    """Deliver DATA (JSON, or text) to behavior NAME through the BS."""
-    r = c.call("put", {"to": name, "data": value(data), "timeout": timeout},
-               timeout=timeout + 5)
+def put_cmd(c: Any, name: str, data: str | None, file: Any, timeout: float,
+            no_wait: bool) -> None:
+    """Deliver DATA (JSON, or text) to behavior NAME through the BS, as `operator`, and
+    wait until its receive() took it: a behavior refuses data by raising
+    esair_std.Refused("why") there, and the refusal is the error printed. DATA `-` (or
+    --file FILE) reads it from standard input (or FILE): data too long for the command
+    line, up to the message cap of 256 KiB."""
+    if (data is None) == (file is None):
+        raise click.UsageError("give DATA, or --file FILE, not both" if data is not None
+                               else "give DATA (or - for standard input), or --file FILE")
+    if data == "-":
+        data = click.get_text_stream("stdin").read()
+    elif file is not None:
+        data = file.read()
+    r = c.call("put", {"to": name, "data": value(data), "timeout": timeout,
+                       "wait": not no_wait}, timeout=timeout + 5)
     if not r["delivered"]:
         raise ControlError(f"put to {name!r} failed: {r['reason']}")
     click.echo("delivered")
@@ -134,14 +158,45 @@ def put_cmd(c: Any, name: str, data: str, timeout: float) -> None:
 
 @click.command("get")
 @click.argument("name")
-@click.option("--timeout", type=float, default=1.0, show_default=True)
+@click.option("--timeout", type=click.FloatRange(0, 3600), default=1.0, show_default=True,
+              help="Seconds to wait for the behavior.")
 @control
 def get_cmd(c: Any, name: str, timeout: float) -> None:
     """Ask behavior NAME for data (its provide()) through the BS; print it as JSON."""
     r = c.call("get", {"to": name, "timeout": timeout}, timeout=timeout + 5)
     if not r["ok"]:
-        raise ControlError(f"get from {name!r} failed: {r['reason']}")
+        kind = c.call("kind", {"resource": name}) if r["reason"].startswith(
+            "no behavior") else None
+        hint = {"sensor": f" (a sensor: read it with `esair std sample {name}`)",
+                "actuator": f" (an actuator: command it with `esair std send {name} VALUE`)"
+                }.get(kind or "", "")
+        raise ControlError(f"get from {name!r} failed: {r['reason']}{hint}")
     click.echo(json.dumps(r["data"]))
+
+
+@click.command("sample")
+@click.argument("name")
+@click.option("--timeout", type=click.FloatRange(0, 3600), default=2.0, show_default=True,
+              help="Seconds to wait for a first sample.")
+@click.option("--meta", is_flag=True, help="Print {resource, seq, t, value}, not the value.")
+@control
+def sample_cmd(c: Any, name: str, timeout: float, meta: bool) -> None:
+    """Print the latest sample of sensor NAME as JSON (e.g. papaman.feet)."""
+    s = c.call("sample", {"name": name, "timeout": timeout}, timeout=timeout + 5)
+    click.echo(json.dumps(s if meta else s["value"]))
+
+
+@click.command("send")
+@click.argument("name")
+@click.argument("val", metavar="VALUE")
+@click.option("--timeout", type=click.FloatRange(0, 3600), default=1.0, show_default=True,
+              help="Seconds the actuator may take.")
+@control
+def send_cmd(c: Any, name: str, val: str, timeout: float) -> None:
+    """Send one command VALUE (JSON, or text) to actuator NAME as the operator; print the
+    actuator's answer. Refused unless its resource's allow grants `operator: command`."""
+    click.echo(json.dumps(c.call("send", {"name": name, "value": value(val),
+                                          "timeout": timeout}, timeout=timeout + 5)))
 
 
 @click.command("configure")
@@ -174,4 +229,4 @@ def inspect_cmd(c: Any, name: str) -> None:
 
 
 COMMANDS = [ls_cmd, add_cmd, remove_cmd, add_resource_cmd, remove_resource_cmd, put_cmd,
-            get_cmd, configure_cmd, reaction_cmd, inspect_cmd]
+            get_cmd, sample_cmd, send_cmd, configure_cmd, reaction_cmd, inspect_cmd]

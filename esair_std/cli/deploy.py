@@ -48,4 +48,19 @@ def schema(indent: int) -> None:
     click.echo(json.dumps(deployment_schema(), indent=indent, sort_keys=True))
 
 
-COMMANDS = (check, schema)
+@click.command("new")
+@click.argument("example", metavar="NAME")
+@click.argument("folder", metavar="DIR")
+@friendly
+def new(example: str, folder: str) -> None:
+    """Copy bundled example NAME (papaman, lab) into DIR: its deployment file and its
+    behaviors' modules, to edit. The copy passes `esair std check` and runs as is
+    (`esair std run DIR`); the classes are imported from DIR first."""
+    from esair_std.deploy.bundled import copy_example
+
+    for path in copy_example(example, folder):
+        click.echo(f"wrote {path}")
+    click.echo(f"run it: esair std run {folder}")
+
+
+COMMANDS = (check, schema, new)

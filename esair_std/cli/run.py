@@ -14,26 +14,23 @@ import click
 
 from esair_min.cli.pipes import friendly
 
+from ..errors import TransportError
+from .options import endpoint_option
 from .table import table as _table
 
 
-def _with_port(path: Any, port: str) -> Any:
-    """The deployment with ``port`` set on every resource that has a ``port`` option."""
-    import yaml
+def _load(path: Any, port: str | None, emulate: dict[str, str]) -> Any:
+    """The deployment, through the one loader ``esair std check`` uses, with the command
+    line's ``--port`` / ``--trace`` / ``--scenario`` applied to the document first."""
+    from ..deploy import load_document
+    from ..deploy.overrides import set_emulate, set_port
 
-    from ..deploy import load_deployment
-    try:
-        with open(path) as f:
-            raw = yaml.safe_load(f)
-    except (OSError, yaml.YAMLError):
-        return path                      # loading it reports the error at file:line:col
-    if not isinstance(raw, dict):
-        return path
-    for entry in (raw.get("resources") or {}).values():
-        if isinstance(entry, dict) and "port" in entry:
-            entry["port"] = port
-            entry.pop("emulate", None)
-    return load_deployment(raw, base_dir=os.path.dirname(os.path.abspath(path)))
+    def edit(doc: Any) -> None:
+        if port is not None:
+            set_port(doc, port)
+        if emulate:
+            set_emulate(doc, emulate)
+    return load_document(path, edit=edit)[0]
 
 
 class _Local:
@@ -44,7 +41,10 @@ class _Local:
         self.robot = rt.robot
 
     def call(self, verb: str, body: dict | None = None) -> Any:
-        return self.rt.ls() if verb == "ls" else self.rt.inspect((body or {})["name"])
+        if verb == "ls":
+            from ..listing import components
+            return components(self.rt) if (body or {}).get("all") else self.rt.ls()
+        return self.rt.inspect((body or {})["name"])
 
 
 def _live(rt: Any, stop: threading.Event, seconds: float | None) -> None:
@@ -65,19 +65,29 @@ SUMMARY_COLS = ["name", "kind", "state", "samples", "overwritten", "commands", "
                 "puts_failed", "restarts"]
 
 
+#: Exit status after Ctrl-C (128 + SIGINT), as shells report it.
+INTERRUPTED = 130
+
+
 @click.command("run")
 @click.argument("deployment", metavar="FILE")
 @click.option("--mode", type=click.Choice(["thread", "process"]), default=None,
               help="Override the file's mode.")
 @click.option("--run", "seconds", type=click.FloatRange(min=0), default=None,
               metavar="SECONDS", help="Run headless this long, then print a summary and stop.")
-@click.option("-e", "--endpoint", default=None, metavar="tcp/HOST:PORT",
-              help="Control endpoint to listen on (default: the file's).")
+@endpoint_option("Control endpoint to listen on (default: $ESAIR_STD_ENDPOINT, else the "
+                 "file's).")
 @click.option("--no-control", is_flag=True,
               help="Thread mode: open no control endpoint (no network at all).")
 @click.option("--port", default=None, metavar="DEVICE",
               help="Set the `port` option of every resource that has one (a serial device, "
-                   "a pty, an esair:// URL), e.g. the real robot's /dev/ttyUSB0.")
+                   "a pty, an esair:// URL), e.g. the real robot's /dev/ttyUSB0; an error "
+                   "when none has one.")
+@click.option("--trace", default=None, metavar="FILE", type=click.Path(dir_okay=False),
+              help="The emulated robot (port: emulate) writes its event trace to FILE.")
+@click.option("--scenario", default=None, metavar="NAME|FILE",
+              help="The emulated robot's sensor readings over time (a file, or a name in "
+                   "the robot's scenarios/).")
 @click.option("--top/--no-top", "top", default=None,
               help="Show the live table of `esair std top` while running (default: when "
                    "the output is a terminal and --run is not given).")
@@ -86,46 +96,97 @@ SUMMARY_COLS = ["name", "kind", "state", "samples", "overwritten", "commands", "
                    "to and get from its behaviors as ROBOT/NAME.")
 @friendly
 def run_cmd(deployment: str, mode: str | None, seconds: float | None, endpoint: str | None,
-            no_control: bool, port: str | None, top: bool | None,
-            join: tuple[str, ...]) -> None:
+            no_control: bool, port: str | None, trace: str | None, scenario: str | None,
+            top: bool | None, join: tuple[str, ...]) -> None:
     """Deploy FILE (a deployment file, or a bundled example such as `lab`) and run it
-    until Ctrl-C, or for --run SECONDS. Other terminals control it with `esair std ls`,
-    `add`, `remove`, `put`, ... over the control endpoint."""
+    until Ctrl-C (exit status 130), or for --run SECONDS. Other terminals control it
+    with `esair std ls`, `add`, `remove`, `put`, ... over the control endpoint."""
     from ..deploy.bundled import resolve_deployment
     from ..runtime import Runtime
 
-    path: Any = resolve_deployment(deployment)
-    if port is not None:
-        path = _with_port(path, port)
-    rt = Runtime(path, mode=mode, endpoint=endpoint,
+    emulate = {}
+    if trace is not None:
+        emulate["trace"] = os.path.abspath(trace)
+    if scenario is not None:
+        emulate["scenario"] = (os.path.abspath(scenario) if os.path.exists(scenario)
+                               else scenario)
+    if emulate and port not in (None, "emulate"):
+        raise click.UsageError(f"--{next(iter(emulate))} is for the emulated robot, not "
+                               f"--port {port}")
+    dep = _load(resolve_deployment(deployment), port, emulate)
+    rt = Runtime(dep, mode=mode, endpoint=endpoint,
                  control=None if not no_control else False, join=list(join))
     if rt.mode_name == "thread" and not no_control:
         rt.control = True
     stop = threading.Event()
+    ctrl_c = _CtrlC(stop)
     old = signal.signal(signal.SIGTERM, lambda *_: stop.set())
-    with rt:
-        where = f", control endpoint {rt.endpoint}" if rt.control else ""
-        if rt.local_endpoint:       # secured endpoint: this computer's processes come here
-            where += f" (local: {rt.local_endpoint})"
-        click.echo(f"robot {rt.robot!r} running in {rt.mode_name} mode{where} "
-                   f"({len(rt.ls())} components)", err=True)
-        if top is None:
-            top = seconds is None and sys.stdout.isatty()
-        try:
+    try:
+        with ctrl_c, rt:
+            ctrl_c.started = True
+            where = f", control endpoint {rt.endpoint}" if rt.control else ""
+            if rt.local_endpoint:   # secured endpoint: this computer's processes come here
+                where += f" (local: {rt.local_endpoint})"
+            click.echo(f"robot {rt.robot!r} running in {rt.mode_name} mode{where} "
+                       f"({len(rt.ls())} components)", err=True)
+            if top is None:
+                top = seconds is None and sys.stdout.isatty()
             if top:
                 _live(rt, stop, seconds)
             else:
                 stop.wait(seconds)
-        except KeyboardInterrupt:
-            pass
-        if seconds is not None:
-            click.echo(_table(rt.summary(), SUMMARY_COLS))
+            ctrl_c.stopping = True
+            if seconds is not None and not ctrl_c.hit:
+                click.echo(_table(rt.summary(), SUMMARY_COLS))
+    except KeyboardInterrupt:
+        pass                        # Ctrl-C while starting: the runtime stopped what ran
+    except TransportError as exc:
+        raise _plain(exc, rt.endpoint) from None
     signal.signal(signal.SIGTERM, old)
+    if ctrl_c.hit:
+        click.echo(f"interrupted: robot {rt.robot!r} stopped", err=True)
     # Everything is stopped and closed. Leave without interpreter finalisation: a Zenoh
     # (Rust) thread that calls into Python while the interpreter finalises aborts the
     # process ("FATAL: exception not rethrown") — seen rarely, never with os._exit.
     sys.stdout.flush()
     sys.stderr.flush()
-    os._exit(0)
+    os._exit(INTERRUPTED if ctrl_c.hit else 0)
 
 
+class _CtrlC:
+    """SIGINT while ``esair std run`` runs: the first stops the robot (while starting, it
+    interrupts the start, which stops what ran); later ones are ignored while it stops."""
+
+    def __init__(self, stop: threading.Event):
+        self.stop = stop
+        self.hit = False
+        self.started = False
+        self.stopping = False
+        self.old: Any = None
+
+    def __enter__(self) -> "_CtrlC":
+        self.old = signal.signal(signal.SIGINT, self._on_sigint)
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        # stays installed: a Ctrl-C while the runtime stops is ignored (nothing to print)
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+    def _on_sigint(self, *_: Any) -> None:
+        first = not self.hit
+        self.hit = True
+        self.stop.set()
+        if first and not self.started:
+            raise KeyboardInterrupt
+
+
+def _plain(exc: Exception, endpoint: str) -> Exception:
+    """Zenoh's words for a listener that cannot open, as a user's."""
+    from ..errors import TransportError
+    text = str(exc)
+    if "Address already in use" in text:
+        return TransportError(f"{endpoint}: port in use, choose another with -e")
+    if "Cannot assign requested address" in text or "Can not create a new TCP listener" in text:
+        return TransportError(f"{endpoint}: cannot listen there (no such address on this "
+                              "computer?), choose another with -e")
+    return exc

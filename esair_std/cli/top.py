@@ -21,32 +21,93 @@ def _rate_source(kind: str, counters: dict) -> int:
     return int(counters.get("reported", 0)) + int(counters.get("commands", 0))
 
 
+#: Columns of the reason at most (the rest of a long reason: `esair std inspect NAME`).
+REASON_WIDTH = 48
+#: A driver's children sharing a prefix (``papaman.servo.*``) become one row from this many.
+GROUP_FROM = 3
+
+
 def snapshot(c: Any) -> list[dict]:
     rows = []
-    for row in c.call("ls"):
+    for row in c.call("ls", {"all": True}):
+        if row["kind"] == "driver":
+            row["count"] = 0
+            rows.append(row)
+            continue
         try:
             info = c.call("inspect", {"name": row["name"]})
         except Exception:  # noqa: BLE001 - removed meanwhile
             continue
         row["count"] = _rate_source(row["kind"], info.get("counters", {}))
         rows.append(row)
-    return rows
+    return grouped(rows)
+
+
+def grouped(rows: list[dict]) -> list[dict]:
+    """A driver's children under it, shown by their name within it (``.motion``);
+    children sharing a prefix, GROUP_FROM or more, as one row (``.servo.* (12)``) whose
+    state is the worst of theirs (``ready``, or e.g. ``lost 3/12``) and count their sum."""
+    prefix_n: dict[tuple[str, str], int] = {}
+    for r in rows:
+        if r.get("parent"):
+            prefix_n[(r["parent"], r["name"].rpartition(".")[0])] = prefix_n.get(
+                (r["parent"], r["name"].rpartition(".")[0]), 0) + 1
+    out: list[dict] = []
+    groups: dict[str, dict] = {}
+    for r in rows:
+        parent = r.get("parent")
+        if not parent:
+            out.append(r)
+            continue
+        prefix = r["name"].rpartition(".")[0]
+        n = prefix_n[(parent, prefix)]
+        if n < GROUP_FROM or prefix == parent:
+            out.append(dict(r, label="  " + r["name"][len(parent):]))
+            continue
+        g = groups.get(prefix)
+        if g is None:
+            g = groups[prefix] = dict(r, name=prefix + ".*", count=0, bad=0, n=n,
+                                      label=f"  {prefix[len(parent):]}.* ({n})")
+            out.append(g)
+        g["count"] += r["count"]
+        if r["state"] != "ready":
+            g["bad"] += 1
+            g["reason"] = g.get("reason") or r.get("reason", "")
+            g["state"] = f"{r['state']} {g['bad']}/{n}"
+    return out
 
 
 def render(rows: list[dict], before: dict[str, tuple[float, int]], robot: str) -> Any:
     from rich.table import Table
+    from rich.text import Text
     now = time.monotonic()
-    t = Table(title=f"ESAIR STD — robot {robot}", expand=False)
-    for col in ("name", "kind", "state", "pid", "host", "restarts", "events/s", "reason"):
-        t.add_column(col, justify="right" if col in ("pid", "restarts", "events/s") else "left")
+    cells = []
     for r in rows:
         t0, n0 = before.get(r["name"], (now, r["count"]))
         rate = (r["count"] - n0) / (now - t0) if now > t0 else 0.0
         before[r["name"]] = (now, r["count"])
-        st = r["state"]
-        t.add_row(r["name"], r["kind"], f"[{COLOURS.get(st, 'white')}]{st}[/]", str(r["pid"]),
-                  r["host"], str(r.get("restarts", 0)), f"{rate:.0f}", r.get("reason", ""))
+        cells.append((r.get("label", r["name"]), r["kind"], r["state"], str(r["pid"]),
+                      r["host"], str(r.get("restarts", 0)), f"{rate:.0f}",
+                      r.get("reason", "")))
+    t = Table(title=f"ESAIR STD — robot {robot}", expand=False)
+    for i, col in enumerate(COLUMNS):
+        # One line a row: every column keeps its width, a long reason is cut (`esair std
+        # inspect NAME` has it whole).
+        width = max([len(col)] + [len(c[i]) for c in cells])
+        t.add_column(col, justify="right" if col in ("pid", "restarts", "events/s") else "left",
+                     no_wrap=col != "reason", overflow="ellipsis",
+                     min_width=None if col == "reason" else width,
+                     max_width=REASON_WIDTH if col == "reason" else None)
+    for c in cells:
+        colour = COLOURS.get(c[2].split()[0], "white")
+        # the reason's column may narrow (it is the one that gives way), its text stays
+        # on one line
+        t.add_row(*c[:2], f"[{colour}]{c[2]}[/]", *c[3:7],
+                  Text(c[7], no_wrap=True, overflow="ellipsis"))
     return t
+
+
+COLUMNS = ("name", "kind", "state", "pid", "host", "restarts", "events/s", "reason")
 
 
 @click.command("top")

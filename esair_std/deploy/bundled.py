@@ -1,5 +1,6 @@
-"""Find a deployment: a file, a folder holding ``<folder>.yaml``, or the name of an
-example shipped with esair_std (``esair_std/examples/<name>/<name>.yaml``)."""
+"""Find a deployment: a file, a folder holding ``<folder>.yaml`` (or a single ``.yaml``),
+or the name of an example shipped with esair_std (``esair_std/examples/<name>/<name>.yaml``);
+copy such an example into a folder of one's own (``esair std new NAME DIR``)."""
 
 from __future__ import annotations
 
@@ -26,6 +27,8 @@ def resolve_deployment(arg: str | Path) -> Path:
     p = Path(arg)
     if p.is_dir() and (p / f"{p.name}.yaml").is_file():
         return p / f"{p.name}.yaml"
+    if p.is_dir() and len(found := sorted(p.glob("*.yaml"))) == 1:
+        return found[0]                  # a copy made by `esair std new NAME DIR`
     if p.exists():
         return p
     if len(p.parts) == 1 and not p.suffix:
@@ -36,3 +39,30 @@ def resolve_deployment(arg: str | Path) -> Path:
                           f"{did_you_mean(str(arg), names)} (bundled: "
                           f"{', '.join(names) or 'none'})", path_mark(str(arg)))
     return p
+
+
+def copy_example(name: str, folder: str | Path) -> list[Path]:
+    """Copy bundled example ``name`` (its deployment file and behavior modules) into
+    ``folder`` (created; it must not hold files of the same names); the files written."""
+    names = bundled_examples()
+    if name not in names:
+        raise DeployError(f"no bundled example named '{name}'{did_you_mean(name, names)} "
+                          f"(bundled: {', '.join(names) or 'none'})")
+    src = EXAMPLES / name
+    files = sorted(f for f in src.iterdir() if f.is_file() and f.suffix in (".yaml", ".py")
+                   and f.name != "__init__.py")
+    dest = Path(folder)
+    if dest.exists() and not dest.is_dir():
+        raise DeployError("is a file, not a folder", path_mark(str(dest)))
+    clash = [dest / f.name for f in files if (dest / f.name).exists()]
+    if clash:
+        raise DeployError(f"{clash[0]} exists already: choose a new folder, or move it away "
+                          "(nothing was written)")
+    try:
+        dest.mkdir(parents=True, exist_ok=True)
+        for f in files:
+            (dest / f.name).write_bytes(f.read_bytes())
+    except OSError as exc:
+        raise DeployError(f"cannot write the copy: {exc.strerror or exc}",
+                          path_mark(str(dest))) from None
+    return [dest / f.name for f in files]

@@ -9,7 +9,7 @@ errors) and the rules across entries (:mod:`.rules`). Classes are not imported h
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -58,9 +58,15 @@ def read_document(source: str | Path | Mapping[str, Any]) -> Document:
 
 
 def load_document(source: str | Path | Mapping[str, Any], *,
-                  base_dir: str | Path | None = None) -> tuple[Deployment, Document]:
-    """:func:`load_deployment`, also returning the Document (for marks in messages)."""
+                  base_dir: str | Path | None = None,
+                  edit: Callable[[Document], None] | None = None,
+                  ) -> tuple[Deployment, Document]:
+    """:func:`load_deployment`, also returning the Document (for marks in messages).
+    ``edit`` changes the document read before it is checked (the command line's
+    ``--port``, :mod:`.overrides`)."""
     doc = read_document(source)
+    if edit is not None:
+        edit(doc)
     if base_dir is not None:
         base = Path(base_dir).resolve()
     elif isinstance(source, Mapping):

@@ -65,7 +65,8 @@ class _Frozen(BaseModel):
 
 
 class RestartPolicy(_Frozen):
-    """At most ``max`` restarts within ``within`` seconds; then the behavior stays failed."""
+    """At most ``max`` restarts within ``within`` seconds; then the behavior (or the
+    resource entry) stays failed."""
 
     max: Annotated[StrictInt, Field(ge=0, le=1000)] = Field(
         0, description="restarts allowed within the window (0: never restart)")
@@ -124,12 +125,14 @@ class ComponentSpec(BaseModel):
 class ResourceSpec(ComponentSpec):
     """A resource: a Sensor, an Actuator, or a Driver providing several (``entry.child``)."""
 
-    KEYS = COMMON_KEYS + ("allow",)
+    KEYS = COMMON_KEYS + ("allow", "restart")
 
     allow: dict[Ref, LevelName] = Field(
         default_factory=dict,
         description="behavior name or fnmatch pattern -> highest level it may register "
                     "for (read < command < configure); nobody when empty")
+    restart: RestartPolicy = Field(default_factory=RestartPolicy,
+                                   description="restart policy after its host fails")
 
     def granted(self, behavior: str) -> Level | None:
         """The highest level ``allow`` grants ``behavior`` (None: not allowed at all)."""

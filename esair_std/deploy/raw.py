@@ -29,6 +29,8 @@ from .model import ComponentSpec
 SPECS: dict[str, type[ComponentSpec]] = {"resources": ResourceSpec,
                                            "behaviors": BehaviorSpec, "reactions": ReactionSpec}
 NAME_TEXT = "a lower-case name (a-z, 0-9, _; at most 32 characters, starting with a letter)"
+#: Brackets of a pattern in pairs, each holding at least one character: ``arm[12]``.
+_BRACKETS = re.compile(r"^([^\[\]]|\[!?[^\[\]]+\])*$")
 #: An unknown key this close to a known one is taken for a typo, not an option.
 TYPO_CUTOFF = 0.8
 
@@ -178,6 +180,11 @@ def _check_refs(doc: Document, section: str, entry: dict[str, Any],
             if not re.match(REF_PATTERN, ref):
                 raise DeployError(f"{quote(ref)} in {quote(key)} must be {what} (a-z, 0-9, "
                                   "_, '.', '-' and the wildcards * ? [ ] !)",
+                                  doc.mark(loc + (key, ref), key=True))
+            if not _BRACKETS.match(ref):
+                raise DeployError(f"{quote(ref)} in {quote(key)} has a '[' or ']' without "
+                                  "its pair: in a pattern, [...] holds the characters one "
+                                  "place may be, e.g. 'arm[12]'",
                                   doc.mark(loc + (key, ref), key=True))
     refs = entry.get("resources") if section == "reactions" else None
     if isinstance(refs, list):

@@ -10,15 +10,14 @@ check`` (with a did-you-mean when one looks like a listed behavior's typo).
 from __future__ import annotations
 
 import difflib
-from fnmatch import fnmatchcase
 
 from esair_min.errors import Mark
 from esair_min.config.schema_errors import quote
 from esair_min.config.yamlload import Document
 
 from ..errors import DeployError
-from ..level import Level
-from .model import BehaviorSpec, Deployment
+from ..policy import PRINCIPALS, entries_named, grant_problem, suggest, unknown
+from .model import Deployment
 
 WILDCARDS = set("*?[")
 
@@ -26,15 +25,7 @@ WILDCARDS = set("*?[")
 def resource_entries(dep: Deployment, ref: str) -> list[str]:
     """The resource entries a ``uses``/``resources`` name refers to: its first part
     (before any '.') is an entry name or a pattern over entry names."""
-    top = ref.split(".", 1)[0]
-    return [name for name in dep.resources if fnmatchcase(name, top)]
-
-
-def _suggest(ref: str, names: list[str]) -> str:
-    """`` (did you mean 'knee'?)`` for a misspelt entry (its child part kept)."""
-    top, dot, rest = ref.partition(".")
-    close = difflib.get_close_matches(top, names, n=1, cutoff=0.6)
-    return f" (did you mean '{close[0]}{dot}{rest}'?)" if close else ""
+    return entries_named(ref, list(dep.resources))
 
 
 def check_rules(dep: Deployment, doc: Document) -> None:
@@ -45,35 +36,17 @@ def check_rules(dep: Deployment, doc: Document) -> None:
             loc = ("behaviors", spec.name, "uses", ref)
             entries = resource_entries(dep, ref)
             if not entries:
-                raise DeployError(f"behavior {quote(spec.name)} uses unknown resource "
-                                  f"{quote(ref)}{_suggest(ref, names)}",
-                                  doc.mark(loc, key=True))
-            _check_grant(dep, spec, ref, level, entries, doc.mark(loc))
+                raise DeployError(unknown(spec.name, ref, names), doc.mark(loc, key=True))
+            why = grant_problem(spec.name, ref, level,
+                                {e: dep.resources[e].allow for e in entries})
+            if why is not None:
+                raise DeployError(why, doc.mark(loc))
     for spec in dep.reactions.values():
         for i, ref in enumerate(spec.resources):
             if not resource_entries(dep, ref):
                 raise DeployError(f"reaction {quote(spec.name)} names unknown resource "
-                                  f"{quote(ref)}{_suggest(ref, names)}",
+                                  f"{quote(ref)}{suggest(ref, names)}",
                                   doc.mark(("reactions", spec.name, "resources", i)))
-
-
-def _check_grant(dep: Deployment, spec: BehaviorSpec, ref: str, level: Level,
-                 entries: list[str], mark: Mark) -> None:
-    grants = [g for e in entries if (g := dep.resources[e].granted(spec.name)) is not None]
-    best = max(grants, default=None)
-    if best is not None and best >= level:
-        return
-    head = f"behavior {quote(spec.name)} uses {quote(ref)} at level '{level.name}', but "
-    if len(entries) == 1:
-        res = f"resource {quote(entries[0])}"
-        if best is None:
-            raise DeployError(f"{head}{res} does not allow it (add "
-                              f"'{spec.name}: {level.name}' to its allow)", mark)
-        raise DeployError(f"{head}{res} allows it only up to '{best.name}'", mark)
-    those = f"the resources it names ({', '.join(entries)})"
-    if best is None:
-        raise DeployError(f"{head}none of {those} allows it", mark)
-    raise DeployError(f"{head}{those} allow it only up to '{best.name}'", mark)
 
 
 def notes(dep: Deployment, doc: Document) -> list[tuple[Mark, str]]:
@@ -82,7 +55,7 @@ def notes(dep: Deployment, doc: Document) -> list[tuple[Mark, str]]:
     behaviors = list(dep.behaviors)
     for res in dep.resources.values():
         for pattern in res.allow:
-            if WILDCARDS & set(pattern) or pattern in dep.behaviors:
+            if WILDCARDS & set(pattern) or pattern in dep.behaviors or pattern in PRINCIPALS:
                 continue
             close = difflib.get_close_matches(pattern, behaviors, n=1, cutoff=0.6)
             hint = f" (did you mean '{close[0]}'?)" if close else ""

@@ -40,7 +40,10 @@ def deployment_summary(dep: Deployment) -> list[str]:
 
 def _details(spec: Any) -> str:
     if isinstance(spec, ResourceSpec):
-        return f"allow {_levels(spec.allow)}" if spec.allow else "allow nobody"
+        allow = f"allow {_levels(spec.allow)}" if spec.allow else "allow nobody"
+        r = spec.restart
+        return allow + (f"  restart {_plural(r.max, 'time')} in {_seconds(r.within)}"
+                        if r.max else "")
     if isinstance(spec, BehaviorSpec):
         period = f"period {_seconds(spec.period)}" if spec.period else "period of the class"
         uses = f"  uses {_levels(spec.uses)}" if spec.uses else ""

@@ -14,6 +14,7 @@ import getopt
 import json
 import logging
 import os
+import signal
 import sys
 import threading
 import time
@@ -30,8 +31,10 @@ from ..transport.calls import SampleCaller, SampleServer
 
 log = logging.getLogger("esair_std.agent")
 _ERRORS = {"Refused": Refused, "CommandError": CommandError, "ResourceLost": ResourceLost}
-ANSWER_MARGIN = 0.5     # a put waits its timeout plus this for the BS's answer: a behavior
-                        # putting across a cut link must not overrun its step (was 2 s)
+MARGIN = 0.05           # the far side of a put, get or command (the BS, the actuator's host)
+                        # gives up this long before the asker, whose call then returns
+                        # at its timeout, answered or not (a cut link, a stopped host):
+                        # a behavior whose timeouts fit its step deadline never overruns
 RUNTIME_GRACE = 1.0     # seconds without the runtime's token before leaving
 HELLO_S = 10.0          # how long an agent asks the runtime to take its hello
 
@@ -46,6 +49,7 @@ class ZenohPort:
         self.robot = robot
         self._pubs: dict[str, Any] = {}
         self._calls: dict[str, SampleCaller] = {}
+        self._routes: dict[str, Any] = {}        # actuator -> transport.bus.Route
 
     def _ctl(self, verb: str, body: dict, timeout: float = 5.0) -> Any:
         r = self.bus.request(keys.ctl(self.robot, verb), body, timeout)
@@ -69,14 +73,44 @@ class ZenohPort:
 
     def command(self, who: str, resource: str, command: Any, timeout: float,
                 direct: bool = False) -> Any:
-        r = self.bus.request(keys.actuator(self.robot, resource),
-                             {"from": who, "cmd": command, "timeout": timeout}, timeout + 0.5)
+        """The actuator's answer, within ``timeout``. When no host answers its key yet,
+        the runtime says why: a resource that is lost fails at once with its reason; one
+        that is ready (its host's declarations still on their way, e.g. at start-up) is
+        waited for, up to the timeout."""
+        deadline = time.monotonic() + timeout
+        key = keys.actuator(self.robot, resource)
+        route = self._routes.get(resource)
+        if route is None:
+            route = self._routes[resource] = self.bus.route(key)
+        if not route.ready.is_set():
+            self._lost_or_coming(resource, deadline)
+            route.ready.wait(max(0.0, deadline - time.monotonic()))
+        left = deadline - time.monotonic()
+        r = None
+        if left > 0:
+            r = self.bus.request(key, {"from": who, "cmd": command,
+                                       "timeout": max(0.0, left - MARGIN)}, left)
         if r is None:
-            raise ResourceLost(resource, "no answer: its host is gone")
+            if deadline - time.monotonic() > 0:    # early: nobody answers its key now
+                self._lost_or_coming(resource, deadline)
+            raise CommandError(resource, f"no answer within {timeout:g} s")
         if "error" in r:
             cls = _ERRORS.get(r.get("type"), CommandError)
             raise Refused(r["error"]) if cls is Refused else cls(resource, r["error"])
         return r.get("ok")
+
+    def _lost_or_coming(self, resource: str, deadline: float) -> None:
+        """ResourceLost with the runtime's reason unless ``resource`` is ready (or the
+        runtime does not say before ``deadline``)."""
+        left = deadline - time.monotonic()
+        if left <= 0:
+            return
+        try:
+            state, why = self._ctl("resinfo", {"resource": resource}, left)
+        except StdError:
+            return
+        if state != "ready":
+            raise ResourceLost(resource, f"{state}: {why}" if why else str(state))
 
     def configure(self, who: str | None, resource: str, key: str, value: Any) -> Any:
         return self._ctl("configure", {"who": who, "resource": resource, "key": key,
@@ -96,13 +130,12 @@ class ZenohPort:
                 self.bus, keys.bs_answer(self.robot, who), lambda _k: "runtime")
         try:
             r = calls.wait(keys.ctl_put(self.robot, who), "runtime",
-                           {"to": target, "data": data, "timeout": timeout},
-                           timeout + ANSWER_MARGIN)
+                           {"to": target, "data": data,
+                            "timeout": max(0.0, timeout - MARGIN)}, timeout)
         except StdError as exc:
             return False, exc.message
         if not isinstance(r, dict):
-            return False, (f"the runtime did not answer 'put' within "
-                           f"{timeout + ANSWER_MARGIN:g} s")
+            return False, f"the runtime did not answer 'put' within {timeout:g} s"
         ok = r.get("ok")
         if not isinstance(ok, dict):
             return False, str(r.get("error", "the runtime's answer made no sense"))
@@ -119,7 +152,8 @@ class ZenohPort:
 
     def get(self, who: str, target: str, timeout: float) -> tuple[bool, Any]:
         try:
-            r = self._ctl("get", {"from": who, "to": target, "timeout": timeout}, timeout + 2.0)
+            r = self._ctl("get", {"from": who, "to": target,
+                                  "timeout": max(0.0, timeout - MARGIN)}, max(0.001, timeout))
         except StdError as exc:
             return False, exc.message
         return (True, r["data"]) if r["ok"] else (False, r["reason"])
@@ -168,15 +202,18 @@ class Agent:
         body = dict(name=self.spec.name, kind=self.spec.kind, generation=self.generation,
                     pid=os.getpid(), host=os.uname().nodename, **extra)
         # a behavior's session returns from open before the runtime's declarations may
-        # have come (process.py: connect_scouted off), so nobody answering at first is
-        # asked again, for up to HELLO_S
+        # have come (process.py: connect_scouted off): it waits for the runtime's hello
+        # queryable to be known (Zenoh's matching status, an event), for up to HELLO_S
         deadline = time.monotonic() + HELLO_S
-        while True:
+        route = self.bus.route(keys.ctl(self.robot, "hello"))
+        r = None
+        while r is None:
+            left = deadline - time.monotonic()
+            if left <= 0 or not route.ready.wait(left):
+                break
             r = self.bus.request(keys.ctl(self.robot, "hello"), body,
                                  max(0.001, deadline - time.monotonic()))
-            if r is not None or time.monotonic() >= deadline:
-                break
-            time.sleep(0.002)
+        route.undeclare()
         if r is None or "error" in r:
             raise TransportError(f"runtime refused hello: {r and r.get('error')}")
 
@@ -207,8 +244,11 @@ class Agent:
         threading.Thread(target=self._watchdog, daemon=True, name="esair:watch").start()
 
     def _watchdog(self) -> None:
-        while not self.done.wait(0.005):
-            self.host.check(time.monotonic())
+        """Sleeps until the host's current call could reach its deadline (check())."""
+        wait = 0.0
+        while not self.done.wait(wait):
+            nxt = self.host.check(time.monotonic())
+            wait = RUNTIME_GRACE if nxt is None else max(nxt, 0.001)
 
     def _report_room(self) -> None:
         self._credit({"gen": self.generation, "open": self.host.open,
@@ -246,10 +286,17 @@ class Agent:
             if host.request_provide(str(b.get("from")),
                                     lambda v: req.reply({"ok": list(v)})) != "queued":
                 req.reply({"ok": ["busy", host.state]})
+        elif op == "take":                  # a put its sender waits for
+            if host.request_take(str(b.get("from")), b.get("data"),
+                                 lambda v: req.reply({"ok": list(v)})) != "queued":
+                req.reply({"ok": ["busy", host.state]})
         elif op == "state":
             req.reply({"ok": host.state})
         elif op == "detached":
             host.notify_detached(str(b.get("resource")))
+            req.reply({"ok": None})
+        elif op == "attached":
+            host.notify_attached(str(b.get("resource")))
             req.reply({"ok": None})
         elif op == "enable":
             host.set_enabled(bool(b.get("enabled")))
@@ -271,6 +318,7 @@ class Agent:
         try:
             cls = component_class(self.spec.class_path, self.spec.base_dir, self.spec.where)
             host = self.host = ResourceHost(self.spec, cls, self.port)
+            host.on_failed = self._resource_failed                # exits non-zero: main()
             kids = host.start()
         except StdError as exc:
             self.hello(error=exc.message)
@@ -282,6 +330,12 @@ class Agent:
         kind = "driver" if isinstance(host.driver, Driver) else next(iter(kids.values()))
         self.bus.token(keys.alive(self.robot, kind, self.spec.name))
         self.hello(children=kids)
+
+    def _resource_failed(self, reason: str) -> None:
+        """The resource host's thread died: the runtime told why, then this process ends
+        (status 1), and its RS restarts it by its policy."""
+        self.port.state_changed(self.spec.name, self.generation, "failed", reason)
+        self.done.set()
 
     def _on_actuator(self, req: Request) -> None:
         b = req.body
@@ -404,6 +458,9 @@ class _Args:
 
 
 def main(argv: list[str] | None = None) -> int:
+    # A terminal's Ctrl-C reaches the whole process group: the runtime stops its agents
+    # itself (one line, no traceback from each of them).
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     a = _Args(sys.argv[1:] if argv is None else argv)
     logging.basicConfig(level=logging.WARNING, format="%(name)s: %(message)s")
     spec = Spec.from_json(json.loads(a.spec))
@@ -430,6 +487,8 @@ def main(argv: list[str] | None = None) -> int:
         if agent.host is not None:
             agent.host.stop(1.0)
         bus.close()
+    if agent.host is not None and getattr(agent.host, "state", "") == "failed":
+        code = 1                  # its component failed: a supervisor (systemd) may restart
     os._exit(code)
 
 

@@ -77,9 +77,13 @@ class ControlServer:
             "put": self.v_put, "get": self.v_get, "configure": self.v_configure,
             "reaction": self.v_reaction, "inspect": self.v_inspect, "state": self.v_state,
             "register": self.v_register, "attach": self.v_attach, "kind": self.v_kind,
-            "report": self.v_report, "resstate": self.v_resstate, "hello": self.v_hello,
+            "report": self.v_report, "resstate": self.v_resstate,
+            "resinfo": self.v_resstate_get, "hello": self.v_hello,
             "join": self.v_join,
         }
+        # the operator's verbs (esair std sample / send): esair_std/operator.py
+        self.verbs.update({"sample": self.v_sample, "send": self.v_send})
+        self._operator: Any = None         # esair_std.operator.Operator, on first use
 
     def start(self) -> None:
         hub_runtime()          # before the session: it routes for every agent
@@ -119,6 +123,7 @@ class ControlServer:
     def _enqueue(self, req: Request | _SampleRequest) -> None:
         b = req.body
         if (req.key.endswith("/ctl/put") and b is not None and isinstance(b.get("to"), str)
+                and not b.get("wait")
                 and isinstance(b.get("from", ""), str) and _valid_timeout(b)):
             # fast path: the first offer straight from this callback, answered from the
             # offer's answer; a busy target goes on through a worker (retries until the
@@ -187,6 +192,9 @@ class ControlServer:
         return {"robot": self.rt.robot, "mode": self.rt.mode_name, "pid": os.getpid()}
 
     def v_ls(self, b: dict) -> list:
+        if b.get("all"):                 # every row with the same keys, drivers too
+            from ..listing import components
+            return components(self.rt)
         return self.rt.ls()
 
     def v_add(self, b: dict) -> str:
@@ -230,6 +238,8 @@ class ControlServer:
         if "/" in to:                             # another robot's behavior: remote/robots.py
             from ..remote import robots
             ok, why = robots.put(self.rt, str(sender), to, b.get("data"), _timeout(b))
+        elif b.get("wait"):       # the sender waits for receive(): told if refused
+            ok, why = self.rt.bs.put_wait(sender, to, b.get("data"), _timeout(b))
         else:
             ok, why = self.rt.bs.put(sender, to, b.get("data"), _timeout(b))
         return {"delivered": ok, "reason": why}
@@ -257,6 +267,19 @@ class ControlServer:
     def v_state(self, b: dict) -> str | None:
         return self.rt.state(_need(b, "name"))
 
+    def _op(self) -> Any:
+        if self._operator is None:
+            from ..operator import Operator
+            self._operator = Operator(self.rt)
+        return self._operator
+
+    def v_sample(self, b: dict) -> dict:
+        s = self._op().sample(_need(b, "name"), _timeout(b, 2.0))
+        return {"resource": s.source, "seq": s.seq, "t": s.t, "value": s.value}
+
+    def v_send(self, b: dict) -> Any:
+        return self._op().send(_need(b, "name"), b.get("value"), _timeout(b))
+
     # ---- agent verbs (component processes)
     def v_register(self, b: dict) -> int:
         try:
@@ -278,6 +301,11 @@ class ControlServer:
 
     def v_resstate(self, b: dict) -> None:
         self.rt.rs.set_state(_need(b, "resource"), _need(b, "state"), str(b.get("reason", "")))
+
+    def v_resstate_get(self, b: dict) -> list:
+        """[state, reason] of a resource ("gone" when there is none)."""
+        state, why = self.rt.rs.states.get(_need(b, "resource"), ("gone", "no such resource"))
+        return [state, why]
 
     def v_hello(self, b: dict) -> None:
         self.rt.mode.hello(b)

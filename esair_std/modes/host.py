@@ -162,6 +162,9 @@ class ComponentHost:
         """Take ``data`` into the mailbox: "delivered", else why not. ``wake=False``:
         the caller calls ``wake()`` itself (after answering, so the behavior's thread
         does not take the GIL from the answer)."""
+        if self._stop.is_set():           # being removed: its stop() runs next
+            self.c["refused"] += 1
+            return "stopped"
         if self._phase != "running" or self._busy:
             self.c["refused"] += 1
             return "busy" if self._phase in ("running", "busy", "starting") else self._phase
@@ -204,7 +207,7 @@ class ComponentHost:
 
     def request_provide(self, requester: str, reply: Any) -> str:
         """Queue a provide() call; ``reply((status, data))`` is called from the host thread."""
-        if self._phase != "running" or self._busy or self._full():
+        if self._phase != "running" or self._busy or self._full() or self._stop.is_set():
             return "busy"
         try:
             self.inbox.put_nowait(("provide", requester, reply))
@@ -221,6 +224,28 @@ class ComponentHost:
             return r.value
         return ("busy", f"no answer within {timeout:g} s")
 
+    # a put the sender waits for (esair std put): receive() runs, its outcome answers
+    def request_take(self, sender: str, data: Any, reply: Any) -> str:
+        """Queue ``receive(sender, data)``; ``reply((status, why))`` is called from the
+        host thread: ("ok", ""), ("refused", why) when receive() raised Refused, or
+        ("failed", why). "busy" when it takes no data now."""
+        if self._phase != "running" or self._busy or self._full():
+            return "busy"
+        try:
+            self.inbox.put_nowait(("take", sender, (data, reply)))
+        except queue.Full:
+            return "busy"
+        self._wake.set()
+        return "queued"
+
+    def take(self, sender: str, data: Any, timeout: float) -> tuple:
+        r = _Reply()
+        if self.request_take(sender, data, r) != "queued":
+            return ("busy", self.state)
+        if r.wait(timeout):
+            return r.value
+        return ("busy", f"no answer within {timeout:g} s")
+
     def notify_detached(self, resource: str) -> None:
         for h in list(self.handles.values()) + list(self._direct.values()):
             if h.resource == resource:
@@ -231,15 +256,31 @@ class ComponentHost:
         self.notices.append(resource)
         self._wake.set()
 
+    def notify_attached(self, resource: str) -> None:
+        """``resource`` is back (added again): the handles to it work again."""
+        for h in list(self.handles.values()) + list(self._direct.values()):
+            if h.resource == resource:
+                h.detached = False
+
     def set_enabled(self, enabled: bool) -> None:
         self.enabled = bool(enabled)
 
-    def check(self, now: float) -> None:
-        """Watchdog: a user call running past the deadline fails the component."""
+    def check(self, now: float) -> float | None:
+        """Watchdog: a user call running past the deadline fails the component. The
+        seconds until it needs checking again (a call now running reaches its deadline;
+        none running: a call starting now could not overrun sooner), None when never
+        (stopped or failed): the watchdog sleeps that long instead of polling."""
+        if self._phase in ("failed", "stopped"):
+            return None
         started = self._call_started
-        if started is not None and now - started > self.deadline:
+        if started is None:
+            return self.deadline
+        left = started + self.deadline - now
+        if left < 0:
             self._abandoned = True
             self._fail(f"{self._call_name}() ran over its {self.deadline:g} s deadline")
+            return None
+        return left + 0.001
 
     def counters(self) -> dict:
         out = dict(self.c)
@@ -393,6 +434,34 @@ class ComponentHost:
                 if self._phase != "failed":
                     self._phase = "stopped"
 
+    def _receive(self, sender: str, data: Any) -> None:
+        """receive(); a Refused it raises refuses the data (counted, logged: the sender
+        did not wait), it does not fail the behavior."""
+        try:
+            self._timed("receive", self.obj.receive, sender, data)
+        except Refused as exc:
+            self.c["refused_puts"] = self.c.get("refused_puts", 0) + 1
+            log.warning("%s refused %s's data: %s", self.name, sender, exc)
+        self.c["received"] += 1
+
+    def _take(self, sender: str, data: Any, reply: Any) -> None:
+        """receive() for a sender that waits for the outcome (request_take)."""
+        try:
+            self._timed("receive", self.obj.receive, sender, data)
+        except Refused as exc:
+            self.c["refused_puts"] = self.c.get("refused_puts", 0) + 1
+            self.c["received"] += 1
+            reply(("refused", str(exc)))
+            return
+        except _Abandoned:
+            reply(("failed", "receive() overran its deadline"))
+            raise
+        except Exception as exc:
+            reply(("failed", f"receive() raised {type(exc).__name__}: {exc}"))
+            raise
+        self.c["received"] += 1
+        reply(("ok", ""))
+
     def _serve(self, timeout: float) -> None:
         """Handle notices and mailbox items; wait at most ``timeout`` for the first."""
         deadline = time.monotonic() + timeout
@@ -415,11 +484,11 @@ class ComponentHost:
                     self.taken += 1
                 if self.taken - self._told_taken >= RESERVED // 2:
                     self._room_changed()
-                self._timed("receive", self.obj.receive, item[1], item[2])
-                self.c["received"] += 1
+                self._receive(item[1], item[2])
             elif item[0] == "deliver":
-                self._timed("receive", self.obj.receive, item[1], item[2])
-                self.c["received"] += 1
+                self._receive(item[1], item[2])
+            elif item[0] == "take":
+                self._take(item[1], *item[2])
             elif item[0] == "provide":
                 reply = item[2]
                 try:

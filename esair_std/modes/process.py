@@ -10,6 +10,7 @@ goes (SIGKILL: milliseconds), when its process exits, or when it says so itself.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import logging
 import os
@@ -24,6 +25,7 @@ from ..spec import Spec
 from ..transport import codec, keys, session
 from ..transport.calls import SampleCaller
 from ..transport.security import link_inserts
+from .agent import MARGIN
 from .thread import LocalPort
 
 log = logging.getLogger("esair_std.process")
@@ -69,6 +71,8 @@ class _Child:
         self.hostname = ""
         self.info: dict = {}
         self.hello = threading.Event()
+        self.ended = threading.Event()           # its process exited (not yet reaped)
+        self.changed = threading.Event()         # hello, a phase reported, or ended
         self.proc: subprocess.Popen | None = None
         self.remote = spec.name in mode.remote   # a remote agent (esair_std.remote): not ours
         self.quiet = False                       # remote: do not tell it to stop
@@ -93,18 +97,40 @@ class _Child:
                           self.spec, self.generation),
             stdin=subprocess.PIPE, env=env, cwd=self.mode.rt.base_dir)
         self.pid = self.proc.pid
+        threading.Thread(target=self._watch_exit, args=(self.proc.pid,), daemon=True,
+                         name=f"esair:exit:{self.name}").start()
+
+    def _watch_exit(self, pid: int) -> None:
+        """Blocks until the process exits (waitid with WNOWAIT: Popen still reaps it),
+        then tells: an event, never a periodic poll."""
+        with contextlib.suppress(ChildProcessError):     # already reaped by Popen
+            os.waitid(os.P_PID, pid, os.WEXITED | os.WNOWAIT)
+        self.ended.set()
+        self.changed.set()
+        self.on_exit()
+
+    def on_exit(self) -> None:
+        """Its process exited (from its exit watcher's thread)."""
+
+    def note(self) -> None:
+        """Something a waiter of ``changed`` looks at changed."""
+        self.changed.set()
 
     def wait_hello(self) -> None:
         deadline = time.monotonic() + START_TIMEOUT
-        while not self.hello.wait(0.02):
-            code = self.proc.poll() if self.proc else None
-            if code is not None:
+        while True:
+            self.changed.clear()
+            if self.hello.is_set():
+                break
+            if self.ended.is_set():
                 raise ComponentError(f"{self.spec.kind} {self.name!r}: its process exited"
-                                     f" with status {code} before it started")
-            if time.monotonic() > deadline:
+                                     f" with status {self.exited()} before it started")
+            left = deadline - time.monotonic()
+            if left <= 0:
                 self.kill()
                 raise ComponentError(f"{self.spec.kind} {self.name!r} did not start within"
                                      f" {START_TIMEOUT:g} s")
+            self.changed.wait(left)
         if self.info.get("error"):
             self.kill()
             raise ComponentError(self.info["error"])
@@ -235,13 +261,27 @@ class ProcessComponent(_Child):
         if self.phase in ("failed", "stopped"):
             return ("busy", self.phase)
         r = self.ask(self.key, {"op": "provide", "from": requester, "timeout": timeout},
-                     timeout + 0.05)
+                     timeout)
+        if isinstance(r, dict) and isinstance(r.get("ok"), list) and len(r["ok"]) == 2:
+            return tuple(r["ok"])
+        return ("busy", "no answer")
+
+    def take(self, sender: str, data: Any, timeout: float) -> tuple:
+        """A put the sender waits for: receive() runs in the agent, its outcome answers
+        (ComponentHost.take)."""
+        if self.phase in ("failed", "stopped"):
+            return ("busy", self.phase)
+        r = self.ask(self.key, {"op": "take", "from": sender, "data": data,
+                                "timeout": timeout}, timeout + 0.05)
         if isinstance(r, dict) and isinstance(r.get("ok"), list) and len(r["ok"]) == 2:
             return tuple(r["ok"])
         return ("busy", "no answer")
 
     def notify_detached(self, resource: str) -> None:
         self.ask(self.key, {"op": "detached", "resource": resource}, 1.0)
+
+    def notify_attached(self, resource: str) -> None:
+        self.ask(self.key, {"op": "attached", "resource": resource}, 1.0)
 
     def set_enabled(self, enabled: bool) -> None:
         self.ask(self.key, {"op": "enable", "enabled": bool(enabled)}, 1.0)
@@ -250,11 +290,13 @@ class ProcessComponent(_Child):
         r = self.ask(self.key, {"op": "counters"}, 1.0)
         return r["ok"] if isinstance(r, dict) and "ok" in r else {}
 
-    def check(self, now: float) -> None:
-        code = self.exited()
-        if code is not None and self.phase not in ("failed", "stopped"):
+    def check(self, now: float) -> float | None:
+        return None              # its agent watches the deadlines; its exit is an event
+
+    def on_exit(self) -> None:
+        if self.phase not in ("failed", "stopped"):
             self.mode.reported(self.name, self.generation, "failed",
-                               f"process exited with status {code}")
+                               f"process exited with status {self.exited()}")
 
     def stop(self, timeout: float = 2.0) -> None:
         if self.phase != "failed":
@@ -265,7 +307,7 @@ class ProcessComponent(_Child):
 class ProcessResource(_Child):
     """The runtime's view of a resource entry (and its children) in an agent process."""
 
-    state = "ready"
+    state = "ready"          # "failed" when its process is gone, "stopped" when stopped
 
     @property
     def key(self) -> str:
@@ -287,7 +329,8 @@ class ProcessResource(_Child):
 
     def command(self, sender: str, resource: str, command: Any, timeout: float) -> Any:
         r = self.ask(keys.actuator(self.robot, resource),
-                     {"from": sender, "cmd": command, "timeout": timeout}, timeout + 0.5)
+                     {"from": sender, "cmd": command, "timeout": max(0.0, timeout - MARGIN)},
+                     timeout)
         if r is None:
             raise ResourceLost(resource, "its host process does not answer")
         if "error" in r:
@@ -309,8 +352,13 @@ class ProcessResource(_Child):
         r = self.ask(self.key, {"op": "counters"}, 1.0)
         return r["ok"] if isinstance(r, dict) and "ok" in r else {}
 
+    def on_exit(self) -> None:
+        self.mode.resource_gone(self)
+
     def stop(self, timeout: float = 2.0) -> None:
         self.state = "stopped"
+        if self.mode._resources.get(self.name) is self:
+            del self.mode._resources[self.name]
         self.stop_process(self.key, timeout)
 
 
@@ -323,6 +371,7 @@ class ProcessMode:
         self._pending: dict[tuple[str, int], _Child] = {}
         self._resources: dict[str, ProcessResource] = {}
         self._lock = threading.Lock()
+        self._pending_cond = threading.Condition(self._lock)   # _pending changed
         self.remote: dict[str, dict] = {}         # name -> {host, pid} of remote agents
 
     @property
@@ -361,6 +410,20 @@ class ProcessMode:
                 keys.bs_deliver(self.rt.robot, name), drop=True, raw=True)
         pub(body)
 
+    def forget(self, name: str) -> None:
+        """Component ``name`` was removed: the publishers kept for it go (the BS's
+        deliveries and offers to it, the answers to its puts), so the runtime's tables
+        stay bounded however many differently named components come and go."""
+        robot = self.rt.robot
+        if self._deliver_pubs.pop(name, None) is not None:
+            self.bus.undeclare(keys.bs_deliver(robot, name))
+        offers = getattr(self, "offers", None)
+        if offers is not None:
+            offers.forget(keys.bs_offer(robot, name))
+        puts = getattr(self.rt.server, "puts", None)
+        if puts is not None:
+            puts.forget(keys.ctl_put(robot, name))
+
     def _alive(self, key: str, alive: bool) -> None:
         parsed = keys.parse_alive(self.rt.robot, key)
         if parsed is None or alive:
@@ -378,22 +441,35 @@ class ProcessMode:
                 threading.Thread(target=self._token_lost, args=(host,), daemon=True).start()
         elif kind in ("sensor", "actuator", "driver") and name in self._resources:
             host = self._resources[name]
-            if host.state != "stopped":
+            if host.state in ("stopped", "failed") or not host.hello.is_set():
+                return
+            if host.remote:                      # back when it joins again (center.py)
                 for res in host.children():
                     self.rt.rs.set_state(res, "lost", "its host process is gone")
+            else:
+                threading.Thread(target=self.resource_gone, args=(host, 0.1), daemon=True,
+                                 name="esair:lost").start()
 
     def _token_lost(self, host: ProcessComponent) -> None:
         """A component's token went. A local child must be dead too (its socket closes
         a moment before it can be reaped); a token of an older generation going late
         while this one lives is ignored. A remote agent's token is believed."""
-        if host.proc is not None:
-            deadline = time.monotonic() + 0.1
-            while host.proc.poll() is None:
-                if time.monotonic() > deadline:
-                    return
-                time.sleep(0.0005)
+        if host.proc is not None and not host.ended.wait(0.1):
+            return
         self.reported(host.name, host.generation, "failed",
                       "its process is gone (liveliness token lost)")
+
+    def resource_gone(self, host: ProcessResource, wait: float = 0.0) -> None:
+        """A local resource host's token went or its process exited: failed (its RS
+        restarts it by its policy) once its process is gone; a late token of an older
+        generation is ignored."""
+        if host.proc is not None and not host.ended.wait(wait):
+            return
+        if self._resources.get(host.name) is not host or host.state != "ready":
+            return
+        host.state = "failed"
+        host.reason = "its host process is gone"
+        self.rt.rs.failed(host.name, host.generation, host.reason)
 
     def hello(self, b: dict) -> None:
         name, gen = b.get("name"), b.get("generation", 0)
@@ -411,6 +487,18 @@ class ProcessMode:
             for res in child.children():
                 self.rt.rs.set_state(res, "ready", "")
         child.hello.set()
+        child.note()
+
+    def pending_changed(self) -> None:
+        with self._pending_cond:
+            self._pending_cond.notify_all()
+
+    def wait_pending(self, name: str, done: Any, timeout: float) -> bool:
+        """Wait until generation 1 of ``name`` is starting (its hello may come) or
+        ``done()``; False after ``timeout``."""
+        with self._pending_cond:
+            return self._pending_cond.wait_for(
+                lambda: (name, 1) in self._pending or done(), timeout)
 
     def _component(self, name: str, generation: Any) -> ProcessComponent | None:
         """The component ``name`` of that generation, deployed or still starting."""
@@ -422,34 +510,48 @@ class ProcessMode:
         return host if isinstance(host, ProcessComponent) else None
 
     def reported(self, name: str, generation: int, phase: str, reason: str) -> None:
+        res = self._resources.get(name)
+        if res is not None and res.generation == generation and not res.remote:
+            if phase == "failed" and res.state == "ready":     # its host thread died
+                res.state, res.reason = "failed", reason
+                self.rt.rs.failed(name, generation, reason)
+            return
         host = self._component(name, generation)
         if host is None:
             return
         if host.phase in ("failed", "stopped"):
             return
         host.phase = phase
+        host.note()
         if phase == "failed":
             host.reason = reason
             self.port.state_changed(name, generation, phase, reason)
+        else:
+            self.rt.note_change()
 
     def start_component(self, spec: Spec, generation: int) -> ProcessComponent:
         child = ProcessComponent(self, spec, generation)
         with self._lock:
             self._pending[(spec.name, generation)] = child
+            self._pending_cond.notify_all()
         try:
             child.spawn()
             child.wait_hello()
             deadline = time.monotonic() + START_TIMEOUT
-            while child.phase == "starting":
-                if child.exited() is not None:
+            while True:                          # its first report: running or failed
+                child.changed.clear()
+                if child.phase != "starting":
+                    break
+                if child.ended.is_set():
                     child.phase = "failed"
                     child.reason = f"process exited with status {child.exited()}"
                     break
-                if time.monotonic() > deadline:
+                left = deadline - time.monotonic()
+                if left <= 0:
                     child.kill()
                     raise ComponentError(f"{spec.kind} {spec.name!r} did not start within"
                                          f" {START_TIMEOUT:g} s")
-                time.sleep(0.001)
+                child.changed.wait(left)
         except BaseException:
             child.kill()
             raise
@@ -458,10 +560,11 @@ class ProcessMode:
                 self._pending.pop((spec.name, generation), None)
         return child
 
-    def start_resource(self, spec: Spec) -> ProcessResource:
-        child = ProcessResource(self, spec, 1)
+    def start_resource(self, spec: Spec, generation: int = 1) -> ProcessResource:
+        child = ProcessResource(self, spec, generation)
         with self._lock:
-            self._pending[(spec.name, 1)] = child
+            self._pending[(spec.name, generation)] = child
+            self._pending_cond.notify_all()
         try:
             child.spawn()
             child.wait_hello()
@@ -470,13 +573,12 @@ class ProcessMode:
             raise
         finally:
             with self._lock:
-                self._pending.pop((spec.name, 1), None)
+                self._pending.pop((spec.name, generation), None)
         self._resources[spec.name] = child
         return child
 
-    def watch(self, now: float) -> None:
-        for rec in list(self.rt.bs.records.values()):
-            rec.host.check(now)
+    def watch(self, now: float) -> float | None:
+        return None        # agents watch their deadlines; exits and tokens are events
 
     def close(self) -> None:
         offers = getattr(self, "offers", None)

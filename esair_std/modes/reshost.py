@@ -71,6 +71,8 @@ class ResourceHost:
         self._opened = threading.Event()
         self._error: str | None = None
         self.state = "starting"
+        self.reason = ""
+        self.on_failed: Callable[[str], None] | None = None   # the host's thread died
         self.c = dict(commands_refused=0)
         self.thread = threading.Thread(target=self._main, name=f"esair:{self.name}", daemon=True)
 
@@ -204,6 +206,14 @@ class ResourceHost:
         now = time.monotonic()
         for s in self.slots.values():
             s.next_poll = now
+        try:
+            self._serve()
+        except BaseException as exc:  # noqa: BLE001 - the host dies: its supervisor decides
+            self._died(f"{type(exc).__name__}: {exc}")
+            return
+        self._close()
+
+    def _serve(self) -> None:
         while not self._stop.is_set():
             wait = self._poll()
             try:
@@ -213,7 +223,27 @@ class ResourceHost:
             if item is None:
                 break
             self._run(*item)
-        self._close()
+
+    def _died(self, reason: str) -> None:
+        """The host's thread ends without being asked (a user call raised past every
+        handler, e.g. SystemExit): the entry is failed, its supervisor restarts it."""
+        self.state, self.reason = "failed", f"its host died: {reason}"
+        log.error("%s: %s", self.name, self.reason)
+        for s in self.slots.values():
+            s.state, s.reason = "lost", self.reason
+        while True:                       # nothing queued is carried out any more
+            try:
+                item = self.commands.get_nowait()
+            except queue.Empty:
+                break
+            if item is not None:
+                item[3](False, ResourceLost(item[0].name, self.reason))
+        try:
+            self._close()
+        except BaseException as exc:  # noqa: BLE001
+            log.warning("%s: close after failure: %s", self.name, exc)
+        if self.on_failed is not None and not self._stop.is_set():
+            self.on_failed(self.reason)
 
     def _poll(self) -> float:
         """Read the sensors that are due; seconds until the next one is."""
@@ -259,6 +289,9 @@ class ResourceHost:
         except Exception as exc:  # noqa: BLE001 - reaches the sender as CommandError
             slot.c["command_errors"] += 1
             return on_done(False, f"{type(exc).__name__}: {exc}")
+        except BaseException as exc:
+            on_done(False, ResourceLost(slot.name, f"its host died: {type(exc).__name__}: {exc}"))
+            raise
         on_done(True, value)
 
     def _close(self) -> None:

@@ -82,6 +82,7 @@ class LocalPort:
     def state_changed(self, name: str, generation: int, phase: str, reason: str) -> None:
         if phase == "failed":
             self.rt.bs.failed(name, generation, reason)
+        self.rt.note_change()
 
     def publish(self, resource: str, sample: Any) -> None:
         self.rt.sc.route(resource, sample)
@@ -107,9 +108,10 @@ class ThreadMode:
                                  f" {START_TIMEOUT:g} s")
         return host
 
-    def start_resource(self, spec: Spec) -> ResourceHost:
+    def start_resource(self, spec: Spec, generation: int = 1) -> ResourceHost:
         cls = component_class(spec.class_path, spec.base_dir, spec.where)
         host = ResourceHost(spec, cls, self.port)
+        host.on_failed = lambda reason: self.rt.rs.failed(spec.name, generation, reason)
         host.start(START_TIMEOUT)
         return host
 
@@ -122,9 +124,14 @@ class ThreadMode:
     def reported(self, name: str, generation: int, phase: str, reason: str) -> None:
         raise ComponentError("this runtime runs in thread mode: it hosts no agents")
 
-    def watch(self, now: float) -> None:
-        for rec in list(self.rt.bs.records.values()):
-            rec.host.check(now)
+    def watch(self, now: float) -> float | None:
+        """Check every host's deadline; seconds until one needs it again."""
+        return _soonest(rec.host.check(now) for rec in list(self.rt.bs.records.values()))
 
     def close(self) -> None:
         pass
+
+
+def _soonest(waits: Any) -> float | None:
+    waits = [w for w in waits if w is not None]
+    return min(waits) if waits else None

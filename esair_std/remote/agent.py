@@ -204,7 +204,9 @@ def run(endpoint: str, name: str, class_path: str, kind: str, uses: dict | None 
             ready(agent)
         while not agent.done.wait(0.2):
             pass
-        return 0
+        # its component failed: exit status 1, so a supervisor of the process (systemd's
+        # Restart=on-failure) starts it again
+        return 1 if getattr(agent.host, "state", "") == "failed" else 0
     finally:
         host = locals().get("agent")
         if host is not None and host.host is not None:
@@ -246,4 +248,9 @@ def main_json(argv: list[str]) -> int:
 
 if __name__ == "__main__":  # pragma: no cover
     import sys
-    sys.exit(main_json(sys.argv[1:]))
+    status = main_json(sys.argv[1:])
+    sys.stdout.flush()
+    sys.stderr.flush()
+    # no interpreter finalization: Zenoh's threads may still be calling into Python, and
+    # a thread ended under them aborted the process ("FATAL: exception not rethrown")
+    os._exit(status)

@@ -22,13 +22,12 @@ import secrets
 import socket
 import tempfile
 import threading
-import time
 from pathlib import Path
 from typing import Any
 
 from ..errors import ControlError, Refused
 from ..spec import Spec
-from ..transport.security import access_control, link_inserts, session_inserts
+from ..transport.security import LEASE_MS, access_control, link_inserts, session_inserts
 from .identity import Verifier
 
 log = logging.getLogger("esair_std.remote")
@@ -96,7 +95,8 @@ class Center:
         self.rt = rt
         sec = getattr(rt.deployment, "security", None)
         self.sec = sec
-        self.lost_grace = 3 * (sec.lease_ms if sec else 2000) / 1000.0
+        self.lease = (sec.lease_ms if sec else LEASE_MS) / 1000.0
+        self.lost_grace = 3 * self.lease
         base = Path(rt.base_dir)
 
         def full(p: Path | None) -> Path | None:
@@ -145,11 +145,8 @@ class Center:
         box: list = []
         threading.Thread(target=self._add, args=(spec, box), daemon=True,
                          name=f"esair:join:{name}").start()
-        deadline = time.monotonic() + JOIN_WAIT
-        while (name, 1) not in mode._pending and not box:
-            if time.monotonic() > deadline:
-                raise ControlError(f"{name!r}: the behavior supervisor did not take it in time")
-            time.sleep(0.001)
+        if not mode.wait_pending(name, lambda: bool(box), JOIN_WAIT):
+            raise ControlError(f"{name!r}: the behavior supervisor did not take it in time")
         if box and not box[0][0]:
             raise box[0][1]
         self.c["joins"] += 1
@@ -162,6 +159,7 @@ class Center:
         except Exception as exc:  # noqa: BLE001 - handed to the join request
             box.append((False, exc))
             self.rt.mode.remote.pop(spec.name, None)
+        self.rt.mode.pending_changed()
 
     def _join_resource(self, spec: Spec, info: dict) -> dict:
         mode = self.rt.mode
@@ -182,11 +180,8 @@ class Center:
         mode.remote[spec.name] = info
         box: list = []
         threading.Thread(target=self._add_resource, args=(spec, box), daemon=True).start()
-        deadline = time.monotonic() + JOIN_WAIT
-        while (spec.name, 1) not in mode._pending and not box:
-            if time.monotonic() > deadline:
-                raise ControlError(f"{spec.name!r}: the resource supervisor did not take it")
-            time.sleep(0.001)
+        if not mode.wait_pending(spec.name, lambda: bool(box), JOIN_WAIT):
+            raise ControlError(f"{spec.name!r}: the resource supervisor did not take it")
         if box and not box[0][0]:
             raise box[0][1]
         self.c["joins"] += 1
@@ -194,11 +189,12 @@ class Center:
 
     def _add_resource(self, spec: Spec, box: list) -> None:
         try:
-            self.rt.rs.add(spec)
+            self.rt.rs.request(self.rt.rs.add, spec, timeout=JOIN_WAIT + 20)
             box.append((True, None))
         except Exception as exc:  # noqa: BLE001 - handed to the join request
             box.append((False, exc))
             self.rt.mode.remote.pop(spec.name, None)
+        self.rt.mode.pending_changed()
 
     def _check_identity(self, name: str, proof: Any) -> None:
         if self.verifier is None or self.sec is None:
@@ -223,4 +219,7 @@ class Center:
         rec = self.rt.bs.records.get(host.name)
         if rec is not None and rec.host is host and host.phase == "lost":
             self.rt.mode.reported(host.name, host.generation, "failed",
-                                  f"remote agent unreachable for {self.lost_grace:g} s")
+                                  # its token went a lease (at least) after its
+                                  # last word, then the grace: a lower bound, true
+                                  f"remote agent unreachable for at least "
+                                  f"{self.lease + self.lost_grace:g} s")

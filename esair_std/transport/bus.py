@@ -11,6 +11,7 @@ buys nothing. Liveliness callbacks, which may take locks of the runtime, keep it
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import threading
 from typing import Any, Callable, TypeVar
@@ -59,11 +60,35 @@ class Request:
             self._query.drop()     # a held query stalls the asker until its timeout
 
 
+class Route:
+    """Whether some queryable answers ``key`` now (Zenoh's matching status), kept in
+    ``ready`` (an Event: wait on it, never poll)."""
+
+    def __init__(self, session: Any, key: str):
+        self.ready = threading.Event()
+        self._querier = session.declare_querier(key)
+        self._listener = self._querier.declare_matching_listener(self._status)
+        if self._querier.matching_status.matching:
+            self.ready.set()
+
+    def _status(self, status: Any) -> None:
+        if status.matching:
+            self.ready.set()
+        else:
+            self.ready.clear()
+
+    def undeclare(self) -> None:
+        for d in (self._listener, self._querier):
+            with contextlib.suppress(Exception):        # the session is closing
+                d.undeclare()
+
+
 class Bus:
     def __init__(self, listen: list[str] | None = None, connect: list[str] | None = None,
                  options: dict[str, Any] | None = None):
         self.session = open_session(listen, connect, options)
         self._decl: list[Any] = []
+        self._pub_of: dict[str, tuple] = {}     # key -> its publishers (``undeclare``)
         self._lock = threading.Lock()
         self.closed = False
 
@@ -89,6 +114,10 @@ class Bus:
             raise TransportError(f"request on {key} failed: {exc}") from None
         return None
 
+    def route(self, key: str) -> Route:
+        """A :class:`Route` to ``key`` (undeclared when the bus closes)."""
+        return self._keep(Route(self.session, key))
+
     def serve(self, key: str, handler: Callable[[Request], None]) -> Any:
         """``handler(request)`` on Zenoh's network thread: it must enqueue or answer."""
         def cb(query: Any) -> None:
@@ -103,7 +132,8 @@ class Bus:
     def publisher(self, key: str, drop: bool = False, raw: bool = False) -> Callable[[Any], None]:
         """``put(obj)`` for ``key``. ``drop``: never wait for a congested link (for
         messages whose loss the sender notices by a timeout), sent at once (express).
-        ``raw``: ``put(data)`` takes the bytes already encoded (codec.encode)."""
+        ``raw``: ``put(data)`` takes the bytes already encoded (codec.encode). A table of
+        publishers per peer gives them back with :meth:`undeclare` when the peer goes."""
         if drop:
             pub = self._keep(self.session.declare_publisher(
                 key, congestion_control=zenoh.CongestionControl.DROP, express=True))
@@ -112,11 +142,24 @@ class Bus:
                 key, congestion_control=zenoh.CongestionControl.BLOCK))
 
         if raw:
-            return pub.put
-
-        def put(obj: Any) -> None:
-            pub.put(codec.encode(obj))
+            put = pub.put
+        else:
+            def put(obj: Any) -> None:
+                pub.put(codec.encode(obj))
+        with self._lock:
+            self._pub_of[key] = self._pub_of.get(key, ()) + (pub,)
         return put
+
+    def undeclare(self, key: str) -> None:
+        """Undeclare the publishers made for ``key`` (their ``put`` fails after)."""
+        with self._lock:
+            pubs = self._pub_of.pop(key, ())
+            for pub in pubs:
+                if pub in self._decl:
+                    self._decl.remove(pub)
+        for pub in pubs:
+            with contextlib.suppress(Exception):        # the session is closing
+                pub.undeclare()
 
     def subscribe(self, key: str, callback: Callable[..., None], *,
                   with_key: bool = False,

@@ -24,6 +24,7 @@ failed. Garbage (not JSON, no id, a foreign id) is counted and dropped.
 
 from __future__ import annotations
 
+import heapq
 import itertools
 import logging
 import queue
@@ -56,6 +57,9 @@ class SampleCaller:
         self._pending: dict[int, tuple[str, Callable[[Any], None], float]] = {}
         self._pubs: dict[str, Callable[[Any], None]] = {}
         self._lock = threading.Lock()
+        self._due = threading.Condition(self._lock)    # an earlier deadline, or closed
+        self._deadlines: list[tuple[float, int]] = []  # heap (deadline, id); answered
+                                                       # ids are skipped when due
         self._closed = threading.Event()
         self.c = dict(calls=0, answers=0, timeouts=0, bad_answers=0)
         bus.subscribe(answers, self._on_answer, with_key=True, garbage=self._garbage)
@@ -73,7 +77,11 @@ class SampleCaller:
             if self._closed.is_set() or len(self._pending) >= PENDING:
                 return False
             oid = next(self._ids)
-            self._pending[oid] = (peer, done, time.monotonic() + timeout)
+            deadline = time.monotonic() + timeout
+            self._pending[oid] = (peer, done, deadline)
+            heapq.heappush(self._deadlines, (deadline, oid))
+            if self._deadlines[0][1] == oid:           # the earliest now: wake the timer
+                self._due.notify()
             pub = self._pubs.get(key)
             if pub is None:
                 if len(self._pubs) >= PEERS:
@@ -92,21 +100,30 @@ class SampleCaller:
             self._finish(oid, None)
         return True
 
+    def forget(self, key: str) -> None:
+        """The peer behind ``key`` is gone: its publisher is given back (bounded tables
+        however many peers come and go); a later call declares it again."""
+        with self._lock:
+            pub = self._pubs.pop(key, None)
+        if pub is not None:
+            self.bus.undeclare(key)
+
     def wait(self, key: str, peer: str, body: dict, timeout: float) -> Any:
         """``call`` from a thread that waits: the answer, or None."""
         box: queue.SimpleQueue = queue.SimpleQueue()
         if not self.call(key, peer, body, timeout, box.put):
             return None
         try:
-            return box.get(timeout=timeout + 1.0)
+            return box.get(timeout=timeout + 0.01)   # the timer answers None at ``timeout``
         except queue.Empty:
             return None
 
-    def _finish(self, oid: int, answer: Any) -> None:
+    def _finish(self, oid: int, answer: Any) -> bool:
         with self._lock:
             entry = self._pending.pop(oid, None)
         if entry is not None:
             entry[1](answer)
+        return entry is not None
 
     def _on_answer(self, key: str, obj: Any) -> None:
         oid = _id(obj)
@@ -123,18 +140,30 @@ class SampleCaller:
         entry[1](obj)
 
     def _expire(self) -> None:
-        while not self._closed.wait(0.02):
-            now = time.monotonic()
-            with self._lock:
-                late = [oid for oid, (_p, _d, deadline) in self._pending.items()
-                        if deadline <= now]
-            for oid in late:
+        """Sleeps until the earliest deadline of a call still waiting (a timer, not a
+        tick): calls answered in time cost it nothing."""
+        while True:
+            with self._due:
+                while not self._closed.is_set():
+                    while self._deadlines and self._deadlines[0][1] not in self._pending:
+                        heapq.heappop(self._deadlines)          # answered already
+                    if not self._deadlines:
+                        self._due.wait()
+                        continue
+                    left = self._deadlines[0][0] - time.monotonic()
+                    if left <= 0:
+                        break
+                    self._due.wait(left)
+                if self._closed.is_set():
+                    return
+                _d, oid = heapq.heappop(self._deadlines)
+            if self._finish(oid, None):
                 self.c["timeouts"] += 1
-                self._finish(oid, None)
 
     def close(self) -> None:
         self._closed.set()
         with self._lock:
+            self._due.notify_all()
             late = list(self._pending)
         for oid in late:
             self._finish(oid, None)
@@ -158,6 +187,14 @@ class SampleServer:
 
     def _garbage(self, _why: str) -> None:
         self.c["bad_requests"] += 1
+
+    def forget(self, request_key: str) -> None:
+        """The peer sending on ``request_key`` is gone: its answer publisher is given
+        back; a later request declares it again."""
+        with self._lock:
+            pub = self._pubs.pop(request_key, None)
+        if pub is not None:
+            self.bus.undeclare(self.answer_key(request_key))
 
     def _publisher(self, request_key: str) -> Callable[[Any], None] | None:
         pub = self._pubs.get(request_key)

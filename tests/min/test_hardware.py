@@ -16,7 +16,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from esair_min.model import hardware
-from esair_min.model.layout import DIR_ENTRY_BYTES, HEADER_BYTES
+from esair_min.components.motion.layout import DIR_ENTRY_BYTES, HEADER_BYTES
 from esair_min.model.validate import encode_high, load_robot
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -42,7 +42,7 @@ EXPECTED = {
     "bad_name":
         "tests/fixtures/bad/bad_name/central.yaml:58:11: 'name' must be a lower-case name (a-z, 0-9, _; at most 24 characters, starting with a letter), not text 'Sit'",
     "bad_role":
-        "tests/fixtures/bad/bad_role/central.yaml:7:7: 'role' must be one of 'central', 'actuator' or 'sensor', not text 'centrl' (did you mean 'central'?)",
+        "tests/fixtures/bad/bad_role/central.yaml:7:7: 'role' must be one of 'central', 'actuator', 'sensor' or 'drive', not text 'centrl' (did you mean 'central'?)",
     "baud_error":
         'tests/fixtures/bad/baud_error/central.yaml:13:9: baud 230400 cannot be made at 20000000 Hz within 2 %: best is SPBRG 4 with BRGH=1 (250000 baud, +8.51 %)',
     "binary_junk":

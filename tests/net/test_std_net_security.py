@@ -123,7 +123,7 @@ def test_rs_refuses_a_join_under_someone_elses_name(secure, local):
     assert proc.lines[-1] == ("error: join refused: pusher: certificate is not "
                               "'pusher''s"), proc.output()
     assert "pusher" not in {r["name"] for r in __import__("json").loads(
-        _ctl(center, "ls", "--json"))}
+        _ctl(center, "ls", "--json"))["components"]}
 
 
 def test_a_registered_agent_works_and_a_read_behavior_cannot_command(secure, local):
@@ -138,7 +138,7 @@ def test_a_registered_agent_works_and_a_read_behavior_cannot_command(secure, loc
     def running():
         assert pusher.proc.poll() is None and reader.proc.poll() is None, (
             pusher.output() + reader.output())
-        rows = {r["name"]: r["state"] for r in json.loads(_ctl(center, "ls", "--json"))}
+        rows = {r["name"]: r["state"] for r in json.loads(_ctl(center, "ls", "--json"))["components"]}
         return rows.get("pusher") == rows.get("reader") == "running"
     wait_for(running, 30, what="pusher and reader running")
     wait_for(lambda: (get("pusher")["last"] or {}).get("n", 0) >= 2, 30, what="pusher's commands")
@@ -148,7 +148,7 @@ def test_a_registered_agent_works_and_a_read_behavior_cannot_command(secure, loc
     assert get("reader")["sent"] == 0
     arm = json.loads(_ctl(center, "inspect", "arm"))
     assert arm["grants"] == {"pusher": "command"} and arm["refused"] >= 1
-    rows = {r["name"]: r for r in json.loads(_ctl(center, "ls", "--json"))}
+    rows = {r["name"]: r for r in json.loads(_ctl(center, "ls", "--json"))["components"]}
     assert rows["pusher"]["host"] == f"pc-{net[1].addr}"
     pusher.proc.terminate()
     reader.proc.terminate()

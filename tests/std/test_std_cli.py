@@ -22,8 +22,8 @@ def robot_mode(request):
 
     def deployed():
         r = esair("ls", "--json", "-e", ep, check=False)
-        rows = json.loads(r.stdout) if r.returncode == 0 else []
-        return len(rows) == 10 and all(x["state"] in ("running", "ready") for x in rows)
+        rows = json.loads(r.stdout)["components"] if r.returncode == 0 else []
+        return len(rows) == 11 and all(x["state"] in ("running", "ready") for x in rows)
     with std_run("lab", mode, ep, deployed, "the robot deployed"):
         yield ep, mode
     assert leftover(ep) == []
@@ -57,7 +57,7 @@ def robot(robot_mode):
 def test_cli_errors_are_one_clear_line(robot, args, message):
     r = esair(*args, "-e", robot, check=False)
     assert (r.returncode, r.stderr) == (1, message)
-    assert len(json.loads(esair("ls", "--json", "-e", robot).stdout)) == 10
+    assert len(json.loads(esair("ls", "--json", "-e", robot).stdout)["components"]) == 11
 
 
 def test_garbage_on_the_control_endpoint(robot):
@@ -88,8 +88,8 @@ def test_garbage_on_the_control_endpoint(robot):
         ]
     finally:
         bus.close()
-    rows = json.loads(esair("ls", "--json", "-e", robot).stdout)
-    assert len(rows) == 10 and all(r["state"] in ("running", "ready") for r in rows)
+    rows = json.loads(esair("ls", "--json", "-e", robot).stdout)["components"]
+    assert len(rows) == 11 and all(r["state"] in ("running", "ready") for r in rows)
 
 
 def test_no_runtime_is_a_clear_error():
@@ -97,17 +97,18 @@ def test_no_runtime_is_a_clear_error():
     r = esair("ls", "-e", ep, check=False)
     assert (r.returncode, r.stderr) == (
         1, f"error: no ESAIR STD runtime answers on {ep} (is `esair std run` running?)\n")
-    r = esair("ls", "-e", "localhost", check=False)
-    assert (r.returncode, r.stderr) == (
-        1, "error: endpoint 'localhost' is not of the form tcp/HOST:PORT\n")
+    r = esair("ls", "-e", "localhost", check=False)     # a usage error (issue 20)
+    assert (r.returncode, r.stderr.splitlines()[-1]) == (
+        2, "Error: Invalid value for '-e' / '--endpoint' (env var: 'ESAIR_STD_ENDPOINT'): "
+           "must be PROTOCOL/HOST:PORT such as tcp/127.0.0.1:7447, not text 'localhost'")
 
 
 def test_cli_controls_a_running_robot(robot_mode):
     ep, mode = robot_mode
-    rows = json.loads(esair("ls", "--json", "-e", ep).stdout)
+    rows = json.loads(esair("ls", "--json", "-e", ep).stdout)["components"]
     names = [r["name"] for r in rows]
     assert names == ["guard", "logger", "follow", "tuner", "keeper", "wave", "ticks", "arm",
-                     "bench.temp", "bench.fan"]
+                     "bench", "bench.temp", "bench.fan"]
     pids = {r["pid"] for r in rows}
     assert len(pids) == (1 if mode == "thread" else 9)     # 5 components + 4 resource entries
     wait_for(lambda: json.loads(esair("get", "logger", "-e", ep).stdout)["received"] > 0,
@@ -127,7 +128,7 @@ def test_cli_controls_a_running_robot(robot_mode):
         "spare_ticks: sensor ready\n")
     assert esair("remove-resource", "wave", "-e", ep).stdout == (
         "wave: removed (detached: follow)\n")
-    follow = [r for r in json.loads(esair("ls", "--json", "-e", ep).stdout)
+    follow = [r for r in json.loads(esair("ls", "--json", "-e", ep).stdout)["components"]
               if r["name"] == "follow"]
     assert follow[0]["state"] == "running"          # detached, still running
     top = esair("top", "--count", "1", "--interval", "0.2", "-e", ep).stdout
@@ -177,8 +178,10 @@ def test_run_refuses_bad_input_with_one_line(tmp_path):
         1, "error: nosuch: no such file, and no bundled example named 'nosuch' "
            "(bundled: lab, papaman)\n")
     r = esair("run", "lab", "--run", "1", "-e", "tcp/127.0.0.1", check=False)
-    assert (r.returncode, r.stderr) == (
-        1, "error: endpoint 'tcp/127.0.0.1' is not of the form tcp/HOST:PORT\n")
+    assert (r.returncode, r.stderr.splitlines()[-1]) == (      # a usage error (issue 20)
+        2, "Error: Invalid value for '-e' / '--endpoint' (env var: 'ESAIR_STD_ENDPOINT'): "
+           "needs a host and a port: PROTOCOL/HOST:PORT such as tcp/127.0.0.1:7447, not text "
+           "'tcp/127.0.0.1'")
 
 
 def test_the_put_samples_answer_or_count_garbage(robot_mode):
@@ -243,5 +246,5 @@ def test_the_put_samples_answer_or_count_garbage(robot_mode):
         assert logger["reserved_refused"] == logger_before["reserved_refused"] == 0
     finally:
         bus.close()
-    rows = json.loads(esair("ls", "--json", "-e", ep).stdout)
-    assert len(rows) == 10 and all(r["state"] in ("running", "ready") for r in rows)
+    rows = json.loads(esair("ls", "--json", "-e", ep).stdout)["components"]
+    assert len(rows) == 11 and all(r["state"] in ("running", "ready") for r in rows)

@@ -43,7 +43,7 @@ def test_esair_std_run_papaman(mode):
     def deployed():
         r = esair("ls", "--json", "-e", ep, check=False)
         return r.returncode == 0 and sum(row["state"] in ("running", "ready")
-                                         for row in json.loads(r.stdout)) == 18
+                                         for row in json.loads(r.stdout)["components"]) == 19
     with std_run("papaman", mode, ep, deployed) as proc:
         robots = emulators(descendants(proc.pid))
         assert len(robots) == 1                         # its own emulated PAPA-MAN
@@ -59,7 +59,8 @@ def test_port_points_the_deployment_at_another_robot(tmp_path):
         r = esair("run", "papaman", "--run", "2", "--port", emu.port, "--top",
                   "-e", free_endpoint())
         table, _, summary = r.stdout.rpartition("NAME ")
-        assert "ESAIR STD — robot papaman" in table and "papaman.notices" in table
+        assert "ESAIR STD — robot papaman" in table and "│   .notices " in table
+        assert "│   .servo.* (12) " in table           # the driver's children grouped
         rows = {line.split()[0]: line.split()[2] for line in summary.splitlines()[1:]}
         assert rows["papaman.motion"] == "ready" and rows["papaman.feet"] == "ready"
     # the robot behind --port answered the link's probe and the feet polls

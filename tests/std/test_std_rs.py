@@ -44,13 +44,19 @@ def test_registration_refusals_name_the_reason(start, who, do, res, message):
 
 
 def test_level_beyond_allow_is_refused(start):
-    # The loader refuses a file whose uses exceed allow; a behavior added at run time
-    # is checked by the RS when it registers.
+    # The loader refuses a file whose uses exceed allow; a behavior added at run time is
+    # refused the same way when it is added (issue 20), and the RS checks each
+    # registration against the resource's allow as well.
     rt = start({"resources": DEP["resources"]})
-    rt.add("pete", "tests.support.comps:Probe", uses={"rec": "command"})
+    with pytest.raises(Refused) as exc:
+        rt.add("pete", "tests.support.comps:Probe", uses={"rec": "command"})
+    assert str(exc.value) == ("behavior 'pete' uses 'rec' at level 'command', but resource "
+                              "'rec' allows it only up to 'read'")
+    assert rt.state("pete") is None
+    rt.add("pete", "tests.support.comps:Probe", uses={"rec": "read"})
     assert call(rt, "pete", "attach_actuator", "rec") == {
         "error": "Refused",
-        "message": "resource 'rec' allows behavior 'pete' up to read, not command"}
+        "message": "behavior 'pete' lists 'rec' for read in its uses, not command"}
     assert call(rt, "pete", "configure", "rec", "gain", 2) == {
         "error": "Refused", "message": "behavior 'pete' is not registered for 'rec'"}
 
@@ -71,10 +77,10 @@ def test_configure_checked_against_level(start):
         "error": "Refused",
         "message": "behavior 'probe' is registered for command on 'rec': configure needs "
                    "the configure level"}
-    rt.add("pete", "tests.support.comps:Probe", uses={"rec": "configure"})
-    assert call(rt, "pete", "register", "rec", "configure") == {
-        "error": "Refused",
-        "message": "resource 'rec' allows behavior 'pete' up to read, not configure"}
+    with pytest.raises(Refused) as exc:
+        rt.add("pete", "tests.support.comps:Probe", uses={"r*": "configure"})
+    assert str(exc.value) == ("behavior 'pete' uses 'r*' at level 'configure', but resource "
+                              "'rec' allows it only up to 'read'")
     assert call(rt, "tuner", "register", "rec", "configure") == {"ok": "configure"}
     assert call(rt, "tuner", "configure", "rec", "gain", 3) == {"ok": 3}
     assert call(rt, "probe", "send", "rec", "x") == {"ok": {"n": 1, "gain": 3}}

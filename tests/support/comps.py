@@ -5,7 +5,7 @@ from __future__ import annotations
 import os
 import time
 
-from esair_std import Actuator, Behavior, Driver, Reaction, Sensor
+from esair_std import Actuator, Behavior, CommandError, Driver, Reaction, ResourceLost, Sensor
 from esair_std.drivers.sim import Counter as SimCounter
 
 
@@ -30,6 +30,8 @@ class Recorder(Actuator):
         if isinstance(command, dict) and "lost" in command:
             self.mark_lost(command["lost"])
             return "marking lost"
+        if isinstance(command, dict) and "die" in command:
+            raise SystemExit(command["die"])      # past every handler: the host dies
         self.log_.append(command)
         return {"n": len(self.log_), "gain": self.gain}
 
@@ -195,6 +197,8 @@ class Probe(Behavior):
         try:
             if do == "send":
                 out = self.handles[args[0]].send(*args[1:])
+            elif do == "send_set":                  # a command that is not JSON
+                out = self.handles[args[0]].send({1, 2})
             elif do == "handle_state":
                 out = self.handles[args[0]].state
             elif do == "latest":
@@ -265,3 +269,87 @@ class Gate(Behavior):
 
     def provide(self, requester):
         return {"got": self.got}
+
+
+class Tally(Actuator):
+    """Counts the steps' commands per tag and records every stop() (configure "log")."""
+
+    def open(self):
+        self.steps = {}
+        self.stopped = []
+
+    def write(self, command):
+        if "stopped" in command:
+            self.stopped.append(command["stopped"])
+        else:
+            self.steps[str(command["step"])] = self.steps.get(str(command["step"]), 0) + 1
+        return None
+
+    def configure(self, key, value):
+        return {"steps": self.steps, "stopped": self.stopped}
+
+
+class StreamStepper(Behavior):
+    """Reads the sensor and commands ``tally`` every step; its stop() commands it once."""
+
+    def start(self):
+        self.h = self.attach_sensor("count")
+        self.act = self.attach_actuator("tally")
+        self.tag = self.options["tag"]
+
+    def step(self):
+        self.h.samples()
+        self.act.send({"step": self.tag})
+
+    def stop(self):
+        self.act.send({"stopped": self.tag})
+
+
+class Eager(Behavior):
+    """Attaches options['actuator'] in start() and commands it at once."""
+
+    def start(self):
+        self.act = self.attach_actuator(self.options.get("actuator", "rec"))
+        self.first = self.act.send({"eager": 1})
+
+    def provide(self, requester):
+        return {"first": self.first}
+
+
+class Steady(Behavior):
+    """Every step commands options['actuator'] with timeout options['timeout'] (and/or
+    puts to options['to']); counts what failed. Its deadline (option) is tight."""
+
+    period = 0.1
+
+    def start(self):
+        self.act = self.attach_actuator(self.options.get("actuator", "rec"))
+        self.sent = self.failed = 0
+
+    def step(self):
+        try:
+            self.act.send({"n": self.sent}, timeout=float(self.options["timeout"]))
+            self.sent += 1
+        except (CommandError, ResourceLost):
+            self.failed += 1
+
+    def provide(self, requester):
+        return {"sent": self.sent, "failed": self.failed}
+
+
+class SteadyPut(Behavior):
+    """Every step puts to options['to'] with timeout options['timeout']; counts."""
+
+    period = 0.1
+
+    def start(self):
+        self.ok = self.failed = 0
+
+    def step(self):
+        if self.put(self.options["to"], {"n": self.ok}, timeout=float(self.options["timeout"])):
+            self.ok += 1
+        else:
+            self.failed += 1
+
+    def provide(self, requester):
+        return {"ok": self.ok, "failed": self.failed}

@@ -86,7 +86,7 @@ class Center:
         return proc.stdout if not proc.returncode else proc.stderr
 
     def ls(self) -> dict[str, dict]:
-        return {row["name"]: row for row in json.loads(self.ctl("ls", "--json"))}
+        return {row["name"]: row for row in json.loads(self.ctl("ls", "--json"))["components"]}
 
     def state(self, name: str) -> str | None:
         return self.ls().get(name, {}).get("state")

@@ -38,6 +38,7 @@ from __future__ import annotations
 
 import threading
 import time
+from pathlib import Path
 from typing import Any
 
 from esair_std import Actuator, CommandError, Driver, ResourceLost, Sensor
@@ -190,8 +191,14 @@ def _number(opts: dict, key: str, default: float) -> float:
     return float(value)
 
 
-def emulate_args(opts: dict) -> list[str]:
-    """``esair emulate`` arguments from the ``emulate:`` option of the entry."""
+#: ``emulate:`` options that name a file: relative to the deployment file's folder (a
+#: scenario only when such a file exists there; else it is a name in ROBOT/scenarios/).
+PATH_OPTIONS = ("trace", "generate", "scenario")
+
+
+def emulate_args(opts: dict, base: Path | None = None) -> list[str]:
+    """``esair emulate`` arguments from the ``emulate:`` option of the entry (relative
+    paths taken from ``base``, the deployment file's folder)."""
     if not isinstance(opts, dict):
         raise LinkError(f"option 'emulate' must be a mapping, got {opts!r}")
     args: list[str] = []
@@ -200,8 +207,19 @@ def emulate_args(opts: dict) -> list[str]:
         if value is True:
             args.append(flag)
         elif value not in (False, None):
+            if base is not None and key in PATH_OPTIONS and isinstance(value, str):
+                value = _in(base, value, must_exist=key == "scenario")
             args += [flag, str(value)]
     return args
+
+
+def _in(base: Path, value: str, must_exist: bool = False) -> str:
+    """``value`` relative to ``base`` when it is a relative path (and, ``must_exist``,
+    a file is there)."""
+    p = Path(value)
+    if p.is_absolute() or (must_exist and not (base / p).exists()):
+        return value
+    return str(base / p)
 
 
 class MinLink(Driver):
@@ -209,7 +227,10 @@ class MinLink(Driver):
 
     def open(self) -> None:
         opts = dict(self.options)
+        base = Path(getattr(self._esair.spec, "base_dir", None) or ".")   # the file's folder
         robot_arg = opts.get("robot", self.name)
+        if isinstance(robot_arg, str):
+            robot_arg = _in(base, robot_arg, must_exist=True)
         port = opts.get("port")
         if not port:
             raise LinkError(f"{self.name}: option 'port' is missing (a serial device, a pty, "
@@ -227,7 +248,7 @@ class MinLink(Driver):
         if hz != 0:                                         # 0: the feet are not polled
             line_budget(robot).check_feet_hz(hz, share)    # refused before anything starts
         if port == "emulate":
-            self.emulated = EmulatedRobot(path, emulate_args(opts.get("emulate") or {}))
+            self.emulated = EmulatedRobot(path, emulate_args(opts.get("emulate") or {}, base))
             port = self.emulated.start()
         self.notices = NoticeSensor()
         self.link = Link(robot, str(port), timeout=timeout,

@@ -3,11 +3,13 @@
 ``esair emulate ROBOT --pty`` prints the pty it serves on its first line. A pty's name
 changes each time the emulator starts, as a USB serial adapter's may when it is plugged
 in again; :class:`EmulatedRobot` keeps a symbolic link (``port``) pointing at the
-current pty, as udev does for a real adapter (``/dev/serial/by-id/...``). The link is
-removed while no emulator runs, so a driver reopening ``port`` fails until the robot is
-back. ``kill()`` (SIGKILL: the robot "pulled") and ``start()`` again are what the
-fault tests and ``esair std run`` use; ``stop()`` ends the child for good. The child gets
-SIGTERM if the thread that started it ends first (an agent process killed outright).
+current pty, as udev does for a real adapter (``/dev/serial/by-id/...``). ``kill()``
+(SIGKILL: the robot "pulled") removes the link, so a driver reopening ``port`` fails
+until ``start()`` brings the robot back: that is what the fault tests do. Under
+``esair std run`` (``port: emulate``) the ``MinLink`` driver starts one in ``open()``
+and ends it with ``stop()`` in ``close()``; nothing kills or restarts it meanwhile (if
+the emulator dies, the link stays down). The child gets SIGTERM if the thread that
+started it ends first (an agent process killed outright).
 """
 
 from __future__ import annotations

@@ -461,9 +461,15 @@ class Link:
         raise LinkError(f"no answer to 'v' from {self.port} within {self.timeout:g} s")
 
 
+#: pySerial's words for a port that went away, and a user's.
+_PLAIN = {"device reports readiness to read but returned no data":
+          "the device disconnected (unplugged, or another program uses the port)",
+          "[Errno 5] Input/output error": "input/output error (the device unplugged?)"}
+
+
 def _describe(exc: BaseException) -> str:
     text = str(exc) or type(exc).__name__
-    return text
+    return next((plain for raw, plain in _PLAIN.items() if text.startswith(raw)), text)
 
 
 def _close_quietly(port: Any) -> None:

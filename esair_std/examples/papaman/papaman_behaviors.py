@@ -14,7 +14,7 @@ import collections
 import time
 from typing import Any
 
-from esair_std import Behavior, CommandError, ResourceLost
+from esair_std import Behavior, CommandError, Refused, ResourceLost
 
 #: thesis ch. 5.2 operations -> the robot's motions (boards/papaman/central.yaml)
 OPERATIONS = {"stand_up": "stand", "sit_down": "sit", "prostrate": "prostrate",
@@ -26,6 +26,11 @@ STAND_RETRY_S = 1.0  # the watcher's stand, while the robot is busy
 #: frames x delay_ticks of each motion (central.yaml): how long it plays
 MOTION_TICKS = {"stand": 1 * 10, "sit": 3 * 20, "prostrate": 4 * 25, "dance": 32 * 1,
                 "balance": 3 * 2}
+
+
+def _last_stop(ops: list) -> int:
+    """The index of the last "stop" in ``ops`` (-1: none)."""
+    return max((i for i, op in enumerate(ops) if op == "stop"), default=-1)
 
 
 class Sequencer(Behavior):
@@ -41,20 +46,27 @@ class Sequencer(Behavior):
         self.errors: list[str] = []
 
     def receive(self, sender: str, data: Any) -> None:
+        """Queue the operations, all or none: raising Refused tells a sender that waits
+        (`esair std put`) why, and the sequencer runs on."""
         ops = [data] if isinstance(data, str) else data
         if not isinstance(ops, list):
             self.refused += 1
-            self.log.warning("%s sent %r: expected an operation or a list of them", sender, data)
-            return
+            raise Refused(f"expected an operation or a list of them, got {data!r}")
+        unknown = [op for op in ops if op != "stop" and op not in OPERATIONS]
+        if unknown:
+            self.refused += 1
+            raise Refused(f"unknown operation {unknown[0]!r} (known: stop, "
+                          f"{', '.join(OPERATIONS)}); nothing queued")
+        queued = ops[_last_stop(ops) + 1:]
+        if len(self.queue) + len(queued) > QUEUE and "stop" not in ops:
+            self.refused += 1
+            raise Refused(f"the queue holds {len(self.queue)} of {QUEUE} operations: no room "
+                          f"for {len(queued)} more; nothing queued")
         for op in ops:
             if op == "stop":
                 self.queue.clear()
                 self._send("stop", "stop")
-            elif op not in OPERATIONS or len(self.queue) >= QUEUE:
-                self.refused += 1
-                self.log.warning("operation %r refused (known: %s; queue %d/%d)", op,
-                                 ", ".join(OPERATIONS), len(self.queue), QUEUE)
-            else:
+            elif len(self.queue) < QUEUE:
                 self.queue.append(op)
 
     def step(self) -> None:

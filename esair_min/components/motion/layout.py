@@ -7,9 +7,9 @@ the bytes themselves are built by :mod:`esair_min.core.image`.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Sequence
+from collections.abc import Sequence
 
-from esair_min.model.board import Motion
+from esair_min.components.motion.schema import Motion
 
 MAGIC = b"EM"
 VERSION = 1

@@ -1,0 +1,104 @@
+"""Kind ``dc_motor`` (section ``motors``, drive board): a wheel's DC motor driven with a
+PWM duty on one pin and its direction on another.
+
+A PIC18F452 has two CCP modules, whose PWM outputs are fixed pins (CCP1 on RC2, CCP2
+on RC1); every other motor gets software PWM from the drive board's timer interrupt.
+``pwm: auto`` picks by the pin, and :func:`pwm_units` says which wheel got which (``esair
+check`` prints it). The drive board's register map holds each motor's wanted speed
+(2 bytes, signed mm/s at the rim, low byte first); the board ramps toward it
+(``ramp_mm_s2``) and never drives a motor above its ``limit_mm_s``. Its Python
+behaviour is :mod:`esair_min.components.dc_motor.core`.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Annotated, Any, Literal
+
+from pydantic import Field, StrictBool, StrictInt
+
+from esair_min.components.base import Checker, Component, PinClaim
+from esair_min.model.types import Name, Pin, Section
+
+MAX_MOTORS = 6
+#: The pins of the PIC18F452's hardware PWM outputs (datasheet DS39564, section 14).
+CCP_PINS = {"ccp1": "RC2", "ccp2": "RC1"}
+
+
+class DcMotor(Section):
+    """A DC wheel motor: PWM duty on one pin, direction on another."""
+
+    name: Name
+    index: Annotated[StrictInt, Field(ge=0, lt=MAX_MOTORS)] = Field(
+        description="wheel number; registers 2*index (low), 2*index+1 (high)")
+    pwm_pin: Pin = Field(description="the PWM output (RC2 = CCP1, RC1 = CCP2, others: software)")
+    dir_pin: Pin = Field(description="the direction output: high = forward")
+    pwm: Literal["auto", "ccp1", "ccp2", "software"] = Field(
+        "auto", description="which PWM unit drives it; auto: by the pin")
+    reverse: StrictBool = Field(False, description="the motor is wired backwards")
+    wheel_radius_mm: Annotated[StrictInt, Field(ge=5, le=200)] = Field(
+        description="the wheel's radius")
+    max_rpm: Annotated[StrictInt, Field(ge=1, le=30000)] = Field(
+        description="wheel revolutions per minute at full duty")
+    mount_angle_deg: Annotated[StrictInt, Field(ge=-180, le=360)] = Field(
+        description="where the wheel sits around the robot's centre, from its +x axis")
+    mount_radius_mm: Annotated[StrictInt, Field(ge=10, le=2000)] = Field(
+        description="distance of the wheel from the robot's centre")
+    limit_mm_s: Annotated[StrictInt, Field(ge=1, le=9999)] = Field(
+        description="the largest rim speed it may be driven at")
+    ramp_mm_s2: Annotated[StrictInt, Field(ge=1, le=100000)] = Field(
+        2000, description="the largest change of its speed per second")
+
+    @property
+    def full_speed_mm_s(self) -> float:
+        """Rim speed at full duty."""
+        return 2 * math.pi * self.wheel_radius_mm * self.max_rpm / 60
+
+
+def pwm_unit(m: DcMotor) -> str:
+    """``ccp1``, ``ccp2`` or ``software``: what drives motor ``m`` (``auto`` resolved)."""
+    if m.pwm != "auto":
+        return m.pwm
+    return next((unit for unit, pin in CCP_PINS.items() if pin == m.pwm_pin), "software")
+
+
+def pwm_units(motors: tuple[DcMotor, ...]) -> dict[str, str]:
+    return {m.name: pwm_unit(m) for m in motors}
+
+
+def board_rules(checker: Checker, b: Any) -> None:
+    for i, m in enumerate(sorted(b.motors, key=lambda m: m.index)):
+        if m.index != i:
+            checker.fail(b, ("motors", b.motors.index(m), "index"),
+                         f"motor '{m.name}': index {m.index} leaves a gap; motor indices "
+                         f"must run 0..{len(b.motors) - 1} and index {i} is missing")
+    for i, m in enumerate(b.motors):
+        if m.pwm in CCP_PINS and m.pwm_pin != CCP_PINS[m.pwm]:
+            checker.fail(b, ("motors", i, "pwm_pin"),
+                         f"motor '{m.name}': {m.pwm.upper()} drives pin {CCP_PINS[m.pwm]} on "
+                         f"the {b.mcu.part}, not {m.pwm_pin}; set pwm_pin: {CCP_PINS[m.pwm]} "
+                         "or pwm: software")
+        if m.limit_mm_s > m.full_speed_mm_s:
+            checker.fail(b, ("motors", i, "limit_mm_s"),
+                         f"motor '{m.name}': limit_mm_s {m.limit_mm_s} is above its full "
+                         f"speed ({m.full_speed_mm_s:.0f} mm/s at {m.max_rpm} rpm with a "
+                         f"{m.wheel_radius_mm} mm wheel); lower the limit")
+
+
+def pins(m: DcMotor) -> list[PinClaim]:
+    return [PinClaim(m.pwm_pin, f"motor '{m.name}' PWM", ("pwm_pin",)),
+            PinClaim(m.dir_pin, f"motor '{m.name}' direction", ("dir_pin",))]
+
+
+def summary(b: Any) -> list[str]:
+    units = pwm_units(b.motors)
+    return ["  motors: " + ", ".join(
+        f"{m.name} {units[m.name].upper() if units[m.name] != 'software' else 'software PWM'}"
+        f" ({m.pwm_pin})" for m in b.motors)]
+
+
+COMPONENT = Component(
+    kind="dc_motor", section="motors", schema=DcMotor, roles=("drive",),
+    description="the wheel motors (drive board only, at least one)",
+    unique=("name", "index"), registers_per_item=2, board_rules=board_rules, pins=pins,
+    summary=summary)

@@ -1,0 +1,83 @@
+"""Dead reckoning from the flow sensors' summed counts (what a host does with the
+odometry reply): each poll's count differences give, per sensor, the displacement of
+its mount point in its own frame; the body's displacement (dx, dy, dtheta) in the
+robot's frame is their least-squares solution, integrated into a pose.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Any
+
+from esair_min.components.optical_flow.core import MM_PER_INCH
+
+
+def _solve3(a: list[list[float]], b: list[float]) -> list[float]:
+    """Solve the 3x3 system a x = b (Cramer's rule)."""
+    def det(m: list[list[float]]) -> float:
+        return (m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+                - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+                + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]))
+    d = det(a)
+    out = []
+    for col in range(3):
+        m = [row[:] for row in a]
+        for k in range(3):
+            m[k][col] = b[k]
+        out.append(det(m) / d)
+    return out
+
+
+class FlowOdometry:
+    """Pose from the summed counts of two or more flow sensors (``sensors``: the
+    central board's ``flow_sensors``). Feed :meth:`update` the sums of each poll."""
+
+    def __init__(self, sensors: Sequence[Any], x: float = 0.0, y: float = 0.0,
+                 theta: float = 0.0):
+        if len(sensors) < 2:
+            raise ValueError("dead reckoning with rotation needs two flow sensors")
+        self.mm = [MM_PER_INCH / s.cpi for s in sensors]
+        self.mounts = [(float(s.mount_x_mm), float(s.mount_y_mm),
+                        math.radians(s.mount_angle_deg)) for s in sensors]
+        # Rows of the linear map (dx, dy, dtheta) -> measured sensor displacements.
+        rows = []
+        for px, py, phi in self.mounts:
+            c, s = math.cos(phi), math.sin(phi)
+            rows.append((c, s, -c * py + s * px))      # the sensor's x
+            rows.append((-s, c, s * py + c * px))      # the sensor's y
+        self.rows = rows
+        self.ata = [[sum(r[i] * r[j] for r in rows) for j in range(3)] for i in range(3)]
+        self.x, self.y, self.theta = x, y, theta
+        self.last: list[tuple[int, int]] | None = None
+
+    def update(self, sums: Sequence[tuple[int, int]]) -> tuple[float, float, float]:
+        """The summed (dx, dy) counts of every sensor at one poll: the new pose."""
+        if self.last is None:
+            self.last = [tuple(s) for s in sums]       # type: ignore[misc]
+            return self.x, self.y, self.theta
+        meas = []
+        for k, ((sx, sy), (lx, ly)) in enumerate(zip(sums, self.last, strict=True)):
+            meas += [(sx - lx) * self.mm[k], (sy - ly) * self.mm[k]]
+        self.last = [tuple(s) for s in sums]           # type: ignore[misc]
+        atb = [sum(r[i] * m for r, m in zip(self.rows, meas, strict=True)) for i in range(3)]
+        dx, dy, dth = _solve3(self.ata, atb)
+        mid = self.theta + dth / 2
+        self.x += math.cos(mid) * dx - math.sin(mid) * dy
+        self.y += math.sin(mid) * dx + math.cos(mid) * dy
+        self.theta += dth
+        return self.x, self.y, self.theta
+
+
+def parse_odometry(reply: str) -> tuple[int, list[tuple[int, int, int]]]:
+    """``OK n=12 a=1,2,90 b=3,4,88`` -> (12, [(1, 2, 90), (3, 4, 88)])."""
+    parts = reply.split()
+    if not parts or parts[0] != "OK" or not parts[1].startswith("n="):
+        raise ValueError(f"not an odometry reply: {reply!r}")
+    seq = int(parts[1][2:])
+    sensors = []
+    for p in parts[2:]:
+        _, _, v = p.partition("=")
+        dx, dy, q = (int(t) for t in v.split(","))
+        sensors.append((dx, dy, q))
+    return seq, sensors

@@ -1,0 +1,49 @@
+"""Kind ``pressure_sensor`` (section ``sensors``): an analog sensor on the sensor board,
+read by the 10-bit ADC and exposed as 2 registers (low byte, high byte) in the order of
+the file. Its C lives in ``firmware_templates/sensor``; its Python behaviour (readings
+from a scenario) in :mod:`esair_min.emulator.scenario`.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Any
+
+from pydantic import Field, StrictInt
+
+from esair_min.components.base import Checker, Component, PinClaim
+from esair_min.model.hardware import ADC_PINS
+from esair_min.model.types import Name, Section
+
+MAX_SENSORS = 8
+
+
+class Sensor(Section):
+    """An analog sensor on the sensor board (10-bit ADC, exposed as 2 registers)."""
+
+    name: Name
+    channel: Annotated[StrictInt, Field(ge=0, le=7)] = Field(description="ADC channel AN0..AN7")
+    group: Name = Field(description="group compared by reactions, e.g. left_foot")
+    min: Annotated[StrictInt, Field(ge=0, le=1023)] = 0
+    max: Annotated[StrictInt, Field(ge=0, le=1023)] = 1023
+
+
+def board_rules(checker: Checker, b: Any) -> None:
+    for i, s in enumerate(b.sensors):
+        if s.min >= s.max:
+            checker.fail(b, ("sensors", i, "max"),
+                         f"sensor '{s.name}': max ({s.max}) must be above min ({s.min})")
+
+
+def pins(s: Sensor) -> list[PinClaim]:
+    return [PinClaim(ADC_PINS[s.channel], f"sensor '{s.name}' (AN{s.channel})", ("channel",))]
+
+
+def group_mask(sensors: tuple[Sensor, ...], group: str) -> int:
+    """Bit i set for sensor i of ``group`` (the reactions' sums)."""
+    return sum(1 << i for i, s in enumerate(sensors) if s.group == group)
+
+
+COMPONENT = Component(
+    kind="pressure_sensor", section="sensors", schema=Sensor, roles=("sensor",),
+    description="the analog sensors (sensor board only, at least one)",
+    unique=("name", "channel"), registers_per_item=2, board_rules=board_rules, pins=pins)

@@ -1,0 +1,294 @@
+"""One generic supervisor, in the Erlang/OTP sense: the BS and the RS are both built on it.
+
+A supervisor holds children described by declarative :class:`ChildSpec` s (restart
+intensity ``max`` within a period ``within`` seconds, and what happens past that limit)
+and runs every change to them — add, remove, a failure, a restart — one request at a
+time on its own thread. A child's failure is an event on that queue (``failed``), never
+an exception that travels. Its order of work is the same for behaviors and resources:
+
+- **remove**: the child is stopped first (its own ``stop()`` runs while it still holds
+  its registrations), then what it held is released (``released(name, "removed")``);
+- **failure**: what it held is released (``released(name, "failed")``), the dead host is
+  stopped, then — within the policy — it is started again as a new generation and
+  ``restarted(name)`` is called; past the limit it stays failed (``past_limit="stay"``)
+  or is dropped (``"remove"``).
+
+Subclasses (bs.BehaviorSupervisor, rs.ResourceSupervisor) say how a host is started
+and what "release" and "restarted" mean for their kind of child.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import queue
+import threading
+import time
+from dataclasses import dataclass, field
+from typing import Any, Callable, Literal
+
+from .errors import ControlError
+
+log = logging.getLogger("esair_std.supervisor")
+REQUESTS = 256          # requests and failure events waiting for the supervisor's thread
+PAST_LIMIT = ("stay", "remove")
+
+
+@dataclass(frozen=True)
+class ChildSpec:
+    """How a child is supervised: at most ``max`` restarts in any ``within`` seconds;
+    past that, ``past_limit``: "stay" (failed, listed with its reason) or "remove"."""
+
+    name: str
+    kind: str
+    max: int = 0
+    within: float = 10.0
+    past_limit: Literal["stay", "remove"] = "stay"
+
+    def __post_init__(self) -> None:
+        if self.past_limit not in PAST_LIMIT:
+            raise ValueError(f"past_limit must be one of {PAST_LIMIT}, not {self.past_limit!r}")
+
+    @classmethod
+    def of(cls, spec: Any) -> "ChildSpec":
+        """The child spec of a component Spec (its ``restart: {max, within}``)."""
+        return cls(spec.name, spec.kind, int(spec.restart_max or 0),
+                   float(spec.restart_within or 0.0))
+
+
+class Starting:
+    """The host of a child that is still being started (or could not be restarted)."""
+
+    def __init__(self, state: str = "starting", reason: str = ""):
+        self.state = state
+        self.phase = state
+        self.reason = reason
+
+    def offer(self, sender: str, data: Any) -> str:
+        return self.state
+
+    def provide(self, requester: str, timeout: float) -> tuple:
+        return ("busy", self.state)
+
+    def notify_detached(self, resource: str) -> None:
+        pass
+
+    def notify_attached(self, resource: str) -> None:
+        pass
+
+    def set_enabled(self, enabled: bool) -> None:
+        pass
+
+    def check(self, now: float) -> float | None:
+        return None
+
+    def children(self) -> dict:
+        return {}
+
+    def counters(self) -> dict:
+        return {}
+
+    def grant(self, who: str, resource: str) -> None:
+        pass
+
+    def revoke(self, who: str, resource: str | None = None) -> None:
+        pass
+
+    def stop(self, timeout: float = 0.0) -> None:
+        pass
+
+
+@dataclass
+class Record:
+    """A supervised child: its component spec, its host, its restart history."""
+
+    spec: Any
+    host: Any
+    child: ChildSpec | None = None
+    generation: int = 1
+    restarts: int = 0
+    failures: list = field(default_factory=list)
+    reason: str = ""
+    handled: int = 0           # the last generation whose failure was handled
+    removing: bool = False     # being removed: its failures are no longer events
+
+    def __post_init__(self) -> None:
+        if self.child is None:
+            self.child = ChildSpec.of(self.spec)
+
+
+class Supervisor:
+    """Children by name, one request at a time on the thread ``esair:<name>``."""
+
+    #: remove: release what the child holds before stopping it (True: the RS, so a
+    #: device being closed takes no new command) or after (False: the BS, so a
+    #: behavior's stop() still reaches what it registered for)
+    release_before_stop = False
+
+    def __init__(self, name: str, start_host: Callable[[Any, int], Any]):
+        self._start_host = start_host      # (component spec, generation) -> started host
+        self.records: dict[str, Record] = {}
+        self._requests: queue.Queue = queue.Queue(maxsize=REQUESTS)
+        self._thread = threading.Thread(target=self._main, name=f"esair:{name}", daemon=True)
+        self._closing = False
+        self.c = dict(restarts=0)
+        self.on_change: Callable[[], None] = lambda: None   # a child's state changed
+
+    # ---- what a subclass says
+    def released(self, name: str, rec: Record, why: str) -> None:
+        """``rec`` no longer holds anything (why: "removed" after its stop, "failed")."""
+
+    def restarted(self, name: str, rec: Record) -> None:
+        """``rec`` runs again as generation ``rec.generation``."""
+
+    def gave_up(self, name: str, rec: Record) -> None:
+        """``rec`` failed past its restart limit."""
+
+    # ---- requests
+    def start(self) -> None:
+        if not self._thread.is_alive():
+            self._thread.start()
+
+    def request(self, fn: Callable[..., Any], *args: Any, timeout: float = 30.0) -> Any:
+        """Run ``fn(*args)`` on the supervisor's thread (one request at a time); its result.
+        Before ``start`` (phase 1) or on that thread itself, it runs here."""
+        if self._closing:
+            raise ControlError("the runtime is stopping")
+        if not self._thread.is_alive() or threading.current_thread() is self._thread:
+            return fn(*args)
+        done = threading.Event()
+        box: list = []
+        try:
+            self._requests.put((fn, args, box, done), timeout=1.0)
+        except queue.Full:
+            raise ControlError("the supervisor is busy: try again") from None
+        if not done.wait(timeout):
+            raise ControlError(f"request not done within {timeout:g} s")
+        ok, value = box[0]
+        if not ok:
+            raise value
+        return value
+
+    def add_child(self, spec: Any) -> Record:
+        """Start ``spec`` as generation 1 (on the supervisor's thread, or in phase 1)."""
+        rec = Record(spec, Starting())
+        self.records[spec.name] = rec       # known before its start() asks for anything
+        try:
+            host = rec.host = self._start_host(spec, 1)
+        except BaseException:
+            self.records.pop(spec.name, None)
+            raise
+        if _state(host) == "failed":
+            self._failed(spec.name, 1, getattr(host, "reason", ""))
+        self.on_change()
+        return rec
+
+    def remove_child(self, name: str) -> Record:
+        """Stop, release and forget the child (in the order ``release_before_stop``
+        says)."""
+        rec = self.records[name]
+        self._stop_child(name, rec)
+        self.on_change()
+        return rec
+
+    def _stop_child(self, name: str, rec: Record) -> None:
+        rec.removing = True
+        if self.release_before_stop:
+            self.records.pop(name, None)
+            try:
+                self.released(name, rec, "removed")
+            finally:
+                rec.host.stop()
+            return
+        try:
+            rec.host.stop()
+        finally:
+            self.records.pop(name, None)
+            self.released(name, rec, "removed")
+
+    def failed(self, name: str, generation: int, reason: str) -> None:
+        """A host reports its child failed (any thread): queued for the supervisor."""
+        try:
+            self._requests.put((self._failed, (name, generation, reason), None, None),
+                               timeout=1.0)
+        except queue.Full:
+            log.error("failure of %s not queued: supervisor queue full", name)
+
+    def stop_children(self) -> None:
+        """Every child stopped, the newest first; then the thread ends."""
+        self._closing = True
+        with contextlib.suppress(queue.Full):
+            self._requests.put_nowait(None)
+        if self._thread.is_alive() and threading.current_thread() is not self._thread:
+            self._thread.join(5.0)          # a restart under way finishes first
+        for name in reversed(list(self.records)):
+            rec = self.records.get(name)
+            if rec is not None:
+                self._stop_child(name, rec)
+
+    # ---- the thread
+    def _main(self) -> None:
+        while True:
+            item = self._requests.get()
+            if item is None or self._closing:
+                return
+            fn, args, box, done = item
+            try:
+                value = (True, fn(*args))
+            except Exception as exc:  # noqa: BLE001 - handed to the requester
+                value = (False, exc)
+            if box is not None:
+                box.append(value)
+                done.set()
+            elif not value[0]:
+                log.error("supervisor: %s", value[1])
+
+    def _failed(self, name: str, generation: int, reason: str) -> None:
+        try:
+            self._fail(name, generation, reason)
+        finally:
+            self.on_change()
+
+    def _fail(self, name: str, generation: int, reason: str) -> None:
+        rec = self.records.get(name)
+        if (rec is None or rec.generation != generation or self._closing or rec.removing
+                or rec.handled >= generation):
+            return
+        rec.handled = generation
+        rec.reason = reason
+        self.released(name, rec, "failed")
+        rec.host.stop(0.2)
+        now = time.monotonic()
+        child = rec.child
+        rec.failures = [t for t in rec.failures if now - t <= child.within]
+        if len(rec.failures) >= child.max:
+            log.warning("%s failed (%s); stays failed", name, reason)
+            if child.past_limit == "remove":
+                self.records.pop(name, None)
+            self.gave_up(name, rec)
+            return
+        rec.failures.append(now)
+        rec.restarts += 1
+        self.c["restarts"] += 1
+        rec.generation += 1
+        log.warning("%s failed (%s); restart %d", name, reason, rec.restarts)
+        rec.host = Starting()
+        try:
+            rec.host = self._start_host(rec.spec, rec.generation)
+        except Exception as exc:  # noqa: BLE001 - the restart itself failed: stays failed
+            rec.reason = f"restart failed: {exc}"
+            rec.host = Starting("failed", rec.reason)
+            log.error("%s: %s", name, rec.reason)
+            self.gave_up(name, rec)
+            return
+        if self._closing:                   # stopped while it restarted
+            rec.host.stop()
+            return
+        if _state(rec.host) == "failed":
+            self._fail(name, rec.generation, getattr(rec.host, "reason", ""))
+            return
+        self.restarted(name, rec)
+
+
+def _state(host: Any) -> str:
+    return str(getattr(host, "state", ""))

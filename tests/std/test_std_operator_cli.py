@@ -1,0 +1,480 @@
+"""Issue 20: `esair std` for an operator -- one checked loader for every path, Ctrl-C and
+exit codes, errors in plain words, what the CLI promises, observing and commanding the
+robot, copying an example. Every message is asserted word for word."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from tests.support.std import MODES, ROOT, free_endpoint, wait_for
+
+FIX = ROOT / "tests" / "fixtures" / "std_operator"
+#: seconds each; the papaman tests run the emulator behind a pty
+pytestmark = pytest.mark.slow
+
+
+def environ(extra: dict | None = None) -> dict:
+    """This checkout first on the children's path (not an installed copy)."""
+    path = os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])
+    return dict(os.environ, COLUMNS="200", PYTHONPATH=path, **(extra or {}))
+
+
+def esair(*args: str, cwd: str | Path = ROOT, env: dict | None = None,
+          stdin: str | None = None) -> subprocess.CompletedProcess:
+    """``esair std ARGS`` in a child process."""
+    return subprocess.run([sys.executable, "-m", "esair_min.cli", "std", *args],
+                          capture_output=True, text=True, timeout=90, cwd=cwd, input=stdin,
+                          env=environ(env))
+
+
+def children_of(pid: int) -> list[int]:
+    """Every live process below ``pid`` (children, grandchildren, ...)."""
+    parent = {}
+    for d in os.listdir("/proc"):
+        if d.isdigit():
+            try:
+                with open(f"/proc/{d}/stat") as f:
+                    parent[int(d)] = int(f.read().rsplit(")", 1)[1].split()[1])
+            except (OSError, IndexError, ValueError):
+                pass
+    out, todo = [], [pid]
+    while todo:
+        p = todo.pop()
+        kids = [c for c, pp in parent.items() if pp == p]
+        out += kids
+        todo += kids
+    return out
+
+
+def spawn_run(*args: str, cwd: str | Path = ROOT, env: dict | None = None) -> subprocess.Popen:
+    """``esair std run ARGS`` in its own session, as a terminal runs it (a terminal's
+    Ctrl-C goes to the whole process group)."""
+    return subprocess.Popen([sys.executable, "-m", "esair_min.cli", "std", "run", *args],
+                            cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True, start_new_session=True, env=environ(env))
+
+
+def answers(ep: str) -> bool:
+    return esair("ls", "-e", ep).returncode == 0
+
+
+@pytest.fixture
+def robot(request):
+    """start(deployment, *args) -> (process, endpoint) of `esair std run` with the robot
+    answering on its control endpoint; SIGTERM and exit status 0 after the test."""
+    started = []
+
+    def start(deployment: str, *args: str, cwd: str | Path = ROOT):
+        ep = free_endpoint()
+        proc = spawn_run(deployment, "-e", ep, "--no-top", *args, cwd=cwd)
+        started.append(proc)
+        wait_for(lambda: proc.poll() is not None or answers(ep), timeout=60,
+                 what="the robot answering")
+        assert proc.poll() is None, proc.communicate()
+        return proc, ep
+
+    yield start
+    for proc in started:
+        if proc.poll() is None:
+            proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=60)
+        assert proc.returncode == 0, err
+
+
+# ---- 1. one checked loader for every path
+
+@pytest.mark.parametrize("case,message", [
+    ("billion_laughs", "8:5: aliases expand this document to more than 100000 values (a "
+                       "billion-laughs style alias bomb?); write the values out instead of "
+                       "nesting '*' aliases"),
+    ("duplicate_port", "7:5: duplicate key 'port' (first given at line 6); keep only one of "
+                       "them"),
+])
+def test_run_with_port_reads_the_file_as_check_does(case, message):
+    path = FIX / f"{case}.yaml"
+    check = esair("check", "--no-import", str(path))
+    run = esair("run", str(path), "--port", "/dev/null", "--run", "0", "--no-control")
+    assert (check.returncode, check.stderr) == (1, f"error: {path}:{message}\n")
+    assert (run.returncode, run.stderr) == (1, f"error: {path}:{message}\n")
+
+
+def test_port_on_a_deployment_without_a_port_option_is_an_error():
+    path = FIX / "no_port.yaml"
+    r = esair("run", str(path), "--port", "/dev/ttyUSB0", "--run", "0", "--no-control")
+    assert (r.returncode, r.stderr) == (
+        1, f"error: {path}: --port /dev/ttyUSB0: no resource of this deployment has a "
+           "'port' option\n")
+    r = esair("run", str(path), "--trace", "t.txt", "--run", "0", "--no-control")
+    assert (r.returncode, r.stderr) == (
+        1, f"error: {path}: --trace: no resource of this deployment runs an emulated robot "
+           "(port: emulate)\n")
+
+
+# ---- 2. Ctrl-C and exit codes
+
+@pytest.mark.parametrize("mode", MODES)
+def test_ctrl_c_stops_with_one_line_and_status_130(mode):
+    ep = free_endpoint()
+    proc = spawn_run("lab", "--mode", mode, "-e", ep, "--no-top")
+    try:
+        wait_for(lambda: proc.poll() is not None or answers(ep), timeout=60,
+                 what="the robot answering")
+        first = proc.stderr.readline()            # printed once every component started
+        kids = children_of(proc.pid)
+        assert len(kids) == (0 if mode == "thread" else 9)  # 5 components, 4 resource entries
+        os.killpg(proc.pid, signal.SIGINT)        # what a terminal's Ctrl-C does
+        out, err = proc.communicate(timeout=60)
+        err = first + err
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 130
+    assert err.splitlines() == [
+        f"robot 'lab' running in {mode} mode, control endpoint {ep} (10 components)",
+        "interrupted: robot 'lab' stopped"]
+    assert out == ""
+    assert [k for k in kids if os.path.exists(f"/proc/{k}")] == []
+
+
+@pytest.mark.parametrize("args,message", [
+    (["put", "logger", "1", "--timeout", "-1"],
+     "Invalid value for '--timeout': -1.0 is not in the range 0<=x<=3600."),
+    (["get", "logger", "--timeout", "soon"],
+     "Invalid value for '--timeout': 'soon' is not a valid float range."),
+    (["add", "x", "lab:Logger", "--period", "0"],
+     "Invalid value for '--period': 0.0 is not in the range x>0."),
+    (["ls", "-e", "tcp/127.0.0.1:99999"],
+     "Invalid value for '-e' / '--endpoint' (env var: 'ESAIR_STD_ENDPOINT'): port must be a "
+     "number from 0 to 65535, not '99999'"),
+    (["run", "lab", "--run", "-1"],
+     "Invalid value for '--run': -1.0 is not in the range x>=0."),
+    (["run", "lab", "-e", "tcp/127.0.0.1"],
+     "Invalid value for '-e' / '--endpoint' (env var: 'ESAIR_STD_ENDPOINT'): needs a host "
+     "and a port: PROTOCOL/HOST:PORT such as tcp/127.0.0.1:7447, not text 'tcp/127.0.0.1'"),
+    (["certs", "/tmp/never", "--days", "0"],
+     "Invalid value for '--days': 0 is not in the range x>=1."),
+])
+def test_bad_option_values_are_usage_errors(args, message):
+    r = esair(*args)
+    assert r.returncode == 2
+    assert r.stderr.splitlines()[-1] == f"Error: {message}"
+
+
+@pytest.fixture(scope="module", params=MODES)
+def lab(request):
+    """The lab robot (`esair std run lab`) in each mode: (endpoint, mode)."""
+    ep = free_endpoint()
+    proc = spawn_run("lab", "--mode", request.param, "-e", ep, "--no-top")
+    try:
+        wait_for(lambda: proc.poll() is not None or answers(ep), timeout=60,
+                 what="the robot answering")
+        assert proc.poll() is None, proc.communicate()
+        wait_for(lambda: all(r["state"] in ("running", "ready") for r in
+                             json.loads(esair("ls", "--json", "-e", ep).stdout)["components"]),
+                 what="every component running")
+        yield ep, request.param
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 0, err
+
+
+def error_of(*args: str, **kw) -> tuple[int, str]:
+    r = esair(*args, **kw)
+    return r.returncode, r.stderr
+
+
+# ---- 3. errors a user understands
+
+def test_a_port_in_use_is_said_in_plain_words(lab):
+    ep, _ = lab
+    assert error_of("run", "lab", "-e", ep, "--run", "1") == (
+        1, f"error: {ep}: port in use, choose another with -e\n")
+
+
+def test_inspect_has_a_did_you_mean(lab):
+    ep, _ = lab
+    assert error_of("inspect", "logge", "-e", ep) == (
+        1, "error: no component 'logge' (did you mean 'logger'?)\n")
+    assert error_of("inspect", "bench.tmp", "-e", ep) == (
+        1, "error: no component 'bench.tmp' (did you mean 'bench.temp'?)\n")
+
+
+@pytest.mark.parametrize("case,message", [
+    ("long_number", "4:34: a number of 5000 characters is too long to read (at most 4300 "
+                    "digits); quote it to keep it as text"),
+    ("tab_before_comment", "2:11: a tab before a comment: the YAML reader takes only spaces "
+                           "between a value and its '#'; replace the tab by spaces"),
+    ("tab_between_values", "2:7: a tab character between values: the YAML reader separates "
+                           "them with spaces only; replace the tab by spaces"),
+    ("allow_lone_bracket", "4:58: '[' in 'allow' has a '[' or ']' without its pair: in a "
+                           "pattern, [...] holds the characters one place may be, e.g. "
+                           "'arm[12]'"),
+])
+def test_deployment_faults_in_plain_words(case, message):
+    path = FIX / f"{case}.yaml"
+    assert error_of("check", "--no-import", str(path)) == (1, f"error: {path}:{message}\n")
+
+
+def test_brackets_in_pairs_are_a_pattern():
+    r = esair("check", "--no-import", str(FIX / "allow_brackets.yaml"))
+    assert r.returncode == 0, r.stderr
+    assert "allow arm[12]: read, [!x]*: command" in r.stdout
+
+
+@pytest.mark.pty
+def test_a_disconnected_serial_device_is_said_in_plain_words():
+    """pySerial's words for a pty whose other end closed (a robot unplugged), as the
+    link reports them (esair std ls shows them as the reason)."""
+    import pty
+
+    import serial
+
+    from esair_std.drivers.minlink.link import _describe
+    master, slave = pty.openpty()
+    port = serial.Serial(os.ttyname(slave), timeout=1)
+    os.close(master)
+    try:
+        with pytest.raises(serial.SerialException) as exc:
+            port.read(10)
+    finally:
+        port.close()
+        os.close(slave)
+    assert _describe(exc.value) == ("the device disconnected (unplugged, or another program "
+                                    "uses the port)")
+
+
+def test_the_live_table_keeps_one_line_a_row():
+    from rich.console import Console
+
+    from esair_std.cli.top import grouped, render
+    long = "link down: " + "x" * 300
+    rows = [dict(name="d", kind="driver", state="lost", pid=1, host="h", restarts=0,
+                 reason=long, parent="", count=0),
+            dict(name="d.feet", kind="sensor", state="lost", pid=1, host="h", restarts=0,
+                 reason=long, parent="d", count=0)]
+    console = Console(width=100, record=True)
+    console.print(render(grouped(rows), {}, "r"))
+    lines = console.export_text().splitlines()
+    assert len(lines) == 7                    # title, 3 rules, header, 2 rows
+    assert lines[4].startswith("│ d ") and lines[5].startswith("│   .feet ")
+    assert all(line.endswith(("┓", "┃", "┩", "│", "┘")) for line in lines[1:])
+
+
+# ---- 4. what the CLI promises
+
+def test_run_listens_on_esair_std_endpoint(tmp_path):
+    ep, other = free_endpoint(), free_endpoint()
+    dep = tmp_path / "lab.yaml"
+    text = (ROOT / "esair_std" / "examples" / "lab" / "lab.yaml").read_text()
+    dep.write_text(text.replace("endpoint: tcp/127.0.0.1:7447", f"endpoint: {other}"))
+    (tmp_path / "lab.py").write_text((ROOT / "esair_std" / "examples" / "lab" / "lab.py")
+                                     .read_text())
+    r = esair("run", str(dep), "--run", "0.5", env={"ESAIR_STD_ENDPOINT": ep})
+    assert r.returncode == 0, r.stderr
+    assert r.stderr.splitlines()[0] == (
+        f"robot 'lab' running in thread mode, control endpoint {ep} (10 components)")
+
+
+def test_add_is_refused_when_allow_grants_less(lab):
+    ep, _ = lab
+    assert error_of("add", "spy", "lab:Logger", "--uses", "arm=command", "-e", ep) == (
+        1, "error: behavior 'spy' uses 'arm' at level 'command', but resource 'arm' does "
+           "not allow it (add 'spy: command' to its allow)\n")
+    assert error_of("add", "spy", "lab:Logger", "--uses", "wave=configure", "-e", ep) == (
+        1, "error: behavior 'spy' uses 'wave' at level 'configure', but resource 'wave' "
+           "allows it only up to 'read'\n")
+    assert error_of("add", "spy", "lab:Logger", "--uses", "wav=read", "-e", ep) == (
+        1, "error: behavior 'spy' uses unknown resource 'wav' (did you mean 'wave'?)\n")
+    names = [r["name"] for r in json.loads(esair("ls", "--json", "-e", ep).stdout)[
+        "components"]]
+    assert "spy" not in names
+
+
+def test_add_exits_1_when_start_raises(lab):
+    ep, _ = lab
+    assert error_of("add", "shaky", "tests.support.comps:Faulty", "-o", "fail=start", "-e", ep) == (
+        1, "error: behavior 'shaky' did not start: RuntimeError: refuses to start\n")
+    names = [r["name"] for r in json.loads(esair("ls", "--json", "-e", ep).stdout)[
+        "components"]]
+    assert "shaky" not in names
+    r = esair("add", "shaky", "tests.support.comps:Faulty", "-e", ep)       # the name is free again
+    assert (r.returncode, r.stdout) == (0, "shaky: running\n")
+    assert esair("remove", "shaky", "-e", ep).returncode == 0
+
+
+def test_put_reads_data_from_a_file_or_stdin(lab, tmp_path):
+    ep, _ = lab
+    assert esair("add", "inbox", "lab:Logger", "-e", ep).returncode == 0
+    try:
+        big = list(range(40_000))                         # 228 KB of JSON
+        path = tmp_path / "big.json"
+        path.write_text(json.dumps(big))
+        assert len(path.read_bytes()) > 131072            # more than one argument may hold
+        r = esair("put", "inbox", "--file", str(path), "--timeout", "5", "-e", ep)
+        assert (r.returncode, r.stdout) == (0, "delivered\n"), r.stderr
+        got = json.loads(esair("get", "inbox", "-e", ep).stdout)
+        assert got["last"] == {"from": "operator", "data": big}
+        r = esair("put", "inbox", "-", "-e", ep, stdin='{"from": "stdin"}\n')
+        assert (r.returncode, r.stdout) == (0, "delivered\n"), r.stderr
+        got = json.loads(esair("get", "inbox", "-e", ep).stdout)
+        assert got == {"received": 2, "last": {"from": "operator", "data": {"from": "stdin"}}}
+        path.write_text(json.dumps(list(range(50_000))))  # 289 KB: over the message cap
+        assert error_of("put", "inbox", "-f", str(path), "-e", ep) == (
+            1, "error: message of 288927 bytes is over the 262144-byte cap\n")
+        r = esair("put", "inbox", "-e", ep)
+        assert (r.returncode, r.stderr.splitlines()[-1]) == (
+            2, "Error: give DATA (or - for standard input), or --file FILE")
+    finally:
+        esair("remove", "inbox", "-e", ep)
+
+
+# ---- 5. observe and command the robot
+
+def test_sample_reads_a_sensors_latest_sample(lab):
+    ep, _ = lab
+    r = esair("sample", "wave", "-e", ep)
+    assert r.returncode == 0, r.stderr
+    assert -1.0 <= json.loads(r.stdout) <= 1.0
+    meta = json.loads(esair("sample", "ticks", "--meta", "-e", ep).stdout)
+    assert meta["resource"] == "ticks" and meta["seq"] >= 1 and meta["value"] >= 0
+    later = json.loads(esair("sample", "ticks", "--meta", "-e", ep).stdout)
+    assert later["seq"] > meta["seq"]                      # the latest, not the first
+    assert error_of("sample", "arm", "-e", ep) == (1, "error: 'arm' is an actuator, not a "
+                                                      "sensor\n")
+    assert error_of("sample", "bench", "-e", ep) == (
+        1, "error: no sensor 'bench' ('bench' is a driver; its sensors: bench.temp)\n")
+    assert error_of("sample", "wav", "-e", ep) == (
+        1, "error: no sensor 'wav' (did you mean 'wave'?)\n")
+    assert error_of("get", "wave", "-e", ep) == (
+        1, "error: get from 'wave' failed: no behavior 'wave' (a sensor: read it with "
+           "`esair std sample wave`)\n")
+
+
+def test_send_commands_an_actuator_as_the_operator(lab):
+    ep, _ = lab
+    assert error_of("send", "arm", '{"angle": 10}', "-e", ep) == (
+        1, "error: 'arm' does not allow the operator (add 'operator: command' to the allow "
+           "of resource 'arm')\n")
+    assert error_of("send", "bench.fan", "1", "-e", ep) == (
+        1, "error: 'bench.fan' allows the operator only up to 'read' (add 'operator: "
+           "command' to the allow of resource 'bench')\n")
+    assert error_of("send", "wave", "1", "-e", ep) == (
+        1, "error: 'wave' is a sensor, not an actuator\n")
+    r = esair("add-resource", "pen", "esair_std.drivers.sim:Recorder", "--allow",
+              "operator=command", "-e", ep)
+    assert r.returncode == 0, r.stderr
+    try:
+        r = esair("send", "pen", '{"angle": 90}', "-e", ep)
+        assert (r.returncode, r.stdout) == (0, '{"count": 1, "speed": 5}\n'), r.stderr
+        assert error_of("send", "pen", '{"angle": 200}', "-e", ep) == (
+            1, "error: pen: angle 200 out of range 0-180\n")
+        info = json.loads(esair("inspect", "pen", "-e", ep).stdout)
+        assert info["grants"] == {"operator": "command"}
+    finally:
+        esair("remove-resource", "pen", "-e", ep)
+
+
+def test_ls_json_is_one_object_with_the_same_keys_for_every_component(lab):
+    ep, mode = lab
+    out = json.loads(esair("ls", "--json", "-e", ep).stdout)
+    assert list(out) == ["robot", "endpoint", "components"]
+    assert (out["robot"], out["endpoint"]) == ("lab", ep)
+    rows = {r["name"]: r for r in out["components"]}
+    keys = ["name", "kind", "state", "pid", "host", "restarts", "reason", "class", "parent",
+            "attached"]
+    assert all(list(r) == keys for r in rows.values())
+    assert list(rows) == ["guard", "logger", "follow", "tuner", "keeper", "wave", "ticks",
+                          "arm", "bench", "bench.temp", "bench.fan"]
+    assert (rows["bench"]["kind"], rows["bench"]["class"]) == (
+        "driver", "esair_std.drivers.sim:Bench")
+    assert rows["bench.fan"]["parent"] == "bench" and rows["arm"]["parent"] == ""
+    wait_for(lambda: json.loads(esair("ls", "--json", "-e", ep).stdout)["components"][2][
+        "attached"] == ["arm", "wave"], what="follow attached to wave and arm")
+    rows = {r["name"]: r for r in json.loads(esair("ls", "--json", "-e", ep).stdout)[
+        "components"]}
+    assert "follow" in rows["wave"]["attached"]
+    assert "follow" in rows["arm"]["attached"]           # an actuator's real attachments
+    assert rows["logger"]["attached"] == []
+
+
+# ---- 5. the emulated robot's options, the live table / 6. copy an example
+
+@pytest.mark.pty
+def test_trace_and_scenario_reach_the_emulated_robot(tmp_path):
+    r = esair("run", "papaman", "--trace", "trace.txt", "--scenario", "push", "--run", "3",
+              "--no-control", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    trace = (tmp_path / "trace.txt").read_text()        # relative to where it was run
+    assert trace.startswith("# esair-trace 1\n@ 0\n")
+    assert error_of("run", "papaman", "--trace", "t.txt", "--port", "/dev/ttyUSB0",
+                    "--run", "0")[1].splitlines()[-1] == (
+        "Error: --trace is for the emulated robot, not --port /dev/ttyUSB0")
+
+
+@pytest.mark.pty
+@pytest.mark.parametrize("mode", MODES)
+def test_papaman_from_the_command_line(robot, mode):
+    """The live table groups the driver's children; a put the sequencer refuses says
+    why; one command by hand as the operator; the feet's latest sample."""
+    _, ep = robot("papaman", "--mode", mode)
+    wait_for(lambda: sum(r["state"] == "ready" for r in json.loads(
+        esair("ls", "--json", "-e", ep).stdout)["components"]) == 16, what="papaman ready")
+    out = esair("top", "--count", "1", "--interval", "0.1", "-e", ep).stdout
+    names = [line.split("│")[1].strip() for line in out.splitlines()
+             if line.startswith("│")]
+    assert names == ["sequencer", "watcher", "logger", "papaman", ".servo.* (12)",
+                     ".motion", ".feet", ".notices"]
+    # a behavior refuses a put by raising Refused in receive(): the sender is told why
+    assert error_of("put", "sequencer", '["dnce"]', "-e", ep) == (
+        1, "error: put to 'sequencer' failed: 'sequencer' refused it: unknown operation "
+           "'dnce' (known: stop, stand_up, sit_down, prostrate, dance, auto_balance); "
+           "nothing queued\n")
+    r = esair("put", "sequencer", '["stand_up"]', "-e", ep)
+    assert (r.returncode, r.stdout) == (0, "delivered\n"), r.stderr
+    rows = {r["name"]: r for r in json.loads(esair("ls", "--json", "-e", ep).stdout)[
+        "components"]}
+    assert rows["sequencer"]["state"] == "running"
+    info = json.loads(esair("inspect", "sequencer", "-e", ep).stdout)
+    assert info["counters"]["refused_puts"] == 1
+    # the bundled papaman grants the operator command: one command by hand
+    r = esair("send", "papaman.motion", "stand", "-e", ep)
+    assert (r.returncode, r.stdout) == (0, '"t"\n'), r.stderr
+    feet = json.loads(esair("sample", "papaman.feet", "-e", ep).stdout)
+    assert feet["groups"] == {"left_foot": 2048, "right_foot": 2048}
+
+
+@pytest.mark.pty
+def test_new_copies_an_example_that_checks_and_runs(tmp_path):
+    folder = tmp_path / "mybot"
+    r = esair("new", "papaman", str(folder), cwd=tmp_path)
+    assert (r.returncode, r.stdout) == (0, f"wrote {folder}/papaman.yaml\n"
+                                           f"wrote {folder}/papaman_behaviors.py\n"
+                                           f"run it: esair std run {folder}\n")
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    r = esair("check", str(folder), cwd=elsewhere)
+    assert r.returncode == 0 and r.stdout.endswith("classes: 4 imported\nok\n"), r.stderr
+    # relative paths in the deployment are relative to its folder, not to the cwd
+    dep = folder / "papaman.yaml"
+    text = dep.read_text()
+    assert text.count("emulate: {scenario: quiet}") == 1
+    dep.write_text(text.replace("emulate: {scenario: quiet}",
+                                "emulate: {scenario: quiet, trace: trace.txt}"))
+    r = esair("run", str(folder), "--run", "2", "--no-control", cwd=elsewhere)
+    assert r.returncode == 0, r.stderr
+    assert (folder / "trace.txt").read_text().startswith("# esair-trace 1\n")
+    assert not (elsewhere / "trace.txt").exists()
+    assert error_of("new", "papaman", str(folder)) == (
+        1, f"error: {folder}/papaman.yaml exists already: choose a new folder, or move it "
+           "away (nothing was written)\n")
+    assert error_of("new", "papamn", str(tmp_path / "x")) == (
+        1, "error: no bundled example named 'papamn' (did you mean 'papaman'?) (bundled: "
+           "lab, papaman)\n")
