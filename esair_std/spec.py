@@ -123,7 +123,7 @@ def _period(entry: Any) -> tuple[float | None, bool]:
     return period, ("period" in fields) if fields is not None else period is not None
 
 
-def _restart(entry: Any) -> dict:
+def _restart(entry: Any) -> dict[str, Any]:
     """An entry's ``restart: {max, within}`` as Spec fields (none: no restart)."""
     restart = getattr(entry, "restart", None)
     if not restart:

@@ -471,8 +471,8 @@ class ProcessMode:
         host.reason = "its host process is gone"
         self.rt.rs.failed(host.name, host.generation, host.reason)
 
-    def hello(self, b: dict) -> None:
-        name, gen = b.get("name"), b.get("generation", 0)
+    def hello(self, b: dict[str, Any]) -> None:
+        name, gen = b.get("name", ""), b.get("generation", 0)
         with self._lock:
             child = self._pending.get((name, gen))
         if child is None:

@@ -88,7 +88,7 @@ class Bus:
                  options: dict[str, Any] | None = None):
         self.session = open_session(listen, connect, options)
         self._decl: list[Any] = []
-        self._pub_of: dict[str, tuple] = {}     # key -> its publishers (``undeclare``)
+        self._pub_of: dict[str, tuple[Any, ...]] = {}     # key -> its publishers (``undeclare``)
         self._lock = threading.Lock()
         self.closed = False
 
@@ -142,7 +142,7 @@ class Bus:
                 key, congestion_control=zenoh.CongestionControl.BLOCK))
 
         if raw:
-            put = pub.put
+            put: Callable[[Any], None] = pub.put
         else:
             def put(obj: Any) -> None:
                 pub.put(codec.encode(obj))

@@ -108,9 +108,9 @@ class SampleCaller:
         if pub is not None:
             self.bus.undeclare(key)
 
-    def wait(self, key: str, peer: str, body: dict, timeout: float) -> Any:
+    def wait(self, key: str, peer: str, body: dict[str, Any], timeout: float) -> Any:
         """``call`` from a thread that waits: the answer, or None."""
-        box: queue.SimpleQueue = queue.SimpleQueue()
+        box: queue.SimpleQueue[Any] = queue.SimpleQueue()
         if not self.call(key, peer, body, timeout, box.put):
             return None
         try:

@@ -353,7 +353,7 @@ class Link:
                 if self._queue and self._up and self._port is not None:
                     nxt = self._queue.popleft()
                     start = self._start(nxt)
-        if nxt is not None:                 # the next command goes out before this
+        if nxt is not None and start is not None:   # the next command goes out before this
             self._write(nxt, *start)        # one's caller is woken
         ex.done.set()
 
