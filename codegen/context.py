@@ -147,7 +147,7 @@ def _reaction_context(robot: Robot) -> Context:
     numbers = {m.name: m.number for m in robot.motions}
     slot_numbers = [s.number for s in robot.layout.slots]
     groups: list[str] = []
-    reactions = []
+    reactions: list[dict[str, Any]] = []
     for r in robot.central.reactions:
         for g in r.compare:
             if g not in groups:

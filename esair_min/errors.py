@@ -16,6 +16,9 @@ class Mark:
 
     __slots__ = ("path", "line", "col")
     _fields: tuple[str, ...] = __slots__
+    path: str
+    line: int
+    col: int
 
     def __init__(self, path: str, line: int, col: int):
         object.__setattr__(self, "path", path)
@@ -26,15 +29,17 @@ class Mark:
         raise AttributeError(f"cannot assign to field {name!r} of an immutable "
                              f"{type(self).__name__}")
 
-    __delattr__ = __setattr__
+    def __delattr__(self, name: str) -> None:
+        raise AttributeError(f"cannot delete field {name!r} of an immutable "
+                             f"{type(self).__name__}")
 
-    def _key(self) -> tuple:
+    def _key(self) -> tuple[object, ...]:
         return tuple(getattr(self, name) for name in self._fields)
 
     def __eq__(self, other: object) -> bool:
         if type(other) is not type(self):
             return NotImplemented
-        return self._key() == other._key()  # type: ignore[attr-defined]
+        return self._key() == other._key()
 
     def __hash__(self) -> int:
         return hash(self._key())
@@ -43,7 +48,7 @@ class Mark:
         shown = ", ".join(f"{name}={getattr(self, name)!r}" for name in self._fields)
         return f"{type(self).__name__}({shown})"
 
-    def __reduce__(self) -> tuple:
+    def __reduce__(self) -> tuple[type[Mark], tuple[object, ...]]:
         return (type(self), self._key())
 
     def __str__(self) -> str:

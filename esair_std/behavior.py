@@ -14,7 +14,28 @@ import logging
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:  # pragma: no cover
+    from typing import Protocol
+
     from .connections import ActuatorHandle, SensorHandle
+    from .spec import Spec
+
+    class _Host(Protocol):
+        """What a component reaches through its host (modes/host.py's hosts)."""
+        name: str
+        spec: Spec
+        stopping: bool
+        busy: bool
+        enabled: bool
+
+        def attach_sensor(self, name: str, keep: int) -> SensorHandle: ...
+        def attach_actuator(self, name: str) -> ActuatorHandle: ...
+        def register(self, resource: str, level: str) -> str: ...
+        def configure(self, resource: str, key: str, value: Any) -> Any: ...
+        def put(self, name: str, data: Any, timeout: float) -> bool: ...
+        def get(self, name: str, timeout: float) -> Any: ...
+        def state_of(self, name: str) -> str | None: ...
+        def set_reaction(self, name: str, enabled: bool) -> None: ...
+        def direct(self, name: str) -> Any: ...
 
 STATES = ("starting", "running", "busy", "stopped", "failed")
 
@@ -23,14 +44,15 @@ class _Hosted:
     """What a component with a host of its own shares (behaviors, reactions, drivers):
     name, options, log."""
 
-    _esair: Any = None              # the host (set by the runtime before __init__)
+    # the host (set by the runtime before __init__)
+    _esair: _Host = None  # type: ignore[assignment]  # None only until the runtime sets it
 
     @property
     def name(self) -> str:
         return self._esair.name
 
     @property
-    def options(self) -> dict:
+    def options(self) -> dict[str, Any]:
         return self._esair.spec.options
 
     @property

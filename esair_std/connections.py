@@ -74,7 +74,7 @@ class SensorHandle(_Handle):
             self._buf.clear()
         return out
 
-    def counters(self) -> dict:
+    def counters(self) -> dict[str, int]:
         return {"received": self.received, "overwritten": self.overwritten}
 
 
@@ -110,7 +110,7 @@ class ActuatorHandle(_Handle):
         self.sent += 1
         return result
 
-    def counters(self) -> dict:
+    def counters(self) -> dict[str, int]:
         return {"sent": self.sent, "failed": self.failed}
 
 

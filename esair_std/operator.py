@@ -47,10 +47,11 @@ class Operator:
             if resource not in self._watched:
                 self._watch(resource)
             got = self._fresh.wait_for(lambda: self._latest(resource) is not None, timeout)
-            if not got:
+            sample = self._latest(resource)
+            if not got or sample is None:
                 raise ControlError(f"sensor {resource!r} reported no sample within "
                                    f"{timeout:g} s")
-            return self._latest(resource)
+            return sample
 
     def _latest(self, resource: str) -> Sample | None:
         box = self._watched.get(resource)

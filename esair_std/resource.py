@@ -12,21 +12,34 @@ resources (``resources()``), named ``<entry>.<child>`` in the deployment.
 from __future__ import annotations
 
 import logging
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from .behavior import _Hosted
+
+if TYPE_CHECKING:  # pragma: no cover
+    from typing import Protocol
+
+    class _Slot(Protocol):
+        """What a resource reaches through its slot (modes/reshost.py)."""
+        name: str
+        options: dict[str, Any]
+        host: Any          # the resource's host (a driver's children reach their driver)
+
+        def report(self, value: Any) -> None: ...
+        def set_state(self, state: str, reason: str) -> None: ...
 from .errors import CommandError
 
 
 class _Agent:
-    _esair: Any = None   # the host's slot for this resource (set by the runtime)
+    # the host's slot for this resource (set by the runtime)
+    _esair: _Slot = None  # type: ignore[assignment]  # None only until the runtime sets it
 
     @property
     def name(self) -> str:
         return self._esair.name
 
     @property
-    def options(self) -> dict:
+    def options(self) -> dict[str, Any]:
         return self._esair.options
 
     @property

@@ -280,7 +280,7 @@ class Runtime:
             self._version += 1
             self._changed.notify_all()
 
-    def wait_state(self, name: str, states: str | tuple, timeout: float = 10.0) -> str:
+    def wait_state(self, name: str, states: str | tuple[str, ...], timeout: float = 10.0) -> str:
         """Wait until ``name`` is in one of ``states``; its state (for tests, scripts).
         Woken by every change the runtime is told of; ``busy`` (a behavior's own flag,
         not an event) is looked at again every WAIT_RECHECK seconds."""
@@ -294,9 +294,10 @@ class Runtime:
             left = deadline - time.monotonic()
             if left <= 0:
                 raise ControlError(f"{name!r} is {s}, not {'/'.join(want)}, after {timeout:g} s")
+            def moved(v: int = seen) -> bool:
+                return self._version != v
             with self._changed:
-                self._changed.wait_for(lambda v=seen: self._version != v,
-                                       min(left, WAIT_RECHECK))
+                self._changed.wait_for(moved, min(left, WAIT_RECHECK))
 
     def summary(self) -> list[dict]:
         """Per component: state, samples delivered/overwritten, puts ok/failed, restarts."""

@@ -11,6 +11,10 @@ class Sample:
     Immutable, compared by value (a plain class, not a dataclass: see esair_min's Mark)."""
 
     __slots__ = ("value", "seq", "t", "source")
+    value: Any
+    seq: int
+    t: float
+    source: str
 
     def __init__(self, value: Any, seq: int, t: float, source: str):
         object.__setattr__(self, "value", value)
@@ -21,15 +25,16 @@ class Sample:
     def __setattr__(self, name: str, value: object) -> None:
         raise AttributeError(f"cannot assign to field {name!r} of an immutable Sample")
 
-    __delattr__ = __setattr__
+    def __delattr__(self, name: str) -> None:
+        raise AttributeError(f"cannot delete field {name!r} of an immutable Sample")
 
-    def _key(self) -> tuple:
+    def _key(self) -> tuple[Any, int, float, str]:
         return (self.value, self.seq, self.t, self.source)
 
     def __eq__(self, other: object) -> bool:
         if type(other) is not Sample:
             return NotImplemented
-        return self._key() == other._key()  # type: ignore[attr-defined]
+        return self._key() == other._key()
 
     def __hash__(self) -> int:
         return hash(self._key())
@@ -38,12 +43,12 @@ class Sample:
         return (f"Sample(value={self.value!r}, seq={self.seq!r}, t={self.t!r}, "
                 f"source={self.source!r})")
 
-    def __reduce__(self) -> tuple:
+    def __reduce__(self) -> tuple[type[Sample], tuple[Any, int, float, str]]:
         return (Sample, self._key())
 
-    def to_wire(self) -> dict:
+    def to_wire(self) -> dict[str, Any]:
         return {"v": self.value, "seq": self.seq, "t": self.t, "src": self.source}
 
     @classmethod
-    def from_wire(cls, d: dict) -> "Sample":
+    def from_wire(cls, d: dict[str, Any]) -> "Sample":
         return cls(d["v"], int(d["seq"]), float(d["t"]), str(d["src"]))

@@ -23,12 +23,28 @@ class Spec:
     __slots__ = ("kind", "name", "class_path", "options", "base_dir", "period", "has_period",
                  "uses", "restart_max", "restart_within", "allow", "resources", "enabled",
                  "where")
+    kind: str
+    name: str
+    class_path: str
+    options: dict[str, Any]
+    base_dir: str | None
+    period: float | None
+    has_period: bool
+    uses: dict[str, str]
+    restart_max: int
+    restart_within: float
+    allow: dict[str, str]
+    resources: tuple[str, ...]
+    enabled: bool
+    where: str
 
-    def __init__(self, kind: str, name: str, class_path: str, options: dict | None = None,
+    def __init__(self, kind: str, name: str, class_path: str,
+                 options: dict[str, Any] | None = None,
                  base_dir: str | None = None, period: float | None = None,
-                 has_period: bool = False, uses: dict | None = None, restart_max: int = 0,
-                 restart_within: float = 0.0, allow: dict | None = None,
-                 resources: tuple = (), enabled: bool = True, where: str = ""):
+                 has_period: bool = False, uses: dict[str, str] | None = None,
+                 restart_max: int = 0, restart_within: float = 0.0,
+                 allow: dict[str, str] | None = None,
+                 resources: tuple[str, ...] = (), enabled: bool = True, where: str = ""):
         values = dict(
             kind=kind,                           # behavior | reaction | resource
             name=name,
@@ -50,7 +66,9 @@ class Spec:
     def __setattr__(self, name: str, value: object) -> None:
         raise AttributeError(f"cannot assign to field {name!r} of an immutable Spec")
 
-    __delattr__ = __setattr__
+    def __delattr__(self, name: str) -> None:
+        raise AttributeError(f"cannot delete field {name!r} of an immutable Spec")
+
     __hash__ = None  # type: ignore[assignment]   # its dicts are not hashable
 
     def __eq__(self, other: object) -> bool:
@@ -61,13 +79,13 @@ class Spec:
     def __repr__(self) -> str:
         return "Spec(" + ", ".join(f"{k}={getattr(self, k)!r}" for k in self.__slots__) + ")"
 
-    def to_json(self) -> dict:
+    def to_json(self) -> dict[str, Any]:
         d = {k: _copy(getattr(self, k)) for k in self.__slots__}
         d["resources"] = list(self.resources)
         return d
 
     @classmethod
-    def from_json(cls, d: dict) -> "Spec":
+    def from_json(cls, d: dict[str, Any]) -> "Spec":
         d = dict(d)
         d["resources"] = tuple(d.get("resources", ()))
         return cls(**d)
@@ -87,11 +105,11 @@ def _where(entry: Any) -> str:
     return str(mark) if mark is not None else ""
 
 
-def _level_map(m: Any) -> dict:
+def _level_map(m: Any) -> dict[str, str]:
     return {str(k): Level.parse(v).name for k, v in dict(m or {}).items()}
 
 
-def _entries(group: Any):
+def _entries(group: Any) -> list[tuple[str, Any]]:
     """(name, entry) pairs of a deployment group, in file order (dict or sequence)."""
     if isinstance(group, dict):
         return list(group.items())
@@ -105,7 +123,7 @@ def _period(entry: Any) -> tuple[float | None, bool]:
     return period, ("period" in fields) if fields is not None else period is not None
 
 
-def _restart(entry: Any) -> dict:
+def _restart(entry: Any) -> dict[str, Any]:
     """An entry's ``restart: {max, within}`` as Spec fields (none: no restart)."""
     restart = getattr(entry, "restart", None)
     if not restart:
@@ -141,7 +159,7 @@ def specs_of(deployment: Any) -> tuple[list[Spec], list[Spec], list[Spec]]:
     return res, beh, rea
 
 
-def load(deployment: Any):
+def load(deployment: Any) -> Any:
     """A Deployment from a path, a dict or an already loaded Deployment."""
     if isinstance(deployment, (str, Path, dict)):
         from .deploy import load_deployment

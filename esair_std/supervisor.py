@@ -260,6 +260,7 @@ class Supervisor:
         rec.host.stop(0.2)
         now = time.monotonic()
         child = rec.child
+        assert child is not None                 # set by Record.__post_init__
         rec.failures = [t for t in rec.failures if now - t <= child.within]
         if len(rec.failures) >= child.max:
             log.warning("%s failed (%s); stays failed", name, reason)

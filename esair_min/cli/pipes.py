@@ -61,7 +61,7 @@ def quiet_on_closed_pipe(main: Callable[[], int | None]) -> int:
     """Run ``main`` with standard output guarded; its status, or 141 when the pipe
     closed."""
     real = sys.stdout
-    sys.stdout = _Guarded(real)       # type: ignore[assignment]
+    sys.stdout = _Guarded(real)
     try:
         return main() or 0
     except (PipeClosed, BrokenPipeError):

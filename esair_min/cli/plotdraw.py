@@ -14,9 +14,9 @@ from typing import Any
 
 from esair_min.model.robot import Robot
 
-POSITION = dict(color="tab:blue", linewidth=1.4)
-TARGET = dict(color="tab:orange", linewidth=1.0, linestyle="--")
-REACTION = dict(color="red", linewidth=0.9, linestyle=":")
+POSITION: dict[str, Any] = dict(color="tab:blue", linewidth=1.4)
+TARGET: dict[str, Any] = dict(color="tab:orange", linewidth=1.0, linestyle="--")
+REACTION: dict[str, Any] = dict(color="red", linewidth=0.9, linestyle=":")
 
 
 def _columns(robot: Robot) -> list[list[int]]:

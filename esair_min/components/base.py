@@ -4,7 +4,7 @@ validator (:class:`Checker`)."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, Callable, Iterable, NamedTuple, Protocol
+from typing import TYPE_CHECKING, Any, Callable, Iterable, NamedTuple, NoReturn, Protocol
 
 if TYPE_CHECKING:
     from esair_min.model.types import Section
@@ -13,7 +13,8 @@ if TYPE_CHECKING:
 class Checker(Protocol):
     """The validator as the kinds see it: raise at a node of a board's file."""
 
-    def fail(self, board: Any, loc: Iterable[Any], message: str, *, key: bool = False) -> Any:
+    def fail(self, board: Any, loc: Iterable[Any], message: str, *,
+             key: bool = False) -> NoReturn:
         ...
 
     def doc(self, board: Any) -> Any:

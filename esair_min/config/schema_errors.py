@@ -14,6 +14,7 @@ import typing
 from typing import Any, Union
 
 from pydantic import BaseModel, ValidationError
+from pydantic_core import ErrorDetails
 
 from esair_min.errors import ConfigError
 from esair_min.config.yamlload import Document, kind_of
@@ -88,7 +89,7 @@ def _data_path(data: Any, loc: tuple[Any, ...]) -> tuple[Any, ...]:
     for part in loc:
         if (isinstance(cur, dict) and isinstance(part, str) and part in cur
                 or isinstance(cur, list) and isinstance(part, int) and 0 <= part < len(cur)):
-            cur = cur[part]
+            cur = cur[part]  # type: ignore[index]  # a str into a dict, an int into a list
             path.append(part)
     return tuple(path)
 
@@ -167,7 +168,7 @@ _MUST_BE = {
 }
 
 
-def _describe(err: dict[str, Any], key: str, model: type[BaseModel] | None,
+def _describe(err: ErrorDetails, key: str, model: type[BaseModel] | None,
               tags: list[str]) -> str:
     kind = err["type"]
     ctx = err.get("ctx") or {}
@@ -234,7 +235,7 @@ def _label(path: tuple[Any, ...], loc: tuple[Any, ...]) -> str:
     return parts[-1] + "".join(f"[{i}]" for i in path[len(parts):])
 
 
-def pick_error(errors: list[dict[str, Any]], data: Any) -> dict[str, Any]:
+def pick_error(errors: list[ErrorDetails], data: Any) -> ErrorDetails:
     """The error to report: an unknown key first (a misspelt key causes the other
     errors), else pydantic's first error, made as precise as its siblings allow (a
     union such as ``speed: 3`` or ``speed: [..]`` reports the branch that matches)."""

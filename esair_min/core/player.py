@@ -6,7 +6,7 @@ time other than the ticks it is stepped with.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Sequence
+from typing import TYPE_CHECKING, Literal, Sequence
 
 from esair_min.core.protocol import Code
 
@@ -39,7 +39,7 @@ class Player:
         self._next = 0                  # index of the frame held in _frame
         self._frame: bytes = b""
         self._wait = 0                  # ticks until the held frame is written
-        self._checked: dict[bytes, tuple[list[int], bytes] | bool] = {}   # frame -> _check
+        self._checked: dict[bytes, tuple[list[int], bytes] | Literal[False]] = {}   # frame -> _check
 
     def has(self, number: int) -> bool:
         return number in self.slots
@@ -75,7 +75,7 @@ class Player:
         self._frame = bytes(data)
         return True
 
-    def _check(self, frame: bytes) -> tuple[list[int], bytes] | bool:
+    def _check(self, frame: bytes) -> tuple[list[int], bytes] | Literal[False]:
         """A frame's angles and its burst write, or False if a pair does not decode or
         lies outside its servo's limits."""
         angles = []

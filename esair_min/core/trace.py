@@ -28,7 +28,7 @@ class TraceWriter:
         if stream is not None:
             stream.write(HEADER + "\n")
         if not keep:                    # the emitter chosen once, not tested per line
-            self._emit = self._drop if stream is None else self._write  # type: ignore
+            self._emit = self._drop if stream is None else self._write  # type: ignore[method-assign]
 
     def _emit(self, line: str) -> None:
         self.lines.append(line)

@@ -16,6 +16,8 @@ import signal
 import sys
 import time
 from collections import deque
+from types import FrameType
+from typing import Any, Callable
 
 from rich.text import Text
 
@@ -221,7 +223,7 @@ class LiveView:
         self.period = 1.0 / hz
         self._next = 0.0
         self._resize = False
-        self._old_winch = None
+        self._old_winch: Callable[[int, FrameType | None], Any] | int | None = None
         self.console = Console()
         self.live = Live(console=self.console, screen=True, auto_refresh=False,
                          redirect_stdout=False, redirect_stderr=False)

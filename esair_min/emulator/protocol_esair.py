@@ -31,7 +31,8 @@ import threading
 import time
 import urllib.parse
 
-from serial.serialutil import PortNotOpenError, SerialBase, SerialException, to_bytes
+from serial.serialutil import PortNotOpenError, SerialBase, SerialException
+from serial.serialutil import to_bytes  # type: ignore[attr-defined]  # pyserial has it; its stubs do not
 
 from esair_min.errors import EsairError
 from esair_min.emulator.clock import NS_PER_S, seconds_to_ns
@@ -79,6 +80,10 @@ def _faults(opts: dict[str, str]) -> Faults:
 
 class Serial(SerialBase):
     """A serial port whose other end is an emulated robot."""
+
+    # set by SerialBase (pySerial's own port classes use them too); not in its stubs
+    _port: str | None
+    _timeout: float | None
 
     def __init__(self, *args, **kwargs):
         self.emulator: Emulator | None = None

@@ -20,6 +20,7 @@ Everything happens on a :class:`~.clock.VirtualClock`, so a run is deterministic
 
 from __future__ import annotations
 
+import functools
 import random
 import re
 from collections import deque
@@ -27,6 +28,7 @@ from pathlib import Path
 from typing import Callable
 
 from esair_min.model import hardware
+from esair_min.core.bus import Bus
 from esair_min.core.central import CentralCore
 from esair_min.core.devices import Eeprom24, RegisterSlave, SimpleBus
 from esair_min.errors import EsairError
@@ -154,7 +156,7 @@ class Emulator:
         self.bus.stuck = faults.bus_stuck
         self.trace = trace
         self._last_mark = -1
-        core_bus = self.bus
+        core_bus: Bus = self.bus
         if trace is not None:
             core_bus = _MarkingBus(TracingBus(self.bus, trace), self._mark_cursor)
 
@@ -178,7 +180,7 @@ class Emulator:
         self.sensor_values: tuple[int, ...] = self.scenario.idle
         self._set_sensors(self.scenario.idle)
         for at_ms, values in self.scenario.steps:
-            self.clock.schedule(at_ms * 1_000_000, lambda v=values: self._set_sensors(v))
+            self.clock.schedule(at_ms * 1_000_000, functools.partial(self._set_sensors, values))
 
         # -- the central board
         self.core = CentralCore(robot, core_bus, self._send,

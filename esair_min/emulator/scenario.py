@@ -118,7 +118,7 @@ def _load_yaml(path: str, text: str, r: _Reader) -> Scenario:
         m = exc.problem_mark
         mark = Mark(path, m.line + 1, m.column + 1) if m else file_mark(path)
         raise ConfigError(f"YAML syntax error: {exc.problem}", mark) from None
-    if not isinstance(data, dict) or not isinstance(data.get("steps"), list):
+    if node is None or not isinstance(data, dict) or not isinstance(data.get("steps"), list):
         raise ConfigError("a scenario file is a mapping with 'steps:', a list of "
                           "{at_ms: ..., values: ...}", file_mark(path))
     step_nodes = next(v for k, v in node.value if k.value == "steps").value

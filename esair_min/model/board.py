@@ -9,7 +9,7 @@ board live in :mod:`esair_min.model.validate`; values derived from the datasheet
 
 from __future__ import annotations
 
-from typing import Annotated, Any, Literal, Union
+from typing import TYPE_CHECKING, Annotated, Any, Literal, Union
 
 from pydantic import Field, StrictBool, StrictInt, StrictStr, create_model
 
@@ -185,13 +185,30 @@ class BoardCore(Section):
 
 
 def _component_sections() -> dict[str, Any]:
-    return {c.section: ((tuple[c.schema, ...], Field((), description=c.description)) if c.many
+    return {c.section: ((tuple[c.schema, ...],  # type: ignore[name-defined]  # built at run time
+                         Field((), description=c.description)) if c.many
                         else (c.schema | None, Field(None, description=c.description)))
             for c in COMPONENTS}
 
 
-Board = create_model("Board", __base__=BoardCore, __module__=__name__,
-                     __doc__="One board of a robot: one YAML file.", **_component_sections())
+if TYPE_CHECKING:
+    from esair_min.components.dc_motor import DcMotor
+    from esair_min.components.omni_base import OmniBase
+    from esair_min.components.optical_flow import FlowSensor
+
+    class Board(BoardCore):
+        """The board as type checkers see it: one field per kind of COMPONENTS, as
+        _component_sections() builds it (tests/min/test_board_static.py compares them)."""
+
+        servos: tuple[Servo, ...]
+        sensors: tuple[Sensor, ...]
+        motions: tuple[Motion, ...]
+        motors: tuple[DcMotor, ...]
+        flow_sensors: tuple[FlowSensor, ...]
+        base: OmniBase | None
+else:
+    Board = create_model("Board", __base__=BoardCore, __module__=__name__,
+                         __doc__="One board of a robot: one YAML file.", **_component_sections())
 
 
 #: The PAPA-MAN command table (shared/SPEC.md, docs/protocol.md): used when a central

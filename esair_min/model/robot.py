@@ -18,7 +18,7 @@ def frame_bus_load(central: Board, actuator: Board | None,
         return None
     polls = sensor is not None and bool(central.reactions)
     return tick_bus_load(len(actuator.servos), eeprom.address_bytes,
-                         sensor.register_count if polls else 0)
+                         sensor.register_count if polls and sensor else 0)
 
 
 @dataclass(frozen=True)

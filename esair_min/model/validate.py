@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Any, Iterable, NoReturn
 
 from pydantic import ValidationError
 
@@ -57,7 +57,8 @@ class _Checker:
     def doc(self, board: Board) -> Document:
         return self.docs[id(board)]
 
-    def fail(self, board: Board, loc: Iterable[Any], message: str, *, key: bool = False):
+    def fail(self, board: Board, loc: Iterable[Any], message: str, *,
+             key: bool = False) -> NoReturn:
         raise ConfigError(message, self.doc(board).mark(tuple(loc), key=key))
 
     # -- single board -------------------------------------------------------------

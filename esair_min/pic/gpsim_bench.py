@@ -109,9 +109,9 @@ def drain_loop(lst_text: str) -> DrainLoop:
     if not calls:
         raise ToolchainError("listing: _app_main does not call _hal_uart_rx")
     k = next((j for j in range(calls[0] + 1, len(insns)) if insns[j][1] in _SKIPS), None)
-    if k is None or k + 1 >= len(insns) or insns[k][2] is None:
+    if k is None or k + 1 >= len(insns) or (exit_at := insns[k][2]) is None:
         raise ToolchainError("listing: no loop exit after the call of _hal_uart_rx")
-    body, exit_at = insns[k + 1][0], insns[k][2]
+    body = insns[k + 1][0]
     back = [(a, t) for a, op, t in insns
             if op in ("bra", "goto") and t is not None and body <= a < exit_at and t < body]
     heads = {t for _, t in back}

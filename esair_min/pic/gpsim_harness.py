@@ -73,9 +73,11 @@ class GpsimSetup:
     @classmethod
     def from_robot(cls, robot: Robot) -> GpsimSetup:
         central = robot.central
-        if central.uart is None or central.sync is None or robot.eeprom is None:
-            raise ToolchainError("the gpsim harness needs a central board with uart, sync "
-                                 "and an EEPROM")
+        timer2 = central.timer2
+        if (central.uart is None or central.sync is None or timer2 is None
+                or robot.eeprom is None):
+            raise ToolchainError("the gpsim harness needs a central board with uart, tick, "
+                                 "sync and an EEPROM")
         eep = robot.eeprom.address
         if eep & 0x78 != 0x50:
             raise ToolchainError(f"EEPROM address 0x{eep:02X}: gpsim's e24xx256 answers "
@@ -86,7 +88,7 @@ class GpsimSetup:
                           tuple(i for i, x in enumerate(robot.sensors) if x.group == r.compare[1]),
                           r.threshold) for r in central.reactions)
         return cls(clock_hz=central.mcu.clock_hz, baud=central.uart.baud,
-                   tick_cycles=central.timer2.instructions,
+                   tick_cycles=timer2.instructions,
                    sync_pin=_gpsim_pin(central.sync.pin), eeprom_address=eep,
                    actuator_address=act.address if act else None,
                    sensor_address=sen.address if sen else None,

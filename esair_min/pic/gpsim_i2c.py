@@ -95,6 +95,7 @@ class GpsimSession:
         proc = self._proc
         if proc is None:
             raise ToolchainError("gpsim session is not running")
+        assert proc.stdin is not None and proc.stdout is not None   # started with pipes
         self._marker += 1
         self.batches += 1
         marker = f"ZZ{self._marker}ZZ".encode()
@@ -139,7 +140,8 @@ class GpsimSession:
         it (a 2-cycle instruction); the cycle is read back with ``cycles``. A cycle less
         than 2 after the previous one runs nothing (gpsim ignores a break that has gone
         by and would then ``run`` forever): its commands go with the previous stop."""
-        batch, targets, last = list(before), [], self.now
+        batch, last = list(before), self.now
+        targets: list[int] = []
         for cycle, commands in plan:
             if cycle >= last + (2 if targets else 1):
                 batch += [f"break c {cycle}", "run", "cycles"]
@@ -200,6 +202,7 @@ class GpsimSession:
         proc, self._proc = self._proc, None
         if proc is None:
             return
+        assert proc.stdin is not None and proc.stdout is not None   # started with pipes
         try:
             proc.stdin.write(b"quit\n")
             proc.stdin.close()

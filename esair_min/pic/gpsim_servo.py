@@ -81,7 +81,10 @@ def read_pulses(robot: Robot, angles: list[int], workdir: Path, after: int,
                 record_cycles: int = RECORD_CYCLES) -> list[ServoPulse]:
     """Each servo's last complete pulse and last period in the recordings, edges after
     cycle ``after`` only, against ``angles`` (clamped to the limits)."""
-    cps = robot.actuator.mcu.clock_hz // 4
+    act = robot.actuator
+    if act is None:
+        raise ToolchainError("the robot has no actuator board")
+    cps = act.mcu.clock_hz // 4
     result = []
     for s, angle in zip(robot.servos, angles):
         edges = [(c, v) for c, v in read_edges(Path(workdir) / f"servo{s.index}.txt")
@@ -101,6 +104,8 @@ def measure_pulses(robot: Robot, angles: list[int], cod: Path, map_path: Path,
     """Latch ``angles`` (speed 0: at once) into the actuator firmware; measure each
     servo's last complete pulse and its last period."""
     act = robot.actuator
+    if act is None:
+        raise ToolchainError("the robot has no actuator board")
     servos = robot.servos
     if len(angles) != len(servos):
         raise ToolchainError(f"{len(angles)} angles for {len(servos)} servos")

@@ -52,11 +52,12 @@ def find_toolchain(prefix: str | os.PathLike[str] | None = None) -> Toolchain:
                if not p.exists()]
     tools = {name: shutil.which(name) for name in ("gplink", "gpsim")}
     missing += [name for name, path in tools.items() if path is None]
-    if missing:
+    gplink, gpsim = tools["gplink"], tools["gpsim"]
+    if missing or gplink is None or gpsim is None:
         raise ToolchainError(f"PIC18F452 toolchain not found in {root} "
                              f"(missing: {', '.join(missing)}); {INSTALL_HINT}")
-    return Toolchain(prefix=root, sdcc=sdcc, gplink=Path(tools["gplink"]),
-                     gpsim=Path(tools["gpsim"]), include_dir=inc, lib_dir=lib)
+    return Toolchain(prefix=root, sdcc=sdcc, gplink=Path(gplink),
+                     gpsim=Path(gpsim), include_dir=inc, lib_dir=lib)
 
 
 def sdcc_flags(tc: Toolchain, *, link: bool = False) -> list[str]:

@@ -129,7 +129,7 @@ class World:
                 else:
                     hi = mid
             new = self._moved(self.pose, v, dt_s * lo)
-            v = tuple(c * lo for c in v)  # type: ignore[assignment]
+            v = (v[0] * lo, v[1] * lo, v[2] * lo)
             collided = True
         elif not self._clear(new):
             new, v, collided = self.pose, (0.0, 0.0, 0.0), True

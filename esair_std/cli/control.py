@@ -151,7 +151,7 @@ def put_cmd(c: Any, name: str, data: str | None, file: Any, timeout: float,
                                else "give DATA (or - for standard input), or --file FILE")
     if data == "-":
         data = click.get_text_stream("stdin").read()
-    elif file is not None:
+    elif data is None:                   # then FILE was given (checked above)
         data = file.read()
     obj = value(data)
     size = len(json.dumps(obj, separators=(",", ":")).encode())     # as the wire has it

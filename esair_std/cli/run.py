@@ -51,7 +51,8 @@ def _live(rt: Any, stop: threading.Event, seconds: float | None) -> None:
     from rich.live import Live
 
     from .top import render, snapshot
-    local, before = _Local(rt), {}
+    local = _Local(rt)
+    before: dict[str, tuple[float, int]] = {}
     end = None if seconds is None else time.monotonic() + seconds
     with Live(render(snapshot(local), before, rt.robot), auto_refresh=False) as live:
         while not stop.wait(1.0):

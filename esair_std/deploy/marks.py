@@ -26,6 +26,7 @@ class PathMark(Mark):
 
     __slots__ = ("where",)
     _fields = Mark._fields + __slots__
+    where: str
 
     def __init__(self, path: str, line: int, col: int, where: str = ROOT):
         super().__init__(path, line, col)

@@ -21,7 +21,7 @@ from pydantic import (BaseModel, ConfigDict, Field, PlainSerializer, PlainValida
 from pydantic.json_schema import SkipJsonSchema
 from pydantic_core import PydanticCustomError
 
-from ..classes import CLASS_PATTERN   # ``module:Class``: the importer's own pattern
+from ..classes import CLASS_PATTERN as CLASS_PATTERN  # ``module:Class``: the importer's own
 from ..level import Level
 from .security import SecuritySpec
 
@@ -201,7 +201,7 @@ class Deployment(_Frozen):
     def component(self, name: str) -> ComponentSpec | None:
         """The resource, behavior or reaction called ``name`` (None if none)."""
         for section in SECTIONS:
-            spec = getattr(self, section).get(name)
+            spec: ComponentSpec | None = getattr(self, section).get(name)
             if spec is not None:
                 return spec
         return None

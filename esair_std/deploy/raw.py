@@ -24,8 +24,10 @@ from .marks import PathMark
 from .model import (CHILD_PATTERN, CLASS_PATTERN, KIND, NAME_PATTERN, PROTOCOLS,
                     REF_PATTERN, SECTIONS, BehaviorSpec, ReactionSpec, ResourceSpec,
                     top_keys)
+from .model import ComponentSpec
 
-SPECS = {"resources": ResourceSpec, "behaviors": BehaviorSpec, "reactions": ReactionSpec}
+SPECS: dict[str, type[ComponentSpec]] = {"resources": ResourceSpec,
+                                           "behaviors": BehaviorSpec, "reactions": ReactionSpec}
 NAME_TEXT = "a lower-case name (a-z, 0-9, _; at most 32 characters, starting with a letter)"
 #: Brackets of a pattern in pairs, each holding at least one character: ``arm[12]``.
 _BRACKETS = re.compile(r"^([^\[\]]|\[!?[^\[\]]+\])*$")

@@ -390,7 +390,7 @@ class Agent:
 
     # ---- leaving
     def watch_runtime(self) -> None:
-        lost = {"t": None}
+        lost: dict[str, float | None] = {"t": None}
 
         def on_alive(key: str, alive: bool) -> None:
             if keys.parse_alive(self.robot, key) == ("runtime", "runtime"):

@@ -16,6 +16,7 @@ import time
 from typing import Any, Callable
 
 from ..errors import ControlError, StdError
+from ..errors import CommandError, ResourceLost
 from ..level import Level
 from ..sample import Sample  # noqa: F401 - documented payload type
 from ..transport import keys
@@ -121,7 +122,7 @@ class ControlServer:
         if self.bus is not None:
             self.bus.close()
 
-    def _enqueue(self, req: Request) -> None:
+    def _enqueue(self, req: Request | _SampleRequest) -> None:
         b = req.body
         if (req.key.endswith("/ctl/put") and b is not None and isinstance(b.get("to"), str)
                 and not b.get("wait")
@@ -154,7 +155,7 @@ class ControlServer:
         body["from"] = keys.name_in(key)
         self._enqueue(_SampleRequest(keys.ctl(self.rt.robot, "put"), body, answer))
 
-    def _to_worker(self, req: Request) -> None:
+    def _to_worker(self, req: Request | _SampleRequest) -> None:
         try:
             self._q.put_nowait(req)
         except queue.Full:
@@ -181,7 +182,7 @@ class ControlServer:
             if str(exc).startswith(("bad request", "unknown control verb")):
                 self.c["bad_requests"] += 1
             out = {"error": str(exc), "type": type(exc).__name__}
-            if hasattr(exc, "resource"):
+            if isinstance(exc, (CommandError, ResourceLost)):
                 out.update(resource=exc.resource, reason=exc.reason)
             return out
         except Exception as exc:  # noqa: BLE001 - a bug must not kill the worker

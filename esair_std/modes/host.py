@@ -49,9 +49,9 @@ class _Abandoned(BaseException):
     """Raised on an abandoned host's thread to leave without touching anything."""
 
 
-def build(cls: type, host: Any) -> Any:
+def build(cls: type[object], host: Any) -> Any:
     """An instance of a user class with its host set before the user's __init__ runs."""
-    obj = cls.__new__(cls)
+    obj: Any = cls.__new__(cls)
     obj._esair = host
     obj.__init__()
     return obj

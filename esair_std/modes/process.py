@@ -397,7 +397,7 @@ class ProcessMode:
         room = obj.get("room") if isinstance(obj, dict) else None
         host = (self._component(keys.name_in(key, 2), gen)
                 if isinstance(gen, int) and isinstance(room, int) else None)
-        if host is None or host.remote:
+        if host is None or host.remote or not isinstance(room, int):
             self.credits["bad_reports"] += 1
             return
         self.credits["reports"] += 1
@@ -471,8 +471,8 @@ class ProcessMode:
         host.reason = "its host process is gone"
         self.rt.rs.failed(host.name, host.generation, host.reason)
 
-    def hello(self, b: dict) -> None:
-        name, gen = b.get("name"), b.get("generation", 0)
+    def hello(self, b: dict[str, Any]) -> None:
+        name, gen = b.get("name", ""), b.get("generation", 0)
         with self._lock:
             child = self._pending.get((name, gen))
         if child is None:
@@ -480,7 +480,7 @@ class ProcessMode:
         child.info = b
         child.pid = b.get("pid", child.pid)
         child.hostname = b.get("host", "")
-        if child.rejoining:                      # a remote resource back after a partition
+        if child.rejoining and isinstance(child, ProcessResource):   # a remote resource back
             child.rejoining = False
             with self._lock:
                 self._pending.pop((name, gen), None)

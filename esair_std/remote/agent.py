@@ -71,6 +71,8 @@ class RemotePort(ZenohPort):
 
 
 class RemoteAgent(Agent):
+    port: RemotePort
+
     def __init__(self, bus: Bus, robot: str, spec: Spec, proof_fn: Any, hostname: str):
         super().__init__(bus, robot, spec, 1)
         self.port = RemotePort(bus, robot)

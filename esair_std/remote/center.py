@@ -66,7 +66,7 @@ def _local_login(options: dict, rt: Any) -> None:
     fd, path = tempfile.mkstemp(prefix="esair-users-", suffix=".txt")
     with os.fdopen(fd, "w") as f:
         f.write(Path(users).read_text().rstrip("\n") + f"\n{user}:{password}\n")
-    atexit.register(lambda: os.path.exists(path) and os.unlink(path))
+    atexit.register(Path(path).unlink, missing_ok=True)
     options["transport/auth/usrpwd/dictionary_file"] = path
     rt.child_session = {"transport/auth/usrpwd/user": user,
                         "transport/auth/usrpwd/password": password}
@@ -197,7 +197,7 @@ class Center:
         self.rt.mode.pending_changed()
 
     def _check_identity(self, name: str, proof: Any) -> None:
-        if self.verifier is None:
+        if self.verifier is None or self.sec is None:
             return                                 # no agents listed: the link decides
         ident = self.sec.agents.get(name)
         if ident is None:

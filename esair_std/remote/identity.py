@@ -126,8 +126,11 @@ class Verifier:
         names = cert.subject.get_attributes_for_oid(NameOID.COMMON_NAME)
         if not names or names[0].value != cn:
             raise Refused(f"{name}: certificate is not {cn!r}'s")
+        key = cert.public_key()
+        if not isinstance(key, ec.EllipticCurvePublicKey):   # signs no ECDSA proof
+            raise Refused(f"{name}: bad signature on the proof of identity")
         try:
-            cert.public_key().verify(sig, text, ec.ECDSA(hashes.SHA256()))
+            key.verify(sig, text, ec.ECDSA(hashes.SHA256()))
         except (InvalidSignature, TypeError, AttributeError):
             raise Refused(f"{name}: bad signature on the proof of identity") from None
 

@@ -25,7 +25,7 @@ def split(target: str) -> tuple[str, str] | None:
 
 
 def put(rt: Any, sender: str, target: str, data: Any, timeout: float) -> tuple[bool, str]:
-    robot, name = split(target)
+    robot, name = split(target) or ("", "")   # a local name: not of the form robot/behavior
     if not ROBOT_NAME.match(robot) or not name:
         return False, f"{target!r} is not of the form robot/behavior"
     if robot == rt.robot:
@@ -38,7 +38,7 @@ def put(rt: Any, sender: str, target: str, data: Any, timeout: float) -> tuple[b
 
 
 def get(rt: Any, requester: str, target: str, timeout: float) -> tuple[bool, Any]:
-    robot, name = split(target)
+    robot, name = split(target) or ("", "")   # a local name: not of the form robot/behavior
     if not ROBOT_NAME.match(robot) or not name:
         return False, f"{target!r} is not of the form robot/behavior"
     if robot == rt.robot:

@@ -14,7 +14,7 @@ from __future__ import annotations
 import contextlib
 import logging
 import threading
-from typing import Any, Callable
+from typing import Any, Callable, TypeVar
 
 import zenoh
 
@@ -23,6 +23,7 @@ from . import codec
 from .session import open_session
 
 log = logging.getLogger("esair_std.transport")
+_T = TypeVar("_T")
 
 
 class Request:
@@ -35,7 +36,7 @@ class Request:
         self._query = query
         self.key = str(query.key_expr)
         self._done = False
-        self.body: dict | None = None
+        self.body: dict[str, Any] | None = None
         self.error = ""
         payload = query.payload
         try:
@@ -84,20 +85,20 @@ class Route:
 
 class Bus:
     def __init__(self, listen: list[str] | None = None, connect: list[str] | None = None,
-                 options: dict | None = None):
+                 options: dict[str, Any] | None = None):
         self.session = open_session(listen, connect, options)
         self._decl: list[Any] = []
-        self._pub_of: dict[str, tuple] = {}     # key -> its publishers (``undeclare``)
+        self._pub_of: dict[str, tuple[Any, ...]] = {}     # key -> its publishers (``undeclare``)
         self._lock = threading.Lock()
         self.closed = False
 
-    def _keep(self, obj: Any) -> Any:
+    def _keep(self, obj: _T) -> _T:
         with self._lock:
             self._decl.append(obj)
         return obj
 
     # request/reply
-    def request(self, key: str, body: dict, timeout: float) -> Any:
+    def request(self, key: str, body: dict[str, Any], timeout: float) -> Any:
         """The first reply's JSON, or None when nobody answers (no queryable / timeout)."""
         data = codec.encode(body)
         try:
@@ -141,7 +142,7 @@ class Bus:
                 key, congestion_control=zenoh.CongestionControl.BLOCK))
 
         if raw:
-            put = pub.put
+            put: Callable[[Any], None] = pub.put
         else:
             def put(obj: Any) -> None:
                 pub.put(codec.encode(obj))

@@ -69,7 +69,7 @@ class SampleCaller:
     def _garbage(self, _why: str) -> None:
         self.c["bad_answers"] += 1
 
-    def call(self, key: str, peer: str, body: dict, timeout: float,
+    def call(self, key: str, peer: str, body: dict[str, Any], timeout: float,
              done: Callable[[Any], None]) -> bool:
         """Send ``body`` (plus an id) to ``key``; ``done(answer or None)`` once, on a
         Zenoh thread or this caller's timer. False: too many calls wait (not sent).
@@ -110,9 +110,9 @@ class SampleCaller:
         if pub is not None:
             self.bus.undeclare(key)
 
-    def wait(self, key: str, peer: str, body: dict, timeout: float) -> Any:
+    def wait(self, key: str, peer: str, body: dict[str, Any], timeout: float) -> Any:
         """``call`` from a thread that waits: the answer, or None."""
-        box: queue.SimpleQueue = queue.SimpleQueue()
+        box: queue.SimpleQueue[Any] = queue.SimpleQueue()
         if not self.call(key, peer, body, timeout, box.put):
             return None
         try:
@@ -131,10 +131,11 @@ class SampleCaller:
         oid = _id(obj)
         with self._lock:
             entry = self._pending.get(oid) if oid is not None else None
-            ok = entry is not None and entry[0] == self.peer_of(key)
-            if ok:
+            if oid is None or entry is None or entry[0] != self.peer_of(key):
+                entry = None
+            else:
                 del self._pending[oid]
-        if not ok:                   # garbage, another peer's id, or too late
+        if entry is None:            # garbage, another peer's id, or too late
             self.c["bad_answers"] += 1
             return
         self.c["answers"] += 1
@@ -180,7 +181,7 @@ class SampleServer:
     enqueue or answer."""
 
     def __init__(self, bus: Bus, requests: str, answer_key: Callable[[str], str],
-                 handler: Callable[[str, dict, Callable[[dict], None]], None]):
+                 handler: Callable[[str, dict[str, Any], Callable[[dict[str, Any]], None]], None]):
         self.bus = bus
         self.answer_key = answer_key
         self.handler = handler
@@ -224,7 +225,7 @@ class SampleServer:
         self.c["requests"] += 1
         sent = [False]
 
-        def answer(out: dict) -> None:
+        def answer(out: dict[str, Any]) -> None:
             if not sent[0]:
                 sent[0] = True
                 try:

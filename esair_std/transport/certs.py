@@ -46,7 +46,8 @@ def _name(cn: str) -> x509.Name:
                       x509.NameAttribute(NameOID.COMMON_NAME, cn)])
 
 
-def _builder(subject: str, issuer: x509.Name, key, days: int) -> x509.CertificateBuilder:
+def _builder(subject: str, issuer: x509.Name, key: ec.EllipticCurvePrivateKey,
+             days: int) -> x509.CertificateBuilder:
     now = _dt.datetime.now(_dt.timezone.utc) - _dt.timedelta(minutes=5)
     return (x509.CertificateBuilder().subject_name(_name(subject)).issuer_name(issuer)
             .public_key(key.public_key()).serial_number(x509.random_serial_number())
@@ -60,7 +61,7 @@ def _san(host: str) -> x509.GeneralName:
         return x509.DNSName(host)
 
 
-def _write(path: Path, cert: x509.Certificate, key) -> None:
+def _write(path: Path, cert: x509.Certificate, key: ec.EllipticCurvePrivateKey) -> None:
     path.with_suffix(".pem").write_bytes(cert.public_bytes(serialization.Encoding.PEM))
     key_path = path.with_suffix(".key")
     key_path.write_bytes(key.private_bytes(serialization.Encoding.PEM,
@@ -127,4 +128,5 @@ def make_certs(folder: str | Path, clients: list[str] | tuple[str, ...] = (),
 def common_name(pem: str | Path) -> str:
     """The common name of a certificate file (what Zenoh ACL calls cert_common_name)."""
     cert = x509.load_pem_x509_certificate(Path(pem).read_bytes())
-    return cert.subject.get_attributes_for_oid(NameOID.COMMON_NAME)[0].value
+    value = cert.subject.get_attributes_for_oid(NameOID.COMMON_NAME)[0].value
+    return value if isinstance(value, str) else value.decode()

@@ -41,7 +41,7 @@ def copy(obj: Any) -> Any:
     return decode(encode(obj))
 
 
-def decode_request(data: bytes) -> dict:
+def decode_request(data: bytes) -> dict[str, Any]:
     """A control or component request: a JSON object, else TransportError."""
     obj = decode(data)
     if not isinstance(obj, dict):

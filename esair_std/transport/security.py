@@ -26,7 +26,7 @@ certificate; ``transport/auth/usrpwd/{user, password, dictionary_file}``;
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Sequence
 
 if TYPE_CHECKING:
     from ..deploy.security import SecuritySpec as Security
@@ -118,13 +118,13 @@ def _check_dictionary(path: str) -> None:
             raise TransportError(f"security: users {path}:{n}: expected 'name:password'")
 
 
-def _rule(rid: str, messages: list[str], flows: list[str], keys: list[str]) -> dict:
+def _rule(rid: str, messages: list[str], flows: list[str], keys: list[str]) -> dict[str, Any]:
     return {"id": rid, "messages": messages, "flows": flows, "permission": "allow",
             "key_exprs": keys}
 
 
 def agent_rules(robot: str, agent: str, reads: list[str], commands: list[str],
-                provides: list[str] = ()) -> list[dict]:
+                provides: Sequence[str] = ()) -> list[dict[str, Any]]:
     """ACL rules for one remote agent of robot ``robot`` (rule ids ``<agent>.<n>``).
 
     The agent may: ask the control queryables (ctl/**) and get their replies; send its
@@ -167,7 +167,7 @@ def agent_rules(robot: str, agent: str, reads: list[str], commands: list[str],
 
 
 def access_control(sec: Security | None, robot: str,
-                   grants: dict[str, dict[str, list[str]]] | None = None) -> dict | None:
+                   grants: dict[str, dict[str, list[str]]] | None = None) -> dict[str, Any] | None:
     """The ``access_control`` config of the control center, or None when ``sec`` lists
     no agents (no ACL: the link layer alone decides who gets a session).
 
@@ -176,7 +176,9 @@ def access_control(sec: Security | None, robot: str,
     if sec is None or not sec.agents:
         return None
     grants = grants or {}
-    rules, subjects, policies = [], [], []
+    rules: list[dict[str, Any]] = []
+    subjects: list[dict[str, Any]] = []
+    policies: list[dict[str, Any]] = []
     if sec.local:
         rules.append(_rule("local", ALL_MESSAGES, ["ingress", "egress"], ["**"]))
         subjects.append({"id": "local", "interfaces": [LOOPBACK]})
@@ -186,7 +188,7 @@ def access_control(sec: Security | None, robot: str,
         mine = agent_rules(robot, agent, g.get("reads", []), g.get("commands", []),
                            g.get("provides", []))
         rules += mine
-        subject = {"id": f"agent.{agent}"}
+        subject: dict[str, Any] = {"id": f"agent.{agent}"}
         if ident.cn is not None:
             subject["cert_common_names"] = [ident.cn]
         else:

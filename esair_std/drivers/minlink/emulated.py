@@ -32,7 +32,7 @@ import sys
 import tempfile
 import threading
 from pathlib import Path
-from typing import Sequence
+from typing import IO, Sequence
 
 from .errors import LinkError
 
@@ -67,7 +67,7 @@ class EmulatedRobot:
         self.port = str(port)
         self.pty: str | None = None
         self.proc: subprocess.Popen[bytes] | None = None
-        self._errors = None
+        self._errors: IO[bytes] | None = None
         self.starts = 0
 
     def start(self, extra: Sequence[str] = ()) -> str:

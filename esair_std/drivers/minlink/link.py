@@ -127,7 +127,7 @@ class Link:
         self._reason = "not opened"
         self._buf = bytearray()
         self._thread: threading.Thread | None = None
-        self._poll = POLL_S
+        self._poll: float | None = POLL_S
         self._last_write = 0.0
 
     # -- life cycle -----------------------------------------------------------------------
@@ -398,7 +398,7 @@ class Link:
             late.error = Expired(self._expired_text(late))
             late.started.set()
             late.done.set()
-        if nxt is not None:                 # the next command goes out before this
+        if nxt is not None and start is not None:   # the next command goes out before this
             self._write(nxt, *start)        # one's caller is woken
         ex.done.set()
 

@@ -185,6 +185,8 @@ class BalanceWatcher(Behavior):
     def _stand(self) -> None:
         """Stand up; while the robot is busy (the firmware's own balance motion playing,
         E07) try again each step for STAND_RETRY_S."""
+        if self.standing is None:             # called only while standing up
+            return
         record, until = self.standing
         if self._send("stand", record, busy_ok=True) is not None or time.monotonic() > until:
             self.standing = None
