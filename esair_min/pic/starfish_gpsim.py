@@ -54,7 +54,8 @@ class Setup:
     @classmethod
     def from_robot(cls, robot: Robot) -> Setup:
         c, drive = robot.central, robot.board("drive")
-        if c.uart is None or c.timer2 is None or drive is None or drive.i2c is None:
+        if (c.uart is None or c.timer2 is None or drive is None or drive.i2c is None
+                or drive.i2c.address is None):
             raise ToolchainError("STARFISH's gpsim harness needs uart:, tick: and a drive board")
         return cls(c.mcu.clock_hz, c.uart.baud, c.timer2.instructions, drive.i2c.address,
                    tuple((_gpsim_pin(f.sclk_pin), _gpsim_pin(f.sdio_pin))

@@ -101,6 +101,7 @@ class Auth:
                                                                                   stored):
             self.failed_logins += 1
             return None
+        assert isinstance(user, str)                 # stored is None for any other type
         return self._token(user)
 
     def resume(self, token: object) -> str | None:

@@ -10,6 +10,7 @@ import subprocess
 import sys
 import tempfile
 from pathlib import Path
+from typing import IO
 
 from ..errors import StdError
 
@@ -30,7 +31,7 @@ class HmiChild:
         self.endpoint, self.listen = endpoint, listen
         self.proc: subprocess.Popen[bytes] | None = None
         self.url = ""
-        self._errors = None
+        self._errors: IO[bytes] | None = None
 
     def start(self) -> str:
         env = dict(os.environ)

@@ -32,7 +32,7 @@ def plan(room: Room, start: tuple[float, float], goal: tuple[float, float], marg
          resolution: float = 0.1) -> list[tuple[float, float]]:
     """Waypoints from ``start`` (excluded) to ``goal`` (included); NoPath if none."""
     if _free_segment(room, start, goal, margin * 0.99, resolution / 2):
-        return [tuple(goal)]
+        return [(goal[0], goal[1])]
     x0, y0, x1, y1 = room.bounds()
     nx, ny = int(math.ceil((x1 - x0) / resolution)) + 1, int(math.ceil((y1 - y0) / resolution)) + 1
     xs = x0 + np.arange(nx) * resolution
@@ -81,7 +81,7 @@ def plan(room: Room, start: tuple[float, float], goal: tuple[float, float], marg
         cells.append((float(xs[c[0]]), float(ys[c[1]])))
         c = came[c]
     cells.reverse()
-    points = [tuple(start)] + cells[1:-1] + [tuple(goal)]
+    points: list[tuple[float, float]] = [(start[0], start[1]), *cells[1:-1], (goal[0], goal[1])]
     # shorten: from each kept point jump to the farthest point in free line of sight
     out = []
     i = 0

@@ -226,7 +226,8 @@ def from_world_room(world_room: Any, source_kind: str = "sound", radio_kind: str
     until switched on), the first of kind ``radio_kind`` the access point, every other
     landmark a pole in the palette's colours."""
     walls = [[s.x0 / 1000, s.y0 / 1000, s.x1 / 1000, s.y1 / 1000] for s in world_room.walls]
-    source, ap, poles = None, None, []
+    source, ap = None, None
+    poles: list[Any] = []
     for lm in world_room.landmarks:
         if lm.kind == source_kind and source is None:
             source = Source(lm.x / 1000, lm.y / 1000, on=False)

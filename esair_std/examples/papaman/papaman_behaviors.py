@@ -56,7 +56,7 @@ class Sequencer(Behavior):
         self.refused = 0
         self.dropped: list[str] = []
         self.errors: list[str] = []
-        self.deadline = float(self.options.get("operation_deadline", OPERATION_DEADLINE_S))
+        self.operation_deadline = float(self.options.get("operation_deadline", OPERATION_DEADLINE_S))
 
     def receive(self, sender: str, data: Any) -> None:
         """Queue the operations, all or none: raising Refused tells a sender that waits
@@ -81,7 +81,7 @@ class Sequencer(Behavior):
                 self._drop("stopped")
                 self._send("stop", "stop")
             elif len(self.queue) < QUEUE:
-                self.queue.append((op, now + self.deadline))
+                self.queue.append((op, now + self.operation_deadline))
 
     def step(self) -> None:
         now = time.monotonic()
@@ -92,7 +92,7 @@ class Sequencer(Behavior):
             self.playing = None
         while self.queue and self.queue[0][1] < now:
             op, _ = self.queue.popleft()
-            self._dropped(op, f"not started within its {self.deadline:g} s deadline")
+            self._dropped(op, f"not started within its {self.operation_deadline:g} s deadline")
         if self.playing is None and self.queue:
             op = self.queue[0][0]
             motion = OPERATIONS[op]

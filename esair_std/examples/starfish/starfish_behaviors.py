@@ -21,6 +21,7 @@ import json
 import math
 import time
 from pathlib import Path
+from typing import Any
 
 from esair_std import Behavior, CommandError, Reaction, Refused, ResourceLost
 
@@ -126,7 +127,8 @@ class Localize(Behavior):
     def start(self):
         from esair_std.drivers.starfish.gccphat import Localizer   # numpy/scipy: remote side
         from esair_std.drivers.starfish.mics import FrameError, decode_frame
-        self._Localizer, self._decode, self._FrameError = Localizer, decode_frame, FrameError
+        self._Localizer: Any = Localizer
+        self._decode, self._FrameError = decode_frame, FrameError
         self.target = self.options.get("target", "turn_and_shoot")
         self.min_confidence = float(self.options.get("min_confidence", 0.3))
         # frames localized per step at most: a backlog (a slow or loaded computer) is
@@ -134,7 +136,7 @@ class Localize(Behavior):
         self.max_per_step = int(self.options.get("max_per_step", 3))
         self.skipped = 0
         self.mics = self.attach_sensor("starfish.mics", keep=16)
-        self.localizer = None
+        self.localizer: Any = None
         self.geometry = None
         self.frames = self.bad_frames = self.confident = self.published = 0
         self.lost_frames = 0                 # holes in the frames' own sequence numbers
@@ -196,9 +198,10 @@ class TurnAndShoot(Behavior):
         self.odometry = self.attach_sensor("starfish.odometry", keep=64)
         self.wheels = self.attach_actuator("starfish.wheels")
         self.camera = self.attach_actuator("starfish.camera")
-        self.headings = collections.deque(maxlen=200)     # (t, th) from the odometry
+        # (t, th) from the odometry
+        self.headings: collections.deque[tuple[float, float]] = collections.deque(maxlen=200)
         self.pending = None
-        self.state = "idle"
+        self.phase = "idle"
         self.target = 0.0
         self.since = 0.0
         self.quiet_until = 0.0
@@ -206,7 +209,7 @@ class TurnAndShoot(Behavior):
         self.shots = self.aborted = self.ignored = 0
 
     def receive(self, sender, data):
-        if self.state != "idle" or time.monotonic() < self.quiet_until:
+        if self.phase != "idle" or time.monotonic() < self.quiet_until:
             self.ignored += 1
             return
         self.pending = data
@@ -221,7 +224,7 @@ class TurnAndShoot(Behavior):
     def step(self):
         for s in self.odometry.samples():
             self.headings.append((s.t, s.value["th"]))
-        if self.state == "idle" and self.pending is not None:
+        if self.phase == "idle" and self.pending is not None:
             data, self.pending = self.pending, None
             th = self._heading_at(data.get("t"))
             if th is None:
@@ -229,8 +232,8 @@ class TurnAndShoot(Behavior):
             self.target = wrap(th + float(data["bearing"]))
             self.bearing = data
             self.put(self.patrol, {"yield": self.turn_timeout + 2.0}, timeout=0.3)
-            self.state, self.since = "turning", time.monotonic()
-        if self.state != "turning":
+            self.phase, self.since = "turning", time.monotonic()
+        if self.phase != "turning":
             return
         if not self.headings:
             return
@@ -267,12 +270,12 @@ class TurnAndShoot(Behavior):
 
     def _done(self):
         self.put(self.patrol, {"resume": True}, timeout=0.3)
-        self.state = "idle"
+        self.phase = "idle"
         self.quiet_until = time.monotonic() + self.cooldown
         self.pending = None
 
     def provide(self, requester):
-        return {"state": self.state, "shots": self.shots, "aborted": self.aborted,
+        return {"state": self.phase, "shots": self.shots, "aborted": self.aborted,
                 "ignored": self.ignored, "last": self.pictures[-1] if self.pictures else None,
                 "store": str(self.store.resolve())}
 
@@ -292,7 +295,8 @@ class Reconnect(Reaction):
         self.odometry = self.resource("starfish.odometry")
         self.wheels = self.resource("starfish.wheels")
         self.back_s = float(self.options.get("back_s", 1.0))
-        self.up_poses = collections.deque(maxlen=400)    # (t, x, y) while the link is up
+        # (t, x, y) while the link is up
+        self.up_poses: collections.deque[tuple[float, float, float]] = collections.deque(maxlen=400)
         self.last_good = None
         self.path = None
         self.down = False
