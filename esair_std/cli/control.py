@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import functools
 import json
+import sys
 from typing import Any, Callable
 
 import click
@@ -150,7 +151,7 @@ def put_cmd(c: Any, name: str, data: str | None, file: Any, timeout: float,
         raise click.UsageError("give DATA, or --file FILE, not both" if data is not None
                                else "give DATA (or - for standard input), or --file FILE")
     if data == "-":
-        data = click.get_text_stream("stdin").read()
+        data = sys.stdin.read()
     elif data is None:                   # then FILE was given (checked above)
         data = file.read()
     obj = value(data)
