@@ -22,15 +22,14 @@ def robot_summary(robot: Robot) -> list[str]:
                      f"({100.0 * used / eeprom.size_bytes:.1f} %)")
     t2 = c.timer2
     if t2 is not None:
-        lines.append(f"  tick: {t2.period_ms:.4f} ms (Timer2 prescale {t2.prescale}, "
-                     f"PR2 {t2.pr2}, postscale {t2.postscale} at {c.mcu.clock_hz} Hz)")
+        lines.append(f"  tick: {t2.period_ms:.4f} ms ({t2.describe(c.mcu.clock_hz)})")
     baud = c.baud
     if baud is not None and c.uart is not None:
-        lines.append(f"  UART: {c.uart.baud} baud, SPBRG {baud.spbrg} BRGH={baud.brgh}, "
+        lines.append(f"  UART: {c.uart.baud} baud, {baud.describe().replace(' with ', ' ')}, "
                      f"error {baud.error_percent:+.2f} %")
     i2c = c.i2c_setting
     if i2c is not None:
-        lines.append(f"  I2C: {c.i2c.speed_hz} Hz, SSPADD {i2c.sspadd}")
+        lines.append(f"  I2C: {c.i2c.speed_hz} Hz, {i2c.describe()}")
     load = robot.frame_bus_load
     if load is not None and t2 is not None and c.i2c is not None:
         wire = load.seconds(c.i2c.speed_hz)
