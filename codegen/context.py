@@ -19,7 +19,7 @@ from esair_min.model.layout import HEADER_BYTES
 from esair_min.model.board import Board
 from esair_min.model.robot import Robot
 
-from . import filters, timing
+from . import filters, ports, timing
 
 Context = dict[str, Any]
 
@@ -50,6 +50,7 @@ def common_context(robot: Robot, board: Board) -> Context:
         "oscillator": timing.oscillator(board.mcu.clock_hz),
         "sync_pin": _pin(board.sync.pin) if board.sync else None,
         "pic_stack": PIC_STACK,
+        **ports.mcu_context(board),
     }
 
 
@@ -120,6 +121,8 @@ def central_context(robot: Robot) -> Context:
         P.ok_line(P.version_data(n, len(sensors), len(robot.motions), True, checksum)))
     ready_pre, ready_post = _split_image_ok(P.ready_line(True))
     texts = _texts(ver_pre, ver_post, ready_pre, ready_post, reactions)
+    if board.spec.family == "avr":
+        ctx["avr"] = ports.central_avr(board)
     t2, baud, i2c = board.timer2, board.baud, board.i2c_setting
     if t2 is None or baud is None or i2c is None:
         raise GenerateError(f"central board '{board.board}' needs tick:, uart: and an "
@@ -162,15 +165,25 @@ def central_context(robot: Robot) -> Context:
                     reactions, bytes(pool), image[:HEADER_BYTES], texts),
         "near_base": PIC_NEAR_BASE,
         "text_pool_bytes": sum(len(t["text"]) + 1 for t in texts),
+        **_pic_timing(board),
+        "rx_ring": P.RX_RING,
+        "tx_ring": P.TX_RING,
+    })
+    return ctx
+
+
+def _pic_timing(board: Board) -> Context:
+    """The central board's PIC18F452 register values (none on other parts)."""
+    if board.spec.family != "pic18":
+        return {}
+    t2, baud, i2c, uart = board.timer2, board.baud, board.i2c_setting, board.uart
+    return {
         "timer2": {"t2con": t2.t2con, "pr2": t2.pr2, "prescale": t2.prescale,
                    "postscale": t2.postscale, "period_us": round(t2.period_s * 1e6, 1)},
         "baud": {"spbrg": baud.spbrg, "brgh": baud.brgh, "rate": uart.baud if uart else 0,
                  "error_percent": round(baud.error_percent, 2)},
         "i2c": {"sspadd": i2c.sspadd, "speed_hz": board.i2c.speed_hz},
-        "rx_ring": P.RX_RING,
-        "tx_ring": P.TX_RING,
-    })
-    return ctx
+    }
 
 
 def _texts(ver_pre: bytes, ver_post: bytes, ready_pre: bytes, ready_post: bytes,
@@ -272,10 +285,12 @@ def actuator_context(robot: Robot) -> Context:
     assert board is not None
     ctx = common_context(robot, board)
     sync = ctx["sync_pin"]
-    if sync is None or sync["name"] != "RB0":
-        raise GenerateError(f"actuator board '{board.board}': the sync pin must be RB0 "
+    want = board.spec.sync_input
+    if sync is None or sync["name"] != want:
+        raise GenerateError(f"actuator board '{board.board}': the sync pin must be {want} "
                             f"(INT0), not {sync['name'] if sync else 'missing'}")
-    pwm = timing.pwm_timing(board.mcu.clock_hz)
+    avr_port = ports.actuator_avr(board) if board.spec.family == "avr" else None
+    pwm = timing.pwm_timing(board.mcu.clock_hz) if avr_port is None else None
     servos = robot.servos
     ctx.update({
         "servos": [{"name": s.name, "index": s.index, "min": s.min_angle, "max": s.max_angle,
@@ -285,16 +300,19 @@ def actuator_context(robot: Robot) -> Context:
         "n_servos": len(servos),
         "registers": 2 * len(servos),
         "address": _slave_address(board),
-        "pwm": {"t1con": pwm.t1con, "prescale": pwm.prescale, "frame": pwm.frame_counts,
-                "num": pwm.num, "den": pwm.den},
+        "pwm": ({"t1con": pwm.t1con, "prescale": pwm.prescale, "frame": pwm.frame_counts,
+                 "num": pwm.num, "den": pwm.den} if pwm else avr_port["pwm"]),
         "pwm_ports": [{"port": port, "mask": sum(_pin(s.pin)["mask"] for s in servos
                                                  if _pin(s.pin)["port"] == port)}
                       for port in sorted({_pin(s.pin)["port"] for s in servos})],
-        "pwm_merge_counts": pwm.counts(PWM_MERGE_US),
+        "pwm_merge_counts": (pwm.counts(PWM_MERGE_US) if pwm
+                             else PWM_MERGE_US * avr_port["pwm"]["num"] // avr_port["pwm"]["den"]),
         "initial_regs": bytes(b for s in servos
                               for b in (s.stand_angle % 100,
                                         s.stand_angle // 100 + 10 * s.default_speed)),
     })
+    if avr_port is not None:
+        ctx["avr"] = avr_port
     return ctx
 
 
@@ -302,8 +320,15 @@ def sensor_context(robot: Robot) -> Context:
     board = robot.sensor_board
     assert board is not None
     ctx = common_context(robot, board)
-    adc = timing.adc_clock(board.mcu.clock_hz)
     sensors = robot.sensors
+    if board.spec.family == "avr":
+        ctx["avr"] = ports.sensor_avr(board)
+        ctx.update({"sensors": [{"name": s.name, "channel": s.channel, "group": s.group,
+                                 "pin": board.spec.adc_pins[s.channel]} for s in sensors],
+                    "n_sensors": len(sensors), "registers": 2 * len(sensors),
+                    "address": _slave_address(board)})
+        return ctx
+    adc = timing.adc_clock(board.mcu.clock_hz)
     ctx.update({
         "sensors": [{"name": s.name, "channel": s.channel, "group": s.group,
                      "pin": ADC_PINS[s.channel]} for s in sensors],
