@@ -5,7 +5,8 @@
 Generates and builds every board (``esair build``), prints the footprint table, then
 runs the central firmware in gpsim on tests/fixtures/gpsim/papaman.txt and prints:
 the decoder's instruction cycles per received byte (ordinary bytes through the inline
-fast path, and each line end through core_rx_end, as ratios of the per-byte budget at 115200 baud and at the board's own baud), the
+fast path, and each line end through core_rx_end, as ratios of the per-byte budget at 115200
+baud and at the board's own baud), the
 interrupt routine's cycles, and the frame timing on the I2C bus (sync tick to the last
 byte of a frame write, bus time of a frame write and of a frame read, as ratios of the
 tick). Everything is deterministic: two runs print the same numbers.

@@ -100,7 +100,8 @@ ZENOH_SERVER = """
 import sys, time
 from esair_std.transport.session import open_session
 s = open_session(listen=[sys.argv[1]])
-q = s.declare_queryable("bench/echo", lambda query: (query.reply(query.key_expr, query.payload), query.drop()))
+q = s.declare_queryable("bench/echo",
+                        lambda query: (query.reply(query.key_expr, query.payload), query.drop()))
 print("ready", flush=True)
 sys.stdin.read()
 import os
@@ -280,7 +281,7 @@ def add_remove(mode: str, times: int) -> tuple[list[float], list[float]]:
             name = f"late{k}"
             t0 = time.time()
             rt.add(name, "std_comps:Latency", uses={"tick": "read"})
-            first = wait(lambda: rt.get(name, timeout=5.0)["first_t"], timeout=30)
+            first = wait(lambda name=name: rt.get(name, timeout=5.0)["first_t"], timeout=30)
             firsts.append(first - t0)
             t1 = time.perf_counter()
             rt.remove(name)
@@ -327,9 +328,11 @@ with Runtime(load_deployment(dep, base_dir=sys.argv[2]), mode="thread", control=
 
 def rss_kb(pid: int) -> tuple[int, int]:
     """(RSS, PSS) in kB of a process."""
-    rss = int(open(f"/proc/{pid}/status").read().split("VmRSS:")[1].split()[0])
+    with open(f"/proc/{pid}/status") as f:
+        rss = int(f.read().split("VmRSS:")[1].split()[0])
     try:
-        pss = int(open(f"/proc/{pid}/smaps_rollup").read().split("Pss:")[1].split()[0])
+        with open(f"/proc/{pid}/smaps_rollup") as f:
+            pss = int(f.read().split("Pss:")[1].split()[0])
     except (OSError, IndexError):
         pss = 0
     return rss, pss

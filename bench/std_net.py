@@ -203,9 +203,9 @@ def main() -> None:
         def med(fn):
             return statistics.median(fn(f) for f in rounds)
         for q, name in ((0.5, "p50"), (0.99, "p99")):
-            ratio = med(lambda f: pct(f["put_tcp"]["times"], q) / pct(f["raw_tcp"], q))
-            tls_raw = med(lambda f: pct(f["raw_tls"], q) / pct(f["raw_tcp"], q))
-            tls_put = med(lambda f: pct(f["put_tls"]["times"], q) /
+            ratio = med(lambda f, q=q: pct(f["put_tcp"]["times"], q) / pct(f["raw_tcp"], q))
+            tls_raw = med(lambda f, q=q: pct(f["raw_tls"], q) / pct(f["raw_tcp"], q))
+            tls_put = med(lambda f, q=q: pct(f["put_tls"]["times"], q) /
                           pct(f["put_tcp"]["times"], q))
             print(f"   {name} (median of {len(rounds)} rounds): put/raw {ratio:.2f}x "
                   f"(goal <= 2.5x); TLS cost: raw {tls_raw:.2f}x, put {tls_put:.2f}x")

@@ -78,3 +78,34 @@ def fast_robot(tmp_path_factory):
     robot = load_robot(folder)
     assert robot.central.uart.baud == 115200
     return robot
+
+
+# --- markers (registered in pyproject.toml) -------------------------------------------
+# A test is marked by what it needs: its folder (net, hmi), its module (the gpsim and
+# pty modules below), or the fixtures it takes. `slow` marks the modules whose tests
+# take seconds each (measured with --durations); `-m "not slow"` is the fast loop.
+_BY_FOLDER = {"net": "net", "hmi": "browser"}
+_BY_MODULE = {
+    "gpsim": {"test_gpsim", "test_gpsim_bus", "test_gpsim_overrun", "test_gpsim_slaves",
+              "test_gpsim_uart", "test_toolchain", "test_pic_build"},
+    "pty": {"test_pty", "test_minlink_pty", "test_liveview_tmux", "test_std_papaman",
+            "test_std_papaman_c", "test_std_papaman_cli", "test_gpsim_uart"},
+}
+_BY_FIXTURE = {"pic_firmware": "gpsim"}
+SLOW_MODULES: set[str] = set()
+
+
+def pytest_collection_modifyitems(config, items):
+    tests = Path(__file__).resolve().parent
+    for item in items:
+        rel = item.path.resolve().relative_to(tests).parts
+        names = set()
+        if len(rel) > 1 and rel[0] in _BY_FOLDER:
+            names.add(_BY_FOLDER[rel[0]])
+        stem = item.path.stem
+        names |= {mark for mark, mods in _BY_MODULE.items() if stem in mods}
+        names |= {mark for fix, mark in _BY_FIXTURE.items() if fix in item.fixturenames}
+        if names & {"net", "browser", "gpsim", "pty"} or stem in SLOW_MODULES:
+            names.add("slow")
+        for name in sorted(names):
+            item.add_marker(getattr(pytest.mark, name))

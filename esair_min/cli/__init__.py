@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import importlib.metadata
 import json
 import sys
 
@@ -24,17 +25,27 @@ def load(robot: str):
     return load_robot(resolve_robot(robot))
 
 
+#: the entry-point group through which the other halves mount their commands on ``esair``
+#: (ESAIR STD declares ``std = "esair_std.cli:std"`` in pyproject.toml), so MIN never
+#: imports them: each is imported only when its command is used
+COMMANDS_GROUP = "esair.commands"
+
+
+def _mounted() -> dict[str, importlib.metadata.EntryPoint]:
+    return {ep.name: ep for ep in importlib.metadata.entry_points(group=COMMANDS_GROUP)}
+
+
 class _Esair(click.Group):
-    """The ``esair`` group; ``esair std ...`` (ESAIR STD) is imported only when used."""
+    """The ``esair`` group: MIN's commands, and the groups mounted through
+    :data:`COMMANDS_GROUP` (``esair std ...``), imported only when used."""
 
     def list_commands(self, ctx: click.Context) -> list[str]:
-        return sorted([*super().list_commands(ctx), "std"])
+        return sorted({*super().list_commands(ctx), *_mounted()})
 
     def get_command(self, ctx: click.Context, name: str) -> click.Command | None:
-        if name == "std":
-            from esair_std.cli import std
-
-            return std
+        mounted = _mounted().get(name)
+        if mounted is not None and name not in self.commands:
+            return mounted.load()
         return super().get_command(ctx, name)
 
 

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import yaml
 
-_KEY = re.compile(r"""(?:-\s+)*(?P<key>"[^"]*"|'[^']*'|[^\s#:'"\-{\[][^#]*?|-[^\s#:][^#]*?)\s*(?P<colon>:)(?:\s|$)""")
+_KEY = re.compile(r"""(?:-\s+)*(?P<key>"[^"]*"|'[^']*'|[^\s#:'"\-{\[][^#]*?|-[^\s#:][^#]*?)\s*(?P<colon>:)(?:\s|$)""")  # noqa: E501
 
 
 @dataclass(frozen=True)
@@ -121,9 +121,9 @@ class _Text:
             if not self.content(j):
                 continue
             k = self.key(j)
-            if k is not None and k[1] <= col and self.dash(j) != col:
-                if k[1] < col or self.line(j).rstrip().endswith(":"):
-                    return k[0], k[1], j
+            if (k is not None and k[1] <= col and self.dash(j) != col
+                    and (k[1] < col or self.line(j).rstrip().endswith(":"))):
+                return k[0], k[1], j
             if self.indent(j) < col:
                 return None
         return None

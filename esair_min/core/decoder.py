@@ -68,7 +68,7 @@ class LineAssembler:
                 self.overflow = True
             self.after_cr = False
             return None
-        if b == LF or b == CR:
+        if b in (LF, CR):
             if b == LF and self.after_cr:
                 self.after_cr = False
                 return None

@@ -152,9 +152,9 @@ def parse_image(data: bytes, robot: Robot | None = None) -> ParsedImage:
         frame_bytes = frames_bytes // total_frames
     else:
         frame_bytes = 0
-    if frame_bytes == 0 or frame_bytes % 2 or frame_bytes * total_frames != frames_bytes:
-        if h.count or frames_bytes:
-            raise ImageError(f"{frames_bytes} frame bytes do not hold {total_frames} frames")
+    if (frame_bytes == 0 or frame_bytes % 2 or frame_bytes * total_frames != frames_bytes) and (
+            h.count or frames_bytes):
+        raise ImageError(f"{frames_bytes} frame bytes do not hold {total_frames} frames")
     motions = []
     offset = dir_end
     for number, count, delay, _, off in entries:

@@ -118,7 +118,7 @@ class Serial(SerialBase):
             robot = load_robot(resolve_robot(robot_arg))
             trace = None
             if "trace" in opts:
-                self._trace_file = open(opts["trace"], "w", encoding="ascii")
+                self._trace_file = open(opts["trace"], "w", encoding="ascii")  # noqa: SIM115  (closed with the port)
                 trace = TraceWriter(self._trace_file, keep=False)
             self.emulator = Emulator(robot, scenario=opts.get("scenario"),
                                      faults=faults, trace=trace)

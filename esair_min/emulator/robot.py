@@ -107,7 +107,7 @@ class Emulator:
     """
 
     def __init__(self, robot: Robot, scenario: Scenario | str | Path | None = None,
-                 faults: Faults = Faults(), trace: TraceWriter | None = None,
+                 faults: Faults = Faults(), trace: TraceWriter | None = None,  # noqa: B008 (frozen)
                  eeprom_image: bytes | None = None, transcript: bool = False):
         central = robot.central
         if central.uart is None or central.timer2 is None:

@@ -35,11 +35,7 @@ def generate_first(robot: Robot, out_dir: Path, log: Callable[[str], None]) -> b
 
     The image is the generator's if it wrote exactly one ``*eeprom*.hex``; otherwise
     it is built here and written as ``<robot>-eeprom.hex`` next to the firmware."""
-    try:
-        from esair_min.codegen import generate_robot  # type: ignore[attr-defined]
-    except ImportError:
-        raise EsairError("--generate needs the firmware generator (codegen.generate_robot), "
-                         "which this installation does not have yet") from None
+    from esair_min.codegen import generate_robot
     out_dir = Path(out_dir)
     generate_robot(robot, out_dir)
     log(f"generated {robot.name} into {out_dir}")

@@ -99,7 +99,7 @@ class _Checker:
                 self.fail(b, ("servos", b.servos.index(s), "index"),
                           f"servo '{s.name}': index {s.index} leaves a gap; servo indices "
                           f"must run 0..{len(b.servos) - 1} and index {i} is missing")
-        for i, s in enumerate(b.servos):
+        for i in range(len(b.servos)):
             self.servo_rules(b, i)
         for i, s in enumerate(b.sensors):
             if s.min >= s.max:
@@ -500,4 +500,5 @@ def load_robot(path: Path | str) -> Robot:
     return Robot(name, str(path), tuple(boards), tuple(str(f) for f in files))
 
 
-__all__ = ["load_robot", "load_board", "check_board_alone", "is_whole_robot", "board_files", "encode_high", "MAX_LINE", "Command"]
+__all__ = ["load_robot", "load_board", "check_board_alone", "is_whole_robot", "board_files", "encode_high",
+           "MAX_LINE", "Command"]

@@ -331,7 +331,8 @@ def describe(values: list[int]) -> str:
 
 @dataclass(frozen=True)
 class FrameSlips:
-    gaps: list[tuple[int, int]]   # per actuator write after the first: (gpsim, Python) ticks since the previous one
+    # per actuator write after the first: (gpsim, Python) ticks since the previous one
+    gaps: list[tuple[int, int]]
     slipped: int                  # ticks gpsim lost where the Python core writes on consecutive ticks
     worst_late: int               # most ticks a write of such a run came after its tick
 

@@ -3,7 +3,8 @@
 gpsim simulates one processor at a time, so the central firmware cannot drive the
 actuator. :func:`measure_pulses` writes the register map straight into the firmware's
 RAM (``reg(ADDR) = V`` at the address gplink gives the port's ``regs`` array), exactly
-the bytes a frame write would leave there; then the sync line (RB0 through a pull-up whose voltage the script drops to 0 V) falls, the
+the bytes a frame write would leave there; then the sync line (RB0 through a pull-up whose voltage the
+script drops to 0 V) falls, the
 firmware latches, and ``FileRecorder`` modules record every servo pin. Pulse widths
 are measured on the recordings and compared with ``pulse_min + (pulse_max -
 pulse_min) * angle / 180``. The recorders, sync line and pulse measurement are shared

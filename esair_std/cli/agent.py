@@ -10,7 +10,7 @@ import sys
 
 import click
 
-from . import friendly
+from esair_min.cli.pipes import friendly
 
 
 def _pairs(items: tuple[str, ...], what: str) -> dict[str, str]:

@@ -11,8 +11,8 @@ from typing import Any, Callable
 import click
 
 from ..errors import ControlError
-from . import friendly
-from .run import _table
+from esair_min.cli.pipes import friendly
+from .table import table as _table
 
 ENDPOINT = click.option("-e", "--endpoint", default=None, metavar="tcp/HOST:PORT",
                         help="The runtime's control endpoint (default tcp/127.0.0.1:7447, "

@@ -6,7 +6,7 @@ import json
 
 import click
 
-from . import friendly
+from esair_min.cli.pipes import friendly
 
 
 @click.command()

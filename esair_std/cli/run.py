@@ -12,16 +12,9 @@ from typing import Any
 
 import click
 
-from . import friendly
+from esair_min.cli.pipes import friendly
 
-
-def _table(rows: list[dict], cols: list[str]) -> str:
-    widths = {c: max(len(c), *(len(str(r.get(c, ""))) for r in rows)) if rows else len(c)
-              for c in cols}
-    out = ["  ".join(c.upper().ljust(widths[c]) for c in cols)]
-    for r in rows:
-        out.append("  ".join(str(r.get(c, "")).ljust(widths[c]) for c in cols))
-    return "\n".join(line.rstrip() for line in out)
+from .table import table as _table
 
 
 def _with_port(path: Any, port: str) -> Any:
@@ -30,7 +23,8 @@ def _with_port(path: Any, port: str) -> Any:
 
     from ..deploy import load_deployment
     try:
-        raw = yaml.safe_load(open(path))
+        with open(path) as f:
+            raw = yaml.safe_load(f)
     except (OSError, yaml.YAMLError):
         return path                      # loading it reports the error at file:line:col
     if not isinstance(raw, dict):

@@ -98,7 +98,10 @@ class Center:
         self.sec = sec
         self.lost_grace = 3 * (sec.lease_ms if sec else 2000) / 1000.0
         base = Path(rt.base_dir)
-        full = (lambda p: None if p is None else (p if p.is_absolute() else base / p))
+
+        def full(p: Path | None) -> Path | None:
+            return None if p is None else (p if p.is_absolute() else base / p)
+
         self.verifier = (Verifier(full(sec.ca), full(sec.users))
                          if sec is not None and sec.agents else None)
         self.c = dict(joins=0, joins_refused=0, lost=0, back=0)

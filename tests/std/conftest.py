@@ -1,29 +1,9 @@
-"""STD test helpers: every rule runs in both modes (the ``mode`` fixture)."""
-
-import os
-import signal
-import socket
-import subprocess
-import sys
-import time
-from contextlib import contextmanager
-from pathlib import Path
+"""STD fixtures: every rule runs in both modes (the ``mode`` fixture)."""
 
 import pytest
 
-HERE = str(Path(__file__).resolve().parent)
-if HERE not in sys.path:
-    sys.path.insert(0, HERE)
-
-from esair_std import Runtime  # noqa: E402
-
-MODES = ["thread", "process"]
-
-
-def free_endpoint() -> str:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return f"tcp/127.0.0.1:{s.getsockname()[1]}"
+from esair_std import Runtime
+from tests.support.std import MODES, agent_children, free_endpoint
 
 
 @pytest.fixture(params=MODES)
@@ -50,69 +30,3 @@ def start(mode):
     assert agent_children() == [], "agent processes left behind"
 
 
-def processes() -> list[tuple[int, int, bytes]]:
-    """(pid, parent pid, command line) of every process readable in /proc now."""
-    out = []
-    for d in os.listdir("/proc"):
-        if not d.isdigit():
-            continue
-        try:
-            with open(f"/proc/{d}/stat") as f:
-                ppid = int(f.read().rsplit(")", 1)[1].split()[1])
-            with open(f"/proc/{d}/cmdline", "rb") as f:
-                cmd = f.read()
-        except (OSError, IndexError, ValueError):
-            continue
-        out.append((int(d), ppid, cmd))
-    return out
-
-
-def agent_children() -> list[int]:
-    """Agent processes whose parent is this test process."""
-    return [pid for pid, ppid, cmd in processes()
-            if ppid == os.getpid() and b"esair_std.modes.agent" in cmd]
-
-
-def esair(*args: str, check: bool = True, cwd: str | Path = HERE) -> subprocess.CompletedProcess:
-    """``esair std ARGS`` in a child process (from ``cwd``, tests/std by default)."""
-    r = subprocess.run([sys.executable, "-m", "esair_min.cli", "std", *args],
-                       capture_output=True, text=True, timeout=90, cwd=cwd,
-                       env=dict(os.environ, COLUMNS="200"))
-    if check and r.returncode != 0:
-        raise AssertionError(f"esair std {' '.join(args)}: {r.returncode}\n{r.stderr}")
-    return r
-
-
-@contextmanager
-def std_run(deployment: str, mode: str, ep: str, deployed, what: str = "deployed"):
-    """``esair std run DEPLOYMENT --mode MODE -e EP`` in a child process, yielded once
-    ``deployed()`` holds; stopped with SIGTERM after, and it must exit with status 0."""
-    proc = subprocess.Popen([sys.executable, "-m", "esair_min.cli", "std", "run", deployment,
-                             "--mode", mode, "-e", ep], cwd=HERE,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    try:
-        wait_for(lambda: proc.poll() is not None or deployed(), timeout=60, what=what)
-        assert proc.poll() is None, proc.communicate()
-        yield proc
-    finally:
-        proc.send_signal(signal.SIGTERM)
-        _, err = proc.communicate(timeout=30)
-    assert proc.returncode == 0, err
-
-
-def wait_for(fn, timeout=10.0, what="condition"):
-    """Poll fn() until it returns a truthy value (state-based; no timing asserted)."""
-    deadline = time.monotonic() + timeout
-    while True:
-        v = fn()
-        if v:
-            return v
-        if time.monotonic() > deadline:
-            raise AssertionError(f"timed out waiting for {what}; last value {v!r}")
-        time.sleep(0.005)
-
-
-def call(rt, probe, do, *args):
-    """Make behavior ``probe`` (comps.Probe) run ``do(*args)``; its outcome."""
-    rt.put(probe, {"do": do, "args": list(args)}, timeout=5.0)
-    return rt.get(probe, timeout=5.0)

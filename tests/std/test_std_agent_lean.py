@@ -8,16 +8,16 @@ import subprocess
 import sys
 from pathlib import Path
 
-from conftest import agent_children, free_endpoint, wait_for
+from tests.support.std import agent_children, free_endpoint, wait_for
 from esair_std import Runtime
 
-HERE = Path(__file__).resolve().parent
+HERE = Path(__file__).resolve().parents[2]  # the checkout: tests.support imports from here
 
 
 def test_agent_processes_import_no_heavy_module():
     dep = {"robot": "t",
-           "resources": {"count": {"class": "lean_comps:Counting", "allow": {"*": "read"}}},
-           "behaviors": {"listen": {"class": "lean_comps:Listening",
+           "resources": {"count": {"class": "tests.support.lean_comps:Counting", "allow": {"*": "read"}}},
+           "behaviors": {"listen": {"class": "tests.support.lean_comps:Listening",
                                     "uses": {"count": "read"}}}}
     rt = Runtime(dep, mode="process", endpoint=free_endpoint())
     rt.start()
@@ -37,7 +37,7 @@ def test_agent_processes_import_no_heavy_module():
 
 def test_the_check_can_fail():
     """The same list in a process that loads a deployment: pydantic and yaml show."""
-    code = ("import sys; sys.path.insert(0, '.'); import lean_comps\n"
+    code = ("import sys; from tests.support import lean_comps\n"
             "from esair_std.deploy import load_deployment\n"
             "load_deployment({'robot': 't'})\n"
             "print(' '.join(lean_comps.heavy_imported()))")
@@ -51,12 +51,12 @@ def test_a_remote_agent_imports_no_heavy_module_either():
     """`esair std agent` checks its options with click and pydantic, then becomes the lean
     agent process (os.execv): the running agent has neither (it was 48 MB RSS with them)."""
     dep = {"robot": "t",
-           "resources": {"count": {"class": "lean_comps:Counting", "allow": {"*": "read"}}}}
+           "resources": {"count": {"class": "tests.support.lean_comps:Counting", "allow": {"*": "read"}}}}
     ep = free_endpoint()
     rt = Runtime(dep, mode="process", endpoint=ep)
     rt.start()
     proc = subprocess.Popen([sys.executable, "-m", "esair_min.cli", "std", "agent", "--connect",
-                             ep, "listen", "lean_comps:Listening", "--uses", "count=read"],
+                             ep, "listen", "tests.support.lean_comps:Listening", "--uses", "count=read"],
                             cwd=HERE, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
                             text=True)
     try:

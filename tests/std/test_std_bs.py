@@ -1,17 +1,18 @@
 """Behavior Supervisor: deploy in order, add/remove at run time, put/get/state mediation."""
 
 import pytest
-from conftest import call, wait_for
+from tests.support.std import call, wait_for
 
 from esair_std.errors import ComponentError, ControlError
 
-SINKS = {"behaviors": {"sink": {"class": "comps:Sink"},
-                       "probe": {"class": "comps:Probe"}}}
+SINKS = {"behaviors": {"sink": {"class": "tests.support.comps:Sink"},
+                       "probe": {"class": "tests.support.comps:Probe"}}}
 
 
 def test_deploys_in_file_order_and_lists(start):
-    rt = start({"behaviors": {"b2": {"class": "comps:Sink"}, "a1": {"class": "comps:Sink"},
-                              "c0": {"class": "comps:Sink"}}})
+    rt = start({"behaviors": {"b2": {"class": "tests.support.comps:Sink"},
+                              "a1": {"class": "tests.support.comps:Sink"},
+                              "c0": {"class": "tests.support.comps:Sink"}}})
     rows = rt.ls()
     assert [r["name"] for r in rows] == ["b2", "a1", "c0"]
     assert {r["state"] for r in rows} == {"running"}
@@ -49,11 +50,11 @@ def test_put_and_get_to_unknown_fail_at_once_with_reason(start):
 
 
 def test_put_to_a_busy_behavior_retries_then_reports(start):
-    rt = start({"behaviors": {"slow": {"class": "comps:Faulty", "period": 0.01},
-                              "probe": {"class": "comps:Probe"}}})
+    rt = start({"behaviors": {"slow": {"class": "tests.support.comps:Faulty", "period": 0.01},
+                              "probe": {"class": "tests.support.comps:Probe"}}})
     # a behavior that is busy (run() never ends) takes no data: the BS retries until
     # the timeout, then the sender is told
-    rt.add("busy", "comps:BusyRun")
+    rt.add("busy", "tests.support.comps:BusyRun")
     assert rt.state("busy") == "busy"
     with pytest.raises(ControlError) as e:
         rt.put("busy", 1, timeout=0.1)
@@ -74,7 +75,7 @@ def test_put_data_must_be_json(start):
 
 def test_add_and_remove_while_running(start):
     rt = start(SINKS)
-    assert rt.add("late", "comps:Sink") == "running"
+    assert rt.add("late", "tests.support.comps:Sink") == "running"
     rt.put("late", "hello")
     assert rt.get("late")["got"] == [["operator", "hello"]]
     rt.remove("late")
@@ -90,26 +91,26 @@ def test_add_bad_class_changes_nothing(start):
     rt = start(SINKS)
     before = rt.ls()
     with pytest.raises(ComponentError) as e:
-        rt.add("x", "comps:Nope")
-    assert str(e.value) == "module 'comps' has no class 'Nope'"
+        rt.add("x", "tests.support.comps:Nope")
+    assert str(e.value) == "module 'tests.support.comps' has no class 'Nope'"
     with pytest.raises(ComponentError) as e:
         rt.add("x", "no_such_module_xyz:Nope")
     assert str(e.value) == ("no module named 'no_such_module_xyz'; "
                             "looked in the deployment's folder, then sys.path")
     with pytest.raises(ComponentError) as e:
-        rt.add("x", "comps:Counter")
-    assert str(e.value) == "comps:Counter is not a Behavior"
+        rt.add("x", "tests.support.comps:Counter")
+    assert str(e.value) == "tests.support.comps:Counter is not a Behavior"
     with pytest.raises(ControlError) as e:
-        rt.add("sink", "comps:Sink")
+        rt.add("sink", "tests.support.comps:Sink")
     assert str(e.value) == "a behavior named 'sink' is already deployed"
     with pytest.raises(ControlError) as e:
-        rt.add("Bad-Name", "comps:Sink")
+        rt.add("Bad-Name", "tests.support.comps:Sink")
     assert str(e.value) == "name 'Bad-Name' is not of the form [a-z][a-z0-9_]*"
     assert [(r["name"], r["state"]) for r in rt.ls()] == [(r["name"], r["state"]) for r in before]
 
 
 def test_run_once_behavior_then_serves(start):
-    rt = start({"behaviors": {"once": {"class": "comps:RunOnce"}}})
+    rt = start({"behaviors": {"once": {"class": "tests.support.comps:RunOnce"}}})
     wait_for(lambda: rt.state("once") == "running", what="run() finished")
     assert rt.get("once") == {"ran": 1}
 
@@ -120,9 +121,9 @@ def test_bursts_from_two_senders_arrive_once_each_in_order(start, mode):
     exactly once, in each sender's order, and none said failed is received. In process
     mode some go into the room the target reserves for the BS (counted as reserved)."""
     rt = start({"behaviors": {
-        "sink": {"class": "comps:SlowSink", "ms": 2},
-        "a": {"class": "comps:Burst", "to": "sink", "n": 150},
-        "b": {"class": "comps:Burst", "to": "sink", "n": 150}}})
+        "sink": {"class": "tests.support.comps:SlowSink", "ms": 2},
+        "a": {"class": "tests.support.comps:Burst", "to": "sink", "n": 150},
+        "b": {"class": "tests.support.comps:Burst", "to": "sink", "n": 150}}})
 
     def outcome(sender):
         try:
@@ -145,7 +146,7 @@ def test_bursts_from_two_senders_arrive_once_each_in_order(start, mode):
 
 
 def test_a_behavior_busy_by_its_own_word_takes_nothing_until_free(start):
-    rt = start({"behaviors": {"gate": {"class": "comps:Gate", "hold": 1.5}}})
+    rt = start({"behaviors": {"gate": {"class": "tests.support.comps:Gate", "hold": 1.5}}})
     rt.put("gate", "close")
     wait_for(lambda: rt.state("gate") == "busy", 5, what="the gate to close")
     with pytest.raises(ControlError) as e:

@@ -2,15 +2,15 @@
 from other processes, garbage on the control endpoint; in both modes."""
 
 import json
-import os
+from pathlib import Path
 import subprocess
 import sys
 import time
 
 import pytest
-from conftest import MODES, esair, free_endpoint, processes, std_run, wait_for
+from tests.support.std import MODES, esair, free_endpoint, processes, std_run, wait_for
 
-HERE = os.path.dirname(os.path.abspath(__file__))
+HERE = str(Path(__file__).resolve().parents[2])  # the checkout
 
 
 @pytest.fixture(scope="module", params=MODES)

@@ -1,18 +1,18 @@
 """SC: every sample to every attached behavior (numbered), overwrites counted, nothing
 kept for nobody. AC: commands routed, errors raised to the sender, no arbitration."""
 
-from conftest import call, wait_for
+from tests.support.std import call, wait_for
 
 DEP = {
     "resources": {
-        "count": {"class": "comps:Counter", "rate": 400, "allow": {"*": "read"}},
-        "rec": {"class": "comps:Recorder", "allow": {"*": "command"}},
+        "count": {"class": "tests.support.comps:Counter", "rate": 400, "allow": {"*": "read"}},
+        "rec": {"class": "tests.support.comps:Recorder", "allow": {"*": "command"}},
     },
     "behaviors": {
-        "w1": {"class": "comps:Watcher", "uses": {"count": "read"}},
-        "w2": {"class": "comps:Watcher", "uses": {"count": "read"}},
-        "w3": {"class": "comps:Watcher", "uses": {"count": "read"}},
-        "slow": {"class": "comps:Watcher", "uses": {"count": "read"}, "period": 0.05,
+        "w1": {"class": "tests.support.comps:Watcher", "uses": {"count": "read"}},
+        "w2": {"class": "tests.support.comps:Watcher", "uses": {"count": "read"}},
+        "w3": {"class": "tests.support.comps:Watcher", "uses": {"count": "read"}},
+        "slow": {"class": "tests.support.comps:Watcher", "uses": {"count": "read"}, "period": 0.05,
                  "keep": 4, "slow": 0.03},
     },
 }
@@ -38,7 +38,7 @@ def test_every_sample_reaches_every_attached_behavior(start):
 
 def test_nothing_kept_for_nobody(start):
     rt = start({"resources": DEP["resources"],
-                "behaviors": {"probe": {"class": "comps:Probe", "uses": {"count": "read"}}}})
+                "behaviors": {"probe": {"class": "tests.support.comps:Probe", "uses": {"count": "read"}}}})
     wait_for(lambda: rt.inspect("count")["counters"]["seq"] > 20, what="samples")
     assert call(rt, "probe", "attach_sensor", "count") == {"ok": "ready"}
     first = wait_for(lambda: call(rt, "probe", "latest", "count")["ok"], what="a sample")
@@ -47,8 +47,8 @@ def test_nothing_kept_for_nobody(start):
 
 def test_actuator_commands_errors_and_no_arbitration(start):
     rt = start({"resources": DEP["resources"],
-                "behaviors": {"a": {"class": "comps:Probe", "uses": {"rec": "command"}},
-                              "b": {"class": "comps:Probe", "uses": {"rec": "command"}}}})
+                "behaviors": {"a": {"class": "tests.support.comps:Probe", "uses": {"rec": "command"}},
+                              "b": {"class": "tests.support.comps:Probe", "uses": {"rec": "command"}}}})
     assert call(rt, "a", "attach_actuator", "rec") == {"ok": "ready"}
     assert call(rt, "b", "attach_actuator", "rec") == {"ok": "ready"}
     assert call(rt, "a", "send", "rec", 1) == {"ok": {"n": 1, "gain": 1}}
@@ -60,7 +60,7 @@ def test_actuator_commands_errors_and_no_arbitration(start):
 
 def test_lost_actuator_fails_at_once_then_ready_again(start):
     rt = start({"resources": DEP["resources"],
-                "behaviors": {"a": {"class": "comps:Probe", "uses": {"rec": "command"}}}})
+                "behaviors": {"a": {"class": "tests.support.comps:Probe", "uses": {"rec": "command"}}}})
     assert call(rt, "a", "attach_actuator", "rec") == {"ok": "ready"}
     assert call(rt, "a", "send", "rec", {"lost": "cable out"}) == {"ok": "marking lost"}
     wait_for(lambda: rt.state("rec") == "lost", what="lost")

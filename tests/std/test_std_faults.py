@@ -2,21 +2,21 @@
 its policy; the others lose no sample and no put (sequence numbers prove it)."""
 
 import pytest
-from conftest import wait_for
+from tests.support.std import wait_for
 
 BASE = {
-    "resources": {"count": {"class": "comps:Counter", "rate": 200, "allow": {"*": "read"}}},
+    "resources": {"count": {"class": "tests.support.comps:Counter", "rate": 200, "allow": {"*": "read"}}},
     "behaviors": {
-        "sink": {"class": "comps:Sink"},
-        "pusher": {"class": "comps:Pusher", "options": {}},
-        "watch": {"class": "comps:Watcher", "uses": {"count": "read"}},
+        "sink": {"class": "tests.support.comps:Sink"},
+        "pusher": {"class": "tests.support.comps:Pusher", "options": {}},
+        "watch": {"class": "tests.support.comps:Watcher", "uses": {"count": "read"}},
     },
 }
 
 
 def with_faulty(fail, restart=None):
     dep = {k: dict(v) for k, v in BASE.items()}
-    f = {"class": "comps:Faulty", "fail": fail, "uses": {"count": "read"}, "deadline": 0.3}
+    f = {"class": "tests.support.comps:Faulty", "fail": fail, "uses": {"count": "read"}, "deadline": 0.3}
     if restart:
         f["restart"] = restart
     dep["behaviors"]["faulty"] = f

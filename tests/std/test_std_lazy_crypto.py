@@ -7,14 +7,14 @@ from pathlib import Path
 
 import pytest
 
-from conftest import MODES, free_endpoint
+from tests.support.std import MODES, free_endpoint
 
-HERE = Path(__file__).resolve().parent
+HERE = Path(__file__).resolve().parents[2]  # the checkout: tests.support imports from here
 
 SCRIPT = """
 import sys
 from esair_std import Runtime
-rt = Runtime({"robot": "t", "behaviors": {"sink": {"class": "comps:Sink"}}},
+rt = Runtime({"robot": "t", "behaviors": {"sink": {"class": "tests.support.comps:Sink"}}},
              mode=sys.argv[1], endpoint=sys.argv[2], control=True)
 rt.start()
 try:

@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 import yaml
 
-from conftest import wait_for
+from tests.support.std import wait_for
 from esair_min.core.trace import without_marks
 from esair_min.emulator.actuator import encode
 from esair_min.model.validate import load_robot
@@ -80,7 +80,7 @@ def test_servo_commands_arrive_in_order_within_limits(start, emulated, robot):
     emu = emulated()
     moves = [["l_knee", 120, 3], ["r_hip_pitch", 30, 0], ["l_knee", 151, 2],  # > 150
              ["l_ankle_roll", 60, 5], ["r_knee", 29, 1], ["l_knee", 0, 25]]    # < 30
-    rt = start(example(emu.port, mover={"class": "papaman_comps:Mover", "moves": moves,
+    rt = start(example(emu.port, mover={"class": "tests.support.papaman_comps:Mover", "moves": moves,
                                         "uses": {"papaman.servo.*": "command"}}))
     rt.wait_state("mover", "running")
     got = wait_for(lambda: (r := rt.get("mover"))["results"] and len(r["results"]) == 6 and r,
@@ -146,7 +146,7 @@ def test_the_push_reaches_the_watcher_and_its_stop_the_robot(start, emulated, ro
 
 def test_resources_are_lost_while_the_robot_is_pulled(start, emulated):
     emu = emulated()
-    rt = start(example(emu.port, mover={"class": "papaman_comps:Mover", "moves": [],
+    rt = start(example(emu.port, mover={"class": "tests.support.papaman_comps:Mover", "moves": [],
                                         "uses": {"papaman.servo.*": "command"}}))
     rt.put("mover", {"servo": "l_knee", "angle": 100}, timeout=2.0)
     wait_for(lambda: rt.get("mover")["results"] == [["ok", "odc100"]], what="first move")
@@ -171,7 +171,7 @@ def test_resources_are_lost_while_the_robot_is_pulled(start, emulated):
 
 def test_board_faults_surface_on_the_right_resource(start, emulated):
     emu = emulated("--nack-actuator")
-    rt = start(example(emu.port, mover={"class": "papaman_comps:Mover", "moves": [],
+    rt = start(example(emu.port, mover={"class": "tests.support.papaman_comps:Mover", "moves": [],
                                         "uses": {"papaman.servo.*": "command"}}))
     rt.put("mover", {"servo": "l_knee", "angle": 100}, timeout=2.0)
     got = wait_for(lambda: (r := rt.get("mover"))["results"] and r, what="the move")

@@ -9,11 +9,11 @@ from pathlib import Path
 
 import pytest
 
-from c_robot import CFirmwareRobot
+from tests.support.c_robot import CFirmwareRobot
 from esair_min.codegen import generate_robot
-from conftest import wait_for
+from tests.support.std import wait_for
 from esair_min.emulator.actuator import encode
-from test_std_papaman import actuator_writes, example
+from tests.std.test_std_papaman import actuator_writes, example
 
 
 @pytest.fixture(scope="module")
@@ -37,7 +37,7 @@ def test_std_drives_the_c_firmware(start, firmware, robot):
     port = c.start()
     try:
         moves = [["l_knee", 120, 3], ["l_knee", 151, 2], ["r_ankle_roll", 61, 0]]
-        rt = start(example(port, mover={"class": "papaman_comps:Mover", "moves": moves,
+        rt = start(example(port, mover={"class": "tests.support.papaman_comps:Mover", "moves": moves,
                                         "uses": {"papaman.servo.*": "command"}}))
         got = wait_for(lambda: len((r := rt.get("mover"))["results"]) == 3 and r,
                        what="three moves")

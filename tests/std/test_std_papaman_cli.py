@@ -11,12 +11,12 @@ import os
 from pathlib import Path
 
 import pytest
-from conftest import MODES, esair, free_endpoint, processes, std_run, wait_for
+from tests.support.std import MODES, esair, free_endpoint, processes, std_run, wait_for
 
 from esair_std.drivers.minlink.emulated import EmulatedRobot
 
-HERE = Path(__file__).resolve().parent
-ROOT = HERE.parents[1]
+HERE = Path(__file__).resolve().parents[2]  # the checkout: tests.support imports from here
+ROOT = HERE
 EXAMPLE = ROOT / "esair_std" / "examples" / "papaman"
 
 

@@ -1,15 +1,15 @@
 """Reactions: resident, direct access to their declared resources, enabled/disabled by
 behaviors; the example robot in both modes."""
 
-from conftest import call, wait_for
+from tests.support.std import call, wait_for
 
 DEP = {
     "resources": {
-        "count": {"class": "comps:Counter", "rate": 400, "allow": {}},
-        "rec": {"class": "comps:Recorder", "allow": {}},
+        "count": {"class": "tests.support.comps:Counter", "rate": 400, "allow": {}},
+        "rec": {"class": "tests.support.comps:Recorder", "allow": {}},
     },
-    "reactions": {"guard": {"class": "comps:Guard", "resources": ["count", "rec"]}},
-    "behaviors": {"probe": {"class": "comps:Probe"}},
+    "reactions": {"guard": {"class": "tests.support.comps:Guard", "resources": ["count", "rec"]}},
+    "behaviors": {"probe": {"class": "tests.support.comps:Probe"}},
 }
 
 

@@ -2,20 +2,20 @@
 configure checked against registration."""
 
 import pytest
-from conftest import call, wait_for
+from tests.support.std import call, wait_for
 
 from esair_std.errors import ComponentError, ControlError, Refused
 
 DEP = {
     "resources": {
-        "count": {"class": "comps:Counter", "rate": 100, "allow": {"*": "read"}},
-        "rec": {"class": "comps:Recorder",
+        "count": {"class": "tests.support.comps:Counter", "rate": 100, "allow": {"*": "read"}},
+        "rec": {"class": "tests.support.comps:Recorder",
                 "allow": {"probe": "command", "tuner": "configure", "p*": "read"}},
     },
     "behaviors": {
-        "probe": {"class": "comps:Probe", "uses": {"count": "read", "rec": "command"}},
-        "tuner": {"class": "comps:Probe", "uses": {"rec": "configure"}},
-        "nouse": {"class": "comps:Probe"},
+        "probe": {"class": "tests.support.comps:Probe", "uses": {"count": "read", "rec": "command"}},
+        "tuner": {"class": "tests.support.comps:Probe", "uses": {"rec": "configure"}},
+        "nouse": {"class": "tests.support.comps:Probe"},
     },
 }
 
@@ -47,7 +47,7 @@ def test_level_beyond_allow_is_refused(start):
     # The loader refuses a file whose uses exceed allow; a behavior added at run time
     # is checked by the RS when it registers.
     rt = start({"resources": DEP["resources"]})
-    rt.add("pete", "comps:Probe", uses={"rec": "command"})
+    rt.add("pete", "tests.support.comps:Probe", uses={"rec": "command"})
     assert call(rt, "pete", "attach_actuator", "rec") == {
         "error": "Refused",
         "message": "resource 'rec' allows behavior 'pete' up to read, not command"}
@@ -57,7 +57,7 @@ def test_level_beyond_allow_is_refused(start):
 
 def test_level_beyond_uses_is_refused(start):
     dep = {"resources": DEP["resources"],
-           "behaviors": {"probe": {"class": "comps:Probe", "uses": {"rec": "read"}}}}
+           "behaviors": {"probe": {"class": "tests.support.comps:Probe", "uses": {"rec": "read"}}}}
     rt = start(dep)
     assert call(rt, "probe", "attach_actuator", "rec") == {
         "error": "Refused",
@@ -71,7 +71,7 @@ def test_configure_checked_against_level(start):
         "error": "Refused",
         "message": "behavior 'probe' is registered for command on 'rec': configure needs "
                    "the configure level"}
-    rt.add("pete", "comps:Probe", uses={"rec": "configure"})
+    rt.add("pete", "tests.support.comps:Probe", uses={"rec": "configure"})
     assert call(rt, "pete", "register", "rec", "configure") == {
         "error": "Refused",
         "message": "resource 'rec' allows behavior 'pete' up to read, not configure"}
@@ -105,16 +105,16 @@ def test_remove_resource_detaches_and_behaviors_keep_running(start):
 
 def test_add_resource_at_run_time_and_bad_ones(start):
     rt = start(DEP)
-    kids = rt.add_resource("pair", "comps:Pair", allow={"probe": "read"})
+    kids = rt.add_resource("pair", "tests.support.comps:Pair", allow={"probe": "read"})
     assert kids == {"pair.count": "sensor", "pair.rec": "actuator"}
     assert rt.state("pair.count") == "ready"
     before = [(r["name"], r["state"]) for r in rt.ls()]
     with pytest.raises(ComponentError) as e:
-        rt.add_resource("bad", "comps:BadOpen")
+        rt.add_resource("bad", "tests.support.comps:BadOpen")
     assert str(e.value) == ("resource 'bad' failed to open: "
                             "OSError: no such device /dev/nothing")
     with pytest.raises(ControlError) as e:
-        rt.add_resource("count", "comps:Counter")
+        rt.add_resource("count", "tests.support.comps:Counter")
     assert str(e.value) == "a resource named 'count' is already deployed"
     with pytest.raises(ControlError) as e:
         rt.remove_resource("pair.rec")
@@ -124,8 +124,8 @@ def test_add_resource_at_run_time_and_bad_ones(start):
 
 def test_deploy_fails_cleanly_when_a_resource_cannot_open(mode, start):
     with pytest.raises(ComponentError) as e:
-        start({"resources": {"bad": {"class": "comps:BadOpen"}},
-               "behaviors": {"s": {"class": "comps:Sink"}}})
+        start({"resources": {"bad": {"class": "tests.support.comps:BadOpen"}},
+               "behaviors": {"s": {"class": "tests.support.comps:Sink"}}})
     assert str(e.value) == "resource 'bad' failed to open: OSError: no such device /dev/nothing"
 
 

@@ -100,9 +100,9 @@ class RobotCommands:
         """The action of a line built here (longest matching prefix), for reply checks."""
         best = None
         for c in self.robot.commands:
-            if line.startswith(c.prefix) and len(line) == c.length(len(self.servos)):
-                if best is None or len(c.prefix) > len(best.prefix):
-                    best = c
+            if (line.startswith(c.prefix) and len(line) == c.length(len(self.servos))
+                    and (best is None or len(c.prefix) > len(best.prefix))):
+                best = c
         return best.action if best else None
 
     def plausible(self, line: str, data: str) -> bool:

@@ -48,7 +48,7 @@ from esair_min.resources import resolve_robot
 
 from .budget import DEFAULT_FEET_SHARE, line_budget
 from .emulated import EmulatedRobot
-from .errors import LinkDown, LinkError, RobotRefused
+from .errors import LinkDown, LinkError
 from .link import Link
 
 DEFAULT_FEET_HZ = 8.0

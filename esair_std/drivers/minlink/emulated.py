@@ -63,7 +63,7 @@ class EmulatedRobot:
         env["PYTHONPATH"] = root + os.pathsep + env.get("PYTHONPATH", "")
         cmd = [sys.executable, "-m", "esair_min.cli", "emulate", self.robot, "--pty",
                *self.args, *extra]
-        errors = tempfile.TemporaryFile()      # not a pipe: nobody has to drain it
+        errors = tempfile.TemporaryFile()  # noqa: SIM115  (kept with the process; not a pipe: nobody drains it)
         proc = subprocess.Popen(cmd, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
                                 stderr=errors, env=env, start_new_session=True,
                                 preexec_fn=_die_with_parent)
