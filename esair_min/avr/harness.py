@@ -141,6 +141,8 @@ class AvrRun:
     rx: list[tuple[int, int]] = field(default_factory=list)   # (cycle, byte) read from UDR0
     lost: list[int] = field(default_factory=list)              # cycles the USART lost a byte
     min_sp: int = 0
+    pins: dict[int, list[tuple[int, str, int]]] = field(default_factory=dict)  # node -> edges
+    min_sps: dict[int, int] = field(default_factory=dict)
     replies: list[tuple[int, bytes]] = field(default_factory=list)
 
     def __post_init__(self) -> None:
@@ -259,25 +261,31 @@ def build_commands(robot: Robot, stimulus: str, image: Path,
 
 def parse_events(out: str, scl_cycles: int) -> AvrRun:
     tx, rx, sync, lost, transfers = [], [], [], [], []
+    pins: dict[int, list[tuple[int, str, int]]] = {}
+    sps: dict[int, int] = {}
     cur: I2cTransfer | None = None
-    end = min_sp = 0
+    end = 0
     for line in out.splitlines():
         w = line.split()
         if not w:
             continue
         kind = w[0]
         if kind == "crash":
-            raise SimError(f"the firmware stopped the simulator at cycle {w[1]} (state {w[2]})")
+            raise SimError(f"the firmware of node {w[1]} stopped the simulator at cycle {w[2]} "
+                           f"(state {w[3]})")
         if kind == "tx":
             tx.append((int(w[1]), int(w[2])))
         elif kind == "rd":
             rx.append((int(w[1]), int(w[2])))
         elif kind == "pin":
-            sync.append((int(w[1]), int(w[3])))
+            node, cycle, name, level = int(w[1]), int(w[2]), w[3], int(w[4])
+            if node == 0:
+                sync.append((cycle, level))
+            pins.setdefault(node, []).append((cycle, name, level))
         elif kind == "lost":
             lost.append(int(w[1]))
         elif kind == "sp":
-            min_sp = int(w[2])
+            sps[int(w[1])] = int(w[3])
         elif kind == "at":
             end = int(w[1])
         elif kind == "i2c":
@@ -299,17 +307,21 @@ def parse_events(out: str, scl_cycles: int) -> AvrRun:
                     seg.addr_byte, seg.addr_ack = b, ack
                 else:
                     seg.data.append((b, ack))
-                cur.last_byte_end = cycle + 9 * scl_cycles
+                cur.last_byte_end = cycle
     if transfers and transfers[-1].stop is None:
         transfers.pop()               # cut by the end of the run
     return AvrRun(tx=tx, transfers=transfers, sync_edges=sync, end_cycle=end, rx=rx,
-                  lost=lost, min_sp=min_sp)
+                  lost=lost, min_sp=sps.get(0, 0), pins=pins, min_sps=sps)
 
 
-def run_commands(elf: Path, commands: list[str], pins: str, timeout: float = 300.0) -> str:
+def run_commands(elf: Path, commands: list[str], pins: str, timeout: float = 300.0,
+                 nodes: tuple[str, ...] = ()) -> str:
+    """Run the driver: node 0 is ``elf`` watching ``pins``; ``nodes``: more ``node``
+    (and ``wire``) lines for the peers."""
     exe = simulator()
+    head = [f"node {elf} {pins or '-'}", *nodes]
     try:
-        proc = subprocess.run([str(exe), str(elf), pins], input="\n".join(commands) + "\n",
+        proc = subprocess.run([str(exe)], input="\n".join(head + commands) + "\n",
                               capture_output=True, text=True, timeout=timeout)
     except subprocess.TimeoutExpired:
         raise SimError(f"the AVR simulator took more than {timeout:g} s") from None
