@@ -174,8 +174,10 @@ class AvrRun:
 
 
 class _Script:
-    def __init__(self, setup: AvrSetup, image: Path, boot_end: int | None):
+    def __init__(self, setup: AvrSetup, image: Path, boot_end: int | None,
+                 channels: tuple[int, ...] | None = None):
         self.setup = setup
+        self.channels = channels          # the sensor board's ADC channels: it runs as a node
         self.now = 0
         self.rx_free = 0
         self.booted = False
@@ -183,9 +185,9 @@ class _Script:
         self.readings = [0] * (setup.sensor_registers // 2)
         s = setup
         self.lines = [f"eeprom {s.eeprom_address} {s.eeprom_size} {s.eeprom_address_bytes} {image}"]
-        if s.actuator_address is not None:
+        if channels is None and s.actuator_address is not None:
             self.lines.append(f"regs {s.actuator_address} {s.actuator_registers}")
-        if s.sensor_address is not None:
+        if channels is None and s.sensor_address is not None:
             self.lines.append(f"regs {s.sensor_address} {s.sensor_registers}")
 
     def run_to(self, cycle: int) -> None:
@@ -224,13 +226,20 @@ def _stimulus_line(sc: _Script, line: str) -> None:
     elif cmd == "tick" and len(args) <= 1:
         n = decimal(args[0], "tick count", TICKS_MAX) if args else 1
         sc.run_to(sc.now + n * s.tick_cycles)
+    elif cmd == "sensor" and args and sc.channels is not None:
+        readings = [decimal(a, "reading", READING_MAX) for a in args]
+        if len(readings) > len(sc.channels):
+            raise ProtocolError(f"{len(readings)} readings for {len(sc.channels)} sensors")
+        sc.readings[:len(readings)] = readings
+        sc.lines += [f"adc 2 {ch} {v}" for ch, v in zip(sc.channels, readings, strict=False)]
     elif cmd == "sensor" and args and s.sensor_address is not None:
         readings = [decimal(a, "reading", READING_MAX) for a in args]
         regs = RegisterSlave(0, s.sensor_registers)
         regs.set_readings(readings)
         sc.readings[:len(readings)] = readings
         sc.lines.append(f"set {s.sensor_address} 0 " + " ".join(str(b) for b in regs.registers))
-    elif cmd == "fault" and len(args) == 2 and args[0] == "sensor" and args[1] in ("on", "off"):
+    elif (cmd == "fault" and len(args) == 2 and args[0] == "sensor" and args[1] in ("on", "off")
+          and sc.channels is None):
         if s.sensor_address is None:
             raise ProtocolError("no sensor board")
         sc.lines.append(f"absent {s.sensor_address} {int(args[1] == 'on')}")
@@ -243,10 +252,12 @@ def _stimulus_line(sc: _Script, line: str) -> None:
                             "sensor, fault sensor, poke)")
 
 
-def build_commands(robot: Robot, stimulus: str, image: Path,
-                   boot_end: int | None = None) -> tuple[list[str], AvrSetup]:
-    """The driver commands running ``stimulus`` (the EEPROM image file at ``image``)."""
-    sc = _Script(AvrSetup.from_robot(robot), image, boot_end)
+def build_commands(robot: Robot, stimulus: str, image: Path, boot_end: int | None = None,
+                   boards: bool = False) -> tuple[list[str], AvrSetup]:
+    """The driver commands running ``stimulus`` (the EEPROM image file at ``image``);
+    ``boards``: the actuator and sensor boards run their firmware (nodes 1 and 2)."""
+    channels = tuple(x.channel for x in robot.sensors) if boards else None
+    sc = _Script(AvrSetup.from_robot(robot), image, boot_end, channels)
     for number, raw in script_lines(stimulus.encode("utf-8")):
         try:
             text = line_text(raw)
@@ -375,3 +386,47 @@ def run_stimulus(robot: Robot, stimulus: str, elf: Path, workdir: Path,
     end = boot_end(robot, elf, workdir, lead)
     cmds, setup = build_commands(robot, stimulus, _image(robot, workdir), end)
     return parse_events(run_commands(elf, cmds, setup.sync_pin), setup.scl_cycles)
+
+
+def servo_pins(robot: Robot) -> str:
+    """The actuator's servo pins as the driver names them (``PD3`` -> ``D3``), by index."""
+    return ",".join(x.pin[1:] for x in robot.servos)
+
+
+def run_robot(robot: Robot, stimulus: str, elfs: dict[str, Path], workdir: Path,
+              lead: float = BOOT_LEAD, timeout: float = 600.0) -> AvrRun:
+    """Run ``stimulus`` on all three boards' firmware in lockstep: the central board
+    (node 0) with the motion EEPROM modelled, the actuator (node 1: its sync input
+    wired to the central's sync output, its servo pins recorded) and the sensor board
+    (node 2: ``sensor`` lines set its ADC inputs) as TWI slaves on the same bus."""
+    act, sen = robot.actuator, robot.sensor_board
+    if act is None or sen is None or act.sync is None or robot.central.sync is None:
+        raise SimError("run_robot needs a central, an actuator and a sensor board")
+    end = boot_end(robot, elfs["central"], workdir / "boot", lead)
+    setup = AvrSetup.from_robot(robot)
+    cmds, _ = build_commands(robot, stimulus, _image(robot, workdir), end, boards=True)
+    nodes = (f"node {elfs['actuator']} {servo_pins(robot)}", f"node {elfs['sensor']} -",
+             f"wire 0 {robot.central.sync.pin[1:]} 1 {act.sync.pin[1:]}")
+    out = run_commands(elfs["central"], cmds, setup.sync_pin, timeout, nodes)
+    return parse_events(out, setup.scl_cycles)
+
+
+@dataclass(frozen=True)
+class Pulse:
+    servo: int
+    rise: int            # cycle
+    width_us: float
+
+
+def pulses(run: AvrRun, robot: Robot, clock_hz: int, node: int = 1) -> list[Pulse]:
+    """Every complete pulse on the actuator's servo pins (rise to fall)."""
+    index = {x.pin[1:]: x.index for x in robot.servos}
+    up: dict[str, int] = {}
+    out = []
+    for cycle, name, level in run.pins.get(node, []):
+        if level:
+            up.setdefault(name, cycle)
+        elif name in up:
+            rise = up.pop(name)
+            out.append(Pulse(index[name], rise, (cycle - rise) * 1e6 / clock_hz))
+    return out

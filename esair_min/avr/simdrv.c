@@ -13,7 +13,8 @@
  *     11-bit character; here each byte arrives at the cycle the harness gives (its stop
  *     bit at line rate), into the USART's 2-byte FIFO and shift register, and a fourth
  *     byte while three are held is lost with DOR set, as on the chip.
- * simavr's transmitter is kept (its pacing set to 10 bits per 8N1 character).
+ * simavr's transmitter is kept (its pacing set to 10 bits per 8N1 character), and EIFR
+ * gets the chip's write-one-to-clear (simavr 1.6 stores the written value).
  *
  * Commands (one per line on stdin), node 0 is the TWI master (the central board):
  *   node ELF PINS [FREQ]           load a firmware; PINS to report, e.g. D2,B0 (or -)
@@ -42,6 +43,7 @@
 #include <simavr/avr_adc.h>
 #include <simavr/avr_ioport.h>
 
+#define R_EIFR 0x3C
 #define R_TWBR 0xB8
 #define R_TWSR 0xB9
 #define R_TWAR 0xBA
@@ -206,6 +208,9 @@ static void twcr_write(struct avr_t *a, avr_io_addr_t addr, uint8_t v, void *par
     }
     a->data[addr] = (uint8_t)((v & (uint8_t)~(B_TWINT | B_TWSTA | B_TWSTO)) | keep_int
                               | (v & (n->index == 0 ? (B_TWSTA | B_TWSTO) : 0)));
+    if ((a->data[addr] & B_TWINT) && (a->data[addr] & 0x01u)) {
+        avr_raise_interrupt(a, &n->twi->twi);     /* TWIE set again while TWINT is set */
+    }
     if (n->index != 0) {
         return;                          /* a slave: releasing SCL is all it does here */
     }
@@ -380,6 +385,14 @@ static void ubrr_write(struct avr_t *a, avr_io_addr_t addr, uint8_t v, void *par
     n->uart->cycles_per_byte = 10u * bit;
 }
 
+/* simavr 1.6 has no write handler on EIFR: writing a flag 1 must clear it, not set it
+ * (the actuator polls INTF0 and clears it so). */
+static void eifr_write(struct avr_t *a, avr_io_addr_t addr, uint8_t v, void *param)
+{
+    (void)param;
+    a->data[addr] = (uint8_t)(a->data[addr] & (uint8_t)~v);
+}
+
 /* -- events and wiring ---------------------------------------------------------------- */
 static void on_tx(struct avr_irq_t *irq, uint32_t value, void *param)
 {
@@ -458,6 +471,8 @@ static int add_node(const char *elf, char *pins, unsigned freq)
     a->io[AVR_DATA_TO_IO(R_TWSR)].w.c = NULL;
     a->io[AVR_DATA_TO_IO(R_TWAR)].w.c = NULL;
     a->data[R_TWSR] = 0xF8;
+    a->io[AVR_DATA_TO_IO(R_EIFR)].w.c = eifr_write;
+    a->io[AVR_DATA_TO_IO(R_EIFR)].w.param = NULL;
     if (nnodes == 0) {
         a->io[AVR_DATA_TO_IO(R_UDR0)].r.c = udr_read;
         a->io[AVR_DATA_TO_IO(R_UDR0)].r.param = n;
