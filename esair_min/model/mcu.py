@@ -15,6 +15,28 @@ from esair_min.model import avr, hardware
 
 
 @dataclass(frozen=True)
+class BusOverhead:
+    """What an I2C transfer of the generated master costs beyond its wire bits, in the
+    MCU's instruction cycles: a fixed part (write; write + repeated START + read) and a
+    part per byte written (address byte excluded: register/memory address and data) and
+    per byte read. Least-squares fits to the START..STOP durations measured for every
+    transfer kind of tests/fixtures/gpsim/papaman.txt: PIC18F452 in gpsim (wire), ATmega328P
+    in the simavr driver (TWSTA write to TWSTO write); bench/avr.py prints the fit and
+    each kind's error (all within 0.4 %; wire time alone is 7-10 % short on the PIC)."""
+
+    write_fixed: float
+    read_fixed: float
+    per_write_byte: float
+    per_read_byte: float
+
+    def cycles(self, n_write: int, n_read: int | None) -> float:
+        """``n_read`` None: a plain write."""
+        if n_read is None:
+            return self.write_fixed + self.per_write_byte * n_write
+        return self.read_fixed + self.per_write_byte * n_write + self.per_read_byte * n_read
+
+
+@dataclass(frozen=True)
 class McuSpec:
     part: str
     family: str                    # "pic18" or "avr"
@@ -34,6 +56,7 @@ class McuSpec:
     adc_pins: dict[int, str]       # analog channel -> pin
     sync_input: str                # the actuator's latch input (an edge-flagging pin)
     tick_timer: str
+    bus_overhead: BusOverhead      # the generated I2C master's cost beyond the wire
 
     @property
     def adc_channels(self) -> tuple[int, ...]:
@@ -47,7 +70,8 @@ PIC18F452 = McuSpec(
     twi_master=True, twi_slave=True, pins=hardware.ALL_PINS,
     pin_help="RA0..RA5, RB0..RB7, RC0..RC7, RD0..RD7, RE0..RE2",
     uart_pins=hardware.UART_PINS, i2c_pins=hardware.I2C_PINS, adc_pins=hardware.ADC_PINS,
-    sync_input="RB0", tick_timer="Timer2")
+    sync_input="RB0", tick_timer="Timer2",
+    bus_overhead=BusOverhead(52.1, 206.9, 32.8, 41.5))
 
 #: The 32-pin TQFP/MLF package (Arduino Nano class): ADC6/ADC7 are analog-only pins.
 ATMEGA328P = McuSpec(
@@ -62,7 +86,8 @@ ATMEGA328P = McuSpec(
     uart_pins=("PD0", "PD1"), i2c_pins=("PC4", "PC5"),
     adc_pins={0: "PC0", 1: "PC1", 2: "PC2", 3: "PC3", 4: "PC4", 5: "PC5", 6: "ADC6",
               7: "ADC7"},
-    sync_input="PD2", tick_timer="Timer1")
+    sync_input="PD2", tick_timer="Timer1",
+    bus_overhead=BusOverhead(-100.7, -11.7, 38.1, 25.3))
 
 MCUS: dict[str, McuSpec] = {m.part: m for m in (PIC18F452, ATMEGA328P)}
 
@@ -95,3 +120,9 @@ def i2c_master_setting(part: str, clock_hz: int, speed_hz: int):
 def cycles_per_second(part: str, clock_hz: int) -> int:
     """Instruction cycles per second: Fosc/4 on the PIC, Fosc on the AVR."""
     return clock_hz if MCUS[part].family == "avr" else clock_hz // 4
+
+
+def bus_overhead_ns(part: str, clock_hz: int, n_write: int, n_read: int | None) -> int:
+    """The master's overhead of one transfer in ns (see BusOverhead)."""
+    cycles = MCUS[part].bus_overhead.cycles(n_write, n_read)
+    return int(round(cycles * 1e9 / cycles_per_second(part, clock_hz)))

@@ -131,9 +131,15 @@ def four_way(robot, host, elf, stimulus: str, work: Path):
     return run
 
 
-def test_papaman_scenario_four_way(avr_robot, avr_build, host_avr, tmp_path):
+@pytest.fixture(scope="session")
+def scenario_avr(avr_robot, avr_build, host_avr, tmp_path_factory):
     elf = avr_build["central"].folder / "firmware.elf"
-    run = four_way(avr_robot, host_avr, elf, avr_script(SCENARIO.read_text()), tmp_path)
+    return four_way(avr_robot, host_avr, elf, avr_script(SCENARIO.read_text()),
+                    tmp_path_factory.mktemp("scenario"))
+
+
+def test_papaman_scenario_four_way(scenario_avr):
+    run = scenario_avr
     replies = [line for _, line in run.replies]
     assert replies[0] == b"!READY esair-min/1 image=ok\r\n"
     assert b"E10 no answer on i2c\r\n" in replies          # the sensor fault was seen
@@ -141,6 +147,26 @@ def test_papaman_scenario_four_way(avr_robot, avr_build, host_avr, tmp_path):
     assert len(writes) > 40                                 # the dance: a frame per tick
     assert run.lost == []
     assert 0 < run.stack_bytes <= 64                        # measured 41
+
+
+def test_emulator_bus_time_per_transfer_kind_is_the_avrs(avr_robot, scenario_avr):
+    """Each acknowledged transfer kind of the scenario on the AVR (TWSTA to TWSTO in the
+    driver, bit times from TWBR): the emulator's duration for an atmega328p central
+    board (wire + its master's overhead, esair_min.model.mcu) is within 1 % of it."""
+    from statistics import median
+
+    from esair_min.emulator.i2c import transfer_ns
+    from esair_min.model.mcu import bus_overhead_ns
+    from esair_min.pic.gpsim_wave import transfer_kinds
+
+    c = avr_robot.central
+    kinds = transfer_kinds(scenario_avr.transfers)
+    assert {(25, None), (2, 24), (2, 32), (1, 12)} <= set(kinds)
+    for (nw, nr), cycles in kinds.items():
+        avr_ns = median(cycles) * 1e9 / c.mcu.clock_hz
+        emu_ns = transfer_ns(c.i2c.speed_hz, nw, nr,
+                             lambda w, r: bus_overhead_ns(c.mcu.part, c.mcu.clock_hz, w, r))
+        assert abs(emu_ns - avr_ns) / avr_ns <= 0.01, ((nw, nr), emu_ns, avr_ns)
 
 
 def test_compare_sees_a_changed_reply(avr_robot, avr_build, tmp_path):
