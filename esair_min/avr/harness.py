@@ -143,6 +143,19 @@ class AvrRun:
     min_sp: int = 0
     pins: dict[int, list[tuple[int, str, int]]] = field(default_factory=dict)  # node -> edges
     min_sps: dict[int, int] = field(default_factory=dict)
+    isrs: dict[int, list[tuple[int, int]]] = field(default_factory=dict)   # (cycle, vector|0)
+
+    def isr_spans(self, node: int = 0) -> dict[int, list[int]]:
+        """Cycles from each interrupt's vectoring to its RETI, by vector number."""
+        spans: dict[int, list[int]] = {}
+        entry: tuple[int, int] | None = None
+        for cycle, v in self.isrs.get(node, []):
+            if v and entry is None:
+                entry = (cycle, v)
+            elif not v and entry is not None:
+                spans.setdefault(entry[1], []).append(cycle - entry[0])
+                entry = None
+        return spans
     replies: list[tuple[int, bytes]] = field(default_factory=list)
 
     def __post_init__(self) -> None:
@@ -273,6 +286,7 @@ def build_commands(robot: Robot, stimulus: str, image: Path, boot_end: int | Non
 def parse_events(out: str, scl_cycles: int) -> AvrRun:
     tx, rx, sync, lost, transfers = [], [], [], [], []
     pins: dict[int, list[tuple[int, str, int]]] = {}
+    isrs: dict[int, list[tuple[int, int]]] = {}
     sps: dict[int, int] = {}
     cur: I2cTransfer | None = None
     end = 0
@@ -295,6 +309,8 @@ def parse_events(out: str, scl_cycles: int) -> AvrRun:
             pins.setdefault(node, []).append((cycle, name, level))
         elif kind == "lost":
             lost.append(int(w[1]))
+        elif kind == "isr":
+            isrs.setdefault(int(w[1]), []).append((int(w[2]), int(w[3])))
         elif kind == "sp":
             sps[int(w[1])] = int(w[3])
         elif kind == "at":
@@ -322,7 +338,7 @@ def parse_events(out: str, scl_cycles: int) -> AvrRun:
     if transfers and transfers[-1].stop is None:
         transfers.pop()               # cut by the end of the run
     return AvrRun(tx=tx, transfers=transfers, sync_edges=sync, end_cycle=end, rx=rx,
-                  lost=lost, min_sp=sps.get(0, 0), pins=pins, min_sps=sps)
+                  lost=lost, min_sp=sps.get(0, 0), pins=pins, min_sps=sps, isrs=isrs)
 
 
 def run_commands(elf: Path, commands: list[str], pins: str, timeout: float = 300.0,
@@ -381,10 +397,13 @@ def compare(python_trace: list[str], avr_trace: list[str], setup: AvrSetup,
 
 
 def run_stimulus(robot: Robot, stimulus: str, elf: Path, workdir: Path,
-                 lead: float = BOOT_LEAD) -> AvrRun:
-    """Run ``stimulus`` on the central firmware ``elf`` (firmware.elf)."""
+                 lead: float = BOOT_LEAD, isrs: bool = False) -> AvrRun:
+    """Run ``stimulus`` on the central firmware ``elf`` (firmware.elf); ``isrs``: record
+    every interrupt's entry and RETI (AvrRun.isr_spans)."""
     end = boot_end(robot, elf, workdir, lead)
     cmds, setup = build_commands(robot, stimulus, _image(robot, workdir), end)
+    if isrs:
+        cmds.insert(0, "isrs 0")
     return parse_events(run_commands(elf, cmds, setup.sync_pin), setup.scl_cycles)
 
 

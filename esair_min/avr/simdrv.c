@@ -24,11 +24,12 @@
  *   absent ADDR 0|1                a modelled device stops / starts answering
  *   wire N PIN M PIN               node N's output pin drives node M's input pin
  *   adc N CH VALUE                 node N's ADC channel CH reads VALUE (0..1023)
+ *   isrs N                         report node N's interrupt entries and RETIs
  *   rx CYCLE BYTE                  a byte to node 0's USART whose stop bit ends at CYCLE
  *   run CYCLE                      run every node to CYCLE, then print "at CYCLE"
  *   quit
  * Events (stdout): "tx C B", "rd C B", "lost C" (node 0's USART), "pin N C NAME LEVEL",
- * "i2c C start|restart|stop", "i2c C byte B ACK", "sp N C MINSP", "at C",
+ * "i2c C start|restart|stop", "i2c C byte B ACK", "isr N C VECTOR|0", "sp N C MINSP", "at C",
  * "crash N C STATE".
  */
 #include <stdio.h>
@@ -421,6 +422,14 @@ static void on_wire(struct avr_irq_t *irq, uint32_t value, void *param)
     avr_raise_irq(((wire_t *)param)->to, value);
 }
 
+/* Interrupt entries (the vector) and RETIs (0) of a node, when asked for ("isrs N"). */
+static void on_isr(struct avr_irq_t *irq, uint32_t value, void *param)
+{
+    (void)irq;
+    node_t *n = (node_t *)param;
+    printf("isr %d %llu %u\n", n->index, now(n), value);
+}
+
 static avr_io_t *find_io(avr_t *a, const char *kind)
 {
     for (avr_io_t *io = a->io_port; io; io = io->next) {
@@ -595,6 +604,11 @@ int main(void)
             avr_irq_register_notify(pin_irq(nodes[a].avr, pa), on_wire, &wires[nwires]);
             avr_raise_irq(wires[nwires].to, 1);         /* idle high until driven */
             nwires++;
+        } else if (strcmp(cmd, "isrs") == 0) {
+            int n;
+            sscanf(line, "%*s %d", &n);
+            avr_irq_register_notify(nodes[n].avr->interrupts.irq + AVR_INT_IRQ_RUNNING, on_isr,
+                                    &nodes[n]);
         } else if (strcmp(cmd, "adc") == 0) {
             int n, ch, v;
             sscanf(line, "%*s %d %d %d", &n, &ch, &v);
