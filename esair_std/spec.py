@@ -72,10 +72,6 @@ class Spec:
         d["resources"] = tuple(d.get("resources", ()))
         return cls(**d)
 
-    def uses_level(self, resource: str) -> Level | None:
-        from .level import best_match
-        return best_match(self.uses, resource)
-
 
 def _copy(value: Any) -> Any:
     """A deep copy of JSON-like data (dicts, lists, tuples), as dataclasses.asdict made."""

@@ -92,7 +92,11 @@ _BY_MODULE = {
             "test_std_papaman_c", "test_std_papaman_cli", "test_gpsim_uart"},
 }
 _BY_FIXTURE = {"pic_firmware": "gpsim"}
-SLOW_MODULES: set[str] = set()
+#: modules of many subprocesses, C builds or long hypothesis runs (--durations: the
+#: biggest totals of the rest of the suite)
+SLOW_MODULES = {"test_std_cli", "test_overrun", "test_differential", "test_decoder_props",
+                "test_validate_fuzz", "test_plot", "test_host_c_peers", "test_std_deploy_fuzz",
+                "test_std_lazy_crypto", "test_std_agent_lean", "test_cli_manner", "test_script"}
 
 
 def pytest_collection_modifyitems(config, items):

@@ -88,32 +88,6 @@ class Bus:
             raise TransportError(f"request on {key} failed: {exc}") from None
         return None
 
-    def request_async(self, key: str, body: dict, timeout: float,
-                      done: Callable[[Any], None]) -> None:
-        """Like ``request`` without waiting: ``done(first reply's JSON or None)`` is
-        called once, on a Zenoh thread (so it must only copy or answer and return)."""
-        data = codec.encode(body)
-        state = {"called": False}
-
-        def finish(obj: Any) -> None:
-            if not state["called"]:
-                state["called"] = True
-                done(obj)
-
-        def on_reply(reply: Any) -> None:
-            ok = reply.ok
-            if ok is not None:
-                try:
-                    finish(codec.decode(ok.payload.to_bytes()))
-                except TransportError:
-                    finish(None)
-
-        try:
-            self.session.get(key, zenoh.handlers.Callback(on_reply, lambda: finish(None)),
-                             payload=data, timeout=max(0.001, timeout))
-        except Exception:  # noqa: BLE001 - session closed: nobody answers
-            finish(None)
-
     def serve(self, key: str, handler: Callable[[Request], None]) -> Any:
         """``handler(request)`` on Zenoh's network thread: it must enqueue or answer."""
         def cb(query: Any) -> None:

@@ -8,6 +8,7 @@ defines, not a submodule."""
 from __future__ import annotations
 
 import ast
+import functools
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -40,6 +41,7 @@ def _resolve(mod: str, is_pkg: bool, node: ast.ImportFrom) -> str:
     return ".".join(base + ([node.module] if node.module else []))
 
 
+@functools.cache
 def graph() -> dict[str, set[str]]:
     """Module → the modules of ours it imports."""
     mods = modules()
