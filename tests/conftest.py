@@ -90,6 +90,7 @@ _BY_MODULE = {
               "test_gpsim_uart", "test_toolchain", "test_pic_build"},
     "pty": {"test_pty", "test_minlink_pty", "test_liveview_tmux", "test_std_papaman",
             "test_std_papaman_c", "test_std_papaman_cli", "test_gpsim_uart"},
+    "avr": {"test_avr"},
 }
 _BY_FIXTURE = {"pic_firmware": "gpsim"}
 #: modules of many subprocesses, C builds or long hypothesis runs (--durations: the
@@ -109,7 +110,7 @@ def pytest_collection_modifyitems(config, items):
         stem = item.path.stem
         names |= {mark for mark, mods in _BY_MODULE.items() if stem in mods}
         names |= {mark for fix, mark in _BY_FIXTURE.items() if fix in item.fixturenames}
-        if names & {"net", "browser", "gpsim", "pty"} or stem in SLOW_MODULES:
+        if names & {"net", "browser", "gpsim", "avr", "pty"} or stem in SLOW_MODULES:
             names.add("slow")
         for name in sorted(names):
             item.add_marker(getattr(pytest.mark, name))
