@@ -24,6 +24,7 @@ the Python core's. See docs/toolchain.md, "ATmega328P".
 from __future__ import annotations
 
 import hashlib
+import os
 import math
 import re
 import shutil
@@ -62,7 +63,7 @@ def simulator(cache: Path | None = None) -> Path:
         raise SimError("simavr's library is not installed (libsimavr-dev, libelf-dev); run "
                        "scripts/install-toolchain.sh (as root) to install it")
     base.mkdir(parents=True, exist_ok=True)
-    tmp = exe.with_name(exe.name + f".{id(src)}.tmp")
+    tmp = exe.with_name(f"{exe.name}.{os.getpid()}.tmp")
     proc = subprocess.run(["gcc", "-O2", "-std=gnu11", "-Wall", "-Wextra", "-Werror", "-o",
                            str(tmp), str(SOURCE), "-lsimavr", "-lelf"],
                           capture_output=True, text=True, timeout=120)

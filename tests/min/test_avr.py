@@ -26,6 +26,7 @@ from esair_min.errors import ConfigError
 from esair_min.model.validate import load_robot
 from esair_min.pic.build import build_robot, summary_lines
 from esair_min.pic.gpsim_bench import frame_slips
+from tests.support.boundary_cases import OK, READY, RX_RING, STAND, all_cases, burst, events, ring_case
 
 pytestmark = pytest.mark.avr
 
@@ -297,3 +298,29 @@ def test_servo_pulses_under_load_within_one_percent(avr_robot, dance_run):
     assert abs(worst.error) <= PULSE_ERROR, worst
     assert {c.pulse.servo for c in checks} == set(range(12))
     assert len({c.angle for c in checks}) > 10          # the positions did move
+
+
+BOUNDARY = {c.name: c for c in all_cases()}
+
+
+@pytest.mark.parametrize("name", ["motor limits", "angles limits", "argument ranges",
+                                  "40-character line", "ring 64", "ring 65"])
+def test_boundary_cases_on_avr(fast_avr, tmp_path, name):
+    """tests/support/boundary_cases.py on the AVR (at 250000 baud): the absolute events
+    written from the YAML and docs/protocol.md, and the Python core's for the whole run.
+    The scripts end with 60 ticks (a motion started at the end plays out), and in the
+    ring cases the line end after the tick comes a tick later: on the line-rate board
+    it would otherwise arrive while the tick's write still holds the full ring."""
+    robot, elf = fast_avr
+    if name.startswith("ring"):
+        extra = int(name.split()[1]) - RX_RING
+        case = ring_case(extra)
+        expected = [READY, burst(STAND), OK] + [OK] * (RX_RING // 2) + [E12.decode()[:-2]] * extra
+        text = case.text.replace("tick\nrx \\r", "tick 2\nrx \\r")
+    else:
+        case = BOUNDARY[name]
+        expected, text = case.expected, case.text
+    stimulus = text + "tick 60\n"
+    got = events(run_stimulus(robot, stimulus, elf, tmp_path).trace())
+    assert got[:len(expected)] == expected
+    assert got == events(run_script(robot, stimulus))
