@@ -36,7 +36,8 @@ def robot_summary(robot: Robot) -> list[str]:
         poll = f" + sensor poll {load.poll}" if load.poll else ""
         lines.append(f"  bus per frame: write {load.write} + next frame read {load.read}"
                      f"{poll} bit times = {wire * 1e3:.2f} ms, {wire / t2.period_s:.0%} of a "
-                     f"tick on the wire (the PIC master needs {FIRMWARE_BUS_OVERHEAD}x that)")
+                     f"tick on the wire (the {'PIC' if c.spec.family == 'pic18' else 'AVR'} master "
+                     f"needs {FIRMWARE_BUS_OVERHEAD}x that)")
     return lines
 
 

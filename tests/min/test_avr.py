@@ -324,3 +324,25 @@ def test_boundary_cases_on_avr(fast_avr, tmp_path, name):
     got = events(run_stimulus(robot, stimulus, elf, tmp_path).trace())
     assert got[:len(expected)] == expected
     assert got == events(run_script(robot, stimulus))
+
+
+def test_the_emulator_runs_papaman_avr_at_the_avrs_bus_time(avr_robot):
+    """The emulator takes an atmega328p central board: its tick is Timer1's, and a frame
+    write costs what it costs the AVR's master (2.413 ms in simavr; 2.535 on the PIC)."""
+    from esair_min.core.trace import TraceWriter
+    from esair_min.emulator.robot import Emulator
+
+    tw = TraceWriter()
+    emu = Emulator(avr_robot, trace=tw)
+    emu.settle()
+    assert emu.read() == b"!READY esair-min/1 image=ok\r\n"
+    assert emu.tick_s == avr_robot.central.timer2.period_s == 17971 * 8 / 16e6
+    assert emu.command("s") == ["OK 512,512,512,512,512,512"]
+    emu.command("t")
+    lines = tw.lines
+    i = next(k for k, ln in enumerate(lines) if ln.startswith("W 10"))
+    j = next(k for k in range(i, len(lines)) if lines[k] == "TX 4F4B0D0A")
+
+    def mark_before(k: int) -> int:
+        return int(next(lines[m] for m in range(k, 0, -1) if lines[m].startswith("@ "))[2:])
+    assert mark_before(j) - mark_before(i) == 2413
