@@ -8,7 +8,8 @@ linker sizes): two runs print the same numbers.
 2. The central board's interrupts on the AVR in simavr (tests/fixtures/gpsim/papaman.txt):
    cycles from vectoring to RETI per vector, and the receive ISR's cycles per byte as a
    share of the byte time at 9600 and 115200 baud (the USART holds 3 bytes: an ISR may
-   be late by up to two byte times before one is lost).
+   be late by up to two byte times before one is lost); and the decoder's drain loop per
+   received byte (60 bytes waiting in the ring, drained back to back).
 3. Servo pulses on the AVR actuator while all three boards dance in lockstep: error of
    every pulse against the position its writes and sync edges command (goal 1 %).
 4. Bus time per transfer kind: the emulator (wire + the master's overhead,
@@ -27,7 +28,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from esair_min.avr.harness import run_robot, run_stimulus  # noqa: E402
+from esair_min.avr.harness import run_robot, run_stimulus, symbol  # noqa: E402
 from esair_min.avr.servo import checked_pulses  # noqa: E402
 from esair_min.emulator.i2c import transfer_ns  # noqa: E402
 from esair_min.model import mcu  # noqa: E402
@@ -114,6 +115,25 @@ def main(argv: list[str]) -> int:
         print(f"  at {baud} baud a byte is {byte:.0f} cycles: RX ISR worst {max(rx)} = "
               f"{max(rx) / byte:.3f} of it; the worst ISR of any kind {worst_any} = "
               f"{worst_any / byte:.3f} (a byte is lost only past 2 byte times)")
+
+    # the decoder: a held t, then 60 ordinary bytes that wait in the ring (at 250000 baud,
+    # exact at 16 MHz) and are drained back to back when the tick releases the hold: the
+    # cycles between successive entries of hal_uart_rx are the drain loop's per byte
+    fast = work / "fast" / "papaman-avr"
+    fast.mkdir(parents=True)
+    for path in (ROOT / "boards" / "papaman-avr").glob("*.yaml"):
+        (fast / path.name).write_text(path.read_text().replace("baud: 9600", "baud: 250000"))
+    fast_robot = load_robot(fast)
+    fast_builds = {b.role: b for b in build_robot(fast_robot, work / "fastfw")}
+    fast_elf = fast_builds["central"].folder / "firmware.elf"
+    drun = run_stimulus(fast_robot, "boot\nrx t\\r" + "0123456789" * 6 + "\\r\ntick 3\n", fast_elf,
+                        work / "decoder", watch=(symbol(fast_elf, "hal_uart_rx"),))
+    release = next(t for t in drun.transfers if t.segments[0].address == 0x10).stop
+    hits = [cyc for cyc, _ in drun.hits if cyc > release][:60]
+    per_byte = [b - a for a, b in zip(hits, hits[1:], strict=False)]
+    print(f"  decoder drain loop per ordinary byte (59 back to back): mean "
+          f"{statistics.fmean(per_byte):.1f}, worst {max(per_byte)} cycles (the PIC: 36 "
+          f"instruction cycles = 144 clock cycles); budget at 115200 baud {10 * 16e6 / 115200:.0f}")
 
     dance = run_robot(avr_robot, DANCE, elfs, work / "dance")
     checks, skipped = checked_pulses(dance, avr_robot, c.mcu.clock_hz)

@@ -145,6 +145,7 @@ class AvrRun:
     pins: dict[int, list[tuple[int, str, int]]] = field(default_factory=dict)  # node -> edges
     min_sps: dict[int, int] = field(default_factory=dict)
     isrs: dict[int, list[tuple[int, int]]] = field(default_factory=dict)   # (cycle, vector|0)
+    hits: list[tuple[int, int]] = field(default_factory=list)   # (cycle, address) watched
 
     def isr_spans(self, node: int = 0) -> dict[int, list[int]]:
         """Cycles from each interrupt's vectoring to its RETI, by vector number."""
@@ -288,6 +289,7 @@ def parse_events(out: str, scl_cycles: int) -> AvrRun:
     tx, rx, sync, lost, transfers = [], [], [], [], []
     pins: dict[int, list[tuple[int, str, int]]] = {}
     isrs: dict[int, list[tuple[int, int]]] = {}
+    hits: list[tuple[int, int]] = []
     sps: dict[int, int] = {}
     cur: I2cTransfer | None = None
     end = 0
@@ -310,6 +312,8 @@ def parse_events(out: str, scl_cycles: int) -> AvrRun:
             pins.setdefault(node, []).append((cycle, name, level))
         elif kind == "lost":
             lost.append(int(w[1]))
+        elif kind == "pc":
+            hits.append((int(w[2]), int(w[3])))
         elif kind == "isr":
             isrs.setdefault(int(w[1]), []).append((int(w[2]), int(w[3])))
         elif kind == "sp":
@@ -339,7 +343,7 @@ def parse_events(out: str, scl_cycles: int) -> AvrRun:
     if transfers and transfers[-1].stop is None:
         transfers.pop()               # cut by the end of the run
     return AvrRun(tx=tx, transfers=transfers, sync_edges=sync, end_cycle=end, rx=rx,
-                  lost=lost, min_sp=sps.get(0, 0), pins=pins, min_sps=sps, isrs=isrs)
+                  lost=lost, min_sp=sps.get(0, 0), pins=pins, min_sps=sps, isrs=isrs, hits=hits)
 
 
 def run_commands(elf: Path, commands: list[str], pins: str, timeout: float = 300.0,
@@ -398,13 +402,16 @@ def compare(python_trace: list[str], avr_trace: list[str], setup: AvrSetup,
 
 
 def run_stimulus(robot: Robot, stimulus: str, elf: Path, workdir: Path,
-                 lead: float = BOOT_LEAD, isrs: bool = False) -> AvrRun:
+                 lead: float = BOOT_LEAD, isrs: bool = False,
+                 watch: tuple[int, ...] = ()) -> AvrRun:
     """Run ``stimulus`` on the central firmware ``elf`` (firmware.elf); ``isrs``: record
-    every interrupt's entry and RETI (AvrRun.isr_spans)."""
+    every interrupt's entry and RETI (AvrRun.isr_spans); ``watch``: byte addresses
+    whose every execution is recorded (AvrRun.hits)."""
     end = boot_end(robot, elf, workdir, lead)
     cmds, setup = build_commands(robot, stimulus, _image(robot, workdir), end)
     if isrs:
         cmds.insert(0, "isrs 0")
+    cmds[:0] = [f"watch 0 {a}" for a in watch]
     return parse_events(run_commands(elf, cmds, setup.sync_pin), setup.scl_cycles)
 
 
@@ -450,3 +457,13 @@ def pulses(run: AvrRun, robot: Robot, clock_hz: int, node: int = 1) -> list[Puls
             rise = up.pop(name)
             out.append(Pulse(index[name], rise, (cycle - rise) * 1e6 / clock_hz))
     return out
+
+
+def symbol(elf: Path, name: str) -> int:
+    """The byte address of function ``name`` in ``elf`` (avr-nm)."""
+    out = subprocess.run(["avr-nm", str(elf)], capture_output=True, text=True, timeout=30).stdout
+    for line in out.splitlines():
+        w = line.split()
+        if len(w) == 3 and w[2] == name:
+            return int(w[0], 16)
+    raise SimError(f"no symbol {name} in {elf}")

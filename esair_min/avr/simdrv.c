@@ -25,11 +25,13 @@
  *   wire N PIN M PIN               node N's output pin drives node M's input pin
  *   adc N CH VALUE                 node N's ADC channel CH reads VALUE (0..1023)
  *   isrs N                         report node N's interrupt entries and RETIs
+ *   watch N ADDR                   report each time node N's PC reaches byte address ADDR
  *   rx CYCLE BYTE                  a byte to node 0's USART whose stop bit ends at CYCLE
  *   run CYCLE                      run every node to CYCLE, then print "at CYCLE"
  *   quit
  * Events (stdout): "tx C B", "rd C B", "lost C" (node 0's USART), "pin N C NAME LEVEL",
- * "i2c C start|restart|stop", "i2c C byte B ACK", "isr N C VECTOR|0", "sp N C MINSP", "at C",
+ * "i2c C start|restart|stop", "i2c C byte B ACK", "isr N C VECTOR|0", "pc N C ADDR", "sp N C MINSP",
+ * "at C",
  * "crash N C STATE".
  */
 #include <stdio.h>
@@ -79,6 +81,9 @@ typedef struct {
 
 static node_t nodes[MAXNODE];
 static int nnodes;
+static int watch_node = -1;              /* "watch N ADDR": report node N reaching ADDR */
+static uint32_t watch_pc[8];
+static int nwatch;
 
 static unsigned long long now(const node_t *n)
 {
@@ -525,6 +530,13 @@ static int run_to(unsigned long long to)
             twi_step();
         }
         int st = avr_run(n->avr);
+        if (n->index == watch_node) {
+            for (int w = 0; w < nwatch; w++) {
+                if (n->avr->pc == watch_pc[w]) {
+                    printf("pc %d %llu %u\n", n->index, now(n), (unsigned)watch_pc[w]);
+                }
+            }
+        }
         if (st == cpu_Done || st == cpu_Crashed) {
             printf("crash %d %llu %d\n", n->index, now(n), st);
             return -1;
@@ -604,6 +616,11 @@ int main(void)
             avr_irq_register_notify(pin_irq(nodes[a].avr, pa), on_wire, &wires[nwires]);
             avr_raise_irq(wires[nwires].to, 1);         /* idle high until driven */
             nwires++;
+        } else if (strcmp(cmd, "watch") == 0) {
+            unsigned addr;
+            if (sscanf(line, "%*s %d %i", &watch_node, &addr) == 2 && nwatch < 8) {
+                watch_pc[nwatch++] = addr;
+            }
         } else if (strcmp(cmd, "isrs") == 0) {
             int n;
             sscanf(line, "%*s %d", &n);
