@@ -14,13 +14,13 @@ from esair_min import __version__
 from esair_min.components import motion, pressure_sensor, servo
 from esair_min.core import protocol as P
 from esair_min.errors import GenerateError
-from esair_min.model.hardware import ADC_PINS
+from esair_min.model.hardware import ADC_PINS, BaudSetting, I2cSetting, Timer2Setting
 from esair_min.core.image import build_image
 from esair_min.components.motion.layout import HEADER_BYTES
 from esair_min.model.board import Board
 from esair_min.model.robot import Robot
 
-from . import filters, timing
+from . import filters, ports, timing
 
 Context = dict[str, Any]
 
@@ -51,6 +51,7 @@ def common_context(robot: Robot, board: Board) -> Context:
         "oscillator": timing.oscillator(board.mcu.clock_hz),
         "sync_pin": _pin(board.sync.pin) if board.sync else None,
         "pic_stack": PIC_STACK,
+        **ports.mcu_context(board),
     }
 
 
@@ -78,6 +79,8 @@ def central_context(robot: Robot) -> Context:
     motions = _motion_context(robot)
     reactions = _reaction_context(robot)
     texts = _texts(*_fixed_texts(robot), reactions["reactions"])
+    if board.spec.family == "avr":
+        ctx["avr"] = ports.central_avr(board)
     ctx.update({
         "servos": servo.limit_rows(servos),
         "n_servos": len(servos),
@@ -193,14 +196,18 @@ def _clock_context(board: Board) -> Context:
         raise GenerateError(f"central board '{board.board}' needs tick:, uart: and an "
                             f"I2C master")
     uart = board.uart
+    rings = {"rx_ring": P.RX_RING, "tx_ring": P.TX_RING}
+    if board.spec.family != "pic18":
+        return rings                     # the PIC18F452's register values only on that part
+    assert (isinstance(t2, Timer2Setting) and isinstance(baud, BaudSetting)
+            and isinstance(i2c, I2cSetting))
     return {
+        **rings,
         "timer2": {"t2con": t2.t2con, "pr2": t2.pr2, "prescale": t2.prescale,
                    "postscale": t2.postscale, "period_us": round(t2.period_s * 1e6, 1)},
         "baud": {"spbrg": baud.spbrg, "brgh": baud.brgh, "rate": uart.baud if uart else 0,
                  "error_percent": round(baud.error_percent, 2)},
         "i2c": {"sspadd": i2c.sspadd, "speed_hz": board.i2c.speed_hz},
-        "rx_ring": P.RX_RING,
-        "tx_ring": P.TX_RING,
     }
 
 
@@ -303,10 +310,19 @@ def actuator_context(robot: Robot) -> Context:
     assert board is not None
     ctx = common_context(robot, board)
     sync = ctx["sync_pin"]
-    if sync is None or sync["name"] != "RB0":
-        raise GenerateError(f"actuator board '{board.board}': the sync pin must be RB0 "
+    want = board.spec.sync_input
+    if sync is None or sync["name"] != want:
+        raise GenerateError(f"actuator board '{board.board}': the sync pin must be {want} "
                             f"(INT0), not {sync['name'] if sync else 'missing'}")
-    pwm = timing.pwm_timing(board.mcu.clock_hz)
+    avr_port = ports.actuator_avr(board) if board.spec.family == "avr" else None
+    if avr_port is not None:
+        pwm_ctx: Context = avr_port["pwm"]
+        merge_counts = PWM_MERGE_US * pwm_ctx["num"] // pwm_ctx["den"]
+    else:
+        pwm = timing.pwm_timing(board.mcu.clock_hz)
+        pwm_ctx = {"t1con": pwm.t1con, "prescale": pwm.prescale, "frame": pwm.frame_counts,
+                   "num": pwm.num, "den": pwm.den}
+        merge_counts = pwm.counts(PWM_MERGE_US)
     servos = robot.servos
     ctx.update({
         "servos": [{"name": s.name, "index": s.index, "min": s.min_angle, "max": s.max_angle,
@@ -316,14 +332,15 @@ def actuator_context(robot: Robot) -> Context:
         "n_servos": len(servos),
         "registers": 2 * len(servos),
         "address": _slave_address(board),
-        "pwm": {"t1con": pwm.t1con, "prescale": pwm.prescale, "frame": pwm.frame_counts,
-                "num": pwm.num, "den": pwm.den},
+        "pwm": pwm_ctx,
         "pwm_ports": [{"port": port, "mask": sum(_pin(s.pin)["mask"] for s in servos
                                                  if _pin(s.pin)["port"] == port)}
                       for port in sorted({_pin(s.pin)["port"] for s in servos})],
-        "pwm_merge_counts": pwm.counts(PWM_MERGE_US),
+        "pwm_merge_counts": merge_counts,
         "initial_regs": servo.initial_registers(servos),
     })
+    if avr_port is not None:
+        ctx["avr"] = avr_port
     return ctx
 
 
@@ -331,8 +348,15 @@ def sensor_context(robot: Robot) -> Context:
     board = robot.sensor_board
     assert board is not None
     ctx = common_context(robot, board)
-    adc = timing.adc_clock(board.mcu.clock_hz)
     sensors = robot.sensors
+    if board.spec.family == "avr":
+        ctx["avr"] = ports.sensor_avr(board)
+        ctx.update({"sensors": [{"name": s.name, "channel": s.channel, "group": s.group,
+                                 "pin": board.spec.adc_pins[s.channel]} for s in sensors],
+                    "n_sensors": len(sensors), "registers": 2 * len(sensors),
+                    "address": _slave_address(board)})
+        return ctx
+    adc = timing.adc_clock(board.mcu.clock_hz)
     ctx.update({
         "sensors": [{"name": s.name, "channel": s.channel, "group": s.group,
                      "pin": ADC_PINS[s.channel]} for s in sensors],

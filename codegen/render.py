@@ -17,6 +17,7 @@ from esair_min.resources import templates_dir
 
 from .filters import FILTERS
 from .context import Context
+from .ports import wanted_template
 
 
 @lru_cache(maxsize=4)
@@ -46,7 +47,10 @@ def render_board(role: str, ctx: Context, root: Path | None = None) -> dict[str,
     root = root or templates_dir()
     env = environment(str(root))
     out: dict[str, str] = {}
+    part = ctx.get("part", "")
     for name in template_names(role, root):
+        if not wanted_template(name, role, part):
+            continue
         rel = name[len(role) + 1:-len(".j2")]
         try:
             text = env.get_template(name).render(**ctx, out_path=rel)

@@ -35,11 +35,19 @@ WATCH_IDLE = 1.0      # the watchdog's longest sleep (a component added meanwhil
 WAIT_RECHECK = 0.1    # wait_state: how often a state no event announces (busy) is looked at
 
 
+def _load(deployment: Any) -> Any:
+    """A Deployment from a path, a dict or an already loaded Deployment."""
+    if isinstance(deployment, (str, Path, dict)):
+        from .deploy import load_deployment
+        return load_deployment(deployment)
+    return deployment
+
+
 class Runtime:
     def __init__(self, deployment: str | Path | dict | Any, mode: str | None = None,
                  endpoint: str | None = None, control: bool | None = None,
                  join: list[str] | None = None):
-        self.deployment = specmod.load(deployment)
+        self.deployment = _load(deployment)
         self.join = list(join or [])     # other robots' control endpoints (remote/robots.py)
         self.robot = self.deployment.robot
         self.mode_name = mode or getattr(self.deployment, "mode", None) or "thread"

@@ -7,7 +7,6 @@ Keeping it here means the runtime reads the deployment model in one place only.
 from __future__ import annotations
 
 import os
-from pathlib import Path
 from typing import Any
 
 from .level import Level
@@ -157,11 +156,3 @@ def specs_of(deployment: Any) -> tuple[list[Spec], list[Spec], list[Spec]]:
                         resources=tuple(getattr(e, "resources", ()) or ()),
                         enabled=bool(getattr(e, "enabled", True)), where=_where(e)))
     return res, beh, rea
-
-
-def load(deployment: Any) -> Any:
-    """A Deployment from a path, a dict or an already loaded Deployment."""
-    if isinstance(deployment, (str, Path, dict)):
-        from .deploy import load_deployment
-        return load_deployment(deployment)
-    return deployment

@@ -3,6 +3,8 @@
 #
 #   * Debian packages: gputils, gpsim, tmux (the live view's tests) (+ build deps when SDCC has to be built);
 #     iproute2 for the STD network-namespace tests (tests/netns.py, issue 12)
+#   * the ATmega328P toolchain (issue 24), pinned to bookworm's versions: gcc-avr, binutils-avr,
+#     avr-libc, and simavr's library (libsimavr-dev, libelf-dev) for esair_min/avr's simulator driver
 #   * SDCC 4.2.0+dfsg built from Debian's *source* package, pic16 port only
 #   * device support generated from gputils' p18f452.inc:
 #       $PREFIX/include/esair/p18f452_regs.h   (register declarations)
@@ -21,6 +23,8 @@ JOBS="${ESAIR_JOBS:-$(nproc)}"
 SCRIPT_DIR="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 SDCC_UPSTREAM="4.2.0+dfsg"
 RUNTIME_PKGS="gputils gpsim iproute2 tmux"
+# ATmega328P (docs/toolchain.md, "ATmega328P"): exact versions, so every machine builds the same bytes
+AVR_PKGS="gcc-avr=1:5.4.0+Atmel3.6.2-3 binutils-avr=2.26.20160125+Atmel3.6.2-4 avr-libc=1:2.0.0+Atmel3.6.2-3 libsimavr-dev=1.6+dfsg-3 libsimavr2=1.6+dfsg-3 libelf-dev"
 BUILD_PKGS="bison flex libboost-dev zlib1g-dev make g++ gcc dpkg-dev"
 DISABLED_PORTS="mcs51 z80 z180 r2k r2ka r3ka sm83 tlcs90 ez80_z80 z80n ds390 ds400 pic14 hc08 s08 stm8 pdk13 pdk14 pdk15 mos6502"
 
@@ -133,6 +137,22 @@ apt_install $RUNTIME_PKGS python3
 # the HMI's browser tests (tests/hmi): Playwright drives Debian's chromium headless
 # (`playwright install` downloads a browser of its own, which cannot work offline)
 apt_install chromium
+avr_install() {      # the pinned AVR packages (apt_install checks names, not versions)
+    local want="" spec name ver have
+    for spec in $AVR_PKGS; do
+        name="${spec%%=*}"; ver="${spec#*=}"
+        have="$(dpkg-query -W -f='${db:Status-Status} ${Version}' "$name" 2>/dev/null || true)"
+        if [ "$name" = "$ver" ]; then [ "${have%% *}" = installed ] || want="$want $spec"
+        elif [ "$have" != "installed $ver" ]; then want="$want $spec"; fi
+    done
+    [ -n "$want" ] || return 0
+    say "installing AVR packages:$want"
+    if [ "$APT_UPDATED" = 0 ]; then as_root apt-get update || die "apt-get update failed"; APT_UPDATED=1; fi
+    # shellcheck disable=SC2086
+    as_root apt-get install -y --no-install-recommends $want || die "apt-get install$want failed"
+}
+avr_install
+command -v avr-gcc >/dev/null && [ -f /usr/include/simavr/sim_avr.h ] || die "avr-gcc or simavr's headers missing"
 [ -f /usr/share/gputils/header/p18f452.inc ] || die "gputils' p18f452.inc not found"
 
 if [ "${ESAIR_FORCE_BUILD:-0}" != 1 ] && sdcc_works; then

@@ -99,6 +99,7 @@ _BY_MODULE = {
             "test_std_papaman_c", "test_std_papaman_cli", "test_gpsim_uart",
             "test_starfish_pty", "test_pty_promise", "test_minlink_safety",
             "test_std_papaman_safety"},
+    "avr": {"test_avr"},
 }
 _BY_FIXTURE = {"pic_firmware": "gpsim"}
 #: modules of many subprocesses, C builds or long hypothesis runs (--durations: the
@@ -118,7 +119,7 @@ def pytest_collection_modifyitems(config, items):
         stem = item.path.stem
         names |= {mark for mark, mods in _BY_MODULE.items() if stem in mods}
         names |= {mark for fix, mark in _BY_FIXTURE.items() if fix in item.fixturenames}
-        if names & {"net", "browser", "gpsim", "pty"} or stem in SLOW_MODULES:
+        if names & {"net", "browser", "gpsim", "avr", "pty"} or stem in SLOW_MODULES:
             names.add("slow")
         for name in sorted(names):
             item.add_marker(getattr(pytest.mark, name))

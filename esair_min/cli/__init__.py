@@ -257,12 +257,13 @@ def generate(robot: str, output: str) -> None:
                    "yet (their Python cores run in the emulator)")
 
 
-@main.command(short_help="Generate and build every board for the PIC18F452; print sizes.")
+@main.command(short_help="Generate and build every board for its MCU; print sizes.")
 @ROBOT
 @OUTPUT_DIR
 @friendly
 def build(robot: str, output: str) -> None:
-    """Generate every board's firmware, build it for the PIC18F452 and print its footprint."""
+    """Generate every board's firmware, build it for its MCU (PIC18F452: SDCC; ATmega328P:
+    avr-gcc) and print its footprint; a warning fails the build."""
     from pathlib import Path
 
     from esair_min.pic.build import build_robot, summary_lines

@@ -23,7 +23,7 @@ from typing import Callable, Protocol
 from esair_min.model.hardware import BYTE, RESTART, START, STOP, nack_bits, write_bits, write_read_bits
 from esair_min.emulator.clock import NS_PER_S
 
-__all__ = ["BYTE", "RESTART", "START", "STOP", "Bus", "BusStats", "TimedBus", "bits_ns",
+__all__ = ["BYTE", "RESTART", "START", "STOP", "Bus", "BusStats", "TimedBus", "bits_ns", "transfer_ns",
            "nack_bits", "write_bits", "write_read_bits"]
 
 
@@ -34,6 +34,14 @@ class Bus(Protocol):
 
 def bits_ns(bits: int, speed_hz: int) -> int:
     return int(round(bits * NS_PER_S / speed_hz))
+
+
+def transfer_ns(speed_hz: int, n_write: int, n_read: int | None,
+                overhead_ns: Callable[[int, int | None], int] | None = None) -> int:
+    """What the emulator charges for an acknowledged transfer: its wire bits at
+    ``speed_hz`` plus the master's overhead (esair_min.model.mcu.bus_overhead_ns)."""
+    bits = write_bits(n_write) if n_read is None else write_read_bits(n_write, n_read)
+    return bits_ns(bits, speed_hz) + (overhead_ns(n_write, n_read) if overhead_ns else 0)
 
 
 @dataclass
@@ -48,8 +56,12 @@ class TimedBus:
     """A :class:`Bus` that accounts bus time at ``speed_hz`` against a clock."""
 
     def __init__(self, inner: Bus, speed_hz: int, now: Callable[[], int],
-                 stuck_ns: int = 0):
+                 stuck_ns: int = 0,
+                 overhead_ns: Callable[[int, int | None], int] | None = None):
         self.inner = inner
+        #: the master's cost beyond the wire per transfer (bytes written, read or None):
+        #: esair_min.model.mcu.bus_overhead_ns for the central board's MCU and clock
+        self.overhead_ns = overhead_ns
         self.speed_hz = speed_hz
         self._now = now
         #: SCL held low: no device is reached, every transaction fails after
@@ -59,19 +71,24 @@ class TimedBus:
         self.busy_until = 0
         self.last_start = 0
         self.stats = BusStats()
-        self._ns: dict[int, int] = {}      # bits -> bus time, computed once per size
+        self._ns: dict[object, int] = {}   # transfer shape -> bus time, computed once
         self._nack_bits = nack_bits()
 
-    def _account(self, addr: int, bits: int, ok: bool) -> None:
+    def _account(self, addr: int, bits: int, ok: bool, n_write: int = 0,
+                 n_read: int | None = None) -> None:
         now = self._now()
         start = self.busy_until if self.busy_until > now else now
         self.last_start = start
         if self.stuck:
             ns = self.stuck_ns
         else:
-            ns = self._ns.get(bits)
+            key = (bits, n_write, n_read) if ok else bits
+            ns = self._ns.get(key)
             if ns is None:
-                ns = self._ns[bits] = bits_ns(bits, self.speed_hz)
+                ns = bits_ns(bits, self.speed_hz)
+                if ok and self.overhead_ns is not None:
+                    ns += self.overhead_ns(n_write, n_read)
+                self._ns[key] = ns
         self.busy_until = start + ns
         st = self.stats
         st.transactions += 1
@@ -94,11 +111,12 @@ class TimedBus:
 
     def write(self, addr: int, data: bytes) -> bool:
         ok = not self.stuck and self.inner.write(addr, data)
-        self._account(addr, write_bits(len(data)) if ok else self._nack_bits, ok)
+        self._account(addr, write_bits(len(data)) if ok else self._nack_bits, ok, len(data))
         return ok
 
     def write_read(self, addr: int, wdata: bytes, n: int) -> bytes | None:
         got = None if self.stuck else self.inner.write_read(addr, wdata, n)
         ok = got is not None
-        self._account(addr, write_read_bits(len(wdata), n) if ok else self._nack_bits, ok)
+        self._account(addr, write_read_bits(len(wdata), n) if ok else self._nack_bits, ok,
+                      len(wdata), n)
         return got

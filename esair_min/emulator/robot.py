@@ -40,6 +40,7 @@ from esair_min.emulator.actuator import ActuatorBoard, stand_registers
 from esair_min.emulator.clock import NS_PER_S, VirtualClock, seconds_to_ns
 from esair_min.emulator.faults import Faults, corrupt
 from esair_min.emulator.i2c import TimedBus
+from esair_min.model.mcu import bus_overhead_ns, cycles_per_second
 from esair_min.emulator.scenario import Scenario, load_scenario, quiet, resolve_scenario
 from esair_min.emulator.transcript import Transcript
 from esair_min.emulator.uart import GAP, RX_BYTE, RX_HOLD, RX_TAKE, Uart
@@ -151,8 +152,10 @@ class Emulator:
         self.devices = SimpleBus(devices)
 
         stuck_cycles = hardware.I2C_TIMEOUT_CYCLES + hardware.I2C_BUS_CLEAR_CYCLES
+        part, clock_hz = central.mcu.part, central.mcu.clock_hz
         self.bus = TimedBus(self.devices, central.i2c.speed_hz, lambda: self.clock.now,
-                            stuck_ns=stuck_cycles * 4 * NS_PER_S // central.mcu.clock_hz)
+                            stuck_ns=stuck_cycles * NS_PER_S // cycles_per_second(part, clock_hz),
+                            overhead_ns=lambda nw, nr: bus_overhead_ns(part, clock_hz, nw, nr))
         self.bus.stuck = faults.bus_stuck
         self.trace = trace
         self._last_mark = -1

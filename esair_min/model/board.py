@@ -19,14 +19,16 @@ from esair_min.components import COMPONENTS
 from esair_min.components.motion import MAX_FRAMES, MAX_MOTIONS, Frame, Motion  # noqa: F401
 from esair_min.components.pressure_sensor import MAX_SENSORS, Sensor  # noqa: F401
 from esair_min.components.servo import MAX_SERVOS, Servo  # noqa: F401
-from esair_min.model import hardware
+from esair_min.model import avr, hardware, mcu
+from esair_min.model.mcu import McuSpec
 from esair_min.model.types import (Angle, I2cAddress, Name, Number, Pin,  # noqa: F401
                                    Section, Speed)
 
 class Mcu(Section):
     """The microcontroller and its oscillator."""
 
-    part: Literal["pic18f452"] = Field("pic18f452", description="MCU part (PIC18F452 class)")
+    part: Literal["pic18f452", "atmega328p"] = Field(
+        "pic18f452", description="MCU part: pic18f452 or atmega328p (esair_min.model.mcu)")
     clock_hz: Annotated[StrictInt, Field(ge=1_000_000, le=40_000_000)] = Field(
         20_000_000, description="oscillator frequency Fosc in Hz")
 
@@ -158,22 +160,29 @@ class BoardCore(Section):
 
     # Values computed from the datasheet formulas (validated to be in range).
     @property
-    def timer2(self) -> hardware.Timer2Setting | None:
+    def spec(self) -> McuSpec:
+        """What this board's MCU has (esair_min.model.mcu)."""
+        return mcu.spec(self.mcu.part)
+
+    @property
+    def timer2(self) -> hardware.Timer2Setting | avr.Timer1Tick | None:
+        """The tick timer's setting (Timer2 on the PIC, Timer1 CTC on the AVR): both
+        have ``period_s``, ``period_ms`` and ``describe(clock_hz)``."""
         if self.tick is None:
             return None
-        return hardware.best_timer2(self.mcu.clock_hz, self.tick.period_ms / 1e3)
+        return mcu.tick_setting(self.mcu.part, self.mcu.clock_hz, self.tick.period_ms / 1e3)
 
     @property
-    def baud(self) -> hardware.BaudSetting | None:
+    def baud(self) -> hardware.BaudSetting | avr.UsartBaud | None:
         if self.uart is None:
             return None
-        return hardware.best_baud(self.mcu.clock_hz, self.uart.baud)
+        return mcu.baud_setting(self.mcu.part, self.mcu.clock_hz, self.uart.baud)
 
     @property
-    def i2c_setting(self) -> hardware.I2cSetting | None:
+    def i2c_setting(self) -> hardware.I2cSetting | avr.TwiRate | None:
         if self.i2c.mode != "master":
             return None
-        return hardware.i2c_master_setting(self.mcu.clock_hz, self.i2c.speed_hz)
+        return mcu.i2c_master_setting(self.mcu.part, self.mcu.clock_hz, self.i2c.speed_hz)
 
     @property
     def register_count(self) -> int:

@@ -36,6 +36,12 @@ class Timer2Setting:
         """Instruction cycles per tick."""
         return self.prescale * (self.pr2 + 1) * self.postscale
 
+    def fields(self) -> str:
+        return f"prescale {self.prescale}, PR2 {self.pr2}, postscale {self.postscale}"
+
+    def describe(self, clock_hz: int) -> str:
+        return f"Timer2 {self.fields()} at {clock_hz} Hz"
+
 
 def timer2_period_s(clock_hz: int, prescale: int, pr2: int, postscale: int) -> float:
     """Period of the Timer2 interrupt: 4/Fosc * prescale * (PR2+1) * postscale."""
@@ -74,6 +80,9 @@ class BaudSetting:
     def error_percent(self) -> float:
         return self.error * 100.0
 
+    def describe(self) -> str:
+        return f"SPBRG {self.spbrg} with BRGH={self.brgh}"
+
 
 def baud_rate(clock_hz: int, brgh: int, spbrg: int) -> float:
     """Asynchronous USART rate: Fosc / (16 (BRGH=1) or 64 (BRGH=0) * (SPBRG + 1))."""
@@ -98,6 +107,9 @@ def best_baud(clock_hz: int, baud: int) -> BaudSetting:
 class I2cSetting:
     sspadd: int
     actual_hz: float
+
+    def describe(self) -> str:
+        return f"SSPADD {self.sspadd}"
 
 
 def i2c_master_setting(clock_hz: int, speed_hz: int) -> I2cSetting | None:

@@ -23,22 +23,22 @@ def robot_summary(robot: Robot) -> list[str]:
                      f"({100.0 * used / eeprom.size_bytes:.1f} %)")
     t2 = c.timer2
     if t2 is not None:
-        lines.append(f"  tick: {t2.period_ms:.4f} ms (Timer2 prescale {t2.prescale}, "
-                     f"PR2 {t2.pr2}, postscale {t2.postscale} at {c.mcu.clock_hz} Hz)")
+        lines.append(f"  tick: {t2.period_ms:.4f} ms ({t2.describe(c.mcu.clock_hz)})")
     baud = c.baud
     if baud is not None and c.uart is not None:
-        lines.append(f"  UART: {c.uart.baud} baud, SPBRG {baud.spbrg} BRGH={baud.brgh}, "
+        lines.append(f"  UART: {c.uart.baud} baud, {baud.describe().replace(' with ', ' ')}, "
                      f"error {baud.error_percent:+.2f} %")
     i2c = c.i2c_setting
     if i2c is not None:
-        lines.append(f"  I2C: {c.i2c.speed_hz} Hz, SSPADD {i2c.sspadd}")
+        lines.append(f"  I2C: {c.i2c.speed_hz} Hz, {i2c.describe()}")
     load = robot.frame_bus_load
     if load is not None and t2 is not None and c.i2c is not None:
         wire = load.seconds(c.i2c.speed_hz)
         poll = f" + sensor poll {load.poll}" if load.poll else ""
         lines.append(f"  bus per frame: write {load.write} + next frame read {load.read}"
                      f"{poll} bit times = {wire * 1e3:.2f} ms, {wire / t2.period_s:.0%} of a "
-                     f"tick on the wire (the PIC master needs {FIRMWARE_BUS_OVERHEAD}x that)")
+                     f"tick on the wire (the {'PIC' if c.spec.family == 'pic18' else 'AVR'} master "
+                     f"needs {FIRMWARE_BUS_OVERHEAD}x that)")
     for b in robot.boards:
         for kind in COMPONENTS:
             if kind.summary is not None and kind.items(b):

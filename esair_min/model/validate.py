@@ -122,8 +122,10 @@ class _Checker:
             self.fail(b, ("i2c", "address"), "an I2C master has no own 'address'; remove it",
                       key=True)
         if b.i2c_setting is None:
+            limit = ("TWBR must be 10..255" if b.spec.family == "avr"
+                     else "SSPADD must be 1..127")
             self.fail(b, ("i2c", "speed_hz"), f"I2C {i2c.speed_hz} Hz cannot be made at "
-                      f"{b.mcu.clock_hz} Hz (SSPADD must be 1..127); choose another "
+                      f"{b.mcu.clock_hz} Hz ({limit}); choose another "
                       "speed_hz or clock_hz")
         self.unique_devices(b)
 
@@ -152,13 +154,16 @@ class _Checker:
 
     def clock_rules(self, b: Board) -> None:
         clock = b.mcu.clock_hz
+        if clock > b.spec.max_clock_hz:
+            self.fail(b, ("mcu", "clock_hz"), f"the {b.spec.name} runs at most at "
+                      f"{b.spec.max_clock_hz} Hz, not {clock}; use a slower clock_hz")
         if b.uart is not None:
             setting = b.baud
             assert setting is not None
             if abs(setting.error) > BAUD_TOLERANCE:
                 self.fail(b, ("uart", "baud"),
                           f"baud {b.uart.baud} cannot be made at {clock} Hz within 2 %: best "
-                          f"is SPBRG {setting.spbrg} with BRGH={setting.brgh} "
+                          f"is {setting.describe()} "
                           f"({setting.actual:.0f} baud, {setting.error_percent:+.2f} %)")
         if b.tick is not None:
             if not math.isfinite(b.tick.period_ms):
@@ -170,33 +175,47 @@ class _Checker:
             err = (t2.period_ms - want) / want
             if abs(err) > TICK_TOLERANCE:
                 self.fail(b, ("tick", "period_ms"),
-                          f"tick period {want:g} ms cannot be made by Timer2 at {clock} Hz "
-                          f"within 1 %: nearest is {t2.period_ms:.4f} ms (prescale "
-                          f"{t2.prescale}, PR2 {t2.pr2}, postscale {t2.postscale})")
+                          f"tick period {want:g} ms cannot be made by {b.spec.tick_timer} at "
+                          f"{clock} Hz within 1 %: nearest is {t2.period_ms:.4f} ms "
+                          f"({t2.fields()})")
 
     def pin_rules(self, b: Board) -> None:
         used: dict[str, str] = {}
 
         def claim(pin: str, what: str, loc: tuple[Any, ...]) -> None:
-            if pin not in hardware.ALL_PINS:
+            if pin not in b.spec.pins and pin not in b.spec.adc_pins.values():
                 self.fail(b, loc, f"pin {pin} of {what} does not exist on the "
-                          f"{b.mcu.part} (RA0..RA5, RB0..RB7, RC0..RC7, RD0..RD7, RE0..RE2)")
+                          f"{b.mcu.part} ({b.spec.pin_help})")
             if pin in used:
                 self.fail(b, loc, f"pin {pin} is used twice: by {used[pin]} and by {what}; "
                           f"give {what} another pin")
             used[pin] = what
 
+        spec = b.spec
         if b.uart is not None:
-            for pin in hardware.UART_PINS:
+            for pin in spec.uart_pins:
                 claim(pin, "the UART", ("uart",))
-        for pin in hardware.I2C_PINS:
+        for pin in spec.i2c_pins:
             claim(pin, "I2C", ("i2c",))
         if b.sync is not None:
             claim(b.sync.pin, "the sync line", ("sync", "pin"))
+            if b.role == "actuator" and b.sync.pin != spec.sync_input:
+                self.fail(b, ("sync", "pin"), f"the actuator's sync input must be "
+                          f"{spec.sync_input} on the {spec.name} (the pin whose falling "
+                          f"edge sets a flag the firmware polls), not {b.sync.pin}")
         for c in COMPONENTS:
+            if c.section == "sensors":
+                continue                 # a channel's pin depends on the MCU: below
             for i, item in enumerate(c.items(b)):
                 for pin, what, loc in c.pins(item):
                     claim(pin, what, c.item_loc(i) + loc)
+        for i, s in enumerate(b.sensors):
+            if s.channel not in spec.adc_pins:
+                self.fail(b, ("sensors", i, "channel"), f"sensor '{s.name}': the "
+                          f"{spec.name} has no analog channel {s.channel}")
+            claim(spec.adc_pins[s.channel], f"sensor '{s.name}' "
+                  f"({'ADC' if spec.family == 'avr' else 'AN'}{s.channel})",
+                  ("sensors", i, "channel"))
 
     # -- across boards ------------------------------------------------------------
     def robot_rules(self) -> None:

@@ -1,8 +1,10 @@
-"""``esair build``: generate every board's firmware and build it for the PIC18F452.
+"""``esair build``: generate every board's firmware and build it for its MCU.
 
 Each board folder's own Makefile does the build (``make -B pic18f452``, so every file is
 compiled again and every warning is seen); any warning from sdcc, gpasm or gplink is a
 failure. The footprint comes from the gplink map (:func:`esair_min.pic.toolchain.parse_map`).
+A board with ``mcu.part: atmega328p`` is built by :mod:`esair_min.avr.build` instead
+(``make -B atmega328p``, avr-gcc, the same rule on warnings).
 """
 
 from __future__ import annotations
@@ -12,6 +14,10 @@ import subprocess
 from dataclasses import dataclass, replace
 from pathlib import Path
 
+from esair_min.avr.build import FLASH_BYTES as AVR_FLASH
+from esair_min.avr.build import RAM_BYTES as AVR_RAM
+from esair_min.avr.build import AvrBuildError, AvrUsage
+from esair_min.avr.build import build_board as build_avr_board
 from esair_min.errors import EsairError
 from esair_min.model.robot import Robot
 from esair_min.pic.toolchain import MapUsage, Toolchain, ToolchainError, find_toolchain, parse_map
@@ -31,7 +37,16 @@ class BuildError(EsairError):
 class BoardBuild:
     role: str
     folder: Path
-    usage: MapUsage
+    usage: MapUsage | AvrUsage
+    part: str = "pic18f452"
+
+    @property
+    def flash_bytes(self) -> int:
+        return AVR_FLASH if self.part == "atmega328p" else FLASH_BYTES
+
+    @property
+    def ram_bytes(self) -> int:
+        return AVR_RAM if self.part == "atmega328p" else RAM_BYTES
 
     @property
     def hex(self) -> Path:
@@ -93,29 +108,44 @@ def build_robot(robot: Robot, out_dir: Path, tc: Toolchain | None = None) -> lis
     """Generate every board of ``robot`` under ``out_dir`` and build each for the PIC."""
     from esair_min.codegen import generate_robot
 
-    tc = tc or toolchain()
+    parts: dict[str, str] = {b.role: b.mcu.part for b in robot.boards}
+    if tc is None and "pic18f452" in parts.values():
+        tc = toolchain()
     result = generate_robot(robot, Path(out_dir))
     no_port = [role for role in result.boards
-               if not (Path(out_dir) / role / "ports" / "pic18f452").is_dir()]
+               if not (Path(out_dir) / role / "ports" / parts[role]).is_dir()]
     if no_port:
-        raise BuildError(f"robot '{robot.name}': no PIC18F452 port yet for "
-                         f"{', '.join(no_port)} (their C runs on the host: make host in each "
-                         "board's folder; docs/firmware.md, \"STARFISH's boards\")")
+        raise BuildError(f"robot '{robot.name}': no port yet for "
+                         + ", ".join(f"{role} on the {parts[role]}" for role in no_port)
+                         + " (their C runs on the host: make host in each board's folder; "
+                         "docs/firmware.md)")
     builds = []
     for role in result.boards:
         folder = Path(out_dir) / role
-        builds.append(BoardBuild(role, folder, build_board(folder, tc)))
+        if parts[role] == "atmega328p":
+            try:
+                usage: MapUsage | AvrUsage = build_avr_board(folder)
+            except AvrBuildError as exc:
+                raise BuildError(str(exc)) from None
+        else:
+            assert tc is not None
+            usage = build_board(folder, tc)
+        builds.append(BoardBuild(role, folder, usage, parts[role]))
     return builds
 
 
 def summary_lines(builds: list[BoardBuild]) -> list[str]:
     """The footprint table ``esair build`` prints (RAM includes the software stack)."""
-    rows = [("board", "program memory", "RAM (with stack)", "stack")]
+    avr = any(b.part == "atmega328p" for b in builds)
+    rows = [("board", "program memory", "RAM (with stack)", "stack") + (("mcu",) if avr else ())]
     for b in builds:
         u = b.usage
+        flash, ram = b.flash_bytes, b.ram_bytes
         rows.append((b.role,
-                     f"{u.program_bytes} B of {FLASH_BYTES} ({u.program_bytes / FLASH_BYTES:.1%})",
-                     f"{u.data_bytes} B of {RAM_BYTES} ({u.data_bytes / RAM_BYTES:.1%})",
-                     f"{u.stack_bytes} B"))
+                     f"{u.program_bytes} B of {flash} ({u.program_bytes / flash:.1%})",
+                     f"{u.data_bytes} B of {ram} ({u.data_bytes / ram:.1%})"
+                     + (" + stack" if b.part == "atmega328p" else ""),
+                     f"{u.stack_bytes} B" if b.part == "pic18f452" else "-")
+                    + ((b.part,) if avr else ()))
     widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
-    return ["  ".join(c.ljust(w) for c, w in zip(r, widths)).rstrip() for r in rows]
+    return ["  ".join(c.ljust(w) for c, w in zip(r, widths, strict=True)).rstrip() for r in rows]

@@ -40,6 +40,7 @@ from esair_min.core.harness import READING_MAX, TICKS_MAX
 from esair_min.core.script import (BLANK, decimal, hexadecimal, line_text, script_lines,
                                    unescape, words)
 from esair_min.core.image import build_image, write_hex
+from esair_min.model.avr import Timer1Tick
 from esair_min.model.robot import Robot
 from esair_min.pic.toolchain import Toolchain, ToolchainError, run_gpsim
 
@@ -74,6 +75,7 @@ class GpsimSetup:
     def from_robot(cls, robot: Robot) -> GpsimSetup:
         central = robot.central
         timer2 = central.timer2
+        assert not isinstance(timer2, Timer1Tick), "the gpsim harness runs PIC18F452 boards"
         if (central.uart is None or central.sync is None or timer2 is None
                 or robot.eeprom is None):
             raise ToolchainError("the gpsim harness needs a central board with uart, tick, "

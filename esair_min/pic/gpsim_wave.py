@@ -178,3 +178,21 @@ def read_register_log(path: str | Path, names: set[str],
         if w and w.group(2) in names:
             out.append((cycle, w.group(2), int(w.group(1), 16)))
     return out
+
+
+def transfer_kinds(transfers: list[I2cTransfer]) -> dict[tuple[int, int | None], list[int]]:
+    """START..STOP durations (cycles) of the acknowledged transfers, by kind: (bytes
+    written after the address byte, bytes read or None for a plain write)."""
+    kinds: dict[tuple[int, int | None], list[int]] = {}
+    for t in transfers:
+        segs = t.segments
+        if t.stop is None or not segs or not all(s.addr_ack for s in segs):
+            continue
+        if len(segs) == 1 and not segs[0].reading:
+            key: tuple[int, int | None] = (len(segs[0].data), None)
+        elif len(segs) == 2 and not segs[0].reading and segs[1].reading:
+            key = (len(segs[0].data), len(segs[1].data))
+        else:
+            continue
+        kinds.setdefault(key, []).append(t.stop - t.start)
+    return kinds

@@ -31,6 +31,7 @@ from pathlib import Path
 from esair_min.components.omni_base.core import StarfishCore
 from esair_min.core.script import unescape
 from esair_min.errors import ProtocolError
+from esair_min.model.hardware import Timer2Setting
 from esair_min.model.robot import Robot
 from esair_min.pic.gpsim_harness import _gpsim_pin
 from esair_min.pic.gpsim_wave import decode_i2c, read_edges, read_register_log
@@ -57,6 +58,7 @@ class Setup:
         if (c.uart is None or c.timer2 is None or drive is None or drive.i2c is None
                 or drive.i2c.address is None):
             raise ToolchainError("STARFISH's gpsim harness needs uart:, tick: and a drive board")
+        assert isinstance(c.timer2, Timer2Setting), "a PIC18F452 central board"
         return cls(c.mcu.clock_hz, c.uart.baud, c.timer2.instructions, drive.i2c.address,
                    tuple((_gpsim_pin(f.sclk_pin), _gpsim_pin(f.sdio_pin))
                          for f in c.flow_sensors))

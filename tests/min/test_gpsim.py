@@ -19,7 +19,7 @@ from esair_min.pic.gpsim_bench import (drain_loop, frame_slips, frame_timing, fu
                                    measure_decoder, parse_hits)
 from esair_min.pic import gpsim_harness
 from esair_min.pic.gpsim_harness import GpsimSetup, boot_end, build_script, compare, run_stimulus
-from esair_min.pic.gpsim_wave import read_register_log
+from esair_min.pic.gpsim_wave import read_register_log, transfer_kinds
 from esair_min.core.harness import run_script
 from esair_min.resources import resolve_robot
 from esair_min.model.validate import load_robot
@@ -80,6 +80,27 @@ def test_compare_reports_a_changed_reply_and_a_changed_servo_byte(robot, scenari
     bad_w = python[:i] + [python[i][:-6] + ("00" if python[i][-6:-4] != "00" else "01")
                           + python[i][-4:]] + python[i + 1:]
     assert compare(bad_w, gpsim, setup)[0].startswith("actuator: ")
+
+
+def test_emulator_bus_time_per_transfer_kind_is_the_pics(robot, scenario_run):
+    """Every acknowledged transfer kind of the scenario (frame write, single-motor
+    write, EEPROM frame read, image-check read, header reads, sensor poll): the
+    emulator's duration (wire + the PIC master's overhead, esair_min.model.mcu) is
+    within 1 % of the median START..STOP in gpsim (wire time alone: 7-10 % short)."""
+    from statistics import median
+
+    from esair_min.emulator.i2c import transfer_ns
+    from esair_min.model.mcu import bus_overhead_ns
+
+    c = robot.central
+    kinds = transfer_kinds(scenario_run.transfers)
+    assert {(25, None), (2, 24), (2, 32), (1, 16)} <= set(kinds)
+    for (nw, nr), cycles in kinds.items():
+        pic_ns = median(cycles) * 4e9 / c.mcu.clock_hz
+        emu_ns = transfer_ns(c.i2c.speed_hz, nw, nr,
+                             lambda w, r: bus_overhead_ns(c.mcu.part, c.mcu.clock_hz, w, r))
+        assert abs(emu_ns - pic_ns) / pic_ns <= 0.01, ((nw, nr), emu_ns, pic_ns)
+        assert abs(transfer_ns(c.i2c.speed_hz, nw, nr) - pic_ns) / pic_ns > 0.05
 
 
 def test_frame_timing_on_the_bus(robot, scenario_run):

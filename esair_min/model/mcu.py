@@ -1,0 +1,128 @@
+"""What each supported MCU has: memories, clock, timers, PWM units, UART, I2C, ADC, pins.
+
+One :class:`McuSpec` per ``mcu.part``; the validator checks a board against its part
+(a pin it lacks, a baud rate or tick it cannot make, more analog channels than it has)
+and the generator picks the port folder ``ports/<part>/``. Timer, baud and bus numbers
+come from :mod:`esair_min.model.hardware` (PIC18F452) and :mod:`esair_min.model.avr`
+(ATmega328P).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from esair_min.model import avr, hardware
+
+
+@dataclass(frozen=True)
+class BusOverhead:
+    """What an I2C transfer of the generated master costs beyond its wire bits, in the
+    MCU's instruction cycles: a fixed part (write; write + repeated START + read) and a
+    part per byte written (address byte excluded: register/memory address and data) and
+    per byte read. Least-squares fits to the START..STOP durations measured for every
+    transfer kind of tests/fixtures/gpsim/papaman.txt: PIC18F452 in gpsim (wire), ATmega328P
+    in the simavr driver (TWSTA write to TWSTO write); bench/avr.py prints the fit and
+    each kind's error (all within 0.4 %; wire time alone is 7-10 % short on the PIC)."""
+
+    write_fixed: float
+    read_fixed: float
+    per_write_byte: float
+    per_read_byte: float
+
+    def cycles(self, n_write: int, n_read: int | None) -> float:
+        """``n_read`` None: a plain write."""
+        if n_read is None:
+            return self.write_fixed + self.per_write_byte * n_write
+        return self.read_fixed + self.per_write_byte * n_write + self.per_read_byte * n_read
+
+
+@dataclass(frozen=True)
+class McuSpec:
+    part: str
+    family: str                    # "pic18" or "avr"
+    name: str                      # as a datasheet writes it
+    flash_bytes: int
+    ram_bytes: int
+    eeprom_bytes: int
+    max_clock_hz: int
+    timers: tuple[str, ...]
+    pwm_units: tuple[str, ...]     # hardware PWM outputs (the ports use software PWM)
+    twi_master: bool
+    twi_slave: bool
+    pins: tuple[str, ...]          # general-purpose pins, by their board-file names
+    pin_help: str
+    uart_pins: tuple[str, ...]     # taken when the board has a UART
+    i2c_pins: tuple[str, ...]      # taken by the I2C/TWI port
+    adc_pins: dict[int, str]       # analog channel -> pin
+    sync_input: str                # the actuator's latch input (an edge-flagging pin)
+    tick_timer: str
+    bus_overhead: BusOverhead      # the generated I2C master's cost beyond the wire
+
+    @property
+    def adc_channels(self) -> tuple[int, ...]:
+        return tuple(sorted(self.adc_pins))
+
+
+PIC18F452 = McuSpec(
+    part="pic18f452", family="pic18", name="PIC18F452",
+    flash_bytes=32768, ram_bytes=1536, eeprom_bytes=256, max_clock_hz=40_000_000,
+    timers=("Timer0", "Timer1", "Timer2", "Timer3"), pwm_units=("CCP1", "CCP2"),
+    twi_master=True, twi_slave=True, pins=hardware.ALL_PINS,
+    pin_help="RA0..RA5, RB0..RB7, RC0..RC7, RD0..RD7, RE0..RE2",
+    uart_pins=hardware.UART_PINS, i2c_pins=hardware.I2C_PINS, adc_pins=hardware.ADC_PINS,
+    sync_input="RB0", tick_timer="Timer2",
+    bus_overhead=BusOverhead(52.1, 206.9, 32.8, 41.5))
+
+#: The 32-pin TQFP/MLF package (Arduino Nano class): ADC6/ADC7 are analog-only pins.
+ATMEGA328P = McuSpec(
+    part="atmega328p", family="avr", name="ATmega328P",
+    flash_bytes=32768, ram_bytes=2048, eeprom_bytes=1024, max_clock_hz=20_000_000,
+    timers=("Timer0", "Timer1", "Timer2"),
+    pwm_units=("OC0A", "OC0B", "OC1A", "OC1B", "OC2A", "OC2B"),
+    twi_master=True, twi_slave=True,
+    pins=tuple(f"PB{i}" for i in range(6)) + tuple(f"PC{i}" for i in range(6))
+    + tuple(f"PD{i}" for i in range(8)),
+    pin_help="PB0..PB5, PC0..PC5, PD0..PD7 (PB6/PB7 hold the crystal)",
+    uart_pins=("PD0", "PD1"), i2c_pins=("PC4", "PC5"),
+    adc_pins={0: "PC0", 1: "PC1", 2: "PC2", 3: "PC3", 4: "PC4", 5: "PC5", 6: "ADC6",
+              7: "ADC7"},
+    sync_input="PD2", tick_timer="Timer1",
+    bus_overhead=BusOverhead(-100.7, -11.7, 38.1, 25.3))
+
+MCUS: dict[str, McuSpec] = {m.part: m for m in (PIC18F452, ATMEGA328P)}
+
+
+def spec(part: str) -> McuSpec:
+    return MCUS[part]
+
+
+def tick_setting(part: str, clock_hz: int, period_s: float):
+    """The tick timer's setting: hardware.Timer2Setting (PIC) or avr.Timer1Tick."""
+    if MCUS[part].family == "avr":
+        return avr.best_timer1_tick(clock_hz, period_s)
+    return hardware.best_timer2(clock_hz, period_s)
+
+
+def baud_setting(part: str, clock_hz: int, baud: int):
+    """hardware.BaudSetting (PIC: SPBRG/BRGH) or avr.UsartBaud (UBRR0/U2X0)."""
+    if MCUS[part].family == "avr":
+        return avr.best_usart_baud(clock_hz, baud)
+    return hardware.best_baud(clock_hz, baud)
+
+
+def i2c_master_setting(part: str, clock_hz: int, speed_hz: int):
+    """hardware.I2cSetting (PIC: SSPADD) or avr.TwiRate (TWBR/TWPS); None if unreachable."""
+    if MCUS[part].family == "avr":
+        return avr.twi_master_rate(clock_hz, speed_hz)
+    return hardware.i2c_master_setting(clock_hz, speed_hz)
+
+
+def cycles_per_second(part: str, clock_hz: int) -> int:
+    """Instruction cycles per second: Fosc/4 on the PIC, Fosc on the AVR."""
+    return clock_hz if MCUS[part].family == "avr" else clock_hz // 4
+
+
+def bus_overhead_ns(part: str, clock_hz: int, n_write: int, n_read: int | None) -> int:
+    """The master's overhead of one transfer in ns (see BusOverhead)."""
+    cycles = MCUS[part].bus_overhead.cycles(n_write, n_read)
+    return int(round(cycles * 1e9 / cycles_per_second(part, clock_hz)))
