@@ -82,17 +82,23 @@ class ZenohPort:
         route = self._routes.get(resource)
         if route is None:
             route = self._routes[resource] = self.bus.route(key)
-        if not route.ready.is_set():
-            self._lost_or_coming(resource, deadline)
-            route.ready.wait(max(0.0, deadline - time.monotonic()))
-        left = deadline - time.monotonic()
         r = None
-        if left > 0:
+        # Asked at once: the matching status is only a hint (across an access-controlled
+        # link it may never say "matching" although the host answers). A request that
+        # comes back early found no host: then the runtime says whether the resource is
+        # lost (ResourceLost at once) or coming, and the route is waited for, once.
+        for attempt in range(2):
+            left = deadline - time.monotonic()
+            if left <= 0:
+                break
             r = self.bus.request(key, {"from": who, "cmd": command,
                                        "timeout": max(0.0, left - MARGIN)}, left)
+            if r is not None or deadline - time.monotonic() <= 0:
+                break
+            self._lost_or_coming(resource, deadline)    # early: nobody answers its key now
+            if attempt == 0 and not route.ready.wait(max(0.0, deadline - time.monotonic())):
+                break
         if r is None:
-            if deadline - time.monotonic() > 0:    # early: nobody answers its key now
-                self._lost_or_coming(resource, deadline)
             raise CommandError(resource, f"no answer within {timeout:g} s")
         if "error" in r:
             cls = _ERRORS.get(r.get("type"), CommandError)

@@ -163,7 +163,7 @@ def test_garbage_and_oversized_messages_are_refused_without_a_crash(net, tmp_pat
     of bad payload, from another computer: error replies or nothing, no crash, no change."""
     import json
 
-    from zpeer import Peer
+    from tests.support.zpeer import Peer
 
     center = Center(net[0], tmp_path, PARTITION)
     agent(net[1], center.endpoint, "ticks", "tests.support.netcomps:Counter", "--allow", "watch2=read")

@@ -195,7 +195,7 @@ def test_unknown_bundled_example():
     result = CliRunner().invoke(main, ["std", "check", "papamn"])
     assert (result.exit_code, result.output) == (
         1, "error: papamn: no such file, and no bundled example named 'papamn' (did you "
-           "mean 'papaman'?) (bundled: lab, papaman)\n")
+           "mean 'papaman'?) (bundled: lab, papaman, starfish)\n")
 
 
 def test_missing_and_folder_files(tmp_path):
