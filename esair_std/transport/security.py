@@ -141,7 +141,8 @@ def agent_rules(robot: str, agent: str, reads: list[str], commands: list[str],
         # the BS's subscriber on ctl/put/* must be declared to the agent, or zenoh never
         # routes the agent's puts to it (a declaration is checked as a message too)
         _rule("ctl-put-sub", ["declare_subscriber"], egress, [f"{k}/ctl/put/*"]),
-        _rule("ctl-reply", ["reply"], egress, [f"{k}/ctl/**"]),
+        # the control queryables are declared to the agent (see "command-reply" below)
+        _rule("ctl-reply", ["reply", "declare_queryable"], egress, [f"{k}/ctl/**"]),
         _rule("alive", ["liveliness_token", "liveliness_query", "declare_liveliness_subscriber"],
               both, [f"{k}/alive/**"]),
         _rule("bs", ["declare_queryable", "reply", "declare_subscriber", "put"], ingress,
@@ -154,8 +155,12 @@ def agent_rules(robot: str, agent: str, reads: list[str], commands: list[str],
                   _rule("read-put", ["put"], egress, keys)]
     if commands:
         keys = [f"{k}/actuator/{r}" for r in commands]
+        # the actuator's queryable must be declared to the agent too: a client session
+        # that holds a querier (Bus.route) learns from the router's declarations who
+        # answers a key, and once it has them it sends no query that none of them
+        # matches (without this, only the first command got through)
         rules += [_rule("command", ["query"], ingress, keys),
-                  _rule("command-reply", ["reply"], egress, keys)]
+                  _rule("command-reply", ["reply", "declare_queryable"], egress, keys)]
     for r in provides:
         rules += [_rule(f"sensor-{r}", ["put"], ingress, [f"{k}/sensor/{r}"]),
                   _rule(f"actuator-{r}", ["declare_queryable", "reply"], ingress,

@@ -126,13 +126,6 @@ def test_rs_refuses_a_join_under_someone_elses_name(secure, local):
         _ctl(center, "ls", "--json"))["components"]}
 
 
-KNOWN_REGRESSION = pytest.mark.xfail(
-    strict=True, reason="regression from the one-supervisor change (bbcda53, bisected): a remote "
-    "agent that joined with credentials (mTLS + ACL) gets no answer from an actuator "
-    "('no answer within 0.2 s'); open in issue 19, to be fixed first next session")
-
-
-@KNOWN_REGRESSION
 def test_a_registered_agent_works_and_a_read_behavior_cannot_command(secure, local):
     net, center = secure
     pusher = agent(net[1], center.endpoint, "pusher", "tests.support.netcomps:Pusher",
@@ -177,7 +170,6 @@ behaviors:
 """
 
 
-@KNOWN_REGRESSION
 def test_user_password_logins_with_the_runtime(tmp_path, monkeypatch):
     """Logins instead of certificates: a good one joins (its proof an HMAC of the
     password) and commands the arm; a wrong password gets no session at all."""
