@@ -113,8 +113,9 @@ def test_the_push_shows_on_the_feet_plot_with_the_reaction_marker(robot, browser
     page.wait_for_function("() => window.__hmi.link.papaman.state === 'ready' && "
                            "window.__hmi.feet.markers.length == 0", timeout=30000)
     page.wait_for_function("() => window.__hmi.feet.markers.length > 0", timeout=30000)
-    # the tipping samples are on the plot: |L - R| over the threshold
-    assert page.evaluate("Math.max(...window.__hmi.feet.d)") > 400
+    # the tipping samples are on the plot: |L - R| over the threshold. The firmware's
+    # notice (the marker) comes at once; the next feet poll (8 Hz) may come after it
+    page.wait_for_function("() => Math.max(...window.__hmi.feet.d) > 400", timeout=10000)
     assert page.evaluate("window.__hmi.feet.markers[0].text") == "R auto_balance"
     page.wait_for_function("() => document.querySelector('#log').textContent.includes('!R auto_balance')")
     page.close()
