@@ -29,6 +29,9 @@ class Mcu(Section):
 
     part: Literal["pic18f452", "atmega328p"] = Field(
         "pic18f452", description="MCU part: pic18f452 or atmega328p (esair_min.model.mcu)")
+    package: Literal["dip", "tqfp", "qfn", "plcc"] | None = Field(
+        None, description="the part's package; omitted = its DIP (the ATmega328P's ADC6/ADC7 "
+        "exist in tqfp and qfn only)")
     clock_hz: Annotated[StrictInt, Field(ge=1_000_000, le=40_000_000)] = Field(
         20_000_000, description="oscillator frequency Fosc in Hz")
 
@@ -162,7 +165,7 @@ class BoardCore(Section):
     @property
     def spec(self) -> McuSpec:
         """What this board's MCU has (esair_min.model.mcu)."""
-        return mcu.spec(self.mcu.part)
+        return mcu.spec(self.mcu.part, self.mcu.package)
 
     @property
     def timer2(self) -> hardware.Timer2Setting | avr.Timer1Tick | None:

@@ -9,7 +9,7 @@ come from :mod:`esair_min.model.hardware` (PIC18F452) and :mod:`esair_min.model.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 
 from esair_min.model import avr, hardware
 
@@ -57,10 +57,33 @@ class McuSpec:
     sync_input: str                # the actuator's latch input (an edge-flagging pin)
     tick_timer: str
     bus_overhead: BusOverhead      # the generated I2C master's cost beyond the wire
+    #: package -> what it is; the first is the default (``mcu.package`` omitted)
+    packages: dict[str, str] = field(default_factory=dict)
+    #: package -> the analog channels it has no pin for
+    package_lacks: dict[str, tuple[int, ...]] = field(default_factory=dict)
+    package: str = ""              # the package this spec describes ("" = any)
 
     @property
     def adc_channels(self) -> tuple[int, ...]:
         return tuple(sorted(self.adc_pins))
+
+    @property
+    def default_package(self) -> str:
+        return next(iter(self.packages))
+
+    def in_package(self, package: str | None) -> McuSpec:
+        """This part in ``package`` (None: the default one): the analog channels the
+        package has no pin for removed. ``package`` must be one of ``packages``."""
+        package = package or self.default_package
+        lacks = self.package_lacks.get(package, ())
+        return replace(self, package=package,
+                       adc_pins={ch: pin for ch, pin in self.adc_pins.items() if ch not in lacks})
+
+    def packages_with_channel(self, channel: int) -> tuple[str, ...]:
+        """The packages of this part that have analog channel ``channel``."""
+        if channel not in self.adc_pins:
+            return ()
+        return tuple(p for p in self.packages if channel not in self.package_lacks.get(p, ()))
 
 
 PIC18F452 = McuSpec(
@@ -71,9 +94,12 @@ PIC18F452 = McuSpec(
     pin_help="RA0..RA5, RB0..RB7, RC0..RC7, RD0..RD7, RE0..RE2",
     uart_pins=hardware.UART_PINS, i2c_pins=hardware.I2C_PINS, adc_pins=hardware.ADC_PINS,
     sync_input="RB0", tick_timer="Timer2",
-    bus_overhead=BusOverhead(52.1, 206.9, 32.8, 41.5))
+    bus_overhead=BusOverhead(52.1, 206.9, 32.8, 41.5),
+    packages={"dip": "40-pin PDIP", "plcc": "44-pin PLCC", "tqfp": "44-pin TQFP"})
 
-#: The 32-pin TQFP/MLF package (Arduino Nano class): ADC6/ADC7 are analog-only pins.
+#: ADC6/ADC7 are analog-only pins of the 32-pin TQFP and 32-pad QFN/MLF packages
+#: (Arduino Nano, Pro Mini); the 28-pin PDIP (Arduino Uno) has no pin for them
+#: (datasheet DS40002061, section 5: pin configurations).
 ATMEGA328P = McuSpec(
     part="atmega328p", family="avr", name="ATmega328P",
     flash_bytes=32768, ram_bytes=2048, eeprom_bytes=1024, max_clock_hz=20_000_000,
@@ -87,13 +113,23 @@ ATMEGA328P = McuSpec(
     adc_pins={0: "PC0", 1: "PC1", 2: "PC2", 3: "PC3", 4: "PC4", 5: "PC5", 6: "ADC6",
               7: "ADC7"},
     sync_input="PD2", tick_timer="Timer1",
-    bus_overhead=BusOverhead(-100.7, -11.7, 38.1, 25.3))
+    bus_overhead=BusOverhead(-100.7, -11.7, 38.1, 25.3),
+    packages={"dip": "28-pin PDIP (Arduino Uno)", "tqfp": "32-pin TQFP (Arduino Nano, Pro Mini)",
+              "qfn": "32-pad QFN/MLF"},
+    package_lacks={"dip": (6, 7)})
 
 MCUS: dict[str, McuSpec] = {m.part: m for m in (PIC18F452, ATMEGA328P)}
 
 
-def spec(part: str) -> McuSpec:
-    return MCUS[part]
+#: Every package name any part has (the board schema's choices).
+PACKAGES: tuple[str, ...] = tuple(dict.fromkeys(p for m in MCUS.values() for p in m.packages))
+
+
+def spec(part: str, package: str | None = None) -> McuSpec:
+    """The part in ``package`` (None: its default package); a package the part does
+    not come in gives its default package (the validator reports the package)."""
+    m = MCUS[part]
+    return m.in_package(package if package in m.packages else None)
 
 
 def tick_setting(part: str, clock_hz: int, period_s: float):

@@ -13,7 +13,7 @@ from typing import Any, Iterable, NoReturn
 
 from pydantic import ValidationError
 
-from esair_min.model import hardware
+from esair_min.model import hardware, mcu
 from esair_min.errors import ConfigError, file_mark
 from esair_min.components import COMPONENTS, motion, omni_base
 from esair_min.components.servo import encode_high
@@ -153,6 +153,10 @@ class _Checker:
                       "the others", key=True)
 
     def clock_rules(self, b: Board) -> None:
+        part = mcu.MCUS[b.mcu.part]
+        if b.mcu.package is not None and b.mcu.package not in part.packages:
+            self.fail(b, ("mcu", "package"), f"the {part.name} comes in no package "
+                      f"'{b.mcu.package}'; use one of: {', '.join(part.packages)}")
         clock = b.mcu.clock_hz
         if clock > b.spec.max_clock_hz:
             self.fail(b, ("mcu", "clock_hz"), f"the {b.spec.name} runs at most at "
@@ -211,8 +215,15 @@ class _Checker:
                     claim(pin, what, c.item_loc(i) + loc)
         for i, s in enumerate(b.sensors):
             if s.channel not in spec.adc_pins:
+                elsewhere = mcu.MCUS[b.mcu.part].packages_with_channel(s.channel)
+                name = spec.name
+                if elsewhere:
+                    name += f" in the {spec.packages[spec.package]}"
+                hint = (f"; ADC{s.channel} exists in the "
+                        f"{' and the '.join(spec.packages[p] for p in elsewhere)} only: set "
+                        f"mcu.package: {elsewhere[0]}, or use another channel" if elsewhere else "")
                 self.fail(b, ("sensors", i, "channel"), f"sensor '{s.name}': the "
-                          f"{spec.name} has no analog channel {s.channel}")
+                          f"{name} has no analog channel {s.channel}{hint}")
             claim(spec.adc_pins[s.channel], f"sensor '{s.name}' "
                   f"({'ADC' if spec.family == 'avr' else 'AN'}{s.channel})",
                   ("sensors", i, "channel"))

@@ -23,6 +23,7 @@ from esair_min.core.harness import run_script
 from esair_min.core.image import build_image, write_hex
 from esair_min.core.trace import without_marks
 from esair_min.errors import ConfigError
+from esair_min.model import mcu
 from esair_min.model.validate import load_robot
 from esair_min.pic.build import build_robot, summary_lines
 from esair_min.pic.gpsim_bench import frame_slips
@@ -244,6 +245,20 @@ def test_overrun_reproducer_on_avr(fast_avr, tmp_path, name, e12):
     (("central.yaml", "period_ms: 8.9856", "period_ms: 5000"), "period_ms:",
      "tick period 5000 ms cannot be made by Timer1 at 16000000 Hz "
      "within 1 %: nearest is 4194.3040 ms (CTC, prescale 1024, OCR1A 65535)"),
+    (("sensor.yaml", "package: tqfp ", "package: dip  "), "r_toe_out",
+     "sensor 'r_toe_out': the ATmega328P in the 28-pin PDIP (Arduino Uno) has no analog "
+     "channel 6; ADC6 exists in the 32-pin TQFP (Arduino Nano, Pro Mini) and the 32-pad "
+     "QFN/MLF only: set mcu.package: tqfp, or use another channel"),
+    (("sensor.yaml", "  package: tqfp          # the Nano's 32-pin TQFP (ADC6/ADC7: see README)\n",
+      ""), "r_toe_out",
+     "sensor 'r_toe_out': the ATmega328P in the 28-pin PDIP (Arduino Uno) has no analog "
+     "channel 6; ADC6 exists in the 32-pin TQFP (Arduino Nano, Pro Mini) and the 32-pad "
+     "QFN/MLF only: set mcu.package: tqfp, or use another channel"),
+    (("sensor.yaml", "package: tqfp ", "package: plcc "), "package: plcc",
+     "the ATmega328P comes in no package 'plcc'; use one of: dip, tqfp, qfn"),
+    (("sensor.yaml", "channel: 7,", "channel: 5,"), "r_heel",
+     "pin PC5 is used twice: by I2C and by sensor 'r_heel' (ADC5); "
+     "give sensor 'r_heel' (ADC5) another pin"),
 ])
 def test_a_board_asking_more_than_its_mcu_has(tmp_path, change, marked, message):
     """Each error names the file, the line and the column of the node to change."""
@@ -265,6 +280,33 @@ def test_a_board_asking_more_than_its_mcu_has(tmp_path, change, marked, message)
                 if marked in text and not text.lstrip().startswith("#"))
     assert (Path(mark.path).name, mark.line) == (name, line)
     assert str(err.value).startswith(f"{folder / name}:{line}:{mark.col}: ")
+
+
+def test_the_packages_analog_channels():
+    """ADC6/ADC7 are pins of the TQFP and QFN packages only; the DIP is the default."""
+    assert mcu.spec("atmega328p").adc_channels == (0, 1, 2, 3, 4, 5)
+    assert mcu.spec("atmega328p", "dip").adc_channels == (0, 1, 2, 3, 4, 5)
+    for package in ("tqfp", "qfn"):
+        spec = mcu.spec("atmega328p", package)
+        assert spec.adc_channels == tuple(range(8)) and spec.package == package
+        assert (spec.adc_pins[6], spec.adc_pins[7]) == ("ADC6", "ADC7")
+    for package in ("dip", "plcc", "tqfp"):
+        assert mcu.spec("pic18f452", package).adc_channels == tuple(range(8))
+    assert load_robot(BOARDS).board("sensor").spec.package == "tqfp"
+
+
+def test_every_sensor_channel_reaches_the_reply_through_the_avr_boards(avr_robot, avr_build,
+                                                                      tmp_path):
+    """The sensor board's firmware converts each of its six channels (ADC0..ADC3 and the
+    TQFP's analog-only ADC6/ADC7, which simavr's atmega328p core converts too) into its
+    own register pair: distinct readings (the feet within the reaction's threshold) come
+    back in the order of the board file."""
+    assert [s.channel for s in avr_robot.sensors] == [0, 1, 2, 3, 6, 7]
+    script = "sensor 311 522 733 404 1023 150\nboot\ntick 4\nrx s\\r\ntick 6\n"
+    elfs = {role: b.folder / "firmware.elf" for role, b in avr_build.items()}
+    run = run_robot(avr_robot, script, elfs, tmp_path)
+    assert compare(run_script(avr_robot, script), run.trace(), AvrSetup.from_robot(avr_robot)) == []
+    assert b"OK 311,522,733,404,1023,150\r\n" in [line for _, line in run.replies]
 
 
 DANCE = ("sensor 500 500 500 500 500 500\nboot\ntick 4\nrx s\\r\ntick 4\nrx DNC\\r\ntick 40\n"
