@@ -14,11 +14,10 @@ import subprocess
 from dataclasses import dataclass, replace
 from pathlib import Path
 
-from esair_min.avr.build import FLASH_BYTES as AVR_FLASH
-from esair_min.avr.build import RAM_BYTES as AVR_RAM
 from esair_min.avr.build import AvrBuildError, AvrUsage
 from esair_min.avr.build import build_board as build_avr_board
 from esair_min.errors import EsairError
+from esair_min.model import mcu
 from esair_min.model.robot import Robot
 from esair_min.pic.toolchain import MapUsage, Toolchain, ToolchainError, find_toolchain, parse_map
 
@@ -42,11 +41,13 @@ class BoardBuild:
 
     @property
     def flash_bytes(self) -> int:
-        return AVR_FLASH if self.part == "atmega328p" else FLASH_BYTES
+        """The part's program memory (esair_min.model.mcu)."""
+        return mcu.MCUS[self.part].flash_bytes
 
     @property
     def ram_bytes(self) -> int:
-        return AVR_RAM if self.part == "atmega328p" else RAM_BYTES
+        """The part's data memory (esair_min.model.mcu)."""
+        return mcu.MCUS[self.part].ram_bytes
 
     @property
     def hex(self) -> Path:
