@@ -278,6 +278,7 @@ class Supervisor:
             rec.host = self._start_host(rec.spec, rec.generation)
         except Exception as exc:  # noqa: BLE001 - the restart itself failed: stays failed
             rec.reason = f"restart failed: {exc}"
+            rec.handled = rec.generation         # no later event of it restarts it again
             rec.host = Starting("failed", rec.reason)
             log.error("%s: %s", name, rec.reason)
             self.gave_up(name, rec)

@@ -7,6 +7,10 @@ the mutant's name in backticks and whose second cell is the mutated line in back
 line, so a list left stale by a code change is reported rather than trusted.
 
     python scripts/mutation_report.py     # after mutmut run, from the checkout's root
+    python scripts/mutation_report.py --root .mutation-std   # scripts/mutation_std.sh's run
+
+Only the listed equivalents of the modules this run mutated are checked (docs/mutation.md
+lists both MIN's core and STD's).
 """
 
 from __future__ import annotations
@@ -18,8 +22,8 @@ import subprocess
 import sys
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
-DOC = ROOT / "docs" / "mutation.md"
+ROOT = Path(__file__).resolve().parent.parent      # where mutmut ran (--root)
+DOC = ROOT / "docs" / "mutation.md"                # the list of equivalents (--doc)
 ROW = re.compile(r"^\|\s*`([^`]+__mutmut_\d+)`\s*\|\s*`((?:[^`\\]|\\.)*)`\s*\|")
 
 
@@ -55,7 +59,18 @@ def added_lines(name: str) -> list[str]:
             if ln.startswith("+") and not ln.startswith("+++")]
 
 
-def main() -> int:
+def module_of(name: str) -> str:
+    """``esair_std.supervisor`` of ``esair_std.supervisor.xǁSupervisorǁ_fail__mutmut_3``."""
+    return re.split(r"\.x[_ǁ]", name, maxsplit=1)[0]
+
+
+def main(argv: list[str]) -> int:
+    global ROOT, DOC
+    for flag, value in zip(argv[::2], argv[1::2]):
+        if flag == "--root":
+            ROOT = Path(value).resolve()
+        elif flag == "--doc":
+            DOC = Path(value).resolve()
     mutmut("export-cicd-stats")
     stats = json.loads((ROOT / "mutants" / "mutmut-cicd-stats.json").read_text())
     status = {}
@@ -63,7 +78,8 @@ def main() -> int:
         name, _, state = line.strip().rpartition(": ")
         if name:
             status[name] = state
-    equivalents = listed_equivalents()
+    modules = {module_of(n) for n in status}
+    equivalents = {n: line for n, line in listed_equivalents().items() if module_of(n) in modules}
     alive = sorted(n for n, s in status.items() if s not in ("killed", "timeout", "skipped"))
     confirmed, unlisted, stale = [], [], []
     for name in alive:
@@ -94,4 +110,4 @@ def main() -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(main(sys.argv[1:]))

@@ -353,3 +353,22 @@ class SteadyPut(Behavior):
 
     def provide(self, requester):
         return {"ok": self.ok, "failed": self.failed}
+
+
+class GatedRecorder(Recorder):
+    """A Recorder whose write() first appends the command to the file ``options.entered``
+    and then waits for one byte on the FIFO ``options.gate``: the test decides when each
+    write ends. Opened read-write, so the FIFO neither blocks open() nor reads as closed."""
+
+    def open(self):
+        super().open()
+        self._gate = os.open(self.options["gate"], os.O_RDWR)
+
+    def write(self, command):
+        with open(self.options["entered"], "a") as f:
+            f.write(f"{command}\n")
+        os.read(self._gate, 1)
+        return super().write(command)
+
+    def close(self):
+        os.close(self._gate)

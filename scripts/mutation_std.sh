@@ -1,0 +1,44 @@
+#!/usr/bin/env bash
+# Mutation testing of STD's safety rules with mutmut (docs/mutation.md, "STD").
+#
+# Mutates esair_std/supervisor.py, connections.py and modes/reshost.py (the supervisors,
+# the connections, the resource host's command path and its deadlines) and runs, for
+# each mutant, the thread-mode tests of scripts/mutation_std.toml. mutmut reads its
+# configuration from pyproject.toml only, so this works in a scratch copy of the
+# checkout ($WORK, default .mutation-std/, git-ignored) whose [tool.mutmut] is replaced
+# by scripts/mutation_std.toml. Then prints the summary of scripts/mutation_report.py.
+#
+# Slow (about half an hour on a shared 2-core machine, at nice 10): NOT part of the
+# test suite or CI.
+#
+#   bash scripts/mutation_std.sh                  # fresh run
+#   MAX_CHILDREN=2 bash scripts/mutation_std.sh   # mutmut's workers (default 1)
+#   KEEP=1 bash scripts/mutation_std.sh           # reuse $WORK/mutants (mutmut's cache)
+#   bash scripts/mutation_std.sh NAME...          # only these mutants (after a run)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+ROOT=$PWD
+WORK=${WORK:-$ROOT/.mutation-std}
+python -c "import mutmut" 2>/dev/null || python -m pip install -q '.[mutation]'
+if [[ -z "${KEEP:-}" && $# -eq 0 ]]; then
+    rm -rf "$WORK"
+fi
+mkdir -p "$WORK"
+# the checkout's files as they are now (tracked and new, not ignored ones)
+git ls-files -z --cached --others --exclude-standard | grep -zv '^\.mutation-std/' \
+    | tar --null -T - -cf - | tar -xf - -C "$WORK"
+python - "$WORK/pyproject.toml" scripts/mutation_std.toml <<'PY'
+import re, sys
+path, table = sys.argv[1], open(sys.argv[2]).read()
+text = open(path).read()
+text = re.sub(r"(?ms)^\[tool\.mutmut\]\n.*?(?=^\[)", "", text)
+open(path, "w").write(text + "\n" + table)
+PY
+cd "$WORK"
+mkdir -p mutants
+nice -n 10 mutmut run --max-children "${MAX_CHILDREN:-1}" "$@" > mutants/run.log 2>&1 || {
+    tail -n 40 mutants/run.log
+    echo "mutmut run failed (full log: $WORK/mutants/run.log)" >&2
+    exit 1
+}
+python "$ROOT/scripts/mutation_report.py" --root "$WORK" --doc "$ROOT/docs/mutation.md"

@@ -1,0 +1,490 @@
+"""STD's safety rules, each with a test that fails when the rule breaks (issue 19 item 9:
+the mutants of scripts/mutation_std.sh that the other STD tests let live).
+
+The supervisor is driven through its own API with hosts that say what happened to them;
+the connections through their handles; the resource host's command path through a
+running robot in both modes, with an actuator whose write() waits on a FIFO, so that
+what is queued behind it, and when, is decided by the test and not by a clock.
+"""
+
+from __future__ import annotations
+
+import os
+import threading
+
+import pytest
+
+from esair_std.errors import ControlError
+from esair_std import Runtime, supervisor
+from esair_std.connections import ActuatorConnection, ActuatorHandle, SensorConnection, SensorHandle
+from esair_std.errors import CommandError, Refused, ResourceLost, StdError
+from esair_std.level import Level
+from esair_std.sample import Sample
+from esair_std.supervisor import ChildSpec, Record, Starting, Supervisor
+from tests.support.std import call, free_endpoint, wait_for
+
+
+class Host:
+    """A started child: its state; its stop() is recorded in the supervisor's events."""
+
+    def __init__(self, events: list, name: str, generation: int, state: str = "ready",
+                 reason: str = ""):
+        self.events, self.name, self.generation = events, name, generation
+        self.state, self.reason = state, reason
+
+    def stop(self, timeout: float = 2.0) -> None:
+        self.events.append(("stop", self.name, self.generation))
+
+
+class Spec:
+    def __init__(self, name: str, restart_max: int = 0, restart_within: float = 10.0):
+        self.name, self.kind = name, "behavior"
+        self.restart_max, self.restart_within = restart_max, restart_within
+
+
+class Clock:
+    """time.monotonic for the supervisor: moved by the test."""
+
+    def __init__(self) -> None:
+        self.now = 1000.0
+
+    def monotonic(self) -> float:
+        return self.now
+
+
+class Recording(Supervisor):
+    """A supervisor that records what it says to its subclass, in order."""
+
+    def __init__(self, fail_start: set[int] | None = None, failed_start: set[int] | None = None):
+        self.events: list[tuple] = []
+        self.hosts: list[Host] = []
+        self.fail_start = fail_start or set()
+        self.failed_start = failed_start or set()
+        super().__init__("test", self._start)
+
+    def _start(self, spec, generation):
+        self.events.append(("start", spec.name, generation))
+        if generation in self.fail_start:
+            raise RuntimeError(f"cannot start generation {generation}")
+        state = "failed" if generation in self.failed_start else "ready"
+        host = Host(self.events, spec.name, generation, state,
+                    "open failed" if state == "failed" else "")
+        self.hosts.append(host)
+        return host
+
+    def released(self, name, rec, why):
+        self.events.append(("released", name, why))
+
+    def restarted(self, name, rec):
+        self.events.append(("restarted", name, rec.generation))
+
+    def gave_up(self, name, rec):
+        self.events.append(("gave_up", name, rec.reason))
+
+    def barrier(self) -> None:
+        """Every request and failure queued before this one is handled."""
+        self.request(lambda: None)
+
+    def take(self) -> list[tuple]:
+        out, self.events[:] = list(self.events), []
+        return out
+
+
+@pytest.fixture
+def clock(monkeypatch):
+    c = Clock()
+    monkeypatch.setattr(supervisor, "time", c)
+    return c
+
+
+@pytest.fixture
+def sup():
+    made: list[Recording] = []
+
+    def make(**kw) -> Recording:
+        s = Recording(**kw)
+        s.start()
+        made.append(s)
+        return s
+    yield make
+    for s in made:
+        s.stop_children()
+
+
+def test_a_child_spec_takes_its_restart_policy_from_the_component():
+    child = ChildSpec.of(Spec("walker", restart_max=3, restart_within=2.5))
+    assert child == ChildSpec("walker", "behavior", 3, 2.5, "stay")
+    unset = Spec("w", restart_max=None, restart_within=None)
+    assert ChildSpec.of(unset) == ChildSpec("w", "behavior", 0, 0.0)
+    with pytest.raises(ValueError) as err:
+        ChildSpec("w", "behavior", past_limit="retry")
+    assert str(err.value) == "past_limit must be one of ('stay', 'remove'), not 'retry'"
+    assert Record(Spec("x", 2, 1.0), Starting()).child == ChildSpec("x", "behavior", 2, 1.0)
+
+
+# ---- the resource host's command path -------------------------------------------------
+
+def gated(tmp_path):
+    gate, entered = tmp_path / "gate", tmp_path / "entered"
+    os.mkfifo(gate)
+    entered.write_text("")
+    dep = {"resources": {"arm": {"class": "tests.support.comps:GatedRecorder",
+                                 "gate": str(gate), "entered": str(entered),
+                                 "allow": {"*": "command"}}},
+           "behaviors": {"a": {"class": "tests.support.comps:Probe", "uses": {"arm": "command"}},
+                         "b": {"class": "tests.support.comps:Probe", "uses": {"arm": "command"}}}}
+    return dep, gate, entered
+
+
+def in_thread(fn, *args):
+    box: list = []
+    t = threading.Thread(target=lambda: box.append(fn(*args)), daemon=True)
+    t.start()
+    return t, box
+
+
+def test_a_command_whose_sender_gave_up_is_never_written(start, tmp_path):
+    """b's command waits behind a's, which the actuator is still writing; b gives up at its
+    timeout and is told so. When a's write ends, b's command must not reach write():
+    the robot never acts on a command its sender was told failed."""
+    dep, gate, entered = gated(tmp_path)
+    rt = start(dep)
+    for who in ("a", "b"):
+        assert call(rt, who, "attach_actuator", "arm") == {"ok": "ready"}
+    t, box = in_thread(call, rt, "a", "send", "arm", "one", 5.0)
+    wait_for(lambda: entered.read_text() == "one\n", what="a's command in write()")
+    out = call(rt, "b", "send", "arm", "two", 0.3)
+    assert out["error"] == "CommandError" and out["message"].startswith("arm: no answer within"), out
+    with open(gate, "wb") as g:           # every write() that comes may end now
+        g.write(b"xxx")
+    t.join(5.0)
+    assert box == [{"ok": {"n": 1, "gain": 1}}]
+    assert call(rt, "a", "send", "arm", "three", 5.0) == {"ok": {"n": 2, "gain": 1}}
+    assert entered.read_text() == "one\nthree\n"
+
+
+# ---- the supervisor ---------------------------------------------------------------------
+
+def test_failures_restart_a_child_up_to_its_limit_then_it_stays_failed(sup, clock):
+    s = sup()
+    changes: list[int] = []
+    s.on_change = lambda: changes.append(1)
+    rec = s.request(s.add_child, Spec("w", restart_max=2, restart_within=10.0))
+    assert s.take() == [("start", "w", 1)] and len(changes) == 1
+    s.failed("w", 1, "boom")
+    s.barrier()
+    assert s.take() == [("released", "w", "failed"), ("stop", "w", 1), ("start", "w", 2),
+                        ("restarted", "w", 2)]
+    assert (rec.generation, rec.restarts, rec.reason, s.c["restarts"]) == (2, 1, "boom", 1)
+    assert len(changes) == 2
+    s.failed("w", 1, "late news of generation 1")      # already handled: no event
+    s.failed("w", 2, "boom 2")
+    s.failed("w", 2, "boom 2 again")                    # one generation fails once
+    s.barrier()
+    assert s.take() == [("released", "w", "failed"), ("stop", "w", 2), ("start", "w", 3),
+                        ("restarted", "w", 3)]
+    clock.now += 10.0                                   # both failures within 10 s: the limit
+    s.failed("w", 3, "boom 3")
+    s.barrier()
+    assert s.take() == [("released", "w", "failed"), ("stop", "w", 3), ("gave_up", "w", "boom 3")]
+    assert s.records["w"] is rec and (rec.generation, rec.restarts, s.c["restarts"]) == (3, 2, 2)
+
+
+def test_a_failure_older_than_the_period_no_longer_counts(sup, clock):
+    s = sup()
+    s.request(s.add_child, Spec("w", restart_max=1, restart_within=5.0))
+    s.failed("w", 1, "boom")
+    s.barrier()
+    clock.now += 5.001
+    s.failed("w", 2, "boom")
+    s.barrier()
+    assert s.take()[-2:] == [("start", "w", 3), ("restarted", "w", 3)]
+    clock.now += 5.0
+    s.failed("w", 3, "boom")
+    s.barrier()
+    assert s.take()[-1] == ("gave_up", "w", "boom")
+
+
+def test_a_child_past_its_limit_is_dropped_when_its_policy_says_remove(sup, clock):
+    s = sup()
+    rec = s.request(s.add_child, Spec("w"))
+    rec.child = ChildSpec("w", "behavior", 0, 10.0, "remove")
+    s.failed("w", 1, "boom")
+    s.barrier()
+    assert s.take()[-1] == ("gave_up", "w", "boom") and "w" not in s.records
+
+
+def test_a_restart_that_fails_leaves_the_child_failed(sup, clock):
+    s = sup(fail_start={2})
+    rec = s.request(s.add_child, Spec("w", restart_max=3))
+    s.failed("w", 1, "boom")
+    s.barrier()
+    assert s.take()[-2:] == [("start", "w", 2),
+                             ("gave_up", "w", "restart failed: cannot start generation 2")]
+    assert (rec.host.state, rec.host.reason) == ("failed", "restart failed: cannot start generation 2")
+    s.failed("w", 2, "boom")                            # a failed restart is not started again
+    s.barrier()
+    assert s.take() == []
+
+
+def test_a_restarted_child_that_comes_up_failed_is_a_failure_of_its_own(sup, clock):
+    s = sup(failed_start={2})
+    s.request(s.add_child, Spec("w", restart_max=1))
+    s.take()
+    s.failed("w", 1, "boom")
+    s.barrier()
+    assert s.take() == [("released", "w", "failed"), ("stop", "w", 1), ("start", "w", 2),
+                        ("released", "w", "failed"), ("stop", "w", 2),
+                        ("gave_up", "w", "open failed")]
+
+
+def test_a_child_that_starts_failed_is_handled_at_once_and_one_that_cannot_start_is_not_kept(sup):
+    s = sup(failed_start={1})
+    s.request(s.add_child, Spec("w"))
+    assert s.take() == [("start", "w", 1), ("released", "w", "failed"), ("stop", "w", 1),
+                        ("gave_up", "w", "open failed")]
+    s2 = sup(fail_start={1})
+    with pytest.raises(RuntimeError, match="cannot start generation 1"):
+        s2.request(s2.add_child, Spec("x"))
+    assert s2.records == {}
+
+
+@pytest.mark.parametrize("release_first, order", [
+    (False, [("stop", "w", 1), ("released", "w", "removed")]),
+    (True, [("released", "w", "removed"), ("stop", "w", 1)])])
+def test_remove_stops_and_releases_in_the_kinds_order_and_its_failure_is_no_event(
+        sup, release_first, order):
+    s = sup()
+    s.release_before_stop = release_first
+    s.request(s.add_child, Spec("w", restart_max=5))
+    s.take()
+    seen: list = []
+    s.released = lambda name, rec, why: (seen.append("w" in s.records),
+                                         s.events.append(("released", name, why)))
+    rec = s.request(s.remove_child, "w")
+    assert s.take() == order and "w" not in s.records and rec.removing
+    assert seen == [False]                 # forgotten before it is released, in both orders
+    s.failed("w", 1, "it died while stopping")
+    s.barrier()
+    assert s.take() == []
+
+
+def test_stopping_stops_every_child_newest_first_and_then_takes_no_request(sup):
+    s = sup()
+    for name in ("a", "b", "c"):
+        s.request(s.add_child, Spec(name, restart_max=5))
+    s.take()
+    s.stop_children()
+    assert s.take() == [("stop", "c", 1), ("released", "c", "removed"), ("stop", "b", 1),
+                        ("released", "b", "removed"), ("stop", "a", 1), ("released", "a", "removed")]
+    assert s.records == {}
+    with pytest.raises(ControlError) as err:
+        s.request(lambda: 1)
+    assert err.value.message == "the runtime is stopping"
+    s.failed("a", 1, "after the end")
+    assert s.take() == []
+
+
+def test_a_request_gives_its_result_or_its_exception_and_gives_up_at_its_timeout(sup):
+    s = sup()
+    assert s.request(lambda a, b: a + b, 2, 3) == 5
+    with pytest.raises(KeyError):
+        s.request(s.remove_child, "nobody")
+    assert s.request(lambda: s.request(lambda: "inline")) == "inline"   # on its own thread
+    release = threading.Event()
+    with pytest.raises(ControlError) as err:
+        s.request(release.wait, timeout=0.1)
+    assert err.value.message == "request not done within 0.1 s"
+    release.set()
+    assert s.request(lambda: "free again") == "free again"
+
+
+def test_before_start_a_request_runs_in_the_callers_thread():
+    s = Recording()
+    assert s.request(threading.current_thread) is threading.current_thread()
+    s.add_child(Spec("w"))
+    assert s.take() == [("start", "w", 1)]
+    s.stop_children()
+    assert s.take() == [("stop", "w", 1), ("released", "w", "removed")]
+
+
+def test_a_starting_host_takes_nothing():
+    h = Starting()
+    assert (h.state, h.phase, h.reason) == ("starting", "starting", "")
+    assert h.offer("a", 1) == "starting" and h.provide("a", 1.0) == ("busy", "starting")
+    assert h.check(0.0) is None and h.children() == {} and h.counters() == {}
+    failed = Starting("failed", "restart failed: x")
+    assert (failed.state, failed.reason, failed.offer("a", 1)) == ("failed", "restart failed: x", "failed")
+
+
+# ---- the connections --------------------------------------------------------------------
+
+def sample(seq: int) -> Sample:
+    return Sample(seq, seq, 0.0, "count")
+
+
+def test_a_sensor_handle_keeps_the_newest_and_counts_what_a_reader_lost():
+    states = {"count": "ready"}
+    h = SensorHandle("count", 2, states.get)
+    assert h.latest() is None and h.state == "ready"
+    for i in (1, 2, 3):
+        h.push(sample(i))
+    # samples() never called: the reader only looks at latest(), nothing is "lost"
+    assert h.counters() == {"received": 3, "overwritten": 0} and h.latest().seq == 3
+    assert [s.seq for s in h.samples()] == [2, 3] and h.samples() == []
+    for i in (4, 5, 6):
+        h.push(sample(i))
+    assert h.counters() == {"received": 6, "overwritten": 1}
+    assert [s.seq for s in h.samples()] == [5, 6]
+    h.detached = True
+    h.push(sample(7))
+    assert h.counters() == {"received": 6, "overwritten": 1} and h.latest().seq == 6
+    assert h.state == "detached"
+    del states["count"]
+    h.detached = False
+    assert h.state == "gone"
+    one = SensorHandle("count", 0, states.get)         # keep 0 still keeps one
+    one.push(sample(1))
+    one.push(sample(2))
+    assert [s.seq for s in one.samples()] == [2]
+
+
+def test_an_actuator_handle_raises_only_the_documented_errors_and_counts_them():
+    calls: list = []
+
+    def send(resource, command, timeout):
+        calls.append((resource, command, timeout))
+        if command == "refuse":
+            raise Refused("not today")
+        if command == "not json":
+            raise StdError("a set is not JSON")
+        if command == "bad":
+            raise CommandError(resource, "too far")
+        if command == "gone":
+            raise ResourceLost(resource, "lost: cable out")
+        return {"n": len(calls)}
+
+    h = ActuatorHandle("arm", send, {"arm": "ready"}.get)
+    assert h.send(1, 0.25) == {"n": 1} and calls == [("arm", 1, 0.25)]
+    assert h.send(2) == {"n": 2} and calls[-1][2] == 1.0
+    for command, kind, message in [("refuse", CommandError, "arm: refused: not today"),
+                                   ("not json", CommandError, "arm: a set is not JSON"),
+                                   ("bad", CommandError, "arm: too far"),
+                                   ("gone", ResourceLost, "arm: lost: cable out")]:
+        with pytest.raises(StdError) as err:
+            h.send(command)
+        assert type(err.value) is kind and str(err.value) == message
+    assert h.counters() == {"sent": 2, "failed": 4}
+    h.detached = True
+    with pytest.raises(ResourceLost) as err:
+        h.send(3)
+    assert str(err.value) == "arm: detached: the resource was removed" and len(calls) == 6
+    assert h.counters() == {"sent": 2, "failed": 5} and h.state == "detached"
+
+
+def test_the_sensor_connection_routes_detaches_parks_and_restores():
+    sc = SensorConnection()
+    a1, a2, b = (SensorHandle("count", 4, lambda r: "ready") for _ in range(3))
+    sc.attach("a", "count", a1)
+    sc.attach("a", "count", a2)
+    sc.attach("b", "count", b)
+    sc.attach("b", "other", None)                      # process mode: listed only
+    sc.route("count", sample(1))
+    sc.route("nobody", sample(2))
+    assert (sc.routed, sc.unrouted) == (1, 1)
+    assert [h.received for h in (a1, a2, b)] == [1, 1, 1]
+    assert sc.attached_to("count") == ["a", "b"] and sc.attached_to("other") == ["b"]
+    assert sc.detach("b", "count") == ["count"] and b.detached and not a1.detached
+    assert sc.attached_to("other") == ["b"]
+    assert sc.drop_resource("count") == ["a"] and a1.detached and a2.detached
+    sc.route("count", sample(3))
+    assert sc.unrouted == 2 and sc.attached_to("count") == []
+    sc.restore("a", "count")
+    assert not a1.detached and not a2.detached and sc.attached_to("count") == ["a"]
+    sc.route("count", sample(4))
+    assert [h.received for h in (a1, a2, b)] == [2, 2, 1]
+    sc.restore("c", "count")                           # nothing parked: listed
+    assert sc.attached_to("count") == ["a", "c"]
+    sc.route("count", sample(5))                       # its None handle is skipped
+    assert sc.routed == 3
+    # parked, then forgotten: not restored when the sensor comes back
+    sc.drop_resource("count")
+    sc.forget("a")
+    sc.restore("a", "count")
+    assert a1.detached and sc.attached_to("count") == ["a"]
+    assert sc.detach("a") == ["count"] and sc.attached_to("count") == []
+    assert sc.drop_resource("never") == []
+
+
+def test_the_actuator_connection_refuses_a_sender_without_the_command_level():
+    class Rs:
+        def __init__(self):
+            self.host = self
+
+        def granted(self, who, resource):
+            return Level.command if who == "ok" else Level.read
+
+        def host_of(self, resource):
+            return self
+
+        def command(self, sender, resource, command, timeout):
+            return (sender, resource, command, timeout)
+
+    ac = ActuatorConnection(Rs())
+    assert ac.command("ok", "arm", 1, 0.5) == ("ok", "arm", 1, 0.5)
+    with pytest.raises(Refused) as err:
+        ac.command("reader", "arm", 1, 0.5)
+    assert err.value.message == "behavior 'reader' is not registered to command 'arm'"
+    assert (ac.routed, ac.refused) == (1, 1)
+    assert ac.command("reader", "arm", 2, 0.5, direct=True) == ("reader", "arm", 2, 0.5)
+    assert (ac.routed, ac.refused) == (2, 1)
+
+
+def test_the_command_path_refuses_what_it_cannot_run_and_bounds_its_queue(tmp_path):
+    """Thread mode, the resource host itself: every refusal reaches on_done once with its
+    reason; the 257th command while the actuator is busy is refused and counted."""
+    dep, gate, entered = gated(tmp_path)
+    dep["resources"]["count"] = {"class": "tests.support.comps:Counter", "rate": 50,
+                                 "allow": {"*": "read"}}
+    rt = Runtime(dep | {"robot": "t"}, mode="thread", endpoint=free_endpoint())
+    rt.start()
+    try:
+        host = rt.rs.host_of("arm")
+        done: list = []
+
+        def on_done(ok, value):
+            done.append((ok, f"{type(value).__name__}: {value}" if isinstance(value, StdError)
+                         else value))
+
+        host.submit("nothing", "write", (1,), on_done)
+        rt.rs.host_of("count").submit("count", "write", (1,), on_done)
+        host.submit("arm", "write", ({1, 2},), on_done)
+        assert done == [(False, "ResourceLost: nothing: no such resource"),
+                        (False, "is a sensor: it takes no commands"),
+                        (False, "data is not JSON-serialisable: Object of type set is not JSON "
+                                "serializable")]
+        done.clear()
+        host.submit("arm", "write", ("first",), on_done, timeout=30.0)
+        wait_for(lambda: entered.read_text() == "first\n", what="the first command in write()")
+        for i in range(256):
+            host.submit("arm", "write", (i,), on_done, timeout=30.0)
+        assert done == [] and host.counters()["commands_refused"] == 0
+        host.submit("arm", "write", ("one too many",), on_done, timeout=30.0)
+        assert done == [(False, "command queue full")] and host.counters()["commands_refused"] == 1
+        with open(gate, "wb") as g:
+            g.write(b"x" * 257)
+        wait_for(lambda: len(done) == 258, what="every queued command answered")
+        assert done[1:] == [(True, {"n": n, "gain": 1}) for n in range(1, 258)]
+        assert entered.read_text().splitlines() == ["first", *map(str, range(256))]
+        host.slots["arm"].set_state("lost", "cable out")
+        host.submit("arm", "write", (1,), on_done)
+        assert done[-1] == (False, "ResourceLost: arm: lost: cable out")
+        host.slots["arm"].state, host.slots["arm"].reason = "lost", ""
+        host.submit("arm", "write", (1,), on_done)
+        assert done[-1] == (False, "ResourceLost: arm: lost")
+        host.slots["arm"].state = "ready"
+        host.stop()
+        host.submit("arm", "write", (1,), on_done)
+        assert done[-1] == (False, "ResourceLost: arm: removed")
+    finally:
+        rt.stop()
