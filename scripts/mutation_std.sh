@@ -3,7 +3,9 @@
 #
 # Mutates esair_std/supervisor.py, connections.py and modes/reshost.py (the supervisors,
 # the connections, the resource host's command path and its deadlines) and runs, for
-# each mutant, the thread-mode tests of scripts/mutation_std.toml. mutmut reads its
+# each mutant, tests/std/test_std_safety_rules.py in thread mode; WIDE=1 with the names
+# of that pass's survivors runs them again with the wider thread-mode selection of
+# scripts/mutation_std.toml. mutmut reads its
 # configuration from pyproject.toml only, so this works in a scratch copy of the
 # checkout ($WORK, default .mutation-std/, git-ignored) whose [tool.mutmut] is replaced
 # by scripts/mutation_std.toml. Then prints the summary of scripts/mutation_report.py.
@@ -14,7 +16,7 @@
 #   bash scripts/mutation_std.sh                  # fresh run
 #   MAX_CHILDREN=2 bash scripts/mutation_std.sh   # mutmut's workers (default 1)
 #   KEEP=1 bash scripts/mutation_std.sh           # reuse $WORK/mutants (mutmut's cache)
-#   bash scripts/mutation_std.sh NAME...          # only these mutants (after a run)
+#   WIDE=1 bash scripts/mutation_std.sh NAME...   # these mutants, wider tests (after a run)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 ROOT=$PWD
@@ -27,9 +29,14 @@ mkdir -p "$WORK"
 # the checkout's files as they are now (tracked and new, not ignored ones)
 git ls-files -z --cached --others --exclude-standard | grep -zv '^\.mutation-std/' \
     | tar --null -T - -cf - | tar -xf - -C "$WORK"
-python - "$WORK/pyproject.toml" scripts/mutation_std.toml <<'PY'
-import re, sys
-path, table = sys.argv[1], open(sys.argv[2]).read()
+python - "$WORK/pyproject.toml" scripts/mutation_std.toml "${WIDE:-}" <<'PY'
+import re, sys, tomllib
+path, conf, wide = sys.argv[1], open(sys.argv[2]).read(), sys.argv[3]
+table, _, rest = conf.partition("\n[wide]\n")
+if wide:
+    sel = tomllib.loads(rest)["pytest_add_cli_args_test_selection"]
+    table = re.sub(r"(?m)^pytest_add_cli_args_test_selection = .*$",
+                   "pytest_add_cli_args_test_selection = " + repr(sel).replace("'", '"'), table)
 text = open(path).read()
 text = re.sub(r"(?ms)^\[tool\.mutmut\]\n.*?(?=^\[)", "", text)
 open(path, "w").write(text + "\n" + table)

@@ -332,13 +332,13 @@ def test_a_sensor_handle_keeps_the_newest_and_counts_what_a_reader_lost():
     # samples() never called: the reader only looks at latest(), nothing is "lost"
     assert h.counters() == {"received": 3, "overwritten": 0} and h.latest().seq == 3
     assert [s.seq for s in h.samples()] == [2, 3] and h.samples() == []
-    for i in (4, 5, 6):
+    for i in (4, 5, 6, 7):
         h.push(sample(i))
-    assert h.counters() == {"received": 6, "overwritten": 1}
-    assert [s.seq for s in h.samples()] == [5, 6]
+    assert h.counters() == {"received": 7, "overwritten": 2}
+    assert [s.seq for s in h.samples()] == [6, 7]
     h.detached = True
-    h.push(sample(7))
-    assert h.counters() == {"received": 6, "overwritten": 1} and h.latest().seq == 6
+    h.push(sample(8))
+    assert h.counters() == {"received": 7, "overwritten": 2} and h.latest().seq == 7
     assert h.state == "detached"
     del states["count"]
     h.detached = False
@@ -416,6 +416,21 @@ def test_the_sensor_connection_routes_detaches_parks_and_restores():
     assert sc.drop_resource("never") == []
 
 
+def test_each_behavior_gets_its_own_handles_back_when_a_sensor_returns():
+    sc = SensorConnection()
+    a, b = SensorHandle("count", 4, lambda r: "ready"), SensorHandle("count", 4, lambda r: "ready")
+    sc.attach("a", "count", a)
+    sc.attach("b", "count", b)
+    assert sc.drop_resource("count") == ["a", "b"] and a.detached and b.detached
+    sc.restore("a", "count")
+    assert not a.detached and b.detached
+    sc.restore("b", "count")                         # b's handle was kept while a came back
+    assert not b.detached and sc.attached_to("count") == ["a", "b"]
+    assert sc._parked == {}
+    sc.route("count", sample(1))
+    assert (a.received, b.received) == (1, 1)
+
+
 def test_the_actuator_connection_refuses_a_sender_without_the_command_level():
     class Rs:
         def __init__(self):
@@ -476,6 +491,18 @@ def test_the_command_path_refuses_what_it_cannot_run_and_bounds_its_queue(tmp_pa
         wait_for(lambda: len(done) == 258, what="every queued command answered")
         assert done[1:] == [(True, {"n": n, "gain": 1}) for n in range(1, 258)]
         assert entered.read_text().splitlines() == ["first", *map(str, range(256))]
+        host.grant("a", "arm")
+        host.grant("b", "arm")
+        host.grant("a", "nothing")                   # no such resource here: nothing kept
+        assert host.slots["arm"].granted == {"a", "b"}
+        host.revoke("a", "count")
+        host.revoke("a", "arm")
+        assert host.slots["arm"].granted == {"b"}
+        host.grant("a", "arm")
+        host.revoke("b")                             # from every resource of the host
+        assert host.slots["arm"].granted == {"a"}
+        host.revoke("a")
+        assert host.slots["arm"].granted == set()
         host.slots["arm"].set_state("lost", "cable out")
         host.submit("arm", "write", (1,), on_done)
         assert done[-1] == (False, "ResourceLost: arm: lost: cable out")
@@ -486,5 +513,38 @@ def test_the_command_path_refuses_what_it_cannot_run_and_bounds_its_queue(tmp_pa
         host.stop()
         host.submit("arm", "write", (1,), on_done)
         assert done[-1] == (False, "ResourceLost: arm: removed")
+    finally:
+        rt.stop()
+
+
+def test_when_the_host_dies_nothing_queued_is_carried_out(tmp_path):
+    """The actuator's write() ends its host thread (SystemExit) while three commands wait:
+    each is answered ResourceLost with the reason, none reaches write(), the entry is
+    failed and its resources lost, and its supervisor is told once."""
+    dep, gate, entered = gated(tmp_path)
+    rt = Runtime(dep | {"robot": "t"}, mode="thread", endpoint=free_endpoint())
+    rt.start()
+    try:
+        host = rt.rs.host_of("arm")
+        told: list = []
+        host.on_failed = told.append                   # instead of the RS: no restart
+        done: list = []
+
+        def on_done(ok, value):
+            done.append((ok, f"{type(value).__name__}: {value}"))
+
+        host.submit("arm", "write", ({"die": "power cut"},), on_done, timeout=30.0)
+        wait_for(lambda: entered.read_text() != "", what="the first command in write()")
+        for i in range(3):
+            host.submit("arm", "write", (i,), on_done, timeout=30.0)
+        with open(gate, "wb") as g:
+            g.write(b"xxxx")
+        wait_for(lambda: len(done) == 4, what="every command answered")
+        why = "its host died: SystemExit: power cut"
+        assert done == [(False, f"ResourceLost: arm: {why}")] * 4
+        assert entered.read_text() == "{'die': 'power cut'}\n"
+        host.thread.join(5.0)
+        assert (host.state, host.reason) == ("failed", why)
+        assert host.states() == {"arm": ("lost", why)} and told == [why]
     finally:
         rt.stop()
