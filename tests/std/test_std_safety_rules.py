@@ -31,9 +31,13 @@ class Host:
                  reason: str = ""):
         self.events, self.name, self.generation = events, name, generation
         self.state, self.reason = state, reason
+        self.timeouts: list = []
+        self.on_stop = lambda: None
 
     def stop(self, timeout: float = 2.0) -> None:
         self.events.append(("stop", self.name, self.generation))
+        self.timeouts.append(timeout)
+        self.on_stop()
 
 
 class Spec:
@@ -73,7 +77,7 @@ class Recording(Supervisor):
         return host
 
     def released(self, name, rec, why):
-        self.events.append(("released", name, why))
+        self.events.append(("released", rec.spec.name, why))
 
     def restarted(self, name, rec):
         self.events.append(("restarted", name, rec.generation))
@@ -165,7 +169,11 @@ def test_a_command_whose_sender_gave_up_is_never_written(start, tmp_path):
 
 # ---- the supervisor ---------------------------------------------------------------------
 
-def test_failures_restart_a_child_up_to_its_limit_then_it_stays_failed(sup, clock):
+def logged(caplog, logger: str) -> list[tuple[str, str]]:
+    return [(r.levelname, r.getMessage()) for r in caplog.records if r.name == logger]
+
+
+def test_failures_restart_a_child_up_to_its_limit_then_it_stays_failed(sup, clock, caplog):
     s = sup()
     changes: list[int] = []
     s.on_change = lambda: changes.append(1)
@@ -188,6 +196,10 @@ def test_failures_restart_a_child_up_to_its_limit_then_it_stays_failed(sup, cloc
     s.barrier()
     assert s.take() == [("released", "w", "failed"), ("stop", "w", 3), ("gave_up", "w", "boom 3")]
     assert s.records["w"] is rec and (rec.generation, rec.restarts, s.c["restarts"]) == (3, 2, 2)
+    assert [h.timeouts for h in s.hosts] == [[0.2], [0.2], [0.2]]   # a dead host: a short wait
+    assert logged(caplog, "esair_std.supervisor") == [
+        ("WARNING", "w failed (boom); restart 1"), ("WARNING", "w failed (boom 2); restart 2"),
+        ("WARNING", "w failed (boom 3); stays failed")]
 
 
 def test_a_failure_older_than_the_period_no_longer_counts(sup, clock):
@@ -214,7 +226,7 @@ def test_a_child_past_its_limit_is_dropped_when_its_policy_says_remove(sup, cloc
     assert s.take()[-1] == ("gave_up", "w", "boom") and "w" not in s.records
 
 
-def test_a_restart_that_fails_leaves_the_child_failed(sup, clock):
+def test_a_restart_that_fails_leaves_the_child_failed(sup, clock, caplog):
     s = sup(fail_start={2})
     rec = s.request(s.add_child, Spec("w", restart_max=3))
     s.failed("w", 1, "boom")
@@ -225,6 +237,8 @@ def test_a_restart_that_fails_leaves_the_child_failed(sup, clock):
     s.failed("w", 2, "boom")                            # a failed restart is not started again
     s.barrier()
     assert s.take() == []
+    assert logged(caplog, "esair_std.supervisor")[-1] == (
+        "ERROR", "w: restart failed: cannot start generation 2")
 
 
 def test_a_restarted_child_that_comes_up_failed_is_a_failure_of_its_own(sup, clock):
@@ -253,7 +267,7 @@ def test_a_child_that_starts_failed_is_handled_at_once_and_one_that_cannot_start
     (False, [("stop", "w", 1), ("released", "w", "removed")]),
     (True, [("released", "w", "removed"), ("stop", "w", 1)])])
 def test_remove_stops_and_releases_in_the_kinds_order_and_its_failure_is_no_event(
-        sup, release_first, order):
+        sup, release_first, order, caplog):
     s = sup()
     s.release_before_stop = release_first
     s.request(s.add_child, Spec("w", restart_max=5))
@@ -264,9 +278,38 @@ def test_remove_stops_and_releases_in_the_kinds_order_and_its_failure_is_no_even
     rec = s.request(s.remove_child, "w")
     assert s.take() == order and "w" not in s.records and rec.removing
     assert seen == [False]                 # forgotten before it is released, in both orders
-    s.failed("w", 1, "it died while stopping")
+    s.failed("w", 1, "it died after it was removed")
     s.barrier()
-    assert s.take() == []
+    assert s.take() == [] and logged(caplog, "esair_std.supervisor") == []
+
+
+def test_a_failure_reported_while_the_child_is_being_removed_is_no_event(sup, caplog):
+    """The host's stop() reports its child's failure on the supervisor's own thread (so it
+    is handled at once, inside the remove): it must not restart what is being removed."""
+    s = sup()
+    rec = s.request(s.add_child, Spec("w", restart_max=5))
+    rec.host.on_stop = lambda: s.request(s._failed, "w", 1, "it died while stopping")
+    s.take()
+    s.request(s.remove_child, "w")
+    assert s.take() == [("stop", "w", 1), ("released", "w", "removed")]
+    assert "w" not in s.records and logged(caplog, "esair_std.supervisor") == []
+
+
+def test_a_failure_that_cannot_be_queued_is_logged_not_waited_for(sup, caplog):
+    """The supervisor's queue is full (its thread is busy): a host reporting a failure
+    waits a bounded time, then the failure is logged, and the host goes on."""
+    s = sup()
+    busy, release = threading.Event(), threading.Event()
+    s.failed("w", 1, "x")           # nobody named w: handled as no event
+    t, _ = in_thread(s.request, lambda: (busy.set(), release.wait(30.0)))
+    busy.wait(10.0)
+    for i in range(supervisor.REQUESTS):
+        s.failed(f"c{i}", 1, "fills the queue")
+    s.failed("w", 1, "one too many")               # returns: not blocked forever
+    release.set()
+    t.join(10.0)
+    assert logged(caplog, "esair_std.supervisor") == [
+        ("ERROR", "failure of w not queued: supervisor queue full")]
 
 
 def test_stopping_stops_every_child_newest_first_and_then_takes_no_request(sup):
@@ -517,7 +560,7 @@ def test_the_command_path_refuses_what_it_cannot_run_and_bounds_its_queue(tmp_pa
         rt.stop()
 
 
-def test_when_the_host_dies_nothing_queued_is_carried_out(tmp_path):
+def test_when_the_host_dies_nothing_queued_is_carried_out(tmp_path, caplog):
     """The actuator's write() ends its host thread (SystemExit) while three commands wait:
     each is answered ResourceLost with the reason, none reaches write(), the entry is
     failed and its resources lost, and its supervisor is told once."""
@@ -546,5 +589,30 @@ def test_when_the_host_dies_nothing_queued_is_carried_out(tmp_path):
         host.thread.join(5.0)
         assert (host.state, host.reason) == ("failed", why)
         assert host.states() == {"arm": ("lost", why)} and told == [why]
+        assert ("ERROR", f"arm: {why}") in logged(caplog, "esair_std.resource")
+    finally:
+        rt.stop()
+
+
+def test_a_host_that_dies_while_it_is_stopped_is_no_failure(tmp_path, caplog):
+    """stop() was asked first: the death is not reported to the supervisor (nothing is
+    restarted), what waited is answered ResourceLost, and a close() that exits is logged."""
+    dep, gate, entered = gated(tmp_path)
+    dep["resources"]["arm"]["close_exits"] = "stuck"
+    rt = Runtime(dep | {"robot": "t"}, mode="thread", endpoint=free_endpoint())
+    rt.start()
+    try:
+        host = rt.rs.host_of("arm")
+        told: list = []
+        host.on_failed = told.append
+        done: list = []
+        host.submit("arm", "write", ({"die": "power cut"},), lambda ok, v: done.append(ok), 30.0)
+        wait_for(lambda: entered.read_text() != "", what="the command in write()")
+        host.stop(timeout=0.0)
+        with open(gate, "wb") as g:
+            g.write(b"x")
+        host.thread.join(5.0)
+        assert done == [False] and told == []
+        assert ("WARNING", "arm: close after failure: stuck") in logged(caplog, "esair_std.resource")
     finally:
         rt.stop()
