@@ -59,20 +59,26 @@ class Clock:
 class Recording(Supervisor):
     """A supervisor that records what it says to its subclass, in order."""
 
-    def __init__(self, fail_start: set[int] | None = None, failed_start: set[int] | None = None):
+    def __init__(self, fail_start: set[int] | None = None, failed_start: set[int] | None = None,
+                 no_reason: bool = False):
         self.events: list[tuple] = []
         self.hosts: list[Host] = []
+        self.while_starting: list[str] = []     # the child's host state seen by its start
         self.fail_start = fail_start or set()
         self.failed_start = failed_start or set()
+        self.no_reason = no_reason
         super().__init__("test", self._start)
 
     def _start(self, spec, generation):
         self.events.append(("start", spec.name, generation))
+        self.while_starting.append(getattr(self.records[spec.name].host, "state", None))
         if generation in self.fail_start:
             raise RuntimeError(f"cannot start generation {generation}")
         state = "failed" if generation in self.failed_start else "ready"
         host = Host(self.events, spec.name, generation, state,
                     "open failed" if state == "failed" else "")
+        if self.no_reason:
+            del host.reason                     # a host that gives no reason
         self.hosts.append(host)
         return host
 
@@ -197,6 +203,7 @@ def test_failures_restart_a_child_up_to_its_limit_then_it_stays_failed(sup, cloc
     assert s.take() == [("released", "w", "failed"), ("stop", "w", 3), ("gave_up", "w", "boom 3")]
     assert s.records["w"] is rec and (rec.generation, rec.restarts, s.c["restarts"]) == (3, 2, 2)
     assert [h.timeouts for h in s.hosts] == [[0.2], [0.2], [0.2]]   # a dead host: a short wait
+    assert s.while_starting == ["starting"] * 3          # never a host that is gone
     assert logged(caplog, "esair_std.supervisor") == [
         ("WARNING", "w failed (boom); restart 1"), ("WARNING", "w failed (boom 2); restart 2"),
         ("WARNING", "w failed (boom 3); stays failed")]
@@ -250,6 +257,15 @@ def test_a_restarted_child_that_comes_up_failed_is_a_failure_of_its_own(sup, clo
     assert s.take() == [("released", "w", "failed"), ("stop", "w", 1), ("start", "w", 2),
                         ("released", "w", "failed"), ("stop", "w", 2),
                         ("gave_up", "w", "open failed")]
+
+
+def test_a_host_that_comes_up_failed_without_a_reason_fails_with_an_empty_one(sup):
+    s = sup(failed_start={1, 2}, no_reason=True)
+    rec = s.request(s.add_child, Spec("w", restart_max=1))
+    assert s.take() == [("start", "w", 1), ("released", "w", "failed"), ("stop", "w", 1),
+                        ("start", "w", 2), ("released", "w", "failed"), ("stop", "w", 2),
+                        ("gave_up", "w", "")]
+    assert rec.reason == ""
 
 
 def test_a_child_that_starts_failed_is_handled_at_once_and_one_that_cannot_start_is_not_kept(sup):
