@@ -313,7 +313,8 @@ def test_a_failure_reported_while_the_child_is_being_removed_is_no_event(sup, ca
 
 def test_a_failure_that_cannot_be_queued_is_logged_not_waited_for(sup, caplog):
     """The supervisor's queue is full (its thread is busy): a host reporting a failure
-    waits a bounded time, then the failure is logged, and the host goes on."""
+    waits a bounded time, then the failure is logged, and the host goes on; a request is
+    refused with a reason."""
     s = sup()
     busy, release = threading.Event(), threading.Event()
     s.failed("w", 1, "x")           # nobody named w: handled as no event
@@ -322,6 +323,9 @@ def test_a_failure_that_cannot_be_queued_is_logged_not_waited_for(sup, caplog):
     for i in range(supervisor.REQUESTS):
         s.failed(f"c{i}", 1, "fills the queue")
     s.failed("w", 1, "one too many")               # returns: not blocked forever
+    with pytest.raises(ControlError) as err:        # and a request is refused, not blocked
+        s.request(lambda: "never run")
+    assert err.value.message == "the supervisor is busy: try again"
     release.set()
     t.join(10.0)
     assert logged(caplog, "esair_std.supervisor") == [
