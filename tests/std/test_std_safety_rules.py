@@ -362,6 +362,29 @@ def test_a_request_gives_its_result_or_its_exception_and_gives_up_at_its_timeout
     assert s.request(lambda: "free again") == "free again"
 
 
+def test_stopping_waits_for_the_work_under_way_and_never_raises_on_a_full_queue(sup):
+    s = sup()
+    s.request(s.add_child, Spec("w"))
+    s.take()
+    busy, release = threading.Event(), threading.Event()
+
+    def restart_under_way():
+        busy.set()
+        release.wait(30.0)
+        s.events.append(("work done",))
+    t, _ = in_thread(s.request, restart_under_way)
+    busy.wait(10.0)
+    for i in range(supervisor.REQUESTS):
+        s.failed(f"c{i}", 1, "fills the queue")
+    stopper, box = in_thread(s.stop_children)
+    wait_for(lambda: s._closing, what="stop_children under way")
+    release.set()
+    stopper.join(10.0)
+    t.join(10.0)
+    assert box == [None]                            # returned, did not raise
+    assert s.take() == [("work done",), ("stop", "w", 1), ("released", "w", "removed")]
+
+
 def test_before_start_a_request_runs_in_the_callers_thread():
     s = Recording()
     assert s.request(threading.current_thread) is threading.current_thread()
@@ -457,15 +480,15 @@ def test_the_sensor_connection_routes_detaches_parks_and_restores():
     assert (sc.routed, sc.unrouted) == (1, 1)
     assert [h.received for h in (a1, a2, b)] == [1, 1, 1]
     assert sc.attached_to("count") == ["a", "b"] and sc.attached_to("other") == ["b"]
+    assert sc.detach("b", "other") == ["other"] and sc.attached_to("other") == []
     assert sc.detach("b", "count") == ["count"] and b.detached and not a1.detached
-    assert sc.attached_to("other") == ["b"]
     assert sc.drop_resource("count") == ["a"] and a1.detached and a2.detached
     sc.route("count", sample(3))
     assert sc.unrouted == 2 and sc.attached_to("count") == []
     sc.restore("a", "count")
     assert not a1.detached and not a2.detached and sc.attached_to("count") == ["a"]
     sc.route("count", sample(4))
-    assert [h.received for h in (a1, a2, b)] == [2, 2, 1]
+    assert [h.received for h in (a1, a2, b)] == [2, 2, 1] and a1.latest().seq == 4
     sc.restore("c", "count")                           # nothing parked: listed
     assert sc.attached_to("count") == ["a", "c"]
     sc.route("count", sample(5))                       # its None handle is skipped
@@ -485,6 +508,7 @@ def test_each_behavior_gets_its_own_handles_back_when_a_sensor_returns():
     sc.attach("a", "count", a)
     sc.attach("b", "count", b)
     assert sc.drop_resource("count") == ["a", "b"] and a.detached and b.detached
+    sc.forget("c")                                   # someone else gone: a's and b's kept
     sc.restore("a", "count")
     assert not a.detached and b.detached
     sc.restore("b", "count")                         # b's handle was kept while a came back
@@ -573,7 +597,12 @@ def test_the_command_path_refuses_what_it_cannot_run_and_bounds_its_queue(tmp_pa
         host.submit("arm", "write", (1,), on_done)
         assert done[-1] == (False, "ResourceLost: arm: lost")
         host.slots["arm"].state = "ready"
+        counters = host.counters()
+        assert counters["commands_refused"] == 1
+        assert {k: counters["arm"][k] for k in ("commands", "command_errors", "seq", "state")} == {
+            "commands": 257, "command_errors": 0, "seq": 0, "state": "ready"}
         host.stop()
+        assert host.state == "stopped" and entered.read_text().endswith("255\nclosed\n")
         host.submit("arm", "write", (1,), on_done)
         assert done[-1] == (False, "ResourceLost: arm: removed")
     finally:
@@ -605,7 +634,7 @@ def test_when_the_host_dies_nothing_queued_is_carried_out(tmp_path, caplog):
         wait_for(lambda: len(done) == 4, what="every command answered")
         why = "its host died: SystemExit: power cut"
         assert done == [(False, f"ResourceLost: arm: {why}")] * 4
-        assert entered.read_text() == "{'die': 'power cut'}\n"
+        assert entered.read_text() == "{'die': 'power cut'}\nclosed\n"
         host.thread.join(5.0)
         assert (host.state, host.reason) == ("failed", why)
         assert host.states() == {"arm": ("lost", why)} and told == [why]

@@ -372,5 +372,7 @@ class GatedRecorder(Recorder):
 
     def close(self):
         os.close(self._gate)
+        with open(self.options["entered"], "a") as f:
+            f.write("closed\n")
         if "close_exits" in self.options:           # past every handler, as a stuck driver
             raise SystemExit(self.options["close_exits"])
