@@ -542,12 +542,15 @@ def test_the_actuator_connection_refuses_a_sender_without_the_command_level():
     assert (ac.routed, ac.refused) == (2, 1)
 
 
-def test_the_command_path_refuses_what_it_cannot_run_and_bounds_its_queue(tmp_path):
+def test_the_command_path_refuses_what_it_cannot_run_and_bounds_its_queue(tmp_path, caplog):
     """Thread mode, the resource host itself: every refusal reaches on_done once with its
     reason; the 257th command while the actuator is busy is refused and counted."""
     dep, gate, entered = gated(tmp_path)
+    dep["resources"]["arm"].update(close_waits=True, close_raises="bus error")
     dep["resources"]["count"] = {"class": "tests.support.comps:Counter", "rate": 50,
                                  "allow": {"*": "read"}}
+    dep["resources"]["pair"] = {"class": "tests.support.comps:ClosingPair",
+                                "closed": str(tmp_path / "closed"), "allow": {"*": "read"}}
     rt = Runtime(dep | {"robot": "t"}, mode="thread", endpoint=free_endpoint())
     rt.start()
     try:
@@ -583,6 +586,7 @@ def test_the_command_path_refuses_what_it_cannot_run_and_bounds_its_queue(tmp_pa
         host.grant("a", "nothing")                   # no such resource here: nothing kept
         assert host.slots["arm"].granted == {"a", "b"}
         host.revoke("a", "count")
+        assert host.slots["arm"].granted == {"a", "b"}
         host.revoke("a", "arm")
         assert host.slots["arm"].granted == {"b"}
         host.grant("a", "arm")
@@ -601,12 +605,19 @@ def test_the_command_path_refuses_what_it_cannot_run_and_bounds_its_queue(tmp_pa
         assert counters["commands_refused"] == 1
         assert {k: counters["arm"][k] for k in ("commands", "command_errors", "seq", "state")} == {
             "commands": 257, "command_errors": 0, "seq": 0, "state": "ready"}
-        host.stop()
-        assert host.state == "stopped" and entered.read_text().endswith("255\nclosed\n")
+        stopper, _ = in_thread(host.stop, 30.0)
+        wait_for(lambda: entered.read_text().endswith("closing\n"), what="close() under way")
+        assert stopper.is_alive()                   # stop() waits for close() to end
+        with open(gate, "wb") as g:
+            g.write(b"x")
+        stopper.join(10.0)
+        assert host.state == "stopped" and entered.read_text().endswith("255\nclosing\nclosed\n")
+        assert ("WARNING", "arm: close() raised bus error") in logged(caplog, "esair_std.resource")
         host.submit("arm", "write", (1,), on_done)
         assert done[-1] == (False, "ResourceLost: arm: removed")
     finally:
         rt.stop()
+    assert (tmp_path / "closed").read_text() == "closed\n"          # the driver's own close()
 
 
 def test_when_the_host_dies_nothing_queued_is_carried_out(tmp_path, caplog):

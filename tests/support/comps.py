@@ -371,8 +371,22 @@ class GatedRecorder(Recorder):
         return super().write(command)
 
     def close(self):
+        if self.options.get("close_waits"):          # close() too waits for its byte
+            with open(self.options["entered"], "a") as f:
+                f.write("closing\n")
+            os.read(self._gate, 1)
         os.close(self._gate)
         with open(self.options["entered"], "a") as f:
             f.write("closed\n")
+        if "close_raises" in self.options:
+            raise OSError(self.options["close_raises"])
         if "close_exits" in self.options:           # past every handler, as a stuck driver
             raise SystemExit(self.options["close_exits"])
+
+
+class ClosingPair(Pair):
+    """A Pair whose close() appends "closed" to the file ``options.closed``."""
+
+    def close(self):
+        with open(self.options["closed"], "a") as f:
+            f.write("closed\n")
