@@ -290,7 +290,7 @@ def test_remove_stops_and_releases_in_the_kinds_order_and_its_failure_is_no_even
     s.take()
     seen: list = []
     s.released = lambda name, rec, why: (seen.append("w" in s.records),
-                                         s.events.append(("released", name, why)))
+                                         s.events.append(("released", rec.spec.name, why)))
     rec = s.request(s.remove_child, "w")
     assert s.take() == order and "w" not in s.records and rec.removing
     assert seen == [False]                 # forgotten before it is released, in both orders
@@ -551,9 +551,17 @@ def test_the_command_path_refuses_what_it_cannot_run_and_bounds_its_queue(tmp_pa
                                  "allow": {"*": "read"}}
     dep["resources"]["pair"] = {"class": "tests.support.comps:ClosingPair",
                                 "closed": str(tmp_path / "closed"), "allow": {"*": "read"}}
+    dep["behaviors"]["c"] = {"class": "tests.support.comps:Probe", "uses": {"count": "read"}}
     rt = Runtime(dep | {"robot": "t"}, mode="thread", endpoint=free_endpoint())
     rt.start()
     try:
+        assert call(rt, "c", "attach_sensor", "count") == {"ok": "ready"}
+        seq, value, source = wait_for(lambda: call(rt, "c", "latest", "count")["ok"], what="a sample")
+        assert (value, source) == (seq, "count")       # the counter's value is its count
+        counts = rt.rs.host_of("count").counters
+        reported = wait_for(lambda: (lambda c: c if c["reported"] == c["seq"] else None)(
+            counts()["count"]), what="one report per sample number")
+        assert reported["seq"] >= seq
         host = rt.rs.host_of("arm")
         done: list = []
 
@@ -618,6 +626,7 @@ def test_the_command_path_refuses_what_it_cannot_run_and_bounds_its_queue(tmp_pa
     finally:
         rt.stop()
     assert (tmp_path / "closed").read_text() == "closed\n"          # the driver's own close()
+    assert ("WARNING", "pair: close() raised bus error") in logged(caplog, "esair_std.resource")
 
 
 def test_when_the_host_dies_nothing_queued_is_carried_out(tmp_path, caplog):

@@ -385,8 +385,9 @@ class GatedRecorder(Recorder):
 
 
 class ClosingPair(Pair):
-    """A Pair whose close() appends "closed" to the file ``options.closed``."""
+    """A Pair whose close() appends "closed" to the file ``options.closed``, then raises."""
 
     def close(self):
         with open(self.options["closed"], "a") as f:
             f.write("closed\n")
+        raise OSError("bus error")
