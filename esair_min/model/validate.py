@@ -16,15 +16,12 @@ from pydantic import ValidationError
 from esair_min.model import hardware
 from esair_min.errors import ConfigError, file_mark
 from esair_min.components import COMPONENTS, motion, omni_base
-from esair_min.components.servo import encode_high
+from esair_min.model.encoding import CHECKSUM_CHARS, MAX_LINE, encode_high
 from esair_min.model.board import DEFAULT_COMMANDS, Board, BoardDevice, Command, EepromDevice
 from esair_min.model.robot import Robot, frame_bus_load
 from esair_min.config.schema_errors import config_error, did_you_mean
 from esair_min.config.yamlload import Document, load_yaml
 
-#: Longest command line, checksum suffix ``*HH`` included (docs/protocol.md).
-MAX_LINE = 40
-CHECKSUM_CHARS = 3
 BAUD_TOLERANCE = 0.02
 TICK_TOLERANCE = 0.01
 

@@ -11,7 +11,8 @@ from typing import Any
 from esair_min.components.base import Checker, Component
 from esair_min.components.motion.layout import image_layout
 from esair_min.components.motion.schema import MAX_FRAMES, MAX_MOTIONS, Frame, Motion
-from esair_min.components.servo import encode_high, overflow
+from esair_min.components.servo import overflow
+from esair_min.model.encoding import pair_fits
 
 
 def storage_rules(checker: Checker, central: Any, by_role: dict[str, Any]) -> None:
@@ -70,7 +71,7 @@ def _frame_rules(checker: Checker, central: Any, loc: tuple[Any, ...], m: Motion
             checker.fail(central, loc + ("angles", k), f"motion '{m.name}' frame {f}: angle "
                          f"{angle} for servo '{servo.name}' is outside its limits "
                          f"{servo.min_angle}..{servo.max_angle}")
-        if encode_high(angle, speed) > 255:
+        if not pair_fits(angle, speed):
             where = loc + (("speed",) if isinstance(frame.speed, int) else ("speed", k))
             checker.fail(central, where, f"motion '{m.name}' frame {f}, servo "
                          f"'{servo.name}': {overflow(speed, angle)}")
