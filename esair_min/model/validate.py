@@ -285,6 +285,8 @@ class _Checker:
         if central is None or len(self.errors) > before:
             return
         self.peer_rules(central, by_role)
+        if self.stopped:    # no storage for the motions, a drive board without a base:
+            return          # the command table and the motions are then not what was meant
         actuator = by_role.get("actuator")
         self.command_rules(central, len(actuator.servos) if actuator else 0, by_role)
         for c in COMPONENTS:

@@ -123,12 +123,8 @@ EXPECTED = {
         "tests/fixtures/bad/missing_section/actuator.yaml:6:1: an actuator board needs a 'sync:' section",
     "motion_on_non_play":
         "tests/fixtures/bad/motion_on_non_play/central.yaml:37:48: 'motion' is only for action 'play'; remove it or use action: play",
-    "motions_without_eeprom": (
-        "tests/fixtures/bad/motions_without_eeprom/central.yaml:31:42: command 'play' (action play) needs an EEPROM among the I2C devices",
-        "tests/fixtures/bad/motions_without_eeprom/central.yaml:37:42: command 'sit' (action play) needs an EEPROM among the I2C devices",
-        "tests/fixtures/bad/motions_without_eeprom/central.yaml:38:42: command 'dance' (action play) needs an EEPROM among the I2C devices",
+    "motions_without_eeprom":
         'tests/fixtures/bad/motions_without_eeprom/central.yaml:51:1: motions need an EEPROM: add one to the I2C devices (kind: eeprom)',
-    ),
     "no_central":
         "tests/fixtures/bad/no_central/actuator.yaml:1:1: no central board in this robot (one board needs 'role: central')",
     "non_string_key":
