@@ -23,6 +23,11 @@ class Checker(Protocol):
                key: bool = False) -> None:
         ...
 
+    def rule(self, check: Callable[..., None], *args: Any) -> None:
+        """Run ``check(*args)``, collecting the error its ``fail`` raises (one rule an
+        item: every item's first error is reported)."""
+        ...
+
     def doc(self, board: Any) -> Any:
         ...
 

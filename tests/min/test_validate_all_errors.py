@@ -134,3 +134,37 @@ def test_errors_cross_a_process_boundary_whole() -> None:
     back = pickle.loads(pickle.dumps(errors))
     assert str(back) == str(errors) == "x.yaml:1:5: a\nx.yaml:2:1: b"
     assert back.mark == Mark("x.yaml", 1, 5)
+
+
+def test_each_item_of_a_kind_reports_its_own_error(tmp_path: Path) -> None:
+    """Every servo with a broken rule and every broken frame, not the first only; the
+    board's own errors stop the rules across boards (the frames are then not checked
+    against servos whose limits are wrong)."""
+    robot = papaman(tmp_path, {
+        "actuator.yaml": [("l_hip_yaw,     index: 0,  pin: RD0, min_angle: 60, max_angle: 120, "
+                           "stand_angle: 90", "l_hip_yaw,     index: 0,  pin: RD0, min_angle: "
+                           "60, max_angle: 120, stand_angle: 130"),
+                          ("l_knee,        index: 3,  pin: RD3, min_angle: 0,  max_angle: 150",
+                           "l_knee,        index: 3,  pin: RD3, min_angle: 0,  max_angle: 150, "
+                           "pulse_min_us: 2600")]})
+    with pytest.raises(ConfigErrors) as info:
+        load_robot(robot)
+    assert str(info.value).splitlines() == [
+        f"{robot}/actuator.yaml:19:92: servo 'l_hip_yaw': stand_angle 130 is outside its "
+        "limits 60..120",
+        f"{robot}/actuator.yaml:22:5: servo 'l_knee': pulse_max_us (2500) must be above "
+        "pulse_min_us (2600)",
+    ]
+    robot = papaman(tmp_path / "frames", {"central.yaml": [
+        ("{angles: [90, 90, 105, 105, 78, 90, 90, 90, 105, 105, 78, 90], speed: 3}",
+         "{angles: [90, 90, 105, 105, 78, 90, 90, 90, 105, 105, 78, 190], speed: 3}"),
+        ("{angles: [90, 90, 120, 120, 66, 90, 90, 90, 120, 120, 66, 90], speed: 3}",
+         "{angles: [10, 90, 120, 120, 66, 90, 90, 90, 120, 120, 66, 90], speed: 3}")]})
+    with pytest.raises(ConfigErrors) as info:
+        load_robot(robot)
+    assert [(e.mark.line, e.message) for e in info.value.each() if e.mark] == [
+        (61, "motion 'sit' frame 0: angle 190 for servo 'r_ankle_roll' is outside its "
+             "limits 60..120"),
+        (62, "motion 'sit' frame 1: angle 10 for servo 'l_hip_yaw' is outside its limits "
+             "60..120"),
+    ]

@@ -45,13 +45,17 @@ def overflow(speed: int, angle: int) -> str:
 
 
 def board_rules(checker: Checker, b: Any) -> None:
+    checker.rule(_index_rules, checker, b)
+    for i in range(len(b.servos)):
+        checker.rule(_servo_rules, checker, b, i)
+
+
+def _index_rules(checker: Checker, b: Any) -> None:
     for i, s in enumerate(sorted(b.servos, key=lambda s: s.index)):
         if s.index != i:
             checker.fail(b, ("servos", b.servos.index(s), "index"),
                          f"servo '{s.name}': index {s.index} leaves a gap; servo indices "
                          f"must run 0..{len(b.servos) - 1} and index {i} is missing")
-    for i in range(len(b.servos)):
-        _servo_rules(checker, b, i)
 
 
 def _servo_rules(checker: Checker, b: Any, i: int) -> None:
