@@ -18,19 +18,19 @@ import signal
 import sys
 import threading
 import time
-from typing import Any
+from typing import Any, Callable
 
-from ..errors import CommandError, Refused, ResourceLost, StdError, TransportError
+from ..errors import CommandError, ControlError, Refused, ResourceLost, StdError, TransportError
 from ..level import Level
 from ..sample import Sample
 from ..classes import component_class
 from ..spec import Spec
-from ..transport import keys
+from ..transport import keys, wire
 from ..transport.bus import Bus, Request
 from ..transport.calls import SampleCaller, SampleServer
+from ..transport.wire import Verbs
 
 log = logging.getLogger("esair_std.agent")
-_ERRORS = {"Refused": Refused, "CommandError": CommandError, "ResourceLost": ResourceLost}
 MARGIN = 0.05           # the far side of a put, get or command (the BS, the actuator's host)
                         # gives up this long before the asker, whose call then returns
                         # at its timeout, answered or not (a cut link, a stopped host):
@@ -55,12 +55,7 @@ class ZenohPort:
         r = self.bus.request(keys.ctl(self.robot, verb), body, timeout)
         if r is None:
             raise TransportError(f"the runtime did not answer {verb!r} within {timeout:g} s")
-        if "error" in r:
-            cls = _ERRORS.get(r.get("type"))
-            if cls is Refused or cls is None:
-                raise (Refused if cls else StdError)(r["error"])
-            raise cls(r.get("resource", body.get("resource", "?")), r.get("reason", r["error"]))
-        return r.get("ok")
+        return wire.result(r, str(body.get("resource", "?")))
 
     def register(self, who: str, resource: str, level: Any) -> int:
         return self._ctl("register", {"who": who, "resource": resource,
@@ -100,10 +95,7 @@ class ZenohPort:
                 break
         if r is None:
             raise CommandError(resource, f"no answer within {timeout:g} s")
-        if "error" in r:
-            cls = _ERRORS.get(r.get("type"), CommandError)
-            raise Refused(r["error"]) if cls is Refused else cls(resource, r["error"])
-        return r.get("ok")
+        return wire.result(r, resource)
 
     def _lost_or_coming(self, resource: str, deadline: float) -> None:
         """ResourceLost with the runtime's reason unless ``resource`` is ready (or the
@@ -168,11 +160,11 @@ class ZenohPort:
         return self._ctl("state", {"name": name}, 2.0)
 
     def set_reaction(self, who: str, name: str, enabled: bool) -> None:
-        from ..errors import ControlError
         r = self.bus.request(keys.ctl(self.robot, "reaction"),
                              {"who": who, "name": name, "enabled": bool(enabled)}, 5.0)
-        if r is None or "error" in r:
-            raise ControlError(r["error"] if r else "the runtime did not answer")
+        if r is None:
+            raise ControlError("the runtime did not answer")
+        wire.result(r)
 
     def state_changed(self, name: str, generation: int, phase: str, reason: str) -> None:
         try:
@@ -221,7 +213,7 @@ class Agent:
                                  max(0.001, deadline - time.monotonic()))
         route.undeclare()
         if r is None or "error" in r:
-            raise TransportError(f"runtime refused hello: {r and r.get('error')}")
+            raise TransportError(f"runtime refused hello: {r and wire.exception(r)}")
 
     # ---- behavior / reaction
     def run_component(self) -> None:
@@ -233,7 +225,7 @@ class Agent:
             self.hello(error=exc.message)
             raise SystemExit(0) from None
         host = self.host = ComponentHost(self.spec, cls, self.port, self.generation)
-        self.bus.serve(keys.bs(self.robot, self.spec.name), self._on_bs)
+        self.bus.serve(keys.bs(self.robot, self.spec.name), self._bs_verbs().request(wire.op_of))
         self.offers = SampleServer(self.bus, keys.bs_offer(self.robot, self.spec.name),
                                    lambda _k: keys.bs_result(self.robot, self.spec.name),
                                    self._on_offer)
@@ -280,42 +272,37 @@ class Agent:
         if r == "delivered":
             self.host.wake()
 
-    def _on_bs(self, req: Request) -> None:
-        b = req.body
-        if b is None:
-            req.reply({"error": f"bad request: {req.error}", "type": "ControlError"})
-            return
-        op, host = b.get("op"), self.host
-        if op == "offer":
-            req.reply({"ok": host.offer(str(b.get("from")), b.get("data"))})
-        elif op == "provide":
+    def _bs_verbs(self) -> Verbs:
+        """The ``bs/<name>`` endpoint: what the runtime's BS asks the hosted component
+        (answered on Zenoh's thread: each verb only enqueues or reads)."""
+        host, verbs = self.host, Verbs(unknown="unknown op {verb!r}")
+
+        def provide(b: dict, answer: wire.Answer) -> None:
             if host.request_provide(str(b.get("from")),
-                                    lambda v: req.reply({"ok": list(v)})) != "queued":
-                req.reply({"ok": ["busy", host.state]})
-        elif op == "take":                  # a put its sender waits for
+                                    lambda v: answer(wire.ok(list(v)))) != "queued":
+                answer(wire.ok(["busy", host.state]))
+
+        def take(b: dict, answer: wire.Answer) -> None:    # a put its sender waits for
             if host.request_take(str(b.get("from")), b.get("data"),
-                                 lambda v: req.reply({"ok": list(v)})) != "queued":
-                req.reply({"ok": ["busy", host.state]})
-        elif op == "state":
-            req.reply({"ok": host.state})
-        elif op == "detached":
-            host.notify_detached(str(b.get("resource")))
-            req.reply({"ok": None})
-        elif op == "attached":
-            host.notify_attached(str(b.get("resource")))
-            req.reply({"ok": None})
-        elif op == "enable":
-            host.set_enabled(bool(b.get("enabled")))
-            req.reply({"ok": None})
-        elif op == "counters":
-            req.reply({"ok": {**host.counters(), "offer_samples": dict(self.offers.c),
-                              "deliver_samples": dict(self.delivers),
-                              "put_samples": self.port.put_counters()}})
-        elif op == "stop":
-            req.reply({"ok": None})
-            self.done.set()
-        else:
-            req.reply({"error": f"unknown op {op!r}", "type": "ControlError"})
+                                 lambda v: answer(wire.ok(list(v)))) != "queued":
+                answer(wire.ok(["busy", host.state]))
+
+        verbs.add("offer", lambda b: host.offer(str(b.get("from")), b.get("data")))
+        verbs.later("provide", provide)
+        verbs.later("take", take)
+        verbs.add("state", lambda _b: host.state)
+        verbs.add("detached", lambda b: host.notify_detached(str(b.get("resource"))))
+        verbs.add("attached", lambda b: host.notify_attached(str(b.get("resource"))))
+        verbs.add("enable", lambda b: host.set_enabled(bool(b.get("enabled"))))
+        verbs.add("counters", lambda _b: {**host.counters(), "offer_samples": dict(self.offers.c),
+                                          "deliver_samples": dict(self.delivers),
+                                          "put_samples": self.port.put_counters()})
+        verbs.later("stop", self._stop)
+        return verbs
+
+    def _stop(self, _b: dict, answer: wire.Answer) -> None:
+        answer(wire.ok())
+        self.done.set()
 
     # ---- resource entry
     def run_resource(self) -> None:
@@ -332,7 +319,7 @@ class Agent:
         for name, kind in kids.items():
             if kind == "actuator":
                 self.bus.serve(keys.actuator(self.robot, name), self._on_actuator)
-        self.bus.serve(keys.rs(self.robot, self.spec.name), self._on_rs)
+        self.bus.serve(keys.rs(self.robot, self.spec.name), self._rs_verbs().request(wire.op_of))
         kind = "driver" if isinstance(host.driver, Driver) else next(iter(kids.values()))
         self.bus.token(keys.alive(self.robot, kind, self.spec.name))
         self.hello(children=kids)
@@ -346,53 +333,41 @@ class Agent:
     def _on_actuator(self, req: Request) -> None:
         b = req.body
         if b is None:
-            req.reply({"error": f"bad request: {req.error}", "type": "ControlError"})
+            req.reply(wire.error(ControlError(f"bad request: {req.error}")))
             return
         res = req.key.rsplit("/", 1)[-1]
         slot = self.host.slots.get(res)
         who = str(b.get("from"))
         if slot is None or who not in slot.granted:
-            req.reply({"error": f"behavior {who!r} is not registered to command {res!r}",
-                       "type": "Refused"})
+            req.reply(wire.error(Refused(f"behavior {who!r} is not registered to command "
+                                         f"{res!r}")))
             return
         t = b.get("timeout", 1.0)
-        self.host.submit(res, "write", (b.get("cmd"),), self._answer(req),
+        self.host.submit(res, "write", (b.get("cmd"),), self._answer(req.reply, res),
                          float(t) if isinstance(t, (int, float)) else 1.0)
 
     @staticmethod
-    def _answer(req: Request):
+    def _answer(answer: wire.Answer, resource: str) -> Callable[[bool, Any], None]:
+        """A resource host's ``on_done(ok, value)`` as a reply."""
         def done(ok: bool, value: Any) -> None:
-            if ok:
-                req.reply({"ok": value})
-            elif isinstance(value, StdError):
-                req.reply({"error": getattr(value, "reason", value.message),
-                           "type": type(value).__name__})
-            else:
-                req.reply({"error": str(value), "type": "CommandError"})
+            answer(wire.ok(value) if ok else wire.error(wire.failure(value, resource)))
         return done
 
-    def _on_rs(self, req: Request) -> None:
-        b = req.body
-        if b is None:
-            req.reply({"error": f"bad request: {req.error}", "type": "ControlError"})
-            return
-        op, host = b.get("op"), self.host
-        if op == "configure":
-            host.submit(str(b.get("resource")), "configure",
-                        (str(b.get("key")), b.get("value")), self._answer(req), 2.0)
-        elif op == "grant":
-            host.grant(str(b.get("who")), str(b.get("resource")))
-            req.reply({"ok": None})
-        elif op == "revoke":
-            host.revoke(str(b.get("who")), b.get("resource"))
-            req.reply({"ok": None})
-        elif op == "counters":
-            req.reply({"ok": host.counters()})
-        elif op == "stop":
-            req.reply({"ok": None})
-            self.done.set()
-        else:
-            req.reply({"error": f"unknown op {op!r}", "type": "ControlError"})
+    def _rs_verbs(self) -> Verbs:
+        """The ``rs/<entry>`` endpoint: what the runtime's RS asks the resource host."""
+        host, verbs = self.host, Verbs(unknown="unknown op {verb!r}")
+
+        def configure(b: dict, answer: wire.Answer) -> None:
+            res = str(b.get("resource"))
+            host.submit(res, "configure", (str(b.get("key")), b.get("value")),
+                        self._answer(answer, res), 2.0)
+
+        verbs.later("configure", configure)
+        verbs.add("grant", lambda b: host.grant(str(b.get("who")), str(b.get("resource"))))
+        verbs.add("revoke", lambda b: host.revoke(str(b.get("who")), b.get("resource")))
+        verbs.add("counters", lambda _b: host.counters())
+        verbs.later("stop", self._stop)
+        return verbs
 
     # ---- leaving
     def watch_runtime(self) -> None:

@@ -1,9 +1,9 @@
 """The control endpoint: ``esair/<robot>/ctl/<verb>`` queryables of the runtime.
 
 Zenoh's callback only queues the request (a bounded queue; when full the asker is told
-at once); a small pool of worker threads answers. Every answer is a JSON object:
-``{"ok": ...}`` or ``{"error": message, "type": ErrorType}``. Garbage (not JSON, not an
-object, missing or wrong fields, unknown verb) gets an error and changes nothing.
+at once); a small pool of worker threads answers from the verb table (transport/wire.py:
+the envelope, its errors and the table are those of every endpoint). Garbage (not JSON,
+not an object, missing or wrong fields, unknown verb) gets an error and changes nothing.
 """
 
 from __future__ import annotations
@@ -15,13 +15,13 @@ import threading
 import time
 from typing import Any, Callable
 
-from ..errors import ControlError, StdError
-from ..errors import CommandError, ResourceLost
+from ..errors import ControlError
 from ..level import Level
 from ..sample import Sample  # noqa: F401 - documented payload type
-from ..transport import keys
+from ..transport import keys, wire
 from ..transport.bus import Bus, Request
 from ..transport.calls import SampleServer
+from ..transport.wire import Verbs
 from ..transport.session import check_endpoint, hub_runtime
 
 log = logging.getLogger("esair_std.control")
@@ -71,7 +71,8 @@ class ControlServer:
         self._q: queue.Queue = queue.Queue(maxsize=PENDING)
         self._workers: list[threading.Thread] = []
         self.c = dict(requests=0, bad_requests=0, refused_full=0)
-        self.verbs: dict[str, Callable[[dict], Any]] = {
+        self.verbs = Verbs(unknown="unknown control verb {verb!r}")
+        for verb, fn in {
             "ping": self.v_ping, "ls": self.v_ls, "add": self.v_add, "remove": self.v_remove,
             "add-resource": self.v_add_resource, "remove-resource": self.v_remove_resource,
             "put": self.v_put, "get": self.v_get, "configure": self.v_configure,
@@ -80,9 +81,10 @@ class ControlServer:
             "report": self.v_report, "resstate": self.v_resstate,
             "resinfo": self.v_resstate_get, "hello": self.v_hello,
             "join": self.v_join,
-        }
-        # the operator's verbs (esair std sample / send): esair_std/operator.py
-        self.verbs.update({"sample": self.v_sample, "send": self.v_send})
+            # the operator's verbs (esair std sample / send): esair_std/operator.py
+            "sample": self.v_sample, "send": self.v_send,
+        }.items():
+            self.verbs.add(verb, fn)
         self._operator: Any = None         # esair_std.operator.Operator, on first use
         from .observe import install as _observe   # outside principals: the HMI (observe.py)
         self.observe = _observe(self)
@@ -106,6 +108,7 @@ class ControlServer:
     def counters(self) -> dict:
         """The control endpoint's own counters (``esair std inspect runtime``): requests,
         garbage refused, requests refused while full, and the put path's samples."""
+        self.c["bad_requests"] = self.verbs.c["bad_requests"]
         out = dict(self.c, put_samples=dict(self.puts.c))
         offers = getattr(self.rt.mode, "offers", None)
         if offers is not None:
@@ -160,7 +163,7 @@ class ControlServer:
             self._q.put_nowait(req)
         except queue.Full:
             self.c["refused_full"] += 1
-            req.reply({"error": "runtime busy: too many requests waiting", "type": "ControlError"})
+            req.reply(wire.error(ControlError("runtime busy: too many requests waiting")))
 
     def _work(self) -> None:
         while True:
@@ -171,23 +174,7 @@ class ControlServer:
 
     def answer(self, verb: str, body: dict | None, error: str = "") -> dict:
         self.c["requests"] += 1
-        try:
-            if body is None:
-                raise ControlError(f"bad request: {error}")
-            fn = self.verbs.get(verb)
-            if fn is None:
-                raise ControlError(f"unknown control verb {verb!r}")
-            return {"ok": fn(body)}
-        except StdError as exc:
-            if str(exc).startswith(("bad request", "unknown control verb")):
-                self.c["bad_requests"] += 1
-            out = {"error": str(exc), "type": type(exc).__name__}
-            if isinstance(exc, (CommandError, ResourceLost)):
-                out.update(resource=exc.resource, reason=exc.reason)
-            return out
-        except Exception as exc:  # noqa: BLE001 - a bug must not kill the worker
-            log.exception("control %s", verb)
-            return {"error": f"internal error: {type(exc).__name__}: {exc}", "type": "StdError"}
+        return self.verbs.answer(verb, body, error)
 
     # ---- user verbs (the CLI)
     def v_ping(self, b: dict) -> dict:

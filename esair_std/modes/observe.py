@@ -56,8 +56,9 @@ class Observe:
         self.forwards: dict[str, _Forward] = {}
 
     def install(self) -> None:
-        self.server.verbs.update({"watch": self.v_watch, "command": self.v_command,
-                                  "restart": self.v_restart, "describe": self.v_describe})
+        for verb, fn in {"watch": self.v_watch, "command": self.v_command,
+                         "restart": self.v_restart, "describe": self.v_describe}.items():
+            self.server.verbs.add(verb, fn)
 
     def _who(self, b: dict) -> str:
         who = b.get("who")

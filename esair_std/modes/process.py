@@ -20,9 +20,9 @@ import threading
 import time
 from typing import Any
 
-from ..errors import CommandError, ComponentError, Refused, ResourceLost, StdError
+from ..errors import ComponentError, ResourceLost, StdError
 from ..spec import Spec
-from ..transport import codec, keys, session
+from ..transport import codec, keys, session, wire
 from ..transport.calls import SampleCaller
 from ..transport.security import link_inserts
 from .agent import MARGIN
@@ -32,7 +32,6 @@ log = logging.getLogger("esair_std.process")
 START_TIMEOUT = 20.0
 RESERVED_BYTES = 8192    # a put this small may go into a component's reserved room: at
                          # most host.RESERVED of them under way fit any link's queue
-_ERRORS = {"CommandError": CommandError, "ResourceLost": ResourceLost, "Refused": Refused}
 
 
 def agent_command(endpoint: str, robot: str, spec: Spec, generation: int) -> list[str]:
@@ -320,12 +319,7 @@ class ProcessResource(_Child):
         r = self.ask(self.key, body, timeout + 0.5)
         if r is None:
             raise ResourceLost(resource, "its host process does not answer")
-        if "error" in r:
-            cls = _ERRORS.get(r.get("type"), CommandError)
-            if cls is Refused:
-                raise Refused(r["error"])
-            raise cls(resource, r["error"])
-        return r.get("ok")
+        return wire.result(r, resource)
 
     def command(self, sender: str, resource: str, command: Any, timeout: float) -> Any:
         r = self.ask(keys.actuator(self.robot, resource),
@@ -333,10 +327,7 @@ class ProcessResource(_Child):
                      timeout)
         if r is None:
             raise ResourceLost(resource, "its host process does not answer")
-        if "error" in r:
-            cls = _ERRORS.get(r.get("type"), CommandError)
-            raise cls(resource, r["error"]) if cls is not Refused else Refused(r["error"])
-        return r.get("ok")
+        return wire.result(r, resource)
 
     def configure(self, resource: str, key: str, value: Any, timeout: float = 2.0) -> Any:
         return self._call(resource, {"op": "configure", "resource": resource, "key": key,
@@ -357,8 +348,7 @@ class ProcessResource(_Child):
 
     def stop(self, timeout: float = 2.0) -> None:
         self.state = "stopped"
-        if self.mode._resources.get(self.name) is self:
-            del self.mode._resources[self.name]
+        self.mode.drop_resource(self)
         self.stop_process(self.key, timeout)
 
 
@@ -488,6 +478,19 @@ class ProcessMode:
                 self.rt.rs.set_state(res, "ready", "")
         child.hello.set()
         child.note()
+
+    def drop_resource(self, host: ProcessResource) -> None:
+        """``host`` stopped: no longer one of this mode's resource hosts."""
+        if self._resources.get(host.name) is host:
+            del self._resources[host.name]
+
+    def rejoin(self, host: ProcessResource) -> None:
+        """A remote resource's agent joins again (remote/center.py): its next hello
+        (generation 1) is that of ``host``, and sets its children ready again."""
+        host.rejoining = True
+        with self._lock:
+            self._pending[(host.name, 1)] = host
+        host.hello.clear()
 
     def pending_changed(self) -> None:
         with self._pending_cond:

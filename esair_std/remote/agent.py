@@ -29,7 +29,7 @@ from ..errors import StdError, TransportError
 from ..level import Level
 from ..modes.agent import Agent, ZenohPort
 from ..spec import Spec
-from ..transport import keys
+from ..transport import keys, wire
 from ..transport.bus import Bus
 from ..transport.security import link_inserts, session_inserts
 
@@ -90,7 +90,7 @@ class RemoteAgent(Agent):
             raise TransportError(f"the control center of robot {self.robot!r} did not answer"
                                  " the join")
         if "error" in r:
-            raise TransportError(f"join refused: {r['error']}")
+            raise TransportError(f"join refused: {wire.exception(r)}")
         self.c["joins"] += 1
 
     def hello(self, **extra: Any) -> None:
@@ -100,7 +100,7 @@ class RemoteAgent(Agent):
                     pid=os.getpid(), host=self.hostname, **extra)
         r = self.bus.request(keys.ctl(self.robot, "hello"), body, 10.0)
         if r is None or "error" in r:
-            raise TransportError(f"runtime refused hello: {r and r.get('error')}")
+            raise TransportError(f"runtime refused hello: {r and wire.exception(r)}")
         self.joined.set()
         log.info("%s joined robot %r in %.1f ms", self.spec.name, self.robot,
                  (time.perf_counter() - t0) * 1e3)

@@ -168,10 +168,8 @@ class Center:
             host = entry[1]
             if not getattr(host, "remote", False):
                 raise ControlError(f"a resource named {spec.name!r} is already deployed")
-            host.rejoining = True                 # its hello sets its children ready again
             mode.remote[spec.name] = info
-            mode._pending[(spec.name, 1)] = host
-            host.hello.clear()
+            mode.rejoin(host)                     # its hello sets its children ready again
             self.c["back"] += 1
             return {"generation": 1, "robot": self.rt.robot}
         if spec.name in self.rt.bs.records:

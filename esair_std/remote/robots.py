@@ -13,7 +13,8 @@ from __future__ import annotations
 import re
 from typing import Any
 
-from ..transport import keys
+from ..errors import StdError
+from ..transport import keys, wire
 
 ROBOT_NAME = re.compile(r"^[a-z][a-z0-9_]{0,31}$")
 
@@ -57,7 +58,8 @@ def _ask(rt: Any, robot: str, verb: str, body: dict, timeout: float) -> dict | s
     r = server.bus.request(keys.ctl(robot, verb), body, timeout + 2.0)
     if r is None:
         return f"robot {robot!r} did not answer (not joined, or unreachable)"
-    if "error" in r:
-        return f"robot {robot!r}: {r['error']}"
-    ok = r.get("ok")
+    try:
+        ok = wire.result(r)
+    except StdError as exc:
+        return f"robot {robot!r}: {exc}"
     return ok if isinstance(ok, dict) else f"robot {robot!r}: bad answer"
