@@ -18,7 +18,7 @@ from ..errors import CommandError, ComponentError, ResourceLost, StdError
 from ..resource import Actuator, Driver, Sensor
 from ..sample import Sample
 from ..spec import Spec
-from ..transport import codec
+from ..transport import codec, wire
 from .host import build
 
 COMMANDS = 256
@@ -144,9 +144,7 @@ class ResourceHost:
         ok, value = box[0]
         if ok:
             return value
-        if isinstance(value, ResourceLost):
-            raise value
-        raise CommandError(resource, value)
+        raise wire.failure(value, resource)
 
     def command(self, sender: str, resource: str, command: Any, timeout: float) -> Any:
         return self._submit(resource, "write", (command,), timeout)
