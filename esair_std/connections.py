@@ -16,11 +16,14 @@ from __future__ import annotations
 
 import threading
 from collections import deque
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any, Callable
 
 from .errors import CommandError, Refused, ResourceLost, StdError
 from .level import Level
 from .sample import Sample
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .parts import Grants
 
 
 class _Handle:
@@ -197,7 +200,7 @@ class SensorConnection:
 class ActuatorConnection:
     """Routes commands of attached behaviors; checks the RS's registration table."""
 
-    def __init__(self, rs: Any) -> None:
+    def __init__(self, rs: Grants) -> None:
         self._rs = rs
         self.routed = 0
         self.refused = 0

@@ -14,12 +14,15 @@ from __future__ import annotations
 import difflib
 import logging
 import threading
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any, Callable
 
 from .errors import ControlError, Refused, ResourceLost, StdError
 from .level import Level, best_match
 from .spec import Spec
 from .supervisor import Record, Supervisor
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .connections import SensorConnection
 
 log = logging.getLogger("esair_std.rs")
 
@@ -36,7 +39,7 @@ class ResourceSupervisor(Supervisor):
     # registrations end first (a behavior's are released after its stop(): bs.py)
     release_before_stop = True
 
-    def __init__(self, start_host: Callable[[Spec, int], Any], sc: Any,
+    def __init__(self, start_host: Callable[[Spec, int], Any], sc: SensorConnection,
                  on_detached: Callable[[str, str], None],
                  on_attached: Callable[[str, str], None] | None = None,
                  uses_of: Callable[[str], dict | None] | None = None):

@@ -291,5 +291,5 @@ class Supervisor:
         self.restarted(name, rec)
 
 
-def _state(host: Any) -> str:
+def _state(host: object) -> str:
     return str(getattr(host, "state", ""))

@@ -18,7 +18,7 @@ import signal
 import sys
 import threading
 import time
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any, Callable
 
 from ..errors import CommandError, ControlError, Refused, ResourceLost, StdError, TransportError
 from ..level import Level
@@ -29,6 +29,9 @@ from ..transport import keys, wire
 from ..transport.bus import Bus, Request
 from ..transport.calls import SampleCaller, SampleServer
 from ..transport.wire import Verbs
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..parts import SampleHandle
 
 log = logging.getLogger("esair_std.agent")
 MARGIN = 0.05           # the far side of a put, get or command (the BS, the actuator's host)
@@ -61,10 +64,13 @@ class ZenohPort:
         return self._ctl("register", {"who": who, "resource": resource,
                                       "level": Level.parse(level).name})
 
-    def attach_sensor(self, who: str, resource: str, handle: Any, direct: bool = False) -> None:
+    def attach_sensor(self, who: str, resource: str, handle: SampleHandle | None,
+                      direct: bool = False) -> None:
         self._ctl("attach", {"who": who, "resource": resource, "direct": direct})
-        self.bus.subscribe(keys.sensor(self.robot, resource),
-                           lambda obj: handle.push(Sample.from_wire(obj)))
+        if handle is not None:           # None: listed only (the runtime's own view)
+            push = handle.push
+            self.bus.subscribe(keys.sensor(self.robot, resource),
+                               lambda obj: push(Sample.from_wire(obj)))
 
     def command(self, who: str, resource: str, command: Any, timeout: float,
                 direct: bool = False) -> Any:

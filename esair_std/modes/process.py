@@ -378,6 +378,14 @@ class ProcessMode:
                            with_key=True, garbage=self._bad_credit)
         self.bus.watch_alive(keys.alive_all(self.rt.robot), self._alive)
 
+    def counters(self) -> dict[str, Any]:
+        """The BS's put path to the agents (``esair std inspect runtime``): the offers'
+        samples and the components' reports of their room."""
+        offers = getattr(self, "offers", None)
+        if offers is None:
+            return {}
+        return {"offers": dict(offers.c), "credit_reports": dict(self.credits)}
+
     def _bad_credit(self, _why: str) -> None:
         self.credits["bad_reports"] += 1
 

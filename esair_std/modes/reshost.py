@@ -12,13 +12,16 @@ import logging
 import queue
 import threading
 import time
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any, Callable
 
 from ..errors import CommandError, ComponentError, ResourceLost, StdError
 from ..resource import Actuator, Driver, Sensor
 from ..sample import Sample
 from ..spec import Spec
 from ..transport import codec, wire
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..parts import Port
 from .host import build
 
 COMMANDS = 256
@@ -61,7 +64,7 @@ class Slot:
 
 
 class ResourceHost:
-    def __init__(self, spec: Spec, cls: type, port: Any):
+    def __init__(self, spec: Spec, cls: type, port: Port):
         self.spec = spec
         self.name = spec.name
         self.kind = "resource"

@@ -23,7 +23,7 @@ import signal
 import threading
 import time
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ..errors import StdError, TransportError
 from ..level import Level
@@ -32,6 +32,9 @@ from ..spec import Spec
 from ..transport import keys, wire
 from ..transport.bus import Bus
 from ..transport.security import link_inserts, session_inserts
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..parts import SampleHandle
 
 log = logging.getLogger("esair_std.remote")
 
@@ -50,7 +53,8 @@ class RemotePort(ZenohPort):
         self.registered[resource] = max(lv, self.registered.get(resource, lv))
         return out
 
-    def attach_sensor(self, who: str, resource: str, handle: Any, direct: bool = False) -> None:
+    def attach_sensor(self, who: str, resource: str, handle: SampleHandle | None,
+                      direct: bool = False) -> None:
         super().attach_sensor(who, resource, handle, direct)
         self.attached.add(resource)
 
