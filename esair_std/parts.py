@@ -11,8 +11,7 @@ the class of a module above it (these protocols import only leaf modules).
   RS's children).
 - :class:`Registry`, :class:`Grants`: what the BS and the AC ask of the RS.
 - :class:`Mode`: where components live (modes/thread.py, modes/process.py).
-- :class:`Robot`, :class:`Joins`: the robot's own operations and the remote agents'
-  center, as the control endpoint (modes/control.py) is given them.
+- :class:`Joins`: the remote agents' center, as the control endpoint is given it.
 """
 
 from __future__ import annotations
@@ -24,6 +23,8 @@ from .spec import Spec
 
 
 class SampleHandle(Protocol):
+    detached: bool          # set by the SC while its sensor is gone
+
     def push(self, sample: Sample) -> None: ...
 
 
@@ -114,27 +115,6 @@ class Joins(Protocol):
     """The remote agents' center (remote/center.py): ``ctl/join``."""
 
     def join(self, body: dict[str, Any]) -> dict[str, Any]: ...
-
-
-class Robot(Protocol):
-    """The robot's own operations, as the control endpoint answers them (runtime.py)."""
-
-    robot: str
-    mode_name: str
-    endpoint: str
-    extra_listen: list[str]
-    join: list[str]
-    session_options: dict[str, Any] | None
-
-    def ls(self) -> list[dict[str, Any]]: ...
-    def add(self, name: str, class_path: str, uses: dict[str, Any] | None = None,
-            period: float | None = None, options: dict[str, Any] | None = None) -> str: ...
-    def remove(self, name: str) -> None: ...
-    def add_resource(self, name: str, class_path: str, allow: dict[str, Any] | None = None,
-                     options: dict[str, Any] | None = None) -> dict[str, Any]: ...
-    def remove_resource(self, name: str) -> list[str]: ...
-    def inspect(self, name: str) -> dict[str, Any]: ...
-    def state(self, name: str) -> str | None: ...
 
 
 #: (spec, generation) -> a started host (what a supervisor starts its children with)

@@ -71,6 +71,7 @@ class Runtime:
         self.session_options: dict | None = None
         self.extra_listen: list[str] = []
         self.local_endpoint: str | None = None     # where local children connect
+        self.child_session: dict[str, str] | None = None   # their login (remote/center.py)
         self.center: Center | None = None          # remote agents (process mode)
         self._stop = threading.Event()
         self._kick = threading.Event()      # wakes the watchdog: a component started

@@ -18,7 +18,7 @@ import signal
 import sys
 import threading
 import time
-from typing import TYPE_CHECKING, Any, Callable
+from typing import TYPE_CHECKING, Any, Callable, cast
 
 from ..errors import CommandError, ControlError, Refused, ResourceLost, StdError, TransportError
 from ..level import Level
@@ -32,6 +32,8 @@ from ..transport.wire import Verbs
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..parts import SampleHandle
+    from .host import ComponentHost
+    from .reshost import ResourceHost
 
 log = logging.getLogger("esair_std.agent")
 MARGIN = 0.05           # the far side of a put, get or command (the BS, the actuator's host)
@@ -200,7 +202,17 @@ class Agent:
         self.generation = generation
         self.port = ZenohPort(bus, robot)
         self.done = threading.Event()
-        self.host: Any = None
+        self.host: ComponentHost | ResourceHost | None = None
+
+    @property
+    def _component(self) -> ComponentHost:
+        """The host of a behavior or reaction agent (run_component made it)."""
+        return cast("ComponentHost", self.host)
+
+    @property
+    def _resource(self) -> ResourceHost:
+        """The host of a resource agent (run_resource made it)."""
+        return cast("ResourceHost", self.host)
 
     def hello(self, **extra: Any) -> None:
         body = dict(name=self.spec.name, kind=self.spec.kind, generation=self.generation,
@@ -251,12 +263,12 @@ class Agent:
         """Sleeps until the host's current call could reach its deadline (check())."""
         wait = 0.0
         while not self.done.wait(wait):
-            nxt = self.host.check(time.monotonic())
+            nxt = self._component.check(time.monotonic())
             wait = RUNTIME_GRACE if nxt is None else max(nxt, 0.001)
 
     def _report_room(self) -> None:
-        self._credit({"gen": self.generation, "open": self.host.open,
-                      "room": self.host.room()})
+        self._credit({"gen": self.generation, "open": self._component.open,
+                      "room": self._component.room()})
 
     def _bad_delivery(self, _why: str) -> None:
         self.delivers["bad"] += 1
@@ -268,20 +280,20 @@ class Agent:
             self.delivers["bad"] += 1
             return
         self.delivers["samples"] += 1
-        self.host.deliver_reserved(sender, obj["data"])
+        self._component.deliver_reserved(sender, obj["data"])
 
     def _on_offer(self, _key: str, body: dict, answer: Any) -> None:
         """A put's first offer (transport/calls.py): answered before the behavior's
         thread is woken."""
-        r = self.host.offer(str(body.get("from")), body.get("data"), wake=False)
+        r = self._component.offer(str(body.get("from")), body.get("data"), wake=False)
         answer({"r": r})
         if r == "delivered":
-            self.host.wake()
+            self._component.wake()
 
     def _bs_verbs(self) -> Verbs:
         """The ``bs/<name>`` endpoint: what the runtime's BS asks the hosted component
         (answered on Zenoh's thread: each verb only enqueues or reads)."""
-        host, verbs = self.host, Verbs(unknown="unknown op {verb!r}")
+        host, verbs = self._component, Verbs(unknown="unknown op {verb!r}")
 
         def provide(b: dict, answer: wire.Answer) -> None:
             if host.request_provide(str(b.get("from")),
@@ -342,14 +354,14 @@ class Agent:
             req.reply(wire.error(ControlError(f"bad request: {req.error}")))
             return
         res = req.key.rsplit("/", 1)[-1]
-        slot = self.host.slots.get(res)
+        slot = self._resource.slots.get(res)
         who = str(b.get("from"))
         if slot is None or who not in slot.granted:
             req.reply(wire.error(Refused(f"behavior {who!r} is not registered to command "
                                          f"{res!r}")))
             return
         t = b.get("timeout", 1.0)
-        self.host.submit(res, "write", (b.get("cmd"),), self._answer(req.reply, res),
+        self._resource.submit(res, "write", (b.get("cmd"),), self._answer(req.reply, res),
                          float(t) if isinstance(t, (int, float)) else 1.0)
 
     @staticmethod
@@ -361,7 +373,7 @@ class Agent:
 
     def _rs_verbs(self) -> Verbs:
         """The ``rs/<entry>`` endpoint: what the runtime's RS asks the resource host."""
-        host, verbs = self.host, Verbs(unknown="unknown op {verb!r}")
+        host, verbs = self._resource, Verbs(unknown="unknown op {verb!r}")
 
         def configure(b: dict, answer: wire.Answer) -> None:
             res = str(b.get("resource"))

@@ -25,7 +25,9 @@ from ..transport.wire import Verbs
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..bs import BehaviorSupervisor
-    from ..parts import Joins, Mode, Robot
+    from ..operator import Operator
+    from ..parts import Joins, Mode
+    from ..view import Robot
     from ..rs import ResourceSupervisor
 from ..transport.session import check_endpoint, hub_runtime
 
@@ -97,7 +99,7 @@ class ControlServer:
             "sample": self.v_sample, "send": self.v_send,
         }.items():
             self.verbs.add(verb, fn)
-        self._operator: Any = None         # esair_std.operator.Operator, on first use
+        self._operator: Operator | None = None     # on first use
         from .observe import install as _observe   # outside principals: the HMI (observe.py)
         self.observe = _observe(self)
 

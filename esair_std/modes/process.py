@@ -18,15 +18,19 @@ import subprocess
 import sys
 import threading
 import time
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from ..errors import ComponentError, ResourceLost, StdError
+from ..errors import ComponentError, ResourceLost, StdError, TransportError
 from ..spec import Spec
 from ..transport import codec, keys, session, wire
 from ..transport.calls import SampleCaller
 from ..transport.security import link_inserts
 from .agent import MARGIN
 from .thread import LocalPort
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..transport.bus import Bus
+    from ..view import RuntimeView
 
 log = logging.getLogger("esair_std.process")
 START_TIMEOUT = 20.0
@@ -355,7 +359,7 @@ class ProcessResource(_Child):
 class ProcessMode:
     name = "process"
 
-    def __init__(self, rt: Any):
+    def __init__(self, rt: RuntimeView):
         self.rt = rt
         self.port = LocalPort(rt)
         self._pending: dict[tuple[str, int], _Child] = {}
@@ -365,8 +369,11 @@ class ProcessMode:
         self.remote: dict[str, dict] = {}         # name -> {host, pid} of remote agents
 
     @property
-    def bus(self) -> Any:
-        return self.rt.server.bus
+    def bus(self) -> Bus:
+        server = self.rt.server
+        if server is None or server.bus is None:
+            raise TransportError("process mode runs only beside its control endpoint")
+        return server.bus
 
     def open(self) -> None:
         self.offers = SampleCaller(self.bus, keys.bs_result(self.rt.robot, "*"),
@@ -433,8 +440,10 @@ class ProcessMode:
             if host.remote and host.hello.is_set():
                 # not on this Zenoh thread: losing an agent revokes its grants (requests
                 # to resource hosts); blocking here stalled the session's other links
-                threading.Thread(target=self.rt.center.lost, args=(host,), daemon=True,
-                                 name="esair:lost").start()
+                center = self.rt.center
+                if center is not None:
+                    threading.Thread(target=center.lost, args=(host,), daemon=True,
+                                     name="esair:lost").start()
             elif host.phase in ("running", "busy") and host.hello.is_set():
                 threading.Thread(target=self._token_lost, args=(host,), daemon=True).start()
         elif kind in ("sensor", "actuator", "driver") and name in self._resources:

@@ -71,7 +71,7 @@ class ResourceHost:
         self.cls = cls
         self.port = port
         self.options = spec.options
-        self.driver: Any = None
+        self.driver: Driver | None = None
         self.slots: dict[str, Slot] = {}
         self.commands: queue.Queue = queue.Queue(maxsize=COMMANDS)
         self._stop = threading.Event()

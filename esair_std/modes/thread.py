@@ -18,12 +18,13 @@ from .reshost import ResourceHost
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..parts import SampleHandle
+    from ..view import RuntimeView
 
 START_TIMEOUT = 10.0
 
 
 class LocalPort:
-    def __init__(self, rt: Any):
+    def __init__(self, rt: RuntimeView):
         self.rt = rt
 
     def _uses(self, who: str) -> dict | None:
@@ -98,7 +99,7 @@ class LocalPort:
 class ThreadMode:
     name = "thread"
 
-    def __init__(self, rt: Any):
+    def __init__(self, rt: RuntimeView):
         self.rt = rt
         self.port = LocalPort(rt)
 

@@ -128,7 +128,7 @@ class RemoteAgent(Agent):
             while not self.joined.is_set() and not self.done.is_set():
                 try:
                     if self.spec.kind == "resource":
-                        self.hello(children=self.host.children())
+                        self.hello(children=self._resource.children())
                     else:
                         self.hello()
                         state = self.host.state if self.host is not None else "running"

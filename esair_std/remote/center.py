@@ -23,12 +23,16 @@ import socket
 import tempfile
 import threading
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ..errors import ControlError, Refused
+from ..modes.process import ProcessMode
 from ..spec import Spec
 from ..transport.security import LEASE_MS, access_control, link_inserts, session_inserts
 from .identity import Verifier
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..view import RuntimeView
 
 log = logging.getLogger("esair_std.remote")
 JOIN_WAIT = 10.0
@@ -55,7 +59,7 @@ def grants_for(deployment: Any, agent: str) -> dict[str, list[str]]:
     return {"reads": reads, "commands": commands, "provides": [agent, f"{agent}.$*"]}
 
 
-def _local_login(options: dict, rt: Any) -> None:
+def _local_login(options: dict, rt: RuntimeView) -> None:
     """With ``users`` every session must log in, the runtime's own children too: a login
     made for this run is added to a copy of the users file; children get it in their
     environment (rt.child_session), not on their command line."""
@@ -72,7 +76,7 @@ def _local_login(options: dict, rt: Any) -> None:
                         "transport/auth/usrpwd/password": password}
 
 
-def session(rt: Any) -> tuple[dict, list[str], str | None]:
+def session(rt: RuntimeView) -> tuple[dict, list[str], str | None]:
     """(zenoh options, extra listen endpoints, endpoint for local children or None)."""
     sec = getattr(rt.deployment, "security", None)
     if sec is None:
@@ -91,7 +95,7 @@ def session(rt: Any) -> tuple[dict, list[str], str | None]:
 class Center:
     """Remote agents of one runtime (process mode)."""
 
-    def __init__(self, rt: Any):
+    def __init__(self, rt: RuntimeView):
         self.rt = rt
         sec = getattr(rt.deployment, "security", None)
         self.sec = sec
@@ -106,6 +110,14 @@ class Center:
                          if sec is not None and sec.agents else None)
         self.c = dict(joins=0, joins_refused=0, lost=0, back=0)
         self._lock = threading.Lock()
+
+    def _mode(self) -> ProcessMode:
+        """The runtime's process mode (remote agents join only a process-mode runtime:
+        the control endpoint refuses ``join`` in thread mode)."""
+        mode = self.rt.mode
+        if not isinstance(mode, ProcessMode):
+            raise ControlError("this runtime runs in thread mode: it takes no remote agents")
+        return mode
 
     # ---- ctl/join
     def join(self, b: dict) -> dict:
@@ -130,7 +142,7 @@ class Center:
         # a remote component never restarts from here: its process is not ours to start
         spec = Spec.from_json({**spec.to_json(), "restart_max": 0, "base_dir": None})
         info = {"host": str(b.get("host", "?"))[:64], "pid": b.get("pid")}
-        mode = self.rt.mode
+        mode = self._mode()
         if spec.kind == "resource":
             return self._join_resource(spec, info)
         rec = self.rt.bs.records.get(name)
@@ -158,11 +170,11 @@ class Center:
             box.append((True, None))
         except Exception as exc:  # noqa: BLE001 - handed to the join request
             box.append((False, exc))
-            self.rt.mode.remote.pop(spec.name, None)
-        self.rt.mode.pending_changed()
+            self._mode().remote.pop(spec.name, None)
+        self._mode().pending_changed()
 
     def _join_resource(self, spec: Spec, info: dict) -> dict:
-        mode = self.rt.mode
+        mode = self._mode()
         entry = self.rt.rs.entries.get(spec.name)
         if entry is not None:
             host = entry[1]
@@ -191,8 +203,8 @@ class Center:
             box.append((True, None))
         except Exception as exc:  # noqa: BLE001 - handed to the join request
             box.append((False, exc))
-            self.rt.mode.remote.pop(spec.name, None)
-        self.rt.mode.pending_changed()
+            self._mode().remote.pop(spec.name, None)
+        self._mode().pending_changed()
 
     def _check_identity(self, name: str, proof: Any) -> None:
         if self.verifier is None or self.sec is None:
