@@ -20,6 +20,7 @@ from .errors import ControlError, TransportError
 from .spec import Spec
 from .supervisor import Record, Supervisor
 from .transport import codec
+from .parts import ComponentHost
 
 if TYPE_CHECKING:  # pragma: no cover
     from .parts import Registry
@@ -27,7 +28,7 @@ if TYPE_CHECKING:  # pragma: no cover
 log = logging.getLogger("esair_std.bs")
 
 
-class BehaviorSupervisor(Supervisor):
+class BehaviorSupervisor(Supervisor[ComponentHost]):
     """Behaviors and reactions on the generic supervisor (supervisor.py), plus the
     mediator (phase 3)."""
 

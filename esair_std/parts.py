@@ -111,6 +111,15 @@ class Mode(Protocol):
     def counters(self) -> dict[str, Any]: ...
 
 
+class RemoteComponent(Protocol):
+    """A remote agent's behavior, as the center marks it lost (remote/center.py)."""
+
+    name: str
+    generation: int
+    phase: str
+    reason: str
+
+
 class Joins(Protocol):
     """The remote agents' center (remote/center.py): ``ctl/join``."""
 

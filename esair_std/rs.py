@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING, Any, Callable
 from .errors import ControlError, Refused, ResourceLost, StdError
 from .level import Level, best_match
 from .spec import Spec
+from .parts import ResourceHost
 from .supervisor import Record, Supervisor
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -32,7 +33,7 @@ def _hint(name: str, names: list[str]) -> str:
     return f" (did you mean {close[0]!r}?)" if close else ""
 
 
-class ResourceSupervisor(Supervisor):
+class ResourceSupervisor(Supervisor[ResourceHost]):
     """Resource entries on the generic supervisor (supervisor.py), plus registration."""
 
     # a resource being removed takes no new command while its device closes: its

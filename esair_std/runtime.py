@@ -30,6 +30,7 @@ from .rs import ResourceSupervisor
 from .spec import Spec
 
 if TYPE_CHECKING:  # pragma: no cover
+    from .deploy.model import Deployment
     from .modes.control import ControlServer
     from .parts import Mode
     from .remote.center import Center
@@ -40,7 +41,7 @@ WATCH_IDLE = 1.0      # the watchdog's longest sleep (a component added meanwhil
 WAIT_RECHECK = 0.1    # wait_state: how often a state no event announces (busy) is looked at
 
 
-def _load(deployment: Any) -> Any:
+def _load(deployment: str | Path | dict | Deployment) -> Deployment:
     """A Deployment from a path, a dict or an already loaded Deployment."""
     if isinstance(deployment, (str, Path, dict)):
         from .deploy import load_deployment
@@ -49,7 +50,7 @@ def _load(deployment: Any) -> Any:
 
 
 class Runtime:
-    def __init__(self, deployment: str | Path | dict | Any, mode: str | None = None,
+    def __init__(self, deployment: str | Path | dict | Deployment, mode: str | None = None,
                  endpoint: str | None = None, control: bool | None = None,
                  join: list[str] | None = None):
         self.deployment = _load(deployment)

@@ -10,7 +10,8 @@ from typing import TYPE_CHECKING, Any, Protocol
 if TYPE_CHECKING:  # pragma: no cover
     from .bs import BehaviorSupervisor
     from .connections import ActuatorConnection, SensorConnection
-    from .parts import Mode
+    from .deploy.model import Deployment
+    from .parts import Mode, RemoteComponent
     from .rs import ResourceSupervisor
     from .transport.bus import Bus
     from .transport.calls import SampleServer
@@ -28,7 +29,7 @@ class ControlLink(Protocol):
 class RemoteAgents(Protocol):
     """The remote agents' center (remote/center.py), as process mode tells it."""
 
-    def lost(self, host: Any) -> None: ...
+    def lost(self, host: RemoteComponent) -> None: ...
 
 
 class RuntimeView(Protocol):
@@ -47,7 +48,7 @@ class RuntimeView(Protocol):
     @property
     def hostname(self) -> str: ...
     @property
-    def deployment(self) -> Any: ...       # a deploy.model.Deployment (or a test's stand-in)
+    def deployment(self) -> Deployment: ...
     child_session: dict[str, str] | None   # the runtime's own login, for its children
 
     @property

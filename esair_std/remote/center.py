@@ -26,12 +26,14 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ..errors import ControlError, Refused
-from ..modes.process import ProcessMode
+from ..modes.process import ProcessComponent, ProcessMode
 from ..spec import Spec
 from ..transport.security import LEASE_MS, access_control, link_inserts, session_inserts
 from .identity import Verifier
 
 if TYPE_CHECKING:  # pragma: no cover
+    from ..deploy.model import Deployment
+    from ..parts import RemoteComponent
     from ..view import RuntimeView
 
 log = logging.getLogger("esair_std.remote")
@@ -44,7 +46,7 @@ def _free_loopback_port() -> int:
         return s.getsockname()[1]
 
 
-def grants_for(deployment: Any, agent: str) -> dict[str, list[str]]:
+def grants_for(deployment: Deployment, agent: str) -> dict[str, list[str]]:
     """What the deployment's ``allow`` lets ``agent`` read / command, and what it hosts
     (its own name): the keys Zenoh's ACL opens for it."""
     reads, commands = [], []
@@ -148,7 +150,8 @@ class Center:
         rec = self.rt.bs.records.get(name)
         if rec is not None:
             host = rec.host
-            if not getattr(host, "remote", False) or host.phase not in ("lost", "failed"):
+            if (not isinstance(host, ProcessComponent) or not host.remote
+                    or host.phase not in ("lost", "failed")):
                 raise ControlError(f"a {rec.spec.kind} named {name!r} is already deployed")
             host.quiet = True                     # do not tell the (returning) agent to stop
             self.rt.bs.request(self.rt.bs.remove, name)
@@ -215,7 +218,7 @@ class Center:
         self.verifier.check(self.rt.robot, name, proof, cn=ident.cn, user=ident.user)
 
     # ---- liveliness
-    def lost(self, host: Any) -> None:
+    def lost(self, host: RemoteComponent) -> None:
         """A remote behavior's token went: lost now, failed after lost_grace."""
         if host.phase in ("failed", "stopped", "lost"):
             return
@@ -225,7 +228,7 @@ class Center:
         log.warning("%s: remote agent lost", host.name)
         threading.Timer(self.lost_grace, self._grace_over, (host,)).start()
 
-    def _grace_over(self, host: Any) -> None:
+    def _grace_over(self, host: RemoteComponent) -> None:
         rec = self.rt.bs.records.get(host.name)
         if rec is not None and rec.host is host and host.phase == "lost":
             self.rt.mode.reported(host.name, host.generation, "failed",
