@@ -23,17 +23,19 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
 
 from esair_std.drivers.starfish.gccphat import Localizer  # noqa: E402
 from esair_std.drivers.starfish.mics import DEFAULT_MICS, FRAME, RATE, AudioRenderer  # noqa: E402
-from esair_std.drivers.starfish.room import Room, bearing_to, wrap  # noqa: E402
+from esair_std.drivers.starfish.scene import bearing_to, load_scene, wrap  # noqa: E402
 
 GOAL_MEDIAN, GOAL_P90 = 5.0, 10.0
 
 
 def run(snr: float, trials: int, seed: int, echo: float) -> dict:
-    room = Room.from_dict({"source": {"x": 4.5, "y": 3.0, "on": True}})
+    room = load_scene(ROOT / "esair_std" / "examples" / "starfish" / "room.yaml")
+    room.source.x, room.source.y, room.source.on = 4.5, 3.0, True
     renderer = AudioRenderer(room, snr_db=snr, seed=seed, reflection_gain=echo)
     phat, plain = Localizer(DEFAULT_MICS, RATE), Localizer(DEFAULT_MICS, RATE, phat=False)
     rng = np.random.default_rng(seed)

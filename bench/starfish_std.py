@@ -1,4 +1,5 @@
-"""STARFISH under STD: the system's figures (issue 23 item 5), on the stand-in world.
+"""STARFISH under STD: the system's figures (issue 23 item 5), on the real MIN link (the
+emulated boards, started by the driver) in the example's room.
 
 1. sound onset -> picture taken, thread and process mode side by side: the source is
    switched on (``configure starfish.mics source``) and the time to the picture's own
@@ -64,6 +65,9 @@ def deployment(store: str) -> dict:
     import yaml
     dep = yaml.safe_load(Path(resolve_deployment("starfish")).read_text())
     dep["resources"]["starfish"]["pose"] = [1.5, 1.5, 0.0]
+    room = str(ROOT / "esair_std" / "examples" / "starfish" / "room.yaml")
+    dep["resources"]["starfish"]["room_file"] = room
+    dep["reactions"]["reconnect"]["room_file"] = room
     dep["behaviors"]["patrol"]["waypoints"] = [[1.5, 1.5], [2.3, 1.5]]
     for name in ("patrol", "localize", "turn_and_shoot"):
         dep["behaviors"][name]["class"] = \

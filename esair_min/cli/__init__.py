@@ -123,6 +123,21 @@ def eeprom(robot: str, output: str, raw: bool) -> None:
     click.echo(f"{image_summary(model, data)} -> {output}")
 
 
+def _pose(text: str | None) -> tuple[float, float, float] | None:
+    if text is None:
+        return None
+    import math
+
+    try:
+        x, y, theta = (float(v) for v in text.split(","))
+    except ValueError:
+        raise click.BadParameter(f"{text!r} is not X,Y,THETA (mm, mm, rad)",
+                                 param_hint="'--pose'") from None
+    if not all(math.isfinite(v) for v in (x, y, theta)):
+        raise click.BadParameter(f"{text!r}: every number must be finite", param_hint="'--pose'")
+    return x, y, theta
+
+
 @main.command(short_help="Run the emulated robot on a pty (--pty) or headless (--run).")
 @ROBOT
 @click.option("--pty", is_flag=True,
@@ -152,11 +167,17 @@ def eeprom(robot: str, output: str, raw: bool) -> None:
                    "a random one by default, docs/protocol.md).")
 @click.option("--room", type=click.Path(dir_okay=False), metavar="FILE",
               help="An omni-base robot's room (YAML: box, walls, landmarks); default 5 m x 5 m.")
+@click.option("--pose", metavar="X,Y,THETA",
+              help="An omni-base robot's start pose (mm, mm, rad); default: the room's centre.")
+@click.option("--world-out", type=click.Path(dir_okay=False), metavar="SOCKET",
+              help="With --pty, an omni-base robot: send its true pose each tick to this Unix "
+                   "datagram socket (docs/emulator.md).")
 @friendly
 def emulate(robot: str, pty: bool, run_s: float | None, sends: tuple[str, ...],
             generate: str | None, scenario: str | None, trace: str | None, speed: float | None,
             nack_actuator: bool, no_sensor: bool, corrupt_eeprom: bool, stuck_bus: bool,
-            noise: float, seed: int, room: str | None, instance: str | None) -> None:
+            noise: float, seed: int, room: str | None, instance: str | None,
+            pose: str | None, world_out: str | None) -> None:
     """Run the emulated robot behind a pseudo-terminal (--pty) or headless (--run).
 
     With --pty it serves until Ctrl-C or SIGTERM; when standard output is a terminal,
@@ -174,7 +195,8 @@ def emulate(robot: str, pty: bool, run_s: float | None, sends: tuple[str, ...],
         pty=pty, run_s=run_s, sends=sends, generate=Path(generate) if generate else None,
         scenario=scenario, trace=Path(trace) if trace else None, speed=speed,
         faults=Faults(nack_actuator, no_sensor, corrupt_eeprom, noise, seed, stuck_bus),
-        room=Path(room) if room else None, instance=instance)
+        room=Path(room) if room else None, instance=instance, pose=_pose(pose),
+        world_out=Path(world_out) if world_out else None)
     status = run_emulator(load(robot), opts)
     if status:
         sys.exit(status)

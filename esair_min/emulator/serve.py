@@ -31,6 +31,8 @@ class EmulateOptions:
     live: bool | None = None      # None: when stdout is a terminal
     room: Path | None = None      # an omni-base robot's room (a YAML file); None: the default
     instance: str | None = None   # the v reply's instance; None: random with --pty
+    pose: tuple[float, float, float] | None = None   # an omni-base robot's start (mm, mm, rad)
+    world_out: Path | None = None  # an omni-base robot's true pose, to this datagram socket
 
 
 def generate_first(robot: Robot, out_dir: Path, log: Callable[[str], None]) -> bytes | None:
@@ -116,9 +118,11 @@ def emulate(robot: Robot, opts: EmulateOptions, out: TextIO | None = None,
         from esair_min.emulator.starfish_serve import emulate_starfish
 
         return emulate_starfish(robot, opts, out, log, _serve_loop=_Stop, printer=_Printer)
-    if opts.room is not None:
-        raise EsairError("--room is for a robot with an omni base (STARFISH); this robot "
-                         "has none")
+    for flag, given in (("--room", opts.room), ("--pose", opts.pose),
+                        ("--world-out", opts.world_out)):
+        if given is not None:
+            raise EsairError(f"{flag} is for a robot with an omni base (STARFISH); this robot "
+                             "has none")
     image = generate_first(robot, opts.generate, log) if opts.generate else None
     with ExitStack() as stack:
         trace = None

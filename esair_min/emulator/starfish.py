@@ -54,6 +54,7 @@ class StarfishSim:
     world: World = field(default_factory=World)
     flow_options: FlowOptions = field(default_factory=FlowOptions)
     keep_trace: bool = True
+    robot_id: str | None = None        # the v reply's id= (an emulator's boot)
 
     def __post_init__(self) -> None:
         central = self.robot.central
@@ -64,7 +65,7 @@ class StarfishSim:
         self.mounts = [(float(f.mount_x_mm), float(f.mount_y_mm), math.radians(f.mount_angle_deg))
                        for f in central.flow_sensors]
         self.i2c: list[tuple[int, int, bytes]] = []      # (t_ns, address, data)
-        self.core = StarfishCore(self.robot, self._write, self.sensors)
+        self.core = StarfishCore(self.robot, self._write, self.sensors, self.robot_id)
         self.t_ns = 0
         self._next_central = self.core.tick_ns
         self._drive_ns = CONTROL_TICK_MS * 1_000_000

@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import secrets
 from collections.abc import Callable
 from contextlib import ExitStack
 from typing import Any, TextIO
@@ -23,13 +24,23 @@ def _refuse(opts: Any) -> None:
         if used:
             raise EsairError(f"{flag}: not for a robot with an omni base (STARFISH), whose "
                              "sensors and faults are its room's (docs/emulator.md)")
+    if opts.world_out is not None and not opts.pty:
+        raise EsairError("--world-out works with --pty only")
 
 
-def make_sim(robot: Robot, room_path: Any = None) -> StarfishSim:
-    """The robot in its room, at the room's centre, facing +x."""
+def make_sim(robot: Robot, room_path: Any = None, pose: tuple[float, float, float] | None = None,
+             robot_id: str | None = None) -> StarfishSim:
+    """The robot in its room, at ``pose`` (mm, mm, rad) or the room's centre facing +x."""
     room = load_room(room_path) if room_path is not None else Room.default()
-    x0, y0, x1, y1 = room.bounds()
-    return StarfishSim(robot, World(room=room, pose=Pose((x0 + x1) / 2, (y0 + y1) / 2, 0.0)))
+    if pose is None:
+        x0, y0, x1, y1 = room.bounds()
+        pose = ((x0 + x1) / 2, (y0 + y1) / 2, 0.0)
+    world = World(room=room, pose=Pose(*pose))
+    radius = world.options.radius_mm
+    if room.clearance(pose[0], pose[1]) < radius:
+        raise EsairError(f"--pose {pose[0]:g},{pose[1]:g}: the robot (radius {radius:g} mm) "
+                         "would stand in a wall")
+    return StarfishSim(robot, world, robot_id=robot_id)
 
 
 def emulate_starfish(robot: Robot, opts: Any, out: TextIO, log: Callable[[str], None],
@@ -40,7 +51,10 @@ def emulate_starfish(robot: Robot, opts: Any, out: TextIO, log: Callable[[str], 
 
         generate_robot(robot, opts.generate)
         log(f"generated {robot.name} into {opts.generate}")
-    sim = make_sim(robot, opts.room)
+    robot_id = opts.instance
+    if robot_id is None and opts.pty:           # each boot on a pty is a robot of its own
+        robot_id = secrets.token_hex(4)
+    sim = make_sim(robot, opts.room, opts.pose, robot_id)
     with ExitStack() as stack:
         flush: Callable[[], None] = lambda: None    # noqa: E731
         if opts.trace is not None:
@@ -72,9 +86,21 @@ def emulate_starfish(robot: Robot, opts: Any, out: TextIO, log: Callable[[str], 
                 live = out.isatty() if opts.live is None else opts.live
                 view = None
 
+                world_out = None
+                if opts.world_out is not None:
+                    from esair_min.emulator.world_out import WorldPublisher
+
+                    world_out = WorldPublisher(opts.world_out)
+                    stack.callback(world_out.close)
+                published = -1
+
                 def on_idle() -> None:
-                    nonlocal view
+                    nonlocal view, published
                     flush()
+                    if world_out is not None and sim.core.polls != published:
+                        published = sim.core.polls      # once per central tick
+                        p = sim.world.pose
+                        world_out.publish(sim.now_s, p.x, p.y, p.theta, sim.world.collisions)
                     if not live:
                         return
                     if view is None:          # after the path is printed, as PAPA-MAN's

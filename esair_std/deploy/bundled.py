@@ -27,8 +27,11 @@ def resolve_deployment(arg: str | Path) -> Path:
     p = Path(arg)
     if p.is_dir() and (p / f"{p.name}.yaml").is_file():
         return p / f"{p.name}.yaml"
-    if p.is_dir() and len(found := sorted(p.glob("*.yaml"))) == 1:
-        return found[0]                  # a copy made by `esair std new NAME DIR`
+    if p.is_dir():                       # a copy made by `esair std new NAME DIR`: its
+        found = sorted(p.glob("*.yaml"))  # one file, or NAME.yaml beside data (a room)
+        named = [f for f in found if f.stem in bundled_examples()]
+        if len(found) == 1 or len(named) == 1:
+            return (found if len(found) == 1 else named)[0]
     if p.exists():
         return p
     if len(p.parts) == 1 and not p.suffix:

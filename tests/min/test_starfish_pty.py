@@ -4,6 +4,7 @@ send``), run headless, its trace, and the options it refuses."""
 from __future__ import annotations
 
 import contextlib
+import math
 import os
 import select
 import signal
@@ -12,6 +13,7 @@ import sys
 import time
 from pathlib import Path
 
+import pytest
 import serial
 from click.testing import CliRunner
 
@@ -63,9 +65,9 @@ def ask(port: serial.Serial, line: str) -> str:
 
 def test_driven_over_the_pty_until_the_watchdog_stops_it(tmp_path):
     trace = tmp_path / "starfish.trace"
-    with emulator("--speed", "4", "--trace", str(trace)) as (_, path), \
+    with emulator("--speed", "4", "--trace", str(trace), "--instance", "0badcafe") as (_, path), \
             serial.Serial(path, 9600, timeout=5) as port:
-        assert ask(port, "v") == VERSION
+        assert ask(port, "v") == VERSION + " id=0badcafe"
         assert ask(port, "V+0200+0000+0000") == "OK"
         first = ask(port, "O")
         time.sleep(0.1)                                   # 0.4 s of virtual time
@@ -81,13 +83,13 @@ def test_driven_over_the_pty_until_the_watchdog_stops_it(tmp_path):
 
 
 def test_esair_send_drives_it():
-    with emulator() as (_, path):
+    with emulator("--instance", "0badcafe") as (_, path):
         run = subprocess.run(
             [sys.executable, "-m", "esair_min.cli", "send", path, "v", "W+0100+0100+0100",
              "x", "V+0900+0000+0000", "t"],
             cwd=ROOT, env=_env(), capture_output=True, timeout=60)
         assert run.stdout.decode().splitlines() == [
-            VERSION, "OK", "OK", "E04 outside limits", "E01 unknown command"]
+            VERSION + " id=0badcafe", "OK", "OK", "E04 outside limits", "E01 unknown command"]
         assert run.returncode == 1
 
 
@@ -168,3 +170,48 @@ def test_live_view_draws_the_room_and_the_robot(starfish):
         "#                   #",
         "#####################",
     ]
+
+
+def test_the_world_out_socket_gets_the_true_pose_from_the_start_pose(tmp_path):
+    """--pose places the robot, --world-out sends its true pose each central tick to a
+    Unix datagram socket (what the host's simulated sensors render from); a robot on a
+    pty answers v with a random id= of its boot."""
+    import socket
+
+    from esair_min.emulator.world_out import parse_datagram
+
+    sock_path = str(tmp_path / "world.sock")
+    sock = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
+    sock.bind(sock_path)
+    sock.settimeout(5)
+    with sock, emulator("--pose", "1000,1500,0.5", "--world-out", sock_path) as (_, path), \
+            serial.Serial(path, 9600, timeout=5) as port:
+        reply = ask(port, "v")
+        assert reply.startswith(VERSION + " id=") and len(reply.split("id=")[1]) == 8
+        t, x, y, th, hits = parse_datagram(sock.recv(256))
+        assert (x, y, th, hits) == (1000.0, 1500.0, 0.5, 0)
+        assert ask(port, "V+0200+0000+0000") == "OK"
+        while True:                                # the robot moves along its heading
+            t2, x2, y2, th2, _ = parse_datagram(sock.recv(256))
+            if x2 > 1010:
+                break
+        assert t2 > t and math.atan2(y2 - y, x2 - x) == pytest.approx(0.5, abs=0.05)
+    assert parse_datagram(b"pose 1 2") is None and parse_datagram(b"pose a b c d e") is None
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--pose", "10,1000,0"], "error: --pose 10,1000: the robot (radius 150 mm) would stand in a wall"),
+    (["--pose", "1,2"], "Error: Invalid value for '--pose': '1,2' is not X,Y,THETA (mm, mm, rad)"),
+])
+def test_a_bad_pose_is_refused(args, message):
+    result = CliRunner().invoke(main, ["emulate", "starfish", "--run", "0.1", *args])
+    assert result.exit_code != 0
+    assert result.output.strip().splitlines()[-1] == message
+
+
+def test_world_out_and_pose_are_for_an_omni_base_only():
+    result = CliRunner().invoke(main, ["emulate", "papaman", "--run", "0.1", "--pose", "1,2,3"])
+    assert result.output.strip().splitlines()[-1] == (
+        "error: --pose is for a robot with an omni base (STARFISH); this robot has none")
+    result = CliRunner().invoke(main, ["emulate", "starfish", "--run", "0.1", "--world-out", "w"])
+    assert result.output.strip().splitlines()[-1] == "error: --world-out works with --pty only"

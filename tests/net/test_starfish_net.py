@@ -2,7 +2,8 @@
 driver, patrol, the reconnect reaction) in one network namespace, the remote control
 center (localize, turn_and_shoot as remote agents) in another, joined by a veth whose
 robot end the radio model sets down when the robot leaves the access point's range and
-up when it is back. Real processes, real Zenoh, a real cut."""
+up when it is back. Real processes, real Zenoh, a real cut; the robot is STARFISH's
+emulated boards over their MIN link (port: emulate), in the room its sensors render."""
 
 from __future__ import annotations
 
@@ -10,13 +11,15 @@ import json
 import math
 import signal
 import threading
+from pathlib import Path
 
 from esair_std.drivers.starfish import camera as cam
-from esair_std.drivers.starfish.room import wrap
+from esair_std.drivers.starfish.scene import wrap
 from tests.support.netns import net, wait_for  # noqa: F401  (fixture)
 from tests.support.netstd import Center, agent
 
 B = "esair_std.examples.starfish.starfish_behaviors"
+ROOM = str(Path(__file__).resolve().parents[2] / "esair_std/examples/starfish/room.yaml")
 
 ROBOT = f"""
 robot: starfish
@@ -26,10 +29,8 @@ security: {{lease_ms: 1500}}
 resources:
   starfish:
     class: esair_std.drivers.starfish:Starfish
-    room: &room
-      walls: [[0, 0, 6, 0], [6, 0, 6, 4], [6, 4, 0, 4], [0, 4, 0, 0], [3, 0, 3, 2.5]]
-      access_point: [1.0, 1.0]
-      source: {{x: 1.0, y: 3.5, "on": false}}
+    port: emulate
+    room_file: ROOM
     pose: [1.5, 1.5, 0.0]
     snr_db: 10
     radio: {{range_m: 3.0, heal_m: 0.1, pause_audio: false, device: eth1}}
@@ -47,7 +48,7 @@ reactions:
   reconnect:
     class: {B}:Reconnect
     resources: [starfish.radio, starfish.odometry, starfish.wheels]
-    room: *room
+    room_file: ROOM
 """
 
 
@@ -120,7 +121,7 @@ def wait_running(center, names, timeout, what):
 def test_starfish_hears_turns_shoots_and_reconnects_across_a_veth(net, tmp_path):  # noqa: F811
     store = tmp_path / "remote-pictures"
     # in range: (1.5, 1.5) - (2.3, 1.5); out of range beyond 3.0 m toward (4.8, 3.2)
-    robot = ROBOT.replace("WAYPOINTS", "[[1.5, 1.5], [2.3, 1.5]]")
+    robot = ROBOT.replace("WAYPOINTS", "[[1.5, 1.5], [2.3, 1.5]]").replace("ROOM", ROOM)
     center = Center(net[0], tmp_path / "robot", robot)
     loc, tas = remote_center(net[1], center.endpoint, store)
     wait_running(center, ("localize", "turn_and_shoot"), 60, "the remote center")
@@ -175,3 +176,70 @@ def test_starfish_hears_turns_shoots_and_reconnects_across_a_veth(net, tmp_path)
     assert {k: ls[k]["state"] for k in ("patrol", "watcher", "reconnect", "starfish.wheels")} == {
         "patrol": "running", "watcher": "running", "reconnect": "running", "starfish.wheels": "ready"}
     assert center.run.proc.poll() is None
+
+
+SECURE = """
+robot: starfish
+mode: process
+endpoint: ENDPOINT
+security:
+  ca: pki/ca.pem
+  cert: pki/server.pem
+  key: pki/server.key
+  lease_ms: 1000
+  agents:
+    localize: {cn: localize}
+resources:
+  starfish:
+    class: esair_std.drivers.starfish:Starfish
+    port: emulate
+    room_file: ROOM
+    pose: [1.5, 1.5, 0.0]
+    allow: {localize: read}
+"""
+MICS, WHEELS = "esair/starfish/sensor/starfish.mics", "esair/starfish/actuator/starfish.wheels"
+CAMERA = "esair/starfish/actuator/starfish.camera"
+
+
+def test_strangers_without_credentials_get_nothing_from_starfish(net, tmp_path):  # noqa: F811
+    """mTLS and access control as in docs/std-network.md: the remote center's localize,
+    with its certificate, hears the microphones; a client with no certificate gets no
+    session; one with a certificate of the CA that is no agent of the robot can neither
+    hear the microphones, nor take a picture, nor drive the wheels."""
+    from esair_std.transport.certs import make_certs
+    from esair_std.transport.security import SecuritySpec, session_inserts
+    from tests.support.zpeer import Peer
+
+    make_certs(tmp_path / "pki", clients=["localize", "stranger"], hosts=[net[0].addr])
+    center = Center(net[0], tmp_path, SECURE.replace("ROOM", ROOM), tls=True)
+    pki = tmp_path / "pki"
+
+    def creds(who):
+        return ["--robot", "starfish", "--ca", str(pki / "ca.pem"), "--cert", str(pki / f"{who}.pem"),
+                "--key", str(pki / f"{who}.key")]
+
+    loc = agent(net[1], center.endpoint, "localize", f"{B}:Localize", "--uses", "starfish.mics=read",
+                "--period", "0.05", *creds("localize"))
+    no_cert = agent(net[1], center.endpoint, "localize2", f"{B}:Localize", "--uses", "starfish.mics=read",
+                    "--robot", "starfish", "--ca", str(pki / "ca.pem"))
+    assert no_cert.wait_exit(60) == 1
+    assert no_cert.lines[-1].startswith(
+        f"error: cannot reach the control center at {center.endpoint}: "), no_cert.output()
+    sec = SecuritySpec(ca=pki / "ca.pem", cert=pki / "stranger.pem", key=pki / "stranger.key")
+    stranger = Peer(net[1], {"mode": "client", "scouting/multicast/enabled": False,
+                             "connect/endpoints": [center.endpoint], "listen/endpoints": [],
+                             **session_inserts(sec, ".", listen=False)})
+    assert stranger.error is None, stranger.error
+    try:
+        stranger.cmd(f"sub {MICS}")
+        # the agent with credentials hears frames: the stranger's subscription had its chance
+        local = center.local
+        wait_for(lambda: json.loads(center.ctl("get", "localize", "--timeout", "2", endpoint=local))
+                 ["frames"] > 10, 60, what="localize to hear frames through mTLS")
+        assert stranger.samples(MICS) == []
+        assert stranger.cmd(f"getx {CAMERA} nulls")["replies"] == []       # no picture
+        assert stranger.cmd(f"getx {WHEELS} nulls")["replies"] == []       # no wheels
+        assert stranger.get("esair/starfish/ctl/ping", 1.0) == []          # nor anything else
+        assert loc.proc.poll() is None
+    finally:
+        stranger.close()

@@ -10,11 +10,12 @@ from esair_std.drivers.starfish import camera as cam
 from esair_std.drivers.starfish.gccphat import Localizer, gcc_phat
 from esair_std.drivers.starfish.mics import (DEFAULT_MICS, FRAME, RATE, SPEED_OF_SOUND, AudioRenderer,
                                              FrameError, decode_frame, encode_frame)
-from esair_std.drivers.starfish.room import Room, RoomError, bearing_to, wrap
+from esair_std.drivers.starfish.scene import Source, SceneError, bearing_to, wrap
+from tests.support.starfish_comps import example_scene
 
 
-def room_with(x, y, on=True, **kw):
-    return Room.from_dict({"source": {"x": x, "y": y, "on": on}, **kw})
+def room_with(x, y, on=True):
+    return example_scene((x, y), on)
 
 
 def angle_error_deg(a, b):
@@ -188,25 +189,20 @@ def test_jpeg_pictures_decode_to_the_same_size():
 # --- the room ---------------------------------------------------------------------------
 
 def test_rays_and_line_of_sight():
-    room = Room.from_dict({})
+    room = example_scene()
     dist, wall = room.cast((1.0, 1.0), np.array([0.0, math.pi / 2, math.pi]))
     assert dist == pytest.approx([2.0, 3.0, 1.0]) and list(wall) == [4, 2, 3]
     assert room.blocked((1.0, 1.0), (4.0, 1.0)) and not room.blocked((1.0, 3.0), (4.0, 3.0))
     assert room.clearance((2.5, 1.0)) == pytest.approx(0.5)
 
 
-@pytest.mark.parametrize("room, message", [
-    ({"wals": []}, "room: unknown field 'wals' (known: walls, landmarks, source, access_point, "
-                   "wall_height)"),
-    ({"walls": [[0, 0, 1]]}, "room.walls[0] must be [x1, y1, x2, y2], not [0, 0, 1]"),
-    ({"walls": [[0, 0, 1, "a"]]}, "room.walls[0][3] must be a finite number, not 'a'"),
-    ({"source": {"x": 1}}, "room.source: missing field 'y'"),
-    ({"source": {"x": 1, "y": 2, "on": "yes"}}, "room.source.on must be true or false, not 'yes'"),
-    ({"landmarks": [{"x": 1, "y": 1, "color": [1, 2, 300]}]},
-     "room.landmarks[0].color must be three integers 0-255, not [1, 2, 300]"),
-    ({"access_point": [1]}, "room.access_point must be [x, y], not [1]"),
+@pytest.mark.parametrize("source, message", [
+    ({"x": 1}, "source: missing field 'y'"),
+    ({"x": 1, "y": 2, "on": "yes"}, "source.on must be true or false, not 'yes'"),
+    ({"x": 1, "y": 2, "level": 2}, "source.level must be in (0, 1], not 2.0"),
+    ({"x": 1, "y": 2, "loud": 1}, "source: unknown field 'loud' (known: x, y, on, level)"),
 ])
-def test_bad_rooms_are_refused_by_name(room, message):
-    with pytest.raises(RoomError) as exc:
-        Room.from_dict(room)
+def test_bad_sources_are_refused_by_name(source, message):
+    with pytest.raises(SceneError) as exc:
+        Source.from_dict(source)
     assert str(exc.value) == message

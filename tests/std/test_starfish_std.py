@@ -1,11 +1,13 @@
 """STARFISH under ESAIR STD, end to end in both modes: a sound placed in the room ->
 localize -> turn_and_shoot turns the robot and takes the picture that shows the source
 near its centre; the patrol path drives the robot out of the radio's range -> reconnect
-drives it back -> the link heals -> patrol goes on. The robot is the stand-in world
-(esair_std/drivers/starfish/standin.py) until STARFISH's emulator lands."""
+drives it back -> the link heals -> patrol goes on. The robot is STARFISH's emulated
+boards (`esair emulate starfish --pty`, owned by the driver) over their MIN link, in the
+room the microphones, camera and radio render from."""
 
 import json
 import math
+from pathlib import Path
 
 import pytest
 
@@ -13,20 +15,20 @@ from esair_std import CommandError, Runtime
 from esair_std.errors import ComponentError
 
 from esair_std.drivers.starfish import camera as cam
-from esair_std.drivers.starfish.room import wrap
+from esair_std.drivers.starfish.scene import wrap
 from tests.support.std import agent_children, free_endpoint, wait_for
 
 pytestmark = pytest.mark.slow          # runtimes in both modes, tens of seconds each
 
 B = "esair_std.examples.starfish.starfish_behaviors"
-ROOM = {"walls": [[0, 0, 6, 0], [6, 0, 6, 4], [6, 4, 0, 4], [0, 4, 0, 0], [3, 0, 3, 2.5]],
-        "access_point": [1.0, 1.0], "source": {"x": 1.0, "y": 3.5, "on": False}}
+#: the example's room: 6 m x 4 m, an inner wall x = 3 m up to 2.5 m, access point (1, 1)
+ROOM = str(Path(__file__).resolve().parents[2] / "esair_std/examples/starfish/room.yaml")
 
 
 def starfish(pose, waypoints, store, **driver):
     return {
         "resources": {"starfish": {
-            "class": "esair_std.drivers.starfish:Starfish", "room": ROOM, "pose": pose,
+            "class": "esair_std.drivers.starfish:Starfish", "room_file": ROOM, "pose": pose,
             "snr_db": 10, "echo": 0.5, "radio": {"range_m": 3.0, "heal_m": 0.1}, **driver,
             "allow": {"*": "read", "patrol": "command", "turn_and_shoot": "command"}}},
         "behaviors": {
@@ -39,7 +41,7 @@ def starfish(pose, waypoints, store, **driver):
                                         "starfish.camera": "command"}},
             "watcher": {"class": "tests.support.starfish_comps:RadioWatcher",
                         "uses": {"starfish.radio": "read"}}},
-        "reactions": {"reconnect": {"class": f"{B}:Reconnect", "room": ROOM,
+        "reactions": {"reconnect": {"class": f"{B}:Reconnect", "room_file": ROOM,
                                     "resources": ["starfish.radio", "starfish.odometry",
                                                   "starfish.wheels"]}},
     }
@@ -103,13 +105,10 @@ def test_out_of_range_reconnect_drives_back_and_patrol_goes_on(start, tmp_path):
 
 def test_the_driver_refuses_bad_settings_by_name_and_changes_nothing(start):
     rt = start({"resources": {"starfish": {"class": "esair_std.drivers.starfish:Starfish",
-                                           "allow": {"*": "read"}}}})
+                                           "room_file": ROOM, "allow": {"*": "read"}}}})
     with pytest.raises(CommandError) as exc:
         rt.configure("starfish.mics", "source", {"x": 1})
     assert str(exc.value) == "starfish.mics: source: missing field 'y'"
-    with pytest.raises(CommandError) as exc:
-        rt.configure("starfish.wheels", "pose", [0.05, 1.0, 0.0])
-    assert str(exc.value) == "starfish.wheels: pose (0.05, 1.0) is closer than 0.15 m to a wall"
     with pytest.raises(CommandError) as exc:
         rt.configure("starfish.mics", "snr", 3)
     assert str(exc.value) == "starfish.mics: no setting 'snr' (settings: source, snr_db)"
@@ -118,26 +117,34 @@ def test_the_driver_refuses_bad_settings_by_name_and_changes_nothing(start):
 
 
 @pytest.mark.parametrize("options, message", [
-    ({"snr": 3}, "starfish: unknown option 'snr' (options: camera, echo, odometry_hz, pose, radio, "
-                 "room, room_file, seed, snr_db, world)"),
-    ({"world": "emulator"}, "starfish: world 'emulator' is not available (only 'standin' until "
-                            "STARFISH's emulator lands)"),
-    ({"room": {"walls": []}}, "starfish: room.walls must be a non-empty list of [x1, y1, x2, y2]"),
+    ({"snr": 3}, "starfish: unknown option 'snr' (options: camera, deadline, echo, emulate, "
+                 "odometry_hz, port, pose, radio, robot, room_file, seed, snr_db, timeout)"),
+    ({"port": "/dev/ttyUSB0"}, "starfish: port '/dev/ttyUSB0': the simulated microphones, camera "
+                               "and radio need the emulated world (port: emulate)"),
+    ({"room_file": None}, "starfish: option 'room_file' is missing (the world's room: "
+                          "esair_min.world's YAML, mm)"),
     ({"radio": {"range_m": "far"}}, "starfish: option 'radio.range_m' must be a number, not 'far'"),
     ({"pose": [0.1, 1, 0]}, "starfish: start pose (0.1, 1.0) is closer than 0.15 m to a wall"),
     ({"pose": [1, 1]}, "starfish: option 'pose' must be [x, y, heading], not [1, 1]"),
     ({"camera": {"format": "gif"}}, "starfish: camera.format must be 'png' or 'jpeg', not 'gif'"),
+    ({"emulate": {"room": "x.yaml"}}, "starfish: option 'emulate.room' is the driver's own (give "
+                                      "room_file and pose)"),
+    ({"odometry_hz": 13}, "starfish: odometry_hz 13 exceeds the line: at 9600 baud one 'O' "
+                          "exchange takes up to 78.1 ms"),
 ])
 def test_bad_driver_options_stop_the_start_with_the_reason(mode, options, message):
+    opts = {"room_file": ROOM, **options}
+    if opts["room_file"] is None:
+        del opts["room_file"]
     dep = {"robot": "t", "resources": {"starfish": {"class": "esair_std.drivers.starfish:Starfish",
-                                                    **options, "allow": {"*": "read"}}}}
+                                                    **opts, "allow": {"*": "read"}}}}
     with pytest.raises(ComponentError) as exc, Runtime(dep, mode=mode, endpoint=free_endpoint()):
         pass
     assert str(exc.value) == f"resource 'starfish' failed to open: StarfishError: {message}"
     assert agent_children() == []
 
 
-def test_a_room_file_of_the_emulated_world_places_walls_source_and_radio(start, tmp_path):
+def test_the_room_file_is_the_one_world_of_the_robot_and_its_sensors(start, tmp_path):
     room = tmp_path / "room.yaml"
     room.write_text("box: [6000, 4000]\nwalls: [[3000, 0, 3000, 2500]]\n"
                     "landmarks: [{name: bell, x: 1000, y: 3500, kind: sound},\n"

@@ -1,6 +1,6 @@
-"""STARFISH's stand-in world, radio model and path planner (esair_std/drivers/starfish/)."""
+"""STARFISH's omni link commands, radio model, path planner and link switch
+(esair_std/drivers/starfish/)."""
 
-import math
 import sys
 
 import pytest
@@ -8,74 +8,34 @@ import pytest
 from esair_std.drivers.starfish.linkswitch import LinkSwitch
 from esair_std.drivers.starfish.planner import NoPath, plan
 from esair_std.drivers.starfish.radio import RadioModel
-from esair_std.drivers.starfish.room import Room
-from esair_std.drivers.starfish.standin import CommandRefused, StandInWorld
+from tests.support.starfish_comps import example_scene
 from tests.support.std import wait_for
 
 
-class Clock:
-    def __init__(self):
-        self.t = 0.0
+def test_the_omni_commands_match_replies_by_shape_and_check_the_robot():
+    from esair_min.model.validate import load_robot
+    from esair_min.resources import resolve_robot
+    from esair_std.drivers.minlink.errors import LinkError
+    from esair_std.drivers.starfish.omnilink import OmniCommands, omni_budget
 
-    def __call__(self):
-        return self.t
-
-
-def world(pose=(1.0, 1.0, 0.0), **kw):
-    clock = Clock()
-    return StandInWorld(Room.from_dict({}), pose, clock=clock, **kw), clock
-
-
-def test_pose_integrates_the_body_velocity_in_the_robot_frame():
-    w, clock = world(pose=(1.0, 1.0, math.pi / 2))
-    w.command(100, 0, 0)                     # 100 mm/s ahead = +y in the world
-    clock.t = 0.4
-    x, y, th = w.pose()
-    assert (x, y, th) == pytest.approx((1.0, 1.04, math.pi / 2), abs=1e-9)
-    w.command(0, 100, 500)                   # to the left while turning at 0.5 rad/s
-    clock.t = 0.8
-    x, y, th = w.pose()
-    assert th == pytest.approx(math.pi / 2 + 0.2)
-    assert x < 1.0 - 0.035 and y == pytest.approx(1.04, abs=0.01)
-
-
-def test_the_watchdog_stops_a_robot_nobody_commands():
-    w, clock = world()
-    w.command(200, 0, 0)
-    clock.t = 2.0
-    x, _, _ = w.pose()
-    assert x == pytest.approx(1.0 + 0.2 * 0.5, abs=0.006) and not w.moving()
-    assert w.watchdog_stops == 1
-
-
-def test_a_wall_stops_the_robot_and_is_counted():
-    w, clock = world(pose=(2.0, 1.0, 0.0))   # the inner wall at x = 3
-    for k in range(1, 20):
-        w.command(400, 0, 0)
-        clock.t = 0.25 * k
-    x, _, _ = w.pose()
-    assert 3.0 - 0.15 - 0.01 <= x < 3.0 - 0.15 and w.collisions >= 1
-
-
-@pytest.mark.parametrize("cmd, message", [
-    ((401, 0, 0), "vx 401 mm/s is outside the limit +-400 mm/s"),
-    ((0, 0, -3001), "w -3001 mrad/s is outside the limit +-3000 mrad/s"),
-    ((300, 300, 0), "speed 424 mm/s is over the limit 400 mm/s"),
-    ((True, 0, 0), "vx must be a number, not True"),
-    ((0, float("nan"), 0), "vy must be a number, not nan"),
-])
-def test_commands_outside_the_limits_are_refused_and_change_nothing(cmd, message):
-    w, clock = world()
-    w.command(100, 0, 0)
-    with pytest.raises(CommandRefused) as exc:
-        w.command(*cmd)
-    assert str(exc.value) == message
-    clock.t = 0.1
-    assert w.pose()[0] == pytest.approx(1.01)
+    robot = load_robot(resolve_robot("starfish"))
+    c = OmniCommands(robot)
+    assert [c.prefix(a) for a in ("velocity", "odometry", "stop", "version")] == ["V", "O", "x", "v"]
+    assert c.plausible("O", "n=3 a=1,2,90 b=3,4,90") and not c.plausible("O", "")
+    assert c.plausible("V+0100+0000+0000", "") and not c.plausible("x", "n=3 a=1,2,90 b=3,4,90")
+    assert c.plausible("v", "esair-min/1 starfish wheels=3") and not c.plausible("v", "")
+    c.check_version("esair-min/1 starfish wheels=3 flow=2 watchdog=500 checksum=off id=0badcafe")
+    with pytest.raises(LinkError) as exc:
+        c.check_version("esair-min/1 papaman servos=8 sensors=8 motions=4 image=ok checksum=off")
+    assert str(exc.value) == (f"the robot answers wheels=? but the board files of starfish say "
+                              f"wheels=3 ({robot.source})")
+    # the longest O reply at 9600 baud: 78.1 ms an exchange, 12.8 a second at most
+    assert round(omni_budget(robot).feet_exchange_s * 1e3, 1) == 78.1
+    assert round(omni_budget(robot).max_feet_hz(1.0), 1) == 12.8
 
 
 def test_the_radio_is_cut_out_of_range_and_behind_a_wall_and_heals_inside_the_edge():
-    radio = RadioModel(Room.from_dict({"access_point": [1.0, 1.0]}), range_m=3.0, heal_m=0.1)
+    radio = RadioModel(example_scene(access_point=(1.0, 1.0)), range_m=3.0, heal_m=0.1)
     assert radio.update(3.9, 1.0 + 0.0)["up"] is False            # behind the inner wall
     assert radio.update(2.0, 3.0) == {"up": True, "distance": 2.236, "los": True}
     assert radio.update(3.1, 3.2)["up"] is False                  # 3.04 m: out of range
@@ -85,7 +45,7 @@ def test_the_radio_is_cut_out_of_range_and_behind_a_wall_and_heals_inside_the_ed
 
 
 def test_the_planner_goes_around_the_inner_wall():
-    room = Room.from_dict({})
+    room = example_scene()
     path = plan(room, (4.5, 1.0), (1.0, 1.0), margin=0.25)
     points = [(4.5, 1.0)] + path
     assert path[-1] == (1.0, 1.0)
@@ -100,8 +60,9 @@ def test_the_planner_goes_around_the_inner_wall():
 
 
 def test_no_path_says_so():
-    room = Room.from_dict({"walls": [[0, 0, 6, 0], [6, 0, 6, 4], [6, 4, 0, 4], [0, 4, 0, 0],
-                                     [3, 0, 3, 4]]})
+    from esair_min.world import Room, Segment
+    from esair_std.drivers.starfish.scene import from_world
+    room = from_world(Room(Room.box(6000, 4000).walls + (Segment(3000, 0, 3000, 4000),)))
     with pytest.raises(NoPath) as exc:
         plan(room, (4.5, 1.0), (1.0, 1.0), margin=0.25)
     assert str(exc.value) == "no path from (4.50, 1.00) to (1.00, 1.00) keeps 0.25 m from the walls"
@@ -134,7 +95,7 @@ def test_a_failing_ip_is_counted_with_its_message():
 def test_a_room_of_starfishs_emulated_world_converts_to_metres_and_kinds():
     from esair_min.world import Landmark
     from esair_min.world import Room as WorldRoom
-    from esair_std.drivers.starfish.room import from_world_room
+    from esair_std.drivers.starfish.scene import from_world as from_world_room
     world = WorldRoom.box(6000, 4000, landmarks=(Landmark("bell", 1000, 3500, "sound"),
                                                  Landmark("ap", 1000, 1000, "access_point"),
                                                  Landmark("pole", 5600, 400)))

@@ -37,3 +37,20 @@ class RadioWatcher(Behavior):
 
 def true_bearing(pose, x, y):
     return math.atan2(y - pose[1], x - pose[0]) - pose[2]
+
+
+def example_scene(source=(1.0, 3.2), on=False, access_point=(1.0, 1.0), inner_wall=True):
+    """The example's room (esair_std/examples/starfish/room.yaml: 6 m x 4 m, the inner
+    wall x = 3 m up to y = 2.5 m, three poles) as the sensors see it, with the sound
+    source at ``source`` (metres) sounding or not."""
+    from esair_min.world import Landmark, Room, Segment
+    from esair_std.drivers.starfish.scene import from_world
+
+    walls = Room.box(6000, 4000).walls + ((Segment(3000, 0, 3000, 2500),) if inner_wall else ())
+    marks = (Landmark("bell", source[0] * 1000, source[1] * 1000, "sound"),
+             Landmark("ap", access_point[0] * 1000, access_point[1] * 1000, "access_point"),
+             Landmark("green", 400, 3600, "pole"), Landmark("yellow", 5600, 400, "pole"),
+             Landmark("blue", 5600, 3600, "pole"))
+    scene = from_world(Room(walls, marks))
+    scene.source.on = on
+    return scene

@@ -46,9 +46,12 @@ def watchdog_ticks(watchdog_ms: int, tick_ns: int) -> int:
     return -(-watchdog_ms * 1_000_000 // tick_ns)
 
 
-def version_line(robot: str, wheels: int, flow: int, watchdog_ms: int, checksum: bool) -> bytes:
+def version_line(robot: str, wheels: int, flow: int, watchdog_ms: int, checksum: bool,
+                 robot_id: str | None = None) -> bytes:
+    """The ``v`` reply; ``robot_id``: an emulator's boot (docs/protocol.md, "Robot id")."""
+    ident = f" id={robot_id}" if robot_id is not None else ""
     return (f"OK {PROTOCOL_NAME} {robot} wheels={wheels} flow={flow} watchdog={watchdog_ms} "
-            f"checksum={'on' if checksum else 'off'}").encode() + b"\r\n"
+            f"checksum={'on' if checksum else 'off'}{ident}").encode() + b"\r\n"
 
 
 def velocity_line(vx: int, vy: int, omega: int) -> str:
@@ -64,8 +67,10 @@ class StarfishCore:
     """The central board of an omni-base robot."""
 
     def __init__(self, robot: Any, write: Callable[[int, bytes], bool],
-                 flow: Sequence[FlowReader] = ()):
+                 flow: Sequence[FlowReader] = (), robot_id: str | None = None):
         central = robot.central
+        # the v reply's id=: an emulator's boot; the firmware has none
+        self.robot_id = robot_id
         base = central.base
         self.name = robot.name
         drive = robot.board("drive")
@@ -132,7 +137,7 @@ class StarfishCore:
             reply = self._odometry()
         else:
             reply = version_line(self.name, len(self.wheels), len(self.flow_names),
-                                 self.watchdog_ms, self.require_checksum)
+                                 self.watchdog_ms, self.require_checksum, self.robot_id)
         if reply.startswith(b"OK"):
             self.idle_ticks = 0                  # a command carried out feeds the watchdog
         return reply

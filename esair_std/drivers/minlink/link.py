@@ -71,7 +71,7 @@ from esair_min.errors import ProtocolError
 from esair_min.core.protocol import RX_RING, Code, parse_reply
 from esair_min.model.robot import Robot
 
-from .budget import line_budget
+from .budget import LineBudget, line_budget
 from .commands import VERSION_PREFIX, RobotCommands
 from .errors import DifferentRobot, Expired, LinkDown, LinkError, RobotRefused
 
@@ -124,13 +124,15 @@ class Link:
                  timeout: float = 1.0, backoff: tuple[float, float] = (0.05, 2.0),
                  notice_capacity: int = 256, on_state: StateCallback | None = None,
                  on_notice: NoticeCallback | None = None, expect_id: str | None = None,
-                 may_open: Callable[[], str | None] | None = None, duplex: bool = True):
+                 may_open: Callable[[], str | None] | None = None, duplex: bool = True,
+                 commands: RobotCommands | None = None, budget: LineBudget | None = None):
         if not timeout > 0:
             raise LinkError(f"link timeout {timeout:g} s must be more than 0")
         self.robot = robot
         self.port = port
-        self.commands = RobotCommands(robot)
-        self.budget = line_budget(robot)
+        # another command set (STARFISH's omni base) brings its own lines and budget
+        self.commands = RobotCommands(robot) if commands is None else commands
+        self.budget = line_budget(robot) if budget is None else budget
         self.baud = baud or self.budget.baud
         self.timeout = timeout
         self.backoff = backoff
@@ -233,10 +235,10 @@ class Link:
             raise LinkDown(f"link to {self.port} is closed: {line!r} not sent")
         if not self._up:
             raise LinkDown(f"link to {self.port} is down ({self._reason}): {line!r} not sent")
-        ex = Exchange(line, self.commands.wire(line), timeout, deadline, poll,
-                      self.commands.action_of(line) or "")
-        if ex.kind not in ("sensors", "version"):
-            ex.kind = "bare"                          # a bare OK
+        # the shape of its OK: a bare one, or its action's data (never two alike in flight)
+        kind = "bare" if self.commands.plausible(line, "") else (
+            self.commands.action_of(line) or line)
+        ex = Exchange(line, self.commands.wire(line), timeout, deadline, poll, kind)
         with self._lock:
             if not self._up or self._port is None:
                 raise LinkDown(f"link to {self.port} is down ({self._reason}): "

@@ -19,7 +19,7 @@ from typing import Sequence
 import numpy as np
 from PIL import Image
 
-from .room import SOURCE_COLOR, SOURCE_HEIGHT, SOURCE_RADIUS, Room
+from .scene import SOURCE_COLOR, SOURCE_HEIGHT, SOURCE_RADIUS, Scene
 
 WIDTH, HEIGHT = 320, 240
 FOV_DEG = 60.0
@@ -44,7 +44,7 @@ def _cylinder_hits(origin: np.ndarray, dirs: np.ndarray, cx: float, cy: float,
 class Camera:
     """Renders pictures of ``room``; ``render(pose)`` -> uint8 array (height, width, 3)."""
 
-    def __init__(self, room: Room, width: int = WIDTH, height: int = HEIGHT,
+    def __init__(self, room: Scene, width: int = WIDTH, height: int = HEIGHT,
                  fov_deg: float = FOV_DEG, camera_height: float = CAMERA_HEIGHT):
         if not (16 <= width <= 4096 and 16 <= height <= 4096):
             raise ValueError(f"picture size {width}x{height} is outside 16..4096")

@@ -1,20 +1,25 @@
-"""``Starfish``: the STARFISH robot's Linux-side devices as ESAIR STD resources, in
-simulation (docs/std-starfish.md).
+"""``Starfish``: the STARFISH robot's Linux-side devices as ESAIR STD resources, its
+wheels and odometry over its MIN link to the emulated boards (docs/std-starfish.md).
 
 Deployment entry (the entry's name prefixes the resources' names)::
 
     starfish:
       class: esair_std.drivers.starfish:Starfish
-      world: standin            # the only world today: standin.py (see below)
-      room: {...}               # room.py's format; missing keys from its DEFAULT_ROOM
-      room_file: room.yaml      # or: a room file of STARFISH's emulated world
-                                # (esair_min.world.load_room; landmark kinds 'sound'
-                                # and 'access_point' place the source and the radio)
+      room_file: room.yaml      # THE world (esair_min.world.load_room, mm): the emulated
+                                # robot lives in it (--room), the sensors render from it;
+                                # landmark kinds 'sound' and 'access_point' place the
+                                # source and the radio
+      port: emulate             # the driver runs `esair emulate starfish --pty` (only
+                                # the emulated world feeds the simulated sensors)
+      emulate: {restart: {max: 3, within: 60}, speed: 1}  # that child's options
       pose: [1.0, 1.0, 0.0]     # where the robot starts (x m, y m, heading rad)
       snr_db: 20                # the microphones' SNR at the array's centre
       echo: 0.5                 # wall echoes' gain (0: the direct sound only)
       seed: 0                   # the audio's random streams
-      odometry_hz: 20
+      odometry_hz: 10           # O polls a second (at most the line's budget: 12.8 at
+                                # 9600 baud, the longest O reply)
+      timeout: 1.0              # the link's reply timeout (MinLink's)
+      deadline: 0.5             # a wheel command not written by then is dropped
       radio: {range_m: 3.0, heal_m: 0.1, pause_audio: true, device: eth1}
       camera: {format: png, fov_deg: 60}
       allow: {"*": read, patrol: command, turn_and_shoot: command}
@@ -22,48 +27,56 @@ Deployment entry (the entry's name prefixes the resources' names)::
 Resources:
 
 - ``<entry>.wheels`` actuator: ``{"vx": mm/s, "vy": mm/s, "w": mrad/s}`` (robot frame,
-  missing keys 0) or ``"stop"``; limits refused by name; a 0.5 s command watchdog stops
-  the robot. ``configure(wheels, "pose", [x, y, th])`` puts the robot somewhere (the
-  operator's hand: simulation only);
-- ``<entry>.odometry`` sensor: ``{"x", "y", "th", "moving"}`` ``odometry_hz`` times a
-  second;
-- ``<entry>.mics`` sensor: the microphone array's frames (mics.py: 4 x 1024 int16 at
-  16 kHz, base64, ``seq`` and ``n0`` numbering the stream) 15.625 times a second;
-  ``configure(mics, "source", {"x", "y", "on", "level"})`` places / switches the room's
-  sound source, ``configure(mics, "snr_db", dB)``;
+  missing keys 0) -> ``V±vvvv±vvvv±wwww``, or ``"stop"`` -> ``x``, over the MIN link;
+  the board file's limits refused by name before sending; the central board's 0.5 s
+  watchdog stops the robot when no command comes (``!W watchdog stop``);
+- ``<entry>.odometry`` sensor: ``{"x", "y", "th", "moving", "squal"}`` ``odometry_hz``
+  times a second: the flow sensors' sums (``O``) integrated from ``pose``;
+- ``<entry>.notices`` sensor: the robot's ``!`` lines (MinLink's);
+- ``<entry>.mics`` sensor: the microphone array's frames (mics.py) rendered from the
+  world's TRUE pose 15.625 times a second; ``configure(mics, "source", {...})`` places /
+  switches the sound source, ``configure(mics, "snr_db", dB)``;
 - ``<entry>.camera`` actuator: ``"shoot"`` or ``{"shoot": true, "format": "jpeg"}`` ->
-  ``{"seq", "t", "pose", "format", "w", "h", "image"}`` (``image``: base64 of the PNG or
-  JPEG of the room seen from the robot's pose, camera.py);
-- ``<entry>.radio`` sensor: ``{"up", "distance", "los"}`` 5 times a second (radio.py).
-  With ``radio.pause_audio`` (the default), while the link is cut the microphone frames
-  are not reported (``frames_paused`` counts them): on one computer, where the remote
-  control center's behaviors run beside the robot's, that is the cut radio's effect on
-  what they hear. With ``radio.device`` the driver also sets that network interface
-  down while the link is cut and up when it heals (``ip link set DEV down|up``,
-  linkswitch.py): the namespace tests and the two-computer demo cut the real link to
-  the remote control center this way (then set ``pause_audio: false``).
+  ``{"seq", "t", "pose", "format", "w", "h", "image"}`` (the picture from the true pose);
+- ``<entry>.radio`` sensor: ``{"up", "distance", "los"}`` 5 times a second (radio.py);
+  ``pause_audio`` and ``device`` as before (linkswitch.py).
 
-``world: standin`` is ``standin.py``, a stand-in for issue 22's emulated STARFISH (its
-boards and their world): the pose integrated from the commanded velocity. When that
-emulator lands, the wheels and odometry go through its MIN link (the MinLink design)
-and the pose the microphones, camera and radio are rendered from is its world's.
+The MIN link is MinLink's (esair_std/drivers/minlink): this driver is a ``MinLink`` whose
+robot is STARFISH's boards; the emulated robot is owned by it (reaped, restarted under
+``emulate: {restart: ...}``, its ``id=`` checked at every reconnect, the resources
+``lost`` with the reason meanwhile). The true pose comes from the emulator on a side
+channel (``--world-out``, worldtap.py): the wheels, odometry and notices are the MIN
+link's, the world is the emulator's, and the host renders what its Linux-side devices
+sense of that one world.
 """
 
 from __future__ import annotations
 
 import base64
+import collections
 import math
+import threading
 import time
+from pathlib import Path
 from typing import Any
 
-from esair_std import Actuator, CommandError, Driver, Sensor
+from esair_std import Actuator, CommandError, Sensor
+from esair_min.errors import EsairError
+from esair_min.model.validate import load_robot
+from esair_min.resources import resolve_robot
 
+from ..minlink.driver import MinLink, NoticeSensor, _in, _restart_policy, emulate_args
+from ..minlink.emulated import EmulatedRobot
+from ..minlink.errors import LinkError
+from ..minlink.link import Link
 from .linkswitch import LinkSwitch
 
-# the world (numpy) and the camera (Pillow) are imported when the driver opens, not when
-# its module is imported: the runtime imports every class of a deployment to check it,
-# and would otherwise carry numpy and Pillow for the whole run
+# the renderers (numpy) and the camera (Pillow) are imported when the driver opens, not
+# when its module is imported: the runtime imports every class of a deployment to check
+# it, and would otherwise carry numpy and Pillow for the whole run
 RATE, FRAME = 16000, 1024
+OPTIONS = ("camera", "deadline", "echo", "emulate", "odometry_hz", "port", "pose", "radio", "robot",
+           "room_file", "seed", "snr_db", "timeout")
 
 
 class StarfishError(ValueError):
@@ -77,46 +90,6 @@ def _num(opts: dict, key: str, default: float, what: str = "") -> float:
     return float(value)
 
 
-class Wheels(Actuator):
-    def __init__(self, robot: "Starfish"):
-        self.robot = robot
-
-    def write(self, command: Any) -> Any:
-        if command == "stop":
-            command = {}
-        if not isinstance(command, dict) or set(command) - {"vx", "vy", "w"}:
-            raise CommandError(self.name, f"expected {{'vx': mm/s, 'vy': mm/s, 'w': mrad/s}} or "
-                                          f"'stop', got {command!r}")
-        vx, vy, w = (command.get(k, 0) for k in ("vx", "vy", "w"))
-        try:
-            self.robot.world.command(vx, vy, w)
-        except ValueError as exc:                  # standin.CommandRefused
-            raise CommandError(self.name, str(exc)) from None
-        return {"vx": vx, "vy": vy, "w": w}
-
-    def configure(self, key: str, value: Any) -> Any:
-        if key == "pose":
-            if (not isinstance(value, list) or len(value) != 3 or not all(
-                    isinstance(v, (int, float)) and not isinstance(v, bool) for v in value)):
-                raise CommandError(self.name, f"pose must be [x, y, heading], not {value!r}")
-            try:
-                self.robot.world.place(*value)
-            except ValueError as exc:
-                raise CommandError(self.name, str(exc)) from None
-            return value
-        raise CommandError(self.name, f"no setting {key!r} (settings: pose)")
-
-
-class Odometry(Sensor):
-    def __init__(self, robot: "Starfish", hz: float):
-        self.robot, self.rate_hz = robot, hz
-
-    def read(self) -> Any:
-        x, y, th = self.robot.world.pose()
-        return {"x": round(x, 4), "y": round(y, 4), "th": round(th, 5),
-                "moving": self.robot.world.moving()}
-
-
 class Mics(Sensor):
     rate_hz = RATE / FRAME
 
@@ -127,7 +100,7 @@ class Mics(Sensor):
     def read(self) -> Any:
         r = self.robot
         n0 = r.audio.n0
-        pcm = r.audio.render(r.world.pose())
+        pcm = r.audio.render(r.tap.pose())
         if r.pause_audio and not r.radio_state()["up"]:
             self.frames_paused += 1
             return None
@@ -136,10 +109,10 @@ class Mics(Sensor):
     def configure(self, key: str, value: Any) -> Any:
         r = self.robot
         if key == "source":
-            from .room import RoomError, Source
+            from .scene import SceneError, Source
             try:
                 src = Source.from_dict(value)
-            except RoomError as exc:
+            except SceneError as exc:
                 raise CommandError(self.name, str(exc)) from None
             r.room.source = src
             return src.to_dict()
@@ -165,7 +138,7 @@ class CameraShoot(Actuator):
                                           f"'png'|'jpeg'}}, got {command!r}")
         if fmt not in ("png", "jpeg"):
             raise CommandError(self.name, f"picture format must be 'png' or 'jpeg', not {fmt!r}")
-        pose = self.robot.world.pose()
+        pose = self.robot.tap.pose()
         data = self.robot.encode_picture(self.robot.camera.render(pose), fmt)
         self.seq += 1
         return {"seq": self.seq, "t": time.time(), "pose": [round(v, 4) for v in pose],
@@ -183,54 +156,73 @@ class Radio(Sensor):
         return self.robot.radio_state()
 
 
-class Starfish(Driver):
-    """STARFISH's wheels, odometry, microphones, camera and radio (module docstring)."""
+class Starfish(MinLink):
+    """STARFISH's wheels, odometry and notices over its MIN link; its microphones, camera
+    and radio rendered from the emulated world (see the module docstring)."""
 
     def open(self) -> None:
+        self.tap: Any = None
+        self.link_switch: LinkSwitch | None = None
         try:
             self._open(dict(self.options))
-        except ValueError as exc:          # StarfishError, RoomError included
+        except (ValueError, LinkError) as exc:    # StarfishError, SceneError included
+            self.close()
             raise StarfishError(f"{self.name}: {exc}") from None
+        except BaseException:
+            self.close()
+            raise
 
     def _open(self, opts: dict) -> None:
         from .camera import Camera, encode
         from .mics import AudioRenderer, encode_frame
+        from .omnilink import Odometry, OmniCommands, Wheels, omni_budget
         from .radio import RadioModel
-        from .room import Room, from_world_room
-        from .standin import StandInWorld
+        from .scene import load_scene
+        from .worldtap import WorldTap
         self.encode_frame, self.encode_picture = encode_frame, encode
-        known = {"world", "room", "room_file", "pose", "snr_db", "echo", "seed", "odometry_hz", "radio",
-                 "camera"}
-        unknown = sorted(set(opts) - known)
+        unknown = sorted(set(opts) - set(OPTIONS))
         if unknown:
-            raise StarfishError(f"unknown option {unknown[0]!r} "
-                                f"(options: {', '.join(sorted(known))})")
-        if opts.get("world", "standin") != "standin":
-            raise StarfishError(f"world {opts['world']!r} is not available "
-                                "(only 'standin' until STARFISH's emulator lands)")
-        if "room_file" in opts:
-            if "room" in opts:
-                raise StarfishError("give 'room' or 'room_file', not both")
-            from esair_min.errors import EsairError
-            from esair_min.world import load_room
-            try:
-                self.room = from_world_room(load_room(str(opts["room_file"])))
-            except (EsairError, OSError) as exc:
-                raise StarfishError(f"room_file: {exc}") from None
-        else:
-            self.room = Room.from_dict(opts.get("room"))
+            raise StarfishError(f"unknown option {unknown[0]!r} (options: {', '.join(OPTIONS)})")
+        base = Path(getattr(self._esair.spec, "base_dir", None) or ".")   # the file's folder
+        port = opts.get("port", "emulate")
+        if port != "emulate":
+            raise StarfishError(f"port {port!r}: the simulated microphones, camera and radio "
+                                "need the emulated world (port: emulate)")
+        if "room_file" not in opts:
+            raise StarfishError("option 'room_file' is missing (the world's room: "
+                                "esair_min.world's YAML, mm)")
+        room_file = _in(base, str(opts["room_file"]))
+        try:
+            self.room = load_scene(room_file)
+        except EsairError as exc:
+            raise StarfishError(f"room_file: {exc}") from None
         pose = opts.get("pose", [1.0, 1.0, 0.0])
         if not isinstance(pose, list) or len(pose) != 3 or not all(
                 isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in pose):
             raise StarfishError(f"option 'pose' must be [x, y, heading], not {pose!r}")
-        self.world = StandInWorld(self.room, pose)
+        start = (float(pose[0]), float(pose[1]), float(pose[2]))
+        if self.room.clearance(start[:2]) < 0.15:
+            raise StarfishError(f"start pose ({start[0]}, {start[1]}) is closer than 0.15 m "
+                                f"to a wall")
+        hz = _num(opts, "odometry_hz", 10.0)
+        timeout = _num(opts, "timeout", 1.0)
+        deadline = _num(opts, "deadline", 0.5)
+        if not hz > 0:
+            raise StarfishError(f"odometry_hz must be more than 0, not {hz:g}")
+        if not deadline > 0:
+            raise StarfishError(f"option 'deadline' {deadline:g} must be more than 0 s")
         self.audio = AudioRenderer(self.room, snr_db=_num(opts, "snr_db", 20.0),
                                    seed=int(_num(opts, "seed", 0)),
                                    reflection_gain=_num(opts, "echo", 0.5))
         radio = opts.get("radio") or {}
         cam = opts.get("camera") or {}
-        if not isinstance(radio, dict) or not isinstance(cam, dict):
-            raise StarfishError("options 'radio' and 'camera' must be mappings")
+        emulate = opts.get("emulate") or {}
+        if not isinstance(radio, dict) or not isinstance(cam, dict) or not isinstance(emulate, dict):
+            raise StarfishError("options 'radio', 'camera' and 'emulate' must be mappings")
+        bad = sorted(set(emulate) & {"room", "pose", "world_out", "instance"})
+        if bad:
+            raise StarfishError(f"option 'emulate.{bad[0]}' is the driver's own (give "
+                                f"room_file and pose)")
         self.radio = RadioModel(self.room, _num(radio, "range_m", 3.0, "radio."),
                                 _num(radio, "heal_m", 0.1, "radio."))
         self.pause_audio = bool(radio.get("pause_audio", True))
@@ -238,32 +230,84 @@ class Starfish(Driver):
         if unknown:
             raise StarfishError(f"unknown option 'radio.{unknown[0]}' (radio options: device, "
                                 "heal_m, pause_audio, range_m)")
-        self.link = LinkSwitch(str(radio["device"])) if radio.get("device") else None
         self.picture_format = cam.get("format", "png")
         if self.picture_format not in ("png", "jpeg"):
             raise StarfishError(f"camera.format must be 'png' or 'jpeg', "
                                 f"not {self.picture_format!r}")
         self.camera = Camera(self.room, fov_deg=_num(cam, "fov_deg", 60.0, "camera."))
-        hz = _num(opts, "odometry_hz", 20.0)
-        if not 0 < hz <= 200:
-            raise StarfishError(f"odometry_hz must be in (0, 200], not {hz:g}")
-        self.children = {"wheels": Wheels(self), "odometry": Odometry(self, hz), "mics": Mics(self),
-                         "camera": CameraShoot(self), "radio": Radio(self)}
+        robot_arg = opts.get("robot", "starfish")
+        try:
+            path = resolve_robot(_in(base, str(robot_arg), must_exist=True))
+            robot = load_robot(path)
+        except EsairError as exc:
+            raise StarfishError(f"robot {robot_arg!r}: {exc}") from None
+        if robot.central.base is None:
+            raise StarfishError(f"robot {robot_arg!r} has no omni base (its central board "
+                                "has no 'base:')")
+        self._radio_lock = threading.Lock()
+        self.link_switch = LinkSwitch(str(radio["device"])) if radio.get("device") else None
+        # the world first (its socket bound before the emulator sends), then the robot
+        self.tap = WorldTap(start)
+        self.children: dict[str, Any] = {}
+        self._closing = threading.Event()
+        self._lost: str | None = None
+        self._supervisor: threading.Thread | None = None
+        self._policy = _restart_policy(emulate.get("restart"))
+        self._restarts: collections.deque[float] = collections.deque()
+        args = emulate_args(emulate, base) + [
+            "--room", room_file, "--world-out", self.tap.path,
+            "--pose", f"{start[0] * 1000:.1f},{start[1] * 1000:.1f},{start[2]:.6f}"]
+        self.emulated = EmulatedRobot(path, args)
+        self._starts = 0
+        port = self.emulated.start()
+        self._starts = self.emulated.starts
+        self.notices = NoticeSensor()
+        self.link = Link(robot, str(port), timeout=timeout, on_state=self._link_state,
+                         on_notice=self.notices.notice, expect_id=self.emulated.instance,
+                         may_open=self.emulated.held, commands=OmniCommands(robot),
+                         budget=omni_budget(robot))
+        self.link.open()
+        if hz > self.link.budget.max_feet_hz(1.0):
+            raise StarfishError(f"odometry_hz {hz:g} exceeds the line: at {self.link.budget.baud} "
+                                f"baud one 'O' exchange takes up to "
+                                f"{self.link.budget.feet_exchange_s * 1e3:.1f} ms")
+        base_ = robot.central.base
+        self.wheels = Wheels(self.link, base_.max_speed_mm_s, base_.max_omega_mrad_s)
+        self.odometry = Odometry(self.link, robot, hz, start)
+        kids: dict[str, Any] = {"wheels": self.wheels, "odometry": self.odometry,
+                                "notices": self.notices}
+        self.wheels.deadline_s = deadline
+        self.children = kids
+        self.simulated = {"mics": Mics(self), "camera": CameraShoot(self), "radio": Radio(self)}
+        self._supervisor = threading.Thread(target=self._supervise, daemon=True,
+                                            name=f"minlink-emulator:{self.name}")
+        self._supervisor.start()
+
+    def _link_state(self, up: bool, reason: str) -> None:
+        emulated = getattr(self, "emulated", None)
+        if up and emulated is not None and emulated.starts != self._starts:
+            # a restarted robot: its world and its flow sums start again at the start pose
+            self._starts = emulated.starts
+            self.tap.restart()
+            self.odometry.reset()
+        super()._link_state(up, reason)
 
     def radio_state(self) -> dict:
-        x, y, _ = self.world.pose()
-        state = self.radio.update(x, y)
-        if self.link is not None:
-            self.link.set(state["up"])
+        x, y, _ = self.tap.pose()
+        with self._radio_lock:
+            state = self.radio.update(x, y)
+        if self.link_switch is not None:
+            self.link_switch.set(state["up"])
         return state
 
     def resources(self) -> dict[str, Any]:
-        return self.children
+        return {**self.children, **getattr(self, "simulated", {})}
 
     def close(self) -> None:
-        link = getattr(self, "link", None)
-        if link is not None:
-            link.close()
-        world = getattr(self, "world", None)
-        if world is not None:
-            world.vx = world.vy = world.w = 0.0      # nothing moves once the driver is gone
+        super().close()             # the link, then the emulated robot
+        switch, tap = getattr(self, "link_switch", None), getattr(self, "tap", None)
+        self.link_switch = self.tap = None
+        if switch is not None:
+            switch.close()
+        if tap is not None:
+            tap.close()

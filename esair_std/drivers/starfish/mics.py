@@ -36,7 +36,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from .room import Room
+from .scene import Scene
 
 RATE = 16000
 FRAME = 1024
@@ -66,7 +66,7 @@ class AudioRenderer:
     """Renders the array's frames from a room, frame after frame (one continuous
     stream). ``render(pose)`` returns the next frame as an int16 array (n, channels)."""
 
-    def __init__(self, room: Room, mics: Sequence[Sequence[float]] = DEFAULT_MICS,
+    def __init__(self, room: Scene, mics: Sequence[Sequence[float]] = DEFAULT_MICS,
                  rate: int = RATE, frame: int = FRAME, snr_db: float = 20.0, seed: int = 0,
                  speed_of_sound: float = SPEED_OF_SOUND, reflection_gain: float = 0.0):
         self.room = room

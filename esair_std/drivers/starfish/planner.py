@@ -13,14 +13,14 @@ import math
 
 import numpy as np
 
-from .room import Room
+from .scene import Scene
 
 
 class NoPath(ValueError):
     """No way from start to goal keeps the margin to the walls."""
 
 
-def _free_segment(room: Room, p, q, margin: float, step: float) -> bool:
+def _free_segment(room: Scene, p, q, margin: float, step: float) -> bool:
     if room.blocked(p, q):
         return False
     n = max(2, int(math.hypot(q[0] - p[0], q[1] - p[1]) / step) + 1)
@@ -28,7 +28,7 @@ def _free_segment(room: Room, p, q, margin: float, step: float) -> bool:
                for k in range(n + 1))
 
 
-def plan(room: Room, start: tuple[float, float], goal: tuple[float, float], margin: float = 0.2,
+def plan(room: Scene, start: tuple[float, float], goal: tuple[float, float], margin: float = 0.2,
          resolution: float = 0.1) -> list[tuple[float, float]]:
     """Waypoints from ``start`` (excluded) to ``goal`` (included); NoPath if none."""
     if _free_segment(room, start, goal, margin * 0.99, resolution / 2):

@@ -12,11 +12,11 @@ from __future__ import annotations
 
 import math
 
-from .room import Room
+from .scene import Scene
 
 
 class RadioModel:
-    def __init__(self, room: Room, range_m: float = 3.0, heal_m: float = 0.1):
+    def __init__(self, room: Scene, range_m: float = 3.0, heal_m: float = 0.1):
         if range_m <= 0 or not 0 <= heal_m < range_m:
             raise ValueError(f"radio range {range_m} m / hysteresis {heal_m} m: need range > 0 "
                              "and 0 <= hysteresis < range")

@@ -207,8 +207,13 @@ class TurnAndShoot(Behavior):
         self.quiet_until = 0.0
         self.pictures = []
         self.shots = self.aborted = self.ignored = 0
+        self.still = self.rounds = 0
+        self.stood_at = 0.0
 
     def receive(self, sender, data):
+        if self.phase == "checking":
+            self.pending = data             # a bearing heard since the robot stopped?
+            return
         if self.phase != "idle" or time.monotonic() < self.quiet_until:
             self.ignored += 1
             return
@@ -224,6 +229,8 @@ class TurnAndShoot(Behavior):
     def step(self):
         for s in self.odometry.samples():
             self.headings.append((s.t, s.value["th"]))
+            # odometry samples in a row that saw the robot standing
+            self.still = 0 if s.value.get("moving", True) else self.still + 1
         if self.phase == "idle" and self.pending is not None:
             data, self.pending = self.pending, None
             th = self._heading_at(data.get("t"))
@@ -232,7 +239,26 @@ class TurnAndShoot(Behavior):
             self.target = wrap(th + float(data["bearing"]))
             self.bearing = data
             self.put(self.patrol, {"yield": self.turn_timeout + 2.0}, timeout=0.3)
-            self.phase, self.since = "turning", time.monotonic()
+            self.phase, self.since, self.rounds = "turning", time.monotonic(), 0
+        if self.phase == "checking":
+            # the source heard again from where the robot stands now: it moved on while the
+            # bearing travelled (patrol, the drive board's ramp), so aim again if need be
+            data, self.pending = self.pending, None
+            if data is None or float(data.get("t", 0)) < self.stood_at:
+                if time.monotonic() - self.since > self.turn_timeout:
+                    self._shoot()           # no newer bearing: the last aim stands
+                    self._done()
+                return
+            if abs(float(data["bearing"])) <= 2 * self.tolerance or self.rounds >= 3:
+                self._shoot()
+                self._done()
+                return
+            th = self._heading_at(data.get("t"))
+            if th is None:
+                return
+            self.target = wrap(th + float(data["bearing"]))
+            self.phase = "turning"
+            self.rounds += 1
         if self.phase != "turning":
             return
         if not self.headings:
@@ -240,9 +266,12 @@ class TurnAndShoot(Behavior):
         err = wrap(self.target - self.headings[-1][1])
         try:
             if abs(err) <= self.tolerance:
+                # the wheels ramp down after the stop (the drive board's ramp): shoot only
+                # once the odometry says the robot stands, and turn again if it drifted
                 self.wheels.send("stop", timeout=0.5)
-                self._shoot()
-                self._done()
+                if self.still < 2:
+                    return
+                self.phase, self.stood_at = "checking", time.time()
             elif time.monotonic() - self.since > self.turn_timeout:
                 self.wheels.send("stop", timeout=0.5)
                 self.aborted += 1
@@ -286,9 +315,16 @@ class Reconnect(Reaction):
 
     def start(self):
         from esair_std.drivers.starfish.planner import NoPath, plan
-        from esair_std.drivers.starfish.room import Room
+        from esair_std.drivers.starfish.scene import load_scene
         self._plan, self._NoPath = plan, NoPath
-        self.room = Room.from_dict(self.options.get("room"))
+        # the world's room file, as the driver's (relative: to the deployment file's folder)
+        room_file = self.options.get("room_file")
+        if not room_file:
+            raise ValueError("reconnect: option 'room_file' is missing (the robot's room)")
+        path = Path(str(room_file))
+        if not path.is_absolute():
+            path = Path(getattr(self._esair.spec, "base_dir", None) or ".") / path
+        self.room = load_scene(path)
         self.speed = float(self.options.get("speed", 250))
         self.margin = float(self.options.get("margin", 0.25))
         self.radio = self.resource("starfish.radio")

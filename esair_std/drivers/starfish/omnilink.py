@@ -1,0 +1,187 @@
+"""STARFISH's MIN link: the omni base's command set (docs/protocol.md, "STARFISH") on
+the same :class:`~esair_std.drivers.minlink.Link` as PAPA-MAN's, and the resources it
+gives: the wheels actuator and the odometry sensor (the notices are MinLink's).
+
+- :class:`OmniCommands`: the lines (``V``, ``x``, ``O``, ``v``), which reply can answer
+  which line (the link matches replies by shape), and the ``v`` check (wheels, flow
+  sensors, checksum setting of the board files);
+- :func:`omni_budget`: the line's time budget at the central board's baud;
+- :class:`Wheels`: ``{"vx", "vy", "w"}`` -> ``V±vvvv±vvvv±wwww``, ``"stop"`` -> ``x``,
+  refused by name outside the board file's limits before anything is sent;
+- :class:`Odometry`: polls ``O`` on its own thread and integrates the flow sensors'
+  sums into a pose (esair_min.components.optical_flow.odometry), from the start pose.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+import time
+from typing import Any
+
+from esair_std import Actuator, CommandError, Sensor
+from esair_min.components.omni_base.core import velocity_line
+from esair_min.components.optical_flow.odometry import FlowOdometry, parse_odometry
+
+from ..minlink.budget import LineBudget
+from ..minlink.commands import VERSION_PREFIX, RobotCommands
+from ..minlink.driver import _LinkAgent
+from ..minlink.errors import LinkDown, LinkError
+from ..minlink.link import Link
+from .scene import wrap
+
+#: the omni base's lines by action (docs/protocol.md, STARFISH)
+PREFIX = {"velocity": "V", "odometry": "O", "stop": "x", "version": "v"}
+#: the longest ``O`` reply: n=65535 and two sensors' -2147483648,-2147483648,255
+ODOMETRY_REPLY_BYTES = len("OK n=65535") + 2 * len(" a=-2147483648,-2147483648,255") + 2
+
+
+class OmniCommands(RobotCommands):
+    """The command set of a central board with ``base:`` (it has no command table)."""
+
+    def __init__(self, robot: Any):
+        super().__init__(robot)
+        self.flow = len(robot.central.flow_sensors)
+        self.wheels = len(robot.board("drive").motors)
+
+    def prefix(self, action: str) -> str:
+        try:
+            return PREFIX[action]
+        except KeyError:
+            raise LinkError(f"robot {self.robot.name} (an omni base) has no {action!r} "
+                            f"command") from None
+
+    def action_of(self, line: str) -> str | None:
+        if line in ("O", "x", "v"):
+            return {"O": "odometry", "x": "stop", "v": "version"}[line]
+        return "velocity" if line.startswith("V") and len(line) == 16 else None
+
+    def plausible(self, line: str, data: str) -> bool:
+        action = self.action_of(line)
+        if action == "odometry":
+            return data.startswith("n=")
+        if action == "version":
+            return data.startswith(VERSION_PREFIX)
+        return data == ""
+
+    def check_version(self, data: str) -> dict[str, str]:
+        fields = dict(f.split("=", 1) for f in data.split()[1:] if "=" in f)
+        want = {"wheels": str(self.wheels), "flow": str(self.flow),
+                "checksum": "on" if self.checksum else "off"}
+        for key, value in want.items():
+            if fields.get(key) != value:
+                raise LinkError(f"the robot answers {key}={fields.get(key, '?')} but the board "
+                                f"files of {self.robot.name} say {key}={value} "
+                                f"({self.robot.source})")
+        return fields
+
+
+def omni_budget(robot: Any) -> LineBudget:
+    """The line's budget; its "feet" exchange is the odometry poll (``O`` and its longest
+    reply), the only poll the omni base has."""
+    central = robot.central
+    checksum = bool(central.uart.require_checksum)
+    return LineBudget(baud=central.uart.baud, tick_s=central.timer2.period_s, sensor_read_s=0.0,
+                      feet_request_bytes=len("O") + (3 if checksum else 0) + 2,
+                      feet_reply_bytes=ODOMETRY_REPLY_BYTES)
+
+
+class Wheels(_LinkAgent, Actuator):
+    """The body velocity in the robot's frame: ``{"vx": mm/s, "vy": mm/s, "w": mrad/s}``
+    (missing keys 0) or ``"stop"``."""
+
+    def __init__(self, link: Link, max_v: int, max_w: int):
+        self.link, self.max_v, self.max_w = link, max_v, max_w
+
+    def write(self, command: Any) -> Any:
+        if command == "stop":
+            self._send("x")
+            return {"vx": 0, "vy": 0, "w": 0}
+        if not isinstance(command, dict) or set(command) - {"vx", "vy", "w"}:
+            raise CommandError(self.name, f"expected {{'vx': mm/s, 'vy': mm/s, 'w': mrad/s}} or "
+                                          f"'stop', got {command!r}")
+        out = {}
+        for key, limit, unit in (("vx", self.max_v, "mm/s"), ("vy", self.max_v, "mm/s"),
+                                 ("w", self.max_w, "mrad/s")):
+            v = command.get(key, 0)
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+                raise CommandError(self.name, f"{key} must be a number, not {v!r}")
+            if abs(v) > limit:
+                raise CommandError(self.name, f"{key} {v} {unit} is outside the limit "
+                                              f"+-{limit} {unit}")
+            out[key] = int(round(v))
+        self._send(velocity_line(out["vx"], out["vy"], out["w"]))
+        return out
+
+
+class Odometry(Sensor):
+    """The pose from the flow sensors: ``O`` polled ``hz`` times a second on its own
+    thread, the sums integrated from ``start`` (x m, y m, heading rad). ``reset()``
+    starts again from ``start`` (a restarted robot's sums begin at 0 where it stands)."""
+
+    def __init__(self, link: Link, robot: Any, hz: float, start: tuple[float, float, float]):
+        self.link, self.robot, self.hz, self.start = link, robot, hz, start
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+        self._lock = threading.Lock()
+        self._fault = False
+        self.polls = 0
+        self.bad_replies = 0
+        self.reset()
+
+    def reset(self) -> None:
+        x, y, th = self.start
+        with self._lock:
+            self.odo = FlowOdometry(self.robot.central.flow_sensors, x * 1000, y * 1000, th)
+            self.pose = (x, y, th)
+            self.last_n: int | None = None
+
+    def open(self) -> None:
+        self._thread = threading.Thread(target=self._run, name=f"starfish-odometry:{self.name}",
+                                        daemon=True)
+        self._thread.start()
+
+    def close(self) -> None:
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(timeout=5)
+
+    def _run(self) -> None:
+        next_t = time.monotonic()
+        while not self._stop.is_set():
+            if self.link.up:
+                self._poll()
+            next_t += 1.0 / self.hz
+            now = time.monotonic()
+            if next_t < now:
+                next_t = now
+            self._stop.wait(next_t - now)
+
+    def _poll(self) -> None:
+        try:
+            data = self.link.command("O")
+        except LinkDown:
+            return                                  # the driver marks every resource lost
+        except LinkError as exc:
+            self._fault = True
+            self.mark_lost(str(exc))
+            return
+        try:
+            n, sensors = parse_odometry("OK " + data)
+        except (ValueError, IndexError):
+            self.bad_replies += 1
+            return
+        with self._lock:
+            before = self.pose
+            x, y, th = self.odo.update([(dx, dy) for dx, dy, _ in sensors])
+            self.pose = (x / 1000, y / 1000, th)
+            self.last_n = n
+        self.polls += 1
+        if self._fault:
+            self._fault = False
+            self.mark_ready()
+        moving = math.hypot(self.pose[0] - before[0], self.pose[1] - before[1]) > 1e-4 or \
+            abs(self.pose[2] - before[2]) > 1e-4
+        self.report({"x": round(self.pose[0], 4), "y": round(self.pose[1], 4),
+                     "th": round(wrap(self.pose[2]), 5), "moving": moving,
+                     "squal": [q for _, _, q in sensors]})
