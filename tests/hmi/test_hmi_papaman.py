@@ -74,6 +74,11 @@ def test_the_page_loads_without_errors_and_lists_every_component(robot, browser)
     }""")
     assert drawn == {"bent": True, "biped": False, "note": "commanded · joints as dials",
                      "canvases": 1}
+    # a batch frame (the server sends what came meanwhile as one) is taken in order
+    page.evaluate("""() => window.__hmi.receive({t: "b", m: [
+      {t: "log", level: "info", text: "batched one"}, {t: "log", level: "info", text: "batched two"}]})""")
+    log = page.locator("#log").inner_text()
+    assert "batched one" in log and "batched two" in log
     page.close()
     assert errors == []
 

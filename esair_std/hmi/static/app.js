@@ -110,6 +110,7 @@ class App {
 
   receive(m) {
     switch (m.t) {
+      case "b": for (const x of m.m) this.receive(x); return;   // a batch (server.py, emit)
       case "hello": return this.hello(m);
       case "ack": {
         const p = this.pending.get(m.id);
