@@ -193,7 +193,7 @@ class ZenohPort:
         pub = self._cmd_pubs.get(resource)
         if pub is None:
             pub = self._cmd_pubs[resource] = self.bus.publisher(
-                keys.command(self.robot, resource), drop=True)
+                keys.command(self.robot, resource), drop=True, express=False)
         pub(record)
 
     def resource_state_changed(self, resource: str, state: str, reason: str) -> None:

@@ -83,7 +83,8 @@ class Observe:
         if self.rt.mode_name == "thread":
             fwd = self.forwards.get(res)
             if fwd is None:
-                put = self.server.bus.publisher(keys.sensor(self.rt.robot, res), drop=True)
+                put = self.server.bus.publisher(keys.sensor(self.rt.robot, res), drop=True,
+                                                express=False)    # batched: 1 kHz sensors
                 fwd = self.forwards[res] = _Forward(put)
             if fwd.detached:                   # each sample published once for all
                 fwd.detached = False

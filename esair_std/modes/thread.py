@@ -98,7 +98,7 @@ class LocalPort:
         pub = self._cmd_pubs.get(resource)
         if pub is None:
             pub = self._cmd_pubs[resource] = server.bus.publisher(
-                keys.command(self.rt.robot, resource), drop=True)
+                keys.command(self.rt.robot, resource), drop=True, express=False)
         pub(record)
 
     def resource_state_changed(self, resource: str, state: str, reason: str) -> None:
