@@ -106,7 +106,7 @@ def test_commands_go_before_polls_and_nothing_more_goes_to_a_robot_that_does_not
         os.kill(emu.proc.pid, signal.SIGSTOP)
         try:
             tv, v = _in_thread(lambda: link.exchange("v"))
-            _wait(lambda: link.in_flight == 1, "the v in flight")
+            _wait(lambda: link.in_flight == 1 and link.stats["sent"] == 2, "the v written")
             tp, p = _in_thread(lambda: link.exchange("s", poll=True))
             _wait(lambda: link.waiting == 1, "the poll waiting")
             tc, c = _in_thread(lambda: link.exchange("x"))
