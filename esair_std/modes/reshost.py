@@ -12,13 +12,16 @@ import logging
 import queue
 import threading
 import time
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any, Callable
 
 from ..errors import CommandError, ComponentError, ResourceLost, StdError
 from ..resource import Actuator, Driver, Sensor
 from ..sample import Sample
 from ..spec import Spec
-from ..transport import codec
+from ..transport import codec, wire
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..parts import Port
 from .host import build
 
 COMMANDS = 256
@@ -38,6 +41,7 @@ class Slot:
         self.state = "ready"
         self.reason = ""
         self.seq = 0
+        self.cseq = 0                   # commands run (an actuator's record numbers)
         self.next_poll = 0.0
         self._lock = threading.Lock()
         self.c = dict(reported=0, commands=0, command_errors=0, polls_late=0)
@@ -61,14 +65,14 @@ class Slot:
 
 
 class ResourceHost:
-    def __init__(self, spec: Spec, cls: type, port: Any):
+    def __init__(self, spec: Spec, cls: type, port: Port):
         self.spec = spec
         self.name = spec.name
         self.kind = "resource"
         self.cls = cls
         self.port = port
         self.options = spec.options
-        self.driver: Any = None
+        self.driver: Driver | None = None
         self.slots: dict[str, Slot] = {}
         self.commands: queue.Queue = queue.Queue(maxsize=COMMANDS)
         self._stop = threading.Event()
@@ -144,9 +148,7 @@ class ResourceHost:
         ok, value = box[0]
         if ok:
             return value
-        if isinstance(value, ResourceLost):
-            raise value
-        raise CommandError(resource, value)
+        raise wire.failure(value, resource)
 
     def command(self, sender: str, resource: str, command: Any, timeout: float) -> Any:
         return self._submit(resource, "write", (command,), timeout)
@@ -289,17 +291,43 @@ class ResourceHost:
             else:
                 value = codec.copy(slot.obj.configure(*args))
         except ResourceLost as exc:
-            return on_done(False, exc)
+            on_done(False, exc)
+            if op == "write":
+                self._ran(slot, args[0], asked, {"error": exc.reason})
+            return None
         except CommandError as exc:
             slot.c["command_errors"] += 1
-            return on_done(False, exc.reason)
+            on_done(False, exc.reason)
+            if op == "write":
+                self._ran(slot, args[0], asked, {"error": exc.reason})
+            return None
         except Exception as exc:  # noqa: BLE001 - reaches the sender as CommandError
             slot.c["command_errors"] += 1
-            return on_done(False, f"{type(exc).__name__}: {exc}")
+            on_done(False, f"{type(exc).__name__}: {exc}")
+            if op == "write":
+                self._ran(slot, args[0], asked, {"error": f"{type(exc).__name__}: {exc}"})
+            return None
         except BaseException as exc:
             on_done(False, ResourceLost(slot.name, f"its host died: {type(exc).__name__}: {exc}"))
             raise
         on_done(True, value)
+        if op == "write":
+            self._ran(slot, args[0], asked, {"ok": value})
+
+    def _ran(self, slot: Slot, command: Any, asked: float | None, outcome: dict) -> None:
+        """Publish a command the actuator ran and its outcome for recorders (after its
+        sender has its answer): ``{seq, t, v: {command, ok | error}}``, ``seq`` the
+        actuator's command number, ``t`` when it reached this host (time.time())."""
+        publish = getattr(self.port, "publish_command", None)
+        if publish is None:
+            return
+        slot.cseq += 1
+        now = time.time()
+        t = now if asked is None else now - (time.monotonic() - asked)
+        try:
+            publish(slot.name, {"seq": slot.cseq, "t": t, "v": dict(outcome, command=command)})
+        except Exception as exc:  # noqa: BLE001 - a record lost is not the command's fault
+            log.warning("%s: command record not published: %s", slot.name, exc)
 
     def _close(self) -> None:
         for s in self.slots.values():

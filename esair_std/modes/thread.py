@@ -7,21 +7,27 @@ the runtime's control server answers them by calling this same LocalPort.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ..errors import ComponentError
 from ..level import Level
 from ..classes import component_class
 from ..spec import Spec
+from ..transport import keys
 from .host import ComponentHost
 from .reshost import ResourceHost
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..parts import SampleHandle
+    from ..view import RuntimeView
 
 START_TIMEOUT = 10.0
 
 
 class LocalPort:
-    def __init__(self, rt: Any):
+    def __init__(self, rt: RuntimeView):
         self.rt = rt
+        self._cmd_pubs: dict[str, Any] = {}
 
     def _uses(self, who: str) -> dict | None:
         rec = self.rt.bs.records.get(who)
@@ -39,7 +45,8 @@ class LocalPort:
     def register(self, who: str, resource: str, level: Any) -> int:
         return int(self.rt.rs.register(who, resource, Level.parse(level), self._uses(who)))
 
-    def attach_sensor(self, who: str, resource: str, handle: Any, direct: bool = False) -> None:
+    def attach_sensor(self, who: str, resource: str, handle: SampleHandle | None,
+                      direct: bool = False) -> None:
         if direct:
             self._check_direct(who, resource)
             self.rt.rs.register(who, resource, Level.read, None)
@@ -87,6 +94,18 @@ class LocalPort:
     def publish(self, resource: str, sample: Any) -> None:
         self.rt.sc.route(resource, sample)
 
+    def publish_command(self, resource: str, record: dict) -> None:
+        """A command the actuator ran, for recorders outside: on Zenoh when the runtime
+        serves its control endpoint (else nobody outside could listen)."""
+        server = self.rt.server
+        if server is None or server.bus is None:
+            return
+        pub = self._cmd_pubs.get(resource)
+        if pub is None:
+            pub = self._cmd_pubs[resource] = server.bus.publisher(
+                keys.command(self.rt.robot, resource), drop=True, express=False)
+        pub(record)
+
     def resource_state_changed(self, resource: str, state: str, reason: str) -> None:
         self.rt.rs.set_state(resource, state, reason)
 
@@ -94,7 +113,7 @@ class LocalPort:
 class ThreadMode:
     name = "thread"
 
-    def __init__(self, rt: Any):
+    def __init__(self, rt: RuntimeView):
         self.rt = rt
         self.port = LocalPort(rt)
 
@@ -123,6 +142,9 @@ class ThreadMode:
 
     def reported(self, name: str, generation: int, phase: str, reason: str) -> None:
         raise ComponentError("this runtime runs in thread mode: it hosts no agents")
+
+    def counters(self) -> dict[str, Any]:
+        return {}                # calls within this process: nothing to count
 
     def watch(self, now: float) -> float | None:
         """Check every host's deadline; seconds until one needs it again."""

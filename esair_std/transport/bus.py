@@ -19,7 +19,7 @@ from typing import Any, Callable, TypeVar
 import zenoh
 
 from ..errors import TransportError
-from . import codec
+from . import codec, wire
 from .session import open_session
 
 log = logging.getLogger("esair_std.transport")
@@ -52,7 +52,7 @@ class Request:
             try:
                 data = codec.encode(obj)
             except TransportError as exc:
-                data = codec.encode({"error": exc.message, "type": "TransportError"})
+                data = codec.encode(wire.error(exc))
             self._query.reply(self._query.key_expr, data)
         except Exception as exc:  # noqa: BLE001 - the asker is gone; nothing to tell
             log.debug("reply on %s not sent: %s", self.key, exc)
@@ -129,14 +129,18 @@ class Bus:
             key, zenoh.handlers.Callback(cb, indirect=False)))
 
     # pub/sub
-    def publisher(self, key: str, drop: bool = False, raw: bool = False) -> Callable[[Any], None]:
+    def publisher(self, key: str, drop: bool = False, raw: bool = False,
+                  express: bool | None = None) -> Callable[[Any], None]:
         """``put(obj)`` for ``key``. ``drop``: never wait for a congested link (for
-        messages whose loss the sender notices by a timeout), sent at once (express).
+        messages whose loss the sender notices by a timeout), sent at once (express,
+        unless ``express=False``: a stream of many small messages, batched by Zenoh, costs
+        far less and so is dropped far less when the computer is busy).
         ``raw``: ``put(data)`` takes the bytes already encoded (codec.encode). A table of
         publishers per peer gives them back with :meth:`undeclare` when the peer goes."""
         if drop:
             pub = self._keep(self.session.declare_publisher(
-                key, congestion_control=zenoh.CongestionControl.DROP, express=True))
+                key, congestion_control=zenoh.CongestionControl.DROP,
+                express=True if express is None else express))
         else:
             pub = self._keep(self.session.declare_publisher(
                 key, congestion_control=zenoh.CongestionControl.BLOCK))
