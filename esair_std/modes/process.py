@@ -545,6 +545,8 @@ class ProcessMode:
         host.note()
         if phase == "failed":
             host.reason = reason
+            if host.remote and self.remote.get(name, {}).get("restarts"):
+                host.quiet = True      # its agent restarts it under its policy, or leaves
             self.port.state_changed(name, generation, phase, reason)
         else:
             self.rt.note_change()

@@ -46,6 +46,7 @@ class RemotePort(ZenohPort):
         super().__init__(bus, robot)
         self.registered: dict[str, Level] = {}     # resource -> level
         self.attached: set[str] = set()            # sensors attached (subscribed once)
+        self.on_failed: Any = None                 # its behavior failed (RemoteAgent)
 
     def register(self, who: str, resource: str, level: Any) -> int:
         out = super().register(who, resource, level)
@@ -57,6 +58,11 @@ class RemotePort(ZenohPort):
                       direct: bool = False) -> None:
         super().attach_sensor(who, resource, handle, direct)
         self.attached.add(resource)
+
+    def state_changed(self, name: str, generation: int, phase: str, reason: str) -> None:
+        super().state_changed(name, generation, phase, reason)
+        if phase == "failed" and self.on_failed is not None:
+            self.on_failed(reason)              # told or not (a cut link): the agent's policy
 
     def register_again(self, who: str) -> list[str]:
         """After a re-join: every registration and attachment again; what failed."""
@@ -83,8 +89,11 @@ class RemoteAgent(Agent):
         self.proof_fn = proof_fn
         self.hostname = hostname
         self.joined = threading.Event()
-        self.c = dict(joins=0, partitions=0)
+        self.c = dict(joins=0, partitions=0, restarts=0)
         self._rejoin_lock = threading.Lock()
+        self._restarts: list[float] = []           # when its behavior was restarted
+        if spec.kind != "resource":
+            self.port.on_failed = self._failed
 
     def join(self) -> None:
         body = {"spec": self.spec.to_json(), "proof": self.proof_fn(),
@@ -144,10 +153,65 @@ class RemoteAgent(Agent):
                     time.sleep(0.5)
 
 
+    # ---- its behavior's restart policy (the control center never restarts a remote one)
+    def _failed(self, reason: str) -> None:
+        """Its behavior failed (on the behavior's or the watchdog's thread). With a
+        policy (``--restart``) it is restarted within it, on a thread of its own; past
+        it the control center is told why and the agent leaves (status 1). Without one,
+        the control center tells the agent to stop (status 1)."""
+        most, within = self.spec.restart_max, self.spec.restart_within
+        if not most or self.done.is_set():
+            return
+        now = time.monotonic()
+        self._restarts = [t for t in self._restarts if now - t < within]
+        again = len(self._restarts) < most
+        if again:
+            self._restarts.append(now)
+        else:
+            log.error("%s: failed (%s); past its restart policy (%d within %g s): it "
+                      "stays failed", self.spec.name, reason, most, within)
+        threading.Thread(target=self._after_failure, args=(reason, again), daemon=True,
+                         name="esair:restart").start()
+
+    def _after_failure(self, reason: str, again: bool) -> None:
+        """Tells the control center that its behavior failed (again until it answers:
+        the link may be cut); then either leaves, or joins again (the center replaces a
+        failed record) and runs the behavior in a new host."""
+        from ..modes.host import ComponentHost
+        self._component.stop(1.0)
+        with self._rejoin_lock:
+            while not self.done.is_set():
+                try:
+                    self.port._ctl("report", {"name": self.spec.name,
+                                              "generation": self.generation,
+                                              "phase": "failed", "reason": reason}, 2.0)
+                    if not again:
+                        break
+                    self.joined.clear()
+                    host = ComponentHost(self.spec, self.cls, self.port, self.generation)
+                    host.on_room = self._report_room
+                    self.host = host
+                    self.hello()
+                    break
+                except StdError as exc:
+                    log.warning("%s: waits for the control center: %s", self.spec.name, exc)
+                    self.done.wait(0.5)
+            if self.done.is_set() or not again:
+                self.done.set()
+                return
+            self.c["restarts"] += 1
+            log.warning("%s: restarted after it failed (%s): restart %d of at most %d "
+                        "within %g s", self.spec.name, reason, len(self._restarts),
+                        self.spec.restart_max, self.spec.restart_within)
+            self._component.start()
+
+
 def component_spec(name: str, class_path: str, kind: str, uses: dict, period: float | None,
-                   options: dict, allow: dict | None = None) -> Spec:
+                   options: dict, allow: dict | None = None,
+                   restart: tuple[int, float] = (0, 0.0)) -> Spec:
     return Spec(kind, name, class_path, dict(options), os.getcwd(), period=period,
                 has_period=period is not None,
+                restart_max=int(restart[0]), restart_within=float(restart[1]),
                 uses={k: Level.parse(v).name for k, v in uses.items()},
                 allow={k: Level.parse(v).name for k, v in (allow or {}).items()})
 
@@ -185,9 +249,11 @@ def find_robot(bus: Bus, endpoint: str) -> str:
 def run(endpoint: str, name: str, class_path: str, kind: str, uses: dict | None = None,
         period: float | None = None, options: dict | None = None, robot: str | None = None,
         sec: Any = None, hostname: str | None = None,
-        allow: dict | None = None, ready: Any = None) -> int:
+        allow: dict | None = None, ready: Any = None,
+        restart: tuple[int, float] = (0, 0.0)) -> int:
     """Run the agent until it is told to stop or signalled; its exit status."""
-    spec = component_spec(name, class_path, kind, uses or {}, period, options or {}, allow)
+    spec = component_spec(name, class_path, kind, uses or {}, period, options or {}, allow,
+                          (int(restart[0]), float(restart[1])))     # JSON: a list
     try:
         bus = Bus(connect=[endpoint], options=session_options(sec))
     except TransportError as exc:

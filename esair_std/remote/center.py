@@ -141,9 +141,12 @@ class Center:
             raise ControlError("bad request: a remote agent hosts a behavior or a resource")
         name = spec.name
         self._check_identity(name, b.get("proof"))
-        # a remote component never restarts from here: its process is not ours to start
+        # a remote component never restarts from here: its process is not ours to start;
+        # a behavior whose agent restarts it (esair std agent --restart) is not told to
+        # stop when it fails (remote/agent.py)
+        info = {"host": str(b.get("host", "?"))[:64], "pid": b.get("pid"),
+                "restarts": spec.kind == "behavior" and spec.restart_max > 0}
         spec = Spec.from_json({**spec.to_json(), "restart_max": 0, "base_dir": None})
-        info = {"host": str(b.get("host", "?"))[:64], "pid": b.get("pid")}
         mode = self._mode()
         if spec.kind == "resource":
             return self._join_resource(spec, info)
