@@ -31,7 +31,7 @@ from ..modes.agent import Agent, ZenohPort
 from ..spec import Spec
 from ..transport import keys, wire
 from ..transport.bus import Bus
-from ..transport.security import link_inserts, session_inserts
+from ..transport.security import LEASE_MS, link_inserts, session_inserts
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..parts import SampleHandle
@@ -83,8 +83,10 @@ class RemotePort(ZenohPort):
 class RemoteAgent(Agent):
     port: RemotePort
 
-    def __init__(self, bus: Bus, robot: str, spec: Spec, proof_fn: Any, hostname: str):
+    def __init__(self, bus: Bus, robot: str, spec: Spec, proof_fn: Any, hostname: str,
+                 lease_ms: int = LEASE_MS):
         super().__init__(bus, robot, spec, 1)
+        self.lease_ms = lease_ms                   # its session's: when the center drops it
         self.port = RemotePort(bus, robot)
         self.proof_fn = proof_fn
         self.hostname = hostname
@@ -97,7 +99,7 @@ class RemoteAgent(Agent):
 
     def join(self) -> None:
         body = {"spec": self.spec.to_json(), "proof": self.proof_fn(),
-                "host": self.hostname, "pid": os.getpid()}
+                "host": self.hostname, "pid": os.getpid(), "lease_ms": self.lease_ms}
         r = self.bus.request(keys.ctl(self.robot, "join"), body, 15.0)
         if r is None:
             raise TransportError(f"the control center of robot {self.robot!r} did not answer"
@@ -262,7 +264,8 @@ def run(endpoint: str, name: str, class_path: str, kind: str, uses: dict | None 
     try:
         robot = robot or find_robot(bus, endpoint)
         agent = RemoteAgent(bus, robot, spec, proof_maker(lambda: robot, name, sec),
-                            hostname or os.uname().nodename)
+                            hostname or os.uname().nodename,
+                            sec.lease_ms if sec is not None else LEASE_MS)
         for sig in (signal.SIGINT, signal.SIGTERM):
             signal.signal(sig, lambda *_: agent.done.set())
         agent.watch_runtime()
