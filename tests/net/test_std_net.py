@@ -84,7 +84,8 @@ def test_partition_marks_remote_agents_lost_and_they_come_back_by_themselves(net
 
     net[1].link(up=False)                                  # the partition
     # the center says when it marks an agent lost / failed (esair std run's output): an
-    # event, not a poll of `esair std ls`, which may answer late during a cut
+    # event, not a poll of `esair std ls` (late answers around a cut: Zenoh's routing
+    # threads, scripts/ctl_during_cut.py, docs/std-network.md)
     center.run.wait_line("pusher: remote agent lost", 30)
     wait_for(lambda: center.state("ticks") == "lost", 30, what="ticks marked lost")
     assert center.inspect("arm")["grants"] == {}           # its registrations dropped
