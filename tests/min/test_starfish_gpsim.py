@@ -45,7 +45,7 @@ def test_build_prints_each_boards_footprint(built):
     stdout, out = built
     assert stdout.splitlines() == [
         "board    program memory           RAM (with stack)       stack",
-        "central  8606 B of 32768 (26.3%)  439 B of 1536 (28.6%)  128 B",
+        "central  7326 B of 32768 (22.4%)  410 B of 1536 (26.7%)  128 B",
         "drive    3412 B of 32768 (10.4%)  219 B of 1536 (14.3%)  128 B",
     ]
     for role in ("central", "drive"):
@@ -104,9 +104,9 @@ def test_central_cycles_in_the_pic_build(built, starfish, tmp_path):
     pic = out / "central" / "build-pic"
     got = measure_central(starfish, pic / "firmware.cod", pic / "firmware.lst", tmp_path,
                           "V-0345+0456-2789")
-    # kinematics 0.77 ms; the CR of the line 1.86 ms (interrupts served included); a tick
+    # kinematics 0.70 ms; the CR of the line 1.56 ms (interrupts served included); a tick
     # 1.08 ms, of which 6 x tSRAD (100 us) is the flow sensors' own wait
-    assert (got.kinematics, got.rx_line, got.tick) == (3838, 9288, 5399)
+    assert (got.kinematics, got.rx_line, got.tick) == (3495, 7819, 5399)
 
 
 _FIELD = st.integers(-999, 999).map(lambda v: f"{v:+05d}")
