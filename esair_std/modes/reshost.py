@@ -318,9 +318,7 @@ class ResourceHost:
         """Publish a command the actuator ran and its outcome for recorders (after its
         sender has its answer): ``{seq, t, v: {command, ok | error}}``, ``seq`` the
         actuator's command number, ``t`` when it reached this host (time.time())."""
-        publish = getattr(self.port, "publish_command", None)
-        if publish is None:
-            return
+        publish = self.port.publish_command
         slot.cseq += 1
         now = time.time()
         t = now if asked is None else now - (time.monotonic() - asked)
