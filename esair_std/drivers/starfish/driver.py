@@ -39,7 +39,10 @@ Resources:
 - ``<entry>.camera`` actuator: ``"shoot"`` or ``{"shoot": true, "format": "jpeg"}`` ->
   ``{"seq", "t", "pose", "format", "w", "h", "image"}`` (the picture from the true pose);
 - ``<entry>.radio`` sensor: ``{"up", "distance", "los"}`` 5 times a second (radio.py);
-  ``pause_audio`` and ``device`` as before (linkswitch.py).
+  ``pause_audio`` and ``device`` as before (linkswitch.py);
+- ``<entry>.pictures`` sensor: each picture the camera takes (the camera's reply);
+- ``<entry>.map`` sensor: ``{"walls": [[x1, y1, x2, y2], ...], "landmarks": [...]}`` (m)
+  once a second: the room, for a map (the HMI's).
 
 The MIN link is MinLink's (esair_std/drivers/minlink): this driver is a ``MinLink`` whose
 robot is STARFISH's boards; the emulated robot is owned by it (reaped, restarted under
@@ -144,9 +147,37 @@ class CameraShoot(Actuator):
         pose = self.robot.tap.pose()
         data = self.robot.encode_picture(self.robot.camera.render(pose), fmt)
         self.seq += 1
-        return {"seq": self.seq, "t": time.time(), "pose": [round(v, 4) for v in pose],
-                "format": fmt, "w": self.robot.camera.width, "h": self.robot.camera.height,
-                "image": base64.b64encode(data).decode("ascii")}
+        pic = {"seq": self.seq, "t": time.time(), "pose": [round(v, 4) for v in pose],
+               "format": fmt, "w": self.robot.camera.width, "h": self.robot.camera.height,
+               "image": base64.b64encode(data).decode("ascii")}
+        self.robot.pictures.report(pic)        # for watchers (the HMI): the last picture
+        return pic
+
+
+class Pictures(Sensor):
+    """Each picture the camera takes, as it was returned to the one who asked for it
+    (an image sensor: the HMI shows the last one)."""
+
+
+class RoomMap(Sensor):
+    """The room the robot lives in, once a second: walls, landmarks, the sound source
+    and the access point (m; the odometry's frame). A page opened late gets it within a
+    second; the source moves when it is configured."""
+
+    rate_hz = 1.0
+
+    def __init__(self, robot: "Starfish"):
+        self.robot = robot
+
+    def read(self) -> Any:
+        room, radio = self.robot.room, self.robot.radio
+        marks = [{"kind": "pole", "x": lm["x"], "y": lm["y"], "r": lm["r"], "color": lm["color"]}
+                 for lm in room.landmarks]
+        src = room.source
+        marks.append({"kind": "sound", "x": src.x, "y": src.y, "on": src.on})
+        ap = room.access_point
+        marks.append({"kind": "access_point", "x": ap[0], "y": ap[1], "range_m": radio.range_m})
+        return {"walls": [[round(float(v), 4) for v in w] for w in room.walls], "landmarks": marks}
 
 
 class Radio(Sensor):
@@ -283,7 +314,9 @@ class Starfish(MinLink):
                                 "notices": self.notices}
         self.wheels.deadline_s = deadline
         self.children = kids
-        self.simulated = {"mics": Mics(self), "camera": CameraShoot(self), "radio": Radio(self)}
+        self.pictures = Pictures()
+        self.simulated = {"mics": Mics(self), "camera": CameraShoot(self), "radio": Radio(self),
+                          "pictures": self.pictures, "map": RoomMap(self)}
         self._supervisor = threading.Thread(target=self._supervise, daemon=True,
                                             name=f"minlink-emulator:{self.name}")
         self._supervisor.start()
