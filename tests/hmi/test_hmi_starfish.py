@@ -11,60 +11,14 @@ from __future__ import annotations
 import base64
 import json
 import math
-import os
 import re
-import signal
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 
 from esair_std.drivers.starfish.scene import load_scene
-from tests.support.hmi import ROOT, esair_std, free_port, wait_for
-
-ROOM = ROOT / "esair_std" / "examples" / "starfish" / "room.yaml"
-MAP = "window.__hmi.generic.maps.starfish"
-
-
-class StarfishHmi:
-    """``esair std run starfish --hmi`` (the bundled example, its own emulated boards)."""
-
-    def __init__(self, mode: str, tmp: Path):
-        self.mode, self.tmp = mode, tmp
-        self.endpoint = f"tcp/127.0.0.1:{free_port()}"
-        self.proc: subprocess.Popen | None = None
-
-    def start(self) -> "StarfishHmi":
-        env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
-        env.pop("ESAIR_HMI_PASSWORD", None)            # on 127.0.0.1: every page an operator
-        self.errors = open(self.tmp / "run.err", "w+")      # noqa: SIM115 - closed in stop()
-        self.proc = subprocess.Popen(
-            [sys.executable, "-m", "esair_min.cli", "std", "run", "starfish", "--hmi",
-             "--hmi-listen", "127.0.0.1:0", "--mode", self.mode, "-e", self.endpoint, "--no-top"],
-            stdout=subprocess.DEVNULL, stderr=self.errors, env=env, cwd=self.tmp)
-
-        def url():
-            if self.proc.poll() is not None:
-                raise AssertionError(f"esair std run exited: {(self.tmp / 'run.err').read_text()}")
-            m = re.search(r"^hmi: (http://\S+)$", (self.tmp / "run.err").read_text(), re.M)
-            return m and m.group(1)
-        self.url = wait_for(url, timeout=90, what="the HMI's URL")
-        return self
-
-    def std(self, *args: str) -> str:
-        r = esair_std(*args, "-e", self.endpoint)
-        assert r.returncode == 0, r.stderr
-        return r.stdout
-
-    def get(self, name: str) -> dict:
-        return json.loads(self.std("get", name))
-
-    def stop(self) -> None:
-        if self.proc is not None:
-            self.proc.send_signal(signal.SIGTERM)
-            self.proc.wait(timeout=30)
-            self.errors.close()
+from tests.support.hmi import wait_for
+from tests.support.starfish_hmi import MAP, ROOM, StarfishHmi, open_page
 
 
 @pytest.fixture(scope="module")
@@ -77,16 +31,6 @@ def starfish_hmi(tmp_path_factory):
     finally:
         r.stop()
     assert r.proc.returncode == 0, (r.tmp / "run.err").read_text()
-
-
-def open_page(browser, url: str):
-    page = browser.new_page(viewport={"width": 1280, "height": 900})
-    errors: list[str] = []
-    page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
-    page.on("pageerror", lambda e: errors.append(str(e)))
-    page.goto(url)
-    page.wait_for_function("() => window.__hmi && window.__hmi.wsUp && window.__hmi.generic")
-    return page, errors
 
 
 def test_the_map_panel_draws_the_room_and_the_robot_driving_in_it(starfish_hmi, browser):
@@ -120,10 +64,10 @@ def picture_src(page) -> str | None:
 
 
 def stored_picture(hmi: StarfishHmi) -> str | None:
-    last = hmi.get("turn_and_shoot")["last"]
-    if not last:
+    state = hmi.get("turn_and_shoot")
+    if not state["last"]:
         return None
-    data = (Path(hmi.get("turn_and_shoot")["store"]) / last["file"]).read_bytes()
+    data = (Path(state["store"]) / state["last"]["file"]).read_bytes()
     return f"data:image/png;base64,{base64.b64encode(data).decode()}"
 
 
@@ -133,7 +77,9 @@ def test_the_last_picture_shows_on_the_picture_panel_also_on_a_page_opened_later
     starfish_hmi.std("configure", "starfish.mics", "source", '{"x": 1.0, "y": 3.5, "on": true}')
     # sound -> localize -> turn_and_shoot turns and shoots: the picture it stored is the
     # one the page shows (byte for byte)
-    wait_for(lambda: stored_picture(starfish_hmi) is not None, timeout=60, what="a picture stored")
+    page.wait_for_function("() => { const p = window.__hmi.generic.panels['starfish.pictures'];"
+                           " return p && p.img.src.startsWith('data:image/png;base64,'); }",
+                           timeout=60000)
 
     def same():
         want = stored_picture(starfish_hmi)
@@ -141,10 +87,12 @@ def test_the_last_picture_shows_on_the_picture_panel_also_on_a_page_opened_later
     want = wait_for(same, timeout=20, what="the page's picture == the stored picture")
     page.wait_for_function("() => { const i = window.__hmi.generic.panels['starfish.pictures'].img;"
                            " return i.complete && i.naturalWidth === 320 && i.naturalHeight === 240; }")
-    # a page opened now gets the last picture at once (the HMI keeps each sensor's last
-    # sample), not only with the next shot (turn_and_shoot waits 5 s between shots)
+    # silence: no more shots. A page opened now still gets the last picture (the HMI
+    # keeps each sensor's last sample for a page's hello)
+    starfish_hmi.std("configure", "starfish.mics", "source", '{"x": 1.0, "y": 3.5, "on": false}')
     later, errors2 = open_page(browser, starfish_hmi.url)
-    later.wait_for_function("() => window.__hmi.generic.panels['starfish.pictures']")
+    later.wait_for_function("() => { const p = window.__hmi.generic.panels['starfish.pictures'];"
+                            " return p && p.img.src.startsWith('data:image/png;base64,'); }")
     assert picture_src(later) in (want, stored_picture(starfish_hmi))
     later.close()
     page.close()

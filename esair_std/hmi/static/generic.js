@@ -46,17 +46,18 @@ export class Generic {
     if (p) p.push(m);
   }
 
-  box(title) {
+  box(title, first = false) {       // maps and pictures first, plots after them
     const box = document.createElement("div"); box.className = "generic";
     const t = document.createElement("div"); t.textContent = title; box.append(t);
-    this.sEl.append(box); this.sEl.parentElement.hidden = false;
+    if (first) this.sEl.prepend(box); else this.sEl.append(box);
+    this.sEl.parentElement.hidden = false;
     return box;
   }
 
   map(entry) {
     let map = this.maps[entry];
     if (!map) {
-      const box = this.box(`${entry} map`); box.dataset.map = entry;
+      const box = this.box(`${entry} map`, true); box.dataset.map = entry;
       map = this.maps[entry] = this.panels[`map:${entry}`] = new RoomMap(box);
     }
     return map;
@@ -78,8 +79,9 @@ export class Generic {
 
   make(m) {
     const v = m.v;
-    const box = this.box(m.r);
-    if (v && typeof v === "object" && typeof v.image === "string") return new Picture(box);
+    const image = v && typeof v === "object" && typeof v.image === "string";
+    const box = this.box(m.r, image);
+    if (image) return new Picture(box);
     const fields = numbers(v);
     if (fields && typeof uPlot !== "undefined") return new Plot(box, Object.keys(fields));
     const pre = document.createElement("pre"); box.append(pre);
