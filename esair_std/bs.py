@@ -14,21 +14,25 @@ from __future__ import annotations
 import difflib
 import logging
 import time
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any, Callable
 
 from .errors import ControlError, TransportError
 from .spec import Spec
 from .supervisor import Record, Supervisor
 from .transport import codec
+from .parts import ComponentHost
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .parts import Registry
 
 log = logging.getLogger("esair_std.bs")
 
 
-class BehaviorSupervisor(Supervisor):
+class BehaviorSupervisor(Supervisor[ComponentHost]):
     """Behaviors and reactions on the generic supervisor (supervisor.py), plus the
     mediator (phase 3)."""
 
-    def __init__(self, start_host: Callable[[Spec, int], Any], rs: Any,
+    def __init__(self, start_host: Callable[[Spec, int], Any], rs: Registry,
                  forget: Callable[[str], None] | None = None):
         super().__init__("bs", start_host)   # mode: (spec, generation) -> started host
         self._rs = rs

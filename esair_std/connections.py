@@ -16,11 +16,14 @@ from __future__ import annotations
 
 import threading
 from collections import deque
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any, Callable
 
 from .errors import CommandError, Refused, ResourceLost, StdError
 from .level import Level
 from .sample import Sample
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .parts import Grants, SampleHandle
 
 
 class _Handle:
@@ -119,12 +122,12 @@ class SensorConnection:
 
     def __init__(self) -> None:
         self._lock = threading.Lock()
-        self._attached: dict[str, dict[str, SensorHandle | None]] = {}
-        self._parked: dict[str, dict[str, SensorHandle | None]] = {}   # removed sensors
+        self._attached: dict[str, dict[str, SampleHandle | None]] = {}
+        self._parked: dict[str, dict[str, SampleHandle | None]] = {}   # removed sensors
         self.routed = 0
         self.unrouted = 0    # samples with nobody attached: not kept
 
-    def attach(self, behavior: str, resource: str, handle: SensorHandle | None) -> None:
+    def attach(self, behavior: str, resource: str, handle: SampleHandle | None) -> None:
         with self._lock:
             self._attached.setdefault(resource, {})[f"{behavior}#{id(handle)}"] = handle
 
@@ -197,7 +200,7 @@ class SensorConnection:
 class ActuatorConnection:
     """Routes commands of attached behaviors; checks the RS's registration table."""
 
-    def __init__(self, rs: Any) -> None:
+    def __init__(self, rs: Grants) -> None:
         self._rs = rs
         self.routed = 0
         self.refused = 0

@@ -13,15 +13,18 @@ it is attached to (read through the SC, or registered at command level).
 from __future__ import annotations
 
 import os
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from .level import Level
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .view import RuntimeView
 
 KEYS = ("name", "kind", "state", "pid", "host", "restarts", "reason", "class", "parent",
         "attached", "detached")
 
 
-def components(rt: Any) -> list[dict]:
+def components(rt: RuntimeView) -> list[dict]:
     """The rows of ``rt`` (a Runtime): behaviors and reactions, then each resource entry
     (a driver's row before its children's), in deployment order."""
     readers: dict[str, set[str]] = {}      # resource -> who reads it

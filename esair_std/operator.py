@@ -16,7 +16,7 @@ request waits for the next sample; later ones answer at once.
 from __future__ import annotations
 
 import threading
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from .connections import SensorHandle
 from .errors import ControlError, Refused
@@ -25,6 +25,9 @@ from .policy import PRINCIPALS
 from .sample import Sample
 from .transport import keys
 
+if TYPE_CHECKING:  # pragma: no cover
+    from .view import RuntimeView
+
 #: The principal name of the command line's operator in ``allow``.
 OPERATOR = PRINCIPALS[0]
 
@@ -32,7 +35,7 @@ OPERATOR = PRINCIPALS[0]
 class Operator:
     """One runtime's operator paths (built by the control server on first use)."""
 
-    def __init__(self, rt: Any, who: str = OPERATOR):
+    def __init__(self, rt: RuntimeView, who: str = OPERATOR):
         self.rt = rt
         self.who = who
         self._lock = threading.Lock()
@@ -85,7 +88,10 @@ class Operator:
             with self._lock:
                 box[0] = sample
                 self._fresh.notify_all()
-        rt.server.bus.subscribe(keys.sensor(rt.robot, resource), keep)
+        bus = rt.server.bus if rt.server is not None else None
+        if bus is None:
+            raise ControlError("this runtime has no control endpoint to read sensors by")
+        bus.subscribe(keys.sensor(rt.robot, resource), keep)
 
     # ---- send
     def send(self, resource: str, command: Any, timeout: float) -> Any:

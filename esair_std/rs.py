@@ -14,12 +14,16 @@ from __future__ import annotations
 import difflib
 import logging
 import threading
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any, Callable
 
 from .errors import ControlError, Refused, ResourceLost, StdError
 from .level import Level, best_match
 from .spec import Spec
+from .parts import ResourceHost
 from .supervisor import Record, Supervisor
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .connections import SensorConnection
 
 log = logging.getLogger("esair_std.rs")
 
@@ -29,14 +33,14 @@ def _hint(name: str, names: list[str]) -> str:
     return f" (did you mean {close[0]!r}?)" if close else ""
 
 
-class ResourceSupervisor(Supervisor):
+class ResourceSupervisor(Supervisor[ResourceHost]):
     """Resource entries on the generic supervisor (supervisor.py), plus registration."""
 
     # a resource being removed takes no new command while its device closes: its
     # registrations end first (a behavior's are released after its stop(): bs.py)
     release_before_stop = True
 
-    def __init__(self, start_host: Callable[[Spec, int], Any], sc: Any,
+    def __init__(self, start_host: Callable[[Spec, int], Any], sc: SensorConnection,
                  on_detached: Callable[[str, str], None],
                  on_attached: Callable[[str, str], None] | None = None,
                  uses_of: Callable[[str], dict | None] | None = None):

@@ -18,7 +18,7 @@ import socket
 import threading
 import time
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from . import spec as specmod
 from .bs import BehaviorSupervisor
@@ -29,13 +29,19 @@ from .policy import uses_problem
 from .rs import ResourceSupervisor
 from .spec import Spec
 
+if TYPE_CHECKING:  # pragma: no cover
+    from .deploy.model import Deployment
+    from .modes.control import ControlServer
+    from .parts import Mode
+    from .remote.center import Center
+
 log = logging.getLogger("esair_std.runtime")
 MODES = ("thread", "process")
 WATCH_IDLE = 1.0      # the watchdog's longest sleep (a component added meanwhile wakes it)
 WAIT_RECHECK = 0.1    # wait_state: how often a state no event announces (busy) is looked at
 
 
-def _load(deployment: Any) -> Any:
+def _load(deployment: str | Path | dict | Deployment) -> Deployment:
     """A Deployment from a path, a dict or an already loaded Deployment."""
     if isinstance(deployment, (str, Path, dict)):
         from .deploy import load_deployment
@@ -44,7 +50,7 @@ def _load(deployment: Any) -> Any:
 
 
 class Runtime:
-    def __init__(self, deployment: str | Path | dict | Any, mode: str | None = None,
+    def __init__(self, deployment: str | Path | dict | Deployment, mode: str | None = None,
                  endpoint: str | None = None, control: bool | None = None,
                  join: list[str] | None = None):
         self.deployment = _load(deployment)
@@ -62,11 +68,12 @@ class Runtime:
                                      self._attached, self._uses_of)
         self.ac = ActuatorConnection(self.rs)
         self.bs = BehaviorSupervisor(self._start_component, self.rs, self._forget)
-        self.server: Any = None
+        self.server: ControlServer | None = None
         self.session_options: dict | None = None
         self.extra_listen: list[str] = []
         self.local_endpoint: str | None = None     # where local children connect
-        self.center: Any = None                    # remote agents (process mode)
+        self.child_session: dict[str, str] | None = None   # their login (remote/center.py)
+        self.center: Center | None = None          # remote agents (process mode)
         self._stop = threading.Event()
         self._kick = threading.Event()      # wakes the watchdog: a component started
         self._changed = threading.Condition()   # a state changed (wait_state waits on it)
@@ -76,7 +83,7 @@ class Runtime:
         self.started_at = 0.0
         if self.mode_name == "thread":
             from .modes.thread import ThreadMode
-            self.mode: Any = ThreadMode(self)
+            self.mode: Mode = ThreadMode(self)
         else:
             from .modes.process import ProcessMode
             self.mode = ProcessMode(self)
@@ -89,7 +96,7 @@ class Runtime:
                 self.session_options, self.extra_listen, self.local_endpoint = session(self)
                 self.center = Center(self)
                 from .modes.control import ControlServer
-                self.server = ControlServer(self)
+                self.server = ControlServer(self, self.bs, self.rs, self.mode, self.center)
                 self.server.start()
             from .deploy import load_classes
             load_classes(self.deployment)     # every class, errors at file:line:col

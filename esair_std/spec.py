@@ -7,7 +7,7 @@ Keeping it here means the runtime reads the deployment model in one place only.
 from __future__ import annotations
 
 import os
-from typing import Any
+from typing import Any, Protocol
 
 from .level import Level
 
@@ -131,7 +131,18 @@ def _restart(entry: Any) -> dict[str, Any]:
             "restart_within": float(getattr(restart, "within", 0) or 0)}
 
 
-def specs_of(deployment: Any) -> tuple[list[Spec], list[Spec], list[Spec]]:
+class Groups(Protocol):
+    """What :func:`specs_of` reads of a loaded deployment (deploy/model.py)."""
+
+    @property
+    def resources(self) -> object: ...
+    @property
+    def behaviors(self) -> object: ...
+    @property
+    def reactions(self) -> object: ...
+
+
+def specs_of(deployment: Groups) -> tuple[list[Spec], list[Spec], list[Spec]]:
     """The resources, behaviors and reactions of a loaded deployment, in file order."""
     base = getattr(deployment, "base_dir", None)
 

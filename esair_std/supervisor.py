@@ -25,9 +25,14 @@ import queue
 import threading
 import time
 from dataclasses import dataclass, field
-from typing import Any, Callable, Literal
+from typing import TYPE_CHECKING, Any, Callable, Generic, Literal, TypeVar
 
 from .errors import ControlError
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .parts import Child
+
+H = TypeVar("H", bound="Child")     # the kind of host a supervisor's children have
 
 log = logging.getLogger("esair_std.supervisor")
 REQUESTS = 256          # requests and failure events waiting for the supervisor's thread
@@ -99,11 +104,12 @@ class Starting:
 
 
 @dataclass
-class Record:
-    """A supervised child: its component spec, its host, its restart history."""
+class Record(Generic[H]):
+    """A supervised child: its component spec, its host (or a stand-in while it
+    starts), its restart history."""
 
     spec: Any
-    host: Any
+    host: H | Starting
     child: ChildSpec | None = None
     generation: int = 1
     restarts: int = 0
@@ -117,7 +123,7 @@ class Record:
             self.child = ChildSpec.of(self.spec)
 
 
-class Supervisor:
+class Supervisor(Generic[H]):
     """Children by name, one request at a time on the thread ``esair:<name>``."""
 
     #: remove: release what the child holds before stopping it (True: the RS, so a
@@ -125,9 +131,9 @@ class Supervisor:
     #: behavior's stop() still reaches what it registered for)
     release_before_stop = False
 
-    def __init__(self, name: str, start_host: Callable[[Any, int], Any]):
+    def __init__(self, name: str, start_host: Callable[[Any, int], H]):
         self._start_host = start_host      # (component spec, generation) -> started host
-        self.records: dict[str, Record] = {}
+        self.records: dict[str, Record[H]] = {}
         self._requests: queue.Queue = queue.Queue(maxsize=REQUESTS)
         self._thread = threading.Thread(target=self._main, name=f"esair:{name}", daemon=True)
         self._closing = False
@@ -135,13 +141,13 @@ class Supervisor:
         self.on_change: Callable[[], None] = lambda: None   # a child's state changed
 
     # ---- what a subclass says
-    def released(self, name: str, rec: Record, why: str) -> None:
+    def released(self, name: str, rec: Record[H], why: str) -> None:
         """``rec`` no longer holds anything (why: "removed" after its stop, "failed")."""
 
-    def restarted(self, name: str, rec: Record) -> None:
+    def restarted(self, name: str, rec: Record[H]) -> None:
         """``rec`` runs again as generation ``rec.generation``."""
 
-    def gave_up(self, name: str, rec: Record) -> None:
+    def gave_up(self, name: str, rec: Record[H]) -> None:
         """``rec`` failed past its restart limit."""
 
     # ---- requests
@@ -169,9 +175,9 @@ class Supervisor:
             raise value
         return value
 
-    def add_child(self, spec: Any) -> Record:
+    def add_child(self, spec: Any) -> Record[H]:
         """Start ``spec`` as generation 1 (on the supervisor's thread, or in phase 1)."""
-        rec = Record(spec, Starting())
+        rec: Record[H] = Record(spec, Starting())
         self.records[spec.name] = rec       # known before its start() asks for anything
         try:
             host = rec.host = self._start_host(spec, 1)
@@ -183,7 +189,7 @@ class Supervisor:
         self.on_change()
         return rec
 
-    def remove_child(self, name: str) -> Record:
+    def remove_child(self, name: str) -> Record[H]:
         """Stop, release and forget the child (in the order ``release_before_stop``
         says)."""
         rec = self.records[name]
@@ -191,7 +197,7 @@ class Supervisor:
         self.on_change()
         return rec
 
-    def _stop_child(self, name: str, rec: Record) -> None:
+    def _stop_child(self, name: str, rec: Record[H]) -> None:
         rec.removing = True
         if self.release_before_stop:
             self.records.pop(name, None)
@@ -291,5 +297,5 @@ class Supervisor:
         self.restarted(name, rec)
 
 
-def _state(host: Any) -> str:
+def _state(host: object) -> str:
     return str(getattr(host, "state", ""))

@@ -7,13 +7,12 @@ import json
 import os
 from typing import Any
 
-from ..errors import CommandError, ControlError, Refused, ResourceLost, TransportError
-from ..transport import keys
+from ..errors import TransportError
+from ..transport import keys, wire
 from ..transport.bus import Bus
 from ..transport.session import check_endpoint
 
 DEFAULT_ENDPOINT = "tcp/127.0.0.1:7447"
-_ERRORS = {"Refused": Refused}
 
 
 def default_endpoint() -> str:
@@ -54,13 +53,7 @@ class Client:
         if r is None:
             raise TransportError(f"the runtime of robot {self.robot!r} on {self.endpoint} "
                                  f"did not answer {verb!r}")
-        if "error" in r:
-            t = r.get("type")
-            if t in ("CommandError", "ResourceLost") and "resource" in r:
-                raise (CommandError if t == "CommandError" else ResourceLost)(
-                    r["resource"], r.get("reason", r["error"]))
-            raise _ERRORS.get(t, ControlError)(r["error"])
-        return r.get("ok")
+        return wire.result(r)     # an error raised as the class the runtime raised
 
     def close(self) -> None:
         self.bus.close()

@@ -8,13 +8,16 @@ import signal
 import sys
 import threading
 import time
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import click
 
 from esair_min.cli.pipes import friendly
 
 from ..errors import ControlError, TransportError
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..runtime import Runtime
 from .options import endpoint_option
 from .table import table as _table
 
@@ -36,7 +39,7 @@ def _load(path: Any, port: str | None, emulate: dict[str, str]) -> Any:
 class _Local:
     """The runtime seen through the control client's one method (for the live table)."""
 
-    def __init__(self, rt: Any):
+    def __init__(self, rt: Runtime):
         self.rt = rt
         self.robot = rt.robot
 
@@ -47,7 +50,7 @@ class _Local:
         return self.rt.inspect((body or {})["name"])
 
 
-def _live(rt: Any, stop: threading.Event, seconds: float | None) -> None:
+def _live(rt: Runtime, stop: threading.Event, seconds: float | None) -> None:
     from rich.live import Live
 
     from .top import render, snapshot

@@ -18,19 +18,24 @@ import signal
 import sys
 import threading
 import time
-from typing import Any
+from typing import TYPE_CHECKING, Any, Callable, cast
 
-from ..errors import CommandError, Refused, ResourceLost, StdError, TransportError
+from ..errors import CommandError, ControlError, Refused, ResourceLost, StdError, TransportError
 from ..level import Level
 from ..sample import Sample
 from ..classes import component_class
 from ..spec import Spec
-from ..transport import keys
+from ..transport import keys, wire
 from ..transport.bus import Bus, Request
 from ..transport.calls import SampleCaller, SampleServer
+from ..transport.wire import Verbs
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..parts import SampleHandle
+    from .host import ComponentHost
+    from .reshost import ResourceHost
 
 log = logging.getLogger("esair_std.agent")
-_ERRORS = {"Refused": Refused, "CommandError": CommandError, "ResourceLost": ResourceLost}
 MARGIN = 0.05           # the far side of a put, get or command (the BS, the actuator's host)
                         # gives up this long before the asker, whose call then returns
                         # at its timeout, answered or not (a cut link, a stopped host):
@@ -55,21 +60,19 @@ class ZenohPort:
         r = self.bus.request(keys.ctl(self.robot, verb), body, timeout)
         if r is None:
             raise TransportError(f"the runtime did not answer {verb!r} within {timeout:g} s")
-        if "error" in r:
-            cls = _ERRORS.get(r.get("type"))
-            if cls is Refused or cls is None:
-                raise (Refused if cls else StdError)(r["error"])
-            raise cls(r.get("resource", body.get("resource", "?")), r.get("reason", r["error"]))
-        return r.get("ok")
+        return wire.result(r, str(body.get("resource", "?")))
 
     def register(self, who: str, resource: str, level: Any) -> int:
         return self._ctl("register", {"who": who, "resource": resource,
                                       "level": Level.parse(level).name})
 
-    def attach_sensor(self, who: str, resource: str, handle: Any, direct: bool = False) -> None:
+    def attach_sensor(self, who: str, resource: str, handle: SampleHandle | None,
+                      direct: bool = False) -> None:
         self._ctl("attach", {"who": who, "resource": resource, "direct": direct})
-        self.bus.subscribe(keys.sensor(self.robot, resource),
-                           lambda obj: handle.push(Sample.from_wire(obj)))
+        if handle is not None:           # None: listed only (the runtime's own view)
+            push = handle.push
+            self.bus.subscribe(keys.sensor(self.robot, resource),
+                               lambda obj: push(Sample.from_wire(obj)))
 
     def command(self, who: str, resource: str, command: Any, timeout: float,
                 direct: bool = False) -> Any:
@@ -100,10 +103,7 @@ class ZenohPort:
                 break
         if r is None:
             raise CommandError(resource, f"no answer within {timeout:g} s")
-        if "error" in r:
-            cls = _ERRORS.get(r.get("type"), CommandError)
-            raise Refused(r["error"]) if cls is Refused else cls(resource, r["error"])
-        return r.get("ok")
+        return wire.result(r, resource)
 
     def _lost_or_coming(self, resource: str, deadline: float) -> None:
         """ResourceLost with the runtime's reason unless ``resource`` is ready (or the
@@ -168,11 +168,11 @@ class ZenohPort:
         return self._ctl("state", {"name": name}, 2.0)
 
     def set_reaction(self, who: str, name: str, enabled: bool) -> None:
-        from ..errors import ControlError
         r = self.bus.request(keys.ctl(self.robot, "reaction"),
                              {"who": who, "name": name, "enabled": bool(enabled)}, 5.0)
-        if r is None or "error" in r:
-            raise ControlError(r["error"] if r else "the runtime did not answer")
+        if r is None:
+            raise ControlError("the runtime did not answer")
+        wire.result(r)
 
     def state_changed(self, name: str, generation: int, phase: str, reason: str) -> None:
         try:
@@ -202,7 +202,17 @@ class Agent:
         self.generation = generation
         self.port = ZenohPort(bus, robot)
         self.done = threading.Event()
-        self.host: Any = None
+        self.host: ComponentHost | ResourceHost | None = None
+
+    @property
+    def _component(self) -> ComponentHost:
+        """The host of a behavior or reaction agent (run_component made it)."""
+        return cast("ComponentHost", self.host)
+
+    @property
+    def _resource(self) -> ResourceHost:
+        """The host of a resource agent (run_resource made it)."""
+        return cast("ResourceHost", self.host)
 
     def hello(self, **extra: Any) -> None:
         body = dict(name=self.spec.name, kind=self.spec.kind, generation=self.generation,
@@ -221,7 +231,7 @@ class Agent:
                                  max(0.001, deadline - time.monotonic()))
         route.undeclare()
         if r is None or "error" in r:
-            raise TransportError(f"runtime refused hello: {r and r.get('error')}")
+            raise TransportError(f"runtime refused hello: {r and wire.exception(r)}")
 
     # ---- behavior / reaction
     def run_component(self) -> None:
@@ -233,7 +243,7 @@ class Agent:
             self.hello(error=exc.message)
             raise SystemExit(0) from None
         host = self.host = ComponentHost(self.spec, cls, self.port, self.generation)
-        self.bus.serve(keys.bs(self.robot, self.spec.name), self._on_bs)
+        self.bus.serve(keys.bs(self.robot, self.spec.name), self._bs_verbs().request(wire.op_of))
         self.offers = SampleServer(self.bus, keys.bs_offer(self.robot, self.spec.name),
                                    lambda _k: keys.bs_result(self.robot, self.spec.name),
                                    self._on_offer)
@@ -253,12 +263,12 @@ class Agent:
         """Sleeps until the host's current call could reach its deadline (check())."""
         wait = 0.0
         while not self.done.wait(wait):
-            nxt = self.host.check(time.monotonic())
+            nxt = self._component.check(time.monotonic())
             wait = RUNTIME_GRACE if nxt is None else max(nxt, 0.001)
 
     def _report_room(self) -> None:
-        self._credit({"gen": self.generation, "open": self.host.open,
-                      "room": self.host.room()})
+        self._credit({"gen": self.generation, "open": self._component.open,
+                      "room": self._component.room()})
 
     def _bad_delivery(self, _why: str) -> None:
         self.delivers["bad"] += 1
@@ -270,52 +280,47 @@ class Agent:
             self.delivers["bad"] += 1
             return
         self.delivers["samples"] += 1
-        self.host.deliver_reserved(sender, obj["data"])
+        self._component.deliver_reserved(sender, obj["data"])
 
     def _on_offer(self, _key: str, body: dict, answer: Any) -> None:
         """A put's first offer (transport/calls.py): answered before the behavior's
         thread is woken."""
-        r = self.host.offer(str(body.get("from")), body.get("data"), wake=False)
+        r = self._component.offer(str(body.get("from")), body.get("data"), wake=False)
         answer({"r": r})
         if r == "delivered":
-            self.host.wake()
+            self._component.wake()
 
-    def _on_bs(self, req: Request) -> None:
-        b = req.body
-        if b is None:
-            req.reply({"error": f"bad request: {req.error}", "type": "ControlError"})
-            return
-        op, host = b.get("op"), self.host
-        if op == "offer":
-            req.reply({"ok": host.offer(str(b.get("from")), b.get("data"))})
-        elif op == "provide":
+    def _bs_verbs(self) -> Verbs:
+        """The ``bs/<name>`` endpoint: what the runtime's BS asks the hosted component
+        (answered on Zenoh's thread: each verb only enqueues or reads)."""
+        host, verbs = self._component, Verbs(unknown="unknown op {verb!r}")
+
+        def provide(b: dict, answer: wire.Answer) -> None:
             if host.request_provide(str(b.get("from")),
-                                    lambda v: req.reply({"ok": list(v)})) != "queued":
-                req.reply({"ok": ["busy", host.state]})
-        elif op == "take":                  # a put its sender waits for
+                                    lambda v: answer(wire.ok(list(v)))) != "queued":
+                answer(wire.ok(["busy", host.state]))
+
+        def take(b: dict, answer: wire.Answer) -> None:    # a put its sender waits for
             if host.request_take(str(b.get("from")), b.get("data"),
-                                 lambda v: req.reply({"ok": list(v)})) != "queued":
-                req.reply({"ok": ["busy", host.state]})
-        elif op == "state":
-            req.reply({"ok": host.state})
-        elif op == "detached":
-            host.notify_detached(str(b.get("resource")))
-            req.reply({"ok": None})
-        elif op == "attached":
-            host.notify_attached(str(b.get("resource")))
-            req.reply({"ok": None})
-        elif op == "enable":
-            host.set_enabled(bool(b.get("enabled")))
-            req.reply({"ok": None})
-        elif op == "counters":
-            req.reply({"ok": {**host.counters(), "offer_samples": dict(self.offers.c),
-                              "deliver_samples": dict(self.delivers),
-                              "put_samples": self.port.put_counters()}})
-        elif op == "stop":
-            req.reply({"ok": None})
-            self.done.set()
-        else:
-            req.reply({"error": f"unknown op {op!r}", "type": "ControlError"})
+                                 lambda v: answer(wire.ok(list(v)))) != "queued":
+                answer(wire.ok(["busy", host.state]))
+
+        verbs.add("offer", lambda b: host.offer(str(b.get("from")), b.get("data")))
+        verbs.later("provide", provide)
+        verbs.later("take", take)
+        verbs.add("state", lambda _b: host.state)
+        verbs.add("detached", lambda b: host.notify_detached(str(b.get("resource"))))
+        verbs.add("attached", lambda b: host.notify_attached(str(b.get("resource"))))
+        verbs.add("enable", lambda b: host.set_enabled(bool(b.get("enabled"))))
+        verbs.add("counters", lambda _b: {**host.counters(), "offer_samples": dict(self.offers.c),
+                                          "deliver_samples": dict(self.delivers),
+                                          "put_samples": self.port.put_counters()})
+        verbs.later("stop", self._stop)
+        return verbs
+
+    def _stop(self, _b: dict, answer: wire.Answer) -> None:
+        answer(wire.ok())
+        self.done.set()
 
     # ---- resource entry
     def run_resource(self) -> None:
@@ -332,7 +337,7 @@ class Agent:
         for name, kind in kids.items():
             if kind == "actuator":
                 self.bus.serve(keys.actuator(self.robot, name), self._on_actuator)
-        self.bus.serve(keys.rs(self.robot, self.spec.name), self._on_rs)
+        self.bus.serve(keys.rs(self.robot, self.spec.name), self._rs_verbs().request(wire.op_of))
         kind = "driver" if isinstance(host.driver, Driver) else next(iter(kids.values()))
         self.bus.token(keys.alive(self.robot, kind, self.spec.name))
         self.hello(children=kids)
@@ -346,53 +351,41 @@ class Agent:
     def _on_actuator(self, req: Request) -> None:
         b = req.body
         if b is None:
-            req.reply({"error": f"bad request: {req.error}", "type": "ControlError"})
+            req.reply(wire.error(ControlError(f"bad request: {req.error}")))
             return
         res = req.key.rsplit("/", 1)[-1]
-        slot = self.host.slots.get(res)
+        slot = self._resource.slots.get(res)
         who = str(b.get("from"))
         if slot is None or who not in slot.granted:
-            req.reply({"error": f"behavior {who!r} is not registered to command {res!r}",
-                       "type": "Refused"})
+            req.reply(wire.error(Refused(f"behavior {who!r} is not registered to command "
+                                         f"{res!r}")))
             return
         t = b.get("timeout", 1.0)
-        self.host.submit(res, "write", (b.get("cmd"),), self._answer(req),
+        self._resource.submit(res, "write", (b.get("cmd"),), self._answer(req.reply, res),
                          float(t) if isinstance(t, (int, float)) else 1.0)
 
     @staticmethod
-    def _answer(req: Request):
+    def _answer(answer: wire.Answer, resource: str) -> Callable[[bool, Any], None]:
+        """A resource host's ``on_done(ok, value)`` as a reply."""
         def done(ok: bool, value: Any) -> None:
-            if ok:
-                req.reply({"ok": value})
-            elif isinstance(value, StdError):
-                req.reply({"error": getattr(value, "reason", value.message),
-                           "type": type(value).__name__})
-            else:
-                req.reply({"error": str(value), "type": "CommandError"})
+            answer(wire.ok(value) if ok else wire.error(wire.failure(value, resource)))
         return done
 
-    def _on_rs(self, req: Request) -> None:
-        b = req.body
-        if b is None:
-            req.reply({"error": f"bad request: {req.error}", "type": "ControlError"})
-            return
-        op, host = b.get("op"), self.host
-        if op == "configure":
-            host.submit(str(b.get("resource")), "configure",
-                        (str(b.get("key")), b.get("value")), self._answer(req), 2.0)
-        elif op == "grant":
-            host.grant(str(b.get("who")), str(b.get("resource")))
-            req.reply({"ok": None})
-        elif op == "revoke":
-            host.revoke(str(b.get("who")), b.get("resource"))
-            req.reply({"ok": None})
-        elif op == "counters":
-            req.reply({"ok": host.counters()})
-        elif op == "stop":
-            req.reply({"ok": None})
-            self.done.set()
-        else:
-            req.reply({"error": f"unknown op {op!r}", "type": "ControlError"})
+    def _rs_verbs(self) -> Verbs:
+        """The ``rs/<entry>`` endpoint: what the runtime's RS asks the resource host."""
+        host, verbs = self._resource, Verbs(unknown="unknown op {verb!r}")
+
+        def configure(b: dict, answer: wire.Answer) -> None:
+            res = str(b.get("resource"))
+            host.submit(res, "configure", (str(b.get("key")), b.get("value")),
+                        self._answer(answer, res), 2.0)
+
+        verbs.later("configure", configure)
+        verbs.add("grant", lambda b: host.grant(str(b.get("who")), str(b.get("resource"))))
+        verbs.add("revoke", lambda b: host.revoke(str(b.get("who")), b.get("resource")))
+        verbs.add("counters", lambda _b: host.counters())
+        verbs.later("stop", self._stop)
+        return verbs
 
     # ---- leaving
     def watch_runtime(self) -> None:

@@ -1,9 +1,9 @@
 """The control endpoint: ``esair/<robot>/ctl/<verb>`` queryables of the runtime.
 
 Zenoh's callback only queues the request (a bounded queue; when full the asker is told
-at once); a small pool of worker threads answers. Every answer is a JSON object:
-``{"ok": ...}`` or ``{"error": message, "type": ErrorType}``. Garbage (not JSON, not an
-object, missing or wrong fields, unknown verb) gets an error and changes nothing.
+at once); a small pool of worker threads answers from the verb table (transport/wire.py:
+the envelope, its errors and the table are those of every endpoint). Garbage (not JSON,
+not an object, missing or wrong fields, unknown verb) gets an error and changes nothing.
 """
 
 from __future__ import annotations
@@ -13,15 +13,22 @@ import os
 import queue
 import threading
 import time
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any, Callable
 
-from ..errors import ControlError, StdError
-from ..errors import CommandError, ResourceLost
+from ..errors import ControlError
 from ..level import Level
 from ..sample import Sample  # noqa: F401 - documented payload type
-from ..transport import keys
+from ..transport import keys, wire
 from ..transport.bus import Bus, Request
 from ..transport.calls import SampleServer
+from ..transport.wire import Verbs
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..bs import BehaviorSupervisor
+    from ..operator import Operator
+    from ..parts import Joins, Mode
+    from ..view import Robot
+    from ..rs import ResourceSupervisor
 from ..transport.session import check_endpoint, hub_runtime
 
 log = logging.getLogger("esair_std.control")
@@ -64,14 +71,22 @@ class _SampleRequest:
 
 
 class ControlServer:
-    def __init__(self, rt: Any):
+    """The runtime's control endpoint. What it answers from is given, not looked up:
+    ``rt`` the robot's own operations (ls, add, remove, inspect...), ``bs`` and ``rs``
+    the supervisors, ``mode`` where components live, ``center`` the remote agents'
+    (process mode)."""
+
+    def __init__(self, rt: Robot, bs: BehaviorSupervisor, rs: ResourceSupervisor,
+                 mode: Mode, center: Joins | None = None):
         self.rt = rt
+        self.bs, self.rs, self.mode, self.center = bs, rs, mode, center
         self.endpoint = check_endpoint(rt.endpoint)
         self.bus: Bus | None = None
         self._q: queue.Queue = queue.Queue(maxsize=PENDING)
         self._workers: list[threading.Thread] = []
         self.c = dict(requests=0, bad_requests=0, refused_full=0)
-        self.verbs: dict[str, Callable[[dict], Any]] = {
+        self.verbs = Verbs(unknown="unknown control verb {verb!r}")
+        for verb, fn in {
             "ping": self.v_ping, "ls": self.v_ls, "add": self.v_add, "remove": self.v_remove,
             "add-resource": self.v_add_resource, "remove-resource": self.v_remove_resource,
             "put": self.v_put, "get": self.v_get, "configure": self.v_configure,
@@ -80,10 +95,11 @@ class ControlServer:
             "report": self.v_report, "resstate": self.v_resstate,
             "resinfo": self.v_resstate_get, "hello": self.v_hello,
             "join": self.v_join,
-        }
-        # the operator's verbs (esair std sample / send): esair_std/operator.py
-        self.verbs.update({"sample": self.v_sample, "send": self.v_send})
-        self._operator: Any = None         # esair_std.operator.Operator, on first use
+            # the operator's verbs (esair std sample / send): esair_std/operator.py
+            "sample": self.v_sample, "send": self.v_send,
+        }.items():
+            self.verbs.add(verb, fn)
+        self._operator: Operator | None = None     # on first use
         from .observe import install as _observe   # outside principals: the HMI (observe.py)
         self.observe = _observe(self)
 
@@ -106,11 +122,9 @@ class ControlServer:
     def counters(self) -> dict:
         """The control endpoint's own counters (``esair std inspect runtime``): requests,
         garbage refused, requests refused while full, and the put path's samples."""
+        self.c["bad_requests"] = self.verbs.c["bad_requests"]
         out = dict(self.c, put_samples=dict(self.puts.c))
-        offers = getattr(self.rt.mode, "offers", None)
-        if offers is not None:
-            out["offers"] = dict(offers.c)
-            out["credit_reports"] = dict(self.rt.mode.credits)
+        out.update(self.mode.counters())
         return out
 
     def close(self) -> None:
@@ -141,7 +155,7 @@ class ControlServer:
                     b["timeout"] = max(0.0, deadline - time.monotonic())
                     self._to_worker(req)
             try:
-                if self.rt.bs.put_first(b.get("from") or "operator", b["to"], b.get("data"),
+                if self.bs.put_first(b.get("from") or "operator", b["to"], b.get("data"),
                                         timeout, first):
                     return
             except Exception as exc:  # noqa: BLE001 - fall back to the ordinary path
@@ -160,7 +174,7 @@ class ControlServer:
             self._q.put_nowait(req)
         except queue.Full:
             self.c["refused_full"] += 1
-            req.reply({"error": "runtime busy: too many requests waiting", "type": "ControlError"})
+            req.reply(wire.error(ControlError("runtime busy: too many requests waiting")))
 
     def _work(self) -> None:
         while True:
@@ -171,23 +185,7 @@ class ControlServer:
 
     def answer(self, verb: str, body: dict | None, error: str = "") -> dict:
         self.c["requests"] += 1
-        try:
-            if body is None:
-                raise ControlError(f"bad request: {error}")
-            fn = self.verbs.get(verb)
-            if fn is None:
-                raise ControlError(f"unknown control verb {verb!r}")
-            return {"ok": fn(body)}
-        except StdError as exc:
-            if str(exc).startswith(("bad request", "unknown control verb")):
-                self.c["bad_requests"] += 1
-            out = {"error": str(exc), "type": type(exc).__name__}
-            if isinstance(exc, (CommandError, ResourceLost)):
-                out.update(resource=exc.resource, reason=exc.reason)
-            return out
-        except Exception as exc:  # noqa: BLE001 - a bug must not kill the worker
-            log.exception("control %s", verb)
-            return {"error": f"internal error: {type(exc).__name__}: {exc}", "type": "StdError"}
+        return self.verbs.answer(verb, body, error)
 
     # ---- user verbs (the CLI)
     def v_ping(self, b: dict) -> dict:
@@ -241,9 +239,9 @@ class ControlServer:
             from ..remote import robots
             ok, why = robots.put(self.rt, str(sender), to, b.get("data"), _timeout(b))
         elif b.get("wait"):       # the sender waits for receive(): told if refused
-            ok, why = self.rt.bs.put_wait(sender, to, b.get("data"), _timeout(b))
+            ok, why = self.bs.put_wait(sender, to, b.get("data"), _timeout(b))
         else:
-            ok, why = self.rt.bs.put(sender, to, b.get("data"), _timeout(b))
+            ok, why = self.bs.put(sender, to, b.get("data"), _timeout(b))
         return {"delivered": ok, "reason": why}
 
     def v_get(self, b: dict) -> dict:
@@ -252,16 +250,16 @@ class ControlServer:
             from ..remote import robots
             ok, value = robots.get(self.rt, str(sender), to, _timeout(b))
         else:
-            ok, value = self.rt.bs.get(sender, to, _timeout(b))
+            ok, value = self.bs.get(sender, to, _timeout(b))
         return {"ok": ok, "data": value if ok else None, "reason": "" if ok else value}
 
     def v_configure(self, b: dict) -> Any:
         who = b.get("who")
-        return self.rt.rs.configure(who if isinstance(who, str) else None,
+        return self.rs.configure(who if isinstance(who, str) else None,
                                     _need(b, "resource"), _need(b, "key"), b.get("value"))
 
     def v_reaction(self, b: dict) -> None:
-        self.rt.bs.set_reaction(_need(b, "name"), _need(b, "enabled", bool))
+        self.bs.set_reaction(_need(b, "name"), _need(b, "enabled", bool))
 
     def v_inspect(self, b: dict) -> dict:
         return self.rt.inspect(_need(b, "name"))
@@ -288,31 +286,33 @@ class ControlServer:
             level = Level.parse(_need(b, "level"))
         except ValueError as exc:
             raise ControlError(f"bad request: {exc}") from None
-        return self.rt.mode.port.register(_need(b, "who"), _need(b, "resource"), level)
+        return self.mode.port.register(_need(b, "who"), _need(b, "resource"), level)
 
     def v_attach(self, b: dict) -> None:
-        self.rt.mode.port.attach_sensor(_need(b, "who"), _need(b, "resource"), None,
+        self.mode.port.attach_sensor(_need(b, "who"), _need(b, "resource"), None,
                                         direct=bool(b.get("direct")))
 
     def v_kind(self, b: dict) -> str | None:
-        return self.rt.rs.kind_of(_need(b, "resource"))
+        return self.rs.kind_of(_need(b, "resource"))
 
     def v_report(self, b: dict) -> None:
-        self.rt.mode.reported(_need(b, "name"), _need(b, "generation", int),
+        self.mode.reported(_need(b, "name"), _need(b, "generation", int),
                               _need(b, "phase"), str(b.get("reason", "")))
 
     def v_resstate(self, b: dict) -> None:
-        self.rt.rs.set_state(_need(b, "resource"), _need(b, "state"), str(b.get("reason", "")))
+        self.rs.set_state(_need(b, "resource"), _need(b, "state"), str(b.get("reason", "")))
 
     def v_resstate_get(self, b: dict) -> list:
         """[state, reason] of a resource ("gone" when there is none)."""
-        state, why = self.rt.rs.states.get(_need(b, "resource"), ("gone", "no such resource"))
+        state, why = self.rs.states.get(_need(b, "resource"), ("gone", "no such resource"))
         return [state, why]
 
     def v_hello(self, b: dict) -> None:
-        self.rt.mode.hello(b)
+        self.mode.hello(b)
 
     def v_join(self, b: dict) -> dict:
         if self.rt.mode_name != "process":
             raise ControlError("this runtime runs in thread mode: it takes no remote agents")
-        return self.rt.center.join(b)
+        if self.center is None:
+            raise ControlError("this runtime takes no remote agents")
+        return self.center.join(b)

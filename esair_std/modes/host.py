@@ -13,13 +13,16 @@ import queue
 import threading
 import time
 from collections import deque
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ..behavior import Behavior
 from ..connections import ActuatorHandle, SensorHandle
 from ..errors import Refused
 from ..level import Level
 from ..spec import Spec
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..parts import Port
 from ..transport import codec
 
 INBOX = 64          # deliveries + provide requests waiting for the behavior's thread
@@ -49,7 +52,7 @@ class _Abandoned(BaseException):
     """Raised on an abandoned host's thread to leave without touching anything."""
 
 
-def build(cls: type[object], host: Any) -> Any:
+def build(cls: type[object], host: object) -> Any:
     """An instance of a user class with its host set before the user's __init__ runs."""
     obj: Any = cls.__new__(cls)
     obj._esair = host
@@ -60,7 +63,7 @@ def build(cls: type[object], host: Any) -> Any:
 class ComponentHost:
     """Runs one Behavior (or Reaction) object: life cycle, mailbox, counters."""
 
-    def __init__(self, spec: Spec, cls: type, port: Any, generation: int = 1):
+    def __init__(self, spec: Spec, cls: type, port: Port, generation: int = 1):
         self.spec = spec
         self.name = spec.name
         self.kind = spec.kind

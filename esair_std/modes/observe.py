@@ -23,11 +23,28 @@ from __future__ import annotations
 
 import os
 import re
-from typing import Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 from ..errors import ControlError, Refused
 from ..level import Level
 from ..transport import keys
+from ..transport.wire import Verbs
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..transport.bus import Bus
+    from ..view import RuntimeView
+
+class Server(Protocol):
+    """The control endpoint, as these verbs are installed in and publish through it
+    (modes/control.py)."""
+
+    verbs: Verbs
+
+    @property
+    def rt(self) -> RuntimeView: ...
+    @property
+    def bus(self) -> Bus | None: ...
+
 
 #: what an outside principal asks for: everything; each resource's ``allow`` decides
 PRINCIPAL_USES = {"*": Level.command}
@@ -50,14 +67,15 @@ class _Forward:
 
 
 class Observe:
-    def __init__(self, server: Any):
+    def __init__(self, server: Server):
         self.server = server
         self.rt = server.rt
         self.forwards: dict[str, _Forward] = {}
 
     def install(self) -> None:
-        self.server.verbs.update({"watch": self.v_watch, "command": self.v_command,
-                                  "restart": self.v_restart, "describe": self.v_describe})
+        for verb, fn in {"watch": self.v_watch, "command": self.v_command,
+                         "restart": self.v_restart, "describe": self.v_describe}.items():
+            self.server.verbs.add(verb, fn)
 
     def _who(self, b: dict) -> str:
         who = b.get("who")
@@ -83,7 +101,10 @@ class Observe:
         if self.rt.mode_name == "thread":
             fwd = self.forwards.get(res)
             if fwd is None:
-                put = self.server.bus.publisher(keys.sensor(self.rt.robot, res), drop=True)
+                bus = self.server.bus
+                if bus is None:
+                    raise ControlError("the control endpoint is not open")
+                put = bus.publisher(keys.sensor(self.rt.robot, res), drop=True)
                 fwd = self.forwards[res] = _Forward(put)
             if fwd.detached:                   # each sample published once for all
                 fwd.detached = False
@@ -127,7 +148,7 @@ class Observe:
                 "robots": robots, "problems": problems}
 
 
-def install(server: Any) -> Observe:
+def install(server: Server) -> Observe:
     obs = Observe(server)
     obs.install()
     return obs

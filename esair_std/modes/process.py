@@ -18,21 +18,24 @@ import subprocess
 import sys
 import threading
 import time
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from ..errors import CommandError, ComponentError, Refused, ResourceLost, StdError
+from ..errors import ComponentError, ResourceLost, StdError, TransportError
 from ..spec import Spec
-from ..transport import codec, keys, session
+from ..transport import codec, keys, session, wire
 from ..transport.calls import SampleCaller
 from ..transport.security import link_inserts
 from .agent import MARGIN
 from .thread import LocalPort
 
+if TYPE_CHECKING:  # pragma: no cover
+    from ..transport.bus import Bus
+    from ..view import RuntimeView
+
 log = logging.getLogger("esair_std.process")
 START_TIMEOUT = 20.0
 RESERVED_BYTES = 8192    # a put this small may go into a component's reserved room: at
                          # most host.RESERVED of them under way fit any link's queue
-_ERRORS = {"CommandError": CommandError, "ResourceLost": ResourceLost, "Refused": Refused}
 
 
 def agent_command(endpoint: str, robot: str, spec: Spec, generation: int) -> list[str]:
@@ -320,12 +323,7 @@ class ProcessResource(_Child):
         r = self.ask(self.key, body, timeout + 0.5)
         if r is None:
             raise ResourceLost(resource, "its host process does not answer")
-        if "error" in r:
-            cls = _ERRORS.get(r.get("type"), CommandError)
-            if cls is Refused:
-                raise Refused(r["error"])
-            raise cls(resource, r["error"])
-        return r.get("ok")
+        return wire.result(r, resource)
 
     def command(self, sender: str, resource: str, command: Any, timeout: float) -> Any:
         r = self.ask(keys.actuator(self.robot, resource),
@@ -333,10 +331,7 @@ class ProcessResource(_Child):
                      timeout)
         if r is None:
             raise ResourceLost(resource, "its host process does not answer")
-        if "error" in r:
-            cls = _ERRORS.get(r.get("type"), CommandError)
-            raise cls(resource, r["error"]) if cls is not Refused else Refused(r["error"])
-        return r.get("ok")
+        return wire.result(r, resource)
 
     def configure(self, resource: str, key: str, value: Any, timeout: float = 2.0) -> Any:
         return self._call(resource, {"op": "configure", "resource": resource, "key": key,
@@ -357,15 +352,14 @@ class ProcessResource(_Child):
 
     def stop(self, timeout: float = 2.0) -> None:
         self.state = "stopped"
-        if self.mode._resources.get(self.name) is self:
-            del self.mode._resources[self.name]
+        self.mode.drop_resource(self)
         self.stop_process(self.key, timeout)
 
 
 class ProcessMode:
     name = "process"
 
-    def __init__(self, rt: Any):
+    def __init__(self, rt: RuntimeView):
         self.rt = rt
         self.port = LocalPort(rt)
         self._pending: dict[tuple[str, int], _Child] = {}
@@ -375,8 +369,11 @@ class ProcessMode:
         self.remote: dict[str, dict] = {}         # name -> {host, pid} of remote agents
 
     @property
-    def bus(self) -> Any:
-        return self.rt.server.bus
+    def bus(self) -> Bus:
+        server = self.rt.server
+        if server is None or server.bus is None:
+            raise TransportError("process mode runs only beside its control endpoint")
+        return server.bus
 
     def open(self) -> None:
         self.offers = SampleCaller(self.bus, keys.bs_result(self.rt.robot, "*"),
@@ -387,6 +384,14 @@ class ProcessMode:
         self.bus.subscribe(keys.bs_credit(self.rt.robot, "*"), self._on_credit,
                            with_key=True, garbage=self._bad_credit)
         self.bus.watch_alive(keys.alive_all(self.rt.robot), self._alive)
+
+    def counters(self) -> dict[str, Any]:
+        """The BS's put path to the agents (``esair std inspect runtime``): the offers'
+        samples and the components' reports of their room."""
+        offers = getattr(self, "offers", None)
+        if offers is None:
+            return {}
+        return {"offers": dict(offers.c), "credit_reports": dict(self.credits)}
 
     def _bad_credit(self, _why: str) -> None:
         self.credits["bad_reports"] += 1
@@ -435,8 +440,10 @@ class ProcessMode:
             if host.remote and host.hello.is_set():
                 # not on this Zenoh thread: losing an agent revokes its grants (requests
                 # to resource hosts); blocking here stalled the session's other links
-                threading.Thread(target=self.rt.center.lost, args=(host,), daemon=True,
-                                 name="esair:lost").start()
+                center = self.rt.center
+                if center is not None:
+                    threading.Thread(target=center.lost, args=(host,), daemon=True,
+                                     name="esair:lost").start()
             elif host.phase in ("running", "busy") and host.hello.is_set():
                 threading.Thread(target=self._token_lost, args=(host,), daemon=True).start()
         elif kind in ("sensor", "actuator", "driver") and name in self._resources:
@@ -488,6 +495,19 @@ class ProcessMode:
                 self.rt.rs.set_state(res, "ready", "")
         child.hello.set()
         child.note()
+
+    def drop_resource(self, host: ProcessResource) -> None:
+        """``host`` stopped: no longer one of this mode's resource hosts."""
+        if self._resources.get(host.name) is host:
+            del self._resources[host.name]
+
+    def rejoin(self, host: ProcessResource) -> None:
+        """A remote resource's agent joins again (remote/center.py): its next hello
+        (generation 1) is that of ``host``, and sets its children ready again."""
+        host.rejoining = True
+        with self._lock:
+            self._pending[(host.name, 1)] = host
+        host.hello.clear()
 
     def pending_changed(self) -> None:
         with self._pending_cond:

@@ -12,13 +12,16 @@ import logging
 import queue
 import threading
 import time
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any, Callable
 
 from ..errors import CommandError, ComponentError, ResourceLost, StdError
 from ..resource import Actuator, Driver, Sensor
 from ..sample import Sample
 from ..spec import Spec
-from ..transport import codec
+from ..transport import codec, wire
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..parts import Port
 from .host import build
 
 COMMANDS = 256
@@ -61,14 +64,14 @@ class Slot:
 
 
 class ResourceHost:
-    def __init__(self, spec: Spec, cls: type, port: Any):
+    def __init__(self, spec: Spec, cls: type, port: Port):
         self.spec = spec
         self.name = spec.name
         self.kind = "resource"
         self.cls = cls
         self.port = port
         self.options = spec.options
-        self.driver: Any = None
+        self.driver: Driver | None = None
         self.slots: dict[str, Slot] = {}
         self.commands: queue.Queue = queue.Queue(maxsize=COMMANDS)
         self._stop = threading.Event()
@@ -144,9 +147,7 @@ class ResourceHost:
         ok, value = box[0]
         if ok:
             return value
-        if isinstance(value, ResourceLost):
-            raise value
-        raise CommandError(resource, value)
+        raise wire.failure(value, resource)
 
     def command(self, sender: str, resource: str, command: Any, timeout: float) -> Any:
         return self._submit(resource, "write", (command,), timeout)

@@ -7,7 +7,7 @@ the runtime's control server answers them by calling this same LocalPort.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ..errors import ComponentError
 from ..level import Level
@@ -16,11 +16,15 @@ from ..spec import Spec
 from .host import ComponentHost
 from .reshost import ResourceHost
 
+if TYPE_CHECKING:  # pragma: no cover
+    from ..parts import SampleHandle
+    from ..view import RuntimeView
+
 START_TIMEOUT = 10.0
 
 
 class LocalPort:
-    def __init__(self, rt: Any):
+    def __init__(self, rt: RuntimeView):
         self.rt = rt
 
     def _uses(self, who: str) -> dict | None:
@@ -39,7 +43,8 @@ class LocalPort:
     def register(self, who: str, resource: str, level: Any) -> int:
         return int(self.rt.rs.register(who, resource, Level.parse(level), self._uses(who)))
 
-    def attach_sensor(self, who: str, resource: str, handle: Any, direct: bool = False) -> None:
+    def attach_sensor(self, who: str, resource: str, handle: SampleHandle | None,
+                      direct: bool = False) -> None:
         if direct:
             self._check_direct(who, resource)
             self.rt.rs.register(who, resource, Level.read, None)
@@ -94,7 +99,7 @@ class LocalPort:
 class ThreadMode:
     name = "thread"
 
-    def __init__(self, rt: Any):
+    def __init__(self, rt: RuntimeView):
         self.rt = rt
         self.port = LocalPort(rt)
 
@@ -123,6 +128,9 @@ class ThreadMode:
 
     def reported(self, name: str, generation: int, phase: str, reason: str) -> None:
         raise ComponentError("this runtime runs in thread mode: it hosts no agents")
+
+    def counters(self) -> dict[str, Any]:
+        return {}                # calls within this process: nothing to count
 
     def watch(self, now: float) -> float | None:
         """Check every host's deadline; seconds until one needs it again."""

@@ -23,15 +23,18 @@ import signal
 import threading
 import time
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ..errors import StdError, TransportError
 from ..level import Level
 from ..modes.agent import Agent, ZenohPort
 from ..spec import Spec
-from ..transport import keys
+from ..transport import keys, wire
 from ..transport.bus import Bus
 from ..transport.security import link_inserts, session_inserts
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..parts import SampleHandle
 
 log = logging.getLogger("esair_std.remote")
 
@@ -50,7 +53,8 @@ class RemotePort(ZenohPort):
         self.registered[resource] = max(lv, self.registered.get(resource, lv))
         return out
 
-    def attach_sensor(self, who: str, resource: str, handle: Any, direct: bool = False) -> None:
+    def attach_sensor(self, who: str, resource: str, handle: SampleHandle | None,
+                      direct: bool = False) -> None:
         super().attach_sensor(who, resource, handle, direct)
         self.attached.add(resource)
 
@@ -90,7 +94,7 @@ class RemoteAgent(Agent):
             raise TransportError(f"the control center of robot {self.robot!r} did not answer"
                                  " the join")
         if "error" in r:
-            raise TransportError(f"join refused: {r['error']}")
+            raise TransportError(f"join refused: {wire.exception(r)}")
         self.c["joins"] += 1
 
     def hello(self, **extra: Any) -> None:
@@ -100,7 +104,7 @@ class RemoteAgent(Agent):
                     pid=os.getpid(), host=self.hostname, **extra)
         r = self.bus.request(keys.ctl(self.robot, "hello"), body, 10.0)
         if r is None or "error" in r:
-            raise TransportError(f"runtime refused hello: {r and r.get('error')}")
+            raise TransportError(f"runtime refused hello: {r and wire.exception(r)}")
         self.joined.set()
         log.info("%s joined robot %r in %.1f ms", self.spec.name, self.robot,
                  (time.perf_counter() - t0) * 1e3)
@@ -124,7 +128,7 @@ class RemoteAgent(Agent):
             while not self.joined.is_set() and not self.done.is_set():
                 try:
                     if self.spec.kind == "resource":
-                        self.hello(children=self.host.children())
+                        self.hello(children=self._resource.children())
                     else:
                         self.hello()
                         state = self.host.state if self.host is not None else "running"

@@ -23,12 +23,18 @@ import socket
 import tempfile
 import threading
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ..errors import ControlError, Refused
+from ..modes.process import ProcessComponent, ProcessMode
 from ..spec import Spec
 from ..transport.security import LEASE_MS, access_control, link_inserts, session_inserts
 from .identity import Verifier
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..deploy.model import Deployment
+    from ..parts import RemoteComponent
+    from ..view import RuntimeView
 
 log = logging.getLogger("esair_std.remote")
 JOIN_WAIT = 10.0
@@ -40,7 +46,7 @@ def _free_loopback_port() -> int:
         return s.getsockname()[1]
 
 
-def grants_for(deployment: Any, agent: str) -> dict[str, list[str]]:
+def grants_for(deployment: Deployment, agent: str) -> dict[str, list[str]]:
     """What the deployment's ``allow`` lets ``agent`` read / command, and what it hosts
     (its own name): the keys Zenoh's ACL opens for it."""
     reads, commands = [], []
@@ -55,7 +61,7 @@ def grants_for(deployment: Any, agent: str) -> dict[str, list[str]]:
     return {"reads": reads, "commands": commands, "provides": [agent, f"{agent}.$*"]}
 
 
-def _local_login(options: dict, rt: Any) -> None:
+def _local_login(options: dict, rt: RuntimeView) -> None:
     """With ``users`` every session must log in, the runtime's own children too: a login
     made for this run is added to a copy of the users file; children get it in their
     environment (rt.child_session), not on their command line."""
@@ -72,7 +78,7 @@ def _local_login(options: dict, rt: Any) -> None:
                         "transport/auth/usrpwd/password": password}
 
 
-def session(rt: Any) -> tuple[dict, list[str], str | None]:
+def session(rt: RuntimeView) -> tuple[dict, list[str], str | None]:
     """(zenoh options, extra listen endpoints, endpoint for local children or None)."""
     sec = getattr(rt.deployment, "security", None)
     if sec is None:
@@ -91,7 +97,7 @@ def session(rt: Any) -> tuple[dict, list[str], str | None]:
 class Center:
     """Remote agents of one runtime (process mode)."""
 
-    def __init__(self, rt: Any):
+    def __init__(self, rt: RuntimeView):
         self.rt = rt
         sec = getattr(rt.deployment, "security", None)
         self.sec = sec
@@ -106,6 +112,14 @@ class Center:
                          if sec is not None and sec.agents else None)
         self.c = dict(joins=0, joins_refused=0, lost=0, back=0)
         self._lock = threading.Lock()
+
+    def _mode(self) -> ProcessMode:
+        """The runtime's process mode (remote agents join only a process-mode runtime:
+        the control endpoint refuses ``join`` in thread mode)."""
+        mode = self.rt.mode
+        if not isinstance(mode, ProcessMode):
+            raise ControlError("this runtime runs in thread mode: it takes no remote agents")
+        return mode
 
     # ---- ctl/join
     def join(self, b: dict) -> dict:
@@ -130,13 +144,14 @@ class Center:
         # a remote component never restarts from here: its process is not ours to start
         spec = Spec.from_json({**spec.to_json(), "restart_max": 0, "base_dir": None})
         info = {"host": str(b.get("host", "?"))[:64], "pid": b.get("pid")}
-        mode = self.rt.mode
+        mode = self._mode()
         if spec.kind == "resource":
             return self._join_resource(spec, info)
         rec = self.rt.bs.records.get(name)
         if rec is not None:
             host = rec.host
-            if not getattr(host, "remote", False) or host.phase not in ("lost", "failed"):
+            if (not isinstance(host, ProcessComponent) or not host.remote
+                    or host.phase not in ("lost", "failed")):
                 raise ControlError(f"a {rec.spec.kind} named {name!r} is already deployed")
             host.quiet = True                     # do not tell the (returning) agent to stop
             self.rt.bs.request(self.rt.bs.remove, name)
@@ -158,20 +173,18 @@ class Center:
             box.append((True, None))
         except Exception as exc:  # noqa: BLE001 - handed to the join request
             box.append((False, exc))
-            self.rt.mode.remote.pop(spec.name, None)
-        self.rt.mode.pending_changed()
+            self._mode().remote.pop(spec.name, None)
+        self._mode().pending_changed()
 
     def _join_resource(self, spec: Spec, info: dict) -> dict:
-        mode = self.rt.mode
+        mode = self._mode()
         entry = self.rt.rs.entries.get(spec.name)
         if entry is not None:
             host = entry[1]
             if not getattr(host, "remote", False):
                 raise ControlError(f"a resource named {spec.name!r} is already deployed")
-            host.rejoining = True                 # its hello sets its children ready again
             mode.remote[spec.name] = info
-            mode._pending[(spec.name, 1)] = host
-            host.hello.clear()
+            mode.rejoin(host)                     # its hello sets its children ready again
             self.c["back"] += 1
             return {"generation": 1, "robot": self.rt.robot}
         if spec.name in self.rt.bs.records:
@@ -193,8 +206,8 @@ class Center:
             box.append((True, None))
         except Exception as exc:  # noqa: BLE001 - handed to the join request
             box.append((False, exc))
-            self.rt.mode.remote.pop(spec.name, None)
-        self.rt.mode.pending_changed()
+            self._mode().remote.pop(spec.name, None)
+        self._mode().pending_changed()
 
     def _check_identity(self, name: str, proof: Any) -> None:
         if self.verifier is None or self.sec is None:
@@ -205,7 +218,7 @@ class Center:
         self.verifier.check(self.rt.robot, name, proof, cn=ident.cn, user=ident.user)
 
     # ---- liveliness
-    def lost(self, host: Any) -> None:
+    def lost(self, host: RemoteComponent) -> None:
         """A remote behavior's token went: lost now, failed after lost_grace."""
         if host.phase in ("failed", "stopped", "lost"):
             return
@@ -215,7 +228,7 @@ class Center:
         log.warning("%s: remote agent lost", host.name)
         threading.Timer(self.lost_grace, self._grace_over, (host,)).start()
 
-    def _grace_over(self, host: Any) -> None:
+    def _grace_over(self, host: RemoteComponent) -> None:
         rec = self.rt.bs.records.get(host.name)
         if rec is not None and rec.host is host and host.phase == "lost":
             self.rt.mode.reported(host.name, host.generation, "failed",

@@ -11,9 +11,13 @@ timeout and failure rules. Only put and get cross: resources stay with their rob
 from __future__ import annotations
 
 import re
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from ..transport import keys
+from ..errors import StdError
+from ..transport import keys, wire
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..view import RuntimeView
 
 ROBOT_NAME = re.compile(r"^[a-z][a-z0-9_]{0,31}$")
 
@@ -24,7 +28,7 @@ def split(target: str) -> tuple[str, str] | None:
     return (robot, name) if sep else None
 
 
-def put(rt: Any, sender: str, target: str, data: Any, timeout: float) -> tuple[bool, str]:
+def put(rt: RuntimeView, sender: str, target: str, data: Any, timeout: float) -> tuple[bool, str]:
     robot, name = split(target) or ("", "")   # a local name: not of the form robot/behavior
     if not ROBOT_NAME.match(robot) or not name:
         return False, f"{target!r} is not of the form robot/behavior"
@@ -37,7 +41,7 @@ def put(rt: Any, sender: str, target: str, data: Any, timeout: float) -> tuple[b
     return bool(r.get("delivered")), str(r.get("reason", ""))
 
 
-def get(rt: Any, requester: str, target: str, timeout: float) -> tuple[bool, Any]:
+def get(rt: RuntimeView, requester: str, target: str, timeout: float) -> tuple[bool, Any]:
     robot, name = split(target) or ("", "")   # a local name: not of the form robot/behavior
     if not ROBOT_NAME.match(robot) or not name:
         return False, f"{target!r} is not of the form robot/behavior"
@@ -50,14 +54,15 @@ def get(rt: Any, requester: str, target: str, timeout: float) -> tuple[bool, Any
     return (True, r.get("data")) if r.get("ok") else (False, str(r.get("reason", "")))
 
 
-def _ask(rt: Any, robot: str, verb: str, body: dict, timeout: float) -> dict | str:
+def _ask(rt: RuntimeView, robot: str, verb: str, body: dict, timeout: float) -> dict | str:
     server = getattr(rt, "server", None)
     if server is None or server.bus is None:
         return f"robot {robot!r} is out of reach: this runtime has no control endpoint"
     r = server.bus.request(keys.ctl(robot, verb), body, timeout + 2.0)
     if r is None:
         return f"robot {robot!r} did not answer (not joined, or unreachable)"
-    if "error" in r:
-        return f"robot {robot!r}: {r['error']}"
-    ok = r.get("ok")
+    try:
+        ok = wire.result(r)
+    except StdError as exc:
+        return f"robot {robot!r}: {exc}"
     return ok if isinstance(ok, dict) else f"robot {robot!r}: bad answer"

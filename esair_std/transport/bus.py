@@ -19,7 +19,7 @@ from typing import Any, Callable, TypeVar
 import zenoh
 
 from ..errors import TransportError
-from . import codec
+from . import codec, wire
 from .session import open_session
 
 log = logging.getLogger("esair_std.transport")
@@ -52,7 +52,7 @@ class Request:
             try:
                 data = codec.encode(obj)
             except TransportError as exc:
-                data = codec.encode({"error": exc.message, "type": "TransportError"})
+                data = codec.encode(wire.error(exc))
             self._query.reply(self._query.key_expr, data)
         except Exception as exc:  # noqa: BLE001 - the asker is gone; nothing to tell
             log.debug("reply on %s not sent: %s", self.key, exc)
