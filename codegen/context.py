@@ -14,6 +14,7 @@ from esair_min import __version__
 from esair_min.components import motion, pressure_sensor, servo
 from esair_min.core import protocol as P
 from esair_min.errors import GenerateError
+from esair_min.model.encoding import MAX_LINE
 from esair_min.model.hardware import ADC_PINS, BaudSetting, I2cSetting, Timer2Setting
 from esair_min.core.image import build_image
 from esair_min.components.motion.layout import HEADER_BYTES
@@ -111,15 +112,15 @@ def _command_context(robot: Robot) -> Context:
             at = len(pool)
             pool += c.prefix.encode("ascii")
         length = c.length(n)
-        if length > P.MAX_LINE:
+        if length > MAX_LINE:
             raise GenerateError(f"command '{c.name}' needs {length} characters, more than "
-                                f"the {P.MAX_LINE} of a line")
+                                f"the {MAX_LINE} of a line")
         rows.append({"name": c.name, "at": at, "prefix_len": len(c.prefix), "length": length,
                      "action": c.action.upper(),
                      "motion": numbers[c.motion] if c.motion else 0xFF})
     return {
         "require_checksum": int(bool(uart and uart.require_checksum)),
-        "line_max": P.MAX_LINE,
+        "line_max": MAX_LINE,
         "prefix_pool": bytes(pool),
         "commands": rows,
         "actions": [{"name": a, "code": i} for i, a in enumerate(ACTIONS)],

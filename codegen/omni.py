@@ -8,6 +8,7 @@ from esair_min.components.omni_base.kinematics import HALF, Q, wheel_table
 from esair_min.components.optical_flow.core import REG_DELTA_X, REG_DELTA_Y, REG_SQUAL, T_SRAD_NS
 from esair_min.core import protocol as P
 from esair_min.errors import GenerateError
+from esair_min.model.encoding import MAX_LINE
 from esair_min.model.robot import Robot
 
 from .context import Context, _clock_context, _pin, common_context
@@ -37,7 +38,7 @@ def omni_central_context(robot: Robot) -> Context:
         "flow": [{"name": f.name, "sclk": _pin(f.sclk_pin), "sdio": _pin(f.sdio_pin)}
                  for f in board.flow_sensors],
         "srad_turns": srad_turns(board.mcu.clock_hz),
-        "line_max": P.MAX_LINE,
+        "line_max": MAX_LINE,
         "require_checksum": int(checksum),
         "drive_address": drive.i2c.address,
         "max_v": base.max_speed_mm_s,

@@ -6,6 +6,7 @@ Library code raises these; only the CLI turns them into an exit status.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Iterable
 
 
 class Mark:
@@ -70,9 +71,65 @@ class EsairError(Exception):
             return self.message
         return f"{self.mark}: {self.message}"
 
+    def lines(self) -> list[str]:
+        """The error as the CLI prints it, one ``error: `` line each."""
+        return [str(self)]
+
 
 class ConfigError(EsairError):
     """A board file (or robot folder) that cannot become a valid model."""
+
+    def each(self) -> tuple[ConfigError, ...]:
+        """Every single error this one stands for (itself)."""
+        return (self,)
+
+
+#: ``esair check`` prints at most this many errors of a robot, then ``and N more``: a
+#: screenful, and what a user fixes before checking again (docs/board-format.md).
+SHOWN_ERRORS = 20
+
+
+def _place(err: ConfigError) -> tuple[str, int, int, str]:
+    m = err.mark
+    return (m.path, m.line, m.col, err.message) if m is not None else ("", 0, 0, err.message)
+
+
+class ConfigErrors(ConfigError):
+    """Every error found in a robot's board files, sorted by file, line and column
+    (each once). Its own message and mark are the first one's; ``str()`` is every error
+    on its own line, at most :data:`SHOWN_ERRORS` and then ``and N more errors``."""
+
+    def __init__(self, errors: Iterable[ConfigError]):
+        unique = {(str(e.mark), e.message): e for e in errors for e in e.each()}
+        self.errors = tuple(sorted(unique.values(), key=_place))
+        if not self.errors:
+            raise ValueError("ConfigErrors of no error")
+        super().__init__(self.errors[0].message, self.errors[0].mark)
+
+    def __reduce__(self) -> tuple[type[ConfigErrors], tuple[tuple[ConfigError, ...]]]:
+        return (type(self), (self.errors,))
+
+    def each(self) -> tuple[ConfigError, ...]:
+        return self.errors
+
+    def lines(self) -> list[str]:
+        shown = [str(e) for e in self.errors[:SHOWN_ERRORS]]
+        if len(self.errors) > SHOWN_ERRORS:
+            shown.append(f"and {len(self.errors) - SHOWN_ERRORS} more errors "
+                         f"({len(self.errors)} in all)")
+        return shown
+
+    def __str__(self) -> str:
+        return "\n".join(self.lines())
+
+
+def config_errors(errors: Iterable[ConfigError]) -> ConfigError | None:
+    """One error to raise for ``errors``: None for none, the error itself for one,
+    else :class:`ConfigErrors`."""
+    found = [e for err in errors for e in err.each()]
+    if not found:
+        return None
+    return found[0] if len(found) == 1 else ConfigErrors(found)
 
 
 class ImageError(EsairError):

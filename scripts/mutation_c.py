@@ -31,7 +31,7 @@ ROOT = Path(__file__).resolve().parent.parent
 PY_CENTRAL = "esair_min/core/central.py"
 PY_PLAYER = "esair_min/core/player.py"
 PY_DECODER = "esair_min/core/decoder.py"
-PY_PROTOCOL = "esair_min/core/protocol.py"
+PY_ENCODING = "esair_min/model/encoding.py"
 C_CENTRAL = "firmware_templates/central/core/central.c.j2"
 
 SUITES = {
@@ -93,7 +93,7 @@ MUTANTS = (
          "if (m >= ES_SERVOS || spd > 26u) {"))),
     Mutant("line-41", "41-character lines accepted (the C gets the same constant "
            "through the generator)", (
-               (PY_PROTOCOL, "MAX_LINE = 40 ", "MAX_LINE = 41 "),)),
+               (PY_ENCODING, "MAX_LINE = 40\n", "MAX_LINE = 41\n"),)),
 )
 
 

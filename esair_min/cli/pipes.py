@@ -74,15 +74,17 @@ def quiet_on_closed_pipe(main: Callable[[], int | None]) -> int:
 
 def friendly(fn: Callable[..., Any]) -> Callable[..., Any]:
     """A CLI command's wrapper, the one place errors become exit codes (``esair`` and
-    ``esair std`` alike): an EsairError is one ``error: ...`` line on stderr and exit
-    status 1; a closed standard output (``esair ... | head``) a quiet exit (141)."""
+    ``esair std`` alike): an EsairError is one ``error: ...`` line on stderr (a robot's
+    several board-file errors one line each) and exit status 1; a closed standard output
+    (``esair ... | head``) a quiet exit (141)."""
 
     @wraps(fn)
     def wrapper(*args: Any, **kwargs: Any) -> Any:
         try:
             return fn(*args, **kwargs)
         except EsairError as exc:
-            click.echo(f"error: {exc}", err=True)
+            for line in exc.lines():
+                click.echo(f"error: {line}", err=True)
             sys.exit(1)
         except BrokenPipeError:
             silence_stdout()

@@ -11,10 +11,21 @@ if TYPE_CHECKING:
 
 
 class Checker(Protocol):
-    """The validator as the kinds see it: raise at a node of a board's file."""
+    """The validator as the kinds see it: an error at a node of a board's file. ``fail``
+    stops the kind's rule (its next checks depend on this one); ``report`` collects the
+    error and the rule goes on. Either way the validator reports every error it found."""
 
     def fail(self, board: Any, loc: Iterable[Any], message: str, *,
              key: bool = False) -> NoReturn:
+        ...
+
+    def report(self, board: Any, loc: Iterable[Any], message: str, *,
+               key: bool = False) -> None:
+        ...
+
+    def rule(self, check: Callable[..., None], *args: Any) -> None:
+        """Run ``check(*args)``, collecting the error its ``fail`` raises (one rule an
+        item: every item's first error is reported)."""
         ...
 
     def doc(self, board: Any) -> Any:

@@ -254,7 +254,51 @@ def pick_error(errors: list[ErrorDetails], data: Any) -> ErrorDetails:
 
 def config_error(exc: ValidationError, doc: Document, root: type[BaseModel]) -> ConfigError:
     """The most useful error of ``exc`` as a ConfigError marked in ``doc``."""
-    err = pick_error(exc.errors(include_url=False), doc.data)
+    return _config_error(pick_error(exc.errors(include_url=False), doc.data), doc, root)
+
+
+def _node_of(data: Any, loc: tuple[Any, ...]) -> tuple[Any, ...]:
+    """The part of ``loc`` before its first step that is not in ``data`` (an untagged
+    union's branch, or a missing key): the node the error is about. A tagged union's
+    tag (the node's own ``kind``) is passed over: pydantic reports that branch only."""
+    path: list[Any] = []
+    cur = data
+    for part in loc:
+        if (isinstance(cur, dict) and isinstance(part, str) and part in cur
+                or isinstance(cur, list) and isinstance(part, int) and 0 <= part < len(cur)):
+            cur = cur[part]  # type: ignore[index]  # a str into a dict, an int into a list
+            path.append(part)
+        elif not (isinstance(cur, dict) and part == cur.get("kind")):
+            break
+    return tuple(path)
+
+
+def schema_errors(exc: ValidationError, doc: Document, root: type[BaseModel]) -> list[ConfigError]:
+    """Every error of ``exc``, one per node, each a ConfigError marked in ``doc``.
+
+    pydantic reports each branch of a union that failed; the errors about one node
+    (the part of their location that exists in the data) are one error, the most
+    useful of them (:func:`pick_error`). A key missing from a mapping that also has an
+    unknown key is not reported: the misspelt key is the error."""
+    groups: dict[tuple[Any, ...], list[ErrorDetails]] = {}
+    unknown_in: set[tuple[Any, ...]] = set()
+    for err in exc.errors(include_url=False):
+        loc = tuple(err["loc"])
+        node = _node_of(doc.data, loc)
+        if err["type"] == "extra_forbidden":
+            unknown_in.add(node[:-1])
+        elif err["type"] == "missing" and node == loc[:-1]:
+            node = loc                  # each missing key of a mapping is its own error
+        groups.setdefault(node, []).append(err)
+    out = []
+    for node, errs in groups.items():
+        if all(e["type"] == "missing" for e in errs) and node[:-1] in unknown_in:
+            continue
+        out.append(_config_error(pick_error(errs, doc.data), doc, root))
+    return out
+
+
+def _config_error(err: ErrorDetails, doc: Document, root: type[BaseModel]) -> ConfigError:
     loc = tuple(err["loc"])
     path = _data_path(doc.data, loc)
     tags: list[str] = []

@@ -19,6 +19,7 @@ from esair_min.core.image import build_image, crc16_ccitt
 from esair_min.components.motion.layout import HEADER_BYTES
 from esair_min.core.player import BalanceReaction, Player
 from esair_min.core.protocol import Code
+from esair_min.model.encoding import encode_pair, pair_fits
 from esair_min.model.robot import Robot
 
 #: Bytes per EEPROM read while checking the image at reset (docs/protocol.md, Reset).
@@ -213,10 +214,9 @@ class CentralCore:
             lo, hi = self._limits[m]
             if not lo <= angle <= hi:
                 return Code.OUTSIDE_LIMITS
-            high = angle // 100 + 10 * speed
-            if high > 255:
+            if not pair_fits(angle, speed):
                 return Code.OVERFLOW
-            self._held = (bytes((2 * m, angle % 100, high)), {m: angle})
+            self._held = (bytes((2 * m, *encode_pair(angle, speed))), {m: angle})
             return None
         if action == "play":
             return self._play(args[0])
@@ -248,11 +248,9 @@ class CentralCore:
                 return Code.OUTSIDE_LIMITS
         data = bytearray(1 + 2 * self._n)   # register 0, then (low, high) per servo
         for i, (angle, speed) in enumerate(zip(angles, self._speeds)):
-            high = angle // 100 + 10 * speed
-            if high > 255:
+            if not pair_fits(angle, speed):
                 return Code.OVERFLOW
-            data[1 + 2 * i] = angle % 100
-            data[2 + 2 * i] = high
+            data[1 + 2 * i:3 + 2 * i] = bytes(encode_pair(angle, speed))
         self._held = (bytes(data), dict(enumerate(angles)))
         return None
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 import sys
 from collections import deque
 from pathlib import Path
-from typing import TextIO
+from typing import Callable, TextIO
 
 from esair_min.core.bus import Bus
 from esair_min.core.central import CentralCore
@@ -128,34 +128,75 @@ def run_line(rig: Rig, text: str, base: str = "") -> None:
         return
     command = body.split("#", 1)[0].rstrip(BLANK)
     cmd, *args = words(command)
-    if cmd == "boot" and not args:
-        rig.boot()
-    elif cmd == "tick" and len(args) <= 1:
-        rig.tick(decimal(args[0], "tick count", TICKS_MAX) if args else 1)
-    elif cmd == "sensor" and args:
-        dev = rig.device("sensor")
-        assert isinstance(dev, RegisterSlave)
-        if 2 * len(args) > len(dev.registers):
-            raise LineError(f"{len(args)} readings for {len(dev.registers) // 2} sensors")
-        dev.set_readings([decimal(a, "reading", READING_MAX) for a in args])
-    elif cmd == "fault" and len(args) == 2 and args[0] in BUS_LINES and args[1] in ("on", "off"):
+    verb = _VERBS.get(cmd)
+    if verb is None or not verb(rig, args, base):
+        raise LineError(f"bad script line '{command}' ({COMMANDS})")
+
+
+# One function a verb (``rx`` apart: its text keeps its spaces); each returns False when
+# the words do not fit it (the line is then a bad script line).
+
+def _boot(rig: Rig, args: list[str], base: str) -> bool:
+    if args:
+        return False
+    rig.boot()
+    return True
+
+
+def _tick(rig: Rig, args: list[str], base: str) -> bool:
+    if len(args) > 1:
+        return False
+    rig.tick(decimal(args[0], "tick count", TICKS_MAX) if args else 1)
+    return True
+
+
+def _sensor(rig: Rig, args: list[str], base: str) -> bool:
+    if not args:
+        return False
+    dev = rig.device("sensor")
+    assert isinstance(dev, RegisterSlave)
+    if 2 * len(args) > len(dev.registers):
+        raise LineError(f"{len(args)} readings for {len(dev.registers) // 2} sensors")
+    dev.set_readings([decimal(a, "reading", READING_MAX) for a in args])
+    return True
+
+
+def _fault(rig: Rig, args: list[str], base: str) -> bool:
+    """``fault bus|sda on|off`` holds a bus line; ``fault DEVICE on|off`` silences one."""
+    if len(args) != 2 or args[1] not in ("on", "off"):
+        return False
+    if args[0] in BUS_LINES:
         if args[1] == "on":
             rig.lines.held.add(args[0])
         else:
             rig.lines.held.discard(args[0])
-    elif cmd == "fault" and len(args) == 2 and args[1] in ("on", "off"):
-        rig.device(args[0]).fault = args[1] == "on"
-    elif cmd == "poke" and len(args) == 2:
-        dev = rig.device("eeprom")
-        assert isinstance(dev, Eeprom24)
-        dev.poke(hexadecimal(args[0], "poke offset", dev.size - 1),
-                 hexadecimal(args[1], "poke byte", 0xFF))
-    elif cmd == "image" and len(args) == 1:
-        dev = rig.device("eeprom")
-        assert isinstance(dev, Eeprom24)
-        dev.load(read_hex(args[0] if args[0].startswith("/") else base + args[0], dev.size))
     else:
-        raise LineError(f"bad script line '{command}' ({COMMANDS})")
+        rig.device(args[0]).fault = args[1] == "on"
+    return True
+
+
+def _poke(rig: Rig, args: list[str], base: str) -> bool:
+    if len(args) != 2:
+        return False
+    dev = rig.device("eeprom")
+    assert isinstance(dev, Eeprom24)
+    dev.poke(hexadecimal(args[0], "poke offset", dev.size - 1),
+             hexadecimal(args[1], "poke byte", 0xFF))
+    return True
+
+
+def _image(rig: Rig, args: list[str], base: str) -> bool:
+    if len(args) != 1:
+        return False
+    dev = rig.device("eeprom")
+    assert isinstance(dev, Eeprom24)
+    dev.load(read_hex(args[0] if args[0].startswith("/") else base + args[0], dev.size))
+    return True
+
+
+_VERBS: dict[str, Callable[[Rig, list[str], str], bool]] = {
+    "boot": _boot, "tick": _tick, "sensor": _sensor, "fault": _fault, "poke": _poke,
+    "image": _image}
 
 
 def run_script(robot: Robot, script: str | bytes, path: str = "<script>",

@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from esair_min.errors import ImageError
+from esair_min.model.encoding import PAIR_HIGH_MAX, encode_pair, pair_fits
 from esair_min.components.motion.layout import DIR_ENTRY_BYTES, HEADER_BYTES, MAGIC, VERSION
 
 if TYPE_CHECKING:
@@ -106,11 +107,12 @@ def build_image(robot: Robot) -> bytes:
                     raise ImageError(f"motion '{m.name}' frame {f}: angle {angle} for servo "
                                      f"'{servo.name}' is outside its limits "
                                      f"{servo.min_angle}..{servo.max_angle}")
-                high = angle // 100 + 10 * speed
-                if high > 255:
+                low, high = encode_pair(angle, speed)
+                if not pair_fits(angle, speed):
                     raise ImageError(f"motion '{m.name}' frame {f}: speed {speed} with angle "
-                                     f"{angle} encodes to high byte {high}, more than 255")
-                frames += bytes((angle % 100, high))
+                                     f"{angle} encodes to high byte {high}, more than "
+                                     f"{PAIR_HIGH_MAX}")
+                frames += bytes((low, high))
     body = bytes(directory + frames)
     assert HEADER_BYTES + len(body) == length
     header = ImageHeader(MAGIC, VERSION, len(layout.slots), length, crc16_ccitt(body))

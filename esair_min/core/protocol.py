@@ -12,10 +12,10 @@ from enum import IntEnum
 from typing import Iterable, Sequence
 
 from esair_min.errors import ProtocolError
+from esair_min.model import encoding
+from esair_min.model.encoding import CHECKSUM_CHARS, MAX_LINE  # noqa: F401  (the protocol's)
 
 PROTOCOL_NAME = "esair-min/1"
-MAX_LINE = 40          # characters of a line, terminator excluded, checksum suffix included
-CHECKSUM_CHARS = 3     # "*HH"
 EOL = b"\r\n"
 MAX_SPEED = 25
 ANGLE_STEP = 3         # the `c` command: char '0'..'l' is 3*(char-0x30) degrees
@@ -119,18 +119,18 @@ def encode_pair(angle: int, speed: int) -> tuple[int, int]:
         raise ProtocolError(f"angle {angle} is outside 0..999")
     if not 0 <= speed <= MAX_SPEED:
         raise ProtocolError(f"speed {speed} is outside 0..{MAX_SPEED}")
-    high = angle // 100 + 10 * speed
-    if high > 255:
+    low, high = encoding.encode_pair(angle, speed)
+    if not encoding.pair_fits(angle, speed):
         raise ProtocolError(f"speed {speed} with angle {angle} encodes to high byte "
-                            f"{high}, more than 255")
-    return angle % 100, high
+                            f"{high}, more than {encoding.PAIR_HIGH_MAX}")
+    return low, high
 
 
 def decode_pair(low: int, high: int) -> tuple[int, int]:
     """``(angle, speed)`` of a register pair; ``low`` must be below 100."""
-    if not 0 <= low < 100 or not 0 <= high <= 255:
+    if not 0 <= low < 100 or not 0 <= high <= encoding.PAIR_HIGH_MAX:
         raise ProtocolError(f"pair ({low}, {high}) is not a servo encoding")
-    return (high % 10) * 100 + low, high // 10
+    return encoding.decode_pair(low, high)
 
 
 # -- command lines (PAPA-MAN prefixes by default) ------------------------------------

@@ -13,16 +13,12 @@ from __future__ import annotations
 from typing import MutableSequence, Sequence
 
 from esair_min.model.board import Servo
+from esair_min.model.encoding import decode_pair, encode_pair
 
 
-def encode(angle: int, speed: int) -> tuple[int, int]:
-    """(low, high) register pair of an angle and speed."""
-    return angle % 100, angle // 100 + 10 * speed
-
-
-def decode(low: int, high: int) -> tuple[int, int]:
-    """(angle, speed) of a register pair."""
-    return (high % 10) * 100 + low, high // 10
+#: (low, high) register pair of an angle and speed, and back (the model's encoding)
+encode = encode_pair
+decode = decode_pair
 
 
 def step_toward(angle: int, target: int, speed: int) -> int:

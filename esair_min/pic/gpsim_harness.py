@@ -32,6 +32,7 @@ import math
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Callable
 
 from esair_min.errors import ProtocolError
 from esair_min.pic.gpsim_wave import I2cTransfer, decode_i2c, read_edges, read_register_log
@@ -332,59 +333,108 @@ def _sensor_levels(levels: list[int]) -> list[str]:
 
 
 def _stimulus_line(sc: _Script, line: str) -> None:
-    s, L = sc.setup, sc.lines
-    stand_ins = {"actuator": ("ACT", s.actuator_address), "sensor": ("SEN", s.sensor_address)}
+    """One stimulus line (docs/trace-format.md) as gpsim commands: ``rx`` keeps its
+    spaces; every other line is a verb and its words, each verb handled by its own
+    function in :data:`_VERBS` (which returns False when the words do not fit it)."""
     if line == "rx" or line.startswith("rx "):
-        if not sc.booted:
-            raise ProtocolError("rx before boot")
-        L += [f"U1.tx = {b:#04x}" for b in unescape(line[3:])]
+        _rx(sc, line[3:])
         return
     cmd, *args = words(line.split("#", 1)[0])
-    if cmd == "boot" and not args:
-        if sc.booted:
-            raise ProtocolError("a second boot is not supported in gpsim")
-        if sc.tipping():
-            raise ProtocolError("the readings set before boot tip a balance reaction: "
-                                "gpsim's firmware polls during the boot wait (its ticks "
-                                "run from reset), the Python core does not; set them "
-                                "after boot")
-        sc.booted = True
-        sc.run_to(sc.boot_end)
-    elif cmd == "tick" and len(args) <= 1:
-        n = decimal(args[0], "tick count", TICKS_MAX) if args else 1
-        sc.run_to(sc.now + n * s.tick_cycles)
-    elif cmd == "sensor" and args and s.sensor_is_memory:
-        readings = [decimal(a, "reading", READING_MAX) for a in args]
-        L += _sensor_bytes(s, readings)
-        sc.set_readings(readings)
-    elif cmd == "sensor" and args:
-        readings = [decimal(a, "reading", READING_MAX) for a in args]
-        values = set(readings)
-        if len(values) != 1:
-            raise ProtocolError("gpsim's sensor stand-in returns one byte for every "
-                                "register: all readings must be equal")
-        sc.set_readings(readings)
-        L += _sensor_levels(_pin_levels(values.pop()))
-    elif cmd == "fault" and len(args) == 2 and args[0] == "sensor" and args[1] in ("on", "off"):
-        name, addr = stand_ins[args[0]]
-        if addr is None:
-            raise ProtocolError(f"no {args[0]} board")
-        if s.sensor_is_memory:
-            moved = addr ^ (1 << s.sensor_fault_pin) if args[1] == "on" else addr
-            L += _address_levels(moved)
-            return
-        L.append(f"{name}.Slave_Address = {UNUSED_ADDRESS if args[1] == 'on' else addr:#04x}")
-    elif cmd == "fault" and len(args) == 2 and args[0] in HOLD_PULLUPS and args[1] in ("on", "off"):
-        sc.hold(args[0], args[1] == "on")
-    elif cmd == "poke" and len(args) == 2:
-        offset = hexadecimal(args[0], "poke offset", E24XX256_BYTES - 1)
-        L.append(f"EE.eeData[{offset:#x}] = {hexadecimal(args[1], 'poke byte', 0xFF):#04x}")
-    elif cmd == "fault":
+    verb = _VERBS.get(cmd)
+    if verb is not None and verb(sc, args):
+        return
+    if cmd == "fault":
         raise ProtocolError(f"{line!r}: only 'fault sensor', 'fault bus' and 'fault sda' "
                             "work in gpsim; " + NO_WRITE_NACK)
-    else:
-        raise ProtocolError(f"{line!r} is not supported by the gpsim harness (boot, rx, "
-                            "tick, sensor, fault sensor|bus|sda, poke)")
+    raise ProtocolError(f"{line!r} is not supported by the gpsim harness (boot, rx, "
+                        "tick, sensor, fault sensor|bus|sda, poke)")
+
+
+def _rx(sc: _Script, text: str) -> None:
+    """``rx TEXT``: the PC end of the serial link sends the bytes."""
+    if not sc.booted:
+        raise ProtocolError("rx before boot")
+    sc.lines += [f"U1.tx = {b:#04x}" for b in unescape(text)]
+
+
+def _boot(sc: _Script, args: list[str]) -> bool:
+    """``boot``: run to the end of the boot wait (once)."""
+    if args:
+        return False
+    if sc.booted:
+        raise ProtocolError("a second boot is not supported in gpsim")
+    if sc.tipping():
+        raise ProtocolError("the readings set before boot tip a balance reaction: "
+                            "gpsim's firmware polls during the boot wait (its ticks "
+                            "run from reset), the Python core does not; set them "
+                            "after boot")
+    sc.booted = True
+    sc.run_to(sc.boot_end)
+    return True
+
+
+def _tick(sc: _Script, args: list[str]) -> bool:
+    """``tick [N]``: run N tick periods."""
+    if len(args) > 1:
+        return False
+    n = decimal(args[0], "tick count", TICKS_MAX) if args else 1
+    sc.run_to(sc.now + n * sc.setup.tick_cycles)
+    return True
+
+
+def _sensor(sc: _Script, args: list[str]) -> bool:
+    """``sensor R...``: the sensor stand-in's readings (a register map's bytes, or the
+    port pins of an i2c2par stand-in, which answers one byte for every register)."""
+    if not args:
+        return False
+    readings = [decimal(a, "reading", READING_MAX) for a in args]
+    if sc.setup.sensor_is_memory:
+        sc.lines += _sensor_bytes(sc.setup, readings)
+        sc.set_readings(readings)
+        return True
+    values = set(readings)
+    if len(values) != 1:
+        raise ProtocolError("gpsim's sensor stand-in returns one byte for every "
+                            "register: all readings must be equal")
+    sc.set_readings(readings)
+    sc.lines += _sensor_levels(_pin_levels(values.pop()))
+    return True
+
+
+def _fault(sc: _Script, args: list[str]) -> bool:
+    """``fault sensor on|off`` (the sensor board stops answering) and ``fault bus|sda
+    on|off`` (a bus line held low)."""
+    if len(args) != 2 or args[1] not in ("on", "off"):
+        return False
+    s, on = sc.setup, args[1] == "on"
+    if args[0] == "sensor":
+        if s.sensor_address is None:
+            raise ProtocolError("no sensor board")
+        if s.sensor_is_memory:
+            moved = s.sensor_address ^ (1 << s.sensor_fault_pin) if on else s.sensor_address
+            sc.lines += _address_levels(moved)
+        else:
+            sc.lines.append(f"SEN.Slave_Address = "
+                            f"{UNUSED_ADDRESS if on else s.sensor_address:#04x}")
+        return True
+    if args[0] in HOLD_PULLUPS:
+        sc.hold(args[0], on)
+        return True
+    return False
+
+
+def _poke(sc: _Script, args: list[str]) -> bool:
+    """``poke OFFSET BYTE``: a byte of the motion EEPROM."""
+    if len(args) != 2:
+        return False
+    offset = hexadecimal(args[0], "poke offset", E24XX256_BYTES - 1)
+    sc.lines.append(f"EE.eeData[{offset:#x}] = {hexadecimal(args[1], 'poke byte', 0xFF):#04x}")
+    return True
+
+
+#: The stimulus verbs gpsim runs (``rx`` apart: its text keeps its spaces).
+_VERBS: dict[str, Callable[[_Script, list[str]], bool]] = {
+    "boot": _boot, "tick": _tick, "sensor": _sensor, "fault": _fault, "poke": _poke}
 
 
 def boot_end(robot: Robot, cod: Path, workdir: Path, tc: Toolchain | None = None,

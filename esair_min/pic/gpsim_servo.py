@@ -20,6 +20,7 @@ from pathlib import Path
 from esair_min.pic.gpsim_harness import _gpsim_pin
 from esair_min.pic.gpsim_wave import read_edges
 from esair_min.model.board import Servo
+from esair_min.model.encoding import encode_pair
 from esair_min.model.robot import Robot
 from esair_min.pic.toolchain import Toolchain, ToolchainError, run_gpsim
 
@@ -114,8 +115,9 @@ def measure_pulses(robot: Robot, angles: list[int], cod: Path, map_path: Path,
          f"frequency {act.mcu.clock_hz}", "module library libgpsim_modules.so.0",
          *recorder_lines(robot), f"break c {SETTLE_CYCLES}", "run"]
     for s, angle in zip(servos, angles):
-        L += [f"reg({base + 2 * s.index:#x}) = {angle % 100:#04x}",
-              f"reg({base + 2 * s.index + 1:#x}) = {angle // 100:#04x}"]
+        low, high = encode_pair(angle, 0)
+        L += [f"reg({base + 2 * s.index:#x}) = {low:#04x}",
+              f"reg({base + 2 * s.index + 1:#x}) = {high:#04x}"]
     L += ["PSY.voltage = 0.0", f"break c {SETTLE_CYCLES + RECORD_CYCLES}", "run",
           *flush_lines(robot), "quit"]
     out = run_gpsim("\n".join(L) + "\n", workdir, tc=tc, script_name="servo.stc")

@@ -22,7 +22,6 @@ def test_core_cycles_and_size(starfish, tmp_path):
         pytest.fail(str(exc), pytrace=False)
     generate_robot(starfish, tmp_path / "fw")
     got = measure_core(tmp_path / "fw" / "central", MAIN, tmp_path / "pic", tc)
-    assert got.kinematics == (3780, 3796, 3796)     # 0.76 ms at 20 MHz
-    assert (got.rx_char, got.rx_line, got.tick) == (66, 7906, 544)
-    assert (got.usage.program_bytes, got.usage.data_bytes) == (7894, 432)   # 7918 before the
-    # checksum-required branch became an #if (SDCC warned it unreachable)
+    assert got.kinematics == (3538, 3538, 3538)     # 0.71 ms at 20 MHz
+    assert (got.rx_char, got.rx_line, got.tick) == (77, 6285, 543)
+    assert (got.usage.program_bytes, got.usage.data_bytes) == (6342, 391)

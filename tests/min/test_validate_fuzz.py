@@ -1,5 +1,6 @@
-"""Whatever YAML a user writes, the validator answers with a ConfigError (with a mark)
-or a valid robot: never another exception type.
+"""Whatever YAML a user writes, the validator answers with a ConfigError (each of the
+errors it holds with a mark, one line each) or a valid robot: never another exception
+type.
 
 Inputs: arbitrary YAML-able data as a whole board file, and PAPA-MAN's boards with one
 change anywhere (a value replaced by a random one, a key or list item deleted, a key
@@ -60,8 +61,10 @@ def check(files: dict[str, Any]) -> None:
         try:
             load_robot(tmp)
         except ConfigError as exc:
-            assert exc.mark is not None and exc.mark.line >= 1 and exc.mark.col >= 1
-            assert "\n" not in str(exc)
+            for err in exc.each():        # every error of the robot, one line each
+                assert err.mark is not None and err.mark.line >= 1 and err.mark.col >= 1
+                assert "\n" not in str(err)
+            assert str(exc).splitlines() == exc.lines()
 
 
 @SETTINGS

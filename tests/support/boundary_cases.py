@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from esair_min.core.protocol import add_checksum
+from esair_min.model.encoding import MAX_LINE, encode_pair
 from esair_min.model.validate import load_robot
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -37,7 +38,6 @@ READY = "!READY esair-min/1 image=ok"
 REACTION = PAPAMAN.central.reactions[0]
 FIRED = f"!R {REACTION.name}"
 RX_RING = 64            # the board's receive ring (docs/protocol.md)
-MAX_LINE = 40           # docs/protocol.md, "Lines"
 
 
 @dataclass
@@ -83,7 +83,8 @@ def events(trace: list[str], ticks: bool = False) -> list[str]:
 
 def pair(angle: int, speed: int) -> str:
     """A servo's register pair in hex: angle % 100, angle / 100 + 10 * speed."""
-    return f"{angle % 100:02X}{angle // 100 + 10 * speed:02X}"
+    low, high = encode_pair(angle, speed)
+    return f"{low:02X}{high:02X}"
 
 
 def burst(angles: list[int], speeds: list[int] = SPEED) -> str:
@@ -185,12 +186,11 @@ def frames_case() -> Case:
     for i, (lo, hi) in enumerate(LIMITS):
         s = speeds[i]
         for angle in (lo, hi):
-            frame(i, angle % 100, angle // 100 + 10 * s, True)
+            frame(i, *encode_pair(angle, s), True)
         for angle in (lo - 1, hi + 1):
             if angle >= 0:
-                frame(i, angle % 100, angle // 100 + 10 * s, False)
-        c.script.extend(poke_pair(slot.offset + 2 * i, angles[i] % 100,
-                                  angles[i] // 100 + 10 * s))
+                frame(i, *encode_pair(angle, s), False)
+        c.script.extend(poke_pair(slot.offset + 2 * i, *encode_pair(angles[i], s)))
     knee = next(i for i, (lo, hi) in enumerate(LIMITS) if lo == 0 and hi >= 100)
     frame(knee, 99, 10 * speeds[knee], True)            # 99 degrees
     frame(knee, 100, 10 * speeds[knee], False)          # low byte 100: not a pair

@@ -67,22 +67,26 @@ def pwm_units(motors: tuple[DcMotor, ...]) -> dict[str, str]:
 
 
 def board_rules(checker: Checker, b: Any) -> None:
+    checker.rule(_index_rules, checker, b)
+    for i, m in enumerate(b.motors):
+        if m.pwm in CCP_PINS and m.pwm_pin != CCP_PINS[m.pwm]:
+            checker.report(b, ("motors", i, "pwm_pin"),
+                           f"motor '{m.name}': {m.pwm.upper()} drives pin {CCP_PINS[m.pwm]} "
+                           f"on the {b.mcu.part}, not {m.pwm_pin}; set pwm_pin: "
+                           f"{CCP_PINS[m.pwm]} or pwm: software")
+        if m.limit_mm_s > m.full_speed_mm_s:
+            checker.report(b, ("motors", i, "limit_mm_s"),
+                           f"motor '{m.name}': limit_mm_s {m.limit_mm_s} is above its full "
+                           f"speed ({m.full_speed_mm_s:.0f} mm/s at {m.max_rpm} rpm with a "
+                           f"{m.wheel_radius_mm} mm wheel); lower the limit")
+
+
+def _index_rules(checker: Checker, b: Any) -> None:
     for i, m in enumerate(sorted(b.motors, key=lambda m: m.index)):
         if m.index != i:
             checker.fail(b, ("motors", b.motors.index(m), "index"),
                          f"motor '{m.name}': index {m.index} leaves a gap; motor indices "
                          f"must run 0..{len(b.motors) - 1} and index {i} is missing")
-    for i, m in enumerate(b.motors):
-        if m.pwm in CCP_PINS and m.pwm_pin != CCP_PINS[m.pwm]:
-            checker.fail(b, ("motors", i, "pwm_pin"),
-                         f"motor '{m.name}': {m.pwm.upper()} drives pin {CCP_PINS[m.pwm]} on "
-                         f"the {b.mcu.part}, not {m.pwm_pin}; set pwm_pin: {CCP_PINS[m.pwm]} "
-                         "or pwm: software")
-        if m.limit_mm_s > m.full_speed_mm_s:
-            checker.fail(b, ("motors", i, "limit_mm_s"),
-                         f"motor '{m.name}': limit_mm_s {m.limit_mm_s} is above its full "
-                         f"speed ({m.full_speed_mm_s:.0f} mm/s at {m.max_rpm} rpm with a "
-                         f"{m.wheel_radius_mm} mm wheel); lower the limit")
 
 
 def pins(m: DcMotor) -> list[PinClaim]:

@@ -11,7 +11,8 @@ from typing import Any
 from esair_min.components.base import Checker, Component
 from esair_min.components.motion.layout import image_layout
 from esair_min.components.motion.schema import MAX_FRAMES, MAX_MOTIONS, Frame, Motion
-from esair_min.components.servo import encode_high, overflow
+from esair_min.components.servo import overflow
+from esair_min.model.encoding import pair_fits
 
 
 def storage_rules(checker: Checker, central: Any, by_role: dict[str, Any]) -> None:
@@ -43,17 +44,13 @@ def storage_rules(checker: Checker, central: Any, by_role: dict[str, Any]) -> No
 def robot_rules(checker: Checker, central: Any, by_role: dict[str, Any]) -> None:
     """Every frame has one angle (and speed) per servo, each within its limits."""
     actuator = by_role.get("actuator")
-    for i in range(len(central.motions)):
-        _motion_rules(checker, central, i, actuator)
-
-
-def _motion_rules(checker: Checker, central: Any, i: int, actuator: Any) -> None:
-    m: Motion = central.motions[i]
     servos = sorted(actuator.servos, key=lambda s: s.index) if actuator else []
-    if not servos:
-        checker.fail(central, ("motions", i), "motions need an actuator board with servos")
-    for f, frame in enumerate(m.frames):
-        _frame_rules(checker, central, ("motions", i, "frames", f), m, f, frame, servos)
+    if central.motions and not servos:
+        checker.fail(central, ("motions", 0), "motions need an actuator board with servos")
+    for i, m in enumerate(central.motions):
+        for f, frame in enumerate(m.frames):       # each frame's first error
+            checker.rule(_frame_rules, checker, central, ("motions", i, "frames", f), m, f,
+                         frame, servos)
 
 
 def _frame_rules(checker: Checker, central: Any, loc: tuple[Any, ...], m: Motion, f: int,
@@ -70,7 +67,7 @@ def _frame_rules(checker: Checker, central: Any, loc: tuple[Any, ...], m: Motion
             checker.fail(central, loc + ("angles", k), f"motion '{m.name}' frame {f}: angle "
                          f"{angle} for servo '{servo.name}' is outside its limits "
                          f"{servo.min_angle}..{servo.max_angle}")
-        if encode_high(angle, speed) > 255:
+        if not pair_fits(angle, speed):
             where = loc + (("speed",) if isinstance(frame.speed, int) else ("speed", k))
             checker.fail(central, where, f"motion '{m.name}' frame {f}, servo "
                          f"'{servo.name}': {overflow(speed, angle)}")

@@ -30,8 +30,8 @@ class Sensor(Section):
 def board_rules(checker: Checker, b: Any) -> None:
     for i, s in enumerate(b.sensors):
         if s.min >= s.max:
-            checker.fail(b, ("sensors", i, "max"),
-                         f"sensor '{s.name}': max ({s.max}) must be above min ({s.min})")
+            checker.report(b, ("sensors", i, "max"),
+                           f"sensor '{s.name}': max ({s.max}) must be above min ({s.min})")
 
 
 def pins(s: Sensor) -> list[PinClaim]:

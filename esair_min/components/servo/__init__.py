@@ -1,7 +1,7 @@
 """Kind ``servo``: a hobby servo on the actuator board, driven with 50 Hz PWM.
 
 Registers: servo *m* has ``2m`` (low byte, ``angle % 100``) and ``2m+1`` (high byte,
-``angle/100 + 10*speed``: the thesis's pair encoding, defined here once). Its C lives in
+``angle/100 + 10*speed``: the thesis's pair encoding, :mod:`esair_min.model.encoding`). Its C lives in
 ``firmware_templates/actuator`` (the board is made of servos); its Python behaviour in
 :mod:`esair_min.emulator.actuator`.
 """
@@ -13,6 +13,8 @@ from typing import Annotated, Any
 from pydantic import Field, StrictInt
 
 from esair_min.components.base import Checker, Component, PinClaim
+from esair_min.model.encoding import (PAIR_HIGH_MAX, encode_high, encode_pair,  # noqa: F401
+                                      max_speed_at, pair_fits)
 from esair_min.model.types import Angle, Name, Pin, Section, Speed
 
 MAX_SERVOS = 16
@@ -35,33 +37,25 @@ class Servo(Section):
         2500, description="pulse width at 180 degrees")
 
 
-def encode_high(angle: int, speed: int) -> int:
-    """The thesis's high byte: angle/100 + 10*speed (may exceed a byte: check it)."""
-    return angle // 100 + 10 * speed
-
-
-def encode_pair(angle: int, speed: int) -> tuple[int, int]:
-    """The register pair (low, high) of ``angle`` at ``speed`` (high may exceed 255)."""
-    return angle % 100, encode_high(angle, speed)
-
-
 def overflow(speed: int, angle: int) -> str:
     """Why a speed/angle pair does not fit the high byte, and what would."""
-    high = encode_high(angle, speed)
-    top = (255 - angle // 100) // 10
-    return (f"speed {speed} with angle {angle} encodes to high byte {high} "
-            f"(angle/100 + 10*speed), more than 255; at this angle use a speed of at "
-            f"most {top}")
+    return (f"speed {speed} with angle {angle} encodes to high byte "
+            f"{encode_high(angle, speed)} (angle/100 + 10*speed), more than "
+            f"{PAIR_HIGH_MAX}; at this angle use a speed of at most {max_speed_at(angle)}")
 
 
 def board_rules(checker: Checker, b: Any) -> None:
+    checker.rule(_index_rules, checker, b)
+    for i in range(len(b.servos)):
+        checker.rule(_servo_rules, checker, b, i)
+
+
+def _index_rules(checker: Checker, b: Any) -> None:
     for i, s in enumerate(sorted(b.servos, key=lambda s: s.index)):
         if s.index != i:
             checker.fail(b, ("servos", b.servos.index(s), "index"),
                          f"servo '{s.name}': index {s.index} leaves a gap; servo indices "
                          f"must run 0..{len(b.servos) - 1} and index {i} is missing")
-    for i in range(len(b.servos)):
-        _servo_rules(checker, b, i)
 
 
 def _servo_rules(checker: Checker, b: Any, i: int) -> None:
@@ -75,7 +69,7 @@ def _servo_rules(checker: Checker, b: Any, i: int) -> None:
     if s.pulse_min_us >= s.pulse_max_us:
         checker.fail(b, ("servos", i, "pulse_max_us"), f"servo '{s.name}': pulse_max_us "
                      f"({s.pulse_max_us}) must be above pulse_min_us ({s.pulse_min_us})")
-    if encode_high(s.stand_angle, s.default_speed) > 255:
+    if not pair_fits(s.stand_angle, s.default_speed):
         checker.fail(b, ("servos", i, "default_speed"), f"servo '{s.name}': default "
                      f"{overflow(s.default_speed, s.stand_angle)}")
 
