@@ -7,7 +7,8 @@ copy: at 9600 baud the line allows at most 9.9 feet polls a second) and the feet
 1. sample -> pixel: the sensor's time stamp (time.time() when reported) to the
    requestAnimationFrame that drew it on the feet plot (performance.timeOrigin + now(),
    the same clock on this one computer), every sample of 3 pages over the window;
-   goal p99 <= 50 ms;
+   goal p99 <= 50 ms; split at the moment the page got it (the rest is the browser's
+   wait for a frame);
 2. the HMI process's CPU (utime + stime from /proc over the window) with no page and with
    3 pages open; goal <= 10 % of one core with 3;
 3. its RSS with 3 pages; goal <= 45 MB;
@@ -146,10 +147,10 @@ def main() -> None:
             pages = []
             for i in range(3):
                 page = browser.new_page(viewport={"width": 1280, "height": 800})
-                page.goto(url)
+                page.goto(url, timeout=120_000)
                 try:
                     page.wait_for_function("() => window.__hmi && window.__hmi.feet && "
-                                           "window.__hmi.feet.t.length > 10")
+                                           "window.__hmi.feet.t.length > 10", timeout=120_000)
                 except Exception:
                     print("page", i, page.evaluate("() => [window.__hmi.wsUp, window.__hmi.stats"
                           ".samples, window.__hmi.entry, JSON.stringify(window.__hmi.link)]"),
@@ -161,18 +162,20 @@ def main() -> None:
                 "performance.getEntriesByType('resource')).map(e => [e.name, e.transferSize]))")
             time.sleep(1)
             for page in pages:
-                page.evaluate("() => { window.__hmi.stats.latencies.length = 0; }")
+                page.evaluate("() => { window.__hmi.stats.latencies.length = 0; "
+                              "window.__hmi.stats.arrivals.length = 0; }")
             cpu3 = cpu_share(hmi, args.window)
             rss3 = rss_mb(hmi)
-            lat = []
+            lat, arr = [], []
             for page in pages:
                 lat += page.evaluate("() => window.__hmi.stats.latencies")
+                arr += page.evaluate("() => window.__hmi.stats.arrivals")
             for _ in range(7):
                 page = browser.new_page(viewport={"width": 1280, "height": 800})
-                page.goto(url)
+                page.goto(url, timeout=120_000)
                 pages.append(page)
             for page in pages:
-                page.wait_for_function("() => window.__hmi && window.__hmi.wsUp")
+                page.wait_for_function("() => window.__hmi && window.__hmi.wsUp", timeout=120_000)
             rate10 = command_rate(ep, "papaman", args.window / 2)
             browser.close()
         rate0 = command_rate(ep, "papaman", args.window / 2)
@@ -192,6 +195,9 @@ def main() -> None:
             ("sample -> pixel p99 (p50), 3 pages, feet at 50 Hz",
              f"{pct(lat, 0.99):.1f} ms ({statistics.median(lat):.1f} ms), {len(lat)} samples",
              "<= 50 ms", pct(lat, 0.99) / 50),
+            ("  of which: sample -> the page got it, p99 (p50)",
+             f"{pct(arr, 0.99):.1f} ms ({statistics.median(arr):.1f} ms), {len(arr)} samples",
+             "-", 0.0),
             ("HMI CPU, no page / 3 pages", f"{cpu0 * 100:.1f} % / {cpu3 * 100:.1f} % of a core",
              "<= 10 %", cpu3 / 0.10),
             ("HMI RSS, no page / 3 pages", f"{rss0:.1f} / {rss3:.1f} MB", "<= 45 MB", rss3 / 45),

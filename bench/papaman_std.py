@@ -4,11 +4,15 @@ Figures (one run, every column measured in this process, medians where repeated)
 
 1. behavior command -> actuator register write, in the emulator's virtual time: a
    behavior sends servo commands (``oMSAAA``) through the AC to the MinLink driver and
-   the in-process emulator (``esair://``, real time); the send's wall time is mapped to
-   virtual time by the port's pacer, and the write is the ``@`` mark of the matching
-   ``W 10`` transaction in the trace (its start: 38 bit times, 0.38 ms, follow). Goal: within one
-   tick plus the command's line time at the robot's baud. With the feet polled (8 Hz) a
-   command may wait for an `s` exchange in flight (up to 50.7 ms): shown apart.
+   the in-process emulator (``esair://``, real time); the send's time.monotonic() is
+   mapped to virtual time by the port's pacer, and the write is the ``@`` mark of the
+   matching ``W 10`` transaction in the trace (its start: 38 bit times, 0.38 ms,
+   follow). The driver (papaman_std_comps.TimedMinLink) notes its pacer's origin and
+   its port writes in a file, so both modes are measured (in process mode it lives in
+   its own process). Side by side, in each mode: one command in flight (``duplex:
+   false``, the link before issue 21 item 7) and full duplex, the feet not polled and
+   polled at 8 Hz. Goals: within one tick plus the command's line time at the robot's
+   baud; with the feet polled, p99 <= 1.2x the no-polling floor.
 2. feet sample age when the balance watcher reads it (the example's watcher, 50 Hz
    steps, feet polled at 8 Hz): goal p99 <= one poll period + 2 ms.
 3. commands per second the link sustains, one in flight, against the emulator behind
@@ -23,12 +27,14 @@ Figures (one run, every column measured in this process, medians where repeated)
    the generated PIC firmware (when the toolchain is installed), and the x limit is
    also given with it: the true line limit of one-in-flight x on the robot.
 
-Run: python bench/papaman_std.py [--n 200]. Prints figures; asserts nothing.
+Run: python bench/papaman_std.py [--n 200] [--figures 123] [--modes thread,process].
+Prints figures; asserts nothing.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import statistics
 import sys
@@ -92,32 +98,28 @@ def wait(rt: Runtime, name: str, key: str, timeout: float = 120) -> dict:
     raise SystemExit(f"{name} did not finish")
 
 
-def command_to_write(mode: str, n: int, feet_hz: float, goal_ms: float) -> dict:
+def command_to_write(mode: str, n: int, feet_hz: float, goal_ms: float,
+                     duplex: bool = True) -> dict:
     """Figure 1: behavior send -> register write (virtual time), in ms; split at the
-    moment the I/O thread writes the line to the port (``host``: send -> port write,
-    the STD and Link path; ``robot``: port write -> register write, the line time and
-    the wait for the tick, in the emulator alone)."""
-    trace = Path(tempfile.mkdtemp(prefix="esair-bench-")) / "trace.txt"
+    moment the link writes the line to the port (``host``: send -> port write, the STD
+    and Link path; ``robot``: port write -> register write, the line time and the wait
+    for the tick, in the emulator alone). The driver (bench/papaman_std_comps.py,
+    TimedMinLink) notes its robot's pacer origin and its port writes in a file: the
+    same in thread and process mode (where it lives in its own process)."""
+    tmp = Path(tempfile.mkdtemp(prefix="esair-bench-"))
+    trace, notes = tmp / "trace.txt", tmp / "notes.jsonl"
     url = f"esair://{PAPAMAN}?trace={trace}"
     dep = deployment(url, mode, {"stepper": {"class": "papaman_std_comps:Stepper",
                                              "n": n, "every": 0.0373}}, feet_hz)
+    dep["resources"]["papaman"].update({"class": "papaman_std_comps:TimedMinLink",
+                                        "notes": str(notes), "duplex": duplex})
     with runtime(dep, mode) as rt:
-        port = rt.rs.entries["papaman"][1].driver.link._port     # the in-process robot
-        pacer = port._pacer
-        wall0 = time.time() - time.monotonic() + pacer._t0_wall  # pacer's t0 on time.time()
-        written: list[float] = []
-        write = port.write
-
-        def timed_write(data, _write=write):       # the port's virtual time at the write
-            out = _write(data)
-            if data.lstrip(b"\r\n")[:1] == b"o":
-                written.append(port.emulator.clock.now / 1e9)
-            return out
-
-        port.write = timed_write                   # the Link calls its port's write
         got = wait(rt, "stepper", "done")
-    virt0 = pacer._t0_virtual / 1e9
-    sent = [virt0 + (t - wall0) * pacer.factor for t in got["sent"]]
+    rows = [json.loads(line) for line in notes.read_text().splitlines()]
+    origin = rows[0]
+    written = [r["written"] for r in rows[1:]]
+    sent = [origin["t0_virtual"] + (t - origin["t0_wall"]) * origin["factor"]
+            for t in got["sent"]]
     writes, mark = [], 0.0
     for line in trace.read_text().splitlines():
         if line.startswith("@ "):
@@ -125,7 +127,7 @@ def command_to_write(mode: str, n: int, feet_hz: float, goal_ms: float) -> dict:
         elif line.startswith("W 10 ") and len(line.split()[2]) == 6:
             writes.append(mark)             # the write starts (its 38 bit times follow)
     lat = [(w - s) * 1e3 for s, w in zip(sent, writes)]
-    k = len(written)                # the first sends may precede timed_write
+    k = len(written)
     host = [(w - s) * 1e3 for s, w in zip(sent[len(sent) - k:], written)]
     robot = [(w - s) * 1e3 for s, w in zip(written, writes[len(writes) - k:])]
     return {"n": len(lat), "p50": statistics.median(lat), "p90": pct(lat, 0.9),
@@ -221,12 +223,38 @@ def b_baud(robot) -> int:
     return line_budget(robot).baud
 
 
+def figure1(args, modes: list[str], goal1: float) -> None:
+    """Figure 1 side by side: each mode, one command in flight (``duplex: false``, the
+    link before issue 21 item 7) and full duplex, with the feet not polled and polled
+    at 8 Hz; runs interleaved (the load moves)."""
+    res: dict[tuple[str, bool, float], dict] = {}
+    for m in modes:
+        for duplex in (False, True):
+            for hz in (0, 8):
+                res[(m, duplex, hz)] = command_to_write(m, args.n, hz, goal1, duplex)
+    for (m, duplex, hz), r in res.items():
+        floor = res[(m, duplex, 0)]
+        what = "full duplex" if duplex else "one in flight"
+        print(f"   {m:8s} {what:14s} feet {hz} Hz  n={r['n']}  p50 {r['p50']:.2f} ms  "
+              f"p90 {r['p90']:.2f} ms  p99 {r['p99']:.2f} ms  max {r['max']:.2f} ms  "
+              f"errors {r['errors']}")
+        print(f"   {'':8s} {'':14s} {'':9s} send -> port write (STD + Link): p50 "
+              f"{r['host_p50']:.2f} ms  p99 {r['host_p99']:.2f} ms;  port write -> register "
+              f"write (line + tick wait): {r['robot_min']:.2f} .. {r['robot_max']:.2f} ms, "
+              f"p99 {r['robot_p99']:.2f} ms (the line-and-tick floor)")
+        print(f"   {'':8s} {'':14s} {'':9s} p99 = {r['p99'] / floor['robot_p99']:.2f}x the "
+              f"no-polling run's line-and-tick floor, {r['p99'] / floor['p99']:.2f}x the "
+              f"no-polling run's p99; missed the first tick after their line: "
+              f"{r['late_ticks']} of {r['robot_n']}")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--n", type=int, default=200, help="commands per figure")
     ap.add_argument("--age-seconds", type=float, default=10.0)
     ap.add_argument("--repeat", type=int, default=3, help="figure 3: runs (median)")
     ap.add_argument("--modes", default="thread,process", help="comma-separated STD modes")
+    ap.add_argument("--figures", default="123", help="which figures (e.g. 1, 23)")
     args = ap.parse_args()
     robot = load_robot(PAPAMAN)
     b = line_budget(robot)
@@ -237,26 +265,19 @@ def main() -> None:
     print(f"PAPA-MAN at {b.baud} baud, tick {b.tick_s * 1e3:.2f} ms; load average "
           f"{os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
     print(f"\n1. behavior command -> register write (virtual time; goal <= {goal1:.2f} ms "
-          f"= tick + line time of oMSAAA)")
-    # the in-process robot's pacer maps wall to virtual time: thread mode only (in process
-    # mode the driver, and so the robot, live in another process)
-    for m, hz in [("thread", 0), ("thread", 8)]:
-        r = command_to_write(m, args.n, hz, goal1)
-        print(f"   {m:8s} feet {hz} Hz  n={r['n']}  p50 {r['p50']:.2f} ms  p90 {r['p90']:.2f} ms  "
-              f"p99 {r['p99']:.2f} ms  "
-              f"max {r['max']:.2f} ms  ({r['p99'] / goal1:.0%} of the goal at p99)")
-        print(f"   {'':8s} {'':10s} send -> port write (STD + Link): p50 {r['host_p50']:.2f} ms  "
-              f"p99 {r['host_p99']:.2f} ms;  port write -> register write (line + tick "
-              f"wait): {r['robot_min']:.2f} .. {r['robot_max']:.2f} ms")
-        print(f"   {'':8s} {'':10s} the floor, the same commands with no host time (port "
-              f"write -> register write): p99 {r['robot_p99']:.2f} ms; send -> register "
-              f"write p99 is {r['p99'] / r['robot_p99']:.3f}x that floor; commands that "
-              f"missed the first tick after their line: {r['late_ticks']} of {r['robot_n']}")
+          f"= tick + line time of oMSAAA; with the feet polled at 8 Hz: p99 <= 1.2x the "
+          f"no-polling floor)")
+    if "1" in args.figures:
+        figure1(args, modes, goal1)
+    if "2" not in args.figures and "3" not in args.figures:
+        return
     print("\n2. feet sample age at the watcher's read (goal p99 <= 125 + 2 ms)")
-    for m in modes:
+    for m in modes if "2" in args.figures else []:
         r = sample_age(m, args.age_seconds)
         print(f"   {m:8s} samples={r['samples']}  p50 {r['p50']:.1f} ms  p99 {r['p99']:.1f} ms"
               f"  ({r['p99'] / 127:.0%} of the goal at p99)")
+    if "3" not in args.figures:
+        return
     turn = x_turnaround_s(robot)
     lim_xf = None if turn is None else 1 / (1 / lim_x + turn)
     print(f"\n3. commands per second, median of {args.repeat} (limits: x {lim_x:.1f}/s, "

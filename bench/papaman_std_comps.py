@@ -2,15 +2,17 @@
 
 from __future__ import annotations
 
+import json
 import time
 
 from esair_std import Behavior
+from esair_std.drivers.minlink.driver import MinLink
 
 
 class Stepper(Behavior):
     """Sends options['n'] servo commands to papaman.servo.l_knee, one every
     options['every'] seconds (phase drifting against the robot's tick), and keeps
-    the wall time (time.time()) just before each send."""
+    time.monotonic() just before each send (one clock for every process)."""
 
     def start(self):
         self.knee = self.attach_actuator("papaman.servo.l_knee")
@@ -22,13 +24,13 @@ class Stepper(Behavior):
         for i in range(n):
             if self.stopping:
                 return
-            t = time.time()
+            t = time.monotonic()
             try:
                 self.knee.send({"angle": 100 + (i % 2) * 10, "speed": 0}, timeout=2.0)
                 self.sent.append(t)
             except Exception:  # noqa: BLE001 - counted
                 self.errors += 1
-            time.sleep(max(0.0, every - (time.time() - t)))
+            time.sleep(max(0.0, every - (time.monotonic() - t)))
 
     def provide(self, requester):
         return {"sent": self.sent, "errors": self.errors, "done": len(self.sent) + self.errors
@@ -60,3 +62,30 @@ class Blaster(Behavior):
     def provide(self, requester):
         return {"took": self.took, "errors": self.errors,
                 "done_at": getattr(self, "done_at", None)}
+
+
+class TimedMinLink(MinLink):
+    """The MinLink driver, noting for the bench (in options['notes'], a file of JSON
+    lines, in thread and process mode alike) its in-process robot's pacer origin (wall:
+    time.monotonic(), virtual seconds) and the robot's virtual time as each servo line
+    has been written to the port."""
+
+    def open(self):
+        super().open()
+        notes = self.options["notes"]
+        port = self.link._port                         # the esair:// robot
+        pacer = port._pacer
+        with open(notes, "a") as f:
+            f.write(json.dumps({"t0_wall": pacer._t0_wall, "factor": pacer.factor,
+                                "t0_virtual": pacer._t0_virtual / 1e9}) + "\n")
+        write = port.write
+
+        def timed_write(data, _write=write):           # the port's virtual time at the write
+            out = _write(data)
+            if data.lstrip(b"\r\n")[:1] == b"o":
+                t = port.emulator.clock.now / 1e9
+                with open(notes, "a") as f:
+                    f.write(json.dumps({"written": t}) + "\n")
+            return out
+
+        port.write = timed_write                       # the Link calls its port's write

@@ -34,7 +34,9 @@ def read_mcap(path: Path | str) -> tuple[dict[str, dict[str, list]], list[tuple[
     reactions: list[tuple[float, str]] = []
     try:
         with open(path, "rb") as f:
-            for _s, channel, message in make_reader(f).iter_messages(log_time_order=True):
+            for schema, channel, message in make_reader(f).iter_messages(log_time_order=True):
+                if schema is not None and schema.name == "esair.Command":
+                    continue                    # the commands recorded: not samples
                 m = json.loads(message.data)
                 t, value = float(m["t"]), m["value"]
                 if isinstance(value, dict) and isinstance(value.get("notice"), str):

@@ -20,6 +20,7 @@ from esair_min.components.motion import MAX_FRAMES, MAX_MOTIONS, Frame, Motion  
 from esair_min.components.pressure_sensor import MAX_SENSORS, Sensor  # noqa: F401
 from esair_min.components.servo import MAX_SERVOS, Servo  # noqa: F401
 from esair_min.model import avr, hardware, mcu
+from esair_min.model.figure import Figure
 from esair_min.model.mcu import McuSpec
 from esair_min.model.types import (Angle, I2cAddress, Name, Number, Pin,  # noqa: F401
                                    Section, Speed)
@@ -157,6 +158,9 @@ class BoardCore(Section):
     commands: tuple[Command, ...] | None = Field(
         None, description="PC command table; omitted = the PAPA-MAN table")
     reactions: tuple[Reaction, ...] = ()
+    figure: Figure | None = Field(
+        None, description="optional: how the HMI draws the robot (actuator boards; a biped "
+                          "stick figure from link lengths and joint servos)")
 
     # Values computed from the datasheet formulas (validated to be in range).
     @property

@@ -23,6 +23,7 @@ from esair_min.errors import ConfigError, config_errors, file_mark
 from esair_min.components import COMPONENTS, motion, omni_base
 from esair_min.model.encoding import CHECKSUM_CHARS, MAX_LINE, encode_high
 from esair_min.model.board import DEFAULT_COMMANDS, Board, BoardDevice, Command, EepromDevice
+from esair_min.model.figure import LEG_JOINTS
 from esair_min.model.robot import Robot, frame_bus_load
 from esair_min.config.schema_errors import did_you_mean, schema_errors
 from esair_min.config.yamlload import Document, load_yaml
@@ -34,13 +35,13 @@ TICK_TOLERANCE = 0.01
 #: section to the roles it names (esair_min.components).
 CORE_SECTIONS = {
     "central": {"uart", "tick", "sync", "commands", "reactions"},
-    "actuator": {"sync"},
+    "actuator": {"sync", "figure"},
     "sensor": set(),
     "drive": set(),
 }
 ROLE_SECTIONS = {role: sections | {c.section for c in COMPONENTS if role in c.roles}
                  for role, sections in CORE_SECTIONS.items()}
-OPTIONAL_SECTIONS = {"uart", "tick", "sync", "commands", "reactions"} | {
+OPTIONAL_SECTIONS = {"uart", "tick", "sync", "commands", "reactions", "figure"} | {
     c.section for c in COMPONENTS}
 
 
@@ -100,6 +101,7 @@ class _Checker:
         for c in COMPONENTS:
             self.rule(c.board_rules, self, b)
         self.rule(self.pin_rules, b)
+        self.rule(self.figure_rules, b)
 
     def section_rules(self, b: Board) -> None:
         data = self.doc(b).data
@@ -120,6 +122,36 @@ class _Checker:
                                 f"board needs it", key=True)
                 else:
                     self.report(b, (), f"{_an(b.role)} board needs a '{section}:' section")
+
+    def figure_rules(self, b: Board) -> None:
+        """The figure names servos of this board, each joint its own servo."""
+        f = b.figure
+        if f is None:
+            return
+        names = [s.name for s in b.servos]
+        for side in ("left", "right"):
+            if side not in f.legs:
+                self.report(b, ("figure", "legs"), f"figure: a biped needs a '{side}' leg")
+        seen: dict[str, tuple[str, str]] = {}
+        for side, leg in f.legs.items():
+            for joint in LEG_JOINTS:
+                servo = getattr(leg, joint)
+                loc = ("figure", "legs", side, joint)
+                if servo not in names:
+                    self.report(b, loc, f"figure: {side} {joint}: no servo named '{servo}' on "
+                              f"this board{did_you_mean(servo, names)}")
+                if servo in seen:
+                    self.report(b, loc, f"figure: {side} {joint}: servo '{servo}' already turns "
+                              f"the {seen[servo][0]} {seen[servo][1]}")
+                seen[servo] = (side, joint)
+        for i, servo in enumerate(f.reversed):
+            if servo not in seen:
+                self.report(b, ("figure", "reversed", i), f"figure: reversed: '{servo}' turns no "
+                          f"joint of the figure{did_you_mean(servo, list(seen))}")
+        for servo in f.zero:
+            if servo not in seen:
+                self.report(b, ("figure", "zero", servo), f"figure: zero: '{servo}' turns no "
+                          f"joint of the figure{did_you_mean(servo, list(seen))}", key=True)
 
     def unique(self, b: Board, section: str, field: str) -> None:
         seen: dict[Any, int] = {}

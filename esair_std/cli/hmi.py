@@ -139,9 +139,10 @@ COMMANDS = [hmi_cmd, hmi_password_cmd]
 @friendly
 def record_cmd(out: str, names: tuple[str, ...], endpoint: str | None,
                seconds: float | None) -> None:
-    """Record every sample of the sensors NAMES (fnmatch patterns; default: all) to
-    OUT.mcap (JSON messages with a JSON schema: Foxglove, Lichtblick and PlotJuggler open
-    it), as the principal `record` (read, as the deployment's `allow` permits)."""
+    """Record every sample of the sensors NAMES (fnmatch patterns; default: all) and
+    every command the actuators NAMES run (with its outcome) to OUT.mcap (JSON messages
+    with a JSON schema: Foxglove, Lichtblick and PlotJuggler open it), as the principal
+    `record` (read, as the deployment's `allow` permits)."""
     import threading
 
     from ..record import Recorder
@@ -153,8 +154,9 @@ def record_cmd(out: str, names: tuple[str, ...], endpoint: str | None,
     click.echo(f"recording to {out}", err=True)
     stop.wait(seconds)
     c = rec.stop()
-    click.echo(f"{out}: {c['written']} samples on {c['channels']} channels, "
-               f"{c['dropped']} dropped, {c['gaps']} gaps in seq", err=True)
+    click.echo(f"{out}: {c['written']} samples and {c['commands']} commands on "
+               f"{c['channels']} channels, {c['dropped']} dropped, "
+               f"{c['gaps'] + c['command_gaps']} gaps in seq", err=True)
     sys.stdout.flush()
     sys.stderr.flush()
     os._exit(0)

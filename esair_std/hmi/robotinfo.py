@@ -1,6 +1,7 @@
 """What the page needs to know of a MIN robot, from its validated board files: each
 servo's limits and stand angle, the motions of its EEPROM image with their frames, the
-foot sensors and their groups, the balance reaction's threshold, the tick."""
+foot sensors and their groups, the balance reaction's threshold, the tick, and the
+actuator board's optional ``figure:`` (how to draw the robot)."""
 
 from __future__ import annotations
 
@@ -41,6 +42,9 @@ def robot_info(robot_arg: str) -> dict[str, Any]:
                     for s in robot.sensors],
         "groups": groups,
         "balance": balance,
+        # the board files' figure: section (None: the page shows the joints as dials)
+        "figure": (robot.actuator.figure.model_dump(mode="json")
+                   if robot.actuator is not None and robot.actuator.figure is not None else None),
     }
 
 

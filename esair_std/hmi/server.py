@@ -17,6 +17,7 @@ import json
 import logging
 import mimetypes
 import ssl as _ssl
+import threading
 import time
 from http import HTTPStatus
 from pathlib import Path
@@ -36,6 +37,7 @@ from .bridge import Bridge, BridgeError
 log = logging.getLogger("esair_std.hmi")
 STATIC = Path(__file__).resolve().parent / "static"
 PAGE_QUEUE = 512            # messages waiting for one page
+PENDING_MAX = 10_000        # messages emitted and not yet handed to the pages (counted as dropped past it)
 MAX_FRAME = 64 * 1024       # bytes of one frame from a page
 CSP = ("default-src 'self'; img-src 'self' data:; style-src 'self' 'unsafe-inline'; "
        "connect-src 'self'; frame-ancestors 'none'")
@@ -93,21 +95,45 @@ class HmiServer:
         self.record_dir = Path(record_dir)
         self.tap: Tap | None = None
         self.c = dict(pages=0, frames=0, bad_frames=0, refused=0, dropped=0,
-                      origin_refused=0, commands=0, command_errors=0)
+                      origin_refused=0, commands=0, command_errors=0, batches=0)
         self._stop: asyncio.Event | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
+        self._pending: list[dict] = []            # emitted, not yet sent (bounded)
+        self._pending_lock = threading.Lock()
+        self._flush_due = False
 
     # ---- fan-out (any thread -> the loop)
     def emit(self, msg: dict) -> None:
+        """Hand ``msg`` to the pages. The caller (Zenoh's thread, the bridge's poller)
+        only appends it to a bounded list; the loop is woken once for all that came
+        meanwhile, encodes them once, and sends each page one frame (``{"t": "b", "m":
+        [...]}`` for more than one): at 50 Hz of samples and more, one loop wake-up and
+        one WebSocket frame per batch, not per sample."""
         tap = self.tap
         if tap is not None and msg.get("t") == "s":
             tap.put(msg)
         loop = self._loop
-        if loop is not None and not loop.is_closed():
-            loop.call_soon_threadsafe(self._broadcast, msg)
+        if loop is None or loop.is_closed():
+            return
+        with self._pending_lock:
+            if len(self._pending) >= PENDING_MAX:
+                self.c["dropped"] += 1
+                return
+            self._pending.append(msg)
+            if self._flush_due:
+                return
+            self._flush_due = True
+        loop.call_soon_threadsafe(self._flush)
 
-    def _broadcast(self, msg: dict) -> None:
-        text = json.dumps(msg, separators=(",", ":"))
+    def _flush(self) -> None:
+        with self._pending_lock:
+            msgs, self._pending = self._pending, []
+            self._flush_due = False
+        if not msgs:
+            return
+        self.c["batches"] += 1
+        one = msgs[0] if len(msgs) == 1 else {"t": "b", "m": msgs}
+        text = json.dumps(one, separators=(",", ":"))
         for page in list(self.pages):
             self._send(page, text)
 

@@ -53,6 +53,7 @@ class ZenohPort:
         self.bus = bus
         self.robot = robot
         self._pubs: dict[str, Any] = {}
+        self._cmd_pubs: dict[str, Any] = {}
         self._calls: dict[str, SampleCaller] = {}
         self._routes: dict[str, Any] = {}        # actuator -> transport.bus.Route
 
@@ -186,6 +187,14 @@ class ZenohPort:
         if pub is None:
             pub = self._pubs[resource] = self.bus.publisher(keys.sensor(self.robot, resource))
         pub(sample.to_wire())
+
+    def publish_command(self, resource: str, record: dict) -> None:
+        """A command the actuator ran, for recorders (never waits for a congested link)."""
+        pub = self._cmd_pubs.get(resource)
+        if pub is None:
+            pub = self._cmd_pubs[resource] = self.bus.publisher(
+                keys.command(self.robot, resource), drop=True, express=False)
+        pub(record)
 
     def resource_state_changed(self, resource: str, state: str, reason: str) -> None:
         try:

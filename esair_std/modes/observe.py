@@ -104,7 +104,8 @@ class Observe:
                 bus = self.server.bus
                 if bus is None:
                     raise ControlError("the control endpoint is not open")
-                put = bus.publisher(keys.sensor(self.rt.robot, res), drop=True)
+                put = bus.publisher(keys.sensor(self.rt.robot, res), drop=True,
+                                    express=False)    # batched: 1 kHz sensors
                 fwd = self.forwards[res] = _Forward(put)
             if fwd.detached:                   # each sample published once for all
                 fwd.detached = False

@@ -41,6 +41,7 @@ class Slot:
         self.state = "ready"
         self.reason = ""
         self.seq = 0
+        self.cseq = 0                   # commands run (an actuator's record numbers)
         self.next_poll = 0.0
         self._lock = threading.Lock()
         self.c = dict(reported=0, commands=0, command_errors=0, polls_late=0)
@@ -290,17 +291,43 @@ class ResourceHost:
             else:
                 value = codec.copy(slot.obj.configure(*args))
         except ResourceLost as exc:
-            return on_done(False, exc)
+            on_done(False, exc)
+            if op == "write":
+                self._ran(slot, args[0], asked, {"error": exc.reason})
+            return None
         except CommandError as exc:
             slot.c["command_errors"] += 1
-            return on_done(False, exc.reason)
+            on_done(False, exc.reason)
+            if op == "write":
+                self._ran(slot, args[0], asked, {"error": exc.reason})
+            return None
         except Exception as exc:  # noqa: BLE001 - reaches the sender as CommandError
             slot.c["command_errors"] += 1
-            return on_done(False, f"{type(exc).__name__}: {exc}")
+            on_done(False, f"{type(exc).__name__}: {exc}")
+            if op == "write":
+                self._ran(slot, args[0], asked, {"error": f"{type(exc).__name__}: {exc}"})
+            return None
         except BaseException as exc:
             on_done(False, ResourceLost(slot.name, f"its host died: {type(exc).__name__}: {exc}"))
             raise
         on_done(True, value)
+        if op == "write":
+            self._ran(slot, args[0], asked, {"ok": value})
+
+    def _ran(self, slot: Slot, command: Any, asked: float | None, outcome: dict) -> None:
+        """Publish a command the actuator ran and its outcome for recorders (after its
+        sender has its answer): ``{seq, t, v: {command, ok | error}}``, ``seq`` the
+        actuator's command number, ``t`` when it reached this host (time.time())."""
+        publish = getattr(self.port, "publish_command", None)
+        if publish is None:
+            return
+        slot.cseq += 1
+        now = time.time()
+        t = now if asked is None else now - (time.monotonic() - asked)
+        try:
+            publish(slot.name, {"seq": slot.cseq, "t": t, "v": dict(outcome, command=command)})
+        except Exception as exc:  # noqa: BLE001 - a record lost is not the command's fault
+            log.warning("%s: command record not published: %s", slot.name, exc)
 
     def _close(self) -> None:
         for s in self.slots.values():

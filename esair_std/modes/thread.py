@@ -13,6 +13,7 @@ from ..errors import ComponentError
 from ..level import Level
 from ..classes import component_class
 from ..spec import Spec
+from ..transport import keys
 from .host import ComponentHost
 from .reshost import ResourceHost
 
@@ -26,6 +27,7 @@ START_TIMEOUT = 10.0
 class LocalPort:
     def __init__(self, rt: RuntimeView):
         self.rt = rt
+        self._cmd_pubs: dict[str, Any] = {}
 
     def _uses(self, who: str) -> dict | None:
         rec = self.rt.bs.records.get(who)
@@ -91,6 +93,18 @@ class LocalPort:
 
     def publish(self, resource: str, sample: Any) -> None:
         self.rt.sc.route(resource, sample)
+
+    def publish_command(self, resource: str, record: dict) -> None:
+        """A command the actuator ran, for recorders outside: on Zenoh when the runtime
+        serves its control endpoint (else nobody outside could listen)."""
+        server = self.rt.server
+        if server is None or server.bus is None:
+            return
+        pub = self._cmd_pubs.get(resource)
+        if pub is None:
+            pub = self._cmd_pubs[resource] = server.bus.publisher(
+                keys.command(self.rt.robot, resource), drop=True, express=False)
+        pub(record)
 
     def resource_state_changed(self, resource: str, state: str, reason: str) -> None:
         self.rt.rs.set_state(resource, state, reason)

@@ -1,5 +1,8 @@
 """MCAP files of samples: one channel per sensor, messages ``{"seq", "t", "value"}``
-encoded as JSON under the JSON schema :data:`SCHEMA`; log time = the sample's time."""
+encoded as JSON under the JSON schema :data:`SCHEMA`; log time = the sample's time.
+Commands, one channel per actuator (topic ``command/<actuator>``), messages ``{"seq",
+"t", "command", "ok" | "error"}`` under :data:`COMMAND_SCHEMA`; log time = when the
+command reached the actuator's host."""
 
 from __future__ import annotations
 
@@ -19,6 +22,18 @@ SCHEMA = {"type": "object", "title": "esair.Sample",
           "required": ["seq", "t", "value"]}
 
 
+COMMAND_SCHEMA = {
+    "type": "object", "title": "esair.Command",
+    "properties": {"seq": {"type": "integer", "description": "the actuator's command number, from 1"},
+                   "t": {"type": "number", "description": "seconds since the epoch, when it reached "
+                                                          "the actuator's host"},
+                   "command": {"description": "the command as sent"},
+                   "ok": {"description": "the actuator's answer (the command ran)"},
+                   "error": {"type": "string", "description": "why it failed"}},
+    "required": ["seq", "t", "command"]}
+COMMAND_TOPIC = "command/"
+
+
 class SampleWriter:
     def __init__(self, f: BinaryIO):
         self.w = Writer(f)
@@ -26,6 +41,7 @@ class SampleWriter:
         self.schema = self.w.register_schema(name="esair.Sample", encoding="jsonschema",
                                              data=json.dumps(SCHEMA).encode())
         self.channels: dict[str, int] = {}
+        self._command_schema: int | None = None
 
     def write(self, topic: str, seq: int, t: float, value: Any) -> None:
         ch = self.channels.get(topic)
@@ -37,12 +53,41 @@ class SampleWriter:
                            data=json.dumps({"seq": seq, "t": t, "value": value},
                                            separators=(",", ":")).encode())
 
+    def write_command(self, actuator: str, seq: int, t: float, record: dict) -> None:
+        """One command ``record`` ({command, ok | error}) of ``actuator``."""
+        topic = COMMAND_TOPIC + actuator
+        ch = self.channels.get(topic)
+        if ch is None:
+            if self._command_schema is None:
+                self._command_schema = self.w.register_schema(
+                    name="esair.Command", encoding="jsonschema",
+                    data=json.dumps(COMMAND_SCHEMA).encode())
+            ch = self.channels[topic] = self.w.register_channel(
+                topic=topic, message_encoding="json", schema_id=self._command_schema)
+        ns = int(t * 1e9)
+        self.w.add_message(channel_id=ch, log_time=ns, publish_time=ns, sequence=seq & 0xFFFFFFFF,
+                           data=json.dumps(dict(record, seq=seq, t=t),
+                                           separators=(",", ":")).encode())
+
     def finish(self) -> None:
         self.w.finish()
 
 
 def read_samples(path: str | Path) -> Iterator[tuple[str, int, float, Any]]:
-    """(topic, seq, t, value) of every message, in log time order."""
+    """(topic, seq, t, value) of every sample, in log time order (commands left out)."""
+    for kind, topic, seq, t, value in _read(path):
+        if kind == "sample":
+            yield topic, seq, t, value
+
+
+def read_commands(path: str | Path) -> Iterator[tuple[str, int, float, dict]]:
+    """(actuator, seq, t, {command, ok | error}) of every command, in log time order."""
+    for kind, topic, seq, t, value in _read(path):
+        if kind == "command":
+            yield topic, seq, t, value
+
+
+def _read(path: str | Path) -> Iterator[tuple[str, str, int, float, Any]]:
     try:
         f = open(path, "rb")  # noqa: SIM115 - closed by the with below
     except OSError as exc:
@@ -53,7 +98,12 @@ def read_samples(path: str | Path) -> Iterator[tuple[str, int, float, Any]]:
                 if channel.message_encoding != "json":
                     continue
                 m = json.loads(message.data)
-                yield channel.topic, int(m["seq"]), float(m["t"]), m["value"]
+                if _schema is not None and _schema.name == "esair.Command":
+                    rec = {k: v for k, v in m.items() if k not in ("seq", "t")}
+                    yield ("command", channel.topic[len(COMMAND_TOPIC):], int(m["seq"]),
+                           float(m["t"]), rec)
+                else:
+                    yield "sample", channel.topic, int(m["seq"]), float(m["t"]), m["value"]
         except (ValueError, KeyError, TypeError) as exc:
             raise StdError(f"{path} is not an MCAP recording of ESAIR samples: {exc}") from None
         except Exception as exc:  # noqa: BLE001 - the mcap reader's own errors

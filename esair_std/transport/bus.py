@@ -129,14 +129,18 @@ class Bus:
             key, zenoh.handlers.Callback(cb, indirect=False)))
 
     # pub/sub
-    def publisher(self, key: str, drop: bool = False, raw: bool = False) -> Callable[[Any], None]:
+    def publisher(self, key: str, drop: bool = False, raw: bool = False,
+                  express: bool | None = None) -> Callable[[Any], None]:
         """``put(obj)`` for ``key``. ``drop``: never wait for a congested link (for
-        messages whose loss the sender notices by a timeout), sent at once (express).
+        messages whose loss the sender notices by a timeout), sent at once (express,
+        unless ``express=False``: a stream of many small messages, batched by Zenoh, costs
+        far less and so is dropped far less when the computer is busy).
         ``raw``: ``put(data)`` takes the bytes already encoded (codec.encode). A table of
         publishers per peer gives them back with :meth:`undeclare` when the peer goes."""
         if drop:
             pub = self._keep(self.session.declare_publisher(
-                key, congestion_control=zenoh.CongestionControl.DROP, express=True))
+                key, congestion_control=zenoh.CongestionControl.DROP,
+                express=True if express is None else express))
         else:
             pub = self._keep(self.session.declare_publisher(
                 key, congestion_control=zenoh.CongestionControl.BLOCK))

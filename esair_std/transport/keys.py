@@ -11,6 +11,8 @@
     esair/<robot>/rs/<entry>           RS -> resource host (configure, grant, revoke...)
     esair/<robot>/sensor/<resource>    sensor samples, published by the sensor's host
     esair/<robot>/actuator/<resource>  commands, a queryable on the actuator's host
+    esair/<robot>/command/<resource>   each command the actuator's host ran, and its
+                                       outcome (published, for recorders)
     esair/<robot>/alive/<kind>/<name>  liveliness tokens
 """
 
@@ -63,6 +65,10 @@ def sensor(robot: str, resource: str) -> str:
 
 def actuator(robot: str, resource: str) -> str:
     return f"esair/{robot}/actuator/{resource}"
+
+
+def command(robot: str, resource: str) -> str:
+    return f"esair/{robot}/command/{resource}"
 
 
 def alive(robot: str, kind: str, name: str) -> str:

@@ -53,6 +53,32 @@ def test_the_page_loads_without_errors_and_lists_every_component(robot, browser)
     assert page.locator("#stop").is_visible() and page.locator("#stop").is_enabled()
     page.wait_for_function("() => window.__hmi.feet.t.length > 2")       # feet samples drawn
     assert page.locator("#banner").is_hidden()
+    # the stick figure, drawn from the actuator board's figure: section (lengths in thighs)
+    assert page.locator("#pose-note").inner_text() == "commanded · front and side"
+    assert page.evaluate("() => window.__hmi.pose.G") == {
+        "torso": 1.3, "hip": 0.45, "thigh": 1, "shank": 1, "foot": 0.45, "head": 0.25}
+    # a bent knee moves the side view's pixels; the same module draws dials for a robot
+    # whose board files have no figure: section
+    drawn = page.evaluate("""async () => {
+      const pose = window.__hmi.pose, c = pose.canvas;
+      const pixels = () => c.getContext("2d").getImageData(330, 0, 190, c.height).data.join();
+      const before = pixels();
+      pose.set({l_knee: 40}); pose.draw();
+      const bent = pixels() !== before;
+      pose.set({l_knee: 90}); pose.draw();
+      const { Pose } = await import("/pose.js");
+      const el = document.createElement("div"), note = document.createElement("small");
+      const info = Object.assign({}, window.__hmi.info, {figure: null});
+      const plain = new Pose(el, note, info);
+      return {bent, biped: plain.biped, note: note.textContent, canvases: el.children.length};
+    }""")
+    assert drawn == {"bent": True, "biped": False, "note": "commanded · joints as dials",
+                     "canvases": 1}
+    # a batch frame (the server sends what came meanwhile as one) is taken in order
+    page.evaluate("""() => window.__hmi.receive({t: "b", m: [
+      {t: "log", level: "info", text: "batched one"}, {t: "log", level: "info", text: "batched two"}]})""")
+    log = page.locator("#log").inner_text()
+    assert "batched one" in log and "batched two" in log
     page.close()
     assert errors == []
 

@@ -156,7 +156,7 @@ EXPECTED = {
     "root_scalar":
         'tests/fixtures/bad/root_scalar/central.yaml:2:1: the file is a single value; a board file must be a mapping of keys (board:, role:, i2c:, ...)',
     "section_on_wrong_board":
-        "tests/fixtures/bad/section_on_wrong_board/actuator.yaml:16:1: 'uart' does not belong on an actuator board (an actuator board may have: servos, sync); remove it, or check 'role: actuator'",
+        "tests/fixtures/bad/section_on_wrong_board/actuator.yaml:16:1: 'uart' does not belong on an actuator board (an actuator board may have: figure, servos, sync); remove it, or check 'role: actuator'",
     "sensor_min_above_max":
         "tests/fixtures/bad/sensor_min_above_max/sensor.yaml:19:70: sensor 'r_toe_in': max (100) must be above min (500)",
     "servo_index_gap":
@@ -187,7 +187,7 @@ EXPECTED = {
         "tests/fixtures/bad/two_actuators/sensor.yaml:4:1: an actuator board needs a 'servos:' section",
         "tests/fixtures/bad/two_actuators/sensor.yaml:4:1: an actuator board needs a 'sync:' section",
         "tests/fixtures/bad/two_actuators/sensor.yaml:5:7: a robot has one actuator board, and board 'actuator' (tests/fixtures/bad/two_actuators/actuator.yaml) already is one; change one 'role'",
-        "tests/fixtures/bad/two_actuators/sensor.yaml:14:1: 'sensors' does not belong on an actuator board (an actuator board may have: servos, sync); remove it, or check 'role: actuator'",
+        "tests/fixtures/bad/two_actuators/sensor.yaml:14:1: 'sensors' does not belong on an actuator board (an actuator board may have: figure, servos, sync); remove it, or check 'role: actuator'",
     ),
     "two_eeproms":
         'tests/fixtures/bad/two_eeproms/central.yaml:22:3: only one EEPROM device is supported; remove the others',
@@ -217,6 +217,12 @@ EXPECTED = {
         "tests/fixtures/bad/wrong_type_i2c/sensor.yaml:10:6: 'i2c' must be a mapping of keys, not text 'slave 0x20'",
     "wrong_type_yes_no":
         "tests/fixtures/bad/wrong_type_yes_no/sensor.yaml:15:43: 'group' must be text, not true (YAML reads unquoted yes/no/on/off/true/false as true/false: quote it)",
+    "figure_unknown_servo":
+        "tests/fixtures/bad/figure_unknown_servo/actuator.yaml:40:85: figure: left knee: no servo named 'l_kne' on this board (did you mean 'l_knee'?)",
+    "figure_servo_twice":
+        "tests/fixtures/bad/figure_servo_twice/actuator.yaml:43:53: figure: right ankle_roll: servo 'r_ankle_pitch' already turns the right ankle_pitch",
+    "figure_bad_length":
+        "tests/fixtures/bad/figure_bad_length/actuator.yaml:38:41: 'thigh' must be greater than 0, not 0",
     "slave_speed": (
         'tests/fixtures/bad/slave_speed/actuator.yaml:14:13: the generated I2C slave runs at 100000 Hz only (at 400000 Hz a byte it takes late could be mistaken for its address); use speed_hz: 100000 on every board',
         'tests/fixtures/bad/slave_speed/sensor.yaml:12:13: the generated I2C slave runs at 100000 Hz only (at 400000 Hz a byte it takes late could be mistaken for its address); use speed_hz: 100000 on every board',

@@ -124,7 +124,7 @@ def test_a_command_not_written_within_its_deadline_is_dropped(tmp_path, robot):
         try:
             poll = threading.Thread(target=lambda: pytest.raises(LinkDown, link.feet))
             poll.start()
-            _wait(lambda: link._slot is not None, what="the poll in flight")
+            _wait(lambda: link.in_flight == 1, what="the poll in flight")
             with pytest.raises(Expired) as exc:
                 link.command("PLY03", timeout=0.2)
             assert str(exc.value) == (f"link to {emu.port}: 'PLY03' not written within "

@@ -8,12 +8,15 @@ import json
 import signal
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 from mcap.reader import make_reader
 
-from esair_std.record import SCHEMA, read_samples
+from esair_std.record import COMMAND_SCHEMA, SCHEMA, read_commands, read_samples
 from tests.support.std import MODES, esair, free_endpoint, std_run, wait_for
+
+ROOT = Path(__file__).resolve().parents[2]
 
 
 @pytest.mark.parametrize("mode", MODES)
@@ -27,18 +30,45 @@ def test_record_then_replay(tmp_path, mode):
                                          in json.loads(r.stdout)["components"]) == 19
     with std_run("papaman", mode, ep, deployed):
         rec = subprocess.Popen([sys.executable, "-m", "esair_min.cli", "std", "record", str(out),
-                                "papaman.feet", "-e", ep], stderr=subprocess.PIPE, text=True)
+                                "papaman.feet", "papaman.servo.l_knee", "-e", ep],
+                               stderr=subprocess.PIPE, text=True)
         assert rec.stderr.readline() == f"recording to {out}\n"      # watching from here
 
         def seq():
             return json.loads(esair("inspect", "papaman.feet", "-e", ep).stdout)["counters"]["seq"]
         first = seq()
         wait_for(lambda: seq() >= first + 5, timeout=30, what="five more feet samples")
+        # (the recorder's subscriptions are in place: the feet samples reach it)
+        sent = [{"angle": 100, "speed": 3}, {"angle": 151}, {"angle": 90, "speed": 3}]
+        answers = [esair("send", "papaman.servo.l_knee", json.dumps(c), "-e", ep, check=False)
+                   for c in sent]
+        assert [a.stdout for a in answers] == ['"odd100"\n', "", '"odd090"\n']
+        refusal = ("servo l_knee: angle 151 is outside its limits 0..150 "
+                   f"({ROOT / 'boards' / 'papaman' / 'actuator.yaml'}); not sent")
+
         rec.send_signal(signal.SIGTERM)
         assert rec.wait(timeout=30) == 0
         samples = list(read_samples(out))
+        commands = list(read_commands(out))
         assert rec.stderr.read().splitlines()[-1] == (
-            f"{out}: {len(samples)} samples on 1 channels, 0 dropped, 0 gaps in seq")
+            f"{out}: {len(samples)} samples and {len(commands)} commands on 2 channels, "
+            "0 dropped, 0 gaps in seq")
+        # every command the actuator ran, in order, numbered, stamped, with its outcome
+        # (read with the mcap library itself)
+        with open(out, "rb") as f:
+            rows = [(ch.topic, sc.name, json.loads(m.data), m.log_time, m.sequence)
+                    for sc, ch, m in make_reader(f).iter_messages(log_time_order=True)
+                    if ch.topic.startswith("command/")]
+        assert [(r[0], r[1]) for r in rows] == [("command/papaman.servo.l_knee",
+                                                 "esair.Command")] * 3
+        assert [{k: v for k, v in r[2].items() if k not in ("seq", "t")} for r in rows] == [
+            {"command": sent[0], "ok": "odd100"}, {"command": sent[1], "error": refusal},
+            {"command": sent[2], "ok": "odd090"}]
+        seqs = [r[2]["seq"] for r in rows]
+        assert seqs == list(range(seqs[0], seqs[0] + 3)) and [r[4] for r in rows] == seqs
+        assert [r[3] for r in rows] == sorted(r[3] for r in rows)
+        assert [r[3] for r in rows] == [int(r[2]["t"] * 1e9) for r in rows]
+        assert samples[0][2] - 30 < rows[0][2]["t"] < samples[-1][2] + 30
         assert len(samples) >= 5
         assert {s[0] for s in samples} == {"papaman.feet"}
         seqs = [s[1] for s in samples]
@@ -46,9 +76,10 @@ def test_record_then_replay(tmp_path, mode):
         assert set(samples[0][3]["groups"]) == {"left_foot", "right_foot"}
         with open(out, "rb") as f:
             summary = make_reader(f).get_summary()
-        (schema,) = summary.schemas.values()
-        assert (schema.encoding, json.loads(schema.data)) == ("jsonschema", SCHEMA)
-        assert [c.message_encoding for c in summary.channels.values()] == ["json"]
+        schemas = {s.name: s for s in summary.schemas.values()}
+        assert {n: (s.encoding, json.loads(s.data)) for n, s in schemas.items()} == {
+            "esair.Sample": ("jsonschema", SCHEMA), "esair.Command": ("jsonschema", COMMAND_SCHEMA)}
+        assert [c.message_encoding for c in summary.channels.values()] == ["json", "json"]
 
         r = subprocess.run([sys.executable, "-m", "esair_min.cli", "plot", str(out), "-o",
                             str(tmp_path / "run.png")], capture_output=True, text=True)

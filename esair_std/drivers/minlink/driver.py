@@ -16,6 +16,8 @@ Deployment entry (the entry's name is the robot's name in resource names)::
       timeout: 1.0                # seconds for a reply; longer means the link is down
       deadline: 0.5               # seconds from a command's arrival to its line written;
                                   # later it is dropped, never sent (CommandError)
+      duplex: true                # write a command while a reply arrives (false: one
+                                  # command in flight; docs/std-papaman.md, "Full duplex")
       allow: {"*": command}
 
 Resources, named from the board files:
@@ -188,7 +190,7 @@ class FeetSensor(Sensor):
 
     def _poll(self) -> None:
         try:
-            value = self.link.feet()
+            value = self.link.feet(poll=True)      # commands go first
         except LinkDown:
             return                                  # the driver marks every resource lost
         except LinkError as exc:
@@ -277,6 +279,9 @@ class MinLink(Driver):
         deadline = _number(opts, "deadline", DEFAULT_DEADLINE_S)
         if not deadline > 0:
             raise LinkError(f"{self.name}: option 'deadline' {deadline:g} must be more than 0 s")
+        duplex = opts.get("duplex", True)
+        if not isinstance(duplex, bool):
+            raise LinkError(f"{self.name}: option 'duplex' must be true or false, got {duplex!r}")
         if hz != 0:                                         # 0: the feet are not polled
             line_budget(robot).check_feet_hz(hz, share)    # refused before anything starts
         self._closing = threading.Event()
@@ -294,7 +299,7 @@ class MinLink(Driver):
         self.notices = NoticeSensor()
         self.link = Link(robot, str(port), timeout=timeout,
                          on_state=self._link_state, on_notice=self.notices.notice,
-                         expect_id=expect,
+                         expect_id=expect, duplex=duplex,
                          may_open=self.emulated.held if self.emulated is not None else None)
         try:
             self.link.open()

@@ -1,25 +1,45 @@
-"""One MIN robot's serial link: one command in flight, replies matched, notices apart.
+"""One MIN robot's serial link: full duplex, replies matched in order, notices apart.
 
 An I/O thread reads the port (pySerial: a device, a pty, an ``esair://`` URL). A caller
-of :meth:`Link.command` that finds the link idle writes its line itself (no hand-off to
-another thread before the bytes leave, which cost 0.05-0.15 ms a command); one that finds
-a command in flight waits in a queue (FIFO, bounded), and the I/O thread writes the next
-queued line the moment it has matched the reply before it, so the line never idles
-while commands wait (one writer at a time, as pySerial's ports allow). Each caller then
-waits for the I/O thread to see the line that answers its command; ``!`` lines go to the notices
-stream (bounded; what overflows is counted). An ``Enn`` reply raises
+of :meth:`Link.command` whose command may go out now writes its line itself (no hand-off
+to another thread before the bytes leave, which cost 0.05-0.15 ms a command); otherwise
+it waits in a queue (bounded), and the I/O thread writes the next queued line the moment
+it may go, so the line never idles while commands wait (one writer at a time, as
+pySerial's ports allow; lines leave in the order they were taken). Each caller then
+waits for the I/O thread to see the line that answers its command; ``!`` lines go to the
+notices stream (bounded; what overflows is counted). An ``Enn`` reply raises
 :class:`RobotRefused` in the caller, naming the command and the code.
 
-The protocol's replies carry no sequence number, so the link keeps them matched by
-never having two commands out and by resynchronising whenever it cannot be sure:
+**Full duplex.** The robot answers every line, in order (docs/protocol.md, "Replies"),
+and its receive ring takes the next line while a reply is still going out (its transmit
+ring is fed by an interrupt). So the link may write a second command while the reply to
+the first is arriving (``duplex``, the default; ``duplex=False`` keeps one in flight):
+at most two in flight, the second written only
 
-- an ``OK`` whose shape cannot answer the command in flight (a ``v`` reply to ``s``...)
-  is a stray, counted, not a reply;
+- once the robot is seen answering: a reply line has begun to arrive after the first
+  command was written (a robot that hangs gets nothing more: the command waits, and is
+  dropped at its deadline);
+- when the two replies cannot pass for one another (one ``s``, one ``v``, or one bare
+  ``OK`` command: never two of a kind), so an ``OK`` is matched by its shape;
+- when the unanswered bytes fit the robot's 64-byte receive ring (it cannot overrun).
+
+**Priority.** Commands go before polls (``poll=True``, the feet sensor's ``s``): a queued
+command is written first, whatever polls wait.
+
+The protocol's replies carry no sequence number, so the link keeps them matched by
+their order and shape, and resynchronises whenever it cannot be sure:
+
+- an ``OK`` whose shape cannot answer the oldest command in flight (a ``v`` reply to
+  ``s``...) is a stray, counted, not a reply;
 - an error that only a damaged line can cause (E01 E02 E03 E06 E12 E13: the link only
   sends well-formed lines) may be the answer to a line that noise made up, so the link
-  waits ``settle_s`` for a later, plausible ``OK`` before it reports the error;
-- no reply within ``timeout``, or a port error: the link is **down**. The command in
-  flight fails with :class:`LinkDown`, the port is closed, and the I/O thread reopens
+  waits ``settle_s`` for a later, plausible ``OK`` before it reports the error; with a
+  second command in flight, an ``OK`` of the second's shape in that time says the error
+  was the first one's (its reply came first), and a further wire error is the second
+  one's candidate error in turn; an error a well-formed line gets (E04, E10...) in that
+  time could answer either: the link cannot tell, and goes down (below);
+- no reply within ``timeout``, or a port error: the link is **down**. The commands in
+  flight fail with :class:`LinkDown`, the port is closed, and the I/O thread reopens
   it with exponential backoff; it is up again once a ``v`` probe is answered by the robot
   of the board files (servo and sensor count, checksum setting). While down, commands
   fail at once with :class:`LinkDown`; ``on_state`` reports every change.
@@ -48,7 +68,7 @@ from dataclasses import dataclass, field
 from typing import Any, Callable
 
 from esair_min.errors import ProtocolError
-from esair_min.core.protocol import Code, parse_reply
+from esair_min.core.protocol import RX_RING, Code, parse_reply
 from esair_min.model.robot import Robot
 
 from .budget import LineBudget, line_budget
@@ -64,7 +84,9 @@ POLL_S_NO_CANCEL = 0.002    # ... on a port without cancel_read
 RESYNC = b"\r\n"            # an empty line: no reply, but it ends a line noise began
 RESYNC_IDLE_S = 0.25        # a command after this long a silence is sent after RESYNC
 QUEUE_MAX = 64              # commands waiting for their turn; more are refused, not sent
+MAX_IN_FLIGHT = 2           # full duplex: one reply arriving, the next command written
 DIFFERENT_ROBOT = "a different robot answers on"
+OUT_OF_STEP = "replies out of step"
 
 
 @dataclass
@@ -75,19 +97,24 @@ class Exchange:
     wire: bytes
     timeout: float
     deadline: float = float("inf")   # not written by then: Expired, dropped
+    poll: bool = False               # a poll: commands go first
+    kind: str = ""                   # the shape of its OK reply (never two alike in flight)
     sent: bool = False
     t_sent: float = 0.0
     t_reply: float = 0.0
+    sent_bytes: int = 0
     data: str | None = None
     error: LinkError | None = None
     settle_until: float | None = None
     first_error: RobotRefused | None = None
+    later_error: RobotRefused | None = None    # a wire error after first_error
     started: threading.Event = field(default_factory=threading.Event)   # its turn came
     done: threading.Event = field(default_factory=threading.Event)
 
 
 StateCallback = Callable[[bool, str], None]
 NoticeCallback = Callable[[str, float], None]
+_Start = tuple[Exchange, Any, bytes]
 
 
 class Link:
@@ -97,7 +124,7 @@ class Link:
                  timeout: float = 1.0, backoff: tuple[float, float] = (0.05, 2.0),
                  notice_capacity: int = 256, on_state: StateCallback | None = None,
                  on_notice: NoticeCallback | None = None, expect_id: str | None = None,
-                 may_open: Callable[[], str | None] | None = None,
+                 may_open: Callable[[], str | None] | None = None, duplex: bool = True,
                  commands: RobotCommands | None = None, budget: LineBudget | None = None):
         if not timeout > 0:
             raise LinkError(f"link timeout {timeout:g} s must be more than 0")
@@ -109,6 +136,8 @@ class Link:
         self.baud = baud or self.budget.baud
         self.timeout = timeout
         self.backoff = backoff
+        self.duplex = duplex
+        self.max_in_flight = MAX_IN_FLIGHT if duplex else 1
         self.settle_s = (self.budget.line_s(2 * 44) + 2 * self.budget.tick_s)
         self.on_state = on_state
         self.on_notice = on_notice
@@ -119,15 +148,19 @@ class Link:
         self.stats: collections.Counter[str] = collections.Counter()
         self._notices: collections.deque[tuple[str, float]] = collections.deque(
             maxlen=notice_capacity)
-        self._lock = threading.Lock()          # guards _slot, _queue, _port, _up, _reason
-        self._write_lock = threading.Lock()    # one writer at a time
-        self._queue: collections.deque[Exchange] = collections.deque()
+        # _lock guards _flight, _queue, _polls, _port, _up, _reason; _write_lock: one
+        # writer at a time, taken while _lock is held so lines leave in the order taken
+        self._lock = threading.Lock()
+        self._write_lock = threading.Lock()
+        self._flight: collections.deque[Exchange] = collections.deque()  # oldest first
+        self._queue: collections.deque[Exchange] = collections.deque()   # commands
+        self._polls: collections.deque[Exchange] = collections.deque()   # polls
         self._stop = threading.Event()
         self._port: Any = None
-        self._slot: Exchange | None = None
         self._up = False
         self._reason = "not opened"
         self._buf = bytearray()
+        self._partial_since = 0.0          # a line from the robot began arriving then
         self._thread: threading.Thread | None = None
         self._poll: float | None = POLL_S
         self._last_write = 0.0
@@ -146,7 +179,7 @@ class Link:
         self._thread.start()
 
     def close(self) -> None:
-        """Stop the I/O thread, close the port, fail a command still in flight."""
+        """Stop the I/O thread, close the port, fail the commands still in flight."""
         self._stop.set()
         self._wake()
         if self._thread is not None:
@@ -154,7 +187,7 @@ class Link:
         with self._lock:
             self._up, self._reason = False, "closed"
             port, self._port = self._port, None
-            self._fail_slot(LinkDown(f"link to {self.port} closed"))
+            self._fail_all(LinkDown(f"link to {self.port} closed"))
         _close_quietly(port)
 
     def __enter__(self) -> "Link":
@@ -177,13 +210,24 @@ class Link:
         """True while the I/O thread runs."""
         return self._thread is not None and self._thread.is_alive()
 
+    @property
+    def in_flight(self) -> int:
+        """Commands written whose replies have not come yet."""
+        return len(self._flight)
+
+    @property
+    def waiting(self) -> int:
+        """Commands and polls waiting for their turn."""
+        return len(self._queue) + len(self._polls)
+
     # -- commands -------------------------------------------------------------------------
     def exchange(self, line: str, timeout: float | None = None, deadline: float | None = None,
-                 asked: float | None = None) -> Exchange:
+                 asked: float | None = None, poll: bool = False) -> Exchange:
         """Send ``line``, wait for its reply; raise on an ``Enn`` reply or a link down.
         ``deadline`` (``time.monotonic()``, default: ``timeout`` from now): written by
         then or dropped (:class:`Expired`); ``asked``: when the command was asked, to
-        refuse one asked before the link came up (both only decide whether it is sent)."""
+        refuse one asked before the link came up (both only decide whether it is sent);
+        ``poll``: a poll, which waits while commands wait."""
         timeout = self.timeout if timeout is None else timeout
         now = time.monotonic()
         deadline = now + timeout if deadline is None else min(deadline, now + timeout)
@@ -191,8 +235,10 @@ class Link:
             raise LinkDown(f"link to {self.port} is closed: {line!r} not sent")
         if not self._up:
             raise LinkDown(f"link to {self.port} is down ({self._reason}): {line!r} not sent")
-        ex = Exchange(line, self.commands.wire(line), timeout, deadline)
-        start = None
+        # the shape of its OK: a bare one, or its action's data (never two alike in flight)
+        kind = "bare" if self.commands.plausible(line, "") else (
+            self.commands.action_of(line) or line)
+        ex = Exchange(line, self.commands.wire(line), timeout, deadline, poll, kind)
         with self._lock:
             if not self._up or self._port is None:
                 raise LinkDown(f"link to {self.port} is down ({self._reason}): "
@@ -204,26 +250,25 @@ class Link:
             if now > deadline:
                 self.stats["expired"] += 1
                 raise Expired(self._expired_text(ex))
-            if self._slot is None and not self._queue:
-                start = self._start(ex)
-            elif len(self._queue) >= QUEUE_MAX:
+            ahead = self._queue or (poll and self._polls)
+            if not ahead and self._may_go(ex):
+                self._write_started([self._start(ex)])      # releases _write_lock
+            elif len(self._queue) + len(self._polls) >= QUEUE_MAX:
                 self.stats["busy"] += 1
                 raise LinkError(f"link to {self.port} busy: {QUEUE_MAX} commands wait; "
                                 f"{line!r} not sent")
             else:
-                self._queue.append(ex)
-        if start is not None:
-            self._write(ex, *start)
-        elif not ex.started.wait(max(0.0, deadline - time.monotonic())):
+                (self._polls if poll else self._queue).append(ex)
+        if not ex.started.wait(max(0.0, deadline - time.monotonic())):
             with self._lock:
-                waiting = ex in self._queue
+                waiting = ex in self._queue or ex in self._polls
                 if waiting:
-                    self._queue.remove(ex)
+                    (self._polls if poll else self._queue).remove(ex)
             if waiting:
                 self.stats["expired"] += 1
                 raise Expired(self._expired_text(ex))
         # the I/O thread owns the deadline; this wait is only a safety net
-        if not ex.done.wait(timeout + self.settle_s + 5.0):
+        if not ex.done.wait(2 * timeout + 2 * self.settle_s + 5.0):
             raise LinkError(f"link to {self.port}: the I/O thread did not answer")
         if ex.error is not None:
             raise ex.error
@@ -232,30 +277,80 @@ class Link:
     def _expired_text(self, ex: Exchange) -> str:
         return f"link to {self.port}: {ex.line!r} not written within its deadline; dropped"
 
-    def _start(self, ex: Exchange) -> tuple[Any, bytes]:
-        """(lock held) ``ex`` is in flight from now: the port and the bytes to write."""
+    def _may_go(self, ex: Exchange) -> bool:
+        """(lock held) May ``ex`` be written now? (the module docstring, "Full duplex")"""
+        flight = self._flight
+        if not flight:
+            return True
+        if len(flight) >= self.max_in_flight:
+            return False
+        head = flight[0]
+        return (head.settle_until is None and self._partial_since > head.t_sent
+                and all(f.kind != ex.kind for f in flight)
+                and sum(f.sent_bytes for f in flight) + len(RESYNC) + len(ex.wire) <= RX_RING)
+
+    def _start(self, ex: Exchange) -> _Start:
+        """(lock held) ``ex`` is in flight from now: the port and the bytes to write.
+        Takes ``_write_lock``: the caller writes with :meth:`_write_started`."""
         now = time.monotonic()
         wire = ex.wire if now - self._last_write < RESYNC_IDLE_S else RESYNC + ex.wire
         # sent before the write: its reply may come before write() returns
-        ex.sent, ex.t_sent = True, now
+        ex.sent, ex.t_sent, ex.sent_bytes = True, now, len(wire)
+        if self._flight:
+            self.stats["duplex"] += 1               # written while a reply arrives
         self._last_write = now
-        self._slot = ex
+        self._flight.append(ex)
         ex.started.set()
-        return self._port, wire
+        return ex, self._port, wire
 
-    def _write(self, ex: Exchange, port: Any, wire: bytes) -> None:
+    def _pump(self) -> tuple[list[_Start], list[Exchange]]:
+        """(lock held) Start what may go now, commands before polls; drop what waited
+        past its deadline (never written late). Returns (started, expired)."""
+        starts: list[_Start] = []
+        expired: list[Exchange] = []
+        now = time.monotonic()
+        while self._up and self._port is not None:
+            queue = self._queue or self._polls
+            if not queue:
+                break
+            nxt = queue[0]
+            if nxt.deadline < now:
+                expired.append(queue.popleft())
+                continue
+            if not self._may_go(nxt):
+                break
+            queue.popleft()
+            starts.append(self._start(nxt))
+        return starts, expired
+
+    def _write_started(self, starts: list[_Start]) -> None:
+        """Write the lines just started, in order. Called with ``_lock`` held: takes
+        ``_write_lock`` before that is released (by the caller), so no later line
+        overtakes; a port error takes the link down after."""
+        if not starts:
+            return
+        self._write_lock.acquire()
+        self._lock.release()
+        failed: tuple[str, Any] | None = None
         try:
-            with self._write_lock:
-                port.write(wire)
-            self.stats["sent"] += 1
-        except Exception as exc:  # noqa: BLE001 - pySerial's errors vary
-            ex.sent = False                 # the error says: not sent
-            self._down(_describe(exc), port)
+            for ex, port, wire in starts:
+                try:
+                    port.write(wire)
+                    self.stats["sent"] += 1
+                except Exception as exc:  # noqa: BLE001 - pySerial's errors vary
+                    ex.sent = False             # the error says: not sent
+                    failed = (_describe(exc), port)
+                    break
+        finally:
+            self._write_lock.release()
+            if failed is not None:
+                self._down(*failed)
+            self._lock.acquire()
 
     def command(self, line: str, timeout: float | None = None, deadline: float | None = None,
-                asked: float | None = None) -> str:
+                asked: float | None = None, poll: bool = False) -> str:
         """Send ``line``; return the reply's data (after ``OK ``, empty for a bare ``OK``)."""
-        data = self.exchange(line, timeout, deadline, asked).data
+        data = self.exchange(line, timeout, deadline, asked, poll).data
         assert data is not None
         return data
 
@@ -271,8 +366,9 @@ class Link:
     def stop(self) -> None:
         self.command(self.commands.prefix("stop"))
 
-    def feet(self) -> dict[str, object]:
-        return self.commands.feet(self.command(self.commands.prefix("sensors")))
+    def feet(self, poll: bool = False) -> dict[str, object]:
+        """The ``s`` reply as a sample value; ``poll``: waits while commands wait."""
+        return self.commands.feet(self.command(self.commands.prefix("sensors"), poll=poll))
 
     def version(self) -> str:
         return self.command(self.commands.prefix("version"))
@@ -317,31 +413,38 @@ class Link:
                 data += port.read(more)
             self._take(data)
         now = time.monotonic()
-        ex = self._slot
-        if ex is None or not ex.sent or ex.done.is_set():
+        head = self._flight[0] if self._flight else None
+        if head is None or not head.sent or head.done.is_set():
             return
-        if ex.settle_until is not None and now >= ex.settle_until:
-            assert ex.first_error is not None
-            self._last_write = 0.0          # the next command resyncs the robot's line
-            self._finish(ex, error=ex.first_error)
-        elif ex.settle_until is None and now - ex.t_sent > ex.timeout:
+        if head.settle_until is not None and now >= head.settle_until:
+            self._settled(head)
+        elif head.settle_until is None and now - head.t_sent > head.timeout:
             self.stats["timeouts"] += 1
-            self._down(f"no reply to {ex.line!r} within {ex.timeout:g} s")
+            self._down(f"no reply to {head.line!r} within {head.timeout:g} s")
 
     def _take(self, data: bytes) -> None:
         self._buf += data
+        ended = False
         while True:
             i = self._buf.find(b"\n")
             if i < 0:
                 if len(self._buf) > MAX_LINE_BYTES:
                     self._buf.clear()
                     self.stats["garbled"] += 1
-                return
+                break
             raw = bytes(self._buf[:i])
             del self._buf[:i + 1]
             text = raw.decode("latin-1").strip("\r")
+            ended = True
             if text:
                 self._line(text)
+        if not self._buf:
+            self._partial_since = 0.0
+        elif ended or not self._partial_since:
+            # a line has begun to arrive: the robot answers; what waits may go now
+            self._partial_since = time.monotonic()
+            if self._queue or self._polls:
+                self._release()
 
     def _line(self, text: str) -> None:
         if text.startswith("!"):
@@ -359,70 +462,97 @@ class Link:
         except ProtocolError:
             self.stats["garbled"] += 1
             return
-        ex = self._slot
-        if ex is None or not ex.sent or ex.done.is_set():
+        flight = list(self._flight)
+        if not flight or not flight[0].sent or flight[0].done.is_set():
             self.stats["strays"] += 1
             return
+        head, second = flight[0], (flight[1] if len(flight) > 1 else None)
         if reply.kind == "ok":
-            if self.commands.plausible(ex.line, reply.data):
-                self._finish(ex, data=reply.data)
+            if self.commands.plausible(head.line, reply.data):
+                self._finish(head, data=reply.data)
+            elif (head.settle_until is not None and second is not None
+                    and self.commands.plausible(second.line, reply.data)):
+                # the second's reply: the head's error before it was the head's own
+                self._settled(head)
+                self._finish(second, data=reply.data)
             else:
                 self.stats["strays"] += 1
             return
         assert reply.code is not None
-        refused = RobotRefused(ex.line, reply.code, text)
-        if ex.settle_until is not None:
+        refused = RobotRefused(head.line, reply.code, text)
+        if head.settle_until is None:
+            if reply.code in WIRE_CODES:
+                head.first_error = refused
+                head.settle_until = time.monotonic() + self.settle_s
+            else:
+                self._finish(head, error=refused)
+        elif second is None:
             self.stats["strays"] += 1
         elif reply.code in WIRE_CODES:
-            ex.first_error = refused
-            ex.settle_until = time.monotonic() + self.settle_s
+            # noise's, the head's, or the second's: the second's candidate
+            head.later_error = RobotRefused(second.line, reply.code, text)
         else:
-            self._finish(ex, error=refused)
+            self._down(f"{OUT_OF_STEP}: {text!r} after a damaged line answers "
+                       f"{head.line!r} or {second.line!r}")
+
+    def _settled(self, head: Exchange) -> None:
+        """No plausible ``OK`` came for ``head`` within its settle time (or the second
+        command's came): its wire error was its own. A later wire error becomes the
+        next command's candidate error."""
+        assert head.first_error is not None
+        self._last_write = 0.0              # the next command resyncs the robot's line
+        later = head.later_error
+        if later is not None and len(self._flight) > 1:
+            second = self._flight[1]
+            second.first_error = later
+            second.settle_until = time.monotonic() + self.settle_s
+        self._finish(head, error=head.first_error)
 
     def _finish(self, ex: Exchange, data: str | None = None,
                 error: LinkError | None = None) -> None:
         ex.t_reply = time.monotonic()
         ex.data, ex.error = data, error
         self.stats["refused" if isinstance(error, RobotRefused) else "ok"] += 1
-        nxt = start = None
-        expired: list[Exchange] = []
         with self._lock:
-            if self._slot is ex:
-                self._slot = None
-                now = time.monotonic()
-                while self._queue and self._queue[0].deadline < now:
-                    expired.append(self._queue.popleft())      # never written late
-                if self._queue and self._up and self._port is not None:
-                    nxt = self._queue.popleft()
-                    start = self._start(nxt)
+            if self._flight and self._flight[0] is ex:
+                self._flight.popleft()
+        self._release()                     # the next commands go out before this
+        ex.done.set()                       # one's caller is woken
+
+    def _release(self) -> None:
+        """Write what may go now; fail what waited past its deadline."""
+        with self._lock:
+            starts, expired = self._pump()
+            self._write_started(starts)
         for late in expired:
             self.stats["expired"] += 1
             late.error = Expired(self._expired_text(late))
             late.started.set()
             late.done.set()
-        if nxt is not None and start is not None:   # the next command goes out before this
-            self._write(nxt, *start)        # one's caller is woken
-        ex.done.set()
 
-    def _fail_slot(self, error: LinkError) -> None:
-        """(lock held) Fail the command in flight, if any, and those waiting their turn."""
-        for q in self._queue:
+    def _fail_all(self, error: LinkError) -> None:
+        """(lock held) Fail the commands in flight and those waiting their turn."""
+        for q in (*self._queue, *self._polls):
             q.error = LinkDown(f"link to {self.port} is down ({error}): {q.line!r} not sent")
             q.started.set()
             q.done.set()
         self._queue.clear()
-        ex, self._slot = self._slot, None
-        if ex is not None and not ex.done.is_set():
+        self._polls.clear()
+        flight = list(self._flight)
+        self._flight.clear()
+        for ex in flight:
+            if ex.done.is_set():
+                continue
             if ex.sent:
-                error = LinkDown(f"link to {self.port} went down while {ex.line!r} waited for "
-                                 f"its reply ({error})")
+                ex.error = LinkDown(f"link to {self.port} went down while {ex.line!r} waited "
+                                    f"for its reply ({error})")
             else:
-                error = LinkDown(f"link to {self.port} is down ({error}): {ex.line!r} not sent")
-            ex.error = error
+                ex.error = LinkDown(f"link to {self.port} is down ({error}): {ex.line!r} "
+                                    f"not sent")
             ex.done.set()
 
     def _down(self, reason: str, failed: Any = None) -> None:
-        """The link is down: fail the command in flight, close the port (the I/O thread
+        """The link is down: fail the commands in flight, close the port (the I/O thread
         reopens it). ``failed``: the port an error came from; if the link has moved on
         from it (the other thread took it down first), nothing more is done."""
         with self._lock:
@@ -430,8 +560,9 @@ class Link:
                 return
             port, self._port = self._port, None
             self._up, self._reason = False, reason
-            self._fail_slot(LinkError(reason))
+            self._fail_all(LinkError(reason))
         self._buf.clear()
+        self._partial_since = 0.0
         _close_quietly(port)
         self.stats["downs"] += 1
         if self.on_state is not None:

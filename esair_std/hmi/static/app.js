@@ -21,7 +21,9 @@ class App {
     this.runtimeUp = true;
     this.wsUp = false;
     this.robots = {};
-    this.stats = { samples: 0, latencies: [] };
+    // latencies: sample time stamp -> the frame that drew it; arrivals: -> the page got it
+    // (the difference is the browser's wait for a frame), both in ms, for the bench
+    this.stats = { samples: 0, latencies: [], arrivals: [] };
     this.log = new Log($("log"), $("log-level"));
     this.components = new Components($("components"), $("add"), this);
     this.dirty = false;
@@ -110,6 +112,7 @@ class App {
 
   receive(m) {
     switch (m.t) {
+      case "b": for (const x of m.m) this.receive(x); return;   // a batch (server.py, emit)
       case "hello": return this.hello(m);
       case "ack": {
         const p = this.pending.get(m.id);
@@ -160,7 +163,12 @@ class App {
   sample(m) {
     this.stats.samples++;
     if (this.replay.active) return;               // the plot shows a recording
-    if (this.entry && m.r === `${this.entry}.feet`) { this.feet.push(m); this.dirty = true; }
+    if (this.entry && m.r === `${this.entry}.feet`) {
+      const a = this.stats.arrivals;
+      a.push(performance.timeOrigin + performance.now() - m.ts * 1000);
+      if (a.length > 20000) a.shift();
+      this.feet.push(m); this.dirty = true;
+    }
     else if (this.entry && m.r === `${this.entry}.notices`) {
       const text = (m.v && m.v.notice) || "";
       const level = text.startsWith("E") ? "error" : text.startsWith("R ") ? "warning" : "info";

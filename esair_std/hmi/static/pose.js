@@ -1,11 +1,11 @@
 // The robot's pose from the commanded angles (sent by a page, or a motion's frames as
-// the robot plays them, one frame each delay_ticks ticks). A biped whose servos are
-// named {l,r}_{hip_yaw,hip_roll,hip_pitch,knee,ankle_pitch,ankle_roll} (PAPA-MAN) is
-// drawn as a stick figure, front and side; any other robot's joints as dials.
-const LEG = ["hip_yaw", "hip_roll", "hip_pitch", "knee", "ankle_pitch", "ankle_roll"];
+// the robot plays them, one frame each delay_ticks ticks). A robot whose actuator board
+// has a `figure: {kind: biped}` section (docs/board-format.md; PAPA-MAN) is drawn as a
+// stick figure, front and side, from its link lengths and the servo of each joint; any
+// other robot's joints as dials.
 const RAD = Math.PI / 180;
-// proportions of the figure (units of the thigh's length)
-const G = { torso: 1.3, hip: 0.45, thigh: 1, shank: 1, foot: 0.45, head: 0.25 };
+const HEAD = 0.25;                       // the head's radius, in thighs (drawn only)
+const SIDES = { l: "left", r: "right" };
 
 export class Pose {
   constructor(el, note, info) {
@@ -13,7 +13,14 @@ export class Pose {
     el.textContent = "";
     if (!info) { note.textContent = "(no robot board files)"; return; }
     for (const s of info.servos) this.angles[s.name] = s.stand;
-    this.biped = ["l", "r"].every((side) => LEG.every((j) => this.angles[`${side}_${j}`] !== undefined));
+    this.fig = info.figure && info.figure.kind === "biped" ? info.figure : null;
+    this.biped = !!this.fig;
+    if (this.fig) {                      // lengths in thighs
+      const L = this.fig.links_mm;
+      this.G = { torso: L.torso / L.thigh, hip: L.hip / L.thigh, thigh: 1,
+                 shank: L.shank / L.thigh, foot: L.foot / L.thigh, head: HEAD };
+      this.stand = Object.fromEntries(info.servos.map((s) => [s.name, s.stand]));
+    }
     this.canvas = document.createElement("canvas");
     this.canvas.width = 520; this.canvas.height = this.biped ? 300 : 60 + 90 * Math.ceil(info.servos.length / 6);
     el.append(this.canvas);
@@ -53,12 +60,18 @@ export class Pose {
     else this.dials(c);
   }
 
-  a(name) { return (this.angles[name] ?? 90) - 90; }  // degrees from the stand angle
+  // degrees the joint of leg `side` (l, r) is turned from straight, per the figure
+  a(side, joint) {
+    const servo = this.fig.legs[SIDES[side]][joint];
+    const zero = this.fig.zero[servo] ?? this.stand[servo] ?? 90;
+    return ((this.angles[servo] ?? zero) - zero) * (this.fig.reversed.includes(servo) ? -1 : 1);
+  }
 
   limb(c, x, y, ang, len, s) { const x2 = x + Math.sin(ang) * len * s, y2 = y + Math.cos(ang) * len * s;
     c.lineTo(x2, y2); return [x2, y2]; }
 
   front(c, cx, top, s) {
+    const G = this.G;
     c.lineWidth = 5; c.lineCap = "round"; c.strokeStyle = "#1d2430";
     c.font = "12px system-ui"; c.fillStyle = "#6b7280"; c.fillText("front", cx - 14, top - 22);
     const hipY = top + G.torso * s;
@@ -66,13 +79,13 @@ export class Pose {
     c.beginPath(); c.moveTo(cx, top + G.head * s - 4); c.lineTo(cx, hipY);
     c.moveTo(cx - G.hip * s, hipY); c.lineTo(cx + G.hip * s, hipY); c.stroke();
     for (const [side, dir] of [["l", 1], ["r", -1]]) {   // the robot's left is on our right
-      const roll = this.a(`${side}_hip_roll`) * RAD * dir;
-      const bend = Math.cos(this.a(`${side}_knee`) * RAD);   // a bent knee looks shorter
+      const roll = this.a(side, "hip_roll") * RAD * dir;
+      const bend = Math.cos(this.a(side, "knee") * RAD);   // a bent knee looks shorter
       c.strokeStyle = side === "l" ? "#2563eb" : "#b45309";
       c.beginPath(); c.moveTo(cx + dir * G.hip * s, hipY);
       let [x, y] = this.limb(c, cx + dir * G.hip * s, hipY, roll, G.thigh * Math.abs(bend) ** 0.5, s);
       [x, y] = this.limb(c, x, y, roll, G.shank * Math.abs(bend) ** 0.5, s);
-      const ankle = roll + this.a(`${side}_ankle_roll`) * RAD * dir;
+      const ankle = roll + this.a(side, "ankle_roll") * RAD * dir;
       c.moveTo(x - Math.cos(ankle) * G.foot * s * 0.6, y + Math.sin(ankle) * G.foot * s * 0.6);
       c.lineTo(x + Math.cos(ankle) * G.foot * s * 0.6, y - Math.sin(ankle) * G.foot * s * 0.6);
       c.stroke();
@@ -80,6 +93,7 @@ export class Pose {
   }
 
   side(c, cx, top, s) {
+    const G = this.G;
     c.lineWidth = 5; c.lineCap = "round";
     c.font = "12px system-ui"; c.fillStyle = "#6b7280"; c.fillText("side", cx - 12, top - 22);
     const hipY = top + G.torso * s;
@@ -87,9 +101,9 @@ export class Pose {
     c.beginPath(); c.arc(cx, top - 4, G.head * s, 0, 2 * Math.PI); c.stroke();
     c.beginPath(); c.moveTo(cx, top + G.head * s - 4); c.lineTo(cx, hipY); c.stroke();
     for (const side of ["r", "l"]) {                     // the left leg drawn in front
-      const hip = this.a(`${side}_hip_pitch`) * RAD;
-      const knee = hip - this.a(`${side}_knee`) * RAD;
-      const ankle = knee + this.a(`${side}_ankle_pitch`) * RAD;
+      const hip = this.a(side, "hip_pitch") * RAD;
+      const knee = hip - this.a(side, "knee") * RAD;
+      const ankle = knee + this.a(side, "ankle_pitch") * RAD;
       c.strokeStyle = side === "l" ? "#2563eb" : "#b45309";
       c.beginPath(); c.moveTo(cx, hipY);
       let [x, y] = this.limb(c, cx, hipY, hip, G.thigh, s);
