@@ -31,6 +31,25 @@ def _value(text: str):
         return text
 
 
+def _restart_policy(text: str | None, kind: str) -> tuple[int, float]:
+    """``--restart MAX/WITHIN`` as (max, within); (0, 0) when not given."""
+    if text is None:
+        return (0, 0.0)
+    if kind != "behavior":
+        raise click.BadParameter("a remote resource is restarted by whatever runs its agent "
+                                 "(it exits with status 1 when it fails)",
+                                 param_hint="--restart")
+    most, sep, within = text.partition("/")
+    try:
+        policy = (int(most), float(within))
+    except ValueError:
+        policy = (-1, -1.0)
+    if not sep or policy[0] < 1 or policy[1] <= 0:
+        raise click.BadParameter(f"{text!r} is not MAX/WITHIN (e.g. 3/60: at most 3 restarts "
+                                 "in any 60 s)", param_hint="--restart")
+    return policy
+
+
 @click.command("agent")
 @click.option("--connect", "endpoint", required=True, metavar="tcp/HOST:PORT",
               help="The control center's endpoint (tls/HOST:PORT when it requires TLS).")
@@ -53,9 +72,13 @@ def _value(text: str):
               help="File holding the password of --user.")
 @click.option("--host-name", default=None, help="The name `esair std ls` shows for this "
                                                 "computer (default: its hostname).")
+@click.option("--restart", default=None, metavar="MAX/WITHIN",
+              help="A behavior's restart policy, as restart: {max, within} in a deployment: "
+                   "restarted by this agent at most MAX times in any WITHIN seconds "
+                   "(default: never).")
 @friendly
 def agent_cmd(endpoint, name, class_path, uses, allow, period, options, robot, ca, cert, key,
-              user, password_file, host_name) -> None:
+              user, password_file, host_name, restart) -> None:
     """Run NAME (a Behavior, Sensor, Actuator or Driver class module:Class, imported from
     the current folder first) here, as an agent of the control center at --connect.
 
@@ -80,6 +103,7 @@ def agent_cmd(endpoint, name, class_path, uses, allow, period, options, robot, c
     else:
         raise click.BadParameter(f"{class_path} is not a Behavior, Sensor, Actuator or Driver",
                                  param_hint="module:Class")
+    policy = _restart_policy(restart, kind)
     sec = None
     if any((ca, cert, key, user, password_file)):
         try:
@@ -94,6 +118,7 @@ def agent_cmd(endpoint, name, class_path, uses, allow, period, options, robot, c
         opts_spec = {"uses": _pairs(uses, "--uses")}
     kw = dict(endpoint=endpoint, name=name, class_path=class_path, kind=kind, period=period,
               options=opts, robot=robot, hostname=host_name, log="WARNING", **opts_spec,
+              restart=policy,
               sec=sec.model_dump(mode="json") if sec is not None else None)
     sys.stdout.flush()
     sys.stderr.flush()

@@ -4,7 +4,10 @@ The principal ``hmi`` registers with the RS like any behavior: ``watch`` (read) 
 sensor the deployment's ``allow`` lets it read, ``command`` only where ``allow`` grants
 ``hmi: command``. A poller thread asks ``ls`` four times a second (component states: a
 lost link shows within that) and ``inspect`` of each resource entry once a second (the
-link's counters); samples arrive on Zenoh's thread. Everything goes out through
+link's counters); a second thread asks each running behavior's ``get`` twice a second (a
+behavior's state: the page shows it, e.g. a bearing); samples arrive on Zenoh's thread.
+The last sample of each sensor and the last state of each behavior are kept for the
+``hello`` of a page opened later. Everything goes out through
 ``emit(message)``, which must only hand the message over (the server's loop copies it
 into each browser's bounded queue).
 """
@@ -27,6 +30,8 @@ log = logging.getLogger("esair_std.hmi")
 LS_PERIOD_S = 0.25
 INSPECT_EVERY = 4          # ls periods between two inspects of the resource entries
 PRINCIPAL = "hmi"
+STATE_PERIOD_S = 0.5       # each running behavior's get, this often
+STATE_TIMEOUT_S = 0.3
 
 Emit = Callable[[dict], None]
 
@@ -60,7 +65,10 @@ class Bridge:
         self._prev_counts: dict[str, tuple[float, int, int]] = {}
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
-        self.c = dict(samples=0, samples_unwatched=0, ls_failed=0)
+        self._state_thread: threading.Thread | None = None
+        self.last: dict[str, dict] = {}       # sensor -> its last sample message
+        self.states: dict[str, Any] = {}      # behavior -> its last get value
+        self.c = dict(samples=0, samples_unwatched=0, ls_failed=0, gets_failed=0)
         self.want: Callable[[str], bool] = lambda name: True    # the sensors to watch
 
     # ---- life cycle
@@ -83,11 +91,15 @@ class Bridge:
         self._poll_once(inspect=True)
         self._thread = threading.Thread(target=self._run, name="hmi:poll", daemon=True)
         self._thread.start()
+        self._state_thread = threading.Thread(target=self._run_states, name="hmi:state",
+                                              daemon=True)
+        self._state_thread.start()
 
     def close(self) -> None:
         self._stop.set()
-        if self._thread is not None:
-            self._thread.join(2.0)
+        for t in (self._thread, self._state_thread):
+            if t is not None:
+                t.join(2.0)
         if self.bus is not None:
             self.bus.close()
 
@@ -112,7 +124,9 @@ class Bridge:
         """What a newly connected page gets first."""
         return {"t": "hello", "robot": self.robot, "robots": self.robots,
                 "problems": self.problems, "rows": self.rows, "link": self.link,
-                "watched": self.watched, "runtime_up": self.runtime_up}
+                "watched": self.watched, "runtime_up": self.runtime_up,
+                "last": list(self.last.values()),
+                "states": [{"t": "state", "r": k, "v": v} for k, v in self.states.items()]}
 
     # ---- samples (Zenoh's thread: hand over and return)
     def _on_sample(self, key: str, obj: Any) -> None:
@@ -122,8 +136,9 @@ class Bridge:
             return
         self.c["samples"] += 1
         self._last_sample[res] = time.time()
-        self.emit({"t": "s", "r": res, "q": obj.get("seq"), "ts": obj.get("t"),
-                   "v": obj.get("v")})
+        msg = {"t": "s", "r": res, "q": obj.get("seq"), "ts": obj.get("t"), "v": obj.get("v")}
+        self.last[res] = msg          # one reference per sensor: replaced, never grows
+        self.emit(msg)
 
     # ---- the poller
     def _run(self) -> None:
@@ -134,6 +149,36 @@ class Bridge:
                 self._poll_once(inspect=n % INSPECT_EVERY == 0)
             except Exception as exc:  # noqa: BLE001 - keep polling
                 log.error("hmi poll: %s", exc)
+
+    def _run_states(self) -> None:
+        while not self._stop.wait(STATE_PERIOD_S):
+            try:
+                self._states_once()
+            except Exception as exc:  # noqa: BLE001 - keep polling
+                log.error("hmi states: %s", exc)
+
+    def _states_once(self) -> None:
+        """Each running behavior's ``get`` (as ``esair std get`` shows it, asked as the
+        principal ``hmi``); a change is emitted as ``{"t": "state", "r", "v"}``."""
+        running = {r["name"] for r in self.rows
+                   if r["kind"] == "behavior" and r["state"] in ("running", "busy")}
+        for name in list(self.states):
+            if name not in running:
+                del self.states[name]
+        for name in sorted(running):
+            try:
+                r = self.call("get", {"from": self.who, "to": name, "timeout": STATE_TIMEOUT_S},
+                              timeout=STATE_TIMEOUT_S + 1.0)
+            except BridgeError:
+                self.c["gets_failed"] += 1
+                continue
+            if not r.get("ok"):
+                self.c["gets_failed"] += 1
+                continue
+            value = r.get("data")
+            if name not in self.states or self.states[name] != value:
+                self.states[name] = value
+                self.emit({"t": "state", "r": name, "v": value})
 
     def _poll_once(self, inspect: bool) -> None:
         try:

@@ -251,6 +251,7 @@ class Agent:
         except StdError as exc:
             self.hello(error=exc.message)
             raise SystemExit(0) from None
+        self.cls = cls
         host = self.host = ComponentHost(self.spec, cls, self.port, self.generation)
         self.bus.serve(keys.bs(self.robot, self.spec.name), self._bs_verbs().request(wire.op_of))
         self.offers = SampleServer(self.bus, keys.bs_offer(self.robot, self.spec.name),
@@ -302,26 +303,30 @@ class Agent:
     def _bs_verbs(self) -> Verbs:
         """The ``bs/<name>`` endpoint: what the runtime's BS asks the hosted component
         (answered on Zenoh's thread: each verb only enqueues or reads)."""
-        host, verbs = self._component, Verbs(unknown="unknown op {verb!r}")
+        verbs = Verbs(unknown="unknown op {verb!r}")
+        # the host is looked up at each request: a remote agent restarts its behavior
+        # under its policy in a new host (remote/agent.py)
+        def host() -> ComponentHost:
+            return self._component
 
         def provide(b: dict, answer: wire.Answer) -> None:
-            if host.request_provide(str(b.get("from")),
+            if host().request_provide(str(b.get("from")),
                                     lambda v: answer(wire.ok(list(v)))) != "queued":
-                answer(wire.ok(["busy", host.state]))
+                answer(wire.ok(["busy", host().state]))
 
         def take(b: dict, answer: wire.Answer) -> None:    # a put its sender waits for
-            if host.request_take(str(b.get("from")), b.get("data"),
+            if host().request_take(str(b.get("from")), b.get("data"),
                                  lambda v: answer(wire.ok(list(v)))) != "queued":
-                answer(wire.ok(["busy", host.state]))
+                answer(wire.ok(["busy", host().state]))
 
-        verbs.add("offer", lambda b: host.offer(str(b.get("from")), b.get("data")))
+        verbs.add("offer", lambda b: host().offer(str(b.get("from")), b.get("data")))
         verbs.later("provide", provide)
         verbs.later("take", take)
-        verbs.add("state", lambda _b: host.state)
-        verbs.add("detached", lambda b: host.notify_detached(str(b.get("resource"))))
-        verbs.add("attached", lambda b: host.notify_attached(str(b.get("resource"))))
-        verbs.add("enable", lambda b: host.set_enabled(bool(b.get("enabled"))))
-        verbs.add("counters", lambda _b: {**host.counters(), "offer_samples": dict(self.offers.c),
+        verbs.add("state", lambda _b: host().state)
+        verbs.add("detached", lambda b: host().notify_detached(str(b.get("resource"))))
+        verbs.add("attached", lambda b: host().notify_attached(str(b.get("resource"))))
+        verbs.add("enable", lambda b: host().set_enabled(bool(b.get("enabled"))))
+        verbs.add("counters", lambda _b: {**host().counters(), "offer_samples": dict(self.offers.c),
                                           "deliver_samples": dict(self.delivers),
                                           "put_samples": self.port.put_counters()})
         verbs.later("stop", self._stop)

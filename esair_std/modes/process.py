@@ -34,6 +34,9 @@ if TYPE_CHECKING:  # pragma: no cover
 
 log = logging.getLogger("esair_std.process")
 START_TIMEOUT = 20.0
+# a resource's process says hello once its device is open: an emulated robot alone may
+# take up to its own start timeout (drivers/minlink/emulated.py, 30 s) on a loaded machine
+RESOURCE_START_TIMEOUT = 45.0
 RESERVED_BYTES = 8192    # a put this small may go into a component's reserved room: at
                          # most host.RESERVED of them under way fit any link's queue
 
@@ -120,7 +123,8 @@ class _Child:
         self.changed.set()
 
     def wait_hello(self) -> None:
-        deadline = time.monotonic() + START_TIMEOUT
+        limit = RESOURCE_START_TIMEOUT if self.spec.kind != "behavior" else START_TIMEOUT
+        deadline = time.monotonic() + limit
         while True:
             self.changed.clear()
             if self.hello.is_set():
@@ -132,7 +136,7 @@ class _Child:
             if left <= 0:
                 self.kill()
                 raise ComponentError(f"{self.spec.kind} {self.name!r} did not start within"
-                                     f" {START_TIMEOUT:g} s")
+                                     f" {limit:g} s")
             self.changed.wait(left)
         if self.info.get("error"):
             self.kill()
@@ -545,6 +549,8 @@ class ProcessMode:
         host.note()
         if phase == "failed":
             host.reason = reason
+            if host.remote and self.remote.get(name, {}).get("restarts"):
+                host.quiet = True      # its agent restarts it under its policy, or leaves
             self.port.state_changed(name, generation, phase, reason)
         else:
             self.rt.note_change()

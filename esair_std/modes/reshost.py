@@ -29,6 +29,10 @@ COMMANDS = 256
 log = logging.getLogger("esair_std.resource")
 
 
+#: how long a device may take to open: an emulated robot (drivers/minlink/emulated.py)
+#: may itself take up to 30 s to start on a loaded machine, then the link probes it
+OPEN_TIMEOUT = 40.0
+
 class Slot:
     """One resource (a sensor or an actuator) as its host keeps it."""
 
@@ -85,7 +89,7 @@ class ResourceHost:
         self.thread = threading.Thread(target=self._main, name=f"esair:{self.name}", daemon=True)
 
     # ---- life cycle (called by the RS / the agent)
-    def start(self, timeout: float = 10.0) -> dict[str, str]:
+    def start(self, timeout: float = OPEN_TIMEOUT) -> dict[str, str]:
         """Open the device on the host thread; the children ``{name: kind}``."""
         self.thread.start()
         if not self._opened.wait(timeout):
@@ -318,9 +322,7 @@ class ResourceHost:
         """Publish a command the actuator ran and its outcome for recorders (after its
         sender has its answer): ``{seq, t, v: {command, ok | error}}``, ``seq`` the
         actuator's command number, ``t`` when it reached this host (time.time())."""
-        publish = getattr(self.port, "publish_command", None)
-        if publish is None:
-            return
+        publish = self.port.publish_command
         slot.cseq += 1
         now = time.time()
         t = now if asked is None else now - (time.monotonic() - asked)

@@ -131,7 +131,7 @@ class ThreadMode:
         cls = component_class(spec.class_path, spec.base_dir, spec.where)
         host = ResourceHost(spec, cls, self.port)
         host.on_failed = lambda reason: self.rt.rs.failed(spec.name, generation, reason)
-        host.start(START_TIMEOUT)
+        host.start()                  # its device's own open timeout (reshost.OPEN_TIMEOUT)
         return host
 
     def open(self) -> None:

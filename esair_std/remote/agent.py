@@ -31,7 +31,7 @@ from ..modes.agent import Agent, ZenohPort
 from ..spec import Spec
 from ..transport import keys, wire
 from ..transport.bus import Bus
-from ..transport.security import link_inserts, session_inserts
+from ..transport.security import LEASE_MS, link_inserts, session_inserts
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..parts import SampleHandle
@@ -46,6 +46,7 @@ class RemotePort(ZenohPort):
         super().__init__(bus, robot)
         self.registered: dict[str, Level] = {}     # resource -> level
         self.attached: set[str] = set()            # sensors attached (subscribed once)
+        self.on_failed: Any = None                 # its behavior failed (RemoteAgent)
 
     def register(self, who: str, resource: str, level: Any) -> int:
         out = super().register(who, resource, level)
@@ -57,6 +58,11 @@ class RemotePort(ZenohPort):
                       direct: bool = False) -> None:
         super().attach_sensor(who, resource, handle, direct)
         self.attached.add(resource)
+
+    def state_changed(self, name: str, generation: int, phase: str, reason: str) -> None:
+        super().state_changed(name, generation, phase, reason)
+        if phase == "failed" and self.on_failed is not None:
+            self.on_failed(reason)              # told or not (a cut link): the agent's policy
 
     def register_again(self, who: str) -> list[str]:
         """After a re-join: every registration and attachment again; what failed."""
@@ -77,18 +83,23 @@ class RemotePort(ZenohPort):
 class RemoteAgent(Agent):
     port: RemotePort
 
-    def __init__(self, bus: Bus, robot: str, spec: Spec, proof_fn: Any, hostname: str):
+    def __init__(self, bus: Bus, robot: str, spec: Spec, proof_fn: Any, hostname: str,
+                 lease_ms: int = LEASE_MS):
         super().__init__(bus, robot, spec, 1)
+        self.lease_ms = lease_ms                   # its session's: when the center drops it
         self.port = RemotePort(bus, robot)
         self.proof_fn = proof_fn
         self.hostname = hostname
         self.joined = threading.Event()
-        self.c = dict(joins=0, partitions=0)
+        self.c = dict(joins=0, partitions=0, restarts=0)
         self._rejoin_lock = threading.Lock()
+        self._restarts: list[float] = []           # when its behavior was restarted
+        if spec.kind != "resource":
+            self.port.on_failed = self._failed
 
     def join(self) -> None:
         body = {"spec": self.spec.to_json(), "proof": self.proof_fn(),
-                "host": self.hostname, "pid": os.getpid()}
+                "host": self.hostname, "pid": os.getpid(), "lease_ms": self.lease_ms}
         r = self.bus.request(keys.ctl(self.robot, "join"), body, 15.0)
         if r is None:
             raise TransportError(f"the control center of robot {self.robot!r} did not answer"
@@ -144,10 +155,65 @@ class RemoteAgent(Agent):
                     time.sleep(0.5)
 
 
+    # ---- its behavior's restart policy (the control center never restarts a remote one)
+    def _failed(self, reason: str) -> None:
+        """Its behavior failed (on the behavior's or the watchdog's thread). With a
+        policy (``--restart``) it is restarted within it, on a thread of its own; past
+        it the control center is told why and the agent leaves (status 1). Without one,
+        the control center tells the agent to stop (status 1)."""
+        most, within = self.spec.restart_max, self.spec.restart_within
+        if not most or self.done.is_set():
+            return
+        now = time.monotonic()
+        self._restarts = [t for t in self._restarts if now - t < within]
+        again = len(self._restarts) < most
+        if again:
+            self._restarts.append(now)
+        else:
+            log.error("%s: failed (%s); past its restart policy (%d within %g s): it "
+                      "stays failed", self.spec.name, reason, most, within)
+        threading.Thread(target=self._after_failure, args=(reason, again), daemon=True,
+                         name="esair:restart").start()
+
+    def _after_failure(self, reason: str, again: bool) -> None:
+        """Tells the control center that its behavior failed (again until it answers:
+        the link may be cut); then either leaves, or joins again (the center replaces a
+        failed record) and runs the behavior in a new host."""
+        from ..modes.host import ComponentHost
+        self._component.stop(1.0)
+        with self._rejoin_lock:
+            while not self.done.is_set():
+                try:
+                    self.port._ctl("report", {"name": self.spec.name,
+                                              "generation": self.generation,
+                                              "phase": "failed", "reason": reason}, 2.0)
+                    if not again:
+                        break
+                    self.joined.clear()
+                    host = ComponentHost(self.spec, self.cls, self.port, self.generation)
+                    host.on_room = self._report_room
+                    self.host = host
+                    self.hello()
+                    break
+                except StdError as exc:
+                    log.warning("%s: waits for the control center: %s", self.spec.name, exc)
+                    self.done.wait(0.5)
+            if self.done.is_set() or not again:
+                self.done.set()
+                return
+            self.c["restarts"] += 1
+            log.warning("%s: restarted after it failed (%s): restart %d of at most %d "
+                        "within %g s", self.spec.name, reason, len(self._restarts),
+                        self.spec.restart_max, self.spec.restart_within)
+            self._component.start()
+
+
 def component_spec(name: str, class_path: str, kind: str, uses: dict, period: float | None,
-                   options: dict, allow: dict | None = None) -> Spec:
+                   options: dict, allow: dict | None = None,
+                   restart: tuple[int, float] = (0, 0.0)) -> Spec:
     return Spec(kind, name, class_path, dict(options), os.getcwd(), period=period,
                 has_period=period is not None,
+                restart_max=int(restart[0]), restart_within=float(restart[1]),
                 uses={k: Level.parse(v).name for k, v in uses.items()},
                 allow={k: Level.parse(v).name for k, v in (allow or {}).items()})
 
@@ -185,9 +251,11 @@ def find_robot(bus: Bus, endpoint: str) -> str:
 def run(endpoint: str, name: str, class_path: str, kind: str, uses: dict | None = None,
         period: float | None = None, options: dict | None = None, robot: str | None = None,
         sec: Any = None, hostname: str | None = None,
-        allow: dict | None = None, ready: Any = None) -> int:
+        allow: dict | None = None, ready: Any = None,
+        restart: tuple[int, float] = (0, 0.0)) -> int:
     """Run the agent until it is told to stop or signalled; its exit status."""
-    spec = component_spec(name, class_path, kind, uses or {}, period, options or {}, allow)
+    spec = component_spec(name, class_path, kind, uses or {}, period, options or {}, allow,
+                          (int(restart[0]), float(restart[1])))     # JSON: a list
     try:
         bus = Bus(connect=[endpoint], options=session_options(sec))
     except TransportError as exc:
@@ -196,7 +264,8 @@ def run(endpoint: str, name: str, class_path: str, kind: str, uses: dict | None 
     try:
         robot = robot or find_robot(bus, endpoint)
         agent = RemoteAgent(bus, robot, spec, proof_maker(lambda: robot, name, sec),
-                            hostname or os.uname().nodename)
+                            hostname or os.uname().nodename,
+                            sec.lease_ms if sec is not None else LEASE_MS)
         for sig in (signal.SIGINT, signal.SIGTERM):
             signal.signal(sig, lambda *_: agent.done.set())
         agent.watch_runtime()

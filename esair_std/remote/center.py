@@ -94,6 +94,13 @@ def session(rt: RuntimeView) -> tuple[dict, list[str], str | None]:
     return options, [local], local
 
 
+def _lease_s(value: Any) -> float | None:
+    """The lease (s) a joining agent says its session declared (``lease_ms``), if sane."""
+    if isinstance(value, (int, float)) and not isinstance(value, bool) and 100 <= value <= 600_000:
+        return value / 1000.0
+    return None
+
+
 class Center:
     """Remote agents of one runtime (process mode)."""
 
@@ -141,9 +148,13 @@ class Center:
             raise ControlError("bad request: a remote agent hosts a behavior or a resource")
         name = spec.name
         self._check_identity(name, b.get("proof"))
-        # a remote component never restarts from here: its process is not ours to start
+        # a remote component never restarts from here: its process is not ours to start;
+        # a behavior whose agent restarts it (esair std agent --restart) is not told to
+        # stop when it fails (remote/agent.py)
+        info = {"host": str(b.get("host", "?"))[:64], "pid": b.get("pid"),
+                "restarts": spec.kind == "behavior" and spec.restart_max > 0,
+                "lease": _lease_s(b.get("lease_ms"))}
         spec = Spec.from_json({**spec.to_json(), "restart_max": 0, "base_dir": None})
-        info = {"host": str(b.get("host", "?"))[:64], "pid": b.get("pid")}
         mode = self._mode()
         if spec.kind == "resource":
             return self._join_resource(spec, info)
@@ -232,7 +243,14 @@ class Center:
         rec = self.rt.bs.records.get(host.name)
         if rec is not None and rec.host is host and host.phase == "lost":
             self.rt.mode.reported(host.name, host.generation, "failed",
-                                  # its token went a lease (at least) after its
-                                  # last word, then the grace: a lower bound, true
                                   f"remote agent unreachable for at least "
-                                  f"{self.lease + self.lost_grace:g} s")
+                                  f"{self.unreachable_for(host.name):g} s")
+
+    def unreachable_for(self, name: str) -> float:
+        """A lower bound of how long a remote behavior failed for being lost was silent:
+        Zenoh dropped its session after the lease *the agent's session* declared (its
+        own, not this center's) since the last of its keep-alives (4 a lease), so at
+        least 3/4 of that lease before it was lost; then the grace (bench/std_net_lost.py)."""
+        info = self._mode().remote.get(name) or {}
+        lease = info.get("lease") or LEASE_MS / 1000.0
+        return round(0.75 * lease + self.lost_grace, 1)

@@ -66,7 +66,7 @@ def ask(port: serial.Serial, line: str) -> str:
 def test_driven_over_the_pty_until_the_watchdog_stops_it(tmp_path):
     trace = tmp_path / "starfish.trace"
     with emulator("--speed", "4", "--trace", str(trace), "--instance", "0badcafe") as (_, path), \
-            serial.Serial(path, 9600, timeout=5) as port:
+            serial.Serial(path, 38400, timeout=5) as port:
         assert ask(port, "v") == VERSION + " id=0badcafe"
         assert ask(port, "V+0200+0000+0000") == "OK"
         first = ask(port, "O")
@@ -185,7 +185,7 @@ def test_the_world_out_socket_gets_the_true_pose_from_the_start_pose(tmp_path):
     sock.bind(sock_path)
     sock.settimeout(5)
     with sock, emulator("--pose", "1000,1500,0.5", "--world-out", sock_path) as (_, path), \
-            serial.Serial(path, 9600, timeout=5) as port:
+            serial.Serial(path, 38400, timeout=5) as port:
         reply = ask(port, "v")
         assert reply.startswith(VERSION + " id=") and len(reply.split("id=")[1]) == 8
         t, x, y, th, hits = parse_datagram(sock.recv(256))

@@ -84,7 +84,8 @@ def test_partition_marks_remote_agents_lost_and_they_come_back_by_themselves(net
 
     net[1].link(up=False)                                  # the partition
     # the center says when it marks an agent lost / failed (esair std run's output): an
-    # event, not a poll of `esair std ls`, which may answer late during a cut
+    # event, not a poll of `esair std ls` (late answers around a cut: Zenoh's routing
+    # threads, scripts/ctl_during_cut.py, docs/std-network.md)
     center.run.wait_line("pusher: remote agent lost", 30)
     wait_for(lambda: center.state("ticks") == "lost", 30, what="ticks marked lost")
     assert center.inspect("arm")["grants"] == {}           # its registrations dropped
@@ -241,3 +242,80 @@ def test_a_thread_mode_runtime_takes_no_remote_agents(net, tmp_path):  # noqa: F
     assert proc.wait_exit(60) == 1
     assert proc.lines[-1] == ("error: join refused: this runtime runs in thread mode: "
                               "it takes no remote agents"), proc.output()
+
+
+FAULTS = """
+robot: lab
+mode: process
+endpoint: ENDPOINT
+security: {lease_ms: 1500}     # lost after 1.5 s of silence, failed after 3 leases
+resources:
+  arm:   {class: "tests.support.netcomps:Wheel", allow: {strict: command, timely: command}}
+behaviors:
+  sink:  {class: "tests.support.netcomps:Sink"}
+"""
+
+
+def _cut(center: Center, host, name: str, seconds: float) -> None:
+    """The link cut for ``seconds`` (once the center has seen ``name`` lost), then healed."""
+    host.link(up=False)
+    center.run.wait_line(f"{name}: remote agent lost", 30)
+    time.sleep(seconds)                              # the fault's length, not a check
+    host.link(up=True)
+
+
+def test_a_remote_behavior_failed_during_a_cut_is_restarted_under_its_policy(net, tmp_path):  # noqa: F811
+    """Issue 19.7: its own code fails while the link is cut (its send gives up); when the
+    link returns its agent restarts it under --restart (the control center, which
+    cannot start a remote process, takes it back); past the policy it stays failed."""
+    center = Center(net[0], tmp_path, FAULTS)
+    strict = agent(net[1], center.endpoint, "strict", "tests.support.netcomps:Strict",
+                   "--uses", "arm=command", "--restart", "1/120")
+    wait_for(lambda: center.state("strict") == "running", 30, what="strict running")
+    wait_for(lambda: center.get("strict")["steps"] > 5, 20, what="strict commanding")
+
+    _cut(center, net[1], "strict", 1.0)
+    failed = strict.wait_line("strict failed: CommandError: ", 30)       # during the cut
+    assert failed.endswith("strict failed: CommandError: arm: no answer within 0.2 s"), failed
+    line = strict.wait_line("strict: restarted after it failed", 30)
+    assert line.endswith("strict: restarted after it failed (CommandError: arm: no answer "
+                         "within 0.2 s): restart 1 of at most 1 within 120 s"), line
+    wait_for(lambda: center.state("strict") == "running", 30, what="strict running again")
+    wait_for(lambda: center.get("strict")["steps"] > 5, 20, what="the new strict commanding")
+    assert center.inspect("arm")["grants"] == {"strict": "command"}
+    assert center.ls()["strict"]["reason"] == ""
+
+    strict.lines.clear()
+    center.run.lines.clear()
+    _cut(center, net[1], "strict", 1.0)               # again: past its policy
+    strict.wait_line("strict: failed (CommandError: arm: no answer within 0.2 s); past its "
+                     "restart policy (1 within 120 s): it stays failed", 30)
+    # once the center is told why, the agent leaves with status 1 (for its supervisor)
+    assert strict.wait_exit(30) == 1
+    wait_for(lambda: center.state("strict") == "failed", 30, what="strict failed")
+    assert center.ls()["strict"]["reason"] == "CommandError: arm: no answer within 0.2 s"
+    assert not any("restarted" in ln for ln in strict.lines)
+
+
+def test_remote_calls_give_up_at_their_timeout_across_3_and_9_s_cuts(net, tmp_path):  # noqa: F811
+    """Issue 19.8: a remote behavior whose send()/put() timeouts (0.6 s) fit its step
+    deadline (1 s) never overruns while the link is cut: each call gives up at its
+    timeout (counted as failed), the behavior is not failed, and the same instance goes
+    on after the heal (its counters were not reset by a restart)."""
+    center = Center(net[0], tmp_path, FAULTS)
+    timely = agent(net[1], center.endpoint, "timely", "tests.support.netcomps:Timely",
+                   "--uses", "arm=command")
+    wait_for(lambda: center.state("timely") == "running", 30, what="timely running")
+    wait_for(lambda: center.get("timely")["put"] > 5, 20, what="timely putting")
+    for seconds in (3.0, 9.0):
+        before = center.get("timely")
+        _cut(center, net[1], "timely", seconds)
+        wait_for(lambda: center.state("timely") == "running", 30, what="timely back")
+        wait_for(lambda b=before: center.get("timely")["put"] > b["put"] + 5, 20,
+                 what="timely putting again")
+        after = center.get("timely")
+        assert after["steps"] > before["steps"] and after["sent"] > before["sent"], (before, after)
+        assert after["send_failed"] > before["send_failed"], (before, after)  # gave up, cut
+        assert after["put_failed"] > before["put_failed"], (before, after)
+    assert not any("timely failed" in ln for ln in timely.lines), timely.output()
+    assert timely.proc.poll() is None

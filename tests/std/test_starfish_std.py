@@ -129,8 +129,9 @@ def test_the_driver_refuses_bad_settings_by_name_and_changes_nothing(start):
     ({"camera": {"format": "gif"}}, "starfish: camera.format must be 'png' or 'jpeg', not 'gif'"),
     ({"emulate": {"room": "x.yaml"}}, "starfish: option 'emulate.room' is the driver's own (give "
                                       "room_file and pose)"),
-    ({"odometry_hz": 13}, "starfish: odometry_hz 13 exceeds the line: at 9600 baud one 'O' "
-                          "exchange takes up to 78.1 ms"),
+    ({"odometry_hz": 26}, "starfish: odometry_hz 26 exceeds the line: at 38400 baud one 'O' "
+                          "exchange takes up to 19.5 ms, and the polls may take half the line (the "
+                          "wheels' commands the other half): at most 25.6 a second"),
 ])
 def test_bad_driver_options_stop_the_start_with_the_reason(mode, options, message):
     opts = {"room_file": ROOM, **options}

@@ -29,9 +29,10 @@ def test_the_omni_commands_match_replies_by_shape_and_check_the_robot():
         c.check_version("esair-min/1 papaman servos=8 sensors=8 motions=4 image=ok checksum=off")
     assert str(exc.value) == (f"the robot answers wheels=? but the board files of starfish say "
                               f"wheels=3 ({robot.source})")
-    # the longest O reply at 9600 baud: 78.1 ms an exchange, 12.8 a second at most
-    assert round(omni_budget(robot).feet_exchange_s * 1e3, 1) == 78.1
-    assert round(omni_budget(robot).max_feet_hz(1.0), 1) == 12.8
+    # the longest O reply at 38400 baud: 19.5 ms an exchange, 25.6 a second in half the line
+    assert robot.central.uart.baud == 38400
+    assert round(omni_budget(robot).feet_exchange_s * 1e3, 1) == 19.5
+    assert round(omni_budget(robot).max_feet_hz(0.5), 1) == 25.6
 
 
 def test_the_radio_is_cut_out_of_range_and_behind_a_wall_and_heals_inside_the_edge():

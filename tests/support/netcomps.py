@@ -207,3 +207,48 @@ class StreamStats(Behavior):
     def provide(self, requester):
         return {"count": self.count, "first": self.first, "last": self.last,
                 "holes": self.holes, "overwritten": self.h.overwritten}
+
+
+class Strict(Behavior):
+    """Commands actuator ``arm`` every step and does not catch a failure: a cut link
+    fails it (its send gives up after 0.2 s). provide(): its steps since it (re)started."""
+
+    period = 0.05
+
+    def start(self):
+        self.steps = 0
+        self.arm = self.attach_actuator("arm")
+
+    def step(self):
+        self.steps += 1
+        self.arm.send({"push": self.steps}, timeout=0.2)
+
+    def provide(self, requester):
+        return {"steps": self.steps}
+
+
+class Timely(Behavior):
+    """Follows the docs: its calls' timeouts (0.6 s) fit its step deadline (1 s). Steps
+    alternately command ``arm`` and put to ``sink``; provide(): what came of them."""
+
+    period = 0.05
+
+    def start(self):
+        self.arm = self.attach_actuator("arm")
+        self.c = {"steps": 0, "sent": 0, "send_failed": 0, "put": 0, "put_failed": 0}
+
+    def step(self):
+        self.c["steps"] += 1
+        if self.c["steps"] % 2:
+            try:
+                self.arm.send({"push": self.c["steps"]}, timeout=0.6)
+                self.c["sent"] += 1
+            except (CommandError, ResourceLost):
+                self.c["send_failed"] += 1
+        elif self.put("sink", {"n": self.c["steps"]}, timeout=0.6):
+            self.c["put"] += 1
+        else:
+            self.c["put_failed"] += 1
+
+    def provide(self, requester):
+        return dict(self.c)

@@ -16,8 +16,8 @@ Deployment entry (the entry's name prefixes the resources' names)::
       snr_db: 20                # the microphones' SNR at the array's centre
       echo: 0.5                 # wall echoes' gain (0: the direct sound only)
       seed: 0                   # the audio's random streams
-      odometry_hz: 10           # O polls a second (at most the line's budget: 12.8 at
-                                # 9600 baud, the longest O reply)
+      odometry_hz: 10           # O polls a second (at most half the line: 25.6 at
+                                # 38400 baud, the longest O reply)
       timeout: 1.0              # the link's reply timeout (MinLink's)
       deadline: 0.5             # a wheel command not written by then is dropped
       radio: {range_m: 3.0, heal_m: 0.1, pause_audio: true, device: eth1}
@@ -39,7 +39,10 @@ Resources:
 - ``<entry>.camera`` actuator: ``"shoot"`` or ``{"shoot": true, "format": "jpeg"}`` ->
   ``{"seq", "t", "pose", "format", "w", "h", "image"}`` (the picture from the true pose);
 - ``<entry>.radio`` sensor: ``{"up", "distance", "los"}`` 5 times a second (radio.py);
-  ``pause_audio`` and ``device`` as before (linkswitch.py).
+  ``pause_audio`` and ``device`` as before (linkswitch.py);
+- ``<entry>.pictures`` sensor: each picture the camera takes (the camera's reply);
+- ``<entry>.map`` sensor: ``{"walls": [[x1, y1, x2, y2], ...], "landmarks": [...]}`` (m)
+  once a second: the room, for a map (the HMI's).
 
 The MIN link is MinLink's (esair_std/drivers/minlink): this driver is a ``MinLink`` whose
 robot is STARFISH's boards; the emulated robot is owned by it (reaped, restarted under
@@ -75,6 +78,9 @@ from .linkswitch import LinkSwitch
 # when its module is imported: the runtime imports every class of a deployment to check
 # it, and would otherwise carry numpy and Pillow for the whole run
 RATE, FRAME = 16000, 1024
+#: the share of the serial line the odometry polls may take; the rest carries the wheels'
+#: commands (20-50 a second from the behaviors)
+ODOMETRY_SHARE = 0.5
 OPTIONS = ("camera", "deadline", "echo", "emulate", "odometry_hz", "port", "pose", "radio", "robot",
            "room_file", "seed", "snr_db", "timeout")
 
@@ -141,9 +147,37 @@ class CameraShoot(Actuator):
         pose = self.robot.tap.pose()
         data = self.robot.encode_picture(self.robot.camera.render(pose), fmt)
         self.seq += 1
-        return {"seq": self.seq, "t": time.time(), "pose": [round(v, 4) for v in pose],
-                "format": fmt, "w": self.robot.camera.width, "h": self.robot.camera.height,
-                "image": base64.b64encode(data).decode("ascii")}
+        pic = {"seq": self.seq, "t": time.time(), "pose": [round(v, 4) for v in pose],
+               "format": fmt, "w": self.robot.camera.width, "h": self.robot.camera.height,
+               "image": base64.b64encode(data).decode("ascii")}
+        self.robot.pictures.report(pic)        # for watchers (the HMI): the last picture
+        return pic
+
+
+class Pictures(Sensor):
+    """Each picture the camera takes, as it was returned to the one who asked for it
+    (an image sensor: the HMI shows the last one)."""
+
+
+class RoomMap(Sensor):
+    """The room the robot lives in, once a second: walls, landmarks, the sound source
+    and the access point (m; the odometry's frame). A page opened late gets it within a
+    second; the source moves when it is configured."""
+
+    rate_hz = 1.0
+
+    def __init__(self, robot: "Starfish"):
+        self.robot = robot
+
+    def read(self) -> Any:
+        room, radio = self.robot.room, self.robot.radio
+        marks = [{"kind": "pole", "x": lm["x"], "y": lm["y"], "r": lm["r"], "color": lm["color"]}
+                 for lm in room.landmarks]
+        src = room.source
+        marks.append({"kind": "sound", "x": src.x, "y": src.y, "on": src.on})
+        ap = room.access_point
+        marks.append({"kind": "access_point", "x": ap[0], "y": ap[1], "range_m": radio.range_m})
+        return {"walls": [[round(float(v), 4) for v in w] for w in room.walls], "landmarks": marks}
 
 
 class Radio(Sensor):
@@ -267,10 +301,12 @@ class Starfish(MinLink):
                          may_open=self.emulated.held, commands=OmniCommands(robot),
                          budget=omni_budget(robot))
         self.link.open()
-        if hz > self.link.budget.max_feet_hz(1.0):
-            raise StarfishError(f"odometry_hz {hz:g} exceeds the line: at {self.link.budget.baud} "
-                                f"baud one 'O' exchange takes up to "
-                                f"{self.link.budget.feet_exchange_s * 1e3:.1f} ms")
+        if hz > self.link.budget.max_feet_hz(ODOMETRY_SHARE):
+            b = self.link.budget
+            raise StarfishError(f"odometry_hz {hz:g} exceeds the line: at {b.baud} baud one 'O' "
+                                f"exchange takes up to {b.feet_exchange_s * 1e3:.1f} ms, and the "
+                                f"polls may take half the line (the wheels' commands the other "
+                                f"half): at most {b.max_feet_hz(ODOMETRY_SHARE):.1f} a second")
         base_ = robot.central.base
         self.wheels = Wheels(self.link, base_.max_speed_mm_s, base_.max_omega_mrad_s)
         self.odometry = Odometry(self.link, robot, hz, start)
@@ -278,7 +314,9 @@ class Starfish(MinLink):
                                 "notices": self.notices}
         self.wheels.deadline_s = deadline
         self.children = kids
-        self.simulated = {"mics": Mics(self), "camera": CameraShoot(self), "radio": Radio(self)}
+        self.pictures = Pictures()
+        self.simulated = {"mics": Mics(self), "camera": CameraShoot(self), "radio": Radio(self),
+                          "pictures": self.pictures, "map": RoomMap(self)}
         self._supervisor = threading.Thread(target=self._supervise, daemon=True,
                                             name=f"minlink-emulator:{self.name}")
         self._supervisor.start()

@@ -127,6 +127,7 @@ class App {
       case "log": this.log.add(m.level, m.text); return;
       case "commanded": return this.commanded(m.r, m.v);
       case "watched": return;
+      case "state": this.generic.state(m.r, m.v); this.dirty = true; return;
       case "recording": return this.recording(m);
       default: this.log.add("warning", `unknown message ${m.t}`);
     }
@@ -145,8 +146,13 @@ class App {
     this.motions = new Motions($("motions"), info, entry, this);
     this.feet = new Feet($("feet"), $("pause"), $("feet-note"), info);
     $("feet-panel").hidden = !info;
-    this.generic = new Generic($("sensors"), $("actuators"), m.robots, this);
+    $("pose-panel").hidden = $("joints-panel").hidden = !info;
+    this.generic = new Generic($("sensors"), $("actuators"), m.robots, this, $("states"));
     this.components.update(m.rows); this.generic.rows(m.rows);
+    for (const s of m.last || []) {          // each sensor's last sample (a MIN robot's: live only)
+      if (!(entry && s.r.startsWith(`${entry}.`))) this.generic.sample(s);
+    }
+    for (const s of m.states || []) this.generic.state(s.r, s.v);
     for (const p of m.problems) this.log.add("warning", p);
     this.recording(m.recording);
     this.replay.refresh();

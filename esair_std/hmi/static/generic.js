@@ -1,11 +1,16 @@
 // Panels for any robot from its resource kinds and samples: a numeric sensor gets a
-// plot, an image sensor ({image: data URL}) a picture, a pose sensor ({x, y}) a map;
-// an actuator that is not a MIN robot's servo or motion gets a command box.
+// plot, an image sensor ({image: data URL or base64}) a picture; a room sensor ({walls})
+// and the pose sensors ({x, y}) of one resource entry share that entry's map; a
+// behavior's state (its `get`) is shown as it is, with a dial for a bearing in it (also
+// drawn on the map); an actuator that is not a MIN robot's servo or motion gets a
+// command box.
 const WINDOW_S = 10;
 
 export class Generic {
-  constructor(sensorsEl, actuatorsEl, robots, app) {
+  constructor(sensorsEl, actuatorsEl, robots, app, statesEl) {
     this.sEl = sensorsEl; this.aEl = actuatorsEl; this.app = app; this.panels = {}; this.acts = {};
+    this.stEl = statesEl; this.maps = {}; this.states = {};
+    if (statesEl) statesEl.textContent = "";
     this.own = Object.keys(robots).map((e) => `${e}.`);
     sensorsEl.textContent = ""; actuatorsEl.textContent = "";
   }
@@ -30,25 +35,63 @@ export class Generic {
   }
 
   sample(m) {
+    const v = m.v;
+    if (v && typeof v === "object" && (Array.isArray(v.walls) ||
+        (typeof v.x === "number" && typeof v.y === "number"))) {
+      this.map(m.r.split(".")[0]).push(m);
+      return;
+    }
     let p = this.panels[m.r];
     if (!p) p = this.panels[m.r] = this.make(m);
     if (p) p.push(m);
   }
 
+  box(title, first = false) {       // maps and pictures first, plots after them
+    const box = document.createElement("div"); box.className = "generic";
+    const t = document.createElement("div"); t.textContent = title; box.append(t);
+    if (first) this.sEl.prepend(box); else this.sEl.append(box);
+    this.sEl.parentElement.hidden = false;
+    return box;
+  }
+
+  map(entry) {
+    let map = this.maps[entry];
+    if (!map) {
+      const box = this.box(`${entry} map`, true); box.dataset.map = entry;
+      map = this.maps[entry] = this.panels[`map:${entry}`] = new RoomMap(box);
+    }
+    return map;
+  }
+
+  state(name, v) {
+    if (!this.stEl) return;
+    let st = this.states[name];
+    if (!st) {
+      const box = document.createElement("div"); box.className = "generic"; box.dataset.state = name;
+      const t = document.createElement("div"); t.textContent = name; box.append(t);
+      this.stEl.append(box); this.stEl.parentElement.hidden = false;
+      st = this.states[name] = new State(box);
+    }
+    const b = bearingOf(v);
+    st.push(v, b);
+    if (b) for (const map of Object.values(this.maps)) if (map.pose) map.aim(b);
+  }
+
   make(m) {
     const v = m.v;
-    const box = document.createElement("div"); box.className = "generic";
-    const title = document.createElement("div"); title.textContent = m.r; box.append(title);
-    this.sEl.append(box); this.sEl.parentElement.hidden = false;
-    if (v && typeof v === "object" && typeof v.image === "string") return new Picture(box);
-    if (v && typeof v === "object" && typeof v.x === "number" && typeof v.y === "number") return new PoseMap(box);
+    const image = v && typeof v === "object" && typeof v.image === "string";
+    const box = this.box(m.r, image);
+    if (image) return new Picture(box);
     const fields = numbers(v);
     if (fields && typeof uPlot !== "undefined") return new Plot(box, Object.keys(fields));
     const pre = document.createElement("pre"); box.append(pre);
     return { push: (s) => { pre.textContent = JSON.stringify(s.v); }, draw() {} };
   }
 
-  draw() { for (const p of Object.values(this.panels)) if (p) p.draw(); }
+  draw() {
+    for (const p of Object.values(this.panels)) if (p) p.draw();
+    for (const st of Object.values(this.states)) st.draw();
+  }
 }
 
 function numbers(v) {
@@ -84,23 +127,120 @@ class Picture {
   draw() { if (this.src && this.img.src !== this.src) this.img.src = this.src; }
 }
 
-class PoseMap {
+// The map of one resource entry: its room ({walls: [[x1, y1, x2, y2], ...], landmarks}
+// samples), its pose sensors' robot ({x, y, th|theta}: a heading arrow and a trail) and a
+// behavior's bearing (rad, counter-clockwise from the robot's heading) as a ray from it.
+class RoomMap {
   constructor(box) {
-    this.c = document.createElement("canvas"); this.c.width = 300; this.c.height = 200; box.append(this.c);
-    this.trail = [];
+    this.c = document.createElement("canvas"); this.c.width = 360; this.c.height = 250; box.append(this.c);
+    this.note = document.createElement("small"); box.append(this.note);
+    this.walls = []; this.landmarks = []; this.trail = []; this.pose = null; this.bearing = null;
+    this.view = { walls: 0, landmarks: 0, pose: null, ray: null };      // what is drawn (tests)
   }
-  push(m) { this.trail.push([m.v.x, m.v.y, m.v.theta]); if (this.trail.length > 500) this.trail.shift(); }
+  push(m) {
+    const v = m.v;
+    if (Array.isArray(v.walls)) {
+      this.walls = v.walls.filter((w) => Array.isArray(w) && w.length === 4 && w.every(Number.isFinite));
+      this.landmarks = Array.isArray(v.landmarks) ? v.landmarks.filter((l) => l && Number.isFinite(l.x) && Number.isFinite(l.y)) : [];
+      return;
+    }
+    const th = typeof v.th === "number" ? v.th : typeof v.theta === "number" ? v.theta : null;
+    this.pose = { x: v.x, y: v.y, th, r: m.r };
+    this.trail.push([v.x, v.y]); if (this.trail.length > 500) this.trail.shift();
+  }
+  aim(bearing) { this.bearing = bearing; }
+  bounds() {
+    const xs = [], ys = [];
+    for (const w of this.walls) { xs.push(w[0], w[2]); ys.push(w[1], w[3]); }
+    if (!xs.length) for (const p of this.trail) { xs.push(p[0]); ys.push(p[1]); }
+    if (!xs.length) return null;
+    return [Math.min(...xs), Math.max(...xs), Math.min(...ys), Math.max(...ys)];
+  }
   draw() {
-    const c = this.c.getContext("2d"); c.clearRect(0, 0, 300, 200);
-    if (!this.trail.length) return;
-    const xs = this.trail.map((p) => p[0]), ys = this.trail.map((p) => p[1]);
-    const minx = Math.min(...xs), maxx = Math.max(...xs), miny = Math.min(...ys), maxy = Math.max(...ys);
-    const s = Math.min(280 / Math.max(1e-9, maxx - minx), 180 / Math.max(1e-9, maxy - miny), 100);
-    const px = (p) => [10 + (p[0] - minx) * s, 190 - (p[1] - miny) * s];
-    c.strokeStyle = "#2563eb"; c.beginPath();
-    this.trail.forEach((p, i) => { const [x, y] = px(p); if (i) c.lineTo(x, y); else c.moveTo(x, y); });
+    const W = this.c.width, H = this.c.height, c = this.c.getContext("2d");
+    c.clearRect(0, 0, W, H);
+    const b = this.bounds(); if (!b) return;
+    const [x0, x1, y0, y1] = b, pad = 10;
+    const s = Math.min((W - 2 * pad) / Math.max(1e-9, x1 - x0), (H - 2 * pad) / Math.max(1e-9, y1 - y0), 200);
+    const px = (x, y) => [pad + (x - x0) * s, H - pad - (y - y0) * s];
+    c.lineWidth = 3; c.strokeStyle = "#1d2430"; c.beginPath();
+    for (const w of this.walls) { c.moveTo(...px(w[0], w[1])); c.lineTo(...px(w[2], w[3])); }
     c.stroke();
-    const [x, y] = px(this.trail[this.trail.length - 1]);
-    c.fillStyle = "#b91c1c"; c.beginPath(); c.arc(x, y, 4, 0, 2 * Math.PI); c.fill();
+    for (const l of this.landmarks) {
+      const [x, y] = px(l.x, l.y);
+      c.lineWidth = 2; c.beginPath();
+      if (l.kind === "access_point") {
+        c.strokeStyle = "#2563eb"; c.moveTo(x, y - 7); c.lineTo(x - 6, y + 5); c.lineTo(x + 6, y + 5); c.closePath(); c.stroke();
+        if (Number.isFinite(l.range_m)) { c.setLineDash([4, 4]); c.beginPath(); c.arc(x, y, l.range_m * s, 0, 2 * Math.PI); c.stroke(); c.setLineDash([]); }
+      } else if (l.kind === "sound") {
+        c.strokeStyle = c.fillStyle = "#dc2626"; c.arc(x, y, 6, 0, 2 * Math.PI); if (l.on) c.fill(); else c.stroke();
+      } else {
+        c.fillStyle = Array.isArray(l.color) ? `rgb(${l.color.join(",")})` : "#6b7280";
+        c.arc(x, y, Math.max(3, (l.r || 0.1) * s), 0, 2 * Math.PI); c.fill();
+      }
+    }
+    c.lineWidth = 1.5; c.strokeStyle = "#93c5fd"; c.beginPath();
+    this.trail.forEach((p, i) => { const [x, y] = px(p[0], p[1]); if (i) c.lineTo(x, y); else c.moveTo(x, y); });
+    c.stroke();
+    let ray = null;
+    if (this.pose) {
+      const [x, y] = px(this.pose.x, this.pose.y), th = this.pose.th ?? 0;
+      if (this.bearing && this.pose.th !== null) {
+        ray = th + this.bearing.bearing;
+        const len = Math.hypot(x1 - x0, y1 - y0) * s;
+        c.strokeStyle = `rgba(234,88,12,${Math.max(0.25, Math.min(1, this.bearing.confidence ?? 1))})`;
+        c.lineWidth = 2; c.beginPath(); c.moveTo(x, y); c.lineTo(x + len * Math.cos(ray), y - len * Math.sin(ray)); c.stroke();
+      }
+      c.fillStyle = "#1d4ed8"; c.beginPath(); c.arc(x, y, 7, 0, 2 * Math.PI); c.fill();
+      if (this.pose.th !== null) {
+        c.strokeStyle = "#fff"; c.lineWidth = 2; c.beginPath(); c.moveTo(x, y);
+        c.lineTo(x + 10 * Math.cos(th), y - 10 * Math.sin(th)); c.stroke();
+      }
+    }
+    this.view = { walls: this.walls.length, landmarks: this.landmarks.length,
+      pose: this.pose && [this.pose.x, this.pose.y, this.pose.th], ray };
+    const p = this.pose;
+    this.note.textContent = p ? `${p.r}: x ${p.x.toFixed(2)} y ${p.y.toFixed(2)}` +
+      (p.th !== null ? ` θ ${(p.th * 180 / Math.PI).toFixed(1)}°` : "") : "";
   }
+}
+
+// A behavior's state (its `get`): the JSON, and a dial for a bearing in it.
+class State {
+  constructor(box) {
+    this.pre = document.createElement("pre"); this.pre.className = "state";
+    this.dial = null; this.box = box; box.append(this.pre);
+  }
+  push(v, bearing) {
+    this.pre.textContent = JSON.stringify(v);
+    this.bearing = bearing;
+    if (bearing && !this.dial) {
+      this.dial = document.createElement("canvas"); this.dial.width = this.dial.height = 110;
+      this.text = document.createElement("div"); this.text.className = "bearing";
+      this.box.insertBefore(this.text, this.pre); this.box.insertBefore(this.dial, this.text);
+    }
+  }
+  draw() {
+    if (!this.dial || !this.bearing) return;
+    const c = this.dial.getContext("2d"), r = 48, cx = 55, cy = 55, b = this.bearing.bearing;
+    c.clearRect(0, 0, 110, 110);
+    c.strokeStyle = "#9ca3af"; c.lineWidth = 1; c.beginPath(); c.arc(cx, cy, r, 0, 2 * Math.PI); c.stroke();
+    c.fillStyle = "#1d4ed8"; c.beginPath(); c.moveTo(cx, cy - 14); c.lineTo(cx - 7, cy + 6); c.lineTo(cx + 7, cy + 6); c.fill();
+    // the robot's heading is up; a positive bearing is to its left
+    c.strokeStyle = "#ea580c"; c.lineWidth = 3; c.beginPath(); c.moveTo(cx, cy);
+    c.lineTo(cx - r * Math.sin(b), cy - r * Math.cos(b)); c.stroke();
+    const conf = this.bearing.confidence;
+    this.text.textContent = `bearing ${(b * 180 / Math.PI).toFixed(1)}°` +
+      (typeof conf === "number" ? ` · confidence ${conf.toFixed(2)}` : "");
+  }
+}
+
+// {bearing: rad} in a behavior's state, or in its `last`
+export function bearingOf(v) {
+  for (const o of [v, v && v.last]) {
+    if (o && typeof o === "object" && typeof o.bearing === "number" && Number.isFinite(o.bearing)) {
+      return { bearing: o.bearing, confidence: typeof o.confidence === "number" ? o.confidence : null };
+    }
+  }
+  return null;
 }
