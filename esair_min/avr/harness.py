@@ -30,6 +30,7 @@ import re
 import shutil
 import subprocess
 import tempfile
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -223,48 +224,98 @@ class _Script:
 
 
 def _stimulus_line(sc: _Script, line: str) -> None:
-    s = sc.setup
+    """One stimulus line (docs/trace-format.md) as simavr driver commands: ``rx`` keeps
+    its spaces; every other line is a verb and its words, each verb handled by its own
+    function in :data:`_VERBS` (which returns False when the words do not fit it), as
+    the gpsim harness does."""
     if line == "rx" or line.startswith("rx "):
-        if not sc.booted:
-            raise ProtocolError("rx before boot")
-        sc.send(unescape(line[3:]))
+        _rx(sc, line[3:])
         return
     cmd, *args = words(line.split("#", 1)[0])
-    if cmd == "boot" and not args:
-        if sc.booted:
-            raise ProtocolError("a second boot is not supported in the AVR simulator")
-        if sc.tipping():
-            raise ProtocolError("the readings set before boot tip a balance reaction: the "
-                                "firmware polls during the boot wait; set them after boot")
-        sc.booted = True
-        sc.run_to(sc.boot_end)
-    elif cmd == "tick" and len(args) <= 1:
-        n = decimal(args[0], "tick count", TICKS_MAX) if args else 1
-        sc.run_to(sc.now + n * s.tick_cycles)
-    elif cmd == "sensor" and args and sc.channels is not None:
-        readings = [decimal(a, "reading", READING_MAX) for a in args]
+    verb = _VERBS.get(cmd)
+    if verb is not None and verb(sc, args):
+        return
+    raise ProtocolError(f"{line!r} is not supported by the AVR harness (boot, rx, tick, "
+                        "sensor, fault sensor, poke)")
+
+
+def _rx(sc: _Script, text: str) -> None:
+    """``rx TEXT``: the PC end of the serial link sends the bytes."""
+    if not sc.booted:
+        raise ProtocolError("rx before boot")
+    sc.send(unescape(text))
+
+
+def _boot(sc: _Script, args: list[str]) -> bool:
+    """``boot``: run to the end of the boot wait (once)."""
+    if args:
+        return False
+    if sc.booted:
+        raise ProtocolError("a second boot is not supported in the AVR simulator")
+    if sc.tipping():
+        raise ProtocolError("the readings set before boot tip a balance reaction: the "
+                            "firmware polls during the boot wait; set them after boot")
+    sc.booted = True
+    sc.run_to(sc.boot_end)
+    return True
+
+
+def _tick(sc: _Script, args: list[str]) -> bool:
+    """``tick [N]``: run N tick periods."""
+    if len(args) > 1:
+        return False
+    n = decimal(args[0], "tick count", TICKS_MAX) if args else 1
+    sc.run_to(sc.now + n * sc.setup.tick_cycles)
+    return True
+
+
+def _sensor(sc: _Script, args: list[str]) -> bool:
+    """``sensor R...``: the readings, on the sensor board's ADC channels when it runs its
+    firmware, else in the sensor stand-in's registers."""
+    if not args:
+        return False
+    s = sc.setup
+    readings = [decimal(a, "reading", READING_MAX) for a in args]
+    if sc.channels is not None:
         if len(readings) > len(sc.channels):
             raise ProtocolError(f"{len(readings)} readings for {len(sc.channels)} sensors")
         sc.readings[:len(readings)] = readings
         sc.lines += [f"adc 2 {ch} {v}" for ch, v in zip(sc.channels, readings, strict=False)]
-    elif cmd == "sensor" and args and s.sensor_address is not None:
-        readings = [decimal(a, "reading", READING_MAX) for a in args]
-        regs = RegisterSlave(0, s.sensor_registers)
-        regs.set_readings(readings)
-        sc.readings[:len(readings)] = readings
-        sc.lines.append(f"set {s.sensor_address} 0 " + " ".join(str(b) for b in regs.registers))
-    elif (cmd == "fault" and len(args) == 2 and args[0] == "sensor" and args[1] in ("on", "off")
-          and sc.channels is None):
-        if s.sensor_address is None:
-            raise ProtocolError("no sensor board")
-        sc.lines.append(f"absent {s.sensor_address} {int(args[1] == 'on')}")
-    elif cmd == "poke" and len(args) == 2:
-        offset = hexadecimal(args[0], "poke offset", s.eeprom_size - 1)
-        byte = hexadecimal(args[1], "poke byte", 0xFF)
-        sc.lines.append(f"set {s.eeprom_address} {offset} {byte}")
-    else:
-        raise ProtocolError(f"{line!r} is not supported by the AVR harness (boot, rx, tick, "
-                            "sensor, fault sensor, poke)")
+        return True
+    if s.sensor_address is None:
+        return False
+    regs = RegisterSlave(0, s.sensor_registers)
+    regs.set_readings(readings)
+    sc.readings[:len(readings)] = readings
+    sc.lines.append(f"set {s.sensor_address} 0 " + " ".join(str(b) for b in regs.registers))
+    return True
+
+
+def _fault(sc: _Script, args: list[str]) -> bool:
+    """``fault sensor on|off``: the sensor stand-in stops answering (not with the sensor
+    board's own firmware running)."""
+    if len(args) != 2 or args[0] != "sensor" or args[1] not in ("on", "off") \
+            or sc.channels is not None:
+        return False
+    if sc.setup.sensor_address is None:
+        raise ProtocolError("no sensor board")
+    sc.lines.append(f"absent {sc.setup.sensor_address} {int(args[1] == 'on')}")
+    return True
+
+
+def _poke(sc: _Script, args: list[str]) -> bool:
+    """``poke OFFSET BYTE``: a byte of the EEPROM image."""
+    if len(args) != 2:
+        return False
+    s = sc.setup
+    offset = hexadecimal(args[0], "poke offset", s.eeprom_size - 1)
+    byte = hexadecimal(args[1], "poke byte", 0xFF)
+    sc.lines.append(f"set {s.eeprom_address} {offset} {byte}")
+    return True
+
+
+_VERBS: dict[str, Callable[[_Script, list[str]], bool]] = {
+    "boot": _boot, "tick": _tick, "sensor": _sensor, "fault": _fault, "poke": _poke}
 
 
 def build_commands(robot: Robot, stimulus: str, image: Path, boot_end: int | None = None,

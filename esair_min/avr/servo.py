@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from esair_min.model.encoding import encode_pair
 from esair_min.avr.harness import AvrRun, Pulse, pulses
 from esair_min.model.robot import Robot
 from esair_min.pic.gpsim_servo import expected_us
@@ -41,8 +42,7 @@ def checked_pulses(run: AvrRun, robot: Robot, clock_hz: int) -> tuple[list[Pulse
     servos = sorted(robot.servos, key=lambda x: x.index)
     act = robot.peer("actuator")
     assert act is not None
-    regs = [b for x in servos for b in (x.stand_angle % 100, x.stand_angle // 100
-                                        + 10 * x.default_speed)]
+    regs = [b for x in servos for b in encode_pair(x.stand_angle, x.default_speed)]
     position = [x.stand_angle for x in servos]
     target = list(position)
     speed = [x.default_speed for x in servos]

@@ -45,6 +45,7 @@ def _first_opener() -> tuple[bytes, bytes]:
     try:
         with serial.Serial(path, 9600, timeout=0.5) as port:
             unasked = port.read(100)
+            port.timeout = 10            # the answer may come late on a loaded machine
             port.write(b"v\r\n")
             return unasked, port.readline()
     finally:

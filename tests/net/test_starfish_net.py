@@ -94,7 +94,13 @@ def get_when(center, name, ok, timeout, what):
     seen = []
 
     def probe():
-        seen[:] = [center.get(name)]
+        # a control call that gets no answer (the runtime busy while the radio is cut,
+        # docs/std-network.md) is asked again, until the timeout
+        try:
+            seen[:] = [center.get(name)]
+        except AssertionError as exc:
+            seen[:] = [str(exc)]
+            return None
         return seen[0] if ok(seen[0]) else None
     try:
         return wait_for(probe, timeout, what=what)
