@@ -1,7 +1,7 @@
 """ESAIR STD across computers: figures between two network namespaces (issue 12 item 4).
 
 Host 0 (10.77.0.1) runs the control center, host 1 (10.77.0.2) the remote side; they
-are joined by one veth pair (tests/netns.py; root needed). Side by side in one run:
+are joined by one veth pair (tests/support/netns.py; root needed). Side by side in one run:
 
 1. raw Zenoh query/reply across the link (a client in host 1 asks a queryable of the
    router in host 0): the baseline, over tcp and over tls with client certificates;
@@ -30,11 +30,10 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(ROOT / "tests"))
 
-import netns  # noqa: E402
-from netstd import Center, Proc  # noqa: E402
-from zpeer import Peer  # noqa: E402
+from tests.support import netns  # noqa: E402
+from tests.support.netstd import Center, Proc  # noqa: E402
+from tests.support.zpeer import Peer  # noqa: E402
 
 from esair_std.transport.certs import make_certs  # noqa: E402
 from esair_std.transport.security import Security, SecuritySpec, session_inserts  # noqa: E402
