@@ -145,14 +145,17 @@ def test_bursts_from_two_senders_arrive_once_each_in_order(start, mode):
         assert counters["reserved"] == 0
 
 
-def test_a_behavior_busy_by_its_own_word_takes_nothing_until_free(start):
-    rt = start({"behaviors": {"gate": {"class": "tests.support.comps:Gate", "hold": 1.5}}})
+def test_a_behavior_busy_by_its_own_word_takes_nothing_until_free(start, tmp_path):
+    release = tmp_path / "release"
+    rt = start({"behaviors": {"gate": {"class": "tests.support.comps:Gate",
+                                       "release": str(release)}}})
     rt.put("gate", "close")
     wait_for(lambda: rt.state("gate") == "busy", 5, what="the gate to close")
     with pytest.raises(ControlError) as e:
         rt.put("gate", "in vain", timeout=0.2)
     assert str(e.value) == ("put to 'gate' failed: 'gate' did not take the data within "
                             "0.2 s (busy)")
-    rt.put("gate", "later", timeout=5.0)          # the BS retries until it is free again
+    release.touch()
+    rt.put("gate", "later", timeout=10.0)          # the BS retries until it is free again
     assert rt.state("gate") == "running"
     assert wait_for(lambda: rt.get("gate"), 5, what="the gate")["got"] == ["close", "later"]

@@ -251,21 +251,22 @@ class Burst(Behavior):
 
 
 class Gate(Behavior):
-    """Makes itself busy on a put of "close", free again ``options.hold`` s later."""
+    """Makes itself busy on a put of "close"; free again once the file
+    ``options.release`` exists (the test decides when, not a wall-clock hold)."""
 
     period = 0.01
 
     def start(self):
-        self.got, self.until = [], None
+        self.got, self.closed = [], False
 
     def receive(self, sender, data):
         self.got.append(data)
         if data == "close":
-            self.busy, self.until = True, time.monotonic() + float(self.options["hold"])
+            self.busy = self.closed = True
 
     def step(self):
-        if self.until is not None and time.monotonic() >= self.until:
-            self.busy, self.until = False, None
+        if self.closed and os.path.exists(self.options["release"]):
+            self.busy = self.closed = False
 
     def provide(self, requester):
         return {"got": self.got}
