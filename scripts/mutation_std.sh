@@ -10,7 +10,7 @@
 # checkout ($WORK, default .mutation-std/, git-ignored) whose [tool.mutmut] is replaced
 # by scripts/mutation_std.toml. Then prints the summary of scripts/mutation_report.py.
 #
-# Slow (about half an hour on a shared 2-core machine, at nice 10): NOT part of the
+# Slow (an hour or more on a shared 2-core machine, at nice 19 by default: NICE=N to change): NOT part of the
 # test suite or CI.
 #
 #   bash scripts/mutation_std.sh                  # fresh run
@@ -43,7 +43,7 @@ open(path, "w").write(text + "\n" + table)
 PY
 cd "$WORK"
 mkdir -p mutants
-nice -n 10 mutmut run --max-children "${MAX_CHILDREN:-1}" "$@" > mutants/run.log 2>&1 || {
+nice -n "${NICE:-19}" mutmut run --max-children "${MAX_CHILDREN:-1}" "$@" > mutants/run.log 2>&1 || {
     tail -n 40 mutants/run.log
     echo "mutmut run failed (full log: $WORK/mutants/run.log)" >&2
     exit 1
