@@ -17,6 +17,7 @@ import os
 import socket
 import threading
 import time
+import weakref
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -37,6 +38,7 @@ if TYPE_CHECKING:  # pragma: no cover
 
 log = logging.getLogger("esair_std.runtime")
 MODES = ("thread", "process")
+STOP_JOIN = 5.0       # stop(): the longest wait for the runtime's threads to end
 WATCH_IDLE = 1.0      # the watchdog's longest sleep (a component added meanwhile wakes it)
 WAIT_RECHECK = 0.1    # wait_state: how often a state no event announces (busy) is looked at
 
@@ -114,20 +116,32 @@ class Runtime:
         except BaseException:
             self.stop()
             raise
+        _stop_at_exit(self)
         self.started_at = time.time()
         return self
 
     def stop(self) -> None:
+        """Stops every component and resource, closes the session, and returns once the
+        runtime's threads that may call into Zenoh have ended (transport/threads.py: one
+        left inside a Zenoh call when the interpreter finalizes aborts the program)."""
         self._stop.set()
         self._kick.set()
         self.bs.stop_all()
         self.rs.stop_all()
         if self._watch is not None and self._watch.is_alive():
             self._watch.join(1.0)
-        if self.server is not None:
-            self.server.close()
-            self.server = None
+        server, self.server = self.server, None
+        if server is not None:
+            server.close()
         self.mode.close()
+        deadline = time.monotonic() + STOP_JOIN
+        left = server.join(STOP_JOIN) if server is not None else []
+        threads = getattr(self.mode, "threads", None)
+        if threads is not None:
+            left += threads.join(max(0.0, deadline - time.monotonic()))
+        if left:
+            log.warning("stop: threads still running after %g s: %s", STOP_JOIN,
+                        ", ".join(left))
 
     def __enter__(self) -> "Runtime":
         return self.start()
@@ -333,6 +347,26 @@ class Runtime:
                              puts_failed=c.get("puts_failed", 0),
                              restarts=row.get("restarts", 0)))
         return rows
+
+
+def _stop_at_exit(rt: Runtime) -> None:
+    """A program that leaves without ``rt.stop()``: the runtime is stopped at its exit,
+    before the interpreter waits for its non-daemon threads (zenoh-python's liveliness
+    thread lives as long as the session: the program hung forever) and before it
+    finalizes under threads still inside Zenoh (SIGABRT, transport/threads.py). Holds
+    the runtime weakly: a runtime dropped earlier is not kept alive by this."""
+    ref = weakref.ref(rt)
+
+    def at_exit() -> None:
+        r = ref()
+        if r is not None and not r._stop.is_set():
+            r.stop()
+
+    try:
+        # runs before the non-daemon threads' join (concurrent.futures uses it too)
+        threading._register_atexit(at_exit)  # type: ignore[attr-defined]
+    except RuntimeError:                      # the interpreter is already shutting down
+        pass
 
 
 def _reason(rec: Any) -> str:

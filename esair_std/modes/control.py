@@ -30,6 +30,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from ..view import Robot
     from ..rs import ResourceSupervisor
 from ..transport.session import check_endpoint, hub_runtime
+from ..transport.threads import Threads
 
 log = logging.getLogger("esair_std.control")
 WORKERS = 8
@@ -84,6 +85,8 @@ class ControlServer:
         self.bus: Bus | None = None
         self._q: queue.Queue = queue.Queue(maxsize=PENDING)
         self._workers: list[threading.Thread] = []
+        self.threads = Threads()     # what may be in a Zenoh call: joined at stop (threads.py)
+        self._closing = False
         self.c = dict(requests=0, bad_requests=0, refused_full=0)
         self.verbs = Verbs(unknown="unknown control verb {verb!r}")
         for verb, fn in {
@@ -109,8 +112,7 @@ class ControlServer:
                        connect=list(getattr(self.rt, "join", None) or []) or None,
                        options=getattr(self.rt, "session_options", None))
         for _ in range(WORKERS):
-            t = threading.Thread(target=self._work, name="esair:ctl", daemon=True)
-            t.start()
+            t = self.threads.start(self._work, name="esair:ctl")
             self._workers.append(t)
         self.bus.serve(keys.ctl(self.rt.robot, "*"), self._enqueue)
         robot = self.rt.robot
@@ -128,13 +130,20 @@ class ControlServer:
         return out
 
     def close(self) -> None:
-        for _ in self._workers:
+        """Closes the session (a worker's Zenoh call then fails at once) and tells the
+        workers to end; :meth:`join` waits for them."""
+        self._closing = True
+        if self.bus is not None:
+            self.bus.close()
+        for _ in self._workers:             # a full queue: each worker ends after its item
             try:
                 self._q.put_nowait(None)
             except queue.Full:
                 pass
-        if self.bus is not None:
-            self.bus.close()
+
+    def join(self, timeout: float) -> list[str]:
+        """Waits for the workers (after :meth:`close`); the names of those still running."""
+        return self.threads.join(timeout)
 
     def _enqueue(self, req: Request | _SampleRequest) -> None:
         b = req.body
@@ -179,7 +188,7 @@ class ControlServer:
     def _work(self) -> None:
         while True:
             req = self._q.get()
-            if req is None:
+            if req is None or self._closing:
                 return
             req.reply(self.answer(req.key.rsplit("/", 1)[-1], req.body, req.error))
 

@@ -25,6 +25,7 @@ from ..spec import Spec
 from ..transport import codec, keys, session, wire
 from ..transport.calls import SampleCaller
 from ..transport.security import link_inserts
+from ..transport.threads import Threads
 from .agent import MARGIN
 from .thread import LocalPort
 
@@ -103,8 +104,7 @@ class _Child:
                           self.spec, self.generation),
             stdin=subprocess.PIPE, env=env, cwd=self.mode.rt.base_dir)
         self.pid = self.proc.pid
-        threading.Thread(target=self._watch_exit, args=(self.proc.pid,), daemon=True,
-                         name=f"esair:exit:{self.name}").start()
+        self.mode.threads.start(self._watch_exit, self.proc.pid, name=f"esair:exit:{self.name}")
 
     def _watch_exit(self, pid: int) -> None:
         """Blocks until the process exits (waitid with WNOWAIT: Popen still reaps it),
@@ -371,6 +371,7 @@ class ProcessMode:
         self._lock = threading.Lock()
         self._pending_cond = threading.Condition(self._lock)   # _pending changed
         self.remote: dict[str, dict] = {}         # name -> {host, pid} of remote agents
+        self.threads = Threads()      # exit watchers, lost tokens: joined by the runtime's stop
 
     @property
     def bus(self) -> Bus:
@@ -449,10 +450,9 @@ class ProcessMode:
                 # to resource hosts); blocking here stalled the session's other links
                 center = self.rt.center
                 if center is not None:
-                    threading.Thread(target=center.lost, args=(host,), daemon=True,
-                                     name="esair:lost").start()
+                    self.threads.start(center.lost, host, name="esair:lost")
             elif host.phase in ("running", "busy") and host.hello.is_set():
-                threading.Thread(target=self._token_lost, args=(host,), daemon=True).start()
+                self.threads.start(self._token_lost, host, name="esair:lost")
         elif kind in ("sensor", "actuator", "driver") and name in self._resources:
             host = self._resources[name]
             if host.state in ("stopped", "failed") or not host.hello.is_set():
@@ -461,8 +461,7 @@ class ProcessMode:
                 for res in host.children():
                     self.rt.rs.set_state(res, "lost", "its host process is gone")
             else:
-                threading.Thread(target=self.resource_gone, args=(host, 0.1), daemon=True,
-                                 name="esair:lost").start()
+                self.threads.start(self.resource_gone, host, 0.1, name="esair:lost")
 
     def _token_lost(self, host: ProcessComponent) -> None:
         """A component's token went. A local child must be dead too (its socket closes

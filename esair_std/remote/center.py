@@ -169,8 +169,7 @@ class Center:
             self.c["back"] += 1
         mode.remote[name] = info
         box: list = []
-        threading.Thread(target=self._add, args=(spec, box), daemon=True,
-                         name=f"esair:join:{name}").start()
+        mode.threads.start(self._add, spec, box, name=f"esair:join:{name}")
         if not mode.wait_pending(name, lambda: bool(box), JOIN_WAIT):
             raise ControlError(f"{name!r}: the behavior supervisor did not take it in time")
         if box and not box[0][0]:
@@ -203,7 +202,7 @@ class Center:
                                f"{spec.name!r} is already deployed")
         mode.remote[spec.name] = info
         box: list = []
-        threading.Thread(target=self._add_resource, args=(spec, box), daemon=True).start()
+        mode.threads.start(self._add_resource, spec, box, name=f"esair:join:{spec.name}")
         if not mode.wait_pending(spec.name, lambda: bool(box), JOIN_WAIT):
             raise ControlError(f"{spec.name!r}: the resource supervisor did not take it")
         if box and not box[0][0]:

@@ -64,7 +64,8 @@ class SampleCaller:
         self._closed = threading.Event()
         self.c = dict(calls=0, answers=0, timeouts=0, bad_answers=0)
         bus.subscribe(answers, self._on_answer, with_key=True, garbage=self._garbage)
-        threading.Thread(target=self._expire, name="esair:calls", daemon=True).start()
+        self._timer = threading.Thread(target=self._expire, name="esair:calls", daemon=True)
+        self._timer.start()
 
     def _garbage(self, _why: str) -> None:
         self.c["bad_answers"] += 1
@@ -166,12 +167,16 @@ class SampleCaller:
                 self.c["timeouts"] += 1
 
     def close(self) -> None:
+        """Every call still waiting is answered None; the timer has ended on return (a
+        thread of the runtime must not outlive it: transport/threads.py)."""
         self._closed.set()
         with self._lock:
             self._due.notify_all()
             late = list(self._pending)
         for oid in late:
             self._finish(oid, None)
+        if self._timer is not threading.current_thread():
+            self._timer.join(2.0)     # it holds no Zenoh call: it ends at once
 
 
 class SampleServer:
