@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import os
 import threading
+import time
 
 import pytest
 
@@ -540,6 +541,28 @@ def test_the_actuator_connection_refuses_a_sender_without_the_command_level():
     assert (ac.routed, ac.refused) == (1, 1)
     assert ac.command("reader", "arm", 2, 0.5, direct=True) == ("reader", "arm", 2, 0.5)
     assert (ac.routed, ac.refused) == (2, 1)
+
+
+@pytest.mark.parametrize("mode", ["thread", "process"])
+def test_a_samples_time_stamp_is_when_its_sensor_reported_it(mode):
+    """Slot.report stamps each sample with time.time() when the sensor reports it: read
+    by a behavior, it lies between a time taken before the runtime started and one taken
+    after the sample was read (no duration is asserted)."""
+    dep = {"robot": "t",
+           "resources": {"count": {"class": "tests.support.comps:Counter", "rate": 50,
+                                   "allow": {"*": "read"}}},
+           "behaviors": {"c": {"class": "tests.support.comps:Probe", "uses": {"count": "read"}}}}
+    before = time.time()
+    rt = Runtime(dep, mode=mode, endpoint=free_endpoint())
+    rt.start()
+    try:
+        assert call(rt, "c", "attach_sensor", "count") == {"ok": "ready"}
+        seq, t = wait_for(lambda: call(rt, "c", "stamp", "count")["ok"], what="a sample")
+        after = time.time()
+        assert isinstance(seq, int) and isinstance(t, float)
+        assert before <= t <= after
+    finally:
+        rt.stop()
 
 
 def test_the_command_path_refuses_what_it_cannot_run_and_bounds_its_queue(tmp_path, caplog):

@@ -204,6 +204,9 @@ class Probe(Behavior):
             elif do == "latest":
                 s = self.handles[args[0]].latest()
                 out = None if s is None else [s.seq, s.value, s.source]
+            elif do == "stamp":                     # the newest sample's number and time
+                s = self.handles[args[0]].latest()
+                out = None if s is None else [s.seq, s.t]
             else:
                 out = getattr(self, do)(*args)
                 if do in ("attach_sensor", "attach_actuator"):
