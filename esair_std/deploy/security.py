@@ -56,6 +56,10 @@ class SecuritySpec(BaseModel):
         default_factory=dict,
         description="remote agents let in, by name: {cn: ...} or {user: ...} "
                     "(Zenoh access control, default deny; checked again at registration)")
+    operators: dict[str, AgentIdentity] = Field(
+        default_factory=dict,
+        description="operators let in on the main endpoint, by name: {cn: ...} or {user: ...} "
+                    "(their `esair std` control verbs only; turns the access control on)")
 
     @model_validator(mode="after")
     def _consistent(self):
@@ -69,5 +73,9 @@ class SecuritySpec(BaseModel):
         bad = [a for a in self.agents if not re.match(AGENT_NAME, a)]
         if bad:
             raise ValueError(f"agent name {bad[0]!r} is not a component name "
+                             "([a-z][a-z0-9_]*, at most 32 characters)")
+        bad = [a for a in self.operators if not re.match(AGENT_NAME, a)]
+        if bad:
+            raise ValueError(f"operator name {bad[0]!r} is not a name "
                              "([a-z][a-z0-9_]*, at most 32 characters)")
         return self

@@ -179,7 +179,7 @@ def access_control(sec: Security | None, robot: str,
 
     ``grants``: agent -> {"reads": [...], "commands": [...], "provides": [...]}, from the
     deployment's ``allow``/``uses`` (agents not in it get only ctl/alive/bs keys)."""
-    if sec is None or not sec.agents:
+    if sec is None or not (sec.agents or getattr(sec, "operators", None)):
         return None
     grants = grants or {}
     rules: list[dict[str, Any]] = []
@@ -201,5 +201,37 @@ def access_control(sec: Security | None, robot: str,
             subject["usernames"] = [ident.user]
         subjects.append(subject)
         policies.append({"rules": [r["id"] for r in mine], "subjects": [subject["id"]]})
+    for op, ident in (getattr(sec, "operators", None) or {}).items():
+        mine = operator_rules(robot, op)
+        rules += mine
+        subject = {"id": f"operator.{op}"}
+        if ident.cn is not None:
+            subject["cert_common_names"] = [ident.cn]
+        else:
+            subject["usernames"] = [ident.user]
+        subjects.append(subject)
+        policies.append({"rules": [r["id"] for r in mine], "subjects": [subject["id"]]})
     return {"enabled": True, "default_permission": "deny", "rules": rules,
             "subjects": subjects, "policies": policies}
+
+
+#: the control verbs an operator's `esair std` sends (modes/control.py); not the agents'
+#: (register, attach, report, resstate, resinfo, hello, join), which speak for a component
+OPERATOR_VERBS = ("ping", "ls", "add", "remove", "add-resource", "remove-resource", "put",
+                  "get", "configure", "reaction", "inspect", "state", "kind", "sample", "send")
+
+
+def operator_rules(robot: str, operator: str) -> list[dict[str, Any]]:
+    """ACL rules for one operator (rule ids ``operator.<name>.<n>``): it may ask the
+    control queryables of the operator's verbs and get their replies, and nothing else
+    (no sensor, no actuator, no behavior key, no liveliness)."""
+    keys = [f"esair/{robot}/ctl/{verb}" for verb in OPERATOR_VERBS]
+    rules = [_rule("ctl", ["query"], ["ingress"], keys),
+             _rule("ctl-reply", ["reply"], ["egress"], keys),
+             # the control queryable (one, on ctl/*) is declared to the operator's session,
+             # or its querier sends nothing (see "command-reply" in agent_rules); knowing
+             # it exists lets no query through that the rule above refuses
+             _rule("ctl-declared", ["declare_queryable"], ["egress"], [f"esair/{robot}/ctl/**"])]
+    for n, rule in enumerate(rules):
+        rule["id"] = f"operator.{operator}.{n}.{rule['id']}"
+    return rules

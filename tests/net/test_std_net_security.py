@@ -200,6 +200,67 @@ def test_user_password_logins_with_the_runtime(tmp_path, monkeypatch):
         wait_for(pushed, 30, what="pusher's commands through a login")
 
 
+OPERATORS = """
+robot: lab
+mode: process
+endpoint: ENDPOINT
+security:
+  users: users.txt
+  agents:
+    pusher: {user: pusher}
+  operators:
+    op: {user: op}
+resources:
+  arm: {class: "tests.support.netcomps:Wheel", allow: {pusher: command, operator: command}}
+behaviors:
+  idle: {class: "tests.support.netcomps:Idle"}
+"""
+
+
+def test_an_operators_login_works_on_the_main_endpoint_for_the_control_verbs_only(tmp_path):
+    """security.operators: an operator's login gets the control verbs on the main
+    endpoint, from another computer; it cannot speak an agent's verb, read a sensor or
+    command an actuator by itself, and a login that is no operator's gets nothing."""
+    import json
+
+    from tests.support.netstd import cli
+
+    (tmp_path / "users.txt").write_text("pusher:s3cret\nop:op-pw\nnobody:no-pw\n")
+
+    def login(user: str, password: str) -> dict:
+        return {"transport/auth/usrpwd/user": user, "transport/auth/usrpwd/password": password}
+
+    with make_net(2) as net:
+        center = Center(net[0], tmp_path, OPERATORS)
+
+        def esair(who: dict, *args: str):
+            return net[1].run("env", f"ESAIR_STD_SESSION={json.dumps(who)}",
+                              *cli(*args, "-e", center.endpoint, "-r", "lab"),
+                              check=False, timeout=60)
+
+        ls = esair(login("op", "op-pw"), "ls", "--json")
+        assert ls.returncode == 0, ls.stderr
+        assert {r["name"] for r in json.loads(ls.stdout)["components"]} >= {"idle", "arm"}
+        sent = esair(login("op", "op-pw"), "send", "arm", "7")
+        assert sent.returncode == 0, sent.stderr
+        other = esair(login("nobody", "no-pw"), "ls")
+        assert other.returncode == 1
+        assert other.stderr.strip() == (f"error: the runtime of robot 'lab' on {center.endpoint} "
+                                        "did not answer 'ls'")
+        raw = Peer(net[1], {"mode": "client", "scouting/multicast/enabled": False,
+                            "connect/endpoints": [center.endpoint], "listen/endpoints": [],
+                            **login("op", "op-pw")})
+        try:
+            assert raw.error is None, raw.error
+            assert raw.get("esair/lab/ctl/ping", 2.0, "{}") != []          # a control verb
+            # an agent's verb, a behavior's key, an actuator: denied (no answer at all)
+            assert raw.get("esair/lab/ctl/report", 1.0, "{}") == []
+            assert raw.get("esair/lab/bs/idle", 1.0, "{}") == []
+            assert raw.get("esair/lab/actuator/arm", 1.0, "{}") == []
+        finally:
+            raw.close()
+
+
 def test_a_remote_behavior_puts_through_the_bs_and_nobody_puts_in_its_name(secure, local):
     """A put travels as samples on keys that name the sender (transport/calls.py): the
     ACL lets a remote agent use only its own, so nobody puts in another's name."""

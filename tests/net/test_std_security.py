@@ -148,6 +148,10 @@ def test_certs_refuse_bad_client_names(tmp_path, name):
      "mtls needs 'ca' (the authority that signed the peers' certificates)"),
     ({"user": "locate"}, "'user' and 'password_file' go together"),
     ({"agents": {"locate": {}}}, "give exactly one of 'cn' (certificate common name) or 'user'"),
+    ({"operators": {"Op": {"user": "op"}}},
+     "operator name 'Op' is not a name ([a-z][a-z0-9_]*, at most 32 characters)"),
+    ({"operators": {"op": {"user": "op", "cn": "op"}}},
+     "give exactly one of 'cn' (certificate common name) or 'user'"),
 ])
 def test_security_section_errors(section, message):
     with pytest.raises(ValidationError) as exc:
@@ -172,6 +176,17 @@ def test_no_agents_no_acl_and_local_peers_trusted():
     assert acl["default_permission"] == "deny"
     assert {"id": "local", "interfaces": ["lo"]} in acl["subjects"]
     assert {"id": "agent.a", "cert_common_names": ["a"]} in acl["subjects"]
+
+
+def test_operators_alone_turn_the_acl_on_with_the_control_verbs_only():
+    acl = access_control(Security(operators={"op": {"user": "op"}}), ROBOT)
+    assert acl["default_permission"] == "deny"
+    assert {"id": "operator.op", "usernames": ["op"]} in acl["subjects"]
+    mine = [r for r in acl["rules"] if r["id"].startswith("operator.op.")]
+    asked = {k.rsplit("/", 1)[1] for r in mine if "query" in r["messages"] for k in r["key_exprs"]}
+    assert "ls" in asked and "send" in asked
+    assert not asked & {"register", "attach", "report", "resstate", "resinfo", "hello", "join"}
+    assert all(k.startswith(f"esair/{ROBOT}/ctl/") for r in mine for k in r["key_exprs"])
 
 
 def test_the_deployment_file_carries_the_section(tmp_path):
