@@ -63,6 +63,17 @@ class Slot:
             self.c["reported"] += 1
         self.host.port.publish(self.name, sample)
 
+    def count(self, key: str) -> None:
+        """One more of counter ``key`` (under the lock that report() and counters() take:
+        a driver's own thread reports while the host thread counts)."""
+        with self._lock:
+            self.c[key] = self.c.get(key, 0) + 1
+
+    def counters(self) -> dict:
+        """The counters, the sample number and the state, as of one moment."""
+        with self._lock:
+            return dict(self.c, seq=self.seq, state=self.state)
+
     def set_state(self, state: str, reason: str) -> None:
         self.state, self.reason = state, reason
         self.host.port.resource_state_changed(self.name, state, reason)
@@ -175,7 +186,7 @@ class ResourceHost:
     def counters(self) -> dict:
         out: dict = dict(self.c)
         for n, s in self.slots.items():
-            out[n] = dict(s.c, seq=s.seq, state=s.state)
+            out[n] = s.counters()
         return out
 
     # ---- the host thread
@@ -275,7 +286,7 @@ class ResourceHost:
                 s.next_poll += 1.0 / float(rate)
                 now = time.monotonic()
                 if s.next_poll < now:
-                    s.c["polls_late"] += 1
+                    s.count("polls_late")
                     s.next_poll = now + 1.0 / float(rate)
             wait = min(wait, max(0.0, s.next_poll - now))
         return wait
@@ -283,13 +294,13 @@ class ResourceHost:
     def _run(self, slot: Slot, op: str, args: tuple, on_done: Any, expires: float,
              asked: float | None = None) -> None:
         if time.monotonic() > expires:       # the sender gave up: do not act late
-            slot.c["expired"] = slot.c.get("expired", 0) + 1
+            slot.count("expired")
             return on_done(False, "expired in the queue")
         try:
             if slot.state == "lost":
                 raise ResourceLost(slot.name, f"lost: {slot.reason}" if slot.reason else "lost")
             if op == "write":
-                slot.c["commands"] += 1
+                slot.count("commands")
                 slot.asked, slot.expires = asked, expires
                 value = codec.copy(slot.obj.write(*args))
             else:
@@ -300,13 +311,13 @@ class ResourceHost:
                 self._ran(slot, args[0], asked, {"error": exc.reason})
             return None
         except CommandError as exc:
-            slot.c["command_errors"] += 1
+            slot.count("command_errors")
             on_done(False, exc.reason)
             if op == "write":
                 self._ran(slot, args[0], asked, {"error": exc.reason})
             return None
         except Exception as exc:  # noqa: BLE001 - reaches the sender as CommandError
-            slot.c["command_errors"] += 1
+            slot.count("command_errors")
             on_done(False, f"{type(exc).__name__}: {exc}")
             if op == "write":
                 self._ran(slot, args[0], asked, {"error": f"{type(exc).__name__}: {exc}"})

@@ -708,3 +708,26 @@ def test_a_host_that_dies_while_it_is_stopped_is_no_failure(tmp_path, caplog):
         assert ("WARNING", "arm: close after failure: stuck") in logged(caplog, "esair_std.resource")
     finally:
         rt.stop()
+
+
+def test_a_slots_counters_are_read_and_counted_under_its_lock():
+    """counters() is one moment's copy: it waits for the lock that report() and count()
+    take (a driver's own thread reports while the host thread counts), so it never sees
+    a sample counted without its number, nor a counter being added."""
+    from esair_std.modes.reshost import Slot
+
+    slot = Slot(None, "arm", object(), {})
+    slot.count("expired")
+    slot.count("expired")
+    assert slot.counters() == {"reported": 0, "commands": 0, "command_errors": 0,
+                               "polls_late": 0, "expired": 2, "seq": 0, "state": "ready"}
+    out: list = []
+    for read in (slot.counters, lambda: slot.count("commands")):
+        with slot._lock:
+            t = threading.Thread(target=lambda read=read: out.append(read()))
+            t.start()
+            t.join(0.2)
+            assert t.is_alive()            # waits for the lock
+        t.join(10.0)
+        assert not t.is_alive()
+    assert slot.counters()["commands"] == 1
