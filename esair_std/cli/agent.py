@@ -70,6 +70,9 @@ def _restart_policy(text: str | None, kind: str) -> tuple[int, float]:
 @click.option("--user", default=None, help="Login name (user/password authentication).")
 @click.option("--password-file", type=click.Path(dir_okay=False),
               help="File holding the password of --user.")
+@click.option("--lease", "lease_ms", type=click.IntRange(200, 60000), default=None, metavar="MS",
+              help="This agent's link lease: the control center drops it after MS of "
+                   "silence (default 2000), with or without TLS.")
 @click.option("--host-name", default=None, help="The name `esair std ls` shows for this "
                                                 "computer (default: its hostname).")
 @click.option("--restart", default=None, metavar="MAX/WITHIN",
@@ -78,7 +81,7 @@ def _restart_policy(text: str | None, kind: str) -> tuple[int, float]:
                    "(default: never).")
 @friendly
 def agent_cmd(endpoint, name, class_path, uses, allow, period, options, robot, ca, cert, key,
-              user, password_file, host_name, restart) -> None:
+              user, password_file, lease_ms, host_name, restart) -> None:
     """Run NAME (a Behavior, Sensor, Actuator or Driver class module:Class, imported from
     the current folder first) here, as an agent of the control center at --connect.
 
@@ -105,10 +108,11 @@ def agent_cmd(endpoint, name, class_path, uses, allow, period, options, robot, c
                                  param_hint="module:Class")
     policy = _restart_policy(restart, kind)
     sec = None
-    if any((ca, cert, key, user, password_file)):
+    if any((ca, cert, key, user, password_file)) or lease_ms is not None:
+        lease = {} if lease_ms is None else {"lease_ms": lease_ms}
         try:
             sec = SecuritySpec(ca=ca, cert=cert, key=key, user=user,
-                               password_file=password_file, mtls=cert is not None)
+                               password_file=password_file, mtls=cert is not None, **lease)
         except ValidationError as exc:
             raise ControlError(exc.errors()[0]["msg"].removeprefix("Value error, ")) from None
     opts = {k: _value(v) for k, v in _pairs(options, "--option").items()}
