@@ -407,3 +407,35 @@ def test_the_emulator_runs_papaman_avr_at_the_avrs_bus_time(avr_robot):
     def mark_before(k: int) -> int:
         return int(next(lines[m] for m in range(k, 0, -1) if lines[m].startswith("@ "))[2:])
     assert mark_before(j) - mark_before(i) == 2413
+
+
+FEET = [311, 522, 733, 404, 1023, 150, 620, 177]
+READ_CYCLES = 16667      # one full read of the eight feet (1.042 ms at 16 MHz)
+
+
+def test_one_full_read_of_the_eight_feet_takes_exact_cycles(avr_robot, avr_build):
+    """The sensor board alone in simavr: from one reading of the first foot to the next
+    is READ_CYCLES every round (per foot: the select pins, the mux's 10 us = 160 cycles
+    waited on Timer1, a 1664-cycle conversion, the publish), and no conversion starts
+    before the mux settled."""
+    from esair_min.avr.sensor import sensor_rounds
+
+    run = sensor_rounds(avr_robot, avr_build["sensor"].folder / "firmware.elf", 200_000)
+    assert len(run.rounds) >= 10
+    assert set(run.rounds) == {READ_CYCLES}
+    assert run.early == 0
+
+
+def test_a_conversion_before_the_mux_settles_reads_the_previous_input(avr_build, tmp_path):
+    """The simulator's mux model catches a firmware that does not wait long enough: the
+    sensor board's firmware (built for the board file's 10 us) on a slower mux (the
+    model at 40 us) starts every conversion early and reads the input selected before,
+    so each foot reports its predecessor's value (the first the eighth's)."""
+    slow = load_robot(robot_with(tmp_path / "slow", ("settle_us: 10", "settle_us: 40")))
+    script = "sensor " + " ".join(map(str, FEET)) + "\nboot\ntick 4\nrx s\\r\ntick 6\n"
+    elfs = {role: b.folder / "firmware.elf" for role, b in avr_build.items()}
+    run = run_robot(slow, script, elfs, tmp_path / "run")
+    shifted = FEET[-1:] + FEET[:-1]
+    assert b"OK " + ",".join(map(str, shifted)).encode() + b"\r\n" in [
+        line for _, line in run.replies]
+    assert len(run.mux_early) >= 8
