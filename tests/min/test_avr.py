@@ -439,3 +439,23 @@ def test_a_conversion_before_the_mux_settles_reads_the_previous_input(avr_build,
     assert b"OK " + ",".join(map(str, shifted)).encode() + b"\r\n" in [
         line for _, line in run.replies]
     assert len(run.mux_early) >= 8
+
+
+BALANCE = ROOT / "tests" / "fixtures" / "gpsim" / "balance.txt"
+
+
+def test_balance_reaction_compares_four_feet_sensors_a_foot(avr_robot, avr_build, tmp_path):
+    """auto_balance through the three AVR boards, the readings from the sensor board's
+    mux: the PIC's balance script (tests/fixtures/gpsim/balance.txt) fires it 3 times as
+    in the Python core, one of them only because of the fourth sensor of a foot
+    (150 150 150 150 | 300 300 200 201: 401 over the threshold with four a foot, 350
+    under it with three), and its exactly-the-threshold step does not."""
+    elfs = {role: b.folder / "firmware.elf" for role, b in avr_build.items()}
+    stimulus = BALANCE.read_text()
+    run = run_robot(avr_robot, stimulus, elfs, tmp_path)
+    python = run_script(avr_robot, stimulus)
+    assert compare(python, run.trace(), AvrSetup.from_robot(avr_robot)) == []
+    fired = b"!R auto_balance\r\n"
+    assert [line for _, line in run.replies].count(fired) == 3
+    assert python.count("TX " + fired.hex().upper()) == 3
+    assert run.mux_early == []
