@@ -128,3 +128,15 @@ def test_papaman_avr_host_port_reads_eight_feet(tmp_path):
     proc = run_host(exe, script, tmp_path)
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout == registers(values)
+
+
+def test_esair_check_names_the_mux():
+    from click.testing import CliRunner
+
+    from esair_min.cli import main
+
+    result = CliRunner().invoke(main, ["check", str(ROOT / "boards" / "papaman-avr")])
+    assert result.exit_code == 0, result.output
+    assert "  servos: 12, sensors: 8, commands: 10" in result.stdout
+    assert ("  mux: 8 of 8 inputs on ADC0, select PB0, PB1, PB2 (S0 first), settling 10 us\n"
+            in result.stdout)
