@@ -84,7 +84,8 @@ class Recording(Supervisor):
         return host
 
     def released(self, name, rec, why):
-        self.events.append(("released", rec.spec.name, why))
+        assert name == rec.spec.name            # the name it was told is the record's
+        self.events.append(("released", name, why))
 
     def restarted(self, name, rec):
         self.events.append(("restarted", name, rec.generation))
@@ -291,7 +292,7 @@ def test_remove_stops_and_releases_in_the_kinds_order_and_its_failure_is_no_even
     s.take()
     seen: list = []
     s.released = lambda name, rec, why: (seen.append("w" in s.records),
-                                         s.events.append(("released", rec.spec.name, why)))
+                                         s.events.append(("released", name, why)))
     rec = s.request(s.remove_child, "w")
     assert s.take() == order and "w" not in s.records and rec.removing
     assert seen == [False]                 # forgotten before it is released, in both orders
@@ -419,13 +420,13 @@ def test_a_sensor_handle_keeps_the_newest_and_counts_what_a_reader_lost():
     # samples() never called: the reader only looks at latest(), nothing is "lost"
     assert h.counters() == {"received": 3, "overwritten": 0} and h.latest().seq == 3
     assert [s.seq for s in h.samples()] == [2, 3] and h.samples() == []
-    for i in (4, 5, 6, 7):
+    for i in (4, 5, 6, 7, 8):           # into 2 places: 6, 7 and 8 each push one out
         h.push(sample(i))
-    assert h.counters() == {"received": 7, "overwritten": 2}
-    assert [s.seq for s in h.samples()] == [6, 7]
+    assert h.counters() == {"received": 8, "overwritten": 3}
+    assert [s.seq for s in h.samples()] == [7, 8]
     h.detached = True
-    h.push(sample(8))
-    assert h.counters() == {"received": 7, "overwritten": 2} and h.latest().seq == 7
+    h.push(sample(9))
+    assert h.counters() == {"received": 8, "overwritten": 3} and h.latest().seq == 8
     assert h.state == "detached"
     del states["count"]
     h.detached = False
@@ -731,3 +732,26 @@ def test_a_slots_counters_are_read_and_counted_under_its_lock():
         t.join(10.0)
         assert not t.is_alive()
     assert slot.counters()["commands"] == 1
+
+
+@pytest.mark.parametrize("mode", ["thread", "process"])
+def test_a_device_marked_lost_is_lost_with_its_reason(mode):
+    """Slot.set_state tells the RS the resource's name, state and reason: `ls`/`inspect`
+    show the actuator lost with the driver's words, and its commands fail at once."""
+    dep = {"robot": "t",
+           "resources": {"rec": {"class": "tests.support.comps:Recorder",
+                                 "allow": {"*": "command"}}},
+           "behaviors": {"c": {"class": "tests.support.comps:Probe",
+                               "uses": {"rec": "command"}}}}
+    rt = Runtime(dep, mode=mode, endpoint=free_endpoint())
+    rt.start()
+    try:
+        assert call(rt, "c", "attach_actuator", "rec") == {"ok": "ready"}
+        assert call(rt, "c", "send", "rec", {"lost": "cable cut"}) == {"ok": "marking lost"}
+        wait_for(lambda: rt.inspect("rec")["state"] == "lost", what="rec lost")
+        assert (rt.inspect("rec")["state"], rt.inspect("rec")["reason"]) == ("lost", "cable cut")
+        assert rt.state("rec") == "lost"
+        assert call(rt, "c", "send", "rec", 1) == {
+            "error": "ResourceLost", "message": "rec: lost: cable cut"}
+    finally:
+        rt.stop()
