@@ -755,3 +755,26 @@ def test_a_device_marked_lost_is_lost_with_its_reason(mode):
             "error": "ResourceLost", "message": "rec: lost: cable cut"}
     finally:
         rt.stop()
+
+
+@pytest.mark.parametrize("mode", ["thread", "process"])
+def test_configure_runs_the_resources_configure_on_its_host(mode):
+    """ResourceHost.configure: the setting and its value reach configure() (not write()),
+    its answer comes back, and a setting the resource does not have is its error."""
+    dep = {"robot": "t",
+           "resources": {"rec": {"class": "tests.support.comps:Recorder",
+                                 "allow": {"*": "command"}}},
+           "behaviors": {"c": {"class": "tests.support.comps:Probe",
+                               "uses": {"rec": "command"}}}}
+    rt = Runtime(dep, mode=mode, endpoint=free_endpoint())
+    rt.start()
+    try:
+        assert rt.configure("rec", "gain", 3) == 3
+        assert call(rt, "c", "attach_actuator", "rec") == {"ok": "ready"}
+        assert call(rt, "c", "send", "rec", "x") == {"ok": {"n": 1, "gain": 3}}
+        with pytest.raises(CommandError) as err:
+            rt.configure("rec", "speed", 1)
+        assert str(err.value) == "rec: no setting 'speed'"
+        assert call(rt, "c", "send", "rec", "y") == {"ok": {"n": 2, "gain": 3}}
+    finally:
+        rt.stop()
