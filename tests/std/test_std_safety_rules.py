@@ -778,3 +778,45 @@ def test_configure_runs_the_resources_configure_on_its_host(mode):
         assert call(rt, "c", "send", "rec", "y") == {"ok": {"n": 2, "gain": 3}}
     finally:
         rt.stop()
+
+
+@pytest.mark.parametrize("mode", ["thread", "process"])
+def test_each_command_run_is_published_once_with_its_number_time_and_outcome(mode):
+    """ResourceHost._ran: after its sender has the answer, each command the actuator ran
+    goes out on command/<actuator> for recorders: its number (one more each), when it
+    reached the host, the command and its result or error."""
+    from esair_std.transport.bus import Bus
+
+    dep = {"robot": "t",
+           "resources": {"rec": {"class": "tests.support.comps:Recorder",
+                                 "allow": {"*": "command"}}},
+           "behaviors": {"c": {"class": "tests.support.comps:Probe",
+                               "uses": {"rec": "command"}}}}
+    rt = Runtime(dep, mode=mode, endpoint=free_endpoint(), control=True)
+    rt.start()
+    bus = Bus(connect=[rt.endpoint])
+    records: list = []
+    try:
+        bus.subscribe("esair/t/command/rec", records.append)
+        assert call(rt, "c", "attach_actuator", "rec") == {"ok": "ready"}
+        # until the subscription has reached the publisher: one command, then the next
+        wait_for(lambda: call(rt, "c", "send", "rec", "warm") and records, 30,
+                 what="a first command record")
+        before = time.time()
+        assert call(rt, "c", "send", "rec", "a")["ok"]["n"] >= 1
+        assert call(rt, "c", "send", "rec", {"fail": "jam"}) == {
+            "error": "CommandError", "message": "rec: ValueError: jam"}
+        after = time.time()
+        wait_for(lambda: len([r for r in records if r["v"]["command"] != "warm"]) >= 2, 10,
+                 what="two more records")
+        got = [r for r in records if r["v"]["command"] != "warm"]
+        warm = [r["seq"] for r in records if r["v"]["command"] == "warm"]
+        assert [r["seq"] for r in got] == [len(warm) + 1, len(warm) + 2]
+        assert sorted(warm) == list(range(1, len(warm) + 1))
+        n = got[0]["v"]["ok"]["n"]
+        assert [r["v"] for r in got] == [{"command": "a", "ok": {"n": n, "gain": 1}},
+                                         {"command": {"fail": "jam"}, "error": "ValueError: jam"}]
+        assert all(before <= r["t"] <= after for r in got)
+    finally:
+        bus.close()
+        rt.stop()
