@@ -747,6 +747,8 @@ def test_a_device_marked_lost_is_lost_with_its_reason(mode):
     rt.start()
     try:
         assert call(rt, "c", "attach_actuator", "rec") == {"ok": "ready"}
+        assert (rt.inspect("rec")["state"], rt.inspect("rec")["reason"]) == ("ready", "")
+        assert rt.inspect("rec")["counters"]["state"] == "ready"       # the host's own word
         assert call(rt, "c", "send", "rec", {"lost": "cable cut"}) == {"ok": "marking lost"}
         wait_for(lambda: rt.inspect("rec")["state"] == "lost", what="rec lost")
         assert (rt.inspect("rec")["state"], rt.inspect("rec")["reason"]) == ("lost", "cable cut")
