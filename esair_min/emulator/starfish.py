@@ -20,7 +20,7 @@ from typing import Any
 
 from esair_min.components.dc_motor.core import CONTROL_TICK_MS, DriveCore
 from esair_min.components.omni_base.core import StarfishCore
-from esair_min.components.omni_base.kinematics import body_velocity, inverse
+from esair_min.components.omni_base.kinematics import inverse
 from esair_min.components.optical_flow.core import Adns2610
 from esair_min.world import World
 
@@ -102,46 +102,60 @@ class StarfishSim:
         move (the drive board's ticks fall between the central board's; one world step
         per central tick, with each wheel's mean rim speed since the last)."""
         self._acc_dt += dt_s
-        for k, v in enumerate(self.drive.rim_speeds()):
-            self._acc_travel[k] += v * dt_s
+        rims = self.drive.rims
+        if any(rims):                      # (standing wheels add nothing)
+            travel = self._acc_travel
+            for k, v in enumerate(rims):
+                travel[k] += v * dt_s
 
     def _move(self) -> None:
         dt_s = self._acc_dt
         if dt_s <= 0:
             return
-        speeds = [t / dt_s for t in self._acc_travel]
+        travel = self._acc_travel
         self._acc_dt = 0.0
-        self._acc_travel = [0.0] * len(speeds)
-        vx, vy, w = body_velocity(self.core.wheels, speeds, self._inv)
-        step = self.world.step(dt_s, vx, vy, w)
-        self._collided = self._collided or step.collided
-        if step.vx == 0.0 and step.vy == 0.0 and step.omega == 0.0:
+        self._acc_travel = [0.0] * len(travel)
+        (a, b, c), (d, e, f), (g, h, i) = self._inv     # body_velocity, inlined
+        s0, s1, s2 = travel[0] / dt_s, travel[1] / dt_s, travel[2] / dt_s
+        step = self.world.step(dt_s, a * s0 + b * s1 + c * s2, d * s0 + e * s1 + f * s2,
+                               g * s0 + h * s1 + i * s2)
+        if step.collided:
+            self._collided = True
+        svx, svy, omega = step.vx, step.vy, step.omega
+        if svx == 0.0 and svy == 0.0 and omega == 0.0:
             return
         for sensor, (px, py, c, s) in zip(self.sensors, self._frames, strict=True):
-            ux = (step.vx - step.omega * py) * dt_s
-            uy = (step.vy + step.omega * px) * dt_s
+            ux = (svx - omega * py) * dt_s
+            uy = (svy + omega * px) * dt_s
             sensor.move(c * ux + s * uy, -s * ux + c * uy, dt_s)
 
     def run_until(self, t_ns: int) -> None:
         self._collided = False
-        while True:
-            nxt = min(self._next_central, self._next_drive)
-            if nxt > t_ns:
-                break
-            if nxt > self.t_ns:
-                self._advance((nxt - self.t_ns) / 1e9)
-                self.t_ns = nxt
-            if nxt == self._next_drive:
-                self.drive.tick()
-                self._next_drive += self._drive_ns
-            if nxt == self._next_central:
-                self._move()                     # the floor has moved under the sensors
-                self.notices += self.core.tick()
-                self._next_central += self.core.tick_ns
-                if self.keep_trace:
-                    p = self.world.pose
-                    self.trace.append(TraceRow(self.t_ns / 1e9, p.x, p.y, p.theta,
-                                               tuple(self.drive.rim_speeds()), self._collided))
+        drive, core, tick_ns, drive_ns = self.drive, self.core, self.core.tick_ns, self._drive_ns
+        next_central, next_drive = self._next_central, self._next_drive
+        try:
+            while True:
+                nxt = next_central if next_central < next_drive else next_drive
+                if nxt > t_ns:
+                    break
+                if nxt > self.t_ns:
+                    self._advance((nxt - self.t_ns) / 1e9)
+                    self.t_ns = nxt
+                if nxt == next_drive:
+                    drive.tick()
+                    next_drive += drive_ns
+                if nxt == next_central:
+                    self._move()                     # the floor has moved under the sensors
+                    notice = core.tick()
+                    if notice:
+                        self.notices += notice
+                    next_central += tick_ns
+                    if self.keep_trace:
+                        p = self.world.pose
+                        self.trace.append(TraceRow(self.t_ns / 1e9, p.x, p.y, p.theta,
+                                                   drive.rims, self._collided))
+        finally:
+            self._next_central, self._next_drive = next_central, next_drive
         if t_ns > self.t_ns:
             self._advance((t_ns - self.t_ns) / 1e9)
             self.t_ns = t_ns
