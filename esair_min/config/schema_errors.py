@@ -11,6 +11,7 @@ from __future__ import annotations
 import difflib
 import types
 import typing
+from collections.abc import Callable
 from typing import Any, Union
 
 from pydantic import BaseModel, ValidationError
@@ -82,8 +83,11 @@ def _tag_of(model: type[BaseModel]) -> str | None:
     return args[0] if len(args) == 1 else None
 
 
-def _data_path(data: Any, loc: tuple[Any, ...]) -> tuple[Any, ...]:
-    """The longest prefix of ``loc`` (tags skipped) that exists in ``data``."""
+def _walk(data: Any, loc: tuple[Any, ...],
+          passes: Callable[[Any, Any], bool]) -> tuple[Any, ...]:
+    """The steps of ``loc`` that exist in ``data``, followed from its root; a step that
+    does not exist is passed over where ``passes(node, step)`` says so, else the walk
+    ends there."""
     path: list[Any] = []
     cur = data
     for part in loc:
@@ -91,7 +95,14 @@ def _data_path(data: Any, loc: tuple[Any, ...]) -> tuple[Any, ...]:
                 or isinstance(cur, list) and isinstance(part, int) and 0 <= part < len(cur)):
             cur = cur[part]  # type: ignore[index]  # a str into a dict, an int into a list
             path.append(part)
+        elif not passes(cur, part):
+            break
     return tuple(path)
+
+
+def _data_path(data: Any, loc: tuple[Any, ...]) -> tuple[Any, ...]:
+    """The longest prefix of ``loc`` (tags skipped) that exists in ``data``."""
+    return _walk(data, loc, lambda node, step: True)
 
 
 def _show(value: Any) -> str:
@@ -261,16 +272,7 @@ def _node_of(data: Any, loc: tuple[Any, ...]) -> tuple[Any, ...]:
     """The part of ``loc`` before its first step that is not in ``data`` (an untagged
     union's branch, or a missing key): the node the error is about. A tagged union's
     tag (the node's own ``kind``) is passed over: pydantic reports that branch only."""
-    path: list[Any] = []
-    cur = data
-    for part in loc:
-        if (isinstance(cur, dict) and isinstance(part, str) and part in cur
-                or isinstance(cur, list) and isinstance(part, int) and 0 <= part < len(cur)):
-            cur = cur[part]  # type: ignore[index]  # a str into a dict, an int into a list
-            path.append(part)
-        elif not (isinstance(cur, dict) and part == cur.get("kind")):
-            break
-    return tuple(path)
+    return _walk(data, loc, lambda node, step: isinstance(node, dict) and step == node.get("kind"))
 
 
 def schema_errors(exc: ValidationError, doc: Document, root: type[BaseModel]) -> list[ConfigError]:

@@ -25,6 +25,7 @@ waveforms like a logic analyser would) and every flow sensor's register reads
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -73,33 +74,79 @@ class Run:
     flow: list[list[str]] = field(default_factory=list)    # per sensor: "RR DD"
 
 
-def _lines(stimulus: str) -> list[tuple[str, list[str], bytes]]:
-    out: list[tuple[str, list[str], bytes]] = []
-    for number, text in enumerate(stimulus.splitlines(), start=1):
-        if text.startswith("rx ") or text == "rx":
-            out.append(("rx", [], unescape(text[3:]) + b"\r\n"))
-            continue
-        words = text.split("#", 1)[0].split()
-        if not words:
-            continue
-        cmd, args = words[0], words[1:]
-        try:
-            if cmd == "raw" and args:
-                out.append(("rx", [], bytes(int(a, 16) for a in args)))
-            elif cmd == "tick" and len(args) == 1 and int(args[0]) > 0:
-                out.append(("tick", args, b""))
-            elif cmd == "floor" and len(args) == 2 and args[1] in ("0", "1"):
-                out.append(("floor", args, b""))
-            else:
-                raise ValueError
-        except ValueError:
-            raise ProtocolError(f"stimulus line {number}: {text!r} is not rx TEXT, raw HH ..., "
-                                "tick N or floor S 0|1") from None
-    return out
+@dataclass
+class _Script:
+    """The gpsim command file being built from a stimulus, and where it stands."""
+
+    setup: Setup
+    lines: list[str]
+    now: int                                               # cycle of the last break
+    floors: list[tuple[int, int, int]] = field(default_factory=list)   # (cycle, sensor, level)
+
+
+def _rx(sc: _Script, data: bytes) -> None:
+    """``rx TEXT`` (CR LF added) and ``raw HH ...``: the bytes go out on the line."""
+    sc.lines += [f"U1.tx = {b:#04x}" for b in data]
+
+
+def _raw(sc: _Script, args: list[str]) -> bool:
+    if not args:
+        return False
+    _rx(sc, bytes(int(a, 16) for a in args))
+    return True
+
+
+def _tick(sc: _Script, args: list[str]) -> bool:
+    if len(args) != 1 or int(args[0]) <= 0:
+        return False
+    sc.now += int(args[0]) * sc.setup.tick_cycles
+    sc.lines += [f"break c {sc.now}", "run"]
+    return True
+
+
+def _floor(sc: _Script, args: list[str]) -> bool:
+    if len(args) != 2 or args[1] not in ("0", "1"):
+        return False
+    sensor, pins = int(args[0]), sc.setup.flow_pins
+    if sensor >= len(pins):
+        raise ProtocolError(f"floor {sensor}: there are {len(pins)} flow sensors")
+    sc.floors.append((sc.now, sensor, int(args[1])))
+    sc.lines.append(f"PF{sensor}.voltage = {5.0 if args[1] == '1' else 0.0}")
+    return True
+
+
+#: The stimulus verbs (``rx`` apart: its text keeps its spaces); each returns False when
+#: the words do not fit it (a number that is not one raises ValueError: the same).
+_VERBS: dict[str, Callable[[_Script, list[str]], bool]] = {
+    "raw": _raw, "tick": _tick, "floor": _floor}
+
+
+def _stimulus_line(sc: _Script, number: int, text: str) -> None:
+    """One stimulus line as gpsim commands, by the function of its verb."""
+    if text.startswith("rx ") or text == "rx":
+        _rx(sc, unescape(text[3:]) + b"\r\n")
+        return
+    words = text.split("#", 1)[0].split()
+    if not words:
+        return
+    verb = _VERBS.get(words[0])
+    try:
+        if verb is not None and verb(sc, words[1:]):
+            return
+    except ValueError:
+        pass
+    raise ProtocolError(f"stimulus line {number}: {text!r} is not rx TEXT, raw HH ..., "
+                        "tick N or floor S 0|1")
 
 
 def gpsim_script(s: Setup, stimulus: str, cod: str) -> tuple[str, list[tuple[int, int, int]]]:
     """The command file, and the floor changes ``(cycle, sensor, level)``."""
+    sc = _script(s, stimulus, cod)
+    return "\n".join(sc.lines) + "\n", sc.floors
+
+
+def _script(s: Setup, stimulus: str, cod: str) -> _Script:
+    """The command file's lines built from ``stimulus``; ``now`` is its end cycle."""
     L = [f"load {cod}", "p18f452.BreakOnInvalidRegisterWrite = false",
          f"frequency {s.clock_hz}", "module library libgpsim_modules.so.0",
          "module load usart U1", f"U1.txbaud = {s.baud}", f"U1.rxbaud = {s.baud}",
@@ -119,27 +166,16 @@ def gpsim_script(s: Setup, stimulus: str, cod: str) -> tuple[str, list[tuple[int
               f"node nfc{i}", f"node nfd{i}", f"attach nfc{i} {sclk} FC{i}.pin",
               f"attach nfd{i} {sdio} PF{i}.pin FD{i}.pin"]
     L += ["log on regs.log", "log w _TXREG", "log r _RCREG", "log w _T2CON"]
-    now = BOOT_CYCLES
-    L += [f"break c {now}", "run"]
-    floors: list[tuple[int, int, int]] = []
-    for cmd, args, data in _lines(stimulus):
-        if cmd == "rx":
-            L += [f"U1.tx = {b:#04x}" for b in data]
-        elif cmd == "tick":
-            now += int(args[0]) * s.tick_cycles
-            L += [f"break c {now}", "run"]
-        else:
-            sensor = int(args[0])
-            if sensor >= len(s.flow_pins):
-                raise ProtocolError(f"floor {sensor}: there are {len(s.flow_pins)} flow sensors")
-            floors.append((now, sensor, int(args[1])))
-            L.append(f"PF{sensor}.voltage = {5.0 if args[1] == '1' else 0.0}")
-    now += DRAIN_TICKS * s.tick_cycles
-    L += [f"break c {now}", "run", "log off", 'FSCL.file = "/dev/null"',
+    L += [f"break c {BOOT_CYCLES}", "run"]
+    sc = _Script(s, L, BOOT_CYCLES)
+    for number, text in enumerate(stimulus.splitlines(), start=1):
+        _stimulus_line(sc, number, text)
+    sc.now += DRAIN_TICKS * s.tick_cycles
+    L += [f"break c {sc.now}", "run", "log off", 'FSCL.file = "/dev/null"',
           'FSDA.file = "/dev/null"']
     L += [f'FC{i}.file = "/dev/null"\nFD{i}.file = "/dev/null"' for i in range(len(s.flow_pins))]
     L += ["cycles", "quit"]
-    return "\n".join(L) + "\n", floors
+    return sc
 
 
 def decode_flow(sclk: list[tuple[int, int]], sdio: list[tuple[int, int]]) -> list[str]:
@@ -169,8 +205,8 @@ def run_gpsim_side(robot: Robot, stimulus: str, cod: Path, workdir: Path,
     """gpsim's Run, the bytes taken ``(cycle, byte)``, Timer2's start cycle, the end
     cycle and the floor changes."""
     s = Setup.from_robot(robot)
-    script, floors = gpsim_script(s, stimulus, str(Path(cod).resolve()))
-    out = run_gpsim(script, workdir, timeout=300, tc=tc, script_name="starfish.stc")
+    sc = _script(s, stimulus, str(Path(cod).resolve()))
+    out = run_gpsim("\n".join(sc.lines) + "\n", workdir, timeout=300, tc=tc, script_name="starfish.stc")
     if "***ERROR" in out:
         raise ToolchainError("gpsim rejected a command:\n" + out[-2000:])
     log = workdir / "regs.log"
@@ -186,9 +222,7 @@ def run_gpsim_side(robot: Robot, stimulus: str, cod: Path, workdir: Path,
     run.flow = [decode_flow(read_edges(workdir / f"sclk{i}.txt"),
                             read_edges(workdir / f"sdio{i}.txt"))
                 for i in range(len(s.flow_pins))]
-    ticks = sum(int(a[0]) for c, a, _ in _lines(stimulus) if c == "tick") + DRAIN_TICKS
-    end = BOOT_CYCLES + ticks * s.tick_cycles
-    return run, rx, t2[0], end, floors
+    return run, rx, t2[0], sc.now, sc.floors
 
 
 def _reply_lines(data: bytes) -> list[str]:

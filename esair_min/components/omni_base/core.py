@@ -87,7 +87,8 @@ class StarfishCore:
         self.flow_names = [f.name for f in central.flow_sensors]
         self.flow = list(flow)
         # each sensor's tick reads: its own burst where it has one (Adns2610.deltas)
-        self._readers = [getattr(f, "deltas", None) or functools.partial(read_deltas, f)
+        self._readers = [getattr(f, "deltas", None)
+                         or functools.partial(read_deltas, f)  # type: ignore[arg-type]
                          for f in self.flow]
         self.write_bus = write
         self.lines = LineAssembler()
