@@ -84,7 +84,9 @@ class StarfishSim(SerialHost):
         self._next_central = self.core.tick_ns
         self._drive_ns = CONTROL_TICK_MS * 1_000_000
         self._next_drive = self._drive_ns
-        self.clock.schedule(min(self._next_central, self._next_drive), self._timers)
+        self._drive_live = True        # its ticks run as events (else: replayed, _replay)
+        self._timer_at = -1            # when the pending _timers event is due
+        self._schedule_timers()
         #: Every notice the central board sent (the line carries them to the host too).
         self.notices = bytearray()
         self.trace: list[TraceRow] = []
@@ -99,7 +101,12 @@ class StarfishSim(SerialHost):
         self.i2c.append((self.clock.now, address, bytes(data)))
         if address != self.drive.address or not data:
             return False
+        self._replay(self.clock.now)
         self.drive.write(data[0], data[1:])
+        if not self._drive_live:           # its ticks run as events again
+            self._drive_live = True
+            if self._next_drive < self._timer_at:
+                self._schedule_timers()
         return True
 
     # -- the link ------------------------------------------------------------------------
@@ -188,18 +195,41 @@ class StarfishSim(SerialHost):
             uy = (svy + omega * px) * dt_s
             sensor.move(c * ux + s * uy, -s * ux + c * uy, dt_s)
 
+    def _replay(self, t_ns: int) -> None:
+        """The drive board's ticks due by ``t_ns`` while it is settled: not run as events
+        (a settled board's tick changes nothing), but each still ends a stretch of the
+        wheels' travel where it would have (the same sums as running each)."""
+        if self._drive_live:
+            return
+        nd = self._next_drive
+        while nd <= t_ns:
+            if nd > self._acc_t:
+                self._advance((nd - self._acc_t) / 1e9)
+                self._acc_t = nd
+            nd += self._drive_ns
+        self._next_drive = nd
+
     def _account(self, t_ns: int) -> None:
+        self._replay(t_ns)
         if t_ns > self._acc_t:
             self._advance((t_ns - self._acc_t) / 1e9)
             self._acc_t = t_ns
 
+    def _schedule_timers(self) -> None:
+        nc, nd = self._next_central, self._next_drive
+        self._timer_at = nd if self._drive_live and nd < nc else nc
+        self.clock.schedule(self._timer_at, self._timers)
+
     def _timers(self) -> None:
         """The boards' ticks due now (the drive board's first when both are)."""
         now = self.clock.now
+        if now != self._timer_at:
+            return                               # superseded: the drive board woke up
         self._account(now)
-        if now == self._next_drive:
+        if self._drive_live and now == self._next_drive:
             self.drive.tick()
             self._next_drive += self._drive_ns
+            self._drive_live = not self.drive.settled
         if now == self._next_central:
             self._move()                         # the floor has moved under the sensors
             notice = self.core.tick()
@@ -212,8 +242,7 @@ class StarfishSim(SerialHost):
                 self.trace.append(TraceRow(now / 1e9, p.x, p.y, p.theta, self.drive.rims,
                                            self._collided))
             self._collided = False               # a row says: a wall stopped it since the last
-        nc, nd = self._next_central, self._next_drive
-        self.clock.schedule(nc if nc < nd else nd, self._timers)
+        self._schedule_timers()
 
     def run_until(self, t_ns: int) -> None:
         """Run to ``t_ns``; the world then stands where the robot is at that time."""

@@ -79,3 +79,35 @@ def test_the_drive_boards_skipped_ticks_change_nothing(starfish, steps):
             full.tick()
             assert skipping.motors == full.motors
             assert skipping.rims == full.rims == tuple(m.rim_speed for m in full.motors)
+
+
+def test_the_sims_replayed_drive_ticks_are_the_ticks_run_as_events(starfish):
+    """While the drive board is settled its ticks are not events: the sim replays where
+    each would have ended a stretch of wheel travel. Against a sim whose drive board is
+    never taken for settled (every tick an event): the same trace, bus and poses."""
+    from esair_min.components.omni_base.core import velocity_line
+    from esair_min.emulator.starfish import FlowOptions, StarfishSim, drive_square
+    from esair_min.world import Pose, World
+
+    def run(eager: bool) -> tuple:
+        sim = StarfishSim(starfish, World(pose=Pose(3800, 700, 0.2)), FlowOptions(noise=0.02))
+        if eager:
+            type(sim.drive).settled = property(lambda self: False)  # type: ignore[assignment]
+        square = drive_square(sim, 1000, laps=1)
+        replies = []
+        for k in range(60):                       # toward the wall at x = 5000, turning
+            replies.append(sim.command(velocity_line(400, 0, 100 - 4 * k)))
+            sim.run_for(0.05)
+        sim.run_for(1.2)                          # the watchdog stops it, it ramps down
+        replies.append(sim.read())
+        return square, replies, sim.trace, sim.i2c, sim.world.pose, sim.world.collisions
+
+    import esair_min.components.dc_motor.core as dc
+    settled = dc.DriveCore.settled
+    lazy = run(False)
+    try:
+        eager = run(True)
+    finally:
+        dc.DriveCore.settled = settled            # type: ignore[method-assign]
+    assert eager == lazy
+    assert lazy[5] >= 1 and b"!W watchdog stop" in lazy[1][-1]

@@ -84,6 +84,12 @@ class DriveCore:
                 self.regs[(first + k) % n] = b
         self._settled = False
 
+    @property
+    def settled(self) -> bool:
+        """Every motor runs at the speed its register asks for and no write came since:
+        a tick now changes nothing."""
+        return self._settled
+
     def wanted(self, i: int) -> int:
         return to_s16(self.regs[2 * i], self.regs[2 * i + 1])
 
