@@ -510,11 +510,17 @@ def pulses(run: AvrRun, robot: Robot, clock_hz: int, node: int = 1) -> list[Puls
     return out
 
 
+def symbols(elf: Path, name: str) -> list[int]:
+    """The addresses of every symbol ``name`` in ``elf`` (avr-nm; statics of several files
+    may share a name; data: 0x800000 + the data-space address)."""
+    out = subprocess.run(["avr-nm", str(elf)], capture_output=True, text=True, timeout=30).stdout
+    found = [int(w[0], 16) for w in (line.split() for line in out.splitlines())
+             if len(w) == 3 and w[2] == name]
+    if not found:
+        raise SimError(f"no symbol {name} in {elf}")
+    return found
+
+
 def symbol(elf: Path, name: str) -> int:
     """The byte address of function ``name`` in ``elf`` (avr-nm)."""
-    out = subprocess.run(["avr-nm", str(elf)], capture_output=True, text=True, timeout=30).stdout
-    for line in out.splitlines():
-        w = line.split()
-        if len(w) == 3 and w[2] == name:
-            return int(w[0], 16)
-    raise SimError(f"no symbol {name} in {elf}")
+    return symbols(elf, name)[0]
