@@ -37,7 +37,7 @@ def drive_context(robot: Robot) -> Context:
     ctx.update({"motors": rows, "registers": 2 * len(motors), "address": board.i2c.address,
                 "soft_motors": [rows[i] for i in soft]})
     if spec.family == "avr":
-        ctx["avr"] = ports.drive_avr(board, [r["unit"] for r in rows])
+        ctx["avr"] = ports.drive_avr(board, [pwm_unit(m, spec) for m in motors])
         return ctx
     if len(soft) > MAX_SOFT_PWM:
         raise GenerateError(f"drive board '{board.board}': {len(soft)} motors on software PWM, "

@@ -23,6 +23,8 @@ cycles (vector to RETI) are counted over :data:`ISR_SPANS` interrupts.
 
 from __future__ import annotations
 
+import re
+import subprocess
 from collections import Counter
 from dataclasses import dataclass
 from pathlib import Path
@@ -37,6 +39,7 @@ from esair_min.errors import ProtocolError
 from esair_min.model import avr
 from esair_min.model.robot import Robot
 from esair_min.pic.starfish_drive import MotorOut
+from esair_min.pic.starfish_gpsim import CentralCycles
 
 BOOT_CYCLES = 40_000      # reset, avr-libc's start-up, hal_init, core_init: well inside
 SERVED = 25_000           # cycles: a tick this long before the end has been served (a
@@ -307,3 +310,58 @@ def python_drive(robot: Robot, steps: list[tuple[tuple[int, ...], int]]) -> list
             core.tick()
         out.append([MotorOut(m.duty, int(m.forward)) for m in core.motors])
     return out
+
+
+# -- cycles of the central firmware's functions ---------------------------------------
+
+_CALL_RE = re.compile(r"^\s*([0-9a-f]+):\s+((?:[0-9a-f]{2} )+)\s*r?call\s.*<(\w+)>\s*$")
+
+
+def call_returns(elf: Path, names: tuple[str, ...]) -> dict[str, list[int]]:
+    """Per function: the byte address after each call of it (where its RET lands)."""
+    try:
+        out = subprocess.run(["avr-objdump", "-d", str(elf)], capture_output=True, text=True,
+                             timeout=60, check=True).stdout
+    except (OSError, subprocess.SubprocessError) as exc:
+        raise SimError(f"avr-objdump {elf} failed: {exc}") from None
+    found: dict[str, list[int]] = {n: [] for n in names}
+    for line in out.splitlines():
+        m = _CALL_RE.match(line)
+        if m and m.group(3) in found:
+            found[m.group(3)].append(int(m.group(1), 16) + len(m.group(2).split()))
+    return found
+
+
+def measure_central(robot: Robot, elf: Path, line: str) -> CentralCycles:
+    """Cycles of the central firmware's core_kinematics (its first run), core_rx (the
+    longest: the line's CR) and core_tick (the first after the line), from the first
+    instruction of each to the instruction its RET returns to (the interrupts served
+    meanwhile included, as gpsim's figures): ``line`` is sent after the boot."""
+    names = ("core_kinematics", "core_rx", "core_tick")
+    returns = call_returns(elf, names)
+    where: dict[int, tuple[str, bool]] = {}
+    for fn in names:
+        if not returns[fn]:
+            raise SimError(f"{elf.name}: no call of {fn}")
+        where[symbol(elf, fn)] = (fn, True)
+        where.update({a: (fn, False) for a in returns[fn]})
+    s = CentralSetup.from_robot(robot)
+    body, _, _ = script_commands(s, f"rx {line}\ntick 2\n")
+    head = [f"regs {s.drive_address} {s.drive_registers}"]
+    head += [f"flow 0 {i} {a} {b} {s.srad_cycles}" for i, (a, b) in enumerate(s.flow_pins)]
+    head += [f"watch 0 {a}" for a in sorted(where)]
+    sim = parse_events(run_commands(elf, head + body + ["quit"], "-"), 0)
+    spans: dict[str, list[tuple[int, int]]] = {fn: [] for fn in names}    # (start, cycles)
+    open_at: dict[str, int] = {}
+    for cycle, addr in sim.hits:
+        fn, entry = where[addr]
+        if entry:
+            open_at[fn] = cycle
+        elif fn in open_at:
+            begin = open_at.pop(fn)
+            spans[fn].append((begin, cycle - begin))
+    kin, rx = spans["core_kinematics"], spans["core_rx"]
+    ticks = [d for begin, d in spans["core_tick"] if kin and begin > kin[0][0]]
+    if not kin or not rx or not ticks:
+        raise SimError(f"simavr: spans timed {({k: len(v) for k, v in spans.items()})}")
+    return CentralCycles(kin[0][1], max(d for _, d in rx), ticks[0])

@@ -83,7 +83,7 @@ def _probes(robot: Robot) -> list[tuple[str, list[int]]]:
     out = []
     soft = 0
     for m in sorted(drive.motors, key=lambda m: m.index):
-        unit = pwm_unit(m)
+        unit = pwm_unit(m, drive.spec)
         if unit == "software":
             duty = [SOFT_DUTY_AT + soft]
             soft += 1

@@ -64,7 +64,7 @@ def test_esair_check_starfish_prints_the_pwm_assignment():
 
 def test_pwm_auto_follows_the_pin(starfish):
     drive = starfish.board("drive")
-    assert pwm_units(drive.motors) == {"front": "ccp1", "left": "ccp2", "right": "software"}
+    assert pwm_units(drive.motors, drive.spec) == {"front": "ccp1", "left": "ccp2", "right": "software"}
     assert drive.register_count == 6 and starfish.peer("drive").registers == 6
 
 

@@ -27,8 +27,8 @@ class Run:
 
 @dataclass(frozen=True)
 class FlowChange:
-    """From ``cycle`` on, flow sensor ``sensor``'s SDIO is pulled to ``floor`` (0/1; None:
-    the sensor answers), or its next deltas and SQUAL are ``motion`` (dx, dy, squal)."""
+    """From ``cycle`` on, flow sensor ``sensor``'s SDIO is pulled to ``floor`` (0/1), or
+    the sensor answers again with ``motion`` (dx, dy, squal) as its next deltas and SQUAL."""
 
     cycle: int
     sensor: int
@@ -51,6 +51,7 @@ class FlowModel:
         if c.motion is not None:
             dx, dy, q = c.motion
             self.regs.update({REG_DELTA_X: dx & 0xFF, REG_DELTA_Y: dy & 0xFF, REG_SQUAL: q & 0xFF})
+            self.floor = None               # the sensor answers again
         else:
             self.floor = c.floor
 

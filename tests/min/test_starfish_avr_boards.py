@@ -1,0 +1,80 @@
+"""STARFISH on ATmega328P boards (issue 24, item 2 for STARFISH's kinds): boards/starfish-avr
+validates, ``esair check`` says which wheel gets which hardware PWM unit of the part, and
+every rule an AVR board can break is reported word for word with ``file:line:col``
+(tests/fixtures/bad_starfish_avr/<case>/: a copy of boards/starfish-avr with one change,
+named on the changed file's first line). No toolchain needed: the builds and simulator
+runs are in test_starfish_avr.py."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner
+
+from esair_min.cli import main
+from esair_min.codegen import render_robot
+from esair_min.components.dc_motor import pwm_units
+from esair_min.errors import ConfigError
+from esair_min.model.validate import load_robot
+
+ROOT = Path(__file__).resolve().parents[2]
+BAD = Path("tests/fixtures/bad_starfish_avr")
+
+EXPECTED = {
+    "baud_115200": "tests/fixtures/bad_starfish_avr/baud_115200/central.yaml:16:9: baud 115200 cannot be made at 16000000 Hz within 2 %: best is UBRR0 16 with U2X0=1 (117647 baud, +2.12 %)",  # noqa: E501
+    "flow_on_crystal_pin": "tests/fixtures/bad_starfish_avr/flow_on_crystal_pin/central.yaml:33:49: pin PB6 of flow sensor 'flow_right' SDIO does not exist on the atmega328p (PB0..PB5, PC0..PC5, PD0..PD7 (PB6/PB7 hold the crystal))",  # noqa: E501
+    "no_ccp": "tests/fixtures/bad_starfish_avr/no_ccp/drive.yaml:25:62: motor 'right': the ATmega328P has no CCP1; its hardware PWM outputs are OC0A (PD6), OC0B (PD5), OC1A (PB1), OC1B (PB2), or use pwm: software",  # noqa: E501
+    "oc2_taken": "tests/fixtures/bad_starfish_avr/oc2_taken/drive.yaml:25:62: motor 'right': OC2B (PD3) is on Timer2, which the ATmega328P drive port takes for its interrupt (software PWM and the control tick); use OC0A (PD6), OC0B (PD5), OC1A (PB1), OC1B (PB2) or pwm: software",  # noqa: E501
+    "oc_wrong_pin": "tests/fixtures/bad_starfish_avr/oc_wrong_pin/drive.yaml:25:38: motor 'right': OC1A drives pin PB1 on the atmega328p, not PB2; set pwm_pin: PB1 or pwm: software",  # noqa: E501
+}
+
+
+def test_every_fixture_has_its_message():
+    assert sorted(p.name for p in BAD.iterdir() if p.is_dir()) == sorted(EXPECTED)
+
+
+@pytest.mark.parametrize("case", sorted(EXPECTED))
+def test_bad_starfish_avr_message(case):
+    with pytest.raises(ConfigError) as exc:
+        load_robot(BAD / case)
+    assert str(exc.value) == EXPECTED[case]
+    result = CliRunner().invoke(main, ["check", str(BAD / case)])
+    assert result.exit_code == 1
+    assert result.output == f"error: {EXPECTED[case]}\n"
+
+
+def test_esair_check_starfish_avr_prints_clock_timers_and_pwm_units():
+    result = CliRunner().invoke(main, ["check", "starfish-avr"])
+    assert result.exit_code == 0, result.output
+    assert result.output.splitlines() == [
+        "robot 'starfish-avr': 2 boards (central [central], drive [drive])",
+        "  servos: 0, sensors: 0, commands: 0, motions: 0 (), reactions: 0",
+        "  tick: 10.0000 ms (Timer1 CTC, prescale 8, OCR1A 19999 at 16000000 Hz)",
+        "  UART: 38400 baud, UBRR0 25 U2X0=0, error +0.16 %",
+        "  I2C: 100000 Hz, TWBR 72 TWPS 0",
+        "  flow sensors: flow_left at (0, 80) mm, SCLK PD4 SDIO PD5, flow_right at (0, -80) "
+        "mm, SCLK PD6 SDIO PD7",
+        "  base: omni, watchdog 500 ms, |v| <= 500 mm/s, |omega| <= 3000 mrad/s",
+        "  motors: front OC0A (PD6), left OC0B (PD5), right OC1A (PB1)",
+        "ok",
+    ]
+
+
+def test_pwm_units_follow_the_part():
+    avr = load_robot(ROOT / "boards" / "starfish-avr").board("drive")
+    assert pwm_units(avr.motors, avr.spec) == {"front": "oc0a", "left": "oc0b", "right": "oc1a"}
+    # the same pins on the PIC would be software PWM; OC2B's pin PD3 too on the AVR
+    moved = avr.model_copy(update={"motors": (avr.motors[0].model_copy(update={"pwm_pin": "PD3"}),)})
+    assert pwm_units(moved.motors, avr.spec) == {"front": "software"}
+
+
+def test_the_avr_ports_render_the_registers_the_models_give(tmp_path):
+    files = render_robot(load_robot(ROOT / "boards" / "starfish-avr"))
+    assert not any("/ports/pic18f452/" in name for name in files)
+    drive = files["drive/ports/atmega328p/hal_avr.c"]
+    assert "OCR2A = 199u;" in drive and "TCCR2B = 0x02u;" in drive    # 10 kHz: 16 MHz / 8 / 200
+    assert "TCCR0A = 0xA1u;" in drive and "TCCR1A = 0x81u;" in drive  # OC0A+OC0B, OC1A; WGMn0
+    central = files["central/ports/atmega328p/hal_avr.c"]
+    assert "#define ES_OCR1A 19999u" in central and "#define ES_UBRR 25u" in central
+    assert "_delay_us(100);" in central
