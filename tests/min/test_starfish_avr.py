@@ -165,3 +165,21 @@ def test_central_cycles_in_the_avr_build(built, robot):
     # at 16 MHz: kinematics 62.6 us (the PIC: 3495 instruction cycles, 699 us); the CR
     # of the line 168 us; a tick 705 us, of which 6 x tSRAD (100 us) is the sensors' wait
     assert (got.kinematics, got.rx_line, got.tick) == (1002, 2681, 11285)
+
+
+FIRST_EARLY_READ = "sensor 0 at cycle 165508"     # the first tick's first read
+
+
+def test_a_read_sooner_than_tsrad_is_reported_by_the_sensor_model(robot, tmp_path):
+    """The sensor model checks the firmware's timing: the same central board with a 50 us
+    wait instead of tSRAD's 100 us gets a report for every read."""
+    generate_robot(robot, tmp_path)
+    hal = tmp_path / "central" / "ports" / "atmega328p" / "hal_avr.c"
+    text = hal.read_text()
+    assert text.count("_delay_us(100);") == 2
+    hal.write_text(text.replace("_delay_us(100);", "_delay_us(50);"))
+    build_board(tmp_path / "central")
+    got = run_central(robot, "tick 1\n", tmp_path / "central" / "firmware.elf")
+    reads = len(got.run.flow[0]) + len(got.run.flow[1])
+    assert reads == 2 * 3 * 11 and len(got.flow_errors) == reads    # 11 ticks, every read
+    assert got.flow_errors[0] == FIRST_EARLY_READ
