@@ -30,7 +30,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from esair_min.avr.harness import AvrRun, SimError, parse_events, run_commands, symbol, symbols
-from esair_min.components.dc_motor import pwm_unit
+from esair_min.components.dc_motor import motor_units
 from esair_min.components.dc_motor.core import CONTROL_TICK_MS, DriveCore, from_s16
 from esair_min.components.omni_base.replay import FlowChange, Run, replay, reply_lines
 from esair_min.components.optical_flow.core import REG_DELTA_X, REG_DELTA_Y, REG_SQUAL, T_SRAD_NS
@@ -242,17 +242,9 @@ def _probes(robot: Robot, elf: Path) -> list[tuple[str, int, str, int]]:
     """Per motor: (unit, duty address, direction port, bit)."""
     drive = robot.board("drive")
     assert drive is not None
-    out = []
-    soft = 0
-    for m in sorted(drive.motors, key=lambda m: m.index):
-        unit = pwm_unit(m, drive.spec)
-        if unit == "software":
-            at = symbol(elf, f"soft_duty{soft}") & 0xFFFF
-            soft += 1
-        else:
-            at = OCR[unit]
-        out.append((unit, at, m.dir_pin[1], int(m.dir_pin[2])))
-    return out
+    return [(unit, symbol(elf, f"soft_duty{soft}") & 0xFFFF if unit == "software" else OCR[unit],
+             m.dir_pin[1], int(m.dir_pin[2]))
+            for m, unit, soft in motor_units(drive.motors, drive.spec)]
 
 
 def drive_tick_cycles(robot: Robot) -> int:

@@ -15,8 +15,8 @@ from click.testing import CliRunner
 from esair_min.cli import main
 from esair_min.codegen import render_robot
 from esair_min.components.dc_motor import pwm_units
-from esair_min.errors import ConfigError
 from esair_min.model.validate import load_robot
+from tests.support.bad_boards import assert_refused, cases
 
 ROOT = Path(__file__).resolve().parents[2]
 BAD = Path("tests/fixtures/bad_starfish_avr")
@@ -31,17 +31,12 @@ EXPECTED = {
 
 
 def test_every_fixture_has_its_message():
-    assert sorted(p.name for p in BAD.iterdir() if p.is_dir()) == sorted(EXPECTED)
+    assert cases(BAD) == sorted(EXPECTED)
 
 
 @pytest.mark.parametrize("case", sorted(EXPECTED))
 def test_bad_starfish_avr_message(case):
-    with pytest.raises(ConfigError) as exc:
-        load_robot(BAD / case)
-    assert str(exc.value) == EXPECTED[case]
-    result = CliRunner().invoke(main, ["check", str(BAD / case)])
-    assert result.exit_code == 1
-    assert result.output == f"error: {EXPECTED[case]}\n"
+    assert_refused(BAD / case, EXPECTED[case])
 
 
 def test_esair_check_starfish_avr_prints_clock_timers_and_pwm_units():

@@ -72,6 +72,18 @@ def pwm_units(motors: tuple[DcMotor, ...], spec: McuSpec) -> dict[str, str]:
     return {m.name: pwm_unit(m, spec) for m in motors}
 
 
+def motor_units(motors: tuple[DcMotor, ...], spec: McuSpec) -> list[tuple[DcMotor, str, int]]:
+    """Each motor by index with its unit and, on software PWM, its number among those
+    (the ports' ``soft_duty<k>``; -1 for a hardware unit)."""
+    out = []
+    soft = 0
+    for m in sorted(motors, key=lambda m: m.index):
+        unit = pwm_unit(m, spec)
+        out.append((m, unit, soft if unit == "software" else -1))
+        soft += unit == "software"
+    return out
+
+
 def _units_help(spec: McuSpec) -> str:
     return ", ".join(f"{u.upper()} ({p})" for u, p in spec.drive_pwm.items())
 
