@@ -20,8 +20,9 @@ from click.testing import CliRunner
 from hypothesis import HealthCheck, assume, given, settings
 
 from esair_min.avr.build import build_board, elf_usage
-from esair_min.avr.starfish import (differential, measure_central, python_drive, run_central,
-                                    run_drive)
+from esair_min.avr.harness import parse_events, run_commands, symbol
+from esair_min.avr.starfish import (BOOT_CYCLES, CentralSetup, differential, measure_central,
+                                    python_drive, run_central, run_drive)
 from esair_min.cli import main
 from esair_min.codegen import generate_robot
 from esair_min.components.omni_base.replay import compare
@@ -183,3 +184,24 @@ def test_a_read_sooner_than_tsrad_is_reported_by_the_sensor_model(robot, tmp_pat
     reads = len(got.run.flow[0]) + len(got.run.flow[1])
     assert reads == 2 * 3 * 11 and len(got.flow_errors) == reads    # 11 ticks, every read
     assert got.flow_errors[0] == FIRST_EARLY_READ
+
+
+def test_bytes_faster_than_the_usart_are_counted_lost_and_the_link_recovers(built, robot):
+    """40 bytes 5 cycles apart (the USART takes one a 4 160-cycle byte time): the driver
+    loses every byte that finds the USART's three full (DOR); the receive interrupt
+    counts each DOR it reads in ``rx_lost``, as the PIC port counts OERR; the decoder
+    refuses the garbled line and answers the next one."""
+    central = elf(built, "central")
+    s = CentralSetup.from_robot(robot)
+    lost_at = symbol(central, "rx_lost") & 0xFFFF
+    cmds = [f"regs {s.drive_address} {s.drive_registers}", f"run {BOOT_CYCLES}"]
+    cmds += [f"rx {BOOT_CYCLES + 5 * k} {ord('x')}" for k in range(1, 41)]
+    t = BOOT_CYCLES + 200 + 5 * s.byte_cycles
+    cmds += [f"rx {t + k * s.byte_cycles} {b}" for k, b in enumerate(b"\r\nv\r\n", start=1)]
+    cmds += [f"run {t + 3 * s.tick_cycles}", f"peek 0 {lost_at} 1", "quit"]
+    out = run_commands(central, cmds, "-")
+    sim = parse_events(out, 0)
+    assert (len(sim.lost), len(sim.rx) - 5) == (33, 7)      # 40 = 33 lost + 7 taken
+    assert [w.split()[4] for w in out.splitlines() if w.startswith("mem ")] == ["7"]
+    assert bytes(b for _, b in sim.tx).split(b"\r\n")[:2] == [
+        b"E03 bad argument", b"OK esair-min/1 starfish-avr wheels=3 flow=2 watchdog=500 checksum=off"]
