@@ -7,13 +7,15 @@ runs are in test_starfish_avr.py."""
 
 from __future__ import annotations
 
+import subprocess
 from pathlib import Path
 
 import pytest
 from click.testing import CliRunner
 
 from esair_min.cli import main
-from esair_min.codegen import render_robot
+from esair_min.codegen import generate_robot, render_robot
+from esair_min.components.omni_base.harness import run_script
 from esair_min.components.dc_motor import pwm_units
 from esair_min.model.validate import load_robot
 from tests.support.bad_boards import assert_refused, cases
@@ -73,3 +75,30 @@ def test_the_avr_ports_render_the_registers_the_models_give(tmp_path):
     central = files["central/ports/atmega328p/hal_avr.c"]
     assert "#define ES_OCR1A 19999u" in central and "#define ES_UBRR 25u" in central
     assert "_delay_us(100);" in central
+
+
+HOST_SCRIPT = """rx v
+rx V+0200+0000+0000
+flow 0 10 -3 88
+tick 2
+rx O
+tick 60
+rx O
+rx x
+"""
+
+
+def test_the_host_c_of_the_avr_boards_equals_the_python_core(tmp_path):
+    """The fourth column's anchor: the AVR boards' generated host port (the same core) and
+    the Python core give the same trace (test_starfish_avr.py compares the AVR build with
+    the Python core)."""
+    robot = load_robot(ROOT / "boards" / "starfish-avr")
+    generate_robot(robot, tmp_path)
+    subprocess.run(["make", "-s", "host"], cwd=tmp_path / "central", check=True)
+    script = tmp_path / "script.txt"
+    script.write_text(HOST_SCRIPT)
+    run = subprocess.run([str(tmp_path / "central" / "firmware_host"), str(script)],
+                         capture_output=True, text=True, timeout=60, check=True)
+    python = run_script(robot, HOST_SCRIPT)
+    assert run.stdout.splitlines() == python
+    assert "TX !W watchdog stop" in python and "TX OK n=2 a=10,-3,88 b=0,0,0" in python
