@@ -24,6 +24,7 @@ ROOT = Path(__file__).resolve().parents[2]
 BAD = Path("tests/fixtures/bad_starfish_avr")
 
 EXPECTED = {
+    "drive_clock": "tests/fixtures/bad_starfish_avr/drive_clock/drive.yaml:15:13: the ATmega328P drive port's Timer2 cannot interrupt exactly 10000 times a second at 7372800 Hz (the software PWM step and the control tick); use a clock_hz it can divide down to that, e.g. 8000000, 16000000 or 20000000",  # noqa: E501
     "baud_115200": "tests/fixtures/bad_starfish_avr/baud_115200/central.yaml:16:9: baud 115200 cannot be made at 16000000 Hz within 2 %: best is UBRR0 16 with U2X0=1 (117647 baud, +2.12 %)",  # noqa: E501
     "flow_on_crystal_pin": "tests/fixtures/bad_starfish_avr/flow_on_crystal_pin/central.yaml:33:49: pin PB6 of flow sensor 'flow_right' SDIO does not exist on the atmega328p (PB0..PB5, PC0..PC5, PD0..PD7 (PB6/PB7 hold the crystal))",  # noqa: E501
     "no_ccp": "tests/fixtures/bad_starfish_avr/no_ccp/drive.yaml:25:62: motor 'right': the ATmega328P has no CCP1; its hardware PWM outputs are OC0A (PD6), OC0B (PD5), OC1A (PB1), OC1B (PB2), or use pwm: software",  # noqa: E501

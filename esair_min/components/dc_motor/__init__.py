@@ -21,6 +21,8 @@ from typing import Annotated, Any, Literal
 from pydantic import Field, StrictBool, StrictInt
 
 from esair_min.components.base import Checker, Component, PinClaim
+from esair_min.components.dc_motor.core import SOFT_PWM_ISR_HZ
+from esair_min.model.avr import timer2_ctc
 from esair_min.model.mcu import McuSpec
 from esair_min.model.types import Name, Pin, Section
 
@@ -92,6 +94,12 @@ def board_rules(checker: Checker, b: Any) -> None:
     checker.rule(_index_rules, checker, b)
     spec: McuSpec = b.spec
     units = spec.drive_pwm
+    if spec.family == "avr" and timer2_ctc(b.mcu.clock_hz, SOFT_PWM_ISR_HZ) is None:
+        checker.report(b, ("mcu", "clock_hz"), f"the {spec.name} drive port's Timer2 cannot "
+                       f"interrupt exactly {SOFT_PWM_ISR_HZ} times a second at "
+                       f"{b.mcu.clock_hz} Hz (the software PWM step and the control tick); "
+                       "use a clock_hz it can divide down to that, e.g. 8000000, 16000000 "
+                       "or 20000000")
     for i, m in enumerate(b.motors):
         loc = ("motors", i, "pwm")
         if m.pwm in spec.drive_pwm_taken:
