@@ -30,13 +30,14 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from esair_min.avr.harness import AvrRun, SimError, parse_events, run_commands, symbol, symbols
-from esair_min.components.dc_motor import motor_units
+from esair_min.components.dc_motor import DcMotor, motor_units
 from esair_min.components.dc_motor.core import CONTROL_TICK_MS, DriveCore, from_s16
 from esair_min.components.omni_base.replay import FlowChange, Run, replay, reply_lines
 from esair_min.components.optical_flow.core import REG_DELTA_X, REG_DELTA_Y, REG_SQUAL, T_SRAD_NS
 from esair_min.core.script import unescape
 from esair_min.errors import ProtocolError
 from esair_min.model import avr
+from esair_min.model.mcu import McuSpec
 from esair_min.model.robot import Robot
 from esair_min.pic.starfish_drive import MotorOut
 from esair_min.pic.starfish_gpsim import CentralCycles
@@ -49,6 +50,7 @@ MARGIN = 500              # cycles: a line end this close to a tick is refused
 TIMER1_COMPA = 11         # the ATmega328P's interrupt vector numbers
 TIMER2_COMPA = 7
 ISR_SPANS = 230
+WINDOW_PERIODS = 4             # software PWM periods (64 interrupts each) whose pins are timed
 #: data-space addresses of what drives a motor: OCRnx per hardware unit, the ports
 OCR = {"oc0a": 0x47, "oc0b": 0x48, "oc1a": 0x88, "oc1b": 0x8A}
 PORT = {"B": 0x25, "C": 0x28, "D": 0x2B}
@@ -236,15 +238,17 @@ def differential(robot: Robot, stimulus: str, elf: Path) -> tuple[Run, CentralRu
 class DriveRun:
     steps: list[list[MotorOut]]        # after each step, per motor
     isr_cycles: Counter[int]           # Timer2 interrupt, vector to RETI, over ISR_SPANS
+    #: software PWM pins (driver names): cycles high over the last step's final
+    #: WINDOW_PERIODS software PWM periods (simavr drives no pin of a hardware PWM unit:
+    #: those are read from their OCRnx registers)
+    soft_high: dict[str, int]
 
 
 def _probes(robot: Robot, elf: Path) -> list[tuple[str, int, str, int]]:
     """Per motor: (unit, duty address, direction port, bit)."""
-    drive = robot.board("drive")
-    assert drive is not None
     return [(unit, symbol(elf, f"soft_duty{soft}") & 0xFFFF if unit == "software" else OCR[unit],
              m.dir_pin[1], int(m.dir_pin[2]))
-            for m, unit, soft in motor_units(drive.motors, drive.spec)]
+            for m, unit, soft in motor_units(*_drive_motors(robot))]
 
 
 def drive_tick_cycles(robot: Robot) -> int:
@@ -269,12 +273,38 @@ def run_drive(robot: Robot, elf: Path, steps: list[tuple[tuple[int, ...], int]])
         L.append(f"run {now}")
         L += _peeks(0, probes)
     L.append("isrs 0")
-    spans = tick // 100 * (ISR_SPANS + 1)
-    L += [f"run {now + spans}", "quit"]
-    out = run_commands(elf, L, "-")
+    window = tick // 100 * 64 * WINDOW_PERIODS
+    assert window > tick // 100 * ISR_SPANS
+    L += [f"run {now + window}", "quit"]
+    soft = [m.pwm_pin[1:] for m, unit, _ in motor_units(*_drive_motors(robot)) if unit == "software"]
+    out = run_commands(elf, L, ",".join(soft) or "-")
     sim = parse_events(out, 0)
     isr = Counter(sim.isr_spans(0).get(TIMER2_COMPA, [])[:ISR_SPANS])
-    return DriveRun(_motor_outs(out, 0, probes), isr)
+    return DriveRun(_motor_outs(out, 0, probes), isr,
+                    {pin: _high(sim.pins.get(0, []), pin, now, now + window) for pin in soft})
+
+
+def _drive_motors(robot: Robot) -> tuple[tuple[DcMotor, ...], McuSpec]:
+    drive = robot.board("drive")
+    assert drive is not None
+    return drive.motors, drive.spec
+
+
+def _high(edges: list[tuple[int, str, int]], pin: str, start: int, end: int) -> int:
+    """Cycles ``pin`` was high between ``start`` and ``end``."""
+    level, since, high = 0, start, 0
+    for cycle, name, v in edges:
+        if name != pin:
+            continue
+        if cycle <= start:
+            level = v
+            continue
+        if cycle >= end:
+            break
+        if level:
+            high += cycle - since
+        level, since = v, cycle
+    return high + (end - since if level else 0)
 
 
 def _peeks(node: int, probes: list[tuple[str, int, str, int]]) -> list[str]:

@@ -127,6 +127,7 @@ def test_drive_in_simavr_equals_the_python_core(built, robot):
     # Timer2's interrupt, vector to RETI, over 230 interrupts (no software PWM): 30
     # cycles, 41 when the control tick ends
     assert got.isr_cycles == Counter({30: 228, 41: 2})
+    assert got.soft_high == {}
 
 
 def test_drive_with_three_software_pwms(robot, tmp_path):
@@ -145,6 +146,10 @@ def test_drive_with_three_software_pwms(robot, tmp_path):
     # at duty 203 the pins are on for 51 of the 64 phases: 63 cycles with the three pins
     # on, 60 off, 74/71 when the control tick ends (the PIC's assembly ISR: 24/21)
     assert got.isr_cycles == Counter({63: 177, 60: 51, 74: 1, 71: 1})
+    # on the pins (simavr drives a software PWM pin; a hardware unit's pin it does not):
+    # high 51/64 of four 64-step periods = 326 400 of 409 600 cycles, plus the few cycles
+    # by which each pin's fall comes later in the interrupt than its rise
+    assert got.soft_high == {"D6": 326415, "D5": 326411, "B1": 326407}
 
 
 def test_both_boards_together_and_the_watchdog_stops_the_wheels(built, robot):
