@@ -124,3 +124,33 @@ def boot_wait_end(rises: list[int], boot_cycles: int, tick_cycles: int, poll_per
     done = (boot_cycles - rises[0]) // tick_cycles + 1          # ticks by boot_cycles
     n = done + -done % poll_period
     return rises[0] + (n - 1) * tick_cycles + int(lead * tick_cycles)
+
+
+def split_replies(tx: Iterable[tuple[int, int]]) -> list[tuple[int, bytes]]:
+    """The bytes the firmware sent, ``(cycle, byte)``, as ``(cycle of its LF, line)``."""
+    out = []
+    line = bytearray()
+    for cycle, b in tx:
+        line.append(b)
+        if b == 0x0A:
+            out.append((cycle, bytes(line)))
+            line.clear()
+    return out
+
+
+def trace_lines(sync_edges: Iterable[tuple[int, int]], replies: Iterable[tuple[int, bytes]],
+                transfers: Iterable[Any]) -> list[str]:
+    """A run as docs/trace-format.md lines, ordered by cycle: ``T n`` at the sync pin's
+    rising edges from reset, ``TX`` per reply, each I2C transfer's trace line (a transfer
+    cut before its address byte has no segments and is left out)."""
+    events: list[tuple[int, int, str]] = []
+    ticks = [c for c, v in sync_edges if v == 1 and c > 0]
+    for n, c in enumerate(ticks, start=1):
+        events.append((c, 0, f"T {n}"))
+    for c, line in replies:
+        events.append((c, 1, f"TX {line.hex().upper()}"))
+    for t in transfers:
+        if t.segments:
+            events.append((t.start, 2, t.trace_line()))
+    events.sort()
+    return ["# esair-trace 1"] + [text for _, _, text in events]

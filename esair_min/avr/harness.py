@@ -42,7 +42,8 @@ from esair_min.errors import EsairError, ProtocolError
 from esair_min.model import avr
 from esair_min.model.robot import Robot
 from esair_min.pic.gpsim_wave import I2cSegment, I2cTransfer
-from esair_min.simscript import SimScript, boot, boot_wait_end, dispatch, feed, tick
+from esair_min.simscript import (SimScript, boot, boot_wait_end, dispatch, feed, split_replies,
+                                 tick, trace_lines)
 
 SOURCE = Path(__file__).with_name("simdrv.c")
 BOOT_LEAD = 0.125
@@ -164,12 +165,7 @@ class AvrRun:
     replies: list[tuple[int, bytes]] = field(default_factory=list)
 
     def __post_init__(self) -> None:
-        line = bytearray()
-        for cycle, b in self.tx:
-            line.append(b)
-            if b == 0x0A:
-                self.replies.append((cycle, bytes(line)))
-                line.clear()
+        self.replies.extend(split_replies(self.tx))
 
     @property
     def stack_bytes(self) -> int:
@@ -178,17 +174,7 @@ class AvrRun:
 
     def trace(self) -> list[str]:
         """The run as docs/trace-format.md lines, ordered by cycle (as GpsimRun.trace)."""
-        events: list[tuple[int, int, str]] = []
-        ticks = [c for c, v in self.sync_edges if v == 1 and c > 0]
-        for n, c in enumerate(ticks, start=1):
-            events.append((c, 0, f"T {n}"))
-        for c, line in self.replies:
-            events.append((c, 1, f"TX {line.hex().upper()}"))
-        for t in self.transfers:
-            if t.segments:
-                events.append((t.start, 2, t.trace_line()))
-        events.sort()
-        return ["# esair-trace 1"] + [text for _, _, text in events]
+        return trace_lines(self.sync_edges, self.replies, self.transfers)
 
 
 class _Script(SimScript):

@@ -43,7 +43,8 @@ from esair_min.core.image import build_image, write_hex
 from esair_min.model.avr import Timer1Tick
 from esair_min.model.robot import Robot
 from esair_min.pic.toolchain import Toolchain, ToolchainError, run_gpsim
-from esair_min.simscript import SimScript, boot, boot_wait_end, dispatch, feed, tick
+from esair_min.simscript import (SimScript, boot, boot_wait_end, dispatch, feed, split_replies,
+                                 tick, trace_lines)
 
 BOOT_LEAD = 0.125          # of a tick: where the boot wait (and so every tick N) ends
 HOLD_PULLUPS = {"bus": "PSCL", "sda": "PSDA"}   # `fault bus|sda on`: this pull-up at 0 V
@@ -160,27 +161,12 @@ class GpsimRun:
         return out
 
     def __post_init__(self) -> None:
-        line = bytearray()
-        for cycle, b in self.tx:
-            line.append(b)
-            if b == 0x0A:
-                self.replies.append((cycle, bytes(line)))
-                line.clear()
+        self.replies.extend(split_replies(self.tx))
 
     def trace(self) -> list[str]:
         """The run as docs/trace-format.md lines (``T`` = rising sync edges counted
         from reset, ``@`` marks in microseconds), ordered by cycle."""
-        events: list[tuple[int, int, str]] = []
-        ticks = [c for c, v in self.sync_edges if v == 1 and c > 0]
-        for n, c in enumerate(ticks, start=1):
-            events.append((c, 0, f"T {n}"))
-        for c, line in self.replies:
-            events.append((c, 1, f"TX {line.hex().upper()}"))
-        for t in self.transfers:
-            if t.segments:                   # a cut transfer may lack an address byte
-                events.append((t.start, 2, t.trace_line()))
-        events.sort()
-        return ["# esair-trace 1"] + [text for _, _, text in events]
+        return trace_lines(self.sync_edges, self.replies, self.transfers)
 
 
 class _Script(SimScript):
