@@ -94,7 +94,7 @@ def board_rules(checker: Checker, b: Any) -> None:
     checker.rule(_index_rules, checker, b)
     spec: McuSpec = b.spec
     units = spec.drive_pwm
-    if spec.family == "avr" and timer2_ctc(b.mcu.clock_hz, SOFT_PWM_ISR_HZ) is None:
+    if b.motors and spec.family == "avr" and timer2_ctc(b.mcu.clock_hz, SOFT_PWM_ISR_HZ) is None:
         checker.report(b, ("mcu", "clock_hz"), f"the {spec.name} drive port's Timer2 cannot "
                        f"interrupt exactly {SOFT_PWM_ISR_HZ} times a second at "
                        f"{b.mcu.clock_hz} Hz (the software PWM step and the control tick); "
