@@ -165,6 +165,8 @@ def script_commands(s: CentralSetup, stimulus: str) -> tuple[list[str], list[Flo
             ok = verb is not None and verb(sc, words[1:])
         except ValueError:
             ok = False
+        except ProtocolError as exc:
+            raise ProtocolError(f"stimulus line {number}: {exc.message}") from None
         if not ok:
             raise ProtocolError(f"stimulus line {number}: {text!r} is not rx TEXT, raw HH ..., "
                                 "tick N, floor S 0|1 or flow S DX DY SQUAL")

@@ -104,7 +104,8 @@ def test_flow_motion_reaches_the_odometry_reply_as_in_python(built, robot):
                                    "TX OK n=3 a=-118,124,200 b=9,2,90"]
 
 
-@settings(max_examples=4, deadline=None, derandomize=True,
+# simavr runs a stream in a fraction of a second (gpsim: ~10 s): 12 streams, not 4
+@settings(max_examples=12, deadline=None, derandomize=True,
           suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 @given(steps=streams.steps(flow=True))
 def test_central_in_simavr_equals_the_python_core_on_generated_streams(built, robot, steps):

@@ -13,9 +13,12 @@ from pathlib import Path
 import pytest
 from click.testing import CliRunner
 
+from esair_min.avr.starfish import CentralSetup, script_commands
 from esair_min.cli import main
 from esair_min.codegen import generate_robot, render_robot
 from esair_min.components.omni_base.harness import run_script
+from esair_min.components.omni_base.replay import FlowChange
+from esair_min.errors import ProtocolError
 from esair_min.components.dc_motor import pwm_units
 from esair_min.model.validate import load_robot
 from tests.support.bad_boards import assert_refused, cases
@@ -103,3 +106,29 @@ def test_the_host_c_of_the_avr_boards_equals_the_python_core(tmp_path):
     python = run_script(robot, HOST_SCRIPT)
     assert run.stdout.splitlines() == python
     assert "TX !W watchdog stop" in python and "TX OK n=2 a=10,-3,88 b=0,0,0" in python
+
+
+@pytest.mark.parametrize(("line", "message"), [
+    ("bogus 1", "stimulus line 2: 'bogus 1' is not rx TEXT, raw HH ..., tick N, floor S 0|1 or "
+                "flow S DX DY SQUAL"),
+    ("flow 0 200 0 90", "stimulus line 2: 'flow 0 200 0 90' is not rx TEXT, raw HH ..., tick N, "
+                        "floor S 0|1 or flow S DX DY SQUAL"),
+    ("floor 2 1", "stimulus line 2: flow sensor 2: there are 2 flow sensors"),
+    ("tick 0", "stimulus line 2: 'tick 0' is not rx TEXT, raw HH ..., tick N, floor S 0|1 or "
+               "flow S DX DY SQUAL"),
+])
+def test_the_simavr_stimulus_refuses_what_it_cannot_run(line, message):
+    setup = CentralSetup.from_robot(load_robot(ROOT / "boards" / "starfish-avr"))
+    with pytest.raises(ProtocolError) as exc:
+        script_commands(setup, f"rx v\n{line}\n")
+    assert str(exc.value) == message
+
+
+def test_the_simavr_stimulus_becomes_driver_commands_at_line_rate():
+    setup = CentralSetup.from_robot(load_robot(ROOT / "boards" / "starfish-avr"))
+    assert setup.byte_cycles == 4160 and setup.tick_cycles == 160_000   # 38461.5 baud, 10 ms
+    lines, changes, end = script_commands(setup, "rx O\nflow 1 -2 3 90\ntick 1\n")
+    assert lines == ["run 40000", "rx 44160 79", "rx 48320 13", "rx 52480 10",
+                     "flowfloor 1 -1", "flowreg 1 3 254", "flowreg 1 2 3", "flowreg 1 4 90",
+                     "run 200000", "run 1800000"]
+    assert changes == [FlowChange(40000, 1, motion=(-2, 3, 90))] and end == 1_800_000
