@@ -116,5 +116,5 @@ def test_every_kind_is_a_board_section_on_its_roles():
 
 def test_papaman_keeps_its_roles_and_registers(robot):
     assert ROLE_SECTIONS["actuator"] == {"servos", "sync", "figure"}      # figure: the HMI's
-    assert ROLE_SECTIONS["sensor"] == {"sensors", "mux"}             # mux: papaman-avr's
+    assert ROLE_SECTIONS["sensor"] == {"sensors", "mux"}            # mux: papaman-avr's 74HC4051
     assert robot.actuator.register_count == 24 and robot.sensor_board.register_count == 16
