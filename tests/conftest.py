@@ -99,7 +99,7 @@ _BY_MODULE = {
             "test_std_papaman_c", "test_std_papaman_cli", "test_gpsim_uart",
             "test_starfish_pty", "test_pty_promise", "test_minlink_safety",
             "test_std_papaman_safety", "test_minlink_duplex"},
-    "avr": {"test_avr"},
+    "avr": {"test_avr", "test_starfish_avr"},
 }
 _BY_FIXTURE = {"pic_firmware": "gpsim"}
 #: modules of many subprocesses, C builds or long hypothesis runs (--durations: the
