@@ -130,11 +130,33 @@ def command_to_write(mode: str, n: int, feet_hz: float, goal_ms: float,
     k = len(written)
     host = [(w - s) * 1e3 for s, w in zip(sent[len(sent) - k:], written)]
     robot = [(w - s) * 1e3 for s, w in zip(written, writes[len(writes) - k:])]
-    return {"n": len(lat), "p50": statistics.median(lat), "p90": pct(lat, 0.9),
+    split = split_host(got["sent"][len(sent) - k:], rows[1:])
+    return {**split, "n": len(lat), "p50": statistics.median(lat), "p90": pct(lat, 0.9),
             "p99": pct(lat, 0.99), "max": max(lat), "errors": got["errors"],
             "host_p50": statistics.median(host), "host_p99": pct(host, 0.99),
             "robot_min": min(robot), "robot_max": max(robot), "robot_p99": pct(robot, 0.99),
             "late_ticks": sum(r > goal_ms for r in robot), "robot_n": len(robot)}
+
+
+def split_host(sent: list[float], rows: list[dict]) -> dict:
+    """The host path (send -> port write, time.monotonic() in every process) in three:
+    ``hop`` send -> the resource host queues it (the AC, or Zenoh between processes);
+    ``queue`` queued -> the host thread runs the actuator's write(); ``link`` write() ->
+    the line's port write (waiting for its turn on the line); and how many were written
+    behind a reply still arriving (full duplex) or by the link's I/O thread."""
+    hop, queue, link = [], [], []
+    for s, r in zip(sent, rows):
+        if r.get("asked") is None:
+            continue
+        hop.append((r["asked"] - s) * 1e3)
+        queue.append((r["began"] - r["asked"]) * 1e3)
+        link.append((r["wall"] - r["began"]) * 1e3)
+    if not hop:
+        return {}
+    return {"split": {name: (statistics.median(xs), pct(xs, 0.99)) for name, xs in
+                      (("hop", hop), ("queue", queue), ("link", link))},
+            "behind": sum(r.get("behind", 0) > 0 for r in rows),
+            "by_io": sum(not str(r.get("by", "")).startswith("esair") for r in rows)}
 
 
 def sample_age(mode: str, seconds: float) -> dict:
@@ -229,7 +251,7 @@ def figure1(args, modes: list[str], goal1: float) -> None:
     at 8 Hz; runs interleaved (the load moves)."""
     res: dict[tuple[str, bool, float], dict] = {}
     for m in modes:
-        for duplex in (False, True):
+        for duplex in ((False, True) if not args.duplex_only else (True,)):
             for hz in (0, 8):
                 res[(m, duplex, hz)] = command_to_write(m, args.n, hz, goal1, duplex)
     for (m, duplex, hz), r in res.items():
@@ -242,6 +264,10 @@ def figure1(args, modes: list[str], goal1: float) -> None:
               f"{r['host_p50']:.2f} ms  p99 {r['host_p99']:.2f} ms;  port write -> register "
               f"write (line + tick wait): {r['robot_min']:.2f} .. {r['robot_max']:.2f} ms, "
               f"p99 {r['robot_p99']:.2f} ms (the line-and-tick floor)")
+        if r.get("split"):
+            print(f"   {'':8s} {'':14s} {'':9s} host path split, p50/p99 ms: " + ", ".join(
+                f"{k} {a:.2f}/{b:.2f}" for k, (a, b) in r["split"].items())
+                + f"; written behind a reply {r['behind']}, by the I/O thread {r['by_io']}")
         print(f"   {'':8s} {'':14s} {'':9s} p99 = {r['p99'] / floor['robot_p99']:.2f}x the "
               f"no-polling run's line-and-tick floor, {r['p99'] / floor['p99']:.2f}x the "
               f"no-polling run's p99; missed the first tick after their line: "
@@ -255,6 +281,8 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=3, help="figure 3: runs (median)")
     ap.add_argument("--modes", default="thread,process", help="comma-separated STD modes")
     ap.add_argument("--figures", default="123", help="which figures (e.g. 1, 23)")
+    ap.add_argument("--duplex-only", action="store_true",
+                    help="figure 1: full duplex only (not the one-in-flight runs)")
     args = ap.parse_args()
     robot = load_robot(PAPAMAN)
     b = line_budget(robot)

@@ -79,13 +79,33 @@ class TimedMinLink(MinLink):
             f.write(json.dumps({"t0_wall": pacer._t0_wall, "factor": pacer.factor,
                                 "t0_virtual": pacer._t0_virtual / 1e9}) + "\n")
         write = port.write
+        knee = self.children["servo.l_knee"]
+        ran: list[tuple] = []                          # (asked, write() began) of knee commands
+        knee_write = knee.write
+
+        def timed_knee(command, _write=knee_write):    # the host thread runs the command
+            esair = knee._esair
+            ran.append((esair.asked, time.monotonic()))
+            return _write(command)
 
         def timed_write(data, _write=write):           # the port's virtual time at the write
+            t_wall = time.monotonic()
             out = _write(data)
             if data.lstrip(b"\r\n")[:1] == b"o":
                 t = port.emulator.clock.now / 1e9
+                asked, began = ran.pop(0) if ran else (None, None)
+                import threading
                 with open(notes, "a") as f:
-                    f.write(json.dumps({"written": t}) + "\n")
+                    f.write(json.dumps({"written": t, "wall": t_wall, "asked": asked,
+                                        "began": began, "behind": self.link.in_flight - 1,
+                                        "by": threading.current_thread().name}) + "\n")
             return out
 
+        knee.write = timed_knee
         port.write = timed_write                       # the Link calls its port's write
+
+import os as _os  # noqa: E402
+import sys as _sys  # noqa: E402
+
+if _os.environ.get("BENCH_SWITCH"):
+    _sys.setswitchinterval(float(_os.environ["BENCH_SWITCH"]))
