@@ -199,6 +199,9 @@ class App {
   }
 
   linkbar() {
+    const same = JSON.stringify([this.wsUp, this.runtimeUp, this.link]);
+    if (same === this.linkShown) return;           // rebuilt only when it changed
+    this.linkShown = same;
     const bar = $("linkbar"); bar.textContent = "";
     const pill = (cls, text, title) => {
       const s = document.createElement("span"); s.className = `pill ${cls}`;
