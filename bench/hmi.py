@@ -206,8 +206,13 @@ def main() -> None:
             for page in pages:
                 page.evaluate("() => { window.__hmi.stats.latencies.length = 0; "
                               "window.__hmi.stats.arrivals.length = 0; }")
+            drawn0 = [page.evaluate("() => [window.__hmi.stats.draws, window.__hmi.stats.drawMs]")
+                      for page in pages]
             cpu3 = cpu_share(hmi, args.window)
             rss3 = rss_mb(hmi)
+            drawn = [[b - a for a, b in zip(d0, page.evaluate(
+                "() => [window.__hmi.stats.draws, window.__hmi.stats.drawMs]"))]
+                for d0, page in zip(drawn0, pages)]
             lat, arr = [], []
             for page in pages:
                 lat += page.evaluate("() => window.__hmi.stats.latencies")
@@ -243,6 +248,9 @@ def main() -> None:
              "<= 50 ms", pct(lat, 0.99) / 50),
             ("  of which: sample -> the page got it, p99 (p50)",
              f"{pct(arr, 0.99):.1f} ms ({statistics.median(arr):.1f} ms), {len(arr)} samples",
+             "-", 0.0),
+            ("  each page's drawing: frames/s, ms of drawing per s",
+             ", ".join(f"{n / args.window:.1f}/s {ms / args.window:.1f} ms" for n, ms in drawn),
              "-", 0.0),
             ("HMI CPU, no page / 3 pages", f"{cpu0 * 100:.1f} % / {cpu3 * 100:.1f} % of a core",
              "<= 10 %", cpu3 / 0.10),

@@ -25,7 +25,8 @@ class App {
     this.robots = {};
     // latencies: sample time stamp -> the frame that drew it; arrivals: -> the page got it
     // (the difference is the browser's wait for a frame), both in ms, for the bench
-    this.stats = { samples: 0, latencies: [], arrivals: [] };
+    // draws, drawMs: frames drawn and the time they took (the page's own cost)
+    this.stats = { samples: 0, latencies: [], arrivals: [], draws: 0, drawMs: 0 };
     this.log = new Log($("log"), $("log-level"));
     this.components = new Components($("components"), $("add"), this);
     this.dirty = false;
@@ -243,6 +244,7 @@ class App {
       if (this.feet) this.feet.draw(drawnAt, this.stats.latencies);
       if (this.generic) this.generic.draw();
       const cost = performance.now() - t0;
+      this.stats.draws++; this.stats.drawMs += cost;
       this.drawCost = 0.8 * this.drawCost + 0.2 * cost;
       this.drawGap = Math.min(MAX_DRAW_GAP_MS, this.drawCost / DRAW_SHARE);
       this.drawnAt = now;
