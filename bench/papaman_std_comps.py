@@ -109,3 +109,31 @@ import sys as _sys  # noqa: E402
 
 if _os.environ.get("BENCH_SWITCH"):
     _sys.setswitchinterval(float(_os.environ["BENCH_SWITCH"]))
+
+
+class Sweep(Behavior):
+    """Commands the robot's 12 servos in turn, back and forth by 5 degrees around their
+    stand angles, one command in flight, as fast as the link answers, for
+    options['seconds'] (the robot busy while the HMI is watched: bench/hmi.py); then
+    provide() gives the commands sent and failed."""
+
+    SERVOS = ("l_hip_yaw", "l_hip_roll", "l_hip_pitch", "l_knee", "l_ankle_pitch", "l_ankle_roll",
+              "r_hip_yaw", "r_hip_roll", "r_hip_pitch", "r_knee", "r_ankle_pitch", "r_ankle_roll")
+
+    def start(self):
+        self.h = [self.attach_actuator(f"papaman.servo.{s}") for s in self.SERVOS]
+        self.sent = self.errors = 0
+
+    def run(self):
+        i, end = 0, time.monotonic() + float(self.options["seconds"])
+        while not self.stopping and time.monotonic() < end:
+            try:
+                self.h[i % 12].send({"angle": 90 + (5 if (i // 12) % 2 else -5), "speed": 0},
+                                    timeout=1.0)
+                self.sent += 1
+            except Exception:  # noqa: BLE001 - counted
+                self.errors += 1
+            i += 1
+
+    def provide(self, requester):
+        return {"sent": self.sent, "errors": self.errors}
