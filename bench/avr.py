@@ -38,13 +38,8 @@ from esair_min.pic.build import build_robot  # noqa: E402
 from esair_min.pic.gpsim_wave import transfer_kinds  # noqa: E402
 
 SCENARIO = ROOT / "tests" / "fixtures" / "gpsim" / "papaman.txt"
-DANCE = ("sensor 500 500 500 500 500 500\nboot\ntick 4\nrx DNC\\r\ntick 40\nrx x\\r\ntick 12\n")
+DANCE = ("sensor 500 500 500 500 500 500 500 500\nboot\ntick 4\nrx DNC\\r\ntick 40\nrx x\\r\ntick 12\n")
 VECTORS = {11: "TIMER1_COMPA (tick)", 18: "USART_RX", 19: "USART_UDRE"}
-
-
-def avr_script(text: str) -> str:
-    return "\n".join(" ".join(line.split()[:7]) if line.startswith("sensor ") else line
-                     for line in text.splitlines()) + "\n"
 
 
 def table(rows: list[tuple[str, ...]]) -> None:
@@ -98,7 +93,7 @@ def main(argv: list[str]) -> int:
     print("  goal (central, AVR): <= 8192 flash, <= 1024 RAM; StandardFirmata: 11844 / 862")
 
     elfs = {role: b.folder / "firmware.elf" for role, b in avr_builds.items()}
-    run = run_stimulus(avr_robot, avr_script(SCENARIO.read_text()), elfs["central"],
+    run = run_stimulus(avr_robot, SCENARIO.read_text(), elfs["central"],
                        work / "scenario", isrs=True)
     c = avr_robot.central
     print(f"\n2. Central board's interrupts on the AVR (cycles at {c.mcu.clock_hz} Hz; "

@@ -26,7 +26,6 @@ import argparse
 import json
 import math
 import os
-import socket
 import subprocess
 import sys
 import tempfile
@@ -37,18 +36,13 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from esair_std import Runtime  # noqa: E402
+from tests.support.std import free_endpoint, processes  # noqa: E402
 from esair_std.deploy import load_deployment, resolve_deployment  # noqa: E402
 
 BENCH = Path(__file__).resolve().parent
 
 SOURCES = [(1.0, 3.5), (0.4, 0.4), (2.7, 3.7), (0.3, 2.0), (2.6, 0.3), (1.8, 3.7)]
 TURN_RATE = 2.5          # rad/s: turn_and_shoot's max_turn
-
-
-def free_endpoint() -> str:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return f"tcp/127.0.0.1:{s.getsockname()[1]}"
 
 
 def wait(fn, timeout: float):
@@ -128,18 +122,10 @@ def proc_stat(pid: int) -> tuple[float, float]:
 def children(pid: int) -> dict[str, int]:
     """name -> pid of the runtime's agent processes (from their --spec)."""
     out = {}
-    for d in os.listdir("/proc"):
-        if not d.isdigit():
-            continue
-        try:
-            with open(f"/proc/{d}/stat") as f:
-                ppid = int(f.read().rsplit(")", 1)[1].split()[1])
-            with open(f"/proc/{d}/cmdline", "rb") as f:
-                cmd = f.read().split(b"\0")
-        except (OSError, IndexError, ValueError):
-            continue
+    for child, ppid, cmdline in processes():
+        cmd = cmdline.split(b"\0")
         if ppid == pid and b"--spec" in cmd:
-            out[json.loads(cmd[cmd.index(b"--spec") + 1])["name"]] = int(d)
+            out[json.loads(cmd[cmd.index(b"--spec") + 1])["name"]] = child
     return out
 
 

@@ -25,7 +25,6 @@ import argparse
 import json
 import os
 import signal
-import socket
 import subprocess
 import sys
 import threading
@@ -38,6 +37,7 @@ sys.path[:0] = [str(ROOT), str(BENCH)]
 
 from esair_std import Runtime  # noqa: E402
 from esair_std.deploy import load_deployment  # noqa: E402
+from tests.support.std import free_endpoint, wait_for  # noqa: E402
 
 ROWS: list[tuple[str, str, str, str]] = []
 
@@ -46,12 +46,6 @@ def row(goal: str, measured: str, target: str, ok: bool | None) -> None:
     verdict = "" if ok is None else ("met" if ok else "MISSED")
     ROWS.append((goal, measured, target, verdict))
     print(f"  {goal:<46} {measured:<30} {target:<16} {verdict}", flush=True)
-
-
-def free_endpoint() -> str:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return f"tcp/127.0.0.1:{s.getsockname()[1]}"
 
 
 def pct(xs: list[float], p: float) -> float:
@@ -65,14 +59,7 @@ def runtime(dep: dict, mode: str) -> Runtime:
 
 
 def wait(fn, timeout: float = 60.0):
-    deadline = time.monotonic() + timeout
-    while True:
-        v = fn()
-        if v:
-            return v
-        if time.monotonic() > deadline:
-            raise RuntimeError("bench: timed out")
-        time.sleep(0.01)
+    return wait_for(fn, timeout, what="the bench's condition")
 
 
 # ---- baselines

@@ -13,7 +13,6 @@ Run: python bench/std_churn.py [--cycles N] [--warm N]. Prints; asserts nothing.
 from __future__ import annotations
 
 import argparse
-import socket
 import sys
 import time
 from pathlib import Path
@@ -22,6 +21,7 @@ BENCH = Path(__file__).resolve().parent
 sys.path[:0] = [str(BENCH.parent), str(BENCH)]
 
 from esair_std import Runtime  # noqa: E402
+from tests.support.std import free_endpoint  # noqa: E402
 
 
 def rss_mb() -> float:
@@ -30,12 +30,6 @@ def rss_mb() -> float:
             if line.startswith("VmRSS:"):
                 return int(line.split()[1]) / 1024
     return 0.0
-
-
-def free_endpoint() -> str:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return f"tcp/127.0.0.1:{s.getsockname()[1]}"
 
 
 def tables(rt: Runtime) -> tuple[int, int, int, int]:

@@ -15,7 +15,7 @@ from esair_min.components import motion, pressure_sensor, servo
 from esair_min.core import protocol as P
 from esair_min.errors import GenerateError
 from esair_min.model.encoding import MAX_LINE
-from esair_min.model.hardware import ADC_PINS, BaudSetting, I2cSetting, Timer2Setting
+from esair_min.model.hardware import BaudSetting, I2cSetting, Timer2Setting
 from esair_min.core.image import build_image
 from esair_min.components.motion.layout import HEADER_BYTES
 from esair_min.model.board import Board
@@ -345,28 +345,54 @@ def actuator_context(robot: Robot) -> Context:
     return ctx
 
 
+def _sensor_rows(board: Board) -> list[dict[str, Any]]:
+    """One row per sensor: the ADC channel it is converted on (the mux's for a sensor on a
+    mux input), that channel's pin, and its mux input (None: on its own channel)."""
+    rows = []
+    for s in board.sensors:
+        channel = s.channel if s.channel is not None else board.mux.channel  # type: ignore[union-attr]
+        rows.append({"name": s.name, "channel": channel, "group": s.group,
+                     "pin": board.spec.adc_pins[channel], "input": s.mux_input})
+    return rows
+
+
+def _mux_context(board: Board) -> dict[str, Any] | None:
+    """The analog multiplexer (None without one): its channel, inputs, select pins (S0
+    first, each with its port and mask) and settling time."""
+    m = board.mux
+    if m is None:
+        return None
+    select = [dict(_pin(p), s=i) for i, p in enumerate(m.select)]
+    return {"channel": m.channel, "inputs": m.inputs, "settle_us": m.settle_us,
+            "select": select,
+            "ports": [{"port": port, "mask": sum(p["mask"] for p in select if p["port"] == port)}
+                      for port in sorted({p["port"] for p in select})]}
+
+
 def sensor_context(robot: Robot) -> Context:
     board = robot.sensor_board
     assert board is not None
     ctx = common_context(robot, board)
     sensors = robot.sensors
+    ctx["mux"] = _mux_context(board)
     if board.spec.family == "avr":
         ctx["avr"] = ports.sensor_avr(board)
-        ctx.update({"sensors": [{"name": s.name, "channel": s.channel, "group": s.group,
-                                 "pin": board.spec.adc_pins[s.channel]} for s in sensors],
+        ctx.update({"sensors": _sensor_rows(board),
                     "n_sensors": len(sensors), "registers": 2 * len(sensors),
                     "address": _slave_address(board)})
         return ctx
     adc = timing.adc_clock(board.mcu.clock_hz)
+    settle = board.mux.settle_us if board.mux is not None else 0
     ctx.update({
-        "sensors": [{"name": s.name, "channel": s.channel, "group": s.group,
-                     "pin": ADC_PINS[s.channel]} for s in sensors],
+        "sensors": _sensor_rows(board),
         "n_sensors": len(sensors),
         "registers": 2 * len(sensors),
         "address": _slave_address(board),
         # Timer0: 16-bit, Fosc/4, prescale 1:8 (T0CON 0x82): counts of the acquisition time
         "t0con": 0x82,
         "acq_counts": -(-ADC_ACQ_US * board.mcu.clock_hz // (4 * 8 * 1_000_000)),
+        # ... and of the mux's settling time plus the acquisition time (a select change)
+        "mux_acq_counts": -(-(ADC_ACQ_US + settle) * board.mcu.clock_hz // (4 * 8 * 1_000_000)),
         "adc": {"divisor": adc.divisor, "adcs2": adc.adcs2, "adcs": adc.adcs,
                 # ADCON1: right-justified (ADFM), ADCS2, PCFG=0000 (AN0..AN7 analog)
                 "adcon1": 0x80 | (adc.adcs2 << 6),

@@ -66,6 +66,17 @@ def sensor_avr(board: Board) -> dict[str, Any]:
     clock = avr.adc_clock(board.mcu.clock_hz)
     if clock is None:
         raise GenerateError(f"a {board.mcu.clock_hz} Hz clock is too fast for the ADC")
+    channels = {s.channel for s in board.sensors if s.channel is not None}
+    mux = None
+    if board.mux is not None:
+        channels.add(board.mux.channel)
+        # Timer1 free-running at prescale 8 times the settling: elapsed counts >= n means
+        # more than n - 1 counts passed, so n is one more than the settling's counts.
+        counts = -(-board.mux.settle_us * board.mcu.clock_hz // (8 * 1_000_000)) + 1
+        if counts > 0xFFFF:
+            raise GenerateError(f"a mux settling time of {board.mux.settle_us} us is more "
+                                f"than Timer1 counts at {board.mcu.clock_hz} Hz")
+        mux = {"tccr1b": 0x02, "prescale": 8, "settle_counts": counts}
     return {"adc": {"divisor": clock.divisor, "adps": clock.adps,
                     "conversion_cycles": clock.conversion_cycles()},
-            "didr0": sum(1 << s.channel for s in board.sensors if s.channel < 6)}
+            "didr0": sum(1 << ch for ch in channels if ch < 6), "mux": mux}

@@ -73,62 +73,66 @@ class BehaviorSupervisor(Supervisor[ComponentHost]):
             return None, f"{name!r} is a reaction: it takes no data"
         return rec, ""
 
-    def put(self, sender: str, target: str, data: Any, timeout: float) -> tuple[bool, str]:
-        try:
-            data = codec.copy(data)
-        except TransportError as exc:
-            self.c["puts_failed"] += 1
-            return False, exc.message
+    def _until(self, counter: str, target: str, timeout: float, late: str,
+               attempt: Callable[[Record, float], tuple[str, Any]]) -> tuple[bool, Any]:
+        """The mediator's one retry loop: ``attempt(record, seconds left)`` answers
+        ("ok", value), ("final", why) to give up now, or (anything else, why) while the
+        target is busy; retried (backoff 0.5 ms doubling to 10 ms) until ``timeout``.
+        Counts ``<counter>_ok`` / ``<counter>_failed``; a late failure says
+        "<target> <late> within <timeout> s (<why>)"."""
         deadline = time.monotonic() + max(0.0, float(timeout))
         delay = 0.0005
         while True:
             rec, why = self._target(target)
-            if rec is None:
-                self.c["puts_failed"] += 1
-                return False, why
-            r = rec.host.offer(sender, data)
-            if r == "delivered":
-                self.c["puts_ok"] += 1
-                return True, ""
+            status, value = (("final", why) if rec is None else
+                             attempt(rec, max(0.001, deadline - time.monotonic())))
+            if status == "ok":
+                self.c[counter + "_ok"] += 1
+                return True, value
             left = deadline - time.monotonic()
-            if left <= 0:
-                self.c["puts_failed"] += 1
-                return False, f"{target!r} did not take the data within {timeout:g} s ({r})"
+            if status == "final" or left <= 0:
+                self.c[counter + "_failed"] += 1
+                return False, (value if status == "final" else
+                               f"{target!r} {late} within {timeout:g} s ({value})")
             time.sleep(min(delay, left))
             delay = min(delay * 2, 0.01)
+
+    def _copied(self, data: Any) -> tuple[bool, Any]:
+        try:
+            return True, codec.copy(data)
+        except TransportError as exc:
+            self.c["puts_failed"] += 1
+            return False, exc.message
+
+    def put(self, sender: str, target: str, data: Any, timeout: float) -> tuple[bool, str]:
+        ok, data = self._copied(data)
+        if not ok:
+            return False, data
+
+        def offer(rec: Record, _left: float) -> tuple[str, Any]:
+            r = rec.host.offer(sender, data)
+            return ("ok", "") if r == "delivered" else ("busy", r)
+        return self._until("puts", target, timeout, "did not take the data", offer)
 
     def put_wait(self, sender: str, target: str, data: Any, timeout: float) -> tuple[bool, str]:
         """A put whose sender waits until the target's receive() ran: (True, "") when it
         took the data, (False, why) when it refused it (raised Refused), failed, or took
         no data within ``timeout`` (retried while busy)."""
-        try:
-            data = codec.copy(data)
-        except TransportError as exc:
-            self.c["puts_failed"] += 1
-            return False, exc.message
-        deadline = time.monotonic() + max(0.0, float(timeout))
-        delay = 0.0005
-        while True:
-            rec, why = self._target(target)
-            if rec is None:
-                self.c["puts_failed"] += 1
-                return False, why
-            take = getattr(rec.host, "take", None)     # None: still starting, or failed
-            status, why = (take(sender, data, max(0.001, deadline - time.monotonic()))
-                           if take is not None else ("busy", rec.host.state))
-            if status == "ok":
-                self.c["puts_ok"] += 1
-                return True, ""
-            left = deadline - time.monotonic()
-            if status in ("refused", "failed") or left <= 0:
-                self.c["puts_failed"] += 1
-                if status == "refused":
-                    return False, f"{target!r} refused it: {why}"
-                if status == "failed":
-                    return False, f"{target!r}: {why}"
-                return False, f"{target!r} did not take the data within {timeout:g} s ({why})"
-            time.sleep(min(delay, left))
-            delay = min(delay * 2, 0.01)
+        ok, data = self._copied(data)
+        if not ok:
+            return False, data
+
+        def take(rec: Record, left: float) -> tuple[str, Any]:
+            taker = getattr(rec.host, "take", None)     # None: still starting, or failed
+            if taker is None:
+                return "busy", rec.host.state
+            status, why = taker(sender, data, left)
+            if status == "refused":
+                return "final", f"{target!r} refused it: {why}"
+            if status == "failed":
+                return "final", f"{target!r}: {why}"
+            return status, ("" if status == "ok" else why)
+        return self._until("puts", target, timeout, "did not take the data", take)
 
     def put_first(self, sender: str, target: str, data: Any, timeout: float,
                   done: Callable[[bool], None]) -> bool:
@@ -148,25 +152,10 @@ class BehaviorSupervisor(Supervisor[ComponentHost]):
         return rec.host.offer_async(sender, data, result, timeout)
 
     def get(self, requester: str, target: str, timeout: float) -> tuple[bool, Any]:
-        deadline = time.monotonic() + max(0.0, float(timeout))
-        delay = 0.0005
-        while True:
-            rec, why = self._target(target)
-            if rec is None:
-                self.c["gets_failed"] += 1
-                return False, why
-            status, value = rec.host.provide(requester, max(0.001, deadline - time.monotonic()))
-            if status == "ok":
-                self.c["gets_ok"] += 1
-                return True, value
-            left = deadline - time.monotonic()
-            if status == "failed" or left <= 0:
-                self.c["gets_failed"] += 1
-                if status == "failed":
-                    return False, f"{target!r}: {value}"
-                return False, f"{target!r} gave no data within {timeout:g} s ({value})"
-            time.sleep(min(delay, left))
-            delay = min(delay * 2, 0.01)
+        def provide(rec: Record, left: float) -> tuple[str, Any]:
+            status, value = rec.host.provide(requester, left)
+            return ("final", f"{target!r}: {value}") if status == "failed" else (status, value)
+        return self._until("gets", target, timeout, "gave no data", provide)
 
     def state_of(self, name: str) -> str | None:
         rec = self.records.get(name)

@@ -147,6 +147,8 @@ class AvrRun:
     min_sps: dict[int, int] = field(default_factory=dict)
     isrs: dict[int, list[tuple[int, int]]] = field(default_factory=dict)   # (cycle, vector|0)
     hits: list[tuple[int, int]] = field(default_factory=list)   # (cycle, address) watched
+    #: (node, cycle, input): a conversion of a mux's channel started before it settled
+    mux_early: list[tuple[int, int, int]] = field(default_factory=list)
 
     def isr_spans(self, node: int = 0) -> dict[int, list[int]]:
         """Cycles from each interrupt's vectoring to its RETI, by vector number."""
@@ -191,9 +193,9 @@ class AvrRun:
 
 class _Script:
     def __init__(self, setup: AvrSetup, image: Path, boot_end: int | None,
-                 channels: tuple[int, ...] | None = None):
+                 channels: tuple[str, ...] | None = None):
         self.setup = setup
-        self.channels = channels          # the sensor board's ADC channels: it runs as a node
+        self.channels = channels          # the sensor board's inputs (sensor_inputs): it runs
         self.now = 0
         self.rx_free = 0
         self.booted = False
@@ -270,8 +272,8 @@ def _tick(sc: _Script, args: list[str]) -> bool:
 
 
 def _sensor(sc: _Script, args: list[str]) -> bool:
-    """``sensor R...``: the readings, on the sensor board's ADC channels when it runs its
-    firmware, else in the sensor stand-in's registers."""
+    """``sensor R...``: the readings, on the sensor board's ADC channels and mux inputs
+    when it runs its firmware, else in the sensor stand-in's registers."""
     if not args:
         return False
     s = sc.setup
@@ -280,7 +282,7 @@ def _sensor(sc: _Script, args: list[str]) -> bool:
         if len(readings) > len(sc.channels):
             raise ProtocolError(f"{len(readings)} readings for {len(sc.channels)} sensors")
         sc.readings[:len(readings)] = readings
-        sc.lines += [f"adc 2 {ch} {v}" for ch, v in zip(sc.channels, readings, strict=False)]
+        sc.lines += [f"{where} {v}" for where, v in zip(sc.channels, readings, strict=False)]
         return True
     if s.sensor_address is None:
         return False
@@ -318,11 +320,32 @@ _VERBS: dict[str, Callable[[_Script, list[str]], bool]] = {
     "boot": _boot, "tick": _tick, "sensor": _sensor, "fault": _fault, "poke": _poke}
 
 
+#: The sensor board's node in run_robot.
+SENSOR_NODE = 2
+
+
+def sensor_inputs(robot: Robot, node: int) -> tuple[str, ...]:
+    """Where each sensor's reading goes in the driver, in register order: its ADC channel
+    (``adc NODE CH``) or its input of the board's mux (``muxin NODE IN``)."""
+    return tuple(f"adc {node} {x.channel}" if x.mux_input is None else f"muxin {node} {x.mux_input}"
+                 for x in robot.sensors)
+
+
+def mux_line(robot: Robot, node: int) -> list[str]:
+    """The driver's ``mux`` line for the sensor board's multiplexer (none without one):
+    its channel, select pins and settling time in cycles (the board file's, rounded up)."""
+    b = robot.sensor_board
+    if b is None or b.mux is None:
+        return []
+    settle = -(-b.mux.settle_us * b.mcu.clock_hz // 1_000_000)
+    return [f"mux {node} {b.mux.channel} {','.join(p[1:] for p in b.mux.select)} {settle}"]
+
+
 def build_commands(robot: Robot, stimulus: str, image: Path, boot_end: int | None = None,
                    boards: bool = False) -> tuple[list[str], AvrSetup]:
     """The driver commands running ``stimulus`` (the EEPROM image file at ``image``);
     ``boards``: the actuator and sensor boards run their firmware (nodes 1 and 2)."""
-    channels = tuple(x.channel for x in robot.sensors) if boards else None
+    channels = sensor_inputs(robot, SENSOR_NODE) if boards else None
     sc = _Script(AvrSetup.from_robot(robot), image, boot_end, channels)
     for number, raw in script_lines(stimulus.encode("utf-8")):
         try:
@@ -341,6 +364,7 @@ def parse_events(out: str, scl_cycles: int) -> AvrRun:
     pins: dict[int, list[tuple[int, str, int]]] = {}
     isrs: dict[int, list[tuple[int, int]]] = {}
     hits: list[tuple[int, int]] = []
+    early: list[tuple[int, int, int]] = []
     sps: dict[int, int] = {}
     cur: I2cTransfer | None = None
     end = 0
@@ -365,6 +389,8 @@ def parse_events(out: str, scl_cycles: int) -> AvrRun:
             lost.append(int(w[1]))
         elif kind == "pc":
             hits.append((int(w[2]), int(w[3])))
+        elif kind == "mux":
+            early.append((int(w[1]), int(w[2]), int(w[4])))
         elif kind == "isr":
             isrs.setdefault(int(w[1]), []).append((int(w[2]), int(w[3])))
         elif kind == "sp":
@@ -394,7 +420,8 @@ def parse_events(out: str, scl_cycles: int) -> AvrRun:
     if transfers and transfers[-1].stop is None:
         transfers.pop()               # cut by the end of the run
     return AvrRun(tx=tx, transfers=transfers, sync_edges=sync, end_cycle=end, rx=rx,
-                  lost=lost, min_sp=sps.get(0, 0), pins=pins, min_sps=sps, isrs=isrs, hits=hits)
+                  lost=lost, min_sp=sps.get(0, 0), pins=pins, min_sps=sps, isrs=isrs, hits=hits,
+                  mux_early=early)
 
 
 def run_commands(elf: Path, commands: list[str], pins: str, timeout: float = 300.0,
@@ -484,6 +511,7 @@ def run_robot(robot: Robot, stimulus: str, elfs: dict[str, Path], workdir: Path,
     setup = AvrSetup.from_robot(robot)
     cmds, _ = build_commands(robot, stimulus, _image(robot, workdir), end, boards=True)
     nodes = (f"node {elfs['actuator']} {servo_pins(robot)}", f"node {elfs['sensor']} -",
+             *mux_line(robot, SENSOR_NODE),
              f"wire 0 {robot.central.sync.pin[1:]} 1 {act.sync.pin[1:]}")
     out = run_commands(elfs["central"], cmds, setup.sync_pin, timeout, nodes)
     return parse_events(out, setup.scl_cycles)

@@ -24,6 +24,10 @@
  *   absent ADDR 0|1                a modelled device stops / starts answering
  *   wire N PIN M PIN               node N's output pin drives node M's input pin
  *   adc N CH VALUE                 node N's ADC channel CH reads VALUE (0..1023)
+ *   mux N CH PINS SETTLE           an analog multiplexer (74HC4051 class) on node N: its output
+ *                                  on ADC channel CH, its select inputs on PINS (S0 first,
+ *                                  e.g. B0,B1,B2), settled SETTLE cycles after a select change
+ *   muxin N IN VALUE               input IN of node N's mux reads VALUE (0..1023)
  *   isrs N                         report node N's interrupt entries and RETIs
  *   watch N ADDR                   report each time node N's PC reaches byte address ADDR
  *   rx CYCLE BYTE                  a byte to node 0's USART whose stop bit ends at CYCLE
@@ -31,7 +35,8 @@
  *   quit
  * Events (stdout): "tx C B", "rd C B", "lost C" (node 0's USART), "pin N C NAME LEVEL",
  * "i2c C start|restart|stop", "i2c C byte B ACK", "isr N C VECTOR|0", "pc N C ADDR", "sp N C MINSP",
- * "at C",
+ * "at C", "mux N C early IN" (a conversion of the mux's channel started before the
+ * mux settled: it reads the input shown before the select change),
  * "crash N C STATE".
  */
 #include <stdio.h>
@@ -399,6 +404,116 @@ static void eifr_write(struct avr_t *a, avr_io_addr_t addr, uint8_t v, void *par
     a->data[addr] = (uint8_t)(a->data[addr] & (uint8_t)~v);
 }
 
+/* -- an analog multiplexer on a node's ADC channel ------------------------------------ */
+/* The select pins are read as the firmware drives them; each conversion of the mux's
+ * channel reads the selected input's value if the select pins last changed SETTLE cycles
+ * or more before the conversion started (ADSC written 1), else the value of the input
+ * the output showed before (the mux had not settled: reported as "mux N C early IN").
+ * The chip samples 1.5 ADC clocks after ADSC; the model takes the start: stricter. */
+#define R_ADCSRA 0x7A
+#define B_ADSC 0x40
+#define MUXIN 8
+typedef struct {
+    node_t *node;
+    int channel, nsel;
+    unsigned settle;
+    uint8_t level[3];                    /* the select pins' levels */
+    int selected;                        /* the input the select pins name */
+    int shown;                           /* the input the output shows until it settles */
+    unsigned long long changed_at;       /* the last select change */
+    unsigned long long adsc_at;          /* the last conversion start */
+    uint32_t value[MUXIN];
+    avr_io_write_t adcsra_w;
+    void *adcsra_p;
+} mux_t;
+typedef struct { mux_t *mux; int s; } mux_pin_t;
+static avr_irq_t *pin_irq(avr_t *a, const char *pin);
+static mux_t muxes[MAXNODE];
+static mux_pin_t mux_pins[MAXNODE * 3];
+static int nmux;
+
+static mux_t *mux_of(int node)
+{
+    for (int i = 0; i < nmux; i++) {
+        if (muxes[i].node->index == node) {
+            return &muxes[i];
+        }
+    }
+    return NULL;
+}
+
+static void on_mux_select(struct avr_irq_t *irq, uint32_t value, void *param)
+{
+    (void)irq;
+    mux_pin_t *p = (mux_pin_t *)param;
+    mux_t *m = p->mux;
+    uint8_t level = (uint8_t)(value & 1u);
+    if (m->level[p->s] == level) {
+        return;
+    }
+    unsigned long long c = now(m->node);
+    if (c - m->changed_at >= m->settle) {
+        m->shown = m->selected;          /* it had settled: the transition starts from here */
+    }
+    m->level[p->s] = level;
+    m->selected = 0;
+    for (int i = 0; i < m->nsel; i++) {
+        m->selected |= m->level[i] << i;
+    }
+    m->changed_at = c;
+}
+
+static void mux_adcsra_write(struct avr_t *a, avr_io_addr_t addr, uint8_t v, void *param)
+{
+    mux_t *m = (mux_t *)param;
+    if ((v & B_ADSC) && !(a->data[addr] & B_ADSC)) {
+        m->adsc_at = now(m->node);       /* before simavr's handler: it may sample at once */
+    }
+    m->adcsra_w(a, addr, v, m->adcsra_p);
+}
+
+/* simavr asks for the inputs' voltages (ADC_IRQ_OUT_TRIGGER) before it takes a value. */
+static void on_mux_trigger(struct avr_irq_t *irq, uint32_t value, void *param)
+{
+    (void)irq;
+    (void)value;
+    mux_t *m = (mux_t *)param;
+    int in = m->selected;
+    if (m->adsc_at < m->changed_at || m->adsc_at - m->changed_at < m->settle) {
+        in = m->shown;
+        printf("mux %d %llu early %d\n", m->node->index, m->adsc_at, m->selected);
+    }
+    avr_raise_irq(avr_io_getirq(m->node->avr, AVR_IOCTL_ADC_GETIRQ, ADC_IRQ_ADC0 + m->channel),
+                  m->value[in]);
+}
+
+static int add_mux(int node, int channel, char *pins, unsigned settle)
+{
+    if (node < 0 || node >= nnodes || channel < 0 || channel > 7 || mux_of(node)) {
+        return -1;
+    }
+    mux_t *m = &muxes[nmux];
+    memset(m, 0, sizeof *m);
+    m->node = &nodes[node];
+    m->channel = channel;
+    m->settle = settle;
+    avr_t *a = m->node->avr;
+    for (char *tok = strtok(pins, ","); tok && m->nsel < 3; tok = strtok(NULL, ",")) {
+        mux_pin_t *p = &mux_pins[nmux * 3 + m->nsel];
+        p->mux = m;
+        p->s = m->nsel++;
+        avr_irq_register_notify(pin_irq(a, tok), on_mux_select, p);
+    }
+    m->adcsra_w = a->io[AVR_DATA_TO_IO(R_ADCSRA)].w.c;
+    m->adcsra_p = a->io[AVR_DATA_TO_IO(R_ADCSRA)].w.param;
+    a->io[AVR_DATA_TO_IO(R_ADCSRA)].w.c = mux_adcsra_write;
+    a->io[AVR_DATA_TO_IO(R_ADCSRA)].w.param = m;
+    avr_irq_register_notify(avr_io_getirq(a, AVR_IOCTL_ADC_GETIRQ, ADC_IRQ_OUT_TRIGGER),
+                            on_mux_trigger, m);
+    nmux++;
+    return 0;
+}
+
 /* -- events and wiring ---------------------------------------------------------------- */
 static void on_tx(struct avr_irq_t *irq, uint32_t value, void *param)
 {
@@ -631,6 +746,24 @@ int main(void)
             sscanf(line, "%*s %d %d %d", &n, &ch, &v);
             avr_raise_irq(avr_io_getirq(nodes[n].avr, AVR_IOCTL_ADC_GETIRQ, ADC_IRQ_ADC0 + ch),
                           (uint32_t)v);
+        } else if (strcmp(cmd, "mux") == 0) {
+            int n, ch;
+            unsigned settle;
+            char pins[64];
+            if (sscanf(line, "%*s %d %d %63s %u", &n, &ch, pins, &settle) != 4
+                    || add_mux(n, ch, pins, settle) != 0) {
+                fprintf(stderr, "bad mux line: %s", line);
+                return 2;
+            }
+        } else if (strcmp(cmd, "muxin") == 0) {
+            int n, in, v;
+            mux_t *m;
+            if (sscanf(line, "%*s %d %d %d", &n, &in, &v) != 3 || !(m = mux_of(n))
+                    || in < 0 || in >= MUXIN) {
+                fprintf(stderr, "bad muxin line: %s", line);
+                return 2;
+            }
+            m->value[in] = (uint32_t)v;
         } else if (strcmp(cmd, "rx") == 0) {
             unsigned long long at;
             unsigned b;

@@ -16,11 +16,11 @@ The board model (:mod:`esair_min.model.board`) builds the board file's sections 
 from __future__ import annotations
 
 from esair_min.components.base import Checker, Component, PinClaim
-from esair_min.components import (dc_motor, motion, omni_base, optical_flow, pressure_sensor,
-                                  servo)
+from esair_min.components import (analog_mux, dc_motor, motion, omni_base, optical_flow,
+                                  pressure_sensor, servo)
 
 #: Every device kind, in the order of the board file's sections.
-COMPONENTS: tuple[Component, ...] = (servo.COMPONENT, pressure_sensor.COMPONENT,
+COMPONENTS: tuple[Component, ...] = (servo.COMPONENT, pressure_sensor.COMPONENT, analog_mux.COMPONENT,
                                      motion.COMPONENT, dc_motor.COMPONENT,
                                      optical_flow.COMPONENT, omni_base.COMPONENT)
 

@@ -208,6 +208,7 @@ def _component_sections() -> dict[str, Any]:
 
 
 if TYPE_CHECKING:
+    from esair_min.components.analog_mux import Mux
     from esair_min.components.dc_motor import DcMotor
     from esair_min.components.omni_base import OmniBase
     from esair_min.components.optical_flow import FlowSensor
@@ -218,6 +219,7 @@ if TYPE_CHECKING:
 
         servos: tuple[Servo, ...]
         sensors: tuple[Sensor, ...]
+        mux: Mux | None
         motions: tuple[Motion, ...]
         motors: tuple[DcMotor, ...]
         flow_sensors: tuple[FlowSensor, ...]

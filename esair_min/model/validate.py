@@ -157,6 +157,8 @@ class _Checker:
         seen: dict[Any, int] = {}
         for i, item in enumerate(getattr(b, section) or ()):
             value = getattr(item, field)
+            if value is None:
+                continue                 # an optional field not given (a sensor's channel)
             if value in seen:
                 line = self.doc(b).mark((section, seen[value], field)).line
                 self.report(b, (section, i, field),
@@ -279,25 +281,30 @@ class _Checker:
             for i, item in enumerate(c.items(b)):
                 for pin, what, loc in c.pins(item):
                     claim(pin, what, c.item_loc(i) + loc)
+        adc = "ADC" if spec.family == "avr" else "AN"
+        # The mux's common channel first: a sensor on the same channel is the one to move.
+        inputs: list[tuple[str, int, tuple[Any, ...]]] = (
+            [("the mux's common output", b.mux.channel, ("mux", "channel"))]
+            if b.mux is not None else [])
+        inputs += [(f"sensor '{s.name}'", s.channel, ("sensors", i, "channel"))
+                   for i, s in enumerate(b.sensors) if s.channel is not None]
         channels = set()
-        for i, s in enumerate(b.sensors):
-            if s.channel in channels:
+        for what, channel, loc in inputs:
+            if channel in channels and loc[0] == "sensors" and (b.mux is None
+                                                                or channel != b.mux.channel):
                 continue                 # a channel used twice: the 'unique' rule's error
-            channels.add(s.channel)
-            if s.channel not in spec.adc_pins:
-                elsewhere = mcu.MCUS[b.mcu.part].packages_with_channel(s.channel)
+            channels.add(channel)
+            if channel not in spec.adc_pins:
+                elsewhere = mcu.MCUS[b.mcu.part].packages_with_channel(channel)
                 name = spec.name
                 if elsewhere:
                     name += f" in the {spec.packages[spec.package]}"
-                hint = (f"; ADC{s.channel} exists in the "
+                hint = (f"; ADC{channel} exists in the "
                         f"{' and the '.join(spec.packages[p] for p in elsewhere)} only: set "
                         f"mcu.package: {elsewhere[0]}, or use another channel" if elsewhere else "")
-                self.report(b, ("sensors", i, "channel"), f"sensor '{s.name}': the "
-                            f"{name} has no analog channel {s.channel}{hint}")
+                self.report(b, loc, f"{what}: the {name} has no analog channel {channel}{hint}")
                 continue
-            claim(spec.adc_pins[s.channel], f"sensor '{s.name}' "
-                  f"({'ADC' if spec.family == 'avr' else 'AN'}{s.channel})",
-                  ("sensors", i, "channel"))
+            claim(spec.adc_pins[channel], f"{what} ({adc}{channel})", loc)
 
     # -- across boards ------------------------------------------------------------
     def robot_rules(self) -> None:

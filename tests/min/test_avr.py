@@ -37,7 +37,9 @@ SCENARIO = ROOT / "tests" / "fixtures" / "gpsim" / "papaman.txt"
 E12 = b"E12 input overrun\r\n"
 # Exact footprints (avr-gcc 5.4.0, avr-libc 2.0.0; bytes): program = .text + .data,
 # RAM = .data + .bss (the stack on top: measured in the simulator below).
-SIZES = {"central": (5738, 974), "actuator": (2336, 453), "sensor": (864, 25)}
+# The sensor board reads eight feet through its mux (six channels and 864 B / 25 B
+# before); the central board's tables hold eight sensors (5738 B / 974 B with six).
+SIZES = {"central": (5708, 978), "actuator": (2336, 453), "sensor": (1022, 42)}
 GOAL_FLASH, GOAL_RAM = 8192, 1024          # issue 24: the central board
 PULSE_ERROR = 0.01                          # issue 24: servo pulses within 1 %
 
@@ -58,16 +60,6 @@ def avr_build(avr_robot, tmp_path_factory):
     return {b.role: b for b in builds}
 
 
-def avr_script(text: str) -> str:
-    """A PAPA-MAN script for the 6-sensor AVR robot (its ``sensor`` lines shortened)."""
-    out = []
-    for line in text.splitlines():
-        if line.startswith("sensor "):
-            line = " ".join(line.split()[:7])
-        out.append(line)
-    return "\n".join(out) + "\n"
-
-
 def test_papaman_avr_builds_with_exact_sizes_within_goal(avr_build):
     got = {role: (b.usage.program_bytes, b.usage.data_bytes) for role, b in avr_build.items()}
     assert got == SIZES, summary_lines(list(avr_build.values()))
@@ -76,7 +68,7 @@ def test_papaman_avr_builds_with_exact_sizes_within_goal(avr_build):
     assert {b.part for b in avr_build.values()} == {"atmega328p"}
     lines = summary_lines([avr_build[r] for r in ("central", "actuator", "sensor")])
     assert lines[1].split()[0] == "central"
-    assert "5738 B of 32768" in lines[1] and "974 B of 2048 (47.6%) + stack" in lines[1]
+    assert "5708 B of 32768" in lines[1] and "978 B of 2048 (47.8%) + stack" in lines[1]
     assert lines[1].rstrip().endswith("atmega328p")
 
 
@@ -136,7 +128,7 @@ def four_way(robot, host, elf, stimulus: str, work: Path):
 @pytest.fixture(scope="session")
 def scenario_avr(avr_robot, avr_build, host_avr, tmp_path_factory):
     elf = avr_build["central"].folder / "firmware.elf"
-    return four_way(avr_robot, host_avr, elf, avr_script(SCENARIO.read_text()),
+    return four_way(avr_robot, host_avr, elf, SCENARIO.read_text(),
                     tmp_path_factory.mktemp("scenario"))
 
 
@@ -163,7 +155,7 @@ def test_emulator_bus_time_per_transfer_kind_is_the_avrs(avr_robot, scenario_avr
 
     c = avr_robot.central
     kinds = transfer_kinds(scenario_avr.transfers)
-    assert {(25, None), (2, 24), (2, 32), (1, 12)} <= set(kinds)
+    assert {(25, None), (2, 24), (2, 32), (1, 16)} <= set(kinds)
     for (nw, nr), cycles in kinds.items():
         avr_ns = median(cycles) * 1e9 / c.mcu.clock_hz
         emu_ns = transfer_ns(c.i2c.speed_hz, nw, nr,
@@ -225,9 +217,9 @@ def test_overrun_reproducer_on_avr(fast_avr, tmp_path, name, e12):
 
 
 @pytest.mark.parametrize("change, marked, message", [
-    (("sensor.yaml", "channel: 7,", "channel: 4,"), "r_heel",
-     "pin PC4 is used twice: by I2C and by sensor 'r_heel' (ADC4); "
-     "give sensor 'r_heel' (ADC4) another pin"),
+    (("sensor.yaml", "mux_input: 7,", "channel: 4,"), "r_heel_out",
+     "pin PC4 is used twice: by I2C and by sensor 'r_heel_out' (ADC4); "
+     "give sensor 'r_heel_out' (ADC4) another pin"),
     (("actuator.yaml", "pin: PC0,", "pin: RD0,"), "RD0",
      "pin RD0 of servo 'r_ankle_roll' does not exist on the "
      "atmega328p (PB0..PB5, PC0..PC5, PD0..PD7 (PB6/PB7 hold the crystal))"),
@@ -245,20 +237,11 @@ def test_overrun_reproducer_on_avr(fast_avr, tmp_path, name, e12):
     (("central.yaml", "period_ms: 8.9856", "period_ms: 5000"), "period_ms:",
      "tick period 5000 ms cannot be made by Timer1 at 16000000 Hz "
      "within 1 %: nearest is 4194.3040 ms (CTC, prescale 1024, OCR1A 65535)"),
-    (("sensor.yaml", "package: tqfp ", "package: dip  "), "r_toe_out",
-     "sensor 'r_toe_out': the ATmega328P in the 28-pin PDIP (Arduino Uno) has no analog "
-     "channel 6; ADC6 exists in the 32-pin TQFP (Arduino Nano, Pro Mini) and the 32-pad "
-     "QFN/MLF only: set mcu.package: tqfp, or use another channel"),
-    (("sensor.yaml", "  package: tqfp          # the Nano's 32-pin TQFP (ADC6/ADC7: see README)\n",
-      ""), "r_toe_out",
-     "sensor 'r_toe_out': the ATmega328P in the 28-pin PDIP (Arduino Uno) has no analog "
-     "channel 6; ADC6 exists in the 32-pin TQFP (Arduino Nano, Pro Mini) and the 32-pad "
-     "QFN/MLF only: set mcu.package: tqfp, or use another channel"),
     (("sensor.yaml", "package: tqfp ", "package: plcc "), "package: plcc",
      "the ATmega328P comes in no package 'plcc'; use one of: dip, tqfp, qfn"),
-    (("sensor.yaml", "channel: 7,", "channel: 5,"), "r_heel",
-     "pin PC5 is used twice: by I2C and by sensor 'r_heel' (ADC5); "
-     "give sensor 'r_heel' (ADC5) another pin"),
+    (("sensor.yaml", "mux_input: 7,", "channel: 5,"), "r_heel_out",
+     "pin PC5 is used twice: by I2C and by sensor 'r_heel_out' (ADC5); "
+     "give sensor 'r_heel_out' (ADC5) another pin"),
 ])
 def test_a_board_asking_more_than_its_mcu_has(tmp_path, change, marked, message):
     """Each error names the file, the line and the column of the node to change."""
@@ -282,6 +265,39 @@ def test_a_board_asking_more_than_its_mcu_has(tmp_path, change, marked, message)
     assert str(err.value).startswith(f"{folder / name}:{line}:{mark.col}: ")
 
 
+def robot_with(tmp_path: Path, *changes: tuple[str, str]):
+    """papaman-avr with ``changes`` (old, new) made to its sensor board file."""
+    folder = tmp_path / "robot"
+    folder.mkdir(parents=True)
+    for path in BOARDS.glob("*.yaml"):
+        text = path.read_text()
+        if path.name == "sensor.yaml":
+            for old, new in changes:
+                assert old in text
+                text = text.replace(old, new, 1)
+        (folder / path.name).write_text(text)
+    return folder
+
+
+DIP = ("package: tqfp ", "package: dip  ")
+
+
+def test_the_mux_lets_an_uno_read_eight_feet(tmp_path):
+    """Through the mux the feet need ADC0 only: the 28-pin DIP (Arduino Uno) does; a
+    sensor on ADC6 needs the TQFP or QFN (the DIP has no pin for it)."""
+    assert len(load_robot(robot_with(tmp_path / "a", DIP)).sensors) == 8
+    on_adc6 = ("{name: r_heel_in,  mux_input: 6,", "{name: r_heel_in,  channel: 6,")
+    assert load_robot(robot_with(tmp_path / "b", on_adc6)).sensors[6].channel == 6
+    folder = robot_with(tmp_path / "c", DIP, on_adc6)
+    with pytest.raises(ConfigError) as err:
+        load_robot(folder)
+    assert str(err.value) == (
+        f"{folder / 'sensor.yaml'}:27:33: sensor 'r_heel_in': the ATmega328P in the 28-pin "
+        "PDIP (Arduino Uno) has no analog channel 6; ADC6 exists in the 32-pin TQFP (Arduino "
+        "Nano, Pro Mini) and the 32-pad QFN/MLF only: set mcu.package: tqfp, or use another "
+        "channel")
+
+
 def test_the_packages_analog_channels():
     """ADC6/ADC7 are pins of the TQFP and QFN packages only; the DIP is the default."""
     assert mcu.spec("atmega328p").adc_channels == (0, 1, 2, 3, 4, 5)
@@ -295,21 +311,23 @@ def test_the_packages_analog_channels():
     assert load_robot(BOARDS).board("sensor").spec.package == "tqfp"
 
 
-def test_every_sensor_channel_reaches_the_reply_through_the_avr_boards(avr_robot, avr_build,
-                                                                      tmp_path):
-    """The sensor board's firmware converts each of its six channels (ADC0..ADC3 and the
-    TQFP's analog-only ADC6/ADC7, which simavr's atmega328p core converts too) into its
-    own register pair: distinct readings (the feet within the reaction's threshold) come
-    back in the order of the board file."""
-    assert [s.channel for s in avr_robot.sensors] == [0, 1, 2, 3, 6, 7]
-    script = "sensor 311 522 733 404 1023 150\nboot\ntick 4\nrx s\\r\ntick 6\n"
+def test_every_foot_sensor_reaches_the_reply_through_the_avr_boards(avr_robot, avr_build,
+                                                                   tmp_path):
+    """PAPA-MAN's eight foot sensors, as on the PIC: the sensor board's firmware selects
+    each input of the 74HC4051 on ADC0 (the simulator's mux model feeds ADC0 the selected
+    input, once settled) into its own register pair: distinct readings (the feet within
+    the reaction's threshold) come back in the order of the board file, and no
+    conversion started before the mux had settled."""
+    assert [s.mux_input for s in avr_robot.sensors] == list(range(8))
+    script = "sensor 311 522 733 404 1023 150 620 177\nboot\ntick 4\nrx s\\r\ntick 6\n"
     elfs = {role: b.folder / "firmware.elf" for role, b in avr_build.items()}
     run = run_robot(avr_robot, script, elfs, tmp_path)
     assert compare(run_script(avr_robot, script), run.trace(), AvrSetup.from_robot(avr_robot)) == []
-    assert b"OK 311,522,733,404,1023,150\r\n" in [line for _, line in run.replies]
+    assert b"OK 311,522,733,404,1023,150,620,177\r\n" in [line for _, line in run.replies]
+    assert run.mux_early == []
 
 
-DANCE = ("sensor 500 500 500 500 500 500\nboot\ntick 4\nrx s\\r\ntick 4\nrx DNC\\r\ntick 40\n"
+DANCE = ("sensor 500 500 500 500 500 500 500 500\nboot\ntick 4\nrx s\\r\ntick 4\nrx DNC\\r\ntick 40\n"
          "rx x\\r\ntick 12\n")
 
 
@@ -326,7 +344,8 @@ def test_three_avr_boards_dance_with_no_slipped_tick(avr_robot, dance_run):
     every dance frame is written on the tick after the previous one."""
     python = run_script(avr_robot, DANCE)
     assert compare(python, dance_run.trace(), AvrSetup.from_robot(avr_robot)) == []
-    assert b"OK 500,500,500,500,500,500\r\n" in [line for _, line in dance_run.replies]
+    assert b"OK 500,500,500,500,500,500,500,500\r\n" in [line for _, line in dance_run.replies]
+    assert dance_run.mux_early == []
     slips = frame_slips(dance_run, python, 0x10, AvrSetup.from_robot(avr_robot).tick_cycles)
     assert len(slips.gaps) >= 31 and slips.slipped == 0 and slips.worst_late == 0
 
@@ -379,7 +398,7 @@ def test_the_emulator_runs_papaman_avr_at_the_avrs_bus_time(avr_robot):
     emu.settle()
     assert emu.read() == b"!READY esair-min/1 image=ok\r\n"
     assert emu.tick_s == avr_robot.central.timer2.period_s == 17971 * 8 / 16e6
-    assert emu.command("s") == ["OK 512,512,512,512,512,512"]
+    assert emu.command("s") == ["OK " + ",".join(["512"] * 8)]
     emu.command("t")
     lines = tw.lines
     i = next(k for k, ln in enumerate(lines) if ln.startswith("W 10"))
@@ -388,3 +407,55 @@ def test_the_emulator_runs_papaman_avr_at_the_avrs_bus_time(avr_robot):
     def mark_before(k: int) -> int:
         return int(next(lines[m] for m in range(k, 0, -1) if lines[m].startswith("@ "))[2:])
     assert mark_before(j) - mark_before(i) == 2413
+
+
+FEET = [311, 522, 733, 404, 1023, 150, 620, 177]
+READ_CYCLES = 16667      # one full read of the eight feet (1.042 ms at 16 MHz)
+
+
+def test_one_full_read_of_the_eight_feet_takes_exact_cycles(avr_robot, avr_build):
+    """The sensor board alone in simavr: from one reading of the first foot to the next
+    is READ_CYCLES every round (per foot: the select pins, the mux's 10 us = 160 cycles
+    waited on Timer1, a 1664-cycle conversion, the publish), and no conversion starts
+    before the mux settled."""
+    from esair_min.avr.sensor import sensor_rounds
+
+    run = sensor_rounds(avr_robot, avr_build["sensor"].folder / "firmware.elf", 200_000)
+    assert len(run.rounds) >= 10
+    assert set(run.rounds) == {READ_CYCLES}
+    assert run.early == 0
+
+
+def test_a_conversion_before_the_mux_settles_reads_the_previous_input(avr_build, tmp_path):
+    """The simulator's mux model catches a firmware that does not wait long enough: the
+    sensor board's firmware (built for the board file's 10 us) on a slower mux (the
+    model at 40 us) starts every conversion early and reads the input selected before,
+    so each foot reports its predecessor's value (the first the eighth's)."""
+    slow = load_robot(robot_with(tmp_path / "slow", ("settle_us: 10", "settle_us: 40")))
+    script = "sensor " + " ".join(map(str, FEET)) + "\nboot\ntick 4\nrx s\\r\ntick 6\n"
+    elfs = {role: b.folder / "firmware.elf" for role, b in avr_build.items()}
+    run = run_robot(slow, script, elfs, tmp_path / "run")
+    shifted = FEET[-1:] + FEET[:-1]
+    assert b"OK " + ",".join(map(str, shifted)).encode() + b"\r\n" in [
+        line for _, line in run.replies]
+    assert len(run.mux_early) >= 8
+
+
+BALANCE = ROOT / "tests" / "fixtures" / "gpsim" / "balance.txt"
+
+
+def test_balance_reaction_compares_four_feet_sensors_a_foot(avr_robot, avr_build, tmp_path):
+    """auto_balance through the three AVR boards, the readings from the sensor board's
+    mux: the PIC's balance script (tests/fixtures/gpsim/balance.txt) fires it 3 times as
+    in the Python core, one of them only because of the fourth sensor of a foot
+    (150 150 150 150 | 300 300 200 201: 401 over the threshold with four a foot, 350
+    under it with three), and its exactly-the-threshold step does not."""
+    elfs = {role: b.folder / "firmware.elf" for role, b in avr_build.items()}
+    stimulus = BALANCE.read_text()
+    run = run_robot(avr_robot, stimulus, elfs, tmp_path)
+    python = run_script(avr_robot, stimulus)
+    assert compare(python, run.trace(), AvrSetup.from_robot(avr_robot)) == []
+    fired = b"!R auto_balance\r\n"
+    assert [line for _, line in run.replies].count(fired) == 3
+    assert python.count("TX " + fired.hex().upper()) == 3
+    assert run.mux_early == []

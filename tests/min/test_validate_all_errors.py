@@ -103,7 +103,7 @@ def test_more_than_shown_errors_end_with_how_many_more(tmp_path: Path) -> None:
     assert result.exit_code == 1
     shown = [f"error: {robot}/central.yaml:{7 + k}:1: unknown key 'wrong_{k:02d}' (allowed "
              "here: board, role, description, mcu, uart, tick, sync, i2c, commands, "
-             "reactions, figure, servos, sensors, motions, motors, flow_sensors, base)"
+             "reactions, figure, servos, sensors, mux, motions, motors, flow_sensors, base)"
              for k in range(SHOWN_ERRORS)]
     assert SHOWN_ERRORS == 20
     assert result.stderr.splitlines() == shown + ["error: and 5 more errors (25 in all)"]

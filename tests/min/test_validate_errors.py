@@ -231,6 +231,43 @@ EXPECTED = {
         "tests/fixtures/bad/yaml_syntax/central.yaml:4:6: this '{' starts a mapping that is not closed before line 5; end it with '}'",
     "yaml_tab":
         "tests/fixtures/bad/yaml_tab/central.yaml:5:1: a tab character: YAML indents with spaces only; replace the tab by spaces",
+    # The analog multiplexer of a sensor board (issue 24, papaman-avr's eight feet).
+    "mux_channel_not_in_package":
+        "tests/fixtures/bad/mux_channel_not_in_package/sensor.yaml:18:12: the mux's common output: the ATmega328P in the 28-pin PDIP (Arduino Uno) has no analog channel 6; ADC6 exists in the 32-pin TQFP (Arduino Nano, Pro Mini) and the 32-pad QFN/MLF only: set mcu.package: tqfp, or use another channel",
+    "mux_channel_out_of_range":
+        "tests/fixtures/bad/mux_channel_out_of_range/sensor.yaml:18:12: 'channel' must be at most 7, not 8",
+    "mux_channel_taken":
+        "tests/fixtures/bad/mux_channel_taken/sensor.yaml:18:12: pin PC4 is used twice: by I2C and by the mux's common output (ADC4); give the mux's common output (ADC4) another pin",
+    "mux_input_out_of_range":
+        "tests/fixtures/bad/mux_input_out_of_range/sensor.yaml:29:35: 'mux_input' must be at most 7, not 8",
+    "mux_input_twice":
+        'tests/fixtures/bad/mux_input_twice/sensor.yaml:25:35: sensor mux_input 2 is already used at line 24; each sensor needs its own mux_input',
+    "mux_input_unreachable": (
+        "tests/fixtures/bad/mux_input_unreachable/sensor.yaml:26:35: sensor 'r_toe_in': the mux has inputs 0..3 (2 select pins), not 4; add select pins (S0..S2) or use another input",
+        "tests/fixtures/bad/mux_input_unreachable/sensor.yaml:27:35: sensor 'r_toe_out': the mux has inputs 0..3 (2 select pins), not 5; add select pins (S0..S2) or use another input",
+        "tests/fixtures/bad/mux_input_unreachable/sensor.yaml:28:35: sensor 'r_heel_in': the mux has inputs 0..3 (2 select pins), not 6; add select pins (S0..S2) or use another input",
+        "tests/fixtures/bad/mux_input_unreachable/sensor.yaml:29:35: sensor 'r_heel_out': the mux has inputs 0..3 (2 select pins), not 7; add select pins (S0..S2) or use another input",
+    ),
+    "mux_input_without_mux":
+        "tests/fixtures/bad/mux_input_without_mux/sensor.yaml:22:35: sensor 'r_heel_out': mux_input 7 needs a 'mux:' section on this board (its ADC channel and select pins)",
+    "mux_select_not_on_part":
+        "tests/fixtures/bad/mux_select_not_on_part/sensor.yaml:19:22: pin PB6 of the mux's select S2 does not exist on the atmega328p (PB0..PB5, PC0..PC5, PD0..PD7 (PB6/PB7 hold the crystal))",
+    "mux_select_taken":
+        "tests/fixtures/bad/mux_select_taken/sensor.yaml:19:22: pin PC5 is used twice: by I2C and by the mux's select S2; give the mux's select S2 another pin",
+    "mux_select_twice":
+        "tests/fixtures/bad/mux_select_twice/sensor.yaml:19:17: pin PB0 is used twice: by the mux's select S0 and by the mux's select S1; give the mux's select S1 another pin",
+    "mux_too_many_selects":
+        "tests/fixtures/bad/mux_too_many_selects/sensor.yaml:19:11: 'select' must have at most 3 items, not 4",
+    "mux_without_sensor": (
+        "tests/fixtures/bad/mux_without_sensor/sensor.yaml:14:1: the mux has no sensor: give sensors a 'mux_input', or remove 'mux:'",
+        "tests/fixtures/bad/mux_without_sensor/sensor.yaml:23:33: pin RE2 is used twice: by the mux's common output (AN7) and by sensor 'r_heel_out' (AN7); give sensor 'r_heel_out' (AN7) another pin",
+    ),
+    "sensor_channel_and_mux_input":
+        "tests/fixtures/bad/sensor_channel_and_mux_input/sensor.yaml:29:36: sensor 'r_heel_out' has a 'channel' and a 'mux_input': give one (channel: an ADC channel; mux_input: an input of the board's mux)",
+    "sensor_on_mux_channel":
+        "tests/fixtures/bad/sensor_on_mux_channel/sensor.yaml:29:33: pin PC0 is used twice: by the mux's common output (ADC0) and by sensor 'r_heel_out' (ADC0); give sensor 'r_heel_out' (ADC0) another pin",
+    "sensor_without_channel":
+        "tests/fixtures/bad/sensor_without_channel/sensor.yaml:29:5: sensor 'r_heel_out' needs 'channel' (an ADC channel) or 'mux_input' (an input of the board's mux)",
 }
 
 #: Cases whose path is not the fixture folder itself.

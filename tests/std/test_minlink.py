@@ -213,3 +213,16 @@ def test_a_command_waiting_its_turn_fails_not_sent(robot):
                                   f"deadline; dropped")
         t.join(5)
         assert out == {"s": 8} and link.stats["expired"] == 1 and link.waiting == 0
+
+
+def test_papaman_avr_feet_are_papaman_s_eight(robot):
+    """papaman-avr (ATmega328P boards, the feet through the sensor board's mux) is the
+    same robot to STD: the version line, the feet sample's eight names and the groups
+    the reaction compares are PAPA-MAN's, from its emulator behind esair://."""
+    avr_dir = ROOT / "boards" / "papaman-avr"
+    with Link(load_robot(avr_dir), f"esair://{avr_dir}") as link:
+        assert link.version() == "esair-min/1 servos=12 sensors=8 motions=5 image=ok checksum=off"
+        feet = link.feet()
+    assert list(feet["values"]) == [s.name for s in robot.sensors]          # type: ignore[call-overload]
+    assert feet["groups"] == {"left_foot": 2048, "right_foot": 2048}
+    assert _io_threads() == []

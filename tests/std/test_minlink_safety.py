@@ -13,6 +13,7 @@ Every test ends with no I/O thread and no child process left.
 
 from __future__ import annotations
 
+import functools
 import os
 import signal
 import threading
@@ -25,6 +26,7 @@ from esair_min.model.validate import load_robot
 from esair_std.drivers.minlink import Link, LinkDown
 from esair_std.drivers.minlink.emulated import EmulatedRobot
 from esair_std.drivers.minlink.errors import DifferentRobot, Expired
+from tests.support.std import wait_for
 from tests.support.robot_ptys import frames, pty_number, replies, start_on_number, stop
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -36,15 +38,7 @@ def robot():
     return load_robot(PAPAMAN)
 
 
-def _wait(cond, seconds: float = 10.0, what: str = "condition"):
-    end = time.monotonic() + seconds
-    while True:
-        v = cond()
-        if v:
-            return v
-        if time.monotonic() > end:
-            raise AssertionError(f"timed out waiting for {what}; last value {v!r}")
-        time.sleep(0.01)
+_wait = functools.partial(wait_for, timeout=10.0)
 
 
 def _io_threads() -> list[str]:

@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 import yaml
 
-from tests.support.std import wait_for
+from tests.support.std import emulators_with, wait_for
 from esair_min.core.trace import without_marks
 from esair_min.emulator.actuator import encode
 from esair_min.model.validate import load_robot
@@ -188,32 +188,19 @@ def test_board_faults_surface_on_the_right_resource(start, emulated):
     assert rt.state("papaman.motion") == "ready"           # the link itself is up
 
 
-def _emulators_with(text: str) -> list[int]:
-    """Pids of `esair emulate` processes whose command line holds ``text``."""
-    pids = []
-    for proc in Path("/proc").iterdir():
-        try:
-            argv = (proc / "cmdline").read_bytes().split(b"\0")
-            if proc.name.isdigit() and b"emulate" in argv and text.encode() in argv:
-                pids.append(int(proc.name))
-        except OSError:
-            pass
-    return pids
-
-
 def test_the_example_runs_its_own_emulated_robot(start, tmp_path):
     trace = tmp_path / "own.txt"
     dep = example("emulate")
     dep["resources"]["papaman"]["emulate"]["trace"] = str(trace)
     rt = start(dep)
-    assert len(_emulators_with(str(trace))) == 1          # `esair emulate ... --trace`
+    assert len(emulators_with(str(trace))) == 1          # `esair emulate ... --trace`
     rt.wait_state("sequencer", "running")
     rt.put("sequencer", ["stand_up", "dance"], timeout=2.0)
     wait_for(lambda: rt.get("sequencer")["done"] == ["stand_up", "dance"], what="two ops")
     logged = wait_for(lambda: (g := rt.get("logger"))["records"] and g, what="a record")
     assert set(logged["records"][-1]) == {"t", "sequencer", "watcher"}
     rt.stop()
-    assert _emulators_with(str(trace)) == []               # the child is gone
+    assert emulators_with(str(trace)) == []               # the child is gone
     assert not [t for t in threading.enumerate() if t.name.startswith("minlink")]
     frames = [w for _, w in actuator_writes(trace) if len(w) == 25]
     assert len(frames) == 1 + 32                           # stand's frame, the dance's 32

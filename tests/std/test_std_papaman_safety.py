@@ -10,6 +10,7 @@ both modes: the emulated robot the runtime owns is killed (SIGKILL) or stopped
 
 from __future__ import annotations
 
+import functools
 import os
 import signal
 import threading
@@ -19,6 +20,7 @@ from pathlib import Path
 import yaml
 
 from esair_std.drivers.minlink.emulated import EmulatedRobot
+from tests.support.std import emulators_with, wait_for
 from tests.support.robot_ptys import frames, pty_number, replies, start_on_number, stop
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -28,15 +30,7 @@ MOVER = {"class": "tests.support.papaman_comps:Mover", "moves": [], "uses": {"pa
 VERSION = b"OK esair-min/1 servos=12 sensors=8 motions=5 image=ok checksum=off id="
 
 
-def _wait(cond, seconds: float = 30.0, what: str = "condition"):
-    end = time.monotonic() + seconds
-    while True:
-        v = cond()
-        if v:
-            return v
-        if time.monotonic() > end:
-            raise AssertionError(f"timed out waiting for {what}; last value {v!r}")
-        time.sleep(0.01)
+_wait = functools.partial(wait_for, timeout=30.0)
 
 
 def example(port: str, trace: Path | None = None, **extra) -> dict:
@@ -54,19 +48,6 @@ def example(port: str, trace: Path | None = None, **extra) -> dict:
     dep["behaviors"].update(extra)
     entry["allow"].update({name: "command" for name in extra})
     return dep
-
-
-def emulators_with(text: str) -> list[int]:
-    """Pids of `esair emulate` processes whose command line holds ``text``."""
-    pids = []
-    for proc in Path("/proc").iterdir():
-        try:
-            argv = (proc / "cmdline").read_bytes().split(b"\0")
-            if proc.name.isdigit() and b"emulate" in argv and text.encode() in argv:
-                pids.append(int(proc.name))
-        except OSError:
-            pass
-    return pids
 
 
 def robot_rows(rt) -> list[dict]:

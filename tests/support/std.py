@@ -22,6 +22,12 @@ def free_endpoint() -> str:
         return f"tcp/127.0.0.1:{s.getsockname()[1]}"
 
 
+def emulators_with(text: str) -> list[int]:
+    """Pids of `esair emulate` processes whose command line holds ``text``."""
+    return [pid for pid, _ppid, cmd in processes()
+            if b"emulate" in cmd.split(b"\0") and text.encode() in cmd.split(b"\0")]
+
+
 def processes() -> list[tuple[int, int, bytes]]:
     """(pid, parent pid, command line) of every process readable in /proc now."""
     out = []

@@ -1,7 +1,9 @@
 """Kind ``pressure_sensor`` (section ``sensors``): an analog sensor on the sensor board,
 read by the 10-bit ADC and exposed as 2 registers (low byte, high byte) in the order of
-the file. Its C lives in ``firmware_templates/sensor``; its Python behaviour (readings
-from a scenario) in :mod:`esair_min.emulator.scenario`.
+the file. A sensor is on an ADC channel (``channel``) or on an input of the board's analog
+multiplexer (``mux_input``, :mod:`esair_min.components.analog_mux`). Its C lives in
+``firmware_templates/sensor``; its Python behaviour (readings from a scenario) in
+:mod:`esair_min.emulator.scenario`.
 """
 
 from __future__ import annotations
@@ -21,7 +23,10 @@ class Sensor(Section):
     """An analog sensor on the sensor board (10-bit ADC, exposed as 2 registers)."""
 
     name: Name
-    channel: Annotated[StrictInt, Field(ge=0, le=7)] = Field(description="ADC channel AN0..AN7")
+    channel: Annotated[StrictInt, Field(ge=0, le=7)] | None = Field(
+        None, description="ADC channel AN0..AN7 (ADC0..ADC7); or give mux_input")
+    mux_input: Annotated[StrictInt, Field(ge=0, le=7)] | None = Field(
+        None, description="input of the board's mux (section mux:), 0..7; or give channel")
     group: Name = Field(description="group compared by reactions, e.g. left_foot")
     min: Annotated[StrictInt, Field(ge=0, le=1023)] = 0
     max: Annotated[StrictInt, Field(ge=0, le=1023)] = 1023
@@ -35,6 +40,10 @@ def board_rules(checker: Checker, b: Any) -> None:
 
 
 def pins(s: Sensor) -> list[PinClaim]:
+    """The PIC18F452's pin of a sensor's channel (the validator claims each MCU's own);
+    a sensor on a mux input claims none (the mux claims its channel)."""
+    if s.channel is None:
+        return []
     return [PinClaim(ADC_PINS[s.channel], f"sensor '{s.name}' (AN{s.channel})", ("channel",))]
 
 
@@ -46,4 +55,4 @@ def group_mask(sensors: tuple[Sensor, ...], group: str) -> int:
 COMPONENT = Component(
     kind="pressure_sensor", section="sensors", schema=Sensor, roles=("sensor",),
     description="the analog sensors (sensor board only, at least one)",
-    unique=("name", "channel"), registers_per_item=2, board_rules=board_rules, pins=pins)
+    unique=("name", "channel", "mux_input"), registers_per_item=2, board_rules=board_rules, pins=pins)
