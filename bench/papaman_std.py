@@ -27,7 +27,9 @@ Figures (one run, every column measured in this process, medians where repeated)
    the generated PIC firmware (when the toolchain is installed), and the x limit is
    also given with it: the true line limit of one-in-flight x on the robot.
 
-Run: python bench/papaman_std.py [--n 200] [--figures 123] [--modes thread,process].
+Run: python bench/papaman_std.py [--n 200] [--figures 123] [--modes thread,process]
+[--repeat1 N] [--duplex-only]; BENCH_GC=1 in the environment: figure 1 also counts the
+resource host process's garbage collections over 2 ms.
 Prints figures; asserts nothing.
 """
 
@@ -128,7 +130,9 @@ def command_to_write(mode: str, n: int, feet_hz: float, goal_ms: float,
             writes.append(mark)             # the write starts (its 38 bit times follow)
     lat = [(w - s) * 1e3 for s, w in zip(sent, writes)]
     k = len(written)
-    return {"lat": lat, "errors": got["errors"],
+    gc_file = Path(str(notes) + ".gc")
+    gcs = [json.loads(x)["ms"] for x in gc_file.read_text().splitlines()] if gc_file.exists() else []
+    return {"lat": lat, "errors": got["errors"], "gc": gcs,
             "host": [(w - s) * 1e3 for s, w in zip(sent[len(sent) - k:], written)],
             "robot": [(w - s) * 1e3 for s, w in zip(written, writes[len(writes) - k:])],
             **split_host(got["sent"][len(sent) - k:], rows[1:])}
@@ -166,7 +170,8 @@ def pooled(runs: list[dict], goal_ms: float) -> dict:
             "late_ticks": sum(x > goal_ms for x in robot), "robot_n": len(robot),
             "split": {k: (statistics.median(cat(k)), pct(cat(k), 0.99))
                       for k in ("hop", "queue", "link") if cat(k)},
-            "behind": sum(r["behind"] for r in runs), "by_io": sum(r["by_io"] for r in runs)}
+            "behind": sum(r["behind"] for r in runs), "by_io": sum(r["by_io"] for r in runs),
+            "gc": cat("gc")}
 
 
 def sample_age(mode: str, seconds: float) -> dict:
@@ -282,7 +287,9 @@ def figure1(args, modes: list[str], goal1: float) -> None:
         if r["split"]:
             print(f"   {'':8s} {'':14s} {'':9s} host path split, p50/p99 ms: " + ", ".join(
                 f"{k} {a:.2f}/{b:.2f}" for k, (a, b) in r["split"].items())
-                + f"; written behind a reply {r['behind']}, by the I/O thread {r['by_io']}")
+                + f"; written behind a reply {r['behind']}, by the I/O thread {r['by_io']}"
+                + (f"; GC pauses over 2 ms in the resource host's process: {len(r['gc'])}, "
+                   f"longest {max(r['gc']):.0f} ms" if r["gc"] else ""))
         print(f"   {'':8s} {'':14s} {'':9s} p99 = {r['p99'] / floor['robot_p99']:.2f}x the "
               f"no-polling run's line-and-tick floor, {r['p99'] / floor['p99']:.2f}x the "
               f"no-polling run's p99; missed the first tick after their line: "

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import json
+import os
+import threading
 import time
 
 from esair_std import Behavior
@@ -67,8 +69,10 @@ class Blaster(Behavior):
 class TimedMinLink(MinLink):
     """The MinLink driver, noting for the bench (in options['notes'], a file of JSON
     lines, in thread and process mode alike) its in-process robot's pacer origin (wall:
-    time.monotonic(), virtual seconds) and the robot's virtual time as each servo line
-    has been written to the port."""
+    time.monotonic(), virtual seconds) and, as each servo line has been written to the
+    port, the robot's virtual time, the wall time, when the command reached the resource
+    host and when its write() began. With BENCH_GC=1 in the environment, every garbage
+    collection of its process longer than 2 ms goes to NOTES.gc (generation, ms)."""
 
     def open(self):
         super().open()
@@ -94,7 +98,6 @@ class TimedMinLink(MinLink):
             if data.lstrip(b"\r\n")[:1] == b"o":
                 t = port.emulator.clock.now / 1e9
                 asked, began = ran.pop(0) if ran else (None, None)
-                import threading
                 with open(notes, "a") as f:
                     f.write(json.dumps({"written": t, "wall": t_wall, "asked": asked,
                                         "began": began, "behind": self.link.in_flight - 1,
@@ -103,13 +106,19 @@ class TimedMinLink(MinLink):
 
         knee.write = timed_knee
         port.write = timed_write                       # the Link calls its port's write
+        if os.environ.get("BENCH_GC"):                # how long this process's GC pauses
+            import gc
+            started: list[float] = []
 
-import os as _os  # noqa: E402
-import sys as _sys  # noqa: E402
-
-if _os.environ.get("BENCH_SWITCH"):
-    _sys.setswitchinterval(float(_os.environ["BENCH_SWITCH"]))
-
+            def on_gc(phase, info, _notes=notes):
+                if phase == "start":
+                    started[:] = [time.monotonic()]
+                elif started:
+                    took = time.monotonic() - started[0]
+                    if took > 0.002:
+                        with open(_notes + ".gc", "a") as f:
+                            f.write(json.dumps({"gen": info["generation"], "ms": took * 1e3}) + "\n")
+            gc.callbacks.append(on_gc)
 
 class Sweep(Behavior):
     """Commands the robot's 12 servos in turn, back and forth by 5 degrees around their
