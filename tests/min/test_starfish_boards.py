@@ -112,13 +112,13 @@ def test_every_kind_is_a_board_section_on_its_roles():
             assert kind.section in ROLE_SECTIONS[role]
         for role in set(ROLE_SECTIONS) - set(kind.roles):
             assert kind.section not in ROLE_SECTIONS[role]
-    assert [k.kind for k in COMPONENTS] == ["servo", "pressure_sensor", "motion", "dc_motor",
-                                           "optical_flow", "omni_base"]
+    assert [k.kind for k in COMPONENTS] == ["servo", "pressure_sensor", "analog_mux", "motion",
+                                           "dc_motor", "optical_flow", "omni_base"]
     with pytest.raises(KeyError):
         component("wheels")
 
 
 def test_papaman_keeps_its_roles_and_registers(robot):
     assert ROLE_SECTIONS["actuator"] == {"servos", "sync", "figure"}      # figure: the HMI's
-    assert ROLE_SECTIONS["sensor"] == {"sensors"}
+    assert ROLE_SECTIONS["sensor"] == {"sensors", "mux"}            # mux: papaman-avr's 74HC4051
     assert robot.actuator.register_count == 24 and robot.sensor_board.register_count == 16
