@@ -8,7 +8,6 @@ bad choices get a did-you-mean hint from difflib.
 
 from __future__ import annotations
 
-import difflib
 import types
 import typing
 from collections.abc import Callable
@@ -19,6 +18,7 @@ from pydantic_core import ErrorDetails
 
 from esair_min.errors import ConfigError
 from esair_min.config.yamlload import Document, kind_of
+from esair_min.config.words import did_you_mean, quote
 
 _PATTERN_TEXT = {
     r"^[a-z][a-z0-9_]{0,23}$": "a lower-case name (a-z, 0-9, _; at most 24 characters, "
@@ -27,12 +27,6 @@ _PATTERN_TEXT = {
     r"^[!-)+-~]{1,8}$": "a command prefix of 1 to 8 printable characters "
                         "(no space, no '*')",
 }
-
-
-def did_you_mean(word: str, choices: typing.Iterable[str]) -> str:
-    """`` (did you mean 'x'?)`` or an empty string."""
-    close = difflib.get_close_matches(str(word), sorted(set(choices)), n=1, cutoff=0.6)
-    return f" (did you mean '{close[0]}'?)" if close else ""
 
 
 def _unwrap(tp: Any) -> list[Any]:
@@ -136,12 +130,6 @@ def json_like(value: Any) -> str:
     if value is None:
         return "null"
     return repr(value) if isinstance(value, str) else str(value)
-
-
-def quote(name: Any) -> str:
-    """A key in quotes, escaped if it holds line breaks or other invisible characters."""
-    text = str(name)
-    return f"'{text}'" if text.isprintable() else repr(text)
 
 
 def _plural(n: Any, word: str) -> str:

@@ -29,7 +29,8 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from esair_min.components.omni_base.core import StarfishCore
+from esair_min.components.omni_base.replay import FlowChange, Run, replay, reply_lines
+from esair_min.components.omni_base.replay import compare as compare_runs
 from esair_min.core.script import unescape
 from esair_min.errors import ProtocolError
 from esair_min.model.hardware import Timer2Setting
@@ -63,15 +64,6 @@ class Setup:
         return cls(c.mcu.clock_hz, c.uart.baud, c.timer2.instructions, drive.i2c.address,
                    tuple((_gpsim_pin(f.sclk_pin), _gpsim_pin(f.sdio_pin))
                          for f in c.flow_sensors))
-
-
-@dataclass
-class Run:
-    """What gpsim and the Python core did, as comparable lists."""
-
-    replies: list[str] = field(default_factory=list)       # "TX text"
-    writes: list[str] = field(default_factory=list)        # "W 30 00C800... ACK"
-    flow: list[list[str]] = field(default_factory=list)    # per sensor: "RR DD"
 
 
 @dataclass
@@ -216,7 +208,7 @@ def run_gpsim_side(robot: Robot, stimulus: str, cod: Path, workdir: Path,
     if not t2:
         raise ToolchainError("gpsim: the firmware never started Timer2")
     run = Run()
-    run.replies = _reply_lines(bytes(tx))
+    run.replies = reply_lines(bytes(tx))
     transfers = decode_i2c(read_edges(workdir / "scl.txt"), read_edges(workdir / "sda.txt"))
     run.writes = [t.trace_line() for t in transfers if t.segments and t.stop is not None]
     run.flow = [decode_flow(read_edges(workdir / f"sclk{i}.txt"),
@@ -225,83 +217,21 @@ def run_gpsim_side(robot: Robot, stimulus: str, cod: Path, workdir: Path,
     return run, rx, t2[0], sc.now, sc.floors
 
 
-def _reply_lines(data: bytes) -> list[str]:
-    out = []
-    while b"\r\n" in data:
-        line, _, data = data.partition(b"\r\n")
-        out.append("TX " + line.decode("latin-1"))
-    return out
-
-
-class _Floor:
-    """A flow sensor whose SDIO is pulled to a level: every read gives 0x00 or 0xFF."""
-
-    def __init__(self, log: list[str]):
-        self.level = 0
-        self.log = log
-        self._reg = 0
-
-    def address(self, reg: int, t_ns: int) -> None:
-        self._reg = reg
-
-    def data(self, t_ns: int) -> int:
-        v = 0xFF if self.level else 0x00
-        self.log.append(f"{self._reg:02X} {v:02X}")
-        return v
-
-
 def python_side(robot: Robot, rx: list[tuple[int, int]], t2_start: int, end: int,
                 floors: list[tuple[int, int, int]]) -> Run:
     """The Python core fed the gpsim run's events in their order (see the module doc)."""
     s = Setup.from_robot(robot)
-    run = Run(flow=[[] for _ in s.flow_pins])
-    sensors = [_Floor(log) for log in run.flow]
-
-    def write(addr: int, data: bytes) -> bool:
-        run.writes.append(f"W {addr:02X} {data.hex().upper()} ACK")
-        return addr == s.drive_address
-
-    core = StarfishCore(robot, write, sensors)
     # the last tick must have been served before the run ended
     ticks = [t2_start + k * s.tick_cycles
              for k in range(1, (end - t2_start) // s.tick_cycles + 1)
              if t2_start + k * s.tick_cycles <= end - SERVED]
-    events: list[tuple[int, int, int]] = [(c, 1, b) for c, b in rx]
-    events += [(c, 0, -1) for c in ticks]
-    events += [(c, 2, 10 * sensor + level) for c, sensor, level in floors]
-    events.sort()
-    before = -1
-    for c, kind, b in events:
-        ends = kind == 1 and (b == 0x0D or (b == 0x0A and before != 0x0D))
-        before = b if kind == 1 else before
-        if ends and any(abs(c - t) < MARGIN for t in ticks):
-            raise ProtocolError(f"a line ends at cycle {c}, within {MARGIN} cycles of a tick: "
-                                "which comes first is not the logic's (move the line)")
-    pending = bytearray()
-    for _, kind, b in events:
-        if kind == 0:
-            pending += core.tick()
-        elif kind == 1:
-            pending += core.feed(bytes([b]))
-        else:
-            sensors[b // 10].level = b % 10
-    run.replies = _reply_lines(bytes(pending))
-    return run
+    changes = [FlowChange(c, sensor, floor=level) for c, sensor, level in floors]
+    return replay(robot, rx, ticks, changes, MARGIN)
 
 
 def compare(python: Run, gpsim: Run) -> list[str]:
     """Differences, one message per part; [] when the runs agree."""
-    diffs = []
-    parts = [("replies", python.replies, gpsim.replies), ("I2C writes", python.writes, gpsim.writes)]
-    parts += [(f"flow sensor {i} reads", a, b)
-              for i, (a, b) in enumerate(zip(python.flow, gpsim.flow, strict=True))]
-    for name, a, b in parts:
-        if a != b:
-            first = next((i for i, (x, y) in enumerate(zip(a, b)) if x != y), min(len(a), len(b)))
-            diffs.append(f"{name}: {len(a)} in Python, {len(b)} in gpsim; first difference "
-                         f"at {first}: {a[first] if first < len(a) else '-'} / "
-                         f"{b[first] if first < len(b) else '-'}")
-    return diffs
+    return compare_runs(python, gpsim, "gpsim")
 
 
 def differential(robot: Robot, stimulus: str, cod: Path, workdir: Path,
