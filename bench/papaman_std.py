@@ -27,7 +27,9 @@ Figures (one run, every column measured in this process, medians where repeated)
    the generated PIC firmware (when the toolchain is installed), and the x limit is
    also given with it: the true line limit of one-in-flight x on the robot.
 
-Run: python bench/papaman_std.py [--n 200] [--figures 123] [--modes thread,process].
+Run: python bench/papaman_std.py [--n 200] [--figures 123] [--modes thread,process]
+[--repeat1 N] [--duplex-only]; BENCH_GC=1 in the environment: figure 1 also counts the
+resource host process's garbage collections over 2 ms.
 Prints figures; asserts nothing.
 """
 
@@ -128,13 +130,48 @@ def command_to_write(mode: str, n: int, feet_hz: float, goal_ms: float,
             writes.append(mark)             # the write starts (its 38 bit times follow)
     lat = [(w - s) * 1e3 for s, w in zip(sent, writes)]
     k = len(written)
-    host = [(w - s) * 1e3 for s, w in zip(sent[len(sent) - k:], written)]
-    robot = [(w - s) * 1e3 for s, w in zip(written, writes[len(writes) - k:])]
+    gc_file = Path(str(notes) + ".gc")
+    gcs = [json.loads(x)["ms"] for x in gc_file.read_text().splitlines()] if gc_file.exists() else []
+    return {"lat": lat, "errors": got["errors"], "gc": gcs,
+            "host": [(w - s) * 1e3 for s, w in zip(sent[len(sent) - k:], written)],
+            "robot": [(w - s) * 1e3 for s, w in zip(written, writes[len(writes) - k:])],
+            **split_host(got["sent"][len(sent) - k:], rows[1:])}
+
+
+def split_host(sent: list[float], rows: list[dict]) -> dict:
+    """The host path (send -> port write, time.monotonic() in every process) in three:
+    ``hop`` send -> the resource host queues it (the AC, or Zenoh between processes);
+    ``queue`` queued -> the host thread runs the actuator's write(); ``link`` write() ->
+    the line's port write (waiting for its turn on the line); and how many were written
+    behind a reply still arriving (full duplex) or by the link's I/O thread."""
+    out: dict = {"hop": [], "queue": [], "link": []}
+    for s, r in zip(sent, rows):
+        if r.get("asked") is None:
+            continue
+        out["hop"].append((r["asked"] - s) * 1e3)
+        out["queue"].append((r["began"] - r["asked"]) * 1e3)
+        out["link"].append((r["wall"] - r["began"]) * 1e3)
+    out["behind"] = sum(r.get("behind", 0) > 0 for r in rows)
+    out["by_io"] = sum(not str(r.get("by", "")).startswith("esair") for r in rows)
+    return out
+
+
+def pooled(runs: list[dict], goal_ms: float) -> dict:
+    """The figures of several runs of one kind, their samples pooled; ``p99s``: each
+    run's own p99."""
+    def cat(key: str) -> list:
+        return [x for r in runs for x in r[key]]
+    lat, host, robot = cat("lat"), cat("host"), cat("robot")
     return {"n": len(lat), "p50": statistics.median(lat), "p90": pct(lat, 0.9),
-            "p99": pct(lat, 0.99), "max": max(lat), "errors": got["errors"],
+            "p99": pct(lat, 0.99), "max": max(lat), "errors": sum(r["errors"] for r in runs),
+            "p99s": [pct(r["lat"], 0.99) for r in runs],
             "host_p50": statistics.median(host), "host_p99": pct(host, 0.99),
             "robot_min": min(robot), "robot_max": max(robot), "robot_p99": pct(robot, 0.99),
-            "late_ticks": sum(r > goal_ms for r in robot), "robot_n": len(robot)}
+            "late_ticks": sum(x > goal_ms for x in robot), "robot_n": len(robot),
+            "split": {k: (statistics.median(cat(k)), pct(cat(k), 0.99))
+                      for k in ("hop", "queue", "link") if cat(k)},
+            "behind": sum(r["behind"] for r in runs), "by_io": sum(r["by_io"] for r in runs),
+            "gc": cat("gc")}
 
 
 def sample_age(mode: str, seconds: float) -> dict:
@@ -226,22 +263,33 @@ def b_baud(robot) -> int:
 def figure1(args, modes: list[str], goal1: float) -> None:
     """Figure 1 side by side: each mode, one command in flight (``duplex: false``, the
     link before issue 21 item 7) and full duplex, with the feet not polled and polled
-    at 8 Hz; runs interleaved (the load moves)."""
-    res: dict[tuple[str, bool, float], dict] = {}
-    for m in modes:
-        for duplex in (False, True):
-            for hz in (0, 8):
-                res[(m, duplex, hz)] = command_to_write(m, args.n, hz, goal1, duplex)
+    at 8 Hz; ``--repeat1`` rounds, the runs interleaved (the load moves), their samples
+    pooled."""
+    runs: dict[tuple[str, bool, float], list[dict]] = {}
+    kinds = [(m, duplex, hz) for m in modes
+             for duplex in ((True,) if args.duplex_only else (False, True)) for hz in (0, 8)]
+    for _ in range(args.repeat1):
+        for kind in kinds:
+            runs.setdefault(kind, []).append(command_to_write(kind[0], args.n, kind[2],
+                                                              goal1, kind[1]))
+    res = {kind: pooled(rs, goal1) for kind, rs in runs.items()}
     for (m, duplex, hz), r in res.items():
         floor = res[(m, duplex, 0)]
         what = "full duplex" if duplex else "one in flight"
         print(f"   {m:8s} {what:14s} feet {hz} Hz  n={r['n']}  p50 {r['p50']:.2f} ms  "
               f"p90 {r['p90']:.2f} ms  p99 {r['p99']:.2f} ms  max {r['max']:.2f} ms  "
-              f"errors {r['errors']}")
+              f"errors {r['errors']}  (each run's p99: "
+              f"{', '.join(f'{x:.1f}' for x in r['p99s'])} ms)")
         print(f"   {'':8s} {'':14s} {'':9s} send -> port write (STD + Link): p50 "
               f"{r['host_p50']:.2f} ms  p99 {r['host_p99']:.2f} ms;  port write -> register "
               f"write (line + tick wait): {r['robot_min']:.2f} .. {r['robot_max']:.2f} ms, "
               f"p99 {r['robot_p99']:.2f} ms (the line-and-tick floor)")
+        if r["split"]:
+            print(f"   {'':8s} {'':14s} {'':9s} host path split, p50/p99 ms: " + ", ".join(
+                f"{k} {a:.2f}/{b:.2f}" for k, (a, b) in r["split"].items())
+                + f"; written behind a reply {r['behind']}, by the I/O thread {r['by_io']}"
+                + (f"; GC pauses over 2 ms in the resource host's process: {len(r['gc'])}, "
+                   f"longest {max(r['gc']):.0f} ms" if r["gc"] else ""))
         print(f"   {'':8s} {'':14s} {'':9s} p99 = {r['p99'] / floor['robot_p99']:.2f}x the "
               f"no-polling run's line-and-tick floor, {r['p99'] / floor['p99']:.2f}x the "
               f"no-polling run's p99; missed the first tick after their line: "
@@ -255,6 +303,10 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=3, help="figure 3: runs (median)")
     ap.add_argument("--modes", default="thread,process", help="comma-separated STD modes")
     ap.add_argument("--figures", default="123", help="which figures (e.g. 1, 23)")
+    ap.add_argument("--repeat1", type=int, default=1,
+                    help="figure 1: rounds, interleaved, samples pooled")
+    ap.add_argument("--duplex-only", action="store_true",
+                    help="figure 1: full duplex only (not the one-in-flight runs)")
     args = ap.parse_args()
     robot = load_robot(PAPAMAN)
     b = line_budget(robot)

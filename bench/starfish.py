@@ -11,16 +11,23 @@ over a 4 m square against the world's true pose.
    1, 2 and 5 % of the motion (seeded): error of the dead-reckoned pose at the end and
    the largest along the way, and the heading error at the end.
 
-Run: python bench/starfish.py [--seconds 60] [--repeat 3]. Prints figures; asserts
-nothing.
+With ``--before OTHER_CHECKOUT`` (e.g. a worktree of main) the speeds of that tree are
+measured too, side by side: each run is a fresh process of one tree, the two trees
+alternating, so load from other jobs hits both alike.
+
+Run: python bench/starfish.py [--seconds 60] [--repeat 3] [--before DIR]. Prints
+figures; asserts nothing.
 """
 
 from __future__ import annotations
 
 import argparse
 import importlib.util
+import json
 import math
+import os
 import statistics
+import subprocess
 import sys
 import time
 from pathlib import Path
@@ -52,11 +59,70 @@ def square_speed(robot, seconds: float) -> dict:
             "contacts": sim.world.collisions}
 
 
+#: One run of both robots in a fresh process of a tree (its own esair_min and bench).
+CHILD = """
+import importlib.util, json, sys, time
+root = sys.argv[1]
+sys.path.insert(0, root)
+from esair_min.emulator.starfish import StarfishSim, drive_square
+from esair_min.model.validate import load_robot
+from esair_min.world import Pose, World
+spec = importlib.util.spec_from_file_location("bench_emulator", root + "/bench/emulator.py")
+pm = importlib.util.module_from_spec(spec)
+spec.loader.exec_module(pm)
+seconds = float(sys.argv[2])
+robot = load_robot(root + "/boards/starfish")
+sim = StarfishSim(robot, World(pose=Pose(1000, 1000, 0)), keep_trace=False)
+laps = max(1, round(seconds / (4 * 1500 / 250)))
+t0, c0 = time.perf_counter(), time.process_time()
+drive_square(sim, 1500, 250, laps=laps)
+sq = {"wall": time.perf_counter() - t0, "cpu": time.process_time() - c0, "sim": sim.now_s}
+dance = pm.dancing(load_robot(root + "/boards/papaman"), seconds)
+print(json.dumps({"square": sq, "dance": {k: dance[k] for k in ("wall", "cpu", "sim")}}))
+"""
+
+
+def in_process(root: Path, seconds: float) -> tuple[dict, dict]:
+    """One run of both robots in a fresh Python process of the tree at ``root``."""
+    env = dict(os.environ, PYTHONPATH=str(root))
+    out = subprocess.run([sys.executable, "-c", CHILD, str(root), str(seconds)], cwd=root,
+                         env=env, check=True, capture_output=True, text=True).stdout
+    got = json.loads(out.splitlines()[-1])
+    return got["square"], got["dance"]
+
+
+def rate(rs: list[dict], key: str) -> float:
+    return statistics.median(r["sim"] / r[key] for r in rs)
+
+
+def side_by_side(before: Path, seconds: float, repeat: int) -> None:
+    runs: dict[str, tuple[list[dict], list[dict]]] = {"before": ([], []), "after": ([], [])}
+    for _ in range(repeat):                              # alternating: load hits both
+        for name, root in (("before", before), ("after", ROOT)):
+            sq, dance = in_process(root, seconds)
+            runs[name][0].append(sq)
+            runs[name][1].append(dance)
+    print(f"Before ({before}) and after ({ROOT}), {seconds:g} simulated s per run, "
+          f"median of {repeat} fresh processes each, alternating:")
+    print(f"  {'':26s} {'before wall':>12s} {'after wall':>11s} {'before CPU':>11s} "
+          f"{'after CPU':>10s} {'after/before (CPU)':>19s}")
+    for k, label in enumerate(("STARFISH driving a square", "PAPA-MAN dancing")):
+        b, a = runs["before"][k], runs["after"][k]
+        print(f"  {label:26s} {rate(b, 'wall'):11.0f}x {rate(a, 'wall'):10.0f}x "
+              f"{rate(b, 'cpu'):10.0f}x {rate(a, 'cpu'):9.0f}x "
+              f"{rate(a, 'cpu') / rate(b, 'cpu'):18.2f}x")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seconds", type=float, default=60.0)
     ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--before", type=Path, default=None,
+                    help="another checkout (e.g. a worktree of main): its speeds measured "
+                         "too, side by side")
     args = ap.parse_args()
+    if args.before is not None:
+        side_by_side(args.before.resolve(), args.seconds, args.repeat)
     starfish = load_robot(ROOT / "boards" / "starfish")
     papaman = load_robot(ROOT / "boards" / "papaman")
     pm = _papaman_bench()
@@ -64,9 +130,6 @@ def main() -> None:
     for _ in range(args.repeat):                         # interleaved: load hits both
         sq.append(square_speed(starfish, args.seconds))
         dance.append(pm.dancing(papaman, args.seconds))
-
-    def rate(rs: list[dict], key: str) -> float:
-        return statistics.median(r["sim"] / r[key] for r in rs)
 
     print(f"Emulator speed, {args.seconds:g} simulated s per run, median of {args.repeat} "
           "runs (interleaved):")

@@ -9,6 +9,7 @@ from esair_min.components.dc_motor.core import (CONTROL_TICK_MS, SOFT_PWM_ISR_HZ
 from esair_min.errors import GenerateError
 from esair_min.model.robot import Robot
 
+from . import ports
 from .context import Context, _pin, common_context
 
 #: The hardware PWM (CCP1/CCP2 on Timer2) runs at least this fast (above hearing).
@@ -22,21 +23,26 @@ def drive_context(robot: Robot) -> Context:
     assert board is not None
     ctx = common_context(robot, board)
     motors = sorted(board.motors, key=lambda m: m.index)
+    spec = board.spec
     rows = []
     for m in motors:
         st = motor_state(m)
         rows.append({"name": m.name, "limit": st.limit, "step": st.step,
                      "duty_q8": st.duty_q8, "reverse": int(st.reverse),
-                     "unit": pwm_unit(m), "pwm_pin": m.pwm_pin, "dir_pin": m.dir_pin,
+                     "unit": pwm_unit(m, spec), "pwm_pin": m.pwm_pin, "dir_pin": m.dir_pin,
                      "pwm": _pin(m.pwm_pin), "dir": _pin(m.dir_pin)})
     soft = [i for i, r in enumerate(rows) if r["unit"] == "software"]
     for k, i in enumerate(soft):
         rows[i]["soft"] = k
+    ctx.update({"motors": rows, "registers": 2 * len(motors), "address": board.i2c.address,
+                "soft_motors": [rows[i] for i in soft]})
+    if spec.family == "avr":
+        ctx["avr"] = ports.drive_avr(board, [pwm_unit(m, spec) for m in motors])
+        return ctx
     if len(soft) > MAX_SOFT_PWM:
         raise GenerateError(f"drive board '{board.board}': {len(soft)} motors on software PWM, "
                             f"the PIC18F452 port has room for {MAX_SOFT_PWM}")
-    ctx.update({"motors": rows, "registers": 2 * len(motors), "address": board.i2c.address,
-                "soft_motors": [rows[i] for i in soft], **pwm_timer(board.mcu.clock_hz)})
+    ctx.update(pwm_timer(board.mcu.clock_hz))
     return ctx
 
 

@@ -11,6 +11,7 @@ from esair_min.errors import GenerateError
 from esair_min.model.encoding import MAX_LINE
 from esair_min.model.robot import Robot
 
+from . import ports
 from .context import Context, _clock_context, _pin, common_context
 
 #: Instruction cycles a turn of the tSRAD wait loop (DECFSZ + BRA).
@@ -37,7 +38,6 @@ def omni_central_context(robot: Robot) -> Context:
         "wheels": [{"s": w.s, "c": w.c, "r": w.r, "limit": w.limit_mm_s} for w in wheels],
         "flow": [{"name": f.name, "sclk": _pin(f.sclk_pin), "sdio": _pin(f.sdio_pin)}
                  for f in board.flow_sensors],
-        "srad_turns": srad_turns(board.mcu.clock_hz),
         "line_max": MAX_LINE,
         "require_checksum": int(checksum),
         "drive_address": drive.i2c.address,
@@ -50,6 +50,10 @@ def omni_central_context(robot: Robot) -> Context:
         "texts": texts,
         **_clock_context(board),
     })
+    if board.spec.family == "avr":
+        ctx["avr"] = ports.omni_central_avr(board)
+    else:
+        ctx["srad_turns"] = srad_turns(board.mcu.clock_hz)
     return ctx
 
 

@@ -11,6 +11,8 @@ from __future__ import annotations
 
 from typing import Any
 
+from esair_min.components.dc_motor.core import CONTROL_TICK_MS, SOFT_PWM_ISR_HZ, SOFT_PWM_STEPS
+from esair_min.components.optical_flow.core import T_SRAD_NS
 from esair_min.errors import GenerateError
 from esair_min.model import avr
 from esair_min.model.board import Board
@@ -80,3 +82,36 @@ def sensor_avr(board: Board) -> dict[str, Any]:
     return {"adc": {"divisor": clock.divisor, "adps": clock.adps,
                     "conversion_cycles": clock.conversion_cycles()},
             "didr0": sum(1 << ch for ch in channels if ch < 6), "mux": mux}
+
+
+#: TCCRnA's COMnx1 bit (clear on up-count match: non-inverted) per hardware PWM unit.
+AVR_COM = {"oc0a": 0x80, "oc0b": 0x20, "oc1a": 0x80, "oc1b": 0x20}
+
+
+def drive_avr(board: Board, units: list[str]) -> dict[str, Any]:
+    """The ATmega328P drive port: Timer2's CTC interrupt at SOFT_PWM_ISR_HZ (software PWM,
+    control tick); Timer0/Timer1 in 8-bit phase-correct PWM (WGMn0, no prescaler) for the
+    motors on their OCnx pins, OCRnx = duty: 0 always low, 255 always high."""
+    clock = board.mcu.clock_hz
+    t2 = avr.timer2_ctc(clock, SOFT_PWM_ISR_HZ)
+    if t2 is None:
+        raise GenerateError(f"clock {clock} Hz: Timer2 cannot make exactly {SOFT_PWM_ISR_HZ} "
+                            "interrupts a second")
+    per_tick = SOFT_PWM_ISR_HZ * CONTROL_TICK_MS // 1000
+    timers = []
+    for n in ("0", "1"):
+        used = [u for u in units if u.startswith(f"oc{n}")]
+        if used:
+            timers.append({"n": n, "tccra": 0x01 | sum(AVR_COM[u] for u in used),
+                           "units": [u.upper() for u in used]})
+    return {"timer2": {"ocr2a": t2.ocr2a, "tccr2b": t2.tccr2b, "prescale": t2.prescale,
+                       "cycles": t2.cycles},
+            "isr_hz": SOFT_PWM_ISR_HZ, "isr_per_tick": per_tick,
+            "soft_step": 256 // SOFT_PWM_STEPS, "soft_pwm_hz": SOFT_PWM_ISR_HZ / SOFT_PWM_STEPS,
+            "pwm_hz": round(clock / 510), "timers": timers}
+
+
+def omni_central_avr(board: Board) -> dict[str, Any]:
+    """The ATmega328P omni central port: the central board's tick, USART and TWI numbers
+    and the flow sensors' tSRAD in microseconds (avr-libc's _delay_us)."""
+    return {**central_avr(board), "srad_us": -(-T_SRAD_NS // 1000)}

@@ -48,7 +48,7 @@ def resolve_robot(arg: str) -> Path:
 
     A path that does not exist is refused (ConfigError, no line:col); a bare name
     gets a did-you-mean among the bundled examples."""
-    from esair_min.config.schema_errors import did_you_mean
+    from esair_min.config.words import did_you_mean
     from esair_min.errors import ConfigError, path_mark
 
     p = Path(arg)

@@ -99,14 +99,23 @@ _BY_MODULE = {
             "test_std_papaman_c", "test_std_papaman_cli", "test_gpsim_uart",
             "test_starfish_pty", "test_pty_promise", "test_minlink_safety",
             "test_std_papaman_safety", "test_minlink_duplex"},
-    "avr": {"test_avr"},
+    "avr": {"test_avr", "test_starfish_avr"},
 }
 _BY_FIXTURE = {"pic_firmware": "gpsim"}
 #: modules of many subprocesses, C builds or long hypothesis runs (--durations: the
 #: biggest totals of the rest of the suite)
 SLOW_MODULES = {"test_std_cli", "test_overrun", "test_differential", "test_decoder_props",
                 "test_validate_fuzz", "test_plot", "test_host_c_peers", "test_std_deploy_fuzz",
-                "test_std_lazy_crypto", "test_std_agent_lean", "test_cli_manner", "test_script"}
+                "test_std_lazy_crypto", "test_std_agent_lean", "test_cli_manner", "test_script",
+                "test_std_record"}
+
+
+def _in_process_mode(item) -> bool:
+    """An STD test's process-mode run: each component starts an interpreter of its own
+    (seconds a test); the fast loop runs the same rules in thread mode, the full suite
+    in both."""
+    callspec = getattr(item, "callspec", None)
+    return callspec is not None and "process" in callspec.params.values()
 
 
 def pytest_collection_modifyitems(config, items):
@@ -119,7 +128,8 @@ def pytest_collection_modifyitems(config, items):
         stem = item.path.stem
         names |= {mark for mark, mods in _BY_MODULE.items() if stem in mods}
         names |= {mark for fix, mark in _BY_FIXTURE.items() if fix in item.fixturenames}
-        if names & {"net", "browser", "gpsim", "avr", "pty"} or stem in SLOW_MODULES:
+        if names & {"net", "browser", "gpsim", "avr", "pty"} or stem in SLOW_MODULES \
+                or _in_process_mode(item):
             names.add("slow")
         for name in sorted(names):
             item.add_marker(getattr(pytest.mark, name))

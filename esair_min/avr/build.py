@@ -15,11 +15,11 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from esair_min.errors import EsairError
+from esair_min.make import make_board
 
 FLASH_BYTES = 32768
 RAM_BYTES = 2048
 INSTALL_HINT = "run scripts/install-toolchain.sh (as root) to install it"
-_WARNING_RE = re.compile(r"warning", re.I)
 
 
 class AvrBuildError(EsairError):
@@ -57,19 +57,5 @@ def elf_usage(elf: Path) -> AvrUsage:
 def build_board(folder: Path, timeout: float = 300.0) -> AvrUsage:
     """``make -B atmega328p`` in one generated board folder; the ELF's usage."""
     avr_gcc()
-    cmd = ["make", "-B", "--no-print-directory", "-C", str(folder), "atmega328p"]
-    try:
-        proc = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
-    except subprocess.TimeoutExpired:
-        raise AvrBuildError(f"{folder}: make atmega328p took more than {timeout:g} s") from None
-    except OSError as exc:
-        raise AvrBuildError(f"cannot run make: {exc.strerror}") from None
-    out = proc.stdout + proc.stderr
-    if proc.returncode != 0:
-        tail = "\n".join(out.rstrip().splitlines()[-30:])
-        raise AvrBuildError(f"{folder}: make atmega328p failed:\n{tail}")
-    warnings = [line for line in out.splitlines() if _WARNING_RE.search(line)]
-    if warnings:
-        raise AvrBuildError(f"{folder}: the AVR build printed {len(warnings)} warning(s):\n"
-                            + "\n".join(warnings[:20]))
+    make_board(folder, "atmega328p", "AVR", AvrBuildError, timeout=timeout)
     return elf_usage(folder / "firmware.elf")

@@ -35,14 +35,15 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from esair_min.core.devices import RegisterSlave
-from esair_min.core.harness import READING_MAX, TICKS_MAX
+from esair_min.core.harness import READING_MAX
 from esair_min.core.image import build_image
-from esair_min.core.script import (BLANK, decimal, hexadecimal, line_text, script_lines,
-                                   unescape, words)
+from esair_min.core.script import decimal, hexadecimal
 from esair_min.errors import EsairError, ProtocolError
 from esair_min.model import avr
 from esair_min.model.robot import Robot
 from esair_min.pic.gpsim_wave import I2cSegment, I2cTransfer
+from esair_min.simscript import (SimScript, boot, boot_wait_end, dispatch, feed, split_replies,
+                                 tick, trace_lines)
 
 SOURCE = Path(__file__).with_name("simdrv.c")
 BOOT_LEAD = 0.125
@@ -164,12 +165,7 @@ class AvrRun:
     replies: list[tuple[int, bytes]] = field(default_factory=list)
 
     def __post_init__(self) -> None:
-        line = bytearray()
-        for cycle, b in self.tx:
-            line.append(b)
-            if b == 0x0A:
-                self.replies.append((cycle, bytes(line)))
-                line.clear()
+        self.replies.extend(split_replies(self.tx))
 
     @property
     def stack_bytes(self) -> int:
@@ -178,29 +174,21 @@ class AvrRun:
 
     def trace(self) -> list[str]:
         """The run as docs/trace-format.md lines, ordered by cycle (as GpsimRun.trace)."""
-        events: list[tuple[int, int, str]] = []
-        ticks = [c for c, v in self.sync_edges if v == 1 and c > 0]
-        for n, c in enumerate(ticks, start=1):
-            events.append((c, 0, f"T {n}"))
-        for c, line in self.replies:
-            events.append((c, 1, f"TX {line.hex().upper()}"))
-        for t in self.transfers:
-            if t.segments:
-                events.append((t.start, 2, t.trace_line()))
-        events.sort()
-        return ["# esair-trace 1"] + [text for _, _, text in events]
+        return trace_lines(self.sync_edges, self.replies, self.transfers)
 
 
-class _Script:
+class _Script(SimScript):
+    """The driver commands while keeping the simulated time."""
+
+    SECOND_BOOT = "a second boot is not supported in the AVR simulator"
+    TIPPING = ("the readings set before boot tip a balance reaction: the firmware polls "
+               "during the boot wait; set them after boot")
+
     def __init__(self, setup: AvrSetup, image: Path, boot_end: int | None,
                  channels: tuple[str, ...] | None = None):
-        self.setup = setup
+        super().__init__(setup, boot_end)
         self.channels = channels          # the sensor board's inputs (sensor_inputs): it runs
-        self.now = 0
         self.rx_free = 0
-        self.booted = False
-        self.boot_end = setup.boot_cycles if boot_end is None else boot_end
-        self.readings = [0] * (setup.sensor_registers // 2)
         s = setup
         self.lines = [f"eeprom {s.eeprom_address} {s.eeprom_size} {s.eeprom_address_bytes} {image}"]
         if channels is None and s.actuator_address is not None:
@@ -208,67 +196,24 @@ class _Script:
         if channels is None and s.sensor_address is not None:
             self.lines.append(f"regs {s.sensor_address} {s.sensor_registers}")
 
-    def run_to(self, cycle: int) -> None:
-        self.now = max(self.now, cycle)
-        self.lines.append(f"run {self.now}")
+    def run_lines(self, cycle: int) -> list[str]:
+        return [f"run {cycle}"]
 
     def send(self, data: bytes) -> None:
+        """Each byte's stop bit at line rate after the bytes already sent."""
         t = max(self.now, self.rx_free)
         for b in data:
             t += self.setup.byte_cycles
             self.lines.append(f"rx {t} {b}")
         self.rx_free = t
 
-    def tipping(self) -> bool:
-        r = self.readings
-        return any(abs(sum(r[i] for i in a) - sum(r[i] for i in b)) > t
-                   for a, b, t in self.setup.balances)
-
 
 def _stimulus_line(sc: _Script, line: str) -> None:
-    """One stimulus line (docs/trace-format.md) as simavr driver commands: ``rx`` keeps
-    its spaces; every other line is a verb and its words, each verb handled by its own
-    function in :data:`_VERBS` (which returns False when the words do not fit it), as
-    the gpsim harness does."""
-    if line == "rx" or line.startswith("rx "):
-        _rx(sc, line[3:])
-        return
-    cmd, *args = words(line.split("#", 1)[0])
-    verb = _VERBS.get(cmd)
-    if verb is not None and verb(sc, args):
-        return
-    raise ProtocolError(f"{line!r} is not supported by the AVR harness (boot, rx, tick, "
-                        "sensor, fault sensor, poke)")
-
-
-def _rx(sc: _Script, text: str) -> None:
-    """``rx TEXT``: the PC end of the serial link sends the bytes."""
-    if not sc.booted:
-        raise ProtocolError("rx before boot")
-    sc.send(unescape(text))
-
-
-def _boot(sc: _Script, args: list[str]) -> bool:
-    """``boot``: run to the end of the boot wait (once)."""
-    if args:
-        return False
-    if sc.booted:
-        raise ProtocolError("a second boot is not supported in the AVR simulator")
-    if sc.tipping():
-        raise ProtocolError("the readings set before boot tip a balance reaction: the "
-                            "firmware polls during the boot wait; set them after boot")
-    sc.booted = True
-    sc.run_to(sc.boot_end)
-    return True
-
-
-def _tick(sc: _Script, args: list[str]) -> bool:
-    """``tick [N]``: run N tick periods."""
-    if len(args) > 1:
-        return False
-    n = decimal(args[0], "tick count", TICKS_MAX) if args else 1
-    sc.run_to(sc.now + n * sc.setup.tick_cycles)
-    return True
+    """One stimulus line as simavr driver commands (esair_min.simscript.dispatch,
+    :data:`_VERBS`), as the gpsim harness does."""
+    if dispatch(sc, line, _VERBS) is not None:
+        raise ProtocolError(f"{line!r} is not supported by the AVR harness (boot, rx, tick, "
+                            "sensor, fault sensor, poke)")
 
 
 def _sensor(sc: _Script, args: list[str]) -> bool:
@@ -317,7 +262,7 @@ def _poke(sc: _Script, args: list[str]) -> bool:
 
 
 _VERBS: dict[str, Callable[[_Script, list[str]], bool]] = {
-    "boot": _boot, "tick": _tick, "sensor": _sensor, "fault": _fault, "poke": _poke}
+    "boot": boot, "tick": tick, "sensor": _sensor, "fault": _fault, "poke": _poke}
 
 
 #: The sensor board's node in run_robot.
@@ -347,15 +292,7 @@ def build_commands(robot: Robot, stimulus: str, image: Path, boot_end: int | Non
     ``boards``: the actuator and sensor boards run their firmware (nodes 1 and 2)."""
     channels = sensor_inputs(robot, SENSOR_NODE) if boards else None
     sc = _Script(AvrSetup.from_robot(robot), image, boot_end, channels)
-    for number, raw in script_lines(stimulus.encode("utf-8")):
-        try:
-            text = line_text(raw)
-            stripped = text.strip(BLANK)
-            if not stripped or stripped.startswith("#"):
-                continue
-            _stimulus_line(sc, stripped if not stripped.startswith("rx") else text.lstrip(BLANK))
-        except ProtocolError as exc:
-            raise ProtocolError(f"stimulus line {number}: {exc.message}") from None
+    feed(sc, stimulus, _stimulus_line)
     return sc.lines + ["quit"], sc.setup
 
 
@@ -452,9 +389,7 @@ def boot_end(robot: Robot, elf: Path, workdir: Path, lead: float = BOOT_LEAD) ->
     rises = [c for c, v in run.sync_edges if v == 1 and c > 0]
     if not rises or rises[0] > s.boot_cycles:
         raise SimError("no tick (sync rising edge) during the boot wait")
-    done = (s.boot_cycles - rises[0]) // s.tick_cycles + 1
-    n = done + -done % s.poll_period
-    return rises[0] + (n - 1) * s.tick_cycles + int(lead * s.tick_cycles)
+    return boot_wait_end(rises, s.boot_cycles, s.tick_cycles, s.poll_period, lead)
 
 
 def _image(robot: Robot, workdir: Path) -> Path:
@@ -538,11 +473,17 @@ def pulses(run: AvrRun, robot: Robot, clock_hz: int, node: int = 1) -> list[Puls
     return out
 
 
+def symbols(elf: Path, name: str) -> list[int]:
+    """The addresses of every symbol ``name`` in ``elf`` (avr-nm; statics of several files
+    may share a name; data: 0x800000 + the data-space address)."""
+    out = subprocess.run(["avr-nm", str(elf)], capture_output=True, text=True, timeout=30).stdout
+    found = [int(w[0], 16) for w in (line.split() for line in out.splitlines())
+             if len(w) == 3 and w[2] == name]
+    if not found:
+        raise SimError(f"no symbol {name} in {elf}")
+    return found
+
+
 def symbol(elf: Path, name: str) -> int:
     """The byte address of function ``name`` in ``elf`` (avr-nm)."""
-    out = subprocess.run(["avr-nm", str(elf)], capture_output=True, text=True, timeout=30).stdout
-    for line in out.splitlines():
-        w = line.split()
-        if len(w) == 3 and w[2] == name:
-            return int(w[0], 16)
-    raise SimError(f"no symbol {name} in {elf}")
+    return symbols(elf, name)[0]

@@ -32,10 +32,15 @@
  *   watch N ADDR                   report each time node N's PC reaches byte address ADDR
  *   rx CYCLE BYTE                  a byte to node 0's USART whose stop bit ends at CYCLE
  *   run CYCLE                      run every node to CYCLE, then print "at CYCLE"
+ *   flow N S SCLK SDIO SRAD        an optical-flow sensor S on node N's pins (tSRAD in cycles)
+ *   flowreg S REG VALUE            what sensor S's register REG reads (deltas: until read)
+ *   flowfloor S -1|0|1             sensor S's SDIO pulled low / high (-1: the sensor answers)
+ *   poke N ADDR B... / peek N ADDR COUNT   node N's data memory
  *   quit
  * Events (stdout): "tx C B", "rd C B", "lost C" (node 0's USART), "pin N C NAME LEVEL",
  * "i2c C start|restart|stop", "i2c C byte B ACK", "isr N C VECTOR|0", "pc N C ADDR", "sp N C MINSP",
- * "at C", "mux N C early IN" (a conversion of the mux's channel started before the
+ * "at C", "flow N S C REG DATA", "flowerr N S C", "mem N C ADDR B...",
+ * "mux N C early IN" (a conversion of the mux's channel started before the
  * mux settled: it reads the input shown before the select change),
  * "crash N C STATE".
  */
@@ -627,6 +632,137 @@ static int add_node(const char *elf, char *pins, unsigned freq)
     return 0;
 }
 
+/* -- optical-flow sensors (ADNS-2610-class) on a node's bit-banged two-wire port -------
+ * SCLK idles high. The sensor samples SDIO on each rising SCLK edge: 8 address bits
+ * (MSB first, bit 7 = 0: a read), then it drives the register's 8 data bits, each from
+ * the falling edge before the rising edge the MCU samples it on, and lets SDIO go after
+ * the last one. Its first data bit is driven at the first falling edge after the
+ * address; sooner than tSRAD after the address's last rising edge is reported
+ * ("flowerr"). The registers hold what "flowreg" set; reading Delta_Y (2) or Delta_X
+ * (3) clears it, as on the chip. "flowfloor S 0|1" pulls SDIO to a level instead (every
+ * register reads 0x00 / 0xFF: a missing sensor; -1 ends it). Each read prints
+ * "flow N S CYCLE REG DATA". */
+#define MAXFLOW 4
+typedef struct {
+    node_t *node;
+    int index;
+    char sclk[4], sdio[4];
+    avr_irq_t *sdio_irq;
+    unsigned long long srad, addr_end;
+    int nbits, sclk_level, floor;
+    uint8_t addr, data;
+    uint8_t regs[128];
+} flow_t;
+static flow_t flows[MAXFLOW];
+static int nflows;
+
+static int port_out(const node_t *n, const char *pin)
+{
+    int port = 0x25 + 3 * (pin[0] - 'B');              /* PORTB 0x25, PORTC 0x28, PORTD 0x2B */
+    return (n->avr->data[port] >> (pin[1] - '0')) & 1;
+}
+
+static void on_flow_sclk(struct avr_irq_t *irq, uint32_t value, void *param)
+{
+    (void)irq;
+    flow_t *f = (flow_t *)param;
+    int level = value ? 1 : 0;
+    unsigned long long c = now(f->node);
+    if (level == f->sclk_level) {
+        return;
+    }
+    f->sclk_level = level;
+    if (!level) {                                       /* falling: drive the next data bit */
+        if (f->nbits >= 8) {
+            if (f->nbits == 8 && c - f->addr_end < f->srad) {
+                printf("flowerr %d %d %llu\n", f->node->index, f->index, c);
+            }
+            avr_raise_irq(f->sdio_irq, (uint32_t)((f->data >> (15 - f->nbits)) & 1));
+        }
+        return;
+    }
+    if (f->nbits < 8) {                                 /* rising: an address bit in */
+        f->addr = (uint8_t)((f->addr << 1) | port_out(f->node, f->sdio));
+        if (++f->nbits == 8) {
+            f->addr_end = c;
+            f->data = f->regs[f->addr & 0x7F];
+            if (f->floor >= 0) {
+                f->data = f->floor ? 0xFF : 0x00;
+            } else if ((f->addr & 0x7F) == 2 || (f->addr & 0x7F) == 3) {
+                f->regs[f->addr & 0x7F] = 0;                /* a delta clears when read */
+            }
+        }
+    } else if (++f->nbits == 16) {                      /* the MCU took the last data bit */
+        printf("flow %d %d %llu %u %u\n", f->node->index, f->index, c, f->addr, f->data);
+        f->nbits = 0;
+        f->addr = 0;
+    }
+}
+
+/* Data memory of a node: "poke N ADDR B..." writes, "peek N ADDR COUNT" prints
+ * "mem N CYCLE ADDR B..." (ADDR: the data space, as avr-nm's 0x800000 + ADDR). */
+static void mem_command(const char *cmd, const char *line)
+{
+    int n, addr, off, v;
+    const char *p = line;
+    if (sscanf(p, "%*s %d %i%n", &n, &addr, &off) != 2 || n < 0 || n >= nnodes) {
+        return;
+    }
+    p += off;
+    avr_t *a = nodes[n].avr;
+    if (cmd[1] == 'o') {                                /* poke */
+        while (sscanf(p, "%i%n", &v, &off) == 1 && addr <= (int)a->ramend) {
+            a->data[addr++] = (uint8_t)v;
+            p += off;
+        }
+        return;
+    }
+    int count = 0;
+    sscanf(p, "%i", &count);
+    printf("mem %d %llu %d", n, now(&nodes[n]), addr);
+    for (int i = 0; i < count && addr + i <= (int)a->ramend; i++) {
+        printf(" %u", a->data[addr + i]);
+    }
+    printf("\n");
+}
+
+/* The commands of this part: 1 if `cmd` was one of them. */
+static int flow_mem_command(const char *cmd, const char *line)
+{
+    if (strcmp(cmd, "flow") == 0 && nflows < MAXFLOW) {
+        flow_t *f = &flows[nflows];
+        int n;
+        memset(f, 0, sizeof *f);
+        if (sscanf(line, "%*s %d %d %3s %3s %llu", &n, &f->index, f->sclk, f->sdio,
+                   &f->srad) == 5 && n >= 0 && n < nnodes) {
+            f->node = &nodes[n];
+            f->sclk_level = 1;
+            f->floor = -1;
+            f->sdio_irq = pin_irq(f->node->avr, f->sdio);
+            avr_irq_register_notify(pin_irq(f->node->avr, f->sclk), on_flow_sclk, f);
+            nflows++;
+        }
+        return 1;
+    }
+    if (strcmp(cmd, "flowreg") == 0 || strcmp(cmd, "flowfloor") == 0) {
+        int s, reg, v = 0;
+        int got = sscanf(line, "%*s %d %i %i", &s, &reg, &v);
+        for (int i = 0; i < nflows; i++) {
+            if (flows[i].index == s && cmd[4] == 'f') {
+                flows[i].floor = reg;
+            } else if (flows[i].index == s && got == 3) {
+                flows[i].regs[reg & 0x7F] = (uint8_t)v;
+            }
+        }
+        return 1;
+    }
+    if (strcmp(cmd, "poke") == 0 || strcmp(cmd, "peek") == 0) {
+        mem_command(cmd, line);
+        return 1;
+    }
+    return 0;
+}
+
 /* Run every node to cycle `to`, in lockstep: the node furthest behind goes next. */
 static int run_to(unsigned long long to)
 {
@@ -787,6 +923,8 @@ int main(void)
             }
         } else if (strcmp(cmd, "quit") == 0) {
             break;
+        } else if (flow_mem_command(cmd, line)) {
+            fflush(stdout);
         }
     }
     return 0;

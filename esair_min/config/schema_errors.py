@@ -8,9 +8,9 @@ bad choices get a did-you-mean hint from difflib.
 
 from __future__ import annotations
 
-import difflib
 import types
 import typing
+from collections.abc import Callable
 from typing import Any, Union
 
 from pydantic import BaseModel, ValidationError
@@ -18,6 +18,7 @@ from pydantic_core import ErrorDetails
 
 from esair_min.errors import ConfigError
 from esair_min.config.yamlload import Document, kind_of
+from esair_min.config.words import did_you_mean, quote
 
 _PATTERN_TEXT = {
     r"^[a-z][a-z0-9_]{0,23}$": "a lower-case name (a-z, 0-9, _; at most 24 characters, "
@@ -26,12 +27,6 @@ _PATTERN_TEXT = {
     r"^[!-)+-~]{1,8}$": "a command prefix of 1 to 8 printable characters "
                         "(no space, no '*')",
 }
-
-
-def did_you_mean(word: str, choices: typing.Iterable[str]) -> str:
-    """`` (did you mean 'x'?)`` or an empty string."""
-    close = difflib.get_close_matches(str(word), sorted(set(choices)), n=1, cutoff=0.6)
-    return f" (did you mean '{close[0]}'?)" if close else ""
 
 
 def _unwrap(tp: Any) -> list[Any]:
@@ -82,8 +77,11 @@ def _tag_of(model: type[BaseModel]) -> str | None:
     return args[0] if len(args) == 1 else None
 
 
-def _data_path(data: Any, loc: tuple[Any, ...]) -> tuple[Any, ...]:
-    """The longest prefix of ``loc`` (tags skipped) that exists in ``data``."""
+def _walk(data: Any, loc: tuple[Any, ...],
+          passes: Callable[[Any, Any], bool]) -> tuple[Any, ...]:
+    """The steps of ``loc`` that exist in ``data``, followed from its root; a step that
+    does not exist is passed over where ``passes(node, step)`` says so, else the walk
+    ends there."""
     path: list[Any] = []
     cur = data
     for part in loc:
@@ -91,7 +89,14 @@ def _data_path(data: Any, loc: tuple[Any, ...]) -> tuple[Any, ...]:
                 or isinstance(cur, list) and isinstance(part, int) and 0 <= part < len(cur)):
             cur = cur[part]  # type: ignore[index]  # a str into a dict, an int into a list
             path.append(part)
+        elif not passes(cur, part):
+            break
     return tuple(path)
+
+
+def _data_path(data: Any, loc: tuple[Any, ...]) -> tuple[Any, ...]:
+    """The longest prefix of ``loc`` (tags skipped) that exists in ``data``."""
+    return _walk(data, loc, lambda node, step: True)
 
 
 def _show(value: Any) -> str:
@@ -125,12 +130,6 @@ def json_like(value: Any) -> str:
     if value is None:
         return "null"
     return repr(value) if isinstance(value, str) else str(value)
-
-
-def quote(name: Any) -> str:
-    """A key in quotes, escaped if it holds line breaks or other invisible characters."""
-    text = str(name)
-    return f"'{text}'" if text.isprintable() else repr(text)
 
 
 def _plural(n: Any, word: str) -> str:
@@ -261,16 +260,7 @@ def _node_of(data: Any, loc: tuple[Any, ...]) -> tuple[Any, ...]:
     """The part of ``loc`` before its first step that is not in ``data`` (an untagged
     union's branch, or a missing key): the node the error is about. A tagged union's
     tag (the node's own ``kind``) is passed over: pydantic reports that branch only."""
-    path: list[Any] = []
-    cur = data
-    for part in loc:
-        if (isinstance(cur, dict) and isinstance(part, str) and part in cur
-                or isinstance(cur, list) and isinstance(part, int) and 0 <= part < len(cur)):
-            cur = cur[part]  # type: ignore[index]  # a str into a dict, an int into a list
-            path.append(part)
-        elif not (isinstance(cur, dict) and part == cur.get("kind")):
-            break
-    return tuple(path)
+    return _walk(data, loc, lambda node, step: isinstance(node, dict) and step == node.get("kind"))
 
 
 def schema_errors(exc: ValidationError, doc: Document, root: type[BaseModel]) -> list[ConfigError]:

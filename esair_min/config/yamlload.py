@@ -28,6 +28,23 @@ MAX_NODES = 100_000
 MAX_FILE_BYTES = 1_000_000
 #: Deepest nesting of mappings and lists (a PAPA-MAN board needs 5).
 MAX_DEPTH = 32
+#: Deepest ``[``/``{`` nesting the reader follows before it gives up: PyYAML's scanner
+#: takes time quadratic in it (thousands of brackets took seconds), and anything past
+#: MAX_DEPTH is refused anyway.
+MAX_FLOW_LEVEL = 4 * MAX_DEPTH
+
+
+class _TooDeep(Exception):
+    pass
+
+
+class _Loader(yaml.SafeLoader):
+    """SafeLoader that stops at MAX_FLOW_LEVEL nested flow collections."""
+
+    def fetch_flow_collection_start(self, TokenClass):  # noqa: N803 - PyYAML's name
+        if self.flow_level >= MAX_FLOW_LEVEL:
+            raise _TooDeep
+        super().fetch_flow_collection_start(TokenClass)
 
 
 def kind_of(value: Any) -> str:
@@ -208,7 +225,7 @@ def load_yaml(path: Path | str, kind: FileKind = BOARD_FILE) -> Document:
         raise ConfigError(f"not a text file (invalid UTF-8 at byte {exc.start}); a "
                           f"{what_file} is UTF-8 YAML", file_mark(name)) from None
     try:
-        loader = yaml.SafeLoader(text)
+        loader = _Loader(text)
     except yaml.reader.ReaderError as exc:
         raise _reader_error(exc, text, name) from None
     try:
@@ -227,7 +244,7 @@ def load_yaml(path: Path | str, kind: FileKind = BOARD_FILE) -> Document:
         raise ConfigError(f"YAML syntax error: {_one_line(problem)}", mark) from None
     except yaml.YAMLError as exc:
         raise ConfigError(f"YAML error: {_one_line(str(exc))}", file_mark(name)) from None
-    except RecursionError:
+    except (RecursionError, _TooDeep):
         raise ConfigError(f"nested too deeply to read (more than {MAX_DEPTH} levels are "
                           f"never needed in a {what_file})", file_mark(name)) from None
     finally:

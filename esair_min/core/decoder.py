@@ -13,6 +13,7 @@ Execution (limits, overflow, motions, the bus) belongs to :mod:`esair_min.core.c
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 from typing import Sequence, Union
 
@@ -27,6 +28,7 @@ _STAR = 0x2A
 _DOT = 0x2E
 _A = 0x61
 _Z = 0x7A
+_UNPRINTABLE = re.compile(rb"[^\x20-\x7e]")
 
 Args = tuple
 #: What a finished line gives: a code, or the line's bytes (terminator removed).
@@ -82,6 +84,33 @@ class LineAssembler:
             self.overflow = True
         self.after_cr = False
         return None
+
+    def feed_run(self, data: bytes) -> list[LineResult]:
+        """:meth:`feed` of each byte of ``data`` in turn: what the line ends gave, in
+        order. Stretches of printable bytes are stored in one go."""
+        out: list[LineResult] = []
+        pos, end = 0, len(data)
+        find = _UNPRINTABLE.search
+        while pos < end:
+            m = find(data, pos)
+            stop = m.start() if m is not None else end
+            if stop > pos:                  # printable bytes: what feed() does to each
+                n, k = self.length, stop - pos
+                if n + k <= MAX_LINE:
+                    self.buf[n:n + k] = data[pos:stop]
+                    self.length = n + k
+                else:
+                    self.buf[n:MAX_LINE] = data[pos:pos + MAX_LINE - n]
+                    self.length = MAX_LINE
+                    self.overflow = True
+                self.after_cr = False
+                pos = stop
+            if pos < end:
+                r = self.feed(data[pos])
+                if r is not None:
+                    out.append(r)
+                pos += 1
+        return out
 
     def _end(self, cr: bool) -> LineResult | None:
         n = self.length

@@ -69,8 +69,15 @@ class VirtualClock:
             return q[0][0] - 1
         return self._limit
 
+    def stop_at(self, t_ns: int) -> None:
+        """Let the running :meth:`run_until` end at ``t_ns`` if that is sooner (an event
+        found that the caller must look at then); nothing when no run is under way."""
+        if self.now <= t_ns < self._limit:
+            self._limit = t_ns
+
     def run_until(self, t_ns: int) -> int:
-        """Run every event due at or before ``t_ns``, then set the time to ``t_ns``.
+        """Run every event due at or before ``t_ns`` (or an earlier :meth:`stop_at`),
+        then set the time to it.
 
         Returns the number of events run.
         """
@@ -79,12 +86,13 @@ class VirtualClock:
         n = 0
         self._limit = t_ns
         try:
-            while q and q[0][0] <= t_ns:
+            while q and q[0][0] <= self._limit:
                 at, _, cb = pop(q)
                 if at > self.now:
                     self.now = at
                 cb()
                 n += 1
+            t_ns = self._limit
         finally:
             self._limit = -1
         if t_ns > self.now:

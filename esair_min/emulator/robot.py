@@ -40,6 +40,7 @@ from esair_min.emulator.actuator import ActuatorBoard, stand_registers
 from esair_min.emulator.clock import NS_PER_S, VirtualClock, seconds_to_ns
 from esair_min.emulator.faults import Faults, corrupt
 from esair_min.emulator.i2c import TimedBus
+from esair_min.emulator.line import SerialHost
 from esair_min.model.mcu import bus_overhead_ns, cycles_per_second
 from esair_min.emulator.scenario import Scenario, load_scenario, quiet, resolve_scenario
 from esair_min.emulator.transcript import Transcript
@@ -102,7 +103,7 @@ class _Lines:
         return out
 
 
-class Emulator:
+class Emulator(SerialHost):
     """PAPA-MAN (or any validated robot) in virtual time.
 
     ``scenario`` is a :class:`Scenario`, a scenario file, or the name of one in the
@@ -207,51 +208,18 @@ class Emulator:
     def _tick_time(self, k: int) -> int:
         return int(round(k * self._tick_ns_exact))
 
-    def run_until(self, t_ns: int) -> None:
-        self.clock.run_until(t_ns)
-
     def run_for(self, seconds: float) -> None:
         """Advance virtual time by ``seconds`` (deterministic, as fast as the host can)."""
         self.clock.run_until(self.clock.now + seconds_to_ns(seconds))
 
-    def next_event_ns(self) -> int | None:
-        """When something next happens inside the robot (for real-time pacing)."""
-        candidates = [t for t in (self.clock.next_event(), self.uart.tx_next()) if t is not None]
-        return min(candidates) if candidates else None
-
-    def _step(self, limit_ns: int) -> None:
-        """Run to the next thing that happens (an event or a byte reaching the host),
-        never past ``limit_ns``; always makes progress."""
-        clock = self.clock
-        before = clock.now
-        nxt = self.next_event_ns()
-        if nxt is None or nxt > limit_ns:
-            clock.run_until(limit_ns)
-        elif clock.run_until(nxt) == 0 and clock.now == before:
-            clock.run_until(limit_ns)      # cannot happen; guards against a stall
-
-    # -- the host side of the serial line ---------------------------------------------
-    def write(self, data: bytes) -> None:
-        """The host sends ``data`` now; it reaches the board at line rate."""
-        data = bytes(data)
+    # -- the host side of the serial line (write, read, settle, next_event_ns: SerialHost)
+    def _host_wrote(self, data: bytes) -> None:
         self.commands.feed(data)
-        self.uart.host_write(data)
-
-    def read(self) -> bytes:
-        """Every byte the board has completely sent by now (and not read yet)."""
-        return self.uart.host_read()
 
     @property
     def idle(self) -> bool:
         """No byte on the line either way, none waiting in the ring, no write held."""
         return self.uart.rx_idle and self.uart.tx_idle and self.core.ready()
-
-    def settle(self, max_s: float = 1.0) -> None:
-        """Run until :attr:`idle` (every byte answered and delivered), at most ``max_s``."""
-        end = self.clock.now + seconds_to_ns(max_s)
-        clock = self.clock
-        while not self.idle and clock.now < end:
-            self._step(end)
 
     def command(self, line: str | bytes, timeout_s: float = 2.0) -> list[str]:
         """Send one line (CR LF added) and run until its reply reached the host.
@@ -259,22 +227,7 @@ class Emulator:
         Returns every line received meanwhile (notices included), the reply last;
         stops after ``timeout_s`` of virtual time without a reply.
         """
-        data = line.encode("latin-1") if isinstance(line, str) else bytes(line)
-        self.write(data + b"\r\n")
-        got: list[str] = []
-        buf = bytearray()
-        end = self.clock.now + seconds_to_ns(timeout_s)
-        while self.clock.now < end:
-            self._step(end)
-            buf += self.read()
-            while b"\n" in buf:
-                raw, _, rest = bytes(buf).partition(b"\n")
-                buf = bytearray(rest)
-                text = raw.decode("latin-1").rstrip("\r")
-                got.append(text)
-                if not text.startswith("!"):
-                    return got
-        return got
+        return self.exchange(line, timeout_s)
 
     # -- faults at run time --------------------------------------------------------------
     def set_fault(self, device: str, on: bool) -> None:

@@ -2,12 +2,18 @@
 flow sensors and the robot's body in a 2-D room (:mod:`esair_min.world`), on one
 virtual clock.
 
-Events: the central board's tick (its Timer2 period: flow polls, watchdog) and the drive
-board's control tick (:data:`~esair_min.components.dc_motor.core.CONTROL_TICK_MS`:
-ramps and duties). The world steps once per central tick (and at the end of a run),
-with each wheel's mean rim speed since its last step, through the omni kinematics; each
-flow sensor then sees the floor move under it.
-A command line is decoded when it is given (the UART's byte time is not modelled here).
+Events (a :class:`~esair_min.emulator.clock.VirtualClock`): the central board's tick
+(its Timer2 period: flow polls, watchdog), the drive board's control tick
+(:data:`~esair_min.components.dc_motor.core.CONTROL_TICK_MS`: ramps and duties), and
+the bytes on the serial line. The world steps once per central tick (and at the end of
+a run), with each wheel's mean rim speed since its last step, through the omni
+kinematics; each flow sensor then sees the floor move under it.
+
+The serial line is PAPA-MAN's (:mod:`.uart`, :mod:`.line`): bytes travel at the central
+board's declared baud, into the 64-byte receive ring, and a line is decoded when its
+last byte has arrived; a reply leaves through the 80-byte transmit ring at the same
+pace, and while it has no room there the board waits (bytes arriving meanwhile wait in
+the receive ring, or are lost to an overrun and the line answered ``E12``).
 The trace keeps, per central tick, the virtual time, the true pose and the wheels' rim
 speeds; ``i2c`` keeps every write to the drive board.
 """
@@ -20,8 +26,11 @@ from typing import Any
 
 from esair_min.components.dc_motor.core import CONTROL_TICK_MS, DriveCore
 from esair_min.components.omni_base.core import StarfishCore
-from esair_min.components.omni_base.kinematics import body_velocity, inverse
+from esair_min.components.omni_base.kinematics import inverse
 from esair_min.components.optical_flow.core import Adns2610
+from esair_min.emulator.clock import VirtualClock
+from esair_min.emulator.line import SerialHost
+from esair_min.emulator.uart import GAP, RX_BYTE, RX_HOLD, RX_TAKE, Uart
 from esair_min.world import World
 
 
@@ -49,7 +58,7 @@ class FlowOptions:
 
 
 @dataclass
-class StarfishSim:
+class StarfishSim(SerialHost):
     robot: Any
     world: World = field(default_factory=World)
     flow_options: FlowOptions = field(default_factory=FlowOptions)
@@ -66,35 +75,92 @@ class StarfishSim:
                        for f in central.flow_sensors]
         self.i2c: list[tuple[int, int, bytes]] = []      # (t_ns, address, data)
         self.core = StarfishCore(self.robot, self._write, self.sensors, self.robot_id)
-        self.t_ns = 0
+        self.clock = VirtualClock()
+        self.uart = Uart(self.clock, central.uart.baud, self._feed, rx_mode=self._rx_mode,
+                         direct=self._rx_run)
+        self._busy_until = 0           # the superloop waits for transmit room until then
+        self._feed_pending = False
+        self._acc_t = 0                # wheel travel is accounted up to this time
         self._next_central = self.core.tick_ns
         self._drive_ns = CONTROL_TICK_MS * 1_000_000
         self._next_drive = self._drive_ns
+        self._drive_live = True        # its ticks run as events (else: replayed, _replay)
+        self._timer_at = -1            # when the pending _timers event is due
+        self._schedule_timers()
+        #: Every notice the central board sent (the line carries them to the host too).
         self.notices = bytearray()
         self.trace: list[TraceRow] = []
         self._inv = inverse(self.core.wheels)
         self._frames = [(px, py, math.cos(phi), math.sin(phi)) for px, py, phi in self.mounts]
         self._acc_dt = 0.0
         self._acc_travel = [0.0] * len(self.core.wheels)
-        self._out = bytearray()
-        self._booted = False
         self._collided = False
+        self._reply(READY_LINE)        # at reset
 
     def _write(self, address: int, data: bytes) -> bool:
-        self.i2c.append((self.t_ns, address, bytes(data)))
+        self.i2c.append((self.clock.now, address, bytes(data)))
         if address != self.drive.address or not data:
             return False
+        self._replay(self.clock.now)
         self.drive.write(data[0], data[1:])
+        if not self._drive_live:           # its ticks run as events again
+            self._drive_live = True
+            if self._next_drive < self._timer_at:
+                self._schedule_timers()
         return True
 
     # -- the link ------------------------------------------------------------------------
-    def send(self, line: str | bytes) -> bytes:
-        """A command line (terminator added): the reply bytes."""
-        raw = line.encode() if isinstance(line, str) else bytes(line)
-        return self.core.feed(raw + b"\r\n")
+    def send(self, line: str | bytes, timeout_s: float = 2.0) -> bytes:
+        """A command line (terminator added) over the line: the reply's bytes once they
+        have reached the host (b"" when none came within ``timeout_s``)."""
+        got = self.exchange(line, timeout_s)
+        return got[-1].encode("latin-1") + b"\r\n" if got and got[-1][:1] != "!" else b""
 
-    def command(self, line: str | bytes) -> str:
-        return self.send(line).decode().strip()
+    def command(self, line: str | bytes, timeout_s: float = 2.0) -> str:
+        """A command line over the line: its reply's text (notices skipped)."""
+        return self.send(line, timeout_s).decode("latin-1").strip()
+
+    @property
+    def idle(self) -> bool:
+        """No byte on the line either way, none waiting in the ring, not waiting for
+        transmit room."""
+        return self.uart.rx_idle and self.uart.tx_idle and self._busy_until <= self.clock.now
+
+    # -- the central board's superloop ----------------------------------------------------
+    def _reply(self, data: bytes) -> None:
+        """The board sends ``data``: into the transmit ring, waiting for room."""
+        if data:
+            now = self.clock.now
+            at = self._busy_until if self._busy_until > now else now
+            self._busy_until = self.uart.board_send(data, at)
+
+    def _rx_mode(self) -> int:
+        """What the superloop would do with a byte arriving now (see :mod:`.uart`)."""
+        if self._busy_until > self.clock.now:
+            return RX_HOLD if self._feed_pending else RX_BYTE
+        return RX_TAKE
+
+    def _rx_run(self, data: bytes) -> None:
+        """A run of bytes straight to the decoder (the UART's fast path)."""
+        self._reply(self.core.feed(data))
+
+    def _feed_event(self) -> None:
+        self._feed_pending = False
+        self._feed()
+
+    def _feed(self) -> None:
+        """The superloop: feed the decoder from the ring while it is not waiting."""
+        ring, clock, core = self.uart.ring, self.clock, self.core
+        while ring:
+            if self._busy_until > clock.now:
+                if not self._feed_pending:
+                    self._feed_pending = True
+                    clock.schedule(self._busy_until, self._feed_event)
+                return
+            b = ring.popleft()
+            if b & GAP:                     # bytes were lost right before this one
+                core.lines.note_overrun()
+            self._reply(core.feed(bytes((b & 0xFF,))))
 
     # -- time ----------------------------------------------------------------------------
     def _advance(self, dt_s: float) -> None:
@@ -102,88 +168,102 @@ class StarfishSim:
         move (the drive board's ticks fall between the central board's; one world step
         per central tick, with each wheel's mean rim speed since the last)."""
         self._acc_dt += dt_s
-        for k, v in enumerate(self.drive.rim_speeds()):
-            self._acc_travel[k] += v * dt_s
+        rims = self.drive.rims
+        if any(rims):                      # (standing wheels add nothing)
+            travel = self._acc_travel
+            for k, v in enumerate(rims):
+                travel[k] += v * dt_s
 
     def _move(self) -> None:
         dt_s = self._acc_dt
         if dt_s <= 0:
             return
-        speeds = [t / dt_s for t in self._acc_travel]
+        travel = self._acc_travel
         self._acc_dt = 0.0
-        self._acc_travel = [0.0] * len(speeds)
-        vx, vy, w = body_velocity(self.core.wheels, speeds, self._inv)
-        step = self.world.step(dt_s, vx, vy, w)
-        self._collided = self._collided or step.collided
-        if step.vx == 0.0 and step.vy == 0.0 and step.omega == 0.0:
+        self._acc_travel = [0.0] * len(travel)
+        (a, b, c), (d, e, f), (g, h, i) = self._inv     # body_velocity, inlined
+        s0, s1, s2 = travel[0] / dt_s, travel[1] / dt_s, travel[2] / dt_s
+        step = self.world.step(dt_s, a * s0 + b * s1 + c * s2, d * s0 + e * s1 + f * s2,
+                               g * s0 + h * s1 + i * s2)
+        if step.collided:
+            self._collided = True
+        svx, svy, omega = step.vx, step.vy, step.omega
+        if svx == 0.0 and svy == 0.0 and omega == 0.0:
             return
         for sensor, (px, py, c, s) in zip(self.sensors, self._frames, strict=True):
-            ux = (step.vx - step.omega * py) * dt_s
-            uy = (step.vy + step.omega * px) * dt_s
+            ux = (svx - omega * py) * dt_s
+            uy = (svy + omega * px) * dt_s
             sensor.move(c * ux + s * uy, -s * ux + c * uy, dt_s)
 
+    def _replay(self, t_ns: int) -> None:
+        """The drive board's ticks due by ``t_ns`` while it is settled: not run as events
+        (a settled board's tick changes nothing), but each still ends a stretch of the
+        wheels' travel where it would have (the same sums as running each)."""
+        if self._drive_live:
+            return
+        nd = self._next_drive
+        while nd <= t_ns:
+            if nd > self._acc_t:
+                self._advance((nd - self._acc_t) / 1e9)
+                self._acc_t = nd
+            nd += self._drive_ns
+        self._next_drive = nd
+
+    def _account(self, t_ns: int) -> None:
+        self._replay(t_ns)
+        if t_ns > self._acc_t:
+            self._advance((t_ns - self._acc_t) / 1e9)
+            self._acc_t = t_ns
+
+    def _schedule_timers(self) -> None:
+        nc, nd = self._next_central, self._next_drive
+        self._timer_at = nd if self._drive_live and nd < nc else nc
+        self.clock.schedule(self._timer_at, self._timers)
+
+    def _timers(self) -> None:
+        """The boards' ticks due now (the drive board's first when both are)."""
+        now = self.clock.now
+        if now != self._timer_at:
+            return                               # superseded: the drive board woke up
+        self._account(now)
+        if self._drive_live and now == self._next_drive:
+            self.drive.tick()
+            self._next_drive += self._drive_ns
+            self._drive_live = not self.drive.settled
+        if now == self._next_central:
+            self._move()                         # the floor has moved under the sensors
+            notice = self.core.tick()
+            if notice:
+                self.notices += notice
+                self._reply(notice)
+            self._next_central += self.core.tick_ns
+            if self.keep_trace:
+                p = self.world.pose
+                self.trace.append(TraceRow(now / 1e9, p.x, p.y, p.theta, self.drive.rims,
+                                           self._collided))
+            self._collided = False               # a row says: a wall stopped it since the last
+        self._schedule_timers()
+
     def run_until(self, t_ns: int) -> None:
-        self._collided = False
-        while True:
-            nxt = min(self._next_central, self._next_drive)
-            if nxt > t_ns:
-                break
-            if nxt > self.t_ns:
-                self._advance((nxt - self.t_ns) / 1e9)
-                self.t_ns = nxt
-            if nxt == self._next_drive:
-                self.drive.tick()
-                self._next_drive += self._drive_ns
-            if nxt == self._next_central:
-                self._move()                     # the floor has moved under the sensors
-                self.notices += self.core.tick()
-                self._next_central += self.core.tick_ns
-                if self.keep_trace:
-                    p = self.world.pose
-                    self.trace.append(TraceRow(self.t_ns / 1e9, p.x, p.y, p.theta,
-                                               tuple(self.drive.rim_speeds()), self._collided))
-        if t_ns > self.t_ns:
-            self._advance((t_ns - self.t_ns) / 1e9)
-            self.t_ns = t_ns
+        """Run to ``t_ns``; the world then stands where the robot is at that time."""
+        self.clock.run_until(t_ns)
+        self._account(t_ns)
         self._move()
 
     def run_for(self, seconds: float) -> None:
-        self.run_until(self.t_ns + round(seconds * 1e9))
+        self.run_until(self.clock.now + round(seconds * 1e9))
+
+    @property
+    def t_ns(self) -> int:
+        return self.clock.now
 
     @property
     def now_s(self) -> float:
-        return self.t_ns / 1e9
-
-    # -- the serial side, as esair_min.emulator.ptyserver and Pacer drive an emulator ----
-    @property
-    def clock(self) -> StarfishSim:
-        return self                       # ``clock.now``: the virtual time in ns
+        return self.clock.now / 1e9
 
     @property
     def now(self) -> int:
-        return self.t_ns
-
-    def next_event_ns(self) -> int | None:
-        return min(self._next_central, self._next_drive)
-
-    def settle(self, max_s: float = 1.0) -> None:
-        """Boot: the central board says it is ready (once)."""
-        if not self._booted:
-            self._booted = True
-            self._out += READY_LINE
-
-    def write(self, data: bytes) -> None:
-        """Bytes from the host, decoded at the current virtual time."""
-        self._out += self.core.feed(bytes(data))
-
-    def read(self) -> bytes:
-        """What the robot sent since the last read: replies and notices."""
-        if self.notices:
-            self._out += self.notices
-            self.notices.clear()
-        out = bytes(self._out)
-        self._out.clear()
-        return out
+        return self.clock.now
 
     def close(self) -> None:
         return None
@@ -222,22 +302,24 @@ def drive_square(sim: StarfishSim, side_mm: float, speed_mm_s: int = 250,
 
     def poll() -> None:
         nonlocal worst, polls, est
+        now = sim.world.pose            # when the host asks (the reply takes ~10 ms)
         _, sensors = parse_odometry(sim.command("O"))
         est = odo.update([(dx, dy) for dx, dy, _ in sensors])
         polls += 1
-        now = sim.world.pose
         worst = max(worst, math.hypot(est[0] - now.x, est[1] - now.y))
 
     poll()
+    t, step = sim.clock.now, round(period_s * 1e9)   # periods kept whatever the line takes
     for _ in range(laps):
         for vx, vy in legs:
             for _ in range(round(side_mm / speed_mm_s / period_s)):
                 if sim.command(velocity_line(vx, vy, 0)) != "OK":
                     refused += 1
-                sim.run_for(period_s)
+                t += step
+                sim.run_until(t)
                 poll()
     sim.command("x")
-    sim.run_for(0.3)
+    sim.run_until(t + 300_000_000)
     poll()
     end = sim.world.pose
     return SquareRun((end.x, end.y, end.theta), est, worst, polls, refused)

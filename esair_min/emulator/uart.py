@@ -76,6 +76,8 @@ class Uart:
         self._tx_free = 0
         self._host_buf = bytearray()                       # delivered, not read yet
         self.tx_bytes = 0
+        #: Told when the first line end (LF) of each output reaches the host.
+        self.on_line_out: Callable[[int], None] | None = None
 
     # --- host -> board -------------------------------------------------------------
     def host_write(self, data: bytes) -> None:
@@ -214,6 +216,10 @@ class Uart:
         if not data:
             return at_ns
         self._tx_wire.append((t, bytes(data)))
+        if self.on_line_out is not None:
+            k = data.find(10)
+            if k >= 0:
+                self.on_line_out(t + (k + 1) * self.byte_ns)
         last_start = t + (len(data) - 1) * self.byte_ns
         self._tx_free = t + len(data) * self.byte_ns
         self.tx_bytes += len(data)
@@ -255,6 +261,20 @@ class Uart:
         if not self._tx_wire:
             return None
         return self._tx_wire[0][0] + (self._tx_pos + 1) * self.byte_ns
+
+    def tx_line_end(self) -> int | None:
+        """When the first line end (LF) still on its way reaches the host, or None when
+        none is being sent; now when one has reached it and was not read yet."""
+        self._deliver()
+        if 10 in self._host_buf:
+            return self.clock.now
+        pos, step = self._tx_pos, self.byte_ns
+        for t0, data in self._tx_wire:
+            k = data.find(10, pos)
+            if k >= 0:
+                return t0 + (k + 1) * step
+            pos = 0
+        return None
 
     @property
     def tx_backlog(self) -> int:

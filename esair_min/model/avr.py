@@ -167,3 +167,34 @@ def servo_timer(clock_hz: int, frame_us: int = 20_000) -> ServoTimer | None:
         if frame <= 0xFFFF and frame.denominator == 1:
             return ServoTimer(pre, int(frame), per_us.numerator, per_us.denominator)
     return None
+
+
+#: Timer/Counter2 clock select (CS22:0) per prescale (its own set: datasheet section 18.11).
+TIMER2_CS = {1: 0b001, 8: 0b010, 32: 0b011, 64: 0b100, 128: 0b101, 256: 0b110, 1024: 0b111}
+
+
+@dataclass(frozen=True)
+class Timer2Ctc:
+    """Timer2 in CTC mode (WGM21): an interrupt every prescale * (OCR2A + 1) cycles."""
+
+    prescale: int
+    ocr2a: int
+
+    @property
+    def cycles(self) -> int:
+        return self.prescale * (self.ocr2a + 1)
+
+    @property
+    def tccr2b(self) -> int:
+        return TIMER2_CS[self.prescale]
+
+
+def timer2_ctc(clock_hz: int, rate_hz: int) -> Timer2Ctc | None:
+    """The smallest prescale giving exactly ``rate_hz`` interrupts in 8 bits; None if none."""
+    if clock_hz % rate_hz:
+        return None
+    cycles = clock_hz // rate_hz
+    for pre in TIMER2_CS:
+        if cycles % pre == 0 and cycles // pre <= 256:
+            return Timer2Ctc(pre, cycles // pre - 1)
+    return None

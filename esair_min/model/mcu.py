@@ -62,6 +62,10 @@ class McuSpec:
     #: package -> the analog channels it has no pin for
     package_lacks: dict[str, tuple[int, ...]] = field(default_factory=dict)
     package: str = ""              # the package this spec describes ("" = any)
+    #: the hardware PWM outputs the drive board's port drives a motor with: unit -> pin
+    drive_pwm: dict[str, str] = field(default_factory=dict)
+    #: hardware PWM outputs the drive board's port takes for something else: unit -> (pin, why)
+    drive_pwm_taken: dict[str, tuple[str, str]] = field(default_factory=dict)
 
     @property
     def adc_channels(self) -> tuple[int, ...]:
@@ -95,7 +99,8 @@ PIC18F452 = McuSpec(
     uart_pins=hardware.UART_PINS, i2c_pins=hardware.I2C_PINS, adc_pins=hardware.ADC_PINS,
     sync_input="RB0", tick_timer="Timer2",
     bus_overhead=BusOverhead(52.1, 206.9, 32.8, 41.5),
-    packages={"dip": "40-pin PDIP", "plcc": "44-pin PLCC", "tqfp": "44-pin TQFP"})
+    packages={"dip": "40-pin PDIP", "plcc": "44-pin PLCC", "tqfp": "44-pin TQFP"},
+    drive_pwm={"ccp1": "RC2", "ccp2": "RC1"})
 
 #: ADC6/ADC7 are analog-only pins of the 32-pin TQFP and 32-pad QFN/MLF packages
 #: (Arduino Nano, Pro Mini); the 28-pin PDIP (Arduino Uno) has no pin for them
@@ -116,7 +121,11 @@ ATMEGA328P = McuSpec(
     bus_overhead=BusOverhead(-100.7, -11.7, 38.1, 25.3),
     packages={"dip": "28-pin PDIP (Arduino Uno)", "tqfp": "32-pin TQFP (Arduino Nano, Pro Mini)",
               "qfn": "32-pad QFN/MLF"},
-    package_lacks={"dip": (6, 7)})
+    package_lacks={"dip": (6, 7)},
+    # The drive port: Timer0 and Timer1 in 8-bit phase-correct PWM (31.4 kHz at 16 MHz),
+    # Timer2 its 10 kHz interrupt (software PWM, control tick): datasheet sections 15-18.
+    drive_pwm={"oc0a": "PD6", "oc0b": "PD5", "oc1a": "PB1", "oc1b": "PB2"},
+    drive_pwm_taken={"oc2a": ("PB3", "Timer2"), "oc2b": ("PD3", "Timer2")})
 
 MCUS: dict[str, McuSpec] = {m.part: m for m in (PIC18F452, ATMEGA328P)}
 

@@ -10,20 +10,19 @@ A board with ``mcu.part: atmega328p`` is built by :mod:`esair_min.avr.build` ins
 from __future__ import annotations
 
 import re
-import subprocess
 from dataclasses import dataclass, replace
 from pathlib import Path
 
 from esair_min.avr.build import AvrBuildError, AvrUsage
 from esair_min.avr.build import build_board as build_avr_board
 from esair_min.errors import EsairError
+from esair_min.make import make_board
 from esair_min.model import mcu
 from esair_min.model.robot import Robot
 from esair_min.pic.toolchain import MapUsage, Toolchain, ToolchainError, find_toolchain, parse_map
 
 FLASH_BYTES = 32768      # PIC18F452 program memory
 RAM_BYTES = 1536         # PIC18F452 data memory (general purpose)
-_WARNING_RE = re.compile(r"warning", re.I)
 # sdcc's stack bounds, also when `#pragma stack` puts it in a section not named "stack"
 _STACK_RE = re.compile(r"^\s*_stack(_end)?\s+0x([0-9a-fA-F]+)\s+data\b", re.M)
 
@@ -73,21 +72,8 @@ def build_board(folder: Path, tc: Toolchain, timeout: float = 300.0,
     ``make_vars``: extra ``NAME=value`` arguments of make.
 
     Raises BuildError when make fails or any tool prints a warning (the lines shown)."""
-    cmd = ["make", "-B", "--no-print-directory", "-C", str(folder), "pic18f452",
-           f"PREFIX={tc.prefix}", *make_vars]
-    try:
-        proc = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
-    except subprocess.TimeoutExpired:
-        raise BuildError(f"{folder}: make pic18f452 took more than {timeout:g} s") from None
-    except OSError as exc:
-        raise BuildError(f"cannot run make: {exc.strerror}") from None
-    out = proc.stdout + proc.stderr
-    if proc.returncode != 0:
-        raise BuildError(f"{folder}: make pic18f452 failed:\n{_tail(out)}")
-    warnings = [line for line in out.splitlines() if _WARNING_RE.search(line)]
-    if warnings:
-        raise BuildError(f"{folder}: the PIC build printed {len(warnings)} warning(s):\n"
-                         + "\n".join(warnings[:20]))
+    make_board(folder, "pic18f452", "PIC", BuildError, (f"PREFIX={tc.prefix}", *make_vars),
+               timeout)
     map_path = folder / "firmware.map"
     if not map_path.exists():
         raise BuildError(f"{folder}: make pic18f452 wrote no firmware.map")
@@ -99,10 +85,6 @@ def build_board(folder: Path, tc: Toolchain, timeout: float = 300.0,
     if usage.stack_bytes == 0 and "" in bounds and "_end" in bounds:
         usage = replace(usage, stack_bytes=bounds["_end"] - bounds[""] + 1)
     return usage
-
-
-def _tail(text: str, lines: int = 30) -> str:
-    return "\n".join(text.rstrip().splitlines()[-lines:])
 
 
 def build_robot(robot: Robot, out_dir: Path, tc: Toolchain | None = None) -> list[BoardBuild]:

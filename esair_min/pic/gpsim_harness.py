@@ -37,13 +37,14 @@ from typing import Callable
 from esair_min.errors import ProtocolError
 from esair_min.pic.gpsim_wave import I2cTransfer, decode_i2c, read_edges, read_register_log
 from esair_min.core.devices import RegisterSlave
-from esair_min.core.harness import READING_MAX, TICKS_MAX
-from esair_min.core.script import (BLANK, decimal, hexadecimal, line_text, script_lines,
-                                   unescape, words)
+from esair_min.core.harness import READING_MAX
+from esair_min.core.script import decimal, hexadecimal
 from esair_min.core.image import build_image, write_hex
 from esair_min.model.avr import Timer1Tick
 from esair_min.model.robot import Robot
 from esair_min.pic.toolchain import Toolchain, ToolchainError, run_gpsim
+from esair_min.simscript import (SimScript, boot, boot_wait_end, dispatch, feed, split_replies,
+                                 tick, trace_lines)
 
 BOOT_LEAD = 0.125          # of a tick: where the boot wait (and so every tick N) ends
 HOLD_PULLUPS = {"bus": "PSCL", "sda": "PSDA"}   # `fault bus|sda on`: this pull-up at 0 V
@@ -160,50 +161,29 @@ class GpsimRun:
         return out
 
     def __post_init__(self) -> None:
-        line = bytearray()
-        for cycle, b in self.tx:
-            line.append(b)
-            if b == 0x0A:
-                self.replies.append((cycle, bytes(line)))
-                line.clear()
+        self.replies.extend(split_replies(self.tx))
 
     def trace(self) -> list[str]:
         """The run as docs/trace-format.md lines (``T`` = rising sync edges counted
         from reset, ``@`` marks in microseconds), ordered by cycle."""
-        events: list[tuple[int, int, str]] = []
-        ticks = [c for c, v in self.sync_edges if v == 1 and c > 0]
-        for n, c in enumerate(ticks, start=1):
-            events.append((c, 0, f"T {n}"))
-        for c, line in self.replies:
-            events.append((c, 1, f"TX {line.hex().upper()}"))
-        for t in self.transfers:
-            if t.segments:                   # a cut transfer may lack an address byte
-                events.append((t.start, 2, t.trace_line()))
-        events.sort()
-        return ["# esair-trace 1"] + [text for _, _, text in events]
+        return trace_lines(self.sync_edges, self.replies, self.transfers)
 
 
-class _Script:
+class _Script(SimScript):
     """Builds the gpsim command file while keeping the simulated time."""
 
+    SECOND_BOOT = "a second boot is not supported in gpsim"
+    TIPPING = ("the readings set before boot tip a balance reaction: gpsim's firmware polls "
+               "during the boot wait (its ticks run from reset), the Python core does not; "
+               "set them after boot")
+
     def __init__(self, setup: GpsimSetup, boot_end: int | None = None):
-        self.setup = setup
-        self.lines: list[str] = []
-        self.now = 0                 # cycle the simulation stops at after the last run
-        self.booted = False
-        self.boot_end = setup.boot_cycles if boot_end is None else boot_end
-        self.readings = [0] * (setup.sensor_registers // 2)
+        super().__init__(setup, boot_end)
         self.held: dict[str, int] = {}          # line -> cycle its hold began
         self.holds: list[tuple[int, int]] = []  # (first, last) cycle of each hold
 
     def set_readings(self, values: list[int]) -> None:
         self.readings[:len(values)] = values
-
-    def tipping(self) -> bool:
-        """Whether the readings set now tip a balance reaction."""
-        r = self.readings
-        return any(abs(sum(r[i] for i in a) - sum(r[i] for i in b)) > t
-                   for a, b, t in self.setup.balances)
 
     def hold(self, line: str, on: bool) -> None:
         """Hold SCL (``bus``) or SDA (``sda``) low from now on, or release it."""
@@ -214,9 +194,11 @@ class _Script:
             self.holds.append((self.held.pop(line), self.now + 1))
         self.lines.append(f"{HOLD_PULLUPS[line]}.voltage = {0.0 if on else 5.0}")
 
-    def run_to(self, cycle: int) -> None:
-        self.now = max(self.now, cycle)
-        self.lines += [f"break c {self.now}", "run"]
+    def run_lines(self, cycle: int) -> list[str]:
+        return [f"break c {cycle}", "run"]
+
+    def send(self, data: bytes) -> None:
+        self.lines += [f"U1.tx = {b:#04x}" for b in data]
 
 
 def _pin_levels(value: int) -> list[int]:
@@ -249,17 +231,7 @@ def _build(robot: Robot, stimulus: str, cod_name: str, image_name: str,
     s = GpsimSetup.from_robot(robot)
     sc = _Script(s, boot_end)
     sc.lines += setup_lines(s, cod_name, image_name)
-    for number, raw in script_lines(stimulus.encode("utf-8")):
-        try:        # read as the Python harness and the host C port read it
-            text = line_text(raw)
-            stripped = text.strip(BLANK)
-            if not stripped or stripped.startswith("#"):
-                continue
-            _stimulus_line(sc, stripped if not stripped.startswith("rx") else text.lstrip(BLANK))
-        except ProtocolError as exc:
-            raise ProtocolError(f"stimulus line {number}: {exc.message}") from None
-        if stripped == "boot":
-            sc.lines += after_boot
+    feed(sc, stimulus, _stimulus_line, after_boot)
     sc.lines += epilogue
     sc.lines += ["log off", 'FSCL.file = "/dev/null"', 'FSDA.file = "/dev/null"',
                  'FSYNC.file = "/dev/null"', "cycles", "quit"]
@@ -333,53 +305,15 @@ def _sensor_levels(levels: list[int]) -> list[str]:
 
 
 def _stimulus_line(sc: _Script, line: str) -> None:
-    """One stimulus line (docs/trace-format.md) as gpsim commands: ``rx`` keeps its
-    spaces; every other line is a verb and its words, each verb handled by its own
-    function in :data:`_VERBS` (which returns False when the words do not fit it)."""
-    if line == "rx" or line.startswith("rx "):
-        _rx(sc, line[3:])
-        return
-    cmd, *args = words(line.split("#", 1)[0])
-    verb = _VERBS.get(cmd)
-    if verb is not None and verb(sc, args):
+    """One stimulus line as gpsim commands (esair_min.simscript.dispatch, :data:`_VERBS`)."""
+    cmd = dispatch(sc, line, _VERBS)
+    if cmd is None:
         return
     if cmd == "fault":
         raise ProtocolError(f"{line!r}: only 'fault sensor', 'fault bus' and 'fault sda' "
                             "work in gpsim; " + NO_WRITE_NACK)
     raise ProtocolError(f"{line!r} is not supported by the gpsim harness (boot, rx, "
                         "tick, sensor, fault sensor|bus|sda, poke)")
-
-
-def _rx(sc: _Script, text: str) -> None:
-    """``rx TEXT``: the PC end of the serial link sends the bytes."""
-    if not sc.booted:
-        raise ProtocolError("rx before boot")
-    sc.lines += [f"U1.tx = {b:#04x}" for b in unescape(text)]
-
-
-def _boot(sc: _Script, args: list[str]) -> bool:
-    """``boot``: run to the end of the boot wait (once)."""
-    if args:
-        return False
-    if sc.booted:
-        raise ProtocolError("a second boot is not supported in gpsim")
-    if sc.tipping():
-        raise ProtocolError("the readings set before boot tip a balance reaction: "
-                            "gpsim's firmware polls during the boot wait (its ticks "
-                            "run from reset), the Python core does not; set them "
-                            "after boot")
-    sc.booted = True
-    sc.run_to(sc.boot_end)
-    return True
-
-
-def _tick(sc: _Script, args: list[str]) -> bool:
-    """``tick [N]``: run N tick periods."""
-    if len(args) > 1:
-        return False
-    n = decimal(args[0], "tick count", TICKS_MAX) if args else 1
-    sc.run_to(sc.now + n * sc.setup.tick_cycles)
-    return True
 
 
 def _sensor(sc: _Script, args: list[str]) -> bool:
@@ -434,7 +368,7 @@ def _poke(sc: _Script, args: list[str]) -> bool:
 
 #: The stimulus verbs gpsim runs (``rx`` apart: its text keeps its spaces).
 _VERBS: dict[str, Callable[[_Script, list[str]], bool]] = {
-    "boot": _boot, "tick": _tick, "sensor": _sensor, "fault": _fault, "poke": _poke}
+    "boot": boot, "tick": tick, "sensor": _sensor, "fault": _fault, "poke": _poke}
 
 
 def boot_end(robot: Robot, cod: Path, workdir: Path, tc: Toolchain | None = None,
@@ -462,9 +396,7 @@ def boot_end(robot: Robot, cod: Path, workdir: Path, tc: Toolchain | None = None
     rises = [c for c, v in read_edges(workdir / "sync.txt") if v == 1 and c > 0]
     if not rises or rises[0] > s.boot_cycles:
         raise ToolchainError("no tick (sync rising edge) during the boot wait")
-    done = (s.boot_cycles - rises[0]) // s.tick_cycles + 1      # ticks by boot_cycles
-    n = done + -done % s.poll_period
-    return rises[0] + (n - 1) * s.tick_cycles + int(lead * s.tick_cycles)
+    return boot_wait_end(rises, s.boot_cycles, s.tick_cycles, s.poll_period, lead)
 
 
 def run_stimulus(robot: Robot, stimulus: str, cod: Path, workdir: Path,

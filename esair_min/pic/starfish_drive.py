@@ -26,7 +26,7 @@ from collections import Counter
 from dataclasses import dataclass
 from pathlib import Path
 
-from esair_min.components.dc_motor import pwm_unit
+from esair_min.components.dc_motor import motor_units
 from esair_min.components.dc_motor.core import CONTROL_TICK_MS, DriveCore, from_s16
 from esair_min.model.robot import Robot
 from esair_min.pic.build import build_board
@@ -81,15 +81,11 @@ def _probes(robot: Robot) -> list[tuple[str, list[int]]]:
     drive = robot.board("drive")
     assert drive is not None
     out = []
-    soft = 0
-    for m in sorted(drive.motors, key=lambda m: m.index):
-        unit = pwm_unit(m)
+    for m, unit, soft in motor_units(drive.motors, drive.spec):
         if unit == "software":
             duty = [SOFT_DUTY_AT + soft]
-            soft += 1
         else:
-            n = unit[3]
-            duty = [SFR[f"CCPR{n}L"], SFR[f"CCP{n}CON"]]
+            duty = [SFR[f"CCPR{unit[3]}L"], SFR[f"CCP{unit[3]}CON"]]
         out.append((unit, [*duty, LAT[m.dir_pin[1]]]))
     return out
 

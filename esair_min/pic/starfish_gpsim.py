@@ -25,10 +25,12 @@ waveforms like a logic analyser would) and every flow sensor's register reads
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from esair_min.components.omni_base.core import StarfishCore
+from esair_min.components.omni_base.replay import FlowChange, Run, replay, reply_lines
+from esair_min.components.omni_base.replay import compare as compare_runs
 from esair_min.core.script import unescape
 from esair_min.errors import ProtocolError
 from esair_min.model.hardware import Timer2Setting
@@ -65,41 +67,78 @@ class Setup:
 
 
 @dataclass
-class Run:
-    """What gpsim and the Python core did, as comparable lists."""
+class _Script:
+    """The gpsim command file being built from a stimulus, and where it stands."""
 
-    replies: list[str] = field(default_factory=list)       # "TX text"
-    writes: list[str] = field(default_factory=list)        # "W 30 00C800... ACK"
-    flow: list[list[str]] = field(default_factory=list)    # per sensor: "RR DD"
+    setup: Setup
+    lines: list[str]
+    now: int                                               # cycle of the last break
+    floors: list[tuple[int, int, int]] = field(default_factory=list)   # (cycle, sensor, level)
 
 
-def _lines(stimulus: str) -> list[tuple[str, list[str], bytes]]:
-    out: list[tuple[str, list[str], bytes]] = []
-    for number, text in enumerate(stimulus.splitlines(), start=1):
-        if text.startswith("rx ") or text == "rx":
-            out.append(("rx", [], unescape(text[3:]) + b"\r\n"))
-            continue
-        words = text.split("#", 1)[0].split()
-        if not words:
-            continue
-        cmd, args = words[0], words[1:]
-        try:
-            if cmd == "raw" and args:
-                out.append(("rx", [], bytes(int(a, 16) for a in args)))
-            elif cmd == "tick" and len(args) == 1 and int(args[0]) > 0:
-                out.append(("tick", args, b""))
-            elif cmd == "floor" and len(args) == 2 and args[1] in ("0", "1"):
-                out.append(("floor", args, b""))
-            else:
-                raise ValueError
-        except ValueError:
-            raise ProtocolError(f"stimulus line {number}: {text!r} is not rx TEXT, raw HH ..., "
-                                "tick N or floor S 0|1") from None
-    return out
+def _rx(sc: _Script, data: bytes) -> None:
+    """``rx TEXT`` (CR LF added) and ``raw HH ...``: the bytes go out on the line."""
+    sc.lines += [f"U1.tx = {b:#04x}" for b in data]
+
+
+def _raw(sc: _Script, args: list[str]) -> bool:
+    if not args:
+        return False
+    _rx(sc, bytes(int(a, 16) for a in args))
+    return True
+
+
+def _tick(sc: _Script, args: list[str]) -> bool:
+    if len(args) != 1 or int(args[0]) <= 0:
+        return False
+    sc.now += int(args[0]) * sc.setup.tick_cycles
+    sc.lines += [f"break c {sc.now}", "run"]
+    return True
+
+
+def _floor(sc: _Script, args: list[str]) -> bool:
+    if len(args) != 2 or args[1] not in ("0", "1"):
+        return False
+    sensor, pins = int(args[0]), sc.setup.flow_pins
+    if sensor >= len(pins):
+        raise ProtocolError(f"floor {sensor}: there are {len(pins)} flow sensors")
+    sc.floors.append((sc.now, sensor, int(args[1])))
+    sc.lines.append(f"PF{sensor}.voltage = {5.0 if args[1] == '1' else 0.0}")
+    return True
+
+
+#: The stimulus verbs (``rx`` apart: its text keeps its spaces); each returns False when
+#: the words do not fit it (a number that is not one raises ValueError: the same).
+_VERBS: dict[str, Callable[[_Script, list[str]], bool]] = {
+    "raw": _raw, "tick": _tick, "floor": _floor}
+
+
+def _stimulus_line(sc: _Script, number: int, text: str) -> None:
+    """One stimulus line as gpsim commands, by the function of its verb."""
+    if text.startswith("rx ") or text == "rx":
+        _rx(sc, unescape(text[3:]) + b"\r\n")
+        return
+    words = text.split("#", 1)[0].split()
+    if not words:
+        return
+    verb = _VERBS.get(words[0])
+    try:
+        if verb is not None and verb(sc, words[1:]):
+            return
+    except ValueError:
+        pass
+    raise ProtocolError(f"stimulus line {number}: {text!r} is not rx TEXT, raw HH ..., "
+                        "tick N or floor S 0|1")
 
 
 def gpsim_script(s: Setup, stimulus: str, cod: str) -> tuple[str, list[tuple[int, int, int]]]:
     """The command file, and the floor changes ``(cycle, sensor, level)``."""
+    sc = _script(s, stimulus, cod)
+    return "\n".join(sc.lines) + "\n", sc.floors
+
+
+def _script(s: Setup, stimulus: str, cod: str) -> _Script:
+    """The command file's lines built from ``stimulus``; ``now`` is its end cycle."""
     L = [f"load {cod}", "p18f452.BreakOnInvalidRegisterWrite = false",
          f"frequency {s.clock_hz}", "module library libgpsim_modules.so.0",
          "module load usart U1", f"U1.txbaud = {s.baud}", f"U1.rxbaud = {s.baud}",
@@ -119,27 +158,16 @@ def gpsim_script(s: Setup, stimulus: str, cod: str) -> tuple[str, list[tuple[int
               f"node nfc{i}", f"node nfd{i}", f"attach nfc{i} {sclk} FC{i}.pin",
               f"attach nfd{i} {sdio} PF{i}.pin FD{i}.pin"]
     L += ["log on regs.log", "log w _TXREG", "log r _RCREG", "log w _T2CON"]
-    now = BOOT_CYCLES
-    L += [f"break c {now}", "run"]
-    floors: list[tuple[int, int, int]] = []
-    for cmd, args, data in _lines(stimulus):
-        if cmd == "rx":
-            L += [f"U1.tx = {b:#04x}" for b in data]
-        elif cmd == "tick":
-            now += int(args[0]) * s.tick_cycles
-            L += [f"break c {now}", "run"]
-        else:
-            sensor = int(args[0])
-            if sensor >= len(s.flow_pins):
-                raise ProtocolError(f"floor {sensor}: there are {len(s.flow_pins)} flow sensors")
-            floors.append((now, sensor, int(args[1])))
-            L.append(f"PF{sensor}.voltage = {5.0 if args[1] == '1' else 0.0}")
-    now += DRAIN_TICKS * s.tick_cycles
-    L += [f"break c {now}", "run", "log off", 'FSCL.file = "/dev/null"',
+    L += [f"break c {BOOT_CYCLES}", "run"]
+    sc = _Script(s, L, BOOT_CYCLES)
+    for number, text in enumerate(stimulus.splitlines(), start=1):
+        _stimulus_line(sc, number, text)
+    sc.now += DRAIN_TICKS * s.tick_cycles
+    L += [f"break c {sc.now}", "run", "log off", 'FSCL.file = "/dev/null"',
           'FSDA.file = "/dev/null"']
     L += [f'FC{i}.file = "/dev/null"\nFD{i}.file = "/dev/null"' for i in range(len(s.flow_pins))]
     L += ["cycles", "quit"]
-    return "\n".join(L) + "\n", floors
+    return sc
 
 
 def decode_flow(sclk: list[tuple[int, int]], sdio: list[tuple[int, int]]) -> list[str]:
@@ -169,8 +197,8 @@ def run_gpsim_side(robot: Robot, stimulus: str, cod: Path, workdir: Path,
     """gpsim's Run, the bytes taken ``(cycle, byte)``, Timer2's start cycle, the end
     cycle and the floor changes."""
     s = Setup.from_robot(robot)
-    script, floors = gpsim_script(s, stimulus, str(Path(cod).resolve()))
-    out = run_gpsim(script, workdir, timeout=300, tc=tc, script_name="starfish.stc")
+    sc = _script(s, stimulus, str(Path(cod).resolve()))
+    out = run_gpsim("\n".join(sc.lines) + "\n", workdir, timeout=300, tc=tc, script_name="starfish.stc")
     if "***ERROR" in out:
         raise ToolchainError("gpsim rejected a command:\n" + out[-2000:])
     log = workdir / "regs.log"
@@ -180,94 +208,30 @@ def run_gpsim_side(robot: Robot, stimulus: str, cod: Path, workdir: Path,
     if not t2:
         raise ToolchainError("gpsim: the firmware never started Timer2")
     run = Run()
-    run.replies = _reply_lines(bytes(tx))
+    run.replies = reply_lines(bytes(tx))
     transfers = decode_i2c(read_edges(workdir / "scl.txt"), read_edges(workdir / "sda.txt"))
     run.writes = [t.trace_line() for t in transfers if t.segments and t.stop is not None]
     run.flow = [decode_flow(read_edges(workdir / f"sclk{i}.txt"),
                             read_edges(workdir / f"sdio{i}.txt"))
                 for i in range(len(s.flow_pins))]
-    ticks = sum(int(a[0]) for c, a, _ in _lines(stimulus) if c == "tick") + DRAIN_TICKS
-    end = BOOT_CYCLES + ticks * s.tick_cycles
-    return run, rx, t2[0], end, floors
-
-
-def _reply_lines(data: bytes) -> list[str]:
-    out = []
-    while b"\r\n" in data:
-        line, _, data = data.partition(b"\r\n")
-        out.append("TX " + line.decode("latin-1"))
-    return out
-
-
-class _Floor:
-    """A flow sensor whose SDIO is pulled to a level: every read gives 0x00 or 0xFF."""
-
-    def __init__(self, log: list[str]):
-        self.level = 0
-        self.log = log
-        self._reg = 0
-
-    def address(self, reg: int, t_ns: int) -> None:
-        self._reg = reg
-
-    def data(self, t_ns: int) -> int:
-        v = 0xFF if self.level else 0x00
-        self.log.append(f"{self._reg:02X} {v:02X}")
-        return v
+    return run, rx, t2[0], sc.now, sc.floors
 
 
 def python_side(robot: Robot, rx: list[tuple[int, int]], t2_start: int, end: int,
                 floors: list[tuple[int, int, int]]) -> Run:
     """The Python core fed the gpsim run's events in their order (see the module doc)."""
     s = Setup.from_robot(robot)
-    run = Run(flow=[[] for _ in s.flow_pins])
-    sensors = [_Floor(log) for log in run.flow]
-
-    def write(addr: int, data: bytes) -> bool:
-        run.writes.append(f"W {addr:02X} {data.hex().upper()} ACK")
-        return addr == s.drive_address
-
-    core = StarfishCore(robot, write, sensors)
     # the last tick must have been served before the run ended
     ticks = [t2_start + k * s.tick_cycles
              for k in range(1, (end - t2_start) // s.tick_cycles + 1)
              if t2_start + k * s.tick_cycles <= end - SERVED]
-    events: list[tuple[int, int, int]] = [(c, 1, b) for c, b in rx]
-    events += [(c, 0, -1) for c in ticks]
-    events += [(c, 2, 10 * sensor + level) for c, sensor, level in floors]
-    events.sort()
-    before = -1
-    for c, kind, b in events:
-        ends = kind == 1 and (b == 0x0D or (b == 0x0A and before != 0x0D))
-        before = b if kind == 1 else before
-        if ends and any(abs(c - t) < MARGIN for t in ticks):
-            raise ProtocolError(f"a line ends at cycle {c}, within {MARGIN} cycles of a tick: "
-                                "which comes first is not the logic's (move the line)")
-    pending = bytearray()
-    for _, kind, b in events:
-        if kind == 0:
-            pending += core.tick()
-        elif kind == 1:
-            pending += core.feed(bytes([b]))
-        else:
-            sensors[b // 10].level = b % 10
-    run.replies = _reply_lines(bytes(pending))
-    return run
+    changes = [FlowChange(c, sensor, floor=level) for c, sensor, level in floors]
+    return replay(robot, rx, ticks, changes, MARGIN)
 
 
 def compare(python: Run, gpsim: Run) -> list[str]:
     """Differences, one message per part; [] when the runs agree."""
-    diffs = []
-    parts = [("replies", python.replies, gpsim.replies), ("I2C writes", python.writes, gpsim.writes)]
-    parts += [(f"flow sensor {i} reads", a, b)
-              for i, (a, b) in enumerate(zip(python.flow, gpsim.flow, strict=True))]
-    for name, a, b in parts:
-        if a != b:
-            first = next((i for i, (x, y) in enumerate(zip(a, b)) if x != y), min(len(a), len(b)))
-            diffs.append(f"{name}: {len(a)} in Python, {len(b)} in gpsim; first difference "
-                         f"at {first}: {a[first] if first < len(a) else '-'} / "
-                         f"{b[first] if first < len(b) else '-'}")
-    return diffs
+    return compare_runs(python, gpsim, "gpsim")
 
 
 def differential(robot: Robot, stimulus: str, cod: Path, workdir: Path,

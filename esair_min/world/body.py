@@ -108,17 +108,24 @@ class World:
         """Advance ``dt_s`` seconds with the commanded body velocity (robot frame)."""
         if not dt_s > 0:
             raise ValueError(f"a step needs a time above 0 s, not {dt_s}")
-        v = self._follow((vx, vy, omega), dt_s)
-        if v == (0.0, 0.0, 0.0) or v == (0, 0, 0):          # at rest: only time passes
+        opts = self.options
+        v = self._follow((vx, vy, omega), dt_s) if opts.lag_s > 0 else (vx, vy, omega)
+        if v[0] == 0 and v[1] == 0 and v[2] == 0:          # at rest: only time passes
             self._v = (0.0, 0.0, 0.0)
             self.t_s += dt_s
             return Step(0.0, 0.0, 0.0, dt_s, False)
-        opts = self.options
         if opts.slip or opts.slip_noise:
             keep = 1.0 - opts.slip - self._rng.gauss(0.0, opts.slip_noise)
             keep = max(0.0, min(1.0, keep))
             v = (v[0] * keep, v[1] * keep, v[2] * keep)
         new = self._moved(self.pose, v, dt_s)
+        cx, cy = self._checked
+        if math.hypot(new.x - cx, new.y - cy) < self._margin:     # _clear(new), at once
+            self._touching = False
+            self.pose = new
+            self._v = v
+            self.t_s += dt_s
+            return Step(v[0], v[1], v[2], dt_s, False)
         collided = False
         if not self._clear(new) and self._clear(self.pose):
             lo, hi = 0.0, 1.0

@@ -7,18 +7,16 @@ from typing import Any
 
 import click
 
+from ..endpoint import endpoint_fault
+
 
 def check_endpoint(ctx: Any, param: Any, value: str | None) -> str | None:
     """``-e``: the form a deployment's ``endpoint`` has (the same checks and words)."""
     if value is None:
         return None
-    from ..deploy.marks import dict_document
-    from ..deploy.raw import check_endpoint as check
-    from ..errors import DeployError
-    try:
-        check(value, dict_document({"endpoint": value}), ("endpoint",))
-    except DeployError as exc:
-        raise click.BadParameter(exc.message.removeprefix("'endpoint' ")) from None
+    fault = endpoint_fault(value)
+    if fault is not None:
+        raise click.BadParameter(fault.removeprefix("'endpoint' "))
     return value
 
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from esair_min.config.schema_errors import did_you_mean
+from esair_min.config.words import did_you_mean
 from esair_min.errors import path_mark
 
 from ..errors import DeployError

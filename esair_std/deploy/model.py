@@ -22,6 +22,7 @@ from pydantic.json_schema import SkipJsonSchema
 from pydantic_core import PydanticCustomError
 
 from ..classes import CLASS_PATTERN as CLASS_PATTERN  # ``module:Class``: the importer's own
+from ..endpoint import DEFAULT_ENDPOINT as DEFAULT_ENDPOINT, PROTOCOLS as PROTOCOLS
 from ..level import Level
 from .security import SecuritySpec
 
@@ -32,10 +33,8 @@ NAME_PATTERN = r"^[a-z][a-z0-9_]{0,31}$"
 REF_PATTERN = r"^[a-z0-9_.*?\[\]!-]{1,96}$"
 CHILD_PATTERN = r"^[a-z][a-z0-9_]{0,31}(\.[a-z][a-z0-9_]{0,31})*$"
 #: Endpoints the runtime can listen on (Zenoh locators).
-PROTOCOLS = ("tcp", "udp", "tls", "quic", "ws")
 ENDPOINT_PATTERN = (r"^((tcp|udp|tls|quic|ws)/(\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9_.-]+):[0-9]{1,5}"
                     r"|unixsock-stream/.+)$")
-DEFAULT_ENDPOINT = "tcp/127.0.0.1:7447"
 
 Name = Annotated[StrictStr, Field(pattern=NAME_PATTERN)]
 Ref = Annotated[StrictStr, Field(pattern=REF_PATTERN)]

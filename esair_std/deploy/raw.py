@@ -11,17 +11,17 @@ from: each entry's options gathered under ``options``.
 from __future__ import annotations
 
 import difflib
-import ipaddress
 import re
 from typing import Any
 
 from esair_min.errors import Mark
-from esair_min.config.schema_errors import did_you_mean, quote
+from esair_min.config.words import did_you_mean, quote, show
 from esair_min.config.yamlload import Document, kind_of
 
+from ..endpoint import endpoint_fault
 from ..errors import DeployError
 from .marks import PathMark
-from .model import (CHILD_PATTERN, CLASS_PATTERN, KIND, NAME_PATTERN, PROTOCOLS,
+from .model import (CHILD_PATTERN, CLASS_PATTERN, KIND, NAME_PATTERN,
                     REF_PATTERN, SECTIONS, BehaviorSpec, ReactionSpec, ResourceSpec,
                     top_keys)
 from .model import ComponentSpec
@@ -33,15 +33,6 @@ NAME_TEXT = "a lower-case name (a-z, 0-9, _; at most 32 characters, starting wit
 _BRACKETS = re.compile(r"^([^\[\]]|\[!?[^\[\]]+\])*$")
 #: An unknown key this close to a known one is taken for a typo, not an option.
 TYPO_CUTOFF = 0.8
-
-
-def show(value: Any) -> str:
-    """``text 'x'``, ``an integer 3``: a value as the YAML file has it."""
-    kind = kind_of(value)
-    if value is None:
-        return kind
-    text = repr(value) if isinstance(value, str) else str(value)
-    return f"{kind} {text if len(text) <= 40 else text[:37] + '...'}"
 
 
 def at(mark: Mark) -> str:
@@ -209,39 +200,8 @@ def _check_rate(doc: Document, value: Any, loc: tuple[Any, ...]) -> None:
                           f"second), not {show(value)}", doc.mark(loc))
 
 
-ENDPOINT_FORM = "PROTOCOL/HOST:PORT such as tcp/127.0.0.1:7447"
-_HOST = re.compile(r"^(?=.{1,253}$)[A-Za-z0-9_]([A-Za-z0-9_-]*[A-Za-z0-9_])?"
-                   r"(\.[A-Za-z0-9_]([A-Za-z0-9_-]*[A-Za-z0-9_])?)*$")
-
-
 def check_endpoint(text: str, doc: Document, loc: tuple[Any, ...] = ("endpoint",)) -> None:
     """A Zenoh locator the runtime can listen on; one precise message per fault."""
-    mark = doc.mark(loc)
-    key = quote(loc[-1])
-    proto, slash, rest = text.partition("/")
-    if not slash:
-        raise DeployError(f"{key} must be {ENDPOINT_FORM}, not {show(text)}", mark)
-    if proto == "unixsock-stream" and rest:
-        return
-    if proto not in PROTOCOLS:
-        hint = did_you_mean(proto, PROTOCOLS + ("unixsock-stream",))
-        raise DeployError(f"{key} protocol {quote(proto)} is not one of "
-                          f"{', '.join(PROTOCOLS)} or unixsock-stream{hint}", mark)
-    host, colon, port = rest.rpartition(":")
-    if not colon or not host:
-        raise DeployError(f"{key} needs a host and a port: {ENDPOINT_FORM}, not "
-                          f"{show(text)}", mark)
-    if not port.isdigit() or int(port) > 65535:
-        raise DeployError(f"{key} port must be a number from 0 to 65535, not "
-                          f"{quote(port)}", mark)
-    if host.startswith("[") and host.endswith("]"):
-        try:
-            ipaddress.IPv6Address(host[1:-1])
-            return
-        except ValueError:
-            pass
-    elif _HOST.match(host):
-        return
-    hint = " (write an IPv6 address in brackets: [::1])" if ":" in host else ""
-    raise DeployError(f"{key} host {quote(host)} is not an IP address or host name{hint}",
-                      mark)
+    fault = endpoint_fault(text, quote(loc[-1]))
+    if fault is not None:
+        raise DeployError(fault, doc.mark(loc))

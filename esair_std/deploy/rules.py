@@ -12,7 +12,7 @@ from __future__ import annotations
 import difflib
 
 from esair_min.errors import Mark
-from esair_min.config.schema_errors import quote
+from esair_min.config.words import quote
 from esair_min.config.yamlload import Document
 
 from ..errors import DeployError

@@ -110,7 +110,7 @@ class HmiServer:
         [...]}`` for more than one): at 50 Hz of samples and more, one loop wake-up and
         one WebSocket frame per batch, not per sample."""
         tap = self.tap
-        if tap is not None and msg.get("t") == "s":
+        if tap is not None:
             tap.put(msg)
         loop = self._loop
         if loop is None or loop.is_closed():
@@ -327,16 +327,19 @@ class HmiServer:
         if on and self.tap is None:
             name = time.strftime(f"esair-{self.bridge.robot if self.bridge else 'robot'}-%Y%m%d-%H%M%S.mcap")
             try:
-                self.tap = Tap(self.record_dir / name)
+                tap = Tap(self.record_dir / name)
             except StdError as exc:
                 self._reply(page, ident, False, str(exc))
                 return
+            assert self.bridge is not None and self.bridge.bus is not None
+            tap.listen(self.bridge.bus, self.bridge.robot)     # the commands too
+            self.tap = tap
         elif not on and self.tap is not None:
             tap, self.tap = self.tap, None
-            await asyncio.get_running_loop().run_in_executor(None, tap.stop)
+            c = await asyncio.get_running_loop().run_in_executor(None, tap.stop)
             self.emit({"t": "log", "level": "info", "ts": time.time(),
-                       "text": f"recorded {tap.path.name}: {tap.c['written']} samples, "
-                               f"{tap.c['dropped']} dropped"})
+                       "text": f"recorded {tap.path.name}: {c['written']} samples and "
+                               f"{c['commands']} commands, {c['dropped']} dropped"})
         state = self.recording_state()
         self._reply(page, ident, True, state)
         self.emit(state)

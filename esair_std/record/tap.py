@@ -1,47 +1,105 @@
-"""The HMI's record button: the samples the HMI receives, written to MCAP by a thread of
-their own (the caller only queues: bounded, what overflows is counted)."""
+"""A recording being written: what ``esair std record`` and the HMI's record button share.
+
+:class:`Tap` takes the samples a :class:`~esair_std.hmi.bridge.Bridge` emits (``{"t":
+"s", ...}``) and the command records the actuators' hosts publish (``esair/<robot>/
+command/<actuator>``: ``{seq, t, v: {command, ok | error}}``, subscribed with
+:meth:`Tap.listen`), and writes both to MCAP on a thread of its own: the callers (Zenoh's
+thread, the bridge) only queue (bounded; what overflows is counted in ``dropped``). A
+sample or command number that does not follow the last one of its resource is a gap,
+counted too."""
 
 from __future__ import annotations
 
 import queue
 import threading
 from pathlib import Path
+from typing import Any, Callable
 
 from ..errors import StdError
+from ..transport import keys
 from .mcapio import SampleWriter
 
 QUEUE = 100_000
 
 
 class Tap:
-    def __init__(self, path: str | Path):
+    def __init__(self, path: str | Path, wanted: Callable[[str], bool] | None = None):
         self.path = Path(path)
+        self.wanted = wanted or (lambda _name: True)
         try:
             self.f = open(self.path, "wb")  # noqa: SIM115 - closed in stop()
         except OSError as exc:
             raise StdError(f"cannot write {self.path}: {exc.strerror}") from None
         self.writer = SampleWriter(self.f)
         self.q: queue.Queue = queue.Queue(QUEUE)
-        self.c = dict(written=0, dropped=0)
-        self._thread = threading.Thread(target=self._run, name="hmi:record", daemon=True)
+        self.c = dict(written=0, dropped=0, gaps=0, commands=0, command_gaps=0)
+        self._last: dict[str, int] = {}
+        self._last_cmd: dict[str, int] = {}
+        self._subs: list[tuple[Any, Any]] = []
+        self._thread = threading.Thread(target=self._run, name="record:write", daemon=True)
         self._thread.start()
 
+    # ---- what the callers hand over (any thread: queue only)
     def put(self, msg: dict) -> None:
+        """A message the bridge emitted: kept when it is a sample of a wanted sensor."""
+        if msg.get("t") == "s" and self.wanted(str(msg.get("r"))):
+            self._queue(msg)
+
+    def listen(self, bus: Any, robot: str) -> None:
+        """Record the commands ``robot``'s actuators run, from ``bus`` (until stop())."""
+        self._subs.append((bus, bus.subscribe(keys.command(robot, "**"), self._on_command,
+                                              with_key=True)))
+
+    def _on_command(self, key: str, obj: Any) -> None:
+        res = key.rsplit("/command/", 1)[-1]
+        if isinstance(obj, dict) and self.wanted(res):
+            self._queue({"t": "c", "r": res, "m": obj})
+
+    def _queue(self, msg: dict) -> None:
         try:
             self.q.put_nowait(msg)
         except queue.Full:
             self.c["dropped"] += 1
 
+    # ---- the writer thread
     def _run(self) -> None:
         while True:
             m = self.q.get()
             if m is None:
                 return
-            self.writer.write(m["r"], int(m["q"]), float(m["ts"]), m["v"])
+            if m["t"] == "c":
+                self._write_command(m["r"], m["m"])
+                continue
+            res, seq = m["r"], int(m["q"])
+            last = self._last.get(res)
+            if last is not None and seq != last + 1:
+                self.c["gaps"] += 1
+            self._last[res] = seq
+            self.writer.write(res, seq, float(m["ts"]), m["v"])
             self.c["written"] += 1
 
-    def stop(self) -> None:
+    def _write_command(self, res: str, rec: dict) -> None:
+        try:
+            seq, t, v = int(rec["seq"]), float(rec["t"]), dict(rec["v"])
+        except (KeyError, TypeError, ValueError):
+            self.c["dropped"] += 1                  # not a command record
+            return
+        last = self._last_cmd.get(res)
+        if last is not None and seq != last + 1:
+            self.c["command_gaps"] += 1
+        self._last_cmd[res] = seq
+        self.writer.write_command(res, seq, t, v)
+        self.c["commands"] += 1
+
+    def stop(self) -> dict:
+        """Stop listening, write what is queued, close the file; the counters and the
+        number of channels."""
+        for bus, sub in self._subs:
+            bus.unsubscribe(sub)
+        self._subs.clear()
         self.q.put(None)
-        self._thread.join()
+        if self._thread.is_alive():
+            self._thread.join()
         self.writer.finish()
         self.f.close()
+        return dict(self.c, channels=len(self.writer.channels))

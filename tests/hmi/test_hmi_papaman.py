@@ -15,7 +15,7 @@ from websockets.sync.client import connect
 from esair_min.core.trace import without_marks
 from esair_min.emulator.actuator import encode
 from esair_min.model.validate import load_robot
-from esair_std.record import read_samples
+from esair_std.record import read_commands, read_samples
 from tests.support.hmi import PAPAMAN, esair_std, open_page, wait_for
 
 ACTUATOR = 0x10
@@ -154,11 +154,27 @@ def test_record_button_then_replay_with_the_time_slider(robot, browser):
     page.wait_for_function("() => window.__hmi.recordingOn")
     seen = page.evaluate("window.__hmi.stats.samples")
     page.wait_for_function(f"() => window.__hmi.stats.samples >= {seen + 6}")
+    # commands are recorded too, with their outcome (as `esair std record` records them)
+    sent = [{"angle": 100, "speed": 3}, {"angle": 151}, {"angle": 90, "speed": 3}]
+    answers = [page.evaluate("c => window.__hmi.send({op: 'cmd', resource: "
+                             "'papaman.servo.l_knee', command: c})", c) for c in sent]
+    assert [(a["ok"], a.get("result")) for a in answers] == [
+        (True, "odd100"), (False, None), (True, "odd090")]
+    refusal = (f"servo l_knee: angle 151 is outside its limits 0..150 "
+               f"({PAPAMAN / 'actuator.yaml'}); not sent")
     page.click("#record")
     page.wait_for_function("() => !window.__hmi.recordingOn")
     (path,) = robot.tmp.glob("esair-papaman-*.mcap")
     feet = [s for s in read_samples(path) if s[0] == "papaman.feet"]
     assert len(feet) >= 3 and [s[1] for s in feet] == list(range(feet[0][1], feet[0][1] + len(feet)))
+    knee = [c for c in read_commands(path) if c[0] == "papaman.servo.l_knee"]
+    assert [c[3] for c in knee] == [{"command": sent[0], "ok": "odd100"},
+                                    {"command": sent[1], "error": refusal},
+                                    {"command": sent[2], "ok": "odd090"}]
+    assert [c[1] for c in knee] == list(range(knee[0][1], knee[0][1] + 3))
+    said = (f"recorded {path.name}: {len(list(read_samples(path)))} samples and "
+            f"{len(list(read_commands(path)))} commands, 0 dropped")
+    page.wait_for_function(f"() => document.querySelector('#log').textContent.includes({said!r})")
     page.wait_for_function(f"() => [...document.querySelectorAll('#recordings option')]"
                            f".some(o => o.value === '{path.name}')")
     page.select_option("#recordings", path.name)

@@ -129,7 +129,9 @@ def test_ctrl_c_during_a_run_keeps_what_ran(tmp_path):
 ])
 def test_a_closed_pipe_ends_quietly(argv, tmp_path):
     script = tmp_path / "s.txt"
-    script.write_text("boot\nrx PLY03\\r\ntick 3000\n")
+    # more than a pipe holds (331 KB; the emulator's run: 184 KB), or a slow `head` lets
+    # the writer finish into the pipe's 64 KiB and exit 0
+    script.write_text("boot\nrx PLY03\\r\ntick 20000\n")
     argv = [str(script) if a == "SCRIPT" else a for a in argv]
     writer = subprocess.Popen(argv, cwd=ROOT, env=_env(), stdout=subprocess.PIPE,
                               stderr=subprocess.PIPE)

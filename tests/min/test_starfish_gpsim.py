@@ -15,7 +15,6 @@ from pathlib import Path
 import pytest
 from click.testing import CliRunner
 from hypothesis import HealthCheck, assume, given, settings
-from hypothesis import strategies as st
 
 from esair_min.cli import main
 from esair_min.codegen import generate_robot
@@ -24,6 +23,7 @@ from esair_min.pic.build import BuildError, toolchain
 from esair_min.pic.starfish_drive import python_drive, run_drive
 from esair_min.pic.starfish_gpsim import (MARGIN, Setup, compare, differential, measure_central,
                                           python_side)
+from tests.support import starfish_streams as streams
 
 SCENARIO = Path(__file__).resolve().parents[1] / "scenarios" / "starfish_gpsim.txt"
 
@@ -110,20 +110,9 @@ def test_central_cycles_in_the_pic_build(built, starfish, tmp_path):
     assert (got.kinematics, got.rx_line, got.tick) == (3495, 7993, 5692)
 
 
-_FIELD = st.integers(-999, 999).map(lambda v: f"{v:+05d}")
-_LINE = st.one_of(
-    st.tuples(st.sampled_from("VW"), _FIELD, _FIELD, _FIELD).map("".join),
-    st.sampled_from(["O", "x", "v", "Q", "O*00", "V+0100", "V+0600+0000+0000", ""]))
-_STEP = st.one_of(
-    _LINE.map(lambda text: f"rx {text}"),
-    st.integers(1, 8).map(lambda n: f"tick {n}"),
-    st.tuples(st.integers(0, 1), st.integers(0, 1)).map(lambda f: f"floor {f[0]} {f[1]}"),
-    st.just("tick 55"))
-
-
 @settings(max_examples=4, deadline=None, derandomize=True,
           suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
-@given(steps=st.lists(_STEP, min_size=3, max_size=12))
+@given(steps=streams.steps())
 def test_central_in_gpsim_equals_the_python_core_on_generated_streams(built, starfish,
                                                                       tmp_path, steps):
     _, out = built

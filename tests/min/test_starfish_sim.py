@@ -4,25 +4,33 @@ a wall stopping it, a lifted flow sensor, and the trace."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import pytest
 
 from esair_min.components.omni_base.core import WATCHDOG_NOTICE, velocity_line
 from esair_min.components.optical_flow.odometry import parse_odometry
-from esair_min.emulator.starfish import FlowOptions, StarfishSim, drive_square
+from esair_min.emulator.starfish import READY_LINE, FlowOptions, StarfishSim, drive_square
+from esair_min.emulator.uart import byte_time_ns
 from esair_min.world import Pose, World
+
+VERSION = "OK esair-min/1 starfish wheels=3 flow=2 watchdog=500 checksum=off"
 
 
 def test_square_with_exact_flow_sensors(starfish):
     sim = StarfishSim(starfish, World(pose=Pose(500, 500, 0)), FlowOptions(noise=0.0))
     run = drive_square(sim, 4000)
     assert (run.polls, run.refused, sim.world.collisions) == (1282, 0, 0)
-    assert sim.now_s == pytest.approx(64.3)
+    # 64.3 s of periods, plus the odometry polls' time on the line before the first
+    # period and after the last (the line at 38400 baud: 3 bytes out, 37 back)
+    line = (3 + 37) * 10 / 38400
+    assert sim.now_s == pytest.approx(64.3 + 2 * line, abs=0.004)
     # Open loop, the robot does not close the square (the wheels' duties are quantized,
     # so it turns a little), but counts without noise follow it within 4 mm over 16 m.
     assert run.max_error_mm < 4.0 and run.end_error_mm < 2.0
     assert abs(run.true_end[2]) > 0.01
     rows = sim.trace
-    assert len(rows) == 6436 and rows[-1].t_s == pytest.approx(64.3, abs=0.01)
+    assert len(rows) == 6438 and rows[-1].t_s == pytest.approx(64.3 + 2 * line, abs=0.01)
     assert max(r.wheels[0] for r in rows) == pytest.approx(-min(r.wheels[0] for r in rows),
                                                            rel=0.05)
 
@@ -68,7 +76,61 @@ def test_lifted_flow_sensor_reports_no_surface(starfish):
         sim.command(velocity_line(200, 0, 0))
         sim.run_for(0.05)
     seq, sensors = parse_odometry(sim.command("O"))
-    assert seq == 100
+    # 20 x (50 ms + the V line and its OK on the line: 22 bytes at 38400 baud, 5.7 ms)
+    # and the O line's 3 bytes: 1.115 s of 9.99 ms ticks
+    assert seq == 111
     assert sensors[0] == (0, 0, 0)                    # lifted: no counts, SQUAL 0
     assert sensors[1][2] == 90 and sensors[1][0] > 2500
     assert sim.sensors[0].lost > 0
+
+
+def _at_baud(robot, baud: int):
+    central = robot.central
+    boards = tuple(b.model_copy(update={"uart": central.uart.model_copy(update={"baud": baud})})
+                   if b is central else b for b in robot.boards)
+    return dataclasses.replace(robot, boards=boards)
+
+
+@pytest.mark.parametrize("baud", [38400, 9600])
+def test_a_reply_arrives_at_the_pace_of_the_board_files_baud(starfish, baud):
+    """The line is PAPA-MAN's (esair_min.emulator.uart): a command is decoded when its
+    last byte has arrived, and its reply reaches the host one byte every 10 bit times of
+    the board file's baud, counted on the virtual clock."""
+    robot = starfish if baud == 38400 else _at_baud(starfish, baud)
+    assert robot.central.uart.baud == baud
+    sim = StarfishSim(robot, World(pose=Pose(1000, 2500, 0)))
+    sim.settle()
+    assert sim.read() == READY_LINE
+    byte = byte_time_ns(baud)
+    reply = (VERSION + "\r\n").encode()
+    t0 = sim.clock.now
+    sim.write(b"v\r\n")
+    got = bytearray()
+    # the CR is complete after 2 byte times; the k-th byte of the reply k byte times later
+    for k in range(len(reply) + 1):
+        sim.run_until(t0 + (2 + k) * byte - 1)
+        got += sim.read()
+        assert len(got) == max(0, k - 1)
+        sim.run_until(t0 + (2 + k) * byte)
+        got += sim.read()
+        assert len(got) == k
+    assert bytes(got) == reply
+    sim.run_for(0.1)
+    assert sim.read() == b""
+
+
+def test_lines_faster_than_their_replies_overrun_the_ring(starfish):
+    """A host sending lines with long replies back to back outruns the replies: the
+    superloop waits for transmit room, the 64-byte ring fills and bytes are lost; the
+    next line that gets in is answered E12 (docs/protocol.md, Lines), as on PAPA-MAN."""
+    sim = StarfishSim(starfish, World(pose=Pose(1000, 2500, 0)))
+    sim.settle()
+    sim.read()
+    sim.uart.dropped = []
+    sim.write(b"v\r\n" * 40)                 # 120 bytes in, 40 x 67 bytes of replies
+    sim.run_for(1.0)
+    sim.write(b"v\r\n")
+    sim.run_for(0.1)
+    # 24 lines answered; bytes 72..119 (the last 16 lines) found the ring full
+    assert sim.read().decode().splitlines() == [VERSION] * 24 + ["E12 input overrun"]
+    assert sim.uart.overruns == 48 and sim.uart.dropped == list(range(72, 120))

@@ -12,10 +12,10 @@ import signal
 import socket
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 from esair_std.drivers.minlink.emulated import EmulatedRobot
+from tests.support.std import wait_for as std_wait_for
 
 ROOT = Path(__file__).resolve().parents[2]
 PAPAMAN = ROOT / "boards" / "papaman"
@@ -32,15 +32,8 @@ def free_port() -> int:
 
 
 def wait_for(fn, timeout=20.0, what="condition"):
-    """Poll fn() until it returns a truthy value (state-based; no timing asserted)."""
-    deadline = time.monotonic() + timeout
-    while True:
-        v = fn()
-        if v:
-            return v
-        if time.monotonic() > deadline:
-            raise AssertionError(f"timed out waiting for {what}; last value {v!r}")
-        time.sleep(0.02)
+    """tests.support.std.wait_for, with the browser tests' longer default timeout."""
+    return std_wait_for(fn, timeout, what)
 
 
 def esair_std(*args: str) -> subprocess.CompletedProcess:
@@ -49,27 +42,26 @@ def esair_std(*args: str) -> subprocess.CompletedProcess:
                           capture_output=True, text=True, timeout=60, env=env)
 
 
-class Robot:
-    """``esair std run papaman --hmi`` against a traced emulated PAPA-MAN."""
+class HmiRun:
+    """``esair std run ROBOT --hmi`` (``args``: the robot and its options) in ``mode``,
+    the HMI on a free port of 127.0.0.1, its stderr in ``tmp/run.err``; ``start()``
+    returns once the HMI's URL is printed."""
 
-    def __init__(self, mode: str, tmp: Path):
-        self.mode, self.tmp = mode, tmp
-        self.trace = tmp / "trace.txt"
-        self.emu = EmulatedRobot(PAPAMAN, ["--trace", str(self.trace)])
+    def __init__(self, mode: str, tmp: Path, args: list[str]):
+        self.mode, self.tmp, self.args = mode, tmp, args
         self.endpoint = f"tcp/127.0.0.1:{free_port()}"
         self.url = ""
         self.proc: subprocess.Popen | None = None
 
-    def start(self) -> "Robot":
-        self.emu.start()
-        env = dict(os.environ, ESAIR_HMI_PASSWORD=PASSWORD,
-                   PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    def env(self) -> dict[str, str]:
+        return dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+
+    def start(self):
         self.errors = open(self.tmp / "run.err", "w+")      # noqa: SIM115 - closed in stop()
         self.proc = subprocess.Popen(
-            [sys.executable, "-m", "esair_min.cli", "std", "run", "papaman", "--hmi",
-             "--hmi-listen", "127.0.0.1:0", "--port", self.emu.port, "--mode", self.mode,
-             "-e", self.endpoint, "--no-top"],
-            stdout=subprocess.DEVNULL, stderr=self.errors, env=env, cwd=self.tmp)
+            [sys.executable, "-m", "esair_min.cli", "std", "run", *self.args, "--hmi",
+             "--hmi-listen", "127.0.0.1:0", "--mode", self.mode, "-e", self.endpoint, "--no-top"],
+            stdout=subprocess.DEVNULL, stderr=self.errors, env=self.env(), cwd=self.tmp)
 
         def url():
             if self.proc.poll() is not None:
@@ -78,6 +70,35 @@ class Robot:
             return m and m.group(1)
         self.url = wait_for(url, timeout=90, what="the HMI's URL")
         return self
+
+    def std(self, *args: str) -> str:
+        """``esair std ARGS -e ENDPOINT``'s standard output (it must succeed)."""
+        r = esair_std(*args, "-e", self.endpoint)
+        assert r.returncode == 0, r.stderr
+        return r.stdout
+
+    def stop(self) -> None:
+        if self.proc is not None:
+            self.proc.send_signal(signal.SIGTERM)
+            self.proc.wait(timeout=30)
+            self.errors.close()
+
+
+class Robot(HmiRun):
+    """``esair std run papaman --hmi`` against a traced emulated PAPA-MAN (an operator
+    logs in with PASSWORD)."""
+
+    def __init__(self, mode: str, tmp: Path):
+        self.trace = tmp / "trace.txt"
+        self.emu = EmulatedRobot(PAPAMAN, ["--trace", str(self.trace)])
+        super().__init__(mode, tmp, ["papaman"])
+
+    def env(self) -> dict[str, str]:
+        return dict(super().env(), ESAIR_HMI_PASSWORD=PASSWORD)
+
+    def start(self) -> "Robot":
+        self.args = ["papaman", "--port", self.emu.start()]
+        return super().start()
 
     def restart_robot(self, *extra: str) -> None:
         self.emu.kill()
@@ -92,22 +113,21 @@ class Robot:
         return self.trace.read_text().splitlines() if self.trace.exists() else []
 
     def stop(self) -> None:
-        if self.proc is not None:
-            self.proc.send_signal(signal.SIGTERM)
-            self.proc.wait(timeout=30)
-            self.errors.close()
+        super().stop()
         self.emu.stop()
 
 
-def open_page(browser, url: str, login: bool = True, width: int = 1280, height: int = 800):
-    """A page on the HMI (logged in as the operator unless ``login`` is False), and the
-    console errors and page errors it collects."""
+def open_page(browser, url: str, login: bool = True, width: int = 1280, height: int = 800,
+              ready: str = "window.__hmi.info"):
+    """A page on the HMI (logged in as the operator unless ``login`` is False) once its
+    WebSocket is up and ``ready`` (a JavaScript expression) holds, and the console errors
+    and page errors it collects."""
     page = browser.new_page(viewport={"width": width, "height": height})
     errors: list[str] = []
     page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
     page.on("pageerror", lambda e: errors.append(str(e)))
     page.goto(url)
-    page.wait_for_function("() => window.__hmi && window.__hmi.info && window.__hmi.wsUp")
+    page.wait_for_function(f"() => window.__hmi && window.__hmi.wsUp && {ready}")
     if login:
         page.fill("#login-pass", PASSWORD)
         page.click("#login button")

@@ -59,32 +59,62 @@ def motor_state(m: Any) -> MotorState:
 
 
 class DriveCore:
-    """The drive board: an I2C register map and the control tick."""
+    """The drive board: an I2C register map and the control tick.
+
+    A tick after which every motor runs at the speed its register asks for, and no write
+    came since, changes nothing: the next such tick is skipped (``rims`` and the motors'
+    state are those the skipped ticks would compute)."""
 
     def __init__(self, board: Any):
         self.motors = [motor_state(m) for m in sorted(board.motors, key=lambda m: m.index)]
         self.regs = bytearray(2 * len(self.motors))
         self.address = board.i2c.address
+        self._settled = False         # every motor at its wanted speed, no write since
+        #: Each wheel's rim speed (mm/s) as the last tick left it.
+        self.rims: tuple[float, ...] = tuple(m.rim_speed for m in self.motors)
 
     def write(self, first: int, data: bytes) -> None:
         """A master's write: register pointer ``first``, then the bytes (auto-increment,
         wrapping at the map's end)."""
         n = len(self.regs)
-        for k, b in enumerate(data):
-            self.regs[(first + k) % n] = b
+        if first + len(data) <= n:
+            self.regs[first:first + len(data)] = data
+        else:
+            for k, b in enumerate(data):
+                self.regs[(first + k) % n] = b
+        self._settled = False
+
+    @property
+    def settled(self) -> bool:
+        """Every motor runs at the speed its register asks for and no write came since:
+        a tick now changes nothing."""
+        return self._settled
 
     def wanted(self, i: int) -> int:
         return to_s16(self.regs[2 * i], self.regs[2 * i + 1])
 
     def tick(self) -> None:
+        if self._settled:
+            return
+        settled = True
+        regs = self.regs
         for i, m in enumerate(self.motors):
-            want = max(-m.limit, min(m.limit, self.wanted(i)))
-            if want > m.speed:
-                m.speed = min(want, m.speed + m.step)
-            else:
-                m.speed = max(want, m.speed - m.step)
-            m.duty = min(255, (abs(m.speed) * m.duty_q8) >> 8)
-            m.forward = (m.speed >= 0) != m.reverse
+            want = regs[2 * i] | (regs[2 * i + 1] << 8)
+            if want & 0x8000:
+                want -= 0x10000
+            limit = m.limit
+            if want > limit:
+                want = limit
+            elif want < -limit:
+                want = -limit
+            speed = m.speed
+            speed = min(want, speed + m.step) if want > speed else max(want, speed - m.step)
+            m.speed = speed
+            m.duty = min(255, (abs(speed) * m.duty_q8) >> 8)
+            m.forward = (speed >= 0) != m.reverse
+            settled = settled and speed == want
+        self._settled = settled
+        self.rims = tuple(m.rim_speed for m in self.motors)
 
     def rim_speeds(self) -> list[float]:
-        return [m.rim_speed for m in self.motors]
+        return list(self.rims)

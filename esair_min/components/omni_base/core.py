@@ -9,6 +9,7 @@ notice is ``!W watchdog stop``.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable, Sequence
 from typing import Any, Protocol
 
@@ -85,6 +86,10 @@ class StarfishCore:
         self.require_checksum = bool(central.uart and central.uart.require_checksum)
         self.flow_names = [f.name for f in central.flow_sensors]
         self.flow = list(flow)
+        # each sensor's tick reads: its own burst where it has one (Adns2610.deltas)
+        self._readers = [getattr(f, "deltas", None)
+                         or functools.partial(read_deltas, f)  # type: ignore[arg-type]
+                         for f in self.flow]
         self.write_bus = write
         self.lines = LineAssembler()
         self.commanded = [0] * len(self.wheels)
@@ -97,10 +102,7 @@ class StarfishCore:
     # -- the link ------------------------------------------------------------------------
     def feed(self, data: bytes) -> bytes:
         out = bytearray()
-        for b in data:
-            r = self.lines.feed(b)
-            if r is None:
-                continue
+        for r in self.lines.feed_run(data):      # a line does not change the assembly
             out += ERROR_LINE[r] if isinstance(r, Code) else self.line(r)
         return bytes(out)
 
@@ -172,15 +174,16 @@ class StarfishCore:
         """One tick: poll the flow sensors, run the watchdog; the notices it sends."""
         self.t_ns += self.tick_ns
         t = self.t_ns
-        for i, sensor in enumerate(self.flow):
-            dx, dy, q, t = read_deltas(sensor, t)   # type: ignore[arg-type]
-            s = self.sums[i]
+        for read, s in zip(self._readers, self.sums, strict=True):
+            dx, dy, q, t = read(t)
             s[0] = (s[0] + dx) % U32
             s[1] = (s[1] + dy) % U32
             s[2] = q
         self.polls += 1
-        self.idle_ticks = min(self.idle_ticks + 1, 0xFFFF)
-        if self.idle_ticks >= self.watchdog_ticks and any(self.commanded):
+        idle = self.idle_ticks
+        if idle < 0xFFFF:
+            self.idle_ticks = idle = idle + 1
+        if idle >= self.watchdog_ticks and any(self.commanded):
             self._send([0] * len(self.wheels))
             self.commanded = [0] * len(self.wheels)   # even if the write was not answered
             self.watchdog_stops += 1

@@ -34,6 +34,8 @@ T_SRR_NS = 250
 T_SWW_NS = 100_000
 MAX_SPEED_IPS = 12.0
 MM_PER_INCH = 25.4
+#: One register read by the central board: address, tSRAD, 8 bits, tSRR, 8 bits.
+_READ_NS = T_SRAD_NS + 8_000 + T_SRR_NS + 8_000
 
 
 class FlowTimingError(Exception):
@@ -67,9 +69,15 @@ class Adns2610:
                 self.lost += 1
             return
         k = self.cpi / MM_PER_INCH
-        for axis, d in ((0, dx_mm), (1, dy_mm)):
-            n = self._rng.gauss(0.0, self.noise * abs(d)) if self.noise else 0.0
-            self._acc[axis] += (d + n) * k
+        acc = self._acc
+        noise = self.noise
+        if noise:                          # x first, then y: the seeded sequence
+            gauss = self._rng.gauss
+            acc[0] += (dx_mm + gauss(0.0, noise * abs(dx_mm))) * k
+            acc[1] += (dy_mm + gauss(0.0, noise * abs(dy_mm))) * k
+        else:
+            acc[0] += (dx_mm + 0.0) * k
+            acc[1] += (dy_mm + 0.0) * k
 
     # -- the serial port ---------------------------------------------------------------
     def address(self, reg: int, t_ns: int) -> None:
@@ -98,6 +106,25 @@ class Adns2610:
         if reg == REG_CONFIG:
             self.config = value & 0xFF
         self._free_at = t_ns + T_SWW_NS
+
+    def deltas(self, t_ns: int) -> tuple[int, int, int, int]:
+        """:func:`read_deltas` on this sensor (the same reads, checks and state after),
+        without a call per register: the central board's tick calls it."""
+        if t_ns < self._free_at:
+            raise FlowTimingError(f"address 0x{REG_DELTA_Y:02X} at {t_ns} ns, before the "
+                                  f"sensor is ready at {self._free_at} ns")
+        acc = self._acc
+        dy = int(acc[1])                   # Delta_Y first, as the firmware reads
+        dy = -128 if dy < -128 else 127 if dy > 127 else dy
+        acc[1] -= dy
+        dx = int(acc[0])
+        dx = -128 if dx < -128 else 127 if dx > 127 else dx
+        acc[0] -= dx
+        last = t_ns + 2 * _READ_NS + T_SRAD_NS + 8_000     # the SQUAL's data byte
+        self._reg = REG_SQUAL
+        self._addr_at = None
+        self._free_at = last + T_SRR_NS
+        return dx, dy, 0 if self.lifted else self.surface, last + T_SRR_NS + 8_000
 
     def register(self, reg: int) -> int:
         """A register's value as read (reading a delta clears it)."""

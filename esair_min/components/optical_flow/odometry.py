@@ -13,20 +13,20 @@ from typing import Any
 from esair_min.components.optical_flow.core import MM_PER_INCH
 
 
+def _det(a: float, b: float, c: float, d: float, e: float, f: float, g: float, h: float,
+         i: float) -> float:
+    """The determinant of the rows (a b c), (d e f), (g h i)."""
+    return a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g)
+
+
 def _solve3(a: list[list[float]], b: list[float]) -> list[float]:
     """Solve the 3x3 system a x = b (Cramer's rule)."""
-    def det(m: list[list[float]]) -> float:
-        return (m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
-                - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
-                + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]))
-    d = det(a)
-    out = []
-    for col in range(3):
-        m = [row[:] for row in a]
-        for k in range(3):
-            m[k][col] = b[k]
-        out.append(det(m) / d)
-    return out
+    (a0, a1, a2), (a3, a4, a5), (a6, a7, a8) = a
+    b0, b1, b2 = b
+    d = _det(a0, a1, a2, a3, a4, a5, a6, a7, a8)
+    return [_det(b0, a1, a2, b1, a4, a5, b2, a7, a8) / d,
+            _det(a0, b0, a2, a3, b1, a5, a6, b2, a8) / d,
+            _det(a0, a1, b0, a3, a4, b1, a6, a7, b2) / d]
 
 
 class FlowOdometry:

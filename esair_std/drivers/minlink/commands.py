@@ -134,12 +134,15 @@ class RobotCommands:
         return {"values": by_name,
                 "groups": {g: sum(by_name[n] for n in names) for g, names in self.groups.items()}}
 
+    def expected_version(self) -> dict[str, str]:
+        """The fields a ``v`` reply of the board files' robot must have."""
+        return {"servos": str(len(self.servos)), "sensors": str(len(self.sensor_names)),
+                "checksum": "on" if self.checksum else "off"}
+
     def check_version(self, data: str) -> dict[str, str]:
         """The fields of a ``v`` reply; refuse a robot that is not the one of the board files."""
         fields = dict(f.split("=", 1) for f in data.split()[1:] if "=" in f)
-        want = {"servos": str(len(self.servos)), "sensors": str(len(self.sensor_names)),
-                "checksum": "on" if self.checksum else "off"}
-        for key, value in want.items():
+        for key, value in self.expected_version().items():
             if fields.get(key) != value:
                 raise LinkError(f"the robot answers {key}={fields.get(key, '?')} but the board "
                                 f"files of {self.robot.name} say {key}={value} "

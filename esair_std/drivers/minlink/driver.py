@@ -141,20 +141,35 @@ class MotionActuator(_LinkAgent, Actuator):
         return self._send(line)
 
 
-class FeetSensor(Sensor):
-    """Polls ``s`` on its own thread (the host does not poll it: ``rate_hz`` stays None)."""
+class PolledSensor(Sensor):
+    """A sensor polled over the link on its own thread, ``hz`` times a second while the
+    link is up (the host does not poll it: ``rate_hz`` stays None; 0: not polled). A
+    poll the robot refuses marks it lost, the next good one ready again; a link down is
+    the driver's to report. Subclasses say how to poll (:meth:`fetch`) and what a reply
+    reports (:meth:`value`)."""
 
-    def __init__(self, link: Link, hz: float, share: float):
-        self.link, self.hz, self.share = link, hz, share
+    link: Link
+    hz: float
+    thread_name = "minlink-poll"
+
+    def __init__(self) -> None:
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self._fault = False
         self.polls = 0
 
+    def fetch(self) -> Any:
+        """One poll's reply (raises the link's errors)."""
+        raise NotImplementedError
+
+    def value(self, reply: Any) -> Any:
+        """The sample ``reply`` reports, or None: nothing to report (a bad reply)."""
+        return reply
+
     def open(self) -> None:
         if not self.hz:
             return
-        self._thread = threading.Thread(target=self._run, name=f"minlink-feet:{self.name}",
+        self._thread = threading.Thread(target=self._run, name=f"{self.thread_name}:{self.name}",
                                         daemon=True)
         self._thread.start()
 
@@ -162,20 +177,6 @@ class FeetSensor(Sensor):
         self._stop.set()
         if self._thread is not None:
             self._thread.join(timeout=5)
-
-    def configure(self, key: str, value: Any) -> Any:
-        if key in ("rate_hz", "feet_hz"):
-            try:
-                hz = float(value)
-                self.link.budget.check_feet_hz(hz, self.share)
-            except (TypeError, ValueError, LinkError) as exc:
-                raise CommandError(self.name, str(exc)) from None
-            if not self.hz and hz:
-                self.hz = hz
-                self.open()
-            self.hz = hz
-            return hz
-        raise CommandError(self.name, f"no setting {key!r} (settings: rate_hz)")
 
     def _run(self) -> None:
         next_t = time.monotonic()
@@ -190,18 +191,48 @@ class FeetSensor(Sensor):
 
     def _poll(self) -> None:
         try:
-            value = self.link.feet(poll=True)      # commands go first
+            reply = self.fetch()
         except LinkDown:
             return                                  # the driver marks every resource lost
         except LinkError as exc:
             self._fault = True
             self.mark_lost(str(exc))
             return
+        value = self.value(reply)
+        if value is None:
+            return
         self.polls += 1
         if self._fault:
             self._fault = False
             self.mark_ready()
         self.report(value)
+
+
+class FeetSensor(PolledSensor):
+    """Polls ``s`` (a poll: commands go first)."""
+
+    thread_name = "minlink-feet"
+
+    def __init__(self, link: Link, hz: float, share: float):
+        super().__init__()
+        self.link, self.hz, self.share = link, hz, share
+
+    def fetch(self) -> Any:
+        return self.link.feet(poll=True)
+
+    def configure(self, key: str, value: Any) -> Any:
+        if key in ("rate_hz", "feet_hz"):
+            try:
+                hz = float(value)
+                self.link.budget.check_feet_hz(hz, self.share)
+            except (TypeError, ValueError, LinkError) as exc:
+                raise CommandError(self.name, str(exc)) from None
+            if not self.hz and hz:
+                self.hz = hz
+                self.open()
+            self.hz = hz
+            return hz
+        raise CommandError(self.name, f"no setting {key!r} (settings: rate_hz)")
 
 
 class NoticeSensor(Sensor):

@@ -16,17 +16,16 @@ from __future__ import annotations
 
 import math
 import threading
-import time
 from typing import Any
 
-from esair_std import Actuator, CommandError, Sensor
+from esair_std import Actuator, CommandError
 from esair_min.components.omni_base.core import velocity_line
 from esair_min.components.optical_flow.odometry import FlowOdometry, parse_odometry
 
 from ..minlink.budget import LineBudget
 from ..minlink.commands import VERSION_PREFIX, RobotCommands
-from ..minlink.driver import _LinkAgent
-from ..minlink.errors import LinkDown, LinkError
+from ..minlink.driver import PolledSensor, _LinkAgent
+from ..minlink.errors import LinkError
 from ..minlink.link import Link
 from .scene import wrap
 
@@ -64,16 +63,9 @@ class OmniCommands(RobotCommands):
             return data.startswith(VERSION_PREFIX)
         return data == ""
 
-    def check_version(self, data: str) -> dict[str, str]:
-        fields = dict(f.split("=", 1) for f in data.split()[1:] if "=" in f)
-        want = {"wheels": str(self.wheels), "flow": str(self.flow),
+    def expected_version(self) -> dict[str, str]:
+        return {"wheels": str(self.wheels), "flow": str(self.flow),
                 "checksum": "on" if self.checksum else "off"}
-        for key, value in want.items():
-            if fields.get(key) != value:
-                raise LinkError(f"the robot answers {key}={fields.get(key, '?')} but the board "
-                                f"files of {self.robot.name} say {key}={value} "
-                                f"({self.robot.source})")
-        return fields
 
 
 def omni_budget(robot: Any) -> LineBudget:
@@ -114,18 +106,17 @@ class Wheels(_LinkAgent, Actuator):
         return out
 
 
-class Odometry(Sensor):
+class Odometry(PolledSensor):
     """The pose from the flow sensors: ``O`` polled ``hz`` times a second on its own
     thread, the sums integrated from ``start`` (x m, y m, heading rad). ``reset()``
     starts again from ``start`` (a restarted robot's sums begin at 0 where it stands)."""
 
+    thread_name = "starfish-odometry"
+
     def __init__(self, link: Link, robot: Any, hz: float, start: tuple[float, float, float]):
+        super().__init__()
         self.link, self.robot, self.hz, self.start = link, robot, hz, start
-        self._stop = threading.Event()
-        self._thread: threading.Thread | None = None
         self._lock = threading.Lock()
-        self._fault = False
-        self.polls = 0
         self.bad_replies = 0
         self.reset()
 
@@ -136,52 +127,22 @@ class Odometry(Sensor):
             self.pose = (x, y, th)
             self.last_n: int | None = None
 
-    def open(self) -> None:
-        self._thread = threading.Thread(target=self._run, name=f"starfish-odometry:{self.name}",
-                                        daemon=True)
-        self._thread.start()
+    def fetch(self) -> Any:
+        return self.link.command("O")
 
-    def close(self) -> None:
-        self._stop.set()
-        if self._thread is not None:
-            self._thread.join(timeout=5)
-
-    def _run(self) -> None:
-        next_t = time.monotonic()
-        while not self._stop.is_set():
-            if self.link.up:
-                self._poll()
-            next_t += 1.0 / self.hz
-            now = time.monotonic()
-            if next_t < now:
-                next_t = now
-            self._stop.wait(next_t - now)
-
-    def _poll(self) -> None:
-        try:
-            data = self.link.command("O")
-        except LinkDown:
-            return                                  # the driver marks every resource lost
-        except LinkError as exc:
-            self._fault = True
-            self.mark_lost(str(exc))
-            return
+    def value(self, data: Any) -> Any:
         try:
             n, sensors = parse_odometry("OK " + data)
         except (ValueError, IndexError):
             self.bad_replies += 1
-            return
+            return None
         with self._lock:
             before = self.pose
             x, y, th = self.odo.update([(dx, dy) for dx, dy, _ in sensors])
             self.pose = (x / 1000, y / 1000, th)
             self.last_n = n
-        self.polls += 1
-        if self._fault:
-            self._fault = False
-            self.mark_ready()
         moving = math.hypot(self.pose[0] - before[0], self.pose[1] - before[1]) > 1e-4 or \
             abs(self.pose[2] - before[2]) > 1e-4
-        self.report({"x": round(self.pose[0], 4), "y": round(self.pose[1], 4),
-                     "th": round(wrap(self.pose[2]), 5), "moving": moving,
-                     "squal": [q for _, _, q in sensors]})
+        return {"x": round(self.pose[0], 4), "y": round(self.pose[1], 4),
+                "th": round(wrap(self.pose[2]), 5), "moving": moving,
+                "squal": [q for _, _, q in sensors]}

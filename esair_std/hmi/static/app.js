@@ -9,6 +9,8 @@ import { Generic } from "./generic.js";
 import { Replay } from "./replay.js";
 
 const $ = (id) => document.getElementById(id);
+const DRAW_SHARE = 0.25;         // drawing takes at most this share of the page's time
+const MAX_DRAW_GAP_MS = 200;     // ... but the plots move at least 5 times a second
 
 class App {
   constructor() {
@@ -23,10 +25,12 @@ class App {
     this.robots = {};
     // latencies: sample time stamp -> the frame that drew it; arrivals: -> the page got it
     // (the difference is the browser's wait for a frame), both in ms, for the bench
-    this.stats = { samples: 0, latencies: [], arrivals: [] };
+    // draws, drawMs: frames drawn and the time they took (the page's own cost)
+    this.stats = { samples: 0, latencies: [], arrivals: [], draws: 0, drawMs: 0 };
     this.log = new Log($("log"), $("log-level"));
     this.components = new Components($("components"), $("add"), this);
     this.dirty = false;
+    this.drawnAt = 0; this.drawCost = 0; this.drawGap = 0;     // frame(): the draw budget
     $("stop").addEventListener("click", () => this.stop());
     $("login").addEventListener("submit", (e) => { e.preventDefault(); this.login(); });
     $("record").addEventListener("click", () => this.record());
@@ -196,6 +200,9 @@ class App {
   }
 
   linkbar() {
+    const same = JSON.stringify([this.wsUp, this.runtimeUp, this.link]);
+    if (same === this.linkShown) return;           // rebuilt only when it changed
+    this.linkShown = same;
     const bar = $("linkbar"); bar.textContent = "";
     const pill = (cls, text, title) => {
       const s = document.createElement("span"); s.className = `pill ${cls}`;
@@ -225,12 +232,22 @@ class App {
     this.linkbar();
   }
 
+  // Each animation frame draws what changed since the last one (every sample that came
+  // meanwhile at once), at most DRAW_SHARE of the page's time: when drawing is slow (a
+  // busy computer, many pages) a frame is skipped rather than the whole page falling
+  // behind; on an idle one every frame that has something new is drawn.
   frame(now) {
-    if (this.dirty) {
+    if (this.dirty && now - this.drawnAt >= this.drawGap) {
       this.dirty = false;
-      const drawnAt = performance.timeOrigin + performance.now();
+      const t0 = performance.now();
+      const drawnAt = performance.timeOrigin + t0;
       if (this.feet) this.feet.draw(drawnAt, this.stats.latencies);
       if (this.generic) this.generic.draw();
+      const cost = performance.now() - t0;
+      this.stats.draws++; this.stats.drawMs += cost;
+      this.drawCost = 0.8 * this.drawCost + 0.2 * cost;
+      this.drawGap = Math.min(MAX_DRAW_GAP_MS, this.drawCost / DRAW_SHARE);
+      this.drawnAt = now;
     }
     if (this.pose && this.pose.animate(now)) this.joints.sync(this.pose.angles);
     requestAnimationFrame((t) => this.frame(t));

@@ -8,6 +8,9 @@ export class Components {
   }
 
   update(rows) {
+    const same = JSON.stringify(rows);             // `ls` comes 4 times a second: the
+    if (same === this.shown) return;               // table is rebuilt only when it changed
+    this.shown = same;
     this.body.textContent = "";
     for (const r of rows) {
       const tr = document.createElement("tr"); tr.dataset.name = r.name;

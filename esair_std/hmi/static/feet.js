@@ -8,6 +8,7 @@ export class Feet {
   constructor(el, pauseBtn, note, info) {
     this.el = el; this.note = note; this.info = info; this.paused = false;
     this.markers = []; this.fresh = [];
+    this.changed = false; this.visible = true;        // drawn only when both (app.js, frame)
     el.textContent = "";
     if (!info || typeof uPlot === "undefined") return;
     this.names = info.sensors.map((s) => s.name);
@@ -33,6 +34,13 @@ export class Feet {
       this.paused = !this.paused; pauseBtn.textContent = this.paused ? "resume" : "pause";
       pauseBtn.classList.toggle("on", this.paused);
     });
+    // off screen (scrolled away, a narrow window): no drawing until it shows again
+    if (typeof IntersectionObserver !== "undefined") {
+      new IntersectionObserver((es) => {
+        this.visible = es[es.length - 1].isIntersecting;
+        if (this.visible) this.changed = true;
+      }).observe(el);
+    }
     window.addEventListener("resize", () => {
       const width = Math.max(280, el.clientWidth);
       this.top.setSize({ width, height: 150 }); this.bottom.setSize({ width, height: 150 });
@@ -45,7 +53,7 @@ export class Feet {
     this.names.forEach((n, i) => this.v[i].push(m.v.values[n]));
     const L = m.v.groups[this.compare[0]], R = m.v.groups[this.compare[1]];
     this.l.push(L); this.r.push(R); this.d.push(Math.abs(L - R)); this.th.push(this.threshold);
-    this.fresh.push(m.ts);
+    this.fresh.push(m.ts); this.changed = true;
     const old = m.ts - WINDOW_S;
     let cut = 0;
     while (cut < this.t.length && this.t[cut] < old) cut++;
@@ -57,10 +65,12 @@ export class Feet {
   clear() {
     if (!this.top) return;
     for (const a of [this.t, ...this.v, this.l, this.r, this.d, this.th]) a.length = 0;
-    this.markers = []; this.fresh = []; this.last = null;
+    this.markers = []; this.fresh = []; this.last = null; this.changed = true;
   }
 
-  marker(ts, text) { this.markers.push({ ts, text }); this.lastMarker = { ts, text }; }
+  marker(ts, text) {
+    this.markers.push({ ts, text }); this.lastMarker = { ts, text }; this.changed = true;
+  }
 
   drawMarkers(u) {
     const c = u.ctx; c.save(); c.strokeStyle = "#b91c1c"; c.fillStyle = "#b91c1c"; c.lineWidth = 2;
@@ -74,8 +84,13 @@ export class Feet {
     c.restore();
   }
 
+  // Draw what changed (the samples since the last frame at once); latencies: each sample
+  // drawn, its time stamp -> this frame (drawnAt, ms since the epoch). Off screen: nothing
+  // drawn, nothing counted.
   draw(drawnAt, latencies) {
-    if (!this.top) return;
+    if (!this.top || !this.changed) return;
+    if (!this.visible) { this.fresh = []; return; }
+    this.changed = false;
     for (const ts of this.fresh) {
       latencies.push(drawnAt - ts * 1000);
       if (latencies.length > LAT_KEEP) latencies.shift();

@@ -38,12 +38,13 @@ export class Generic {
     const v = m.v;
     if (v && typeof v === "object" && (Array.isArray(v.walls) ||
         (typeof v.x === "number" && typeof v.y === "number"))) {
-      this.map(m.r.split(".")[0]).push(m);
+      const map = this.map(m.r.split(".")[0]);
+      map.push(m); map.changed = true;
       return;
     }
     let p = this.panels[m.r];
     if (!p) p = this.panels[m.r] = this.make(m);
-    if (p) p.push(m);
+    if (p) { p.push(m); p.changed = true; }
   }
 
   box(title, first = false) {       // maps and pictures first, plots after them
@@ -73,8 +74,8 @@ export class Generic {
       st = this.states[name] = new State(box);
     }
     const b = bearingOf(v);
-    st.push(v, b);
-    if (b) for (const map of Object.values(this.maps)) if (map.pose) map.aim(b);
+    st.push(v, b); st.changed = true;
+    if (b) for (const map of Object.values(this.maps)) if (map.pose) { map.aim(b); map.changed = true; }
   }
 
   make(m) {
@@ -88,9 +89,9 @@ export class Generic {
     return { push: (s) => { pre.textContent = JSON.stringify(s.v); }, draw() {} };
   }
 
-  draw() {
-    for (const p of Object.values(this.panels)) if (p) p.draw();
-    for (const st of Object.values(this.states)) st.draw();
+  draw() {                     // only what changed since the last frame
+    for (const p of Object.values(this.panels)) if (p && p.changed) { p.changed = false; p.draw(); }
+    for (const st of Object.values(this.states)) if (st.changed) { st.changed = false; st.draw(); }
   }
 }
 
