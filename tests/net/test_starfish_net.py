@@ -106,7 +106,11 @@ def get_when(center, name, ok, timeout, what):
         return wait_for(probe, timeout, what=what)
     except AssertionError as exc:
         states = {k: (v["state"], v.get("reason")) for k, v in center.ls().items()}
-        raise AssertionError(f"{exc}; last {name}: {seen}; patrol: {center.get('patrol')}; "
+        try:
+            patrol = center.get("patrol")
+        except AssertionError as why:                     # e.g. failed: its reason is above
+            patrol = str(why)
+        raise AssertionError(f"{exc}; last {name}: {seen}; patrol: {patrol}; "
                              f"states: {states}") from None
 
 

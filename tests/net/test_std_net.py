@@ -168,7 +168,10 @@ def test_garbage_and_oversized_messages_are_refused_without_a_crash(net, tmp_pat
 
     center = Center(net[0], tmp_path, PARTITION)
     agent(net[1], center.endpoint, "ticks", "tests.support.netcomps:Counter", "--allow", "watch2=read")
-    agent(net[1], center.endpoint, "pusher", "tests.support.netcomps:Pusher", "--uses", "arm=command")
+    # 0.6 s: the docs' advice for a 1 s step; the flood below loads both computers' CPU,
+    # which may hold one answer past 0.2 s (seen once in CI) without anything going wrong
+    agent(net[1], center.endpoint, "pusher", "tests.support.netcomps:Pusher", "--uses", "arm=command",
+          "-o", "timeout=0.6")
     wait_for(lambda: center.state("ticks") == "ready" and center.state("pusher") == "running",
              30, what="remote agents")
     center.ctl("add", "watch2", "tests.support.netcomps:Watch", "--uses", "ticks=read")
@@ -201,6 +204,8 @@ def test_garbage_and_oversized_messages_are_refused_without_a_crash(net, tmp_pat
     assert {n: r["state"] for n, r in after.items()} == {
         **{n: r["state"] for n, r in before.items()}, "watch2": "running"}
     assert all(r["state"] in ("running", "ready") for r in after.values()), after
+    sent = center.get("pusher")["sent"]                 # it goes on commanding
+    wait_for(lambda: center.get("pusher")["sent"] > sent + 5, 10, what="pusher stepping")
     assert center.get("pusher")["errors"] == []
 
 

@@ -27,8 +27,9 @@ class Wheel(Actuator):
 
 
 class Pusher(Behavior):
-    """Commands actuator ``arm`` every step; provide(): the actuator's last answer and
-    what went wrong (for a `read` registration: the refusal)."""
+    """Commands actuator ``arm`` every step (each send gives up after ``timeout``, default
+    0.2 s); provide(): the actuator's last answer and what went wrong (for a `read`
+    registration: the refusal)."""
 
     period = 0.05
 
@@ -46,7 +47,8 @@ class Pusher(Behavior):
         self.sent += 1
         try:
             # well inside the step deadline (1 s): a partition must not make it hang
-            self.last = self.arm.send({"push": self.sent}, timeout=0.2)
+            self.last = self.arm.send({"push": self.sent},
+                                      timeout=float(self.options.get("timeout", 0.2)))
         except (CommandError, ResourceLost, Refused) as exc:
             self.errors = (self.errors + [str(exc)])[-5:]
 
