@@ -118,8 +118,25 @@ def _in_process_mode(item) -> bool:
     return callspec is not None and "process" in callspec.params.values()
 
 
+#: The longest modules, longest first (--durations of a whole run, summed per module).
+#: pytest-xdist hands whole modules to its workers in collection order (--dist loadfile
+#: with --no-loadscope-reorder; its default order, most tests first, ran the two network
+#: modules of 2 tests and 11 last): started first, they no longer leave one worker
+#: running alone at the end. The two network modules go to different workers' queues
+#: one after the other, never side by side (both cut links and load the CPU).
+LONGEST_FIRST = ["test_starfish_net", "test_std_operator_cli", "test_std_net", "test_std_cli",
+                 "test_avr", "test_hmi_papaman", "test_starfish_std", "test_overrun",
+                 "test_std_papaman_safety", "test_std_papaman", "test_pty_promise",
+                 "test_hmi_starfish", "test_validate_errors", "test_std_record",
+                 "test_gpsim_slaves", "test_script", "test_std_net_security",
+                 "test_starfish_avr", "test_std_supervision", "test_validate_fuzz", "test_gpsim",
+                 "test_std_papaman_cli"]
+
+
 def pytest_collection_modifyitems(config, items):
     tests = Path(__file__).resolve().parent
+    rank = {stem: i for i, stem in enumerate(LONGEST_FIRST)}
+    items.sort(key=lambda item: rank.get(item.path.stem, len(rank)))   # stable: the rest as is
     for item in items:
         rel = item.path.resolve().relative_to(tests).parts
         names = set()
