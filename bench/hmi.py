@@ -27,7 +27,17 @@ copy: at 9600 baud the line allows at most 9.9 feet polls a second) and the feet
 The 10 pages compete with everything else for this computer's cores (chromium renders
 each at 50 Hz): run it on a quiet machine, and read the load printed with the figures.
 
-Run: python bench/hmi.py [--window 10] [--mode thread]. Prints figures; asserts nothing.
+Each figure of this tree beside the same of a baseline tree (``--baseline DIR``, e.g. a
+detached worktree of main: its runtime, HMI and page, run one after the other in this
+one run); sample -> pixel is split into its hops (the sample's time stamp -> the HMI
+process got it -> it sent it -> the page got it -> the frame that drew it); each page's
+browser CPU (the whole browser's CPU over the pages open); commands/s both with the
+browser free (unpinned) and with the browser pinned to one core at nice 19
+(``taskset``), a stand-in for the remote center's own computer: the ratio to the same
+browser with its pages on about:blank is the floor the page itself adds.
+
+Run: python bench/hmi.py [--window 10] [--mode thread] [--baseline DIR]. Prints figures;
+asserts nothing.
 """
 
 from __future__ import annotations
@@ -146,6 +156,20 @@ def cpu_share(pid: int, window: float) -> float:
     return (cpu_s(pid) - c0) / (time.monotonic() - t0)
 
 
+def free_core() -> str:
+    """The last core of this computer (where a pinned browser runs)."""
+    return str(max(os.sched_getaffinity(0)))
+
+
+def pinned_chromium(tmp: Path) -> str:
+    """A chromium that runs on one core at nice 19: a stand-in for "the remote center's
+    computer" on a computer that is both."""
+    wrapper = tmp / "chromium-pinned"
+    wrapper.write_text(f"#!/bin/sh\nexec taskset -c {free_core()} nice -n 19 {CHROMIUM} \"$@\"\n")
+    wrapper.chmod(0o755)
+    return str(wrapper)
+
+
 def command_rate(endpoint: str, robot: str, seconds: float) -> float:
     bus = Bus(connect=[endpoint])
     try:
@@ -167,87 +191,91 @@ def pct(values: list[float], q: float) -> float:
     return s[min(len(s) - 1, int(len(s) * q))] if s else float("nan")
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--window", type=float, default=10.0)
-    ap.add_argument("--mode", default="thread", choices=["thread", "process"])
-    ap.add_argument("--rounds", type=int, default=3,
-                    help="commands/s: rounds of (10 pages, no page), interleaved")
-    args = ap.parse_args()
-    from playwright.sync_api import sync_playwright
+LIVE = ("() => window.__hmi && window.__hmi.wsUp && window.__hmi.feet && "
+        "window.__hmi.feet.t.length > 2")
 
-    tmp = Path(tempfile.mkdtemp(prefix="bench-hmi-"))
+
+def split(page, names: list[str]) -> dict[str, list[float]]:
+    return {n: page.evaluate(f"() => window.__hmi.stats.{n} || []") for n in names}
+
+
+def run_tree(p, root: Path, args: argparse.Namespace, tmp: Path) -> dict:
+    """Every figure of the tree at ``root`` (its runtime, HMI and page)."""
+    tmp.mkdir()
     ep = f"tcp/127.0.0.1:{free_port()}"
-    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    env = dict(os.environ, PYTHONPATH=str(root) + os.pathsep + os.environ.get("PYTHONPATH", ""))
     err = open(tmp / "run.err", "w+")  # noqa: SIM115 - closed at the end
     proc = subprocess.Popen([sys.executable, "-m", "esair_min.cli", "std", "run",
                              str(deployment(tmp, args.mode)), "--hmi", "--hmi-listen",
                              "127.0.0.1:0", "-e", ep, "--no-top"], stdout=subprocess.DEVNULL,
-                            stderr=err, env=env)
-    rows = []
+                            stderr=err, env=env, cwd=root)
+    out: dict = {}
 
     def std(*words: str) -> str:
         r = subprocess.run([sys.executable, "-m", "esair_min.cli", "std", *words, "-e", ep],
-                           capture_output=True, text=True, env=env, timeout=60)
+                           capture_output=True, text=True, env=env, timeout=60, cwd=root)
         assert r.returncode == 0, r.stderr
         return r.stdout
 
     def swept() -> dict | None:
         r = subprocess.run([sys.executable, "-m", "esair_min.cli", "std", "get", "sweep", "-e", ep],
-                           capture_output=True, text=True, env=env, timeout=60)
+                           capture_output=True, text=True, env=env, timeout=60, cwd=root)
         return json.loads(r.stdout) if r.returncode == 0 else None     # busy while it runs
     try:
         url = wait_for(lambda: (m := re.search(r"^hmi: (\S+)$", (tmp / "run.err").read_text(),
                                                re.M)) and m.group(1), timeout=90, what="URL")
         hmi = next(p for p, cmd in children(proc.pid) if b"hmi" in cmd.split(b"\0"))
         time.sleep(2)
-        cpu0 = cpu_share(hmi, args.window)
-        rss0 = rss_mb(hmi)
-        with sync_playwright() as p:
-            browser = p.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
-            pages = []
-            for i in range(3):
-                page = browser.new_page(viewport={"width": 1280, "height": 800})
-                page.goto(url, timeout=120_000)
-                try:
-                    page.wait_for_function("() => window.__hmi && window.__hmi.feet && "
-                                           "window.__hmi.feet.t.length > 10", timeout=120_000)
-                except Exception:
-                    print("page", i, page.evaluate("() => [window.__hmi.wsUp, window.__hmi.stats"
-                          ".samples, window.__hmi.entry, JSON.stringify(window.__hmi.link)]"),
-                          page.locator("#log").inner_text()[:300], file=sys.stderr)
-                    raise
-                pages.append(page)
-            weight = pages[0].evaluate(
-                "() => Object.fromEntries(performance.getEntriesByType('navigation').concat("
-                "performance.getEntriesByType('resource')).map(e => [e.name, e.transferSize]))")
-            # the robot busy meanwhile: its 12 servos commanded in turn, as fast as the link
-            # answers (bench/papaman_std_comps.py, Sweep)
-            std("add", "sweep", "bench.papaman_std_comps:Sweep", "--uses", "papaman.servo.*=command",
-                "-o", f"seconds={args.window + 1.5}")
-            time.sleep(1)
-            for page in pages:
-                page.evaluate("() => { window.__hmi.stats.latencies.length = 0; "
-                              "window.__hmi.stats.arrivals.length = 0; }")
-            drawn0 = [page.evaluate("() => [window.__hmi.stats.draws, window.__hmi.stats.drawMs]")
-                      for page in pages]
-            cpu3 = cpu_share(hmi, args.window)
-            rss3 = rss_mb(hmi)
-            drawn = [[b - a for a, b in zip(d0, page.evaluate(
-                "() => [window.__hmi.stats.draws, window.__hmi.stats.drawMs]"))]
-                for d0, page in zip(drawn0, pages)]
-            sweep = wait_for(lambda: swept(), timeout=30, what="the sweep's end")
-            std("remove", "sweep")
-            lat, arr = [], []
-            for page in pages:
-                lat += page.evaluate("() => window.__hmi.stats.latencies")
-                arr += page.evaluate("() => window.__hmi.stats.arrivals")
-            for _ in range(7):
-                page = browser.new_page(viewport={"width": 1280, "height": 800})
-                page.goto(url, timeout=120_000)
-                pages.append(page)
-            # commands/s with the 10 pages on the HMI and with them on about:blank (no
-            # socket, nothing drawn), interleaved --rounds times (the load moves): medians
+        out["cpu0"] = cpu_share(hmi, args.window)
+        out["rss0"] = rss_mb(hmi)
+        browser = p.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
+        pages = []
+        for i in range(3):
+            page = browser.new_page(viewport={"width": 1280, "height": 800})
+            page.goto(url, timeout=120_000)
+            try:
+                page.wait_for_function(LIVE.replace("> 2", "> 10"), timeout=120_000)
+            except Exception:
+                print("page", i, page.evaluate("() => [window.__hmi.wsUp, window.__hmi.stats"
+                      ".samples, window.__hmi.entry, JSON.stringify(window.__hmi.link)]"),
+                      page.locator("#log").inner_text()[:300], file=sys.stderr)
+                raise
+            pages.append(page)
+        out["weight"] = pages[0].evaluate(
+            "() => Object.fromEntries(performance.getEntriesByType('navigation').concat("
+            "performance.getEntriesByType('resource')).map(e => [e.name, e.transferSize]))")
+        # the robot busy meanwhile: its 12 servos commanded in turn, as fast as the link
+        # answers (bench/papaman_std_comps.py, Sweep)
+        std("add", "sweep", "bench.papaman_std_comps:Sweep", "--uses", "papaman.servo.*=command",
+            "-o", f"seconds={args.window + 1.5}")
+        time.sleep(1)
+        keys = ["latencies", "arrivals", "hop", "hmi", "wire", "waits"]
+        for page in pages:
+            page.evaluate(f"() => {{ for (const k of {json.dumps(keys)}) "
+                          "if (window.__hmi.stats[k]) window.__hmi.stats[k].length = 0; }")
+        drawn0 = [page.evaluate("() => [window.__hmi.stats.draws, window.__hmi.stats.drawMs]")
+                  for page in pages]
+        win = CpuWindow(proc.pid)
+        out["cpu3"] = cpu_share(hmi, args.window)
+        out["browser3"] = win.shares()["browser"]
+        out["rss3"] = rss_mb(hmi)
+        out["drawn"] = [[b - a for a, b in zip(d0, page.evaluate(
+            "() => [window.__hmi.stats.draws, window.__hmi.stats.drawMs]"))]
+            for d0, page in zip(drawn0, pages)]
+        out["sweep"] = wait_for(lambda: swept(), timeout=30, what="the sweep's end")
+        std("remove", "sweep")
+        out["split"] = {k: [] for k in keys}
+        for page in pages:
+            for k, v in split(page, keys).items():
+                out["split"][k] += v
+        browser.close()
+        # commands/s with 10 pages on the HMI and with the same 10 on about:blank (no
+        # socket, nothing drawn), interleaved --rounds times (the load moves): medians;
+        # the browser free, then pinned to one core at nice 19
+        out["rates"] = {}
+        for how, exe in (("free", CHROMIUM), ("pinned", pinned_chromium(tmp))):
+            browser = p.chromium.launch(executable_path=exe, args=CHROMIUM_ARGS)
+            pages = [browser.new_page(viewport={"width": 1280, "height": 800}) for _ in range(10)]
             rates: dict[int, list[float]] = {0: [], 10: []}
             cpus: dict[int, list[dict]] = {0: [], 10: []}
             for r in range(2 * args.rounds):
@@ -256,15 +284,13 @@ def main() -> None:
                     page.goto(url if n else "about:blank", timeout=120_000)
                 if n:
                     for page in pages:
-                        page.wait_for_function("() => window.__hmi && window.__hmi.wsUp && "
-                                               "window.__hmi.feet.t.length > 2", timeout=120_000)
+                        page.wait_for_function(LIVE, timeout=120_000)
                 win = CpuWindow(proc.pid)
                 rates[n].append(command_rate(ep, "papaman", args.window / 2))
                 cpus[n].append(win.shares())
             browser.close()
-        rate0, rate10 = statistics.median(rates[0]), statistics.median(rates[10])
-        cpu00, cpu10 = ({k: statistics.median(c[k] for c in cpus[n]) for k in cpus[n][0]}
-                        for n in (0, 10))
+            out["rates"][how] = (rates, {n: {k: statistics.median(c[k] for c in cpus[n])
+                                             for k in cpus[n][0]} for n in (0, 10)})
         # 1 kHz recorded
         std("add-resource", "counter", "esair_std.drivers.sim:Counter", "-o", "rate_hz=1000",
             "--allow", "*=read")
@@ -273,37 +299,7 @@ def main() -> None:
         time.sleep(args.window / 2)
         c = rec.stop()
         seqs = [s[1] for s in read_samples(tmp / "k.mcap")]
-        lost = (seqs[-1] - seqs[0] + 1 - len(seqs)) if seqs else -1
-        rows = [
-            ("sample -> pixel p99 (p50), 3 pages, feet at 50 Hz",
-             f"{pct(lat, 0.99):.1f} ms ({statistics.median(lat):.1f} ms), {len(lat)} samples",
-             "<= 50 ms", pct(lat, 0.99) / 50),
-            ("  meanwhile the 12 servos commanded (Sweep): sent, failed",
-             f"{sweep['sent']}, {sweep['errors']}", "-", 0.0),
-            ("  of which: sample -> the page got it, p99 (p50)",
-             f"{pct(arr, 0.99):.1f} ms ({statistics.median(arr):.1f} ms), {len(arr)} samples",
-             "-", 0.0),
-            ("  each page's drawing: frames/s, ms of drawing per s",
-             ", ".join(f"{n / args.window:.1f}/s {ms / args.window:.1f} ms" for n, ms in drawn),
-             "-", 0.0),
-            ("HMI CPU, no page / 3 pages", f"{cpu0 * 100:.1f} % / {cpu3 * 100:.1f} % of a core",
-             "<= 10 %", cpu3 / 0.10),
-            ("HMI RSS, no page / 3 pages", f"{rss0:.1f} / {rss3:.1f} MB", "<= 45 MB", rss3 / 45),
-            ("page weight", f"{sum(weight.values()) / 1024:.1f} KB in {len(weight)} responses",
-             "<= 300 KB", sum(weight.values()) / 1024 / 300),
-            ("commands/s (x via the runtime), no page / 10 pages",
-             f"{rate0:.1f} / {rate10:.1f} = {rate10 / rate0:.3f}x (medians of "
-             f"{', '.join(f'{a:.0f}' for a in rates[0])} / {', '.join(f'{a:.0f}' for a in rates[10])})",
-             ">= 0.95x",
-             0.95 / (rate10 / rate0) if rate10 else float("inf")),
-            ("  CPU (cores) then: runtime+HMI+emulator / browser / this bench / machine",
-             f"{cpu00['runtime']:.2f}/{cpu00['browser']:.2f}/{cpu00['bench']:.2f}/"
-             f"{cpu00['machine']:.2f}; {cpu10['runtime']:.2f}/{cpu10['browser']:.2f}/"
-             f"{cpu10['bench']:.2f}/{cpu10['machine']:.2f}",
-             "-", 0.0),
-            ("record 1 kHz: samples lost (gaps + drops)",
-             f"{lost} + {c['dropped']} of {len(seqs)}", "0", float(lost + c["dropped"])),
-        ]
+        out["lost"] = ((seqs[-1] - seqs[0] + 1 - len(seqs)) if seqs else -1, c["dropped"], len(seqs))
     except BaseException:
         print(f"run alive: {proc.poll() is None}; its children: {children(proc.pid)}",
               file=sys.stderr)
@@ -312,11 +308,82 @@ def main() -> None:
         proc.send_signal(signal.SIGTERM)
         proc.wait(timeout=30)
         err.close()
-    print(f"bench/hmi.py, mode {args.mode}, window {args.window:g} s, "
-          f"load {os.getloadavg()[0]:.1f}")
-    for name, got, goal, ratio in rows:
+    return out
+
+
+def p50_99(values: list[float]) -> str:
+    if not values:
+        return "-"
+    return f"{statistics.median(values):.1f} / {pct(values, 0.99):.1f}"
+
+
+def rows_of(f: dict, window: float) -> list[tuple[str, str, str, float]]:
+    lat, sp = f["split"]["latencies"], f["split"]
+    rows = [
+        ("sample -> pixel, p50 / p99 ms, 3 pages, feet at 50 Hz",
+         f"{p50_99(lat)} ({len(lat)} samples)", "p99 <= 50", pct(lat, 0.99) / 50 if lat else 9.9),
+        ("  sample -> the page got it (onmessage)", p50_99(sp["arrivals"]), "-", 0.0),
+        ("    sample -> HMI process (runtime, Zenoh)", p50_99(sp["hop"]), "-", 0.0),
+        ("    HMI process: got -> sent", p50_99(sp["hmi"]), "-", 0.0),
+        ("    sent -> page (WebSocket, the page's thread)", p50_99(sp["wire"]), "-", 0.0),
+        ("  the page got it -> the frame that drew it", p50_99(sp["waits"]), "-", 0.0),
+        ("  meanwhile the 12 servos commanded: sent, failed",
+         f"{f['sweep']['sent']}, {f['sweep']['errors']}", "-", 0.0),
+        ("  each page: frames drawn/s, ms drawing/s",
+         ", ".join(f"{n / window:.0f}/{ms / window:.0f}" for n, ms in f["drawn"]), "-", 0.0),
+        ("  browser CPU per page (whole browser / 3), cores", f"{f['browser3'] / 3:.3f}", "-", 0.0),
+        ("HMI CPU, no page / 3 pages, % of a core",
+         f"{f['cpu0'] * 100:.1f} / {f['cpu3'] * 100:.1f}", "<= 10", f["cpu3"] / 0.10),
+        ("HMI RSS, no page / 3 pages, MB", f"{f['rss0']:.1f} / {f['rss3']:.1f}", "<= 45",
+         f["rss3"] / 45),
+        ("page weight, KB", f"{sum(f['weight'].values()) / 1024:.1f} in {len(f['weight'])}",
+         "<= 300", sum(f["weight"].values()) / 1024 / 300),
+    ]
+    for how, (rates, cpu) in f["rates"].items():
+        r0, r10 = statistics.median(rates[0]), statistics.median(rates[10])
+        rows.append((f"commands/s, 10 pages blank / live, browser {how}",
+                     f"{r0:.0f} / {r10:.0f} = {r10 / r0:.3f}x ("
+                     f"{','.join(f'{a:.0f}' for a in rates[0])} / "
+                     f"{','.join(f'{a:.0f}' for a in rates[10])})",
+                     ">= 0.95x", 0.95 / (r10 / r0) if r10 else 9.9))
+        rows.append(("  cores: runtime / browser / machine, blank; live",
+                     f"{cpu[0]['runtime']:.2f}/{cpu[0]['browser']:.2f}/{cpu[0]['machine']:.2f}; "
+                     f"{cpu[10]['runtime']:.2f}/{cpu[10]['browser']:.2f}/{cpu[10]['machine']:.2f}",
+                     "-", 0.0))
+    lost, dropped, n = f["lost"]
+    rows.append(("record 1 kHz: lost (gaps + drops)", f"{lost} + {dropped} of {n}", "0",
+                 float(lost + dropped)))
+    return rows
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--window", type=float, default=10.0)
+    ap.add_argument("--mode", default="thread", choices=["thread", "process"])
+    ap.add_argument("--rounds", type=int, default=2,
+                    help="commands/s: rounds of (10 pages, no page), interleaved, per browser")
+    ap.add_argument("--baseline", type=Path, default=None,
+                    help="another tree (e.g. `git worktree add --detach /tmp/base main`) run "
+                         "first in the same run, its figures beside these")
+    args = ap.parse_args()
+    from playwright.sync_api import sync_playwright
+
+    tmp = Path(tempfile.mkdtemp(prefix="bench-hmi-"))
+    trees = ([("baseline", args.baseline.resolve())] if args.baseline else []) + [("this", ROOT)]
+    load0 = os.getloadavg()[0]
+    got = {}
+    with sync_playwright() as p:
+        for name, root in trees:
+            got[name] = rows_of(run_tree(p, root, args, tmp / name), args.window)
+    print(f"bench/hmi.py, mode {args.mode}, window {args.window:g} s, load {load0:.1f} -> "
+          f"{os.getloadavg()[0]:.1f}; trees: " + ", ".join(f"{n} {r}" for n, r in trees))
+    names = [n for n, _ in trees]
+    print(f"{'figure':54s} " + " ".join(f"{n:>40s}" for n in names) + "  goal")
+    for i, (label, _, goal, _r) in enumerate(got["this"]):
+        cells = " ".join(f"{got[n][i][1]:>40s}" for n in names)
+        ratio = got["this"][i][3]
         verdict = "" if goal == "-" else ("met" if ratio <= 1 else "NOT met")
-        print(f"{name:52s} {got:44s} goal {goal:9s} {verdict}")
+        print(f"{label:54s} {cells}  {goal} {verdict}")
 
 
 if __name__ == "__main__":

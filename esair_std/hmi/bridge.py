@@ -135,8 +135,10 @@ class Bridge:
             self.c["samples_unwatched"] += 1
             return
         self.c["samples"] += 1
-        self._last_sample[res] = time.time()
-        msg = {"t": "s", "r": res, "q": obj.get("seq"), "ts": obj.get("t"), "v": obj.get("v")}
+        now = self._last_sample[res] = time.time()
+        # rx: when this process got it (the page splits sample -> pixel at it, docs/hmi.md)
+        msg = {"t": "s", "r": res, "q": obj.get("seq"), "ts": obj.get("t"), "v": obj.get("v"),
+               "rx": round(now, 4)}
         self.last[res] = msg          # one reference per sensor: replaced, never grows
         self.emit(msg)
 

@@ -13,6 +13,7 @@ site cannot drive the robot through the user's browser.
 from __future__ import annotations
 
 import asyncio
+import gc
 import json
 import logging
 import mimetypes
@@ -70,6 +71,7 @@ class Page:
         self.user = ""
         self.q: asyncio.Queue[str] = asyncio.Queue(PAGE_QUEUE)
         self.dropped = 0
+        self.hidden = False         # in the background: no samples (op "view")
 
 
 def _field(frame: dict, name: str, kind: type | tuple) -> Any:
@@ -95,7 +97,8 @@ class HmiServer:
         self.record_dir = Path(record_dir)
         self.tap: Tap | None = None
         self.c = dict(pages=0, frames=0, bad_frames=0, refused=0, dropped=0,
-                      origin_refused=0, commands=0, command_errors=0, batches=0)
+                      origin_refused=0, commands=0, command_errors=0, batches=0,
+                      held=0)       # samples not sent to pages in the background
         self._stop: asyncio.Event | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
         self._pending: list[dict] = []            # emitted, not yet sent (bounded)
@@ -107,7 +110,7 @@ class HmiServer:
         """Hand ``msg`` to the pages. The caller (Zenoh's thread, the bridge's poller)
         only appends it to a bounded list; the loop is woken once for all that came
         meanwhile, encodes them once, and sends each page one frame (``{"t": "b", "m":
-        [...]}`` for more than one): at 50 Hz of samples and more, one loop wake-up and
+        [...], "f": when}``): at 50 Hz of samples and more, one loop wake-up and
         one WebSocket frame per batch, not per sample."""
         tap = self.tap
         if tap is not None:
@@ -132,10 +135,21 @@ class HmiServer:
         if not msgs:
             return
         self.c["batches"] += 1
-        one = msgs[0] if len(msgs) == 1 else {"t": "b", "m": msgs}
-        text = json.dumps(one, separators=(",", ":"))
+        # f: when it left this process's queue (the page splits sample -> pixel at it)
+        f = round(time.time(), 4)
+        text = json.dumps({"t": "b", "f": f, "m": msgs}, separators=(",", ":"))
+        quiet: str | None = None            # the same without the samples, for hidden pages
         for page in list(self.pages):
-            self._send(page, text)
+            if not page.hidden:
+                self._send(page, text)
+                continue
+            if quiet is None:
+                rest = [m for m in msgs if m.get("t") != "s"]
+                held = len(msgs) - len(rest)
+                quiet = json.dumps({"t": "b", "f": f, "m": rest}, separators=(",", ":")) if rest else ""
+            self.c["held"] += held
+            if quiet:
+                self._send(page, quiet)
 
     def _send(self, page: Page, text: str) -> None:
         try:
@@ -146,6 +160,7 @@ class HmiServer:
 
     def status(self) -> dict:
         return {"counters": dict(self.c, open_pages=len(self.pages),
+                                 hidden_pages=sum(p.hidden for p in self.pages),
                                  failed_logins=self.auth.failed_logins),
                 "bridge": dict(self.bridge.c) if self.bridge else {}}
 
@@ -248,6 +263,13 @@ class HmiServer:
     # ---- ops
     async def op_ping(self, page: Page, ident: Any, obj: dict) -> None:
         self._reply(page, ident, True, obj.get("ts"))
+
+    async def op_view(self, page: Page, ident: Any, obj: dict) -> None:
+        """``{"op": "view", "hidden": bool}``: the page went to the background (another
+        tab, a minimized window) or came back; a hidden page gets no samples (it would not
+        draw them), everything else still (the link, the log, the components)."""
+        page.hidden = _field(obj, "hidden", bool)
+        self._reply(page, ident, True, page.hidden)
 
     async def op_login(self, page: Page, ident: Any, obj: dict) -> None:
         if "token" in obj:
@@ -379,6 +401,10 @@ class HmiServer:
         self._loop = asyncio.get_running_loop()
         self.bridge = Bridge(self.endpoint, self.emit, who=self.who)
         await self._loop.run_in_executor(None, self.bridge.start)
+        # what start-up made lives as long as the process: out of the collector's way, so
+        # a full collection walks only what came since (its pauses delay every sample)
+        gc.collect()
+        gc.freeze()
         try:
             async with serve(self._page, self.host, self.port, process_request=self._http,
                              ssl=self.tls, max_size=MAX_FRAME, server_header=None,

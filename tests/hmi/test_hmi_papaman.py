@@ -83,6 +83,39 @@ def test_the_page_loads_without_errors_and_lists_every_component(robot, browser)
     assert errors == []
 
 
+HIDE = """v => { Object.defineProperty(document, "visibilityState", {configurable: true, get: () => v});
+                  document.dispatchEvent(new Event("visibilitychange"));
+                  return window.__hmi.send({op: "ping"}); }"""
+
+
+def test_a_page_in_the_background_draws_nothing_and_gets_no_samples(robot, browser):
+    # headless chromium shows every page (Playwright has no background tab or minimized
+    # window), so the page is told it is hidden the way a browser tells it: its
+    # document.visibilityState and the visibilitychange event
+    page, errors = open_page(browser, robot.url, login=False, ready="window.__hmi.stats.draws > 0")
+    assert page.evaluate("[window.__hmi.fps, window.__hmi.hidden]") == [30, False]
+    assert page.evaluate(HIDE, "hidden")["ok"]      # answered after the view: in order
+    wait_for(lambda: robot.status()["counters"]["hidden_pages"] >= 1, what="the page hidden")
+    held = robot.status()["counters"]["held"]
+    before = page.evaluate("[window.__hmi.stats.samples, window.__hmi.stats.draws, "
+                           "window.__hmi.stats.frames, window.__hmi.feet.t.length]")
+    link = page.evaluate("JSON.stringify(window.__hmi.link)")
+    wait_for(lambda: robot.status()["counters"]["held"] >= held + 10, what="10 samples held back")
+    # the rest still comes (the link's last reply age changes with each poll)
+    page.wait_for_function(f"() => JSON.stringify(window.__hmi.link) !== {link!r}")
+    assert page.evaluate("[window.__hmi.stats.samples, window.__hmi.stats.draws, "
+                         "window.__hmi.stats.frames, window.__hmi.feet.t.length]") == before
+    assert page.evaluate(HIDE, "visible")["ok"]     # shown again: samples and drawing
+    page.wait_for_function(f"() => window.__hmi.stats.samples > {before[0]} && "
+                           f"window.__hmi.stats.draws > {before[1]}")
+    wait_for(lambda: robot.status()["counters"]["hidden_pages"] == 0, what="no page hidden")
+    page.close()
+    page, more = open_page(browser, robot.url + "?fps=500", login=False)    # capped at 60
+    assert page.evaluate("window.__hmi.fps") == 60
+    page.close()
+    assert errors == more == []
+
+
 def test_dance_button_plays_the_dance_frames(robot, browser, papaman):
     page, errors = open_page(browser, robot.url)
     dance = frame_bytes(papaman, "dance")
@@ -226,7 +259,8 @@ def test_a_foreign_origin_is_refused_and_bad_frames_change_nothing(robot):
             assert (hello["t"], hello["role"]) == ("hello", "viewer")
             got = []
             for frame in ["not json", b"\x00\x01", json.dumps([1]), json.dumps({"op": "nope"}),
-                          json.dumps({"op": "login", "user": 5, "password": "x"})]:
+                          json.dumps({"op": "login", "user": 5, "password": "x"}),
+                          json.dumps({"op": "view", "hidden": "yes"})]:
                 ws.send(frame)
                 while True:
                     m = json.loads(ws.recv(timeout=10))
@@ -238,8 +272,9 @@ def test_a_foreign_origin_is_refused_and_bad_frames_change_nothing(robot):
     got = go()
     assert got == ["bad frame: not JSON", "bad frame: binary frames are not understood",
                    "bad frame: expected an object with an 'op'", "bad frame: unknown op 'nope'",
-                   "bad frame: field 'user' missing or of the wrong type"]
+                   "bad frame: field 'user' missing or of the wrong type",
+                   "bad frame: field 'hidden' missing or of the wrong type"]
     after = robot.status()["counters"]
     assert after["origin_refused"] == before["origin_refused"] + 1
-    assert after["bad_frames"] == before["bad_frames"] + 5
+    assert after["bad_frames"] == before["bad_frames"] + 6
     assert after["commands"] == before["commands"]

@@ -11,6 +11,12 @@ import { Replay } from "./replay.js";
 const $ = (id) => document.getElementById(id);
 const DRAW_SHARE = 0.25;         // drawing takes at most this share of the page's time
 const MAX_DRAW_GAP_MS = 200;     // ... but the plots move at least 5 times a second
+// redraws a second at most (`?fps=N` in the URL, 1-60): the feet come at 50 Hz, an eye
+// needs less, and each frame drawn costs the computer showing the page (docs/hmi.md)
+const FPS = Math.min(60, Math.max(1, Number(new URLSearchParams(location.search).get("fps")) || 30));
+const MIN_DRAW_GAP_MS = 1000 / FPS - 4;      // less a quarter of a 60 Hz frame: rAF jitters
+const KEEP = 20000;              // bench figures kept
+const keep = (a, x) => { a.push(x); if (a.length > KEEP) a.shift(); };
 
 class App {
   constructor() {
@@ -26,18 +32,42 @@ class App {
     // latencies: sample time stamp -> the frame that drew it; arrivals: -> the page got it
     // (the difference is the browser's wait for a frame), both in ms, for the bench
     // draws, drawMs: frames drawn and the time they took (the page's own cost)
-    this.stats = { samples: 0, latencies: [], arrivals: [], draws: 0, drawMs: 0 };
+    // hop, hmi, wire: the parts of `arrivals` (sample -> this HMI process got it -> it
+    // sent it -> the page got it); waits: the page got it -> the frame drew it; hidden: the page is in the background (not drawn)
+    this.stats = { samples: 0, latencies: [], arrivals: [], draws: 0, drawMs: 0,
+      hop: [], hmi: [], wire: [], waits: [], hidden: false, frames: 0 };
     this.log = new Log($("log"), $("log-level"));
     this.components = new Components($("components"), $("add"), this);
-    this.dirty = false;
-    this.drawnAt = 0; this.drawCost = 0; this.drawGap = 0;     // frame(): the draw budget
+    this._dirty = false; this.framePending = false; this.hidden = document.visibilityState === "hidden";
+    this.drawnAt = -1e9; this.drawCost = 0; this.drawGap = MIN_DRAW_GAP_MS;     // frame(): the draw budget
+    this.flushedAt = null;       // the server's "f" of the frame being read
+    this.fps = FPS;
     $("stop").addEventListener("click", () => this.stop());
     $("login").addEventListener("submit", (e) => { e.preventDefault(); this.login(); });
     $("record").addEventListener("click", () => this.record());
     this.replay = new Replay(this);
     window.__hmi = this;         // for tests and the bench
+    document.addEventListener("visibilitychange", () => this.visibility());
     this.connect();
+  }
+
+  // Something to draw: one animation frame is asked for (none while nothing changed, none
+  // while the page is hidden; frame() asks again while it has more to do).
+  get dirty() { return this._dirty; }
+  set dirty(v) { this._dirty = v; if (v) this.kick(); }
+
+  kick() {
+    if (this.framePending || this.hidden) return;
+    this.framePending = true;
     requestAnimationFrame((t) => this.frame(t));
+  }
+
+  // A page in the background (another tab, a minimized window) draws nothing and asks the
+  // server to hold the samples back (op "view"); shown again it draws what comes from then.
+  visibility() {
+    this.hidden = this.stats.hidden = document.visibilityState === "hidden";
+    this.send({ op: "view", hidden: this.hidden });
+    if (!this.hidden) { this.dirty = true; if (this.pose) this.pose.changed = true; }
   }
 
   connect() {
@@ -46,6 +76,7 @@ class App {
     this.ws = ws;
     ws.onopen = () => {
       this.wsUp = true; this.retry = 250;
+      if (this.hidden) this.send({ op: "view", hidden: true });
       const token = sessionStorage.getItem("esair-hmi-token");
       if (token) this.send({ op: "login", token }).then((r) => { if (r.ok) this.setRole("operator"); });
       this.banner();
@@ -116,7 +147,11 @@ class App {
 
   receive(m) {
     switch (m.t) {
-      case "b": for (const x of m.m) this.receive(x); return;   // a batch (server.py, emit)
+      case "b":                                        // a batch (server.py, emit)
+        this.flushedAt = m.f;
+        for (const x of m.m) this.receive(x);
+        this.flushedAt = null;
+        return;
       case "hello": return this.hello(m);
       case "ack": {
         const p = this.pending.get(m.id);
@@ -168,10 +203,13 @@ class App {
     this.stats.samples++;
     if (this.replay.active) return;               // the plot shows a recording
     if (this.entry && m.r === `${this.entry}.feet`) {
-      const a = this.stats.arrivals;
-      a.push(performance.timeOrigin + performance.now() - m.ts * 1000);
-      if (a.length > 20000) a.shift();
-      this.feet.push(m); this.dirty = true;
+      const st = this.stats, got = performance.timeOrigin + performance.now();
+      keep(st.arrivals, got - m.ts * 1000);
+      if (m.rx != null && this.flushedAt != null) {
+        keep(st.hop, (m.rx - m.ts) * 1000); keep(st.hmi, (this.flushedAt - m.rx) * 1000);
+        keep(st.wire, got - this.flushedAt * 1000);
+      }
+      this.feet.push(m, got); this.dirty = true;
     }
     else if (this.entry && m.r === `${this.entry}.notices`) {
       const text = (m.v && m.v.notice) || "";
@@ -200,14 +238,8 @@ class App {
   }
 
   linkbar() {
-    const same = JSON.stringify([this.wsUp, this.runtimeUp, this.link]);
-    if (same === this.linkShown) return;           // rebuilt only when it changed
-    this.linkShown = same;
-    const bar = $("linkbar"); bar.textContent = "";
-    const pill = (cls, text, title) => {
-      const s = document.createElement("span"); s.className = `pill ${cls}`;
-      s.textContent = text; if (title) s.title = title; bar.append(s);
-    };
+    const pills = [];
+    const pill = (cls, text, title) => pills.push([`pill ${cls}`, text, title || ""]);
     pill(this.wsUp ? "ready" : "down", this.wsUp ? "hmi ready" : "hmi lost");
     pill(this.runtimeUp ? "ready" : "down", this.runtimeUp ? "runtime ready" : "runtime lost");
     for (const [entry, l] of Object.entries(this.link)) {
@@ -218,6 +250,16 @@ class App {
       if (l.errors != null) bits.push(`${l.errors} errors`);
       pill(l.state, bits.join(" · "), `${l.host || ""} pid ${l.pid || "?"} ${l.reason || ""}`);
     }
+    // the pills are kept and only what changed is set (the link comes 4 times a second)
+    const bar = $("linkbar");
+    while (bar.children.length > pills.length) bar.lastChild.remove();
+    while (bar.children.length < pills.length) bar.append(document.createElement("span"));
+    pills.forEach(([cls, text, title], i) => {
+      const s = bar.children[i];
+      if (s.className !== cls) s.className = cls;
+      if (s.textContent !== text) s.textContent = text;
+      if (s.title !== title) s.title = title;
+    });
   }
 
   banner() {
@@ -232,25 +274,33 @@ class App {
     this.linkbar();
   }
 
-  // Each animation frame draws what changed since the last one (every sample that came
-  // meanwhile at once), at most DRAW_SHARE of the page's time: when drawing is slow (a
-  // busy computer, many pages) a frame is skipped rather than the whole page falling
-  // behind; on an idle one every frame that has something new is drawn.
+  // A frame draws what changed since the last one (every sample that came meanwhile at
+  // once), at most FPS times a second and at most DRAW_SHARE of the page's time: when
+  // drawing is slow (a busy computer, many pages) frames are skipped rather than the
+  // whole page falling behind.
   frame(now) {
-    if (this.dirty && now - this.drawnAt >= this.drawGap) {
-      this.dirty = false;
+    this.framePending = false;
+    if (this.hidden) return;
+    this.stats.frames++;
+    let again = false;
+    if (this._dirty && now - this.drawnAt < this.drawGap) again = true;
+    else if (this._dirty) {
+      this._dirty = false;
       const t0 = performance.now();
       const drawnAt = performance.timeOrigin + t0;
-      if (this.feet) this.feet.draw(drawnAt, this.stats.latencies);
+      if (this.feet) this.feet.draw(drawnAt, this.stats);
       if (this.generic) this.generic.draw();
       const cost = performance.now() - t0;
       this.stats.draws++; this.stats.drawMs += cost;
       this.drawCost = 0.8 * this.drawCost + 0.2 * cost;
-      this.drawGap = Math.min(MAX_DRAW_GAP_MS, this.drawCost / DRAW_SHARE);
+      this.drawGap = Math.min(MAX_DRAW_GAP_MS, Math.max(MIN_DRAW_GAP_MS, this.drawCost / DRAW_SHARE));
       this.drawnAt = now;
     }
-    if (this.pose && this.pose.animate(now)) this.joints.sync(this.pose.angles);
-    requestAnimationFrame((t) => this.frame(t));
+    if (this.pose) {
+      if (this.pose.animate(now)) this.joints.sync(this.pose.angles);
+      if (this.pose.motion || this.pose.changed) again = true;       // a motion plays
+    }
+    if (again) this.kick();
   }
 }
 

@@ -3,11 +3,12 @@
 const WINDOW_S = 10;
 const COLORS = ["#2563eb", "#3b82f6", "#60a5fa", "#93c5fd", "#b45309", "#d97706", "#f59e0b", "#fbbf24"];
 const LAT_KEEP = 20000;
+const NOTE_MS = 250;
 
 export class Feet {
   constructor(el, pauseBtn, note, info) {
     this.el = el; this.note = note; this.info = info; this.paused = false;
-    this.markers = []; this.fresh = [];
+    this.markers = []; this.fresh = []; this.noteAt = -1e9; this.noteMarks = 0;
     this.changed = false; this.visible = true;        // drawn only when both (app.js, frame)
     el.textContent = "";
     if (!info || typeof uPlot === "undefined") return;
@@ -47,13 +48,14 @@ export class Feet {
     });
   }
 
-  push(m) {
+  push(m, got) {                   // got: when the page got it (ms since the epoch)
     if (!this.top || !m.v || !m.v.values) return;
     this.t.push(m.ts);
     this.names.forEach((n, i) => this.v[i].push(m.v.values[n]));
     const L = m.v.groups[this.compare[0]], R = m.v.groups[this.compare[1]];
     this.l.push(L); this.r.push(R); this.d.push(Math.abs(L - R)); this.th.push(this.threshold);
-    this.fresh.push(m.ts); this.changed = true;
+    if (got !== undefined) this.fresh.push([m.ts, got]);
+    this.changed = true;
     const old = m.ts - WINDOW_S;
     let cut = 0;
     while (cut < this.t.length && this.t[cut] < old) cut++;
@@ -65,7 +67,7 @@ export class Feet {
   clear() {
     if (!this.top) return;
     for (const a of [this.t, ...this.v, this.l, this.r, this.d, this.th]) a.length = 0;
-    this.markers = []; this.fresh = []; this.last = null; this.changed = true;
+    this.markers = []; this.fresh = []; this.last = null; this.changed = true; this.noteAt = -1e9;
   }
 
   marker(ts, text) {
@@ -84,22 +86,25 @@ export class Feet {
     c.restore();
   }
 
-  // Draw what changed (the samples since the last frame at once); latencies: each sample
-  // drawn, its time stamp -> this frame (drawnAt, ms since the epoch). Off screen: nothing
-  // drawn, nothing counted.
-  draw(drawnAt, latencies) {
+  // Draw what changed (the samples since the last frame at once); stats.latencies: each
+  // sample drawn, its time stamp -> this frame (drawnAt, ms since the epoch), stats.waits:
+  // the page got it -> this frame. Off screen: nothing drawn, nothing counted.
+  draw(drawnAt, stats) {
     if (!this.top || !this.changed) return;
     if (!this.visible) { this.fresh = []; return; }
     this.changed = false;
-    for (const ts of this.fresh) {
-      latencies.push(drawnAt - ts * 1000);
-      if (latencies.length > LAT_KEEP) latencies.shift();
+    for (const [ts, got] of this.fresh) {
+      stats.latencies.push(drawnAt - ts * 1000); stats.waits.push(drawnAt - got);
+      if (stats.latencies.length > LAT_KEEP) { stats.latencies.shift(); stats.waits.shift(); }
     }
     this.fresh = [];
     if (this.paused) return;
     this.top.setData([this.t, ...this.v]);
     this.bottom.setData([this.t, this.l, this.r, this.d, this.th]);
-    if (this.last) {
+    // the numbers under the title: text changes lay the page out again, 4 times a second
+    // is enough to read them
+    if (this.last && (drawnAt - this.noteAt >= NOTE_MS || this.markers.length !== this.noteMarks)) {
+      this.noteAt = drawnAt; this.noteMarks = this.markers.length;
       const over = this.threshold != null && this.last.d > this.threshold;
       this.note.textContent = `L ${this.last.L} · R ${this.last.R} · |L−R| ${this.last.d}` +
         (this.threshold != null ? (over ? ` > ${this.threshold}` : ` ≤ ${this.threshold}`) : "") +
