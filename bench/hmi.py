@@ -161,11 +161,11 @@ def free_core() -> str:
     return str(max(os.sched_getaffinity(0)))
 
 
-def pinned_chromium(tmp: Path) -> str:
-    """A chromium that runs on one core at nice 19: a stand-in for "the remote center's
+def pinned_chromium(tmp: Path, nice: int) -> str:
+    """A chromium that runs on one core at ``nice``: a stand-in for "the remote center's
     computer" on a computer that is both."""
     wrapper = tmp / "chromium-pinned"
-    wrapper.write_text(f"#!/bin/sh\nexec taskset -c {free_core()} nice -n 19 {CHROMIUM} \"$@\"\n")
+    wrapper.write_text(f"#!/bin/sh\nexec taskset -c {free_core()} nice -n {nice} {CHROMIUM} \"$@\"\n")
     wrapper.chmod(0o755)
     return str(wrapper)
 
@@ -273,7 +273,7 @@ def run_tree(p, root: Path, args: argparse.Namespace, tmp: Path) -> dict:
         # socket, nothing drawn), interleaved --rounds times (the load moves): medians;
         # the browser free, then pinned to one core at nice 19
         out["rates"] = {}
-        for how, exe in (("free", CHROMIUM), ("pinned", pinned_chromium(tmp))):
+        for how, exe in [("free", CHROMIUM), ("pinned", pinned_chromium(tmp, args.nice))][:args.rates]:
             browser = p.chromium.launch(executable_path=exe, args=CHROMIUM_ARGS)
             pages = [browser.new_page(viewport={"width": 1280, "height": 800}) for _ in range(10)]
             rates: dict[int, list[float]] = {0: [], 10: []}
@@ -284,7 +284,7 @@ def run_tree(p, root: Path, args: argparse.Namespace, tmp: Path) -> dict:
                     page.goto(url if n else "about:blank", timeout=120_000)
                 if n:
                     for page in pages:
-                        page.wait_for_function(LIVE, timeout=120_000)
+                        page.wait_for_function(LIVE, timeout=300_000)
                 win = CpuWindow(proc.pid)
                 rates[n].append(command_rate(ep, "papaman", args.window / 2))
                 cpus[n].append(win.shares())
@@ -365,6 +365,9 @@ def main() -> None:
     ap.add_argument("--baseline", type=Path, default=None,
                     help="another tree (e.g. `git worktree add --detach /tmp/base main`) run "
                          "first in the same run, its figures beside these")
+    ap.add_argument("--rates", type=int, default=2, choices=[0, 1, 2],
+                    help="commands/s with the browser: 0 not measured, 1 free, 2 free and pinned")
+    ap.add_argument("--nice", type=int, default=19, help="the pinned browser's nice level")
     args = ap.parse_args()
     from playwright.sync_api import sync_playwright
 

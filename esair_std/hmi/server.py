@@ -22,7 +22,7 @@ import threading
 import time
 from http import HTTPStatus
 from pathlib import Path
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any, Callable
 
 from websockets.asyncio.server import ServerConnection, serve
 from websockets.datastructures import Headers
@@ -30,10 +30,14 @@ from websockets.exceptions import ConnectionClosed
 from websockets.http11 import Request, Response
 
 from ..errors import StdError
-from ..record.mcapio import read_samples
-from ..record.tap import Tap
 from .auth import Auth
 from .bridge import Bridge, BridgeError
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..record.tap import Tap
+
+# the MCAP library (mcap, lz4, zstandard: ~3 MB of this process's memory) is imported
+# when the page records or replays, not before
 
 log = logging.getLogger("esair_std.hmi")
 STATIC = Path(__file__).resolve().parent / "static"
@@ -347,6 +351,7 @@ class HmiServer:
     async def op_record(self, page: Page, ident: Any, obj: dict) -> None:
         on = _field(obj, "on", bool)
         if on and self.tap is None:
+            from ..record.tap import Tap
             name = time.strftime(f"esair-{self.bridge.robot if self.bridge else 'robot'}-%Y%m%d-%H%M%S.mcap")
             try:
                 tap = Tap(self.record_dir / name)
@@ -383,6 +388,7 @@ class HmiServer:
             return
 
         def load() -> list:
+            from ..record.mcapio import read_samples
             out = []
             for topic, seq, t, value in read_samples(path):
                 out.append([topic, seq, t, value])
