@@ -276,6 +276,8 @@ def run_tree(p, root: Path, args: argparse.Namespace, tmp: Path) -> dict:
         for how, exe in [("free", CHROMIUM), ("pinned", pinned_chromium(tmp, args.nice))][:args.rates]:
             browser = p.chromium.launch(executable_path=exe, args=CHROMIUM_ARGS)
             pages = [browser.new_page(viewport={"width": 1280, "height": 800}) for _ in range(10)]
+            for i, page in enumerate(pages):
+                page.on("crash", lambda _p, i=i: print(f"page {i} crashed", file=sys.stderr))
             rates: dict[int, list[float]] = {0: [], 10: []}
             cpus: dict[int, list[dict]] = {0: [], 10: []}
             for r in range(2 * args.rounds):
@@ -284,8 +286,10 @@ def run_tree(p, root: Path, args: argparse.Namespace, tmp: Path) -> dict:
                     page.goto(url if n else "about:blank", timeout=120_000)
                 if n:
                     for page in pages:
-                        page.wait_for_function(LIVE, timeout=300_000)
+                        page.wait_for_function(LIVE, timeout=180_000)
                 win = CpuWindow(proc.pid)
+                print(f"{root.name}: browser {how}, {n} pages live, load {os.getloadavg()[0]:.1f}",
+                      file=sys.stderr)
                 rates[n].append(command_rate(ep, "papaman", args.window / 2))
                 cpus[n].append(win.shares())
             browser.close()
