@@ -103,7 +103,7 @@ class StarfishSim(SerialHost):
             return False
         self._replay(self.clock.now)
         self.drive.write(data[0], data[1:])
-        if not self._drive_live:           # its ticks run as events again
+        if not self._drive_live and not self.drive.settled:    # its ticks run as events again
             self._drive_live = True
             if self._next_drive < self._timer_at:
                 self._schedule_timers()
@@ -183,11 +183,10 @@ class StarfishSim(SerialHost):
         self._acc_travel = [0.0] * len(travel)
         (a, b, c), (d, e, f), (g, h, i) = self._inv     # body_velocity, inlined
         s0, s1, s2 = travel[0] / dt_s, travel[1] / dt_s, travel[2] / dt_s
-        step = self.world.step(dt_s, a * s0 + b * s1 + c * s2, d * s0 + e * s1 + f * s2,
-                               g * s0 + h * s1 + i * s2)
-        if step.collided:
+        svx, svy, omega, collided = self.world.advance(
+            dt_s, a * s0 + b * s1 + c * s2, d * s0 + e * s1 + f * s2, g * s0 + h * s1 + i * s2)
+        if collided:
             self._collided = True
-        svx, svy, omega = step.vx, step.vy, step.omega
         if svx == 0.0 and svy == 0.0 and omega == 0.0:
             return
         for sensor, (px, py, c, s) in zip(self.sensors, self._frames, strict=True):
@@ -210,10 +209,35 @@ class StarfishSim(SerialHost):
         self._next_drive = nd
 
     def _account(self, t_ns: int) -> None:
-        self._replay(t_ns)
-        if t_ns > self._acc_t:
-            self._advance((t_ns - self._acc_t) / 1e9)
-            self._acc_t = t_ns
+        """:meth:`_replay` then :meth:`_advance` to ``t_ns``, inlined (the same sums)."""
+        acc_t = self._acc_t
+        if t_ns <= acc_t and (self._drive_live or self._next_drive > t_ns):
+            return
+        rims = self.drive.rims
+        moving = any(rims)                 # (standing wheels add nothing)
+        travel = self._acc_travel
+        acc_dt = self._acc_dt
+        if not self._drive_live:
+            nd, step = self._next_drive, self._drive_ns
+            while nd <= t_ns:
+                if nd > acc_t:
+                    dt_s = (nd - acc_t) / 1e9
+                    acc_dt += dt_s
+                    if moving:
+                        for k, v in enumerate(rims):
+                            travel[k] += v * dt_s
+                    acc_t = nd
+                nd += step
+            self._next_drive = nd
+        if t_ns > acc_t:
+            dt_s = (t_ns - acc_t) / 1e9
+            acc_dt += dt_s
+            if moving:
+                for k, v in enumerate(rims):
+                    travel[k] += v * dt_s
+            acc_t = t_ns
+        self._acc_t = acc_t
+        self._acc_dt = acc_dt
 
     def _schedule_timers(self) -> None:
         nc, nd = self._next_central, self._next_drive

@@ -36,6 +36,8 @@ MAX_SPEED_IPS = 12.0
 MM_PER_INCH = 25.4
 #: One register read by the central board: address, tSRAD, 8 bits, tSRR, 8 bits.
 _READ_NS = T_SRAD_NS + 8_000 + T_SRR_NS + 8_000
+_TWOPI = 2.0 * math.pi                   # random.TWOPI
+_sqrt, _log, _cos, _sin = math.sqrt, math.log, math.cos, math.sin
 
 
 class FlowTimingError(Exception):
@@ -72,9 +74,20 @@ class Adns2610:
         acc = self._acc
         noise = self.noise
         if noise:                          # x first, then y: the seeded sequence
-            gauss = self._rng.gauss
-            acc[0] += (dx_mm + gauss(0.0, noise * abs(dx_mm))) * k
-            acc[1] += (dy_mm + gauss(0.0, noise * abs(dy_mm))) * k
+            rng = self._rng
+            if rng.gauss_next is None:
+                # random.Random.gauss inlined: one call draws a pair and keeps the
+                # second for the next call, so x takes the pair's first and y its
+                # second (the same floats, and the generator left as two calls leave it)
+                random = rng.random
+                x2pi = random() * _TWOPI
+                g2rad = _sqrt(-2.0 * _log(1.0 - random()))
+                acc[0] += (dx_mm + (0.0 + _cos(x2pi) * g2rad * (noise * abs(dx_mm)))) * k
+                acc[1] += (dy_mm + (0.0 + _sin(x2pi) * g2rad * (noise * abs(dy_mm)))) * k
+            else:
+                gauss = rng.gauss
+                acc[0] += (dx_mm + gauss(0.0, noise * abs(dx_mm))) * k
+                acc[1] += (dy_mm + gauss(0.0, noise * abs(dy_mm))) * k
         else:
             acc[0] += (dx_mm + 0.0) * k
             acc[1] += (dy_mm + 0.0) * k
