@@ -118,8 +118,10 @@ class StarfishSim(SerialHost):
         return got[-1].encode("latin-1") + b"\r\n" if got and got[-1][:1] != "!" else b""
 
     def command(self, line: str | bytes, timeout_s: float = 2.0) -> str:
-        """A command line over the line: its reply's text (notices skipped)."""
-        return self.send(line, timeout_s).decode("latin-1").strip()
+        """A command line over the line: its reply's text (notices skipped): what
+        :meth:`send` gives, decoded and stripped."""
+        got = self.exchange(line, timeout_s)
+        return got[-1].strip() if got and got[-1][:1] != "!" else ""
 
     @property
     def idle(self) -> bool:
