@@ -86,6 +86,7 @@ class StarfishSim(SerialHost):
         self._next_drive = self._drive_ns
         self._drive_live = True        # its ticks run as events (else: replayed, _replay)
         self._timer_at = -1            # when the pending _timers event is due
+        self._timers_cb = self._timers  # (one bound method, not one per event)
         self._schedule_timers()
         #: Every notice the central board sent (the line carries them to the host too).
         self.notices = bytearray()
@@ -252,7 +253,7 @@ class StarfishSim(SerialHost):
     def _schedule_timers(self) -> None:
         nc, nd = self._next_central, self._next_drive
         self._timer_at = nd if self._drive_live and nd < nc else nc
-        self.clock.schedule(self._timer_at, self._timers)
+        self.clock.schedule(self._timer_at, self._timers_cb)
 
     def _timers(self) -> None:
         """The boards' ticks due now (the drive board's first when both are)."""
@@ -325,7 +326,7 @@ class StarfishSim(SerialHost):
             self._schedule_timers()
         else:                                    # _schedule_timers: the drive board waits
             self._timer_at = nc
-            self.clock.schedule(nc, self._timers)
+            self.clock.schedule(nc, self._timers_cb)
 
     def _timers_plain(self, now: int) -> None:
         self._account(now)

@@ -106,8 +106,14 @@ class StarfishCore:
 
     # -- the link ------------------------------------------------------------------------
     def feed(self, data: bytes) -> bytes:
+        got = self.lines.feed_run(data)
+        if len(got) < 2:                         # (the usual run: one line end at most)
+            if not got:
+                return b""
+            r = got[0]
+            return ERROR_LINE[r] if isinstance(r, Code) else self.line(r)
         out = bytearray()
-        for r in self.lines.feed_run(data):      # a line does not change the assembly
+        for r in got:                            # a line does not change the assembly
             out += ERROR_LINE[r] if isinstance(r, Code) else self.line(r)
         return bytes(out)
 
