@@ -15,6 +15,7 @@ import click
 from esair_min.cli.pipes import friendly
 
 from ..errors import ControlError, TransportError
+from ..heap import settle
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..runtime import Runtime
@@ -139,6 +140,7 @@ def run_cmd(deployment: str, mode: str | None, seconds: float | None, endpoint: 
                 where += f" (local: {rt.local_endpoint})"
             click.echo(f"robot {rt.robot!r} running in {rt.mode_name} mode{where} "
                        f"({len(rt.ls())} components)", err=True)
+            settle()            # this process is the runtime's: no full GC pauses (heap.py)
             child = None
             if hmi:
                 from ..hmi.child import HmiChild
