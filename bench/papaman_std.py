@@ -80,7 +80,10 @@ def free_endpoint() -> str:
 
 
 def runtime(dep: dict, mode: str) -> Runtime:
-    return Runtime(dep, mode=mode, endpoint=free_endpoint())
+    try:                      # as esair std run does (esair_std/heap.py)
+        return Runtime(dep, mode=mode, endpoint=free_endpoint(), settle_heap=True)
+    except TypeError:         # a baseline tree from before it
+        return Runtime(dep, mode=mode, endpoint=free_endpoint())
 
 
 def pct(xs: list[float], q: float) -> float:
@@ -127,11 +130,6 @@ def command_to_write(mode: str, n: int, feet_hz: float, goal_ms: float,
     dep["resources"]["papaman"].update({"class": "papaman_std_comps:TimedMinLink",
                                         "notes": str(notes), "duplex": duplex})
     with runtime(dep, mode) as rt:
-        try:                           # as esair std run does (esair_std/heap.py)
-            from esair_std.heap import settle
-            settle()
-        except ImportError:            # a baseline tree from before it
-            pass
         got = wait(rt, "stepper", "done")
     rows = [json.loads(line) for line in notes.read_text().splitlines()]
     origin = rows[0]
@@ -147,7 +145,9 @@ def command_to_write(mode: str, n: int, feet_hz: float, goal_ms: float,
     lat = [(w - s) * 1e3 for s, w in zip(sent, writes)]
     k = len(written)
     gc_file = Path(str(notes) + ".gc")
-    gcs = [json.loads(x)["ms"] for x in gc_file.read_text().splitlines()] if gc_file.exists() else []
+    first = min(got["sent"], default=0.0)     # pauses while commands went (not start-up's)
+    gcs = [g["ms"] for g in map(json.loads, gc_file.read_text().splitlines())
+           if g.get("t", first) >= first] if gc_file.exists() else []
     return {"lat": lat, "errors": got["errors"], "gc": gcs,
             "host": [(w - s) * 1e3 for s, w in zip(sent[len(sent) - k:], written)],
             "robot": [(w - s) * 1e3 for s, w in zip(written, writes[len(writes) - k:])],

@@ -15,7 +15,6 @@ import click
 from esair_min.cli.pipes import friendly
 
 from ..errors import ControlError, TransportError
-from ..heap import settle
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..runtime import Runtime
@@ -124,7 +123,8 @@ def run_cmd(deployment: str, mode: str | None, seconds: float | None, endpoint: 
                                f"--port {port}")
     dep = _load(resolve_deployment(deployment), port, emulate)
     rt = Runtime(dep, mode=mode, endpoint=endpoint,
-                 control=None if not no_control else False, join=list(join))
+                 control=None if not no_control else False, join=list(join),
+                 settle_heap=True)        # this process is the runtime's (heap.py)
     if rt.mode_name == "thread" and not no_control:
         rt.control = True
     if hmi and not rt.control:
@@ -140,7 +140,6 @@ def run_cmd(deployment: str, mode: str | None, seconds: float | None, endpoint: 
                 where += f" (local: {rt.local_endpoint})"
             click.echo(f"robot {rt.robot!r} running in {rt.mode_name} mode{where} "
                        f"({len(rt.ls())} components)", err=True)
-            settle()            # this process is the runtime's: no full GC pauses (heap.py)
             child = None
             if hmi:
                 from ..hmi.child import HmiChild
