@@ -109,12 +109,12 @@ class Runtime:
             self.mode.open()
             res, beh, rea = specmod.specs_of(self.deployment)
             for s in res:
-                self.rs.add(s)
-            for s in rea + beh:
-                self.bs.add(s)
-            self.rs.start()
+                self.rs.add(s)              # each opened (or failed) on return
             if self.settle_heap:
                 settle()
+            for s in rea + beh:
+                self.bs.add(s)              # each started on return
+            self.rs.start()
             self.bs.start()
             self._watch = threading.Thread(target=self._watchdog, name="esair:watch",
                                            daemon=True)
