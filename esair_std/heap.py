@@ -12,9 +12,13 @@ permanent generation: a full collection walks only what was made since (measured
 
 Called by what owns its process: an agent once its component or resource has started
 (modes/agent.py) and ``esair std run`` once the runtime has (cli/run.py). A program that
-runs :class:`esair_std.Runtime` as a library may call it too; the runtime does not, as
-the collector is its caller's. The cost: cyclic garbage among the frozen objects is never
-collected (objects freed by their reference count still are).
+runs :class:`esair_std.Runtime` as a library may call it too; the runtime does not unless
+asked (``settle_heap``), as the collector is its caller's.
+
+Only the young generations are collected first: a full collection at start-up found 178
+unreachable objects of 39 400 and took 188 ms at load 24 (every start of a component that
+long), so what start-up left in the old generation is frozen with the rest (never
+collected, a few kB, once). Objects freed by their reference count still are.
 """
 
 from __future__ import annotations
@@ -23,8 +27,8 @@ import gc
 
 
 def settle() -> int:
-    """Collect the start-up garbage, then freeze what is left (``gc.freeze``): the number
-    of objects now out of the collector's walks."""
-    gc.collect()
+    """Collect the young generations, then freeze every object (``gc.freeze``): the
+    number of objects now out of the collector's walks."""
+    gc.collect(1)
     gc.freeze()
     return gc.get_freeze_count()
