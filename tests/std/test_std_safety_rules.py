@@ -971,6 +971,7 @@ def test_a_command_that_expired_in_the_queue_is_answered_so_counted_and_never_wr
     assert entered == ["first", "third"]
     counters = host.counters()["arm"]
     assert (counters["expired"], counters["commands"], counters["command_errors"]) == (1, 2, 0)
+    wait_for(lambda: len(port.records) == 2, what="two records")   # published after the answer
     assert [r["v"]["command"] for _, r in port.records] == ["first", "third"]
 
 
@@ -988,6 +989,7 @@ def test_a_command_queued_while_its_actuator_was_lost_fails_with_the_reason(held
     assert done.got == [(True, "marking lost"), (False, "ResourceLost: arm: lost: cable cut")]
     assert entered == [{"lose": "cable cut"}]
     assert port.states == [("arm", "lost", "cable cut")]
+    wait_for(lambda: len(port.records) == 2, what="two records")
     assert [r for _, r in port.records] == [
         {"seq": 1, "t": port.records[0][1]["t"], "v": {"command": {"lose": "cable cut"},
                                                       "ok": "marking lost"}},
@@ -1017,6 +1019,7 @@ def test_an_actuators_errors_reach_the_sender_in_its_words_and_are_counted(held)
         host.command("b", "arm", {"fail": "jam"}, 5.0)
     assert str(err.value) == "arm: ValueError: jam"
     assert host.command("b", "arm", "fine", 5.0) == {"ran": "fine"}
+    wait_for(lambda: len(port.records) == 3, what="three records")
     assert [r["v"] for _, r in port.records] == [
         {"command": {"refuse": "too far"}, "error": "too far"},
         {"command": {"fail": "jam"}, "error": "ValueError: jam"},
@@ -1057,6 +1060,7 @@ def test_a_record_that_cannot_be_published_is_logged_and_the_sender_has_its_answ
     assert host.command("b", "arm", "fine", 5.0) == {"ran": "fine"}
     with pytest.raises(CommandError):
         host.command("b", "arm", {"fail": "jam"}, 5.0)
+    wait_for(lambda: len(logged(caplog, "esair_std.resource")) == 2, what="two warnings")
     assert logged(caplog, "esair_std.resource") == [
         ("WARNING", "arm: command record not published: no route")] * 2
 
