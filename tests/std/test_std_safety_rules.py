@@ -984,6 +984,8 @@ def test_a_command_queued_while_its_actuator_was_lost_fails_with_the_reason(held
     host.submit("arm", "write", ({"lose": "cable cut"},), done, timeout=30.0)
     wait_for(lambda: len(entered) == 1, what="the first command in write()")
     host.submit("arm", "write", ("second",), done, timeout=30.0)
+    queued = time.time()
+    wait_for(lambda: time.time() > queued + 0.001, what="the clock past the time it was queued")
     gate.release(1)
     wait_for(lambda: len(done.got) == 2, what="two answers")
     assert done.got == [(True, "marking lost"), (False, "ResourceLost: arm: lost: cable cut")]
@@ -995,6 +997,7 @@ def test_a_command_queued_while_its_actuator_was_lost_fails_with_the_reason(held
                                                       "ok": "marking lost"}},
         {"seq": 2, "t": port.records[1][1]["t"], "v": {"command": "second",
                                                       "error": "lost: cable cut"}}]
+    assert port.records[1][1]["t"] <= queued and {res for res, _ in port.records} == {"arm"}
     host.slots["arm"].obj.mark_ready()                   # the driver's link is back
     host.submit("arm", "write", ({"lose": ""},), done, timeout=30.0)
     wait_for(lambda: len(entered) == 2, what="the third command in write()")
@@ -1008,9 +1011,25 @@ def test_a_command_queued_while_its_actuator_was_lost_fails_with_the_reason(held
 
 def test_an_actuators_errors_reach_the_sender_in_its_words_and_are_counted(held):
     """write() raising CommandError: the sender gets the actuator's reason as is; any
-    other exception: its type and text. Each is a command error and its record says why.
-    configure() goes the same way but leaves no command record."""
+    other exception: its type and text. Each is a command error and its record says why
+    and when it reached the host (it waited in the queue). configure() goes the same way
+    but leaves no command record."""
     host, port, entered, gate = held()
+    done = Answers()
+    host.submit("arm", "write", ("hold",), done, timeout=30.0)
+    wait_for(lambda: entered == ["hold"], what="the first command in write()")
+    for command in ({"refuse": "too far"}, {"fail": "jam"}):
+        host.submit("arm", "write", (command,), done, timeout=30.0)
+    queued = time.time()
+    wait_for(lambda: time.time() > queued + 0.001, what="the clock past the time they were queued")
+    gate.release(3)
+    wait_for(lambda: len(port.records) == 3, what="three records")    # published after the answer
+    assert done.got == [(True, {"ran": "hold"}), (False, "too far"), (False, "ValueError: jam")]
+    assert [(res, r["seq"], r["v"]) for res, r in port.records] == [
+        ("arm", 1, {"command": "hold", "ok": {"ran": "hold"}}),
+        ("arm", 2, {"command": {"refuse": "too far"}, "error": "too far"}),
+        ("arm", 3, {"command": {"fail": "jam"}, "error": "ValueError: jam"})]
+    assert all(r["t"] <= queued for _, r in port.records)
     gate.release(3)
     with pytest.raises(CommandError) as err:
         host.command("b", "arm", {"refuse": "too far"}, 5.0)
@@ -1018,21 +1037,17 @@ def test_an_actuators_errors_reach_the_sender_in_its_words_and_are_counted(held)
     with pytest.raises(CommandError) as err:
         host.command("b", "arm", {"fail": "jam"}, 5.0)
     assert str(err.value) == "arm: ValueError: jam"
-    assert host.command("b", "arm", "fine", 5.0) == {"ran": "fine"}
-    wait_for(lambda: len(port.records) == 3, what="three records")
-    assert [r["v"] for _, r in port.records] == [
-        {"command": {"refuse": "too far"}, "error": "too far"},
-        {"command": {"fail": "jam"}, "error": "ValueError: jam"},
-        {"command": "fine", "ok": {"ran": "fine"}}]
-    assert [r["seq"] for _, r in port.records] == [1, 2, 3]
     assert host.configure("arm", "gain", 4) == 8
     for key, message in [("speed", "arm: no setting 'speed'"), ("fail", "arm: ValueError: 7")]:
         with pytest.raises(CommandError) as err:
             host.configure("arm", key, 7)
         assert str(err.value) == message
+    assert host.command("b", "arm", "last", 5.0) == {"ran": "last"}
+    wait_for(lambda: len(port.records) == 6, what="six records")
+    assert [r["v"]["command"] for _, r in port.records][3:] == [      # none of configure()
+        {"refuse": "too far"}, {"fail": "jam"}, "last"]
     counters = host.counters()["arm"]
-    assert (counters["commands"], counters["command_errors"]) == (3, 4)
-    assert len(port.records) == 3 and entered == [{"refuse": "too far"}, {"fail": "jam"}, "fine"]
+    assert (counters["commands"], counters["command_errors"]) == (6, 6)
 
 
 def test_a_command_records_time_is_when_it_reached_the_host_not_when_it_ran(held):
@@ -1219,9 +1234,20 @@ class Pushes(Sensor):
         raise AssertionError("polled without a rate")
 
 
+class Beat(Sensor):
+    def read(self):
+        return "beat"
+
+
+class Servo(Actuator):
+    """An actuator with a rate of its own: never polled (an actuator is not read)."""
+
+    rate_hz = 8.0
+
+
 class Sensors(Driver):
     def resources(self):
-        return {"a": Scripted(), "b": Pushes()}
+        return {"a": Scripted(), "b": Pushes(), "c": Beat(), "d": Servo()}
 
 
 @pytest.fixture
@@ -1288,19 +1314,23 @@ def test_a_slow_read_is_counted_late_and_the_next_is_a_full_period_after_it(hclo
 
 
 def test_a_read_that_raises_loses_the_sensor_with_the_reason_and_it_is_not_polled_again(hclock):
-    """The second read raises: the sensor is lost with "read() raised OSError:
-    unplugged", reported once, never read again; a sensor without a rate beside it in the
-    same driver is never polled; the host then sleeps its longest, 0.5 s."""
+    """a's second read raises: a is lost with "read() raised OSError: unplugged",
+    reported once, never read again, while c beside it in the same driver goes on; b
+    (no rate) and d (an actuator) are never polled."""
     host, port = opened(Sensors, hclock, "dev", values=[1, "raise", 3])
-    host.slots["dev.a"].obj.rate_hz = 4.0
+    host.slots["dev.a"].obj.rate_hz = host.slots["dev.c"].obj.rate_hz = 4.0
     assert host._poll() == 0.25
     hclock.now += 0.25
-    assert host._poll() == 0.5
+    assert host._poll() == 0.25
     assert port.states == [("dev.a", "lost", "read() raised OSError: unplugged")]
     hclock.now += 1.0
-    assert host._poll() == 0.5
-    assert port.samples == [("dev.a", 1, 1, "dev.a")] and len(port.states) == 1
-    assert host.slots["dev.a"].obj.options["values"] == [3]
+    assert host._poll() == 0.25
+    assert port.samples == [("dev.a", 1, 1, "dev.a"), ("dev.c", 1, "beat", "dev.c"),
+                            ("dev.c", 2, "beat", "dev.c"), ("dev.c", 3, "beat", "dev.c")]
+    assert len(port.states) == 1 and host.slots["dev.a"].obj.options["values"] == [3]
+    assert host.counters()["dev.c"]["polls_late"] == 1
+    assert host.states() == {"dev.a": ("lost", "read() raised OSError: unplugged"),
+                             "dev.b": ("ready", ""), "dev.c": ("ready", ""), "dev.d": ("ready", "")}
 
 
 def test_the_nearest_due_sensor_sets_how_long_the_host_sleeps(hclock):
@@ -1308,9 +1338,8 @@ def test_the_nearest_due_sensor_sets_how_long_the_host_sleeps(hclock):
     for first, second in [(2.0, 8.0), (8.0, 2.0)]:
         host, port = opened(Sensors, hclock, "dev", values=[1, 2, 3])
         host.slots["dev.a"].obj.rate_hz = first
-        b = host.slots["dev.b"].obj
-        b.rate_hz, b.read = second, lambda: "b"
+        host.slots["dev.c"].obj.rate_hz = second
         assert host._poll() == 0.125
         hclock.now += 0.125
         assert host._poll() == 0.125
-        assert len(port.samples) == 3
+        assert len(port.samples) == 3 and port.states == []
