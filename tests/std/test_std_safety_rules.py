@@ -368,6 +368,21 @@ def test_a_failure_that_cannot_be_queued_is_logged_not_waited_for(sup, caplog):
         ("ERROR", "failure of w not queued: supervisor queue full")]
 
 
+def test_a_failure_event_that_raises_is_logged_and_the_supervisor_goes_on(sup, caplog):
+    """Handling a failure raised (here the subclass's gave_up()): nobody waits for that
+    event, so it is logged with its reason, and the supervisor serves what comes next."""
+    s = sup()
+    s.request(s.add_child, Spec("w"))
+
+    def gave_up(name, rec):
+        raise RuntimeError("nobody listens")
+    s.gave_up = gave_up
+    s.failed("w", 1, "boom")
+    assert s.request(lambda: "still serving") == "still serving"
+    assert logged(caplog, "esair_std.supervisor") == [
+        ("WARNING", "w failed (boom); stays failed"), ("ERROR", "supervisor: nobody listens")]
+
+
 def test_stopping_stops_every_child_newest_first_and_then_takes_no_request(sup):
     s = sup()
     for name in ("a", "b", "c"):
@@ -390,6 +405,9 @@ def test_a_request_gives_its_result_or_its_exception_and_gives_up_at_its_timeout
     with pytest.raises(KeyError):
         s.request(s.remove_child, "nobody")
     assert s.request(lambda: s.request(lambda: "inline")) == "inline"   # on its own thread
+    me = threading.current_thread()
+    assert s.request(lambda: (threading.current_thread() is not me, threading.current_thread().name,
+                              threading.current_thread().daemon)) == (True, "esair:test", True)
     release = threading.Event()
     with pytest.raises(ControlError) as err:
         s.request(release.wait, timeout=0.1)
@@ -404,7 +422,10 @@ def test_stopping_waits_for_the_work_under_way_and_never_raises_on_a_full_queue(
     s.take()
     busy, release = threading.Event(), threading.Event()
 
+    workers: list = []
+
     def restart_under_way():
+        workers.append(threading.current_thread())
         busy.set()
         release.wait(30.0)
         s.events.append(("work done",))
@@ -418,6 +439,8 @@ def test_stopping_waits_for_the_work_under_way_and_never_raises_on_a_full_queue(
     stopper.join(10.0)
     t.join(10.0)
     assert box == [None]                            # returned, did not raise
+    workers[0].join(10.0)
+    assert not workers[0].is_alive()                # the events queued after the stop are dropped
     assert s.take() == [("work done",), ("stop", "w", 1), ("released", "w", "removed")]
 
 
