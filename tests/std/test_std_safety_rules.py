@@ -325,11 +325,11 @@ def test_remove_stops_and_releases_in_the_kinds_order_and_its_failure_is_no_even
     s.request(s.add_child, Spec("w", restart_max=5))
     s.take()
     seen: list = []
-    s.released = lambda name, rec, why: (seen.append("w" in s.records),
+    s.released = lambda name, rec, why: (seen.append(("w" in s.records, rec.spec.name)),
                                          s.events.append(("released", name, why)))
     rec = s.request(s.remove_child, "w")
     assert s.take() == order and "w" not in s.records and rec.removing
-    assert seen == [False]                 # forgotten before it is released, in both orders
+    assert seen == [(False, "w")]          # forgotten before it is released, in both orders
     s.failed("w", 1, "it died after it was removed")
     s.barrier()
     assert s.take() == [] and logged(caplog, "esair_std.supervisor") == []
@@ -1130,6 +1130,12 @@ class Plain(Actuator):
 
     def write(self, command):
         return self.given
+
+
+def test_a_host_that_never_started_stops_without_an_error():
+    host = host_of(Plain, "wheel")
+    host.stop()
+    assert host.state == "stopped" and not host.thread.is_alive()
 
 
 def test_a_host_starts_as_starting_then_is_ready_and_its_thread_never_holds_the_process(caplog):
