@@ -1372,3 +1372,26 @@ def test_the_nearest_due_sensor_sets_how_long_the_host_sleeps(hclock):
         hclock.now += 0.125
         assert host._poll() == 0.125
         assert len(port.samples) == 3 and port.states == []
+
+
+def test_a_commands_deadline_is_exact_it_runs_at_its_deadline_and_is_dropped_past_it(hclock, held):
+    """With the host's clock held by the test: a command whose deadline is reached just
+    as its turn comes is still written; one whose deadline has passed is answered
+    "expired in the queue" and never written."""
+    host, port, entered, gate = held()
+    done = Answers()
+    host.submit("arm", "write", ("hold",), done, timeout=30.0)
+    wait_for(lambda: entered == ["hold"], what="the first command in write()")
+    host.submit("arm", "write", ("at its deadline",), done, timeout=0.5)
+    hclock.now += 0.5
+    gate.release(2)
+    wait_for(lambda: len(done.got) == 2, what="two answers")
+    host.submit("arm", "write", ("hold 2",), done, timeout=30.0)
+    wait_for(lambda: len(entered) == 3, what="the third command in write()")
+    host.submit("arm", "write", ("past it",), done, timeout=0.5)
+    hclock.now += 0.5625
+    gate.release(1)
+    wait_for(lambda: len(done.got) == 4, what="four answers")
+    assert done.got == [(True, {"ran": "hold"}), (True, {"ran": "at its deadline"}),
+                        (True, {"ran": "hold 2"}), (False, "expired in the queue")]
+    assert entered == ["hold", "at its deadline", "hold 2"]
