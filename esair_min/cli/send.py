@@ -12,6 +12,8 @@ from typing import Any, Callable, Sequence
 
 from esair_min.errors import EsairError
 from esair_min.core.protocol import add_checksum
+from esair_min.serialport import describe
+from esair_min.serialport import open_port as serial_port
 
 
 @dataclass(frozen=True)
@@ -29,12 +31,10 @@ def open_port(port: str, baud: int, timeout: float) -> Any:
     """A pySerial port for a device path or a URL (``esair://`` included)."""
     import serial
 
-    import esair_min.emulator  # noqa: F401  (registers the esair:// URL scheme)
-
     try:
-        return serial.serial_for_url(port, baudrate=baud, timeout=min(timeout, 0.1))
+        return serial_port(port, baudrate=baud, timeout=min(timeout, 0.1))
     except (serial.SerialException, ValueError, OSError) as exc:
-        raise EsairError(f"cannot open {port}: {exc}") from None
+        raise EsairError(f"cannot open {port}: {describe(exc)}") from None
 
 
 def check_command(command: str) -> None:

@@ -13,21 +13,23 @@ Every test ends with no I/O thread and no child process left.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import os
 import signal
 import threading
 import time
 from pathlib import Path
+from typing import Iterator
 
 import pytest
 
 from esair_min.model.validate import load_robot
 from esair_std.drivers.minlink import Link, LinkDown
 from esair_std.drivers.minlink.emulated import EmulatedRobot
-from esair_std.drivers.minlink.errors import DifferentRobot, Expired
+from esair_std.drivers.minlink.errors import DifferentRobot, Expired, LinkError
 from tests.support.std import wait_for
-from tests.support.robot_ptys import frames, pty_number, replies, start_on_number, stop
+from tests.support.robot_ptys import VERSION, frames, pty_number, replies, start_on_number, stop
 
 ROOT = Path(__file__).resolve().parents[2]
 PAPAMAN = ROOT / "boards" / "papaman"
@@ -102,6 +104,83 @@ def test_a_known_robot_id_is_checked_at_the_first_connect(robot):
         Link(robot, emu.port, expect_id="99999999").open()
     assert str(exc.value) == (f"a different robot answers on {emu.port} (id 0123abcd, "
                               f"expected 99999999)")
+
+
+def test_a_port_another_esair_program_holds_is_refused_without_a_byte(tmp_path, robot):
+    """Every ESAIR program locks the port it opens: a second link (a runtime reconnecting
+    to a /dev/pts/N that is now someone else's, another `esair send`) is refused at once
+    and writes nothing; the first link's replies stay whole."""
+    from esair_min.cli.send import open_port
+    from esair_min.errors import EsairError
+
+    trace = tmp_path / "t.txt"
+    with EmulatedRobot(PAPAMAN, ["--trace", str(trace)], instance="0123abcd") as emu, \
+            Link(robot, emu.port) as link:
+        with pytest.raises(LinkError) as exc:
+            Link(robot, emu.port).open()
+        assert str(exc.value) == (f"cannot open {emu.port}: another program has the port "
+                                  f"open (it holds the port's lock)")
+        with pytest.raises(EsairError) as sent:
+            open_port(emu.port, 9600, 1.0)
+        assert str(sent.value) == str(exc.value)
+        assert link.version().endswith(" checksum=off id=0123abcd")
+    assert replies(trace)[1:] == [VERSION + b"0123abcd\r\n"] * 2    # the probe, version()
+    assert _io_threads() == []
+
+
+@contextlib.contextmanager
+def _fake_robot(answers: list[bytes]) -> Iterator[tuple[str, list[bytes]]]:
+    """A robot played by the test on a real pty: each line it receives that is ``v``
+    gets the next of ``answers``; yields (port path, the lines it got)."""
+    import select
+    import tty
+
+    master, slave = os.openpty()
+    tty.setraw(slave)
+    stop_r, stop_w = os.pipe()
+    got: list[bytes] = []
+
+    def play() -> None:
+        buf = b""
+        while True:
+            ready, _, _ = select.select([master, stop_r], [], [])
+            if stop_r in ready:
+                return
+            buf += os.read(master, 256)
+            while b"\n" in buf:
+                line, _, buf = buf.partition(b"\n")
+                if line.strip(b"\r"):
+                    got.append(line.strip(b"\r"))
+                if line.strip(b"\r") == b"v" and answers:
+                    os.write(master, answers.pop(0))
+
+    thread = threading.Thread(target=play, daemon=True)
+    thread.start()
+    try:
+        yield os.ttyname(slave), got
+    finally:
+        os.write(stop_w, b"x")
+        thread.join(5)
+        for fd in (master, slave, stop_r, stop_w):
+            os.close(fd)
+
+
+def test_a_damaged_version_reply_is_asked_again_not_believed(robot):
+    """Without checksums, line noise can damage the `v` reply (bytes lost on the way,
+    seen in CI: `sensors= oin= mg=a`); the link believes a reply that names another robot
+    only when the next one says the same."""
+    good = VERSION + b"0123abcd\r\n"
+    damaged = b"OK esair-min/1 servos=12 sensors= oin= mg=a hcsmofi=8017\r\n"
+    with _fake_robot([damaged, good]) as (port, got), Link(robot, port) as link:
+        assert link.robot_id == "0123abcd"
+        assert got == [b"v", b"v"]
+    other = VERSION.replace(b"sensors=8", b"sensors=6") + b"0123abcd\r\n"
+    with _fake_robot([other, other, good]) as (port, got):
+        with pytest.raises(LinkError) as exc:
+            Link(robot, port).open()
+        assert str(exc.value) == (f"the robot answers sensors=6 but the board files of "
+                                  f"papaman say sensors=8 ({PAPAMAN})")
+        assert got == [b"v", b"v"]
 
 
 # -- deadlines --------------------------------------------------------------------------

@@ -237,7 +237,7 @@ def test_a_disconnected_serial_device_is_said_in_plain_words():
 
     import serial
 
-    from esair_std.drivers.minlink.link import _describe
+    from esair_min.serialport import describe
     master, slave = pty.openpty()
     port = serial.Serial(os.ttyname(slave), timeout=1)
     os.close(master)
@@ -247,7 +247,7 @@ def test_a_disconnected_serial_device_is_said_in_plain_words():
     finally:
         port.close()
         os.close(slave)
-    assert _describe(exc.value) == ("the device disconnected (unplugged, or another program "
+    assert describe(exc.value) == ("the device disconnected (unplugged, or another program "
                                     "uses the port)")
 
 

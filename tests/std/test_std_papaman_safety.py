@@ -21,13 +21,12 @@ import yaml
 
 from esair_std.drivers.minlink.emulated import EmulatedRobot
 from tests.support.std import emulators_with, wait_for
-from tests.support.robot_ptys import frames, pty_number, replies, start_on_number, stop
+from tests.support.robot_ptys import VERSION, frames, pty_number, replies, start_on_number, stop
 
 ROOT = Path(__file__).resolve().parents[2]
 PAPAMAN = ROOT / "boards" / "papaman"
 EXAMPLE = ROOT / "esair_std" / "examples" / "papaman" / "papaman.yaml"
 MOVER = {"class": "tests.support.papaman_comps:Mover", "moves": [], "uses": {"papaman.servo.*": "command"}}
-VERSION = b"OK esair-min/1 servos=12 sensors=8 motions=5 image=ok checksum=off id="
 
 
 _wait = functools.partial(wait_for, timeout=30.0)

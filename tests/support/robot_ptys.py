@@ -95,6 +95,10 @@ def _hold_up_to(number: int, seconds: float = 20.0) -> list[tuple[int, int]] | N
     return None
 
 
+#: PAPA-MAN's `v` reply up to its id.
+VERSION = b"OK esair-min/1 servos=12 sensors=8 motions=5 image=ok checksum=off id="
+
+
 def replies(trace: Path) -> list[bytes]:
     """Every line the emulated robot sent, from its trace."""
     return [bytes.fromhex(line[3:]) for line in without_marks(trace.read_text().splitlines())

@@ -70,6 +70,7 @@ from typing import Any, Callable
 from esair_min.errors import ProtocolError
 from esair_min.core.protocol import RX_RING, Code, parse_reply
 from esair_min.model.robot import Robot
+from esair_min.serialport import describe, open_port
 
 from .budget import LineBudget, line_budget
 from .commands import VERSION_PREFIX, RobotCommands
@@ -339,7 +340,7 @@ class Link:
                     self.stats["sent"] += 1
                 except Exception as exc:  # noqa: BLE001 - pySerial's errors vary
                     ex.sent = False             # the error says: not sent
-                    failed = (_describe(exc), port)
+                    failed = (describe(exc), port)
                     break
         finally:
             self._write_lock.release()
@@ -402,7 +403,7 @@ class Link:
             except (OSError, Exception) as exc:  # noqa: BLE001 - pySerial's errors vary
                 if self._stop.is_set():
                     break
-                self._down(_describe(exc), port)
+                self._down(describe(exc), port)
 
     def _service(self) -> None:
         port = self._port
@@ -600,13 +601,11 @@ class Link:
         """Open the port and probe it with ``v``; the robot must be the board files' one."""
         import serial
 
-        import esair_min.emulator  # noqa: F401  (registers esair://)
-
         try:
-            port = serial.serial_for_url(self.port, baudrate=self.baud, timeout=POLL_S,
-                                         write_timeout=self.timeout)
+            port = open_port(self.port, baudrate=self.baud, timeout=POLL_S,
+                             write_timeout=self.timeout)
         except (serial.SerialException, ValueError, OSError) as exc:
-            raise LinkError(f"cannot open {self.port}: {_describe(exc)}") from None
+            raise LinkError(f"cannot open {self.port}: {describe(exc)}") from None
         try:
             if getattr(port, "cancel_read", None) is None:
                 port.timeout = POLL_S_NO_CANCEL
@@ -618,14 +617,17 @@ class Link:
             raise
         except Exception as exc:  # noqa: BLE001 - pySerial's errors vary
             _close_quietly(port)
-            raise LinkError(f"cannot open {self.port}: {_describe(exc)}") from None
+            raise LinkError(f"cannot open {self.port}: {describe(exc)}") from None
         return port
 
-    def _probe(self, port: Any, attempts: int = 3) -> None:
+    def _probe(self, port: Any, attempts: int = 4) -> None:
         """Send ``v`` until a version reply comes (a noisy line may damage a few). A line
-        end goes first: it ends whatever noise left in the robot's line buffer."""
+        end goes first: it ends whatever noise left in the robot's line buffer. A reply
+        that is not the board files' robot is believed only when the next one says the
+        same: without checksums, noise can turn ``sensors=8`` into ``sensors=``."""
         wire = RESYNC + self.commands.wire(self.commands.prefix("version"))
         buf = bytearray()
+        doubt: tuple[str, LinkError] | None = None
         for _ in range(attempts):
             port.write(wire)
             deadline = time.monotonic() + self.timeout
@@ -639,12 +641,20 @@ class Link:
                 if text.startswith("!"):
                     self._line(text)
                 elif text.startswith("OK " + VERSION_PREFIX):
-                    self._check_identity(text[3:])
-                    return
+                    try:
+                        self._check_identity(text[3:])
+                        return
+                    except LinkError as exc:
+                        if doubt is not None and doubt[0] == text:
+                            raise
+                        doubt = (text, exc)
+                        break                            # ask again
                 elif text.startswith("E11") and not self.commands.checksum:
                     raise LinkError(f"the robot on {self.port} requires checksums (E11) but "
                                     f"the board files of {self.robot.name} say "
                                     f"require_checksum: false ({self.robot.source})")
+        if doubt is not None:
+            raise doubt[1]
         raise LinkError(f"no answer to 'v' from {self.port} within {self.timeout:g} s")
 
     def _check_identity(self, data: str) -> None:
@@ -657,17 +667,6 @@ class Link:
                                  f"expected {self.robot_id or 'none'})")
         self.commands.check_version(data)
         self.robot_id, self._known = got, True
-
-
-#: pySerial's words for a port that went away, and a user's.
-_PLAIN = {"device reports readiness to read but returned no data":
-          "the device disconnected (unplugged, or another program uses the port)",
-          "[Errno 5] Input/output error": "input/output error (the device unplugged?)"}
-
-
-def _describe(exc: BaseException) -> str:
-    text = str(exc) or type(exc).__name__
-    return next((plain for raw, plain in _PLAIN.items() if text.startswith(raw)), text)
 
 
 def _close_quietly(port: Any) -> None:
