@@ -335,6 +335,21 @@ def test_remove_stops_and_releases_in_the_kinds_order_and_its_failure_is_no_even
     assert s.take() == [] and logged(caplog, "esair_std.supervisor") == []
 
 
+def test_a_late_failure_of_a_removed_childs_instance_never_fails_the_one_added_again(sup):
+    """w runs as generation 2 (restarted once), is removed and added again (generation 1
+    of a new record); the old generation 2's failure arriving late is no event."""
+    s = sup()
+    s.request(s.add_child, Spec("w", restart_max=5))
+    s.failed("w", 1, "boom")
+    s.barrier()
+    s.request(s.remove_child, "w")
+    rec = s.request(s.add_child, Spec("w", restart_max=5))
+    s.take()
+    s.failed("w", 2, "late news of the removed one")
+    s.barrier()
+    assert s.take() == [] and (rec.generation, rec.restarts, rec.reason) == (1, 0, "")
+
+
 def test_a_failure_reported_while_the_child_is_being_removed_is_no_event(sup, caplog):
     """The host's stop() reports its child's failure on the supervisor's own thread (so it
     is handled at once, inside the remove): it must not restart what is being removed."""
