@@ -847,7 +847,7 @@ def test_a_host_that_never_started_stops_without_an_error():
     assert host.state == "stopped" and not host.thread.is_alive()
 
 
-def test_a_host_starts_as_starting_then_is_ready_and_its_thread_never_holds_the_process(caplog):
+def test_a_host_starts_as_starting_then_is_ready_on_a_daemon_thread_named_after_it(caplog):
     """Before start() the entry is "starting"; after, "ready"; its thread is a daemon (a
     driver stuck in write() never keeps the runtime's process from exiting) named after
     the entry. Its resource read its name and options in __init__. A host without a
