@@ -252,6 +252,9 @@ def test_a_host_that_comes_up_failed_without_a_reason_fails_with_an_empty_one(su
                         ("start", "w", 2), ("released", "w", "failed"), ("stop", "w", 2),
                         ("gave_up", "w", "")]
     assert rec.reason == ""
+    once = sup(failed_start={1}, no_reason=True)     # no restart: generation 1's own reason
+    once.request(once.add_child, Spec("x"))
+    assert once.take()[-1] == ("gave_up", "x", "") and once.records["x"].reason == ""
 
 
 def test_a_child_that_starts_failed_is_handled_at_once_and_one_that_cannot_start_is_not_kept(sup):
