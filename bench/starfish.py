@@ -7,6 +7,9 @@ over a 4 m square against the world's true pose.
    (laps repeated), sending the leg's velocity and asking the odometry every 50 ms
    (2 lines every 50 ms, the watchdog fed), through the central core, the drive board,
    both flow sensors and the world. Median of --repeat runs.
+   The floor (:func:`floor_loop`): the same arithmetic per simulated second in one
+   function on locals, no events and no objects: what pure Python cannot go below at
+   this fidelity; the emulator's rate over it is printed.
 2. Odometry: one 4 m square (16 m of path, 64.3 s) with the flow sensors' noise at 0,
    1, 2 and 5 % of the motion (seeded): error of the dead-reckoned pose at the end and
    the largest along the way, and the heading error at the end.
@@ -45,6 +48,87 @@ def _papaman_bench():
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
     return mod
+
+
+def floor_loop(seconds: float) -> dict:
+    """The floor: the arithmetic a STARFISH emulation at this fidelity cannot skip, per
+    simulated second of the square, in one Python function on locals (no events, no
+    objects, no checks): per central tick (100 a second) two stretches of three wheels'
+    travel, the body velocity, the pose (cos, sin, the wall clearance's hypot) and two
+    flow sensors (frame, hypot, the speed check, one gaussian pair each, the reads and
+    their sums); 20 more world steps a second (the host's 50 ms periods end between
+    ticks); per 50 ms the two lines' bytes decoded (V: fields, kinematics, the drive
+    write packed; O: the 37-byte reply formatted) and the replies split by the host."""
+    import random
+    import re
+    import struct
+    fields = re.compile(rb"V([+-][0-9]{4})([+-][0-9]{4})([+-][0-9]{4})").fullmatch
+    pack = struct.Struct("<B3H").pack
+    rng = [random.Random(1), random.Random(2)]
+    cos, sin, hypot, log, sqrt = math.cos, math.sin, math.hypot, math.log, math.sqrt
+    inv = (0.0, -0.57735, 0.57735, 0.6667, -0.3333, -0.3333, 3.3333, 3.3333, 3.3333)
+    frames = ((60.0, 0.0, 1.0, 0.0), (-60.0, 0.0, 0.0, 1.0))
+    r0, r1, r2 = 0.0, -216.5, 216.5
+    x = y = th = 1000.0
+    acc = [[0.0, 0.0], [0.0, 0.0]]
+    sums = [[0, 0, 0], [0, 0, 0]]
+    line_v, line_o = b"V+0250+0000+0000\r\n", b"O\r\n"
+    buf = bytearray(40)
+    steps = round(seconds * 100)
+    c0 = time.process_time()
+    for n in range(steps):
+        moves = 2 if n % 5 == 0 else 1
+        for _ in range(moves):                           # world steps (+ a period's end)
+            dt = 0.0
+            t0 = t1 = t2 = 0.0
+            for seg in (0.004, 0.006):                   # the drive tick splits the travel
+                dt += seg
+                t0 += r0 * seg
+                t1 += r1 * seg
+                t2 += r2 * seg
+            s0, s1, s2 = t0 / dt, t1 / dt, t2 / dt
+            a, b, c, d, e, f, g, h, i = inv
+            vx, vy, om = a * s0 + b * s1 + c * s2, d * s0 + e * s1 + f * s2, g * s0 + h * s1 + i * s2
+            mid = th + om * dt / 2
+            cm, sm = cos(mid), sin(mid)
+            nx, ny = x + (cm * vx - sm * vy) * dt, y + (sm * vx + cm * vy) * dt
+            if hypot(nx - x, ny - y) < 1e9:
+                x, y, th = nx, ny, th + om * dt
+            for k, (px, py, cf, sf) in enumerate(frames):
+                ux, uy = (vx - om * py) * dt, (vy + om * px) * dt
+                dx, dy = cf * ux + sf * uy, -sf * ux + cf * uy
+                dist = hypot(dx, dy)
+                if dist / 25.4 / dt > 12.0:
+                    continue
+                rnd = rng[k].random
+                x2pi = rnd() * 6.283185307179586
+                g2 = sqrt(-2.0 * log(1.0 - rnd()))
+                a_ = acc[k]
+                a_[0] += (dx + cos(x2pi) * g2 * 0.02 * abs(dx)) * 15.748
+                a_[1] += (dy + sin(x2pi) * g2 * 0.02 * abs(dy)) * 15.748
+        for k in (0, 1):                                 # the central tick's reads
+            a_, s_ = acc[k], sums[k]
+            ry, rx = int(a_[1]), int(a_[0])
+            ry = -128 if ry < -128 else 127 if ry > 127 else ry
+            rx = -128 if rx < -128 else 127 if rx > 127 else rx
+            a_[1] -= ry
+            a_[0] -= rx
+            s_[0] = (s_[0] + rx) & 0xFFFFFFFF
+            s_[1] = (s_[1] + ry) & 0xFFFFFFFF
+        if n % 5 == 0:                                   # a 50 ms period's two lines
+            buf[:16] = line_v[:16]
+            m = fields(bytes(buf[:16]))
+            if m is not None:
+                wx, wy, ww = (int(v) for v in m.groups())
+                sp = [(-9459 * wx + 5461 * wy + 4915 * ww + 8192) >> 14,
+                      (9459 * wx + 5461 * wy + 4915 * ww + 8192) >> 14,
+                      (0 * wx - 16384 * wy + 4915 * ww + 8192) >> 14]
+                pack(0, *[v & 0xFFFF for v in sp])
+            buf[:1] = line_o[:1]
+            reply = (f"OK n={n & 0xFFFF} a={sums[0][0]},{sums[0][1]},90 "
+                     f"b={sums[1][0]},{sums[1][1]},90\r\n").encode()
+            reply.decode("latin-1").split()
+    return {"cpu": time.process_time() - c0, "sim": steps / 100}
 
 
 def square_speed(robot, seconds: float) -> dict:
@@ -139,6 +223,9 @@ def main() -> None:
     print(f"  {'STARFISH driving a square':34s} {rate(sq, 'wall'):10.0f}x {rate(sq, 'cpu'):9.0f}x")
     print(f"  {'PAPA-MAN dancing (bench/emulator)':34s} {rate(dance, 'wall'):10.0f}x "
           f"{rate(dance, 'cpu'):9.0f}x")
+    fl = [floor_loop(args.seconds) for _ in range(args.repeat)]
+    print(f"  {'the floor (one function on locals)':34s} {'':>11s} {rate(fl, 'cpu'):9.0f}x")
+    print(f"  STARFISH / the floor (CPU): {rate(sq, 'cpu') / rate(fl, 'cpu'):.2f}x")
     print(f"  STARFISH / PAPA-MAN: {rate(sq, 'wall') / rate(dance, 'wall'):.2f}x wall, "
           f"{rate(sq, 'cpu') / rate(dance, 'cpu'):.2f}x CPU; margin over the goal (CPU): "
           f"{rate(sq, 'cpu') / 200:.1f}x; {sq[0]['polls']} odometry polls, "

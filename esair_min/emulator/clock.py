@@ -13,6 +13,7 @@ from typing import Callable
 NS_PER_S = 1_000_000_000
 
 Callback = Callable[[], None]
+_heappush = heapq.heappush
 
 
 def seconds_to_ns(seconds: float) -> int:
@@ -37,8 +38,8 @@ class VirtualClock:
         """Run ``callback`` at ``at_ns`` (never earlier than now)."""
         if at_ns < self.now:
             at_ns = self.now
-        self._seq += 1
-        heapq.heappush(self._queue, (at_ns, self._seq, callback))
+        seq = self._seq = self._seq + 1
+        _heappush(self._queue, (at_ns, seq, callback))
 
     def after(self, delay_ns: int, callback: Callback) -> None:
         self.schedule(self.now + delay_ns, callback)

@@ -86,11 +86,13 @@ class StarfishSim(SerialHost):
         self._next_drive = self._drive_ns
         self._drive_live = True        # its ticks run as events (else: replayed, _replay)
         self._timer_at = -1            # when the pending _timers event is due
+        self._timers_cb = self._timers  # (one bound method, not one per event)
         self._schedule_timers()
         #: Every notice the central board sent (the line carries them to the host too).
         self.notices = bytearray()
         self.trace: list[TraceRow] = []
         self._inv = inverse(self.core.wheels)
+        self._inv9 = tuple(x for row in self._inv for x in row)
         self._frames = [(px, py, math.cos(phi), math.sin(phi)) for px, py, phi in self.mounts]
         self._acc_dt = 0.0
         self._acc_travel = [0.0] * len(self.core.wheels)
@@ -103,7 +105,7 @@ class StarfishSim(SerialHost):
             return False
         self._replay(self.clock.now)
         self.drive.write(data[0], data[1:])
-        if not self._drive_live:           # its ticks run as events again
+        if not self._drive_live and not self.drive.settled:    # its ticks run as events again
             self._drive_live = True
             if self._next_drive < self._timer_at:
                 self._schedule_timers()
@@ -117,8 +119,10 @@ class StarfishSim(SerialHost):
         return got[-1].encode("latin-1") + b"\r\n" if got and got[-1][:1] != "!" else b""
 
     def command(self, line: str | bytes, timeout_s: float = 2.0) -> str:
-        """A command line over the line: its reply's text (notices skipped)."""
-        return self.send(line, timeout_s).decode("latin-1").strip()
+        """A command line over the line: its reply's text (notices skipped): what
+        :meth:`send` gives, decoded and stripped."""
+        got = self.exchange(line, timeout_s)
+        return got[-1].strip() if got and got[-1][:1] != "!" else ""
 
     @property
     def idle(self) -> bool:
@@ -183,11 +187,10 @@ class StarfishSim(SerialHost):
         self._acc_travel = [0.0] * len(travel)
         (a, b, c), (d, e, f), (g, h, i) = self._inv     # body_velocity, inlined
         s0, s1, s2 = travel[0] / dt_s, travel[1] / dt_s, travel[2] / dt_s
-        step = self.world.step(dt_s, a * s0 + b * s1 + c * s2, d * s0 + e * s1 + f * s2,
-                               g * s0 + h * s1 + i * s2)
-        if step.collided:
+        svx, svy, omega, collided = self.world.advance(
+            dt_s, a * s0 + b * s1 + c * s2, d * s0 + e * s1 + f * s2, g * s0 + h * s1 + i * s2)
+        if collided:
             self._collided = True
-        svx, svy, omega = step.vx, step.vy, step.omega
         if svx == 0.0 and svy == 0.0 and omega == 0.0:
             return
         for sensor, (px, py, c, s) in zip(self.sensors, self._frames, strict=True):
@@ -209,22 +212,123 @@ class StarfishSim(SerialHost):
             nd += self._drive_ns
         self._next_drive = nd
 
-    def _account(self, t_ns: int) -> None:
+    def _account_plain(self, t_ns: int) -> None:
         self._replay(t_ns)
         if t_ns > self._acc_t:
             self._advance((t_ns - self._acc_t) / 1e9)
             self._acc_t = t_ns
 
+    def _account(self, t_ns: int) -> None:
+        """:meth:`_account_plain` (:meth:`_replay`, then :meth:`_advance` to ``t_ns``),
+        inlined: the same sums."""
+        acc_t = self._acc_t
+        if t_ns <= acc_t and (self._drive_live or self._next_drive > t_ns):
+            return
+        rims = self.drive.rims
+        moving = any(rims)                 # (standing wheels add nothing)
+        travel = self._acc_travel
+        acc_dt = self._acc_dt
+        if not self._drive_live:
+            nd, step = self._next_drive, self._drive_ns
+            while nd <= t_ns:
+                if nd > acc_t:
+                    dt_s = (nd - acc_t) / 1e9
+                    acc_dt += dt_s
+                    if moving:
+                        for k, v in enumerate(rims):
+                            travel[k] += v * dt_s
+                    acc_t = nd
+                nd += step
+            self._next_drive = nd
+        if t_ns > acc_t:
+            dt_s = (t_ns - acc_t) / 1e9
+            acc_dt += dt_s
+            if moving:
+                for k, v in enumerate(rims):
+                    travel[k] += v * dt_s
+            acc_t = t_ns
+        self._acc_t = acc_t
+        self._acc_dt = acc_dt
+
     def _schedule_timers(self) -> None:
         nc, nd = self._next_central, self._next_drive
         self._timer_at = nd if self._drive_live and nd < nc else nc
-        self.clock.schedule(self._timer_at, self._timers)
+        self.clock.schedule(self._timer_at, self._timers_cb)
 
     def _timers(self) -> None:
         """The boards' ticks due now (the drive board's first when both are)."""
         now = self.clock.now
         if now != self._timer_at:
             return                               # superseded: the drive board woke up
+        if not self._drive_live:
+            self._central_settled(now)
+            return
+        self._timers_plain(now)
+
+    def _central_settled(self, now: int) -> None:
+        """:meth:`_timers_plain` when the drive board is settled (its ticks replayed, so
+        this is the central board's tick), in one method: the wheels' travel since the
+        last tick (:meth:`_account`, three wheels), the world's step and the sensors'
+        motion (:meth:`_move`); the same floats in the same order."""
+        acc_t, acc_dt = self._acc_t, self._acc_dt
+        r0, r1, r2 = self.drive.rims
+        moving = r0 or r1 or r2
+        t0, t1, t2 = self._acc_travel
+        nd, step = self._next_drive, self._drive_ns
+        while nd <= now:
+            if nd > acc_t:
+                dt_s = (nd - acc_t) / 1e9
+                acc_dt += dt_s
+                if moving:
+                    t0 += r0 * dt_s
+                    t1 += r1 * dt_s
+                    t2 += r2 * dt_s
+                acc_t = nd
+            nd += step
+        self._next_drive = nd
+        if now > acc_t:
+            dt_s = (now - acc_t) / 1e9
+            acc_dt += dt_s
+            if moving:
+                t0 += r0 * dt_s
+                t1 += r1 * dt_s
+                t2 += r2 * dt_s
+            acc_t = now
+        self._acc_t = acc_t
+        if acc_dt > 0:                           # _move
+            self._acc_dt = 0.0
+            self._acc_travel = [0.0, 0.0, 0.0]
+            a, b, c, d, e, f, g, h, i = self._inv9
+            s0, s1, s2 = t0 / acc_dt, t1 / acc_dt, t2 / acc_dt
+            svx, svy, omega, collided = self.world.advance(
+                acc_dt, a * s0 + b * s1 + c * s2, d * s0 + e * s1 + f * s2,
+                g * s0 + h * s1 + i * s2)
+            if collided:
+                self._collided = True
+            if svx != 0.0 or svy != 0.0 or omega != 0.0:
+                for sensor, (px, py, c, s) in zip(self.sensors, self._frames):
+                    ux = (svx - omega * py) * acc_dt
+                    uy = (svy + omega * px) * acc_dt
+                    sensor.move(c * ux + s * uy, -s * ux + c * uy, acc_dt)
+        else:
+            self._acc_dt = acc_dt
+        notice = self.core.tick()
+        if notice:
+            self.notices += notice
+            self._reply(notice)
+        nc = self._next_central = self._next_central + self.core.tick_ns
+        if self.keep_trace:
+            p = self.world.pose
+            self.trace.append(TraceRow(now / 1e9, p.x, p.y, p.theta, self.drive.rims,
+                                       self._collided))
+        self._collided = False
+        if self._drive_live:                     # the tick wrote to it (the watchdog stop)
+            self._schedule_timers()
+        else:                                    # _schedule_timers: the drive board waits
+            self._timer_at = nc
+            self.clock.schedule(nc, self._timers_cb)
+
+    def _timers_plain(self, now: int) -> None:
         self._account(now)
         if self._drive_live and now == self._next_drive:
             self.drive.tick()

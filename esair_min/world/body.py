@@ -27,6 +27,23 @@ class Pose:
         return self.x + c * px - s * py, self.y + s * px + c * py
 
 
+_REST = (0.0, 0.0, 0.0)
+
+
+def _pose(x: float, y: float, theta: float) -> Pose:
+    """``Pose(x, y, theta)`` without the frozen dataclass's ``__init__`` (a step's
+    allocation: the same fields, the same object)."""
+    p = _new(Pose)
+    d = p.__dict__
+    d["x"] = x
+    d["y"] = y
+    d["theta"] = theta
+    return p
+
+
+_new = object.__new__
+
+
 @dataclass(frozen=True)
 class WorldOptions:
     """How the body follows its commanded velocity.
@@ -103,6 +120,33 @@ class World:
             self._checked = (pose.x, pose.y)
             self._margin = clearance - self.options.radius_mm
         return ok
+
+    def advance(self, dt_s: float, vx: float, vy: float,
+                omega: float) -> tuple[float, float, float, bool]:
+        """:meth:`step`, returning the :class:`Step`'s ``(vx, vy, omega, collided)``
+        without making one: a body without lag or slip that stays clear of the walls
+        is moved here (the same floats as :meth:`step`), anything else by :meth:`step`."""
+        opts = self.options
+        if dt_s > 0 and not (opts.lag_s > 0 or opts.slip or opts.slip_noise):
+            if vx == 0 and vy == 0 and omega == 0:            # at rest: only time passes
+                self._v = _REST
+                self.t_s += dt_s
+                return 0.0, 0.0, 0.0, False
+            pose = self.pose
+            th = pose.theta
+            mid = th + omega * dt_s / 2                       # _moved, inlined
+            c, s = math.cos(mid), math.sin(mid)
+            x = pose.x + (c * vx - s * vy) * dt_s
+            y = pose.y + (s * vx + c * vy) * dt_s
+            cx, cy = self._checked
+            if math.hypot(x - cx, y - cy) < self._margin:     # _clear(new), at once
+                self._touching = False
+                self.pose = _pose(x, y, th + omega * dt_s)
+                self._v = (vx, vy, omega)
+                self.t_s += dt_s
+                return vx, vy, omega, False
+        st = self.step(dt_s, vx, vy, omega)
+        return st.vx, st.vy, st.omega, st.collided
 
     def step(self, dt_s: float, vx: float, vy: float, omega: float) -> Step:
         """Advance ``dt_s`` seconds with the commanded body velocity (robot frame)."""

@@ -1,15 +1,22 @@
 """The emulator's fast paths give what the plain paths give (issue 22 item 6): a run of
-bytes into the line assembler, the flow sensor's burst read, and the drive board's
-skipped ticks, each against the plain path over hypothesis-generated input."""
+bytes into the line assembler, the flow sensor's burst read and its inline gaussian
+pair, the drive board's skipped ticks (and a write of the same speeds), the world's
+advance without a Step, the V/W fields' regex, and the sim's fused central tick, each
+against the plain path over hypothesis-generated input or seeded runs."""
 
 from __future__ import annotations
 
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+import math
+
 from esair_min.components.dc_motor.core import DriveCore
-from esair_min.components.optical_flow.core import Adns2610, FlowTimingError, read_deltas
+from esair_min.components.omni_base.core import _FIELDS, signed_field
+from esair_min.components.optical_flow.core import (MAX_SPEED_IPS, MM_PER_INCH, Adns2610,
+                                                    FlowTimingError, read_deltas)
 from esair_min.core.decoder import LineAssembler
+from esair_min.world import Pose, Room, Segment, World, WorldOptions
 
 PROPS = settings(max_examples=200, deadline=None,
                  suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
@@ -111,3 +118,150 @@ def test_the_sims_replayed_drive_ticks_are_the_ticks_run_as_events(starfish):
         dc.DriveCore.settled = settled            # type: ignore[method-assign]
     assert eager == lazy
     assert lazy[5] >= 1 and b"!W watchdog stop" in lazy[1][-1]
+
+
+def _plain_move(s: Adns2610, dx_mm: float, dy_mm: float, dt_s: float) -> None:
+    """The sensor's motion with random.gauss called for each axis (the plain path)."""
+    dist = math.hypot(dx_mm, dy_mm)
+    if s.lifted or (dt_s > 0 and dist / MM_PER_INCH / dt_s > MAX_SPEED_IPS):
+        if dist:
+            s.lost += 1
+        return
+    k = s.cpi / MM_PER_INCH
+    gauss = s._rng.gauss
+    s._acc[0] += (dx_mm + gauss(0.0, s.noise * abs(dx_mm))) * k
+    s._acc[1] += (dy_mm + gauss(0.0, s.noise * abs(dy_mm))) * k
+
+
+@PROPS
+@given(moves=st.lists(st.tuples(st.floats(-40, 40), st.floats(-40, 40), st.booleans(),
+                                st.booleans()), max_size=20),
+       noise=st.sampled_from([0.01, 0.02, 0.5]), seed=st.integers(0, 9))
+def test_the_flow_sensors_inline_gaussian_pair_is_random_gauss(moves, noise, seed):
+    """Both draws of a move from one pair, inline; a pair already half drawn (another
+    gauss before) goes through random.gauss: the same counts and generator state."""
+    fast, plain = Adns2610(noise=noise, seed=seed), Adns2610(noise=noise, seed=seed)
+    for dx, dy, lifted, draw_one in moves:
+        if draw_one:                                 # leaves the pair's second pending
+            assert fast._rng.gauss() == plain._rng.gauss()
+        fast.lifted = plain.lifted = lifted
+        fast.move(dx, dy, 0.01)
+        _plain_move(plain, dx, dy, 0.01)
+        assert fast._acc == plain._acc and fast.lost == plain.lost
+        assert fast._rng.getstate() == plain._rng.getstate()
+
+
+@PROPS
+@given(steps=st.lists(st.tuples(st.floats(-900, 900), st.floats(-900, 900), st.floats(-4, 4),
+                                st.sampled_from([0.0, 0.001, 0.01, 0.0099])), max_size=40),
+       options=st.sampled_from([WorldOptions(), WorldOptions(radius_mm=400.0),
+                                WorldOptions(lag_s=0.05),
+                                WorldOptions(slip=0.1, slip_noise=0.05, seed=3)]),
+       x=st.floats(160, 4840), theta=st.floats(-4, 4))
+def test_the_worlds_advance_is_its_step(steps, options, x, theta):
+    """World.advance (no Step, its own clear-of-walls path) against World.step, walls
+    met and left, at rest, with lag and slip: the same motion and the same world."""
+    room = Room((Segment(0, 0, 5000, 0), Segment(5000, 0, 5000, 1200),
+                 Segment(5000, 1200, 0, 1200), Segment(0, 1200, 0, 0)))
+    fast = World(room=room, pose=Pose(x, 600.0, theta), options=options)
+    plain = World(room=room, pose=Pose(x, 600.0, theta), options=options)
+    for vx, vy, omega, dt in steps:
+        if dt == 0.0:
+            continue
+        st_ = plain.step(dt, vx, vy, omega)
+        assert fast.advance(dt, vx, vy, omega) == (st_.vx, st_.vy, st_.omega, st_.collided)
+        assert (fast.pose, fast.velocity, fast.t_s, fast.collisions, fast._touching,
+                fast._checked, fast._margin, fast._rng.getstate()) == \
+            (plain.pose, plain.velocity, plain.t_s, plain.collisions, plain._touching,
+             plain._checked, plain._margin, plain._rng.getstate())
+        assert type(fast.pose) is Pose and repr(fast.pose) == repr(plain.pose)
+
+
+def test_the_worlds_advance_refuses_no_time_as_step_does():
+    try:
+        World().advance(0.0, 1.0, 0.0, 0.0)
+    except ValueError as exc:
+        assert str(exc) == "a step needs a time above 0 s, not 0.0"
+    else:
+        raise AssertionError("no ValueError")
+
+
+@PROPS
+@given(body=st.lists(st.sampled_from(b"+-0123456789 a*"), min_size=15, max_size=15).map(bytes),
+       sign=st.sampled_from([b"+", b"-"]))
+def test_the_fields_regex_is_signed_field_of_each(body, sign):
+    for data in (body, sign + body[1:]):
+        m = _FIELDS(b"V" + data, 1)
+        plain = [signed_field(data[k:k + 5]) for k in (0, 5, 10)]
+        if any(v is None for v in plain):
+            assert m is None
+        else:
+            assert m is not None and [int(g) for g in m.groups()] == plain
+
+
+def test_a_write_of_the_same_speeds_leaves_a_settled_drive_board_settled(starfish):
+    board = starfish.board("drive")
+    lazy, full = DriveCore(board), DriveCore(board)
+    data = bytes([0x2C, 0x01, 0xD4, 0xFE, 0x00, 0x00])   # +300, -300, 0 mm/s
+    for b in (lazy, full):
+        b.write(0, data)
+    for _ in range(100):
+        lazy.tick()
+        full.tick()
+    assert lazy.settled and full.settled
+    for k in range(40):
+        lazy.write(0, data if k % 2 else data[:4])       # the same registers, all or some
+        assert lazy.settled
+        full.write(0, data if k % 2 else data[:4])       # the plain path: every tick run
+        full._settled = False
+        lazy.tick()
+        full.tick()
+        assert lazy.motors == full.motors and lazy.rims == full.rims
+    lazy.write(2, bytes([0xD5]))                         # a change: it ticks again
+    assert not lazy.settled
+
+
+def _sim_run(robot, plain: bool, world: World, noise: float, seed: int) -> tuple:
+    """A seeded run of the sim (a square, then toward a wall turning, the watchdog stop,
+    a lifted sensor); ``plain``: the central tick through _timers_plain and the
+    travel through _replay and _advance, as before the fused paths."""
+    from esair_min.components.omni_base.core import velocity_line, wheels_line
+    from esair_min.emulator.starfish import FlowOptions, StarfishSim, drive_square
+
+    sim = StarfishSim(robot, world, FlowOptions(noise=noise, seed=seed))
+    if plain:
+        sim._central_settled = sim._timers_plain          # type: ignore[method-assign]
+        sim._account = sim._account_plain                 # type: ignore[method-assign]
+    square = drive_square(sim, 800, laps=1)
+    replies = []
+    for k in range(50):
+        if k == 20:
+            sim.sensors[1].lifted = True
+        line = velocity_line(400, 50, 100 - 4 * k) if k % 5 else wheels_line([250, -300, 120])
+        replies.append(sim.command(line))
+        sim.run_for(0.05 + 0.003 * (k % 4))
+    sim.run_for(1.2)                                      # the watchdog stops it
+    replies.append(sim.read())
+    return (square, replies, sim.trace, sim.i2c, bytes(sim.notices), sim.world.pose,
+            sim.world.t_s, sim.world.collisions, sim.core.sums, sim.core.polls,
+            [(s._acc, s.lost, s._free_at, s._rng.getstate()) for s in sim.sensors],
+            sim.drive.rims, sim.clock.now)
+
+
+def test_the_sims_fused_central_tick_is_the_plain_path(starfish):
+    """StarfishSim._central_settled (the central tick with the drive board settled, in
+    one method) and _account (the travel, inlined) against the plain methods: the same
+    trace, bus, notices, poses, sums and generator states, in a room with walls, with
+    noise, lag and slip."""
+    cases = [(lambda: World(pose=Pose(3800, 700, 0.2)), 0.02, 1),
+             (lambda: World(pose=Pose(4300, 4300, 0.0)), 0.0, 2),
+             (lambda: World(pose=Pose(3800, 700, 0.2),
+                            options=WorldOptions(lag_s=0.05, slip=0.1, slip_noise=0.02, seed=4)),
+              0.05, 7)]
+    walls = 0
+    for make, noise, seed in cases:
+        fast = _sim_run(starfish, False, make(), noise, seed)
+        assert fast == _sim_run(starfish, True, make(), noise, seed)
+        assert b"!W watchdog stop" in fast[4]
+        walls += fast[7]
+    assert walls >= 2                                # the first two runs meet a wall

@@ -62,8 +62,8 @@ class DriveCore:
     """The drive board: an I2C register map and the control tick.
 
     A tick after which every motor runs at the speed its register asks for, and no write
-    came since, changes nothing: the next such tick is skipped (``rims`` and the motors'
-    state are those the skipped ticks would compute)."""
+    came since that changed a register, changes nothing: the next such tick is skipped
+    (``rims`` and the motors' state are those the skipped ticks would compute)."""
 
     def __init__(self, board: Any):
         self.motors = [motor_state(m) for m in sorted(board.motors, key=lambda m: m.index)]
@@ -76,12 +76,15 @@ class DriveCore:
     def write(self, first: int, data: bytes) -> None:
         """A master's write: register pointer ``first``, then the bytes (auto-increment,
         wrapping at the map's end)."""
-        n = len(self.regs)
+        regs = self.regs
+        n = len(regs)
         if first + len(data) <= n:
-            self.regs[first:first + len(data)] = data
+            if regs[first:first + len(data)] == data:
+                return                # the same speeds again: a settled board stays so
+            regs[first:first + len(data)] = data
         else:
             for k, b in enumerate(data):
-                self.regs[(first + k) % n] = b
+                regs[(first + k) % n] = b
         self._settled = False
 
     @property

@@ -10,10 +10,11 @@ notice is ``!W watchdog stop``.
 from __future__ import annotations
 
 import functools
+import re
+import struct
 from collections.abc import Callable, Sequence
 from typing import Any, Protocol
 
-from esair_min.components.dc_motor.core import from_s16
 from esair_min.components.omni_base.kinematics import wheel_speeds, wheel_table
 from esair_min.components.optical_flow.core import read_deltas
 from esair_min.core.decoder import LineAssembler
@@ -27,6 +28,9 @@ COMMANDS: dict[bytes, tuple[str, int]] = {
 }
 _HEX = b"0123456789ABCDEF"
 U32 = 1 << 32
+#: Three signed fields (signed_field's ``+0123`` / ``-0123``) after the command letter.
+_FIELDS = re.compile(rb"([+-][0-9]{4})([+-][0-9]{4})([+-][0-9]{4})").fullmatch
+_M32 = U32 - 1
 
 
 class FlowReader(Protocol):
@@ -91,6 +95,7 @@ class StarfishCore:
                          or functools.partial(read_deltas, f)  # type: ignore[arg-type]
                          for f in self.flow]
         self.write_bus = write
+        self._pack = struct.Struct(f"<B{len(self.wheels)}H").pack
         self.lines = LineAssembler()
         self.commanded = [0] * len(self.wheels)
         self.idle_ticks = 0
@@ -101,8 +106,14 @@ class StarfishCore:
 
     # -- the link ------------------------------------------------------------------------
     def feed(self, data: bytes) -> bytes:
+        got = self.lines.feed_run(data)
+        if len(got) < 2:                         # (the usual run: one line end at most)
+            if not got:
+                return b""
+            r = got[0]
+            return ERROR_LINE[r] if isinstance(r, Code) else self.line(r)
         out = bytearray()
-        for r in self.lines.feed_run(data):      # a line does not change the assembly
+        for r in got:                            # a line does not change the assembly
             out += ERROR_LINE[r] if isinstance(r, Code) else self.line(r)
         return bytes(out)
 
@@ -129,10 +140,10 @@ class StarfishCore:
         if len(body) != length:
             return ERROR_LINE[Code.BAD_ARGUMENT]
         if action in ("velocity", "wheels"):
-            args = [signed_field(body[k:k + 5]) for k in (1, 6, 11)]
-            if any(a is None for a in args):
+            m = _FIELDS(body, 1)                 # signed_field of each, at once
+            if m is None:
                 return ERROR_LINE[Code.BAD_ARGUMENT]
-            reply = self._drive(action, [a for a in args if a is not None])
+            reply = self._drive(action, [int(a) for a in m.groups()])
         elif action == "stop":
             reply = self._send([0] * len(self.wheels))
         elif action == "odometry":
@@ -157,7 +168,7 @@ class StarfishCore:
         return self._send(speeds)
 
     def _send(self, speeds: list[int]) -> bytes:
-        data = bytes([0]) + b"".join(bytes(from_s16(s)) for s in speeds)
+        data = self._pack(0, *[v & 0xFFFF for v in speeds])      # from_s16 of each
         if not self.write_bus(self.drive_address, data):
             return ERROR_LINE[Code.NO_ANSWER]
         self.commanded = list(speeds)
@@ -172,13 +183,13 @@ class StarfishCore:
     # -- the tick ------------------------------------------------------------------------
     def tick(self) -> bytes:
         """One tick: poll the flow sensors, run the watchdog; the notices it sends."""
-        self.t_ns += self.tick_ns
-        t = self.t_ns
+        t = self.t_ns = self.t_ns + self.tick_ns
         for read, s in zip(self._readers, self.sums, strict=True):
-            dx, dy, q, t = read(t)
-            s[0] = (s[0] + dx) % U32
-            s[1] = (s[1] + dy) % U32
-            s[2] = q
+            dx, dy, s[2], t = read(t)
+            if dx:
+                s[0] = (s[0] + dx) & _M32
+            if dy:
+                s[1] = (s[1] + dy) & _M32
         self.polls += 1
         idle = self.idle_ticks
         if idle < 0xFFFF:

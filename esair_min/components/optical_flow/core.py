@@ -36,6 +36,13 @@ MAX_SPEED_IPS = 12.0
 MM_PER_INCH = 25.4
 #: One register read by the central board: address, tSRAD, 8 bits, tSRR, 8 bits.
 _READ_NS = T_SRAD_NS + 8_000 + T_SRR_NS + 8_000
+#: A burst of the three reads (:meth:`Adns2610.deltas`): the sensor is free again, and
+#: the reader done, this long after the first address (the SQUAL's data byte, then tSRR,
+#: then 8 bits).
+_BURST_FREE_NS = 2 * _READ_NS + T_SRAD_NS + 8_000 + T_SRR_NS
+_BURST_END_NS = _BURST_FREE_NS + 8_000
+_TWOPI = 2.0 * math.pi                   # random.TWOPI
+_sqrt, _log, _cos, _sin, _hypot = math.sqrt, math.log, math.cos, math.sin, math.hypot
 
 
 class FlowTimingError(Exception):
@@ -63,7 +70,7 @@ class Adns2610:
     # -- the world's side ------------------------------------------------------------
     def move(self, dx_mm: float, dy_mm: float, dt_s: float) -> None:
         """The sensor moved (dx, dy) mm in its own frame over ``dt_s`` seconds."""
-        dist = math.hypot(dx_mm, dy_mm)
+        dist = _hypot(dx_mm, dy_mm)
         if self.lifted or (dt_s > 0 and dist / MM_PER_INCH / dt_s > MAX_SPEED_IPS):
             if dist:
                 self.lost += 1
@@ -72,9 +79,20 @@ class Adns2610:
         acc = self._acc
         noise = self.noise
         if noise:                          # x first, then y: the seeded sequence
-            gauss = self._rng.gauss
-            acc[0] += (dx_mm + gauss(0.0, noise * abs(dx_mm))) * k
-            acc[1] += (dy_mm + gauss(0.0, noise * abs(dy_mm))) * k
+            rng = self._rng
+            if rng.gauss_next is None:            # type: ignore[attr-defined]
+                # random.Random.gauss inlined: one call draws a pair and keeps the
+                # second for the next call, so x takes the pair's first and y its
+                # second (the same floats, and the generator left as two calls leave it)
+                random = rng.random
+                x2pi = random() * _TWOPI
+                g2rad = _sqrt(-2.0 * _log(1.0 - random()))
+                acc[0] += (dx_mm + (0.0 + _cos(x2pi) * g2rad * (noise * abs(dx_mm)))) * k
+                acc[1] += (dy_mm + (0.0 + _sin(x2pi) * g2rad * (noise * abs(dy_mm)))) * k
+            else:
+                gauss = rng.gauss
+                acc[0] += (dx_mm + gauss(0.0, noise * abs(dx_mm))) * k
+                acc[1] += (dy_mm + gauss(0.0, noise * abs(dy_mm))) * k
         else:
             acc[0] += (dx_mm + 0.0) * k
             acc[1] += (dy_mm + 0.0) * k
@@ -115,16 +133,17 @@ class Adns2610:
                                   f"sensor is ready at {self._free_at} ns")
         acc = self._acc
         dy = int(acc[1])                   # Delta_Y first, as the firmware reads
-        dy = -128 if dy < -128 else 127 if dy > 127 else dy
-        acc[1] -= dy
+        if dy:                             # (x - 0 is x: nothing to take when 0)
+            dy = -128 if dy < -128 else 127 if dy > 127 else dy
+            acc[1] -= dy
         dx = int(acc[0])
-        dx = -128 if dx < -128 else 127 if dx > 127 else dx
-        acc[0] -= dx
-        last = t_ns + 2 * _READ_NS + T_SRAD_NS + 8_000     # the SQUAL's data byte
+        if dx:
+            dx = -128 if dx < -128 else 127 if dx > 127 else dx
+            acc[0] -= dx
         self._reg = REG_SQUAL
         self._addr_at = None
-        self._free_at = last + T_SRR_NS
-        return dx, dy, 0 if self.lifted else self.surface, last + T_SRR_NS + 8_000
+        self._free_at = t_ns + _BURST_FREE_NS
+        return dx, dy, 0 if self.lifted else self.surface, t_ns + _BURST_END_NS
 
     def register(self, reg: int) -> int:
         """A register's value as read (reading a delta clears it)."""
