@@ -83,7 +83,6 @@ class ResourceHost:
     def __init__(self, spec: Spec, cls: type, port: Port):
         self.spec = spec
         self.name = spec.name
-        self.kind = "resource"
         self.cls = cls
         self.port = port
         self.options = spec.options
