@@ -27,9 +27,16 @@ Figures (one run, every column measured in this process, medians where repeated)
    the generated PIC firmware (when the toolchain is installed), and the x limit is
    also given with it: the true line limit of one-in-flight x on the robot.
 
+Figure 1 also measures process mode's own floor side by side: the bare hop between two
+processes (bench/zenoh_hop.py: a Zenoh get to a queryable in another process, handed to
+a worker thread; no STD), added to the no-polling run's line-and-tick floor. With
+``--baseline DIR`` (another checkout, e.g. main in a detached worktree), figure 1's runs
+of both trees are interleaved, each in a process of its own (the agents import that
+tree's esair_std too): the ratio of this tree to the baseline at p99, in one run.
+
 Run: python bench/papaman_std.py [--n 200] [--figures 123] [--modes thread,process]
-[--repeat1 N] [--duplex-only]; BENCH_GC=1 in the environment: figure 1 also counts the
-resource host process's garbage collections over 2 ms.
+[--repeat1 N] [--duplex-only] [--baseline DIR]; BENCH_GC=1 in the environment: figure 1
+also counts the resource host process's garbage collections over 2 ms.
 Prints figures; asserts nothing.
 """
 
@@ -39,24 +46,28 @@ import argparse
 import json
 import os
 import statistics
+import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
+HERE = Path(__file__).resolve().parent.parent       # this checkout: bench/ and boards/
+# the tree whose esair_std is measured: this checkout, or a baseline's (--baseline runs
+# figure 1 in processes of each tree: ESAIR_BENCH_TREE)
+ROOT = Path(os.environ.get("ESAIR_BENCH_TREE") or HERE)
+sys.path.insert(0, str(HERE / "bench"))
 sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(ROOT / "bench"))
 # process mode: the agent processes import papaman_std_comps too
 os.environ["PYTHONPATH"] = os.pathsep.join(
-    [str(ROOT), str(ROOT / "bench"), *filter(None, [os.environ.get("PYTHONPATH")])])
+    [str(ROOT), str(HERE / "bench"), *filter(None, [os.environ.get("PYTHONPATH")])])
 
 from esair_min.model.validate import load_robot  # noqa: E402
 from esair_std import Runtime, StdError  # noqa: E402
 from esair_std.drivers.minlink import Link, line_budget  # noqa: E402
 from esair_std.drivers.minlink.emulated import EmulatedRobot  # noqa: E402
 
-PAPAMAN = ROOT / "boards" / "papaman"
+PAPAMAN = HERE / "boards" / "papaman"
 EXAMPLE = "esair_std.examples.papaman.papaman_behaviors"
 
 
@@ -69,7 +80,10 @@ def free_endpoint() -> str:
 
 
 def runtime(dep: dict, mode: str) -> Runtime:
-    return Runtime(dep, mode=mode, endpoint=free_endpoint())
+    try:                      # as esair std run does (esair_std/heap.py)
+        return Runtime(dep, mode=mode, endpoint=free_endpoint(), settle_heap=True)
+    except TypeError:         # a baseline tree from before it
+        return Runtime(dep, mode=mode, endpoint=free_endpoint())
 
 
 def pct(xs: list[float], q: float) -> float:
@@ -131,7 +145,9 @@ def command_to_write(mode: str, n: int, feet_hz: float, goal_ms: float,
     lat = [(w - s) * 1e3 for s, w in zip(sent, writes)]
     k = len(written)
     gc_file = Path(str(notes) + ".gc")
-    gcs = [json.loads(x)["ms"] for x in gc_file.read_text().splitlines()] if gc_file.exists() else []
+    first = min(got["sent"], default=0.0)     # pauses while commands went (not start-up's)
+    gcs = [g["ms"] for g in map(json.loads, gc_file.read_text().splitlines())
+           if g.get("t", first) >= first] if gc_file.exists() else []
     return {"lat": lat, "errors": got["errors"], "gc": gcs,
             "host": [(w - s) * 1e3 for s, w in zip(sent[len(sent) - k:], written)],
             "robot": [(w - s) * 1e3 for s, w in zip(written, writes[len(writes) - k:])],
@@ -260,23 +276,64 @@ def b_baud(robot) -> int:
     return line_budget(robot).baud
 
 
+def one_run(tree: Path | None, mode: str, n: int, hz: float, goal_ms: float,
+            duplex: bool) -> dict:
+    """One command_to_write run, here (``tree`` None) or in a process of its own that
+    imports ``tree``'s esair_std (its agents too: they start in that tree)."""
+    if tree is None:
+        return command_to_write(mode, n, hz, goal_ms, duplex)
+    env = dict(os.environ, ESAIR_BENCH_TREE=str(tree))
+    env.pop("PYTHONPATH", None)             # set again, for that tree, by the child
+    out = subprocess.run([sys.executable, str(Path(__file__).resolve()), "--one",
+                          f"{mode}:{int(duplex)}:{hz:g}", "--n", str(n)],
+                         cwd=tree, env=env, capture_output=True, text=True, timeout=600)
+    if out.returncode != 0:
+        raise SystemExit(f"figure 1 run in {tree} failed:\n{out.stderr}")
+    return json.loads(out.stdout.splitlines()[-1])
+
+
+def hop_floor(runs: list[dict], hops: list[dict]) -> float:
+    """Process mode's floor at p99 (ms): the no-polling runs' port write -> register
+    write times (line and tick) plus the bare two-process hop (send -> a worker thread
+    in another process), every pair of the two samples taken: the p99 of their sum."""
+    robot = sorted(x for r in runs for x in r["robot"])
+    hop = sorted(x for h in hops for x in h["totals"])
+    sums = sorted(a + b for a in robot for b in hop)
+    return pct(sums, 0.99)
+
+
 def figure1(args, modes: list[str], goal1: float) -> None:
     """Figure 1 side by side: each mode, one command in flight (``duplex: false``, the
     link before issue 21 item 7) and full duplex, with the feet not polled and polled
     at 8 Hz; ``--repeat1`` rounds, the runs interleaved (the load moves), their samples
-    pooled."""
-    runs: dict[tuple[str, bool, float], list[dict]] = {}
-    kinds = [(m, duplex, hz) for m in modes
-             for duplex in ((True,) if args.duplex_only else (False, True)) for hz in (0, 8)]
-    for _ in range(args.repeat1):
+    pooled; each round also measures the bare hop (bench/zenoh_hop.py) for process
+    mode's floor. ``--baseline DIR``: every kind also in that tree, interleaved."""
+    import zenoh_hop
+
+    trees: list[tuple[str, Path | None]] = [("this", None)]
+    if args.baseline:
+        trees = [("this", HERE), ("baseline", Path(args.baseline).resolve())]
+    runs: dict[tuple[str, str, bool, float], list[dict]] = {}
+    hops: dict[str, list[dict]] = {"two processes": [], "one process": []}
+    kinds = [(t, m, duplex, hz) for m in modes
+             for duplex in ((True,) if args.duplex_only else (False, True)) for hz in (0, 8)
+             for t, _ in trees]
+    where = dict(trees)
+    for i in range(args.repeat1):
         for kind in kinds:
-            runs.setdefault(kind, []).append(command_to_write(kind[0], args.n, kind[2],
-                                                              goal1, kind[1]))
+            runs.setdefault(kind, []).append(one_run(where[kind[0]], kind[1], args.n, kind[3],
+                                                     goal1, kind[2]))
+        if "process" in modes:
+            hops["two processes"].append(zenoh_hop.two_processes(args.n, 0.0373))
+            hops["one process"].append(zenoh_hop.one_process(args.n, 0.0373))
+        print(f"   (round {i + 1} of {args.repeat1} done, load average "
+              f"{os.getloadavg()[0]:.1f})", flush=True)
     res = {kind: pooled(rs, goal1) for kind, rs in runs.items()}
-    for (m, duplex, hz), r in res.items():
-        floor = res[(m, duplex, 0)]
+    for (t, m, duplex, hz), r in res.items():
+        floor = res[(t, m, duplex, 0)]
         what = "full duplex" if duplex else "one in flight"
-        print(f"   {m:8s} {what:14s} feet {hz} Hz  n={r['n']}  p50 {r['p50']:.2f} ms  "
+        tag = f"{m} [{t}]" if args.baseline else m
+        print(f"   {tag:8s} {what:14s} feet {hz} Hz  n={r['n']}  p50 {r['p50']:.2f} ms  "
               f"p90 {r['p90']:.2f} ms  p99 {r['p99']:.2f} ms  max {r['max']:.2f} ms  "
               f"errors {r['errors']}  (each run's p99: "
               f"{', '.join(f'{x:.1f}' for x in r['p99s'])} ms)")
@@ -290,10 +347,28 @@ def figure1(args, modes: list[str], goal1: float) -> None:
                 + f"; written behind a reply {r['behind']}, by the I/O thread {r['by_io']}"
                 + (f"; GC pauses over 2 ms in the resource host's process: {len(r['gc'])}, "
                    f"longest {max(r['gc']):.0f} ms" if r["gc"] else ""))
+        extra = ""
+        if m == "process" and hops["two processes"]:
+            pf = hop_floor(runs[(t, m, duplex, 0)], hops["two processes"])
+            extra = f", {r['p99'] / pf:.2f}x process mode's floor ({pf:.2f} ms)"
+        if args.baseline and t == "this" and ("baseline", m, duplex, hz) in res:
+            extra += f"; {r['p99'] / res[('baseline', m, duplex, hz)]['p99']:.2f}x the baseline's p99"
         print(f"   {'':8s} {'':14s} {'':9s} p99 = {r['p99'] / floor['robot_p99']:.2f}x the "
               f"no-polling run's line-and-tick floor, {r['p99'] / floor['p99']:.2f}x the "
-              f"no-polling run's p99; missed the first tick after their line: "
+              f"no-polling run's p99{extra}; missed the first tick after their line: "
               f"{r['late_ticks']} of {r['robot_n']}")
+    for name, hs in hops.items():
+        if hs:
+            tot = [x for h in hs for x in h["totals"]]
+            hop = [x for h in hs for x in h["hops"]]
+            each = ", ".join(f"{h['total'][1]:.1f}" for h in hs)
+            print(f"   bare hop, {name} (bench/zenoh_hop.py, send -> a worker thread, no STD): "
+                  f"p50 {statistics.median(tot):.2f} ms, p99 {pct(tot, 0.99):.2f} ms (each "
+                  f"run's p99: {each} ms; the "
+                  f"Zenoh part alone p99 {pct(hop, 0.99):.2f} ms)")
+    if hops["two processes"]:
+        print("   process mode's floor: the p99 of (the no-polling run's port write -> register "
+              "write) + (the bare hop between two processes), every pair of samples")
 
 
 def main() -> None:
@@ -307,10 +382,17 @@ def main() -> None:
                     help="figure 1: rounds, interleaved, samples pooled")
     ap.add_argument("--duplex-only", action="store_true",
                     help="figure 1: full duplex only (not the one-in-flight runs)")
+    ap.add_argument("--baseline", metavar="DIR",
+                    help="figure 1: also run every kind in that checkout, interleaved")
+    ap.add_argument("--one", metavar="MODE:DUPLEX:HZ", help=argparse.SUPPRESS)
     args = ap.parse_args()
     robot = load_robot(PAPAMAN)
     b = line_budget(robot)
     goal1 = (b.tick_s + b.line_s(len("odc100\r\n") - 1)) * 1e3
+    if args.one:                      # one figure 1 run for --baseline: its JSON
+        m, duplex, hz = args.one.split(":")
+        print(json.dumps(command_to_write(m, args.n, float(hz), goal1, duplex == "1")))
+        return
     lim_x = 1 / b.command_s(3, 4, False)
     lim_o = 1 / b.command_s(8, 4, True)
     modes = args.modes.split(",")

@@ -72,7 +72,8 @@ class TimedMinLink(MinLink):
     time.monotonic(), virtual seconds) and, as each servo line has been written to the
     port, the robot's virtual time, the wall time, when the command reached the resource
     host and when its write() began. With BENCH_GC=1 in the environment, every garbage
-    collection of its process longer than 2 ms goes to NOTES.gc (generation, ms)."""
+    collection of its process longer than 2 ms goes to NOTES.gc (generation, ms, when it
+    began: time.monotonic())."""
 
     def open(self):
         super().open()
@@ -117,7 +118,8 @@ class TimedMinLink(MinLink):
                     took = time.monotonic() - started[0]
                     if took > 0.002:
                         with open(_notes + ".gc", "a") as f:
-                            f.write(json.dumps({"gen": info["generation"], "ms": took * 1e3}) + "\n")
+                            f.write(json.dumps({"gen": info["generation"], "ms": took * 1e3,
+                                                "t": started[0]}) + "\n")
             gc.callbacks.append(on_gc)
 
 class Sweep(Behavior):

@@ -25,6 +25,7 @@ from . import spec as specmod
 from .bs import BehaviorSupervisor
 from .connections import ActuatorConnection, SensorConnection
 from .errors import ComponentError, ControlError, Refused, StdError
+from .heap import settle
 from .level import Level
 from .policy import uses_problem
 from .rs import ResourceSupervisor
@@ -54,8 +55,11 @@ def _load(deployment: str | Path | dict | Deployment) -> Deployment:
 class Runtime:
     def __init__(self, deployment: str | Path | dict | Deployment, mode: str | None = None,
                  endpoint: str | None = None, control: bool | None = None,
-                 join: list[str] | None = None):
+                 join: list[str] | None = None, settle_heap: bool = False):
         self.deployment = _load(deployment)
+        # the process is the runtime's own (esair std run): its start-up heap is frozen
+        # once the resources are open, before any behavior runs (heap.py)
+        self.settle_heap = settle_heap
         self.join = list(join or [])     # other robots' control endpoints (remote/robots.py)
         self.robot = self.deployment.robot
         self.mode_name = mode or getattr(self.deployment, "mode", None) or "thread"
@@ -105,9 +109,11 @@ class Runtime:
             self.mode.open()
             res, beh, rea = specmod.specs_of(self.deployment)
             for s in res:
-                self.rs.add(s)
+                self.rs.add(s)              # each opened (or failed) on return
+            if self.settle_heap:
+                settle()
             for s in rea + beh:
-                self.bs.add(s)
+                self.bs.add(s)              # each started on return
             self.rs.start()
             self.bs.start()
             self._watch = threading.Thread(target=self._watchdog, name="esair:watch",

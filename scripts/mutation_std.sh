@@ -17,17 +17,25 @@
 #   MAX_CHILDREN=2 bash scripts/mutation_std.sh   # mutmut's workers (default 1)
 #   KEEP=1 bash scripts/mutation_std.sh           # reuse $WORK/mutants (mutmut's cache)
 #   WIDE=1 bash scripts/mutation_std.sh NAME...   # these mutants, wider tests (after a run)
+#
+# mutmut (3.8) resets EVERY result of its cache when the test selection changes, so a
+# WIDE=1 run works in a cache of its own ($WORK-wide, default .mutation-std-wide/): the
+# first pass's results in $WORK stay. Run a pass's survivors again by name (KEEP=1
+# bash scripts/mutation_std.sh NAME...) after adding tests: a named mutant always reruns.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 ROOT=$PWD
 WORK=${WORK:-$ROOT/.mutation-std}
+if [[ -n "${WIDE:-}" ]]; then
+    WORK=$WORK-wide
+fi
 python -c "import mutmut" 2>/dev/null || python -m pip install -q '.[mutation]'
 if [[ -z "${KEEP:-}" && $# -eq 0 ]]; then
     rm -rf "$WORK"
 fi
 mkdir -p "$WORK"
 # the checkout's files as they are now (tracked and new, not ignored ones)
-git ls-files -z --cached --others --exclude-standard | grep -zv '^\.mutation-std/' \
+git ls-files -z --cached --others --exclude-standard | grep -zv '^\.mutation-std' \
     | tar --null -T - -cf - | tar -xf - -C "$WORK"
 python - "$WORK/pyproject.toml" scripts/mutation_std.toml "${WIDE:-}" <<'PY'
 import re, sys, tomllib

@@ -123,7 +123,8 @@ def run_cmd(deployment: str, mode: str | None, seconds: float | None, endpoint: 
                                f"--port {port}")
     dep = _load(resolve_deployment(deployment), port, emulate)
     rt = Runtime(dep, mode=mode, endpoint=endpoint,
-                 control=None if not no_control else False, join=list(join))
+                 control=None if not no_control else False, join=list(join),
+                 settle_heap=True)        # this process is the runtime's (heap.py)
     if rt.mode_name == "thread" and not no_control:
         rt.control = True
     if hmi and not rt.control:

@@ -27,6 +27,7 @@ from ..classes import component_class
 from ..spec import Spec
 from ..transport import keys, wire
 from ..transport.bus import Bus, Request
+from ..heap import settle
 from ..transport.calls import SampleCaller, SampleServer
 from ..transport.wire import Verbs
 
@@ -96,7 +97,8 @@ class ZenohPort:
             if left <= 0:
                 break
             r = self.bus.request(key, {"from": who, "cmd": command,
-                                       "timeout": max(0.0, left - MARGIN)}, left)
+                                       "timeout": max(0.0, left - MARGIN)}, left,
+                                 express=True)
             if r is not None or deadline - time.monotonic() <= 0:
                 break
             self._lost_or_coming(resource, deadline)    # early: nobody answers its key now
@@ -265,6 +267,7 @@ class Agent:
         self._credit = self.bus.publisher(keys.bs_credit(self.robot, self.spec.name))
         host.on_room = self._report_room
         self.bus.token(keys.alive(self.robot, self.spec.kind, self.spec.name))
+        settle()                  # before its thread runs (heap.py: no full GC pauses)
         self.hello()
         host.start()
         threading.Thread(target=self._watchdog, daemon=True, name="esair:watch").start()
@@ -348,9 +351,11 @@ class Agent:
         except StdError as exc:
             self.hello(error=exc.message)
             raise SystemExit(0) from None
+        settle()                  # the device open, before commands come (heap.py)
         for name, kind in kids.items():
             if kind == "actuator":
-                self.bus.serve(keys.actuator(self.robot, name), self._on_actuator)
+                self.bus.serve(keys.actuator(self.robot, name), self._on_actuator,
+                               express=True)
         self.bus.serve(keys.rs(self.robot, self.spec.name), self._rs_verbs().request(wire.op_of))
         kind = "driver" if isinstance(host.driver, Driver) else next(iter(kids.values()))
         self.bus.token(keys.alive(self.robot, kind, self.spec.name))
@@ -376,7 +381,8 @@ class Agent:
             return
         t = b.get("timeout", 1.0)
         self._resource.submit(res, "write", (b.get("cmd"),), self._answer(req.reply, res),
-                         float(t) if isinstance(t, (int, float)) else 1.0)
+                              float(t) if isinstance(t, (int, float)) else 1.0,
+                              copy=False)     # just decoded from the wire: its own already
 
     @staticmethod
     def _answer(answer: wire.Answer, resource: str) -> Callable[[bool, Any], None]:

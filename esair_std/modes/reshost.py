@@ -83,7 +83,6 @@ class ResourceHost:
     def __init__(self, spec: Spec, cls: type, port: Port):
         self.spec = spec
         self.name = spec.name
-        self.kind = "resource"
         self.cls = cls
         self.port = port
         self.options = spec.options
@@ -126,10 +125,13 @@ class ResourceHost:
 
     # ---- requests (any thread)
     def submit(self, resource: str, op: str, args: tuple,
-               on_done: Callable[[bool, Any], None], timeout: float = 1.0) -> None:
+               on_done: Callable[[bool, Any], None], timeout: float = 1.0,
+               copy: bool = True) -> None:
         """Queue ``op`` (write | configure) for the host thread; ``on_done(ok, value)`` is
         called once, from the host thread (or here if it cannot be queued). ``value`` is
-        the result, or a ResourceLost / the error's text."""
+        the result, or a ResourceLost / the error's text. ``copy=False``: ``args`` were
+        just decoded from the wire (an agent's request), so nobody else holds them and the
+        wire format's copy (codec.copy: one more encode and decode) is not made again."""
         slot = self.slots.get(resource)
         if slot is None:
             return on_done(False, ResourceLost(resource, "no such resource"))
@@ -141,7 +143,8 @@ class ResourceHost:
         if op == "write" and slot.kind != "actuator":
             return on_done(False, "is a sensor: it takes no commands")
         try:
-            args = tuple(codec.copy(a) for a in args)
+            if copy:
+                args = tuple(codec.copy(a) for a in args)
             now = time.monotonic()
             self.commands.put_nowait((slot, op, args, on_done, now + timeout, now))
         except queue.Full:

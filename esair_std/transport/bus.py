@@ -30,10 +30,11 @@ class Request:
     """One received query: ``body`` (decoded JSON or None if garbage), ``error`` (why it
     could not be decoded), ``reply(obj)`` once, from any thread."""
 
-    __slots__ = ("_query", "body", "error", "key", "_done")
+    __slots__ = ("_query", "body", "error", "key", "_done", "_express")
 
-    def __init__(self, query: Any):
+    def __init__(self, query: Any, express: bool = False):
         self._query = query
+        self._express = express
         self.key = str(query.key_expr)
         self._done = False
         self.body: dict[str, Any] | None = None
@@ -53,7 +54,7 @@ class Request:
                 data = codec.encode(obj)
             except TransportError as exc:
                 data = codec.encode(wire.error(exc))
-            self._query.reply(self._query.key_expr, data)
+            self._query.reply(self._query.key_expr, data, express=self._express)
         except Exception as exc:  # noqa: BLE001 - the asker is gone; nothing to tell
             log.debug("reply on %s not sent: %s", self.key, exc)
         finally:
@@ -98,11 +99,15 @@ class Bus:
         return obj
 
     # request/reply
-    def request(self, key: str, body: dict[str, Any], timeout: float) -> Any:
-        """The first reply's JSON, or None when nobody answers (no queryable / timeout)."""
+    def request(self, key: str, body: dict[str, Any], timeout: float,
+                express: bool = False) -> Any:
+        """The first reply's JSON, or None when nobody answers (no queryable / timeout).
+        ``express``: the request is sent at once, never held to share a batch (a command
+        to an actuator: docs/std-papaman.md, item 7)."""
         data = codec.encode(body)
         try:
-            replies = self.session.get(key, payload=data, timeout=max(0.001, timeout))
+            replies = self.session.get(key, payload=data, timeout=max(0.001, timeout),
+                                       express=express)
             for reply in replies:
                 ok = reply.ok
                 if ok is None:
@@ -118,11 +123,13 @@ class Bus:
         """A :class:`Route` to ``key`` (undeclared when the bus closes)."""
         return self._keep(Route(self.session, key))
 
-    def serve(self, key: str, handler: Callable[[Request], None]) -> Any:
-        """``handler(request)`` on Zenoh's network thread: it must enqueue or answer."""
+    def serve(self, key: str, handler: Callable[[Request], None],
+              express: bool = False) -> Any:
+        """``handler(request)`` on Zenoh's network thread: it must enqueue or answer.
+        ``express``: replies are sent at once, never held to share a batch."""
         def cb(query: Any) -> None:
             try:
-                handler(Request(query))
+                handler(Request(query, express))
             except Exception as exc:  # noqa: BLE001 - never let a handler kill the thread
                 log.error("handler on %s: %s", key, exc)
         return self._keep(self.session.declare_queryable(

@@ -35,9 +35,9 @@ class Threads:
                     self._live.discard(t)
 
         t = threading.Thread(target=run, name=name, daemon=True)
-        with self._lock:
-            self._live.add(t)
-        t.start()
+        with self._lock:          # started before join() can see it (joining a thread
+            self._live.add(t)     # not yet started raises RuntimeError: seen once when
+            t.start()             # a stop() came while a worker was being started)
         return t
 
     def add(self, t: threading.Thread) -> None:

@@ -18,7 +18,8 @@ class Counter(SimCounter):
 
 
 class Recorder(Actuator):
-    """Keeps the commands; ``{"fail": msg}`` raises; ``{"lost": why}`` marks it lost."""
+    """Keeps the commands; ``{"fail": msg}`` raises ValueError, ``{"refuse": msg}``
+    CommandError; ``{"lost": why}`` marks it lost."""
 
     def open(self):
         self.log_ = []
@@ -27,6 +28,8 @@ class Recorder(Actuator):
     def write(self, command):
         if isinstance(command, dict) and "fail" in command:
             raise ValueError(command["fail"])
+        if isinstance(command, dict) and "refuse" in command:
+            raise CommandError(self.name, command["refuse"])
         if isinstance(command, dict) and "lost" in command:
             self.mark_lost(command["lost"])
             return "marking lost"

@@ -3,6 +3,7 @@ lean: every module costs each component process RSS; see docs/std.md, Measured).
 
 from __future__ import annotations
 
+import gc
 import sys
 
 from esair_std import Behavior, Sensor
@@ -33,6 +34,8 @@ class Counting(Sensor):
     def configure(self, key, value):
         if key == "modules":
             return heavy_imported()
+        if key == "frozen":           # objects its process froze after start-up (heap.py)
+            return gc.get_freeze_count()
         return super().configure(key, value)
 
 
@@ -46,3 +49,12 @@ class Listening(Behavior):
 
     def provide(self, requester):
         return [self.h.received, heavy_imported()]
+
+
+class Frozen(Behavior):
+    """provide(): how many objects its process froze after start-up (esair_std/heap.py)."""
+
+    period = 0.05
+
+    def provide(self, requester):
+        return {"frozen": gc.get_freeze_count()}
