@@ -13,7 +13,6 @@ site cannot drive the robot through the user's browser.
 from __future__ import annotations
 
 import asyncio
-import gc
 import json
 import logging
 import mimetypes
@@ -30,6 +29,7 @@ from websockets.exceptions import ConnectionClosed
 from websockets.http11 import Request, Response
 
 from ..errors import StdError
+from ..heap import settle
 from .auth import Auth
 from .bridge import Bridge, BridgeError
 
@@ -409,8 +409,7 @@ class HmiServer:
         await self._loop.run_in_executor(None, self.bridge.start)
         # what start-up made lives as long as the process: out of the collector's way, so
         # a full collection walks only what came since (its pauses delay every sample)
-        gc.collect()
-        gc.freeze()
+        settle()
         try:
             async with serve(self._page, self.host, self.port, process_request=self._http,
                              ssl=self.tls, max_size=MAX_FRAME, server_header=None,
