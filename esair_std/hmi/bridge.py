@@ -68,7 +68,8 @@ class Bridge:
         self._state_thread: threading.Thread | None = None
         self.last: dict[str, dict] = {}       # sensor -> its last sample message
         self.states: dict[str, Any] = {}      # behavior -> its last get value
-        self.c = dict(samples=0, samples_unwatched=0, ls_failed=0, gets_failed=0)
+        self.c = dict(samples=0, samples_unwatched=0, ls_failed=0, gets_failed=0,
+                      commands_seen=0)
         self.want: Callable[[str], bool] = lambda name: True    # the sensors to watch
 
     # ---- life cycle
@@ -88,6 +89,9 @@ class Bridge:
         d = self.call("describe")       # the runtime reads the board files, not this process
         self.robots, self.problems = d.get("robots", {}), d.get("problems", [])
         self.bus.subscribe(f"esair/{self.robot}/sensor/**", self._on_sample, with_key=True)
+        # every command an actuator ran, whoever sent it (a behavior, `esair std put`,
+        # another page): the pose shows what the robot was told, not only this HMI's
+        self.bus.subscribe(keys.command(self.robot, "**"), self._on_command, with_key=True)
         self._poll_once(inspect=True)
         self._thread = threading.Thread(target=self._run, name="hmi:poll", daemon=True)
         self._thread.start()
@@ -128,7 +132,15 @@ class Bridge:
                 "last": list(self.last.values()),
                 "states": [{"t": "state", "r": k, "v": v} for k, v in self.states.items()]}
 
-    # ---- samples (Zenoh's thread: hand over and return)
+    # ---- commands and samples (Zenoh's thread: hand over and return)
+    def _on_command(self, key: str, obj: Any) -> None:
+        """A command record (``{seq, t, v: {command, ok | error}}``, modes/reshost.py):
+        one that went through is handed on as ``{"t": "ran", "r": actuator, "v": command}``."""
+        v = obj.get("v") if isinstance(obj, dict) else None
+        if isinstance(v, dict) and "ok" in v and "command" in v:
+            self.c["commands_seen"] += 1
+            self.emit({"t": "ran", "r": key.rsplit("/command/", 1)[-1], "v": v["command"]})
+
     def _on_sample(self, key: str, obj: Any) -> None:
         res = key.rsplit("/sensor/", 1)[-1]
         if self.watched.get(res) != "ok" or not isinstance(obj, dict):

@@ -13,6 +13,7 @@ site cannot drive the robot through the user's browser.
 from __future__ import annotations
 
 import asyncio
+import collections
 import json
 import logging
 import mimetypes
@@ -48,6 +49,7 @@ CSP = ("default-src 'self'; img-src 'self' data:; style-src 'self' 'unsafe-inlin
        "connect-src 'self'; frame-ancestors 'none'")
 OPERATOR_OPS = {"cmd", "stop", "add", "remove", "restart", "record"}
 LOAD_MAX = 50_000           # samples of a recording sent to a page for replay
+OWN_MAX = 64                # this HMI's commands whose records are still due
 
 
 def load_static(root: Path = STATIC) -> dict[str, tuple[bytes, str]]:
@@ -98,6 +100,7 @@ class HmiServer:
         self.bridge: Bridge | None = None
         self.url = ""
         self.commanded: dict[str, Any] = {}     # resource -> last command that went through
+        self._own: collections.deque[str] = collections.deque(maxlen=OWN_MAX)  # sent, record due
         self.record_dir = Path(record_dir)
         self.tap: Tap | None = None
         self.c = dict(pages=0, frames=0, bad_frames=0, refused=0, dropped=0,
@@ -121,6 +124,9 @@ class HmiServer:
             tap.put(msg)
         loop = self._loop
         if loop is None or loop.is_closed():
+            return
+        if msg.get("t") == "ran":                # a command any sender got through
+            loop.call_soon_threadsafe(self._ran, msg["r"], msg["v"])
             return
         with self._pending_lock:
             if len(self._pending) >= PENDING_MAX:
@@ -288,6 +294,21 @@ class HmiServer:
         page.role, page.user = "operator", str(user)
         self._reply(page, ident, True, {"role": "operator", "token": token, "user": user})
 
+    def _ran(self, res: str, command: Any) -> None:
+        """An actuator's record of a command it ran (bridge.py): shown as commanded,
+        except the record of a command this HMI sent, which was shown when it was
+        answered (a remote HMI whose ACL reads no records still shows its own)."""
+        text = json.dumps([res, command], sort_keys=True)
+        if text in self._own:
+            self._own.remove(text)
+            return
+        self._commanded(res, command)
+
+    def _sent(self, res: str, command: Any) -> None:
+        """A command of this HMI went through: shown now, its record skipped later."""
+        self._own.append(json.dumps([res, command], sort_keys=True))
+        self._commanded(res, command)
+
     def _commanded(self, res: str, command: Any) -> None:
         if res.endswith(".motion"):            # a motion moves every servo of its robot
             entry = res[: -len(".motion")]
@@ -306,7 +327,7 @@ class HmiServer:
         r = await self._call(page, ident, self.bridge.command, res, obj["command"],
                              what=f"{res} {json.dumps(obj['command'])}")
         if r is not None:
-            self._commanded(res, obj["command"])
+            self._sent(res, obj["command"])
             self.emit({"t": "log", "level": "info", "ts": time.time(),
                        "text": f"{page.user or page.role}: {res} {json.dumps(obj['command'])}"
                                f" -> {r}"})
@@ -323,7 +344,7 @@ class HmiServer:
             r = await self._call(page, ident, self.bridge.command, res, "stop",
                                  what=f"STOP {res}")
             if r is not None:
-                self._commanded(res, "stop")
+                self._sent(res, "stop")
         self.emit({"t": "log", "level": "warning", "text": f"STOP by {page.user or 'operator'}",
                    "ts": time.time()})
 

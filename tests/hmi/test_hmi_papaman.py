@@ -6,6 +6,7 @@ a viewer cannot command, a page of another site cannot connect."""
 from __future__ import annotations
 
 import json
+from urllib.request import urlopen
 
 import pytest
 import websockets
@@ -143,6 +144,21 @@ def test_a_slider_writes_that_servos_angle(robot, browser, papaman):
     page.wait_for_function("() => document.querySelector('#log').textContent.includes('ojc123')")
     wait_for(lambda: want in actuator_writes(robot.trace_lines())[before:],
              what="r_knee's registers written with 123 degrees")
+    page.close()
+    assert errors == []
+
+
+def test_the_pose_shows_commands_of_every_sender(robot, browser):
+    """A command another sender got through (here `esair std send`, as a behavior's)
+    moves the page's stick figure and that servo's slider: the page shows what the
+    robot was told, not only what this HMI sent."""
+    page, errors = open_page(browser, robot.url)
+    r = esair_std("send", "papaman.servo.l_knee", '{"angle": 77}', "-e", robot.endpoint)
+    assert r.returncode == 0, r.stderr
+    page.wait_for_function("""() => window.__hmi.pose.angles.l_knee === 77 &&
+        document.querySelector('#joints input[data-servo=l_knee]').value === '77'""")
+    status = json.loads(urlopen(robot.url.rstrip("/") + "/status.json").read())
+    assert status["bridge"]["commands_seen"] >= 1
     page.close()
     assert errors == []
 
