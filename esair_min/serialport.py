@@ -19,6 +19,10 @@ PLAIN = {"device reports readiness to read but returned no data":
          "another program has the port open (it holds the port's lock)"}
 
 
+#: What :func:`describe` says of a port another ESAIR program holds.
+LOCKED = PLAIN["[Errno 11] Could not exclusively lock port"]
+
+
 def describe(exc: BaseException) -> str:
     """A user's words for a pySerial error."""
     text = str(exc) or type(exc).__name__

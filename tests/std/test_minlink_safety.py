@@ -128,6 +128,30 @@ def test_a_port_another_esair_program_holds_is_refused_without_a_byte(tmp_path, 
     assert _io_threads() == []
 
 
+def test_a_link_waits_for_a_short_lived_holder_of_its_port(robot):
+    """A link reconnecting to a pty number that is now this robot's holds the port for
+    its probe, then lets go: the robot's own link, opening meanwhile, tries again (within
+    LOCK_WAIT_S) and gets it."""
+    from esair_min.serialport import open_port
+
+    with EmulatedRobot(PAPAMAN, instance="0123abcd") as emu:
+        holder = open_port(emu.port, baudrate=9600)
+        link = Link(robot, emu.port)
+        box: list = []
+        t = threading.Thread(target=lambda: box.append(link.open()), daemon=True)
+        t.start()
+        try:
+            _wait(lambda: link.stats["port_locked"] >= 1, what="the link finding it held")
+        finally:
+            holder.close()
+        t.join(10)
+        try:
+            assert box == [None] and link.robot_id == "0123abcd"
+        finally:
+            link.close()
+    assert _io_threads() == []
+
+
 @contextlib.contextmanager
 def _fake_robot(answers: list[bytes]) -> Iterator[tuple[str, list[bytes]]]:
     """A robot played by the test on a real pty: each line it receives that is ``v``

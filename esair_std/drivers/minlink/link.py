@@ -70,7 +70,7 @@ from typing import Any, Callable
 from esair_min.errors import ProtocolError
 from esair_min.core.protocol import RX_RING, Code, parse_reply
 from esair_min.model.robot import Robot
-from esair_min.serialport import describe, open_port
+from esair_min.serialport import LOCKED, describe, open_port
 
 from .budget import LineBudget, line_budget
 from .commands import VERSION_PREFIX, RobotCommands
@@ -88,6 +88,9 @@ QUEUE_MAX = 64              # commands waiting for their turn; more are refused,
 MAX_IN_FLIGHT = 2           # full duplex: one reply arriving, the next command written
 DIFFERENT_ROBOT = "a different robot answers on"
 OUT_OF_STEP = "replies out of step"
+LOCK_WAIT_S = 3.0           # a port another program holds is tried again this long: a link
+                            # reconnecting to a pty number that is now this robot's holds
+                            # it for its probe (a `v` or two), then lets go
 
 
 @dataclass
@@ -601,11 +604,21 @@ class Link:
         """Open the port and probe it with ``v``; the robot must be the board files' one."""
         import serial
 
-        try:
-            port = open_port(self.port, baudrate=self.baud, timeout=POLL_S,
-                             write_timeout=self.timeout)
-        except (serial.SerialException, ValueError, OSError) as exc:
-            raise LinkError(f"cannot open {self.port}: {describe(exc)}") from None
+        deadline, wait = time.monotonic() + LOCK_WAIT_S, 0.02
+        while True:
+            try:
+                port = open_port(self.port, baudrate=self.baud, timeout=POLL_S,
+                                 write_timeout=self.timeout)
+                break
+            except (serial.SerialException, ValueError, OSError) as exc:
+                why = describe(exc)
+                if why != LOCKED:
+                    raise LinkError(f"cannot open {self.port}: {why}") from None
+                self.stats["port_locked"] += 1
+                left = deadline - time.monotonic()
+                if left <= 0 or self._stop.wait(min(wait, left)):
+                    raise LinkError(f"cannot open {self.port}: {why}") from None
+                wait *= 2
         try:
             if getattr(port, "cancel_read", None) is None:
                 port.timeout = POLL_S_NO_CANCEL
