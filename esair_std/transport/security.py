@@ -172,6 +172,21 @@ def agent_rules(robot: str, agent: str, reads: list[str], commands: list[str],
     return rules
 
 
+def _grant(rules: list[dict[str, Any]], subjects: list[dict[str, Any]],
+           policies: list[dict[str, Any]], sid: str, ident: Any,
+           mine: list[dict[str, Any]]) -> None:
+    """Add ``mine`` (rules) for the subject ``sid``, known by its certificate's CN or its
+    login (``ident``), and the policy joining them."""
+    rules += mine
+    subject: dict[str, Any] = {"id": sid}
+    if ident.cn is not None:
+        subject["cert_common_names"] = [ident.cn]
+    else:
+        subject["usernames"] = [ident.user]
+    subjects.append(subject)
+    policies.append({"rules": [r["id"] for r in mine], "subjects": [sid]})
+
+
 def access_control(sec: Security | None, robot: str,
                    grants: dict[str, dict[str, list[str]]] | None = None) -> dict[str, Any] | None:
     """The ``access_control`` config of the control center, or None when ``sec`` lists
@@ -193,24 +208,10 @@ def access_control(sec: Security | None, robot: str,
         g = grants.get(agent, {})
         mine = agent_rules(robot, agent, g.get("reads", []), g.get("commands", []),
                            g.get("provides", []))
-        rules += mine
-        subject: dict[str, Any] = {"id": f"agent.{agent}"}
-        if ident.cn is not None:
-            subject["cert_common_names"] = [ident.cn]
-        else:
-            subject["usernames"] = [ident.user]
-        subjects.append(subject)
-        policies.append({"rules": [r["id"] for r in mine], "subjects": [subject["id"]]})
+        _grant(rules, subjects, policies, f"agent.{agent}", ident, mine)
     for op, ident in (getattr(sec, "operators", None) or {}).items():
         mine = operator_rules(robot, op)
-        rules += mine
-        subject = {"id": f"operator.{op}"}
-        if ident.cn is not None:
-            subject["cert_common_names"] = [ident.cn]
-        else:
-            subject["usernames"] = [ident.user]
-        subjects.append(subject)
-        policies.append({"rules": [r["id"] for r in mine], "subjects": [subject["id"]]})
+        _grant(rules, subjects, policies, f"operator.{op}", ident, mine)
     return {"enabled": True, "default_permission": "deny", "rules": rules,
             "subjects": subjects, "policies": policies}
 

@@ -1327,16 +1327,17 @@ def test_a_host_that_dies_while_it_is_stopped_is_no_failure(tmp_path, caplog):
         rt.stop()
 
 
+#: A recording actuator and a probe behavior that may command it.
+REC = {"robot": "t",
+       "resources": {"rec": {"class": "tests.support.comps:Recorder", "allow": {"*": "command"}}},
+       "behaviors": {"c": {"class": "tests.support.comps:Probe", "uses": {"rec": "command"}}}}
+
+
 @pytest.mark.parametrize("mode", ["thread", "process"])
 def test_a_device_marked_lost_is_lost_with_its_reason(mode):
     """Slot.set_state tells the RS the resource's name, state and reason: `ls`/`inspect`
     show the actuator lost with the driver's words, and its commands fail at once."""
-    dep = {"robot": "t",
-           "resources": {"rec": {"class": "tests.support.comps:Recorder",
-                                 "allow": {"*": "command"}}},
-           "behaviors": {"c": {"class": "tests.support.comps:Probe",
-                               "uses": {"rec": "command"}}}}
-    rt = Runtime(dep, mode=mode, endpoint=free_endpoint())
+    rt = Runtime(REC, mode=mode, endpoint=free_endpoint())
     rt.start()
     try:
         assert call(rt, "c", "attach_actuator", "rec") == {"ok": "ready"}
@@ -1356,12 +1357,7 @@ def test_a_device_marked_lost_is_lost_with_its_reason(mode):
 def test_configure_runs_the_resources_configure_on_its_host(mode):
     """ResourceHost.configure: the setting and its value reach configure() (not write()),
     its answer comes back, and a setting the resource does not have is its error."""
-    dep = {"robot": "t",
-           "resources": {"rec": {"class": "tests.support.comps:Recorder",
-                                 "allow": {"*": "command"}}},
-           "behaviors": {"c": {"class": "tests.support.comps:Probe",
-                               "uses": {"rec": "command"}}}}
-    rt = Runtime(dep, mode=mode, endpoint=free_endpoint())
+    rt = Runtime(REC, mode=mode, endpoint=free_endpoint())
     rt.start()
     try:
         assert rt.configure("rec", "gain", 3) == 3
