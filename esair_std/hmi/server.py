@@ -1,8 +1,10 @@
 """The web side of the HMI: static files and one WebSocket on one port (``websockets``).
 
-Each page gets the bridge's ``hello`` and then every message the bridge emits, through
-its own bounded queue (a page that cannot keep up loses messages, counted per page and
-in ``/status.json``; nobody else waits for it). Frames from a page are small JSON
+Each page gets the bridge's ``hello`` and then every message the bridge emits: the
+loop writes one encoded frame to every open page's socket at once (``broadcast``: no
+queue, task or wake-up per page); a page whose socket has more than ``PAGE_BUFFER``
+bytes not yet taken by its browser cannot keep up and loses the frame, counted per page
+and in ``/status.json`` (``dropped``); nobody else waits for it. Frames from a page are small JSON
 objects (``op``); anything else — not JSON, not an object, an unknown ``op``, a field of
 the wrong type, a binary frame — is a bad frame: counted, answered with an error,
 nothing changes. Commands need the operator role (auth.py). The WebSocket handshake is
@@ -24,7 +26,7 @@ from http import HTTPStatus
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable
 
-from websockets.asyncio.server import ServerConnection, serve
+from websockets.asyncio.server import ServerConnection, broadcast, serve
 from websockets.datastructures import Headers
 from websockets.exceptions import ConnectionClosed
 from websockets.http11 import Request, Response
@@ -42,7 +44,8 @@ if TYPE_CHECKING:  # pragma: no cover
 
 log = logging.getLogger("esair_std.hmi")
 STATIC = Path(__file__).resolve().parent / "static"
-PAGE_QUEUE = 512            # messages waiting for one page
+PAGE_BUFFER = 256 * 1024   # bytes written to a page's socket and not yet sent: past it, frames are dropped
+LAZY_S = 0.05               # a command's record waits this long at most for a sample's frame to ride in
 PENDING_MAX = 10_000        # messages emitted and not yet handed to the pages (counted as dropped past it)
 MAX_FRAME = 64 * 1024       # bytes of one frame from a page
 CSP = ("default-src 'self'; img-src 'self' data:; style-src 'self' 'unsafe-inline'; "
@@ -75,7 +78,6 @@ class Page:
         self.ws = ws
         self.role = role
         self.user = ""
-        self.q: asyncio.Queue[str] = asyncio.Queue(PAGE_QUEUE)
         self.dropped = 0
         self.hidden = False         # in the background: no samples (op "view")
 
@@ -110,63 +112,81 @@ class HmiServer:
         self._loop: asyncio.AbstractEventLoop | None = None
         self._pending: list[dict] = []            # emitted, not yet sent (bounded)
         self._pending_lock = threading.Lock()
-        self._flush_due = False
+        self._flush_due = False       # a flush is asked for (soon, or within LAZY_S)
+        self._flush_soon = False      # ... as soon as the loop can
 
     # ---- fan-out (any thread -> the loop)
     def emit(self, msg: dict) -> None:
         """Hand ``msg`` to the pages. The caller (Zenoh's thread, the bridge's poller)
         only appends it to a bounded list; the loop is woken once for all that came
-        meanwhile, encodes them once, and sends each page one frame (``{"t": "b", "m":
-        [...], "f": when}``): at 50 Hz of samples and more, one loop wake-up and
-        one WebSocket frame per batch, not per sample."""
+        meanwhile, encodes them once, and writes every page the same frame (``{"t": "b",
+        "m": [...], "f": when}``): at 50 Hz of samples and more, one loop wake-up and
+        one WebSocket frame per batch, not per sample. A command's record (``ran``: the
+        pose and the sliders, which a person reads) does not wake the loop at once: it
+        rides with the next sample's frame, or goes LAZY_S later when none comes."""
         tap = self.tap
         if tap is not None:
             tap.put(msg)
         loop = self._loop
         if loop is None or loop.is_closed():
             return
-        if msg.get("t") == "ran":                # a command any sender got through
-            loop.call_soon_threadsafe(self._ran, msg["r"], msg["v"])
-            return
+        lazy = msg.get("t") == "ran"
         with self._pending_lock:
             if len(self._pending) >= PENDING_MAX:
                 self.c["dropped"] += 1
                 return
             self._pending.append(msg)
-            if self._flush_due:
+            if self._flush_soon or (lazy and self._flush_due):
                 return
+            self._flush_soon = not lazy
             self._flush_due = True
-        loop.call_soon_threadsafe(self._flush)
+        if lazy:
+            loop.call_soon_threadsafe(loop.call_later, LAZY_S, self._flush)
+        else:
+            loop.call_soon_threadsafe(self._flush)
 
     def _flush(self) -> None:
         with self._pending_lock:
-            msgs, self._pending = self._pending, []
-            self._flush_due = False
+            got, self._pending = self._pending, []
+            self._flush_due = self._flush_soon = False
+        msgs = []
+        for m in got:
+            if m.get("t") == "ran":               # a command any sender got through
+                m = self._ran(m["r"], m["v"])
+                if m is None:
+                    continue
+            msgs.append(m)
         if not msgs:
             return
         self.c["batches"] += 1
         # f: when it left this process's queue (the page splits sample -> pixel at it)
         f = round(time.time(), 4)
         text = json.dumps({"t": "b", "f": f, "m": msgs}, separators=(",", ":"))
-        quiet: str | None = None            # the same without the samples, for hidden pages
-        for page in list(self.pages):
-            if not page.hidden:
-                self._send(page, text)
-                continue
-            if quiet is None:
-                rest = [m for m in msgs if m.get("t") != "s"]
-                held = len(msgs) - len(rest)
-                quiet = json.dumps({"t": "b", "f": f, "m": rest}, separators=(",", ":")) if rest else ""
-            self.c["held"] += held
-            if quiet:
-                self._send(page, quiet)
+        shown = [p for p in self.pages if not p.hidden]
+        self._send(shown, text)
+        hidden = [p for p in self.pages if p.hidden]
+        if hidden:                          # the same without the samples
+            rest = [m for m in msgs if m.get("t") != "s"]
+            self.c["held"] += (len(msgs) - len(rest)) * len(hidden)
+            if rest:
+                self._send(hidden, json.dumps({"t": "b", "f": f, "m": rest}, separators=(",", ":")))
 
-    def _send(self, page: Page, text: str) -> None:
-        try:
-            page.q.put_nowait(text)
-        except asyncio.QueueFull:
-            page.dropped += 1
-            self.c["dropped"] += 1
+    def _send(self, pages: Page | list[Page], text: str) -> None:
+        """Write ``text`` to these pages' sockets now (in order with every other frame
+        of each page); a page whose socket holds more than PAGE_BUFFER bytes not yet
+        sent loses it (counted)."""
+        if isinstance(pages, Page):
+            pages = [pages]
+        ready = []
+        for page in pages:
+            transport = page.ws.transport
+            if transport is not None and transport.get_write_buffer_size() > PAGE_BUFFER:
+                page.dropped += 1
+                self.c["dropped"] += 1
+            else:
+                ready.append(page.ws)
+        if ready:
+            broadcast(ready, text)
 
     def status(self) -> dict:
         return {"counters": dict(self.c, open_pages=len(self.pages),
@@ -208,7 +228,6 @@ class HmiServer:
                      recording=self.recording_state(),
                      login=bool(self.auth.users) and page.role != "operator")
         self._send(page, json.dumps(hello, separators=(",", ":")))
-        writer = asyncio.create_task(self._writer(page))
         try:
             async for frame in ws:
                 self.c["frames"] += 1
@@ -221,14 +240,6 @@ class HmiServer:
             pass
         finally:
             self.pages.discard(page)
-            writer.cancel()
-
-    async def _writer(self, page: Page) -> None:
-        try:
-            while True:
-                await page.ws.send(await page.q.get())
-        except (ConnectionClosed, asyncio.CancelledError):
-            pass
 
     def _reply(self, page: Page, ident: Any, ok: bool, value: Any) -> None:
         msg = {"t": "ack", "id": ident, "ok": ok}
@@ -294,29 +305,32 @@ class HmiServer:
         page.role, page.user = "operator", str(user)
         self._reply(page, ident, True, {"role": "operator", "token": token, "user": user})
 
-    def _ran(self, res: str, command: Any) -> None:
-        """An actuator's record of a command it ran (bridge.py): shown as commanded,
-        except the record of a command this HMI sent, which was shown when it was
-        answered (a remote HMI whose ACL reads no records still shows its own)."""
+    def _ran(self, res: str, command: Any) -> dict | None:
+        """An actuator's record of a command it ran (bridge.py): shown as commanded (the
+        message to send), except the record of a command this HMI sent, which was shown
+        when it was answered (a remote HMI whose ACL reads no records still shows its own)."""
         text = json.dumps([res, command], sort_keys=True)
         if text in self._own:
             self._own.remove(text)
-            return
-        self._commanded(res, command)
+            return None
+        return self._commanded(res, command, emit=False)
 
     def _sent(self, res: str, command: Any) -> None:
         """A command of this HMI went through: shown now, its record skipped later."""
         self._own.append(json.dumps([res, command], sort_keys=True))
         self._commanded(res, command)
 
-    def _commanded(self, res: str, command: Any) -> None:
+    def _commanded(self, res: str, command: Any, emit: bool = True) -> dict:
         if res.endswith(".motion"):            # a motion moves every servo of its robot
             entry = res[: -len(".motion")]
             for key in [k for k in self.commanded if k.startswith(entry + ".servo.")]:
                 del self.commanded[key]
         self.commanded.pop(res, None)
         self.commanded[res] = command
-        self.emit({"t": "commanded", "r": res, "v": command})
+        msg = {"t": "commanded", "r": res, "v": command}
+        if emit:
+            self.emit(msg)
+        return msg
 
     async def op_cmd(self, page: Page, ident: Any, obj: dict) -> None:
         res = _field(obj, "resource", str)

@@ -299,6 +299,7 @@ class App {
     if (this.pose) {
       if (this.pose.animate(now)) this.joints.sync(this.pose.angles);
       if (this.pose.motion || this.pose.changed) again = true;       // a motion plays
+      if (this.joints.show(now)) again = true;
     }
     if (again) this.kick();
   }

@@ -1,10 +1,12 @@
 // One slider per servo actuator, within the servo's limits from the board files; the
 // command is sent while dragging ("live", at most every 100 ms) or on release.
 const LIVE_MS = 100;
+const SHOW_MS = 250;           // the sliders follow the commands 4 times a second at most
 
 export class Joints {
   constructor(el, liveBox, info, entry, app) {
     this.el = el; this.live = liveBox; this.app = app; this.entry = entry; this.inputs = {};
+    this.due = {}; this.shownAt = -1e9;
     el.textContent = "";
     if (!info) { el.textContent = "no servos"; return; }
     for (const s of info.servos) {
@@ -19,6 +21,7 @@ export class Joints {
         this.app.command(`${entry}.servo.${s.name}`, { angle: Number(input.value) }); };
       input.addEventListener("input", () => {
         out.textContent = `${input.value}°`; input.dataset.dragging = "1";
+        this.inputs[s.name][2] = Number(input.value);
         if (!this.live.checked) return;
         const wait = LIVE_MS - (performance.now() - last);
         if (wait <= 0) sendNow(); else if (!timer) timer = setTimeout(sendNow, wait);
@@ -30,14 +33,29 @@ export class Joints {
       });
       row.append(name, input, out);
       el.append(row);
-      this.inputs[s.name] = [input, out];
+      this.inputs[s.name] = [input, out, s.stand];      // the slider, its number, the angle shown
     }
   }
 
+  // A commanded angle is shown at the next frame at most SHOW_MS after the last write,
+  // and only when it changed: each write lays out and paints the panel again, and the
+  // robot's 12 servos may be commanded 50 times a second (app.js, frame).
   set(servo, angle) {
-    const io = this.inputs[servo];
-    if (!io || io[0].dataset.dragging) return;
-    io[0].value = angle; io[1].textContent = `${angle}°`;
+    if (this.inputs[servo]) this.due[servo] = angle;
+  }
+
+  // true while something is still to be shown (the frame asks for another)
+  show(now) {
+    if (!Object.keys(this.due).length) return false;
+    if (now - this.shownAt < SHOW_MS) return true;
+    this.shownAt = now;
+    for (const [servo, angle] of Object.entries(this.due)) {
+      const io = this.inputs[servo];
+      if (io[0].dataset.dragging || io[2] === angle) continue;
+      io[2] = angle; io[0].value = angle; io[1].textContent = `${angle}°`;
+    }
+    this.due = {};
+    return false;
   }
 
   sync(angles) { for (const [k, v] of Object.entries(angles)) this.set(k, v); }

@@ -22,13 +22,20 @@ export class Pose {
       this.stand = Object.fromEntries(info.servos.map((s) => [s.name, s.stand]));
     }
     this.canvas = document.createElement("canvas");
-    this.canvas.width = 520; this.canvas.height = this.biped ? 300 : 60 + 90 * Math.ceil(info.servos.length / 6);
+    this.w = 520; this.h = this.biped ? 300 : 60 + 90 * Math.ceil(info.servos.length / 6);
     el.append(this.canvas);
+    this.ctx = this.canvas.getContext("2d", { alpha: false });     // opaque: copied, not blended
+    this.size();
+    window.addEventListener("resize", () => { if (this.size()) this.draw(); });
     note.textContent = this.biped ? "commanded · front and side" : "commanded · joints as dials";
     this.draw();
   }
 
-  set(angles) { Object.assign(this.angles, angles); this.changed = true; }
+  set(angles) {                          // redrawn at the next frame when an angle changed
+    for (const [k, v] of Object.entries(angles)) {
+      if (this.angles[k] !== v) { this.angles[k] = v; this.changed = true; }
+    }
+  }
 
   play(motion, tick_s, joints) {
     if (!motion || !this.info) return;
@@ -52,10 +59,24 @@ export class Pose {
     return true;
   }
 
+  // The canvas has as many pixels as it shows (CSS pixels times the device's ratio): the
+  // figure is drawn in a 520-wide space scaled to it, not drawn large and scaled down by
+  // the compositor at every frame. True when the size changed.
+  size() {
+    const css = Math.min(this.w, this.el.clientWidth || this.w), r = window.devicePixelRatio || 1;
+    const k = (css / this.w) * r, W = Math.round(this.w * k), H = Math.round(this.h * k);
+    if (W === this.canvas.width && H === this.canvas.height) return false;
+    this.k = k; this.canvas.width = W; this.canvas.height = H;
+    this.canvas.style.width = `${css}px`; this.canvas.style.height = `${Math.round(this.h * css / this.w)}px`;
+    return true;
+  }
+
   draw() {
     if (!this.canvas) return;
-    const c = this.canvas.getContext("2d");
-    c.clearRect(0, 0, this.canvas.width, this.canvas.height);
+    const c = this.ctx;
+    c.setTransform(1, 0, 0, 1, 0, 0);
+    c.fillStyle = "#fff"; c.fillRect(0, 0, this.canvas.width, this.canvas.height);
+    c.setTransform(this.k, 0, 0, this.k, 0, 0);
     if (this.biped) { this.front(c, 130, 40, 55); this.side(c, 390, 40, 55); }
     else this.dials(c);
   }
