@@ -273,6 +273,9 @@ def run_tree(p, root: Path, args: argparse.Namespace, tmp: Path) -> dict:
         # socket, nothing drawn), interleaved --rounds times (the load moves): medians;
         # the browser free, then pinned to one core at nice 19
         out["rates"] = {}
+        # the floor: no browser at all (what 10 blank pages cost is beside it)
+        win = CpuWindow(proc.pid)
+        out["no_browser"] = (command_rate(ep, "papaman", args.window / 2), win.shares())
         lives: dict[str, int] = {}
         out["live"] = lives
         for how, exe in [("free", CHROMIUM), ("pinned", pinned_chromium(tmp, args.nice))][:args.rates]:
@@ -351,6 +354,10 @@ def rows_of(f: dict, window: float) -> list[tuple[str, str, str, float]]:
         ("page weight, KB", f"{sum(f['weight'].values()) / 1024:.1f} in {len(f['weight'])}",
          "<= 300", sum(f["weight"].values()) / 1024 / 300),
     ]
+    if "no_browser" in f:
+        r, cpu = f["no_browser"]
+        rows.append(("commands/s, no browser", f"{r:.0f} (cores runtime / machine "
+                     f"{cpu['runtime']:.2f}/{cpu['machine']:.2f})", "-", 0.0))
     for how, (rates, cpu) in f["rates"].items():
         r0, r10 = statistics.median(rates[0]), statistics.median(rates[10])
         rows.append((f"commands/s, 10 pages blank / live ({f['live'].get(how, 0)} live), {how}",

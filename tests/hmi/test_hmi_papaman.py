@@ -62,7 +62,9 @@ def test_the_page_loads_without_errors_and_lists_every_component(robot, browser)
     # whose board files have no figure: section
     drawn = page.evaluate("""async () => {
       const pose = window.__hmi.pose, c = pose.canvas;
-      const pixels = () => c.getContext("2d").getImageData(330, 0, 190, c.height).data.join();
+      // the side view: x >= 330 of the figure's 520-wide space, scaled to the canvas
+      const x0 = Math.floor(330 * c.width / pose.w);
+      const pixels = () => c.getContext("2d").getImageData(x0, 0, c.width - x0, c.height).data.join();
       const before = pixels();
       pose.set({l_knee: 40}); pose.draw();
       const bent = pixels() !== before;
@@ -294,3 +296,73 @@ def test_a_foreign_origin_is_refused_and_bad_frames_change_nothing(robot):
     assert after["origin_refused"] == before["origin_refused"] + 1
     assert after["bad_frames"] == before["bad_frames"] + 6
     assert after["commands"] == before["commands"]
+
+
+# the top strip (every sensor, 0..1023): a spike injected after the newest sample, found
+# on the canvas as the dark pixels of the row where the values cross 900
+SPIKE = """() => {
+  const feet = window.__hmi.feet, s = feet.top, t = feet.t;
+  const ts = t[t.length - 1] + 0.005, values = {}, groups = {};
+  for (const n of feet.names) values[n] = 1000;
+  for (const g of Object.keys(window.__hmi.info.groups)) groups[g] = 4000;
+  window.__hmi.receive({t: "s", r: "papaman.feet", q: -1, ts, v: {values, groups}});
+  return ts;
+}"""
+FIND = """(ts) => {
+  const s = window.__hmi.feet.top, c = s.fg.getContext("2d"), row = Math.round(s.y(900));
+  const px = c.getImageData(s.L, row, s.R - s.L, 1).data, xs = [];
+  for (let i = 0; i < s.R - s.L; i++) if (px[4 * i] + px[4 * i + 1] + px[4 * i + 2] < 600) xs.push(s.L + i);
+  const want = s.R - (s.headX - Math.round(ts * s.pps));
+  return {xs, want, headX: s.headX, full: s.frames.full, scrolled: s.frames.scrolled,
+          drawn: s.head >= ts, paused: window.__hmi.feet.paused};
+}"""
+PIXELS = "() => window.__hmi.feet.top.fg.toDataURL()"
+
+
+def test_the_feet_plot_scrolls_new_samples_in_and_pause_holds_it(robot, browser):
+    """The feet plot draws a frame's new samples at the right edge and moves what it drew
+    left with the time (no redraw of the window: frames.full stays), where a redraw of
+    the whole window from the data would put it; paused, nothing moves while samples
+    come; resumed, the window is drawn again with what came meanwhile."""
+    page, errors = open_page(browser, robot.url, login=False,
+                             ready="window.__hmi.feet.top.frames.full > 0")
+    ts = page.evaluate(SPIKE)
+    page.wait_for_function(f"() => ({FIND})({ts}).drawn")
+    first = page.evaluate(FIND, ts)
+    assert first["xs"] and all(abs(x - first["want"]) <= 2 for x in first["xs"]), first
+    page.wait_for_function(f"() => ({FIND})({ts}).headX >= {first['headX'] + 40}")
+    later = page.evaluate(FIND, ts)
+    assert later["full"] == first["full"] and later["scrolled"] > first["scrolled"]
+    assert later["xs"] and all(abs(x - later["want"]) <= 2 for x in later["xs"]), later
+    assert later["want"] <= first["want"] - 40                  # it moved left with the time
+    # what the frames drew one after the other is what a redraw of the window draws
+    same = page.evaluate("""() => {
+      const feet = window.__hmi.feet, s = feet.top, c = s.fg.getContext("2d");
+      s.draw(feet.t, feet.v, feet.markers);                     // up to the newest sample
+      const a = c.getImageData(0, 0, s.W, s.H).data;
+      s.redraw(); s.draw(feet.t, feet.v, feet.markers);
+      const b = c.getImageData(0, 0, s.W, s.H).data;
+      let differ = 0;
+      for (let i = 0; i < a.length; i += 4) {
+        const d = Math.abs(a[i] - b[i]) + Math.abs(a[i + 1] - b[i + 1]) + Math.abs(a[i + 2] - b[i + 2]);
+        if (d > 96) differ++;
+      }
+      return [differ, s.W * s.H];
+    }""")
+    assert same[0] <= same[1] // 200, same                  # antialiasing at the seams only
+    # paused: the picture holds while samples come
+    page.click("#pause")
+    held, n = page.evaluate(PIXELS), page.evaluate("window.__hmi.stats.samples")
+    frames = page.evaluate(FIND, ts)
+    page.wait_for_function(f"() => window.__hmi.stats.samples >= {n + 10}")
+    after = page.evaluate(FIND, ts)
+    assert page.evaluate(PIXELS) == held
+    assert (after["full"], after["scrolled"]) == (frames["full"], frames["scrolled"])
+    assert page.locator("#pause").inner_text() == "resume"
+    page.click("#pause")                                        # resumed: drawn again
+    page.wait_for_function(f"() => window.__hmi.feet.top.frames.full > {frames['full']}")
+    resumed = page.evaluate(FIND, ts)
+    assert resumed["xs"] and all(abs(x - resumed["want"]) <= 2 for x in resumed["xs"]), resumed
+    assert page.evaluate(PIXELS) != held
+    page.close()
+    assert errors == []
