@@ -150,7 +150,7 @@ def run_tree(p, root: Path, args: argparse.Namespace, tmp: Path) -> dict:
         pages = []
         for _ in range(args.pages):
             page = browser.new_page(viewport={"width": 1280, "height": 800})
-            page.goto(url, timeout=120_000)
+            page.goto(url + args.query, timeout=120_000)
             page.wait_for_function(LIVE.replace("> 2", "> 10"), timeout=120_000)
             if args.eval:
                 page.evaluate(args.eval)
@@ -206,6 +206,7 @@ def main() -> None:
     ap.add_argument("--baseline", type=Path, default=None)
     ap.add_argument("--eval", default="", help="JavaScript run on each page before measuring "
                     "(to take a part out, e.g. \"window.__hmi.pose.draw = () => {}\")")
+    ap.add_argument("--query", default="", help="appended to the page's URL, e.g. ?fps=15")
     ap.add_argument("--no-sweep", action="store_true", help="no servo commanded meanwhile")
     args = ap.parse_args()
     from playwright.sync_api import sync_playwright

@@ -275,9 +275,11 @@ class App {
   }
 
   // A frame draws what changed since the last one (every sample that came meanwhile at
-  // once), at most FPS times a second and at most DRAW_SHARE of the page's time: when
-  // drawing is slow (a busy computer, many pages) frames are skipped rather than the
-  // whole page falling behind.
+  // once, the pose and the sliders as the commands left them), at most FPS times a
+  // second and at most DRAW_SHARE of the page's time: when drawing is slow (a busy
+  // computer, many pages) frames are skipped rather than the whole page falling behind.
+  // Each frame drawn costs the browser far more than the drawing itself (its commit,
+  // raster and compositing: docs/hmi.md), so nothing draws outside these frames.
   frame(now) {
     this.framePending = false;
     if (this.hidden) return;
@@ -290,16 +292,17 @@ class App {
       const drawnAt = performance.timeOrigin + t0;
       if (this.feet) this.feet.draw(drawnAt, this.stats);
       if (this.generic) this.generic.draw();
+      if (this.pose) {
+        if (this.pose.animate(now)) this.joints.sync(this.pose.angles);
+        // a motion plays, or the sliders wait for their next turn: drawn again later
+        const waiting = this.joints.show(now);
+        if (this.pose.motion || this.pose.changed || waiting) this._dirty = again = true;
+      }
       const cost = performance.now() - t0;
       this.stats.draws++; this.stats.drawMs += cost;
       this.drawCost = 0.8 * this.drawCost + 0.2 * cost;
       this.drawGap = Math.min(MAX_DRAW_GAP_MS, Math.max(MIN_DRAW_GAP_MS, this.drawCost / DRAW_SHARE));
       this.drawnAt = now;
-    }
-    if (this.pose) {
-      if (this.pose.animate(now)) this.joints.sync(this.pose.angles);
-      if (this.pose.motion || this.pose.changed) again = true;       // a motion plays
-      if (this.joints.show(now)) again = true;
     }
     if (again) this.kick();
   }

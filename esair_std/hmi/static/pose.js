@@ -6,10 +6,15 @@
 const RAD = Math.PI / 180;
 const HEAD = 0.25;                       // the head's radius, in thighs (drawn only)
 const SIDES = { l: "left", r: "right" };
+// the figure is drawn again at most this often (ms): the robot's servos may be commanded
+// 50 times a second, and each picture costs the browser a frame's compositing of its
+// panel (docs/hmi.md); a motion's frames still show as they come at a motion's pace
+const POSE_MS = 100;
 
 export class Pose {
   constructor(el, note, info) {
     this.el = el; this.info = info; this.angles = {}; this.motion = null; this.changed = true;
+    this.drawnAt = -1e9;
     el.textContent = "";
     if (!info) { note.textContent = "(no robot board files)"; return; }
     for (const s of info.servos) this.angles[s.name] = s.stand;
@@ -53,8 +58,8 @@ export class Pose {
       if (i >= 0 && i !== m.shown) { m.shown = i; this.set(m.motion.frames[i]); }
       if (now - m.t0 > m.frame_ms * m.motion.frames.length) this.motion = null;
     }
-    if (!this.changed) return false;
-    this.changed = false;
+    if (!this.changed || now - this.drawnAt < POSE_MS) return false;
+    this.changed = false; this.drawnAt = now;
     this.draw();
     return true;
   }
