@@ -6,6 +6,7 @@ a viewer cannot command, a page of another site cannot connect."""
 from __future__ import annotations
 
 import json
+import socket
 from urllib.request import urlopen
 
 import pytest
@@ -260,6 +261,35 @@ def test_a_viewer_without_login_gets_no_command_through(robot, browser):
     assert all(bytes.fromhex(ln[3:]).startswith(b"OK ") or ln == "TX 4F4B0D0A" for ln in rx)
     rows = json.loads(esair_std("ls", "--json", "-e", robot.endpoint).stdout)["components"]
     assert [r["state"] for r in rows if r["name"] == "watcher"] == ["running"]
+    page.close()
+    assert errors == []
+
+
+def test_a_page_that_takes_nothing_loses_frames_counted_and_no_other_page_waits(robot, browser):
+    """A page whose browser takes nothing from its socket: past 256 KB waiting in its
+    socket (here 120 answers of 60 KB it asked for: more than the kernel holds for a
+    socket, 4 MB, and 256 KB on top), the frames for it are dropped and
+    counted in /status.json, while a live page goes on getting and drawing samples."""
+    page, errors = open_page(browser, robot.url, login=False, ready="window.__hmi.stats.draws > 0")
+    host, port = robot.url.split("/")[2].split(":")
+    sock = socket.socket()
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)     # a small window
+    sock.connect((host, int(port)))
+    before = robot.status()["counters"]["dropped"]
+    ws = connect(robot.url.replace("http://", "ws://") + "ws", sock=sock, max_queue=1)
+    try:
+        for i in range(120):                                     # its reader stops at once
+            ws.send(json.dumps({"op": "ping", "id": i, "ts": "x" * 60_000}))
+        wait_for(lambda: robot.status()["counters"]["dropped"] > before, what="frames dropped")
+        seen = page.evaluate("window.__hmi.stats.samples")
+        page.wait_for_function(f"() => window.__hmi.stats.samples >= {seen + 20}")
+        draws = page.evaluate("window.__hmi.stats.draws")
+        page.wait_for_function(f"() => window.__hmi.stats.draws > {draws + 5}")
+        assert robot.status()["counters"]["open_pages"] >= 2
+    finally:
+        sock.shutdown(socket.SHUT_RDWR)                          # no closing handshake to wait for
+        ws.close()
+    wait_for(lambda: robot.status()["counters"]["open_pages"] == 1, what="the stuck page gone")
     page.close()
     assert errors == []
 
