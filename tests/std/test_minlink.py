@@ -197,10 +197,13 @@ def test_a_command_waiting_its_turn_fails_not_sent(robot):
     """A command that cannot get its turn within its timeout fails saying it was not
     sent (counted as expired); the one in flight is answered. (A second ``s`` never
     goes out beside the first: two replies of one shape could pass for one another.)"""
-    with Link(robot, URL + "?speed=1") as link:
+    # the robot at a tenth of real time: the first 's' (~50 ms on the line at 9600 baud)
+    # stays in flight ~0.5 s of wall time, so a test thread held up by a busy machine
+    # still asks the second while the first waits for its reply
+    with Link(robot, URL + "?speed=0.1", timeout=5.0) as link:
         out: dict[str, object] = {}
 
-        def slow() -> None:                       # 's' at 9600 baud: ~50 ms on the line
+        def slow() -> None:
             out["s"] = len(link.command("s").split(","))
         t = threading.Thread(target=slow)
         t.start()
@@ -209,7 +212,7 @@ def test_a_command_waiting_its_turn_fails_not_sent(robot):
             time.sleep(0.0005)
         with pytest.raises(LinkError) as exc:
             link.command("s", timeout=0.001)
-        assert str(exc.value) == (f"link to {URL}?speed=1: 's' not written within its "
+        assert str(exc.value) == (f"link to {URL}?speed=0.1: 's' not written within its "
                                   f"deadline; dropped")
         t.join(5)
         assert out == {"s": 8} and link.stats["expired"] == 1 and link.waiting == 0
