@@ -107,7 +107,7 @@ _BY_FIXTURE = {"pic_firmware": "gpsim"}
 SLOW_MODULES = {"test_std_cli", "test_overrun", "test_differential", "test_decoder_props",
                 "test_validate_fuzz", "test_plot", "test_host_c_peers", "test_std_deploy_fuzz",
                 "test_std_lazy_crypto", "test_std_agent_lean", "test_cli_manner", "test_script",
-                "test_std_record"}
+                "test_std_record", "test_bench_tmp"}
 
 
 def _in_process_mode(item) -> bool:
