@@ -76,7 +76,7 @@ def test_commands_outside_the_board_files_are_refused_before_sending(robot):
 
 
 def test_replies_are_matched_and_errors_name_the_command(robot):
-    with Link(robot, URL + "?scenario=push") as link:
+    with Link(robot, URL) as link:
         assert link.version() == "esair-min/1 servos=12 sensors=8 motions=5 image=ok checksum=off"
         link.stand()
         link.motor("l_knee", 120, 3)
@@ -90,16 +90,20 @@ def test_replies_are_matched_and_errors_name_the_command(robot):
         link.stop()
         feet = link.feet()
         assert feet["groups"] == {"left_foot": 2048, "right_foot": 2048}
-        # the push (1.1 s .. 1.5 s of the robot's time) fires the firmware's reaction: its
-        # notice comes on the notices stream while feet polls go on, never as a reply
-        deadline = time.monotonic() + 5
+        assert link.stats["strays"] == 0 and link.stats["refused"] == 2
+    # the push (1.1 s .. 1.5 s of the robot's time, from its boot: a robot of its own,
+    # booted here, so the commands above, however slow on a busy machine, never eat into
+    # it) fires the firmware's reaction: its notice comes on the notices stream while
+    # feet polls go on, never as a reply
+    with Link(robot, URL + "?scenario=push") as link:
+        deadline = time.monotonic() + 10
         seen: list[str] = []
         tilted = False
         while "R auto_balance" not in seen and time.monotonic() < deadline:
             tilted |= link.feet()["groups"]["left_foot"] > 2048
             seen += [text for text, _ in link.notices()]
         assert "R auto_balance" in seen and tilted
-        assert link.stats["strays"] == 0 and link.stats["refused"] == 2
+        assert link.stats["strays"] == 0 and link.stats["refused"] == 0
     assert _io_threads() == []
 
 
