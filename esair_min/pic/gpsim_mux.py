@@ -22,7 +22,6 @@ from esair_min.pic.gpsim_i2c import GpsimSession
 from esair_min.pic.toolchain import ToolchainError
 
 _WROTE_RE = re.compile(r"Wrote: 0x([0-9a-fA-F]+) to _(LAT[A-E]|ADCON0)\(")
-_CYCLE_BREAK_RE = re.compile(r"cycle break: 0x[0-9a-fA-F]+ = (\d+)")
 _CYCLES_RE = re.compile(r"^(\d+) = 0x[0-9A-Fa-f]+\s*$")
 B_GO = 0x04                              # ADCON0's GO/DONE
 #: The most stops one run_to() may take (a runaway firmware writing its latches in a
@@ -97,7 +96,7 @@ class GpsimMux:
     def run_to(self, cycle: int) -> None:
         """Run the PIC to instruction cycle ``cycle`` (or one past it), the mux working."""
         s = self.session
-        if cycle <= s.now + 1:
+        if cycle <= s.now:
             return
         s.command(f"break c {cycle}")
         for _ in range(MAX_STOPS):
@@ -107,14 +106,19 @@ class GpsimMux:
             if now is None:
                 raise ToolchainError(f"gpsim printed no cycle count: {out[-5:]}")
             s.now = now
-            for line in out:
-                if (m := _WROTE_RE.search(line)):
-                    self._wrote(m.group(2), int(m.group(1), 16), now)
-            for due in sorted(d for d in self._due if d <= now + 1):
-                self._show(self._due.pop(due))
-            if now + 1 >= cycle and any(_CYCLE_BREAK_RE.search(x) for x in out):
+            self.observe(out, now)
+            if now >= cycle:
                 return
         raise ToolchainError(f"the mux model stopped {MAX_STOPS} times before cycle {cycle}")
+
+    def observe(self, out: list[str], now: int) -> None:
+        """The writes gpsim reported in ``out`` (the PIC stopped at ``now``), and each
+        select change that has settled by then shown."""
+        for line in out:
+            if (m := _WROTE_RE.search(line)):
+                self._wrote(m.group(2), int(m.group(1), 16), now)
+        for due in sorted(d for d in self._due if d <= now):
+            self._show(self._due.pop(due))
 
     def _wrote(self, register: str, value: int, now: int) -> None:
         if register == "ADCON0":
@@ -140,3 +144,49 @@ class GpsimMux:
             return                       # a later select change overtook this one
         self.shown, self._pending = value, None
         self.session.command(f"MUXOUT.voltage = {self.inputs[value]}")
+
+
+class MuxSession(GpsimSession):
+    """A :class:`GpsimSession` with the board's mux beside the PIC (:meth:`attach_mux`):
+    every run (``run_plan``, ``step_poll``, so an :class:`~esair_min.pic.gpsim_i2c.I2cMaster`
+    too) goes through the model, stop by stop, one gpsim batch per stop."""
+
+    mux: GpsimMux | None = None
+
+    def attach_mux(self, board, inputs: list[float] | None = None,
+                   settle_cycles: int | None = None) -> GpsimMux:
+        self.mux = GpsimMux.for_board(self, board, inputs, settle_cycles).attach()
+        return self.mux
+
+    def run_plan(self, plan: list[tuple[int, tuple[str, ...]]],
+                 before: tuple[str, ...] = ()) -> list[tuple[int, list[str]]]:
+        """As :meth:`GpsimSession.run_plan` (a step less than 2 cycles after the one
+        before runs nothing), each run through the mux model."""
+        mux = self.mux
+        if mux is None:
+            return super().run_plan(plan, before)
+        if before:
+            self.command(*before)
+        steps: list[tuple[int, list[str]]] = []
+        last, ran = self.now, False
+        for cycle, commands in plan:
+            if cycle >= last + (2 if ran else 1):
+                mux.run_to(cycle)
+                ran, last = True, cycle
+            steps.append((self.now, self.command(*commands) if commands else []))
+        return steps
+
+    def step_poll(self, count: int, commands: tuple[str, ...]) -> list[tuple[int, list[str]]]:
+        """As :meth:`GpsimSession.step_poll`, the mux seeing each step's writes."""
+        mux = self.mux
+        if mux is None:
+            return super().step_poll(count, commands)
+        polls: list[tuple[int, list[str]]] = []
+        for _ in range(count):
+            out = self.command("step", "cycles", "echo @@", *commands)
+            marked = self._marked(out)
+            if len(marked) != 1:
+                raise ToolchainError(f"gpsim did not step: {out[-5:]}")
+            mux.observe(out, self.now)
+            polls.append(marked[0])
+        return polls

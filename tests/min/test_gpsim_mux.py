@@ -1,8 +1,10 @@
 """The PIC18F452 sensor board with an analog multiplexer, run in gpsim with the mux
 model (esair_min/pic/gpsim_mux.py; the ATmega328P's is simdrv.c's, tests/min/test_avr.py):
 PAPA-MAN's eight feet on a 74HC4051-class 8:1 mux on AN0, as boards/papaman-avr wires
-them, each read into its own register pair; and a mux slower than the board file says
-is caught (each conversion reads the input selected before).
+them, each read into its own register pair and read back over I2C as the central board
+reads it (the master of esair_min/pic/gpsim_i2c.py, the mux working meanwhile); and a
+mux slower than the board file says is caught (each conversion reads the input
+selected before).
 
 Needs the toolchain (scripts/install-toolchain.sh): without it these tests FAIL with the
 install hint.
@@ -18,8 +20,8 @@ import pytest
 from esair_min.codegen import generate_robot
 from esair_min.model.validate import load_robot
 from esair_min.pic.build import BuildError, build_board, toolchain
-from esair_min.pic.gpsim_i2c import GpsimSession
-from esair_min.pic.gpsim_mux import GpsimMux
+from esair_min.pic.gpsim_i2c import GpsimSession, I2cMaster, I2cTiming
+from esair_min.pic.gpsim_mux import GpsimMux, MuxSession
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -89,22 +91,27 @@ def near(got: list[int], want: list[int]) -> bool:
 
 def test_the_pic_with_a_mux_reads_all_eight_feet_in_gpsim(mux8, tmp_path):
     """Each foot's voltage on its mux input reaches its own register pair, in the board
-    file's order, and again after every input changed; no conversion started before
-    the mux had settled."""
+    file's order, read over I2C (the register map the central board reads with `s`),
+    and again after every input changed; no conversion started before the mux had
+    settled."""
     robot, cod, regs = mux8
     board = robot.sensor_board
     first = [0.0, 1.0, 2.5, 3.3, 4.99, 0.3, 5.0, 1.7]
     later = [5.0, 0.0, 0.01, 2.0, 4.0, 3.0, 0.5, 4.5]
-    with GpsimSession(tmp_path, timeout=120).start(cod, board.mcu.clock_hz) as session:
-        mux = GpsimMux.for_board(session, board, first).attach()
+    with MuxSession(tmp_path, timeout=300).start(cod, board.mcu.clock_hz) as session:
+        mux = session.attach_mux(board, first)
         assert (mux.select, mux.channel, mux.settle_cycles) == (("RC0", "RC1", "RC2"), 0, 50)
-        mux.run_to(RUN)
-        got_first = register_map(session, regs, 8)
-        mux.set_inputs(later)
-        mux.run_to(2 * RUN)
-        got_later = register_map(session, regs, 8)
-    assert near(got_first, counts(first)), (got_first, counts(first))
-    assert near(got_later, counts(later)), (got_later, counts(later))
+        master = I2cMaster(session, I2cTiming.for_speed(board.i2c.speed_hz,
+                                                        board.mcu.clock_hz // 4)).attach()
+        got = []
+        for volts in (first, later):
+            mux.set_inputs(volts)
+            mux.run_to(session.now + RUN)
+            data = master.read_registers(board.i2c.address, 0, 16)
+            got.append([data[2 * i] | data[2 * i + 1] << 8 for i in range(8)])
+            assert register_map(session, regs, 8) == got[-1]      # the map, as sent
+    assert near(got[0], counts(first)), (got[0], counts(first))
+    assert near(got[1], counts(later)), (got[1], counts(later))
     assert mux.early == []
 
 
