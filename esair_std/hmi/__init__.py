@@ -6,5 +6,6 @@
 - :mod:`.auth`: logins (hashed passwords) and roles (viewer, operator);
 - :mod:`.server`: the web side (the ``websockets`` library: static files and the
   WebSocket on one port), the fan-out to browsers;
-- ``static/``: the page (plain HTML and JS modules, uPlot vendored).
+- ``static/``: the page (plain HTML and JS modules: the feet's strip chart its own,
+  ``strip.js``; uPlot vendored for the generic panels' plots).
 """

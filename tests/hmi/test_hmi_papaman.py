@@ -356,6 +356,12 @@ def test_the_feet_plot_scrolls_new_samples_in_and_pause_holds_it(robot, browser)
     come; resumed, the window is drawn again with what came meanwhile."""
     page, errors = open_page(browser, robot.url, login=False,
                              ready="window.__hmi.feet.top.frames.full > 0")
+    # both plots are on the page, at their size (150 CSS pixels high, as wide as the panel)
+    boxes = [page.locator("#feet canvas").nth(i).bounding_box() for i in range(2)]
+    panel = page.locator("#feet").bounding_box()
+    assert [(b["height"], b["width"] // 1) for b in boxes] == [(150, panel["width"] // 1)] * 2, (
+        boxes, panel)
+    assert boxes[1]["y"] > boxes[0]["y"] + 150
     ts = page.evaluate(SPIKE)
     page.wait_for_function(f"() => ({FIND})({ts}).drawn")
     first = page.evaluate(FIND, ts)

@@ -84,8 +84,11 @@ export class Strip {
     for (const l of this.o.lines || []) {
       if (l.value == null) continue;
       const y = Math.round(this.y(l.value)) + 0.5;
-      c.strokeStyle = l.color; c.setLineDash((l.dash || []).map((d) => d * r));
-      c.lineDashOffset = this.headX - this.R;  // the dashes move with the time, as the data
+      const dash = (l.dash || []).map((d) => d * r), period = dash.reduce((a, b) => a + b, 0) || 1;
+      // the dashes move with the time, as the data (the phase taken modulo the pattern
+      // here: the canvas keeps it in single precision, too coarse for columns since 1970)
+      c.strokeStyle = l.color; c.setLineDash(dash);
+      c.lineDashOffset = (((x0 + this.headX - this.R) % period) + period) % period;
       c.beginPath(); c.moveTo(x0, y); c.lineTo(x1, y); c.stroke(); c.setLineDash([]);
     }
   }
