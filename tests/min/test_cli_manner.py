@@ -1,7 +1,7 @@
 """One CLI manner (issue 10 item 5): every option works or is refused with a reason.
 
 Run as a user would: real processes, real pipes, real ptys, and miniterm typed into.
-Option refusals of `esair emulate` and `esair send` are in tests/test_send.py.
+Option refusals of `esair emulate` and `esair send` are in tests/min/test_send.py.
 """
 
 from __future__ import annotations
