@@ -56,7 +56,7 @@ def main() -> None:
     firmware and motion EEPROM image, and run an emulated robot behind a serial port.
 
     ROBOT is a folder of board files (boards/papaman), one board file, or the name of
-    a bundled example (papaman).
+    a bundled example (papaman, papaman-avr, starfish, starfish-avr).
     """
 
 
