@@ -250,7 +250,8 @@ def plot(trace: str, output: str, robot: str, targets: bool) -> None:
 
     if trace.endswith(".mcap"):
         from esair_min.cli.plotmcap import plot_mcap
-        click.echo(f"{plot_mcap(trace, output)} samples -> {output}")
+        samples, values = plot_mcap(trace, output)
+        click.echo(f"{samples} samples ({values} values) -> {output}")
         return
     if is_starfish_trace(trace):
         from esair_min.cli.plotroom import plot_room
