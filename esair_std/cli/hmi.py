@@ -128,6 +128,11 @@ def hmi_password_cmd(file: str, user: str) -> None:
 COMMANDS = [hmi_cmd, hmi_password_cmd]
 
 
+def counted(n: int, word: str) -> str:
+    """``1 sample``, ``2 samples``: a count with its noun."""
+    return f"{n} {word}{'' if n == 1 else 's'}"
+
+
 @click.command("record")
 @click.argument("out", metavar="OUT.mcap", type=click.Path(dir_okay=False))
 @click.argument("names", nargs=-1, metavar="[NAMES]...")
@@ -154,9 +159,9 @@ def record_cmd(out: str, names: tuple[str, ...], endpoint: str | None,
     click.echo(f"recording to {out}", err=True)
     stop.wait(seconds)
     c = rec.stop()
-    click.echo(f"{out}: {c['written']} samples and {c['commands']} commands on "
-               f"{c['channels']} channels, {c['dropped']} dropped, "
-               f"{c['gaps'] + c['command_gaps']} gaps in seq", err=True)
+    click.echo(f"{out}: {counted(c['written'], 'sample')} and "
+               f"{counted(c['commands'], 'command')} on {counted(c['channels'], 'channel')}, "
+               f"{c['dropped']} dropped, {c['gaps'] + c['command_gaps']} gaps in seq", err=True)
     sys.stdout.flush()
     sys.stderr.flush()
     os._exit(0)
