@@ -170,11 +170,12 @@ def record_cmd(out: str, names: tuple[str, ...], endpoint: str | None,
 @click.command("replay")
 @click.argument("file", metavar="FILE.mcap", type=click.Path(exists=True, dir_okay=False))
 @click.option("-e", "--endpoint", default=None, metavar="tcp/HOST:PORT",
-              help="The runtime's control endpoint.")
+              help="The runtime's control endpoint (default tcp/127.0.0.1:7447, or "
+                   "$ESAIR_STD_ENDPOINT).")
 @click.option("--name", default="replay", show_default=True,
               help="The resource entry: its sensors are NAME.<recorded sensor>.")
 @click.option("--speed", type=click.FloatRange(min=0, min_open=True), default=1.0,
-              show_default=True)
+              show_default=True, help="Pace: 2 plays the recording twice as fast.")
 @click.option("--loop", is_flag=True, help="Start again at the end.")
 @friendly
 def replay_cmd(file: str, endpoint: str | None, name: str, speed: float, loop: bool) -> None:
