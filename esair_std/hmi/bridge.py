@@ -8,8 +8,8 @@ link's counters); a second thread asks each running behavior's ``get`` twice a s
 behavior's state: the page shows it, e.g. a bearing); samples arrive on Zenoh's thread.
 The last sample of each sensor and the last state of each behavior are kept for the
 ``hello`` of a page opened later. Everything goes out through
-``emit(message)``, which must only hand the message over (the server's loop copies it
-into each browser's bounded queue).
+``emit(message)``, which must only hand the message over (the server's loop writes it
+to every open page's socket).
 """
 
 from __future__ import annotations
