@@ -300,7 +300,10 @@ class App {
       }
       const cost = performance.now() - t0;
       this.stats.draws++; this.stats.drawMs += cost;
-      this.drawCost = 0.8 * this.drawCost + 0.2 * cost;
+      // a frame whose drawing was cut by the computer (another process got the core)
+      // counts at most twice the estimate and 1 ms: drawing that stays slow raises the
+      // estimate within a few frames, one preemption does not skip the next frames
+      this.drawCost = 0.8 * this.drawCost + 0.2 * Math.min(cost, 2 * this.drawCost + 1);
       this.drawGap = Math.min(MAX_DRAW_GAP_MS, Math.max(MIN_DRAW_GAP_MS, this.drawCost / DRAW_SHARE));
       this.drawnAt = now;
     }
