@@ -124,6 +124,27 @@ class StarfishSim(SerialHost):
         got = self.exchange(line, timeout_s)
         return got[-1].strip() if got and got[-1][:1] != "!" else ""
 
+    def _send_line(self, data: bytes, end_ns: int) -> None:
+        """The host sends one line: on a quiet line (nothing on the wire either way or in
+        the receive ring, the board not waiting) straight to the decoder when its CR has
+        arrived, after every event due by then (the ticks), as the UART's run would
+        take it (:meth:`Uart._rx_arrive`: a run of bytes while the board takes them,
+        the line decoded at its CR, the LF after it swallowed); else onto the wire."""
+        uart, clock = self.uart, self.clock
+        now = clock.now
+        n = len(data) + 2
+        t_cr = now + (n - 1) * uart.byte_ns
+        if (not data or 13 in data or 10 in data or t_cr >= end_ns or uart._rx_wire
+                or uart._tx_wire or uart.ring or uart.overrun or self._busy_until > now
+                or self._feed_pending):
+            self.write(data + b"\r\n")
+            return
+        self._host_wrote(data + b"\r\n")
+        uart._rx_free = t_cr + uart.byte_ns
+        clock.run_until(t_cr)
+        uart.rx_bytes += n
+        self._reply(self.core.feed(data + b"\r\n"))
+
     @property
     def idle(self) -> bool:
         """No byte on the line either way, none waiting in the ring, not waiting for
