@@ -99,24 +99,38 @@ class SerialHost:
     def _collect(self, end_ns: int) -> list[str]:
         """Run until a line that is not a notice has reached the host, at most to
         ``end_ns``: every line received meanwhile, that one last."""
+        got = self._take_reply(end_ns)
+        return got if got is not None else self._collect_lines(end_ns)
+
+    def _take_reply(self, end_ns: int) -> list[str] | None:
+        """The usual reply: one line alone first on the wire, not a notice, nothing
+        delivered before it. Runs to its line end, as :meth:`_collect_lines` would (output
+        the board sends meanwhile queues behind it, so nothing ends the run sooner), and
+        returns it; None (nothing run) for anything else."""
         uart, clock = self.uart, self.clock
+        wire = uart._tx_wire
+        if not wire or uart._tx_pos or uart._host_buf:
+            return None
+        t0, data = wire[0]
+        k = data.find(10)
+        at = t0 + (k + 1) * uart.byte_ns
+        if k != len(data) - 1 or not clock.now < at <= end_ns or data[:1] == b"!":
+            return None
+        clock.run_until(at)
+        out = uart.host_read()
+        if out != data:                   # (cannot happen) left for _collect_lines
+            uart._host_buf[:0] = out
+            return None
+        return [data[:k].decode("latin-1").rstrip("\r")]
+
+    def _collect_lines(self, end_ns: int) -> list[str]:
+        """:meth:`_collect` in general: line by line, stopping at each line end."""
+        clock = self.clock
         got: list[str] = []
         buf = bytearray()
-        wire = uart._tx_wire
-        if wire and not uart._tx_pos and not uart._host_buf:
-            # the usual reply: one line alone first on the wire, nothing read before it:
-            # run to its line end (what _run_to_line does: output sent meanwhile queues
-            # behind it, so nothing ends the run sooner) and take it
-            t0, data = wire[0]
-            k = data.find(10)
-            at = t0 + (k + 1) * uart.byte_ns
-            if k == len(data) - 1 and clock.now < at <= end_ns and data[:1] != b"!":
-                clock.run_until(at)
-                out = self.read()
-                if out == data:
-                    return [data[:k].decode("latin-1").rstrip("\r")]
-                buf += out                 # (cannot happen; the loop below takes it)
-        while True:
+        while clock.now < end_ns:
+            self._run_to_line(end_ns)
+            buf += self.read()
             while b"\n" in buf:
                 raw, _, rest = bytes(buf).partition(b"\n")
                 buf = bytearray(rest)
@@ -124,7 +138,4 @@ class SerialHost:
                 got.append(text)
                 if not text.startswith("!"):
                     return got
-            if clock.now >= end_ns:
-                return got
-            self._run_to_line(end_ns)
-            buf += self.read()
+        return got

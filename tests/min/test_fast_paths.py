@@ -265,3 +265,52 @@ def test_the_sims_fused_central_tick_is_the_plain_path(starfish):
         assert b"!W watchdog stop" in fast[4]
         walls += fast[7]
     assert walls >= 2                                # the first two runs meet a wall
+
+
+def _line_run(robot, plain: bool) -> tuple:
+    """A seeded session of exchanges: commands and refusals, odometry polls, a line
+    with a checksum, one too long, one with a bad byte, an empty one, raw bytes still
+    on the wire when a command is sent, a timeout shorter than the line, and refused
+    lines while the watchdog stops the robot (its notice during an exchange).
+    ``plain``: every line onto the wire (SerialHost._send_line) and every reply line
+    by line (_collect_lines)."""
+    from esair_min.components.omni_base.core import velocity_line
+    from esair_min.emulator.line import SerialHost
+    from esair_min.emulator.starfish import FlowOptions, StarfishSim
+
+    sim = StarfishSim(robot, World(pose=Pose(2500, 2500, 0.0)), FlowOptions(noise=0.02))
+    if plain:
+        sim._send_line = lambda data, end: SerialHost._send_line(sim, data, end)  # type: ignore[method-assign]
+        sim._take_reply = lambda end: None                                         # type: ignore[method-assign]
+    got = []
+    lines = [velocity_line(200, -100, 300), "O", "v", "V+0200+0000+0000*5C", "Z",
+             "V" + "+0001" * 12, "V+02\x070+0000+0000", "", "W+0100-0100+0100", "O", "x"]
+    for k, line in enumerate(lines * 3):
+        got.append(sim.exchange(line))
+        sim.run_for(0.011 * (k % 5))
+    sim.write(b"O\r\nv\r\n")                          # on the wire when the next is sent
+    got.append(sim.exchange("O"))
+    got.append(sim.exchange("V+0100+0000+0000", timeout_s=0.001))   # no reply in time
+    sim.settle()
+    got.append(sim.read())
+    got.append(sim.exchange(velocity_line(300, 0, 0)))
+    for _ in range(20):                                # refused: the watchdog fires
+        got.append(sim.exchange("Q"))
+        sim.run_for(0.03)
+    got.append(sim.read())
+    return (got, sim.trace, sim.i2c, bytes(sim.notices), sim.world.pose, sim.core.sums,
+            sim.core.polls, sim.clock.now, sim.uart.rx_bytes, sim.uart.tx_bytes,
+            sim.uart.overruns, sim.uart.rx_free_ns, sim.idle)
+
+
+def test_the_sims_direct_line_and_reply_are_the_uarts_run(starfish):
+    """StarfishSim._send_line (a line on a quiet link straight to the decoder at its CR)
+    and SerialHost._take_reply (a reply alone on the wire in one run) against the line
+    carried byte run by byte run through the UART and read line by line: the same
+    replies, notices, times, trace, bus and counters."""
+    fast = _line_run(starfish, False)
+    assert fast == _line_run(starfish, True)
+    replies = [g for g in fast[0] if isinstance(g, list)]
+    assert ["!W watchdog stop", "E01 unknown command"] in replies   # during an exchange
+    assert {"OK", "E01", "E02", "E06", "E13"} <= {r[-1][:3].rstrip() for r in replies if r}
+    assert [] in replies                               # the timeout
