@@ -314,3 +314,58 @@ def test_the_sims_direct_line_and_reply_are_the_uarts_run(starfish):
     assert ["!W watchdog stop", "E01 unknown command"] in replies   # during an exchange
     assert {"OK", "E01", "E02", "E06", "E13"} <= {r[-1][:3].rstrip() for r in replies if r}
     assert [] in replies                               # the timeout
+
+
+def _plain_update(odo, sums, last, pose):
+    """FlowOdometry.update as first written: sums of generators, _solve3 in full."""
+    from esair_min.components.optical_flow.odometry import _solve3
+
+    meas = []
+    for k, ((sx, sy), (lx, ly)) in enumerate(zip(sums, last, strict=True)):
+        meas += [(sx - lx) * odo.mm[k], (sy - ly) * odo.mm[k]]
+    atb = [sum(r[i] * m for r, m in zip(odo.rows, meas, strict=True)) for i in range(3)]
+    dx, dy, dth = _solve3(odo.ata, atb)
+    x, y, theta = pose
+    mid = theta + dth / 2
+    return (x + (math.cos(mid) * dx - math.sin(mid) * dy),
+            y + (math.sin(mid) * dx + math.cos(mid) * dy), theta + dth)
+
+
+@PROPS
+@given(polls=st.lists(st.lists(st.integers(-2**31, 2**31), min_size=4, max_size=4),
+                      min_size=1, max_size=12),
+       pose=st.tuples(st.floats(-5000, 5000), st.floats(-5000, 5000), st.floats(-7, 7)))
+def test_the_odometrys_update_is_the_plain_least_squares(starfish, polls, pose):
+    """FlowOdometry.update (the columns summed by map, the determinant of the constant
+    matrix computed once) against the plain formulas: the same pose, float for float."""
+    from esair_min.components.optical_flow.odometry import FlowOdometry
+
+    odo = FlowOdometry(starfish.central.flow_sensors, *pose)
+    last = [(0, 0), (0, 0)]
+    odo.update(last)
+    want = pose
+    for p in polls:
+        sums = [(p[0], p[1]), (p[2], p[3])]
+        want = _plain_update(odo, sums, last, want)
+        assert odo.update(sums) == want
+        last = sums
+
+
+def test_the_odometry_refuses_sums_of_another_count_of_sensors(starfish):
+    from esair_min.components.optical_flow.odometry import FlowOdometry
+
+    odo = FlowOdometry(starfish.central.flow_sensors)
+    for sums in ([(0, 0), (0, 0), (0, 0)], [(0, 0)]):
+        try:
+            odo.update(sums)
+        except ValueError as exc:
+            assert str(exc) == f"sums of {len(sums)} flow sensors, not 2"
+        else:
+            raise AssertionError("no ValueError")
+    odo.update([(0, 0), (0, 0)])
+    try:
+        odo.update([(5, 0)])
+    except ValueError as exc:
+        assert str(exc) == "sums of 1 flow sensors, not 2"
+    else:
+        raise AssertionError("no ValueError")
