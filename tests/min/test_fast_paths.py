@@ -6,7 +6,7 @@ against the plain path over hypothesis-generated input or seeded runs."""
 
 from __future__ import annotations
 
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 import math
@@ -39,6 +39,28 @@ def test_a_run_into_the_line_assembler_is_each_byte_in_turn(chunks, gaps):
             run.note_overrun()
         plain = [r for r in (one.feed(b) for b in data) if r is not None]
         assert run.feed_run(data) == plain
+        assert _state(run) == _state(one)
+
+
+
+@PROPS
+@given(before=st.lists(STREAM.map(bytes), max_size=3),
+       lines=st.lists(st.one_of(
+           st.text(st.characters(min_codepoint=0x20, max_codepoint=0x7E), max_size=44)
+           .map(str.encode),
+           st.binary(max_size=44).map(lambda b: bytes(c & 0x7F for c in b))), min_size=1, max_size=6),
+       ends=st.sampled_from([b"\r\n", b"\r", b"\n", b"\n\r"]))
+@example(before=[], lines=[b"A" * 40, b"B" * 41, b"", b"C"], ends=b"\r\n")
+def test_a_whole_line_into_the_line_assembler_is_each_byte_in_turn(before, lines, ends):
+    """feed_run's whole-line path (a line of 1..40 printable bytes and CR LF from a
+    clean start) against feed of each byte, after any stream and for lines that do not
+    qualify (too long, empty, a control byte, other line ends): the same results and
+    state."""
+    one, run = LineAssembler(), LineAssembler()
+    for data in before + [line + ends for line in lines]:
+        plain = [r for r in (one.feed(b) for b in data) if r is not None]
+        got = run.feed_run(data)
+        assert got == plain and all(type(r) is type(p) for r, p in zip(got, plain, strict=True))
         assert _state(run) == _state(one)
 
 
