@@ -391,3 +391,35 @@ def test_the_odometry_refuses_sums_of_another_count_of_sensors(starfish):
         assert str(exc) == "sums of 1 flow sensors, not 2"
     else:
         raise AssertionError("no ValueError")
+
+
+@PROPS
+@given(picks=st.lists(st.tuples(st.integers(0, 99), st.booleans()), max_size=200))
+def test_a_repeated_drive_lines_plan_is_the_line_parsed_again(starfish, picks):
+    """StarfishCore's plans (a V/W line's refusal or drive write, kept by its body, all
+    dropped past PLANS) against a core that parses every line: the same replies, bus
+    writes and commanded speeds, over lines repeated and new, valid, outside the limits,
+    malformed, and more than PLANS of them."""
+    from esair_min.components.omni_base.core import PLANS, StarfishCore
+
+    pool = ([f"V{vx:+05d}{vy:+05d}{w:+05d}" for vx in (-400, 0, 250, 2000)
+             for vy in (-100, 0, 300) for w in (0, 500, -9000)]
+            + [f"W{a:+05d}{b:+05d}{c:+05d}" for a in (0, 120, -700) for b in (0, 900)
+               for c in (5, -5000)]
+            + [f"V{k:+05d}+0000+0000" for k in range(40)] + ["V+01a0+0000+0000", "W+0000+0000-00 1"])
+    assert len(pool) > PLANS
+    writes: dict[str, list] = {"plans": [], "parsed": []}
+    answer = [True]                                 # whether the drive board answers
+
+    def bus(name: str):
+        return lambda a, d: writes[name].append((a, d)) or answer[0]
+
+    cores = {name: StarfishCore(starfish, bus(name)) for name in writes}
+    for k, ok in picks:
+        answer[0] = ok
+        line = pool[k % len(pool)].encode()
+        cores["parsed"]._plans.clear()              # the plain path: parsed every time
+        assert cores["plans"].line(line) == cores["parsed"].line(line)
+        assert cores["plans"].commanded == cores["parsed"].commanded
+        assert len(cores["plans"]._plans) <= PLANS
+    assert writes["plans"] == writes["parsed"]
