@@ -30,6 +30,7 @@ from esair_min.components.omni_base.kinematics import inverse
 from esair_min.components.optical_flow.core import Adns2610
 from esair_min.emulator.clock import VirtualClock
 from esair_min.emulator.line import SerialHost
+from esair_min.emulator.starfish_run import central_run, plan
 from esair_min.emulator.uart import GAP, RX_BYTE, RX_HOLD, RX_TAKE, Uart
 from esair_min.world import World
 
@@ -97,6 +98,7 @@ class StarfishSim(SerialHost):
         self._acc_dt = 0.0
         self._acc_travel = [0.0] * len(self.core.wheels)
         self._collided = False
+        self._run_plan = plan(self)    # (starfish_run: ticks in runs)
         self._reply(READY_LINE)        # at reset
 
     def _write(self, address: int, data: bytes) -> bool:
@@ -282,7 +284,7 @@ class StarfishSim(SerialHost):
         if now != self._timer_at:
             return                               # superseded: the drive board woke up
         if not self._drive_live:
-            self._central_settled(now)
+            central_run(self, now)               # this tick and the next ones, in one call
             return
         self._timers_plain(now)
 

@@ -243,19 +243,27 @@ def test_a_write_of_the_same_speeds_leaves_a_settled_drive_board_settled(starfis
     assert not lazy.settled
 
 
-def _sim_run(robot, plain: bool, world: World, noise: float, seed: int) -> tuple:
+def _sim_run(robot, mode: str, world: World, noise: float, seed: int,
+             clock_events: list | None = None) -> tuple:
     """A seeded run of the sim (a square, then toward a wall turning, the watchdog stop,
-    a lifted sensor); ``plain``: the central tick through _timers_plain and the
-    travel through _replay and _advance, as before the fused paths."""
+    a lifted sensor). ``mode``: "runs" as it is (ticks in runs: starfish_run);
+    "settled": every central tick an event of its own (_central_settled); "plain":
+    that, through _timers_plain, and the travel through _replay and _advance, as before
+    the fused paths."""
     from esair_min.components.omni_base.core import velocity_line, wheels_line
     from esair_min.emulator.starfish import FlowOptions, StarfishSim, drive_square
 
     sim = StarfishSim(robot, world, FlowOptions(noise=noise, seed=seed))
-    if plain:
+    if mode != "runs":
+        sim._run_plan = None                              # central_run: one tick, plain
+    if mode == "plain":
         sim._central_settled = sim._timers_plain          # type: ignore[method-assign]
         sim._account = sim._account_plain                 # type: ignore[method-assign]
     square = drive_square(sim, 800, laps=1)
     replies = []
+    for _ in range(30):                                   # a steady turn: a settled drive
+        replies.append(sim.command(velocity_line(150, 60, 400)))
+        sim.run_for(0.05)
     for k in range(50):
         if k == 20:
             sim.sensors[1].lifted = True
@@ -264,6 +272,8 @@ def _sim_run(robot, plain: bool, world: World, noise: float, seed: int) -> tuple
         sim.run_for(0.05 + 0.003 * (k % 4))
     sim.run_for(1.2)                                      # the watchdog stops it
     replies.append(sim.read())
+    if clock_events is not None:
+        clock_events.append(sim.clock._seq)
     return (square, replies, sim.trace, sim.i2c, bytes(sim.notices), sim.world.pose,
             sim.world.t_s, sim.world.collisions, sim.core.sums, sim.core.polls,
             [(s._acc, s.lost, s._free_at, s._rng.getstate()) for s in sim.sensors],
@@ -271,21 +281,26 @@ def _sim_run(robot, plain: bool, world: World, noise: float, seed: int) -> tuple
 
 
 def test_the_sims_fused_central_tick_is_the_plain_path(starfish):
-    """StarfishSim._central_settled (the central tick with the drive board settled, in
-    one method) and _account (the travel, inlined) against the plain methods: the same
-    trace, bus, notices, poses, sums and generator states, in a room with walls, with
-    noise, lag and slip."""
+    """StarfishSim's central ticks in runs (starfish_run.central_run: tick after tick in
+    one call while nothing else is due), its one-tick _central_settled and its _account
+    (the travel, inlined) against the plain methods: the same trace, bus, notices,
+    poses, sums and generator states, in a room with walls, with noise, lag and slip;
+    the runs take fewer clock events."""
     cases = [(lambda: World(pose=Pose(3800, 700, 0.2)), 0.02, 1),
              (lambda: World(pose=Pose(4300, 4300, 0.0)), 0.0, 2),
              (lambda: World(pose=Pose(3800, 700, 0.2),
                             options=WorldOptions(lag_s=0.05, slip=0.1, slip_noise=0.02, seed=4)),
-              0.05, 7)]
+              0.05, 7),
+             (lambda: World(pose=Pose(1500, 2500, 0.5)), 0.01, 3)]     # turning, no wall
     walls = 0
     for make, noise, seed in cases:
-        fast = _sim_run(starfish, False, make(), noise, seed)
-        assert fast == _sim_run(starfish, True, make(), noise, seed)
-        assert b"!W watchdog stop" in fast[4]
-        walls += fast[7]
+        events: list[int] = []
+        runs = _sim_run(starfish, "runs", make(), noise, seed, events)
+        assert runs == _sim_run(starfish, "settled", make(), noise, seed, events)
+        assert runs == _sim_run(starfish, "plain", make(), noise, seed)
+        assert b"!W watchdog stop" in runs[4]
+        assert events[0] < events[1] or make().options.lag_s > 0   # (lag: no runs)
+        walls += runs[7]
     assert walls >= 2                                # the first two runs meet a wall
 
 
