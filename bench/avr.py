@@ -73,8 +73,14 @@ def fit(kinds: dict, bit_cycles: float) -> list[float]:
 
 
 def main(argv: list[str]) -> int:
+    """The figures; the builds go in a temporary folder removed after (also on an error
+    or Ctrl-C)."""
+    with tempfile.TemporaryDirectory(prefix="esair-bench-avr-") as work:
+        return _main(argv, Path(work))
+
+
+def _main(argv: list[str], work: Path) -> int:
     pic = "--no-pic" not in argv
-    work = Path(tempfile.mkdtemp(prefix="esair-bench-avr-"))
     avr_robot = load_robot(ROOT / "boards" / "papaman-avr")
     pic_robot = load_robot(ROOT / "boards" / "papaman")
 

@@ -65,7 +65,13 @@ def measure(folder: Path, work: Path) -> tuple[int, int, int, int, set[int], int
 
 
 def main() -> int:
-    work = Path(tempfile.mkdtemp(prefix="esair-bench-avr-sensor-"))
+    """The figures; the builds go in a temporary folder removed after (also on an error
+    or Ctrl-C)."""
+    with tempfile.TemporaryDirectory(prefix="esair-bench-avr-sensor-") as work:
+        return _main(Path(work))
+
+
+def _main(work: Path) -> int:
     rows = {"before (6 channels)": measure(six_robot(work), work / "six_fw"),
             "after (8 via mux)": measure(BOARDS, work / "mux_fw")}
     print("papaman-avr sensor board, ATmega328P at 16 MHz (exact)")

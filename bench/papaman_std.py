@@ -37,7 +37,9 @@ tree's esair_std too): the ratio of this tree to the baseline at p99, in one run
 Run: python bench/papaman_std.py [--n 200] [--figures 123] [--modes thread,process]
 [--repeat1 N] [--duplex-only] [--baseline DIR]; BENCH_GC=1 in the environment: figure 1
 also counts the resource host process's garbage collections over 2 ms.
-Prints figures; asserts nothing.
+Prints figures; asserts nothing. Its files (traces, notes) go in temporary folders
+(``esair-bench-*``) removed after each run, also on an error or Ctrl-C
+(tests/std/test_bench_tmp.py).
 """
 
 from __future__ import annotations
@@ -121,8 +123,13 @@ def command_to_write(mode: str, n: int, feet_hz: float, goal_ms: float,
     and Link path; ``robot``: port write -> register write, the line time and the wait
     for the tick, in the emulator alone). The driver (bench/papaman_std_comps.py,
     TimedMinLink) notes its robot's pacer origin and its port writes in a file: the
-    same in thread and process mode (where it lives in its own process)."""
-    tmp = Path(tempfile.mkdtemp(prefix="esair-bench-"))
+    same in thread and process mode (where it lives in its own process). Its files go
+    in a temporary folder removed after (also on an error or Ctrl-C)."""
+    with tempfile.TemporaryDirectory(prefix="esair-bench-") as tmp:
+        return _command_to_write(Path(tmp), mode, n, feet_hz, duplex)
+
+
+def _command_to_write(tmp: Path, mode: str, n: int, feet_hz: float, duplex: bool) -> dict:
     trace, notes = tmp / "trace.txt", tmp / "notes.jsonl"
     url = f"esair://{PAPAMAN}?trace={trace}"
     dep = deployment(url, mode, {"stepper": {"class": "papaman_std_comps:Stepper",

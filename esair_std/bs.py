@@ -87,11 +87,11 @@ class BehaviorSupervisor(Supervisor[ComponentHost]):
             status, value = (("final", why) if rec is None else
                              attempt(rec, max(0.001, deadline - time.monotonic())))
             if status == "ok":
-                self.c[counter + "_ok"] += 1
+                self.c.add(counter + "_ok")
                 return True, value
             left = deadline - time.monotonic()
             if status == "final" or left <= 0:
-                self.c[counter + "_failed"] += 1
+                self.c.add(counter + "_failed")
                 return False, (value if status == "final" else
                                f"{target!r} {late} within {timeout:g} s ({value})")
             time.sleep(min(delay, left))
@@ -101,7 +101,7 @@ class BehaviorSupervisor(Supervisor[ComponentHost]):
         try:
             return True, codec.copy(data)
         except TransportError as exc:
-            self.c["puts_failed"] += 1
+            self.c.add("puts_failed")
             return False, exc.message
 
     def put(self, sender: str, target: str, data: Any, timeout: float) -> tuple[bool, str]:
@@ -147,7 +147,7 @@ class BehaviorSupervisor(Supervisor[ComponentHost]):
 
         def result(r: str) -> None:
             if r == "delivered":
-                self.c["puts_ok"] += 1
+                self.c.add("puts_ok")
             done(r == "delivered")
         return rec.host.offer_async(sender, data, result, timeout)
 

@@ -28,6 +28,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Callable, Generic, Literal, TypeVar
 
 from .errors import ControlError
+from .counters import Counters
 
 if TYPE_CHECKING:  # pragma: no cover
     from .parts import Child
@@ -137,7 +138,7 @@ class Supervisor(Generic[H]):
         self._requests: queue.Queue = queue.Queue(maxsize=REQUESTS)
         self._thread = threading.Thread(target=self._main, name=f"esair:{name}", daemon=True)
         self._closing = False
-        self.c = dict(restarts=0)
+        self.c = Counters(restarts=0)
         self.on_change: Callable[[], None] = lambda: None   # a child's state changed
 
     # ---- what a subclass says
@@ -276,7 +277,7 @@ class Supervisor(Generic[H]):
             return
         rec.failures.append(now)
         rec.restarts += 1
-        self.c["restarts"] += 1
+        self.c.add("restarts")
         rec.generation += 1
         log.warning("%s failed (%s); restart %d", name, reason, rec.restarts)
         rec.host = Starting()

@@ -94,7 +94,7 @@ _BY_FOLDER = {"net": "net", "hmi": "browser"}
 _BY_MODULE = {
     "gpsim": {"test_gpsim", "test_gpsim_bus", "test_gpsim_overrun", "test_gpsim_slaves",
               "test_gpsim_uart", "test_toolchain", "test_pic_build", "test_starfish_pic",
-              "test_starfish_gpsim", "test_gpsim_duplex"},
+              "test_starfish_gpsim", "test_gpsim_duplex", "test_gpsim_mux"},
     "pty": {"test_pty", "test_minlink_pty", "test_liveview_tmux", "test_std_papaman",
             "test_std_papaman_c", "test_std_papaman_cli", "test_gpsim_uart",
             "test_starfish_pty", "test_pty_promise", "test_minlink_safety",
@@ -107,7 +107,7 @@ _BY_FIXTURE = {"pic_firmware": "gpsim"}
 SLOW_MODULES = {"test_std_cli", "test_overrun", "test_differential", "test_decoder_props",
                 "test_validate_fuzz", "test_plot", "test_host_c_peers", "test_std_deploy_fuzz",
                 "test_std_lazy_crypto", "test_std_agent_lean", "test_cli_manner", "test_script",
-                "test_std_record"}
+                "test_std_record", "test_bench_tmp"}
 
 
 def _in_process_mode(item) -> bool:

@@ -150,6 +150,8 @@ def _pose(text: str | None) -> tuple[float, float, float] | None:
               help="First generate the firmware and EEPROM image into DIR.")
 @click.option("--scenario", metavar="NAME|FILE",
               help="Sensor readings over time (a file, or a name in ROBOT/scenarios/).")
+@click.option("--hold-scenario", is_flag=True,
+              help="With --pty: the scenario plays when the emulator gets SIGUSR1, not at boot.")
 @click.option("--trace", type=click.Path(dir_okay=False), metavar="FILE",
               help="Write the event trace (docs/trace-format.md, with @ time marks).")
 @click.option("--speed", type=float, metavar="FACTOR",
@@ -174,14 +176,15 @@ def _pose(text: str | None) -> tuple[float, float, float] | None:
                    "datagram socket (docs/emulator.md).")
 @friendly
 def emulate(robot: str, pty: bool, run_s: float | None, sends: tuple[str, ...],
-            generate: str | None, scenario: str | None, trace: str | None, speed: float | None,
-            nack_actuator: bool, no_sensor: bool, corrupt_eeprom: bool, stuck_bus: bool,
+            generate: str | None, scenario: str | None, hold_scenario: bool, trace: str | None,
+            speed: float | None, nack_actuator: bool, no_sensor: bool, corrupt_eeprom: bool, stuck_bus: bool,
             noise: float, seed: int, room: str | None, instance: str | None,
             pose: str | None, world_out: str | None) -> None:
     """Run the emulated robot behind a pseudo-terminal (--pty) or headless (--run).
 
     With --pty it serves until Ctrl-C or SIGTERM; when standard output is a terminal,
-    a live view shows servos, sensors, each command with its reply, and errors.
+    a live view shows servos, sensors, each command with its reply, and errors;
+    SIGUSR1 (kill -USR1 PID) plays the scenario again from its start.
     With --run, Ctrl-C stops the run and keeps what ran (output printed, trace
     written; exit status 130). Options that do not apply (--send with --pty, --speed
     with --run) are refused.
@@ -193,8 +196,8 @@ def emulate(robot: str, pty: bool, run_s: float | None, sends: tuple[str, ...],
 
     opts = EmulateOptions(
         pty=pty, run_s=run_s, sends=sends, generate=Path(generate) if generate else None,
-        scenario=scenario, trace=Path(trace) if trace else None, speed=speed,
-        faults=Faults(nack_actuator, no_sensor, corrupt_eeprom, noise, seed, stuck_bus),
+        scenario=scenario, hold_scenario=hold_scenario, trace=Path(trace) if trace else None,
+        speed=speed, faults=Faults(nack_actuator, no_sensor, corrupt_eeprom, noise, seed, stuck_bus),
         room=Path(room) if room else None, instance=instance, pose=_pose(pose),
         world_out=Path(world_out) if world_out else None)
     status = run_emulator(load(robot), opts)

@@ -110,12 +110,15 @@ class Emulator(SerialHost):
     robot's ``scenarios/`` folder; None keeps every sensor at rest. ``trace`` receives
     the event trace (docs/trace-format.md) with ``@ <us>`` time marks. ``instance``
     (8 hex digits) is this boot's id in the ``v`` reply (``id=instance``).
+    ``hold_scenario``: the scenario's steps do not start at boot; each
+    :meth:`play_scenario` plays them from then on (the sensors read its ``idle`` values
+    until the first).
     """
 
     def __init__(self, robot: Robot, scenario: Scenario | str | Path | None = None,
                  faults: Faults = Faults(), trace: TraceWriter | None = None,  # noqa: B008 (frozen)
                  eeprom_image: bytes | None = None, transcript: bool = False,
-                 instance: str | None = None):
+                 instance: str | None = None, hold_scenario: bool = False):
         central = robot.central
         if central.uart is None or central.timer2 is None:
             raise EsairError("the central board needs uart: and tick: to be emulated")
@@ -183,8 +186,9 @@ class Emulator(SerialHost):
             self.scenario = load_scenario(path, sensors)
         self.sensor_values: tuple[int, ...] = self.scenario.idle
         self._set_sensors(self.scenario.idle)
-        for at_ms, values in self.scenario.steps:
-            self.clock.schedule(at_ms * 1_000_000, functools.partial(self._set_sensors, values))
+        self.scenario_plays = 0          # plays started (the one at boot included)
+        if not hold_scenario:
+            self.play_scenario()
 
         # -- the central board
         self.core = CentralCore(robot, core_bus, self._send,
@@ -266,6 +270,18 @@ class Emulator(SerialHost):
 
     def _mark_cursor(self) -> None:
         self._mark(self.bus.cursor())
+
+    def play_scenario(self) -> None:
+        """Play the scenario's steps from now on (``at_ms`` counted from now). The steps of
+        an earlier play still to come are dropped: one play at a time."""
+        self.scenario_plays += 1
+        for at_ms, values in self.scenario.steps:
+            self.clock.schedule(self.clock.now + at_ms * 1_000_000,
+                                functools.partial(self._play_step, self.scenario_plays, values))
+
+    def _play_step(self, play: int, values: tuple[int, ...]) -> None:
+        if play == self.scenario_plays:
+            self._set_sensors(values)
 
     def _set_sensors(self, values: tuple[int, ...]) -> None:
         self.sensor_values = values

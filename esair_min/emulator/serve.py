@@ -25,6 +25,7 @@ class EmulateOptions:
     sends: tuple[str, ...] = ()
     generate: Path | None = None
     scenario: str | None = None
+    hold_scenario: bool = False   # with --pty: the scenario plays on SIGUSR1, not at boot
     trace: Path | None = None
     faults: Faults = field(default_factory=Faults)
     speed: float | None = None    # with --pty only; None: real time (1)
@@ -63,6 +64,30 @@ INTERRUPTED = 130
 RUN_STEP_NS = 50_000_000
 
 
+class _PlayOnSignal:
+    """SIGUSR1 while serving: the scenario plays (again) from its start, at the server
+    loop's next turn (the handler only sets a flag). The previous handler is put back by
+    :meth:`restore`."""
+
+    def __init__(self) -> None:
+        self.flag = False
+        self._old: object = None
+
+    def __call__(self, signum=None, frame=None) -> None:
+        self.flag = True
+
+    def install(self) -> None:
+        self._old = signal.signal(signal.SIGUSR1, self)
+
+    def take(self, emu: Emulator) -> None:
+        if self.flag:
+            self.flag = False
+            emu.play_scenario()
+
+    def restore(self) -> None:
+        signal.signal(signal.SIGUSR1, self._old)   # type: ignore[arg-type]
+
+
 class _Stop:
     """Set by SIGINT/SIGTERM: the loop ends at its next step (the previous handlers are
     put back by :meth:`restore`)."""
@@ -95,6 +120,12 @@ def check_options(opts: EmulateOptions) -> None:
                          "terminal: esair send PORT LINE...")
     if opts.run_s is not None and opts.speed is not None:
         raise EsairError("--speed works with --pty only; --run runs as fast as the host can")
+    if opts.hold_scenario and opts.scenario is None:
+        raise EsairError("--hold-scenario needs --scenario: it holds that scenario until "
+                         "SIGUSR1")
+    if opts.hold_scenario and not opts.pty:
+        raise EsairError("--hold-scenario works with --pty only; with --run the scenario "
+                         "plays from boot")
     if opts.speed is not None and not opts.speed > 0:
         raise EsairError(f"--speed {opts.speed:g} must be more than 0")
     if opts.run_s is not None and opts.run_s < 0:
@@ -141,7 +172,8 @@ def emulate(robot: Robot, opts: EmulateOptions, out: TextIO | None = None,
         if instance is None and opts.pty:      # each boot on a pty is a robot of its own
             instance = secrets.token_hex(4)
         emu = Emulator(robot, scenario=opts.scenario, faults=opts.faults, trace=trace,
-                       eeprom_image=image, transcript=live, instance=instance)
+                       eeprom_image=image, transcript=live, instance=instance,
+                       hold_scenario=opts.hold_scenario)
         stack.callback(emu.close)
         if opts.pty:
             _serve(emu, opts, out)
@@ -154,6 +186,8 @@ def _serve(emu: Emulator, opts: EmulateOptions, out: TextIO) -> None:
 
     stop = _Stop()
     stop.install()
+    play = _PlayOnSignal()
+    play.install()                 # before the path is printed: a SIGUSR1 from then on counts
     live = out.isatty() if opts.live is None else opts.live
     view = None
     port = PtyPort()
@@ -165,6 +199,7 @@ def _serve(emu: Emulator, opts: EmulateOptions, out: TextIO) -> None:
     with ExitStack() as stack:
         def on_idle() -> None:
             nonlocal view
+            play.take(emu)
             if not live:
                 return
             if view is None:
@@ -177,6 +212,7 @@ def _serve(emu: Emulator, opts: EmulateOptions, out: TextIO) -> None:
             serve_pty(emu, on_path, lambda: stop.flag, opts.speed or 1.0, on_idle, port)
         finally:
             stop.restore()
+            play.restore()
 
 
 def _run(emu: Emulator, opts: EmulateOptions, out: TextIO,

@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from esair_min.components.dc_motor.core import CONTROL_TICK_MS, DriveCore
-from esair_min.components.omni_base.core import StarfishCore
+from esair_min.components.omni_base.core import StarfishCore, ready_line
 from esair_min.components.omni_base.kinematics import inverse
 from esair_min.components.optical_flow.core import Adns2610
 from esair_min.emulator.clock import VirtualClock
@@ -33,10 +33,6 @@ from esair_min.emulator.line import SerialHost
 from esair_min.emulator.starfish_run import central_run, plan
 from esair_min.emulator.uart import GAP, RX_BYTE, RX_HOLD, RX_TAKE, Uart
 from esair_min.world import World
-
-
-#: What the central board sends at reset.
-READY_LINE = b"!READY esair-min/1 starfish\r\n"
 
 
 @dataclass(frozen=True)
@@ -99,7 +95,7 @@ class StarfishSim(SerialHost):
         self._acc_travel = [0.0] * len(self.core.wheels)
         self._collided = False
         self._run_plan = plan(self)    # (starfish_run: ticks in runs)
-        self._reply(READY_LINE)        # at reset
+        self._reply(ready_line(self.robot.name))   # at reset: the robot it is
 
     def _write(self, address: int, data: bytes) -> bool:
         self.i2c.append((self.clock.now, address, bytes(data)))

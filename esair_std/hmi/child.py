@@ -26,6 +26,16 @@ def _die_with_parent() -> None:
         pass
 
 
+def _end(proc: subprocess.Popen[bytes]) -> None:
+    if proc.poll() is None:
+        proc.send_signal(signal.SIGTERM)
+        try:
+            proc.wait(timeout=5)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait(timeout=5)
+
+
 class HmiChild:
     def __init__(self, endpoint: str, listen: str):
         self.endpoint, self.listen = endpoint, listen
@@ -47,9 +57,10 @@ class HmiChild:
         ready, _, _ = select.select([self.proc.stdout], [], [], START_TIMEOUT_S)
         line = self.proc.stdout.readline().decode(errors="replace").strip() if ready else ""
         if not line.startswith(("http://", "https://")):
-            self.stop()
+            _end(self.proc)                       # its last words are complete
             errors.seek(0)
             err = errors.read().decode(errors="replace").strip().splitlines()
+            self.stop()
             raise StdError(f"the HMI did not start: {err[-1] if err else 'no URL printed'}")
         self.url = line
         return line
@@ -58,13 +69,7 @@ class HmiChild:
         proc, self.proc = self.proc, None
         if proc is None:
             return
-        if proc.poll() is None:
-            proc.send_signal(signal.SIGTERM)
-            try:
-                proc.wait(timeout=5)
-            except subprocess.TimeoutExpired:
-                proc.kill()
-                proc.wait(timeout=5)
+        _end(proc)
         for f in (proc.stdout, self._errors):
             if f is not None:
                 f.close()

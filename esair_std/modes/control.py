@@ -31,6 +31,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from ..rs import ResourceSupervisor
 from ..transport.session import check_endpoint, hub_runtime
 from ..transport.threads import Threads
+from ..counters import Counters
 
 log = logging.getLogger("esair_std.control")
 WORKERS = 8
@@ -87,7 +88,7 @@ class ControlServer:
         self._workers: list[threading.Thread] = []
         self.threads = Threads()     # what may be in a Zenoh call: joined at stop (threads.py)
         self._closing = False
-        self.c = dict(requests=0, bad_requests=0, refused_full=0)
+        self.c = Counters(requests=0, bad_requests=0, refused_full=0)
         self.verbs = Verbs(unknown="unknown control verb {verb!r}")
         for verb, fn in {
             "ping": self.v_ping, "ls": self.v_ls, "add": self.v_add, "remove": self.v_remove,
@@ -158,7 +159,7 @@ class ControlServer:
 
             def first(delivered: bool) -> None:
                 if delivered:
-                    self.c["requests"] += 1
+                    self.c.add("requests")
                     req.reply({"ok": {"delivered": True, "reason": ""}})
                 else:
                     b["timeout"] = max(0.0, deadline - time.monotonic())
@@ -182,7 +183,7 @@ class ControlServer:
         try:
             self._q.put_nowait(req)
         except queue.Full:
-            self.c["refused_full"] += 1
+            self.c.add("refused_full")
             req.reply(wire.error(ControlError("runtime busy: too many requests waiting")))
 
     def _work(self) -> None:
@@ -193,7 +194,7 @@ class ControlServer:
             req.reply(self.answer(req.key.rsplit("/", 1)[-1], req.body, req.error))
 
     def answer(self, verb: str, body: dict | None, error: str = "") -> dict:
-        self.c["requests"] += 1
+        self.c.add("requests")
         return self.verbs.answer(verb, body, error)
 
     # ---- user verbs (the CLI)

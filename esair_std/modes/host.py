@@ -24,6 +24,7 @@ from ..spec import Spec
 if TYPE_CHECKING:  # pragma: no cover
     from ..parts import Port
 from ..transport import codec
+from ..counters import Counters
 
 INBOX = 64          # deliveries + provide requests waiting for the behavior's thread
 RESERVED = 16       # more mailbox slots, reserved for the BS's deliveries into room
@@ -90,9 +91,9 @@ class ComponentHost:
         self._call_started: float | None = None
         self._call_name = ""
         self.started = threading.Event()   # set when running (or failed while starting)
-        self.c = dict(steps=0, late_steps=0, received=0, provided=0, refused=0,
-                      puts_ok=0, puts_failed=0, gets_ok=0, gets_failed=0, notices_dropped=0,
-                      reserved=0, reserved_refused=0)
+        self.c = Counters(steps=0, late_steps=0, received=0, provided=0, refused=0,
+                          puts_ok=0, puts_failed=0, gets_ok=0, gets_failed=0,
+                          notices_dropped=0, reserved=0, reserved_refused=0)
         self.last_failure = ""
         period = spec.period if spec.has_period else getattr(cls, "period", None)
         self.period = float(period) if period else None
@@ -166,18 +167,18 @@ class ComponentHost:
         the caller calls ``wake()`` itself (after answering, so the behavior's thread
         does not take the GIL from the answer)."""
         if self._stop.is_set():           # being removed: its stop() runs next
-            self.c["refused"] += 1
+            self.c.add("refused")
             return "stopped"
         if self._phase != "running" or self._busy:
-            self.c["refused"] += 1
+            self.c.add("refused")
             return "busy" if self._phase in ("running", "busy", "starting") else self._phase
         if self._full():
-            self.c["refused"] += 1
+            self.c.add("refused")
             return "busy"
         try:
             self.inbox.put_nowait(("deliver", sender, data))
         except queue.Full:
-            self.c["refused"] += 1
+            self.c.add("refused")
             return "busy"
         if wake:
             self._wake.set()
@@ -199,9 +200,9 @@ class ComponentHost:
                     self._reserved_in -= 1
                 ok = False
         if not ok:
-            self.c["reserved_refused"] += 1
+            self.c.add("reserved_refused")
             return False
-        self.c["reserved"] += 1
+        self.c.add("reserved")
         self._wake.set()
         return True
 
@@ -254,7 +255,7 @@ class ComponentHost:
             if h.resource == resource:
                 h.detached = True
         if len(self.notices) >= NOTICES:
-            self.c["notices_dropped"] += 1
+            self.c.add("notices_dropped")
             return
         self.notices.append(resource)
         self._wake.set()
@@ -333,7 +334,7 @@ class ComponentHost:
 
     def put(self, target: str, data: Any, timeout: float) -> bool:
         ok, reason = self.port.put(self.name, target, data, timeout)
-        self.c["puts_ok" if ok else "puts_failed"] += 1
+        self.c.add("puts_ok" if ok else "puts_failed")
         if not ok:
             self.last_failure = f"put to {target!r}: {reason}"
             log.warning("%s: %s", self.name, self.last_failure)
@@ -341,7 +342,7 @@ class ComponentHost:
 
     def get(self, target: str, timeout: float) -> Any:
         ok, value = self.port.get(self.name, target, timeout)
-        self.c["gets_ok" if ok else "gets_failed"] += 1
+        self.c.add("gets_ok" if ok else "gets_failed")
         if not ok:
             self.last_failure = f"get from {target!r}: {value}"
             log.warning("%s: %s", self.name, self.last_failure)
@@ -415,10 +416,10 @@ class ComponentHost:
                     if now >= nxt:
                         if self.enabled:
                             self._timed("step", self.obj.step)
-                            self.c["steps"] += 1
+                            self.c.add("steps")
                         nxt += self.period
                         if nxt < time.monotonic():
-                            self.c["late_steps"] += 1
+                            self.c.add("late_steps")
                             nxt = time.monotonic() + self.period
                     self._serve(max(0.0, nxt - time.monotonic()))
         except _Abandoned:
@@ -443,17 +444,17 @@ class ComponentHost:
         try:
             self._timed("receive", self.obj.receive, sender, data)
         except Refused as exc:
-            self.c["refused_puts"] = self.c.get("refused_puts", 0) + 1
+            self.c.add("refused_puts")
             log.warning("%s refused %s's data: %s", self.name, sender, exc)
-        self.c["received"] += 1
+        self.c.add("received")
 
     def _take(self, sender: str, data: Any, reply: Any) -> None:
         """receive() for a sender that waits for the outcome (request_take)."""
         try:
             self._timed("receive", self.obj.receive, sender, data)
         except Refused as exc:
-            self.c["refused_puts"] = self.c.get("refused_puts", 0) + 1
-            self.c["received"] += 1
+            self.c.add("refused_puts")
+            self.c.add("received")
             reply(("refused", str(exc)))
             return
         except _Abandoned:
@@ -462,7 +463,7 @@ class ComponentHost:
         except Exception as exc:
             reply(("failed", f"receive() raised {type(exc).__name__}: {exc}"))
             raise
-        self.c["received"] += 1
+        self.c.add("received")
         reply(("ok", ""))
 
     def _serve(self, timeout: float) -> None:
@@ -502,5 +503,5 @@ class ComponentHost:
                 except Exception as exc:
                     reply(("failed", f"provide() raised {type(exc).__name__}: {exc}"))
                     raise
-                self.c["provided"] += 1
+                self.c.add("provided")
                 reply(("ok", value))

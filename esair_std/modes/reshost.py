@@ -23,6 +23,7 @@ from ..transport import codec, wire
 if TYPE_CHECKING:  # pragma: no cover
     from ..parts import Port
 from .host import build
+from ..counters import Counters
 
 COMMANDS = 256
 
@@ -95,7 +96,7 @@ class ResourceHost:
         self.state = "starting"
         self.reason = ""
         self.on_failed: Callable[[str], None] | None = None   # the host's thread died
-        self.c = dict(commands_refused=0)
+        self.c = Counters(commands_refused=0)
         self.thread = threading.Thread(target=self._main, name=f"esair:{self.name}", daemon=True)
 
     # ---- life cycle (called by the RS / the agent)
@@ -148,7 +149,7 @@ class ResourceHost:
             now = time.monotonic()
             self.commands.put_nowait((slot, op, args, on_done, now + timeout, now))
         except queue.Full:
-            self.c["commands_refused"] += 1
+            self.c.add("commands_refused")
             on_done(False, "command queue full")
         except StdError as exc:
             on_done(False, exc.message)

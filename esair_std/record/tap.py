@@ -18,6 +18,7 @@ from typing import Any, Callable
 from ..errors import StdError
 from ..transport import keys
 from .mcapio import SampleWriter
+from ..counters import Counters
 
 QUEUE = 100_000
 
@@ -32,7 +33,7 @@ class Tap:
             raise StdError(f"cannot write {self.path}: {exc.strerror}") from None
         self.writer = SampleWriter(self.f)
         self.q: queue.Queue = queue.Queue(QUEUE)
-        self.c = dict(written=0, dropped=0, gaps=0, commands=0, command_gaps=0)
+        self.c = Counters(written=0, dropped=0, gaps=0, commands=0, command_gaps=0)
         self._last: dict[str, int] = {}
         self._last_cmd: dict[str, int] = {}
         self._subs: list[tuple[Any, Any]] = []
@@ -59,7 +60,7 @@ class Tap:
         try:
             self.q.put_nowait(msg)
         except queue.Full:
-            self.c["dropped"] += 1
+            self.c.add("dropped")
 
     # ---- the writer thread
     def _run(self) -> None:
@@ -73,23 +74,23 @@ class Tap:
             res, seq = m["r"], int(m["q"])
             last = self._last.get(res)
             if last is not None and seq != last + 1:
-                self.c["gaps"] += 1
+                self.c.add("gaps")
             self._last[res] = seq
             self.writer.write(res, seq, float(m["ts"]), m["v"])
-            self.c["written"] += 1
+            self.c.add("written")
 
     def _write_command(self, res: str, rec: dict) -> None:
         try:
             seq, t, v = int(rec["seq"]), float(rec["t"]), dict(rec["v"])
         except (KeyError, TypeError, ValueError):
-            self.c["dropped"] += 1                  # not a command record
+            self.c.add("dropped")                  # not a command record
             return
         last = self._last_cmd.get(res)
         if last is not None and seq != last + 1:
-            self.c["command_gaps"] += 1
+            self.c.add("command_gaps")
         self._last_cmd[res] = seq
         self.writer.write_command(res, seq, t, v)
-        self.c["commands"] += 1
+        self.c.add("commands")
 
     def stop(self) -> dict:
         """Stop listening, write what is queued, close the file; the counters and the

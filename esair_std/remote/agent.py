@@ -32,6 +32,7 @@ from ..spec import Spec
 from ..transport import keys, wire
 from ..transport.bus import Bus
 from ..transport.security import LEASE_MS, link_inserts, session_inserts
+from ..counters import Counters
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..parts import SampleHandle
@@ -91,7 +92,7 @@ class RemoteAgent(Agent):
         self.proof_fn = proof_fn
         self.hostname = hostname
         self.joined = threading.Event()
-        self.c = dict(joins=0, partitions=0, restarts=0)
+        self.c = Counters(joins=0, partitions=0, restarts=0)
         self._rejoin_lock = threading.Lock()
         self._restarts: list[float] = []           # when its behavior was restarted
         if spec.kind != "resource":
@@ -106,7 +107,7 @@ class RemoteAgent(Agent):
                                  " the join")
         if "error" in r:
             raise TransportError(f"join refused: {wire.exception(r)}")
-        self.c["joins"] += 1
+        self.c.add("joins")
 
     def hello(self, **extra: Any) -> None:
         t0 = time.perf_counter()
@@ -127,7 +128,7 @@ class RemoteAgent(Agent):
             if not alive:
                 if self.joined.is_set():
                     self.joined.clear()
-                    self.c["partitions"] += 1
+                    self.c.add("partitions")
                     log.warning("%s: the control center is unreachable; waiting for it",
                                 self.spec.name)
             elif self.c["joins"] and not self.joined.is_set():
@@ -201,7 +202,7 @@ class RemoteAgent(Agent):
             if self.done.is_set() or not again:
                 self.done.set()
                 return
-            self.c["restarts"] += 1
+            self.c.add("restarts")
             log.warning("%s: restarted after it failed (%s): restart %d of at most %d "
                         "within %g s", self.spec.name, reason, len(self._restarts),
                         self.spec.restart_max, self.spec.restart_within)

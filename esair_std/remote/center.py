@@ -30,6 +30,7 @@ from ..modes.process import ProcessComponent, ProcessMode
 from ..spec import Spec
 from ..transport.security import LEASE_MS, access_control, link_inserts, session_inserts
 from .identity import Verifier
+from ..counters import Counters
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..deploy.model import Deployment
@@ -117,7 +118,7 @@ class Center:
 
         self.verifier = (Verifier(full(sec.ca), full(sec.users))
                          if sec is not None and sec.agents else None)
-        self.c = dict(joins=0, joins_refused=0, lost=0, back=0)
+        self.c = Counters(joins=0, joins_refused=0, lost=0, back=0)
         self._lock = threading.Lock()
 
     def _mode(self) -> ProcessMode:
@@ -133,7 +134,7 @@ class Center:
         try:
             return self._join(b)
         except (Refused, ControlError):
-            self.c["joins_refused"] += 1
+            self.c.add("joins_refused")
             raise
 
     def _join(self, b: dict) -> dict:
@@ -166,7 +167,7 @@ class Center:
                 raise ControlError(f"a {rec.spec.kind} named {name!r} is already deployed")
             host.quiet = True                     # do not tell the (returning) agent to stop
             self.rt.bs.request(self.rt.bs.remove, name)
-            self.c["back"] += 1
+            self.c.add("back")
         mode.remote[name] = info
         box: list = []
         mode.threads.start(self._add, spec, box, name=f"esair:join:{name}")
@@ -174,7 +175,7 @@ class Center:
             raise ControlError(f"{name!r}: the behavior supervisor did not take it in time")
         if box and not box[0][0]:
             raise box[0][1]
-        self.c["joins"] += 1
+        self.c.add("joins")
         return {"generation": 1, "robot": self.rt.robot}
 
     def _add(self, spec: Spec, box: list) -> None:
@@ -195,7 +196,7 @@ class Center:
                 raise ControlError(f"a resource named {spec.name!r} is already deployed")
             mode.remote[spec.name] = info
             mode.rejoin(host)                     # its hello sets its children ready again
-            self.c["back"] += 1
+            self.c.add("back")
             return {"generation": 1, "robot": self.rt.robot}
         if spec.name in self.rt.bs.records:
             raise ControlError(f"a {self.rt.bs.records[spec.name].spec.kind} named "
@@ -207,7 +208,7 @@ class Center:
             raise ControlError(f"{spec.name!r}: the resource supervisor did not take it")
         if box and not box[0][0]:
             raise box[0][1]
-        self.c["joins"] += 1
+        self.c.add("joins")
         return {"generation": 1, "robot": self.rt.robot}
 
     def _add_resource(self, spec: Spec, box: list) -> None:
@@ -233,7 +234,7 @@ class Center:
         if host.phase in ("failed", "stopped", "lost"):
             return
         host.phase, host.reason = "lost", "remote agent unreachable (liveliness token lost)"
-        self.c["lost"] += 1
+        self.c.add("lost")
         self.rt.rs.release(host.name)
         log.warning("%s: remote agent lost", host.name)
         threading.Timer(self.lost_grace, self._grace_over, (host,)).start()

@@ -34,6 +34,7 @@ from typing import Any, Callable
 
 from ..errors import TransportError
 from .bus import Bus
+from ..counters import Counters
 
 log = logging.getLogger("esair_std.transport")
 PENDING = 4096           # calls waiting for an answer at once; more are refused at once
@@ -62,13 +63,13 @@ class SampleCaller:
                                                        # ids are skipped when due
         self._wake_at = float("inf")                   # when the timer wakes next
         self._closed = threading.Event()
-        self.c = dict(calls=0, answers=0, timeouts=0, bad_answers=0)
+        self.c = Counters(calls=0, answers=0, timeouts=0, bad_answers=0)
         bus.subscribe(answers, self._on_answer, with_key=True, garbage=self._garbage)
         self._timer = threading.Thread(target=self._expire, name="esair:calls", daemon=True)
         self._timer.start()
 
     def _garbage(self, _why: str) -> None:
-        self.c["bad_answers"] += 1
+        self.c.add("bad_answers")
 
     def call(self, key: str, peer: str, body: dict[str, Any], timeout: float,
              done: Callable[[Any], None]) -> bool:
@@ -91,7 +92,7 @@ class SampleCaller:
                     del self._pending[oid]
                     return False
                 pub = self._pubs[key] = self.bus.publisher(key, drop=True)
-        self.c["calls"] += 1
+        self.c.add("calls")
         try:
             pub({**body, "id": oid})
         except TransportError:       # not JSON, too big: the caller's error, told at once
@@ -137,9 +138,9 @@ class SampleCaller:
             else:
                 del self._pending[oid]
         if entry is None:            # garbage, another peer's id, or too late
-            self.c["bad_answers"] += 1
+            self.c.add("bad_answers")
             return
-        self.c["answers"] += 1
+        self.c.add("answers")
         entry[1](obj)
 
     def _expire(self) -> None:
@@ -164,7 +165,7 @@ class SampleCaller:
                     return
                 _d, oid = heapq.heappop(self._deadlines)
             if self._finish(oid, None):
-                self.c["timeouts"] += 1
+                self.c.add("timeouts")
 
     def close(self) -> None:
         """Every call still waiting is answered None; the timer has ended on return (a
@@ -192,11 +193,11 @@ class SampleServer:
         self.handler = handler
         self._pubs: dict[str, Callable[[Any], None]] = {}
         self._lock = threading.Lock()
-        self.c = dict(requests=0, bad_requests=0)
+        self.c = Counters(requests=0, bad_requests=0)
         bus.subscribe(requests, self._on_request, with_key=True, garbage=self._garbage)
 
     def _garbage(self, _why: str) -> None:
-        self.c["bad_requests"] += 1
+        self.c.add("bad_requests")
 
     def forget(self, request_key: str) -> None:
         """The peer sending on ``request_key`` is gone: its answer publisher is given
@@ -221,13 +222,13 @@ class SampleServer:
     def _on_request(self, key: str, obj: Any) -> None:
         oid = _id(obj)
         if oid is None:
-            self.c["bad_requests"] += 1          # garbage: nobody to answer
+            self.c.add("bad_requests")          # garbage: nobody to answer
             return
         pub = self._publisher(key)
         if pub is None:
-            self.c["bad_requests"] += 1          # a flood of made-up senders
+            self.c.add("bad_requests")          # a flood of made-up senders
             return
-        self.c["requests"] += 1
+        self.c.add("requests")
         sent = [False]
 
         def answer(out: dict[str, Any]) -> None:

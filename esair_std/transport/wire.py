@@ -29,6 +29,7 @@ from typing import Any, Callable, Protocol
 
 from ..errors import (CommandError, ComponentError, ControlError, DeployError, Refused,
                       ResourceLost, StdError, TransportError)
+from ..counters import Counters
 
 log = logging.getLogger("esair_std.transport")
 
@@ -119,7 +120,7 @@ class Verbs:
         self.unknown = unknown
         self._now: dict[str, Handler] = {}
         self._later: dict[str, LaterHandler] = {}
-        self.c = dict(bad_requests=0)
+        self.c = Counters(bad_requests=0)
 
     def add(self, verb: str, fn: Handler) -> None:
         self._now[verb] = fn
@@ -137,7 +138,7 @@ class Verbs:
               answer: Answer) -> None:
         """Answer one request (``body`` None: garbage, ``error_`` says why)."""
         if body is None:
-            self.c["bad_requests"] += 1
+            self.c.add("bad_requests")
             answer(error(ControlError(f"bad request: {error_}")))
             return
         fn = self._later.get(verb) if isinstance(verb, str) else None
@@ -165,7 +166,7 @@ class Verbs:
     def _failed(self, verb: object, exc: Exception) -> Reply:
         if isinstance(exc, ControlError) and exc.message.startswith(
                 ("bad request", self.unknown.split("{", 1)[0])):
-            self.c["bad_requests"] += 1
+            self.c.add("bad_requests")
         elif not isinstance(exc, StdError):
             log.error("verb %s: %s: %s", verb, type(exc).__name__, exc, exc_info=exc)
         return error(exc)

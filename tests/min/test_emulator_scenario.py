@@ -80,3 +80,26 @@ def test_unknown_scenario_name(robot, arg, message):
     with pytest.raises(ConfigError) as exc:
         resolve_scenario(arg, robot.source)
     assert str(exc.value) == message
+
+
+def test_a_held_scenario_plays_from_each_play(robot, tmp_path):
+    from esair_min.emulator import Emulator
+
+    f = tmp_path / "two.yaml"
+    f.write_text("idle: 500\nsteps:\n  - {at_ms: 0, values: {left_foot: 600}}\n"
+                 "  - {at_ms: 100, values: {left_foot: 700}}\n")
+    emu = Emulator(robot, scenario=f, hold_scenario=True)
+    emu.run_for(0.5)
+    assert emu.sensor_values == (500,) * 8            # held: no step at boot
+    emu.play_scenario()                                # at 0.5 s: its at_ms 0 is now
+    emu.run_for(0.05)
+    assert emu.sensor_values == (600,) * 4 + (500,) * 4
+    emu.play_scenario()                                # again at 0.55 s: the first play's
+    emu.run_for(0.06)                                  # 700 (due at 0.6 s) is dropped
+    assert emu.sensor_values == (600,) * 4 + (500,) * 4
+    emu.run_for(0.05)                                  # 0.66 s: the second's 700 (0.65 s)
+    assert emu.sensor_values == (700,) * 4 + (500,) * 4
+    assert emu.scenario_plays == 2
+    unheld = Emulator(robot, scenario=f)
+    unheld.run_for(0.001)
+    assert unheld.sensor_values == (600,) * 4 + (500,) * 4 and unheld.scenario_plays == 1

@@ -149,6 +149,20 @@ def test_push_fires_the_balance_reaction_in_time(tmp_path, robot):
     assert fired is not None and 0 <= fired - onset <= reaction.samples * reaction.poll_ticks
 
 
+def test_a_held_scenario_plays_on_sigusr1(tmp_path):
+    f = tmp_path / "lean.yaml"
+    f.write_text("idle: 500\nsteps:\n  - {at_ms: 0, values: {left_foot: 600}}\n")
+    with emulator("--scenario", str(f), "--hold-scenario") as (proc, path):
+        with serial.Serial(path, 9600, timeout=2) as port:
+            assert ask(port, "s") == "OK " + ",".join(["500"] * 8)    # held since boot
+            proc.send_signal(signal.SIGUSR1)
+            want = "OK " + ",".join(["600"] * 4 + ["500"] * 4)
+            deadline = time.monotonic() + 10
+            while (got := ask(port, "s")) != want and time.monotonic() < deadline:
+                pass
+            assert got == want
+
+
 def test_one_reply_per_line_at_line_rate():
     # back to back, as many lines as the board's rings can absorb the longer replies of
     # (three times over, the receive ring overruns: tests/test_emulator.py)

@@ -121,6 +121,10 @@ def test_headless_run_prints_the_output():
     (("--run", "1", "--speed", "5"), "--speed works with --pty only; --run runs as fast as "
                                      "the host can"),
     (("--run", "-1"), "--run -1 must be 0 or more seconds"),
+    (("--pty", "--hold-scenario"), "--hold-scenario needs --scenario: it holds that scenario "
+                                   "until SIGUSR1"),
+    (("--run", "1", "--scenario", "push", "--hold-scenario"),
+     "--hold-scenario works with --pty only; with --run the scenario plays from boot"),
     (("--run", "1", "--noise", "-2"), "noise rate -2 must be 0 or more bytes per second"),
     (("--run", "1", "--trace", "/nonexistent/dir/t.txt"),
      "cannot write the trace /nonexistent/dir/t.txt: No such file or directory"),

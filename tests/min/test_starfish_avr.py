@@ -63,7 +63,7 @@ def test_build_prints_each_boards_exact_footprint_within_goal(built):
     # avr-gcc 5.4.0, avr-libc 2.0.0; program = .text + .data, RAM = .data + .bss
     assert stdout.splitlines() == [
         "board    program memory           RAM (with stack)               stack  mcu",
-        "central  3312 B of 32768 (10.1%)  560 B of 2048 (27.3%) + stack  -      atmega328p",
+        "central  3322 B of 32768 (10.1%)  314 B of 2048 (15.3%) + stack  -      atmega328p",
         "drive    1240 B of 32768 (3.8%)   41 B of 2048 (2.0%) + stack    -      atmega328p",
     ]
     central = elf_usage(elf(built, "central"))
@@ -81,8 +81,16 @@ def test_central_in_simavr_equals_the_python_core_and_the_pic(built, robot):
     assert len(run.flow[0]) == len(run.flow[1]) == 3 * 92
     assert {r[:2] for r in run.flow[0]} == {"02", "03", "04"}
     assert got.flow_errors == []                     # every read waited tSRAD
-    # the deepest stack of the run: 560 B + 44 B = 604 B of RAM, within the 1 KB goal
+    # the deepest stack of the run: 314 B + 44 B = 358 B of RAM, within the 1 KB goal
     assert got.sim.stack_bytes == 44
+
+
+def test_the_central_boards_texts_are_in_flash(built):
+    """Every reply and notice text (es_t_*, PROGMEM) is in program memory, below the
+    data space (0x800000): 560 B of RAM while they were copied to .data, 314 B now."""
+    central = elf(built, "central")
+    for name in ("es_t_E01", "es_t_OK", "es_t_WATCHDOG", "es_t_VERSION"):
+        assert symbol(central, name) < 0x800000, name
 
 
 MOTION = """rx v
@@ -170,11 +178,12 @@ def test_both_boards_together_and_the_watchdog_stops_the_wheels(built, robot):
 def test_central_cycles_in_the_avr_build(built, robot):
     got = measure_central(robot, elf(built, "central"), "V-0345+0456-2789")
     # at 16 MHz: kinematics 62.6 us (the PIC: 3495 instruction cycles, 699 us); the CR
-    # of the line 168 us; a tick 705 us, of which 6 x tSRAD (100 us) is the sensors' wait
-    assert (got.kinematics, got.rx_line, got.tick) == (1002, 2681, 11285)
+    # of the line 173 us (its reply read from flash: 2681 cycles from RAM); a tick
+    # 705 us, of which 6 x tSRAD (100 us) is the sensors' wait
+    assert (got.kinematics, got.rx_line, got.tick) == (1002, 2765, 11285)
 
 
-FIRST_EARLY_READ = "sensor 0 at cycle 165508"     # the first tick's first read
+FIRST_EARLY_READ = "sensor 0 at cycle 163294"     # the first tick's first read
 
 
 def test_a_read_sooner_than_tsrad_is_reported_by_the_sensor_model(robot, tmp_path):

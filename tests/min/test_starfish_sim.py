@@ -5,14 +5,18 @@ a wall stopping it, a lifted flow sensor, and the trace."""
 from __future__ import annotations
 
 import dataclasses
+from pathlib import Path
 
 import pytest
 
 from esair_min.components.omni_base.core import WATCHDOG_NOTICE, velocity_line
 from esair_min.components.optical_flow.odometry import parse_odometry
-from esair_min.emulator.starfish import READY_LINE, FlowOptions, StarfishSim, drive_square
+from esair_min.emulator.starfish import FlowOptions, StarfishSim, drive_square
 from esair_min.emulator.uart import byte_time_ns
+from esair_min.model.validate import load_robot
 from esair_min.world import Pose, World
+
+ROOT = Path(__file__).resolve().parents[2]
 
 VERSION = "OK esair-min/1 starfish wheels=3 flow=2 watchdog=500 checksum=off"
 
@@ -100,7 +104,7 @@ def test_a_reply_arrives_at_the_pace_of_the_board_files_baud(starfish, baud):
     assert robot.central.uart.baud == baud
     sim = StarfishSim(robot, World(pose=Pose(1000, 2500, 0)))
     sim.settle()
-    assert sim.read() == READY_LINE
+    assert sim.read() == b"!READY esair-min/1 starfish\r\n"
     byte = byte_time_ns(baud)
     reply = (VERSION + "\r\n").encode()
     t0 = sim.clock.now
@@ -117,6 +121,18 @@ def test_a_reply_arrives_at_the_pace_of_the_board_files_baud(starfish, baud):
     assert bytes(got) == reply
     sim.run_for(0.1)
     assert sim.read() == b""
+
+
+@pytest.mark.parametrize("name", ["starfish", "starfish-avr"])
+def test_the_boot_notice_names_the_robot_emulated(name):
+    """`!READY esair-min/1 <robot>` at reset, the robot's name as in its `v` reply."""
+    robot = load_robot(ROOT / "boards" / name)
+    sim = StarfishSim(robot, World(pose=Pose(1000, 2500, 0)))
+    sim.settle()
+    assert sim.read() == f"!READY esair-min/1 {name}\r\n".encode()
+    sim.write(b"v\r\n")
+    sim.settle()
+    assert sim.read().startswith(f"OK esair-min/1 {name} wheels=3 ".encode())
 
 
 def test_lines_faster_than_their_replies_overrun_the_ring(starfish):

@@ -8,7 +8,6 @@ pull it and plug it back; its trace is read after it stopped.
 
 from __future__ import annotations
 
-import math
 import threading
 from pathlib import Path
 
@@ -25,7 +24,6 @@ ROOT = Path(__file__).resolve().parents[2]
 PAPAMAN = ROOT / "boards" / "papaman"
 EXAMPLE = ROOT / "esair_std" / "examples" / "papaman" / "papaman.yaml"
 ACTUATOR = 0x10
-LATER_MS = 5000   # process mode (an OS process per component) may take seconds to deploy
 
 
 @pytest.fixture(scope="module")
@@ -116,15 +114,15 @@ def test_a_put_starts_the_dance(start, emulated, robot):
     assert ticks == list(range(ticks[0], ticks[0] + len(frames)))  # one per tick
 
 
-def test_the_push_reaches_the_watcher_and_its_stop_the_robot(start, emulated, robot, tmp_path):
-    # the bundled push scenario, 2 s later: the runtime has started by then on a busy machine
-    push = yaml.safe_load((PAPAMAN / "scenarios" / "push.yaml").read_text())
-    for step in push["steps"][1:]:
-        step["at_ms"] += LATER_MS
-    (tmp_path / "push_later.yaml").write_text(yaml.safe_dump(push))
-    emu = emulated("--scenario", str(tmp_path / "push_later.yaml"))
+def test_the_push_reaches_the_watcher_and_its_stop_the_robot(start, emulated, robot):
+    # the bundled push scenario, held until the deployment is up (a process-mode deploy
+    # takes seconds on a busy machine): played (SIGUSR1) once the watcher runs and the
+    # feet's samples reach it, so its clock starts at readiness, not at the emulator's boot
+    emu = emulated("--scenario", "push", "--hold-scenario")
     rt = start(example(emu.port))
     rt.wait_state("watcher", "running")
+    wait_for(lambda: rt.get("watcher")["samples"] >= 2, timeout=30, what="the feet's samples")
+    emu.play_scenario()
     # stop, then stand (tried again while the firmware's own balance motion plays: E07);
     # the firmware's `!R` notice comes on its own sensor, in no set order with the
     # reaction's commands: both waited for
@@ -138,13 +136,27 @@ def test_the_push_reaches_the_watcher_and_its_stop_the_robot(start, emulated, ro
     assert reaction["shift"] == 1360 and reaction["sent"] == ["x", "t"], got
     # in the trace: the firmware's own reaction (its notice), then the host's stand pose
     # (every servo to its stand angle at its default speed), written after the tilt began
+    # (the tick of the firmware's first read of the tipping feet: 680 left, 340 right)
     stand = b"\x00" + b"".join(bytes(encode(s.stand_angle, s.default_speed))
                                for s in robot.servos)
-    onset = math.ceil((1.100 + LATER_MS / 1000) / robot.central.timer2.period_s)
     lines = without_marks(emu.trace.read_text().splitlines())
+    tipping = (680).to_bytes(2, "little").hex().upper() * 4 + (340).to_bytes(2, "little").hex().upper() * 4
+    onset = sensor_read_ticks(lines, robot.peer("sensor").address, tipping)[0]
     assert "TX " + b"!R auto_balance\r\n".hex().upper() in lines
     assert any(t >= onset and w == stand for t, w in actuator_writes(emu.trace))
     assert got["firmware_reactions"] >= 1
+
+
+def sensor_read_ticks(lines: list[str], address: int, readings: str) -> list[int]:
+    """Ticks at which the central board read ``readings`` (hex) from the sensor board at
+    ``address``."""
+    tick, out = 0, []
+    for line in lines:
+        if line.startswith("T "):
+            tick = int(line[2:])
+        elif line.startswith(f"R {address:02X} ") and line.endswith(" " + readings):
+            out.append(tick)
+    return out
 
 
 def test_resources_are_lost_while_the_robot_is_pulled(start, emulated):

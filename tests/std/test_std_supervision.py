@@ -291,7 +291,9 @@ def test_a_put_to_a_stopped_runtime_returns_at_its_timeout(tmp_path):
             time.sleep(1.5)          # the putter's steps meanwhile: each put gives up
         finally:
             proc.send_signal(signal.SIGCONT)
-        wait_for(lambda: got().get("failed", 0) >= 2, what="puts that gave up")
+        # >= 1, not more: on a busy machine the putter's process may get the CPU for
+        # only one of the puts that time out while the runtime is stopped
+        wait_for(lambda: got().get("failed", 0) >= 1, what="a put that gave up")
         ok = got()["ok"]
         wait_for(lambda: got().get("ok", 0) > ok, what="puts again")
         rows = ls()

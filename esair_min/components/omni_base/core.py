@@ -62,6 +62,12 @@ def version_line(robot: str, wheels: int, flow: int, watchdog_ms: int, checksum:
             f"checksum={'on' if checksum else 'off'}{ident}").encode() + b"\r\n"
 
 
+def ready_line(robot: str) -> bytes:
+    """The notice the emulated central board sends at reset: the robot it is, by name
+    (``!READY esair-min/1 starfish-avr`` for STARFISH on the AVR), as its ``v`` reply."""
+    return f"!READY {PROTOCOL_NAME} {robot}\r\n".encode()
+
+
 def velocity_line(vx: int, vy: int, omega: int) -> str:
     """The command line for a body velocity (mm/s, mm/s, mrad/s)."""
     return "V" + "".join(f"{v:+05d}" for v in (vx, vy, omega))

@@ -151,6 +151,16 @@ class EmulatedRobot:
         self._errors = None
         self.pty = None
 
+    def play_scenario(self) -> None:
+        """Play the emulator's scenario from its start now (SIGUSR1; started with
+        ``--hold-scenario``, the scenario waits for this, not for boot)."""
+        with self._lock:
+            proc = self.proc
+            if proc is None or proc.poll() is not None:
+                raise LinkError(f"the emulated robot on {self.port} is not running: no "
+                                "scenario to play")
+            proc.send_signal(signal.SIGUSR1)
+
     def kill(self) -> None:
         """Pull the robot: SIGKILL the emulator and remove the port's link."""
         self._unlink()

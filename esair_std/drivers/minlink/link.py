@@ -72,6 +72,7 @@ from esair_min.core.protocol import RX_RING, Code, parse_reply
 from esair_min.model.robot import Robot
 from esair_min.serialport import LOCKED, describe, open_port
 
+from ...counters import Counters
 from .budget import LineBudget, line_budget
 from .commands import VERSION_PREFIX, RobotCommands
 from .errors import DifferentRobot, Expired, LinkDown, LinkError, RobotRefused
@@ -149,7 +150,7 @@ class Link:
         self._known = expect_id is not None  # else learnt at the first connect
         self.may_open = may_open
         self.up_since = 0.0                # time.monotonic() of the last connect
-        self.stats: collections.Counter[str] = collections.Counter()
+        self.stats = Counters()             # the I/O thread and callers count
         self._notices: collections.deque[tuple[str, float]] = collections.deque(
             maxlen=notice_capacity)
         # _lock guards _flight, _queue, _polls, _port, _up, _reason; _write_lock: one
@@ -248,17 +249,17 @@ class Link:
                 raise LinkDown(f"link to {self.port} is down ({self._reason}): "
                                f"{line!r} not sent")
             if asked is not None and asked < self.up_since:
-                self.stats["expired"] += 1
+                self.stats.add("expired")
                 raise Expired(f"link to {self.port}: {line!r} was asked before the link "
                               f"came back; dropped")
             if now > deadline:
-                self.stats["expired"] += 1
+                self.stats.add("expired")
                 raise Expired(self._expired_text(ex))
             ahead = self._queue or (poll and self._polls)
             if not ahead and self._may_go(ex):
                 self._write_started([self._start(ex)])      # releases _write_lock
             elif len(self._queue) + len(self._polls) >= QUEUE_MAX:
-                self.stats["busy"] += 1
+                self.stats.add("busy")
                 raise LinkError(f"link to {self.port} busy: {QUEUE_MAX} commands wait; "
                                 f"{line!r} not sent")
             else:
@@ -269,7 +270,7 @@ class Link:
                 if waiting:
                     (self._polls if poll else self._queue).remove(ex)
             if waiting:
-                self.stats["expired"] += 1
+                self.stats.add("expired")
                 raise Expired(self._expired_text(ex))
         # the I/O thread owns the deadline; this wait is only a safety net
         if not ex.done.wait(2 * timeout + 2 * self.settle_s + 5.0):
@@ -301,7 +302,7 @@ class Link:
         # sent before the write: its reply may come before write() returns
         ex.sent, ex.t_sent, ex.sent_bytes = True, now, len(wire)
         if self._flight:
-            self.stats["duplex"] += 1               # written while a reply arrives
+            self.stats.add("duplex")               # written while a reply arrives
         self._last_write = now
         self._flight.append(ex)
         ex.started.set()
@@ -340,7 +341,7 @@ class Link:
             for ex, port, wire in starts:
                 try:
                     port.write(wire)
-                    self.stats["sent"] += 1
+                    self.stats.add("sent")
                 except Exception as exc:  # noqa: BLE001 - pySerial's errors vary
                     ex.sent = False             # the error says: not sent
                     failed = (describe(exc), port)
@@ -423,7 +424,7 @@ class Link:
         if head.settle_until is not None and now >= head.settle_until:
             self._settled(head)
         elif head.settle_until is None and now - head.t_sent > head.timeout:
-            self.stats["timeouts"] += 1
+            self.stats.add("timeouts")
             self._down(f"no reply to {head.line!r} within {head.timeout:g} s")
 
     def _take(self, data: bytes) -> None:
@@ -434,7 +435,7 @@ class Link:
             if i < 0:
                 if len(self._buf) > MAX_LINE_BYTES:
                     self._buf.clear()
-                    self.stats["garbled"] += 1
+                    self.stats.add("garbled")
                 break
             raw = bytes(self._buf[:i])
             del self._buf[:i + 1]
@@ -452,11 +453,11 @@ class Link:
 
     def _line(self, text: str) -> None:
         if text.startswith("!"):
-            self.stats["notices"] += 1
+            self.stats.add("notices")
             t = time.time()
             with self._lock:
                 if len(self._notices) == self._notices.maxlen:
-                    self.stats["notices_dropped"] += 1
+                    self.stats.add("notices_dropped")
                 self._notices.append((text[1:], t))
             if self.on_notice is not None:
                 self.on_notice(text[1:], t)
@@ -464,11 +465,11 @@ class Link:
         try:
             reply = parse_reply(text)
         except ProtocolError:
-            self.stats["garbled"] += 1
+            self.stats.add("garbled")
             return
         flight = list(self._flight)
         if not flight or not flight[0].sent or flight[0].done.is_set():
-            self.stats["strays"] += 1
+            self.stats.add("strays")
             return
         head, second = flight[0], (flight[1] if len(flight) > 1 else None)
         if reply.kind == "ok":
@@ -480,7 +481,7 @@ class Link:
                 self._settled(head)
                 self._finish(second, data=reply.data)
             else:
-                self.stats["strays"] += 1
+                self.stats.add("strays")
             return
         assert reply.code is not None
         refused = RobotRefused(head.line, reply.code, text)
@@ -491,7 +492,7 @@ class Link:
             else:
                 self._finish(head, error=refused)
         elif second is None:
-            self.stats["strays"] += 1
+            self.stats.add("strays")
         elif reply.code in WIRE_CODES:
             # noise's, the head's, or the second's: the second's candidate
             head.later_error = RobotRefused(second.line, reply.code, text)
@@ -516,7 +517,7 @@ class Link:
                 error: LinkError | None = None) -> None:
         ex.t_reply = time.monotonic()
         ex.data, ex.error = data, error
-        self.stats["refused" if isinstance(error, RobotRefused) else "ok"] += 1
+        self.stats.add("refused" if isinstance(error, RobotRefused) else "ok")
         with self._lock:
             if self._flight and self._flight[0] is ex:
                 self._flight.popleft()
@@ -529,7 +530,7 @@ class Link:
             starts, expired = self._pump()
             self._write_started(starts)
         for late in expired:
-            self.stats["expired"] += 1
+            self.stats.add("expired")
             late.error = Expired(self._expired_text(late))
             late.started.set()
             late.done.set()
@@ -568,7 +569,7 @@ class Link:
         self._buf.clear()
         self._partial_since = 0.0
         _close_quietly(port)
-        self.stats["downs"] += 1
+        self.stats.add("downs")
         if self.on_state is not None:
             self.on_state(False, reason)
 
@@ -595,7 +596,7 @@ class Link:
                     return
                 self._port, self._up, self._reason = port, True, "up"
                 self.up_since = time.monotonic()
-            self.stats["reconnects"] += 1
+            self.stats.add("reconnects")
             if self.on_state is not None:
                 self.on_state(True, "up")
             return
@@ -614,7 +615,7 @@ class Link:
                 why = describe(exc)
                 if why != LOCKED:
                     raise LinkError(f"cannot open {self.port}: {why}") from None
-                self.stats["port_locked"] += 1
+                self.stats.add("port_locked")
                 left = deadline - time.monotonic()
                 if left <= 0 or self._stop.wait(min(wait, left)):
                     raise LinkError(f"cannot open {self.port}: {why}") from None
