@@ -46,7 +46,8 @@ def plan(sim: StarfishSim) -> list[tuple] | None:
     if len(sim.drive.rims) != 3 or len(sim.sensors) != len(sim.core.sums):
         return None
     for s, read in zip(sim.sensors, sim.core._readers, strict=True):
-        if getattr(read, "__func__", None) is not _DELTAS or read.__self__ is not s:
+        if (getattr(read, "__func__", None) is not _DELTAS
+                or getattr(read, "__self__", None) is not s):
             return None
     return [(s, s._rng.random, sums, fx, fy, fc, fs)
             for s, sums, (fx, fy, fc, fs) in zip(sim.sensors, sim.core.sums, sim._frames,
