@@ -31,18 +31,9 @@ from esair_min.components.optical_flow.core import Adns2610
 from esair_min.emulator.clock import VirtualClock
 from esair_min.emulator.line import SerialHost
 from esair_min.emulator.starfish_run import central_run, plan
+from esair_min.emulator.starfish_trace import TraceRow
 from esair_min.emulator.uart import GAP, RX_BYTE, RX_HOLD, RX_TAKE, Uart
 from esair_min.world import World
-
-
-@dataclass(frozen=True)
-class TraceRow:
-    t_s: float
-    x: float
-    y: float
-    theta: float
-    wheels: tuple[float, ...]
-    collided: bool
 
 
 @dataclass

@@ -19,27 +19,28 @@ sensor's generator holds half a Gaussian pair, or a reader is not an
 reads would come too early (the plain path runs that tick: its notice, its write, its
 error), and when the next tick is not the next thing to happen
 (:meth:`VirtualClock.advance_inline`).
+
+``sim`` is a :class:`~esair_min.emulator.starfish.StarfishSim` (typed ``Any``: that
+module imports this one).
 """
 
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from typing import Any
 
 from esair_min.components.optical_flow.core import (_BURST_END_NS, _BURST_FREE_NS, _TWOPI,
                                                     MAX_SPEED_IPS, MM_PER_INCH, REG_SQUAL,
                                                     Adns2610)
+from esair_min.emulator.starfish_trace import TraceRow
 from esair_min.world.body import _REST, _pose
-
-if TYPE_CHECKING:
-    from esair_min.emulator.starfish import StarfishSim
 
 _M32 = (1 << 32) - 1
 _DELTAS = Adns2610.deltas
 _cos, _sin, _hypot, _sqrt, _log = math.cos, math.sin, math.hypot, math.sqrt, math.log
 
 
-def plan(sim: StarfishSim) -> list[tuple] | None:
+def plan(sim: Any) -> list[tuple] | None:
     """What a run needs of each flow sensor that stays as it is (the sensor, its
     generator's ``random``, its sums, its mount frame), built once; None when the sim
     cannot run ticks in one call (three wheels, each reader an Adns2610's burst)."""
@@ -54,7 +55,7 @@ def plan(sim: StarfishSim) -> list[tuple] | None:
                                                  strict=True)]
 
 
-def central_run(sim: StarfishSim, now: int) -> None:
+def central_run(sim: Any, now: int) -> None:
     """The central board's tick due ``now`` (the drive board settled) and the ticks after
     it while nothing else is due before them: :meth:`StarfishSim._central_settled` of
     each, in one call."""
@@ -67,7 +68,7 @@ def central_run(sim: StarfishSim, now: int) -> None:
         return
     objs = sim.sensors
     for s in objs:
-        if s.noise and s._rng.gauss_next is not None:      # type: ignore[attr-defined]
+        if s.noise and s._rng.gauss_next is not None:
             sim._central_settled(now)                      # half a pair drawn: random.gauss
             return
     clock, core = sim.clock, sim.core
@@ -93,7 +94,6 @@ def central_run(sim: StarfishSim, now: int) -> None:
     idle, wticks, driving = core.idle_ticks, core.watchdog_ticks, any(core.commanded)
     trace = None
     if sim.keep_trace:
-        from esair_min.emulator.starfish import TraceRow     # (it imports this module)
         trace = sim.trace
     collided = sim._collided
     ran = 0
