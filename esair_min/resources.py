@@ -44,7 +44,7 @@ def bundled_examples() -> list[str]:
 
 
 def resolve_robot(arg: str) -> Path:
-    """A robot path as given, or the name of a bundled example (``papaman``).
+    """A robot path as given, or the name of a bundled example (``papaman``, ``starfish``...).
 
     A path that does not exist is refused (ConfigError, no line:col); a bare name
     gets a did-you-mean among the bundled examples."""

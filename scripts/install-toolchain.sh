@@ -2,7 +2,7 @@
 # Idempotent installer for the ESAIR MIN PIC18F452 toolchain (issue 6).
 #
 #   * Debian packages: gputils, gpsim, tmux (the live view's tests) (+ build deps when SDCC has to be built);
-#     iproute2 for the STD network-namespace tests (tests/netns.py, issue 12)
+#     iproute2 for the STD network-namespace tests (tests/support/netns.py, issue 12)
 #   * the ATmega328P toolchain (issue 24), pinned to bookworm's versions: gcc-avr, binutils-avr,
 #     avr-libc, and simavr's library (libsimavr-dev, libelf-dev) for esair_min/avr's simulator driver
 #   * SDCC 4.2.0+dfsg built from Debian's *source* package, pic16 port only

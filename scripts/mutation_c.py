@@ -7,9 +7,9 @@ Python core and in the C template. For each, the checkout (tracked and untracked
 not ignored files) is copied to a temporary folder, the edits are applied, and three
 suites run there:
 
-- the differential tests (tests/test_differential.py: Python == host C);
-- the Python boundary tests (tests/test_boundaries.py: absolute expectations);
-- the C boundary tests (tests/test_boundaries_c.py: the same cases on the host C).
+- the differential tests (tests/min/test_differential.py: Python == host C);
+- the Python boundary tests (tests/min/test_boundaries.py: absolute expectations);
+- the C boundary tests (tests/min/test_boundaries_c.py: the same cases on the host C).
 
 A mutant is caught for the C when the C boundary tests fail. Slow (the differential
 tests build the C twice per mutant): not part of the test suite or CI.
@@ -35,9 +35,9 @@ PY_ENCODING = "esair_min/model/encoding.py"
 C_CENTRAL = "firmware_templates/central/core/central.c.j2"
 
 SUITES = {
-    "differential": ["tests/test_differential.py"],
-    "boundaries (Python)": ["tests/test_boundaries.py"],
-    "boundaries (C)": ["tests/test_boundaries_c.py"],
+    "differential": ["tests/min/test_differential.py"],
+    "boundaries (Python)": ["tests/min/test_boundaries.py"],
+    "boundaries (C)": ["tests/min/test_boundaries_c.py"],
 }
 
 

@@ -56,7 +56,7 @@ def main() -> None:
     firmware and motion EEPROM image, and run an emulated robot behind a serial port.
 
     ROBOT is a folder of board files (boards/papaman), one board file, or the name of
-    a bundled example (papaman).
+    a bundled example (papaman, papaman-avr, starfish, starfish-avr).
     """
 
 
@@ -250,7 +250,8 @@ def plot(trace: str, output: str, robot: str, targets: bool) -> None:
 
     if trace.endswith(".mcap"):
         from esair_min.cli.plotmcap import plot_mcap
-        click.echo(f"{plot_mcap(trace, output)} samples -> {output}")
+        samples, values = plot_mcap(trace, output)
+        click.echo(f"{samples} samples ({values} values) -> {output}")
         return
     if is_starfish_trace(trace):
         from esair_min.cli.plotroom import plot_room

@@ -27,11 +27,13 @@ def _numbers(value: object) -> dict[str, float]:
     return out
 
 
-def read_mcap(path: Path | str) -> tuple[dict[str, dict[str, list]], list[tuple[float, str]]]:
-    """Per channel {field: [(t, number)...]}, and the reactions (t, notice)."""
+def read_mcap(path: Path | str) -> tuple[dict[str, dict[str, list]], list[tuple[float, str]], int]:
+    """Per channel {field: [(t, number)...]}, the reactions (t, notice), and how many
+    samples had numbers to draw."""
     from mcap.reader import make_reader
     series: dict[str, dict[str, list]] = {}
     reactions: list[tuple[float, str]] = []
+    samples = 0
     try:
         with open(path, "rb") as f:
             for schema, channel, message in make_reader(f).iter_messages(log_time_order=True):
@@ -43,18 +45,21 @@ def read_mcap(path: Path | str) -> tuple[dict[str, dict[str, list]], list[tuple[
                     if value["notice"].startswith("R "):
                         reactions.append((t, value["notice"]))
                     continue
-                for k, v in _numbers(value).items():
+                numbers = _numbers(value)
+                samples += bool(numbers)
+                for k, v in numbers.items():
                     series.setdefault(channel.topic, {}).setdefault(k, []).append((t, v))
     except OSError as exc:
         raise EsairError(f"cannot read {path}: {exc.strerror}") from None
     except Exception as exc:  # noqa: BLE001 - the mcap reader's and JSON's errors
         raise EsairError(f"{path} is not an MCAP recording of ESAIR samples: {exc}") from None
-    return series, reactions
+    return series, reactions, samples
 
 
-def plot_mcap(path: Path | str, out: Path | str) -> int:
-    """Draw the recording into the PNG ``out``; returns the samples drawn."""
-    series, reactions = read_mcap(path)
+def plot_mcap(path: Path | str, out: Path | str) -> tuple[int, int]:
+    """Draw the recording into the PNG ``out``; returns the samples drawn and the numbers
+    in them (the feet's: 8 readings and 2 sums a sample)."""
+    series, reactions, samples = read_mcap(path)
     if not series:
         raise EsairError(f"{path} holds no numeric samples to plot")
     import matplotlib
@@ -82,4 +87,4 @@ def plot_mcap(path: Path | str, out: Path | str) -> int:
         raise EsairError(f"cannot write {out}: {exc.strerror}") from None
     finally:
         plt.close(fig)
-    return n
+    return samples, n

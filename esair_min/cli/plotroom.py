@@ -4,12 +4,25 @@ landmarks, start and end, wall contacts), and the wheels' rim speeds over time."
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 from esair_min.emulator.starfish_trace import read_trace
 
 
 def plot_room(trace: Path | str, output: Path | str) -> int:
     """Draw ``trace`` into the PNG ``output``; return the number of rows drawn."""
+    import matplotlib.pyplot as plt
+
+    fig, rows = room_figure(trace)
+    fig.savefig(output, dpi=90)
+    plt.close(fig)
+    return rows
+
+
+def room_figure(trace: Path | str) -> tuple[Any, int]:
+    """The figure of ``trace`` (matplotlib's, Agg) and the number of rows drawn. Laid out
+    by matplotlib's constrained layout, which keeps the legend beside the map inside the
+    figure (tight_layout left it cut at the right edge: "path (true pos")."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -17,7 +30,7 @@ def plot_room(trace: Path | str, output: Path | str) -> int:
 
     tr = read_trace(trace)
     fig, (room_ax, wheel_ax) = plt.subplots(
-        2, 1, figsize=(7, 9), gridspec_kw={"height_ratios": [3, 1]})
+        2, 1, figsize=(7, 9), gridspec_kw={"height_ratios": [3, 1]}, layout="constrained")
     for w in tr.room.walls:
         room_ax.plot([w.x0 / 1000, w.x1 / 1000], [w.y0 / 1000, w.y1 / 1000], color="black",
                      linewidth=2)
@@ -46,7 +59,4 @@ def plot_room(trace: Path | str, output: Path | str) -> int:
     wheel_ax.set_ylabel("rim speed (mm/s)")
     if tr.t:
         wheel_ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(output, dpi=90)
-    plt.close(fig)
-    return len(tr.t)
+    return fig, len(tr.t)

@@ -12,10 +12,10 @@ def robot_summary(robot: Robot) -> list[str]:
     c = robot.central
     lines = [f"robot '{robot.name}': {len(robot.boards)} boards "
              f"({', '.join(f'{b.board} [{b.role}]' for b in robot.boards)})"]
+    names = ", ".join(m.name for m in sorted(robot.motions, key=lambda m: m.number))
     lines.append(f"  servos: {len(robot.servos)}, sensors: {len(robot.sensors)}, "
-                 f"commands: {len(robot.commands)}, motions: {len(robot.motions)} "
-                 f"({', '.join(m.name for m in sorted(robot.motions, key=lambda m: m.number))}), "
-                 f"reactions: {len(c.reactions)}")
+                 f"commands: {len(robot.commands)}, motions: {len(robot.motions)}"
+                 f"{f' ({names})' if names else ''}, reactions: {len(c.reactions)}")
     eeprom = robot.eeprom
     if eeprom is not None:
         used = robot.layout.total_bytes

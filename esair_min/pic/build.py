@@ -118,9 +118,12 @@ def build_robot(robot: Robot, out_dir: Path, tc: Toolchain | None = None) -> lis
 
 
 def summary_lines(builds: list[BoardBuild]) -> list[str]:
-    """The footprint table ``esair build`` prints (RAM includes the software stack)."""
+    """The footprint table ``esair build`` prints. A PIC18F452's RAM includes its software
+    stack (SDCC reserves it); an ATmega328P's stack grows at run time on top of the static
+    RAM shown (``+ stack``), so with such a board the column is plain ``RAM``."""
     avr = any(b.part == "atmega328p" for b in builds)
-    rows = [("board", "program memory", "RAM (with stack)", "stack") + (("mcu",) if avr else ())]
+    rows = [("board", "program memory", "RAM" if avr else "RAM (with stack)", "stack")
+            + (("mcu",) if avr else ())]
     for b in builds:
         u = b.usage
         flash, ram = b.flash_bytes, b.ram_bytes

@@ -8,7 +8,7 @@ script drops to 0 V) falls, the
 firmware latches, and ``FileRecorder`` modules record every servo pin. Pulse widths
 are measured on the recordings and compared with ``pulse_min + (pulse_max -
 pulse_min) * angle / 180``. The recorders, sync line and pulse measurement are shared
-with the real I2C master of :mod:`esair_min.pic.gpsim_i2c` (tests/test_gpsim_slaves.py).
+with the real I2C master of :mod:`esair_min.pic.gpsim_i2c` (tests/min/test_gpsim_slaves.py).
 """
 
 from __future__ import annotations

@@ -18,7 +18,7 @@ def check(file: str, no_import: bool) -> None:
     """Check a deployment file and print a short summary.
 
     FILE is a deployment file, a folder holding FOLDER/FOLDER.yaml, or the name of a
-    bundled example (papaman).
+    bundled example (lab, papaman, starfish).
 
     Every class is imported (from the file's folder first, then sys.path) unless
     --no-import is given. Notes (e.g. an allow naming a behavior the file does not
@@ -53,7 +53,7 @@ def schema(indent: int) -> None:
 @click.argument("folder", metavar="DIR")
 @friendly
 def new(example: str, folder: str) -> None:
-    """Copy bundled example NAME (papaman, lab) into DIR: its deployment file and its
+    """Copy bundled example NAME (lab, papaman, starfish) into DIR: its deployment file and its
     behaviors' modules, to edit. The copy passes `esair std check` and runs as is
     (`esair std run DIR`); the classes are imported from DIR first."""
     from esair_std.deploy.bundled import copy_example

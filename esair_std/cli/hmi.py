@@ -128,6 +128,11 @@ def hmi_password_cmd(file: str, user: str) -> None:
 COMMANDS = [hmi_cmd, hmi_password_cmd]
 
 
+def counted(n: int, word: str) -> str:
+    """``1 sample``, ``2 samples``: a count with its noun."""
+    return f"{n} {word}{'' if n == 1 else 's'}"
+
+
 @click.command("record")
 @click.argument("out", metavar="OUT.mcap", type=click.Path(dir_okay=False))
 @click.argument("names", nargs=-1, metavar="[NAMES]...")
@@ -154,9 +159,9 @@ def record_cmd(out: str, names: tuple[str, ...], endpoint: str | None,
     click.echo(f"recording to {out}", err=True)
     stop.wait(seconds)
     c = rec.stop()
-    click.echo(f"{out}: {c['written']} samples and {c['commands']} commands on "
-               f"{c['channels']} channels, {c['dropped']} dropped, "
-               f"{c['gaps'] + c['command_gaps']} gaps in seq", err=True)
+    click.echo(f"{out}: {counted(c['written'], 'sample')} and "
+               f"{counted(c['commands'], 'command')} on {counted(c['channels'], 'channel')}, "
+               f"{c['dropped']} dropped, {c['gaps'] + c['command_gaps']} gaps in seq", err=True)
     sys.stdout.flush()
     sys.stderr.flush()
     os._exit(0)
@@ -165,11 +170,12 @@ def record_cmd(out: str, names: tuple[str, ...], endpoint: str | None,
 @click.command("replay")
 @click.argument("file", metavar="FILE.mcap", type=click.Path(exists=True, dir_okay=False))
 @click.option("-e", "--endpoint", default=None, metavar="tcp/HOST:PORT",
-              help="The runtime's control endpoint.")
+              help="The runtime's control endpoint (default tcp/127.0.0.1:7447, or "
+                   "$ESAIR_STD_ENDPOINT).")
 @click.option("--name", default="replay", show_default=True,
               help="The resource entry: its sensors are NAME.<recorded sensor>.")
 @click.option("--speed", type=click.FloatRange(min=0, min_open=True), default=1.0,
-              show_default=True)
+              show_default=True, help="Pace: 2 plays the recording twice as fast.")
 @click.option("--loop", is_flag=True, help="Start again at the end.")
 @friendly
 def replay_cmd(file: str, endpoint: str | None, name: str, speed: float, loop: bool) -> None:

@@ -261,7 +261,8 @@ def run(endpoint: str, name: str, class_path: str, kind: str, uses: dict | None 
         bus = Bus(connect=[endpoint], options=session_options(sec))
     except TransportError as exc:
         raise TransportError(f"cannot reach the control center at {endpoint}: "
-                             f"{str(exc).split(': ', 1)[-1]}") from None
+                             f"{str(exc).split(': ', 1)[-1]} (is `esair std run` listening "
+                             "there?)") from None
     try:
         robot = robot or find_robot(bus, endpoint)
         agent = RemoteAgent(bus, robot, spec, proof_maker(lambda: robot, name, sec),

@@ -13,7 +13,7 @@ Two layers keep strangers out of a robot (docs/std-network.md, "Security"):
 
 The RS/AC checks (registration against the deployment's ``allow``) stay on top of both.
 
-Zenoh 1.10 keys used (checked against real sessions in tests/test_std_security.py):
+Zenoh 1.10 keys used (checked against real sessions in tests/net/test_std_security.py):
 ``transport/link/tls/{root_ca_certificate, listen_certificate, listen_private_key,
 connect_certificate, connect_private_key, enable_mtls, verify_name_on_connect}`` —
 ``enable_mtls`` must be true on BOTH sides, else the connecting side sends no

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 from typing import Any
 
 import zenoh
@@ -22,6 +23,16 @@ from ..errors import TransportError
 # 16: 0 of 12 cuts stalled its local puts, against 5 of 12 with the default).
 HUB_RUNTIME = "(rx: (worker_threads: 16))"
 hub_runtime_set = False      # True: this process set ZENOH_RUNTIME (its children must not)
+
+
+#: where in Zenoh's Rust source an error was raised (" at /root/.cargo/.../orchestrator.rs:388."):
+#: nothing a user can act on, so it is cut from the messages that quote Zenoh
+RUST_PLACE = re.compile(r"\s+at\s+\S+\.rs:\d+\.?$")
+
+
+def zenoh_message(exc: BaseException) -> str:
+    """A Zenoh error's text without the place in Zenoh's source it came from."""
+    return RUST_PLACE.sub("", str(exc).strip())
 
 
 def hub_runtime() -> None:
@@ -57,12 +68,12 @@ def open_session(listen: list[str] | None = None, connect: list[str] | None = No
         for path, value in (options or {}).items():
             cfg.insert_json5(path, json.dumps(value))
     except Exception as exc:  # zenoh raises ZError for bad endpoints / config
-        raise TransportError(f"bad session config: {exc}") from None
+        raise TransportError(f"bad session config: {zenoh_message(exc)}") from None
     try:
         return zenoh.open(cfg)
     except Exception as exc:  # noqa: BLE001 - e.g. the endpoint is in use
         where = ", ".join(listen or connect or [])
-        raise TransportError(f"cannot open a Zenoh session on {where}: {exc}") from None
+        raise TransportError(f"cannot open a Zenoh session on {where}: {zenoh_message(exc)}") from None
 
 
 def check_endpoint(endpoint: str) -> str:

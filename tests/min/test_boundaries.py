@@ -1,8 +1,8 @@
 """Every boundary of the Python core pinned from both sides, with absolute expectations
 (docs/mutation.md: the mutants these tests kill).
 
-The stimulus cases of tests/boundary_cases.py (also run on the host-built C core by
-tests/test_boundaries_c.py), then what only the Python core can be given: robots whose
+The stimulus cases of tests/support/boundary_cases.py (also run on the host-built C core by
+tests/min/test_boundaries_c.py), then what only the Python core can be given: robots whose
 stand angles, limits or checksum rule differ from PAPA-MAN's, the EEPROM image's
 limits and the reaction's comparison on its own.
 """

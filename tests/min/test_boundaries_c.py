@@ -1,5 +1,5 @@
-"""The boundary cases of tests/boundary_cases.py on the generated C core, built on the
-host: the same absolute expectations as the Python core's (tests/test_boundaries.py).
+"""The boundary cases of tests/support/boundary_cases.py on the generated C core, built on the
+host: the same absolute expectations as the Python core's (tests/min/test_boundaries.py).
 
 The differential tests only require C == Python, so a wrong boundary made in both
 cores at once passes them; these do not (docs/mutation.md, hand-made C mutants).

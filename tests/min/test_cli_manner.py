@@ -1,7 +1,7 @@
 """One CLI manner (issue 10 item 5): every option works or is refused with a reason.
 
 Run as a user would: real processes, real pipes, real ptys, and miniterm typed into.
-Option refusals of `esair emulate` and `esair send` are in tests/test_send.py.
+Option refusals of `esair emulate` and `esair send` are in tests/min/test_send.py.
 """
 
 from __future__ import annotations
@@ -284,3 +284,13 @@ def test_miniterm_as_documented(tmp_path):
                 mt.wait()
             os.close(term)
             os.close(probe)
+
+
+def test_the_help_names_every_bundled_example():
+    from esair_min.resources import bundled_examples
+
+    assert bundled_examples() == ["papaman", "papaman-avr", "starfish", "starfish-avr"]
+    out = CliRunner().invoke(main, ["--help"], terminal_width=200)
+    assert out.exit_code == 0, out.output
+    assert ("the name of a bundled example (papaman, papaman-avr, starfish, starfish-avr)."
+            in " ".join(out.output.split()))

@@ -2,7 +2,7 @@
 numbers, error messages, and the PIC build of every PAPA-MAN board.
 
 Regenerate the golden files deliberately with
-``ESAIR_UPDATE_GOLDEN=1 python -m pytest -q tests/test_codegen.py -k golden``.
+``ESAIR_UPDATE_GOLDEN=1 python -m pytest -q tests/min/test_codegen.py -k golden``.
 """
 
 from __future__ import annotations

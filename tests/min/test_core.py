@@ -599,7 +599,7 @@ def test_harness_rx_is_verbatim():
     assert tx(lines)[-1] == b"E03 bad argument\r\n"      # "x #" is 3 chars
 
 
-# Bad scripts: tests/test_script.py (the same error on the Python and the C side).
+# Bad scripts: tests/min/test_script.py (the same error on the Python and the C side).
 
 
 def test_harness_main(tmp_path, capsys):

@@ -165,7 +165,7 @@ def test_a_held_scenario_plays_on_sigusr1(tmp_path):
 
 def test_one_reply_per_line_at_line_rate():
     # back to back, as many lines as the board's rings can absorb the longer replies of
-    # (three times over, the receive ring overruns: tests/test_emulator.py)
+    # (three times over, the receive ring overruns: tests/min/test_emulator.py)
     lines = ["t", "v", "oab100", "s", "zz", "c" + "N" * 12, "x", "PLY09", "a" + "002" * 12,
              "oal100"]
     with emulator() as (_, path):

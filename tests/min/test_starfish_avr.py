@@ -62,7 +62,7 @@ def test_build_prints_each_boards_exact_footprint_within_goal(built):
     stdout, _ = built
     # avr-gcc 5.4.0, avr-libc 2.0.0; program = .text + .data, RAM = .data + .bss
     assert stdout.splitlines() == [
-        "board    program memory           RAM (with stack)               stack  mcu",
+        "board    program memory           RAM                            stack  mcu",
         "central  3322 B of 32768 (10.1%)  314 B of 2048 (15.3%) + stack  -      atmega328p",
         "drive    1240 B of 32768 (3.8%)   41 B of 2048 (2.0%) + stack    -      atmega328p",
     ]

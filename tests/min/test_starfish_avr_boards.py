@@ -50,7 +50,7 @@ def test_esair_check_starfish_avr_prints_clock_timers_and_pwm_units():
     assert result.exit_code == 0, result.output
     assert result.output.splitlines() == [
         "robot 'starfish-avr': 2 boards (central [central], drive [drive])",
-        "  servos: 0, sensors: 0, commands: 0, motions: 0 (), reactions: 0",
+        "  servos: 0, sensors: 0, commands: 0, motions: 0, reactions: 0",   # no empty "()"
         "  tick: 10.0000 ms (Timer1 CTC, prescale 8, OCR1A 19999 at 16000000 Hz)",
         "  UART: 38400 baud, UBRR0 25 U2X0=0, error +0.16 %",
         "  I2C: 100000 Hz, TWBR 72 TWPS 0",

@@ -83,8 +83,8 @@ def test_record_then_replay(tmp_path, mode):
 
         r = subprocess.run([sys.executable, "-m", "esair_min.cli", "plot", str(out), "-o",
                             str(tmp_path / "run.png")], capture_output=True, text=True)
-        assert (r.returncode, r.stdout) == (0, f"{len(samples) * 10} samples -> "
-                                               f"{tmp_path / 'run.png'}\n")   # 8 values + 2 sums
+        assert (r.returncode, r.stdout) == (0, f"{len(samples)} samples ({len(samples) * 10} values) "
+                                               f"-> {tmp_path / 'run.png'}\n")   # 8 values + 2 sums
         assert (tmp_path / "run.png").read_bytes()[:4] == b"\x89PNG"
 
         assert esair("replay", str(out), "-e", ep, "--speed", "4").stdout == (

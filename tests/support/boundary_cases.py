@@ -4,8 +4,8 @@ YAML and docs/protocol.md alone (never from a run of either core).
 Each case is a stimulus script (docs/trace-format.md) and the events it must produce:
 every UART line the board sends (its text, without CR LF) and every write to the
 actuator board (``W <hex>``: register, then the bytes), in order; with ``ticks`` also
-the ``T n`` lines. tests/test_boundaries.py runs them on the Python core and
-tests/test_boundaries_c.py on the host-built C core: both must give these events
+the ``T n`` lines. tests/min/test_boundaries.py runs them on the Python core and
+tests/min/test_boundaries_c.py on the host-built C core: both must give these events
 exactly, so a wrong boundary made in both cores at once still fails (the differential
 tests, which only compare the two cores, would not see it).
 """

@@ -1,6 +1,6 @@
 """Running ESAIR STD across network namespaces: a control center (``esair std run``,
 process mode) on one host, remote agents (``esair std agent``) on others, and the
-control CLI (``esair std ls/get/inspect``) — all real processes (tests/netns.py)."""
+control CLI (``esair std ls/get/inspect``) — all real processes (tests/support/netns.py)."""
 
 from __future__ import annotations
 
