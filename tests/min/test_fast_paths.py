@@ -1,8 +1,10 @@
 """The emulator's fast paths give what the plain paths give (issue 22 item 6): a run of
-bytes into the line assembler, the flow sensor's burst read and its inline gaussian
-pair, the drive board's skipped ticks (and a write of the same speeds), the world's
-advance without a Step, the V/W fields' regex, and the sim's fused central tick, each
-against the plain path over hypothesis-generated input or seeded runs."""
+bytes (and a whole line) into the line assembler, the flow sensor's burst read and its
+inline gaussian pair, the drive board's skipped ticks (and a write of the same speeds),
+the world's advance without a Step, the V/W fields' regex and a repeated line's plan,
+the sim's fused central tick and its ticks in runs, the direct line and reply of an
+exchange, and the host's least squares, each against the plain path over
+hypothesis-generated input or seeded runs."""
 
 from __future__ import annotations
 
