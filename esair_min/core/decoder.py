@@ -29,6 +29,8 @@ _DOT = 0x2E
 _A = 0x61
 _Z = 0x7A
 _UNPRINTABLE = re.compile(rb"[^\x20-\x7e]")
+#: A whole line and its CR LF, short enough for the buffer (:meth:`LineAssembler.feed_run`).
+_WHOLE_LINE = re.compile(rb"[\x20-\x7e]{1,%d}\r\n" % MAX_LINE).fullmatch
 
 Args = tuple
 #: What a finished line gives: a code, or the line's bytes (terminator removed).
@@ -88,6 +90,13 @@ class LineAssembler:
     def feed_run(self, data: bytes) -> list[LineResult]:
         """:meth:`feed` of each byte of ``data`` in turn: what the line ends gave, in
         order. Stretches of printable bytes are stored in one go."""
+        if (not self.length and not (self.overflow or self.bad or self.overrun or self.after_cr)
+                and _WHOLE_LINE(data)):
+            # one whole line from a clean start (a host's command): the line, and the
+            # assembler left as its bytes leave it (clean: the LF after the CR swallowed)
+            n = len(data) - 2
+            self.buf[:n] = data[:n]
+            return [bytes(data[:n])]
         out: list[LineResult] = []
         pos, end = 0, len(data)
         find = _UNPRINTABLE.search

@@ -87,12 +87,49 @@ class SerialHost:
         stops after ``timeout_s`` of virtual time without a reply.
         """
         data = line.encode("latin-1") if isinstance(line, str) else bytes(line)
+        end = self.clock.now + seconds_to_ns(timeout_s)
+        self._send_line(data, end)
+        return self._collect(end)
+
+    def _send_line(self, data: bytes, end_ns: int) -> None:
+        """The host sends ``data`` and its CR LF now (a robot may take it to its decoder
+        at once where that changes nothing: StarfishSim)."""
         self.write(data + b"\r\n")
+
+    def _collect(self, end_ns: int) -> list[str]:
+        """Run until a line that is not a notice has reached the host, at most to
+        ``end_ns``: every line received meanwhile, that one last."""
+        got = self._take_reply(end_ns)
+        return got if got is not None else self._collect_lines(end_ns)
+
+    def _take_reply(self, end_ns: int) -> list[str] | None:
+        """The usual reply: one line alone first on the wire, not a notice, nothing
+        delivered before it. Runs to its line end, as :meth:`_collect_lines` would (output
+        the board sends meanwhile queues behind it, so nothing ends the run sooner), and
+        returns it; None (nothing run) for anything else."""
+        uart, clock = self.uart, self.clock
+        wire = uart._tx_wire
+        if not wire or uart._tx_pos or uart._host_buf:
+            return None
+        t0, data = wire[0]
+        k = data.find(10)
+        at = t0 + (k + 1) * uart.byte_ns
+        if k != len(data) - 1 or not clock.now < at <= end_ns or data[:1] == b"!":
+            return None
+        clock.run_until(at)
+        out = uart.host_read()
+        if out != data:                   # (cannot happen) left for _collect_lines
+            uart._host_buf[:0] = out
+            return None
+        return [data[:k].decode("latin-1").rstrip("\r")]
+
+    def _collect_lines(self, end_ns: int) -> list[str]:
+        """:meth:`_collect` in general: line by line, stopping at each line end."""
+        clock = self.clock
         got: list[str] = []
         buf = bytearray()
-        end = self.clock.now + seconds_to_ns(timeout_s)
-        while self.clock.now < end:
-            self._run_to_line(end)
+        while clock.now < end_ns:
+            self._run_to_line(end_ns)
             buf += self.read()
             while b"\n" in buf:
                 raw, _, rest = bytes(buf).partition(b"\n")

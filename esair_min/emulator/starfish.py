@@ -30,18 +30,10 @@ from esair_min.components.omni_base.kinematics import inverse
 from esair_min.components.optical_flow.core import Adns2610
 from esair_min.emulator.clock import VirtualClock
 from esair_min.emulator.line import SerialHost
+from esair_min.emulator.starfish_run import central_run, plan
+from esair_min.emulator.starfish_trace import TraceRow
 from esair_min.emulator.uart import GAP, RX_BYTE, RX_HOLD, RX_TAKE, Uart
 from esair_min.world import World
-
-
-@dataclass(frozen=True)
-class TraceRow:
-    t_s: float
-    x: float
-    y: float
-    theta: float
-    wheels: tuple[float, ...]
-    collided: bool
 
 
 @dataclass
@@ -93,6 +85,7 @@ class StarfishSim(SerialHost):
         self._acc_dt = 0.0
         self._acc_travel = [0.0] * len(self.core.wheels)
         self._collided = False
+        self._run_plan = plan(self)    # (starfish_run: ticks in runs)
         self._reply(ready_line(self.robot.name))   # at reset: the robot it is
 
     def _write(self, address: int, data: bytes) -> bool:
@@ -119,6 +112,27 @@ class StarfishSim(SerialHost):
         :meth:`send` gives, decoded and stripped."""
         got = self.exchange(line, timeout_s)
         return got[-1].strip() if got and got[-1][:1] != "!" else ""
+
+    def _send_line(self, data: bytes, end_ns: int) -> None:
+        """The host sends one line: on a quiet line (nothing on the wire either way or in
+        the receive ring, the board not waiting) straight to the decoder when its CR has
+        arrived, after every event due by then (the ticks), as the UART's run would
+        take it (:meth:`Uart._rx_arrive`: a run of bytes while the board takes them,
+        the line decoded at its CR, the LF after it swallowed); else onto the wire."""
+        uart, clock = self.uart, self.clock
+        now = clock.now
+        n = len(data) + 2
+        t_cr = now + (n - 1) * uart.byte_ns
+        if (not data or 13 in data or 10 in data or t_cr >= end_ns or uart._rx_wire
+                or uart._tx_wire or uart.ring or uart.overrun or self._busy_until > now
+                or self._feed_pending):
+            self.write(data + b"\r\n")
+            return
+        self._host_wrote(data + b"\r\n")
+        uart._rx_free = t_cr + uart.byte_ns
+        clock.run_until(t_cr)
+        uart.rx_bytes += n
+        self._reply(self.core.feed(data + b"\r\n"))
 
     @property
     def idle(self) -> bool:
@@ -257,7 +271,7 @@ class StarfishSim(SerialHost):
         if now != self._timer_at:
             return                               # superseded: the drive board woke up
         if not self._drive_live:
-            self._central_settled(now)
+            central_run(self, now)               # this tick and the next ones, in one call
             return
         self._timers_plain(now)
 

@@ -23,6 +23,19 @@ from esair_min.world import Landmark, Room, Segment
 HEADER = "# esair-starfish-trace 1"
 
 
+@dataclass(frozen=True)
+class TraceRow:
+    """One central tick of StarfishSim's trace: the time, the true pose, the wheels'
+    rim speeds, and whether a wall stopped the robot since the last row."""
+
+    t_s: float
+    x: float
+    y: float
+    theta: float
+    wheels: tuple[float, ...]
+    collided: bool
+
+
 def write_header(f: TextIO, room: Room) -> None:
     f.write(HEADER + "\n")
     for w in room.walls:

@@ -1,12 +1,14 @@
 """The emulator's fast paths give what the plain paths give (issue 22 item 6): a run of
-bytes into the line assembler, the flow sensor's burst read and its inline gaussian
-pair, the drive board's skipped ticks (and a write of the same speeds), the world's
-advance without a Step, the V/W fields' regex, and the sim's fused central tick, each
-against the plain path over hypothesis-generated input or seeded runs."""
+bytes (and a whole line) into the line assembler, the flow sensor's burst read and its
+inline gaussian pair, the drive board's skipped ticks (and a write of the same speeds),
+the world's advance without a Step, the V/W fields' regex and a repeated line's plan,
+the sim's fused central tick and its ticks in runs, the direct line and reply of an
+exchange, and the host's least squares, each against the plain path over
+hypothesis-generated input or seeded runs."""
 
 from __future__ import annotations
 
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 import math
@@ -39,6 +41,28 @@ def test_a_run_into_the_line_assembler_is_each_byte_in_turn(chunks, gaps):
             run.note_overrun()
         plain = [r for r in (one.feed(b) for b in data) if r is not None]
         assert run.feed_run(data) == plain
+        assert _state(run) == _state(one)
+
+
+
+@PROPS
+@given(before=st.lists(STREAM.map(bytes), max_size=3),
+       lines=st.lists(st.one_of(
+           st.text(st.characters(min_codepoint=0x20, max_codepoint=0x7E), max_size=44)
+           .map(str.encode),
+           st.binary(max_size=44).map(lambda b: bytes(c & 0x7F for c in b))), min_size=1, max_size=6),
+       ends=st.sampled_from([b"\r\n", b"\r", b"\n", b"\n\r"]))
+@example(before=[], lines=[b"A" * 40, b"B" * 41, b"", b"C"], ends=b"\r\n")
+def test_a_whole_line_into_the_line_assembler_is_each_byte_in_turn(before, lines, ends):
+    """feed_run's whole-line path (a line of 1..40 printable bytes and CR LF from a
+    clean start) against feed of each byte, after any stream and for lines that do not
+    qualify (too long, empty, a control byte, other line ends): the same results and
+    state."""
+    one, run = LineAssembler(), LineAssembler()
+    for data in before + [line + ends for line in lines]:
+        plain = [r for r in (one.feed(b) for b in data) if r is not None]
+        got = run.feed_run(data)
+        assert got == plain and all(type(r) is type(p) for r, p in zip(got, plain, strict=True))
         assert _state(run) == _state(one)
 
 
@@ -221,19 +245,27 @@ def test_a_write_of_the_same_speeds_leaves_a_settled_drive_board_settled(starfis
     assert not lazy.settled
 
 
-def _sim_run(robot, plain: bool, world: World, noise: float, seed: int) -> tuple:
+def _sim_run(robot, mode: str, world: World, noise: float, seed: int,
+             clock_events: list | None = None) -> tuple:
     """A seeded run of the sim (a square, then toward a wall turning, the watchdog stop,
-    a lifted sensor); ``plain``: the central tick through _timers_plain and the
-    travel through _replay and _advance, as before the fused paths."""
+    a lifted sensor). ``mode``: "runs" as it is (ticks in runs: starfish_run);
+    "settled": every central tick an event of its own (_central_settled); "plain":
+    that, through _timers_plain, and the travel through _replay and _advance, as before
+    the fused paths."""
     from esair_min.components.omni_base.core import velocity_line, wheels_line
     from esair_min.emulator.starfish import FlowOptions, StarfishSim, drive_square
 
     sim = StarfishSim(robot, world, FlowOptions(noise=noise, seed=seed))
-    if plain:
+    if mode != "runs":
+        sim._run_plan = None                              # central_run: one tick, plain
+    if mode == "plain":
         sim._central_settled = sim._timers_plain          # type: ignore[method-assign]
         sim._account = sim._account_plain                 # type: ignore[method-assign]
     square = drive_square(sim, 800, laps=1)
     replies = []
+    for _ in range(30):                                   # a steady turn: a settled drive
+        replies.append(sim.command(velocity_line(150, 60, 400)))
+        sim.run_for(0.05)
     for k in range(50):
         if k == 20:
             sim.sensors[1].lifted = True
@@ -242,6 +274,8 @@ def _sim_run(robot, plain: bool, world: World, noise: float, seed: int) -> tuple
         sim.run_for(0.05 + 0.003 * (k % 4))
     sim.run_for(1.2)                                      # the watchdog stops it
     replies.append(sim.read())
+    if clock_events is not None:
+        clock_events.append(sim.clock._seq)
     return (square, replies, sim.trace, sim.i2c, bytes(sim.notices), sim.world.pose,
             sim.world.t_s, sim.world.collisions, sim.core.sums, sim.core.polls,
             [(s._acc, s.lost, s._free_at, s._rng.getstate()) for s in sim.sensors],
@@ -249,19 +283,160 @@ def _sim_run(robot, plain: bool, world: World, noise: float, seed: int) -> tuple
 
 
 def test_the_sims_fused_central_tick_is_the_plain_path(starfish):
-    """StarfishSim._central_settled (the central tick with the drive board settled, in
-    one method) and _account (the travel, inlined) against the plain methods: the same
-    trace, bus, notices, poses, sums and generator states, in a room with walls, with
-    noise, lag and slip."""
+    """StarfishSim's central ticks in runs (starfish_run.central_run: tick after tick in
+    one call while nothing else is due), its one-tick _central_settled and its _account
+    (the travel, inlined) against the plain methods: the same trace, bus, notices,
+    poses, sums and generator states, in a room with walls, with noise, lag and slip;
+    the runs take fewer clock events."""
     cases = [(lambda: World(pose=Pose(3800, 700, 0.2)), 0.02, 1),
              (lambda: World(pose=Pose(4300, 4300, 0.0)), 0.0, 2),
              (lambda: World(pose=Pose(3800, 700, 0.2),
                             options=WorldOptions(lag_s=0.05, slip=0.1, slip_noise=0.02, seed=4)),
-              0.05, 7)]
+              0.05, 7),
+             (lambda: World(pose=Pose(1500, 2500, 0.5)), 0.01, 3)]     # turning, no wall
     walls = 0
     for make, noise, seed in cases:
-        fast = _sim_run(starfish, False, make(), noise, seed)
-        assert fast == _sim_run(starfish, True, make(), noise, seed)
-        assert b"!W watchdog stop" in fast[4]
-        walls += fast[7]
+        events: list[int] = []
+        runs = _sim_run(starfish, "runs", make(), noise, seed, events)
+        assert runs == _sim_run(starfish, "settled", make(), noise, seed, events)
+        assert runs == _sim_run(starfish, "plain", make(), noise, seed)
+        assert b"!W watchdog stop" in runs[4]
+        assert events[0] < events[1] or make().options.lag_s > 0   # (lag: no runs)
+        walls += runs[7]
     assert walls >= 2                                # the first two runs meet a wall
+
+
+def _line_run(robot, plain: bool) -> tuple:
+    """A seeded session of exchanges: commands and refusals, odometry polls, a line
+    with a checksum, one too long, one with a bad byte, an empty one, raw bytes still
+    on the wire when a command is sent, a timeout shorter than the line, and refused
+    lines while the watchdog stops the robot (its notice during an exchange).
+    ``plain``: every line onto the wire (SerialHost._send_line) and every reply line
+    by line (_collect_lines)."""
+    from esair_min.components.omni_base.core import velocity_line
+    from esair_min.emulator.line import SerialHost
+    from esair_min.emulator.starfish import FlowOptions, StarfishSim
+
+    sim = StarfishSim(robot, World(pose=Pose(2500, 2500, 0.0)), FlowOptions(noise=0.02))
+    if plain:
+        sim._send_line = lambda data, end: SerialHost._send_line(sim, data, end)  # type: ignore[method-assign]
+        sim._take_reply = lambda end: None                                         # type: ignore[method-assign]
+    got = []
+    lines = [velocity_line(200, -100, 300), "O", "v", "V+0200+0000+0000*5C", "Z",
+             "V" + "+0001" * 12, "V+02\x070+0000+0000", "", "W+0100-0100+0100", "O", "x"]
+    for k, line in enumerate(lines * 3):
+        got.append(sim.exchange(line))
+        sim.run_for(0.011 * (k % 5))
+    sim.write(b"O\r\nv\r\n")                          # on the wire when the next is sent
+    got.append(sim.exchange("O"))
+    got.append(sim.exchange("V+0100+0000+0000", timeout_s=0.001))   # no reply in time
+    sim.settle()
+    got.append(sim.read())
+    got.append(sim.exchange(velocity_line(300, 0, 0)))
+    for _ in range(20):                                # refused: the watchdog fires
+        got.append(sim.exchange("Q"))
+        sim.run_for(0.03)
+    got.append(sim.read())
+    return (got, sim.trace, sim.i2c, bytes(sim.notices), sim.world.pose, sim.core.sums,
+            sim.core.polls, sim.clock.now, sim.uart.rx_bytes, sim.uart.tx_bytes,
+            sim.uart.overruns, sim.uart.rx_free_ns, sim.idle)
+
+
+def test_the_sims_direct_line_and_reply_are_the_uarts_run(starfish):
+    """StarfishSim._send_line (a line on a quiet link straight to the decoder at its CR)
+    and SerialHost._take_reply (a reply alone on the wire in one run) against the line
+    carried byte run by byte run through the UART and read line by line: the same
+    replies, notices, times, trace, bus and counters."""
+    fast = _line_run(starfish, False)
+    assert fast == _line_run(starfish, True)
+    replies = [g for g in fast[0] if isinstance(g, list)]
+    assert ["!W watchdog stop", "E01 unknown command"] in replies   # during an exchange
+    assert {"OK", "E01", "E02", "E06", "E13"} <= {r[-1][:3].rstrip() for r in replies if r}
+    assert [] in replies                               # the timeout
+
+
+def _plain_update(odo, sums, last, pose):
+    """FlowOdometry.update as first written: sums of generators, _solve3 in full."""
+    from esair_min.components.optical_flow.odometry import _solve3
+
+    meas = []
+    for k, ((sx, sy), (lx, ly)) in enumerate(zip(sums, last, strict=True)):
+        meas += [(sx - lx) * odo.mm[k], (sy - ly) * odo.mm[k]]
+    atb = [sum(r[i] * m for r, m in zip(odo.rows, meas, strict=True)) for i in range(3)]
+    dx, dy, dth = _solve3(odo.ata, atb)
+    x, y, theta = pose
+    mid = theta + dth / 2
+    return (x + (math.cos(mid) * dx - math.sin(mid) * dy),
+            y + (math.sin(mid) * dx + math.cos(mid) * dy), theta + dth)
+
+
+@PROPS
+@given(polls=st.lists(st.lists(st.integers(-2**31, 2**31), min_size=4, max_size=4),
+                      min_size=1, max_size=12),
+       pose=st.tuples(st.floats(-5000, 5000), st.floats(-5000, 5000), st.floats(-7, 7)))
+def test_the_odometrys_update_is_the_plain_least_squares(starfish, polls, pose):
+    """FlowOdometry.update (the columns summed by map, the determinant of the constant
+    matrix computed once) against the plain formulas: the same pose, float for float."""
+    from esair_min.components.optical_flow.odometry import FlowOdometry
+
+    odo = FlowOdometry(starfish.central.flow_sensors, *pose)
+    last = [(0, 0), (0, 0)]
+    odo.update(last)
+    want = pose
+    for p in polls:
+        sums = [(p[0], p[1]), (p[2], p[3])]
+        want = _plain_update(odo, sums, last, want)
+        assert odo.update(sums) == want
+        last = sums
+
+
+def test_the_odometry_refuses_sums_of_another_count_of_sensors(starfish):
+    from esair_min.components.optical_flow.odometry import FlowOdometry
+
+    odo = FlowOdometry(starfish.central.flow_sensors)
+    for sums in ([(0, 0), (0, 0), (0, 0)], [(0, 0)]):
+        try:
+            odo.update(sums)
+        except ValueError as exc:
+            assert str(exc) == f"sums of {len(sums)} flow sensors, not 2"
+        else:
+            raise AssertionError("no ValueError")
+    odo.update([(0, 0), (0, 0)])
+    try:
+        odo.update([(5, 0)])
+    except ValueError as exc:
+        assert str(exc) == "sums of 1 flow sensors, not 2"
+    else:
+        raise AssertionError("no ValueError")
+
+
+@PROPS
+@given(picks=st.lists(st.tuples(st.integers(0, 99), st.booleans()), max_size=200))
+def test_a_repeated_drive_lines_plan_is_the_line_parsed_again(starfish, picks):
+    """StarfishCore's plans (a V/W line's refusal or drive write, kept by its body, all
+    dropped past PLANS) against a core that parses every line: the same replies, bus
+    writes and commanded speeds, over lines repeated and new, valid, outside the limits,
+    malformed, and more than PLANS of them."""
+    from esair_min.components.omni_base.core import PLANS, StarfishCore
+
+    pool = ([f"V{vx:+05d}{vy:+05d}{w:+05d}" for vx in (-400, 0, 250, 2000)
+             for vy in (-100, 0, 300) for w in (0, 500, -9000)]
+            + [f"W{a:+05d}{b:+05d}{c:+05d}" for a in (0, 120, -700) for b in (0, 900)
+               for c in (5, -5000)]
+            + [f"V{k:+05d}+0000+0000" for k in range(40)] + ["V+01a0+0000+0000", "W+0000+0000-00 1"])
+    assert len(pool) > PLANS
+    writes: dict[str, list] = {"plans": [], "parsed": []}
+    answer = [True]                                 # whether the drive board answers
+
+    def bus(name: str):
+        return lambda a, d: writes[name].append((a, d)) or answer[0]
+
+    cores = {name: StarfishCore(starfish, bus(name)) for name in writes}
+    for k, ok in picks:
+        answer[0] = ok
+        line = pool[k % len(pool)].encode()
+        cores["parsed"]._plans.clear()              # the plain path: parsed every time
+        assert cores["plans"].line(line) == cores["parsed"].line(line)
+        assert cores["plans"].commanded == cores["parsed"].commanded
+        assert len(cores["plans"]._plans) <= PLANS
+    assert writes["plans"] == writes["parsed"]

@@ -31,6 +31,9 @@ U32 = 1 << 32
 #: Three signed fields (signed_field's ``+0123`` / ``-0123``) after the command letter.
 _FIELDS = re.compile(rb"([+-][0-9]{4})([+-][0-9]{4})([+-][0-9]{4})").fullmatch
 _M32 = U32 - 1
+#: How many V/W lines' plans a core keeps (:meth:`StarfishCore.line`): all are dropped
+#: when one more comes.
+PLANS = 64
 
 
 class FlowReader(Protocol):
@@ -103,6 +106,10 @@ class StarfishCore:
         self.write_bus = write
         self._pack = struct.Struct(f"<B{len(self.wheels)}H").pack
         self.lines = LineAssembler()
+        # a V/W line's body -> its refusal, or its drive write and wheel speeds: the same
+        # line again (a host repeats its velocity to feed the watchdog) is not parsed,
+        # turned into wheel speeds and checked against the limits again
+        self._plans: dict[bytes, bytes | tuple[bytes, list[int]]] = {}
         self.commanded = [0] * len(self.wheels)
         self.idle_ticks = 0
         self.sums = [[0, 0, 0] for _ in self.flow_names]      # dx, dy (mod 2^32), squal
@@ -146,10 +153,15 @@ class StarfishCore:
         if len(body) != length:
             return ERROR_LINE[Code.BAD_ARGUMENT]
         if action in ("velocity", "wheels"):
-            m = _FIELDS(body, 1)                 # signed_field of each, at once
-            if m is None:
-                return ERROR_LINE[Code.BAD_ARGUMENT]
-            reply = self._drive(action, [int(a) for a in m.groups()])
+            plan = self._plans.get(body)
+            if plan is None:
+                plan = self._plan(action, body)
+                if len(self._plans) >= PLANS:
+                    self._plans.clear()
+                self._plans[body] = plan
+            if isinstance(plan, bytes):
+                return plan
+            reply = self._write_drive(*plan)
         elif action == "stop":
             reply = self._send([0] * len(self.wheels))
         elif action == "odometry":
@@ -161,7 +173,13 @@ class StarfishCore:
             self.idle_ticks = 0                  # a command carried out feeds the watchdog
         return reply
 
-    def _drive(self, action: str, args: list[int]) -> bytes:
+    def _plan(self, action: str, body: bytes) -> bytes | tuple[bytes, list[int]]:
+        """A V/W line's body: its refusal (E03, E04), or the drive write and the wheel
+        speeds it asks for."""
+        m = _FIELDS(body, 1)                     # signed_field of each, at once
+        if m is None:
+            return ERROR_LINE[Code.BAD_ARGUMENT]
+        args = [int(a) for a in m.groups()]
         if action == "velocity":
             vx, vy, w = args
             if abs(vx) > self.max_v or abs(vy) > self.max_v or abs(w) > self.max_w:
@@ -171,10 +189,12 @@ class StarfishCore:
             speeds = args
         if any(abs(s) > wh.limit_mm_s for s, wh in zip(speeds, self.wheels, strict=True)):
             return ERROR_LINE[Code.OUTSIDE_LIMITS]
-        return self._send(speeds)
+        return self._pack(0, *[v & 0xFFFF for v in speeds]), speeds   # from_s16 of each
 
     def _send(self, speeds: list[int]) -> bytes:
-        data = self._pack(0, *[v & 0xFFFF for v in speeds])      # from_s16 of each
+        return self._write_drive(self._pack(0, *[v & 0xFFFF for v in speeds]), speeds)
+
+    def _write_drive(self, data: bytes, speeds: list[int]) -> bytes:
         if not self.write_bus(self.drive_address, data):
             return ERROR_LINE[Code.NO_ANSWER]
         self.commanded = list(speeds)

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from operator import mul
 from typing import Any
 
 from esair_min.components.optical_flow.core import MM_PER_INCH
@@ -48,11 +49,18 @@ class FlowOdometry:
             rows.append((-s, c, s * py + c * px))      # the sensor's y
         self.rows = rows
         self.ata = [[sum(r[i] * r[j] for r in rows) for j in range(3)] for i in range(3)]
+        # update's constants: the columns of the rows, and _solve3's determinant of ata
+        # (the same matrix every poll: the same float)
+        self._cols = [[r[i] for r in rows] for i in range(3)]
+        self._a9 = tuple(v for row in self.ata for v in row)
+        self._d = _det(*self._a9)
         self.x, self.y, self.theta = x, y, theta
         self.last: list[tuple[int, int]] | None = None
 
     def update(self, sums: Sequence[tuple[int, int]]) -> tuple[float, float, float]:
         """The summed (dx, dy) counts of every sensor at one poll: the new pose."""
+        if len(sums) != len(self.mm):
+            raise ValueError(f"sums of {len(sums)} flow sensors, not {len(self.mm)}")
         if self.last is None:
             self.last = [tuple(s) for s in sums]       # type: ignore[misc]
             return self.x, self.y, self.theta
@@ -60,13 +68,21 @@ class FlowOdometry:
         for k, ((sx, sy), (lx, ly)) in enumerate(zip(sums, self.last, strict=True)):
             meas += [(sx - lx) * self.mm[k], (sy - ly) * self.mm[k]]
         self.last = [tuple(s) for s in sums]           # type: ignore[misc]
-        atb = [sum(r[i] * m for r, m in zip(self.rows, meas, strict=True)) for i in range(3)]
-        dx, dy, dth = _solve3(self.ata, atb)
+        dx, dy, dth = self._solve([sum(map(mul, col, meas)) for col in self._cols])
         mid = self.theta + dth / 2
         self.x += math.cos(mid) * dx - math.sin(mid) * dy
         self.y += math.sin(mid) * dx + math.cos(mid) * dy
         self.theta += dth
         return self.x, self.y, self.theta
+
+    def _solve(self, b: list[float]) -> tuple[float, float, float]:
+        """:func:`_solve3` of ata with its determinant computed once (the same floats)."""
+        a0, a1, a2, a3, a4, a5, a6, a7, a8 = self._a9
+        b0, b1, b2 = b
+        d = self._d
+        return (_det(b0, a1, a2, b1, a4, a5, b2, a7, a8) / d,
+                _det(a0, b0, a2, a3, b1, a5, a6, b2, a8) / d,
+                _det(a0, a1, b0, a3, a4, b1, a6, a7, b2) / d)
 
 
 def parse_odometry(reply: str) -> tuple[int, list[tuple[int, int, int]]]:
@@ -78,6 +94,6 @@ def parse_odometry(reply: str) -> tuple[int, list[tuple[int, int, int]]]:
     sensors = []
     for p in parts[2:]:
         _, _, v = p.partition("=")
-        dx, dy, q = (int(t) for t in v.split(","))
+        dx, dy, q = map(int, v.split(","))
         sensors.append((dx, dy, q))
     return seq, sensors
