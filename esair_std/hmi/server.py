@@ -102,6 +102,9 @@ class HmiServer:
         self.bridge: Bridge | None = None
         self.url = ""
         self.commanded: dict[str, Any] = {}     # resource -> last command that went through
+        # motion actuator -> (the motion command that went through, when, when stopped):
+        # a page opened later plays it from where it is, or shows where STOP left it
+        self.played: dict[str, tuple[Any, float, float | None]] = {}
         self._own: collections.deque[str] = collections.deque(maxlen=OWN_MAX)  # sent, record due
         self.record_dir = Path(record_dir)
         self.tap: Tap | None = None
@@ -224,7 +227,7 @@ class HmiServer:
         self.pages.add(page)
         self.c["pages"] += 1
         assert self.bridge is not None
-        hello = dict(self.bridge.hello(), role=page.role, commanded=list(self.commanded.items()),
+        hello = dict(self.bridge.hello(), role=page.role, commanded=self.hello_commanded(),
                      recording=self.recording_state(),
                      login=bool(self.auth.users) and page.role != "operator")
         self._send(page, json.dumps(hello, separators=(",", ":")))
@@ -321,16 +324,44 @@ class HmiServer:
         self._commanded(res, command)
 
     def _commanded(self, res: str, command: Any, emit: bool = True) -> dict:
-        if res.endswith(".motion"):            # a motion moves every servo of its robot
-            entry = res[: -len(".motion")]
+        msg = {"t": "commanded", "r": res, "v": command}
+        if res.endswith(".motion"):
+            played = self.played.get(res)
+            if command == "stop" and played is not None:
+                # the motion's entry is kept, with the time it was stopped: the frame a
+                # page shows is the one the motion had reached (pages open and opened later)
+                now = time.time()
+                if played[2] is None:
+                    self.played[res] = played = (played[0], played[1], now)
+                msg["played"] = self._played_at(res, now)
+                if emit:
+                    self.emit(msg)
+                return msg
+            entry = res[: -len(".motion")]      # a motion moves every servo of its robot
             for key in [k for k in self.commanded if k.startswith(entry + ".servo.")]:
                 del self.commanded[key]
+            if command == "stop":
+                self.played.pop(res, None)
+            else:
+                self.played[res] = (command, time.time(), None)
         self.commanded.pop(res, None)
         self.commanded[res] = command
-        msg = {"t": "commanded", "r": res, "v": command}
         if emit:
             self.emit(msg)
         return msg
+
+    def _played_at(self, res: str, now: float) -> dict:
+        """Where the motion commanded on ``res`` is: ``{"v": command, "ms": time it has
+        played (up to its STOP), "stopped": bool}``."""
+        command, t0, t1 = self.played[res]
+        return {"v": command, "ms": round(((t1 or now) - t0) * 1000, 1), "stopped": t1 is not None}
+
+    def hello_commanded(self) -> list:
+        """The commands a new page rebuilds the pose from, in the order they went
+        through: ``[resource, command]``, a motion's with ``played`` (_played_at) third."""
+        now = time.time()
+        return [[res, v, self._played_at(res, now)] if res in self.played else [res, v]
+                for res, v in self.commanded.items()]
 
     async def op_cmd(self, page: Page, ident: Any, obj: dict) -> None:
         res = _field(obj, "resource", str)

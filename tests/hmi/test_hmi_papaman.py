@@ -166,6 +166,61 @@ def test_the_pose_shows_commands_of_every_sender(robot, browser):
     assert errors == []
 
 
+ANGLES = "() => window.__hmi.pose.angles"
+
+
+def frames_of(papaman, motion: str) -> list[dict]:
+    names = [s.name for s in papaman.servos]
+    return [dict(zip(names, f.angles, strict=True)) for f in papaman.motion(motion).frames]
+
+
+def test_a_page_opened_after_stop_shows_the_pose_the_motion_reached(robot, browser, papaman):
+    """A motion STOPped part-way or played to its end: a page opened afterwards shows the
+    pose a page open all along shows (the server keeps the motion with when it started and
+    when it was stopped; both pages take the frame from these numbers), not the stand."""
+    first, errors = open_page(browser, robot.url)
+    # prostrate (4 frames of 25 ticks, 0.9 s) and STOP sent at once: stopped part-way
+    assert first.evaluate("""() => { const h = window.__hmi;
+        h.send({op: "cmd", resource: "papaman.motion", command: {play: "prostrate"}});
+        return h.send({op: "stop"}); }""")["ok"]
+    first.wait_for_function("() => { const p = window.__hmi.played; "
+                            "return p && p.stopped && p.v.play === 'prostrate'; }")
+    held = first.evaluate(ANGLES)
+    assert held in frames_of(papaman, "prostrate")
+    later, more = open_page(browser, robot.url, login=False)
+    assert later.evaluate("window.__hmi.played") == first.evaluate("window.__hmi.played")
+    assert later.evaluate(ANGLES) == held
+    later.close()
+    # the frame a motion shows at a time into it: frame i from i * delay_ticks ticks on
+    frame_ms = 25 * first.evaluate("window.__hmi.info.tick_s") * 1000
+    at = first.evaluate("""ms => { const h = window.__hmi, mo = h.motionOf({play: "prostrate"});
+        return ms.map((t) => h.pose.frameAt(mo, h.info.tick_s, t)); }""",
+                        [0, 1.5 * frame_ms, 3.5 * frame_ms, 100 * frame_ms])
+    prostrate = frames_of(papaman, "prostrate")
+    assert at == [prostrate[0], prostrate[1], prostrate[3], prostrate[3]]
+    # dance played to its end: a page opened then, and one opened after a STOP, show its
+    # last frame (84, 82, ...), as the page open all along does
+    first.click("#motions button[data-motion=dance]")
+    first.wait_for_function("() => { const h = window.__hmi, p = h.played; return p && "
+                            "p.v.play === 'dance' && !p.stopped && h.pose.motion === null; }")
+    last = frames_of(papaman, "dance")[-1]
+    assert first.evaluate(ANGLES) == last
+    ended, more2 = open_page(browser, robot.url, login=False,
+                             ready="window.__hmi.played && window.__hmi.pose.motion === null")
+    assert ended.evaluate(ANGLES) == last
+    ended.close()
+    first.click("#stop")
+    first.wait_for_function("() => { const p = window.__hmi.played; "
+                            "return p && p.stopped && p.v.play === 'dance'; }")
+    assert first.evaluate(ANGLES) == last
+    stopped, more3 = open_page(browser, robot.url, login=False)
+    assert stopped.evaluate(ANGLES) == last
+    assert stopped.evaluate("window.__hmi.played.stopped") is True
+    stopped.close()
+    first.close()
+    assert errors == more == more2 == more3 == []
+
+
 def test_sigkill_of_the_robot_shows_the_banner_then_recovery(robot, browser):
     page, errors = open_page(browser, robot.url)
     assert page.locator("#banner").is_hidden()

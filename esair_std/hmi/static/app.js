@@ -164,7 +164,7 @@ class App {
       case "link": this.link = m.link; this.linkbar(); this.banner(); return;
       case "runtime": this.runtimeUp = m.up; this.banner(); return;
       case "log": this.log.add(m.level, m.text); return;
-      case "commanded": return this.commanded(m.r, m.v);
+      case "commanded": return this.commanded(m.r, m.v, m.played);
       case "watched": return;
       case "state": this.generic.state(m.r, m.v); this.dirty = true; return;
       case "recording": return this.recording(m);
@@ -195,7 +195,7 @@ class App {
     for (const p of m.problems) this.log.add("warning", p);
     this.recording(m.recording);
     this.replay.refresh();
-    for (const [res, v] of m.commanded || []) this.commanded(res, v, true);
+    for (const [res, v, played] of m.commanded || []) this.commanded(res, v, played);
     this.linkbar(); this.banner();
   }
 
@@ -219,22 +219,32 @@ class App {
     } else { this.generic.sample(m); this.dirty = true; }
   }
 
-  commanded(res, v, at_once) {
+  // A command that went through (`played`: where a motion is, server.py _played_at: the
+  // ms it has played, stopped or not; sent with a STOP and to a page opened later, so
+  // every page shows the frame the motion had reached, from the same numbers).
+  commanded(res, v, played) {
     if (!this.entry) return;
     if (res.startsWith(`${this.entry}.servo.`)) {
       const servo = res.slice(this.entry.length + 7);
       const angle = typeof v === "object" ? v.angle : v;
       this.pose.set({ [servo]: angle }); this.joints.set(servo, angle);
     } else if (res === `${this.entry}.motion`) {
-      if (v === "stand") this.pose.play(this.info.motions.find((x) => x.name === "stand"), this.info.tick_s, this.joints);
-      else if (v === "stop") this.pose.halt();
-      else if (v && v.play !== undefined) {
-        const mo = this.info.motions.find((x) => x.name === v.play || x.number === Number(v.play));
-        if (mo && at_once) { this.pose.set(mo.frames[mo.frames.length - 1]); this.joints.sync(this.pose.angles); }
-        else if (mo) this.pose.play(mo, this.info.tick_s, this.joints);
-      }
+      const mo = this.motionOf(played ? played.v : v);
+      this.played = played || (mo ? { v, ms: 0, stopped: false } : null);
+      if (played && played.stopped) {
+        this.pose.halt();
+        if (mo) { this.pose.set(this.pose.frameAt(mo, this.info.tick_s, played.ms)); this.joints.sync(this.pose.angles); }
+      } else if (v === "stop") this.pose.halt();
+      else if (mo) this.pose.play(mo, this.info.tick_s, played ? played.ms : 0);
     }
     this.dirty = true;
+  }
+
+  // the motion of the robot's EEPROM image a motion command plays ("stand", {play: name or number})
+  motionOf(v) {
+    const name = v === "stand" ? "stand" : v && v.play !== undefined ? v.play : null;
+    if (name === null) return null;
+    return this.info.motions.find((x) => x.name === name || x.number === Number(name)) || null;
   }
 
   linkbar() {

@@ -42,9 +42,16 @@ export class Pose {
     }
   }
 
-  play(motion, tick_s, joints) {
+  // plays `motion` from `ms` into it (a page opened while it plays; past its end: its last frame)
+  play(motion, tick_s, ms = 0) {
     if (!motion || !this.info) return;
-    this.motion = { motion, t0: performance.now(), frame_ms: motion.delay_ticks * tick_s * 1000, shown: -1 };
+    this.motion = { motion, t0: performance.now() - ms, frame_ms: motion.delay_ticks * tick_s * 1000, shown: -1 };
+  }
+
+  // the frame `motion` shows `ms` after it started (the last one once it has ended)
+  frameAt(motion, tick_s, ms) {
+    const i = Math.floor(ms / (motion.delay_ticks * tick_s * 1000));
+    return motion.frames[Math.max(0, Math.min(motion.frames.length - 1, i))];
   }
 
   halt() { this.motion = null; }
