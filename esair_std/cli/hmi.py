@@ -14,6 +14,7 @@ import click
 
 from esair_min.cli.pipes import friendly
 
+from ..words import counted
 from .client import default_endpoint
 
 DEFAULT_LISTEN = "127.0.0.1:8080"
@@ -126,11 +127,6 @@ def hmi_password_cmd(file: str, user: str) -> None:
 
 
 COMMANDS = [hmi_cmd, hmi_password_cmd]
-
-
-def counted(n: int, word: str) -> str:
-    """``1 sample``, ``2 samples``: a count with its noun."""
-    return f"{n} {word}{'' if n == 1 else 's'}"
 
 
 @click.command("record")

@@ -33,6 +33,7 @@ from websockets.http11 import Request, Response
 
 from ..errors import StdError
 from ..heap import settle
+from ..words import counted
 from .auth import Auth
 from .bridge import Bridge, BridgeError
 
@@ -431,8 +432,8 @@ class HmiServer:
             tap, self.tap = self.tap, None
             c = await asyncio.get_running_loop().run_in_executor(None, tap.stop)
             self.emit({"t": "log", "level": "info", "ts": time.time(),
-                       "text": f"recorded {tap.path.name}: {c['written']} samples and "
-                               f"{c['commands']} commands, {c['dropped']} dropped"})
+                       "text": f"recorded {tap.path.name}: {counted(c['written'], 'sample')} and "
+                               f"{counted(c['commands'], 'command')}, {c['dropped']} dropped"})
         state = self.recording_state()
         self._reply(page, ident, True, state)
         self.emit(state)

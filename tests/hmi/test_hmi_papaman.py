@@ -279,8 +279,8 @@ def test_record_button_then_replay_with_the_time_slider(robot, browser):
                                     {"command": sent[1], "error": refusal},
                                     {"command": sent[2], "ok": "odd090"}]
     assert [c[1] for c in knee] == list(range(knee[0][1], knee[0][1] + 3))
-    said = (f"recorded {path.name}: {len(list(read_samples(path)))} samples and "
-            f"{len(list(read_commands(path)))} commands, 0 dropped")
+    assert len(list(read_commands(path))) == 3
+    said = f"recorded {path.name}: {len(list(read_samples(path)))} samples and 3 commands, 0 dropped"
     page.wait_for_function(f"() => document.querySelector('#log').textContent.includes({said!r})")
     page.wait_for_function(f"() => [...document.querySelectorAll('#recordings option')]"
                            f".some(o => o.value === '{path.name}')")
@@ -293,6 +293,29 @@ def test_record_button_then_replay_with_the_time_slider(robot, browser):
     assert page.evaluate("window.__hmi.feet.t") == [feet[0][2]]
     page.click("#live-view")
     page.wait_for_function("() => !window.__hmi.replay.active && window.__hmi.feet.t.length > 0")
+    page.close()
+    assert errors == []
+
+
+def test_the_record_summary_says_1_command(robot, browser):
+    """The log's line on a recording counts in words that agree with the numbers, as
+    `esair std record` does (it read `1 commands`)."""
+    page, errors = open_page(browser, robot.url)
+    before = set(robot.tmp.glob("esair-papaman-*.mcap"))
+    page.click("#record")
+    page.wait_for_function("() => window.__hmi.recordingOn")
+    seen = page.evaluate("window.__hmi.stats.samples")
+    page.wait_for_function(f"() => window.__hmi.stats.samples >= {seen + 3}")
+    r = page.evaluate("window.__hmi.send({op: 'cmd', resource: 'papaman.servo.l_knee', "
+                      "command: {angle: 90}})")
+    assert r["ok"], r
+    page.click("#record")
+    page.wait_for_function("() => !window.__hmi.recordingOn")
+    (path,) = set(robot.tmp.glob("esair-papaman-*.mcap")) - before
+    n = len(list(read_samples(path)))
+    assert n > 1 and len(list(read_commands(path))) == 1
+    said = f"recorded {path.name}: {n} samples and 1 command, 0 dropped"
+    page.wait_for_function(f"() => document.querySelector('#log').textContent.includes({said!r})")
     page.close()
     assert errors == []
 
