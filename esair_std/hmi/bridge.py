@@ -21,6 +21,7 @@ import threading
 import time
 from typing import Any, Callable
 
+from ..counters import Counters
 from ..errors import StdError, TransportError
 from ..transport import keys
 from ..transport.bus import Bus
@@ -68,8 +69,8 @@ class Bridge:
         self._state_thread: threading.Thread | None = None
         self.last: dict[str, dict] = {}       # sensor -> its last sample message
         self.states: dict[str, Any] = {}      # behavior -> its last get value
-        self.c = dict(samples=0, samples_unwatched=0, ls_failed=0, gets_failed=0,
-                      commands_seen=0)
+        self.c = Counters(samples=0, samples_unwatched=0, ls_failed=0, gets_failed=0,
+                          commands_seen=0)
         self.want: Callable[[str], bool] = lambda name: True    # the sensors to watch
 
     # ---- life cycle
@@ -138,15 +139,15 @@ class Bridge:
         one that went through is handed on as ``{"t": "ran", "r": actuator, "v": command}``."""
         v = obj.get("v") if isinstance(obj, dict) else None
         if isinstance(v, dict) and "ok" in v and "command" in v:
-            self.c["commands_seen"] += 1
+            self.c.add("commands_seen")
             self.emit({"t": "ran", "r": key.rsplit("/command/", 1)[-1], "v": v["command"]})
 
     def _on_sample(self, key: str, obj: Any) -> None:
         res = key.rsplit("/sensor/", 1)[-1]
         if self.watched.get(res) != "ok" or not isinstance(obj, dict):
-            self.c["samples_unwatched"] += 1
+            self.c.add("samples_unwatched")
             return
-        self.c["samples"] += 1
+        self.c.add("samples")
         now = self._last_sample[res] = time.time()
         # rx: when this process got it (the page splits sample -> pixel at it, docs/hmi.md)
         msg = {"t": "s", "r": res, "q": obj.get("seq"), "ts": obj.get("t"), "v": obj.get("v"),
@@ -184,10 +185,10 @@ class Bridge:
                 r = self.call("get", {"from": self.who, "to": name, "timeout": STATE_TIMEOUT_S},
                               timeout=STATE_TIMEOUT_S + 1.0)
             except BridgeError:
-                self.c["gets_failed"] += 1
+                self.c.add("gets_failed")
                 continue
             if not r.get("ok"):
-                self.c["gets_failed"] += 1
+                self.c.add("gets_failed")
                 continue
             value = r.get("data")
             if name not in self.states or self.states[name] != value:
@@ -198,7 +199,7 @@ class Bridge:
         try:
             rows = self.call("ls", {"all": True}, timeout=1.0)   # as `esair std ls` shows
         except BridgeError as exc:
-            self.c["ls_failed"] += 1
+            self.c.add("ls_failed")
             if self.runtime_up:
                 self.runtime_up = False
                 self.emit({"t": "runtime", "up": False, "reason": str(exc)})

@@ -31,6 +31,7 @@ from websockets.datastructures import Headers
 from websockets.exceptions import ConnectionClosed
 from websockets.http11 import Request, Response
 
+from ..counters import Counters
 from ..errors import StdError
 from ..heap import settle
 from ..words import counted
@@ -109,9 +110,9 @@ class HmiServer:
         self._own: collections.deque[str] = collections.deque(maxlen=OWN_MAX)  # sent, record due
         self.record_dir = Path(record_dir)
         self.tap: Tap | None = None
-        self.c = dict(pages=0, frames=0, bad_frames=0, refused=0, dropped=0,
-                      origin_refused=0, commands=0, command_errors=0, batches=0,
-                      held=0)       # samples not sent to pages in the background
+        self.c = Counters(pages=0, frames=0, bad_frames=0, refused=0, dropped=0,
+                          origin_refused=0, commands=0, command_errors=0, batches=0,
+                          held=0)       # samples not sent to pages in the background
         self._stop: asyncio.Event | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
         self._pending: list[dict] = []            # emitted, not yet sent (bounded)
@@ -137,7 +138,7 @@ class HmiServer:
         lazy = msg.get("t") == "ran"
         with self._pending_lock:
             if len(self._pending) >= PENDING_MAX:
-                self.c["dropped"] += 1
+                self.c.add("dropped")
                 return
             self._pending.append(msg)
             if self._flush_soon or (lazy and self._flush_due):
@@ -162,7 +163,7 @@ class HmiServer:
             msgs.append(m)
         if not msgs:
             return
-        self.c["batches"] += 1
+        self.c.add("batches")
         # f: when it left this process's queue (the page splits sample -> pixel at it)
         f = round(time.time(), 4)
         text = json.dumps({"t": "b", "f": f, "m": msgs}, separators=(",", ":"))
@@ -171,7 +172,7 @@ class HmiServer:
         hidden = [p for p in self.pages if p.hidden]
         if hidden:                          # the same without the samples
             rest = [m for m in msgs if m.get("t") != "s"]
-            self.c["held"] += (len(msgs) - len(rest)) * len(hidden)
+            self.c.add("held", (len(msgs) - len(rest)) * len(hidden))
             if rest:
                 self._send(hidden, json.dumps({"t": "b", "f": f, "m": rest}, separators=(",", ":")))
 
@@ -186,17 +187,17 @@ class HmiServer:
             transport = page.ws.transport
             if transport is not None and transport.get_write_buffer_size() > PAGE_BUFFER:
                 page.dropped += 1
-                self.c["dropped"] += 1
+                self.c.add("dropped")
             else:
                 ready.append(page.ws)
         if ready:
             broadcast(ready, text)
 
     def status(self) -> dict:
-        return {"counters": dict(self.c, open_pages=len(self.pages),
+        return {"counters": dict(self.c.snapshot(), open_pages=len(self.pages),
                                  hidden_pages=sum(p.hidden for p in self.pages),
                                  failed_logins=self.auth.failed_logins),
-                "bridge": dict(self.bridge.c) if self.bridge else {}}
+                "bridge": self.bridge.c.snapshot() if self.bridge else {}}
 
     # ---- HTTP
     def _http(self, connection: ServerConnection, request: Request) -> Response | None:
@@ -206,7 +207,7 @@ class HmiServer:
             host = request.headers.get("Host", "")
             scheme = "https" if self.tls else "http"
             if origin is not None and origin != f"{scheme}://{host}":
-                self.c["origin_refused"] += 1
+                self.c.add("origin_refused")
                 log.warning("WebSocket from origin %s refused (this server is %s://%s)",
                             origin, scheme, host)
                 return connection.respond(HTTPStatus.FORBIDDEN, "origin refused\n")
@@ -226,7 +227,7 @@ class HmiServer:
     async def _page(self, ws: ServerConnection) -> None:
         page = Page(ws, self.auth.first_role())
         self.pages.add(page)
-        self.c["pages"] += 1
+        self.c.add("pages")
         assert self.bridge is not None
         hello = dict(self.bridge.hello(), role=page.role, commanded=self.hello_commanded(),
                      recording=self.recording_state(),
@@ -234,11 +235,11 @@ class HmiServer:
         self._send(page, json.dumps(hello, separators=(",", ":")))
         try:
             async for frame in ws:
-                self.c["frames"] += 1
+                self.c.add("frames")
                 try:
                     await self._frame(page, frame)
                 except BadFrame as exc:
-                    self.c["bad_frames"] += 1
+                    self.c.add("bad_frames")
                     self._reply(page, None, False, f"bad frame: {exc}")
         except ConnectionClosed:
             pass
@@ -266,7 +267,7 @@ class HmiServer:
         if handler is None:
             raise BadFrame(f"unknown op {op!r}")
         if op in OPERATOR_OPS and page.role != "operator":
-            self.c["refused"] += 1
+            self.c.add("refused")
             self._reply(page, ident, False, "viewers cannot command: log in as an operator")
             return
         await handler(page, ident, obj)
@@ -277,7 +278,7 @@ class HmiServer:
         try:
             result = await loop.run_in_executor(None, fn, *args)
         except BridgeError as exc:
-            self.c["command_errors"] += 1
+            self.c.add("command_errors")
             self._reply(page, ident, False, str(exc))
             self.emit({"t": "log", "level": "error", "text": f"{what}: {exc}",
                        "ts": time.time()})
@@ -368,7 +369,7 @@ class HmiServer:
         res = _field(obj, "resource", str)
         if "command" not in obj:
             raise BadFrame("field 'command' missing")
-        self.c["commands"] += 1
+        self.c.add("commands")
         assert self.bridge is not None
         r = await self._call(page, ident, self.bridge.command, res, obj["command"],
                              what=f"{res} {json.dumps(obj['command'])}")
@@ -385,7 +386,7 @@ class HmiServer:
         if not targets:
             self._reply(page, ident, False, "no motion actuator to stop")
             return
-        self.c["commands"] += 1
+        self.c.add("commands")
         for res in targets:
             r = await self._call(page, ident, self.bridge.command, res, "stop",
                                  what=f"STOP {res}")
