@@ -57,6 +57,7 @@ class Bridge:
         self.bus: Bus | None = None
         self.robot = ""
         self.robots: dict[str, Any] = {}      # MIN link entry -> robot_info
+        self.links: list[str] = []            # every MIN link entry (robots' and others')
         self.problems: list[str] = []
         self.rows: list[dict] = []
         self.watched: dict[str, str] = {}     # sensor -> "ok" or the refusal
@@ -89,6 +90,8 @@ class Bridge:
         self.runtime_up = True
         d = self.call("describe")       # the runtime reads the board files, not this process
         self.robots, self.problems = d.get("robots", {}), d.get("problems", [])
+        # a driver derived from MinLink (STARFISH's) has a link too, board files or not
+        self.links = list(self.robots) + [e for e in d.get("links", []) if e not in self.robots]
         self.bus.subscribe(f"esair/{self.robot}/sensor/**", self._on_sample, with_key=True)
         # every command an actuator ran, whoever sent it (a behavior, `esair std put`,
         # another page): the pose shows what the robot was told, not only this HMI's
@@ -248,7 +251,7 @@ class Bridge:
         """Per MIN link entry: state, last reply age, commands/s, errors."""
         now = time.time()
         out = {}
-        for entry in self.robots:
+        for entry in self.links:
             mine = [r for r in rows if r["name"].startswith(entry + ".")]
             if not mine:
                 out[entry] = {"state": "gone", "reason": "not deployed"}

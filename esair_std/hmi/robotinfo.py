@@ -5,6 +5,7 @@ actuator board's optional ``figure:`` (how to draw the robot)."""
 
 from __future__ import annotations
 
+import sys
 from typing import Any
 
 from esair_min.errors import EsairError
@@ -60,3 +61,21 @@ def entries_info(describe: dict) -> tuple[dict[str, Any], list[str]]:
         except EsairError as exc:
             problems.append(f"{entry}: board files not readable here: {exc}")
     return robots, problems
+
+
+def min_links(entries: dict) -> list[str]:
+    """The entries of a ``describe`` answer whose driver is a MinLink or a class derived
+    from it (PAPA-MAN's MinLink, STARFISH's Starfish): each is a serial link the page's
+    link bar shows, with or without board files the page can read. Run in the runtime,
+    which imported every class of its deployment when it started: the classes are looked
+    up among the modules loaded, nothing is imported here."""
+    base = getattr(sys.modules.get("esair_std.drivers.minlink.driver"), "MinLink", None)
+    out = []
+    for entry, d in entries.items():
+        path = str(d.get("class", ""))
+        module, _, name = path.partition(":")
+        cls = getattr(sys.modules.get(module), name, None) if module in sys.modules else None
+        if path == MINLINK or (isinstance(base, type) and isinstance(cls, type)
+                               and issubclass(cls, base)):
+            out.append(entry)
+    return out

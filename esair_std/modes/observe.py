@@ -143,10 +143,10 @@ class Observe:
                 path = os.path.join(spec.base_dir or "", robot)
                 d["robot"] = os.path.abspath(path) if os.path.exists(path) else robot
             out[entry] = d
-        from ..hmi.robotinfo import entries_info     # the board model: only when asked
+        from ..hmi.robotinfo import entries_info, min_links    # the board model: only when asked
         robots, problems = entries_info({"entries": out})
         return {"robot": self.rt.robot, "mode": self.rt.mode_name, "entries": out,
-                "robots": robots, "problems": problems}
+                "robots": robots, "problems": problems, "links": min_links(out)}
 
 
 def install(server: Server) -> Observe:

@@ -14,6 +14,7 @@ import math
 import re
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from esair_std.drivers.starfish.scene import load_scene
@@ -132,5 +133,37 @@ def test_localize_bearing_shows_on_a_dial_and_points_at_the_source_on_the_map(
     text = page.locator("[data-state=localize] .bearing").inner_text()
     assert re.fullmatch(r"bearing -?\d+\.\d° · confidence \d\.\d\d", text), text
     assert page.locator("[data-state=localize] canvas").is_visible()
+    page.close()
+    assert errors == []
+
+
+MICS = "window.__hmi.generic.panels['starfish.mics']"
+
+
+def test_the_serial_link_has_its_pill_and_the_mics_plot_their_levels(starfish_hmi, browser):
+    """STARFISH's driver is a MinLink (derived from it): its serial link is on the link
+    bar as PAPA-MAN's is. The microphones' frames are plotted as each channel's level
+    (dBFS), with their rate as text, not as the frame's fields (t, seq, rate, n...)."""
+    page, errors = open_page(browser, starfish_hmi.url)
+    page.wait_for_function("() => { const l = window.__hmi.link.starfish; return l && l.state === 'ready'; }")
+    page.wait_for_function(
+        "() => document.querySelector('#linkbar').textContent.includes('starfish link ready')")
+    page.wait_for_function(f"() => {MICS} && {MICS}.last")
+    assert page.evaluate(f"() => {MICS}.u.series.slice(1).map(s => s.label)") == [
+        "mic 1", "mic 2", "mic 3", "mic 4"]
+    assert page.evaluate(f"() => [{MICS}.u.scales.y.min, {MICS}.u.scales.y.max]") == [-100, 0]
+    # a frame's levels on the page are its channels' RMS, from its samples
+    page.evaluate(f"""() => {{ const p = {MICS}, push = p.push.bind(p);
+        p.push = (m) => {{ push(m); window.__frame = [m.v, p.last.levels]; }}; }}""")
+    page.wait_for_function("() => window.__frame")
+    frame, shown = page.evaluate("window.__frame")
+    pcm = np.frombuffer(base64.b64decode(frame["pcm"]), "<i2").reshape(frame["n"], frame["channels"])
+    rms = np.sqrt(np.mean(pcm.astype(float) ** 2, axis=0)) / 32768
+    want = [max(-100.0, round(20 * math.log10(r), 1)) if r > 0 else -100.0 for r in rms]
+    assert shown == pytest.approx(want, abs=0.051)
+    page.wait_for_function(f"() => {MICS}.note.textContent.includes('frames/s')")
+    note = page.evaluate(f"() => {MICS}.note.textContent")
+    assert re.fullmatch(rf"{frame['rate']} Hz · 4 channels · {frame['n']} samples a frame · "
+                        r"frame \d+ · \d+\.\d frames/s", note), note
     page.close()
     assert errors == []

@@ -2,9 +2,11 @@
 // plot, an image sensor ({image: data URL or base64}) a picture; a room sensor ({walls})
 // and the pose sensors ({x, y}) of one resource entry share that entry's map; a
 // behavior's state (its `get`) is shown as it is, with a dial for a bearing in it (also
-// drawn on the map); an actuator that is not a MIN robot's servo or motion gets a
-// command box.
+// drawn on the map); an audio frame ({pcm: base64 int16, channels, n, rate}) a plot of
+// each channel's level and a line of its rate; an actuator that is not a MIN robot's
+// servo or motion gets a command box.
 const WINDOW_S = 10;
+const FLOOR_DB = -100;       // an audio level plot's bottom (dBFS): silence is drawn there
 
 export class Generic {
   constructor(sensorsEl, actuatorsEl, robots, app, statesEl) {
@@ -83,6 +85,7 @@ export class Generic {
     const image = v && typeof v === "object" && typeof v.image === "string";
     const box = this.box(m.r, image);
     if (image) return new Picture(box);
+    if (audioFrame(v) && typeof uPlot !== "undefined") return new AudioLevels(box, v.channels);
     const fields = numbers(v);
     if (fields && typeof uPlot !== "undefined") return new Plot(box, Object.keys(fields));
     const pre = document.createElement("pre"); box.append(pre);
@@ -120,6 +123,62 @@ class Plot {
     if (cut) for (const a of [this.t, ...this.cols]) a.splice(0, cut);
   }
   draw() { this.u.setData([this.t, ...this.cols]); }
+}
+
+// {pcm: base64 of n x channels int16 (little-endian, interleaved), channels, n, rate}
+function audioFrame(v) {
+  return !!v && typeof v === "object" && typeof v.pcm === "string" && Number.isInteger(v.channels) &&
+    v.channels > 0 && Number.isInteger(v.n) && v.n > 0 && Number.isInteger(v.rate) && v.rate > 0;
+}
+
+// Each channel's RMS level of one frame, dBFS (0: a full-scale square wave), FLOOR_DB at
+// the least; null when the frame's pcm does not hold n x channels samples.
+export function levels(v) {
+  let bin;
+  try { bin = atob(v.pcm); } catch { return null; }
+  const ch = v.channels;
+  if (bin.length !== 2 * ch * v.n) return null;
+  const sums = new Float64Array(ch);
+  for (let i = 0, k = 0; i < v.n * ch; i++, k += 2) {
+    let x = bin.charCodeAt(k) | (bin.charCodeAt(k + 1) << 8);
+    if (x >= 32768) x -= 65536;
+    sums[i % ch] += x * x;
+  }
+  return Array.from(sums, (sum) => {
+    const rms = Math.sqrt(sum / v.n) / 32768;
+    return rms > 0 ? Math.max(FLOOR_DB, Math.round(200 * Math.log10(rms)) / 10) : FLOOR_DB;
+  });
+}
+
+// An audio sensor: each channel's level per frame (dBFS, the last WINDOW_S seconds), and
+// a line with the rate, the frame's size and number, and the frames a second that came.
+class AudioLevels {
+  constructor(box, channels) {
+    this.ch = channels; this.t = []; this.cols = Array.from({ length: channels }, () => []);
+    this.last = null; this.note = document.createElement("small");
+    this.u = new uPlot({ width: Math.max(260, box.clientWidth || 300), height: 120, cursor: { show: false },
+      scales: { x: { time: true }, y: { range: [FLOOR_DB, 0] } },
+      axes: [{}, { size: 44, values: (u, ticks) => ticks.map((x) => `${x} dB`) }],
+      series: [{}, ...this.cols.map((_, i) => ({ label: `mic ${i + 1}`, stroke: `hsl(${i * 67},60%,45%)` }))] },
+    [this.t, ...this.cols], box);
+    box.append(this.note);
+  }
+  push(m) {
+    const lv = audioFrame(m.v) && m.v.channels === this.ch ? levels(m.v) : null;
+    if (!lv) return;                      // a frame of another shape: not drawn
+    this.last = { seq: m.v.seq, rate: m.v.rate, n: m.v.n, levels: lv };
+    this.t.push(m.ts); lv.forEach((x, i) => this.cols[i].push(x));
+    let cut = 0; while (cut < this.t.length && this.t[cut] < m.ts - WINDOW_S) cut++;
+    if (cut) for (const a of [this.t, ...this.cols]) a.splice(0, cut);
+  }
+  draw() {
+    this.u.setData([this.t, ...this.cols]);
+    const l = this.last; if (!l) return;
+    const span = this.t.length > 1 ? this.t[this.t.length - 1] - this.t[0] : 0;
+    const fps = span > 0 ? ((this.t.length - 1) / span).toFixed(1) : "–";
+    this.note.textContent = `${l.rate} Hz · ${this.ch} channels · ${l.n} samples a frame · ` +
+      `frame ${l.seq} · ${fps} frames/s`;
+  }
 }
 
 class Picture {
