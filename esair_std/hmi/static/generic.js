@@ -6,7 +6,7 @@
 // each channel's level and a line of its rate; an actuator that is not a MIN robot's
 // servo or motion gets a command box.
 const WINDOW_S = 10;
-const FLOOR_DB = -100;       // an audio level plot's bottom (dBFS): silence is drawn there
+const FLOOR_DB = -80;        // an audio level plot's bottom (dBFS): silence is drawn there
 
 export class Generic {
   constructor(sensorsEl, actuatorsEl, robots, app, statesEl) {
@@ -158,7 +158,7 @@ class AudioLevels {
     this.last = null; this.note = document.createElement("small");
     this.u = new uPlot({ width: Math.max(260, box.clientWidth || 300), height: 120, cursor: { show: false },
       scales: { x: { time: true }, y: { range: [FLOOR_DB, 0] } },
-      axes: [{}, { size: 44, values: (u, ticks) => ticks.map((x) => `${x} dB`) }],
+      axes: [{}, { size: 60, values: (u, ticks) => ticks.map((x) => `${x} dB`) }],
       series: [{}, ...this.cols.map((_, i) => ({ label: `mic ${i + 1}`, stroke: `hsl(${i * 67},60%,45%)` }))] },
     [this.t, ...this.cols], box);
     box.append(this.note);
