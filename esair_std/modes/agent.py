@@ -214,6 +214,7 @@ class Agent:
         self.port = ZenohPort(bus, robot)
         self.done = threading.Event()
         self.host: ComponentHost | ResourceHost | None = None
+        self.token_doubts = 0      # the runtime's token went away while it answered
 
     @property
     def _component(self) -> ComponentHost:
@@ -419,9 +420,29 @@ class Agent:
         self.bus.watch_alive(keys.alive(self.robot, "runtime", "runtime"), on_alive)
 
     def _runtime_gone(self, lost: dict) -> None:
-        if lost["t"] is not None:
-            log.warning("%s: the runtime is gone; leaving", self.spec.name)
-            self.done.set()
+        """The runtime's token has been away for RUNTIME_GRACE. The token is only a hint:
+        in a mesh of peers its withdrawal can also come when another peer's link drops
+        (the robot's radio), while this agent's own link to the runtime stays up. So the
+        agent asks the runtime (``ping``) before it leaves, and leaves only when nobody
+        answers; while the token stays away it asks again every RUNTIME_GRACE."""
+        if lost["t"] is None or self.done.is_set():
+            return
+        if self._runtime_answers():
+            self.token_doubts += 1
+            log.info("%s: the runtime's token went away, but the runtime answers; staying",
+                     self.spec.name)
+            threading.Timer(RUNTIME_GRACE, self._runtime_gone, (lost,)).start()
+            return
+        log.warning("%s: the runtime is gone; leaving", self.spec.name)
+        self.done.set()
+
+    def _runtime_answers(self) -> bool:
+        try:
+            r = self.bus.request(keys.ctl(self.robot, "ping"), {}, RUNTIME_GRACE)
+        except StdError:
+            return False
+        ok = r.get("ok") if isinstance(r, dict) else None
+        return isinstance(ok, dict) and ok.get("robot") == self.robot
 
 
 def _stdin_watch(done: threading.Event) -> None:

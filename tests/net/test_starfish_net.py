@@ -111,7 +111,8 @@ def get_when(center, name, ok, timeout, what):
         except AssertionError as why:                     # e.g. failed: its reason is above
             patrol = str(why)
         raise AssertionError(f"{exc}; last {name}: {seen}; patrol: {patrol}; "
-                             f"states: {states}") from None
+                             f"states: {states}; the robot's run said:\n"
+                             f"{center.run.output()[-4000:]}") from None
 
 
 def wait_running(center, names, timeout, what):
