@@ -199,32 +199,55 @@ def split(page, names: list[str]) -> dict[str, list[float]]:
     return {n: page.evaluate(f"() => window.__hmi.stats.{n} || []") for n in names}
 
 
-def run_tree(p, root: Path, args: argparse.Namespace, tmp: Path) -> dict:
-    """Every figure of the tree at ``root`` (its runtime, HMI and page)."""
-    tmp.mkdir()
-    ep = f"tcp/127.0.0.1:{free_port()}"
-    env = dict(os.environ, PYTHONPATH=str(root) + os.pathsep + os.environ.get("PYTHONPATH", ""))
-    err = open(tmp / "run.err", "w+")  # noqa: SIM115 - closed at the end
-    proc = subprocess.Popen([sys.executable, "-m", "esair_min.cli", "std", "run",
-                             str(deployment(tmp, args.mode)), "--hmi", "--hmi-listen",
-                             "127.0.0.1:0", "-e", ep, "--no-top"], stdout=subprocess.DEVNULL,
-                            stderr=err, env=env, cwd=root)
-    out: dict = {}
+class HmiRun:
+    """``esair std run DEPLOYMENT --hmi`` of the tree at ``root`` on a free endpoint (its
+    stderr in ``tmp/run.err``), and ``esair std VERB ...`` against it."""
 
-    def std(*words: str) -> str:
-        r = subprocess.run([sys.executable, "-m", "esair_min.cli", "std", *words, "-e", ep],
-                           capture_output=True, text=True, env=env, timeout=60, cwd=root)
+    def __init__(self, root: Path, tmp: Path, mode: str):
+        tmp.mkdir()
+        self.root, self.tmp = root, tmp
+        self.ep = f"tcp/127.0.0.1:{free_port()}"
+        self.env = dict(os.environ, PYTHONPATH=str(root) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+        self.err = open(tmp / "run.err", "w+")  # noqa: SIM115 - closed in stop()
+        self.proc = subprocess.Popen([sys.executable, "-m", "esair_min.cli", "std", "run",
+                                      str(deployment(tmp, mode)), "--hmi", "--hmi-listen",
+                                      "127.0.0.1:0", "-e", self.ep, "--no-top"],
+                                     stdout=subprocess.DEVNULL, stderr=self.err, env=self.env, cwd=root)
+
+    def cli(self, *words: str) -> subprocess.CompletedProcess:
+        return subprocess.run([sys.executable, "-m", "esair_min.cli", "std", *words, "-e", self.ep],
+                              capture_output=True, text=True, env=self.env, timeout=60, cwd=self.root)
+
+    def std(self, *words: str) -> str:
+        r = self.cli(*words)
         assert r.returncode == 0, r.stderr
         return r.stdout
 
+    def url(self) -> str:
+        return wait_for(lambda: (m := re.search(r"^hmi: (\S+)$", (self.tmp / "run.err").read_text(),
+                                                re.M)) and m.group(1), timeout=90, what="URL")
+
+    def hmi_pid(self) -> int:
+        return next(p for p, cmd in children(self.proc.pid) if b"hmi" in cmd.split(b"\0"))
+
+    def stop(self) -> None:
+        self.proc.send_signal(signal.SIGTERM)
+        self.proc.wait(timeout=30)
+        self.err.close()
+
+
+def run_tree(p, root: Path, args: argparse.Namespace, tmp: Path) -> dict:
+    """Every figure of the tree at ``root`` (its runtime, HMI and page)."""
+    run = HmiRun(root, tmp, args.mode)
+    proc, ep, std = run.proc, run.ep, run.std
+    out: dict = {}
+
     def swept() -> dict | None:
-        r = subprocess.run([sys.executable, "-m", "esair_min.cli", "std", "get", "sweep", "-e", ep],
-                           capture_output=True, text=True, env=env, timeout=60, cwd=root)
+        r = run.cli("get", "sweep")
         return json.loads(r.stdout) if r.returncode == 0 else None     # busy while it runs
     try:
-        url = wait_for(lambda: (m := re.search(r"^hmi: (\S+)$", (tmp / "run.err").read_text(),
-                                               re.M)) and m.group(1), timeout=90, what="URL")
-        hmi = next(p for p, cmd in children(proc.pid) if b"hmi" in cmd.split(b"\0"))
+        url = run.url()
+        hmi = run.hmi_pid()
         time.sleep(2)
         out["cpu0"] = cpu_share(hmi, args.window)
         out["rss0"] = rss_mb(hmi)
@@ -320,9 +343,7 @@ def run_tree(p, root: Path, args: argparse.Namespace, tmp: Path) -> dict:
               file=sys.stderr)
         raise
     finally:
-        proc.send_signal(signal.SIGTERM)
-        proc.wait(timeout=30)
-        err.close()
+        run.stop()
     return out
 
 

@@ -24,8 +24,6 @@ import collections
 import json
 import os
 import re
-import signal
-import subprocess
 import sys
 import tempfile
 import time
@@ -34,8 +32,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from bench.hmi import LIVE, children, cpu_s, deployment, tree  # noqa: E402
-from tests.support.hmi import CHROMIUM, CHROMIUM_ARGS, free_port, wait_for  # noqa: E402
+from bench.hmi import LIVE, HmiRun, cpu_s, tree  # noqa: E402
+from tests.support.hmi import CHROMIUM, CHROMIUM_ARGS  # noqa: E402
 
 CATEGORIES = ["devtools.timeline", "disabled-by-default-devtools.timeline", "v8.execute",
               "blink", "cc", "gpu", "viz", "toplevel"]
@@ -128,24 +126,12 @@ def chromium_cpu(root_pid: int) -> dict[str, float]:
 
 
 def run_tree(p, root: Path, args: argparse.Namespace, tmp: Path) -> dict:
-    tmp.mkdir()
-    ep = f"tcp/127.0.0.1:{free_port()}"
-    env = dict(os.environ, PYTHONPATH=str(root) + os.pathsep + os.environ.get("PYTHONPATH", ""))
-    err = open(tmp / "run.err", "w+")  # noqa: SIM115 - closed at the end
-    proc = subprocess.Popen([sys.executable, "-m", "esair_min.cli", "std", "run",
-                             str(deployment(tmp, "thread")), "--hmi", "--hmi-listen",
-                             "127.0.0.1:0", "-e", ep, "--no-top"], stdout=subprocess.DEVNULL,
-                            stderr=err, env=env, cwd=root)
+    run = HmiRun(root, tmp, "thread")
+    std = run.std
     out: dict = {}
-
-    def std(*words: str) -> None:
-        r = subprocess.run([sys.executable, "-m", "esair_min.cli", "std", *words, "-e", ep],
-                           capture_output=True, text=True, env=env, timeout=60, cwd=root)
-        assert r.returncode == 0, r.stderr
     try:
-        url = wait_for(lambda: (m := re.search(r"^hmi: (\S+)$", (tmp / "run.err").read_text(),
-                                               re.M)) and m.group(1), timeout=90, what="URL")
-        hmi = next(p for p, cmd in children(proc.pid) if b"hmi" in cmd.split(b"\0"))
+        url = run.url()
+        hmi = run.hmi_pid()
         browser = p.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
         pages = []
         for _ in range(args.pages):
@@ -192,9 +178,7 @@ def run_tree(p, root: Path, args: argparse.Namespace, tmp: Path) -> dict:
         if not args.no_sweep:
             std("remove", "sweep")
     finally:
-        proc.send_signal(signal.SIGTERM)
-        proc.wait(timeout=30)
-        err.close()
+        run.stop()
     return out
 
 
