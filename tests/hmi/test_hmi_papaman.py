@@ -354,19 +354,18 @@ def test_a_page_that_takes_nothing_loses_frames_counted_and_no_other_page_waits(
     sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)     # a small window
     sock.connect((host, int(port)))
     before = robot.status()["counters"]["dropped"]
-    ws = connect(robot.url.replace("http://", "ws://") + "ws", sock=sock, max_queue=1)
-    try:
-        for i in range(120):                                     # its reader stops at once
-            ws.send(json.dumps({"op": "ping", "id": i, "ts": "x" * 60_000}))
-        wait_for(lambda: robot.status()["counters"]["dropped"] > before, what="frames dropped")
-        seen = page.evaluate("window.__hmi.stats.samples")
-        page.wait_for_function(f"() => window.__hmi.stats.samples >= {seen + 20}")
-        draws = page.evaluate("window.__hmi.stats.draws")
-        page.wait_for_function(f"() => window.__hmi.stats.draws > {draws + 5}")
-        assert robot.status()["counters"]["open_pages"] >= 2
-    finally:
-        sock.shutdown(socket.SHUT_RDWR)                          # no closing handshake to wait for
-        ws.close()
+    with connect(robot.url.replace("http://", "ws://") + "ws", sock=sock, max_queue=1) as ws:
+        try:
+            for i in range(120):                                 # its reader stops at once
+                ws.send(json.dumps({"op": "ping", "id": i, "ts": "x" * 60_000}))
+            wait_for(lambda: robot.status()["counters"]["dropped"] > before, what="frames dropped")
+            seen = page.evaluate("window.__hmi.stats.samples")
+            page.wait_for_function(f"() => window.__hmi.stats.samples >= {seen + 20}")
+            draws = page.evaluate("window.__hmi.stats.draws")
+            page.wait_for_function(f"() => window.__hmi.stats.draws > {draws + 5}")
+            assert robot.status()["counters"]["open_pages"] >= 2
+        finally:
+            sock.shutdown(socket.SHUT_RDWR)                      # no closing handshake to wait for
     wait_for(lambda: robot.status()["counters"]["open_pages"] == 1, what="the stuck page gone")
     page.close()
     assert errors == []
@@ -378,7 +377,8 @@ def test_a_foreign_origin_is_refused_and_bad_frames_change_nothing(robot):
 
     def go():
         with pytest.raises(websockets.InvalidStatus) as exc:
-            connect(ws_url, origin="http://evil.example").close()
+            with connect(ws_url, origin="http://evil.example"):
+                pass
         assert exc.value.response.status_code == 403
         with connect(ws_url, origin=f"http://{host}") as ws:
             hello = json.loads(ws.recv(timeout=10))
