@@ -9,7 +9,7 @@ import sys
 import time
 
 import pytest
-from tests.support.std import MODES, esair, free_endpoint, processes, std_run, wait_for
+from tests.support.std import MODES, components, esair, free_endpoint, processes, std_run, wait_for
 
 HERE = str(Path(__file__).resolve().parents[2])  # the checkout
 
@@ -22,8 +22,7 @@ def robot_mode(request):
     ep = free_endpoint()
 
     def deployed():
-        r = esair("ls", "--json", "-e", ep, check=False)
-        rows = json.loads(r.stdout)["components"] if r.returncode == 0 else []
+        rows = components(ep)
         return len(rows) == 11 and all(x["state"] in ("running", "ready") for x in rows)
     with std_run("lab", mode, ep, deployed, "the robot deployed"):
         yield ep, mode
@@ -58,7 +57,7 @@ def robot(robot_mode):
 def test_cli_errors_are_one_clear_line(robot, args, message):
     r = esair(*args, "-e", robot, check=False)
     assert (r.returncode, r.stderr) == (1, message)
-    assert len(json.loads(esair("ls", "--json", "-e", robot).stdout)["components"]) == 11
+    assert len(components(robot)) == 11
 
 
 def test_garbage_on_the_control_endpoint(robot):
@@ -89,7 +88,7 @@ def test_garbage_on_the_control_endpoint(robot):
         ]
     finally:
         bus.close()
-    rows = json.loads(esair("ls", "--json", "-e", robot).stdout)["components"]
+    rows = components(robot)
     assert len(rows) == 11 and all(r["state"] in ("running", "ready") for r in rows)
 
 

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.support.std import MODES, ROOT, free_endpoint, wait_for
+from tests.support.std import MODES, ROOT, ask, components, free_endpoint, wait_for
 
 FIX = ROOT / "tests" / "fixtures" / "std_operator"
 #: seconds each; the papaman tests run the emulator behind a pty
@@ -62,7 +62,7 @@ def spawn_run(*args: str, cwd: str | Path = ROOT, env: dict | None = None) -> su
 
 
 def answers(ep: str) -> bool:
-    return esair("ls", "-e", ep).returncode == 0
+    return ask(ep, "ping") is not None
 
 
 @pytest.fixture
@@ -176,8 +176,7 @@ def lab(request):
         wait_for(lambda: proc.poll() is not None or answers(ep), timeout=60,
                  what="the robot answering")
         assert proc.poll() is None, proc.communicate()
-        wait_for(lambda: all(r["state"] in ("running", "ready") for r in
-                             json.loads(esair("ls", "--json", "-e", ep).stdout)["components"]),
+        wait_for(lambda: all(r["state"] in ("running", "ready") for r in components(ep)),
                  what="every component running")
         yield ep, request.param
     finally:
@@ -293,18 +292,14 @@ def test_add_is_refused_when_allow_grants_less(lab):
            "allows it only up to 'read'\n")
     assert error_of("add", "spy", "lab:Logger", "--uses", "wav=read", "-e", ep) == (
         1, "error: behavior 'spy' uses unknown resource 'wav' (did you mean 'wave'?)\n")
-    names = [r["name"] for r in json.loads(esair("ls", "--json", "-e", ep).stdout)[
-        "components"]]
-    assert "spy" not in names
+    assert "spy" not in [r["name"] for r in components(ep)]
 
 
 def test_add_exits_1_when_start_raises(lab):
     ep, _ = lab
     assert error_of("add", "shaky", "tests.support.comps:Faulty", "-o", "fail=start", "-e", ep) == (
         1, "error: behavior 'shaky' did not start: RuntimeError: refuses to start\n")
-    names = [r["name"] for r in json.loads(esair("ls", "--json", "-e", ep).stdout)[
-        "components"]]
-    assert "shaky" not in names
+    assert "shaky" not in [r["name"] for r in components(ep)]
     r = esair("add", "shaky", "tests.support.comps:Faulty", "-e", ep)       # the name is free again
     assert (r.returncode, r.stdout) == (0, "shaky: running\n")
     assert esair("remove", "shaky", "-e", ep).returncode == 0
@@ -397,8 +392,8 @@ def test_ls_json_is_one_object_with_the_same_keys_for_every_component(lab):
     assert (rows["bench"]["kind"], rows["bench"]["class"]) == (
         "driver", "esair_std.drivers.sim:Bench")
     assert rows["bench.fan"]["parent"] == "bench" and rows["arm"]["parent"] == ""
-    wait_for(lambda: json.loads(esair("ls", "--json", "-e", ep).stdout)["components"][2][
-        "attached"] == ["arm", "wave"], what="follow attached to wave and arm")
+    wait_for(lambda: components(ep)[2]["attached"] == ["arm", "wave"],
+             what="follow attached to wave and arm")
     rows = {r["name"]: r for r in json.loads(esair("ls", "--json", "-e", ep).stdout)[
         "components"]}
     assert "follow" in rows["wave"]["attached"]
@@ -426,8 +421,8 @@ def test_papaman_from_the_command_line(robot, mode):
     """The live table groups the driver's children; a put the sequencer refuses says
     why; one command by hand as the operator; the feet's latest sample."""
     _, ep = robot("papaman", "--mode", mode)
-    wait_for(lambda: sum(r["state"] == "ready" for r in json.loads(
-        esair("ls", "--json", "-e", ep).stdout)["components"]) == 16, what="papaman ready")
+    wait_for(lambda: sum(r["state"] == "ready" for r in components(ep)) == 16,
+             what="papaman ready")
     out = esair("top", "--count", "1", "--interval", "0.1", "-e", ep).stdout
     names = [line.split("│")[1].strip() for line in out.splitlines()
              if line.startswith("│")]

@@ -11,7 +11,7 @@ import os
 from pathlib import Path
 
 import pytest
-from tests.support.std import MODES, esair, free_endpoint, processes, std_run, wait_for
+from tests.support.std import MODES, components, esair, free_endpoint, processes, std_run, wait_for
 
 from esair_std.drivers.minlink.emulated import EmulatedRobot
 
@@ -41,9 +41,7 @@ def test_esair_std_run_papaman(mode):
     ep = free_endpoint()
 
     def deployed():
-        r = esair("ls", "--json", "-e", ep, check=False)
-        return r.returncode == 0 and sum(row["state"] in ("running", "ready")
-                                         for row in json.loads(r.stdout)["components"]) == 19
+        return sum(row["state"] in ("running", "ready") for row in components(ep)) == 19
     with std_run("papaman", mode, ep, deployed) as proc:
         robots = emulators(descendants(proc.pid))
         assert len(robots) == 1                         # its own emulated PAPA-MAN

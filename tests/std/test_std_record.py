@@ -14,7 +14,7 @@ import pytest
 from mcap.reader import make_reader
 
 from esair_std.record import COMMAND_SCHEMA, SCHEMA, read_commands, read_samples
-from tests.support.std import MODES, esair, free_endpoint, std_run, wait_for
+from tests.support.std import MODES, components, esair, free_endpoint, std_run, wait_for
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -25,9 +25,7 @@ def test_record_then_replay(tmp_path, mode):
     out = tmp_path / "run.mcap"
 
     def deployed():
-        r = esair("ls", "--json", "-e", ep, check=False)
-        return r.returncode == 0 and sum(row["state"] in ("running", "ready") for row
-                                         in json.loads(r.stdout)["components"]) == 19
+        return sum(row["state"] in ("running", "ready") for row in components(ep)) == 19
     with std_run("papaman", mode, ep, deployed):
         rec = subprocess.Popen([sys.executable, "-m", "esair_min.cli", "std", "record", str(out),
                                 "papaman.feet", "papaman.servo.l_knee", "-e", ep],

@@ -22,6 +22,27 @@ def free_endpoint() -> str:
         return f"tcp/127.0.0.1:{s.getsockname()[1]}"
 
 
+def ask(ep: str, verb: str, body: dict | None = None, timeout: float = 5.0):
+    """The ``ok`` value of the runtime's answer to control request ``verb`` on ``ep``
+    (an error it answers is raised), asked from this process by the client ``esair std``
+    uses (esair_std.cli.client); None when no runtime answers. For the waits and the
+    checks that are not about the command line: ``esair std ls`` in a child process
+    costs an interpreter's start (1-2 s on a loaded machine) per ask."""
+    from esair_std.cli.client import Client
+    from esair_std.errors import TransportError
+    try:
+        with Client(ep) as c:
+            return c.call(verb, body, timeout)
+    except TransportError:
+        return None
+
+
+def components(ep: str) -> list[dict]:
+    """The runtime's component rows (``esair std ls --json``'s "components"), asked from
+    this process (:func:`ask`); [] when no runtime answers."""
+    return ask(ep, "ls", {"all": True}) or []
+
+
 def emulators_with(text: str) -> list[int]:
     """Pids of `esair emulate` processes whose command line holds ``text``."""
     return [pid for pid, _ppid, cmd in processes()
