@@ -24,16 +24,17 @@ def test_one_channel_is_one_channel(tmp_path):
     out = tmp_path / "wave.mcap"
     with Runtime(EXAMPLES / "lab" / "lab.yaml", mode="thread", endpoint=free_endpoint(),
                  control=True) as rt:
-        rec = subprocess.Popen([sys.executable, "-m", "esair_min.cli", "std", "record", str(out),
-                                "wave", "-e", rt.endpoint], cwd=ROOT, stderr=subprocess.PIPE,
-                               text=True)
-        assert rec.stderr.readline() == f"recording to {out}\n"
-        seq = rt.inspect("wave")["counters"]["seq"]
-        wait_for(lambda: rt.inspect("wave")["counters"]["seq"] >= seq + 5, timeout=30,
-                 what="five more wave samples")
-        rec.terminate()
-        assert rec.wait(timeout=30) == 0
+        with subprocess.Popen([sys.executable, "-m", "esair_min.cli", "std", "record", str(out),
+                               "wave", "-e", rt.endpoint], cwd=ROOT, stderr=subprocess.PIPE,
+                              text=True) as rec:          # its stderr closed after (no ResourceWarning)
+            assert rec.stderr.readline() == f"recording to {out}\n"
+            seq = rt.inspect("wave")["counters"]["seq"]
+            wait_for(lambda: rt.inspect("wave")["counters"]["seq"] >= seq + 5, timeout=30,
+                     what="five more wave samples")
+            rec.terminate()
+            assert rec.wait(timeout=30) == 0
+            last = rec.stderr.read()
     n = len(list(read_samples(out)))
     assert n >= 1
-    assert rec.stderr.read() == f"{out}: {counted(n, 'sample')} and 0 commands on 1 channel, " \
-                                "0 dropped, 0 gaps in seq\n"
+    assert last == f"{out}: {counted(n, 'sample')} and 0 commands on 1 channel, " \
+                   "0 dropped, 0 gaps in seq\n"
