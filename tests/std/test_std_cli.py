@@ -100,6 +100,8 @@ NOT_JSON = "is not JSON at column 2: Expecting property name enclosed in double 
     (["add-resource", "pen", "esair_std.drivers.sim:Recorder", "-o", "keep={x"], None,
      f"-o keep {NOT_JSON}; to give it as text, write it as a JSON string (-o 'keep=\"...\"')"),
     (["put", "inbox", "[" * 100_000], None, "DATA is JSON nested too deeply to be read"),
+    (["send", "arm", '{"angle": NaN}'], None,
+     "VALUE is not JSON at column 11: NaN is not a JSON number; to send it as text use --text"),
 ])
 def test_data_that_starts_like_json_but_is_not_is_a_usage_error(args, stdin, message):
     """Checked before the command connects: nothing answers on this endpoint, and the
