@@ -7,6 +7,10 @@ flight and two at once), with the feet polled at 8 Hz (the driver's default: the
 feet plot needs them), in three arms interleaved round by round (the load moves):
 
 - none: no HMI;
+- hmi: the HMI (``esair std hmi``, its own process), no page: what its polling of the
+  runtime (``ls``, ``inspect``, behaviors' ``get``) and its subscriptions cost;
+- browser: the headless chromium with N pages on about:blank, no HMI: what the browser
+  costs by itself;
 - blank: the HMI (``esair std hmi``, its own process, as ``esair std run --hmi`` starts
   it) and a headless chromium with N pages on about:blank;
 - live: the same with the N pages live on the HMI (each showing the feet, the pose, the
@@ -91,9 +95,11 @@ def one(mode: str, n: int, senders: int, arm: str, browser, pages_n: int) -> dic
             hmi = None
             pages = []
             try:
-                if arm != "none":
+                url = ""
+                if arm not in ("none", "browser"):
                     hmi = HmiChild(rt.endpoint, "127.0.0.1:0")
                     url = hmi.start()
+                if arm not in ("none", "hmi"):
                     pages = [browser.new_page(viewport={"width": 1280, "height": 800})
                              for _ in range(pages_n)]
                     for page in pages:
@@ -108,6 +114,7 @@ def one(mode: str, n: int, senders: int, arm: str, browser, pages_n: int) -> dic
                             page.wait_for_function(LIVE, timeout=120_000)
                         elif arm == "floor":
                             page.wait_for_function("() => window.__floor() > 2", timeout=120_000)
+                if arm != "none":
                     time.sleep(1.0)            # the pages' first drawing done
                 pids = roles(hmi)
                 c0 = {k: cpu_of(v) for k, v in pids.items()}
@@ -152,6 +159,8 @@ def main() -> None:
     ap.add_argument("--mode", default="thread", choices=["thread", "process"])
     ap.add_argument("--senders", default="1,2", help="behaviors at once: 1 (one in flight), "
                     "2 (what the link sustains)")
+    ap.add_argument("--arms", default="none,hmi,browser,blank,live",
+                    help="which arms, interleaved in this order (none is the reference)")
     ap.add_argument("--floor", action="store_true",
                     help="also the least live page (a WebSocket and one line of text)")
     ap.add_argument("--pinned", action="store_true",
@@ -165,7 +174,9 @@ def main() -> None:
     print(f"PAPA-MAN at {b.baud} baud, feet polled at {FEET_HZ:g} Hz, {args.mode} mode, "
           f"{args.pages} pages; load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
     print(f"line limits: x {lim['x']:.1f}/s, oMSAAA {lim['o']:.1f}/s")
-    arms = ["none", "blank", "live"] + (["floor"] if args.floor else [])
+    arms = args.arms.split(",") + (["floor"] if args.floor else [])
+    if "none" not in arms:
+        ap.error("--arms must include none (the reference)")
     with tempfile.TemporaryDirectory(prefix="esair-bench-") as tmp, sync_playwright() as p:
         browsers = [("free", CHROMIUM)]
         if args.pinned:
@@ -198,7 +209,7 @@ def main() -> None:
                               f"{runs_of(runs[a], 'x')})  oMSAAA {mo:5.1f}/s "
                               f"({mo / med['none']['o']:.3f}x; runs {runs_of(runs[a], 'o')})  "
                               f"errors {errs}  cores " + " ".join(f"{k} {v:.2f}" for k, v in cores.items()))
-                    for k, name in (("x", "x"), ("o", "oMSAAA")):
+                    for k, name in (("x", "x"), ("o", "oMSAAA")) if "live" in med else ():
                         r = med["live"][k] / med["none"][k]
                         floor = (f"; the least live page's: {med['floor'][k] / med['none'][k]:.3f}x, "
                                  f"so the HMI's page is {r / (med['floor'][k] / med['none'][k]):.3f}x"

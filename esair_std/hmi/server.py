@@ -80,7 +80,7 @@ class Page:
         self.ws = ws
         self.role = role
         self.user = ""
-        self.dropped = 0
+        self.c = Counters(dropped=0)   # frames this page lost (/status.json: per page)
         self.hidden = False         # in the background: no samples (op "view")
 
 
@@ -161,7 +161,7 @@ class HmiServer:
                 if m is None:
                     continue
             msgs.append(m)
-        if not msgs:
+        if not msgs or not self.pages:         # nobody to encode them for
             return
         self.c.add("batches")
         # f: when it left this process's queue (the page splits sample -> pixel at it)
@@ -186,7 +186,7 @@ class HmiServer:
         for page in pages:
             transport = page.ws.transport
             if transport is not None and transport.get_write_buffer_size() > PAGE_BUFFER:
-                page.dropped += 1
+                page.c.add("dropped")
                 self.c.add("dropped")
             else:
                 ready.append(page.ws)
@@ -194,9 +194,12 @@ class HmiServer:
             broadcast(ready, text)
 
     def status(self) -> dict:
-        return {"counters": dict(self.c.snapshot(), open_pages=len(self.pages),
-                                 hidden_pages=sum(p.hidden for p in self.pages),
-                                 failed_logins=self.auth.failed_logins),
+        pages = list(self.pages)
+        return {"counters": dict(self.c.snapshot(), open_pages=len(pages),
+                                 hidden_pages=sum(p.hidden for p in pages),
+                                 **self.auth.c.snapshot()),
+                # each open page: its role, whether hidden, the frames it lost
+                "pages": [{"role": p.role, "hidden": p.hidden, **p.c.snapshot()} for p in pages],
                 "bridge": self.bridge.c.snapshot() if self.bridge else {}}
 
     # ---- HTTP
@@ -474,6 +477,9 @@ class HmiServer:
     async def serve(self, ready: Callable[[str], None], stop: asyncio.Event) -> None:
         self._loop = asyncio.get_running_loop()
         self.bridge = Bridge(self.endpoint, self.emit, who=self.who)
+        # the link's counters and the behaviors' states are asked for while a page shows
+        # them (a list of the set: taken at once, while the loop may change the set)
+        self.bridge.showing = lambda: any(not p.hidden for p in list(self.pages))
         await self._loop.run_in_executor(None, self.bridge.start)
         # what start-up made lives as long as the process: out of the collector's way, so
         # a full collection walks only what came since (its pauses delay every sample)

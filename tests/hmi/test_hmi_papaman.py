@@ -326,6 +326,7 @@ def test_a_viewer_without_login_gets_no_command_through(robot, browser):
     assert page.locator("#stop").is_disabled()
     assert page.locator("#login").is_visible()
     refused = robot.status()["counters"]["refused"]
+    failed = robot.status()["counters"]["failed_logins"]
     before = len(robot.trace_lines())
     for frame in ({"op": "cmd", "resource": "papaman.motion", "command": {"play": "dance"}},
                   {"op": "stop"}, {"op": "remove", "name": "watcher"}):
@@ -334,6 +335,7 @@ def test_a_viewer_without_login_gets_no_command_through(robot, browser):
     assert robot.status()["counters"]["refused"] == refused + 3
     r = page.evaluate("window.__hmi.send({op: 'login', user: 'operator', password: 'guess'})")
     assert (r["ok"], r["error"]) == (False, "wrong user or password")
+    assert robot.status()["counters"]["failed_logins"] == failed + 1
     # nothing reached the robot: no PLY line on its UART and the watcher still runs
     rx = [ln for ln in robot.trace_lines()[before:] if ln.startswith("TX ")]
     assert all(bytes.fromhex(ln[3:]).startswith(b"OK ") or ln == "TX 4F4B0D0A" for ln in rx)
@@ -359,6 +361,9 @@ def test_a_page_that_takes_nothing_loses_frames_counted_and_no_other_page_waits(
         for i in range(120):                                     # its reader stops at once
             ws.send(json.dumps({"op": "ping", "id": i, "ts": "x" * 60_000}))
         wait_for(lambda: robot.status()["counters"]["dropped"] > before, what="frames dropped")
+        # counted on the stuck page, not on the live one (which takes everything)
+        pages = robot.status()["pages"]
+        assert sorted(p["dropped"] > 0 for p in pages) == [False, True], pages
         seen = page.evaluate("window.__hmi.stats.samples")
         page.wait_for_function(f"() => window.__hmi.stats.samples >= {seen + 20}")
         draws = page.evaluate("window.__hmi.stats.draws")
