@@ -48,6 +48,7 @@ log = logging.getLogger("esair_std.hmi")
 STATIC = Path(__file__).resolve().parent / "static"
 PAGE_BUFFER = 256 * 1024   # bytes written to a page's socket and not yet sent: past it, frames are dropped
 LAZY_S = 0.05               # a command's record waits this long at most for a sample's frame to ride in
+LAZY = ("ran", "link")      # ... and the link bar's update (its reply ages, 4 a second)
 PENDING_MAX = 10_000        # messages emitted and not yet handed to the pages (counted as dropped past it)
 MAX_FRAME = 64 * 1024       # bytes of one frame from a page
 CSP = ("default-src 'self'; img-src 'self' data:; style-src 'self' 'unsafe-inline'; "
@@ -128,14 +129,15 @@ class HmiServer:
         "m": [...], "f": when}``): at 50 Hz of samples and more, one loop wake-up and
         one WebSocket frame per batch, not per sample. A command's record (``ran``: the
         pose and the sliders, which a person reads) does not wake the loop at once: it
-        rides with the next sample's frame, or goes LAZY_S later when none comes."""
+        rides with the next sample's frame, or goes LAZY_S later when none comes; so
+        does the link bar's update (a lost link shows within LAZY_S more)."""
         tap = self.tap
         if tap is not None:
             tap.put(msg)
         loop = self._loop
         if loop is None or loop.is_closed():
             return
-        lazy = msg.get("t") == "ran"
+        lazy = msg.get("t") in LAZY
         with self._pending_lock:
             if len(self._pending) >= PENDING_MAX:
                 self.c.add("dropped")
@@ -166,9 +168,9 @@ class HmiServer:
         self.c.add("batches")
         # f: when it left this process's queue (the page splits sample -> pixel at it)
         f = round(time.time(), 4)
-        text = json.dumps({"t": "b", "f": f, "m": msgs}, separators=(",", ":"))
         shown = [p for p in self.pages if not p.hidden]
-        self._send(shown, text)
+        if shown:
+            self._send(shown, json.dumps({"t": "b", "f": f, "m": msgs}, separators=(",", ":")))
         hidden = [p for p in self.pages if p.hidden]
         if hidden:                          # the same without the samples
             rest = [m for m in msgs if m.get("t") != "s"]
