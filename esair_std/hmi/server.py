@@ -118,8 +118,9 @@ class HmiServer:
         self._loop: asyncio.AbstractEventLoop | None = None
         self._pending: list[dict] = []            # emitted, not yet sent (bounded)
         self._pending_lock = threading.Lock()
-        self._flush_due = False       # a flush is asked for (soon, or within LAZY_S)
-        self._flush_soon = False      # ... as soon as the loop can
+        self._flush_soon = False      # a flush is asked for, as soon as the loop can
+        self._lazy_armed = False      # the loop's lazy tick is due within LAZY_S
+        self._lazy_seen = False       # a lazy message came since the last tick
 
     # ---- fan-out (any thread -> the loop)
     def emit(self, msg: dict) -> None:
@@ -128,9 +129,12 @@ class HmiServer:
         meanwhile, encodes them once, and writes every page the same frame (``{"t": "b",
         "m": [...], "f": when}``): at 50 Hz of samples and more, one loop wake-up and
         one WebSocket frame per batch, not per sample. A command's record (``ran``: the
-        pose and the sliders, which a person reads) does not wake the loop at once: it
-        rides with the next sample's frame, or goes LAZY_S later when none comes; so
-        does the link bar's update (a lost link shows within LAZY_S more)."""
+        pose and the sliders, which a person reads) does not wake the loop: it rides
+        with the next sample's frame, or goes with the loop's lazy tick (every LAZY_S
+        while such messages come; the first after a quiet spell wakes the loop to start
+        it), so a stream of commands costs no wake-up and no frame of its own while
+        samples flow; so does the link bar's update (a lost link shows within LAZY_S
+        more)."""
         tap = self.tap
         if tap is not None:
             tap.put(msg)
@@ -143,19 +147,37 @@ class HmiServer:
                 self.c.add("dropped")
                 return
             self._pending.append(msg)
-            if self._flush_soon or (lazy and self._flush_due):
-                return
-            self._flush_soon = not lazy
-            self._flush_due = True
-        if lazy:
-            loop.call_soon_threadsafe(loop.call_later, LAZY_S, self._flush)
-        else:
-            loop.call_soon_threadsafe(self._flush)
+            if lazy:
+                self._lazy_seen = True
+                if self._flush_soon or self._lazy_armed:
+                    return
+                self._lazy_armed = True
+            else:
+                if self._flush_soon:
+                    return
+                self._flush_soon = True
+        loop.call_soon_threadsafe(self._arm_lazy if lazy else self._flush)
+
+    def _arm_lazy(self) -> None:
+        assert self._loop is not None
+        self._loop.call_later(LAZY_S, self._lazy_tick)
+
+    def _lazy_tick(self) -> None:
+        """Every LAZY_S while lazy messages come: what waits goes now (when no sample's
+        frame took it); after a tick with none since the last, the tick stops."""
+        with self._pending_lock:
+            again, self._lazy_seen = self._lazy_seen, False
+            self._lazy_armed = again
+            waiting = bool(self._pending)
+        if waiting:
+            self._flush()
+        if again:
+            self._arm_lazy()
 
     def _flush(self) -> None:
         with self._pending_lock:
             got, self._pending = self._pending, []
-            self._flush_due = self._flush_soon = False
+            self._flush_soon = False
         msgs = []
         for m in got:
             if m.get("t") == "ran":               # a command any sender got through
