@@ -7,6 +7,7 @@ import { Components } from "./components.js";
 import { Log } from "./log.js";
 import { Generic } from "./generic.js";
 import { Replay } from "./replay.js";
+import { counted } from "./words.js";
 
 const $ = (id) => document.getElementById(id);
 const DRAW_SHARE = 0.25;         // drawing takes at most this share of the page's time
@@ -233,7 +234,8 @@ class App {
       this.played = played || (mo ? { v, ms: 0, stopped: false } : null);
       if (played && played.stopped) {
         this.pose.halt();
-        if (mo) { this.pose.set(this.pose.frameAt(mo, this.info.tick_s, played.ms)); this.joints.sync(this.pose.angles); }
+        const i = mo ? this.pose.frameAt(mo, this.info.tick_s, played.ms) : -1;
+        if (i >= 0) { this.pose.show(mo, i); this.joints.sync(this.pose.angles); }
       } else if (v === "stop") this.pose.halt();
       else if (mo) this.pose.play(mo, this.info.tick_s, played ? played.ms : 0);
     }
@@ -257,7 +259,7 @@ class App {
       const bits = [`${entry} link ${state}`];
       if (l.reply_age_s != null) bits.push(`reply ${l.reply_age_s < 10 ? l.reply_age_s.toFixed(2) : ">10"} s ago`);
       if (l.commands_per_s != null) bits.push(`${l.commands_per_s} cmd/s`);
-      if (l.errors != null) bits.push(`${l.errors} errors`);
+      if (l.errors != null) bits.push(counted(l.errors, "error"));
       pill(l.state, bits.join(" · "), `${l.host || ""} pid ${l.pid || "?"} ${l.reason || ""}`);
     }
     // the pills are kept and only what changed is set (the link comes 4 times a second)
