@@ -14,10 +14,16 @@ const DRAW_SHARE = 0.25;         // drawing takes at most this share of the page
 const MAX_DRAW_GAP_MS = 200;     // ... but the plots move at least 5 times a second
 // redraws a second at most (`?fps=N` in the URL, 1-60): the feet come at 50 Hz, an eye
 // needs less, and each frame drawn costs the computer showing the page (docs/hmi.md)
-const FPS = Math.min(60, Math.max(1, Number(new URLSearchParams(location.search).get("fps")) || 30));
+// The feet plot is drawn at the first frame after a sample (at most FEET_FPS times a
+// second: 60, or `?fps=N`), the rest (the figure, the sliders, other panels) at most FPS.
+const ASKED_FPS = Number(new URLSearchParams(location.search).get("fps"));
+const FPS = Math.min(60, Math.max(1, ASKED_FPS || 30));
+const FEET_FPS = Math.min(60, Math.max(1, ASKED_FPS || 60));
 const MIN_DRAW_GAP_MS = 1000 / FPS - 4;      // less a quarter of a 60 Hz frame: rAF jitters
-const KEEP = 20000;              // bench figures kept
-const keep = (a, x) => { a.push(x); if (a.length > KEEP) a.shift(); };
+const MIN_FEET_GAP_MS = 1000 / FEET_FPS - 4;
+const KEEP = 20000;              // bench figures kept (up to twice as many: cut in halves,
+                                 // not one shift of 20000 a sample)
+const keep = (a, x) => { a.push(x); if (a.length >= 2 * KEEP) a.splice(0, KEEP); };
 
 class App {
   constructor() {
@@ -41,8 +47,9 @@ class App {
     this.components = new Components($("components"), $("add"), this);
     this._dirty = false; this.framePending = false; this.hidden = document.visibilityState === "hidden";
     this.drawnAt = -1e9; this.drawCost = 0; this.drawGap = MIN_DRAW_GAP_MS;     // frame(): the draw budget
+    this.feetDirty = false; this.feetAt = -1e9; this.feetCost = 0; this.feetGap = MIN_FEET_GAP_MS;   // ... the feet's
     this.flushedAt = null;       // the server's "f" of the frame being read
-    this.fps = FPS;
+    this.fps = FPS; this.feetFps = FEET_FPS;
     $("stop").addEventListener("click", () => this.stop());
     $("login").addEventListener("submit", (e) => { e.preventDefault(); this.login(); });
     $("record").addEventListener("click", () => this.record());
@@ -68,7 +75,7 @@ class App {
   visibility() {
     this.hidden = this.stats.hidden = document.visibilityState === "hidden";
     this.send({ op: "view", hidden: this.hidden });
-    if (!this.hidden) { this.dirty = true; if (this.pose) this.pose.changed = true; }
+    if (!this.hidden) { this.feetDirty = true; this.dirty = true; if (this.pose) this.pose.changed = true; }
   }
 
   connect() {
@@ -210,13 +217,13 @@ class App {
         keep(st.hop, (m.rx - m.ts) * 1000); keep(st.hmi, (this.flushedAt - m.rx) * 1000);
         keep(st.wire, got - this.flushedAt * 1000);
       }
-      this.feet.push(m, got); this.dirty = true;
+      this.feet.push(m, got); this.feetDirty = true; this.kick();
     }
     else if (this.entry && m.r === `${this.entry}.notices`) {
       const text = (m.v && m.v.notice) || "";
       const level = text.startsWith("E") ? "error" : text.startsWith("R ") ? "warning" : "info";
       this.log.add(level, `${this.entry}: !${text}`);
-      if (text.startsWith("R ")) { this.feet.marker(m.ts, text); this.dirty = true; }
+      if (text.startsWith("R ")) { this.feet.marker(m.ts, text); this.feetDirty = true; this.kick(); }
     } else { this.generic.sample(m); this.dirty = true; }
   }
 
@@ -287,22 +294,33 @@ class App {
   }
 
   // A frame draws what changed since the last one (every sample that came meanwhile at
-  // once, the pose and the sliders as the commands left them), at most FPS times a
-  // second and at most DRAW_SHARE of the page's time: when drawing is slow (a busy
-  // computer, many pages) frames are skipped rather than the whole page falling behind.
-  // Each frame drawn costs the browser far more than the drawing itself (its commit,
-  // raster and compositing: docs/hmi.md), so nothing draws outside these frames.
+  // once, the pose and the sliders as the commands left them): the feet plot at the
+  // first frame after a sample (at most FEET_FPS a second: the samples come at 50 Hz
+  // and a person reads the plot's newest end), the rest at most FPS times a second;
+  // each at most DRAW_SHARE of the page's time: when drawing is slow (a busy computer,
+  // many pages) frames are skipped rather than the whole page falling behind. Each
+  // frame drawn costs the browser far more than the drawing itself (its commit, raster
+  // and compositing: docs/hmi.md), so nothing draws outside these frames.
   frame(now) {
     this.framePending = false;
     if (this.hidden) return;
     this.stats.frames++;
     let again = false;
+    let drew = false;
+    if (this.feetDirty && now - this.feetAt < this.feetGap) again = true;
+    else if (this.feetDirty) {
+      this.feetDirty = false;
+      const t0 = performance.now();
+      if (this.feet) this.feet.draw(performance.timeOrigin + t0, this.stats);
+      const cost = this.cost(t0); drew = true;
+      this.feetCost = 0.8 * this.feetCost + 0.2 * Math.min(cost, 2 * this.feetCost + 1);
+      this.feetGap = Math.min(MAX_DRAW_GAP_MS, Math.max(MIN_FEET_GAP_MS, this.feetCost / DRAW_SHARE));
+      this.feetAt = now;
+    }
     if (this._dirty && now - this.drawnAt < this.drawGap) again = true;
     else if (this._dirty) {
       this._dirty = false;
       const t0 = performance.now();
-      const drawnAt = performance.timeOrigin + t0;
-      if (this.feet) this.feet.draw(drawnAt, this.stats);
       if (this.generic) this.generic.draw();
       if (this.pose) {
         if (this.pose.animate(now)) this.joints.sync(this.pose.angles);
@@ -310,16 +328,22 @@ class App {
         const waiting = this.joints.show(now);
         if (this.pose.motion || this.pose.changed || waiting) this._dirty = again = true;
       }
-      const cost = performance.now() - t0;
-      this.stats.draws++; this.stats.drawMs += cost;
       // a frame whose drawing was cut by the computer (another process got the core)
       // counts at most twice the estimate and 1 ms: drawing that stays slow raises the
       // estimate within a few frames, one preemption does not skip the next frames
+      const cost = this.cost(t0); drew = true;
       this.drawCost = 0.8 * this.drawCost + 0.2 * Math.min(cost, 2 * this.drawCost + 1);
       this.drawGap = Math.min(MAX_DRAW_GAP_MS, Math.max(MIN_DRAW_GAP_MS, this.drawCost / DRAW_SHARE));
       this.drawnAt = now;
     }
+    if (drew) this.stats.draws++;             // frames that drew something
     if (again) this.kick();
+  }
+
+  cost(t0) {                      // the drawing since t0 (ms), counted for the bench
+    const cost = performance.now() - t0;
+    this.stats.drawMs += cost;
+    return cost;
   }
 }
 

@@ -53,12 +53,12 @@ export class Replay {
     for (const [, , t, v] of this.notices) if (t <= end && t >= end - 10) feet.marker(t, v.notice);
     feet.fresh = [];
     $("timeline-at").textContent = `${offset.toFixed(1)} s`;
-    this.app.dirty = true;
+    this.app.feetDirty = true; this.app.kick();
   }
 
   live() {
     this.active = false; document.body.classList.remove("replaying");
     $("timeline").disabled = true; $("live-view").hidden = true; $("timeline-at").textContent = "";
-    this.app.feet.clear(); this.app.dirty = true;
+    this.app.feet.clear(); this.app.feetDirty = true; this.app.kick();
   }
 }
