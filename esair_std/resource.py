@@ -33,6 +33,8 @@ from .errors import CommandError
 class _Agent:
     # the host's slot for this resource (set by the runtime)
     _esair: _Slot = None  # type: ignore[assignment]  # None only until the runtime sets it
+    #: The keys configure() takes, listed by its "no setting" error (no_setting()).
+    settings: tuple[str, ...] = ()
 
     @property
     def name(self) -> str:
@@ -59,9 +61,21 @@ class _Agent:
     def mark_ready(self) -> None:
         self._esair.set_state("ready", "")
 
+    def no_setting(self, key: str) -> CommandError:
+        """The error for a key configure() does not take, listing ``settings``:
+        ``arm: no setting 'gain' (settings: speed)``; raise it."""
+        if self.settings:
+            listed = "settings: " + ", ".join(self.settings)
+        elif getattr(type(self), "configure", None) in (Sensor.configure, Actuator.configure):
+            listed = "it has no settings"
+        else:                       # configure() overridden, its keys not declared
+            listed = "its class declares no settings"
+        return CommandError(self.name, f"no setting {key!r} ({listed})")
+
 
 class Sensor(_Agent):
     rate_hz: float | None = None
+    settings: tuple[str, ...] = ("rate_hz",)
 
     def read(self) -> Any:
         """Polled at ``rate_hz``; the value returned is reported (None: nothing)."""
@@ -75,7 +89,7 @@ class Sensor(_Agent):
         if key == "rate_hz":
             self.rate_hz = float(value)
             return self.rate_hz
-        raise CommandError(self.name, f"no setting {key!r}")
+        raise self.no_setting(key)
 
 
 class Actuator(_Agent):
@@ -83,7 +97,7 @@ class Actuator(_Agent):
         raise CommandError(self.name, "write() is not implemented")
 
     def configure(self, key: str, value: Any) -> Any:
-        raise CommandError(self.name, f"no setting {key!r}")
+        raise self.no_setting(key)
 
 
 class Driver(_Hosted):

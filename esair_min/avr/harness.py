@@ -434,20 +434,23 @@ def servo_pins(robot: Robot) -> str:
 
 
 def run_robot(robot: Robot, stimulus: str, elfs: dict[str, Path], workdir: Path,
-              lead: float = BOOT_LEAD, timeout: float = 600.0) -> AvrRun:
+              lead: float = BOOT_LEAD, timeout: float = 600.0,
+              watch: tuple[int, tuple[int, ...]] | None = None) -> AvrRun:
     """Run ``stimulus`` on all three boards' firmware in lockstep: the central board
     (node 0) with the motion EEPROM modelled, the actuator (node 1: its sync input
     wired to the central's sync output, its servo pins recorded) and the sensor board
-    (node 2: ``sensor`` lines set its ADC inputs) as TWI slaves on the same bus."""
+    (node 2: ``sensor`` lines set its ADC inputs) as TWI slaves on the same bus.
+    ``watch``: (node, byte addresses) whose every execution is recorded (AvrRun.hits)."""
     act, sen = robot.actuator, robot.sensor_board
     if act is None or sen is None or act.sync is None or robot.central.sync is None:
         raise SimError("run_robot needs a central, an actuator and a sensor board")
     end = boot_end(robot, elfs["central"], workdir / "boot", lead)
     setup = AvrSetup.from_robot(robot)
     cmds, _ = build_commands(robot, stimulus, _image(robot, workdir), end, boards=True)
+    watched = [] if watch is None else [f"watch {watch[0]} {a}" for a in watch[1]]
     nodes = (f"node {elfs['actuator']} {servo_pins(robot)}", f"node {elfs['sensor']} -",
              *mux_line(robot, SENSOR_NODE),
-             f"wire 0 {robot.central.sync.pin[1:]} 1 {act.sync.pin[1:]}")
+             f"wire 0 {robot.central.sync.pin[1:]} 1 {act.sync.pin[1:]}", *watched)
     out = run_commands(elfs["central"], cmds, setup.sync_pin, timeout, nodes)
     return parse_events(out, setup.scl_cycles)
 

@@ -78,3 +78,23 @@ def checked_pulses(run: AvrRun, robot: Robot, clock_hz: int) -> tuple[list[Pulse
         angle = before[-1][p.servo]
         out.append(PulseCheck(p, angle, expected_us(servos[p.servo], angle)))
     return out, skipped
+
+
+#: The superloop functions that bound one servo update on the actuator board: from the
+#: latch of the register map to the next pass's watchdog clear (step, 12 pulse widths,
+#: the PWM schedule in between).
+UPDATE_FROM, UPDATE_TO = "act_latch", "hal_watchdog_clear"
+
+
+def update_spans(run: AvrRun, start: int, end: int) -> list[tuple[int, int]]:
+    """(cycle, cycles) of each servo update in a run that watched the actuator at the
+    byte addresses ``start`` (UPDATE_FROM) and ``end`` (UPDATE_TO): each ``start`` to
+    the first ``end`` after it."""
+    spans, began = [], None
+    for cycle, at in run.hits:
+        if at == start:
+            began = cycle
+        elif at == end and began is not None:
+            spans.append((began, cycle - began))
+            began = None
+    return spans

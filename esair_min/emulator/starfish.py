@@ -15,12 +15,15 @@ last byte has arrived; a reply leaves through the 80-byte transmit ring at the s
 pace, and while it has no room there the board waits (bytes arriving meanwhile wait in
 the receive ring, or are lost to an overrun and the line answered ``E12``).
 The trace keeps, per central tick, the virtual time, the true pose and the wheels' rim
-speeds; ``i2c`` keeps every write to the drive board.
+speeds; ``i2c`` keeps the latest ``i2c_keep`` writes to the drive board (``i2c_writes``
+counts them all, ``i2c_dropped`` the ones no longer kept: the live view and a headless
+run's last line show both).
 """
 
 from __future__ import annotations
 
 import math
+from collections import deque
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -34,6 +37,11 @@ from esair_min.emulator.starfish_run import central_run, plan
 from esair_min.emulator.starfish_trace import TraceRow
 from esair_min.emulator.uart import GAP, RX_BYTE, RX_HOLD, RX_TAKE, Uart
 from esair_min.world import World
+
+
+#: Drive-board writes a StarfishSim keeps (its ``i2c``): the latest, about 51 simulated
+#: seconds of driving at 20 writes a second.
+I2C_KEEP = 1024
 
 
 @dataclass
@@ -52,6 +60,7 @@ class StarfishSim(SerialHost):
     flow_options: FlowOptions = field(default_factory=FlowOptions)
     keep_trace: bool = True
     robot_id: str | None = None        # the v reply's id= (an emulator's boot)
+    i2c_keep: int = I2C_KEEP           # drive-board writes kept in ``i2c`` (the latest)
 
     def __post_init__(self) -> None:
         central = self.robot.central
@@ -61,7 +70,9 @@ class StarfishSim(SerialHost):
                         for i, f in enumerate(central.flow_sensors)]
         self.mounts = [(float(f.mount_x_mm), float(f.mount_y_mm), math.radians(f.mount_angle_deg))
                        for f in central.flow_sensors]
-        self.i2c: list[tuple[int, int, bytes]] = []      # (t_ns, address, data)
+        #: The latest writes to the drive board, (t_ns, address, data); i2c_writes counts all.
+        self.i2c: deque[tuple[int, int, bytes]] = deque(maxlen=self.i2c_keep)
+        self.i2c_writes = 0
         self.core = StarfishCore(self.robot, self._write, self.sensors, self.robot_id)
         self.clock = VirtualClock()
         self.uart = Uart(self.clock, central.uart.baud, self._feed, rx_mode=self._rx_mode,
@@ -88,8 +99,15 @@ class StarfishSim(SerialHost):
         self._run_plan = plan(self)    # (starfish_run: ticks in runs)
         self._reply(ready_line(self.robot.name))   # at reset: the robot it is
 
+    @property
+    def i2c_dropped(self) -> int:
+        """Writes to the drive board no longer kept in ``i2c`` (older than its latest
+        ``i2c_keep``)."""
+        return self.i2c_writes - len(self.i2c)
+
     def _write(self, address: int, data: bytes) -> bool:
         self.i2c.append((self.clock.now, address, bytes(data)))
+        self.i2c_writes += 1
         if address != self.drive.address or not data:
             return False
         self._replay(self.clock.now)

@@ -127,5 +127,7 @@ def emulate_starfish(robot: Robot, opts: Any, out: TextIO, log: Callable[[str], 
             stop.restore()
         p = sim.world.pose
         log(f"pose after {sim.now_s:g} s: x {p.x:.1f} mm, y {p.y:.1f} mm, theta "
-            f"{p.theta:.4f} rad; wall contacts {sim.world.collisions}")
+            f"{p.theta:.4f} rad; wall contacts {sim.world.collisions}; drive writes "
+            f"{sim.i2c_writes} ({sim.i2c_dropped} dropped from the record of the last "
+            f"{sim.i2c_keep})")
         return 130 if stop.flag else 0

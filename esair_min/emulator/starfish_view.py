@@ -51,7 +51,8 @@ def render(sim: Any, port: Any, width: int, height: int) -> list[str]:
             f"pose x {p.x:7.1f} mm  y {p.y:7.1f} mm  theta {math.degrees(p.theta):+7.1f} deg"
             f"  wall contacts {sim.world.collisions}",
             f"wheels (mm/s) {wheels}   odometry polls {sim.core.polls}"
-            f"   watchdog stops {sim.core.watchdog_stops}"]
+            f"   watchdog stops {sim.core.watchdog_stops}"
+            f"   drive writes {sim.i2c_writes} ({sim.i2c_dropped} dropped from the record)"]
     body = room_map(sim, width, height - len(head) - 1)
     return [line[:width] for line in head + [""] + body]
 

@@ -12,6 +12,8 @@ import click
 
 from esair_min.cli.pipes import friendly
 
+from .jsontext import option_value
+
 
 def _pairs(items: tuple[str, ...], what: str) -> dict[str, str]:
     out = {}
@@ -21,14 +23,6 @@ def _pairs(items: tuple[str, ...], what: str) -> dict[str, str]:
             raise click.BadParameter(f"{item!r} is not of the form NAME=LEVEL", param_hint=what)
         out[key] = val
     return out
-
-
-def _value(text: str):
-    import json
-    try:
-        return json.loads(text)
-    except ValueError:
-        return text
 
 
 def _restart_policy(text: str | None, kind: str) -> tuple[int, float]:
@@ -62,7 +56,8 @@ def _restart_policy(text: str | None, kind: str) -> tuple[int, float]:
 @click.option("--period", type=click.FloatRange(min=0, min_open=True), default=None,
               help="Seconds between step() calls.")
 @click.option("-o", "--option", "options", multiple=True, metavar="KEY=VALUE",
-              help="An option for the component (self.options; VALUE is JSON or text).")
+              help="An option for the component (self.options; VALUE is JSON or text, text that "
+                   "starts with {, [ or \" as a JSON string).")
 @click.option("--robot", default=None, help="The robot's name (found by asking when not given).")
 @click.option("--ca", type=click.Path(dir_okay=False), help="CA certificate (TLS).")
 @click.option("--cert", type=click.Path(dir_okay=False), help="This agent's certificate (mTLS).")
@@ -115,7 +110,7 @@ def agent_cmd(endpoint, name, class_path, uses, allow, period, options, robot, c
                                password_file=password_file, mtls=cert is not None, **lease)
         except ValidationError as exc:
             raise ControlError(exc.errors()[0]["msg"].removeprefix("Value error, ")) from None
-    opts = {k: _value(v) for k, v in _pairs(options, "--option").items()}
+    opts = {k: option_value(k, v) for k, v in _pairs(options, "--option").items()}
     if kind == "resource":
         opts_spec = {"allow": _pairs(allow, "--allow")}
     else:

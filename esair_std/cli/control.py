@@ -14,6 +14,7 @@ import click
 from ..errors import ControlError
 from esair_min.cli.pipes import friendly
 
+from .jsontext import json_or_text, option_value
 from .options import endpoint_option
 from .table import table as _table
 
@@ -27,25 +28,64 @@ ROBOT = click.option("-r", "--robot", default=None,
 MAX_DATA = 256 * 1024 - 1024
 
 
+class _Connection:
+    """The runtime's control client, connected when a command first uses it: a command
+    checks its arguments (a JSON typo, a bad pair) before it connects."""
+
+    def __init__(self, endpoint: str | None, robot: str | None):
+        self._args = (endpoint, robot)
+        self._client: Any = None
+
+    def _connected(self) -> Any:
+        if self._client is None:
+            from .client import Client
+            self._client = Client(*self._args)
+        return self._client
+
+    def call(self, verb: str, body: dict | None = None, timeout: float | None = None) -> Any:
+        return self._connected().call(verb, body, timeout)
+
+    @property
+    def robot(self) -> str:
+        return self._connected().robot
+
+    @property
+    def endpoint(self) -> str:
+        return self._connected().endpoint
+
+    def close(self) -> None:
+        if self._client is not None:
+            self._client.close()
+
+
 def control(fn: Callable[..., Any]) -> Callable[..., Any]:
-    """Give ``fn`` a connected Client as its first argument."""
+    """Give ``fn`` the runtime's control client (connected at its first use) as its first
+    argument."""
 
     @ENDPOINT
     @ROBOT
     @functools.wraps(fn)
     def wrapper(endpoint: str | None, robot: str | None, **kw: Any) -> Any:
-        from .client import Client
-        with Client(endpoint, robot) as c:
+        c = _Connection(endpoint, robot)
+        try:
             return fn(c, **kw)
+        finally:
+            c.close()
     return friendly(wrapper)
 
 
-def value(text: str) -> Any:
-    """JSON if it parses (1, 2.5, true, {"a": 1}, "s"), else the text itself."""
-    try:
-        return json.loads(text)
-    except ValueError:
-        return text
+TEXT = click.option("--text", "as_text", is_flag=True,
+                    help="Send it as text (a string) as it is, never read as JSON.")
+
+
+def value(text: str, what: str, as_text: bool = False) -> Any:
+    """JSON or text (jsontext.json_or_text); with --text, the text itself."""
+    return text if as_text else json_or_text(text, what)
+
+
+def options_of(items: tuple[str, ...]) -> dict[str, Any]:
+    """``-o KEY=VALUE ...`` as a dict, each VALUE JSON or text."""
+    return {k: option_value(k, v) for k, v in pairs(items, "option").items()}
 
 
 def pairs(items: tuple[str, ...], what: str) -> dict[str, str]:
@@ -82,12 +122,13 @@ def ls_cmd(c: Any, as_json: bool) -> None:
 @click.option("--period", type=click.FloatRange(min=0, min_open=True), default=None,
               help="Seconds between steps.")
 @click.option("-o", "--option", "options", multiple=True, metavar="KEY=VALUE",
-              help="An option (self.options); VALUE is JSON or text.")
+              help="An option (self.options); VALUE is JSON or text (text that starts "
+                   "with {, [ or \" as a JSON string).")
 @control
 def add_cmd(c: Any, name: str, class_path: str, uses: tuple, period: float | None,
             options: tuple) -> None:
     """Add behavior NAME (module:Class, imported from the deployment's folder first)."""
-    opts = {k: value(v) for k, v in pairs(options, "option").items()}
+    opts = options_of(options)
     state = c.call("add", {"name": name, "class": class_path, "uses": pairs(uses, "--uses"),
                            "period": period, "options": opts}, timeout=30)
     click.echo(f"{name}: {state}")
@@ -108,11 +149,12 @@ def remove_cmd(c: Any, name: str) -> None:
 @click.option("--allow", multiple=True, metavar="WHO=LEVEL",
               help="A behavior (or fnmatch pattern) and the highest level it may use.")
 @click.option("-o", "--option", "options", multiple=True, metavar="KEY=VALUE",
-              help="An option (self.options); VALUE is JSON or text.")
+              help="An option (self.options); VALUE is JSON or text (text that starts "
+                   "with {, [ or \" as a JSON string).")
 @control
 def add_resource_cmd(c: Any, name: str, class_path: str, allow: tuple, options: tuple) -> None:
     """Add resource NAME (a Sensor, Actuator or Driver class) while the robot runs."""
-    opts = {k: value(v) for k, v in pairs(options, "option").items()}
+    opts = options_of(options)
     kids = c.call("add-resource", {"name": name, "class": class_path,
                                    "allow": pairs(allow, "--allow"), "options": opts},
                   timeout=30)
@@ -139,12 +181,14 @@ def remove_resource_cmd(c: Any, name: str) -> None:
 @click.option("--no-wait", is_flag=True,
               help="Done when the data is in the behavior's mailbox, before its receive() "
                    "ran (a refusal is then not reported here).")
+@TEXT
 @control
 def put_cmd(c: Any, name: str, data: str | None, file: Any, timeout: float,
-            no_wait: bool) -> None:
+            no_wait: bool, as_text: bool) -> None:
     """Deliver DATA (JSON, or text) to behavior NAME through the BS, as `operator`, and
     wait until its receive() took it: a behavior refuses data by raising
-    esair_std.Refused("why") there, and the refusal is the error printed. DATA `-` (or
+    esair_std.Refused("why") there, and the refusal is the error printed. DATA that
+    starts like JSON ({, [ or ") must be JSON (--text sends it as text). DATA `-` (or
     --file FILE) reads it from standard input (or FILE): data too long for the command
     line, at most 255 KiB of JSON (one message)."""
     if (data is None) == (file is None):
@@ -154,7 +198,7 @@ def put_cmd(c: Any, name: str, data: str | None, file: Any, timeout: float,
         data = sys.stdin.read()
     elif data is None:                   # then FILE was given (checked above)
         data = file.read()
-    obj = value(data)
+    obj = value(data, "DATA" if file is None else f"DATA in {file.name}", as_text)
     size = len(json.dumps(obj, separators=(",", ":")).encode())     # as the wire has it
     if size > MAX_DATA:
         raise ControlError(f"DATA is {size} bytes of JSON, more than one message carries "
@@ -201,11 +245,14 @@ def sample_cmd(c: Any, name: str, timeout: float, meta: bool) -> None:
 @click.argument("val", metavar="VALUE")
 @click.option("--timeout", type=click.FloatRange(0, 3600), default=1.0, show_default=True,
               help="Seconds the actuator may take.")
+@TEXT
 @control
-def send_cmd(c: Any, name: str, val: str, timeout: float) -> None:
+def send_cmd(c: Any, name: str, val: str, timeout: float, as_text: bool) -> None:
     """Send one command VALUE (JSON, or text) to actuator NAME as the operator; print the
-    actuator's answer. Refused unless its resource's allow grants `operator: command`."""
-    click.echo(json.dumps(c.call("send", {"name": name, "value": value(val),
+    actuator's answer. Refused unless its resource's allow grants `operator: command`.
+    VALUE that starts like JSON ({, [ or ") must be JSON (--text sends it as text)."""
+    command = value(val, "VALUE", as_text)
+    click.echo(json.dumps(c.call("send", {"name": name, "value": command,
                                           "timeout": timeout}, timeout=timeout + 5)))
 
 
@@ -213,11 +260,14 @@ def send_cmd(c: Any, name: str, val: str, timeout: float) -> None:
 @click.argument("resource")
 @click.argument("key")
 @click.argument("val", metavar="VALUE")
+@TEXT
 @control
-def configure_cmd(c: Any, resource: str, key: str, val: str) -> None:
-    """Set KEY of RESOURCE to VALUE (JSON or text), as the operator."""
+def configure_cmd(c: Any, resource: str, key: str, val: str, as_text: bool) -> None:
+    """Set KEY of RESOURCE to VALUE (JSON or text), as the operator. VALUE that starts
+    like JSON ({, [ or ") must be JSON (--text sends it as text)."""
+    setting = value(val, "VALUE", as_text)
     click.echo(json.dumps(c.call("configure", {"resource": resource, "key": key,
-                                               "value": value(val)})))
+                                               "value": setting})))
 
 
 @click.command("reaction")

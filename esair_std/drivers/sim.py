@@ -14,6 +14,7 @@ from ..resource import Actuator, Driver, Sensor
 
 class Sine(Sensor):
     """``amplitude * sin(2 pi freq_hz t)``, polled at ``rate_hz`` (options)."""
+    settings = ("amplitude", "freq_hz", "rate_hz")
 
     def open(self) -> None:
         self.rate_hz = float(self.options.get("rate_hz", 50))
@@ -47,6 +48,7 @@ class Counter(Sensor):
 class Recorder(Actuator):
     """Keeps the last ``keep`` commands; ``speed`` is configurable. A command
     ``{"angle": a}`` needs 0 <= a <= 180."""
+    settings = ("speed",)
 
     def open(self) -> None:
         self.keep = int(self.options.get("keep", 100))

@@ -213,8 +213,15 @@ class Agent:
         self.generation = generation
         self.port = ZenohPort(bus, robot)
         self.done = threading.Event()
+        self.why_done = ""         # why it left (leave())
         self.host: ComponentHost | ResourceHost | None = None
         self.token_doubts = 0      # the runtime's token went away while it answered
+
+    def leave(self, why: str) -> None:
+        """Done (its process ends): the first reason given is kept in ``why_done``."""
+        if not self.done.is_set():
+            self.why_done = why
+        self.done.set()
 
     @property
     def _component(self) -> ComponentHost:
@@ -338,7 +345,7 @@ class Agent:
 
     def _stop(self, _b: dict, answer: wire.Answer) -> None:
         answer(wire.ok())
-        self.done.set()
+        self.leave("stopped by the control center")
 
     # ---- resource entry
     def run_resource(self) -> None:
@@ -366,7 +373,7 @@ class Agent:
         """The resource host's thread died: the runtime told why, then this process ends
         (status 1), and its RS restarts it by its policy."""
         self.port.state_changed(self.spec.name, self.generation, "failed", reason)
-        self.done.set()
+        self.leave(f"its resource failed: {reason}")
 
     def _on_actuator(self, req: Request) -> None:
         b = req.body
@@ -434,7 +441,7 @@ class Agent:
             threading.Timer(RUNTIME_GRACE, self._runtime_gone, (lost,)).start()
             return
         log.warning("%s: the runtime is gone; leaving", self.spec.name)
-        self.done.set()
+        self.leave("the runtime is gone")
 
     def _runtime_answers(self) -> bool:
         try:

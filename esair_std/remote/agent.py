@@ -200,7 +200,7 @@ class RemoteAgent(Agent):
                     log.warning("%s: waits for the control center: %s", self.spec.name, exc)
                     self.done.wait(0.5)
             if self.done.is_set() or not again:
-                self.done.set()
+                self.leave(f"its behavior failed: {reason}")
                 return
             self.c.add("restarts")
             log.warning("%s: restarted after it failed (%s): restart %d of at most %d "
@@ -253,8 +253,10 @@ def run(endpoint: str, name: str, class_path: str, kind: str, uses: dict | None 
         period: float | None = None, options: dict | None = None, robot: str | None = None,
         sec: Any = None, hostname: str | None = None,
         allow: dict | None = None, ready: Any = None,
-        restart: tuple[int, float] = (0, 0.0)) -> int:
-    """Run the agent until it is told to stop or signalled; its exit status."""
+        restart: tuple[int, float] = (0, 0.0), left: Any = None) -> int:
+    """Run the agent until it is told to stop or signalled; its exit status. ``ready``
+    (agent): called once it joined and runs its component; ``left`` (agent): once it is
+    done (``agent.why_done`` says why)."""
     spec = component_spec(name, class_path, kind, uses or {}, period, options or {}, allow,
                           (int(restart[0]), float(restart[1])))     # JSON: a list
     try:
@@ -269,7 +271,7 @@ def run(endpoint: str, name: str, class_path: str, kind: str, uses: dict | None 
                             hostname or os.uname().nodename,
                             sec.lease_ms if sec is not None else LEASE_MS)
         for sig in (signal.SIGINT, signal.SIGTERM):
-            signal.signal(sig, lambda *_: agent.done.set())
+            signal.signal(sig, lambda *_: agent.leave("interrupted"))
         agent.watch_runtime()
         if kind == "resource":
             agent.run_resource()
@@ -279,6 +281,8 @@ def run(endpoint: str, name: str, class_path: str, kind: str, uses: dict | None 
             ready(agent)
         while not agent.done.wait(0.2):
             pass
+        if left is not None:
+            left(agent)
         # its component failed: exit status 1, so a supervisor of the process (systemd's
         # Restart=on-failure) starts it again
         return 1 if getattr(agent.host, "state", "") == "failed" else 0
@@ -301,6 +305,28 @@ class _Security:
             setattr(self, k, Path(v) if k in _PATHS and v is not None else v)
 
 
+def joined_line(agent: RemoteAgent, endpoint: str) -> str:
+    """What ``esair std agent`` prints once it joined: who, where, what it hosts."""
+    spec = agent.spec
+    head = (f"agent {spec.name!r} joined robot {agent.robot!r} at {endpoint} as host "
+            f"{agent.hostname!r}")
+    if spec.kind == "resource":
+        kids = agent._resource.children()
+        if list(kids) == [spec.name]:
+            what = f"{kids[spec.name]} {spec.class_path}"
+        else:
+            what = (f"driver {spec.class_path} ("
+                    + ", ".join(f"{k}: {v}" for k, v in kids.items()) + ")")
+        grants = ", ".join(f"{k}={v}" for k, v in spec.allow.items()) or "nobody"
+        what += f", allows {grants}"
+        remove = "remove-resource"
+    else:
+        uses = ", ".join(f"{k}={v}" for k, v in spec.uses.items()) or "no resource"
+        what = f"{spec.kind} {spec.class_path}, uses {uses}"
+        remove = "remove"
+    return f"{head}: {what}; runs until Ctrl-C or `esair std {remove} {spec.name}`"
+
+
 def main_json(argv: list[str]) -> int:
     """``python -m esair_std.remote.agent JSON``: ``run(**JSON)``, an error as one
     ``error: ...`` line and status 1 (as the CLI). ``esair std agent`` validates its
@@ -312,8 +338,16 @@ def main_json(argv: list[str]) -> int:
                         format="%(name)s: %(message)s")
     if kw.get("sec"):
         kw["sec"] = _Security(kw["sec"])
+    endpoint = kw["endpoint"]
+
+    def ready(agent: RemoteAgent) -> None:
+        print(joined_line(agent, endpoint), file=sys.stderr, flush=True)
+
+    def left(agent: RemoteAgent) -> None:
+        print(f"agent {agent.spec.name!r} left robot {agent.robot!r}: "
+              f"{agent.why_done or 'stopped'}", file=sys.stderr, flush=True)
     try:
-        return run(**kw)
+        return run(**kw, ready=ready, left=left)
     except StdError as exc:
         print(f"error: {exc}", file=sys.stderr, flush=True)
         return 1

@@ -102,7 +102,8 @@ def test_headless_run_prints_the_replies_and_the_pose(tmp_path):
     assert result.stdout.splitlines() == ["!READY esair-min/1 starfish", "OK", VERSION,
                                           "!W watchdog stop"]
     assert result.stderr.startswith("pose after 2 s: x 2500.")
-    assert ", y 2598." in result.stderr and result.stderr.endswith("wall contacts 0\n")
+    assert ", y 2598." in result.stderr and result.stderr.endswith(
+        "wall contacts 0; drive writes 2 (0 dropped from the record of the last 1024)\n")
 
 
 def test_room_file_and_refused_options(tmp_path):
@@ -160,6 +161,8 @@ def test_live_view_draws_the_room_and_the_robot(starfish):
     assert sim.command("V+0200+0000+0000") == "OK"
     sim.run_until(300_000_000)          # 0.3 s from reset (the line and its OK took 5.7 ms)
     lines = render(sim, PtyPort(path="/dev/pts/9", open=True), 30, 10)
+    wide = render(sim, PtyPort(path="/dev/pts/9", open=True), 200, 10)
+    assert wide[2].endswith("   drive writes 1 (0 dropped from the record)")
     assert lines == [
         "STARFISH  t     0.30 s  port /",
         "pose x   498.0 mm  y   549.9 m",

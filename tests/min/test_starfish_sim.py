@@ -11,7 +11,7 @@ import pytest
 
 from esair_min.components.omni_base.core import WATCHDOG_NOTICE, velocity_line
 from esair_min.components.optical_flow.odometry import parse_odometry
-from esair_min.emulator.starfish import FlowOptions, StarfishSim, drive_square
+from esair_min.emulator.starfish import I2C_KEEP, FlowOptions, StarfishSim, drive_square
 from esair_min.emulator.uart import byte_time_ns
 from esair_min.model.validate import load_robot
 from esair_min.world import Pose, World
@@ -150,3 +150,19 @@ def test_lines_faster_than_their_replies_overrun_the_ring(starfish):
     # 24 lines answered; bytes 72..119 (the last 16 lines) found the ring full
     assert sim.read().decode().splitlines() == [VERSION] * 24 + ["E12 input overrun"]
     assert sim.uart.overruns == 48 and sim.uart.dropped == list(range(72, 120))
+
+
+def test_the_record_of_drive_writes_is_bounded_and_counts_what_it_dropped(starfish):
+    """``i2c`` keeps the latest ``i2c_keep`` writes to the drive board (every velocity
+    line is one), ``i2c_writes`` counts them all and ``i2c_dropped`` the ones let go; the
+    writes kept are the last ones an unbounded record has."""
+    small = StarfishSim(starfish, World(pose=Pose(1000, 2500, 0)), i2c_keep=8)
+    whole = StarfishSim(starfish, World(pose=Pose(1000, 2500, 0)), i2c_keep=100)
+    for sim in (small, whole):
+        for k in range(12):
+            assert sim.command(velocity_line(10 * k, 0, 0)) == "OK"
+            sim.run_for(0.05)
+    assert (small.i2c_writes, len(small.i2c), small.i2c_dropped) == (12, 8, 4)
+    assert (whole.i2c_writes, len(whole.i2c), whole.i2c_dropped) == (12, 12, 0)
+    assert list(small.i2c) == list(whole.i2c)[-8:]
+    assert StarfishSim(starfish).i2c.maxlen == I2C_KEEP == 1024

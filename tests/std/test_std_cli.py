@@ -49,6 +49,12 @@ def robot(robot_mode):
     (["add", "x", "lab:Logger", "--uses", "arm"],
      "error: --uses 'arm' is not of the form NAME=VALUE\n"),
     (["configure", "arm", "speed", "99"], "error: arm: speed 99 out of range 1-9\n"),
+    (["configure", "arm", "gain", "2"], "error: arm: no setting 'gain' (settings: speed)\n"),
+    (["configure", "wave", "gain", "2"],
+     "error: wave: no setting 'gain' (settings: amplitude, freq_hz, rate_hz)\n"),
+    (["configure", "ticks", "gain", "2"], "error: ticks: no setting 'gain' (settings: rate_hz)\n"),
+    (["configure", "arm", "speed", "[8", "--text"],        # the text reached configure()
+     "error: arm: speed '[8' out of range 1-9\n"),
     (["reaction", "gard", "enable"], "error: no reaction 'gard' (did you mean 'guard'?)\n"),
     (["add-resource", "bad", "esair_std.drivers.sim:Nope"],
      "error: module 'esair_std.drivers.sim' has no class 'Nope'\n"),
@@ -59,6 +65,67 @@ def test_cli_errors_are_one_clear_line(robot, args, message):
     r = esair(*args, "-e", robot, check=False)
     assert (r.returncode, r.stderr) == (1, message)
     assert len(json.loads(esair("ls", "--json", "-e", robot).stdout)["components"]) == 11
+
+
+def test_text_that_starts_like_json_is_sent_with_text(robot):
+    """`--text` sends DATA as it is; JSON still goes as JSON."""
+    ep = robot
+    assert esair("add", "inbox", "lab:Logger", "-e", ep).stdout == "inbox: running\n"
+    try:
+        for args, data in [(["{bad json", "--text"], "{bad json"), (['{"a": [1]}'], {"a": [1]}),
+                           (["plain words"], "plain words"), (['"{quoted"'], "{quoted")]:
+            r = esair("put", "inbox", *args, "-e", ep, check=False)
+            assert (r.returncode, r.stdout) == (0, "delivered\n"), r.stderr
+            assert json.loads(esair("get", "inbox", "-e", ep).stdout)["last"] == {
+                "from": "operator", "data": data}
+    finally:
+        esair("remove", "inbox", "-e", ep)
+
+
+NOT_JSON = "is not JSON at column 2: Expecting property name enclosed in double quotes"
+
+
+@pytest.mark.parametrize("args,stdin,message", [
+    (["put", "inbox", "{bad json"], None, f"DATA {NOT_JSON}; to send it as text use --text"),
+    (["put", "inbox", " [1, 2"], None,
+     "DATA is not JSON at column 7: Expecting ',' delimiter; to send it as text use --text"),
+    (["put", "inbox", '"unended'], None,
+     "DATA is not JSON at column 1: Unterminated string; to send it as text use --text"),
+    (["put", "inbox", "-"], '{"a": 1}\n{"b": 2}\n', "DATA is not JSON at line 2 column 1: "
+                                                   "Extra data; to send it as text use --text"),
+    (["send", "arm", "{angle: 10}"], None, f"VALUE {NOT_JSON}; to send it as text use --text"),
+    (["configure", "arm", "speed", "{x"], None,
+     f"VALUE {NOT_JSON}; to send it as text use --text"),
+    (["add", "b", "lab:Logger", "-o", "gain={x"], None,
+     f"-o gain {NOT_JSON}; to give it as text, write it as a JSON string (-o 'gain=\"...\"')"),
+    (["add-resource", "pen", "esair_std.drivers.sim:Recorder", "-o", "keep={x"], None,
+     f"-o keep {NOT_JSON}; to give it as text, write it as a JSON string (-o 'keep=\"...\"')"),
+    (["put", "inbox", "[" * 100_000], None, "DATA is JSON nested too deeply to be read"),
+    (["send", "arm", '{"angle": NaN}'], None,
+     "VALUE is not JSON at column 11: NaN is not a JSON number; to send it as text use --text"),
+])
+def test_data_that_starts_like_json_but_is_not_is_a_usage_error(args, stdin, message):
+    """Checked before the command connects: nothing answers on this endpoint, and the
+    error is the JSON's, not "no runtime"."""
+    r = esair(*args, "-e", free_endpoint(), stdin=stdin, check=False)
+    assert (r.returncode, r.stderr.splitlines()[-1]) == (2, f"Error: {message}")
+
+
+def test_data_in_a_file_that_is_not_json_says_the_file_line_and_column(tmp_path):
+    path = tmp_path / "pose.json"
+    path.write_text('{"x": 1,\n "y": }\n')
+    r = esair("put", "inbox", "--file", str(path), "-e", free_endpoint(), check=False)
+    assert (r.returncode, r.stderr.splitlines()[-1]) == (
+        2, f"Error: DATA in {path} is not JSON at line 2 column 7: Expecting value; to send "
+           "it as text use --text")
+
+
+def test_an_agents_option_that_starts_like_json_is_a_usage_error():
+    r = esair("agent", "--connect", free_endpoint(), "pen", "esair_std.drivers.sim:Recorder",
+              "-o", "keep=[1,", check=False)
+    assert (r.returncode, r.stderr.splitlines()[-1]) == (
+        2, "Error: -o keep is not JSON at column 4: Expecting value; to give it as text, "
+           "write it as a JSON string (-o 'keep=\"...\"')")
 
 
 def test_garbage_on_the_control_endpoint(robot):

@@ -427,7 +427,8 @@ def test_papaman_from_the_command_line(robot, mode):
     why; one command by hand as the operator; the feet's latest sample."""
     _, ep = robot("papaman", "--mode", mode)
     wait_for(lambda: sum(r["state"] == "ready" for r in json.loads(
-        esair("ls", "--json", "-e", ep).stdout)["components"]) == 16, what="papaman ready")
+        esair("ls", "--json", "-e", ep).stdout)["components"]) == 16, timeout=60,
+        what="papaman ready")     # process mode on a loaded machine: 10 s was seen to run out
     out = esair("top", "--count", "1", "--interval", "0.1", "-e", ep).stdout
     names = [line.split("│")[1].strip() for line in out.splitlines()
              if line.startswith("│")]

@@ -85,7 +85,7 @@ def test_configure_checked_against_level(start):
     assert call(rt, "tuner", "configure", "rec", "gain", 3) == {"ok": 3}
     assert call(rt, "probe", "send", "rec", "x") == {"ok": {"n": 1, "gain": 3}}
     assert call(rt, "tuner", "configure", "rec", "colour", 3) == {
-        "error": "CommandError", "message": "rec: no setting 'colour'"}
+        "error": "CommandError", "message": "rec: no setting 'colour' (settings: gain)"}
     # the operator (control CLI) is not a behavior: no registration needed
     assert rt.configure("rec", "gain", 5) == 5
 
@@ -141,3 +141,35 @@ def test_unknown_configure_target(start):
         rt.configure("nothing", "k", 1)
     assert str(e.value) == "nothing: no such resource"
     assert isinstance(e.value, (Refused, Exception))
+
+
+def test_no_setting_lists_the_settings_or_says_there_are_none():
+    """The "no setting" error names what configure() takes (the class's ``settings``),
+    says when there is none, and says when a class that overrides configure() did not
+    declare its settings."""
+    from types import SimpleNamespace
+
+    from esair_std.errors import CommandError
+    from esair_std.resource import Actuator, Sensor
+
+    class Fan(Actuator):
+        pass
+
+    class Knob(Actuator):
+        def configure(self, key, value):
+            return value if key == "turn" else super().configure(key, value)
+
+    class Dial(Knob):
+        settings = ("turn",)
+
+    said = []
+    for cls in (Fan, Knob, Dial, Sensor):
+        agent = cls()
+        agent._esair = SimpleNamespace(name="x")
+        with pytest.raises(CommandError) as err:
+            agent.configure("gain", 2)
+        said.append(str(err.value))
+    assert said == ["x: no setting 'gain' (it has no settings)",
+                    "x: no setting 'gain' (its class declares no settings)",
+                    "x: no setting 'gain' (settings: turn)",
+                    "x: no setting 'gain' (settings: rate_hz)"]

@@ -633,6 +633,7 @@ class Held(Actuator):
     """write(command) notes the command in ``options["entered"]``, then waits for one
     release of the semaphore ``options["gate"]``. ``{"fail": m}`` raises ValueError(m),
     ``{"refuse": m}`` CommandError(m), ``{"lose": why}`` marks the actuator lost."""
+    settings = ("gain", "fail")
 
     def open(self):
         self.ran: list = []
@@ -773,7 +774,8 @@ def test_an_actuators_errors_reach_the_sender_in_its_words_and_are_counted(held)
         host.command("b", "arm", {"fail": "jam"}, 5.0)
     assert str(err.value) == "arm: ValueError: jam"
     assert host.configure("arm", "gain", 4) == 8
-    for key, message in [("speed", "arm: no setting 'speed'"), ("fail", "arm: ValueError: 7")]:
+    for key, message in [("speed", "arm: no setting 'speed' (settings: gain, fail)"),
+                         ("fail", "arm: ValueError: 7")]:
         with pytest.raises(CommandError) as err:
             host.configure("arm", key, 7)
         assert str(err.value) == message
@@ -1365,7 +1367,7 @@ def test_configure_runs_the_resources_configure_on_its_host(mode):
         assert call(rt, "c", "send", "rec", "x") == {"ok": {"n": 1, "gain": 3}}
         with pytest.raises(CommandError) as err:
             rt.configure("rec", "speed", 1)
-        assert str(err.value) == "rec: no setting 'speed'"
+        assert str(err.value) == "rec: no setting 'speed' (settings: gain)"
         assert call(rt, "c", "send", "rec", "y") == {"ok": {"n": 2, "gain": 3}}
     finally:
         rt.stop()

@@ -174,10 +174,10 @@ def _probe(rt, do, *args):
 
 def test_the_cli_raises_and_prints_what_the_agent_raised(robot):
     rt, ep, mode = robot
-    # rec's configure() raises CommandError("rec", "no setting 'nosuch'") in its host (an
-    # agent process in process mode); the behavior, the runtime's API and the CLI all
-    # get that class with those words
-    said = "rec: no setting 'nosuch'"
+    # rec's configure() raises CommandError("rec", "no setting 'nosuch' (settings: gain)")
+    # in its host (an agent process in process mode); the behavior, the runtime's API and
+    # the CLI all get that class with those words
+    said = "rec: no setting 'nosuch' (settings: gain)"
     assert _probe(rt, "register", "rec", "configure") == {"ok": "configure"}
     assert _probe(rt, "configure", "rec", "nosuch", 1) == {"error": "CommandError",
                                                             "message": said}
@@ -186,7 +186,7 @@ def test_the_cli_raises_and_prints_what_the_agent_raised(robot):
     with Client(ep) as c, pytest.raises(CommandError) as at_cli:
         c.call("configure", {"resource": "rec", "key": "nosuch", "value": 1})
     for got in (at_runtime.value, at_cli.value):
-        assert (str(got), got.resource, got.reason) == (said, "rec", "no setting 'nosuch'")
+        assert (str(got), got.resource, got.reason) == (said, "rec", "no setting 'nosuch' (settings: gain)")
     r = esair("configure", "rec", "nosuch", "1", "-e", ep, check=False)
     assert (r.returncode, r.stdout, r.stderr) == (1, "", f"error: {said}\n")
     # a component that cannot start: ComponentError on both sides, word for word

@@ -19,7 +19,8 @@ class Counter(SimCounter):
 
 class Recorder(Actuator):
     """Keeps the commands; ``{"fail": msg}`` raises ValueError, ``{"refuse": msg}``
-    CommandError; ``{"lost": why}`` marks it lost."""
+    CommandError; ``{"lost": why}`` marks it lost. ``gain`` is configurable."""
+    settings = ("gain",)
 
     def open(self):
         self.log_ = []

@@ -51,10 +51,12 @@ def agent_children() -> list[int]:
             if ppid == os.getpid() and b"esair_std.modes.agent" in cmd]
 
 
-def esair(*args: str, check: bool = True, cwd: str | Path = ROOT) -> subprocess.CompletedProcess:
-    """``esair std ARGS`` in a child process (from ``cwd``, the checkout by default)."""
+def esair(*args: str, check: bool = True, cwd: str | Path = ROOT,
+          stdin: str | None = None) -> subprocess.CompletedProcess:
+    """``esair std ARGS`` in a child process (from ``cwd``, the checkout by default;
+    ``stdin``: its standard input)."""
     r = subprocess.run([sys.executable, "-m", "esair_min.cli", "std", *args],
-                       capture_output=True, text=True, timeout=90, cwd=cwd,
+                       capture_output=True, text=True, timeout=90, cwd=cwd, input=stdin,
                        env=dict(os.environ, COLUMNS="200"))
     if check and r.returncode != 0:
         raise AssertionError(f"esair std {' '.join(args)}: {r.returncode}\n{r.stderr}")

@@ -243,7 +243,7 @@ class FeetSensor(PolledSensor):
                 self.open()
             self.hz = hz
             return hz
-        raise CommandError(self.name, f"no setting {key!r} (settings: rate_hz)")
+        raise self.no_setting(key)
 
 
 class NoticeSensor(Sensor):

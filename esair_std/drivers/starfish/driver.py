@@ -98,6 +98,7 @@ def _num(opts: dict, key: str, default: float, what: str = "") -> float:
 
 class Mics(Sensor):
     rate_hz = RATE / FRAME
+    settings = ("source", "snr_db")
 
     def __init__(self, robot: "Starfish"):
         self.robot = robot
@@ -127,7 +128,7 @@ class Mics(Sensor):
                 raise CommandError(self.name, f"snr_db must be a number in -20..80, not {value!r}")
             r.audio.snr_db = float(value)
             return float(value)
-        raise CommandError(self.name, f"no setting {key!r} (settings: source, snr_db)")
+        raise self.no_setting(key)
 
 
 class CameraShoot(Actuator):
