@@ -21,6 +21,7 @@ const FPS = Math.min(60, Math.max(1, ASKED_FPS || 30));
 const FEET_FPS = Math.min(60, Math.max(1, ASKED_FPS || 60));
 const MIN_DRAW_GAP_MS = 1000 / FPS - 4;      // less a quarter of a 60 Hz frame: rAF jitters
 const MIN_FEET_GAP_MS = 1000 / FEET_FPS - 4;
+const FEET_LIVE_MS = 50;         // the feet drew this recently: the rest waits for their next frame
 const KEEP = 20000;              // bench figures kept (up to twice as many: cut in halves,
                                  // not one shift of 20000 a sample)
 const keep = (a, x) => { a.push(x); if (a.length >= 2 * KEEP) a.splice(0, KEEP); };
@@ -317,7 +318,9 @@ class App {
       this.feetGap = Math.min(MAX_DRAW_GAP_MS, Math.max(MIN_FEET_GAP_MS, this.feetCost / DRAW_SHARE));
       this.feetAt = now;
     }
-    if (this._dirty && now - this.drawnAt < this.drawGap) again = true;
+    // the rest rides in a frame the feet draw while they come (one frame, not two)
+    const feetLive = !drew && now - this.feetAt < FEET_LIVE_MS;
+    if (this._dirty && (now - this.drawnAt < this.drawGap || feetLive)) again = true;
     else if (this._dirty) {
       this._dirty = false;
       const t0 = performance.now();
