@@ -98,7 +98,8 @@ def test_a_page_in_the_background_draws_nothing_and_gets_no_samples(robot, brows
     # window), so the page is told it is hidden the way a browser tells it: its
     # document.visibilityState and the visibilitychange event
     page, errors = open_page(browser, robot.url, login=False, ready="window.__hmi.stats.draws > 0")
-    assert page.evaluate("[window.__hmi.fps, window.__hmi.hidden]") == [30, False]
+    assert page.evaluate("[window.__hmi.fps, window.__hmi.feetFps, window.__hmi.hidden]") == [
+        30, 30, False]
     assert page.evaluate(HIDE, "hidden")["ok"]      # answered after the view: in order
     wait_for(lambda: robot.status()["counters"]["hidden_pages"] >= 1, what="the page hidden")
     held = robot.status()["counters"]["held"]
@@ -116,9 +117,12 @@ def test_a_page_in_the_background_draws_nothing_and_gets_no_samples(robot, brows
     wait_for(lambda: robot.status()["counters"]["hidden_pages"] == 0, what="no page hidden")
     page.close()
     page, more = open_page(browser, robot.url + "?fps=500", login=False)    # capped at 60
-    assert page.evaluate("window.__hmi.fps") == 60
+    assert page.evaluate("[window.__hmi.fps, window.__hmi.feetFps]") == [60, 60]
     page.close()
-    assert errors == more == []
+    page, most = open_page(browser, robot.url + "?feet_fps=60", login=False)  # the feet only
+    assert page.evaluate("[window.__hmi.fps, window.__hmi.feetFps]") == [30, 60]
+    page.close()
+    assert errors == more == most == []
 
 
 def test_dance_button_plays_the_dance_frames(robot, browser, papaman):

@@ -14,11 +14,14 @@ const DRAW_SHARE = 0.25;         // drawing takes at most this share of the page
 const MAX_DRAW_GAP_MS = 200;     // ... but the plots move at least 5 times a second
 // redraws a second at most (`?fps=N` in the URL, 1-60): the feet come at 50 Hz, an eye
 // needs less, and each frame drawn costs the computer showing the page (docs/hmi.md)
-// The feet plot is drawn at the first frame after a sample (at most FEET_FPS times a
-// second: 60, or `?fps=N`), the rest (the figure, the sliders, other panels) at most FPS.
-const ASKED_FPS = Number(new URLSearchParams(location.search).get("fps"));
+// The feet plot is drawn at the first frame after a sample at most FEET_FPS times a
+// second (`?feet_fps=N`, default `?fps`, else 30: each frame costs the browser about the
+// same whatever it draws, so 60 halves a sample's wait for a frame at 1.5-2x the
+// browser's CPU, docs/hmi.md), the rest (the figure, the sliders, other panels) at most FPS.
+const PARAMS = new URLSearchParams(location.search);
+const ASKED_FPS = Number(PARAMS.get("fps"));
 const FPS = Math.min(60, Math.max(1, ASKED_FPS || 30));
-const FEET_FPS = Math.min(60, Math.max(1, ASKED_FPS || 60));
+const FEET_FPS = Math.min(60, Math.max(1, Number(PARAMS.get("feet_fps")) || ASKED_FPS || 30));
 const MIN_DRAW_GAP_MS = 1000 / FPS - 4;      // less a quarter of a 60 Hz frame: rAF jitters
 const MIN_FEET_GAP_MS = 1000 / FEET_FPS - 4;
 const FEET_LIVE_MS = 50;         // the feet drew this recently: the rest waits for their next frame
