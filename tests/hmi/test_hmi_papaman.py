@@ -495,6 +495,7 @@ FIND = """(ts) => {
           drawn: s.head >= ts, paused: window.__hmi.feet.paused};
 }"""
 PIXELS = "() => window.__hmi.feet.top.fg.toDataURL()"
+NEAR = 3
 
 
 def test_the_feet_plot_scrolls_new_samples_in_and_pause_holds_it(robot, browser):
@@ -513,11 +514,13 @@ def test_the_feet_plot_scrolls_new_samples_in_and_pause_holds_it(robot, browser)
     ts = page.evaluate(SPIKE)
     page.wait_for_function(f"() => ({FIND})({ts}).drawn")
     first = page.evaluate(FIND, ts)
-    assert first["xs"] and all(abs(x - first["want"]) <= 2 for x in first["xs"]), first
+    # within NEAR px of where the time puts it: the 2 px line's antialiased edge, and the
+    # next real sample's slope (seen 3 px once at load 35); the plot moves 40 px meanwhile
+    assert first["xs"] and all(abs(x - first["want"]) <= NEAR for x in first["xs"]), first
     page.wait_for_function(f"() => ({FIND})({ts}).headX >= {first['headX'] + 40}")
     later = page.evaluate(FIND, ts)
     assert later["full"] == first["full"] and later["scrolled"] > first["scrolled"]
-    assert later["xs"] and all(abs(x - later["want"]) <= 2 for x in later["xs"]), later
+    assert later["xs"] and all(abs(x - later["want"]) <= NEAR for x in later["xs"]), later
     assert later["want"] <= first["want"] - 40                  # it moved left with the time
     # what the frames drew one after the other is what a redraw of the window draws
     same = page.evaluate("""() => {
@@ -546,7 +549,7 @@ def test_the_feet_plot_scrolls_new_samples_in_and_pause_holds_it(robot, browser)
     page.click("#pause")                                        # resumed: drawn again
     page.wait_for_function(f"() => window.__hmi.feet.top.frames.full > {frames['full']}")
     resumed = page.evaluate(FIND, ts)
-    assert resumed["xs"] and all(abs(x - resumed["want"]) <= 2 for x in resumed["xs"]), resumed
+    assert resumed["xs"] and all(abs(x - resumed["want"]) <= NEAR for x in resumed["xs"]), resumed
     assert page.evaluate(PIXELS) != held
     page.close()
     assert errors == []
