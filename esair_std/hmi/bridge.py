@@ -169,7 +169,8 @@ class Bridge:
         v = obj.get("v") if isinstance(obj, dict) else None
         if isinstance(v, dict) and "ok" in v and "command" in v:
             self.c.add("commands_seen")
-            self.emit({"t": "ran", "r": key.rsplit("/command/", 1)[-1], "v": v["command"]})
+            self.emit({"t": "ran", "r": key.rsplit("/command/", 1)[-1], "v": v["command"],
+                       "at": took(v["ok"])})
 
     def _on_sample(self, key: str, obj: Any) -> None:
         res = key.rsplit("/sensor/", 1)[-1]
@@ -352,6 +353,13 @@ class Bridge:
             info.pop("commands_per_s", None)
         info["commands"] = cmds
         info["errors"] = errs
+
+
+def took(result: Any) -> float:
+    """When the robot took a command: its driver's ``at`` (a MIN link's motion: when the
+    robot had the whole line, docs/std-papaman.md), else now (when its answer or record came)."""
+    at = result.get("at") if isinstance(result, dict) else None
+    return float(at) if isinstance(at, (int, float)) and not isinstance(at, bool) else time.time()
 
 
 def _log(level: str, text: str) -> dict:

@@ -36,7 +36,7 @@ from ..errors import StdError
 from ..heap import settle
 from ..words import counted
 from .auth import Auth
-from .bridge import Bridge, BridgeError
+from .bridge import Bridge, BridgeError, took
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..record.tap import Tap
@@ -109,6 +109,8 @@ class HmiServer:
         # a page opened later plays it from where it is, or shows where STOP left it
         self.played: dict[str, tuple[Any, float, float | None]] = {}
         self._own: collections.deque[str] = collections.deque(maxlen=OWN_MAX)  # sent, record due
+        self._asking: list[str] = []       # this HMI's commands not answered yet
+        self._early: collections.deque[str] = collections.deque(maxlen=OWN_MAX)  # ... whose record came first
         self.record_dir = Path(record_dir)
         self.tap: Tap | None = None
         self.c = Counters(pages=0, frames=0, bad_frames=0, refused=0, dropped=0,
@@ -181,7 +183,7 @@ class HmiServer:
         msgs = []
         for m in got:
             if m.get("t") == "ran":               # a command any sender got through
-                m = self._ran(m["r"], m["v"])
+                m = self._ran(m["r"], m["v"], m.get("at") or time.time())
                 if m is None:
                     continue
             msgs.append(m)
@@ -337,31 +339,66 @@ class HmiServer:
         page.role, page.user = "operator", str(user)
         self._reply(page, ident, True, {"role": "operator", "token": token, "user": user})
 
-    def _ran(self, res: str, command: Any) -> dict | None:
-        """An actuator's record of a command it ran (bridge.py): shown as commanded (the
-        message to send), except the record of a command this HMI sent, which was shown
-        when it was answered (a remote HMI whose ACL reads no records still shows its own)."""
+    def _ran(self, res: str, command: Any, at: float) -> dict | None:
+        """An actuator's record of a command it ran (bridge.py; ``at``: when it came), the
+        message to send: shown as commanded, except the record of a command this HMI sent,
+        shown when it was answered (a remote HMI whose ACL reads no records still shows
+        its own). Whichever of the two comes first gives a motion its start (or STOP) time."""
         text = json.dumps([res, command], sort_keys=True)
         if text in self._own:
             self._own.remove(text)
+            return self._earlier(res, command, at)
+        if text in self._asking:          # its answer is still on its way: shown now
+            self._asking.remove(text)
+            self._early.append(text)
+        return self._commanded(res, command, emit=False, at=at)
+
+    def _asked(self, res: str, command: Any) -> str:
+        """A command of this HMI is sent (its record may come before its answer)."""
+        text = json.dumps([res, command], sort_keys=True)
+        self._asking.append(text)
+        return text
+
+    def _answered(self, text: str) -> None:
+        if text in self._asking:
+            self._asking.remove(text)
+
+    def _sent(self, res: str, command: Any, at: float | None = None) -> None:
+        """A command of this HMI went through (``at``: when its answer came): shown now,
+        its record skipped later; already shown if its record came first."""
+        text = json.dumps([res, command], sort_keys=True)
+        if text in self._early:
+            self._early.remove(text)
+            return
+        self._own.append(text)
+        self._commanded(res, command, at=at)
+
+    def _earlier(self, res: str, command: Any, at: float) -> dict | None:
+        """The record of this HMI's motion command came before its answer (the record is
+        handed over in a batch, later): the motion's start or STOP time is the record's.
+        A STOP's corrected position is the message to send."""
+        played = self.played.get(res)
+        if played is None or not res.endswith(".motion"):
             return None
-        return self._commanded(res, command, emit=False)
+        cmd, t0, t1 = played
+        if command == "stop" and t1 is not None and at < t1:
+            self.played[res] = (cmd, t0, max(t0, at))
+            return {"t": "commanded", "r": res, "v": command, "played": self._played_at(res, at)}
+        if command == cmd and t1 is None and at < t0:
+            self.played[res] = (cmd, at, None)
+        return None
 
-    def _sent(self, res: str, command: Any) -> None:
-        """A command of this HMI went through: shown now, its record skipped later."""
-        self._own.append(json.dumps([res, command], sort_keys=True))
-        self._commanded(res, command)
-
-    def _commanded(self, res: str, command: Any, emit: bool = True) -> dict:
+    def _commanded(self, res: str, command: Any, emit: bool = True,
+                   at: float | None = None) -> dict:
         msg = {"t": "commanded", "r": res, "v": command}
+        now = time.time() if at is None else at
         if res.endswith(".motion"):
             played = self.played.get(res)
             if command == "stop" and played is not None:
                 # the motion's entry is kept, with the time it was stopped: the frame a
                 # page shows is the one the motion had reached (pages open and opened later)
-                now = time.time()
                 if played[2] is None:
-                    self.played[res] = played = (played[0], played[1], now)
+                    self.played[res] = played = (played[0], played[1], max(now, played[1]))
                 msg["played"] = self._played_at(res, now)
                 if emit:
                     self.emit(msg)
@@ -372,7 +409,7 @@ class HmiServer:
             if command == "stop":
                 self.played.pop(res, None)
             else:
-                self.played[res] = (command, time.time(), None)
+                self.played[res] = (command, now, None)
         self.commanded.pop(res, None)
         self.commanded[res] = command
         if emit:
@@ -392,16 +429,29 @@ class HmiServer:
         return [[res, v, self._played_at(res, now)] if res in self.played else [res, v]
                 for res, v in self.commanded.items()]
 
+    def _command(self, res: str, command: Any, answered: list[float]) -> Any:
+        """The bridge's command (an executor's thread), and when its answer came: a
+        motion's start or STOP time, taken here, not after the loop's next turn."""
+        assert self.bridge is not None
+        r = self.bridge.command(res, command)
+        answered.append(took(r))
+        return r
+
     async def op_cmd(self, page: Page, ident: Any, obj: dict) -> None:
         res = _field(obj, "resource", str)
         if "command" not in obj:
             raise BadFrame("field 'command' missing")
         self.c.add("commands")
         assert self.bridge is not None
-        r = await self._call(page, ident, self.bridge.command, res, obj["command"],
-                             what=f"{res} {json.dumps(obj['command'])}")
+        asked = self._asked(res, obj["command"])
+        answered: list[float] = []
+        try:
+            r = await self._call(page, ident, self._command, res, obj["command"], answered,
+                                 what=f"{res} {json.dumps(obj['command'])}")
+        finally:
+            self._answered(asked)
         if r is not None:
-            self._sent(res, obj["command"])
+            self._sent(res, obj["command"], answered[0])
             self.emit({"t": "log", "level": "info", "ts": time.time(),
                        "text": f"{page.user or page.role}: {res} {json.dumps(obj['command'])}"
                                f" -> {r}"})
@@ -415,10 +465,15 @@ class HmiServer:
             return
         self.c.add("commands")
         for res in targets:
-            r = await self._call(page, ident, self.bridge.command, res, "stop",
-                                 what=f"STOP {res}")
+            asked = self._asked(res, "stop")
+            answered: list[float] = []
+            try:
+                r = await self._call(page, ident, self._command, res, "stop", answered,
+                                     what=f"STOP {res}")
+            finally:
+                self._answered(asked)
             if r is not None:
-                self._sent(res, "stop")
+                self._sent(res, "stop", answered[0])
         self.emit({"t": "log", "level": "warning", "text": f"STOP by {page.user or 'operator'}",
                    "ts": time.time()})
 

@@ -5,6 +5,7 @@
 // drawn on the map); an audio frame ({pcm: base64 int16, channels, n, rate}) a plot of
 // each channel's level and a line of its rate; an actuator that is not a MIN robot's
 // servo or motion gets a command box.
+import { counted } from "./words.js";
 const WINDOW_S = 10;
 const FLOOR_DB = -80;        // an audio level plot's bottom (dBFS): silence is drawn there
 
@@ -176,7 +177,7 @@ class AudioLevels {
     const l = this.last; if (!l) return;
     const span = this.t.length > 1 ? this.t[this.t.length - 1] - this.t[0] : 0;
     const fps = span > 0 ? ((this.t.length - 1) / span).toFixed(1) : "–";
-    this.note.textContent = `${l.rate} Hz · ${this.ch} channels · ${l.n} samples a frame · ` +
+    this.note.textContent = `${l.rate} Hz · ${counted(this.ch, "channel")} · ${counted(l.n, "sample")} a frame · ` +
       `frame ${l.seq} · ${fps} frames/s`;
   }
 }
