@@ -291,17 +291,27 @@ def test_a_dance_stopped_part_way_shows_the_frame_the_robot_reached(robot, brows
     assert errors == []
 
 
+PILLS = "() => [...document.querySelectorAll('#linkbar .pill')].map(s => s.textContent)"
+
+
 def test_sigkill_of_the_robot_shows_the_banner_then_recovery(robot, browser):
+    """The banner, the link's pill and the pill of the computer its resources run on (its
+    16: the driver, 12 servos, motion, feet, notices) say the robot is lost, then back."""
+    host = socket.gethostname()
     page, errors = open_page(browser, robot.url)
     assert page.locator("#banner").is_hidden()
+    page.wait_for_function(f"() => ({PILLS})().includes({json.dumps(host + ' · 16 resources ready')})")
     robot.emu.kill()                                       # SIGKILL: the robot is pulled
     page.wait_for_selector("#banner", state="visible", timeout=15000)
     assert page.locator("#banner").inner_text().startswith("LINK LOST: papaman")
     assert "lost" in page.locator("#linkbar").inner_text()
+    page.wait_for_function(f"""() => ({PILLS})().some(t => t.startsWith({json.dumps(host + ' · ')})
+        && / · \\d+ of 16 resources not ready$/.test(t))""")
     robot.emu.start()
     page.wait_for_selector("#banner", state="hidden", timeout=20000)
     page.wait_for_function(
         "() => document.querySelector('#linkbar').textContent.includes('papaman link ready')")
+    page.wait_for_function(f"() => ({PILLS})().includes({json.dumps(host + ' · 16 resources ready')})")
     page.close()
     assert errors == []
 

@@ -172,7 +172,8 @@ class App {
         return;
       }
       case "s": return this.sample(m);
-      case "ls": this.components.update(m.rows); this.generic.rows(m.rows); return;
+      case "ls": this.rows = m.rows; this.components.update(m.rows); this.generic.rows(m.rows);
+        this.linkbar(); return;
       case "link": this.link = m.link; this.linkbar(); this.banner(); return;
       case "runtime": this.runtimeUp = m.up; this.banner(); return;
       case "log": this.log.add(m.level, m.text); return;
@@ -199,7 +200,7 @@ class App {
     $("feet-panel").hidden = !info;
     $("pose-panel").hidden = $("joints-panel").hidden = !info;
     this.generic = new Generic($("sensors"), $("actuators"), m.robots, this, $("states"));
-    this.components.update(m.rows); this.generic.rows(m.rows);
+    this.rows = m.rows; this.components.update(m.rows); this.generic.rows(m.rows);
     for (const s of m.last || []) {          // each sensor's last sample (a MIN robot's: live only)
       if (!(entry && s.r.startsWith(`${entry}.`))) this.generic.sample(s);
     }
@@ -272,6 +273,22 @@ class App {
       if (l.commands_per_s != null) bits.push(`${l.commands_per_s} cmd/s`);
       if (l.errors != null) bits.push(counted(l.errors, "error"));
       pill(l.state, bits.join(" · "), `${l.host || ""} pid ${l.pid || "?"} ${l.reason || ""}`);
+    }
+    // each computer the resources run on (the host column of `esair std ls`): all of its
+    // resources ready, or how many are not (their names in the pill's title)
+    const hosts = new Map();
+    for (const r of this.rows || []) {
+      if (r.kind === "behavior") continue;
+      if (!hosts.has(r.host)) hosts.set(r.host, {n: 0, down: [], pids: new Set()});
+      const h = hosts.get(r.host);
+      h.n++; h.pids.add(r.pid);
+      if (r.state !== "ready") h.down.push(`${r.name} ${r.state}`);
+    }
+    for (const [host, h] of hosts) {
+      const text = h.down.length ? `${host} · ${h.down.length} of ${counted(h.n, "resource")} not ready`
+        : `${host} · ${counted(h.n, "resource")} ready`;
+      pill(h.down.length ? "lost" : "ready", text,
+           [`resource host ${host}, pid ${[...h.pids].join(", ")}`, ...h.down].join("\n"));
     }
     // the pills are kept and only what changed is set (the link comes 4 times a second)
     const bar = $("linkbar");

@@ -24,12 +24,22 @@ export class Generic {
     for (const r of rows) {
       if (r.kind !== "actuator" || this.mine(r.name) || this.acts[r.name]) continue;
       const box = document.createElement("form"); box.className = "generic";
-      const input = document.createElement("input"); input.placeholder = "command (JSON)"; input.size = 16;
+      const input = document.createElement("input"); input.placeholder = "command (JSON or text)"; input.size = 16;
       const b = document.createElement("button"); b.textContent = `send to ${r.name}`;
       box.append(input, b);
+      input.addEventListener("input", () => input.setCustomValidity(""));
       box.addEventListener("submit", (e) => {
         e.preventDefault();
-        let cmd = input.value; try { cmd = JSON.parse(cmd); } catch { /* text */ }
+        // JSON or text, as `esair std send`: text that starts like JSON ({ [ ") must be
+        // JSON, so a typo is not sent to the robot as a string
+        let cmd = input.value;
+        try { cmd = JSON.parse(cmd); } catch (err) {
+          if (/^\s*[[{"]/.test(cmd)) {
+            input.setCustomValidity(`not JSON: ${err.message}`); input.reportValidity();
+            this.app.log.add("error", `${r.name}: not sent: not JSON (${err.message})`);
+            return;
+          }
+        }
         this.app.command(r.name, cmd);
       });
       this.aEl.append(box); this.acts[r.name] = box;
