@@ -7,6 +7,10 @@ flight and two at once), with the feet polled at 8 Hz (the driver's default: the
 feet plot needs them), in three arms interleaved round by round (the load moves):
 
 - none: no HMI;
+- hmi: the HMI (``esair std hmi``, its own process), no page: what its polling of the
+  runtime (``ls``, ``inspect``, behaviors' ``get``) and its subscriptions cost;
+- browser: the headless chromium with N pages on about:blank, no HMI: what the browser
+  costs by itself;
 - blank: the HMI (``esair std hmi``, its own process, as ``esair std run --hmi`` starts
   it) and a headless chromium with N pages on about:blank;
 - live: the same with the N pages live on the HMI (each showing the feet, the pose, the
@@ -17,13 +21,21 @@ feet plot needs them), in three arms interleaved round by round (the load moves)
   one line of text, at most once a frame. Its ratio to none is what any live page costs
   here: the floor the goal is measured against.
 
+- ARM@base (``--baseline DIR``, e.g. ``--arms none,hmi,hmi@base,live,live@base``): the
+  arm with the HMI of another tree (a detached worktree of main), against this tree's
+  runtime: the HMI's asking before and after, side by side.
+
+Beside each arm, ``runtime idle``: the cores this process took over ``--idle`` seconds
+before the commands (the feet polled, the HMI asking, nothing commanded): what the HMI
+costs the runtime, a figure the machine's load moves far less than commands/s.
+
 Goal: live / none >= 0.95 for the robot's commands per second. ``--pinned`` also runs the
 browser pinned to one core at nice 19 (a stand-in for the remote center's own computer,
 as in bench/hmi.py). Beside each arm: the CPU (cores) of this process (the thread-mode
 runtime and the robot's link), the HMI, the browser and the computer.
 
 Run: python bench/papaman_hmi.py [--pages 10] [--rounds 3] [--n 200] [--mode thread]
-[--pinned]. Prints figures; asserts nothing.
+[--arms none,hmi,browser,blank,live] [--baseline DIR] [--idle 3] [--pinned]. Prints figures; asserts nothing.
 """
 
 from __future__ import annotations
@@ -81,9 +93,32 @@ def roles(hmi: HmiChild | None) -> dict[str, list[int]]:
     return out
 
 
-def one(mode: str, n: int, senders: int, arm: str, browser, pages_n: int) -> dict:
-    """One run of one arm: commands/s of each kind, and the cores taken meanwhile."""
+def cpu_ns(pids: list[int]) -> int:
+    """CPU time of these processes' threads so far, ns (schedstat: finer than the ticks
+    of /proc/PID/stat, which a few seconds of a quiet process would round away)."""
+    total = 0
+    for pid in pids:
+        try:
+            tasks = os.listdir(f"/proc/{pid}/task")
+        except OSError:
+            continue
+        for t in tasks:
+            try:
+                total += int(Path(f"/proc/{pid}/task/{t}/schedstat").read_text().split()[0])
+            except (OSError, ValueError, IndexError):
+                pass
+    return total
+
+
+def one(mode: str, n: int, senders: int, arm: str, browser, pages_n: int,
+        baseline: Path | None = None, idle_s: float = 0.0) -> dict:
+    """One run of one arm: commands/s of each kind, and the cores taken meanwhile (and
+    before, ``idle_s`` with nothing commanded: the feet polled, the HMI's asking). An arm
+    named ``<arm>@base`` is ``<arm>`` with the HMI of the tree ``baseline``."""
     out: dict = {}
+    root = None
+    if arm.endswith("@base"):
+        arm, root = arm[: -len("@base")], baseline
     with EmulatedRobot(ps.PAPAMAN) as emu:
         dep = ps.deployment(emu.port, mode, {}, feet_hz=FEET_HZ)
         with Runtime(dep, mode=mode, endpoint=ps.free_endpoint(), settle_heap=True,
@@ -91,9 +126,11 @@ def one(mode: str, n: int, senders: int, arm: str, browser, pages_n: int) -> dic
             hmi = None
             pages = []
             try:
-                if arm != "none":
-                    hmi = HmiChild(rt.endpoint, "127.0.0.1:0")
+                url = ""
+                if arm not in ("none", "browser"):
+                    hmi = HmiChild(rt.endpoint, "127.0.0.1:0", root=root)
                     url = hmi.start()
+                if arm not in ("none", "hmi"):
                     pages = [browser.new_page(viewport={"width": 1280, "height": 800})
                              for _ in range(pages_n)]
                     for page in pages:
@@ -108,8 +145,13 @@ def one(mode: str, n: int, senders: int, arm: str, browser, pages_n: int) -> dic
                             page.wait_for_function(LIVE, timeout=120_000)
                         elif arm == "floor":
                             page.wait_for_function("() => window.__floor() > 2", timeout=120_000)
+                if arm != "none":
                     time.sleep(1.0)            # the pages' first drawing done
                 pids = roles(hmi)
+                if idle_s:
+                    c0, t0 = cpu_ns(pids["runtime"]), time.monotonic()
+                    time.sleep(idle_s)
+                    out["idle"] = (cpu_ns(pids["runtime"]) - c0) / 1e9 / (time.monotonic() - t0)
                 c0 = {k: cpu_of(v) for k, v in pids.items()}
                 b0, t0 = busy_s(), time.monotonic()
                 for key, to, cmd in KINDS:
@@ -152,6 +194,12 @@ def main() -> None:
     ap.add_argument("--mode", default="thread", choices=["thread", "process"])
     ap.add_argument("--senders", default="1,2", help="behaviors at once: 1 (one in flight), "
                     "2 (what the link sustains)")
+    ap.add_argument("--arms", default="none,hmi,browser,blank,live",
+                    help="which arms, interleaved in this order (none is the reference)")
+    ap.add_argument("--baseline", type=Path, default=None,
+                    help="another tree (a detached worktree of main): arms ARM@base run its HMI")
+    ap.add_argument("--idle", type=float, default=3.0,
+                    help="seconds of the runtime's CPU measured before the commands (0: none)")
     ap.add_argument("--floor", action="store_true",
                     help="also the least live page (a WebSocket and one line of text)")
     ap.add_argument("--pinned", action="store_true",
@@ -165,7 +213,9 @@ def main() -> None:
     print(f"PAPA-MAN at {b.baud} baud, feet polled at {FEET_HZ:g} Hz, {args.mode} mode, "
           f"{args.pages} pages; load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
     print(f"line limits: x {lim['x']:.1f}/s, oMSAAA {lim['o']:.1f}/s")
-    arms = ["none", "blank", "live"] + (["floor"] if args.floor else [])
+    arms = args.arms.split(",") + (["floor"] if args.floor else [])
+    if "none" not in arms:
+        ap.error("--arms must include none (the reference)")
     with tempfile.TemporaryDirectory(prefix="esair-bench-") as tmp, sync_playwright() as p:
         browsers = [("free", CHROMIUM)]
         if args.pinned:
@@ -183,7 +233,7 @@ def main() -> None:
                         for arm in arms:
                             loads.append(os.getloadavg()[0])
                             runs[arm].append(one(args.mode, args.n, senders, arm, browser,
-                                                 args.pages))
+                                                 args.pages, args.baseline, args.idle))
                     what = "one in flight" if senders == 1 else f"{senders} behaviors at once"
                     print(f"\nbrowser {how}, {what} (median of {args.rounds}; load "
                           f"{min(loads):.1f}-{max(loads):.1f}):")
@@ -193,12 +243,15 @@ def main() -> None:
                         cores = {k: statistics.median(r["cores"].get(k, 0.0) for r in runs[a])
                                  for k in ("runtime", "hmi", "robot", "browser", "machine")}
                         errs = sum(r["errors"] for r in runs[a])
+                        idle = (f"  runtime idle {statistics.median(r['idle'] for r in runs[a]):.4f}"
+                                if args.idle else "")
                         mx, mo = med[a]["x"], med[a]["o"]
-                        print(f"  {a:6s} x {mx:6.1f}/s ({mx / med['none']['x']:.3f}x none; runs "
+                        print(f"  {a:10s} x {mx:6.1f}/s ({mx / med['none']['x']:.3f}x none; runs "
                               f"{runs_of(runs[a], 'x')})  oMSAAA {mo:5.1f}/s "
                               f"({mo / med['none']['o']:.3f}x; runs {runs_of(runs[a], 'o')})  "
-                              f"errors {errs}  cores " + " ".join(f"{k} {v:.2f}" for k, v in cores.items()))
-                    for k, name in (("x", "x"), ("o", "oMSAAA")):
+                              f"errors {errs}  cores " + " ".join(f"{k} {v:.2f}" for k, v in cores.items())
+                              + idle)
+                    for k, name in (("x", "x"), ("o", "oMSAAA")) if "live" in med else ():
                         r = med["live"][k] / med["none"][k]
                         floor = (f"; the least live page's: {med['floor'][k] / med['none'][k]:.3f}x, "
                                  f"so the HMI's page is {r / (med['floor'][k] / med['none'][k]):.3f}x"

@@ -314,6 +314,9 @@ class Runtime:
         with self._changed:
             self._version += 1
             self._changed.notify_all()
+        server = self.server
+        if server is not None:
+            server.changed(self._version)    # the notice for watchers outside (the HMI)
 
     def wait_state(self, name: str, states: str | tuple[str, ...], timeout: float = 10.0) -> str:
         """Wait until ``name`` is in one of ``states``; its state (for tests, scripts).

@@ -21,6 +21,7 @@ import os
 import secrets
 from pathlib import Path
 
+from ..counters import Counters
 from ..errors import StdError
 
 N, R, P = 2 ** 14, 8, 1
@@ -79,7 +80,7 @@ class Auth:
             raise AuthError(f"listening on {host} needs a login (--password-file or "
                             "$ESAIR_HMI_PASSWORD) or TLS client certificates (--client-ca)")
         self._tokens: dict[str, str] = {}
-        self.failed_logins = 0
+        self.c = Counters(failed_logins=0)        # shown in /status.json
 
     @classmethod
     def from_options(cls, host: str, password_file: str | None, env: dict,
@@ -99,7 +100,7 @@ class Auth:
         stored = self.users.get(user) if isinstance(user, str) else None
         if stored is None or not isinstance(password, str) or not check_password(password,
                                                                                   stored):
-            self.failed_logins += 1
+            self.c.add("failed_logins")
             return None
         assert isinstance(user, str)                 # stored is None for any other type
         return self._token(user)

@@ -2,14 +2,25 @@
 
 The principal ``hmi`` registers with the RS like any behavior: ``watch`` (read) on every
 sensor the deployment's ``allow`` lets it read, ``command`` only where ``allow`` grants
-``hmi: command``. A poller thread asks ``ls`` four times a second (component states: a
-lost link shows within that) and ``inspect`` of each resource entry once a second (the
-link's counters); a second thread asks each running behavior's ``get`` twice a second (a
-behavior's state: the page shows it, e.g. a bearing); samples arrive on Zenoh's thread.
-The last sample of each sensor and the last state of each behavior are kept for the
-``hello`` of a page opened later. Everything goes out through
-``emit(message)``, which must only hand the message over (the server's loop writes it
-to every open page's socket).
+``hmi: command``. What it asks of the runtime costs the runtime's CPU (in thread mode,
+the robot's link runs on the same interpreter), so it asks little:
+
+- ``ls`` (component states) when the runtime's notice says a state changed
+  (``esair/<robot>/changed``, modes/control.py) or its liveliness token comes or goes,
+  and at least every LS_SAFETY_S (what sends no notice: a behavior's ``busy`` flag,
+  attachments; a runtime without notices): a lost link shows as soon as the runtime
+  knows it;
+- ``inspect`` of each link entry (its counters: commands/s, errors) every INSPECT_S,
+  and each running behavior's ``get`` (its state: the page shows it, e.g. a bearing)
+  every STATE_PERIOD_S, both only while a page shows them (``showing()``, told by the
+  server); a behavior that is ``busy`` takes no ``get``;
+- the link bar's reply ages come from the samples this process got (every TICK_S, no
+  request).
+
+Samples arrive on Zenoh's thread. The last sample of each sensor and the last state of
+each behavior are kept for the ``hello`` of a page opened later. Everything goes out
+through ``emit(message)``, which must only hand the message over (the server's loop
+writes it to every open page's socket).
 """
 
 from __future__ import annotations
@@ -28,10 +39,12 @@ from ..transport.bus import Bus
 from ..transport.session import check_endpoint
 
 log = logging.getLogger("esair_std.hmi")
-LS_PERIOD_S = 0.25
-INSPECT_EVERY = 4          # ls periods between two inspects of the resource entries
+TICK_S = 0.25              # the link bar's reply ages (no request)
+LS_SAFETY_S = 1.0          # ls at least this often (changes the runtime sends no notice of)
+LS_MIN_S = 0.05            # ... and at most this often (a burst of notices)
+INSPECT_S = 2.0            # the link entries' counters, while a page shows them
 PRINCIPAL = "hmi"
-STATE_PERIOD_S = 0.5       # each running behavior's get, this often
+STATE_PERIOD_S = 0.5       # each running behavior's get, this often, while a page shows it
 STATE_TIMEOUT_S = 0.3
 
 Emit = Callable[[dict], None]
@@ -66,13 +79,17 @@ class Bridge:
         self._last_sample: dict[str, float] = {}
         self._prev_counts: dict[str, tuple[float, int, int]] = {}
         self._stop = threading.Event()
+        self._kick = threading.Event()        # ls now: the runtime said a state changed
+        self._asked = 0.0                     # when ls was last answered (monotonic)
+        self._poll_lock = threading.Lock()    # one ls at a time (poller, refresh())
         self._thread: threading.Thread | None = None
         self._state_thread: threading.Thread | None = None
         self.last: dict[str, dict] = {}       # sensor -> its last sample message
         self.states: dict[str, Any] = {}      # behavior -> its last get value
         self.c = Counters(samples=0, samples_unwatched=0, ls_failed=0, gets_failed=0,
-                          commands_seen=0)
+                          commands_seen=0, notices=0, ls=0, inspects=0, gets=0)
         self.want: Callable[[str], bool] = lambda name: True    # the sensors to watch
+        self.showing: Callable[[], bool] = lambda: True         # a page shows what we ask
 
     # ---- life cycle
     def start(self) -> None:
@@ -96,6 +113,10 @@ class Bridge:
         # every command an actuator ran, whoever sent it (a behavior, `esair std put`,
         # another page): the pose shows what the robot was told, not only this HMI's
         self.bus.subscribe(keys.command(self.robot, "**"), self._on_command, with_key=True)
+        # ls when told: a state changed, or the runtime came or went
+        self.bus.subscribe(keys.changed(self.robot), self._on_changed)
+        self.bus.watch_alive(keys.alive(self.robot, "runtime", "runtime"),
+                             lambda _key, _alive: self._kick.set())
         self._poll_once(inspect=True)
         self._thread = threading.Thread(target=self._run, name="hmi:poll", daemon=True)
         self._thread.start()
@@ -105,6 +126,7 @@ class Bridge:
 
     def close(self) -> None:
         self._stop.set()
+        self._kick.set()
         for t in (self._thread, self._state_thread):
             if t is not None:
                 t.join(2.0)
@@ -137,13 +159,18 @@ class Bridge:
                 "states": [{"t": "state", "r": k, "v": v} for k, v in self.states.items()]}
 
     # ---- commands and samples (Zenoh's thread: hand over and return)
+    def _on_changed(self, obj: Any) -> None:
+        self.c.add("notices")
+        self._kick.set()
+
     def _on_command(self, key: str, obj: Any) -> None:
         """A command record (``{seq, t, v: {command, ok | error}}``, modes/reshost.py):
         one that went through is handed on as ``{"t": "ran", "r": actuator, "v": command}``."""
         v = obj.get("v") if isinstance(obj, dict) else None
         if isinstance(v, dict) and "ok" in v and "command" in v:
             self.c.add("commands_seen")
-            self.emit({"t": "ran", "r": key.rsplit("/command/", 1)[-1], "v": v["command"]})
+            self.emit({"t": "ran", "r": key.rsplit("/command/", 1)[-1], "v": v["command"],
+                       "at": took(v["ok"])})
 
     def _on_sample(self, key: str, obj: Any) -> None:
         res = key.rsplit("/sensor/", 1)[-1]
@@ -160,16 +187,38 @@ class Bridge:
 
     # ---- the poller
     def _run(self) -> None:
-        n = 0
-        while not self._stop.wait(LS_PERIOD_S):
-            n += 1
+        """ls when told (a notice, the runtime's token) or LS_SAFETY_S after the last;
+        inspect every INSPECT_S while a page shows it; else every TICK_S the link bar's
+        reply ages from the rows as they are."""
+        tick = inspected = time.monotonic()
+        while not self._stop.is_set():
+            now = time.monotonic()
+            kicked = self._kick.wait(max(0.0, min(tick, self._asked + LS_SAFETY_S) - now))
+            if self._stop.is_set():
+                return
+            now = time.monotonic()
+            if kicked and now - self._asked < LS_MIN_S:      # a burst of notices: one ls
+                self._stop.wait(LS_MIN_S - (now - self._asked))
+                now = time.monotonic()
+            inspect = self.showing() and now - inspected >= INSPECT_S
+            if inspect:
+                inspected = now
             try:
-                self._poll_once(inspect=n % INSPECT_EVERY == 0)
+                if kicked or now - self._asked >= LS_SAFETY_S:
+                    self._kick.clear()
+                    self._poll_once(inspect=inspect)
+                elif inspect or now >= tick:
+                    with self._poll_lock:
+                        self._link(self.rows, inspect=inspect)
             except Exception as exc:  # noqa: BLE001 - keep polling
                 log.error("hmi poll: %s", exc)
+            if now >= tick:
+                tick = now + TICK_S
 
     def _run_states(self) -> None:
         while not self._stop.wait(STATE_PERIOD_S):
+            if not self.showing():
+                continue
             try:
                 self._states_once()
             except Exception as exc:  # noqa: BLE001 - keep polling
@@ -178,12 +227,15 @@ class Bridge:
     def _states_once(self) -> None:
         """Each running behavior's ``get`` (as ``esair std get`` shows it, asked as the
         principal ``hmi``); a change is emitted as ``{"t": "state", "r", "v"}``."""
-        running = {r["name"] for r in self.rows
+        rows = self.rows
+        running = {r["name"] for r in rows
                    if r["kind"] == "behavior" and r["state"] in ("running", "busy")}
         for name in list(self.states):
             if name not in running:
                 del self.states[name]
-        for name in sorted(running):
+        busy = {r["name"] for r in rows if r["state"] == "busy"}    # it would not answer
+        for name in sorted(running - busy):
+            self.c.add("gets")
             try:
                 r = self.call("get", {"from": self.who, "to": name, "timeout": STATE_TIMEOUT_S},
                               timeout=STATE_TIMEOUT_S + 1.0)
@@ -199,15 +251,22 @@ class Bridge:
                 self.emit({"t": "state", "r": name, "v": value})
 
     def _poll_once(self, inspect: bool) -> None:
+        with self._poll_lock:
+            self._poll_locked(inspect)
+
+    def _poll_locked(self, inspect: bool) -> None:
+        self.c.add("ls")
         try:
             rows = self.call("ls", {"all": True}, timeout=1.0)   # as `esair std ls` shows
         except BridgeError as exc:
+            self._asked = time.monotonic()
             self.c.add("ls_failed")
             if self.runtime_up:
                 self.runtime_up = False
                 self.emit({"t": "runtime", "up": False, "reason": str(exc)})
                 self.emit(_log("error", f"runtime not answering: {exc}"))
             return
+        self._asked = time.monotonic()
         if not self.runtime_up:
             self.runtime_up = True
             self.emit({"t": "runtime", "up": True, "reason": ""})
@@ -279,6 +338,7 @@ class Bridge:
             self.emit({"t": "link", "link": out})
 
     def _counters(self, entry: str, info: dict, now: float) -> None:
+        self.c.add("inspects")
         try:
             c = self.call("inspect", {"name": entry}, timeout=1.0).get("counters", {})
         except BridgeError:
@@ -287,10 +347,19 @@ class Bridge:
         errs = sum(v.get("command_errors", 0) for v in c.values() if isinstance(v, dict))
         prev = self._prev_counts.get(entry)
         self._prev_counts[entry] = (now, cmds, errs)
-        if prev is not None and now > prev[0]:
+        if prev is not None and 0 < now - prev[0] <= 2 * INSPECT_S:
             info["commands_per_s"] = round((cmds - prev[1]) / (now - prev[0]), 1)
+        else:                 # the first, or after a spell with no page: no rate yet
+            info.pop("commands_per_s", None)
         info["commands"] = cmds
         info["errors"] = errs
+
+
+def took(result: Any) -> float:
+    """When the robot took a command: its driver's ``at`` (a MIN link's motion: when the
+    robot had the whole line, docs/std-papaman.md), else now (when its answer or record came)."""
+    at = result.get("at") if isinstance(result, dict) else None
+    return float(at) if isinstance(at, (int, float)) and not isinstance(at, bool) else time.time()
 
 
 def _log(level: str, text: str) -> dict:

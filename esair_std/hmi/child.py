@@ -37,16 +37,16 @@ def _end(proc: subprocess.Popen[bytes]) -> None:
 
 
 class HmiChild:
-    def __init__(self, endpoint: str, listen: str):
+    def __init__(self, endpoint: str, listen: str, root: Path | None = None):
         self.endpoint, self.listen = endpoint, listen
+        self.root = root or Path(__file__).resolve().parents[2]   # the tree it runs from
         self.proc: subprocess.Popen[bytes] | None = None
         self.url = ""
         self._errors: IO[bytes] | None = None
 
     def start(self) -> str:
         env = dict(os.environ)
-        root = str(Path(__file__).resolve().parents[2])
-        env["PYTHONPATH"] = root + os.pathsep + env.get("PYTHONPATH", "")
+        env["PYTHONPATH"] = str(self.root) + os.pathsep + env.get("PYTHONPATH", "")
         # not a pipe: nobody has to drain it; closed in stop()
         errors = self._errors = tempfile.TemporaryFile()  # noqa: SIM115
         self.proc = subprocess.Popen(

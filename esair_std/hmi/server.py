@@ -36,7 +36,7 @@ from ..errors import StdError
 from ..heap import settle
 from ..words import counted
 from .auth import Auth
-from .bridge import Bridge, BridgeError
+from .bridge import Bridge, BridgeError, took
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..record.tap import Tap
@@ -48,6 +48,7 @@ log = logging.getLogger("esair_std.hmi")
 STATIC = Path(__file__).resolve().parent / "static"
 PAGE_BUFFER = 256 * 1024   # bytes written to a page's socket and not yet sent: past it, frames are dropped
 LAZY_S = 0.05               # a command's record waits this long at most for a sample's frame to ride in
+LAZY = ("ran", "link")      # ... and the link bar's update (its reply ages, 4 a second)
 PENDING_MAX = 10_000        # messages emitted and not yet handed to the pages (counted as dropped past it)
 MAX_FRAME = 64 * 1024       # bytes of one frame from a page
 CSP = ("default-src 'self'; img-src 'self' data:; style-src 'self' 'unsafe-inline'; "
@@ -80,7 +81,7 @@ class Page:
         self.ws = ws
         self.role = role
         self.user = ""
-        self.dropped = 0
+        self.c = Counters(dropped=0)   # frames this page lost (/status.json: per page)
         self.hidden = False         # in the background: no samples (op "view")
 
 
@@ -108,6 +109,8 @@ class HmiServer:
         # a page opened later plays it from where it is, or shows where STOP left it
         self.played: dict[str, tuple[Any, float, float | None]] = {}
         self._own: collections.deque[str] = collections.deque(maxlen=OWN_MAX)  # sent, record due
+        self._asking: list[str] = []       # this HMI's commands not answered yet
+        self._early: collections.deque[str] = collections.deque(maxlen=OWN_MAX)  # ... whose record came first
         self.record_dir = Path(record_dir)
         self.tap: Tap | None = None
         self.c = Counters(pages=0, frames=0, bad_frames=0, refused=0, dropped=0,
@@ -117,8 +120,9 @@ class HmiServer:
         self._loop: asyncio.AbstractEventLoop | None = None
         self._pending: list[dict] = []            # emitted, not yet sent (bounded)
         self._pending_lock = threading.Lock()
-        self._flush_due = False       # a flush is asked for (soon, or within LAZY_S)
-        self._flush_soon = False      # ... as soon as the loop can
+        self._flush_soon = False      # a flush is asked for, as soon as the loop can
+        self._lazy_armed = False      # the loop's lazy tick is due within LAZY_S
+        self._lazy_seen = False       # a lazy message came since the last tick
 
     # ---- fan-out (any thread -> the loop)
     def emit(self, msg: dict) -> None:
@@ -127,48 +131,70 @@ class HmiServer:
         meanwhile, encodes them once, and writes every page the same frame (``{"t": "b",
         "m": [...], "f": when}``): at 50 Hz of samples and more, one loop wake-up and
         one WebSocket frame per batch, not per sample. A command's record (``ran``: the
-        pose and the sliders, which a person reads) does not wake the loop at once: it
-        rides with the next sample's frame, or goes LAZY_S later when none comes."""
+        pose and the sliders, which a person reads) does not wake the loop: it rides
+        with the next sample's frame, or goes with the loop's lazy tick (every LAZY_S
+        while such messages come; the first after a quiet spell wakes the loop to start
+        it), so a stream of commands costs no wake-up and no frame of its own while
+        samples flow; so does the link bar's update (a lost link shows within LAZY_S
+        more)."""
         tap = self.tap
         if tap is not None:
             tap.put(msg)
         loop = self._loop
         if loop is None or loop.is_closed():
             return
-        lazy = msg.get("t") == "ran"
+        lazy = msg.get("t") in LAZY
         with self._pending_lock:
             if len(self._pending) >= PENDING_MAX:
                 self.c.add("dropped")
                 return
             self._pending.append(msg)
-            if self._flush_soon or (lazy and self._flush_due):
-                return
-            self._flush_soon = not lazy
-            self._flush_due = True
-        if lazy:
-            loop.call_soon_threadsafe(loop.call_later, LAZY_S, self._flush)
-        else:
-            loop.call_soon_threadsafe(self._flush)
+            if lazy:
+                self._lazy_seen = True
+                if self._flush_soon or self._lazy_armed:
+                    return
+                self._lazy_armed = True
+            else:
+                if self._flush_soon:
+                    return
+                self._flush_soon = True
+        loop.call_soon_threadsafe(self._arm_lazy if lazy else self._flush)
+
+    def _arm_lazy(self) -> None:
+        assert self._loop is not None
+        self._loop.call_later(LAZY_S, self._lazy_tick)
+
+    def _lazy_tick(self) -> None:
+        """Every LAZY_S while lazy messages come: what waits goes now (when no sample's
+        frame took it); after a tick with none since the last, the tick stops."""
+        with self._pending_lock:
+            again, self._lazy_seen = self._lazy_seen, False
+            self._lazy_armed = again
+            waiting = bool(self._pending)
+        if waiting:
+            self._flush()
+        if again:
+            self._arm_lazy()
 
     def _flush(self) -> None:
         with self._pending_lock:
             got, self._pending = self._pending, []
-            self._flush_due = self._flush_soon = False
+            self._flush_soon = False
         msgs = []
         for m in got:
             if m.get("t") == "ran":               # a command any sender got through
-                m = self._ran(m["r"], m["v"])
+                m = self._ran(m["r"], m["v"], m.get("at") or time.time())
                 if m is None:
                     continue
             msgs.append(m)
-        if not msgs:
+        if not msgs or not self.pages:         # nobody to encode them for
             return
         self.c.add("batches")
         # f: when it left this process's queue (the page splits sample -> pixel at it)
         f = round(time.time(), 4)
-        text = json.dumps({"t": "b", "f": f, "m": msgs}, separators=(",", ":"))
         shown = [p for p in self.pages if not p.hidden]
-        self._send(shown, text)
+        if shown:
+            self._send(shown, json.dumps({"t": "b", "f": f, "m": msgs}, separators=(",", ":")))
         hidden = [p for p in self.pages if p.hidden]
         if hidden:                          # the same without the samples
             rest = [m for m in msgs if m.get("t") != "s"]
@@ -186,7 +212,7 @@ class HmiServer:
         for page in pages:
             transport = page.ws.transport
             if transport is not None and transport.get_write_buffer_size() > PAGE_BUFFER:
-                page.dropped += 1
+                page.c.add("dropped")
                 self.c.add("dropped")
             else:
                 ready.append(page.ws)
@@ -194,9 +220,12 @@ class HmiServer:
             broadcast(ready, text)
 
     def status(self) -> dict:
-        return {"counters": dict(self.c.snapshot(), open_pages=len(self.pages),
-                                 hidden_pages=sum(p.hidden for p in self.pages),
-                                 failed_logins=self.auth.failed_logins),
+        pages = list(self.pages)
+        return {"counters": dict(self.c.snapshot(), open_pages=len(pages),
+                                 hidden_pages=sum(p.hidden for p in pages),
+                                 **self.auth.c.snapshot()),
+                # each open page: its role, whether hidden, the frames it lost
+                "pages": [{"role": p.role, "hidden": p.hidden, **p.c.snapshot()} for p in pages],
                 "bridge": self.bridge.c.snapshot() if self.bridge else {}}
 
     # ---- HTTP
@@ -310,31 +339,66 @@ class HmiServer:
         page.role, page.user = "operator", str(user)
         self._reply(page, ident, True, {"role": "operator", "token": token, "user": user})
 
-    def _ran(self, res: str, command: Any) -> dict | None:
-        """An actuator's record of a command it ran (bridge.py): shown as commanded (the
-        message to send), except the record of a command this HMI sent, which was shown
-        when it was answered (a remote HMI whose ACL reads no records still shows its own)."""
+    def _ran(self, res: str, command: Any, at: float) -> dict | None:
+        """An actuator's record of a command it ran (bridge.py; ``at``: when it came), the
+        message to send: shown as commanded, except the record of a command this HMI sent,
+        shown when it was answered (a remote HMI whose ACL reads no records still shows
+        its own). Whichever of the two comes first gives a motion its start (or STOP) time."""
         text = json.dumps([res, command], sort_keys=True)
         if text in self._own:
             self._own.remove(text)
+            return self._earlier(res, command, at)
+        if text in self._asking:          # its answer is still on its way: shown now
+            self._asking.remove(text)
+            self._early.append(text)
+        return self._commanded(res, command, emit=False, at=at)
+
+    def _asked(self, res: str, command: Any) -> str:
+        """A command of this HMI is sent (its record may come before its answer)."""
+        text = json.dumps([res, command], sort_keys=True)
+        self._asking.append(text)
+        return text
+
+    def _answered(self, text: str) -> None:
+        if text in self._asking:
+            self._asking.remove(text)
+
+    def _sent(self, res: str, command: Any, at: float | None = None) -> None:
+        """A command of this HMI went through (``at``: when its answer came): shown now,
+        its record skipped later; already shown if its record came first."""
+        text = json.dumps([res, command], sort_keys=True)
+        if text in self._early:
+            self._early.remove(text)
+            return
+        self._own.append(text)
+        self._commanded(res, command, at=at)
+
+    def _earlier(self, res: str, command: Any, at: float) -> dict | None:
+        """The record of this HMI's motion command came before its answer (the record is
+        handed over in a batch, later): the motion's start or STOP time is the record's.
+        A STOP's corrected position is the message to send."""
+        played = self.played.get(res)
+        if played is None or not res.endswith(".motion"):
             return None
-        return self._commanded(res, command, emit=False)
+        cmd, t0, t1 = played
+        if command == "stop" and t1 is not None and at < t1:
+            self.played[res] = (cmd, t0, max(t0, at))
+            return {"t": "commanded", "r": res, "v": command, "played": self._played_at(res, at)}
+        if command == cmd and t1 is None and at < t0:
+            self.played[res] = (cmd, at, None)
+        return None
 
-    def _sent(self, res: str, command: Any) -> None:
-        """A command of this HMI went through: shown now, its record skipped later."""
-        self._own.append(json.dumps([res, command], sort_keys=True))
-        self._commanded(res, command)
-
-    def _commanded(self, res: str, command: Any, emit: bool = True) -> dict:
+    def _commanded(self, res: str, command: Any, emit: bool = True,
+                   at: float | None = None) -> dict:
         msg = {"t": "commanded", "r": res, "v": command}
+        now = time.time() if at is None else at
         if res.endswith(".motion"):
             played = self.played.get(res)
             if command == "stop" and played is not None:
                 # the motion's entry is kept, with the time it was stopped: the frame a
                 # page shows is the one the motion had reached (pages open and opened later)
-                now = time.time()
                 if played[2] is None:
-                    self.played[res] = played = (played[0], played[1], now)
+                    self.played[res] = played = (played[0], played[1], max(now, played[1]))
                 msg["played"] = self._played_at(res, now)
                 if emit:
                     self.emit(msg)
@@ -345,7 +409,7 @@ class HmiServer:
             if command == "stop":
                 self.played.pop(res, None)
             else:
-                self.played[res] = (command, time.time(), None)
+                self.played[res] = (command, now, None)
         self.commanded.pop(res, None)
         self.commanded[res] = command
         if emit:
@@ -365,16 +429,29 @@ class HmiServer:
         return [[res, v, self._played_at(res, now)] if res in self.played else [res, v]
                 for res, v in self.commanded.items()]
 
+    def _command(self, res: str, command: Any, answered: list[float]) -> Any:
+        """The bridge's command (an executor's thread), and when its answer came: a
+        motion's start or STOP time, taken here, not after the loop's next turn."""
+        assert self.bridge is not None
+        r = self.bridge.command(res, command)
+        answered.append(took(r))
+        return r
+
     async def op_cmd(self, page: Page, ident: Any, obj: dict) -> None:
         res = _field(obj, "resource", str)
         if "command" not in obj:
             raise BadFrame("field 'command' missing")
         self.c.add("commands")
         assert self.bridge is not None
-        r = await self._call(page, ident, self.bridge.command, res, obj["command"],
-                             what=f"{res} {json.dumps(obj['command'])}")
+        asked = self._asked(res, obj["command"])
+        answered: list[float] = []
+        try:
+            r = await self._call(page, ident, self._command, res, obj["command"], answered,
+                                 what=f"{res} {json.dumps(obj['command'])}")
+        finally:
+            self._answered(asked)
         if r is not None:
-            self._sent(res, obj["command"])
+            self._sent(res, obj["command"], answered[0])
             self.emit({"t": "log", "level": "info", "ts": time.time(),
                        "text": f"{page.user or page.role}: {res} {json.dumps(obj['command'])}"
                                f" -> {r}"})
@@ -388,10 +465,15 @@ class HmiServer:
             return
         self.c.add("commands")
         for res in targets:
-            r = await self._call(page, ident, self.bridge.command, res, "stop",
-                                 what=f"STOP {res}")
+            asked = self._asked(res, "stop")
+            answered: list[float] = []
+            try:
+                r = await self._call(page, ident, self._command, res, "stop", answered,
+                                     what=f"STOP {res}")
+            finally:
+                self._answered(asked)
             if r is not None:
-                self._sent(res, "stop")
+                self._sent(res, "stop", answered[0])
         self.emit({"t": "log", "level": "warning", "text": f"STOP by {page.user or 'operator'}",
                    "ts": time.time()})
 
@@ -474,6 +556,9 @@ class HmiServer:
     async def serve(self, ready: Callable[[str], None], stop: asyncio.Event) -> None:
         self._loop = asyncio.get_running_loop()
         self.bridge = Bridge(self.endpoint, self.emit, who=self.who)
+        # the link's counters and the behaviors' states are asked for while a page shows
+        # them (a list of the set: taken at once, while the loop may change the set)
+        self.bridge.showing = lambda: any(not p.hidden for p in list(self.pages))
         await self._loop.run_in_executor(None, self.bridge.start)
         # what start-up made lives as long as the process: out of the collector's way, so
         # a full collection walks only what came since (its pauses delay every sample)

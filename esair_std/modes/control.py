@@ -4,6 +4,11 @@ Zenoh's callback only queues the request (a bounded queue; when full the asker i
 at once); a small pool of worker threads answers from the verb table (transport/wire.py:
 the envelope, its errors and the table are those of every endpoint). Garbage (not JSON,
 not an object, missing or wrong fields, unknown verb) gets an error and changes nothing.
+
+When a component's state changes (the runtime's ``note_change``), a notice goes out on
+``esair/<robot>/changed`` (``{"v": n}``, n counting the changes), sent by a thread of its
+own (the caller only sets an event; a burst of changes is one notice or a few): a
+watcher outside (the HMI) asks ``ls`` when told, instead of asking it all the time.
 """
 
 from __future__ import annotations
@@ -88,7 +93,9 @@ class ControlServer:
         self._workers: list[threading.Thread] = []
         self.threads = Threads()     # what may be in a Zenoh call: joined at stop (threads.py)
         self._closing = False
-        self.c = Counters(requests=0, bad_requests=0, refused_full=0)
+        self._changed = threading.Event()     # a notice is due (changed())
+        self._version = 0
+        self.c = Counters(requests=0, bad_requests=0, refused_full=0, change_notices=0)
         self.verbs = Verbs(unknown="unknown control verb {verb!r}")
         for verb, fn in {
             "ping": self.v_ping, "ls": self.v_ls, "add": self.v_add, "remove": self.v_remove,
@@ -121,6 +128,26 @@ class ControlServer:
                                  lambda key: keys.bs_answer(robot, keys.name_in(key)),
                                  self._on_put_sample)
         self.token = self.bus.token(keys.alive(self.rt.robot, "runtime", "runtime"))
+        self._notice = self.bus.publisher(keys.changed(robot))
+        self.threads.start(self._notify, name="esair:changed")
+
+    def changed(self, version: int) -> None:
+        """A component's state changed (any thread): the notice goes out from
+        :meth:`_notify`'s thread."""
+        self._version = version
+        self._changed.set()
+
+    def _notify(self) -> None:
+        while True:
+            self._changed.wait()
+            if self._closing:
+                return
+            self._changed.clear()
+            try:
+                self._notice({"v": self._version})
+                self.c.add("change_notices")
+            except Exception as exc:  # noqa: BLE001 - the session is closing
+                log.debug("change notice: %s", exc)
 
     def counters(self) -> dict:
         """The control endpoint's own counters (``esair std inspect runtime``): requests,
@@ -134,6 +161,7 @@ class ControlServer:
         """Closes the session (a worker's Zenoh call then fails at once) and tells the
         workers to end; :meth:`join` waits for them."""
         self._closing = True
+        self._changed.set()                 # _notify ends
         if self.bus is not None:
             self.bus.close()
         for _ in self._workers:             # a full queue: each worker ends after its item

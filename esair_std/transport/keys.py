@@ -14,6 +14,8 @@
     esair/<robot>/command/<resource>   each command the actuator's host ran, and its
                                        outcome (published, for recorders)
     esair/<robot>/alive/<kind>/<name>  liveliness tokens
+    esair/<robot>/changed              the runtime: a component's state changed (a
+                                       notice, ``{"v": n}``; what changed: ``ls``)
 """
 
 from __future__ import annotations
@@ -92,3 +94,7 @@ def parse_alive(robot: str, key: str) -> tuple[str, str] | None:
         return None
     kind, _, name = key[len(prefix):].partition("/")
     return (kind, name) if name else None
+
+
+def changed(robot: str) -> str:
+    return f"esair/{robot}/changed"

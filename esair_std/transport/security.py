@@ -127,7 +127,8 @@ def agent_rules(robot: str, agent: str, reads: list[str], commands: list[str],
                 provides: Sequence[str] = ()) -> list[dict[str, Any]]:
     """ACL rules for one remote agent of robot ``robot`` (rule ids ``<agent>.<n>``).
 
-    The agent may: ask the control queryables (ctl/**) and get their replies; send its
+    The agent may: ask the control queryables (ctl/**) and get their replies, and hear
+    the runtime's notices of changes (changed); send its
     puts as samples on its own ctl/put/<agent> (transport/calls.py); hold and
     watch liveliness tokens; serve its own behavior keys (bs/<agent>/**: queries, and the
     offer/result samples of a put's fast path); subscribe to the
@@ -148,6 +149,9 @@ def agent_rules(robot: str, agent: str, reads: list[str], commands: list[str],
         _rule("bs", ["declare_queryable", "reply", "declare_subscriber", "put"], ingress,
               [f"{k}/bs/{agent}", f"{k}/bs/{agent}/**"]),
         _rule("bs-query", ["query", "put"], egress, [f"{k}/bs/{agent}", f"{k}/bs/{agent}/**"]),
+        # the runtime's notice that a component's state changed (a remote HMI asks ls then)
+        _rule("changed", ["declare_subscriber"], ingress, [f"{k}/changed"]),
+        _rule("changed-put", ["put"], egress, [f"{k}/changed"]),
     ]
     if reads:
         keys = [f"{k}/sensor/{r}" for r in reads]

@@ -6,6 +6,7 @@ a viewer cannot command, a page of another site cannot connect."""
 from __future__ import annotations
 
 import json
+import math
 import socket
 from urllib.request import urlopen
 
@@ -97,7 +98,8 @@ def test_a_page_in_the_background_draws_nothing_and_gets_no_samples(robot, brows
     # window), so the page is told it is hidden the way a browser tells it: its
     # document.visibilityState and the visibilitychange event
     page, errors = open_page(browser, robot.url, login=False, ready="window.__hmi.stats.draws > 0")
-    assert page.evaluate("[window.__hmi.fps, window.__hmi.hidden]") == [30, False]
+    assert page.evaluate("[window.__hmi.fps, window.__hmi.feetFps, window.__hmi.hidden]") == [
+        30, 30, False]
     assert page.evaluate(HIDE, "hidden")["ok"]      # answered after the view: in order
     wait_for(lambda: robot.status()["counters"]["hidden_pages"] >= 1, what="the page hidden")
     held = robot.status()["counters"]["held"]
@@ -115,9 +117,12 @@ def test_a_page_in_the_background_draws_nothing_and_gets_no_samples(robot, brows
     wait_for(lambda: robot.status()["counters"]["hidden_pages"] == 0, what="no page hidden")
     page.close()
     page, more = open_page(browser, robot.url + "?fps=500", login=False)    # capped at 60
-    assert page.evaluate("window.__hmi.fps") == 60
+    assert page.evaluate("[window.__hmi.fps, window.__hmi.feetFps]") == [60, 60]
     page.close()
-    assert errors == more == []
+    page, most = open_page(browser, robot.url + "?feet_fps=60", login=False)  # the feet only
+    assert page.evaluate("[window.__hmi.fps, window.__hmi.feetFps]") == [30, 60]
+    page.close()
+    assert errors == more == most == []
 
 
 def test_dance_button_plays_the_dance_frames(robot, browser, papaman):
@@ -166,6 +171,23 @@ def test_the_pose_shows_commands_of_every_sender(robot, browser):
     assert errors == []
 
 
+def test_counts_on_the_page_agree_with_their_numbers(robot, browser):
+    """'1 error', not '1 errors': the link pill (and every count the page writes, words.js)."""
+    page, errors = open_page(browser, robot.url, login=False,
+                             ready="window.__hmi.link.papaman && window.__hmi.link.papaman.errors != null")
+    got = page.evaluate("""async () => {
+      const h = window.__hmi, { counted } = await import("/words.js"), link = h.link, out = [];
+      for (const n of [0, 1, 2]) {       // in one task: no link message comes in between
+        h.link = {papaman: Object.assign({}, link.papaman, {errors: n})}; h.linkbar();
+        out.push(document.querySelector("#linkbar").textContent.match(/\\d+ errors?/)[0]);
+      }
+      h.link = link; h.linkbar();
+      return [out, counted(1, "feet sample"), counted(3, "channel")]; }""")
+    assert got == [["0 errors", "1 error", "2 errors"], "1 feet sample", "3 channels"]
+    page.close()
+    assert errors == []
+
+
 ANGLES = "() => window.__hmi.pose.angles"
 
 
@@ -191,13 +213,15 @@ def test_a_page_opened_after_stop_shows_the_pose_the_motion_reached(robot, brows
     assert later.evaluate("window.__hmi.played") == first.evaluate("window.__hmi.played")
     assert later.evaluate(ANGLES) == held
     later.close()
-    # the frame a motion shows at a time into it: frame i from i * delay_ticks ticks on
-    frame_ms = 25 * first.evaluate("window.__hmi.info.tick_s") * 1000
+    # the frame a motion shows at a time into it, as the robot's frame player writes them:
+    # frame 0 at the first tick after the PLY line (half a tick on, on average), frame i
+    # i * delay_ticks ticks later; none before, the last one after the end
+    tick_ms = first.evaluate("window.__hmi.info.tick_s") * 1000
     at = first.evaluate("""ms => { const h = window.__hmi, mo = h.motionOf({play: "prostrate"});
         return ms.map((t) => h.pose.frameAt(mo, h.info.tick_s, t)); }""",
-                        [0, 1.5 * frame_ms, 3.5 * frame_ms, 100 * frame_ms])
-    prostrate = frames_of(papaman, "prostrate")
-    assert at == [prostrate[0], prostrate[1], prostrate[3], prostrate[3]]
+                        [0, 0.49 * tick_ms, 0.51 * tick_ms, 25.49 * tick_ms, 25.51 * tick_ms,
+                         75.6 * tick_ms, 1000 * tick_ms])
+    assert at == [-1, -1, 0, 0, 1, 3, 3]
     # dance played to its end: a page opened then, and one opened after a STOP, show its
     # last frame (84, 82, ...), as the page open all along does
     first.click("#motions button[data-motion=dance]")
@@ -221,17 +245,73 @@ def test_a_page_opened_after_stop_shows_the_pose_the_motion_reached(robot, brows
     assert errors == more == more2 == more3 == []
 
 
+STOP_DANCE = """async (wait) => { const h = window.__hmi;
+    const r = await h.send({op: "cmd", resource: "papaman.motion", command: {play: "dance"}});
+    await new Promise((ok) => setTimeout(ok, wait));
+    const s = await h.send({op: "stop"});
+    return r.ok && s.ok; }"""
+
+
+def test_a_dance_stopped_part_way_shows_the_frame_the_robot_reached(robot, browser, papaman):
+    """The page maps a motion's ms to its frame as the robot's frame player does (frame 0
+    at the first tick after the PLY line, then one each delay_ticks ticks), from the times
+    the robot took the PLY and the STOP lines (the driver's ``at``): after a dance (a frame
+    each 9 ms tick) STOPped part-way, the pose the page shows is the frame the robot wrote
+    last (its trace), within one frame. A trial in which the emulated robot or the
+    runtime's link waited for a core between the line and its bytes' arrival (this 2-core
+    machine runs at load 10-30) is off by that wait, whatever the page does: 6 of 8 trials
+    within one frame, and each page frame the one its ms gives."""
+    page, errors = open_page(browser, robot.url)
+    dance = frame_bytes(papaman, "dance")
+    tick_ms = papaman.central.timer2.period_s * 1000
+    seen = []
+    for wait_ms in (60, 110, 160, 210) * 2:
+        before = len(robot.trace_lines())
+        assert page.evaluate(STOP_DANCE, wait_ms)
+        page.wait_for_function("() => { const p = window.__hmi.played; "
+                               "return p && p.stopped && p.v.play === 'dance'; }")
+        shown, angles, ms = page.evaluate(
+            "() => [window.__hmi.pose.shown, window.__hmi.pose.angles, window.__hmi.played.ms]")
+        # the robot answered the PLY and the STOP (bare OKs): its frames are all in the trace
+        wait_for(lambda b=before: without_marks(robot.trace_lines()[b:]).count("TX 4F4B0D0A") >= 2,
+                 what="the robot's OK to the PLY and to the STOP in its trace")
+        writes = [w for w in actuator_writes(robot.trace_lines()[before:]) if len(w) == 25]
+        assert writes == dance[:len(writes)]
+        # the player's rule (half a tick to the first tick), the page's frame from its ms
+        want = max(-1, min(len(dance) - 1, math.floor((ms - tick_ms / 2) / tick_ms)))
+        assert shown["motion"] == "dance" and shown["frame"] == want, (shown, ms)
+        assert angles == frames_of(papaman, "dance")[want]
+        seen.append((wait_ms, len(writes) - 1, want))
+        page.evaluate("window.__hmi.played = null")
+    close = [s for s in seen if abs(s[1] - s[2]) <= 1]
+    assert len(close) >= 6, f"(wait ms, robot's frame, page's frame): {seen}"
+    # stopped part-way (after its first frame, before its last) at least twice
+    assert sum(0 < robot_i < len(dance) - 1 for _, robot_i, _ in close) >= 2, seen
+    page.close()
+    assert errors == []
+
+
+PILLS = "() => [...document.querySelectorAll('#linkbar .pill')].map(s => s.textContent)"
+
+
 def test_sigkill_of_the_robot_shows_the_banner_then_recovery(robot, browser):
+    """The banner, the link's pill and the pill of the computer its resources run on (its
+    16: the driver, 12 servos, motion, feet, notices) say the robot is lost, then back."""
+    host = socket.gethostname()
     page, errors = open_page(browser, robot.url)
     assert page.locator("#banner").is_hidden()
+    page.wait_for_function(f"() => ({PILLS})().includes({json.dumps(host + ' · 16 resources ready')})")
     robot.emu.kill()                                       # SIGKILL: the robot is pulled
     page.wait_for_selector("#banner", state="visible", timeout=15000)
     assert page.locator("#banner").inner_text().startswith("LINK LOST: papaman")
     assert "lost" in page.locator("#linkbar").inner_text()
+    page.wait_for_function(f"""() => ({PILLS})().some(t => t.startsWith({json.dumps(host + ' · ')})
+        && / · \\d+ of 16 resources not ready$/.test(t))""")
     robot.emu.start()
     page.wait_for_selector("#banner", state="hidden", timeout=20000)
     page.wait_for_function(
         "() => document.querySelector('#linkbar').textContent.includes('papaman link ready')")
+    page.wait_for_function(f"() => ({PILLS})().includes({json.dumps(host + ' · 16 resources ready')})")
     page.close()
     assert errors == []
 
@@ -326,6 +406,7 @@ def test_a_viewer_without_login_gets_no_command_through(robot, browser):
     assert page.locator("#stop").is_disabled()
     assert page.locator("#login").is_visible()
     refused = robot.status()["counters"]["refused"]
+    failed = robot.status()["counters"]["failed_logins"]
     before = len(robot.trace_lines())
     for frame in ({"op": "cmd", "resource": "papaman.motion", "command": {"play": "dance"}},
                   {"op": "stop"}, {"op": "remove", "name": "watcher"}):
@@ -334,6 +415,7 @@ def test_a_viewer_without_login_gets_no_command_through(robot, browser):
     assert robot.status()["counters"]["refused"] == refused + 3
     r = page.evaluate("window.__hmi.send({op: 'login', user: 'operator', password: 'guess'})")
     assert (r["ok"], r["error"]) == (False, "wrong user or password")
+    assert robot.status()["counters"]["failed_logins"] == failed + 1
     # nothing reached the robot: no PLY line on its UART and the watcher still runs
     rx = [ln for ln in robot.trace_lines()[before:] if ln.startswith("TX ")]
     assert all(bytes.fromhex(ln[3:]).startswith(b"OK ") or ln == "TX 4F4B0D0A" for ln in rx)
@@ -359,6 +441,9 @@ def test_a_page_that_takes_nothing_loses_frames_counted_and_no_other_page_waits(
             for i in range(120):                                 # its reader stops at once
                 ws.send(json.dumps({"op": "ping", "id": i, "ts": "x" * 60_000}))
             wait_for(lambda: robot.status()["counters"]["dropped"] > before, what="frames dropped")
+            # counted on the stuck page, not on the live one (which takes everything)
+            pages = robot.status()["pages"]
+            assert sorted(p["dropped"] > 0 for p in pages) == [False, True], pages
             seen = page.evaluate("window.__hmi.stats.samples")
             page.wait_for_function(f"() => window.__hmi.stats.samples >= {seen + 20}")
             draws = page.evaluate("window.__hmi.stats.draws")
@@ -425,6 +510,7 @@ FIND = """(ts) => {
           drawn: s.head >= ts, paused: window.__hmi.feet.paused};
 }"""
 PIXELS = "() => window.__hmi.feet.top.fg.toDataURL()"
+NEAR = 3
 
 
 def test_the_feet_plot_scrolls_new_samples_in_and_pause_holds_it(robot, browser):
@@ -443,11 +529,13 @@ def test_the_feet_plot_scrolls_new_samples_in_and_pause_holds_it(robot, browser)
     ts = page.evaluate(SPIKE)
     page.wait_for_function(f"() => ({FIND})({ts}).drawn")
     first = page.evaluate(FIND, ts)
-    assert first["xs"] and all(abs(x - first["want"]) <= 2 for x in first["xs"]), first
+    # within NEAR px of where the time puts it: the 2 px line's antialiased edge, and the
+    # next real sample's slope (seen 3 px once at load 35); the plot moves 40 px meanwhile
+    assert first["xs"] and all(abs(x - first["want"]) <= NEAR for x in first["xs"]), first
     page.wait_for_function(f"() => ({FIND})({ts}).headX >= {first['headX'] + 40}")
     later = page.evaluate(FIND, ts)
     assert later["full"] == first["full"] and later["scrolled"] > first["scrolled"]
-    assert later["xs"] and all(abs(x - later["want"]) <= 2 for x in later["xs"]), later
+    assert later["xs"] and all(abs(x - later["want"]) <= NEAR for x in later["xs"]), later
     assert later["want"] <= first["want"] - 40                  # it moved left with the time
     # what the frames drew one after the other is what a redraw of the window draws
     same = page.evaluate("""() => {
@@ -476,7 +564,7 @@ def test_the_feet_plot_scrolls_new_samples_in_and_pause_holds_it(robot, browser)
     page.click("#pause")                                        # resumed: drawn again
     page.wait_for_function(f"() => window.__hmi.feet.top.frames.full > {frames['full']}")
     resumed = page.evaluate(FIND, ts)
-    assert resumed["xs"] and all(abs(x - resumed["want"]) <= 2 for x in resumed["xs"]), resumed
+    assert resumed["xs"] and all(abs(x - resumed["want"]) <= NEAR for x in resumed["xs"]), resumed
     assert page.evaluate(PIXELS) != held
     page.close()
     assert errors == []

@@ -167,3 +167,35 @@ def test_the_serial_link_has_its_pill_and_the_mics_plot_their_levels(starfish_hm
                         r"frame \d+ · \d+\.\d frames/s", note), note
     page.close()
     assert errors == []
+
+
+def _hmi_commands(url: str) -> int:
+    import urllib.request
+    with urllib.request.urlopen(url + "status.json", timeout=5) as r:
+        return json.load(r)["counters"]["commands"]
+
+
+def test_an_actuators_command_box_takes_json_or_text_and_refuses_a_json_typo(
+        starfish_hmi, browser):
+    """An actuator with no panel of its own (STARFISH's camera) gets a command box that
+    takes JSON or text as `esair std send` does: text that starts like JSON and does not
+    parse is not sent (the box and the log say why); what is sent goes to the runtime like
+    any command (here the deployment's allow refuses the HMI, and the log says so)."""
+    page, errors = open_page(browser, starfish_hmi.url)
+    form = page.locator("form.generic").filter(has_text="send to starfish.camera")
+    form.wait_for()
+    before = _hmi_commands(starfish_hmi.url)
+    form.locator("input").fill('{"shoot": tru')
+    form.locator("button").click()
+    page.wait_for_function("() => document.querySelector('#log').textContent"
+                           ".includes('starfish.camera: not sent: not JSON')")
+    assert form.locator("input").evaluate("e => e.validationMessage").startswith("not JSON: ")
+    assert _hmi_commands(starfish_hmi.url) == before            # nothing went out
+    form.locator("input").fill("shoot")                         # text: sent as the string
+    form.locator("button").click()
+    wait_for(lambda: _hmi_commands(starfish_hmi.url) == before + 1, what="the command sent")
+    assert form.locator("input").evaluate("e => e.validationMessage") == ""
+    page.wait_for_function("() => [...document.querySelectorAll('#log li')].some(li => "
+                           "li.textContent.includes('starfish.camera \"shoot\"'))")
+    page.close()
+    assert errors == []

@@ -14,6 +14,7 @@ from esair_std.errors import TransportError
 from esair_std.transport.certs import CertError, common_name, make_certs
 from esair_std.transport.security import Security, access_control, session_inserts
 from tests.support.netns import net  # noqa: F401  (fixture)
+from tests.support.std import wait_for
 from tests.support.zpeer import Peer
 
 ROBOT = "lab"
@@ -111,6 +112,14 @@ def test_acl_lets_an_agent_touch_only_the_keys_of_its_grants(net, pki):  # noqa:
     intruder.close()
     locate = _agent(net[1], _tls(pki, "locate"), pki, endpoint)
     assert _reach(center, locate) == {"ctl": True, "actuator": False, "sensor": True}
+    # the runtime's change notices reach an agent (a remote HMI asks ls when told)
+    changed = f"esair/{ROBOT}/changed"
+    locate.cmd(f"sub {changed}")
+
+    def heard() -> bool:         # put again until the subscription has reached the center
+        center.cmd(f"put {changed} 1")
+        return locate.wait_event(lambda e: e.get("sample") == changed, 0.5) is not None
+    wait_for(heard, timeout=20, what="the change notice at the agent")
 
 
 def test_acl_command_grant_opens_the_actuator_key(net, pki):  # noqa: F811

@@ -134,3 +134,14 @@ def test_every_counter_update_in_esair_std_is_atomic():
     assert any("hmi" in p.parts for p in files)         # the HMI's counters too
     assert len(files) > 50
     assert [f for p in files for f in _unlocked_updates(p)] == []
+
+
+def test_every_count_of_the_hmi_is_a_counter():
+    """The HMI's counts (a page's dropped frames, the failed logins...) are Counters,
+    which /status.json shows: no ``x.name += n`` on a plain attribute in esair_std/hmi."""
+    found = []
+    for path in sorted((ROOT / "esair_std" / "hmi").rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.AugAssign) and isinstance(node.target, ast.Attribute):
+                found.append(f"{path.relative_to(ROOT)}:{node.lineno}: {ast.unparse(node)}")
+    assert found == []

@@ -71,7 +71,7 @@ from esair_min.resources import resolve_robot
 from .budget import DEFAULT_FEET_SHARE, line_budget
 from .emulated import EmulatedRobot
 from .errors import LinkDown, LinkError
-from .link import DIFFERENT_ROBOT, Link
+from .link import DIFFERENT_ROBOT, Exchange, Link
 
 DEFAULT_FEET_HZ = 8.0
 DEFAULT_DEADLINE_S = 0.5
@@ -85,6 +85,10 @@ class _LinkAgent:
     deadline_s: float = DEFAULT_DEADLINE_S
 
     def _send(self, line: str) -> str:
+        self._exchange(line)
+        return line
+
+    def _exchange(self, line: str) -> Exchange:
         # the resource host says when the command arrived and when its sender gives up
         asked = getattr(self._esair, "asked", None)
         expires = getattr(self._esair, "expires", None)
@@ -92,12 +96,11 @@ class _LinkAgent:
         if expires is not None:
             deadline = min(deadline, expires)
         try:
-            self.link.command(line, deadline=deadline, asked=asked)
+            return self.link.exchange(line, deadline=deadline, asked=asked)
         except LinkDown as exc:
             raise ResourceLost(self.name, str(exc)) from None     # type: ignore[attr-defined]
         except LinkError as exc:
             raise CommandError(self.name, str(exc)) from None     # type: ignore[attr-defined]
-        return line
 
 
 class ServoActuator(_LinkAgent, Actuator):
@@ -138,7 +141,15 @@ class MotionActuator(_LinkAgent, Actuator):
                                 f"{command!r}")
         except LinkError as exc:
             raise CommandError(self.name, str(exc)) from None
-        return self._send(line)
+        if command in ("stand", {"stand": True}):
+            return self._send(line)
+        ex = self._exchange(line)
+        # a play and a stop say when the robot had the whole line (written, then its
+        # bytes' time on the wire): the motion starts or stops then, while the reply may
+        # come later (behind a feet reply on its way, full duplex); the HMI shows the
+        # frame a motion reached from these times (docs/hmi.md)
+        took = ex.t_sent + self.link.budget.line_s(ex.sent_bytes)
+        return {"line": line, "at": round(time.time() - (time.monotonic() - took), 4)}
 
 
 class PolledSensor(Sensor):

@@ -194,7 +194,9 @@ class BalanceWatcher(Behavior):
     def _send(self, command: str, record: dict, busy_ok: bool = False) -> bool | None:
         """True: sent; False: failed (kept in errors); None: busy, to be tried again."""
         try:
-            record["sent"].append(self.motion.send(command, timeout=SEND_TIMEOUT_S))
+            sent = self.motion.send(command, timeout=SEND_TIMEOUT_S)
+            # the line sent (a stop's answer also says when the robot had it: {"line", "at"})
+            record["sent"].append(sent["line"] if isinstance(sent, dict) else sent)
             return True
         except CommandError as exc:
             if busy_ok and "E07 busy" in str(exc):

@@ -7,16 +7,27 @@ import { Components } from "./components.js";
 import { Log } from "./log.js";
 import { Generic } from "./generic.js";
 import { Replay } from "./replay.js";
+import { counted } from "./words.js";
 
 const $ = (id) => document.getElementById(id);
 const DRAW_SHARE = 0.25;         // drawing takes at most this share of the page's time
 const MAX_DRAW_GAP_MS = 200;     // ... but the plots move at least 5 times a second
 // redraws a second at most (`?fps=N` in the URL, 1-60): the feet come at 50 Hz, an eye
 // needs less, and each frame drawn costs the computer showing the page (docs/hmi.md)
-const FPS = Math.min(60, Math.max(1, Number(new URLSearchParams(location.search).get("fps")) || 30));
+// The feet plot is drawn at the first frame after a sample at most FEET_FPS times a
+// second (`?feet_fps=N`, default `?fps`, else 30: each frame costs the browser about the
+// same whatever it draws, so 60 halves a sample's wait for a frame at 1.5-2x the
+// browser's CPU, docs/hmi.md), the rest (the figure, the sliders, other panels) at most FPS.
+const PARAMS = new URLSearchParams(location.search);
+const ASKED_FPS = Number(PARAMS.get("fps"));
+const FPS = Math.min(60, Math.max(1, ASKED_FPS || 30));
+const FEET_FPS = Math.min(60, Math.max(1, Number(PARAMS.get("feet_fps")) || ASKED_FPS || 30));
 const MIN_DRAW_GAP_MS = 1000 / FPS - 4;      // less a quarter of a 60 Hz frame: rAF jitters
-const KEEP = 20000;              // bench figures kept
-const keep = (a, x) => { a.push(x); if (a.length > KEEP) a.shift(); };
+const MIN_FEET_GAP_MS = 1000 / FEET_FPS - 4;
+const FEET_LIVE_MS = 50;         // the feet drew this recently: the rest waits for their next frame
+const KEEP = 20000;              // bench figures kept (up to twice as many: cut in halves,
+                                 // not one shift of 20000 a sample)
+const keep = (a, x) => { a.push(x); if (a.length >= 2 * KEEP) a.splice(0, KEEP); };
 
 class App {
   constructor() {
@@ -40,8 +51,9 @@ class App {
     this.components = new Components($("components"), $("add"), this);
     this._dirty = false; this.framePending = false; this.hidden = document.visibilityState === "hidden";
     this.drawnAt = -1e9; this.drawCost = 0; this.drawGap = MIN_DRAW_GAP_MS;     // frame(): the draw budget
+    this.feetDirty = false; this.feetAt = -1e9; this.feetCost = 0; this.feetGap = MIN_FEET_GAP_MS;   // ... the feet's
     this.flushedAt = null;       // the server's "f" of the frame being read
-    this.fps = FPS;
+    this.fps = FPS; this.feetFps = FEET_FPS;
     $("stop").addEventListener("click", () => this.stop());
     $("login").addEventListener("submit", (e) => { e.preventDefault(); this.login(); });
     $("record").addEventListener("click", () => this.record());
@@ -67,7 +79,7 @@ class App {
   visibility() {
     this.hidden = this.stats.hidden = document.visibilityState === "hidden";
     this.send({ op: "view", hidden: this.hidden });
-    if (!this.hidden) { this.dirty = true; if (this.pose) this.pose.changed = true; }
+    if (!this.hidden) { this.feetDirty = true; this.dirty = true; if (this.pose) this.pose.changed = true; }
   }
 
   connect() {
@@ -160,7 +172,8 @@ class App {
         return;
       }
       case "s": return this.sample(m);
-      case "ls": this.components.update(m.rows); this.generic.rows(m.rows); return;
+      case "ls": this.rows = m.rows; this.components.update(m.rows); this.generic.rows(m.rows);
+        this.linkbar(); return;
       case "link": this.link = m.link; this.linkbar(); this.banner(); return;
       case "runtime": this.runtimeUp = m.up; this.banner(); return;
       case "log": this.log.add(m.level, m.text); return;
@@ -187,7 +200,7 @@ class App {
     $("feet-panel").hidden = !info;
     $("pose-panel").hidden = $("joints-panel").hidden = !info;
     this.generic = new Generic($("sensors"), $("actuators"), m.robots, this, $("states"));
-    this.components.update(m.rows); this.generic.rows(m.rows);
+    this.rows = m.rows; this.components.update(m.rows); this.generic.rows(m.rows);
     for (const s of m.last || []) {          // each sensor's last sample (a MIN robot's: live only)
       if (!(entry && s.r.startsWith(`${entry}.`))) this.generic.sample(s);
     }
@@ -209,13 +222,13 @@ class App {
         keep(st.hop, (m.rx - m.ts) * 1000); keep(st.hmi, (this.flushedAt - m.rx) * 1000);
         keep(st.wire, got - this.flushedAt * 1000);
       }
-      this.feet.push(m, got); this.dirty = true;
+      this.feet.push(m, got); this.feetDirty = true; this.kick();
     }
     else if (this.entry && m.r === `${this.entry}.notices`) {
       const text = (m.v && m.v.notice) || "";
       const level = text.startsWith("E") ? "error" : text.startsWith("R ") ? "warning" : "info";
       this.log.add(level, `${this.entry}: !${text}`);
-      if (text.startsWith("R ")) { this.feet.marker(m.ts, text); this.dirty = true; }
+      if (text.startsWith("R ")) { this.feet.marker(m.ts, text); this.feetDirty = true; this.kick(); }
     } else { this.generic.sample(m); this.dirty = true; }
   }
 
@@ -233,7 +246,8 @@ class App {
       this.played = played || (mo ? { v, ms: 0, stopped: false } : null);
       if (played && played.stopped) {
         this.pose.halt();
-        if (mo) { this.pose.set(this.pose.frameAt(mo, this.info.tick_s, played.ms)); this.joints.sync(this.pose.angles); }
+        const i = mo ? this.pose.frameAt(mo, this.info.tick_s, played.ms) : -1;
+        if (i >= 0) { this.pose.show(mo, i); this.joints.sync(this.pose.angles); }
       } else if (v === "stop") this.pose.halt();
       else if (mo) this.pose.play(mo, this.info.tick_s, played ? played.ms : 0);
     }
@@ -257,8 +271,24 @@ class App {
       const bits = [`${entry} link ${state}`];
       if (l.reply_age_s != null) bits.push(`reply ${l.reply_age_s < 10 ? l.reply_age_s.toFixed(2) : ">10"} s ago`);
       if (l.commands_per_s != null) bits.push(`${l.commands_per_s} cmd/s`);
-      if (l.errors != null) bits.push(`${l.errors} errors`);
+      if (l.errors != null) bits.push(counted(l.errors, "error"));
       pill(l.state, bits.join(" · "), `${l.host || ""} pid ${l.pid || "?"} ${l.reason || ""}`);
+    }
+    // each computer the resources run on (the host column of `esair std ls`): all of its
+    // resources ready, or how many are not (their names in the pill's title)
+    const hosts = new Map();
+    for (const r of this.rows || []) {
+      if (r.kind === "behavior") continue;
+      if (!hosts.has(r.host)) hosts.set(r.host, {n: 0, down: [], pids: new Set()});
+      const h = hosts.get(r.host);
+      h.n++; h.pids.add(r.pid);
+      if (r.state !== "ready") h.down.push(`${r.name} ${r.state}`);
+    }
+    for (const [host, h] of hosts) {
+      const text = h.down.length ? `${host} · ${h.down.length} of ${counted(h.n, "resource")} not ready`
+        : `${host} · ${counted(h.n, "resource")} ready`;
+      pill(h.down.length ? "lost" : "ready", text,
+           [`resource host ${host}, pid ${[...h.pids].join(", ")}`, ...h.down].join("\n"));
     }
     // the pills are kept and only what changed is set (the link comes 4 times a second)
     const bar = $("linkbar");
@@ -285,22 +315,35 @@ class App {
   }
 
   // A frame draws what changed since the last one (every sample that came meanwhile at
-  // once, the pose and the sliders as the commands left them), at most FPS times a
-  // second and at most DRAW_SHARE of the page's time: when drawing is slow (a busy
-  // computer, many pages) frames are skipped rather than the whole page falling behind.
-  // Each frame drawn costs the browser far more than the drawing itself (its commit,
-  // raster and compositing: docs/hmi.md), so nothing draws outside these frames.
+  // once, the pose and the sliders as the commands left them): the feet plot at the
+  // first frame after a sample (at most FEET_FPS a second: the samples come at 50 Hz
+  // and a person reads the plot's newest end), the rest at most FPS times a second;
+  // each at most DRAW_SHARE of the page's time: when drawing is slow (a busy computer,
+  // many pages) frames are skipped rather than the whole page falling behind. Each
+  // frame drawn costs the browser far more than the drawing itself (its commit, raster
+  // and compositing: docs/hmi.md), so nothing draws outside these frames.
   frame(now) {
     this.framePending = false;
     if (this.hidden) return;
     this.stats.frames++;
     let again = false;
-    if (this._dirty && now - this.drawnAt < this.drawGap) again = true;
+    let drew = false;
+    if (this.feetDirty && now - this.feetAt < this.feetGap) again = true;
+    else if (this.feetDirty) {
+      this.feetDirty = false;
+      const t0 = performance.now();
+      if (this.feet) this.feet.draw(performance.timeOrigin + t0, this.stats);
+      const cost = this.cost(t0); drew = true;
+      this.feetCost = 0.8 * this.feetCost + 0.2 * Math.min(cost, 2 * this.feetCost + 1);
+      this.feetGap = Math.min(MAX_DRAW_GAP_MS, Math.max(MIN_FEET_GAP_MS, this.feetCost / DRAW_SHARE));
+      this.feetAt = now;
+    }
+    // the rest rides in a frame the feet draw while they come (one frame, not two)
+    const feetLive = !drew && now - this.feetAt < FEET_LIVE_MS;
+    if (this._dirty && (now - this.drawnAt < this.drawGap || feetLive)) again = true;
     else if (this._dirty) {
       this._dirty = false;
       const t0 = performance.now();
-      const drawnAt = performance.timeOrigin + t0;
-      if (this.feet) this.feet.draw(drawnAt, this.stats);
       if (this.generic) this.generic.draw();
       if (this.pose) {
         if (this.pose.animate(now)) this.joints.sync(this.pose.angles);
@@ -308,16 +351,22 @@ class App {
         const waiting = this.joints.show(now);
         if (this.pose.motion || this.pose.changed || waiting) this._dirty = again = true;
       }
-      const cost = performance.now() - t0;
-      this.stats.draws++; this.stats.drawMs += cost;
       // a frame whose drawing was cut by the computer (another process got the core)
       // counts at most twice the estimate and 1 ms: drawing that stays slow raises the
       // estimate within a few frames, one preemption does not skip the next frames
+      const cost = this.cost(t0); drew = true;
       this.drawCost = 0.8 * this.drawCost + 0.2 * Math.min(cost, 2 * this.drawCost + 1);
       this.drawGap = Math.min(MAX_DRAW_GAP_MS, Math.max(MIN_DRAW_GAP_MS, this.drawCost / DRAW_SHARE));
       this.drawnAt = now;
     }
+    if (drew) this.stats.draws++;             // frames that drew something
     if (again) this.kick();
+  }
+
+  cost(t0) {                      // the drawing since t0 (ms), counted for the bench
+    const cost = performance.now() - t0;
+    this.stats.drawMs += cost;
+    return cost;
   }
 }
 

@@ -5,7 +5,8 @@ import { Strip } from "./strip.js";
 
 const WINDOW_S = 10;
 const COLORS = ["#2563eb", "#3b82f6", "#60a5fa", "#93c5fd", "#b45309", "#d97706", "#f59e0b", "#fbbf24"];
-const LAT_KEEP = 20000;
+const LAT_KEEP = 20000;         // bench figures kept (up to twice as many, cut in halves)
+const SLACK_S = 1;              // samples kept past the window: cut once a second, not one a sample
 const NOTE_MS = 250;
 const HEIGHT = 150;
 
@@ -58,15 +59,18 @@ export class Feet {
     if (!this.top || !m.v || !m.v.values) return;
     if (this.t.length && m.ts < this.t[this.t.length - 1]) return;    // out of order
     this.t.push(m.ts);
-    this.names.forEach((n, i) => this.v[i].push(m.v.values[n]));
+    const values = m.v.values;
+    for (let i = 0; i < this.names.length; i++) this.v[i].push(values[this.names[i]]);
     const L = m.v.groups[this.compare[0]], R = m.v.groups[this.compare[1]];
     this.l.push(L); this.r.push(R); this.d.push(Math.abs(L - R));
-    if (got !== undefined) this.fresh.push([m.ts, got]);
+    if (got !== undefined) this.fresh.push(m.ts, got);       // pairs, flat: no array a sample
     this.changed = true;
     const old = m.ts - WINDOW_S;
-    let cut = 0;
-    while (cut < this.t.length && this.t[cut] < old) cut++;
-    if (cut) for (const a of [this.t, ...this.v, this.l, this.r, this.d]) a.splice(0, cut);
+    if (this.t[0] < old - SLACK_S) {       // the strips skip what is older than the window
+      let cut = 0;
+      while (cut < this.t.length && this.t[cut] < old) cut++;
+      for (const a of [this.t, ...this.v, this.l, this.r, this.d]) a.splice(0, cut);
+    }
     if (this.markers.length && this.markers[0].ts < old) this.markers = this.markers.filter((k) => k.ts >= old);
     this.last = { L, R, d: Math.abs(L - R), seq: m.q };
   }
@@ -87,13 +91,14 @@ export class Feet {
   // the page got it -> this frame. Off screen: nothing drawn, nothing counted.
   draw(drawnAt, stats) {
     if (!this.top || !this.changed) return;
-    if (!this.visible) { this.fresh = []; return; }
+    if (!this.visible) { this.fresh.length = 0; return; }
     this.changed = false;
-    for (const [ts, got] of this.fresh) {
-      stats.latencies.push(drawnAt - ts * 1000); stats.waits.push(drawnAt - got);
-      if (stats.latencies.length > LAT_KEEP) { stats.latencies.shift(); stats.waits.shift(); }
+    const fresh = this.fresh;
+    for (let i = 0; i < fresh.length; i += 2) {
+      stats.latencies.push(drawnAt - fresh[i] * 1000); stats.waits.push(drawnAt - fresh[i + 1]);
     }
-    this.fresh = [];
+    if (stats.latencies.length >= 2 * LAT_KEEP) { stats.latencies.splice(0, LAT_KEEP); stats.waits.splice(0, LAT_KEEP); }
+    fresh.length = 0;
     if (this.paused) return;
     this.top.draw(this.t, this.v, this.markers);
     this.bottom.draw(this.t, [this.l, this.r, this.d], this.markers);

@@ -5,6 +5,7 @@
 // drawn on the map); an audio frame ({pcm: base64 int16, channels, n, rate}) a plot of
 // each channel's level and a line of its rate; an actuator that is not a MIN robot's
 // servo or motion gets a command box.
+import { counted } from "./words.js";
 const WINDOW_S = 10;
 const FLOOR_DB = -80;        // an audio level plot's bottom (dBFS): silence is drawn there
 
@@ -23,12 +24,22 @@ export class Generic {
     for (const r of rows) {
       if (r.kind !== "actuator" || this.mine(r.name) || this.acts[r.name]) continue;
       const box = document.createElement("form"); box.className = "generic";
-      const input = document.createElement("input"); input.placeholder = "command (JSON)"; input.size = 16;
+      const input = document.createElement("input"); input.placeholder = "command (JSON or text)"; input.size = 16;
       const b = document.createElement("button"); b.textContent = `send to ${r.name}`;
       box.append(input, b);
+      input.addEventListener("input", () => input.setCustomValidity(""));
       box.addEventListener("submit", (e) => {
         e.preventDefault();
-        let cmd = input.value; try { cmd = JSON.parse(cmd); } catch { /* text */ }
+        // JSON or text, as `esair std send`: text that starts like JSON ({ [ ") must be
+        // JSON, so a typo is not sent to the robot as a string
+        let cmd = input.value;
+        try { cmd = JSON.parse(cmd); } catch (err) {
+          if (/^\s*[[{"]/.test(cmd)) {
+            input.setCustomValidity(`not JSON: ${err.message}`); input.reportValidity();
+            this.app.log.add("error", `${r.name}: not sent: not JSON (${err.message})`);
+            return;
+          }
+        }
         this.app.command(r.name, cmd);
       });
       this.aEl.append(box); this.acts[r.name] = box;
@@ -176,7 +187,7 @@ class AudioLevels {
     const l = this.last; if (!l) return;
     const span = this.t.length > 1 ? this.t[this.t.length - 1] - this.t[0] : 0;
     const fps = span > 0 ? ((this.t.length - 1) / span).toFixed(1) : "–";
-    this.note.textContent = `${l.rate} Hz · ${this.ch} channels · ${l.n} samples a frame · ` +
+    this.note.textContent = `${l.rate} Hz · ${counted(this.ch, "channel")} · ${counted(l.n, "sample")} a frame · ` +
       `frame ${l.seq} · ${fps} frames/s`;
   }
 }

@@ -45,25 +45,32 @@ export class Pose {
   // plays `motion` from `ms` into it (a page opened while it plays; past its end: its last frame)
   play(motion, tick_s, ms = 0) {
     if (!motion || !this.info) return;
-    this.motion = { motion, t0: performance.now() - ms, frame_ms: motion.delay_ticks * tick_s * 1000, shown: -1 };
+    this.motion = { motion, tick_s, t0: performance.now() - ms, shown: -1 };
   }
 
-  // the frame `motion` shows `ms` after it started (the last one once it has ended)
+  // The index of the frame `motion` shows `ms` after the robot took its PLY line, as the
+  // robot's frame player writes them (esair_min/core/player.py): frame 0 at the first tick
+  // after the line, then one each delay_ticks ticks; the first tick comes 0 to 1 tick
+  // after the line (half a tick taken). Before it: -1; past the end: the last frame.
   frameAt(motion, tick_s, ms) {
-    const i = Math.floor(ms / (motion.delay_ticks * tick_s * 1000));
-    return motion.frames[Math.max(0, Math.min(motion.frames.length - 1, i))];
+    const tick = tick_s * 1000;
+    const i = Math.floor((ms - tick / 2) / (motion.delay_ticks * tick));
+    return Math.max(-1, Math.min(motion.frames.length - 1, i));
   }
 
   halt() { this.motion = null; }
+
+  // shows frame `i` of `motion` (this.shown says which: the tests compare it with the robot's)
+  show(motion, i) { this.shown = { motion: motion.name, frame: i }; this.set(motion.frames[i]); }
 
   // called each animation frame; true when the angles changed
   animate(now) {
     if (!this.info) return false;
     if (this.motion) {
-      const m = this.motion;
-      const i = Math.min(m.motion.frames.length - 1, Math.floor((now - m.t0) / m.frame_ms));
-      if (i >= 0 && i !== m.shown) { m.shown = i; this.set(m.motion.frames[i]); }
-      if (now - m.t0 > m.frame_ms * m.motion.frames.length) this.motion = null;
+      const m = this.motion, last = m.motion.frames.length - 1;
+      const i = this.frameAt(m.motion, m.tick_s, now - m.t0);
+      if (i >= 0 && i !== m.shown) { m.shown = i; this.show(m.motion, i); }
+      if (i === last) this.motion = null;
     }
     if (!this.changed || now - this.drawnAt < POSE_MS) return false;
     this.changed = false; this.drawnAt = now;

@@ -1,6 +1,7 @@
 // Replay of a recording (MCAP written by the record button or `esair std record`): the
 // HMI server reads it; the feet plot shows the 10 s up to the time slider's position,
 // with the recording's !R notices as markers. "back to live" returns to the robot.
+import { counted } from "./words.js";
 const $ = (id) => document.getElementById(id);
 
 export class Replay {
@@ -40,7 +41,7 @@ export class Replay {
     Object.assign(tl, { min: 0, max: Math.ceil((this.t1 - this.t0) * 20) / 20, disabled: false });
     tl.value = tl.max;
     $("live-view").hidden = false;
-    this.app.log.add("info", `replaying ${file}: ${this.feetSamples.length} feet samples, ${(this.t1 - this.t0).toFixed(1)} s`);
+    this.app.log.add("info", `replaying ${file}: ${counted(this.feetSamples.length, "feet sample")}, ${(this.t1 - this.t0).toFixed(1)} s`);
     this.show(Number(tl.value));
   }
 
@@ -52,12 +53,12 @@ export class Replay {
     for (const [, , t, v] of this.notices) if (t <= end && t >= end - 10) feet.marker(t, v.notice);
     feet.fresh = [];
     $("timeline-at").textContent = `${offset.toFixed(1)} s`;
-    this.app.dirty = true;
+    this.app.feetDirty = true; this.app.kick();
   }
 
   live() {
     this.active = false; document.body.classList.remove("replaying");
     $("timeline").disabled = true; $("live-view").hidden = true; $("timeline-at").textContent = "";
-    this.app.feet.clear(); this.app.dirty = true;
+    this.app.feet.clear(); this.app.feetDirty = true; this.app.kick();
   }
 }
