@@ -42,53 +42,49 @@ def first_line(proc: subprocess.Popen, timeout: float = 60.0) -> str:
     return proc.stderr.readline()
 
 
-def test_a_behavior_agent_says_it_joined_and_that_it_was_removed(center):
-    rt, ep = center
-    proc = agent(ep, "listen", "tests.support.lean_comps:Listening", "--uses", "count=read")
+def said(ep: str, args: tuple[str, ...], joined: str, then) -> tuple[int, str, str]:
+    """Start an agent; its first line must be ``joined``; ``then(proc)`` makes it leave;
+    its status, standard output and the rest of its standard error."""
+    proc = agent(ep, *args)
     try:
-        assert first_line(proc) == (
-            f"agent 'listen' joined robot 't' at {ep} as host 'lab-pc': behavior "
-            "tests.support.lean_comps:Listening, uses count=read; runs until Ctrl-C or "
-            "`esair std remove listen`\n")
-        wait_for(lambda: rt.state("listen") == "running", timeout=30, what="listen running")
-        rt.remove("listen")
+        assert first_line(proc) == joined
+        then(proc)
         out, err = proc.communicate(timeout=30)
     finally:
         if proc.poll() is None:
             proc.kill()
-    assert (proc.returncode, out, err) == (
+    return proc.returncode, out, err
+
+
+def test_a_behavior_agent_says_it_joined_and_that_it_was_removed(center):
+    rt, ep = center
+
+    def remove(proc):
+        wait_for(lambda: rt.state("listen") == "running", timeout=30, what="listen running")
+        rt.remove("listen")
+    assert said(ep, ("listen", "tests.support.lean_comps:Listening", "--uses", "count=read"),
+                f"agent 'listen' joined robot 't' at {ep} as host 'lab-pc': behavior "
+                "tests.support.lean_comps:Listening, uses count=read; runs until Ctrl-C or "
+                "`esair std remove listen`\n", remove) == (
         0, "", "agent 'listen' left robot 't': stopped by the control center\n")
 
 
 def test_a_driver_agent_lists_its_resources_and_says_it_was_interrupted(center):
-    rt, ep = center
-    proc = agent(ep, "bench", "esair_std.drivers.sim:Bench", "--allow", "*=read")
-    try:
-        assert first_line(proc) == (
-            f"agent 'bench' joined robot 't' at {ep} as host 'lab-pc': driver "
-            "esair_std.drivers.sim:Bench (bench.temp: sensor, bench.fan: actuator), allows "
-            "*=read; runs until Ctrl-C or `esair std remove-resource bench`\n")
-        proc.send_signal(signal.SIGINT)
-        out, err = proc.communicate(timeout=30)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-    assert (proc.returncode, out, err) == (0, "", "agent 'bench' left robot 't': interrupted\n")
+    _, ep = center
+    assert said(ep, ("bench", "esair_std.drivers.sim:Bench", "--allow", "*=read"),
+                f"agent 'bench' joined robot 't' at {ep} as host 'lab-pc': driver "
+                "esair_std.drivers.sim:Bench (bench.temp: sensor, bench.fan: actuator), allows "
+                "*=read; runs until Ctrl-C or `esair std remove-resource bench`\n",
+                lambda proc: proc.send_signal(signal.SIGINT)) == (
+        0, "", "agent 'bench' left robot 't': interrupted\n")
 
 
 def test_a_resource_agent_says_what_it_is_and_who_may_use_it(center):
     rt, ep = center
-    proc = agent(ep, "pen", "esair_std.drivers.sim:Recorder", "--allow", "operator=command",
-                 "--allow", "follow=configure")
-    try:
-        assert first_line(proc) == (
-            f"agent 'pen' joined robot 't' at {ep} as host 'lab-pc': actuator "
-            "esair_std.drivers.sim:Recorder, allows operator=command, follow=configure; runs "
-            "until Ctrl-C or `esair std remove-resource pen`\n")
-        rt.remove_resource("pen")
-        out, err = proc.communicate(timeout=30)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-    assert (proc.returncode, out, err) == (
+    assert said(ep, ("pen", "esair_std.drivers.sim:Recorder", "--allow", "operator=command",
+                     "--allow", "follow=configure"),
+                f"agent 'pen' joined robot 't' at {ep} as host 'lab-pc': actuator "
+                "esair_std.drivers.sim:Recorder, allows operator=command, follow=configure; runs "
+                "until Ctrl-C or `esair std remove-resource pen`\n",
+                lambda proc: rt.remove_resource("pen")) == (
         0, "", "agent 'pen' left robot 't': stopped by the control center\n")
