@@ -3,9 +3,14 @@
 the runtime over Zenoh. A local child of the runtime and an agent on another computer
 (``esair std agent --connect``) run this same code.
 
-It exits when the runtime says stop, when its stdin closes (the local parent died), or
-when the runtime's liveliness token goes away. Zenoh callbacks here only copy into the
-host's mailbox or answer at once; user code runs on the host's thread.
+It exits when the runtime says stop, when its stdin closes (the local parent died), or,
+with no parent's pipe to tell (``--no-stdin``), when the runtime's liveliness token goes
+away and the runtime does not answer. A local child does not watch the token: its pipe
+is the runtime's own word, while in a mesh of peers the token can go away and a ping go
+unanswered for a while when another peer's link drops (the robot's radio: seen twice,
+tests/net/test_starfish_net.py), and an agent that left then would stay failed. Zenoh
+callbacks here only copy into the host's mailbox or answer at once; user code runs on the
+host's thread.
 """
 
 from __future__ import annotations
@@ -469,7 +474,8 @@ USAGE = """usage: python -m esair_std.modes.agent --connect tcp/HOST:PORT --robo
   --robot            the robot's name
   --spec             the component's spec (JSON)
   --generation       the component's generation (default 1)
-  --no-stdin         do not leave when stdin closes
+  --no-stdin         do not leave when stdin closes; leave when the runtime's token goes
+                     and the runtime does not answer (a local child watches its pipe)
   --session-options  extra Zenoh config (JSON)
 """
 _LONG = ["connect=", "robot=", "spec=", "generation=", "no-stdin", "session-options=", "help"]
@@ -519,7 +525,8 @@ def main(argv: list[str] | None = None) -> int:
         threading.Thread(target=_stdin_watch, args=(agent.done,), daemon=True).start()
     code = 0
     try:
-        agent.watch_runtime()
+        if a.no_stdin:              # no parent's pipe: the token (and a ping) says
+            agent.watch_runtime()
         if spec.kind == "resource":
             agent.run_resource()
         else:
