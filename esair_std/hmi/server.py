@@ -437,21 +437,30 @@ class HmiServer:
         answered.append(took(r))
         return r
 
+    async def _send_command(self, page: Page, ident: Any, res: str, command: Any,
+                            what: str) -> Any:
+        """One command of this HMI through the bridge, answered to the page; once it went
+        through, shown as commanded at the time its answer came (its record may come
+        first: _ran). The answer's value, or None when it failed."""
+        asked = self._asked(res, command)
+        answered: list[float] = []
+        try:
+            r = await self._call(page, ident, self._command, res, command, answered, what=what)
+        finally:
+            self._answered(asked)
+        if r is not None:
+            self._sent(res, command, answered[0])
+        return r
+
     async def op_cmd(self, page: Page, ident: Any, obj: dict) -> None:
         res = _field(obj, "resource", str)
         if "command" not in obj:
             raise BadFrame("field 'command' missing")
         self.c.add("commands")
         assert self.bridge is not None
-        asked = self._asked(res, obj["command"])
-        answered: list[float] = []
-        try:
-            r = await self._call(page, ident, self._command, res, obj["command"], answered,
-                                 what=f"{res} {json.dumps(obj['command'])}")
-        finally:
-            self._answered(asked)
+        r = await self._send_command(page, ident, res, obj["command"],
+                                     f"{res} {json.dumps(obj['command'])}")
         if r is not None:
-            self._sent(res, obj["command"], answered[0])
             self.emit({"t": "log", "level": "info", "ts": time.time(),
                        "text": f"{page.user or page.role}: {res} {json.dumps(obj['command'])}"
                                f" -> {r}"})
@@ -465,15 +474,7 @@ class HmiServer:
             return
         self.c.add("commands")
         for res in targets:
-            asked = self._asked(res, "stop")
-            answered: list[float] = []
-            try:
-                r = await self._call(page, ident, self._command, res, "stop", answered,
-                                     what=f"STOP {res}")
-            finally:
-                self._answered(asked)
-            if r is not None:
-                self._sent(res, "stop", answered[0])
+            await self._send_command(page, ident, res, "stop", f"STOP {res}")
         self.emit({"t": "log", "level": "warning", "text": f"STOP by {page.user or 'operator'}",
                    "ts": time.time()})
 
