@@ -31,7 +31,11 @@ class Client:
             options = json.loads(extra)
         except ValueError:
             raise TransportError("ESAIR_STD_SESSION is not a JSON object") from None
-        self.bus = Bus(connect=[self.endpoint], options=options)
+        # the client dials the runtime only, and nobody dials it: no listener, no peers
+        # taken from gossip (it asks the runtime, which reads the agents for it)
+        alone = {"listen/endpoints": [], "scouting/gossip/autoconnect": {"peer": []}}
+        self.bus = Bus(connect=[self.endpoint], options={**alone, **options},
+                       runtime=self.endpoint)
         try:
             self.robot = robot or self._find_robot()
         except BaseException:
@@ -39,14 +43,11 @@ class Client:
             raise
 
     def _find_robot(self) -> str:
-        r = self.bus.request("esair/*/ctl/ping", {}, 2.0)
-        if r is None:
-            # the session may still be connecting: one more try
-            r = self.bus.request("esair/*/ctl/ping", {}, 3.0)
-        if r is None or "ok" not in r:
+        robot = self.bus.runtime_robot()
+        if robot is None:
             raise TransportError(f"no ESAIR STD runtime answers on {self.endpoint} "
                                  "(is `esair std run` running?)")
-        return r["ok"]["robot"]
+        return robot
 
     def call(self, verb: str, body: dict | None = None, timeout: float | None = None) -> Any:
         r = self.bus.request(keys.ctl(self.robot, verb), body or {}, timeout or self.timeout)

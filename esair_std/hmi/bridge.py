@@ -94,16 +94,16 @@ class Bridge:
     # ---- life cycle
     def start(self) -> None:
         try:
-            self.bus = Bus(connect=[self.endpoint], options=self.options)
+            self.bus = Bus(connect=[self.endpoint], options=self.options,
+                           runtime=self.endpoint)
         except TransportError as exc:
             raise BridgeError(f"cannot open a session to {self.endpoint}: {exc}") from None
-        r = self.bus.request("esair/*/ctl/ping", {}, 2.0) or self.bus.request(
-            "esair/*/ctl/ping", {}, 3.0)
-        if r is None or "ok" not in r:
+        robot = self.bus.runtime_robot()
+        if robot is None:
             self.bus.close()
             raise BridgeError(f"no ESAIR STD runtime answers on {self.endpoint} "
                               "(is `esair std run` running?)")
-        self.robot = r["ok"]["robot"]
+        self.robot = robot
         self.runtime_up = True
         d = self.call("describe")       # the runtime reads the board files, not this process
         self.robots, self.problems = d.get("robots", {}), d.get("problems", [])

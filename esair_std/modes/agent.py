@@ -519,7 +519,7 @@ def main(argv: list[str] | None = None) -> int:
     spec = Spec.from_json(json.loads(a.spec))
     options = json.loads(a.session_options)
     options.update(json.loads(os.environ.get("ESAIR_STD_SESSION") or "{}"))  # a login
-    bus = Bus(connect=[a.connect], options=options)
+    bus = Bus(connect=[a.connect], options=options, runtime=a.connect)
     agent = Agent(bus, a.robot, spec, a.generation)
     if not a.no_stdin:
         threading.Thread(target=_stdin_watch, args=(agent.done,), daemon=True).start()

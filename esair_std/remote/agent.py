@@ -260,7 +260,7 @@ def run(endpoint: str, name: str, class_path: str, kind: str, uses: dict | None 
     spec = component_spec(name, class_path, kind, uses or {}, period, options or {}, allow,
                           (int(restart[0]), float(restart[1])))     # JSON: a list
     try:
-        bus = Bus(connect=[endpoint], options=session_options(sec))
+        bus = Bus(connect=[endpoint], options=session_options(sec), runtime=endpoint)
     except TransportError as exc:
         raise TransportError(f"cannot reach the control center at {endpoint}: "
                              f"{str(exc).split(': ', 1)[-1]} (is `esair std run` listening "

@@ -19,8 +19,8 @@ from typing import Any, Callable, TypeVar
 import zenoh
 
 from ..errors import TransportError
-from . import codec, wire
-from .session import open_session
+from . import codec, keys, wire
+from .session import endpoint_hosts, open_session, peer_at
 
 log = logging.getLogger("esair_std.transport")
 _T = TypeVar("_T")
@@ -84,14 +84,30 @@ class Route:
                 d.undeclare()
 
 
+def _zid(reply: Any) -> str | None:
+    """The Zenoh id of the session that sent ``reply`` (None when Zenoh does not say)."""
+    who = reply.replier_id
+    return str(who.zid) if who is not None else None
+
+
 class Bus:
+    """One Zenoh session. ``runtime``: the endpoint of the runtime this bus was opened to
+    ask (a client, the HMI, an agent): a control request (``esair/<robot>/ctl/<verb>``,
+    keys.ctl) then takes its answer from the peer linked at that endpoint only. Another
+    runtime of the same robot name that the session meets through gossip (a stray one
+    on the same network, or on a port the runtime had before) is never the one that
+    answers: without this, 2 of 6 `esair std inspect` answered from such a peer."""
+
     def __init__(self, listen: list[str] | None = None, connect: list[str] | None = None,
-                 options: dict[str, Any] | None = None):
+                 options: dict[str, Any] | None = None, runtime: str | None = None):
         self.session = open_session(listen, connect, options)
+        self.runtime = runtime
+        self._runtime_hosts = endpoint_hosts(runtime) if runtime else set()
         self._decl: list[Any] = []
         self._pub_of: dict[str, tuple[Any, ...]] = {}     # key -> its publishers (``undeclare``)
         self._lock = threading.Lock()
         self.closed = False
+        self.c_foreign = 0      # control answers from a peer not at ``runtime``: ignored
 
     def _keep(self, obj: _T) -> _T:
         with self._lock:
@@ -103,20 +119,45 @@ class Bus:
                 express: bool = False) -> Any:
         """The first reply's JSON, or None when nobody answers (no queryable / timeout).
         ``express``: the request is sent at once, never held to share a batch (a command
-        to an actuator: docs/std-papaman.md, item 7)."""
+        to an actuator: docs/std-papaman.md, item 7). A control request of a bus opened
+        with ``runtime`` counts only the answer of the peer at that endpoint."""
         data = codec.encode(body)
+        only = self.runtime if self.runtime and keys.is_ctl(key) else None
         try:
-            replies = self.session.get(key, payload=data, timeout=max(0.001, timeout),
-                                       express=express)
+            # asked of every queryable, every answer delivered, when one is to be picked:
+            # Zenoh's defaults ask only the queryable it deems best and keep one answer
+            # per key, either of which may be the stray's
+            pick = only is not None
+            replies = self.session.get(
+                key, payload=data, timeout=max(0.001, timeout), express=express,
+                target=zenoh.QueryTarget.ALL if pick else None,
+                consolidation=zenoh.ConsolidationMode.NONE if pick else None)
             for reply in replies:
                 ok = reply.ok
                 if ok is None:
+                    continue
+                if only is not None and _zid(reply) != peer_at(
+                        self.session, only, self._runtime_hosts):
+                    self.c_foreign += 1
+                    if self.c_foreign == 1:
+                        log.warning("an answer on %s came from a peer that is not the "
+                                    "runtime at %s: ignored (another runtime of this "
+                                    "robot's name on the network?)", key, only)
                     continue
                 return codec.decode(ok.payload.to_bytes())
         except TransportError:
             raise
         except Exception as exc:  # noqa: BLE001 - session closed etc.
             raise TransportError(f"request on {key} failed: {exc}") from None
+        return None
+
+    def runtime_robot(self) -> str | None:
+        """The robot name the runtime at ``runtime`` answers a ping with; None when it
+        does not answer (asked twice: the session may still be connecting)."""
+        for timeout in (2.0, 3.0):
+            r = self.request("esair/*/ctl/ping", {}, timeout)
+            if isinstance(r, dict) and isinstance(r.get("ok"), dict) and "robot" in r["ok"]:
+                return str(r["ok"]["robot"])
         return None
 
     def route(self, key: str) -> Route:

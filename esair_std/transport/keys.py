@@ -29,6 +29,12 @@ def ctl(robot: str, verb: str) -> str:
     return f"esair/{robot}/ctl/{verb}"
 
 
+def is_ctl(key: str) -> bool:
+    """A key of a runtime's control endpoint (:func:`ctl`, any robot)."""
+    parts = key.split("/")
+    return len(parts) > 3 and parts[0] == "esair" and parts[2] == "ctl"
+
+
 def bs(robot: str, name: str) -> str:
     return f"esair/{robot}/bs/{name}"
 

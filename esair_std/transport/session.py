@@ -76,6 +76,42 @@ def open_session(listen: list[str] | None = None, connect: list[str] | None = No
         raise TransportError(f"cannot open a Zenoh session on {where}: {zenoh_message(exc)}") from None
 
 
+def _parts(locator: str) -> tuple[str, str, str]:
+    """``(protocol, host, port)`` of a Zenoh locator (``tcp/[::1]:7447#iface=lo`` ->
+    ``('tcp', '::1', '7447')``); its metadata and config cut."""
+    proto, _, rest = locator.partition("/")
+    rest = rest.split("#", 1)[0].split("?", 1)[0]
+    host, _, port = rest.rpartition(":")
+    return proto, host.strip("[]"), port
+
+
+def endpoint_hosts(endpoint: str) -> set[str]:
+    """The addresses ``endpoint``'s host stands for (a name resolved once, as Zenoh does
+    when it dials it); the host as written when it does not resolve."""
+    import socket
+    _, host, port = _parts(endpoint)
+    hosts = {host}
+    if host in ("", "0.0.0.0", "::"):       # "any address": a dial there reaches loopback
+        hosts |= {"127.0.0.1", "::1"}
+    try:
+        hosts |= {str(info[4][0]) for info in socket.getaddrinfo(host, port or None)}
+    except (OSError, UnicodeError):
+        pass
+    return hosts
+
+
+def peer_at(session: "zenoh.Session", endpoint: str, hosts: set[str]) -> str | None:
+    """The Zenoh id of the peer this session is linked to at ``endpoint`` (``hosts``: its
+    addresses, :func:`endpoint_hosts`); None while there is no such link. Other peers a
+    session meets through gossip are not it, whatever they answer."""
+    proto, _, port = _parts(endpoint)
+    for link in session.info.links():
+        p, h, pt = _parts(str(link.dst))
+        if p == proto and pt == port and h in hosts:
+            return str(link.zid)
+    return None
+
+
 def check_endpoint(endpoint: str) -> str:
     """``tcp/HOST:PORT`` (or another Zenoh locator) as given; a clear error otherwise."""
     proto, sep, rest = endpoint.partition("/")

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.support.std import MODES, ROOT, ask, components, free_endpoint, wait_for
+from tests.support.std import MODES, ROOT, ask, components, free_endpoint, lab_started, wait_for
 
 FIX = ROOT / "tests" / "fixtures" / "std_operator"
 #: seconds each; the papaman tests run the emulator behind a pty
@@ -176,8 +176,7 @@ def lab(request):
         wait_for(lambda: proc.poll() is not None or answers(ep), timeout=60,
                  what="the robot answering")
         assert proc.poll() is None, proc.communicate()
-        wait_for(lambda: all(r["state"] in ("running", "ready") for r in components(ep)),
-                 what="every component running")
+        wait_for(lambda: lab_started(ep), timeout=60, what="every component running")
         yield ep, request.param
     finally:
         proc.send_signal(signal.SIGTERM)

@@ -43,6 +43,17 @@ def components(ep: str) -> list[dict]:
     return ask(ep, "ls", {"all": True}) or []
 
 
+#: every component of the lab robot (esair_std/examples/lab/lab.yaml)
+LAB = ("guard", "logger", "follow", "tuner", "keeper", "wave", "ticks", "arm", "bench")
+
+
+def lab_started(ep: str, names=LAB) -> bool:
+    """Every one of ``names`` is listed, running or ready. (A runtime answers while it
+    starts, its list growing: "all listed are running" holds at its first resource.)"""
+    state = {r["name"]: r["state"] for r in components(ep)}
+    return all(state.get(n) in ("running", "ready") for n in names)
+
+
 def emulators_with(text: str) -> list[int]:
     """Pids of `esair emulate` processes whose command line holds ``text``."""
     return [pid for pid, _ppid, cmd in processes()
