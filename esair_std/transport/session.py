@@ -88,11 +88,14 @@ def _parts(locator: str) -> tuple[str, str, str]:
 def endpoint_hosts(endpoint: str) -> set[str]:
     """The addresses ``endpoint``'s host stands for (a name resolved once, as Zenoh does
     when it dials it); the host as written when it does not resolve."""
-    import socket
     _, host, port = _parts(endpoint)
     hosts = {host}
     if host in ("", "0.0.0.0", "::"):       # "any address": a dial there reaches loopback
-        hosts |= {"127.0.0.1", "::1"}
+        return hosts | {"127.0.0.1", "::1"}
+    if ":" in host or re.fullmatch(r"[\d.]+", host):
+        return hosts                           # an address already (an agent's usual case:
+                                               # it imports no socket module for it)
+    import socket
     try:
         hosts |= {str(info[4][0]) for info in socket.getaddrinfo(host, port or None)}
     except (OSError, UnicodeError):
