@@ -10,7 +10,26 @@ import difflib
 import typing
 from typing import Any
 
-from esair_min.config.yamlload import kind_of
+
+def kind_of(value: Any) -> str:
+    """What a YAML value is, in the words of a YAML file (for error messages)."""
+    if value is None:
+        return "an empty value"
+    if isinstance(value, bool):
+        return "true/false"
+    if isinstance(value, int):
+        return "an integer"
+    if isinstance(value, float):
+        return "a number"
+    if isinstance(value, str):
+        return "text"
+    if isinstance(value, (list, tuple)):
+        return "a list"
+    if isinstance(value, dict):
+        return "a mapping"
+    if isinstance(value, (bytes, bytearray)):
+        return "binary data"
+    return f"a {type(value).__name__}"
 
 
 def did_you_mean(word: str, choices: typing.Iterable[str]) -> str:

@@ -16,6 +16,7 @@ from typing import Any
 
 import yaml
 
+from esair_min.config.words import kind_of  # noqa: F401  (also read from here)
 from esair_min.config.yamlerrors import explain
 from esair_min.errors import ConfigError, Mark, file_mark, path_mark
 
@@ -45,27 +46,6 @@ class _Loader(yaml.SafeLoader):
         if self.flow_level >= MAX_FLOW_LEVEL:
             raise _TooDeep
         super().fetch_flow_collection_start(TokenClass)
-
-
-def kind_of(value: Any) -> str:
-    """What a YAML value is, in the words of a YAML file (for error messages)."""
-    if value is None:
-        return "an empty value"
-    if isinstance(value, bool):
-        return "true/false"
-    if isinstance(value, int):
-        return "an integer"
-    if isinstance(value, float):
-        return "a number"
-    if isinstance(value, str):
-        return "text"
-    if isinstance(value, (list, tuple)):
-        return "a list"
-    if isinstance(value, dict):
-        return "a mapping"
-    if isinstance(value, (bytes, bytearray)):
-        return "binary data"
-    return f"a {type(value).__name__}"
 
 
 def _one_line(text: str) -> str:
