@@ -279,7 +279,14 @@ def run_tree(p, root: Path, args: argparse.Namespace, tmp: Path) -> dict:
         drawn0 = [page.evaluate("() => [window.__hmi.stats.draws, window.__hmi.stats.drawMs]")
                   for page in pages]
         win = CpuWindow(proc.pid)
+        # --profile: py-spy samples the HMI in this window (its figures are then not clean)
+        prof = subprocess.Popen(
+            ["py-spy", "record", "-p", str(hmi), "-d", str(int(args.window)), "-r", "250",
+             "--nonblocking", "--threads", "--format", "raw", "-o", str(args.profile)],
+            stdout=subprocess.DEVNULL) if args.profile else None
         out["cpu3"] = cpu_share(hmi, args.window)
+        if prof is not None:
+            prof.wait()
         out["browser3"] = win.shares()["browser"]
         out["rss3"] = rss_mb(hmi)
         out["drawn"] = [[b - a for a, b in zip(d0, page.evaluate(
@@ -408,6 +415,9 @@ def main() -> None:
     ap.add_argument("--rates", type=int, default=2, choices=[0, 1, 2],
                     help="commands/s with the browser: 0 not measured, 1 free, 2 free and pinned")
     ap.add_argument("--nice", type=int, default=19, help="the pinned browser's nice level")
+    ap.add_argument("--profile", type=Path, default=None,
+                    help="py-spy's collapsed stacks of the HMI with 3 pages, to this file "
+                         "(that run's CPU figure then includes the sampling)")
     args = ap.parse_args()
     from playwright.sync_api import sync_playwright
 
