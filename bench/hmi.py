@@ -195,6 +195,66 @@ LIVE = ("() => window.__hmi && window.__hmi.wsUp && window.__hmi.feet && "
         "window.__hmi.feet.t.length > 2")
 
 
+#: --floor: the least page that shows the feet live: the same WebSocket and messages, a
+#: 10 px canvas repainted at the first frame after each feet sample, nothing else. Its
+#: sample -> pixel on this computer, with the same HMI, robot and sweep, is the floor
+#: the browser and the machine give any page; the real page's figure is read against it.
+FLOOR_PAGE = """<!doctype html><title>floor</title><canvas id=c width=10 height=10></canvas>
+<script>
+const lat = [], arr = [], fresh = [];
+const now = () => performance.timeOrigin + performance.now();
+const ws = new WebSocket(`ws://${location.host}/ws`);
+ws.onmessage = (ev) => {
+  const m = JSON.parse(ev.data), got = now();
+  for (const x of (m.t === "b" ? m.m : [m]))
+    if (x.t === "s" && x.r.endsWith(".feet")) { arr.push(got - x.ts * 1000); fresh.push(x.ts); }
+};
+const ctx = document.getElementById("c").getContext("2d");
+let k = 0;
+function frame() {
+  if (fresh.length) {
+    const t = now();
+    for (const ts of fresh) lat.push(t - ts * 1000);
+    fresh.length = 0;
+    ctx.fillStyle = (k++ % 2) ? "#000" : "#fff"; ctx.fillRect(0, 0, 10, 10);
+  }
+  requestAnimationFrame(frame);
+}
+requestAnimationFrame(frame);
+window.__floor = { lat, arr };
+</script>"""
+
+
+def floor_figures(p, url: str, std, window: float) -> dict[str, list[float]]:
+    """sample -> pixel and sample -> onmessage of 3 floor pages (FLOOR_PAGE, served at
+    the HMI's own origin, so its Origin check passes) while the sweep runs again."""
+    browser = p.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
+    pages = []
+    for _ in range(3):
+        page = browser.new_page(viewport={"width": 1280, "height": 800})
+        page.route("**/floor.html", lambda route: route.fulfill(
+            status=200, content_type="text/html", body=FLOOR_PAGE))
+        page.goto(url.rstrip("/") + "/floor.html", timeout=120_000)
+        page.wait_for_function("() => window.__floor && window.__floor.lat.length > 10",
+                               timeout=120_000)
+        pages.append(page)
+    std("add", "sweep", "bench.papaman_std_comps:Sweep", "--uses", "papaman.servo.*=command",
+        "-o", f"seconds={window + 1.5}")
+    time.sleep(1)
+    for page in pages:
+        page.evaluate("() => { window.__floor.lat.length = 0; window.__floor.arr.length = 0; }")
+    time.sleep(window)
+    out: dict[str, list[float]] = {"lat": [], "arr": []}
+    for page in pages:
+        got = page.evaluate("() => window.__floor")
+        out["lat"] += got["lat"]
+        out["arr"] += got["arr"]
+    browser.close()
+    time.sleep(1.0)
+    std("remove", "sweep")
+    return out
+
+
 def split(page, names: list[str]) -> dict[str, list[float]]:
     return {n: page.evaluate(f"() => window.__hmi.stats.{n} || []") for n in names}
 
@@ -299,6 +359,8 @@ def run_tree(p, root: Path, args: argparse.Namespace, tmp: Path) -> dict:
             for k, v in split(page, keys).items():
                 out["split"][k] += v
         browser.close()
+        if args.floor:
+            out["floor"] = floor_figures(p, url, std, args.window)
         # commands/s with 10 pages on the HMI and with the same 10 on about:blank (no
         # socket, nothing drawn), interleaved --rounds times (the load moves): medians;
         # the browser free, then pinned to one core at nice 19
@@ -365,6 +427,12 @@ def rows_of(f: dict, window: float) -> list[tuple[str, str, str, float]]:
     rows = [
         ("sample -> pixel, p50 / p99 ms, 3 pages, feet at 50 Hz",
          f"{p50_99(lat)} ({len(lat)} samples)", "p99 <= 50", pct(lat, 0.99) / 50 if lat else 9.9),
+        *([("  floor: the least live page (bench/hmi.py FLOOR_PAGE), same load: p50 / p99",
+            f"{p50_99(f['floor']['lat'])} ({len(f['floor']['lat'])} samples)", "-", 0.0),
+           ("    its sample -> the page got it (onmessage)", p50_99(f["floor"]["arr"]), "-", 0.0),
+           ("    p99 of the page / p99 of the floor",
+            f"{pct(lat, 0.99) / max(1e-9, pct(f['floor']['lat'], 0.99)):.2f}x", "-", 0.0)]
+          if "floor" in f else []),
         ("  sample -> the page got it (onmessage)", p50_99(sp["arrivals"]), "-", 0.0),
         ("    sample -> HMI process (runtime, Zenoh)", p50_99(sp["hop"]), "-", 0.0),
         ("    HMI process: got -> sent", p50_99(sp["hmi"]), "-", 0.0),
@@ -415,6 +483,9 @@ def main() -> None:
     ap.add_argument("--rates", type=int, default=2, choices=[0, 1, 2],
                     help="commands/s with the browser: 0 not measured, 1 free, 2 free and pinned")
     ap.add_argument("--nice", type=int, default=19, help="the pinned browser's nice level")
+    ap.add_argument("--floor", action="store_true",
+                    help="also sample -> pixel of 3 least pages (FLOOR_PAGE) under the same "
+                         "load: the floor the browser and this computer give")
     ap.add_argument("--profile", type=Path, default=None,
                     help="py-spy's collapsed stacks of the HMI with 3 pages, to this file "
                          "(that run's CPU figure then includes the sampling)")

@@ -127,7 +127,10 @@ def open_page(browser, url: str, login: bool = True, width: int = 1280, height: 
     page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
     page.on("pageerror", lambda e: errors.append(str(e)))
     page.goto(url)
-    page.wait_for_function(f"() => window.__hmi && window.__hmi.wsUp && {ready}")
+    # ``ready`` may read what the runtime's hello makes (window.__hmi.feet...), which comes
+    # after the WebSocket is up: until then it is false, not an error that ends the wait
+    page.wait_for_function(f"() => {{ try {{ return !!(window.__hmi && window.__hmi.wsUp "
+                           f"&& ({ready})); }} catch (e) {{ return false; }} }}")
     if login:
         page.fill("#login-pass", PASSWORD)
         page.click("#login button")
