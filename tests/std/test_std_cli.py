@@ -9,7 +9,8 @@ import sys
 import time
 
 import pytest
-from tests.support.std import MODES, components, esair, free_endpoint, processes, std_run, wait_for
+from tests.support.std import (MODES, components, esair, free_endpoint, lab_started, processes,
+                                std_run, wait_for)
 
 HERE = str(Path(__file__).resolve().parents[2])  # the checkout
 
@@ -226,7 +227,9 @@ def test_agents_leave_when_the_runtime_is_killed():
                              "--mode", "process", "-e", ep], cwd=HERE,
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:
-        wait_for(lambda: len(leftover(ep)) >= 10, timeout=60, what="the agents")
+        # every component running (an agent killed mid-hello waits out its hello, 10 s)
+        wait_for(lambda: lab_started(ep), timeout=60, what="every component running")
+        assert len(leftover(ep)) >= 10
     finally:
         proc.kill()
         proc.wait(10)
