@@ -20,7 +20,7 @@ from .errors import ControlError, TransportError
 from .spec import Spec
 from .supervisor import Record, Supervisor
 from .transport import codec
-from .parts import ComponentHost
+from .parts import NO_ANSWER, ComponentHost
 
 if TYPE_CHECKING:  # pragma: no cover
     from .parts import Registry
@@ -82,6 +82,7 @@ class BehaviorSupervisor(Supervisor[ComponentHost]):
         "<target> <late> within <timeout> s (<why>)"."""
         deadline = time.monotonic() + max(0.0, float(timeout))
         delay = 0.0005
+        said = None              # the target's own last reason (not "no answer")
         while True:
             rec, why = self._target(target)
             status, value = (("final", why) if rec is None else
@@ -89,11 +90,14 @@ class BehaviorSupervisor(Supervisor[ComponentHost]):
             if status == "ok":
                 self.c.add(counter + "_ok")
                 return True, value
+            if value != NO_ANSWER:
+                said = value
             left = deadline - time.monotonic()
             if status == "final" or left <= 0:
                 self.c.add(counter + "_failed")
                 return False, (value if status == "final" else
-                               f"{target!r} {late} within {timeout:g} s ({value})")
+                               f"{target!r} {late} within {timeout:g} s "
+                               f"({value if said is None else said})")
             time.sleep(min(delay, left))
             delay = min(delay * 2, 0.01)
 

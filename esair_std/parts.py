@@ -58,6 +58,12 @@ class Child(Protocol):
     def stop(self, timeout: float = ...) -> None: ...
 
 
+#: the reason a behavior's host gives when its process did not answer in time: the
+#: transport's word, not the behavior's, so the BS's retry loop reports an answer the
+#: behavior gave earlier over it ("busy", not a last try that had 1 ms left)
+NO_ANSWER = "no answer"
+
+
 class ComponentHost(Child, Protocol):
     """A behavior's or reaction's host, as the BS sees it."""
 

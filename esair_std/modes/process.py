@@ -21,6 +21,7 @@ import time
 from typing import TYPE_CHECKING, Any
 
 from ..errors import ComponentError, ResourceLost, StdError, TransportError
+from ..parts import NO_ANSWER
 from ..spec import Spec
 from ..transport import codec, keys, session, wire
 from ..transport.calls import SampleCaller
@@ -271,7 +272,7 @@ class ProcessComponent(_Child):
                      timeout)
         if isinstance(r, dict) and isinstance(r.get("ok"), list) and len(r["ok"]) == 2:
             return tuple(r["ok"])
-        return ("busy", "no answer")
+        return ("busy", NO_ANSWER)
 
     def take(self, sender: str, data: Any, timeout: float) -> tuple:
         """A put the sender waits for: receive() runs in the agent, its outcome answers
@@ -282,7 +283,7 @@ class ProcessComponent(_Child):
                                 "timeout": timeout}, timeout + 0.05)
         if isinstance(r, dict) and isinstance(r.get("ok"), list) and len(r["ok"]) == 2:
             return tuple(r["ok"])
-        return ("busy", "no answer")
+        return ("busy", NO_ANSWER)
 
     def notify_detached(self, resource: str) -> None:
         self.ask(self.key, {"op": "detached", "resource": resource}, 1.0)

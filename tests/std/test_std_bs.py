@@ -164,3 +164,22 @@ def test_a_behavior_busy_by_its_own_word_takes_nothing_until_free(start, tmp_pat
     rt.put("gate", "later", timeout=10.0)          # the BS retries until it is free again
     assert rt.state("gate") == "running"
     assert wait_for(lambda: rt.get("gate"), 5, what="the gate")["got"] == ["close", "later"]
+
+
+def test_a_late_failure_says_the_targets_own_reason_not_a_last_try_with_no_time():
+    """The BS's retry loop: a behavior's process that said "busy" all along, whose last
+    try (with 1 ms left) got no answer in time, is reported "busy" (a loaded clean-clone
+    run said "(no answer)" for a busy behavior); one that never answered, "no answer"."""
+    from types import SimpleNamespace
+
+    from esair_std.bs import BehaviorSupervisor as BS
+    from esair_std.counters import Counters
+    from esair_std.parts import NO_ANSWER
+
+    def until(answers):
+        fake = SimpleNamespace(_target=lambda _t: (object(), ""), c=Counters(gets_failed=0))
+        it = iter(answers)
+        return BS._until(fake, "gets", "b", 0.05, "gave no data",
+                         lambda _rec, _left: ("busy", next(it, NO_ANSWER)))
+    assert until(["busy"] * 3) == (False, "'b' gave no data within 0.05 s (busy)")
+    assert until([]) == (False, "'b' gave no data within 0.05 s (no answer)")
