@@ -34,7 +34,7 @@ from typing import Any, Callable
 
 from ..counters import Counters
 from ..errors import StdError, TransportError
-from ..transport import keys
+from ..transport import keys, records
 from ..transport.bus import Bus
 from ..transport.session import check_endpoint
 
@@ -87,7 +87,8 @@ class Bridge:
         self.last: dict[str, dict] = {}       # sensor -> its last sample message
         self.states: dict[str, Any] = {}      # behavior -> its last get value
         self.c = Counters(samples=0, samples_unwatched=0, ls_failed=0, gets_failed=0,
-                          commands_seen=0, notices=0, ls=0, inspects=0, gets=0)
+                          commands_seen=0, records_refused=0, notices=0, ls=0, inspects=0,
+                          gets=0)
         self.want: Callable[[str], bool] = lambda name: True    # the sensors to watch
         self.showing: Callable[[], bool] = lambda: True         # a page shows what we ask
 
@@ -112,7 +113,7 @@ class Bridge:
         self.bus.subscribe(f"esair/{self.robot}/sensor/**", self._on_sample, with_key=True)
         # every command an actuator ran, whoever sent it (a behavior, `esair std put`,
         # another page): the pose shows what the robot was told, not only this HMI's
-        self.bus.subscribe(keys.command(self.robot, "**"), self._on_command, with_key=True)
+        self.bus.subscribe(records.every(self.robot), self._on_commands, with_key=True)
         # ls when told: a state changed, or the runtime came or went
         self.bus.subscribe(keys.changed(self.robot), self._on_changed)
         self.bus.watch_alive(keys.alive(self.robot, "runtime", "runtime"),
@@ -163,14 +164,17 @@ class Bridge:
         self.c.add("notices")
         self._kick.set()
 
-    def _on_command(self, key: str, obj: Any) -> None:
-        """A command record (``{seq, t, v: {command, ok | error}}``, modes/reshost.py):
-        one that went through is handed on as ``{"t": "ran", "r": actuator, "v": command}``."""
-        v = obj.get("v") if isinstance(obj, dict) else None
-        if isinstance(v, dict) and "ok" in v and "command" in v:
-            self.c.add("commands_seen")
-            self.emit({"t": "ran", "r": key.rsplit("/command/", 1)[-1], "v": v["command"],
-                       "at": took(v["ok"])})
+    def _on_commands(self, key: str, obj: Any) -> None:
+        """A batch of an entry's command records (transport/records.py): each command
+        that went through is handed on as ``{"t": "ran", "r": actuator, "v": command}``."""
+        got, bad = records.unpack(key, obj)
+        if bad:
+            self.c.add("records_refused", bad)
+        for res, rec in got:
+            v = rec["v"]
+            if "ok" in v and "command" in v:
+                self.c.add("commands_seen")
+                self.emit({"t": "ran", "r": res, "v": v["command"], "at": took(v["ok"])})
 
     def _on_sample(self, key: str, obj: Any) -> None:
         res = key.rsplit("/sensor/", 1)[-1]

@@ -30,7 +30,7 @@ from ..level import Level
 from ..sample import Sample
 from ..classes import component_class
 from ..spec import Spec
-from ..transport import keys, wire
+from ..transport import keys, records, wire
 from ..transport.bus import Bus, Request
 from ..heap import settle
 from ..transport.calls import SampleCaller, SampleServer
@@ -195,13 +195,14 @@ class ZenohPort:
             pub = self._pubs[resource] = self.bus.publisher(keys.sensor(self.robot, resource))
         pub(sample.to_wire())
 
-    def publish_command(self, resource: str, record: dict) -> None:
-        """A command the actuator ran, for recorders (never waits for a congested link)."""
-        pub = self._cmd_pubs.get(resource)
+    def publish_commands(self, entry: str, batch: list[dict]) -> None:
+        """The commands an entry's actuators ran, for recorders (transport/records.py;
+        never waits for a congested link)."""
+        pub = self._cmd_pubs.get(entry)
         if pub is None:
-            pub = self._cmd_pubs[resource] = self.bus.publisher(
-                keys.command(self.robot, resource), drop=True, express=False)
-        pub(record)
+            pub = self._cmd_pubs[entry] = self.bus.publisher(
+                records.key(self.robot, entry), drop=True, express=False)
+        pub(batch)
 
     def resource_state_changed(self, resource: str, state: str, reason: str) -> None:
         try:

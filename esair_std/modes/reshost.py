@@ -18,12 +18,13 @@ from ..errors import CommandError, ComponentError, ResourceLost, StdError
 from ..resource import Actuator, Driver, Sensor
 from ..sample import Sample
 from ..spec import Spec
-from ..transport import codec, wire
+from ..transport import codec, records, wire
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..parts import Port
 from .host import build
 from ..counters import Counters
+from ..words import counted
 
 COMMANDS = 256
 
@@ -96,7 +97,10 @@ class ResourceHost:
         self.state = "starting"
         self.reason = ""
         self.on_failed: Callable[[str], None] | None = None   # the host's thread died
-        self.c = Counters(commands_refused=0)
+        self.c = Counters(commands_refused=0, records_unsent=0)
+        # command records not yet published (this host's thread only) and when they are due
+        self._records: list[dict] = []
+        self._records_due = 0.0
         self.thread = threading.Thread(target=self._main, name=f"esair:{self.name}", daemon=True)
 
     # ---- life cycle (called by the RS / the agent)
@@ -242,13 +246,18 @@ class ResourceHost:
     def _serve(self) -> None:
         while not self._stop.is_set():
             wait = self._poll()
+            if self._records:
+                wait = min(wait, max(0.0, self._records_due - time.monotonic()))
             try:
                 item = self.commands.get(timeout=wait)
             except queue.Empty:
-                continue
+                item = ()
             if item is None:
                 break
-            self._run(*item)
+            if item:
+                self._run(*item)
+            if self._records and time.monotonic() >= self._records_due:
+                self._publish_records()
 
     def _died(self, reason: str) -> None:
         """The host's thread ends without being asked (a user call raised past every
@@ -334,19 +343,32 @@ class ResourceHost:
             self._ran(slot, args[0], asked, {"ok": value})
 
     def _ran(self, slot: Slot, command: Any, asked: float | None, outcome: dict) -> None:
-        """Publish a command the actuator ran and its outcome for recorders (after its
-        sender has its answer): ``{seq, t, v: {command, ok | error}}``, ``seq`` the
-        actuator's command number, ``t`` when it reached this host (time.time())."""
-        publish = self.port.publish_command
+        """A command the actuator ran and its outcome, for recorders (after its sender has
+        its answer): ``{r, seq, t, v: {command, ok | error}}``, ``seq`` the actuator's
+        command number, ``t`` when it reached this host (time.time()). Published with the
+        others of this entry in one message, at most records.BATCH_S after the first
+        (transport/records.py)."""
         slot.cseq += 1
         now = time.time()
         t = now if asked is None else now - (time.monotonic() - asked)
+        if not self._records:
+            self._records_due = time.monotonic() + records.BATCH_S
+        self._records.append(records.record(slot.name, slot.cseq, t, outcome, command))
+        if len(self._records) >= records.BATCH_MAX:
+            self._publish_records()
+
+    def _publish_records(self) -> None:
+        batch, self._records = self._records, []
         try:
-            publish(slot.name, {"seq": slot.cseq, "t": t, "v": dict(outcome, command=command)})
+            self.port.publish_commands(self.name, batch)
         except Exception as exc:  # noqa: BLE001 - a record lost is not the command's fault
-            log.warning("%s: command record not published: %s", slot.name, exc)
+            log.warning("%s: %s not published: %s", self.name,
+                        counted(len(batch), "command record"), exc)
+            self.c.add("records_unsent", len(batch))
 
     def _close(self) -> None:
+        if self._records:                 # what the last commands ran goes out
+            self._publish_records()
         for s in self.slots.values():
             if s.obj is not self.driver:
                 try:

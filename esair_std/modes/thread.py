@@ -13,7 +13,7 @@ from ..errors import ComponentError
 from ..level import Level
 from ..classes import component_class
 from ..spec import Spec
-from ..transport import keys
+from ..transport import records
 from .host import ComponentHost
 from .reshost import ResourceHost
 
@@ -94,17 +94,18 @@ class LocalPort:
     def publish(self, resource: str, sample: Any) -> None:
         self.rt.sc.route(resource, sample)
 
-    def publish_command(self, resource: str, record: dict) -> None:
-        """A command the actuator ran, for recorders outside: on Zenoh when the runtime
-        serves its control endpoint (else nobody outside could listen)."""
+    def publish_commands(self, entry: str, batch: list[dict]) -> None:
+        """The commands an entry's actuators ran, for recorders outside
+        (transport/records.py): on Zenoh when the runtime serves its control endpoint
+        (else nobody outside could listen)."""
         server = self.rt.server
         if server is None or server.bus is None:
             return
-        pub = self._cmd_pubs.get(resource)
+        pub = self._cmd_pubs.get(entry)
         if pub is None:
-            pub = self._cmd_pubs[resource] = server.bus.publisher(
-                keys.command(self.rt.robot, resource), drop=True, express=False)
-        pub(record)
+            pub = self._cmd_pubs[entry] = server.bus.publisher(
+                records.key(self.rt.robot, entry), drop=True, express=False)
+        pub(batch)
 
     def resource_state_changed(self, resource: str, state: str, reason: str) -> None:
         self.rt.rs.set_state(resource, state, reason)

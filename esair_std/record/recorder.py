@@ -1,6 +1,6 @@
 """``esair std record``: watch sensors as the principal ``record`` (read, like the HMI)
 and write their samples to MCAP, and every command the actuators run (their hosts
-publish each one with its outcome: ``esair/<robot>/command/<actuator>``). The file is
+publish each one with its outcome, in batches: ``esair/<robot>/commands/<entry>``). The file is
 written by a :class:`~.tap.Tap`, as the HMI's record button writes it."""
 
 from __future__ import annotations

@@ -12,15 +12,17 @@ from __future__ import annotations
 
 import queue
 import threading
+import time
 from pathlib import Path
 from typing import Any, Callable
 
 from ..errors import StdError
-from ..transport import keys
+from ..transport import records
 from .mcapio import SampleWriter
 from ..counters import Counters
 
 QUEUE = 100_000
+LINGER_S = records.BATCH_S + 0.1     # stop(): the last records in flight (their batch, the link)
 
 
 class Tap:
@@ -48,13 +50,18 @@ class Tap:
 
     def listen(self, bus: Any, robot: str) -> None:
         """Record the commands ``robot``'s actuators run, from ``bus`` (until stop())."""
-        self._subs.append((bus, bus.subscribe(keys.command(robot, "**"), self._on_command,
+        self._subs.append((bus, bus.subscribe(records.every(robot), self._on_commands,
                                               with_key=True)))
 
-    def _on_command(self, key: str, obj: Any) -> None:
-        res = key.rsplit("/command/", 1)[-1]
-        if isinstance(obj, dict) and self.wanted(res):
-            self._queue({"t": "c", "r": res, "m": obj})
+    def _on_commands(self, key: str, obj: Any) -> None:
+        """A batch of an entry's command records (transport/records.py); items that are
+        not records of that entry's actuators are counted dropped."""
+        got, bad = records.unpack(key, obj)
+        if bad:
+            self.c.add("dropped", bad)
+        for res, rec in got:
+            if self.wanted(res):
+                self._queue({"t": "c", "r": res, "m": rec})
 
     def _queue(self, msg: dict) -> None:
         try:
@@ -94,7 +101,11 @@ class Tap:
 
     def stop(self) -> dict:
         """Stop listening, write what is queued, close the file; the counters and the
-        number of channels."""
+        number of channels. While it listens to commands, it listens LINGER_S more first:
+        a command's record leaves its host up to records.BATCH_S after the command ran,
+        so the file holds every command run before the stop."""
+        if self._subs:
+            time.sleep(LINGER_S)
         for bus, sub in self._subs:
             bus.unsubscribe(sub)
         self._subs.clear()

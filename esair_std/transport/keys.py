@@ -11,8 +11,9 @@
     esair/<robot>/rs/<entry>           RS -> resource host (configure, grant, revoke...)
     esair/<robot>/sensor/<resource>    sensor samples, published by the sensor's host
     esair/<robot>/actuator/<resource>  commands, a queryable on the actuator's host
-    esair/<robot>/command/<resource>   each command the actuator's host ran, and its
-                                       outcome (published, for recorders)
+    esair/<robot>/commands/<entry>     the commands an entry's actuators ran, and their
+                                       outcomes, in batches (published, for recorders
+                                       and the HMI: transport/records.py)
     esair/<robot>/alive/<kind>/<name>  liveliness tokens
     esair/<robot>/changed              the runtime: a component's state changed (a
                                        notice, ``{"v": n}``; what changed: ``ls``)
@@ -73,10 +74,6 @@ def sensor(robot: str, resource: str) -> str:
 
 def actuator(robot: str, resource: str) -> str:
     return f"esair/{robot}/actuator/{resource}"
-
-
-def command(robot: str, resource: str) -> str:
-    return f"esair/{robot}/command/{resource}"
 
 
 def alive(robot: str, kind: str, name: str) -> str:

@@ -167,7 +167,7 @@ def agent_rules(robot: str, agent: str, reads: list[str], commands: list[str],
                   _rule("command-reply", ["reply", "declare_queryable"], egress, keys)]
     for r in provides:
         rules += [_rule(f"sensor-{r}", ["put"], ingress, [f"{k}/sensor/{r}"]),
-                  _rule(f"command-record-{r}", ["put"], ingress, [f"{k}/command/{r}"]),
+                  _rule(f"command-records-{r}", ["put"], ingress, [f"{k}/commands/{r}"]),
                   _rule(f"actuator-{r}", ["declare_queryable", "reply"], ingress,
                         [f"{k}/actuator/{r}"]),
                   _rule(f"actuator-{r}-query", ["query"], egress, [f"{k}/actuator/{r}"])]

@@ -134,6 +134,30 @@ def test_acl_command_grant_opens_the_actuator_key(net, pki):  # noqa: F811
     assert agent.get(ACT, 2.0) == ["pong:hi"]
 
 
+def test_acl_lets_a_resource_host_publish_command_records_of_its_own_entry_only(net, pki):  # noqa: F811
+    """A host of the entry `locate` (provides) publishes its command records on
+    commands/locate (transport/records.py); a batch on another entry's key is stopped,
+    so it cannot speak for another host's actuators. Order tells: the stopped put went
+    first, the one after it arrived alone."""
+    endpoint = "tcp/10.77.0.1:7447"
+    sec = Security(users=pki / "users.txt", agents={"locate": {"user": "locate"}})
+    center = _center(net[0], sec, pki, endpoint,
+                     grants={"locate": {"provides": ["locate", "locate.$*"]}})
+    own, other = f"esair/{ROBOT}/commands/locate", f"esair/{ROBOT}/commands/knee"
+    center.cmd(f"sub esair/{ROBOT}/commands/*")
+    agent = _agent(net[1], Security(user="locate", password_file=pki / "pw-good"), pki, endpoint)
+
+    def heard() -> bool:         # put again until the subscription has reached the agent
+        agent.cmd(f"put {own} 1")
+        return center.wait_event(lambda e: e.get("sample") == own, 0.5) is not None
+    wait_for(heard, timeout=20, what="the agent's own records at the center")
+    n = len(center.samples(own))
+    agent.cmd(f"put {other} forged")
+    agent.cmd(f"put {own} after")
+    wait_for(lambda: len(center.samples(own)) > n, timeout=10, what="the put after the forged one")
+    assert center.samples(other) == []
+
+
 # --- the pieces, without a network ---------------------------------------------------
 
 def test_certs_have_the_names_acl_matches(tmp_path):

@@ -76,7 +76,7 @@ class Port:
     def publish(self, resource, sample):
         pass
 
-    def publish_command(self, resource, record):
+    def publish_commands(self, entry, batch):
         pass
 
     def resource_state_changed(self, resource, state, reason):

@@ -609,16 +609,18 @@ class HostPort:
     def __init__(self, fail_records: str | None = None):
         self.samples: list[tuple] = []
         self.records: list[tuple] = []
+        self.batches: list[tuple] = []        # (entry, records in it)
         self.states: list[tuple] = []
         self.fail_records = fail_records
 
     def publish(self, resource, sample):
         self.samples.append((resource, sample.seq, sample.value, sample.source))
 
-    def publish_command(self, resource, record):
+    def publish_commands(self, entry, batch):
         if self.fail_records:
             raise OSError(self.fail_records)
-        self.records.append((resource, record))
+        self.batches.append((entry, len(batch)))
+        self.records += [(r["r"], {k: r[k] for k in ("seq", "t", "v")}) for r in batch]
 
     def resource_state_changed(self, resource, state, reason):
         self.states.append((resource, state, reason))
@@ -805,6 +807,54 @@ def test_a_command_records_time_is_when_it_reached_the_host_not_when_it_ran(held
     assert before - 1.0 < t2 <= queued < waiting < after
 
 
+def test_records_share_a_message_until_their_batch_is_due_or_full(held, monkeypatch):
+    """transport/records.py: an entry's records leave together, BATCH_S after the first
+    (here long: none leaves before the host stops, then all in one message), or at once
+    when BATCH_MAX of them wait (here 3: 5 commands make a message of 3, then one of 2)."""
+    from esair_std.transport import records
+    monkeypatch.setattr(records, "BATCH_S", 60.0)
+    monkeypatch.setattr(records, "BATCH_MAX", 3)
+    host, port, entered, gate = held()
+    gate.release(5)
+    for i in range(5):
+        assert host.command("b", "arm", i, 5.0) == {"ran": i}
+    assert port.batches == [("arm", 3)]           # the full one went at once
+    host.stop()
+    assert port.batches == [("arm", 3), ("arm", 2)]   # the rest when the host stopped
+    assert [(r, rec["seq"], rec["v"]) for r, rec in port.records] == [
+        ("arm", i + 1, {"command": i, "ok": {"ran": i}}) for i in range(5)]
+
+
+def test_a_record_leaves_by_itself_once_its_batch_is_due(held, monkeypatch):
+    """No other command comes: the host's thread publishes the lone record when its
+    BATCH_S is up (it waits for it as for its next command), not at the next command."""
+    from esair_std.transport import records
+    monkeypatch.setattr(records, "BATCH_S", 0.2)
+    host, port, entered, gate = held()
+    gate.release(1)
+    assert host.command("b", "arm", "alone", 5.0) == {"ran": "alone"}
+    wait_for(lambda: port.batches == [("arm", 1)], what="the lone record's batch")
+    assert host.thread.is_alive()
+
+
+def test_a_listener_keeps_only_the_records_of_the_entry_whose_key_it_heard():
+    """A batch on commands/papaman speaks for papaman and papaman.<child> only: an item
+    naming another entry's actuator, or no record at all, is left out and counted."""
+    from esair_std.transport import records
+    key = records.key("lab", "papaman")
+    ok = {"r": "papaman.servo.l_knee", "seq": 4, "t": 1.5, "v": {"command": 90, "ok": "odd090"}}
+    got, bad = records.unpack(key, [
+        ok, {"r": "papaman", "seq": 1, "t": 2.0, "v": {"command": "x", "error": "no"}},
+        {"r": "arm", "seq": 1, "t": 1.0, "v": {"command": 1, "ok": 1}},       # another entry
+        {"r": "papamanx.servo", "seq": 1, "t": 1.0, "v": {}},          # not a child of it
+        {"r": "papaman.servo.l_hip", "seq": 1, "t": 1.0, "v": "not a dict"}, "garbage", None])
+    assert got == [("papaman.servo.l_knee", {"seq": 4, "t": 1.5, "v": ok["v"]}),
+                   ("papaman", {"seq": 1, "t": 2.0, "v": {"command": "x", "error": "no"}})]
+    assert bad == 5
+    assert records.unpack(key, {"r": "papaman"}) == ([], 1)        # not a list
+    assert records.every("lab") == "esair/lab/commands/*" and key == "esair/lab/commands/papaman"
+
+
 def test_a_record_that_cannot_be_published_is_logged_and_the_sender_has_its_answer(
         held, caplog):
     host, port, entered, gate = held(HostPort(fail_records="no route"))
@@ -812,9 +862,11 @@ def test_a_record_that_cannot_be_published_is_logged_and_the_sender_has_its_answ
     assert host.command("b", "arm", "fine", 5.0) == {"ran": "fine"}
     with pytest.raises(CommandError):
         host.command("b", "arm", {"fail": "jam"}, 5.0)
-    wait_for(lambda: len(logged(caplog, "esair_std.resource")) == 2, what="two warnings")
-    assert logged(caplog, "esair_std.resource") == [
-        ("WARNING", "arm: command record not published: no route")] * 2
+    wait_for(lambda: host.counters()["records_unsent"] == 2, what="two records counted unsent")
+    # both in one batch, or each in its own when the second came past the first's BATCH_S
+    assert logged(caplog, "esair_std.resource") in (
+        [("WARNING", "arm: 2 command records not published: no route")],
+        [("WARNING", "arm: 1 command record not published: no route")] * 2)
 
 
 def test_submit_refuses_a_full_queue_and_counts_every_refusal(held):
@@ -1376,8 +1428,10 @@ def test_configure_runs_the_resources_configure_on_its_host(mode):
 @pytest.mark.parametrize("mode", ["thread", "process"])
 def test_each_command_run_is_published_once_with_its_number_time_and_outcome(mode):
     """ResourceHost._ran: after its sender has the answer, each command the actuator ran
-    goes out on command/<actuator> for recorders: its number (one more each), when it
-    reached the host, the command and its result or error."""
+    goes out on commands/<entry> for recorders (in batches: transport/records.py): its
+    number (one more each), when it reached the host, the command and its result or
+    error."""
+    from esair_std.transport import records as rec_wire
     from esair_std.transport.bus import Bus
 
     dep = {"robot": "t",
@@ -1390,7 +1444,9 @@ def test_each_command_run_is_published_once_with_its_number_time_and_outcome(mod
     bus = Bus(connect=[rt.endpoint])
     records: list = []
     try:
-        bus.subscribe("esair/t/command/rec", records.append)
+        bus.subscribe("esair/t/commands/rec",
+                      lambda key, batch: records.extend(r for _, r in rec_wire.unpack(key, batch)[0]),
+                      with_key=True)
         assert call(rt, "c", "attach_actuator", "rec") == {"ok": "ready"}
         # until the subscription has reached the publisher: one command, then the next
         wait_for(lambda: call(rt, "c", "send", "rec", "warm") and records, 30,
