@@ -226,7 +226,7 @@ class HmiServer:
                                  **self.auth.c.snapshot()),
                 # each open page: its role, whether hidden, the frames it lost
                 "pages": [{"role": p.role, "hidden": p.hidden, **p.c.snapshot()} for p in pages],
-                "bridge": self.bridge.c.snapshot() if self.bridge else {}}
+                "bridge": self.bridge.counters() if self.bridge else {}}
 
     # ---- HTTP
     def _http(self, connection: ServerConnection, request: Request) -> Response | None:

@@ -79,3 +79,20 @@ def test_a_session_that_meets_the_stray_takes_no_answer_from_it(lab_and_stray):
             assert bus.request("esair/*/ctl/ping", {}, 5.0)["ok"]["robot"] == "lab"
     finally:
         bus.close()
+
+
+def test_the_hmi_shows_the_stray_answers_it_ignored(lab_and_stray):
+    """The HMI's bridge asks the runtime every second; the stray's answers it ignores
+    are counted where a user sees them (`/status.json`, bridge.foreign_answers), and
+    what it shows is the runtime's: the lab's components, not the stray's error."""
+    from esair_std.hmi.bridge import Bridge
+    ep, _ = lab_and_stray
+    bridge = Bridge(ep, lambda msg: None)
+    bridge.start()
+    try:
+        wait_for(lambda: bridge.counters()["foreign_answers"] > 0, timeout=30,
+                 what="a stray answer counted")
+        assert bridge.robot == "lab" and "logger" in {r["name"] for r in bridge.rows}
+        assert bridge.counters()["ls_failed"] == 0
+    finally:
+        bridge.close()
