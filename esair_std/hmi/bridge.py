@@ -113,7 +113,7 @@ class Bridge:
         self.bus.subscribe(f"esair/{self.robot}/sensor/**", self._on_sample, with_key=True)
         # every command an actuator ran, whoever sent it (a behavior, `esair std put`,
         # another page): the pose shows what the robot was told, not only this HMI's
-        self.bus.subscribe(records.every(self.robot), self._on_commands, with_key=True)
+        self.bus.subscribe(keys.commands_all(self.robot), self._on_commands, with_key=True)
         # ls when told: a state changed, or the runtime came or went
         self.bus.subscribe(keys.changed(self.robot), self._on_changed)
         self.bus.watch_alive(keys.alive(self.robot, "runtime", "runtime"),

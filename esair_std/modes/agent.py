@@ -30,7 +30,7 @@ from ..level import Level
 from ..sample import Sample
 from ..classes import component_class
 from ..spec import Spec
-from ..transport import keys, records, wire
+from ..transport import keys, wire
 from ..transport.bus import Bus, Request
 from ..heap import settle
 from ..transport.calls import SampleCaller, SampleServer
@@ -201,7 +201,7 @@ class ZenohPort:
         pub = self._cmd_pubs.get(entry)
         if pub is None:
             pub = self._cmd_pubs[entry] = self.bus.publisher(
-                records.key(self.robot, entry), drop=True, express=False)
+                keys.commands(self.robot, entry), drop=True, express=False)
         pub(batch)
 
     def resource_state_changed(self, resource: str, state: str, reason: str) -> None:

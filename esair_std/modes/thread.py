@@ -13,7 +13,7 @@ from ..errors import ComponentError
 from ..level import Level
 from ..classes import component_class
 from ..spec import Spec
-from ..transport import records
+from ..transport import keys
 from .host import ComponentHost
 from .reshost import ResourceHost
 
@@ -104,7 +104,7 @@ class LocalPort:
         pub = self._cmd_pubs.get(entry)
         if pub is None:
             pub = self._cmd_pubs[entry] = server.bus.publisher(
-                records.key(self.rt.robot, entry), drop=True, express=False)
+                keys.commands(self.rt.robot, entry), drop=True, express=False)
         pub(batch)
 
     def resource_state_changed(self, resource: str, state: str, reason: str) -> None:

@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import Any, Callable
 
 from ..errors import StdError
-from ..transport import records
+from ..transport import keys, records
 from .mcapio import SampleWriter
 from ..counters import Counters
 
@@ -50,7 +50,7 @@ class Tap:
 
     def listen(self, bus: Any, robot: str) -> None:
         """Record the commands ``robot``'s actuators run, from ``bus`` (until stop())."""
-        self._subs.append((bus, bus.subscribe(records.every(robot), self._on_commands,
+        self._subs.append((bus, bus.subscribe(keys.commands_all(robot), self._on_commands,
                                               with_key=True)))
 
     def _on_commands(self, key: str, obj: Any) -> None:

@@ -76,6 +76,15 @@ def actuator(robot: str, resource: str) -> str:
     return f"esair/{robot}/actuator/{resource}"
 
 
+def commands(robot: str, entry: str) -> str:
+    """An entry's command records, in batches (transport/records.py)."""
+    return f"esair/{robot}/commands/{entry}"
+
+
+def commands_all(robot: str) -> str:
+    return f"esair/{robot}/commands/*"
+
+
 def alive(robot: str, kind: str, name: str) -> str:
     return f"esair/{robot}/alive/{kind}/{name}"
 

@@ -2,7 +2,7 @@
 recorders (``esair std record``, the HMI's ● rec) and the HMI's pose and sliders.
 
 The host of a resource entry (an actuator, or a driver and its children) publishes its
-actuators' records in batches, on ``esair/<robot>/commands/<entry>``: a JSON list of
+actuators' records in batches, on ``esair/<robot>/commands/<entry>`` (keys.commands): a JSON list of
 ``{"r": actuator, "seq": n, "t": when, "v": {"command": ..., "ok" | "error": ...}}``
 (``seq`` the actuator's command number, ``t`` when the command reached the host,
 time.time()). A batch leaves at most :data:`BATCH_S` after its first record, or at once
@@ -22,28 +22,15 @@ BATCH_S = 0.05        # a record waits at most this long for others to share its
 BATCH_MAX = 256       # ... and goes at once with this many
 
 
-def key(robot: str, entry: str) -> str:
-    return f"esair/{robot}/commands/{entry}"
-
-
-def every(robot: str) -> str:
-    return f"esair/{robot}/commands/*"
-
-
-def entry_of(resource: str) -> str:
-    """The entry a resource belongs to (``papaman.servo.l_knee`` -> ``papaman``)."""
-    return resource.split(".", 1)[0]
-
-
 def record(resource: str, seq: int, t: float, outcome: dict[str, Any],
            command: Any) -> dict[str, Any]:
     return {"r": resource, "seq": seq, "t": t, "v": dict(outcome, command=command)}
 
 
-def unpack(key_: str, obj: Any) -> tuple[list[tuple[str, dict[str, Any]]], int]:
-    """The ``(actuator, {seq, t, v})`` of a batch heard on ``key_``, and how many of its
+def unpack(key: str, obj: Any) -> tuple[list[tuple[str, dict[str, Any]]], int]:
+    """The ``(actuator, {seq, t, v})`` of a batch heard on ``key``, and how many of its
     items were not records of that entry's actuators (left out)."""
-    entry = key_.rsplit("/", 1)[-1]
+    entry = key.rsplit("/", 1)[-1]
     if not isinstance(obj, list):
         return [], 1
     out, bad = [], 0

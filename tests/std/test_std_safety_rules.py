@@ -840,8 +840,8 @@ def test_a_record_leaves_by_itself_once_its_batch_is_due(held, monkeypatch):
 def test_a_listener_keeps_only_the_records_of_the_entry_whose_key_it_heard():
     """A batch on commands/papaman speaks for papaman and papaman.<child> only: an item
     naming another entry's actuator, or no record at all, is left out and counted."""
-    from esair_std.transport import records
-    key = records.key("lab", "papaman")
+    from esair_std.transport import keys, records
+    key = keys.commands("lab", "papaman")
     ok = {"r": "papaman.servo.l_knee", "seq": 4, "t": 1.5, "v": {"command": 90, "ok": "odd090"}}
     got, bad = records.unpack(key, [
         ok, {"r": "papaman", "seq": 1, "t": 2.0, "v": {"command": "x", "error": "no"}},
@@ -852,7 +852,8 @@ def test_a_listener_keeps_only_the_records_of_the_entry_whose_key_it_heard():
                    ("papaman", {"seq": 1, "t": 2.0, "v": {"command": "x", "error": "no"}})]
     assert bad == 5
     assert records.unpack(key, {"r": "papaman"}) == ([], 1)        # not a list
-    assert records.every("lab") == "esair/lab/commands/*" and key == "esair/lab/commands/papaman"
+    assert keys.commands_all("lab") == "esair/lab/commands/*"
+    assert key == "esair/lab/commands/papaman"
 
 
 def test_a_record_that_cannot_be_published_is_logged_and_the_sender_has_its_answer(
