@@ -8,6 +8,7 @@ from typing import Any
 
 import click
 
+from ..errors import StdError
 from .control import control
 
 COLOURS = {"running": "green", "ready": "green", "busy": "yellow", "starting": "cyan",
@@ -36,9 +37,12 @@ def snapshot(c: Any) -> list[dict]:
             continue
         try:
             info = c.call("inspect", {"name": row["name"]})
-        except Exception:  # noqa: BLE001 - removed meanwhile
-            continue
-        row["count"] = _rate_source(row["kind"], info.get("counters", {}))
+        except StdError:
+            # no answer in time, or removed since the listing (the next listing drops
+            # it): the row stays, its rate unknown
+            row["count"] = None
+        else:
+            row["count"] = _rate_source(row["kind"], info.get("counters", {}))
         rows.append(row)
     return grouped(rows)
 
@@ -69,7 +73,8 @@ def grouped(rows: list[dict]) -> list[dict]:
             g = groups[prefix] = dict(r, name=prefix + ".*", count=0, bad=0, n=n,
                                       label=f"  {prefix[len(parent):]}.* ({n})")
             out.append(g)
-        g["count"] += r["count"]
+        g["count"] = None if g["count"] is None or r["count"] is None else (
+            g["count"] + r["count"])
         if r["state"] != "ready":
             g["bad"] += 1
             g["reason"] = g.get("reason") or r.get("reason", "")
@@ -83,11 +88,14 @@ def render(rows: list[dict], before: dict[str, tuple[float, int]], robot: str) -
     now = time.monotonic()
     cells = []
     for r in rows:
-        t0, n0 = before.get(r["name"], (now, r["count"]))
-        rate = (r["count"] - n0) / (now - t0) if now > t0 else 0.0
-        before[r["name"]] = (now, r["count"])
+        if r["count"] is None:              # its counters did not come in time
+            rate = "?"
+        else:
+            t0, n0 = before.get(r["name"], (now, r["count"]))
+            rate = f"{(r['count'] - n0) / (now - t0) if now > t0 else 0.0:.0f}"
+            before[r["name"]] = (now, r["count"])
         cells.append((r.get("label", r["name"]), r["kind"], r["state"], str(r["pid"]),
-                      r["host"], str(r.get("restarts", 0)), f"{rate:.0f}",
+                      r["host"], str(r.get("restarts", 0)), rate,
                       r.get("reason", "")))
     t = Table(title=f"ESAIR STD — robot {robot}", expand=False)
     for i, col in enumerate(COLUMNS):

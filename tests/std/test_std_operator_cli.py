@@ -266,6 +266,33 @@ def test_the_live_table_keeps_one_line_a_row():
     assert all(line.endswith(("┓", "┃", "┩", "│", "┘")) for line in lines[1:])
 
 
+def test_the_live_table_keeps_a_row_whose_counters_do_not_come():
+    """A component whose inspect goes unanswered (a loaded machine, a busy child) stays
+    in the table with its rate unknown, rather than vanishing from it."""
+    from rich.console import Console
+
+    from esair_std.cli.top import render, snapshot
+    from esair_std.errors import TransportError
+
+    class Slow:           # the control client's two questions, one of them unanswered
+        robot = "r"
+
+        def call(self, verb, body):
+            if verb == "ls":
+                return [dict(name=n, kind="behavior", state="running", pid=1, host="h",
+                             restarts=0, reason="", parent="") for n in ("a", "b")]
+            if body["name"] == "b":
+                raise TransportError("the runtime did not answer 'inspect'")
+            return {"counters": {"steps": 7}}
+
+    rows = snapshot(Slow())
+    assert [(r["name"], r["count"]) for r in rows] == [("a", 7), ("b", None)]
+    console = Console(width=100, record=True)
+    console.print(render(rows, {}, "r"))
+    b = [line for line in console.export_text().splitlines() if line.startswith("│ b ")]
+    assert len(b) == 1 and b[0].split("│")[7].strip() == "?"
+
+
 # ---- 4. what the CLI promises
 
 def test_run_listens_on_esair_std_endpoint(tmp_path):
