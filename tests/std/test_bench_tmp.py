@@ -15,12 +15,19 @@ from tests.support.std import ROOT, wait_for
 BENCH = ROOT / "bench" / "papaman_std.py"
 
 
+def _as_a_terminal_starts_it() -> None:
+    # A program started in the background of a script (`pytest &`) inherits SIGINT
+    # ignored, and Python then keeps it ignored: Ctrl-C would reach nothing. A terminal
+    # starts the bench with SIGINT at its default.
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def bench(tmp: Path, n: int) -> subprocess.Popen:
     """One figure 1 run (thread mode, full duplex, feet not polled) of ``n`` commands."""
     env = dict(os.environ, TMPDIR=str(tmp))
     return subprocess.Popen([sys.executable, str(BENCH), "--one", "thread:1:0", "--n", str(n)],
                             cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            text=True)
+                            text=True, preexec_fn=_as_a_terminal_starts_it)
 
 
 def test_a_run_leaves_no_bench_folder(tmp_path):
