@@ -447,7 +447,13 @@ def test_papaman_from_the_command_line(robot, mode):
     """The live table groups the driver's children; a put the sequencer refuses says
     why; one command by hand as the operator; the feet's latest sample."""
     _, ep = robot("papaman", "--mode", mode)
-    wait_for(lambda: sum(r["state"] == "ready" for r in components(ep)) == 16, timeout=60,
+    # every component by name: the runtime answers while it starts and adds its
+    # behaviors after its resources, so "16 ready" held before 'logger' was listed (CI)
+    servos = [f"papaman.servo.{side}_{joint}" for side in "lr" for joint in (
+        "hip_yaw", "hip_roll", "hip_pitch", "knee", "ankle_pitch", "ankle_roll")]
+    names = ("sequencer", "watcher", "logger", "papaman", "papaman.motion", "papaman.feet",
+             "papaman.notices", *servos)
+    wait_for(lambda: lab_started(ep, names), timeout=60,
              what="papaman ready")     # process mode on a loaded machine: 10 s was seen to run out
     out = esair("top", "--count", "1", "--interval", "0.1", "-e", ep).stdout
     names = [line.split("│")[1].strip() for line in out.splitlines()
