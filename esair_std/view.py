@@ -76,6 +76,7 @@ class Robot(RuntimeView, Protocol):
 
     extra_listen: list[str]
     join: list[str]
+    started_at: float        # 0 while it starts (its deployment's components being added)
     session_options: dict[str, Any] | None
 
     def add(self, name: str, class_path: str, uses: dict[str, Any] | None = None,

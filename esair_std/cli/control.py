@@ -105,13 +105,24 @@ def ls_cmd(c: Any, as_json: bool) -> None:
     """List components: name, kind, state, pid, host, restarts, reason (a driver's row
     before its children's). --json: {"robot", "endpoint", "components": [...]}, every
     component with the keys name, kind, state, pid, host, restarts, reason, class,
-    parent and attached (docs/std.md)."""
+    parent and attached (docs/std.md); "starting": true while the runtime still adds its
+    deployment's components (the list then grows)."""
     rows = c.call("ls", {"all": True})
+    starting = still_starting(c)
     if as_json:
         click.echo(json.dumps({"robot": c.robot, "endpoint": c.endpoint,
-                               "components": rows}, indent=1))
+                               "starting": starting, "components": rows}, indent=1))
         return
     click.echo(_table(rows, ["name", "kind", "state", "pid", "host", "restarts", "reason"]))
+    if starting:
+        click.echo(f"robot {c.robot!r} is still starting: more of its components may "
+                   "be listed soon", err=True)
+
+
+def still_starting(c: Any) -> bool:
+    """Whether the runtime still adds its deployment's components (ping's ``starting``;
+    False from a runtime that does not say)."""
+    return bool(c.call("ping").get("starting", False))
 
 
 @click.command("add")

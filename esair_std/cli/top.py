@@ -9,7 +9,7 @@ from typing import Any
 import click
 
 from ..errors import StdError
-from .control import control
+from .control import control, still_starting
 
 COLOURS = {"running": "green", "ready": "green", "busy": "yellow", "starting": "cyan",
            "failed": "bold red", "lost": "bold red", "stopped": "dim"}
@@ -131,12 +131,15 @@ def top_cmd(c: Any, interval: float, count: int | None) -> None:
     before: dict[str, tuple[float, int]] = {}
     console = Console()
     n = 0
-    with Live(render(snapshot(c), before, c.robot), console=console,
+    def robot() -> str:          # while it starts, its list grows: the title says so
+        return f"{c.robot} (starting)" if still_starting(c) else c.robot
+
+    with Live(render(snapshot(c), before, robot()), console=console,
               auto_refresh=False) as live:
         try:
             while count is None or n < count:
                 time.sleep(interval)
-                live.update(render(snapshot(c), before, c.robot), refresh=True)
+                live.update(render(snapshot(c), before, robot()), refresh=True)
                 n += 1
         except KeyboardInterrupt:
             pass

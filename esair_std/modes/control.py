@@ -227,7 +227,10 @@ class ControlServer:
 
     # ---- user verbs (the CLI)
     def v_ping(self, b: dict) -> dict:
-        return {"robot": self.rt.robot, "mode": self.rt.mode_name, "pid": os.getpid()}
+        # starting: the deployment's components are still being added (resources, then
+        # behaviors): a listing now is not the whole robot yet
+        return {"robot": self.rt.robot, "mode": self.rt.mode_name, "pid": os.getpid(),
+                "starting": not self.rt.started_at}
 
     def v_ls(self, b: dict) -> list:
         if b.get("all"):                 # every row with the same keys, drivers too

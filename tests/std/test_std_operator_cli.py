@@ -441,6 +441,37 @@ def test_trace_and_scenario_reach_the_emulated_robot(tmp_path):
         "Error: --trace is for the emulated robot, not --port /dev/ttyUSB0")
 
 
+def top_title(ep: str) -> str:
+    """The title of the table `esair std top --count 1` leaves on the screen."""
+    out = esair("top", "--count", "1", "--interval", "0.1", "-e", ep).stdout
+    return [line.strip() for line in out.splitlines() if "ESAIR STD" in line][-1]
+
+
+@pytest.mark.parametrize("mode", MODES)
+def test_ls_and_top_say_the_robot_is_still_starting(robot, mode, tmp_path):
+    """The runtime answers while it starts, adding resources then behaviors: a list
+    then is not the whole robot, and ls and top say so until the start is over."""
+    dep = tmp_path / "gated.yaml"
+    dep.write_text("robot: gated\nendpoint: tcp/127.0.0.1:7447\nresources:\n"
+                   f"  gate: {{class: 'tests.support.comps:GatedOpen', gate: '{tmp_path}/go',"
+                   " allow: {'*': read}}\n"
+                   "behaviors:\n  sink: {class: 'tests.support.comps:Sink'}\n")
+    _, ep = robot(str(dep), "--mode", mode)
+    r = esair("ls", "-e", ep)
+    assert "sink" not in r.stdout
+    assert r.stderr == "robot 'gated' is still starting: more of its components may be " \
+                       "listed soon\n"
+    assert json.loads(esair("ls", "--json", "-e", ep).stdout)["starting"] is True
+    assert top_title(ep) == "ESAIR STD — robot gated (starting)"
+    (tmp_path / "go").touch()                          # the resource opens
+    wait_for(lambda: lab_started(ep, ("gate", "sink")), timeout=60, what="the start over")
+    wait_for(lambda: not json.loads(esair("ls", "--json", "-e", ep).stdout)["starting"],
+             timeout=30, what="ls no longer starting")
+    r = esair("ls", "-e", ep)
+    assert "sink" in r.stdout and r.stderr == ""
+    assert top_title(ep) == "ESAIR STD — robot gated"
+
+
 @pytest.mark.pty
 @pytest.mark.parametrize("mode", MODES)
 def test_papaman_from_the_command_line(robot, mode):

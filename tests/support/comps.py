@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import time
+from pathlib import Path
 
 from esair_std import Actuator, Behavior, CommandError, Driver, Reaction, ResourceLost, Sensor
 from esair_std.drivers.sim import Counter as SimCounter
@@ -49,6 +50,16 @@ class Recorder(Actuator):
 class BadOpen(Sensor):
     def open(self):
         raise OSError("no such device /dev/nothing")
+
+
+class GatedOpen(Sensor):
+    """Opens once the file ``options['gate']`` exists (at most 60 s): a runtime held in
+    its start, its behaviors not added yet."""
+
+    def open(self):
+        gate, end = Path(self.options["gate"]), time.monotonic() + 60
+        while not gate.exists() and time.monotonic() < end:
+            time.sleep(0.02)
 
 
 class Pair(Driver):
