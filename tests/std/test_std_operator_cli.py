@@ -407,8 +407,8 @@ def test_send_commands_an_actuator_as_the_operator(lab):
 def test_ls_json_is_one_object_with_the_same_keys_for_every_component(lab):
     ep, mode = lab
     out = json.loads(esair("ls", "--json", "-e", ep).stdout)
-    assert list(out) == ["robot", "endpoint", "components"]
-    assert (out["robot"], out["endpoint"]) == ("lab", ep)
+    assert list(out) == ["robot", "endpoint", "starting", "components"]
+    assert (out["robot"], out["endpoint"], out["starting"]) == ("lab", ep, False)
     rows = {r["name"]: r for r in out["components"]}
     keys = ["name", "kind", "state", "pid", "host", "restarts", "reason", "class", "parent",
             "attached", "detached"]
@@ -465,8 +465,7 @@ def test_ls_and_top_say_the_robot_is_still_starting(robot, mode, tmp_path):
     assert top_title(ep) == "ESAIR STD — robot gated (starting)"
     (tmp_path / "go").touch()                          # the resource opens
     wait_for(lambda: lab_started(ep, ("gate", "sink")), timeout=60, what="the start over")
-    wait_for(lambda: not json.loads(esair("ls", "--json", "-e", ep).stdout)["starting"],
-             timeout=30, what="ls no longer starting")
+    assert json.loads(esair("ls", "--json", "-e", ep).stdout)["starting"] is False
     r = esair("ls", "-e", ep)
     assert "sink" in r.stdout and r.stderr == ""
     assert top_title(ep) == "ESAIR STD — robot gated"

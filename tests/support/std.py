@@ -48,10 +48,14 @@ LAB = ("guard", "logger", "follow", "tuner", "keeper", "wave", "ticks", "arm", "
 
 
 def lab_started(ep: str, names=LAB) -> bool:
-    """Every one of ``names`` is listed, running or ready. (A runtime answers while it
-    starts, its list growing: "all listed are running" holds at its first resource.)"""
+    """Every one of ``names`` is listed, running or ready, and the runtime no longer
+    says it is starting. (A runtime answers while it starts, its list growing: "all
+    listed are running" holds at its first resource.)"""
     state = {r["name"]: r["state"] for r in components(ep)}
-    return all(state.get(n) in ("running", "ready") for n in names)
+    if not all(state.get(n) in ("running", "ready") for n in names):
+        return False
+    ping = ask(ep, "ping")
+    return isinstance(ping, dict) and ping.get("starting") is False
 
 
 def emulators_with(text: str) -> list[int]:
