@@ -131,7 +131,7 @@ def run_cmd(deployment: str, mode: str | None, seconds: float | None, endpoint: 
         raise ControlError("--hmi needs the control endpoint (drop --no-control)")
     stop = threading.Event()
     ctrl_c = _CtrlC(stop)
-    old = signal.signal(signal.SIGTERM, lambda *_: stop.set())
+    old = signal.signal(signal.SIGTERM, ctrl_c.on_sigterm)
     try:
         with ctrl_c, rt:
             ctrl_c.started = True
@@ -175,7 +175,8 @@ def run_cmd(deployment: str, mode: str | None, seconds: float | None, endpoint: 
 
 class _CtrlC:
     """SIGINT while ``esair std run`` runs: the first stops the robot (while starting, it
-    interrupts the start, which stops what ran); later ones are ignored while it stops."""
+    interrupts the start, which stops what ran); later ones are ignored while it stops.
+    SIGTERM likewise (:meth:`on_sigterm`), with exit status 0."""
 
     def __init__(self, stop: threading.Event):
         self.stop = stop
@@ -195,6 +196,15 @@ class _CtrlC:
     def _on_sigint(self, *_: Any) -> None:
         first = not self.hit
         self.hit = True
+        self.stop.set()
+        if first and not self.started:
+            raise KeyboardInterrupt
+
+    def on_sigterm(self, *_: Any) -> None:
+        """SIGTERM (a service manager's stop, exit status 0): the robot stops; while it
+        starts, the start is interrupted as Ctrl-C interrupts it (a resource whose open
+        hangs would otherwise hold the stop up to its own time limit)."""
+        first = not self.stop.is_set()
         self.stop.set()
         if first and not self.started:
             raise KeyboardInterrupt

@@ -13,7 +13,8 @@ from pathlib import Path
 
 import pytest
 
-from tests.support.std import MODES, ROOT, ask, components, free_endpoint, lab_started, wait_for
+from tests.support.std import (MODES, ROOT, ask, components, free_endpoint, lab_started,
+                                processes, wait_for)
 
 FIX = ROOT / "tests" / "fixtures" / "std_operator"
 #: seconds each; the papaman tests run the emulator behind a pty
@@ -447,15 +448,44 @@ def top_title(ep: str) -> str:
     return [line.strip() for line in out.splitlines() if "ESAIR STD" in line][-1]
 
 
+def gated(tmp_path: Path, limit: float = 60) -> Path:
+    """A deployment whose one resource opens once ``tmp_path/go`` exists (at most
+    ``limit`` s), and one behavior, added after it."""
+    dep = tmp_path / "gated.yaml"
+    dep.write_text("robot: gated\nendpoint: tcp/127.0.0.1:7447\nresources:\n"
+                   f"  gate: {{class: 'tests.support.comps:GatedOpen', gate: '{tmp_path}/go',"
+                   f" limit: {limit}, allow: {{'*': read}}}}\n"
+                   "behaviors:\n  sink: {class: 'tests.support.comps:Sink'}\n")
+    return dep
+
+
+@pytest.mark.parametrize("mode", MODES)
+def test_sigterm_while_starting_stops_at_once(mode, tmp_path):
+    """SIGTERM (a service manager's stop) while a resource's open() hangs interrupts the
+    start, as Ctrl-C does: exit status 0, and no process of the robot is left."""
+    ep = free_endpoint()
+    proc = spawn_run(str(gated(tmp_path, limit=600)), "--mode", mode, "-e", ep, "--no-top")
+    try:
+        wait_for(lambda: proc.poll() is not None or answers(ep), timeout=60,
+                 what="the robot answering")
+        assert ask(ep, "ping")["starting"] is True
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=60)       # the open alone would hold it 600 s
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.communicate(timeout=10)
+    assert proc.returncode == 0, err
+    assert "Traceback" not in err
+    wait_for(lambda: not [p for p, _, cmd in processes() if str(tmp_path).encode() in cmd],
+             timeout=30, what="no process of the robot left")
+
+
 @pytest.mark.parametrize("mode", MODES)
 def test_ls_and_top_say_the_robot_is_still_starting(robot, mode, tmp_path):
     """The runtime answers while it starts, adding resources then behaviors: a list
     then is not the whole robot, and ls and top say so until the start is over."""
-    dep = tmp_path / "gated.yaml"
-    dep.write_text("robot: gated\nendpoint: tcp/127.0.0.1:7447\nresources:\n"
-                   f"  gate: {{class: 'tests.support.comps:GatedOpen', gate: '{tmp_path}/go',"
-                   " allow: {'*': read}}\n"
-                   "behaviors:\n  sink: {class: 'tests.support.comps:Sink'}\n")
+    dep = gated(tmp_path)
     _, ep = robot(str(dep), "--mode", mode)
     r = esair("ls", "-e", ep)
     assert "sink" not in r.stdout

@@ -53,11 +53,12 @@ class BadOpen(Sensor):
 
 
 class GatedOpen(Sensor):
-    """Opens once the file ``options['gate']`` exists (at most 60 s): a runtime held in
-    its start, its behaviors not added yet."""
+    """Opens once the file ``options['gate']`` exists (at most ``options['limit']``
+    seconds, 60 by default): a runtime held in its start, its behaviors not added yet."""
 
     def open(self):
-        gate, end = Path(self.options["gate"]), time.monotonic() + 60
+        gate = Path(self.options["gate"])
+        end = time.monotonic() + float(self.options.get("limit", 60))
         while not gate.exists() and time.monotonic() < end:
             time.sleep(0.02)
 
