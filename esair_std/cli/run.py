@@ -131,8 +131,9 @@ def run_cmd(deployment: str, mode: str | None, seconds: float | None, endpoint: 
         raise ControlError("--hmi needs the control endpoint (drop --no-control)")
     stop = threading.Event()
     ctrl_c = _CtrlC(stop)
-    old = signal.signal(signal.SIGTERM, ctrl_c.on_sigterm)
+    old = signal.getsignal(signal.SIGTERM)
     try:
+        signal.signal(signal.SIGTERM, ctrl_c.on_sigterm)
         with ctrl_c, rt:
             ctrl_c.started = True
             where = f", control endpoint {rt.endpoint}" if rt.control else ""
