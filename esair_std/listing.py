@@ -48,8 +48,16 @@ def components(rt: RuntimeView) -> list[dict]:
         if row["kind"] not in ("behavior", "reaction"):
             entry = rt.rs.resources.get(row["name"], (row["name"], ""))[0]
             kids_of.setdefault(entry, []).append(row)
-    for entry, (spec, _host) in list(rt.rs.entries.items()):
+    for entry, (spec, host) in list(rt.rs.entries.items()):
         kids = kids_of.get(entry, [])
+        if not kids:        # still opening (or failed to): no sensor or actuator of it yet
+            state, reason = rt.rs.states.get(entry, (host.state, ""))
+            rows.append(dict(name=entry, kind=rt.rs.kind_of(entry) or "resource",
+                             state=state, pid=getattr(host, "pid", None) or os.getpid(),
+                             host=rt.hostname, restarts=0, reason=reason,
+                             **{"class": spec.class_path}, parent="", attached=[],
+                             detached=[]))
+            continue
         driver = not (len(kids) == 1 and kids[0]["name"] == entry)
         if driver:
             lost = [k for k in kids if k["state"] != "ready"]

@@ -491,13 +491,19 @@ def test_ls_and_top_say_the_robot_is_still_starting(robot, mode, tmp_path):
     assert "sink" not in r.stdout
     assert r.stderr == "robot 'gated' is still starting: more of its components may be " \
                        "listed soon\n"
-    assert json.loads(esair("ls", "--json", "-e", ep).stdout)["starting"] is True
+    out = json.loads(esair("ls", "--json", "-e", ep).stdout)
+    assert out["starting"] is True
+    # the resource still opening is neither ready nor a driver (it has no children yet)
+    assert [(r["name"], r["kind"], r["state"]) for r in out["components"]] == [
+        ("gate", "resource", "starting")]
     assert top_title(ep) == "ESAIR STD — robot gated (starting)"
     (tmp_path / "go").touch()                          # the resource opens
     wait_for(lambda: lab_started(ep, ("gate", "sink")), timeout=60, what="the start over")
     assert json.loads(esair("ls", "--json", "-e", ep).stdout)["starting"] is False
     r = esair("ls", "-e", ep)
     assert "sink" in r.stdout and r.stderr == ""
+    rows = {r["name"]: r for r in components(ep)}
+    assert (rows["gate"]["kind"], rows["gate"]["state"]) == ("sensor", "ready")
     assert top_title(ep) == "ESAIR STD — robot gated"
 
 
