@@ -506,11 +506,23 @@ FIND = """(ts) => {
   const px = c.getImageData(s.L, row, s.R - s.L, 1).data, xs = [];
   for (let i = 0; i < s.R - s.L; i++) if (px[4 * i] + px[4 * i + 1] + px[4 * i + 2] < 600) xs.push(s.L + i);
   const want = s.R - (s.headX - Math.round(ts * s.pps));
-  return {xs, want, headX: s.headX, full: s.frames.full, scrolled: s.frames.scrolled,
+  // the line goes down from the spike to the next real sample: where that one's time is
+  let next = ts;
+  for (const t of window.__hmi.feet.t) if (t > ts) { next = t; break; }
+  const wantNext = s.R - (s.headX - Math.round(next * s.pps));
+  return {xs, want, wantNext, headX: s.headX, full: s.frames.full, scrolled: s.frames.scrolled,
           drawn: s.head >= ts, paused: window.__hmi.feet.paused};
 }"""
 PIXELS = "() => window.__hmi.feet.top.fg.toDataURL()"
 NEAR = 3
+
+
+def spike_where_the_time_puts_it(r: dict) -> bool:
+    """The spike's rising edge within NEAR px of where its time puts it, and nothing
+    drawn on its row but the line up to it and down to the next real sample (a sample
+    late on a loaded machine puts that one further right: 5 px once in CI)."""
+    return bool(r["xs"]) and abs(min(r["xs"]) - r["want"]) <= NEAR and (
+        max(r["xs"]) <= max(r["want"], r["wantNext"]) + NEAR)
 
 
 def test_the_feet_plot_scrolls_new_samples_in_and_pause_holds_it(robot, browser):
@@ -531,11 +543,11 @@ def test_the_feet_plot_scrolls_new_samples_in_and_pause_holds_it(robot, browser)
     first = page.evaluate(FIND, ts)
     # within NEAR px of where the time puts it: the 2 px line's antialiased edge, and the
     # next real sample's slope (seen 3 px once at load 35); the plot moves 40 px meanwhile
-    assert first["xs"] and all(abs(x - first["want"]) <= NEAR for x in first["xs"]), first
+    assert spike_where_the_time_puts_it(first), first
     page.wait_for_function(f"() => ({FIND})({ts}).headX >= {first['headX'] + 40}")
     later = page.evaluate(FIND, ts)
     assert later["full"] == first["full"] and later["scrolled"] > first["scrolled"]
-    assert later["xs"] and all(abs(x - later["want"]) <= NEAR for x in later["xs"]), later
+    assert spike_where_the_time_puts_it(later), later
     assert later["want"] <= first["want"] - 40                  # it moved left with the time
     # what the frames drew one after the other is what a redraw of the window draws
     same = page.evaluate("""() => {
