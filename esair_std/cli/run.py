@@ -197,15 +197,15 @@ class _CtrlC:
     def _on_sigint(self, *_: Any) -> None:
         first = not self.hit
         self.hit = True
-        self.stop.set()
-        if first and not self.started:
-            raise KeyboardInterrupt
+        self._stop_now(first)
 
     def on_sigterm(self, *_: Any) -> None:
         """SIGTERM (a service manager's stop, exit status 0): the robot stops; while it
         starts, the start is interrupted as Ctrl-C interrupts it (a resource whose open
         hangs would otherwise hold the stop up to its own time limit)."""
-        first = not self.stop.is_set()
+        self._stop_now(first=not self.stop.is_set())
+
+    def _stop_now(self, first: bool) -> None:
         self.stop.set()
         if first and not self.started:
             raise KeyboardInterrupt

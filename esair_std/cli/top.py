@@ -131,6 +131,7 @@ def top_cmd(c: Any, interval: float, count: int | None) -> None:
     before: dict[str, tuple[float, int]] = {}
     console = Console()
     n = 0
+
     def robot() -> str:          # while it starts, its list grows: the title says so
         return f"{c.robot} (starting)" if still_starting(c) else c.robot
 
