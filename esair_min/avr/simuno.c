@@ -24,8 +24,8 @@
  * both ways, so a wrong baud gives the garbage it gives on a wire. DAMAGE_AT (optional):
  * the host's byte of that number (1 = the first since start) has bit 0 flipped on the line.
  *
- * Events on stdout: "ready PTY", "reset CYCLE open", "hangup CYCLE", "page CYCLE ADDR"
- * (a page write armed by the code in flash), "damaged CYCLE N", "crash CYCLE".
+ * Events on stdout: "ready PTY", "reset CYCLE open", "hangup CYCLE", "page CYCLE ADDR N"
+ * (a page write armed by the code in flash, after N bytes from the host), "damaged CYCLE N", "crash CYCLE".
  */
 #define _GNU_SOURCE
 #include <errno.h>
@@ -61,6 +61,7 @@ static int master = -1;
 static unsigned long freq;
 static avr_io_write_t spm_w;
 static void *spm_p;
+static long host_bytes, damage_at;
 
 static unsigned long long now(void)
 {
@@ -118,7 +119,6 @@ static int q_head, q_n;
 static unsigned long long last_due;
 static unsigned held[3];
 static int n_held;
-static long host_bytes, damage_at;
 
 static void set_fe(void)
 {
@@ -207,7 +207,8 @@ static void spm_write(struct avr_t *a, avr_io_addr_t addr, uint8_t v, void *para
 {
     (void)param;
     if ((v & 0x05) == 0x05) {
-        printf("page %llu %u\n", now(), (unsigned)(a->data[30] | (a->data[31] << 8)));
+        printf("page %llu %u %ld\n", now(), (unsigned)(a->data[30] | (a->data[31] << 8)),
+               host_bytes);
         fflush(stdout);
     }
     spm_w(a, addr, v, spm_p);

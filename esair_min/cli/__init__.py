@@ -207,7 +207,7 @@ def emulate(robot: str, pty: bool, run_s: float | None, sends: tuple[str, ...],
 
 @main.command(short_help="Send command lines to a port; print one reply per line.")
 @click.argument("port")
-@click.argument("commands", nargs=-1, required=True)
+@click.argument("commands", nargs=-1)
 @click.option("--baud", type=int, default=9600, show_default=True,
               help="Baud rate of a real serial port.")
 @click.option("--timeout", type=float, default=2.0, show_default=True,
@@ -224,6 +224,9 @@ def send(port: str, commands: tuple[str, ...], baud: int, timeout: float, notice
     """
     from esair_min.cli.send import open_port, send_commands
 
+    if not commands:
+        raise click.UsageError(f"no commands to send; to watch the board's notices and "
+                               f"replies and type commands, use: esair monitor {port}")
     ser = open_port(port, baud, timeout)
     try:
         failures = send_commands(ser, commands, timeout, click.echo, notices, checksum)
@@ -297,6 +300,11 @@ def build(robot: str, output: str) -> None:
     for line in summary_lines(build_robot(load(robot), Path(output))):
         click.echo(line)
 
+
+from esair_min.cli.flash import flash, monitor  # noqa: E402  (commands of real boards)
+
+main.add_command(flash)
+main.add_command(monitor)
 
 if __name__ == "__main__":  # pragma: no cover
     main()
