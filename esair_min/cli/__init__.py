@@ -292,13 +292,22 @@ def generate(robot: str, output: str) -> None:
 @friendly
 def build(robot: str, output: str) -> None:
     """Generate every board's firmware, build it for its MCU (PIC18F452: SDCC; ATmega328P:
-    avr-gcc) and print its footprint; a warning fails the build."""
+    avr-gcc) and print its footprint (and an ATmega328P's fuses for a bare chip); a
+    warning fails the build."""
     from pathlib import Path
 
     from esair_min.pic.build import build_robot, summary_lines
 
-    for line in summary_lines(build_robot(load(robot), Path(output))):
+    model = load(robot)
+    for line in summary_lines(build_robot(model, Path(output))):
         click.echo(line)
+    from esair_min.flash.avr import fuses_for
+
+    for board in model.boards:
+        if board.mcu.part == "atmega328p":
+            fuses, _ = fuses_for(board.mcu.clock_hz)
+            click.echo(f"{board.role}: a bare chip at {board.mcu.clock_hz / 1e6:g} MHz needs "
+                       f"{fuses.describe()} (esair flash --programmer NAME --fuses)")
 
 
 from esair_min.cli.flash import flash, monitor  # noqa: E402  (commands of real boards)
