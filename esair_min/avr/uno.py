@@ -16,7 +16,7 @@ import threading
 from dataclasses import dataclass
 from pathlib import Path
 
-from esair_min.avr.harness import SimError, simulator
+from esair_min.avr.simavr_harness import SimError, simulator
 
 SOURCE = Path(__file__).with_name("simuno.c")
 BOOTLOADERS = Path("/usr/share/arduino/hardware/arduino/avr/bootloaders")

@@ -225,7 +225,7 @@ def test_a_missing_or_stale_hex_is_built_first(tmp_path):
 def test_debians_optiboot_hex_does_not_fit_the_boot_section():
     """Why the simulated Uno's Optiboot is built from Debian's optiboot.c without the LED
     flashes: the .hex Debian ships is 532 bytes from 0x7E00, past the end of flash."""
-    from esair_min.avr.harness import SimError
+    from esair_min.avr.simavr_harness import SimError
     from esair_min.avr.uno import BOOTLOADERS
 
     shipped = BOOTLOADERS / "optiboot" / "optiboot_atmega328.hex"
