@@ -11,6 +11,14 @@ import click
 
 from esair_min.cli.pipes import friendly
 from esair_min.flash import FlashError
+from esair_min.model.robot import Robot
+
+
+def _load(robot: str) -> Robot:
+    from esair_min.model.validate import load_robot
+    from esair_min.resources import resolve_robot
+
+    return load_robot(resolve_robot(robot))
 
 
 class _Bar:
@@ -78,12 +86,11 @@ def flash(robot: str, role: str, port: str, bootloader: str, programmer: str | N
     then also writes the fuses its clock needs). The port's lock is held throughout:
     a port another ESAIR program has open is refused.
     """
-    from esair_min.cli import load
     from esair_min.flash.avr import AvrFlash, flash_avr, fuses_for
     from esair_min.flash.firmware import firmware
     from esair_min.flash.portlock import PortLock
 
-    model = load(robot)
+    model = _load(robot)
     out = Path(build_dir) if build_dir else Path("build") / model.name
     fw = firmware(model, out, role, build=not dry_run)
     if fw.built:
@@ -138,7 +145,5 @@ def monitor(port: str, baud: int, robot: str | None, log_path: str | None) -> No
 
     model = None
     if robot:
-        from esair_min.cli import load
-
-        model = load(robot)
+        model = _load(robot)
     sys.exit(run_monitor(port, baud, model, Path(log_path) if log_path else None))
