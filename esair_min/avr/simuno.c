@@ -202,11 +202,35 @@ static void ubrr_write(struct avr_t *a, avr_io_addr_t addr, uint8_t v, void *par
     uart->cycles_per_byte = 10u * (ubrr + 1u) * ((a->data[R_UCSR0A] & B_U2X0) ? 8u : 16u);
 }
 
-/* A page write armed (PGWRT|SPMEN): reported with its Z address. */
+/* simavr erases and writes a flash page in 4 cycles; the chip takes up to 4.5 ms for
+ * each (datasheet tWD_FLASH): SPMEN reads 1 until then, so the bootloader's busy wait
+ * takes the chip's time. A page write armed (PGWRT|SPMEN) is reported with its Z. */
+static unsigned long long spm_busy_until;
+static int spm_forced;                   /* SPMEN read as 1 by us (simavr stores a read) */
+
+static uint8_t spm_read(struct avr_t *a, avr_io_addr_t addr, void *param)
+{
+    (void)param;
+    uint8_t v = a->data[addr];
+    if (now() < spm_busy_until) {
+        spm_forced = 1;
+        return (uint8_t)(v | 0x01);
+    }
+    if (spm_forced) {
+        spm_forced = 0;
+        return (uint8_t)(v & ~0x01);
+    }
+    return v;
+}
+
 static void spm_write(struct avr_t *a, avr_io_addr_t addr, uint8_t v, void *param)
 {
     (void)param;
-    if ((v & 0x05) == 0x05) {
+    spm_forced = 0;
+    if ((v & 0x07) == 0x03 || (v & 0x07) == 0x05) {
+        spm_busy_until = now() + (unsigned long long)(freq * 45 / 10000);
+    }
+    if ((v & 0x05) == 0x05 && !(v & 0x02)) {
         printf("page %llu %u %ld\n", now(), (unsigned)(a->data[30] | (a->data[31] << 8)),
                host_bytes);
         fflush(stdout);
@@ -308,6 +332,7 @@ int main(int argc, char **argv)
     spm_p = avr->io[AVR_DATA_TO_IO(R_SPMCSR)].w.param;
     if (spm_w) {
         avr->io[AVR_DATA_TO_IO(R_SPMCSR)].w.c = spm_write;
+        avr->io[AVR_DATA_TO_IO(R_SPMCSR)].r.c = spm_read;
     }
     avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUTPUT),
                             on_tx, NULL);
