@@ -246,7 +246,7 @@ def plot(trace: str, output: str, robot: str, targets: bool) -> None:
     A STARFISH trace (esair emulate starfish --trace) is drawn as the robot's path on
     its room's map, with the wheels' speeds below. A FILE.mcap (`esair std record`) is
     drawn per channel, reactions marked."""
-    from esair_min.emulator.starfish_trace import is_starfish_trace
+    from esair_min.emulator.starfish.pose_trace import is_starfish_trace
 
     if trace.endswith(".mcap"):
         from esair_min.cli.plotmcap import plot_mcap

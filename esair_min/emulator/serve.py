@@ -14,7 +14,7 @@ from esair_min.errors import EsairError
 from esair_min.model.robot import Robot
 from esair_min.emulator.clock import NS_PER_S, seconds_to_ns
 from esair_min.emulator.faults import Faults
-from esair_min.emulator.robot import Emulator
+from esair_min.emulator.papaman.sim import Emulator
 from esair_min.model.identity import INSTANCE_RE
 
 
@@ -146,7 +146,7 @@ def emulate(robot: Robot, opts: EmulateOptions, out: TextIO | None = None,
             print(text, file=sys.stderr)
     check_options(opts)
     if robot.central.base is not None:
-        from esair_min.emulator.starfish_serve import emulate_starfish
+        from esair_min.emulator.starfish.launch import emulate_starfish
 
         return emulate_starfish(robot, opts, out, log, _serve_loop=_Stop, printer=_Printer)
     for flag, given in (("--room", opts.room), ("--pose", opts.pose),
@@ -203,7 +203,7 @@ def _serve(emu: Emulator, opts: EmulateOptions, out: TextIO) -> None:
             if not live:
                 return
             if view is None:
-                from esair_min.emulator.liveview import LiveView
+                from esair_min.emulator.papaman.view import LiveView
 
                 view = stack.enter_context(LiveView(emu, port))
             view.poll()

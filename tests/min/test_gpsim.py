@@ -3,7 +3,7 @@
 Needs the toolchain (scripts/install-toolchain.sh); without it these tests FAIL with
 the install hint. The firmware is generated and built once per module; each gpsim
 run is deterministic, so cycle counts are asserted as exact ceilings (a few % over
-the figures measured when they were written, see bench/firmware.py).
+the figures measured when they were written, see bench/firmware_sizes.py).
 """
 
 from __future__ import annotations

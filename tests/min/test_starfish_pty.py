@@ -18,7 +18,7 @@ import serial
 from click.testing import CliRunner
 
 from esair_min.cli import main
-from esair_min.emulator.starfish_trace import read_trace
+from esair_min.emulator.starfish.pose_trace import read_trace
 
 ROOT = Path(__file__).resolve().parents[2]
 START_TIMEOUT = 30
@@ -153,8 +153,8 @@ def test_trace_and_plot_of_a_headless_run(tmp_path):
 
 def test_live_view_draws_the_room_and_the_robot(starfish):
     from esair_min.emulator.ptyserver import PtyPort
-    from esair_min.emulator.starfish import StarfishSim
-    from esair_min.emulator.starfish_view import render
+    from esair_min.emulator.starfish.sim import StarfishSim
+    from esair_min.emulator.starfish.view import render
     from esair_min.world import Pose, Room, World
 
     sim = StarfishSim(starfish, World(room=Room.box(2000, 1000), pose=Pose(500, 500, 1.6)))

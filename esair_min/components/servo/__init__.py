@@ -3,7 +3,7 @@
 Registers: servo *m* has ``2m`` (low byte, ``angle % 100``) and ``2m+1`` (high byte,
 ``angle/100 + 10*speed``: the thesis's pair encoding, :mod:`esair_min.model.encoding`). Its C lives in
 ``firmware_templates/actuator`` (the board is made of servos); its Python behaviour in
-:mod:`esair_min.emulator.actuator`.
+:mod:`esair_min.emulator.papaman.actuator`.
 """
 
 from __future__ import annotations

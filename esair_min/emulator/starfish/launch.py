@@ -1,5 +1,5 @@
 """``esair emulate`` for a robot with an omni base (STARFISH): the boards and the room
-(:class:`~esair_min.emulator.starfish.StarfishSim`) served on a pty, or run headless."""
+(:class:`~esair_min.emulator.starfish.sim.StarfishSim`) served on a pty, or run headless."""
 
 from __future__ import annotations
 
@@ -8,8 +8,8 @@ from collections.abc import Callable
 from contextlib import ExitStack
 from typing import Any, TextIO
 
-from esair_min.emulator.starfish import StarfishSim
-from esair_min.emulator.starfish_trace import write_header, write_rows
+from esair_min.emulator.starfish.sim import StarfishSim
+from esair_min.emulator.starfish.pose_trace import write_header, write_rows
 from esair_min.errors import EsairError
 from esair_min.model.robot import Robot
 from esair_min.world import Pose, Room, World, load_room
@@ -104,7 +104,7 @@ def emulate_starfish(robot: Robot, opts: Any, out: TextIO, log: Callable[[str], 
                     if not live:
                         return
                     if view is None:          # after the path is printed, as PAPA-MAN's
-                        from esair_min.emulator.starfish_view import StarfishView
+                        from esair_min.emulator.starfish.view import StarfishView
 
                         view = stack.enter_context(StarfishView(sim, port, out=out))
                     view.poll()

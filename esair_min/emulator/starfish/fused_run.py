@@ -20,7 +20,7 @@ reads would come too early (the plain path runs that tick: its notice, its write
 error), and when the next tick is not the next thing to happen
 (:meth:`VirtualClock.advance_inline`).
 
-``sim`` is a :class:`~esair_min.emulator.starfish.StarfishSim` (typed ``Any``: that
+``sim`` is a :class:`~esair_min.emulator.starfish.sim.StarfishSim` (typed ``Any``: that
 module imports this one).
 """
 
@@ -32,7 +32,7 @@ from typing import Any
 from esair_min.components.optical_flow.core import (_BURST_END_NS, _BURST_FREE_NS, _TWOPI,
                                                     MAX_SPEED_IPS, MM_PER_INCH, REG_SQUAL,
                                                     Adns2610)
-from esair_min.emulator.starfish_trace import TraceRow
+from esair_min.emulator.starfish.pose_trace import TraceRow
 from esair_min.world.body import _REST, _pose
 
 _M32 = (1 << 32) - 1

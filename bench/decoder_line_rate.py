@@ -6,7 +6,7 @@ bus, ticking whenever an actuator write is held. Prints the rate, its multiple o
 11,520 B/s, and, measured in the same run on the same bytes, a naive ``bytes.split``
 line splitter as a baseline ratio. Never asserts wall-clock time.
 
-    python bench/decoder.py [--bytes N] [--repeat R]
+    python bench/decoder_line_rate.py [--bytes N] [--repeat R]
 """
 
 from __future__ import annotations
