@@ -39,7 +39,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from esair_min.emulator.starfish.sim import FlowOptions, StarfishSim, drive_square  # noqa: E402
+from esair_min.emulator.starfish.robot_sim import FlowOptions, StarfishSim, drive_square  # noqa: E402
 from esair_min.model.validate import load_robot  # noqa: E402
 from esair_min.world import Pose, World  # noqa: E402
 
@@ -149,7 +149,7 @@ CHILD = """
 import importlib.util, json, sys, time
 root = sys.argv[1]
 sys.path.insert(0, root)
-from esair_min.emulator.starfish.sim import StarfishSim, drive_square
+from esair_min.emulator.starfish.robot_sim import StarfishSim, drive_square
 from esair_min.model.validate import load_robot
 from esair_min.world import Pose, World
 spec = importlib.util.spec_from_file_location("bench_emulator", root + "/bench/emulator_speed.py")

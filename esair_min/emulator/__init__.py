@@ -11,7 +11,7 @@ import serial as _serial
 
 from esair_min.emulator.clock import VirtualClock
 from esair_min.emulator.faults import Faults
-from esair_min.emulator.papaman.sim import Emulator
+from esair_min.emulator.papaman.robot_sim import Emulator
 from esair_min.emulator.papaman.scenario import Scenario, load_scenario, resolve_scenario
 
 if __name__ not in _serial.protocol_handler_packages:

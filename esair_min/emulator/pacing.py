@@ -10,7 +10,7 @@ from __future__ import annotations
 import time
 
 from esair_min.emulator.clock import NS_PER_S
-from esair_min.emulator.papaman.sim import Emulator
+from esair_min.emulator.papaman.robot_sim import Emulator
 
 
 class Pacer:

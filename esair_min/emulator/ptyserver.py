@@ -33,7 +33,7 @@ from dataclasses import dataclass
 from typing import Callable
 
 from esair_min.emulator.pacing import Pacer
-from esair_min.emulator.papaman.sim import Emulator
+from esair_min.emulator.papaman.robot_sim import Emulator
 
 #: Longest wait between two looks at the port while nothing is due (s).
 IDLE_POLL_S = 0.02

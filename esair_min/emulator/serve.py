@@ -14,7 +14,7 @@ from esair_min.errors import EsairError
 from esair_min.model.robot import Robot
 from esair_min.emulator.clock import NS_PER_S, seconds_to_ns
 from esair_min.emulator.faults import Faults
-from esair_min.emulator.papaman.sim import Emulator
+from esair_min.emulator.papaman.robot_sim import Emulator
 from esair_min.model.identity import INSTANCE_RE
 
 

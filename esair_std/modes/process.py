@@ -32,7 +32,7 @@ from .thread import LocalPort
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..transport.bus import Bus
-    from ..view import RuntimeView
+    from ..runtime_view import RuntimeView
 
 log = logging.getLogger("esair_std.process")
 START_TIMEOUT = 20.0

@@ -445,7 +445,7 @@ def test_the_emulator_runs_papaman_avr_at_the_avrs_bus_time(avr_robot):
     """The emulator takes an atmega328p central board: its tick is Timer1's, and a frame
     write costs what it costs the AVR's master (2.413 ms in simavr; 2.535 on the PIC)."""
     from esair_min.core.trace import TraceWriter
-    from esair_min.emulator.papaman.sim import Emulator
+    from esair_min.emulator.papaman.robot_sim import Emulator
 
     tw = TraceWriter()
     emu = Emulator(avr_robot, trace=tw)

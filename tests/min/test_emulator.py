@@ -337,7 +337,7 @@ def test_live_view_shows_servos_sensors_lines_and_errors(robot):
 
 
 def test_line_views_split_cr_lf_and_crlf_across_chunks():
-    from esair_min.emulator.papaman.sim import _Lines
+    from esair_min.emulator.papaman.robot_sim import _Lines
 
     lines = _Lines(3)
     assert lines.feed(b"ab\r") == ["ab"]

@@ -117,7 +117,7 @@ def test_the_sims_replayed_drive_ticks_are_the_ticks_run_as_events(starfish):
     each would have ended a stretch of wheel travel. Against a sim whose drive board is
     never taken for settled (every tick an event): the same trace, bus and poses."""
     from esair_min.components.omni_base.core import velocity_line
-    from esair_min.emulator.starfish.sim import FlowOptions, StarfishSim, drive_square
+    from esair_min.emulator.starfish.robot_sim import FlowOptions, StarfishSim, drive_square
     from esair_min.world import Pose, World
 
     def run(eager: bool) -> tuple:
@@ -253,7 +253,7 @@ def _sim_run(robot, mode: str, world: World, noise: float, seed: int,
     that, through _timers_plain, and the travel through _replay and _advance, as before
     the fused paths."""
     from esair_min.components.omni_base.core import velocity_line, wheels_line
-    from esair_min.emulator.starfish.sim import FlowOptions, StarfishSim, drive_square
+    from esair_min.emulator.starfish.robot_sim import FlowOptions, StarfishSim, drive_square
 
     sim = StarfishSim(robot, world, FlowOptions(noise=noise, seed=seed))
     if mode != "runs":
@@ -315,7 +315,7 @@ def _line_run(robot, plain: bool) -> tuple:
     by line (_collect_lines)."""
     from esair_min.components.omni_base.core import velocity_line
     from esair_min.emulator.line import SerialHost
-    from esair_min.emulator.starfish.sim import FlowOptions, StarfishSim
+    from esair_min.emulator.starfish.robot_sim import FlowOptions, StarfishSim
 
     sim = StarfishSim(robot, World(pose=Pose(2500, 2500, 0.0)), FlowOptions(noise=0.02))
     if plain:

@@ -153,7 +153,7 @@ def test_trace_and_plot_of_a_headless_run(tmp_path):
 
 def test_live_view_draws_the_room_and_the_robot(starfish):
     from esair_min.emulator.ptyserver import PtyPort
-    from esair_min.emulator.starfish.sim import StarfishSim
+    from esair_min.emulator.starfish.robot_sim import StarfishSim
     from esair_min.emulator.starfish.view import render
     from esair_min.world import Pose, Room, World
 

@@ -21,7 +21,7 @@ from typing import Any, Callable
 
 from rich.text import Text
 
-from esair_min.emulator.papaman.sim import Emulator
+from esair_min.emulator.papaman.robot_sim import Emulator
 from esair_min.emulator.transcript import Row
 
 LEVELS = "▁▂▃▄▅▆▇█"

@@ -20,7 +20,7 @@ reads would come too early (the plain path runs that tick: its notice, its write
 error), and when the next tick is not the next thing to happen
 (:meth:`VirtualClock.advance_inline`).
 
-``sim`` is a :class:`~esair_min.emulator.starfish.sim.StarfishSim` (typed ``Any``: that
+``sim`` is a :class:`~esair_min.emulator.starfish.robot_sim.StarfishSim` (typed ``Any``: that
 module imports this one).
 """
 

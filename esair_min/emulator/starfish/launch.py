@@ -1,5 +1,5 @@
 """``esair emulate`` for a robot with an omni base (STARFISH): the boards and the room
-(:class:`~esair_min.emulator.starfish.sim.StarfishSim`) served on a pty, or run headless."""
+(:class:`~esair_min.emulator.starfish.robot_sim.StarfishSim`) served on a pty, or run headless."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ from collections.abc import Callable
 from contextlib import ExitStack
 from typing import Any, TextIO
 
-from esair_min.emulator.starfish.sim import StarfishSim
+from esair_min.emulator.starfish.robot_sim import StarfishSim
 from esair_min.emulator.starfish.pose_trace import write_header, write_rows
 from esair_min.errors import EsairError
 from esair_min.model.robot import Robot
