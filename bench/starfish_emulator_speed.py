@@ -149,10 +149,17 @@ CHILD = """
 import importlib.util, json, sys, time
 root = sys.argv[1]
 sys.path.insert(0, root)
-from esair_min.emulator.starfish.robot_sim import StarfishSim, drive_square
+try:                                    # a tree from before the emulator's robot folders
+    from esair_min.emulator.starfish.robot_sim import StarfishSim, drive_square
+except ImportError:
+    from esair_min.emulator.starfish import StarfishSim, drive_square
 from esair_min.model.validate import load_robot
 from esair_min.world import Pose, World
-spec = importlib.util.spec_from_file_location("bench_emulator", root + "/bench/emulator_speed.py")
+import os.path
+papaman_bench = root + "/bench/emulator_speed.py"
+if not os.path.exists(papaman_bench):
+    papaman_bench = root + "/bench/emulator.py"
+spec = importlib.util.spec_from_file_location("bench_emulator", papaman_bench)
 pm = importlib.util.module_from_spec(spec)
 spec.loader.exec_module(pm)
 seconds = float(sys.argv[2])
