@@ -19,11 +19,11 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from esair_min.core.central import CentralCore  # noqa: E402
-from esair_min.core.devices import NullBus  # noqa: E402
-from esair_min.core.protocol import (add_checksum, encode_angles, encode_motor,  # noqa: E402
+from esair_min.core.central import CentralCore
+from esair_min.core.devices import NullBus
+from esair_min.core.protocol import (add_checksum, encode_angles, encode_motor,
                                 encode_play, encode_speeds)
-from esair_min.model.validate import load_robot  # noqa: E402
+from esair_min.model.validate import load_robot
 
 LINE_RATE = 115200 // 10       # bytes per second at 115200 baud, 8N1
 

@@ -81,7 +81,7 @@ class _Stop:
         self.flag = False
         self._old: dict[int, object] = {}
 
-    def __call__(self, signum=None, frame=None) -> None:
+    def __call__(self, _signum=None, _frame=None) -> None:
         self.flag = True
 
     def install(self) -> None:

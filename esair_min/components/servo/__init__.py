@@ -13,7 +13,7 @@ from typing import Annotated, Any
 from pydantic import Field, StrictInt
 
 from esair_min.components.base import Checker, Component, PinClaim
-from esair_min.model.encoding import (PAIR_HIGH_MAX, encode_high, encode_pair,  # noqa: F401
+from esair_min.model.encoding import (PAIR_HIGH_MAX, encode_high, encode_pair,
                                       max_speed_at, pair_fits)
 from esair_min.model.types import Angle, Name, Pin, Section, Speed
 

@@ -41,7 +41,7 @@ class PapamanRun:
         self._play = False
         self._old: Any = None
 
-    def _on_usr1(self, signum: int | None = None, frame: object = None) -> None:
+    def _on_usr1(self, _signum: int | None = None, _frame: object = None) -> None:
         self._play = True
 
     def install(self) -> None:

@@ -249,7 +249,7 @@ class LiveView:
         self.live.__exit__(*exc)
         self.emu.on_tick = None
 
-    def _resized(self, signum=None, frame=None) -> None:
+    def _resized(self, _signum=None, _frame=None) -> None:
         self._resize = True
 
     def poll(self) -> None:
