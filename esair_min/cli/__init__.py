@@ -298,5 +298,11 @@ def build(robot: str, output: str) -> None:
         click.echo(line)
 
 
+from esair_min.cli import verify as _verify  # noqa: E402  (it imports this module's load)
+
+main.add_command(_verify.new)
+main.add_command(_verify.verify)
+
+
 if __name__ == "__main__":  # pragma: no cover
     main()

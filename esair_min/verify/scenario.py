@@ -232,8 +232,13 @@ def default_scenario(robot: Robot, targets: tuple[str, ...]) -> Scenario:
     if robot.peer("sensor") is not None and by_action.get("sensors"):
         w.comment("a missing slave: the sensor board stops answering")
         w.lines.append("fault sensor on")
+        polls = max((r.poll_ticks for r in central.reactions), default=0)
+        if polls:                   # a poll fails first: its notice, then the command's E10
+            w.tick(2 * polls + settle_ticks(robot, 0))
         w.send(by_action["sensors"][0])
         w.lines.append("fault sensor off")
+        if polls:
+            w.tick(2 * polls + settle_ticks(robot, 0))
         w.send(by_action["sensors"][0])
         sc.covers.append("missing slave (E10)")
     per_tick = central.uart.baud / 10 * _tick_s(robot) if central.uart else 0
