@@ -47,7 +47,7 @@ class Budget:
 
     @property
     def share(self) -> float:
-        return self.used / self.allowed if self.allowed else float("inf")
+        return self.used / self.allowed if self.allowed else float(self.used > 0)
 
     def as_dict(self) -> dict[str, Any]:
         return {**asdict(self), "ok": self.ok}
@@ -86,7 +86,8 @@ def pic_stack_bytes(output: str, area: range, size: int) -> int:
 # -- the decoder --------------------------------------------------------------------------
 
 def decoder_stimulus(robot: Robot) -> str:
-    """A short script for the PIC's decoder bench: a few commands and a long bad line."""
+    """A short script for the decoder bench (its own run on either chip, with
+    breakpoints or watched addresses): a few commands and a long bad line."""
     lines = ["boot", "tick 4"]
     for cmd in robot.commands[:6]:
         if cmd.action in ("version", "stop", "sensors", "speeds"):
@@ -96,10 +97,11 @@ def decoder_stimulus(robot: Robot) -> str:
     return "\n".join(lines) + "\n"
 
 
-def avr_decoder(run: Any, rx_addr: int, idle_addr: int, stream: bytes) -> list[int]:
-    """Cycles of each received byte that does not end a line: between two entries of
-    ``hal_uart_rx`` in one superloop pass (no ``hal_idle`` between), less the interrupts
-    inside. The n-th byte drained is the n-th byte sent (no byte lost)."""
+def avr_decoder(run: Any, rx_addr: int) -> list[int]:
+    """Cycles of each received byte that does not end a line: from an entry of
+    ``hal_uart_rx`` to the next, with no other watched function entered between (the
+    pass's first call, ``hal_watchdog_clear``, or a line end's ``core_rx_end``), less
+    the interrupts inside."""
     spans: list[tuple[int, int]] = []
     entry = None
     for cycle, v in run.isrs.get(0, []):
@@ -108,34 +110,24 @@ def avr_decoder(run: Any, rx_addr: int, idle_addr: int, stream: bytes) -> list[i
         elif not v and entry is not None:
             spans.append((entry, cycle))
             entry = None
-    out, prev, n = [], None, 0
+    out: list[int] = []
+    prev = None
     for cycle, addr in run.hits:
-        if addr == idle_addr:
+        if addr != rx_addr:
             prev = None
             continue
-        if addr != rx_addr:
-            continue
-        if prev is not None and n < len(stream):
-            inner = sum(e - s for s, e in spans if prev <= s and e <= cycle)
-            if stream[n] not in (0x0A, 0x0D):
-                out.append(cycle - prev - inner)
-            n += 1
+        if prev is not None:
+            out.append(cycle - prev - sum(e - s for s, e in spans if prev <= s and e <= cycle))
         prev = cycle
     return out
-
-
-def _rx_stream(script: str) -> bytes:
-    from esair_min.pic.gpsim_bench import rx_stream
-
-    return rx_stream(script)
 
 
 # -- the tick -------------------------------------------------------------------------------
 
 def tick_work(run: Any, actuator: int, frame_bytes: int, tick: int) -> tuple[list[int], list[int]]:
-    """For each full-frame write: cycles from the latest sync rising edge to its STOP, and
-    to the end of the last transfer started within that tick period (the read of the next
-    frame, a sensor poll)."""
+    """For each full-frame write: its cycles from START to STOP, and from the latest sync
+    rising edge to the end of the last transfer started within that tick period (the
+    write, the read of the next frame, a sensor poll)."""
     ups = [c for c, v in run.sync_edges if v == 1 and c > 0]
     writes, whole = [], []
     for t in run.transfers:
@@ -143,13 +135,12 @@ def tick_work(run: Any, actuator: int, frame_bytes: int, tick: int) -> tuple[lis
         if (first is None or first.address != actuator or first.reading
                 or len(first.data) != frame_bytes + 1 or t.stop is None):
             continue
+        writes.append(t.stop - t.start)
         edge = max((c for c in ups if c <= t.start), default=None)
-        if edge is None:
-            continue
-        writes.append(t.stop - edge)
-        whole.append(max([t.stop] + [u.stop for u in run.transfers
-                                     if u.stop is not None and edge <= u.start < edge + tick])
-                     - edge)
+        if edge is not None:
+            whole.append(max([t.stop] + [u.stop for u in run.transfers
+                                         if u.stop is not None and edge <= u.start < edge + tick])
+                         - edge)
     return writes, whole
 
 
@@ -194,17 +185,16 @@ def chip_budgets(robot: Robot, fw: Firmware, run: TargetRun, py: TargetRun,
         worst = max(writes, default=0)
         need_ms = worst / per_second * 1e3 * 1.1
         out.append(Budget(target, "tick: frame write", worst, s.tick_cycles, unit,
-                          f"tick to the frame write's STOP, {len(writes)} writes; tick "
-                          f"{c.timer2.period_ms:.3f} ms at {c.i2c.speed_hz} Hz I2C; with the "
-                          f"next frame's read and a sensor poll the tick's bus work ends "
-                          f"{max(whole, default=0)} after it; {slips.slipped} played frames "
-                          "slipped",
+                          f"START to STOP of {len(writes)} full-frame writes; tick "
+                          f"{c.timer2.period_ms:.3f} ms at {c.i2c.speed_hz} Hz I2C (the tick's "
+                          f"whole bus work, with the next frame's read and a sensor poll: "
+                          f"worst {max(whole, default=0)} after the tick)",
                           f"lengthen tick.period_ms to at least {need_ms:.2f}, raise "
                           f"i2c.speed_hz, or drive fewer servos"))
-        if slips.slipped:
-            out.append(Budget(target, "played frames slipped", slips.slipped, 0, "ticks",
-                              f"worst {slips.worst_late} ticks late",
-                              "lengthen tick.period_ms or raise the motions' delay_ticks"))
+        out.append(Budget(target, "played frames slipped", slips.slipped, 0, "ticks",
+                          f"motions played a frame a tick: ticks lost against the Python core "
+                          f"(worst {slips.worst_late} late)",
+                          "lengthen tick.period_ms or raise the motions' delay_ticks"))
     central = fw.builds["central"]
     ram = central.ram_bytes
     if target == "pic":

@@ -3,10 +3,12 @@ side, the budgets' table with verdicts."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 from esair_min.verify.run import Report
 
 
-def _table(rows: list[tuple[str, ...]]) -> list[str]:
+def _table(rows: Sequence[tuple[str, ...]]) -> list[str]:
     widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
     return ["  ".join(c.ljust(w) for c, w in zip(r, widths, strict=True)).rstrip() for r in rows]
 
@@ -27,7 +29,7 @@ def report_lines(r: Report) -> list[str]:
         out.append("  covers: " + "; ".join(r.scenario.covers))
     for s in r.scenario.skipped:
         out.append(f"  not covered: {s}")
-    rows = [("target", "events", "seconds", "vs python")]
+    rows: list[tuple[str, ...]] = [("target", "events", "seconds", "vs python")]
     for t in r.targets:
         if t not in r.runs:
             continue
@@ -49,7 +51,7 @@ def report_lines(r: Report) -> list[str]:
         rows = [("target", "budget", "used", "allowed", "share", "verdict")]
         for b in r.budgets:
             rows.append((b.target, b.name, str(b.used), f"{b.allowed} {b.unit}",
-                         f"{b.share:.1%}", "ok" if b.ok else "OVER"))
+                         f"{b.share:.1%}" if b.allowed else "-", "ok" if b.ok else "OVER"))
         out += [""] + _table(rows)
         for b in r.budgets:
             if not b.ok:

@@ -131,8 +131,12 @@ def _budgets(target: str, robot: Robot, fw: Firmware, run: TargetRun, py: Target
         stack = B.pic_stack_bytes(run.sim.output, area, PIC_STACK["size"])
     else:
         elf = central.folder / "firmware.elf"
-        rx, idle = avr_watch(elf)
-        decoder = B.avr_decoder(run.sim, rx, idle, B._rx_stream(script))
+        from esair_min.avr.harness import run_stimulus
+
+        watch = avr_watch(elf)
+        bench = run_stimulus(robot, B.decoder_stimulus(robot), elf, work / "avr-decoder",
+                             isrs=True, watch=watch)
+        decoder = B.avr_decoder(bench, watch[0])
         isr = [s for spans in run.sim.isr_spans().values() for s in spans]
         stack = run.sim.stack_bytes
     return (B.chip_budgets(robot, fw, run, py, decoder, isr, stack, script)

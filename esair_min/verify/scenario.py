@@ -170,7 +170,7 @@ def default_scenario(robot: Robot, targets: tuple[str, ...]) -> Scenario:
         w.comment(f"sensors: '{prefix}'")
         w.send(prefix)
         sc.covers.append(f"{prefix} (sensors)")
-    stop = (by_action.get("stop") or [None])[0]
+    stop = by_action["stop"][0] if by_action.get("stop") else None
     play = [p for p in by_action.get("play", []) if p not in by_action.get("fixed", [])]
     for prefix in play:
         for m in robot.motions:

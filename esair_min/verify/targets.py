@@ -153,16 +153,18 @@ def run_pic(robot: Robot, script: str, fw: Firmware, work: Path,
     return TargetRun("pic", without_marks(run.trace()), sim=run)
 
 
-def avr_watch(elf: Path) -> tuple[int, int]:
-    """The byte addresses of ``hal_uart_rx`` and ``hal_idle`` (the decoder's timing)."""
+def avr_watch(elf: Path) -> tuple[int, ...]:
+    """The byte addresses of ``hal_uart_rx``, ``hal_watchdog_clear`` (called first in
+    every superloop pass) and ``core_rx_end`` (a line end): the decoder's timing."""
     from esair_min.avr.harness import symbol
 
-    return symbol(elf, "hal_uart_rx"), symbol(elf, "hal_idle")
+    return tuple(symbol(elf, name) for name in ("hal_uart_rx", "hal_watchdog_clear",
+                                                "core_rx_end"))
 
 
 def run_avr(robot: Robot, script: str, fw: Firmware, work: Path) -> TargetRun:
     from esair_min.avr.harness import run_stimulus
 
     elf = fw.builds["central"].folder / "firmware.elf"
-    run = run_stimulus(robot, script, elf, work, isrs=True, watch=avr_watch(elf))
+    run = run_stimulus(robot, script, elf, work, isrs=True)
     return TargetRun("avr", without_marks(run.trace()), sim=run)
