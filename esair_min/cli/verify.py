@@ -50,12 +50,13 @@ def verify(robot: str, script: str | None, targets: str | None, as_json: bool,
     budgets (decoder per byte, worst ISR, the tick's bus work, stack, flash, RAM) are
     checked against the board files' settings. Exit status 1 on a difference or a budget
     over; the report says the number and what to change."""
-    from esair_min.cli import load
+    from esair_min.model.validate import load_robot
+    from esair_min.resources import resolve_robot
     from esair_min.verify.report import report_lines
     from esair_min.verify.run import verify as run_verify
     from esair_min.verify.targets import choose_targets
 
-    model = load(robot)
+    model = load_robot(resolve_robot(robot))
     chosen = choose_targets(model, targets)
     text = Path(script).read_text(errors="replace") if script else None
 

@@ -160,7 +160,7 @@ def chip_budgets(robot: Robot, fw: Firmware, run: TargetRun, py: TargetRun,
         s: Any = GpsimSetup.from_robot(robot)
         unit = "instruction cycles"
     else:
-        from esair_min.avr.harness import AvrSetup
+        from esair_min.avr.simavr_harness import AvrSetup
 
         s = AvrSetup.from_robot(robot)
         unit = "cycles"

@@ -131,7 +131,7 @@ def _budgets(target: str, robot: Robot, fw: Firmware, run: TargetRun, py: Target
         stack = B.pic_stack_bytes(run.sim.output, area, PIC_STACK["size"])
     else:
         elf = central.folder / "firmware.elf"
-        from esair_min.avr.harness import run_stimulus
+        from esair_min.avr.simavr_harness import run_stimulus
 
         watch = avr_watch(elf)
         bench = run_stimulus(robot, B.decoder_stimulus(robot), elf, work / "avr-decoder",

@@ -1,10 +1,10 @@
 """The four targets of ``esair verify`` and one run of a stimulus script on each.
 
-- ``python``: the Python core (esair_min.core.harness), run line by line so each trace
+- ``python``: the Python core (esair_min.core.stimulus), run line by line so each trace
   event is known to come from one script line (the command that led to it);
 - ``host``: the generated C core built for the host (``make host``), the same script;
 - ``pic``: the central board built with SDCC, run in gpsim (esair_min.pic.gpsim_harness);
-- ``avr``: the central board built with avr-gcc, run in simavr (esair_min.avr.harness).
+- ``avr``: the central board built with avr-gcc, run in simavr (esair_min.avr.simavr_harness).
 
 A robot's MCUs allow python and host always, and the simulator of its central board's
 part. :func:`build` makes the firmware once (every board for its chip: the flash and RAM
@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from esair_min.core.harness import Rig, run_line
+from esair_min.core.stimulus import Rig, run_line
 from esair_min.core.script import LineError, line_text, script_lines
 from esair_min.core.trace import without_marks
 from esair_min.errors import EsairError, Mark, ProtocolError
@@ -156,14 +156,14 @@ def run_pic(robot: Robot, script: str, fw: Firmware, work: Path,
 def avr_watch(elf: Path) -> tuple[int, ...]:
     """The byte addresses of ``hal_uart_rx``, ``hal_watchdog_clear`` (called first in
     every superloop pass) and ``core_rx_end`` (a line end): the decoder's timing."""
-    from esair_min.avr.harness import symbol
+    from esair_min.avr.simavr_harness import symbol
 
     return tuple(symbol(elf, name) for name in ("hal_uart_rx", "hal_watchdog_clear",
                                                 "core_rx_end"))
 
 
 def run_avr(robot: Robot, script: str, fw: Firmware, work: Path) -> TargetRun:
-    from esair_min.avr.harness import run_stimulus
+    from esair_min.avr.simavr_harness import run_stimulus
 
     elf = fw.builds["central"].folder / "firmware.elf"
     run = run_stimulus(robot, script, elf, work, isrs=True)
