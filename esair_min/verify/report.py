@@ -41,6 +41,9 @@ def report_lines(r: Report) -> list[str]:
     out += [""] + _table(rows)
     for t, cmp in r.comparisons.items():
         for d in cmp.differences:
+            if not d.python and not d.target:          # a simulator's own message
+                out += ["", f"{t}: first difference in {d.part}: {d.note}"]
+                continue
             out += ["", f"{t}: first difference in {d.part} (event {d.index})"
                     + (f", {d.note}" if d.note else "")]
             if d.line:

@@ -57,9 +57,14 @@ def verify(robot: Robot, targets: tuple[str, ...], work: Path, script: str | Non
     on ``targets`` (python first); firmware is built in ``work`` unless given."""
     say = progress or (lambda _text: None)
     start = time.monotonic()
+    from esair_min.verify.omni import is_omni, verify_omni
+
+    if is_omni(robot):
+        return verify_omni(robot, targets, work, script, script_name, say, firmware)
     if robot.central.role != "central" or robot.eeprom is None or not robot.commands:
         raise VerifyError(f"'{robot.name}': esair verify runs robots whose central board has "
-                          "a command table and a motion EEPROM (PAPA-MAN's kind); its "
+                          "a command table and a motion EEPROM (PAPA-MAN's kind) or an omni "
+                          "base (STARFISH's); its "
                           f"central board '{robot.central.board}' has none")
     sc = Scenario(script) if script is not None else default_scenario(robot, targets)
     name = script_name or "default scenario (generated from the board files)"
