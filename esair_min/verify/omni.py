@@ -20,16 +20,14 @@ from __future__ import annotations
 import subprocess
 import time
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from esair_min.model.robot import Robot
 from esair_min.verify.budgets import Budget, memory_budgets
 from esair_min.verify.compare import Comparison, Difference
 from esair_min.verify.scenario import RING, Scenario
+from esair_min.verify.result import Progress, Report
 from esair_min.verify.targets import Firmware, TargetRun, VerifyError
-
-if TYPE_CHECKING:
-    from esair_min.verify.run import Progress, Report
 
 
 def is_omni(robot: Robot) -> bool:
@@ -171,7 +169,6 @@ def budgets(target: str, robot: Robot, fw: Firmware, run: TargetRun, work: Path)
 
 def verify_omni(robot: Robot, targets: tuple[str, ...], work: Path, script: str | None,
                 name: str, say: Progress, firmware: Firmware | None) -> Report:
-    from esair_min.verify.run import Report
     from esair_min.verify.targets import build
 
     start = time.monotonic()

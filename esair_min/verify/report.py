@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-from esair_min.verify.run import Report
+from esair_min.verify.result import Report
 
 
 def _table(rows: Sequence[tuple[str, ...]]) -> list[str]:

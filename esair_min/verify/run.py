@@ -4,50 +4,18 @@ Python core's, the chip simulators' budgets (docs/verify.md)."""
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable
 
 from esair_min.model.robot import Robot
 from esair_min.verify import budgets as B
-from esair_min.verify.compare import Comparison, compare_chip, compare_host
+from esair_min.verify.compare import compare_chip, compare_host
+from esair_min.verify.omni import is_omni, verify_omni
+from esair_min.verify.result import Progress, Report
 from esair_min.verify.scenario import Scenario, default_scenario
 from esair_min.verify.targets import (Firmware, TargetRun, VerifyError, avr_watch, build,
                                       run_avr, run_host, run_pic, run_python)
 
 
-@dataclass
-class Report:
-    robot: str
-    targets: tuple[str, ...]
-    scenario: Scenario
-    script_name: str
-    runs: dict[str, TargetRun] = field(default_factory=dict)
-    comparisons: dict[str, Comparison] = field(default_factory=dict)
-    budgets: list[B.Budget] = field(default_factory=list)
-    seconds: float = 0.0
-
-    @property
-    def ok(self) -> bool:
-        return (all(c.equal for c in self.comparisons.values())
-                and all(b.ok for b in self.budgets))
-
-    def as_dict(self) -> dict[str, Any]:
-        return {
-            "robot": self.robot, "ok": self.ok, "seconds": round(self.seconds, 2),
-            "scenario": {"script": self.script_name, "covers": self.scenario.covers,
-                         "skipped": self.scenario.skipped},
-            "targets": [{"target": t, "seconds": round(self.runs[t].seconds, 2),
-                         "events": len(self.runs[t].trace),
-                         "equal": self.comparisons[t].equal if t in self.comparisons else None,
-                         "differences": [vars(d) for d in self.comparisons[t].differences]
-                         if t in self.comparisons else []}
-                        for t in self.targets if t in self.runs],
-            "budgets": [b.as_dict() for b in self.budgets],
-        }
-
-
-Progress = Callable[[str], None]
 
 
 def verify(robot: Robot, targets: tuple[str, ...], work: Path, script: str | None = None,
@@ -57,8 +25,6 @@ def verify(robot: Robot, targets: tuple[str, ...], work: Path, script: str | Non
     on ``targets`` (python first); firmware is built in ``work`` unless given."""
     say = progress or (lambda _text: None)
     start = time.monotonic()
-    from esair_min.verify.omni import is_omni, verify_omni
-
     if is_omni(robot):
         return verify_omni(robot, targets, work, script, script_name, say, firmware)
     if robot.central.role != "central" or robot.eeprom is None or not robot.commands:

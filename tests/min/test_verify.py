@@ -127,9 +127,13 @@ def test_verify_cli_json_and_exit_status(tmp_path):
 
 # -- boards broken on purpose ---------------------------------------------------------------
 
-def _pic_verify(tmp: Path, folder: Path):
+def _pic_verify(tmp: Path, folder: Path, script: str | None = None):
     robot = load_robot(folder)
-    return verify(robot, ("python", "pic"), tmp / "work")
+    return verify(robot, ("python", "pic"), tmp / "work", script)
+
+
+#: the dance, stopped: a frame write every tick (a short run at a short tick)
+DANCE = "sensor 514 514 514 514 514 514 514 514\nboot\ntick 4\nrx DNC\\r\ntick 60\nrx x\\r\ntick 20\n"
 
 
 def test_a_baud_that_leaves_the_decoder_too_few_cycles_fails_with_its_number(tmp_path):
@@ -147,7 +151,7 @@ def test_a_tick_too_short_for_its_frame_write_fails_with_its_number(tmp_path):
     folder = _copy(tmp_path, "shorttick", edits={"central.yaml": [
         ("period_ms: 8.9856", "period_ms: 2"), ("delay_ticks: 1\n", "delay_ticks: 5\n"),
         ("delay_ticks: 2\n", "delay_ticks: 5\n")]})
-    r = _pic_verify(tmp_path, folder)          # `esair check` passes it: 5 ticks per frame
+    r = _pic_verify(tmp_path, folder, DANCE)   # `esair check` passes it: 5 ticks per frame
     tick = next(b for b in r.budgets if b.name == "tick: frame write")
     assert tick.allowed == 10_000                     # 2 ms at 5 MIPS
     assert not tick.ok and tick.used > 12_000         # a 26-byte write alone is 11 700 on the wire
@@ -191,8 +195,23 @@ def test_a_new_papaman_avr_passes_verify_on_python_host_and_avr(tmp_path):
     r = verify(robot, ("python", "host", "avr"), tmp_path / "work")
     assert r.ok, [vars(d) for c in r.comparisons.values() for d in c.differences]
     budgets = {b.name: b for b in r.budgets}
-    assert budgets["decoder per byte"].allowed == 16667         # 10 bits at 9600 baud, 16 MHz
+    assert budgets["decoder per byte"].allowed == 16640         # 10 bits at UBRR0 103, 16 MHz
     assert 50 <= budgets["decoder per byte"].used <= 1000
     assert 20 <= budgets["stack high-water"].used <= 128
     assert budgets["central RAM"].used > budgets["stack high-water"].used   # data + stack
     assert "reaction auto_balance" in r.scenario.covers
+
+
+# -- STARFISH (an omni base) ---------------------------------------------------------------
+
+def test_a_new_starfish_passes_verify_on_python_host_and_pic(tmp_path):
+    folder = _copy(tmp_path, "rover", source="starfish")
+    robot = load_robot(folder)
+    r = verify(robot, ("python", "host", "pic"), tmp_path / "work")
+    assert r.ok, [vars(d) for c in r.comparisons.values() for d in c.differences]
+    replies = [line for line in r.runs["python"].trace if line.startswith("TX ")]
+    assert "TX E04 outside limits" in replies and "TX !W watchdog stop" in replies
+    budgets = {b.name: b for b in r.budgets}
+    assert budgets["tick: flow reads and sums"].allowed == 49952    # 9.9904 ms at 5 MIPS
+    assert 0 < budgets["line end (V's CR)"].used < budgets["line end (V's CR)"].allowed
+    assert {"central flash", "drive flash", "central RAM", "drive RAM"} <= set(budgets)
