@@ -149,12 +149,18 @@ def _timing(py: TargetRun, chip: TargetRun, pa: list[tuple[int, str]],
         return None
     ta, tb = _ticks(py.trace), _ticks(chip.trace)
     a0, b0 = ta[pa[0][0]], tb[pb[0][0]]
-    for k, ((i, text), (j, _)) in enumerate(zip(pa, pb)):
+
+    def sent_before(i: int) -> tuple[int, int]:
         line = py.causes[i] if i < len(py.causes) else 0
         command = _command(script, line)
-        sent = len(command[3:]) if command.startswith("rx ") else 0
+        return (len(command[3:].split(" (line")[0]) if command.startswith("rx ") else 0), line
+
+    early = tick_tolerance(robot, sent_before(pa[0][0])[0])   # the first write's own lateness
+    for k, ((i, text), (j, _)) in enumerate(zip(pa, pb)):
+        sent, line = sent_before(i)
+        command = _command(script, line)
         drift = (tb[j] - b0) - (ta[i] - a0)
-        if drift < -1 or drift > tick_tolerance(robot, sent):
+        if drift < -early or drift > tick_tolerance(robot, sent):
             return Difference("timing", k + 1, f"{text} at tick {ta[i] - a0} after the first write",
                               f"at tick {tb[j] - b0}", line, command,
                               f"tolerance {tick_tolerance(robot, sent)} tick(s)")

@@ -9,11 +9,13 @@ The firmware of each robot is built once per module; the chip targets need the t
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
 from click.testing import CliRunner
 
+from esair_min.avr.build import build_board as build_avr_board
 from esair_min.cli import main
 from esair_min.errors import ConfigError
 from esair_min.model.validate import load_robot
@@ -215,3 +217,31 @@ def test_a_new_starfish_passes_verify_on_python_host_and_pic(tmp_path):
     assert budgets["tick: flow reads and sums"].allowed == 49952    # 9.9904 ms at 5 MIPS
     assert 0 < budgets["line end (V's CR)"].used < budgets["line end (V's CR)"].allowed
     assert {"central flash", "drive flash", "central RAM", "drive RAM"} <= set(budgets)
+
+
+# -- the stack into the data ------------------------------------------------------------------
+
+PAD = ("void core_tick(void)\n{\n",
+       "void core_tick(void)\n{\n    { volatile uint8_t table[1700]; table[sizeof table - 1u] = 0u; }\n")
+
+
+def test_a_table_on_the_stack_that_reaches_the_data_fails_with_its_number(tmp_path):
+    """No board file brings the stack near the data on these parts (the AVR central's
+    deepest is ~41 B of the 1 722 B left; the PIC's ~56 B of SDCC's 128 B section), so the
+    table is put on the stack in the generated C: a 1 700-byte local in core_tick, which
+    the AVR's stack pointer carries below the end of .bss. Caught with its number."""
+    robot = load_robot(ROOT / "boards" / "papaman-avr")
+    fw = build(robot, ("python", "avr"), tmp_path / "firmware")
+    core = fw.central / "core" / "central.c"
+    text = core.read_text()
+    assert text.count(PAD[0]) == 1
+    core.write_text(text.replace(*PAD))
+    fw.builds["central"] = replace(fw.builds["central"], usage=build_avr_board(fw.central))
+    r = verify(robot, ("python", "avr"), tmp_path / "work",
+               "boot\ntick 4\nrx t\\r\ntick 14\n", firmware=fw)
+    stack = next(b for b in r.budgets if b.name == "stack high-water")
+    data = fw.builds["central"].usage.data_bytes
+    assert stack.allowed == 2048 - data
+    assert not stack.ok and stack.used > 1700
+    assert "RAM" in stack.change
+    assert not r.ok
