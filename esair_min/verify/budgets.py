@@ -189,8 +189,9 @@ def chip_budgets(robot: Robot, fw: Firmware, run: TargetRun, py: TargetRun,
                           f"{c.timer2.period_ms:.3f} ms at {c.i2c.speed_hz} Hz I2C (the tick's "
                           f"whole bus work, with the next frame's read and a sensor poll: "
                           f"worst {max(whole, default=0)} after the tick)",
-                          f"lengthen tick.period_ms to at least {need_ms:.2f}, raise "
-                          f"i2c.speed_hz, or drive fewer servos"))
+                          f"lengthen tick.period_ms to at least {need_ms:.2f} (with "
+                          f"delay_ticks that let the next frame's read follow: esair check), "
+                          f"raise i2c.speed_hz, or drive fewer servos"))
         out.append(Budget(target, "played frames slipped", slips.slipped, 0, "ticks",
                           f"motions played a frame a tick: ticks lost against the Python core "
                           f"(worst {slips.worst_late} late)",

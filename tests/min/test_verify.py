@@ -127,6 +127,17 @@ def test_verify_cli_json_and_exit_status(tmp_path):
     assert "scenario.txt:4:1: bad script line 'frobnicate'" in result.stderr
 
 
+def test_at_115200_baud_the_default_scenario_overruns_the_ring(tmp_path):
+    """103 bytes arrive in a tick: the scenario adds an overrun behind a held write, and
+    the host C answers it as the Python core does (E12)."""
+    folder = _copy(tmp_path, "fastlink", edits={"central.yaml": [("baud: 9600", "baud: 115200")]})
+    r = verify(load_robot(folder), ("python", "host"), tmp_path / "work")
+    assert r.ok and "overrun (E12)" in r.scenario.covers
+    assert "TX " + b"E12 input overrun\r\n".hex().upper() in r.runs["host"].trace
+    slow = verify(load_robot(_copy(tmp_path, "slowlink")), ("python",), tmp_path / "w2")
+    assert any(s.startswith("overrun: at 9600 baud only 9 bytes") for s in slow.scenario.skipped)
+
+
 # -- boards broken on purpose ---------------------------------------------------------------
 
 def _pic_verify(tmp: Path, folder: Path, script: str | None = None):
