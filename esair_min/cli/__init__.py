@@ -9,6 +9,7 @@ import sys
 import click
 
 from esair_min import __version__
+from esair_min.cli import verify as _verify
 from esair_min.cli.pipes import friendly
 from esair_min.resources import resolve_robot
 
@@ -296,6 +297,10 @@ def build(robot: str, output: str) -> None:
 
     for line in summary_lines(build_robot(load(robot), Path(output))):
         click.echo(line)
+
+
+main.add_command(_verify.new)
+main.add_command(_verify.verify)
 
 
 if __name__ == "__main__":  # pragma: no cover
