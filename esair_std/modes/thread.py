@@ -85,6 +85,11 @@ class LocalPort:
     def set_reaction(self, who: str, name: str, enabled: bool) -> None:
         self.rt.bs.set_reaction(name, enabled)
 
+    def stop_robot(self, who: str, reason: str) -> None:
+        """A component's STOP: only one whose entry says ``may_stop: true``."""
+        may_stop(self.rt, who)
+        self.rt.stop_robot(reason, by=who)
+
     # hosts report
     def state_changed(self, name: str, generation: int, phase: str, reason: str) -> None:
         if phase == "failed":
@@ -109,6 +114,16 @@ class LocalPort:
 
     def resource_state_changed(self, resource: str, state: str, reason: str) -> None:
         self.rt.rs.set_state(resource, state, reason)
+
+
+def may_stop(rt: RuntimeView, who: str) -> None:
+    """Refused unless ``who`` is no deployed component, or one whose entry grants it
+    the STOP (``may_stop: true``)."""
+    rec = rt.bs.records.get(who)
+    if rec is not None and rec.spec.options.get("may_stop") is not True:
+        from ..errors import Refused
+        raise Refused(f"{rec.spec.kind} {who!r} may not STOP the robot (its deployment "
+                      f"entry would say 'may_stop: true')")
 
 
 class ThreadMode:

@@ -33,6 +33,11 @@ Resources, named from the board files:
 - ``<entry>.notices`` sensor: every ``!`` line as ``{"notice": text}`` (``R
   auto_balance``, ``E10 no answer on i2c``, ``READY ...``).
 
+The runtime's latched STOP (docs/std.md) holds the link (``halt()``): ``x`` goes at
+once, ahead of every command, and nothing but ``x`` and the polls goes until the
+release; a STOP made while the link is down is written first thing when it is back;
+the firmware's own reaction (``!R``) is answered with ``x`` at once.
+
 An ``Enn`` reply reaches the sender as ``CommandError(resource, "robot refused 'LINE':
 Enn text")``. While the link is down every resource is ``lost`` (``esair std ls`` shows
 the reason) and commands fail at once with ``ResourceLost``; they are ``ready`` again
@@ -364,6 +369,15 @@ class MinLink(Driver):
 
     def resources(self) -> dict[str, Any]:
         return self.children
+
+    def halt(self) -> None:
+        """The runtime's latched STOP: the link sends ``x`` ahead of everything, then
+        refuses every line but the stop and the polls; while down, it sends ``x`` first
+        thing when it comes back (link.py, "Held")."""
+        self.link.hold(True)
+
+    def release(self) -> None:
+        self.link.hold(False)
 
     def close(self) -> None:
         link, emulated = getattr(self, "link", None), getattr(self, "emulated", None)
