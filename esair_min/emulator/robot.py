@@ -195,6 +195,9 @@ class Emulator(SerialHost):
                                 None if instance is None else check_instance(instance))
         self.uart = Uart(self.clock, central.uart.baud, self._feed,
                          rx_mode=self._rx_mode, direct=self._rx_core)
+        self._trace_rx = trace is not None and trace.rx_lines
+        if self._trace_rx:
+            self.uart._direct = self._rx_traced
         self.ticks = 0
         self._feed_pending = False
         self.clock.schedule(self._tick_time(1), self._tick)
@@ -332,7 +335,18 @@ class Emulator(SerialHost):
     def _rx_direct(self, data: bytes) -> None:
         """A run of bytes straight to the decoder (the UART's fast path), recorded."""
         self.transcript.rx(data)           # type: ignore[union-attr]
+        if self._trace_rx:
+            self._rx_trace(data)
         self.core.rx_run(data)
+
+    def _rx_traced(self, data: bytes) -> None:
+        """The UART's fast path with ``RX`` trace lines (``--trace-rx``)."""
+        self._rx_trace(data)
+        self.core.rx_run(data)
+
+    def _rx_trace(self, data: bytes) -> None:
+        self._mark(self.clock.now)
+        self.trace.rx(data)                # type: ignore[union-attr]
 
     def keep_transcript(self) -> Transcript:
         """Record each line the decoder receives with its reply, and the notices
@@ -357,7 +371,7 @@ class Emulator(SerialHost):
         ready, feed = core.ready, core.rx_byte
         tr = self.transcript
         got: list[int] = []                 # for the transcript, handed over in one go
-        keep = got.append if tr is not None else None
+        keep = got.append if tr is not None or self._trace_rx else None
         try:
             while ring and ready():
                 if bus.busy_until > clock.now:
@@ -374,6 +388,8 @@ class Emulator(SerialHost):
         finally:
             if tr is not None:
                 tr.rx_ring(got)
+            if self._trace_rx and got:
+                self._rx_trace(bytes(b & 0xFF for b in got))
 
     def _schedule_noise(self) -> None:
         gap = self._rng.expovariate(self.faults.noise_per_s)
