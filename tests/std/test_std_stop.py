@@ -178,3 +178,49 @@ def test_only_the_operator_releases_and_a_behavior_stops_only_when_granted(start
         assert r.stdout.rstrip().endswith(": running"), r.stdout
     finally:
         emu.stop()
+
+
+def test_a_remote_agents_commands_are_refused_too(tmp_path):
+    """A behavior on another computer (``esair std agent``): its commands go straight
+    to the actuator's host, which refuses them while STOPPED; it is told, and its
+    commands move the robot again after the release."""
+    import subprocess
+    import sys
+
+    from esair_std import Runtime
+    from tests.support.std import free_endpoint
+
+    emu = EmulatedRobot(PAPAMAN)
+    emu.start()
+    dep = example(emu.port)
+    dep["resources"]["papaman"]["allow"]["far"] = "command"
+    rt = Runtime(dep, mode="process", endpoint=free_endpoint())
+    proc = None
+    try:
+        rt.start()
+        proc = subprocess.Popen([sys.executable, "-m", "esair_min.cli", "std", "agent",
+                                 "--connect", rt.endpoint, "far",
+                                 "tests.support.papaman_comps:Nudger",
+                                 "--uses", "papaman.servo.*=command"], cwd=ROOT,
+                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        rt.wait_state("far", "running", timeout=60)
+
+        def far() -> dict:
+            return rt.get("far", timeout=5.0)
+        wait_for(lambda: ["ok", ""] in far()["outcomes"], timeout=20, what="a first move")
+        rt.stop_robot("remote")
+        n = len(far()["outcomes"])
+        got = wait_for(lambda: len(o := far()["outcomes"][n:]) >= 3 and o, timeout=20,
+                       what="the remote behavior's commands while STOPPED")
+        assert all(kind == "CommandError" and REFUSAL.fullmatch(text) for kind, text in got), got
+        assert ["stopped", "operator", "remote"] in far()["told"]
+        rt.release_robot()
+        m = len(far()["outcomes"])
+        wait_for(lambda: ["ok", ""] in far()["outcomes"][m:], timeout=20,
+                 what="its commands going through after the release")
+    finally:
+        if proc is not None:
+            proc.terminate()
+            proc.wait(30)
+        rt.stop()
+        emu.stop()
