@@ -100,8 +100,9 @@ class Actuator(_Agent):
         """The robot is STOPPED (docs/std.md, "The latched stop"): stop moving now
         (send your device's stop; a wheel to zero). Called once per STOP from the
         runtime's thread, not the host's: while a write() may still run; keep it short.
-        Default: nothing (an actuator that does not move by itself). Every write() is
-        refused until the release; release() follows it."""
+        Default: nothing (an actuator that does not move by itself). What it returns,
+        if not None, is recorded as the answer to the command ``"stop"`` (recordings,
+        the HMI's pose). Every write() is refused until the release; release() follows."""
 
     def release(self) -> None:
         """The STOP was released: commands are taken again (starts nothing)."""

@@ -103,6 +103,7 @@ class ResourceHost:
         # command records not yet published (this host's thread only) and when they are due
         self._records: list[dict] = []
         self._records_due = 0.0
+        self._rec_lock = threading.Lock()    # records also come from a STOP's thread
         self.thread = threading.Thread(target=self._main, name=f"esair:{self.name}", daemon=True)
 
     # ---- life cycle (called by the RS / the agent)
@@ -217,11 +218,20 @@ class ResourceHost:
             except queue.Full:             # new commands came meanwhile: refused anyway
                 if item is not None:
                     item[3](False, "command queue full")
+        stopped = False
         for obj in self._movers():
             try:
-                obj.halt()
+                done = obj.halt()
             except Exception as exc:  # noqa: BLE001 - the others are still stopped
                 log.error("%s: halt() raised %s: %s", self.name, type(exc).__name__, exc)
+                continue
+            slot = getattr(obj, "_esair", None)
+            if done is not None and isinstance(slot, Slot) and slot.host is self:
+                # recorded as its command "stop" (recorders, the HMI's pose)
+                self._ran(slot, "stop", None, {"ok": codec.copy(done)})
+                stopped = True
+        if stopped:
+            self._publish_records()
 
     def release(self) -> None:
         """The STOP is released: commands are taken again; nothing is started."""
@@ -404,17 +414,22 @@ class ResourceHost:
         command number, ``t`` when it reached this host (time.time()). Published with the
         others of this entry in one message, at most records.BATCH_S after the first
         (transport/records.py)."""
-        slot.cseq += 1
-        now = time.time()
-        t = now if asked is None else now - (time.monotonic() - asked)
-        if not self._records:
-            self._records_due = time.monotonic() + records.BATCH_S
-        self._records.append(records.record(slot.name, slot.cseq, t, outcome, command))
-        if len(self._records) >= records.BATCH_MAX:
+        with self._rec_lock:
+            slot.cseq += 1
+            now = time.time()
+            t = now if asked is None else now - (time.monotonic() - asked)
+            if not self._records:
+                self._records_due = time.monotonic() + records.BATCH_S
+            self._records.append(records.record(slot.name, slot.cseq, t, outcome, command))
+            full = len(self._records) >= records.BATCH_MAX
+        if full:
             self._publish_records()
 
     def _publish_records(self) -> None:
-        batch, self._records = self._records, []
+        with self._rec_lock:
+            batch, self._records = self._records, []
+        if not batch:
+            return
         try:
             self.port.publish_commands(self.name, batch)
         except Exception as exc:  # noqa: BLE001 - a record lost is not the command's fault

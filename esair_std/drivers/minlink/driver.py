@@ -148,13 +148,21 @@ class MotionActuator(_LinkAgent, Actuator):
             raise CommandError(self.name, str(exc)) from None
         if command in ("stand", {"stand": True}):
             return self._send(line)
-        ex = self._exchange(line)
+        return self._took(self._exchange(line))
+
+    def _took(self, ex: Exchange) -> dict:
         # a play and a stop say when the robot had the whole line (written, then its
         # bytes' time on the wire): the motion starts or stops then, while the reply may
         # come later (behind a feet reply on its way, full duplex); the HMI shows the
         # frame a motion reached from these times (docs/hmi.md)
         took = ex.t_sent + self.link.budget.line_s(ex.sent_bytes)
-        return {"line": line, "at": round(time.time() - (time.monotonic() - took), 4)}
+        return {"line": ex.line, "at": round(time.time() - (time.monotonic() - took), 4)}
+
+    def halt(self) -> Any:
+        """The latched STOP's ``x`` (the driver's halt() sent it): recorded as this
+        actuator's ``stop``, with when the robot had it; None when it could not go."""
+        ex = self.link.last_stop
+        return None if ex is None else self._took(ex)
 
 
 class PolledSensor(Sensor):

@@ -181,6 +181,7 @@ class Link:
         # the latched STOP (hold()): only these lines go while held; every (re)connect
         # then writes the stop line before any other byte
         self._held = False
+        self.last_stop: Exchange | None = None      # the stop line hold() last sent
         self._held_lines = set(_lines_of(self.commands, ("stop", "version", "sensors",
                                                          "odometry")))
 
@@ -330,8 +331,10 @@ class Link:
             ex = self.exchange(self.commands.prefix("stop"), urgent=True)
         except LinkError:
             self.stats.add("stops_failed")
+            self.last_stop = None
             return None
         self.stats.add("stops_sent")
+        self.last_stop = ex
         return ex
 
     def _may_pass(self, line: str) -> bool:
