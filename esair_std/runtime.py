@@ -89,6 +89,7 @@ class Runtime:
         self.bs.on_change = self.rs.on_change = self.note_change
         # the latched STOP (latch.py); ``stopped``: start latched (True, or the reason)
         self.latch = Latch()
+        self._latching = threading.Lock()
         if stopped:
             state, _ = self.latch.stop("operator", stopped if isinstance(stopped, str)
                                        else "started stopped (--stopped)")
@@ -213,20 +214,22 @@ class Runtime:
         Sensors and behaviors go on. Returns the state (``by``, ``t``, ``at``,
         ``reason``); a STOP while stopped stops the devices again and keeps the
         first one's who and when."""
-        state, _new = self.latch.stop(by, reason)
-        self.rs.halt(refusal(state))
-        self.bs.notify_latch(state)
-        self._latch_changed(state)
+        with self._latching:        # a STOP and a release never interleave (two pages)
+            state, _new = self.latch.stop(by, reason)
+            self.rs.halt(refusal(state))
+            self.bs.notify_latch(state)
+            self._latch_changed(state)
         log.warning("STOPPED by %s%s", by, f": {reason}" if reason else "")
         return state
 
     def release_robot(self, by: str = "operator") -> dict:
         """Release the STOP (the operator's deliberate act): commands are taken again;
         nothing starts by itself. ControlError when the robot is not stopped."""
-        was = self.latch.release(by)
-        self.rs.unhalt()
-        self.bs.notify_latch(None, by)
-        self._latch_changed(None, by)
+        with self._latching:
+            was = self.latch.release(by)
+            self.rs.unhalt()
+            self.bs.notify_latch(None, by)
+            self._latch_changed(None, by)
         log.warning("released by %s (stopped by %s at %s)", by, was["by"], was["at"])
         return was
 

@@ -98,16 +98,17 @@ def test_a_stop_latches_until_released(start, tmp_path, how):
         assert all(kind == "CommandError" and REFUSAL.fullmatch(text) for kind, text in got), got
         assert {REFUSAL.fullmatch(text).group(1) for _, text in got} == {by}
         seq = rt.get("sequencer")
-        # the one playing cut, the others dropped (each reported), none left queued
+        # the one playing cut (if one played), the others dropped (each reported)
         assert seq["queued"] == [] and seq["playing"] is None, seq
-        assert len(seq["done"]) + 1 + seq["dropped_total"] == DANCES, seq
+        assert len(seq["done"]) + seq["dropped_total"] in (DANCES - 1, DANCES), seq
         assert ["stopped", by, "the test"] in rt.get("nudger")["told"]
         # the robot's trace, read while it is STOPPED
         lines = trace.read_text().splitlines()
         at, moved = after_stop(lines)
         assert moved == [], moved[:5]
         cut = len(frames(lines))
-        assert cut < DANCE_FRAMES * DANCES and cut % DANCE_FRAMES, cut    # one was cut short
+        # stopped before the last dance ended (maybe between two: nothing to cut then)
+        assert cut < DANCE_FRAMES * DANCES, cut
         # a second STOP keeps the first one's who and when
         assert rt.stop_robot("again", by="someone")["by"] == by
         release(how, rt)
