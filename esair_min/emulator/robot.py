@@ -371,7 +371,7 @@ class Emulator(SerialHost):
         ready, feed = core.ready, core.rx_byte
         tr = self.transcript
         got: list[int] = []                 # for the transcript, handed over in one go
-        keep = got.append if tr is not None or self._trace_rx else None
+        keep = got.append if tr is not None else None
         try:
             while ring and ready():
                 if bus.busy_until > clock.now:
@@ -384,12 +384,12 @@ class Emulator(SerialHost):
                     keep(b)
                 if b & GAP:                 # bytes were lost right before this one
                     core.rx_overrun()
+                if self._trace_rx:          # before the byte: its line's RX before its reply
+                    self._rx_trace(bytes((b & 0xFF,)))
                 feed(b & 0xFF)
         finally:
             if tr is not None:
                 tr.rx_ring(got)
-            if self._trace_rx and got:
-                self._rx_trace(bytes(b & 0xFF for b in got))
 
     def _schedule_noise(self) -> None:
         gap = self._rng.expovariate(self.faults.noise_per_s)

@@ -225,3 +225,53 @@ def test_a_remote_agents_commands_are_refused_too(tmp_path):
             proc.wait(30)
         rt.stop()
         emu.stop()
+
+
+def test_the_firmwares_balance_reaction_is_stopped_while_stopped(start, tmp_path):
+    """PAPA-MAN's firmware reacts by itself: a push fires its balance reaction, which
+    plays a motion (``!R auto_balance``). The firmware has no command to hold its
+    reactions; while STOPPED the link answers each notice with ``x`` at once: in the
+    robot's trace every notice is followed by an ``x``, and after it no frame is
+    written until the reaction fires again (its first frames go before the ``x``
+    arrives: docs/std-papaman.md)."""
+    trace = tmp_path / "trace.txt"
+    emu = EmulatedRobot(PAPAMAN, ["--trace", str(trace), "--trace-rx", "--scenario", "push",
+                                  "--hold-scenario"])
+    emu.start()
+    try:
+        rt = start(example(emu.port), stopped="the push")
+        rt.wait_state("watcher", "running")
+        wait_for(lambda: rt.get("watcher")["samples"] >= 2, timeout=30,
+                 what="the feet's samples")
+        emu.play_scenario()
+        wait_for(lambda: reactions(trace.read_text().splitlines())[0] >= 1, timeout=30,
+                 what="the reaction's notice, then the robot's x")
+        # the host's own reaction (stop, stand) was refused: the robot is STOPPED
+        wait_for(lambda: any("stopped by operator at " in e
+                             for e in rt.get("watcher")["errors"]), timeout=20,
+                 what="the watcher's stop refused")
+        wait_for(lambda: (r := reactions(trace.read_text().splitlines()))[0] == r[1],
+                 timeout=20, what="every notice answered with x")
+    finally:
+        emu.stop()
+    fired, stopped, moved = reactions(trace.read_text().splitlines())
+    assert fired >= 1 and stopped == fired and moved == [], (fired, stopped, moved[:3])
+
+
+NOTICE = "TX " + b"!R auto_balance\r\n".hex().upper()
+
+
+def reactions(lines: list[str]) -> tuple[int, int, list[str]]:
+    """The firmware's reactions (its ``!R`` notices), the ``x`` lines that followed
+    them, and the actuator writes that came while no reaction was playing: after an
+    ``x`` and before the next notice."""
+    fired = stopped = 0
+    quiet, moved = True, []
+    for ln in lines:
+        if ln == NOTICE:
+            fired, quiet = fired + 1, False
+        elif ln == STOP_LINE and fired > stopped:
+            stopped, quiet = stopped + 1, True
+        elif quiet and fired and ln.startswith("W 10 ") and ln.endswith(" ACK"):
+            moved.append(ln)
+    return fired, stopped, moved
