@@ -69,8 +69,8 @@ def _valid_timeout(body: dict) -> bool:
 
 
 def _latch_body(state: dict | None, by: str = "") -> dict:
-    if state is None:
-        return {"stopped": False, "released_by": by}
+    if state is None:          # t: when (a recording orders the states by it)
+        return {"stopped": False, "released_by": by, "t": time.time()}
     return {"stopped": True, **state}
 
 

@@ -54,7 +54,7 @@ class Tap:
             # the latched STOP's state (STOPPED by whom and when, released) on topic LATCH
             self._latches += 1
             v = msg["v"]
-            t = v.get("t") if v.get("stopped") else None
+            t = v.get("t")
             self._queue({"t": "s", "r": LATCH, "q": self._latches,
                          "ts": t if isinstance(t, (int, float)) else time.time(), "v": v})
 

@@ -117,3 +117,44 @@ def test_stop_and_release_racing_from_two_pages_leave_everyone_agreeing(robot, b
     a.close()
     b.close()
     assert errors == more == []
+
+
+def test_an_hmi_started_while_stopped_shows_it_and_a_recording_keeps_it(tmp_path):
+    """The STOP lives in the runtime: an HMI (a bridge) started while it holds shows
+    it from its hello on (an HMI restarted, a page opened later), is told of each
+    change, and a recording holds the state from its start (topic ``latch``)."""
+    from esair_std import Runtime
+    from esair_std.hmi.bridge import Bridge
+    from esair_std.record import read_samples
+    from esair_std.record.recorder import Recorder
+    from tests.support.std import free_endpoint
+
+    dep = {"robot": "t", "resources": {"count": {"class": "tests.support.lean_comps:Counting",
+                                                 "allow": {"*": "read"}}}}
+    rt = Runtime(dep, mode="thread", endpoint=free_endpoint(), control=True,
+                 stopped="maintenance")
+    rt.start()
+    got: list[dict] = []
+    bridge = Bridge(rt.endpoint, got.append)
+    rec = Recorder(rt.endpoint, str(tmp_path / "r.mcap"), ["nothing"])
+    try:
+        bridge.start()
+        hello = bridge.hello()["latch"]
+        assert (hello["stopped"], hello["by"], hello["reason"]) == (True, "operator",
+                                                                   "maintenance")
+        rec.start()
+        rt.release_robot()
+        wait_for(lambda: any(m["t"] == "latch" and m["v"]["stopped"] is False
+                             and m["v"]["released_by"] == "operator" for m in got),
+                 what="the release told")
+        rt.stop_robot("again", by="hmi:ann")
+        wait_for(lambda: bridge.latch.get("by") == "hmi:ann", what="the STOP told")
+    finally:
+        c = rec.stop()
+        bridge.close()
+        rt.stop()
+    assert c["written"] == 3
+    states = [(v["stopped"], v.get("by"), v.get("reason")) for topic, _seq, _t, v
+              in read_samples(tmp_path / "r.mcap") if topic == "latch"]
+    assert states == [(True, "operator", "maintenance"), (False, None, None),
+                      (True, "hmi:ann", "again")]
