@@ -12,9 +12,9 @@ from __future__ import annotations
 
 import threading
 import time
-from typing import Any
+from typing import Any, Mapping
 
-from .errors import ControlError
+from .errors import ControlError, Refused
 
 #: what a refused command's sender reads (by, at as HH:MM:SS local time)
 REFUSAL = "stopped by {by} at {at}: release with esair std release"
@@ -23,6 +23,15 @@ REFUSAL = "stopped by {by} at {at}: release with esair std release"
 def refusal(state: dict[str, Any]) -> str:
     """The text every refused command gets while ``state`` (a STOP) holds."""
     return REFUSAL.format(by=state["by"], at=clock(state["t"]))
+
+
+def may_stop(records: Mapping[str, Any], who: str) -> None:
+    """Refused unless ``who`` is no deployed component (``records``: the BS's), or one
+    whose entry grants it the STOP (``may_stop: true``)."""
+    rec = records.get(who)
+    if rec is not None and rec.spec.options.get("may_stop") is not True:
+        raise Refused(f"{rec.spec.kind} {who!r} may not STOP the robot (its deployment "
+                      f"entry would say 'may_stop: true')")
 
 
 def clock(t: float) -> str:

@@ -10,12 +10,13 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 from ..errors import ComponentError
+from ..latch import may_stop
 from ..level import Level
 from ..classes import component_class
 from ..spec import Spec
 from ..transport import keys
-from .host import ComponentHost
-from .reshost import ResourceHost
+from ..hosts.behavior_host import ComponentHost
+from ..hosts.resource_host import ResourceHost
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..parts import SampleHandle
@@ -87,7 +88,7 @@ class LocalPort:
 
     def stop_robot(self, who: str, reason: str) -> None:
         """A component's STOP: only one whose entry says ``may_stop: true``."""
-        may_stop(self.rt, who)
+        may_stop(self.rt.bs.records, who)
         self.rt.stop_robot(reason, by=who)
 
     # hosts report
@@ -116,16 +117,6 @@ class LocalPort:
         self.rt.rs.set_state(resource, state, reason)
 
 
-def may_stop(rt: RuntimeView, who: str) -> None:
-    """Refused unless ``who`` is no deployed component, or one whose entry grants it
-    the STOP (``may_stop: true``)."""
-    rec = rt.bs.records.get(who)
-    if rec is not None and rec.spec.options.get("may_stop") is not True:
-        from ..errors import Refused
-        raise Refused(f"{rec.spec.kind} {who!r} may not STOP the robot (its deployment "
-                      f"entry would say 'may_stop: true')")
-
-
 class ThreadMode:
     name = "thread"
 
@@ -147,7 +138,7 @@ class ThreadMode:
         cls = component_class(spec.class_path, spec.base_dir, spec.where)
         host = ResourceHost(spec, cls, self.port)
         host.on_failed = lambda reason: self.rt.rs.failed(spec.name, generation, reason)
-        host.start()                  # its device's own open timeout (reshost.OPEN_TIMEOUT)
+        host.start()                  # its device's own open timeout (resource_host.OPEN_TIMEOUT)
         return host
 
     def open(self) -> None:

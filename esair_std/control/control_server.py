@@ -21,6 +21,7 @@ import time
 from typing import TYPE_CHECKING, Any, Callable
 
 from ..errors import ControlError, Refused
+from ..latch import may_stop
 from ..level import Level
 from ..sample import Sample  # noqa: F401 - documented payload type
 from ..transport import keys, wire
@@ -30,7 +31,7 @@ from ..transport.wire import Verbs
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..bs import BehaviorSupervisor
-    from ..operator import Operator
+    from .operator import Operator
     from ..parts import Joins, Mode
     from ..view import Robot
     from ..rs import ResourceSupervisor
@@ -112,7 +113,7 @@ class ControlServer:
             "report": self.v_report, "resstate": self.v_resstate,
             "resinfo": self.v_resstate_get, "hello": self.v_hello,
             "join": self.v_join,
-            # the operator's verbs (esair std sample / send): esair_std/operator.py
+            # the operator's verbs (esair std sample / send): esair_std/control/operator.py
             "sample": self.v_sample, "send": self.v_send,
             # the latched STOP (latch.py): esair std stop / release
             "stop": self.v_stop, "release": self.v_release, "latch": self.v_latch,
@@ -251,7 +252,7 @@ class ControlServer:
 
     def v_ls(self, b: dict) -> list:
         if b.get("all"):                 # every row with the same keys, drivers too
-            from ..listing import components
+            from .listing import components
             return components(self.rt)
         return self.rt.ls()
 
@@ -327,7 +328,7 @@ class ControlServer:
 
     def _op(self) -> Any:
         if self._operator is None:
-            from ..operator import Operator
+            from .operator import Operator
             self._operator = Operator(self.rt)
         return self._operator
 
@@ -343,8 +344,7 @@ class ControlServer:
         reason = b.get("reason") or ""
         if not isinstance(who, str) or not isinstance(reason, str):
             raise ControlError("bad request: 'who' and 'reason' must be text")
-        from .thread import may_stop
-        may_stop(self.rt, who)
+        may_stop(self.bs.records, who)
         return self.rt.stop_robot(reason, by=who)
 
     def v_release(self, b: dict) -> dict:
