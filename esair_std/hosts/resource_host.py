@@ -389,8 +389,8 @@ class ResourceHost:
         except CommandError as exc:
             slot.count("command_errors")
             why = exc.reason
-            if op == "write" and self.halted is not None and "stopped" in why:
-                why = self.halted              # the link refused it: the STOP's words
+            if op == "write" and self.halted is not None:
+                why = self.halted              # STOPPED while it ran: the STOP's words
             on_done(False, why)
             if op == "write":
                 self._ran(slot, args[0], asked, {"error": why})

@@ -295,7 +295,7 @@ class ProcessComponent(_Child):
         self.ask(self.key, {"op": "enable", "enabled": bool(enabled)}, 1.0)
 
     def notify_latch(self, state: dict | None, by: str = "") -> None:
-        if self.phase not in ("failed", "stopped"):
+        if self.phase not in ("failed", "stopped", "lost"):
             self.ask(self.key, {"op": "latch", "state": state, "by": by}, 1.0)
 
     def counters(self) -> dict:
