@@ -36,6 +36,7 @@ class EmulateOptions:
     scenario: str | None = None
     hold_scenario: bool = False   # with --pty: the scenario plays on SIGUSR1, not at boot
     trace: Path | None = None
+    trace_rx: bool = False        # the trace also holds the lines the robot received
     faults: Faults = field(default_factory=Faults)
     speed: float | None = None    # with --pty only; None: real time (1)
     live: bool | None = None      # None: when stdout is a terminal
@@ -196,6 +197,8 @@ def emulate(robot: Robot, opts: EmulateOptions, out: TextIO | None = None,
                                                  buffering=1 if opts.pty else -1))
             except OSError as exc:
                 raise EsairError(f"cannot write the trace {opts.trace}: {exc.strerror}") from None
+        elif opts.trace_rx:
+            raise EsairError("--trace-rx adds to the trace: give --trace FILE too")
         instance = opts.instance
         if instance is None and opts.pty:      # each boot on a pty is a robot of its own
             instance = secrets.token_hex(4)

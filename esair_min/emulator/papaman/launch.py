@@ -34,6 +34,7 @@ class PapamanRun:
             from esair_min.emulator.tracefile import FileTraceWriter
 
             writer = FileTraceWriter(trace)
+            writer.rx_lines = opts.trace_rx
         self.sim = Emulator(robot, scenario=opts.scenario, faults=opts.faults, trace=writer,
                             eeprom_image=image, transcript=live, instance=instance,
                             hold_scenario=opts.hold_scenario)

@@ -195,6 +195,9 @@ class Emulator(SerialHost):
                                 None if instance is None else check_instance(instance))
         self.uart = Uart(self.clock, central.uart.baud, self._feed,
                          rx_mode=self._rx_mode, direct=self._rx_core)
+        self._trace_rx = trace is not None and trace.rx_lines
+        if self._trace_rx:
+            self.uart._direct = self._rx_traced
         self.ticks = 0
         self._feed_pending = False
         self.clock.schedule(self._tick_time(1), self._tick)
@@ -332,7 +335,18 @@ class Emulator(SerialHost):
     def _rx_direct(self, data: bytes) -> None:
         """A run of bytes straight to the decoder (the UART's fast path), recorded."""
         self.transcript.rx(data)           # type: ignore[union-attr]
+        if self._trace_rx:
+            self._rx_trace(data)
         self.core.rx_run(data)
+
+    def _rx_traced(self, data: bytes) -> None:
+        """The UART's fast path with ``RX`` trace lines (``--trace-rx``)."""
+        self._rx_trace(data)
+        self.core.rx_run(data)
+
+    def _rx_trace(self, data: bytes) -> None:
+        self._mark(self.clock.now)
+        self.trace.rx(data)                # type: ignore[union-attr]
 
     def keep_transcript(self) -> Transcript:
         """Record each line the decoder receives with its reply, and the notices
@@ -370,6 +384,8 @@ class Emulator(SerialHost):
                     keep(b)
                 if b & GAP:                 # bytes were lost right before this one
                     core.rx_overrun()
+                if self._trace_rx:          # before the byte: its line's RX before its reply
+                    self._rx_trace(bytes((b & 0xFF,)))
                 feed(b & 0xFF)
         finally:
             if tr is not None:
