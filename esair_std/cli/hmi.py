@@ -12,6 +12,7 @@ import sys
 
 import click
 
+from esair_min import sigs
 from esair_min.cli.pipes import friendly
 
 from ..words import counted
@@ -91,7 +92,8 @@ def hmi_cmd(endpoint: str | None, listen: str, password_file: str | None,
         stop = asyncio.Event()
         loop = asyncio.get_running_loop()
         for sig in (signal.SIGINT, signal.SIGTERM):
-            loop.add_signal_handler(sig, stop.set)
+            if not sigs.ignored(sig):           # a background job keeps its ignore
+                loop.add_signal_handler(sig, stop.set)
 
         def ready(url: str) -> None:
             click.echo(url)
@@ -149,8 +151,8 @@ def record_cmd(out: str, names: tuple[str, ...], endpoint: str | None,
     from ..record import Recorder
     rec = Recorder(endpoint or default_endpoint(), out, list(names))
     stop = threading.Event()
-    signal.signal(signal.SIGTERM, lambda *_: stop.set())
-    signal.signal(signal.SIGINT, lambda *_: stop.set())
+    sigs.install(signal.SIGTERM, lambda *_: stop.set())
+    sigs.install(signal.SIGINT, lambda *_: stop.set())
     rec.start()
     click.echo(f"recording to {out}", err=True)
     stop.wait(seconds)
