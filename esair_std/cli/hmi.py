@@ -17,6 +17,7 @@ from esair_min.cli.pipes import friendly
 
 from ..words import counted
 from .client import default_endpoint
+from .options import exposure, insecure_option
 
 DEFAULT_LISTEN = "127.0.0.1:8080"
 
@@ -65,23 +66,26 @@ def tls_context(cert: str | None, key: str | None, client_ca: str | None) -> ssl
               help="Require browser certificates signed by this CA; such pages are operators.")
 @click.option("--record-dir", default=".", show_default=True, type=click.Path(file_okay=False),
               help="Where the page's record button writes its MCAP files (and replay reads).")
+@insecure_option()
 @friendly
 def hmi_cmd(endpoint: str | None, listen: str, password_file: str | None,
             tls_cert: str | None, tls_key: str | None, client_ca: str | None,
-            record_dir: str) -> None:
+            record_dir: str, insecure: bool) -> None:
     """Serve the robot's remote control center: live link state, pose, joints,
     feet, components and log in a browser; commands through the RS as principal
     `hmi` (the deployment's `allow` decides what it may command). Prints the URL on
     its first line and serves until Ctrl-C."""
     import logging
 
-    from ..hmi.auth import Auth
+    from ..hmi.auth import LOOPBACK, Auth
     from ..hmi.server import HmiServer
 
     host, port = split_listen(listen)
     tls = tls_context(tls_cert, tls_key, client_ca)
     auth = Auth.from_options(host, password_file, dict(os.environ),
-                             client_certs=bool(client_ca))
+                             client_certs=bool(client_ca), insecure=insecure)
+    if insecure and auth.open and host not in LOOPBACK:
+        exposure(f"listening on {host}", "", insecure)     # the warning
     os.environ.pop("ESAIR_HMI_PASSWORD", None)      # hashed in auth; not kept in the clear
     logging.basicConfig(level=logging.WARNING, format="hmi: %(message)s")
     logging.getLogger("websockets").setLevel(logging.ERROR)

@@ -19,7 +19,8 @@ from ..errors import ControlError, TransportError
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..runtime import Runtime
-from .options import endpoint_option
+from ..endpoint import reaches_beyond
+from .options import endpoint_option, exposure, insecure_option
 from .table import table as _table
 
 
@@ -103,10 +104,12 @@ INTERRUPTED = 130
                    "docs/hmi.md) and print its URL.")
 @click.option("--hmi-listen", default="127.0.0.1:8080", show_default=True,
               metavar="HOST:PORT", help="Where --hmi serves the page.")
+@insecure_option()
 @friendly
 def run_cmd(deployment: str, mode: str | None, seconds: float | None, endpoint: str | None,
             no_control: bool, port: str | None, trace: str | None, scenario: str | None,
-            top: bool | None, join: tuple[str, ...], hmi: bool, hmi_listen: str) -> None:
+            top: bool | None, join: tuple[str, ...], hmi: bool, hmi_listen: str,
+            insecure: bool) -> None:
     """Deploy FILE (a deployment file, or a bundled example such as `lab`) and run it
     until Ctrl-C (exit status 130), or for --run SECONDS (exit status 1, naming them,
     when components are failed at the end). Other terminals control it
@@ -131,6 +134,9 @@ def run_cmd(deployment: str, mode: str | None, seconds: float | None, endpoint: 
         rt.control = True
     if hmi and not rt.control:
         raise ControlError("--hmi needs the control endpoint (drop --no-control)")
+    if rt.control and reaches_beyond(rt.endpoint) and not _secured(rt):
+        exposure(f"listening on {rt.endpoint}", "TLS client certificates (a tls/ endpoint) "
+                 "or logins: a security section (docs/std-network.md)", insecure)
     stop = threading.Event()
     failed: list[dict] = []
     ctrl_c = _CtrlC(stop)
@@ -147,7 +153,7 @@ def run_cmd(deployment: str, mode: str | None, seconds: float | None, endpoint: 
             child = None
             if hmi:
                 from ..hmi.child import HmiChild
-                child = HmiChild(rt.local_endpoint or rt.endpoint, hmi_listen)
+                child = HmiChild(rt.local_endpoint or rt.endpoint, hmi_listen, insecure=insecure)
                 click.echo(f"hmi: {child.start()}", err=True)
             if top is None:
                 top = seconds is None and sys.stdout.isatty()
@@ -217,6 +223,16 @@ class _CtrlC:
         self.stop.set()
         if first and not self.started:
             raise KeyboardInterrupt
+
+
+def _secured(rt: Runtime) -> bool:
+    """Whether only those who prove who they are reach the control endpoint: TLS with
+    client certificates on a tls/ or quic/ endpoint, or Zenoh logins."""
+    sec = getattr(rt.deployment, "security", None)
+    if sec is None:
+        return False
+    tls = rt.endpoint.startswith(("tls/", "quic/")) and sec.cert is not None and sec.mtls
+    return bool(tls or sec.users is not None)
 
 
 def _plain(exc: Exception, endpoint: str) -> Exception:
