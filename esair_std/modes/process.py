@@ -58,7 +58,9 @@ def agent_command(endpoint: str, robot: str, spec: Spec, generation: int) -> lis
         # 0.57 s instead of 0.08 s); without it open takes ~1 ms, and the agent asks
         # again until the runtime answers its hello (agent.py)
         options["open/return_conditions/connect_scouted"] = False
-    return [sys.executable, "-m", "esair_std.modes.agent", "--connect", endpoint,
+    # -P: the folder it starts in is not put on sys.path (a numpy.py there shadows
+    # nothing); the deployment's own modules are found by the class importer (classes.py)
+    return [sys.executable, "-P", "-m", "esair_std.modes.agent", "--connect", endpoint,
             "--robot", robot, "--generation", str(generation),
             "--spec", json.dumps(spec.to_json()), "--session-options", json.dumps(options)]
 
@@ -103,7 +105,7 @@ class _Child:
         self.proc = subprocess.Popen(
             agent_command(self.mode.rt.local_endpoint or self.mode.rt.endpoint, self.robot,
                           self.spec, self.generation),
-            stdin=subprocess.PIPE, env=env, cwd=self.mode.rt.base_dir)
+            stdin=subprocess.PIPE, env=env)   # in the user's folder: relative paths as in thread mode
         self.pid = self.proc.pid
         self.mode.threads.start(self._watch_exit, self.proc.pid, name=f"esair:exit:{self.name}")
 
