@@ -15,7 +15,7 @@ import click
 from esair_min import sigs
 from esair_min.cli.pipes import friendly
 
-from ..words import counted
+from ..plurals import counted
 from .client import default_endpoint
 from .options import exposure, insecure_option
 
