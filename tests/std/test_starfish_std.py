@@ -106,6 +106,21 @@ def _sound_turns_and_shoots(rt, store):
     no_failures(rt)
 
 
+def test_one_slow_wheel_reply_does_not_abort_the_shot(start, tmp_path):
+    """The first turn command's reply comes 1 s late (past its 0.5 s timeout): the next
+    step sends again and the shot goes on to its picture (issue 34 item 4)."""
+    dep = starfish([1.5, 1.5, 0.0], [[1.5, 1.5], [2.3, 1.5]], tmp_path)
+    dep["resources"]["starfish"]["class"] = "tests.support.starfish_comps:SlowWheelsOnce"
+    rt = start(dep)
+    get_when(rt, "patrol", lambda p: p["reached"] >= 1, 30, "patrol to reach a waypoint")
+    rt.configure("starfish.mics", "source", {"x": 1.0, "y": 3.5, "on": True})
+    ts = get_when(rt, "turn_and_shoot", lambda r: r["shots"] or r["aborted"], 30, "a picture")
+    assert (ts["shots"], ts["aborted"]) == (1, 0), ts
+    assert ts["missed"] >= 1                  # the slow reply was met, and sent again
+    assert json.loads((tmp_path / "starfish-00001.json").read_text()) == ts["last"]
+    no_failures(rt)
+
+
 def test_out_of_range_reconnect_drives_back_and_patrol_goes_on(start, tmp_path):
     # from (2.5, 3.2) toward (4.8, 3.2): the link is cut 3.0 m from the access point
     rt = start(starfish([2.5, 3.2, 0.0], [[4.8, 3.2], [1.5, 3.2]], tmp_path))
