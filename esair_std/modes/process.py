@@ -65,6 +65,12 @@ def agent_command(endpoint: str, robot: str, spec: Spec, generation: int) -> lis
             "--spec", json.dumps(spec.to_json()), "--session-options", json.dumps(options)]
 
 
+def _how_it_ended(status: int | None) -> str:
+    if status is not None and status < 0:
+        return f"was killed by signal {-status}"
+    return f"exited with status {status}" if status is not None else "exited"
+
+
 class _Child:
     """What component and resource proxies share: the process, hello, stop."""
 
@@ -133,8 +139,8 @@ class _Child:
             if self.hello.is_set():
                 break
             if self.ended.is_set():
-                raise ComponentError(f"{self.spec.kind} {self.name!r}: its process exited"
-                                     f" with status {self.exited()} before it started")
+                raise ComponentError(f"{self.spec.kind} {self.name!r}: its process "
+                                     f"{_how_it_ended(self.exited())} before it started")
             left = deadline - time.monotonic()
             if left <= 0:
                 self.kill()
@@ -152,7 +158,13 @@ class _Child:
             return None
 
     def exited(self) -> int | None:
-        return self.proc.poll() if self.proc is not None else None
+        """Its exit status once it ended (reaped here; negative: the signal's number)."""
+        if self.proc is None:
+            return None
+        if self.ended.is_set():
+            with contextlib.suppress(subprocess.TimeoutExpired):
+                return self.proc.wait(1.0)
+        return self.proc.poll()
 
     def kill(self) -> None:
         if self.proc is None:
