@@ -544,6 +544,9 @@ def test_papaman_from_the_command_line(robot, mode):
     assert (r.returncode, r.stdout) == (0, '"t"\n'), r.stderr
     feet = json.loads(esair("sample", "papaman.feet", "-e", ep).stdout)
     assert feet["groups"] == {"left_foot": 2048, "right_foot": 2048}
+    # a setting it has not: the settings it has are listed
+    assert error_of("configure", "papaman.feet", "gain", "2", "-e", ep) == (
+        1, "error: papaman.feet: no setting 'gain' (settings: rate_hz, feet_hz)\n")
 
 
 @pytest.mark.pty
