@@ -114,9 +114,11 @@ class App {
     });
   }
 
+  // A command; its line in the log comes from the server (every page's, refused or not),
+  // the page adds one only when the server could not (not connected).
   async command(resource, command) {
     const r = await this.send({ op: "cmd", resource, command });
-    if (!r.ok) this.log.add("error", `${resource} ${JSON.stringify(command)}: ${r.error}`);
+    if (!r.ok && !r.logged) this.log.add("error", `${resource} ${JSON.stringify(command)}: ${r.error}`);
     return r;
   }
 
@@ -135,7 +137,7 @@ class App {
 
   async stop() {
     const r = await this.send({ op: "stop" });
-    if (!r.ok) this.log.add("error", `STOP: ${r.error}`);
+    if (!r.ok && !r.logged) this.log.add("error", `STOP not sent: ${r.error}`);
   }
 
   async login() {
