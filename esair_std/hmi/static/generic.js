@@ -285,6 +285,7 @@ class State {
     this.dial = null; this.box = box; box.append(this.list);
   }
   push(v, bearing) {
+    this.value = v;
     showFields(this.list, v);
     this.bearing = bearing;
     if (bearing && !this.dial) {
