@@ -65,8 +65,8 @@ def test_a_refused_stop_is_logged_as_refused_not_as_a_stop(robot, browser):
         assert r.get("logged") is True, r
         # the page itself adds nothing (the server's line is the one)
         page.click("#stop")
-        page.wait_for_function(f"() => [...document.querySelectorAll('#log li')]"
-                               f".filter(li => li.textContent.includes('STOP')).length >= 2")
+        page.wait_for_function("() => [...document.querySelectorAll('#log li')]"
+                               ".filter(li => li.textContent.includes('STOP')).length >= 2")
         stops = [ln for ln in page.evaluate(LOG_LINES) if "STOP" in ln]
         assert all("refused on papaman.motion" in ln for ln in stops), stops
     finally:
@@ -166,7 +166,7 @@ def test_on_a_phone_the_header_is_one_row_and_stop_covers_no_heading(robot, brow
     assert max(mids) - min(mids) <= 4, rows                 # one row
     page.evaluate("() => window.scrollTo(0, document.body.scrollHeight)")
     box = page.locator("#stop").bounding_box()
-    assert box is not None and 0 <= box["y"] and box["y"] + box["height"] <= 844
+    assert box is not None and box["y"] >= 0 and box["y"] + box["height"] <= 844
     assert page.locator("#stop").is_visible()
     table = page.evaluate("""() => { const t = document.querySelector('#components'),
         s = t.parentElement;
