@@ -140,7 +140,7 @@ class Bridge:
         """Its counters, and ``foreign_answers``: control answers from another runtime
         of the robot's name than the one at the endpoint, ignored (transport/bus.py)."""
         bus = self.bus
-        return dict(self.c.snapshot(), foreign_answers=bus.c_foreign if bus is not None else 0)
+        return dict(self.c.snapshot(), foreign_answers=bus.c["foreign_answers"] if bus is not None else 0)
 
     def call(self, verb: str, body: dict | None = None, timeout: float = 5.0) -> Any:
         """One control request; the ``ok`` value, or BridgeError with the runtime's
