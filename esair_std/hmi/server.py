@@ -76,6 +76,12 @@ def _compact(value: Any) -> str:
     return json.dumps(value, separators=(",", ":"))
 
 
+def _unnamed(why: str, res: str) -> str:
+    """A refusal's reason without the resource's name it starts with (the log's line
+    names it already)."""
+    return why[len(res) + 2:] if why.startswith(res + ": ") else why
+
+
 class BadFrame(Exception):
     pass
 
@@ -385,7 +391,7 @@ class HmiServer:
             self._log("info", f"{what} -> {_compact(r)}")
             self._reply(page, ident, True, r)
         else:
-            self._log("error", f"{what} refused: {r}")
+            self._log("error", f"{what} refused: {_unnamed(r, res)}")
             self._reply(page, ident, False, r, logged=True)
 
     async def op_stop(self, page: Page, ident: Any, obj: dict) -> None:
@@ -409,7 +415,7 @@ class HmiServer:
             self._log("warning", f"STOP by {who}"
                       + (f" on {', '.join(went)}" if refused else ""))
         for res, why in refused.items():
-            self._log("error", f"STOP by {who} refused on {res}: {why}")
+            self._log("error", f"STOP by {who} refused on {res}: {_unnamed(why, res)}")
         if refused:
             self._reply(page, ident, False, "; ".join(f"{res}: {why}" for res, why in refused.items()),
                         logged=True)

@@ -41,6 +41,7 @@ def test_a_refused_slider_goes_back_to_the_robots_angle_with_the_reason(robot, b
     lines = [ln for ln in page.evaluate(LOG_LINES) if '"angle":400' in ln or "'angle': 400" in ln
              or '"angle": 400' in ln]
     assert len(lines) == 1 and "refused" in lines[0], lines
+    assert lines[0].count("papaman.servo.r_knee") == 1 and "outside its limits" in lines[0], lines
     slider.fill("95")                               # went through: the reason goes
     page.wait_for_function("() => document.querySelector("
                            "'#joints label:has(input[data-servo=r_knee]) .why').hidden")
@@ -62,6 +63,7 @@ def test_a_refused_stop_is_logged_as_refused_not_as_a_stop(robot, browser):
         new = page.evaluate(LOG_LINES)[: len(page.evaluate(LOG_LINES)) - before]
         stops = [ln for ln in new if "STOP" in ln]
         assert len(stops) == 1 and "refused on papaman.motion" in stops[0], stops
+        assert stops[0].count("papaman.motion") == 1, stops     # named once
         assert r.get("logged") is True, r
         # the page itself adds nothing (the server's line is the one)
         page.click("#stop")
