@@ -234,7 +234,7 @@ class App {
     } else { this.generic.sample(m); this.dirty = true; }
   }
 
-  // A command that went through (`played`: where a motion is, server.py _played_at: the
+  // A command that went through (`played`: where a motion is, commanded.py played_at: the
   // ms it has played, stopped or not; sent with a STOP and to a page opened later, so
   // every page shows the frame the motion had reached, from the same numbers).
   commanded(res, v, played) {
