@@ -53,7 +53,9 @@ export class Joints {
   // the robot's angle (unless it is still being dragged) and the reason shows beside it.
   answered(servo, r) {
     const [input, out, , why] = this.inputs[servo];
-    why.hidden = r.ok; why.textContent = r.ok ? "" : `refused: ${r.error}`;
+    const res = `${this.entry}.servo.${servo}: `;        // the row names it already
+    const reason = r.ok ? "" : String(r.error).startsWith(res) ? r.error.slice(res.length) : r.error;
+    why.hidden = r.ok; why.textContent = r.ok ? "" : `refused: ${reason}`;
     why.title = why.textContent;
     if (r.ok || input.dataset.dragging) return;
     const angle = this.held[servo];
