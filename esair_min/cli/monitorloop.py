@@ -85,11 +85,13 @@ class Monitor:
 
 def _reader(ser: Any, mon: Monitor, robot: Robot | None, stop: threading.Event,
             lost: list[str]) -> None:
+    import serial
+
     buf = bytearray()
     while not stop.is_set():
         try:
             got = ser.read(256)
-        except Exception as exc:          # pySerial raises several kinds; all end it
+        except (serial.SerialException, OSError, ValueError) as exc:
             from esair_min.serialport import describe
 
             lost.append(describe(exc))
@@ -118,7 +120,7 @@ def run_monitor(port: str, baud: int, robot: Robot | None, log_path: Path | None
     log = None
     if log_path is not None:
         try:
-            log = log_path.open("a", encoding="utf-8")  # noqa: SIM115 (closed below)
+            log = log_path.open("a", encoding="utf-8")  # closed in the finally below
         except OSError as exc:
             raise EsairError(f"cannot write {log_path}: {exc.strerror}") from None
     try:
