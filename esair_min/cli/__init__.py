@@ -315,10 +315,11 @@ def build(robot: str, output: str) -> None:
                        f"{fuses.describe()} (esair flash --programmer NAME --fuses)")
 
 
-from esair_min.cli.flash import flash, monitor  # noqa: E402  (commands of real boards)
+from esair_min.cli.flash import flash, monitor, run  # noqa: E402  (commands of real boards)
 
 main.add_command(flash)
 main.add_command(monitor)
+main.add_command(run)
 
 main.add_command(_verify.new)
 main.add_command(_verify.verify)

@@ -26,16 +26,18 @@ class _Bar:
 
     def __init__(self, tty: bool) -> None:
         self.tty = tty
-        self.last: tuple[str, int] = ("", -1)
+        self.shown: tuple[str, int] = ("", -1)
 
     def __call__(self, phase: str, percent: int) -> None:
         if self.tty:
             filled = percent * 30 // 100
             click.echo(f"\r{phase:<9} [{'#' * filled}{'.' * (30 - filled)}] {percent:3d}%",
                        nl=percent >= 100, err=True)
-        elif percent % 25 == 0 and (phase, percent) != self.last:
-            click.echo(f"{phase}: {percent}%", err=True)
-        self.last = (phase, percent)
+            return
+        quarter = percent // 25
+        if (phase, quarter) != self.shown:
+            click.echo(f"{phase}: {quarter * 25}%", err=True)
+            self.shown = (phase, quarter)
 
 
 def _flash_pic(hex_path: Path, port: str, baud: int | None, progress: _Bar) -> None:
@@ -147,3 +149,75 @@ def monitor(port: str, baud: int, robot: str | None, log_path: str | None) -> No
     if robot:
         model = _load(robot)
     sys.exit(run_monitor(port, baud, model, Path(log_path) if log_path else None))
+
+
+def _ports(ports: tuple[str, ...], model: Robot) -> dict[str, str]:
+    """``--port PORT`` (the central board's) and ``--port BOARD=PORT``, by board role."""
+    out: dict[str, str] = {}
+    roles = [b.role for b in model.boards]
+    central = model.central.role if model.central is not None else roles[0]
+    for item in ports:
+        role, sep, port = item.partition("=")
+        if not sep:
+            role, port = central, item
+        if role not in roles:
+            raise click.BadParameter(f"{item!r}: robot '{model.name}' has no board '{role}' "
+                                     f"(its boards: {', '.join(roles)})", param_hint="'--port'")
+        out[role] = port
+    if central not in out:
+        raise click.BadParameter(f"give the {central} board's port (--port PORT): the "
+                                 "monitor watches it", param_hint="'--port'")
+    return out
+
+
+@click.command(short_help="Build, flash what changed, then monitor a real robot.")
+@click.argument("robot", metavar="ROBOT")
+@click.option("--port", "ports", multiple=True, required=True, metavar="[BOARD=]PORT",
+              help="The central board's port; BOARD=PORT for another board (repeatable).")
+@click.option("--bootloader", type=click.Choice(["optiboot", "atmegaboot"]), default="optiboot",
+              show_default=True, help="The boards' bootloader (as esair flash).")
+@click.option("--attempts", type=click.IntRange(1, 20), default=3, show_default=True,
+              help="Times avrdude tries to reach a bootloader.")
+@click.option("-o", "--output", "build_dir", metavar="DIR",
+              help="The build folder (default build/ROBOT).")
+@click.option("--log", "log_path", type=click.Path(dir_okay=False), metavar="FILE",
+              help="The monitor's log (as esair monitor --log).")
+@friendly
+def run(robot: str, ports: tuple[str, ...], bootloader: str, attempts: int,
+        build_dir: str | None, log_path: str | None) -> None:
+    """Build the robot (if a board file changed), flash each board given a port unless
+    its flash already holds the built firmware (read back and compared through its
+    bootloader), then monitor the central board as esair monitor does (Ctrl-C ends it).
+    """
+    from esair_min.cli.monitorloop import run_monitor
+    from esair_min.flash.avr import AvrFlash, flash_avr, holds_image
+    from esair_min.flash.firmware import firmware
+    from esair_min.flash.portlock import PortLock
+
+    model = _load(robot)
+    by_role = _ports(ports, model)
+    out = Path(build_dir) if build_dir else Path("build") / model.name
+    bar = _Bar(sys.stderr.isatty())
+    for role, port in by_role.items():
+        fw = firmware(model, out, role)
+        if fw.built:
+            click.echo(f"built {out}", err=True)
+        if fw.part == "pic18f452":
+            with PortLock(port):
+                _flash_pic(fw.hex_path, port, None, bar)
+            click.echo(f"{role}: written to {port} and verified")
+            continue
+        plan = AvrFlash(fw.hex_path, port, fw.part, "arduino", bootloader, None, attempts)
+        with PortLock(port) as lock:
+            if holds_image(plan, bar, watch_fd=lock.fd):
+                click.echo(f"{role}: {port} already holds the built firmware: not flashed")
+                continue
+            flash_avr(plan, bar, watch_fd=lock.fd)
+        click.echo(f"{role}: {fw.image_bytes()} bytes written to {port} and verified")
+    click.echo("motions: not written by this version (the EEPROM writer comes with issue 32 "
+               "item 2); the board's !READY says whether its image checks", err=True)
+    central = model.central.role if model.central is not None else model.boards[0].role
+    board = model.board(central)
+    baud = board.uart.baud if board is not None and board.uart is not None else 9600
+    sys.exit(run_monitor(by_role[central], baud, model,
+                         Path(log_path) if log_path else None))

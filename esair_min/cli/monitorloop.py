@@ -143,7 +143,8 @@ def run_monitor(port: str, baud: int, robot: Robot | None, log_path: Path | None
             pass
     print(f"monitoring {port}" + (f" at {baud} baud" if "://" not in port else "")
           + ": type a command and Enter to send it; Ctrl-C ends", file=sys.stderr)
-    threading.Thread(target=_reader, args=(ser, mon, robot, stop, lost), daemon=True).start()
+    reader = threading.Thread(target=_reader, args=(ser, mon, robot, stop, lost), daemon=True)
+    reader.start()
     status = 130
     try:
         while True:
@@ -167,6 +168,7 @@ def run_monitor(port: str, baud: int, robot: Robot | None, log_path: Path | None
         status = 0
     finally:
         stop.set()
+        reader.join(2.0)               # its reads time out in 0.1 s: then the port closes
         if tty:
             import readline
 

@@ -78,6 +78,7 @@ class AvrFlash:
     baud: int | None = None
     attempts: int = 3
     fuses: Fuses | None = None
+    verify_only: bool = False      # compare the chip's flash with the .hex, write nothing
 
     @property
     def through_bootloader(self) -> bool:
@@ -98,8 +99,8 @@ class AvrFlash:
             # the bootloader cannot erase the whole chip (it would erase itself): pages are
             # erased as they are written
             cmd += ["-x", f"attempts={self.attempts}", "-D"]
-        cmd += [f"-Uflash:w:{self.hex_path}:i"]
-        if self.fuses is not None:
+        cmd += [f"-Uflash:{'v' if self.verify_only else 'w'}:{self.hex_path}:i"]
+        if self.fuses is not None and not self.verify_only:
             cmd += self.fuses.args()
         return cmd
 
@@ -113,29 +114,28 @@ def avrdude_path() -> str:
 
 
 class _Output:
-    """avrdude's stderr read as it comes: its progress bars (50 '#' each) and its text."""
+    """avrdude's output read as it comes: its progress bars ("Writing |" or "Reading |",
+    then 50 '#') reported every 10 %, and its text."""
 
     def __init__(self, progress: Progress | None) -> None:
         self.progress = progress
         self.text: list[str] = []
-        self.phase = ""
-        self.hashes = 0
         self.phases: list[str] = []
+        self.steps: list[int] = []
 
     def feed(self, chunk: str) -> None:
         self.text.append(chunk)
-        text = self.all
-        for word, phase in (("Writing |", "writing"), ("Reading |", "verifying")):
-            if text.count(word) > self.phases.count(phase):
-                self.phases.append(phase)
-                self.phase, self.hashes = phase, -1
-        if not self.phase:
-            return
-        bar = text.rsplit("Writing |" if self.phase == "writing" else "Reading |", 1)[1]
-        hashes = bar.split("|", 1)[0].count("#")
-        if hashes // 5 != self.hashes // 5 and self.progress is not None:
-            self.progress(self.phase, 2 * hashes)
-        self.hashes = hashes
+        parts = re.split(r"(Writing \||Reading \|)", self.all)
+        for i in range(1, len(parts), 2):
+            n = i // 2
+            if n == len(self.phases):
+                self.phases.append("writing" if parts[i][0] == "W" else "verifying")
+                self.steps.append(-1)
+            step = parts[i + 1].split("|", 1)[0].count("#") // 5
+            for s in range(self.steps[n] + 1, step + 1):
+                if self.progress is not None:
+                    self.progress(self.phases[n], 10 * s)
+            self.steps[n] = max(self.steps[n], step)
 
     @property
     def all(self) -> str:
@@ -189,6 +189,22 @@ def flash_avr(plan: AvrFlash, progress: Progress | None = None, timeout: float =
     if status != 0:
         raise FlashError(explain(out.all, plan, out.phases))
     return out.all
+
+
+def holds_image(plan: AvrFlash, progress: Progress | None = None,
+                watch_fd: int | None = None) -> bool:
+    """Whether the chip's flash already holds ``plan``'s .hex (avrdude reads it back
+    through the bootloader and compares; nothing is written). FlashError when the board
+    cannot be read (the same causes as a flash)."""
+    from dataclasses import replace
+
+    try:
+        flash_avr(replace(plan, verify_only=True), progress, watch_fd=watch_fd)
+    except FlashError as exc:
+        if str(exc).startswith("verify failed"):
+            return False
+        raise
+    return True
 
 
 def explain(text: str, plan: AvrFlash, phases: Sequence[str] = ()) -> str:

@@ -9,6 +9,7 @@ likely cause and a non-zero exit. Marked ``avr``.
 from __future__ import annotations
 
 import os
+import re
 import pty
 import subprocess
 import sys
@@ -231,3 +232,39 @@ def test_debians_optiboot_hex_does_not_fit_the_boot_section():
     shipped = BOOTLOADERS / "optiboot" / "optiboot_atmega328.hex"
     with pytest.raises(SimError, match="data at 0x8013, beyond the 32768-byte flash"):
         read_flash_hex(shipped, 32768)
+
+
+def run_until_ready(port: Path, build: Path) -> tuple[int, str, str]:
+    """``esair run papaman-avr --port PORT`` until its monitor shows the board's !READY,
+    then Ctrl-C (SIGINT): (status, stdout, stderr)."""
+    import signal
+
+    proc = subprocess.Popen([sys.executable, "-m", "esair_min.cli", "run", str(BOARDS),
+                             "--port", str(port), "-o", str(build), "--attempts", "1"],
+                            env=ENV, text=True, stdin=subprocess.DEVNULL,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    assert proc.stdout is not None
+    lines = []
+    for line in proc.stdout:
+        lines.append(line)
+        if "!READY" in line:
+            break
+    proc.send_signal(signal.SIGINT)
+    out, err = proc.communicate(timeout=60)
+    return proc.returncode, "".join(lines) + out, err
+
+
+def test_run_flashes_what_differs_then_monitors(build, tmp_path):
+    chip = tmp_path / "flash.bin"
+    boot = new_chip(chip, "optiboot")
+    with SimUno(chip, tmp_path / "ttyUNO", boot) as uno:
+        status, out, err = run_until_ready(uno.port, build)
+        assert status == 130, err
+        assert "central: 5708 bytes written to" in out
+        assert re.search(r"\d\d:\d\d:\d\d\.\d{3} < !READY esair-min/1 image=bad +\[board reset", out)
+        assert "monitor stopped" in err and "Traceback" not in err
+        assert holds(uno, build / "central" / "firmware.hex")
+        status, out, err = run_until_ready(uno.port, build)       # nothing changed
+        assert status == 130, err
+        assert "central: " in out and "already holds the built firmware: not flashed" in out
+        assert "written to" not in out
