@@ -34,6 +34,7 @@ class EmulateOptions:
     instance: str | None = None   # the v reply's instance; None: random with --pty
     pose: tuple[float, float, float] | None = None   # an omni-base robot's start (mm, mm, rad)
     world_out: Path | None = None  # an omni-base robot's true pose, to this datagram socket
+    eeprom: Path | None = None    # the EEPROM's contents in this file (kept across runs)
 
 
 def generate_first(robot: Robot, out_dir: Path, log: Callable[[str], None]) -> bytes | None:
@@ -173,7 +174,7 @@ def emulate(robot: Robot, opts: EmulateOptions, out: TextIO | None = None,
             instance = secrets.token_hex(4)
         emu = Emulator(robot, scenario=opts.scenario, faults=opts.faults, trace=trace,
                        eeprom_image=image, transcript=live, instance=instance,
-                       hold_scenario=opts.hold_scenario)
+                       hold_scenario=opts.hold_scenario, eeprom_file=opts.eeprom)
         stack.callback(emu.close)
         if opts.pty:
             _serve(emu, opts, out)
