@@ -144,11 +144,11 @@ class CentralCore:
         self.send(P.ready_line(self._image_ok, self._crc, self.build_id))
 
     def _check_image(self, magic0: int) -> bool:
-        """The image on the EEPROM (docs/protocol.md, Reset): its header (one read), then
-        the bytes it covers in reads of CHECK_CHUNK against its CRC, and its directory's
-        shape: every entry's servo count is this robot's, each motion's frames follow
-        the previous one's and the last ends the image. ``magic0``: the first magic
-        byte expected ('E'; OPEN_MAGIC while a write is open)."""
+        """The image on the EEPROM (docs/protocol.md, Reset): its header (one read), the
+        bytes it covers in reads of CHECK_CHUNK against its CRC, then each directory
+        entry (one read each): its servo count is this robot's, its frames follow the
+        previous motion's, the last ends the image. ``magic0``: the first magic byte
+        expected ('E'; OPEN_MAGIC while a write is open)."""
         if self._eeprom is None:
             return True
         header = self._read_eeprom(0, HEADER_BYTES)
@@ -157,31 +157,23 @@ class CentralCore:
             return False
         count = header[3]
         length = header[4] | header[5] << 8
-        if length > self._eeprom_size or length < HEADER_BYTES + DIR_ENTRY_BYTES * count:
+        expect = HEADER_BYTES + DIR_ENTRY_BYTES * count   # where the frames must start
+        if length > self._eeprom_size or length < expect:
             return False
-        dir_end = HEADER_BYTES + DIR_ENTRY_BYTES * count
-        frame = 2 * self._n
-        expect = dir_end            # where the next motion's frames must start
-        frames = offset_low = 0
-        good = True
         crc = 0xFFFF
         for at in range(HEADER_BYTES, length, CHECK_CHUNK):
             chunk = self._read_eeprom(at, min(CHECK_CHUNK, length - at))
             if chunk is None:
                 return False
             crc = crc16_ccitt(chunk, crc)
-            for j in range(at, min(at + len(chunk), dir_end)):
-                field, b = (j - HEADER_BYTES) % DIR_ENTRY_BYTES, chunk[j - at]
-                if field == 1:
-                    frames = b
-                elif field == 3:
-                    good = good and b == self._n
-                elif field == 4:
-                    offset_low = b
-                elif field == 5:
-                    good = good and (offset_low | b << 8) == expect
-                    expect = (expect + frames * frame) & 0xFFFF
-        if not good or expect != length or crc != (header[6] | header[7] << 8):
+        if crc != header[6] | header[7] << 8:
+            return False
+        for i in range(count):
+            entry = self._read_eeprom(HEADER_BYTES + DIR_ENTRY_BYTES * i, DIR_ENTRY_BYTES)
+            if entry is None or entry[3] != self._n or entry[4] | entry[5] << 8 != expect:
+                return False
+            expect = (expect + entry[1] * 2 * self._n) & 0xFFFF
+        if expect != length:
             return False
         self._crc = crc
         self._count = count
@@ -345,12 +337,9 @@ class CentralCore:
         at = raw[0] << 8 | raw[1]
         data = bytearray(raw[2:-1])
         k = len(data)
-        if at == 0:
-            if (k < HEADER_BYTES or data[0] != MAGIC[0] or data[1] != MAGIC[1]
-                    or data[2] != VERSION):
-                return Code.BAD_ARGUMENT
-            length = data[4] | data[5] << 8
-            if length < HEADER_BYTES or length > self._eeprom_size:
+        if at == 0:             # the header: its length bounds the writes that follow
+            length = data[4] | data[5] << 8 if k >= HEADER_BYTES else 0
+            if k < HEADER_BYTES or length > self._eeprom_size:
                 return Code.BAD_ARGUMENT
         elif not self._w_open or at < HEADER_BYTES or at + k > self._w_len:
             return Code.BAD_ARGUMENT
