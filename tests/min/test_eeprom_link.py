@@ -331,3 +331,17 @@ def test_cuts_at_random_points_never_leave_half_an_image(robot, variant, image, 
         assert res.crc == int.from_bytes(image[6:8], "little")
     finally:
         port.close()
+
+
+def test_the_build_id_follows_the_generated_sources(robot, variant):
+    """Stable for the same board files (another load), another for other ones; the
+    generated tables carry it in the v reply and !READY texts."""
+    from esair_min.codegen import render_robot
+    from esair_min.codegen.buildid import central_build_id
+
+    build = central_build_id(robot)
+    assert build == central_build_id(load_robot(ROOT / "boards" / "papaman"))
+    assert len(build) == 8 and int(build, 16) >= 0
+    assert central_build_id(variant) != build
+    tables = render_robot(robot)["central/core/es_tables.c"]
+    assert tables.count(f"build={build}") == 2
