@@ -12,10 +12,8 @@ import hashlib
 
 from esair_min.model.robot import Robot
 
-from .context import central_context
+from .context import BUILD_PLACEHOLDER, central_context
 from .render import render_board
-
-PLACEHOLDER = "00000000"
 _CACHE: dict[int, tuple[Robot, str]] = {}    # id(robot) -> (robot kept alive, its id)
 
 
@@ -24,7 +22,7 @@ def central_build_id(robot: Robot) -> str:
     hit = _CACHE.get(id(robot))
     if hit is not None and hit[0] is robot:
         return hit[1]
-    files = render_board("central", central_context(robot, PLACEHOLDER))
+    files = render_board("central", central_context(robot, BUILD_PLACEHOLDER))
     h = hashlib.sha256()
     for rel in sorted(files):
         h.update(rel.encode() + b"\0" + files[rel].encode() + b"\0")

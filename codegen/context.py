@@ -73,12 +73,13 @@ def _split_image_ok(line: bytes) -> tuple[bytes, bytes]:
     return before + b"image=", after
 
 
-def central_context(robot: Robot, build_id: str | None = None) -> Context:
+#: The build id a context is rendered with before its sources are hashed (codegen.buildid).
+BUILD_PLACEHOLDER = "00000000"
+
+
+def central_context(robot: Robot, build_id: str = BUILD_PLACEHOLDER) -> Context:
     """The central board's context: one piece per feature, each from the model only.
-    ``build_id``: the firmware's id in its replies (codegen.buildid; None computes it)."""
-    if build_id is None:
-        from .buildid import central_build_id
-        build_id = central_build_id(robot)
+    ``build_id``: the firmware's id in its replies (codegen.buildid computes it)."""
     board = robot.central
     ctx = common_context(robot, board)
     servos = robot.servos

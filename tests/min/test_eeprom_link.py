@@ -345,3 +345,100 @@ def test_the_build_id_follows_the_generated_sources(robot, variant):
     assert central_build_id(variant) != build
     tables = render_robot(robot)["central/core/es_tables.c"]
     assert tables.count(f"build={build}") == 2
+
+
+# -- real processes: the CLI on a pty, the emulator killed --------------------------------
+
+def _cli(*args: str, timeout: float = 120) -> subprocess.CompletedProcess:
+    import os
+    import sys
+
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    return subprocess.run([sys.executable, "-m", "esair_min.cli", *args], capture_output=True,
+                          text=True, timeout=timeout, env=env, cwd=ROOT)
+
+
+def _emulator(file: Path):
+    """``esair emulate papaman --pty --eeprom FILE`` (4x real time): (process, pty path)."""
+    import os
+    import sys
+
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    proc = subprocess.Popen([sys.executable, "-m", "esair_min.cli", "emulate", "papaman",
+                             "--pty", "--eeprom", str(file), "--speed", "4"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            env=env, cwd=ROOT)
+    assert proc.stdout is not None
+    path = proc.stdout.readline().strip()
+    assert path.startswith("/dev/"), proc.stderr.read() if proc.stderr else ""
+    return proc, path
+
+
+def _kill(proc) -> None:
+    import signal
+
+    proc.send_signal(signal.SIGKILL)
+    proc.wait(timeout=30)
+    for f in (proc.stdout, proc.stderr):
+        if f is not None:
+            f.close()
+
+
+@pytest.mark.pty
+@pytest.mark.slow
+def test_cli_writes_a_blank_robot_and_survives_sigkills(robot, variant, image, tmp_path):
+    """`esair eeprom papaman --write PTY` on an emulated robot whose EEPROM file is new:
+    PLY03 then dances. Then the emulator process is SIGKILLed at random moments of
+    writes of the other image: each time the robot started again on the same file says
+    image=bad and refuses PLY03, or holds one of the two images whole; the write after
+    the kills succeeds."""
+    file = tmp_path / "eeprom.bin"
+    proc, port = _emulator(file)
+    try:
+        assert _cli("send", port, "v", "PLY03").stdout.splitlines()[1] == \
+            "E09 motion image invalid"
+        res = _cli("eeprom", "papaman", "--write", port)
+        assert res.returncode == 0, res.stderr
+        assert res.stdout.startswith("papaman: wrote 67 of 67 chunks (1070 bytes) in ")
+        assert res.stdout.rstrip().endswith("image valid, CRC 0x2C20")
+        assert _cli("send", port, "PLY03", "t").stdout.splitlines() == ["OK", "E07 busy"]
+    finally:
+        _kill(proc)
+    assert file.read_bytes()[:IMAGE_LEN] == image
+    crcs = {f"{int.from_bytes(i[6:8], 'little'):04X}" for i in (image, build_image(variant))}
+    rng = random.Random(5)
+    proc, port = _emulator(file)
+    for _ in range(3):
+        import time
+
+        import os
+        import sys
+        env = dict(os.environ, PYTHONPATH=str(ROOT))
+        writer = subprocess.Popen([sys.executable, "-m", "esair_min.cli", "eeprom",
+                                   str(variant.source), "--write", port],
+                                  stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                                  env=env, cwd=ROOT)
+        time.sleep(rng.uniform(1.0, 2.5))
+        _kill(proc)
+        writer.wait(timeout=60)
+        proc, port = _emulator(file)
+        out = _cli("send", port, "v", "PLY03").stdout.splitlines()
+        fields = P.version_fields(out[0][3:])
+        if fields["image"] == "bad":
+            assert out[1] == "E09 motion image invalid"
+        else:
+            assert fields["crc"] in crcs and out[1] == "OK"
+    try:
+        res = _cli("eeprom", "papaman", "--write", port)
+        assert res.returncode == 0, res.stderr
+        assert _cli("eeprom", "papaman", "--verify", port).returncode == 0
+    finally:
+        _kill(proc)
+
+
+def test_cli_eeprom_needs_one_mode():
+    res = _cli("eeprom", "papaman")
+    assert res.returncode == 2
+    assert "give one of -o FILE, --write PORT, --verify PORT, --read FILE" in res.stderr
+    res = _cli("eeprom", "papaman", "--read", "x.hex")
+    assert res.returncode == 2 and "--port goes with --read" in res.stderr
