@@ -20,9 +20,10 @@ import pytest
 from click.testing import CliRunner
 
 from esair_min.cli import main
+from tests.support.board_lines import READY_OK_T, VERSION_OK_T
 
 ROOT = Path(__file__).resolve().parents[2]
-VERSION = "OK esair-min/1 servos=12 sensors=8 motions=5 image=ok checksum=off"
+VERSION = VERSION_OK_T
 INSTANCE = "0123abcd"            # the pty emulators here boot with this instance
 VERSION_PTY = f"{VERSION} id={INSTANCE}"
 
@@ -113,7 +114,7 @@ def test_ctrl_c_during_a_run_keeps_what_ran(tmp_path):
             proc.wait()
     assert proc.returncode == 130
     lines = (got + out).decode().splitlines()
-    assert lines[:3] == ["!READY esair-min/1 image=ok", VERSION, "OK"]
+    assert lines[:3] == [READY_OK_T, VERSION, "OK"]
     err_text = err.decode()
     assert err_text.startswith("interrupted after ") and "Traceback" not in err_text
     assert err_text.endswith(f"s of the 100000 s run (virtual time): the output so far is "
