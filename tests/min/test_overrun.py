@@ -23,7 +23,7 @@ from esair_min.emulator import Emulator
 from esair_min.emulator.uart import GAP, RING_BYTES
 from esair_min.model.validate import load_robot
 from tests.support.overrun_streams import burst, scripts
-from tests.support.board_lines import READY_OK_T, VERSION_OK_T
+from tests.support.board_lines import READY_OK_T, VERSION_OK_T, text, version
 
 ROOT = Path(__file__).resolve().parents[2]
 FIXTURES = ROOT / "tests" / "fixtures" / "overrun"
@@ -156,9 +156,9 @@ class Oracle:
             self.held_origin = self.origin
         self.origin = None
 
-    def start(self, number: int) -> bool:
+    def start(self, number: int, frames: int, delay: int, offset: int) -> bool:
         self.motion_origin = self.origin or "reaction"
-        return self._start(number)
+        return self._start(number, frames, delay, offset)
 
     def tick(self) -> None:
         self.tick_held = self.core._held is not None
@@ -259,7 +259,7 @@ def test_emulator_reproducer_at_115200_baud(fast_robot):
     emu.write(b"SIT\r")
     emu.run_for(0.3)
     lines = emu.read().decode().split("\r\n")
-    assert lines == ["OK"] + [VERSION] * 27 + [E12, ""]
+    assert lines == ["OK"] + [text(version(fast_robot))] * 27 + [E12, ""]
     assert emu.uart.overruns == 4                       # TTT and the CR
     assert actuator_writes(trace.lines) == [STAND]
     assert emu.playing is None
