@@ -13,12 +13,13 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+from esair_min.errors import EsairError
 from esair_min.make import make_board
 from esair_min.model import picboot
 from esair_min.pic.toolchain import Toolchain, ToolchainError, parse_map
 
 
-class BootBuildError(Exception):
+class BootBuildError(EsairError):
     """The bootloader or the relocated application did not build, or does not fit."""
 
 

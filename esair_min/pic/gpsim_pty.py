@@ -1,0 +1,183 @@
+"""A PIC18F452 in gpsim behind a pty: its UART is a serial port any program opens.
+
+gpsim runs interactively (:class:`esair_min.pic.gpsim_i2c.GpsimSession`) with the
+``usart`` module on RC6/RC7. A thread moves the simulation on in slices paced to the
+wall clock (``speed`` simulated seconds per second): the bytes a program wrote to the
+pty go into the module's transmit FIFO (``U1.tx``) and reach the PIC at line rate; every
+write of TXREG (gpsim's register log) goes back out of the pty. The line follows the
+baud rate the program set on the pty (as a real line must match the PIC's), and
+:meth:`GpsimPty.fault` cuts or damages it for the fault tests. docs/bootloader.md.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import termios
+import threading
+import time
+import tty
+from dataclasses import dataclass
+from pathlib import Path
+
+from esair_min.pic.gpsim_i2c import GpsimSession
+
+_TX_RE = re.compile(r"Wrote: 0x([0-9A-Fa-f]{4}) to \w+\(0x0FAD\)")
+_SPEEDS = {getattr(termios, f"B{b}"): b for b in
+           (1200, 2400, 4800, 9600, 19200, 38400, 57600, 115200, 230400)}
+SLICE = 50_000            # most instruction cycles run in one batch (10 ms at 20 MHz)
+
+
+@dataclass
+class LineFault:
+    """What happens to the bytes the program sends: after ``after`` of them, ``drop``
+    the next bytes (a cut line: all of them when ``drop`` is None) or XOR 0x20 into
+    ``damage`` of them."""
+
+    after: int
+    drop: int | None = None
+    damage: int = 0
+
+
+class GpsimPty:
+    """Start with :meth:`start`; :attr:`path` is the pty a program opens."""
+
+    def __init__(self, workdir: Path, cod: Path, clock_hz: int, speed: float = 1.0,
+                 timeout: float = 300.0):
+        self.workdir = Path(workdir)
+        self.cod = Path(cod)
+        self.clock_hz = clock_hz
+        self.speed = speed
+        self.timeout = timeout
+        self.path = ""
+        self.sent = 0                     # bytes the program has sent
+        self.first_rx: int | None = None  # cycle of the first byte in, of the last out
+        self.last_tx: int | None = None
+        self.error: BaseException | None = None
+        self.rx_at: list[int] = []        # the cycle of each batch of bytes in
+        self._fault: LineFault | None = None
+        self._cmds: list[str] = []
+        self._lock = threading.Lock()
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+        self._session: GpsimSession | None = None
+        self._master = self._slave = -1
+        self._baud = 0
+        self._logbuf = ""
+
+    def start(self) -> GpsimPty:
+        self._master, self._slave = os.openpty()
+        tty.setraw(self._slave)
+        os.set_blocking(self._master, False)
+        self.path = os.ttyname(self._slave)
+        log = self.workdir / "uart.log"
+        log.unlink(missing_ok=True)
+        s = GpsimSession(self.workdir, timeout=self.timeout).start(self.cod, self.clock_hz)
+        self._session = s
+        s.command("module load usart U1", "node ntx", "node nrx",
+                  "attach ntx portc6 U1.RXPIN", "attach nrx portc7 U1.TXPIN",
+                  "module load pullup PSCL", "module load pullup PSDA", "node nscl",
+                  "node nsda", "attach nscl portc3 PSCL.pin", "attach nsda portc4 PSDA.pin",
+                  f"log on {log}", "log w 0xFAD")
+        self._follow_baud()
+        self._log = open(log, "rb")     # noqa: SIM115 (closed in close())
+        self._thread = threading.Thread(target=self._run, name="gpsim-pty", daemon=True)
+        self._thread.start()
+        return self
+
+    def fault(self, fault: LineFault | None) -> None:
+        with self._lock:
+            self._fault = fault
+            if fault is not None:
+                fault.after += self.sent
+
+    def command(self, *lines: str) -> None:
+        """gpsim commands sent before the next slice (``reset``: a reset)."""
+        with self._lock:
+            self._cmds += lines
+
+    @property
+    def cycles(self) -> int:
+        return self._session.now if self._session else 0
+
+    def _follow_baud(self) -> None:
+        speed = _SPEEDS.get(termios.tcgetattr(self._slave)[5], 9600)
+        if speed != self._baud and self._session is not None:
+            self._session.command(f"U1.txbaud = {speed}", f"U1.rxbaud = {speed}")
+            self._baud = speed
+
+    def _take(self) -> bytes:
+        try:
+            data = os.read(self._master, 4096)
+        except BlockingIOError:
+            return b""
+        except OSError:                   # no program has the pty open
+            return b""
+        out = bytearray()
+        with self._lock:
+            f = self._fault
+            for b in data:
+                self.sent += 1
+                if f is not None and self.sent > f.after:
+                    if f.drop is None or f.drop > 0:
+                        if f.drop is not None:
+                            f.drop -= 1
+                        continue
+                    if f.damage > 0:
+                        f.damage -= 1
+                        b ^= 0x20
+                out.append(b)
+        return bytes(out)
+
+    def _run(self) -> None:
+        s = self._session
+        assert s is not None
+        rate = self.clock_hz / 4 * self.speed
+        t0, c0 = time.monotonic(), s.now
+        try:
+            while not self._stop.is_set():
+                self._follow_baud()
+                data = self._take()
+                with self._lock:
+                    cmds, self._cmds = self._cmds, []
+                if data:
+                    self.rx_at.append(s.now)
+                    if self.first_rx is None:
+                        self.first_rx = s.now
+                want = c0 + int((time.monotonic() - t0) * rate)
+                if want < s.now + 1000 and not data and not cmds:
+                    time.sleep(0.001)
+                    continue
+                target = min(max(want, s.now + 1000), s.now + SLICE)
+                s.run_to(target, *cmds, *(f"U1.tx = {b:#04x}" for b in data))
+                text = self._logbuf + self._log.read().decode("latin-1")
+                cut = text.rfind("\n") + 1
+                self._logbuf = text[cut:]
+                out = bytes(int(m.group(1), 16) & 0xFF for m in _TX_RE.finditer(text[:cut]))
+                if out:
+                    self.last_tx = s.now
+                    try:
+                        os.write(self._master, out)
+                    except OSError:
+                        pass
+        except BaseException as exc:      # reported by close() and to the test
+            self.error = exc
+
+    def close(self) -> None:
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(timeout=30)
+        if self._session is not None:
+            self._session.close()
+        for fd in (self._master, self._slave):
+            if fd >= 0:
+                os.close(fd)
+        self._master = self._slave = -1
+        if getattr(self, "_log", None) is not None:
+            self._log.close()
+
+    def __enter__(self) -> GpsimPty:
+        return self.start()
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
