@@ -69,7 +69,7 @@ def load_image(hex_path: Path) -> PicImage:
         raise FlashError(f"{hex_path}: {len(low)} bytes at 0x{min(low):04X}..0x{max(low):04X} "
                          f"overlap the bootloader (0x0000..0x{B.BOOT_END - 1:04X}); write the "
                          "application built for it, firmware-app.hex (esair build)")
-    alien = [a for a in addresses if B.FLASH_END <= a and a not in CONFIG and a not in IDLOCS
+    alien = [a for a in addresses if a >= B.FLASH_END and a not in CONFIG and a not in IDLOCS
              and not EE_BASE <= a < EE_BASE + B.EEPROM_BYTES]
     if alien:
         raise FlashError(f"{hex_path}: data at 0x{min(alien):06X}, outside the PIC18F452 "
@@ -105,12 +105,15 @@ class Bootloader:
     def __init__(self, port: Any, name: str) -> None:
         self.port = port
         self.name = name
+        # a simulated line (esair_min.pic.gpsim_line) keeps its own time
+        self.clock: Callable[[], float] = getattr(port, "clock", time.monotonic)
+        self.sleep: Callable[[float], None] = getattr(port, "sleep", time.sleep)
 
     def _read(self, n: int, timeout: float) -> bytes:
         data = b""
-        deadline = time.monotonic() + timeout
+        deadline = self.clock() + timeout
         while len(data) < n:
-            left = deadline - time.monotonic()
+            left = deadline - self.clock()
             if left <= 0:
                 break
             self.port.timeout = left
@@ -138,20 +141,20 @@ class Bootloader:
                 why = ERRORS[got[0]]
             elif got:
                 why = f"an unexpected byte 0x{got[0]:02X}"
-            time.sleep(B.GAP_MS * 2 / 1000)       # the bootloader drops a cut frame
+            self.sleep(B.GAP_MS * 2 / 1000)       # the bootloader drops a cut frame
         raise FlashError(f"{self.name}: {why} to {cmd} at 0x{address:06X} after {retries} "
                          "tries: the line drops or damages bytes (cable, baud rate, another "
                          "program on the port?)")
 
     def hello(self, wait: float) -> tuple[int, int, int]:
         """(device id, version, board tag), saying hello until ``wait`` seconds pass."""
-        deadline = time.monotonic() + wait
+        deadline = self.clock() + wait
         while True:
             try:
                 got = self.exchange("H", reply=5, timeout=0.15, retries=1)
                 return got[1] << 8 | got[0], got[2], got[3] << 8 | got[4]
             except FlashError:
-                if time.monotonic() >= deadline:
+                if self.clock() >= deadline:
                     raise FlashError(
                         f"no bootloader answered on {self.name} in {wait:g} s: reset the "
                         f"board (its bootloader listens {B.WINDOW_MS} ms after a reset, or "
@@ -192,15 +195,21 @@ def flash_pic(hex_path: Path, port: str, *, baud: int, progress: Progress | None
         ser.close()
 
 
+def write_image(boot: Bootloader, image: PicImage, progress: Progress | None = None,
+                wait: float = 10.0) -> None:
+    """The whole flash over ``boot``: hello and its checks, write, verify, the record,
+    start the application."""
+    _flash(boot, image, progress or (lambda phase, pct: None), wait)
+
+
 def _flash(boot: Bootloader, image: PicImage, progress: Progress, wait: float) -> None:
     check_hello(image, *boot.hello(wait), boot.name)
     writes = [(a, d) for a, d in image.rows.items()] + \
         [(EE_BASE + a, d) for a, d in sorted(image.eeprom.items())]
-    steps = len(writes) + 1
     progress("writing", 0)
     for i, (address, data) in enumerate(writes):
         boot.exchange("W", address, data)
-        progress("writing", 100 * (i + 1) // steps)
+        progress("writing", 100 * (i + 1) // len(writes))
     progress("verifying", 0)
     for i, (address, data) in enumerate(writes):
         got = boot.exchange("R", address, reply=DATA)
@@ -214,5 +223,4 @@ def _flash(boot: Bootloader, image: PicImage, progress: Progress, wait: float) -
     if boot.exchange("R", B.RECORD, reply=DATA) != image.record:
         raise FlashError(f"{boot.name}: the record did not read back; the chip stays in its "
                          "bootloader")
-    progress("writing", 100)
     boot.exchange("G")

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from esair_min.errors import EsairError
 from esair_min.make import make_board
@@ -64,8 +65,15 @@ def relocate(linked: Path, out: Path, tag: int) -> int:
     for i, b in enumerate(entry):
         del ih[i]
         ih[picboot.APP_START + i] = b
+    end = add_record(ih, tag, str(linked))
+    ih.write_hex_file(str(out))
+    return end
+
+
+def add_record(ih: Any, tag: int, name: str) -> int:
+    """Put the record row (end, sum, board tag) into IntelHex ``ih``; the end."""
     if any(picboot.RECORD <= a < picboot.FLASH_END for a in ih.addresses()):
-        raise BootBuildError(f"{linked}: code in the record row 0x{picboot.RECORD:04X}")
+        raise BootBuildError(f"{name}: code in the record row 0x{picboot.RECORD:04X}")
     end = picboot.app_end(list(ih.addresses()))
     flash = bytearray(b"\xff" * picboot.FLASH_END)
     for a in ih.addresses():
@@ -74,7 +82,6 @@ def relocate(linked: Path, out: Path, tag: int) -> int:
     rec = picboot.record(end, picboot.app_sum(flash, end), tag)
     for i, b in enumerate(rec):
         ih[picboot.RECORD + i] = b
-    ih.write_hex_file(str(out))
     return end
 
 
