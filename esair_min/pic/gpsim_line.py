@@ -23,12 +23,13 @@ CYCLE_RE = re.compile(r"^0x([0-9A-Fa-f]{16}) p18f452 ")
 
 @dataclass
 class LineFault:
-    """What happens to the bytes the host sends: after ``after`` more of them, drop
-    the next ``drop`` (all of them when None: a cut line), or XOR 0x20 into the next
-    ``damage``."""
+    """What happens to the bytes the host sends: after ``after`` more of them, ``cut``
+    the line (nothing more arrives), or drop the next ``drop``, then XOR 0x20 into the
+    next ``damage``."""
 
     after: int
-    drop: int | None = None
+    cut: bool = False
+    drop: int = 0
     damage: int = 0
 
     def apply(self, data: bytes) -> bytes:
@@ -36,7 +37,7 @@ class LineFault:
         for b in data:
             if self.after > 0:
                 self.after -= 1
-            elif self.drop is None:
+            elif self.cut:
                 continue
             elif self.drop > 0:
                 self.drop -= 1

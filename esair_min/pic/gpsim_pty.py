@@ -17,26 +17,15 @@ import termios
 import threading
 import time
 import tty
-from dataclasses import dataclass
 from pathlib import Path
 
 from esair_min.pic.gpsim_i2c import GpsimSession
+from esair_min.pic.gpsim_line import SETUP, LineFault
 
 _TX_RE = re.compile(r"Wrote: 0x([0-9A-Fa-f]{4}) to \w+\(0x0FAD\)")
 _SPEEDS = {getattr(termios, f"B{b}"): b for b in
            (1200, 2400, 4800, 9600, 19200, 38400, 57600, 115200, 230400)}
 SLICE = 50_000            # most instruction cycles run in one batch (10 ms at 20 MHz)
-
-
-@dataclass
-class LineFault:
-    """What happens to the bytes the program sends: after ``after`` of them, ``drop``
-    the next bytes (a cut line: all of them when ``drop`` is None) or XOR 0x20 into
-    ``damage`` of them."""
-
-    after: int
-    drop: int | None = None
-    damage: int = 0
 
 
 class GpsimPty:
@@ -74,11 +63,7 @@ class GpsimPty:
         log.unlink(missing_ok=True)
         s = GpsimSession(self.workdir, timeout=self.timeout).start(self.cod, self.clock_hz)
         self._session = s
-        s.command("module load usart U1", "node ntx", "node nrx",
-                  "attach ntx portc6 U1.RXPIN", "attach nrx portc7 U1.TXPIN",
-                  "module load pullup PSCL", "module load pullup PSDA", "node nscl",
-                  "node nsda", "attach nscl portc3 PSCL.pin", "attach nsda portc4 PSDA.pin",
-                  f"log on {log}", "log w 0xFAD")
+        s.command(*SETUP, f"log on {log}", "log w 0xFAD")
         self._follow_baud()
         self._log = open(log, "rb")     # noqa: SIM115 (closed in close())
         self._thread = threading.Thread(target=self._run, name="gpsim-pty", daemon=True)
@@ -86,10 +71,9 @@ class GpsimPty:
         return self
 
     def fault(self, fault: LineFault | None) -> None:
+        """From now on, what happens to the bytes the program sends."""
         with self._lock:
             self._fault = fault
-            if fault is not None:
-                fault.after += self.sent
 
     def command(self, *lines: str) -> None:
         """gpsim commands sent before the next slice (``reset``: a reset)."""
@@ -113,21 +97,9 @@ class GpsimPty:
             return b""
         except OSError:                   # no program has the pty open
             return b""
-        out = bytearray()
         with self._lock:
-            f = self._fault
-            for b in data:
-                self.sent += 1
-                if f is not None and self.sent > f.after:
-                    if f.drop is None or f.drop > 0:
-                        if f.drop is not None:
-                            f.drop -= 1
-                        continue
-                    if f.damage > 0:
-                        f.damage -= 1
-                        b ^= 0x20
-                out.append(b)
-        return bytes(out)
+            self.sent += len(data)
+            return self._fault.apply(data) if self._fault else data
 
     def _run(self) -> None:
         s = self._session

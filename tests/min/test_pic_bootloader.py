@@ -166,7 +166,7 @@ CUTS = {"first row": 69 + 30, "third row": 69 + 2 * 69 + 10, "verifying": 69 + 1
 @pytest.mark.parametrize("where", sorted(CUTS))
 def test_a_cut_flash_boots_into_the_bootloader_and_the_next_one_works(chip, tiny, where):
     image = load_image(tiny)
-    chip.line.fault = LineFault(after=CUTS[where])
+    chip.line.fault = LineFault(after=CUTS[where], cut=True)
     with pytest.raises(FlashError, match="drops or damages"):
         write_image(chip.boot, image, wait=1.0)
     assert chip.in_bootloader()
