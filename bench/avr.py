@@ -28,7 +28,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from esair_min.avr.harness import run_robot, run_stimulus, symbol  # noqa: E402
+from esair_min.avr.simavr_harness import run_robot, run_stimulus, symbol  # noqa: E402
 from esair_min.avr.servo import checked_pulses  # noqa: E402
 from esair_min.emulator.i2c import transfer_ns  # noqa: E402
 from esair_min.model import mcu  # noqa: E402

@@ -6,7 +6,7 @@ the same input, in one run.
 Generates PAPA-MAN's central firmware, builds ./firmware_host (gcc -O2), writes one
 stimulus script of LINES command lines (every kind of command, invalid and garbage
 lines, checksums, ticks between), then runs it through the C firmware and through the
-Python harness (esair_min.core.harness.run_script). Prints received bytes per second for
+Python harness (esair_min.core.stimulus.run_script). Prints received bytes per second for
 each and the ratio, after checking that both traces are identical.
 """
 
@@ -23,7 +23,7 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from esair_min.codegen import generate_robot  # noqa: E402
-from esair_min.core.harness import run_script, unescape  # noqa: E402
+from esair_min.core.stimulus import run_script, unescape  # noqa: E402
 from esair_min.core.protocol import add_checksum  # noqa: E402
 from esair_min.model.validate import load_robot  # noqa: E402
 

@@ -25,7 +25,7 @@ sys.path.insert(0, str(ROOT))
 from esair_min.pic.build import build_robot, summary_lines  # noqa: E402
 from esair_min.pic.gpsim_bench import describe, frame_slips, frame_timing, measure_decoder  # noqa: E402
 from esair_min.pic.gpsim_harness import GpsimSetup, compare, run_stimulus  # noqa: E402
-from esair_min.core.harness import run_script  # noqa: E402
+from esair_min.core.stimulus import run_script  # noqa: E402
 from esair_min.resources import resolve_robot  # noqa: E402
 from esair_min.model.validate import load_robot  # noqa: E402
 

@@ -15,7 +15,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from esair_min.avr import starfish as avr_sf  # noqa: E402
+from esair_min.avr import starfish_simavr as avr_sf  # noqa: E402
 from esair_min.model.validate import load_robot  # noqa: E402
 from esair_min.pic import starfish_drive as pic_drive  # noqa: E402
 from esair_min.pic.build import build_robot  # noqa: E402

@@ -20,7 +20,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from .spec import Spec
 
     class _Host(Protocol):
-        """What a component reaches through its host (modes/host.py's hosts)."""
+        """What a component reaches through its host (hosts/behavior_host.py's hosts)."""
         name: str
         spec: Spec
         stopping: bool

@@ -11,7 +11,7 @@ permanent generation: a full collection walks only what was made since (measured
 0.005 ms).
 
 Called by what owns its process: an agent once its component or resource has started
-(modes/agent.py) and ``esair std run`` once the runtime has (cli/run.py). A program that
+(hosts/agent_process.py) and ``esair std run`` once the runtime has (cli/run.py). A program that
 runs :class:`esair_std.Runtime` as a library may call it too; the runtime does not unless
 asked (``settle_heap``), as the collector is its caller's.
 

@@ -3,7 +3,7 @@ that holds it, so that a part is typed by what it is asked, never ``Any``, and n
 the class of a module above it (these protocols import only leaf modules).
 
 - :class:`Port`: what a component's host calls to reach the runtime's BS, RS, SC and AC
-  (modes/thread.py's LocalPort in the runtime; modes/agent.py's ZenohPort in an agent).
+  (modes/thread.py's LocalPort in the runtime; hosts/agent_process.py's ZenohPort in an agent).
 - :class:`SampleHandle`: what the Sensor Connection pushes a sample into.
 - :class:`Child`, :class:`ComponentHost`, :class:`ResourceHost`: a supervised child
   (supervisor.py), the host of a behavior or reaction (the BS's children: a thread of

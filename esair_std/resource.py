@@ -20,7 +20,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from typing import Protocol
 
     class _Slot(Protocol):
-        """What a resource reaches through its slot (modes/reshost.py)."""
+        """What a resource reaches through its slot (hosts/resource_host.py)."""
         name: str
         options: dict[str, Any]
         host: Any          # the resource's host (a driver's children reach their driver)

@@ -33,7 +33,7 @@ from .spec import Spec
 
 if TYPE_CHECKING:  # pragma: no cover
     from .deploy.model import Deployment
-    from .modes.control import ControlServer
+    from .control.control_server import ControlServer
     from .parts import Mode
     from .remote.center import Center
 
@@ -101,7 +101,7 @@ class Runtime:
                 from .remote.center import Center, session
                 self.session_options, self.extra_listen, self.local_endpoint = session(self)
                 self.center = Center(self)
-                from .modes.control import ControlServer
+                from .control.control_server import ControlServer
                 self.server = ControlServer(self, self.bs, self.rs, self.mode, self.center)
                 self.server.start()
             from .deploy import load_classes

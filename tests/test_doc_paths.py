@@ -26,7 +26,7 @@ def sources() -> list[Path]:
 def test_the_sources_are_found():
     names = {p.relative_to(ROOT).as_posix() for p in sources()}
     assert {"README.md", "docs/std.md", "scripts/mutation_c.py", "bench/std.py",
-            "esair_std/transport/security.py"} <= names
+            "esair_std/transport/security_config.py"} <= names
 
 
 def test_every_named_path_exists():

@@ -5,7 +5,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, TextIO
 
 if TYPE_CHECKING:
-    from esair_min.core.bus import Bus
+    from esair_min.core.i2c_bus import Bus
 
 HEADER = "# esair-trace 1"
 

@@ -28,7 +28,7 @@ from pathlib import Path
 from typing import Callable
 
 from esair_min.model import hardware
-from esair_min.core.bus import Bus
+from esair_min.core.i2c_bus import Bus
 from esair_min.core.central import CentralCore
 from esair_min.core.devices import Eeprom24, RegisterSlave, SimpleBus
 from esair_min.errors import EsairError

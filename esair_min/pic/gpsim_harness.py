@@ -37,7 +37,7 @@ from typing import Callable
 from esair_min.errors import ProtocolError
 from esair_min.pic.gpsim_wave import I2cTransfer, decode_i2c, read_edges, read_register_log
 from esair_min.core.devices import RegisterSlave
-from esair_min.core.harness import READING_MAX
+from esair_min.core.stimulus import READING_MAX
 from esair_min.core.script import decimal, hexadecimal
 from esair_min.core.image import build_image, write_hex
 from esair_min.model.avr import Timer1Tick

@@ -90,7 +90,7 @@ def agent_cmd(endpoint, name, class_path, uses, allow, period, options, robot, c
     from ..errors import ControlError
     from ..resource import Actuator, Driver, Sensor
     from ..classes import component_class
-    from ..transport.security import SecuritySpec
+    from ..transport.security_config import SecuritySpec
 
     logging.basicConfig(level=logging.WARNING, format="%(name)s: %(message)s")
     cls = component_class(class_path, os.getcwd())
@@ -122,4 +122,4 @@ def agent_cmd(endpoint, name, class_path, uses, allow, period, options, robot, c
     sys.stdout.flush()
     sys.stderr.flush()
     # options checked: become the lean agent process (no click, pydantic, yaml in it)
-    os.execv(sys.executable, [sys.executable, "-m", "esair_std.remote.agent", json.dumps(kw)])
+    os.execv(sys.executable, [sys.executable, "-m", "esair_std.remote.remote_agent", json.dumps(kw)])

@@ -25,7 +25,7 @@ def check(file: str, no_import: bool) -> None:
     list) are printed but do not fail the check.
     """
     from esair_std.deploy import load_classes, load_document, notes, resolve_deployment
-    from esair_std.deploy.summary import deployment_summary
+    from esair_std.deploy.deployment_summary import deployment_summary
 
     dep, doc = load_document(resolve_deployment(file))
     if not no_import:

@@ -14,7 +14,7 @@ import click
 
 from esair_min.cli.pipes import friendly
 
-from ..words import counted
+from ..plurals import counted
 from .client import default_endpoint
 
 DEFAULT_LISTEN = "127.0.0.1:8080"

@@ -45,7 +45,7 @@ class _Local:
 
     def call(self, verb: str, body: dict | None = None) -> Any:
         if verb == "ls":
-            from ..listing import components
+            from ..control.listing import components
             return components(self.rt) if (body or {}).get("all") else self.rt.ls()
         return self.rt.inspect((body or {})["name"])
 

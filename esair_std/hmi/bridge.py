@@ -6,7 +6,7 @@ sensor the deployment's ``allow`` lets it read, ``command`` only where ``allow``
 the robot's link runs on the same interpreter), so it asks little:
 
 - ``ls`` (component states) when the runtime's notice says a state changed
-  (``esair/<robot>/changed``, modes/control.py) or its liveliness token comes or goes,
+  (``esair/<robot>/changed``, control/control_server.py) or its liveliness token comes or goes,
   and at least every LS_SAFETY_S (what sends no notice: a behavior's ``busy`` flag,
   attachments; a runtime without notices): a lost link shows as soon as the runtime
   knows it;

@@ -34,7 +34,7 @@ from websockets.http11 import Request, Response
 from ..counters import Counters
 from ..errors import StdError
 from ..heap import settle
-from ..words import counted
+from ..plurals import counted
 from .auth import Auth
 from .bridge import Bridge, BridgeError, took
 

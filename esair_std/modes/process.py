@@ -1,5 +1,5 @@
 """Process mode: each behavior, reaction and resource entry its own OS process, started
-as ``python -m esair_std.modes.agent`` and joined to the runtime over Zenoh; the four
+as ``python -m esair_std.hosts.agent_process`` and joined to the runtime over Zenoh; the four
 resident components (BS, RS, SC, AC) stay in the runtime's process.
 
 The runtime sees each child through a proxy with the same methods as the thread-mode
@@ -25,9 +25,9 @@ from ..parts import NO_ANSWER
 from ..spec import Spec
 from ..transport import codec, keys, session, wire
 from ..transport.calls import SampleCaller
-from ..transport.security import link_inserts
+from ..transport.security_config import link_inserts
 from ..transport.threads import Threads
-from .agent import MARGIN
+from ..hosts.agent_process import MARGIN
 from .thread import LocalPort
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -58,7 +58,7 @@ def agent_command(endpoint: str, robot: str, spec: Spec, generation: int) -> lis
         # 0.57 s instead of 0.08 s); without it open takes ~1 ms, and the agent asks
         # again until the runtime answers its hello (agent.py)
         options["open/return_conditions/connect_scouted"] = False
-    return [sys.executable, "-m", "esair_std.modes.agent", "--connect", endpoint,
+    return [sys.executable, "-m", "esair_std.hosts.agent_process", "--connect", endpoint,
             "--robot", robot, "--generation", str(generation),
             "--spec", json.dumps(spec.to_json()), "--session-options", json.dumps(options)]
 

@@ -14,8 +14,8 @@ from ..level import Level
 from ..classes import component_class
 from ..spec import Spec
 from ..transport import keys
-from .host import ComponentHost
-from .reshost import ResourceHost
+from ..hosts.behavior_host import ComponentHost
+from ..hosts.resource_host import ResourceHost
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..parts import SampleHandle
@@ -132,7 +132,7 @@ class ThreadMode:
         cls = component_class(spec.class_path, spec.base_dir, spec.where)
         host = ResourceHost(spec, cls, self.port)
         host.on_failed = lambda reason: self.rt.rs.failed(spec.name, generation, reason)
-        host.start()                  # its device's own open timeout (reshost.OPEN_TIMEOUT)
+        host.start()                  # its device's own open timeout (resource_host.OPEN_TIMEOUT)
         return host
 
     def open(self) -> None:

@@ -15,7 +15,7 @@ put takes samples:
 (the offer and its result only when the target has no reserved room for the put).
 
 Every key names the process it comes from or goes to, so the ACL of a remote agent
-(transport/security.py) lets it send and receive only its own. Callbacks run on Zenoh's
+(transport/security_config.py) lets it send and receive only its own. Callbacks run on Zenoh's
 thread and only copy, enqueue and answer. An answer that does not come within the
 timeout (a lost sample, a dead process) is ``None`` to the caller, never a silent loss:
 the BS then goes on with its query-based offer and retries; the sender reports the put

@@ -16,10 +16,10 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from esair_min.avr.build import AvrBuildError, build_board
-from esair_min.avr.harness import AvrSetup, compare, run_robot, run_stimulus, symbol, symbols
+from esair_min.avr.simavr_harness import AvrSetup, compare, run_robot, run_stimulus, symbol, symbols
 from esair_min.avr.servo import UPDATE_FROM, UPDATE_TO, checked_pulses, update_spans
 from esair_min.codegen import generate_robot
-from esair_min.core.harness import run_script
+from esair_min.core.stimulus import run_script
 from esair_min.core.image import build_image, write_hex
 from esair_min.core.trace import without_marks
 from esair_min.errors import ConfigError

@@ -20,7 +20,7 @@ from esair_min.pic.gpsim_bench import (drain_loop, frame_slips, frame_timing, fu
 from esair_min.pic import gpsim_harness
 from esair_min.pic.gpsim_harness import GpsimSetup, boot_end, build_script, compare, run_stimulus
 from esair_min.pic.gpsim_wave import read_register_log, transfer_kinds
-from esair_min.core.harness import run_script
+from esair_min.core.stimulus import run_script
 from esair_min.resources import resolve_robot
 from esair_min.model.validate import load_robot
 

@@ -18,7 +18,7 @@ import pytest
 from esair_min.errors import ProtocolError
 from esair_min.pic.gpsim_harness import (GpsimRun, GpsimSetup, build_script, compare, projections,
                                      run_stimulus)
-from esair_min.core.harness import run_script
+from esair_min.core.stimulus import run_script
 
 FIXTURES = Path(__file__).resolve().parents[1] / "fixtures" / "gpsim"
 BUS = FIXTURES / "bus.txt"                # SCL held, then SDA held, commands and a motion

@@ -2,7 +2,7 @@
 `esair build starfish-avr` builds both boards with avr-gcc (warnings are errors) and
 prints their exact footprints; the central board's AVR build gives the same replies, the
 same I2C writes and the same flow-sensor register reads as the Python core for the same
-byte stream (esair_min/avr/starfish.py), on the scenario the gpsim test runs and on
+byte stream (esair_min/avr/starfish_simavr.py), on the scenario the gpsim test runs and on
 derandomized hypothesis streams, the watchdog stop included -- and the Python core equals
 the host C (test_starfish_c.py) and the PIC in gpsim (test_starfish_gpsim.py), whose
 literal replies and writes are asserted here too; the drive board's AVR build gives the
@@ -20,12 +20,12 @@ from click.testing import CliRunner
 from hypothesis import HealthCheck, assume, given, settings
 
 from esair_min.avr.build import build_board, elf_usage
-from esair_min.avr.harness import parse_events, run_commands, symbol
-from esair_min.avr.starfish import (BOOT_CYCLES, CentralSetup, differential, measure_central,
+from esair_min.avr.simavr_harness import parse_events, run_commands, symbol
+from esair_min.avr.starfish_simavr import (BOOT_CYCLES, CentralSetup, differential, measure_central,
                                     python_drive, run_central, run_drive)
 from esair_min.cli import main
 from esair_min.codegen import generate_robot
-from esair_min.components.omni_base.replay import compare
+from esair_min.components.omni_base.sim_replay import compare
 from esair_min.errors import ProtocolError
 from esair_min.model.validate import load_robot
 from esair_min.pic.starfish_drive import MotorOut

@@ -27,7 +27,7 @@ import pytest
 from esair_min.model.validate import load_robot
 from esair_std.drivers.minlink import Link, LinkDown
 from esair_std.drivers.minlink.emulated import EmulatedRobot
-from esair_std.drivers.minlink.errors import DifferentRobot, Expired, LinkError
+from esair_std.drivers.minlink.link_errors import DifferentRobot, Expired, LinkError
 from tests.support.std import wait_for
 from tests.support.robot_ptys import VERSION, frames, pty_number, replies, start_on_number, stop
 

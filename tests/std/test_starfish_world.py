@@ -15,7 +15,7 @@ from tests.support.std import wait_for
 def test_the_omni_commands_match_replies_by_shape_and_check_the_robot():
     from esair_min.model.validate import load_robot
     from esair_min.resources import resolve_robot
-    from esair_std.drivers.minlink.errors import LinkError
+    from esair_std.drivers.minlink.link_errors import LinkError
     from esair_std.drivers.starfish.omnilink import OmniCommands, omni_budget
 
     robot = load_robot(resolve_robot("starfish"))

@@ -20,7 +20,7 @@ import pytest
 
 from esair_std import Actuator
 from esair_std.counters import Counters
-from esair_std.modes.reshost import COMMANDS, ResourceHost
+from esair_std.hosts.resource_host import COMMANDS, ResourceHost
 from esair_std.spec import Spec
 from tests.support.std import ROOT, wait_for
 

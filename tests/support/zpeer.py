@@ -3,7 +3,7 @@
     python tests/support/zpeer.py CONFIG_JSON
 
 CONFIG_JSON is a zenoh config as a JSON object (e.g. from
-esair_std.transport.security.zenoh_config). Then each line on stdin is one command;
+esair_std.transport.security_config.zenoh_config). Then each line on stdin is one command;
 each answer is one JSON line on stdout:
 
     serve KEY              queryable on KEY replying "pong:<query payload>"     -> {"ok": "serve"}

@@ -70,7 +70,7 @@ from esair_min.resources import resolve_robot
 
 from .budget import DEFAULT_FEET_SHARE, line_budget
 from .emulated import EmulatedRobot
-from .errors import LinkDown, LinkError
+from .link_errors import LinkDown, LinkError
 from .link import DIFFERENT_ROBOT, Exchange, Link
 
 DEFAULT_FEET_HZ = 8.0

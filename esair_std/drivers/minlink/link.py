@@ -75,7 +75,7 @@ from esair_min.serialport import LOCKED, describe, open_port
 from ...counters import Counters
 from .budget import LineBudget, line_budget
 from .commands import VERSION_PREFIX, RobotCommands
-from .errors import DifferentRobot, Expired, LinkDown, LinkError, RobotRefused
+from .link_errors import DifferentRobot, Expired, LinkDown, LinkError, RobotRefused
 
 #: Reply codes a well-formed line cannot get: the line was damaged on the wire.
 WIRE_CODES = frozenset({Code.UNKNOWN, Code.TOO_LONG, Code.BAD_ARGUMENT, Code.BAD_CHECKSUM,

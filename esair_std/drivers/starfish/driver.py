@@ -70,7 +70,7 @@ from esair_min.resources import resolve_robot
 
 from ..minlink.driver import MinLink, NoticeSensor, _in, _restart_policy, emulate_args
 from ..minlink.emulated import EmulatedRobot
-from ..minlink.errors import LinkError
+from ..minlink.link_errors import LinkError
 from ..minlink.link import Link
 from .linkswitch import LinkSwitch
 

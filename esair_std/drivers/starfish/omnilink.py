@@ -25,7 +25,7 @@ from esair_min.components.optical_flow.odometry import FlowOdometry, parse_odome
 from ..minlink.budget import LineBudget
 from ..minlink.commands import VERSION_PREFIX, RobotCommands
 from ..minlink.driver import PolledSensor, _LinkAgent
-from ..minlink.errors import LinkError
+from ..minlink.link_errors import LinkError
 from ..minlink.link import Link
 from .scene import wrap
 

@@ -15,10 +15,10 @@ from __future__ import annotations
 import os
 from typing import TYPE_CHECKING, Any
 
-from .level import Level
+from ..level import Level
 
 if TYPE_CHECKING:  # pragma: no cover
-    from .view import RuntimeView
+    from ..view import RuntimeView
 
 KEYS = ("name", "kind", "state", "pid", "host", "restarts", "reason", "class", "parent",
         "attached", "detached")

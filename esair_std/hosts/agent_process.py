@@ -1,4 +1,4 @@
-"""The component-host process: ``python -m esair_std.modes.agent --connect tcp/H:P
+"""The component-host process: ``python -m esair_std.hosts.agent_process --connect tcp/H:P
 --robot R --spec JSON``. Hosts one behavior, reaction or resource entry and joins it to
 the runtime over Zenoh. A local child of the runtime and an agent on another computer
 (``esair std agent --connect``) run this same code.
@@ -38,8 +38,8 @@ from ..transport.wire import Verbs
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..parts import SampleHandle
-    from .host import ComponentHost
-    from .reshost import ResourceHost
+    from .behavior_host import ComponentHost
+    from .resource_host import ResourceHost
 
 log = logging.getLogger("esair_std.agent")
 MARGIN = 0.05           # the far side of a put, get or command (the BS, the actuator's host)
@@ -260,7 +260,7 @@ class Agent:
 
     # ---- behavior / reaction
     def run_component(self) -> None:
-        from .host import ComponentHost
+        from .behavior_host import ComponentHost
         try:
             cls = component_class(self.spec.class_path, self.spec.base_dir, self.spec.where,
                                   self.spec.kind)
@@ -322,7 +322,7 @@ class Agent:
         (answered on Zenoh's thread: each verb only enqueues or reads)."""
         verbs = Verbs(unknown="unknown op {verb!r}")
         # the host is looked up at each request: a remote agent restarts its behavior
-        # under its policy in a new host (remote/agent.py)
+        # under its policy in a new host (remote/remote_agent.py)
         def host() -> ComponentHost:
             return self._component
 
@@ -356,7 +356,7 @@ class Agent:
     # ---- resource entry
     def run_resource(self) -> None:
         from ..resource import Driver
-        from .reshost import ResourceHost
+        from .resource_host import ResourceHost
         try:
             cls = component_class(self.spec.class_path, self.spec.base_dir, self.spec.where)
             host = self.host = ResourceHost(self.spec, cls, self.port)
@@ -467,7 +467,7 @@ def _stdin_watch(done: threading.Event) -> None:
     done.set()
 
 
-USAGE = """usage: python -m esair_std.modes.agent --connect tcp/HOST:PORT --robot ROBOT
+USAGE = """usage: python -m esair_std.hosts.agent_process --connect tcp/HOST:PORT --robot ROBOT
                                      --spec JSON [--generation N] [--no-stdin]
                                      [--session-options JSON]
 
@@ -505,7 +505,7 @@ class _Args:
                 raise getopt.GetoptError(f"--generation {generation!r} is not a number")
             self.generation = int(generation)
         except getopt.GetoptError as exc:
-            sys.stderr.write(f"{USAGE}python -m esair_std.modes.agent: error: {exc}\n")
+            sys.stderr.write(f"{USAGE}python -m esair_std.hosts.agent_process: error: {exc}\n")
             raise SystemExit(2) from None
         self.no_stdin = "--no-stdin" in o
         self.session_options = o.get("--session-options", "{}")

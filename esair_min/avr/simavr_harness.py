@@ -35,7 +35,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from esair_min.core.devices import RegisterSlave
-from esair_min.core.harness import READING_MAX
+from esair_min.core.stimulus import READING_MAX
 from esair_min.core.image import build_image
 from esair_min.core.script import decimal, hexadecimal
 from esair_min.errors import EsairError, ProtocolError

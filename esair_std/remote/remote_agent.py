@@ -1,6 +1,6 @@
 """A remote agent: one behavior or resource on another computer (``esair std agent``).
 
-It is the component-host process of process mode (:mod:`esair_std.modes.agent`) with
+It is the component-host process of process mode (:mod:`esair_std.hosts.agent_process`) with
 three differences:
 
 * its session is a Zenoh **client** of the control center (it listens on nothing; all
@@ -27,11 +27,11 @@ from typing import TYPE_CHECKING, Any
 
 from ..errors import StdError, TransportError
 from ..level import Level
-from ..modes.agent import Agent, ZenohPort
+from ..hosts.agent_process import Agent, ZenohPort
 from ..spec import Spec
 from ..transport import keys, wire
 from ..transport.bus import Bus
-from ..transport.security import LEASE_MS, link_inserts, session_inserts
+from ..transport.security_config import LEASE_MS, link_inserts, session_inserts
 from ..counters import Counters
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -180,7 +180,7 @@ class RemoteAgent(Agent):
         """Tells the control center that its behavior failed (again until it answers:
         the link may be cut); then either leaves, or joins again (the center replaces a
         failed record) and runs the behavior in a new host."""
-        from ..modes.host import ComponentHost
+        from ..hosts.behavior_host import ComponentHost
         self._component.stop(1.0)
         with self._rejoin_lock:
             while not self.done.is_set():
@@ -230,7 +230,7 @@ def proof_maker(robot_fn: Any, name: str, sec: Any) -> Any:
     def proof() -> dict | None:
         if sec is None:
             return None
-        from .identity import prove_with_cert, prove_with_password   # hashlib: OpenSSL
+        from .registration import prove_with_cert, prove_with_password   # hashlib: OpenSSL
         if sec.cert is not None:
             return prove_with_cert(robot_fn(), name, sec.cert, sec.key)
         if sec.user is not None:
@@ -328,7 +328,7 @@ def joined_line(agent: RemoteAgent, endpoint: str) -> str:
 
 
 def main_json(argv: list[str]) -> int:
-    """``python -m esair_std.remote.agent JSON``: ``run(**JSON)``, an error as one
+    """``python -m esair_std.remote.remote_agent JSON``: ``run(**JSON)``, an error as one
     ``error: ...`` line and status 1 (as the CLI). ``esair std agent`` validates its
     options, then becomes this process (os.execv), so a remote agent carries neither
     the CLI nor pydantic (RSS per component process, docs/std.md)."""

@@ -9,7 +9,7 @@ on the TWI (a modelled register slave, or the drive board's own firmware as node
 :func:`run_robot`) and models each ADNS-2610-class sensor on its two bit-banged pins
 (it samples the address on SCLK's rising edges, drives the data bits from the falling
 ones, and reports a read sooner than tSRAD after the address). The Python core is then
-fed the same events in the same order (esair_min/components/omni_base/replay.py): each
+fed the same events in the same order (esair_min/components/omni_base/sim_replay.py): each
 byte at the cycle the receive interrupt took it, each tick at Timer1's compare
 interrupt, each sensor change at its cycle.
 
@@ -29,10 +29,10 @@ from collections import Counter
 from dataclasses import dataclass
 from pathlib import Path
 
-from esair_min.avr.harness import AvrRun, SimError, parse_events, run_commands, symbol, symbols
+from esair_min.avr.simavr_harness import AvrRun, SimError, parse_events, run_commands, symbol, symbols
 from esair_min.components.dc_motor import DcMotor, motor_units
 from esair_min.components.dc_motor.core import CONTROL_TICK_MS, DriveCore, from_s16
-from esair_min.components.omni_base.replay import FlowChange, Run, replay, reply_lines
+from esair_min.components.omni_base.sim_replay import FlowChange, Run, replay, reply_lines
 from esair_min.components.optical_flow.core import REG_DELTA_X, REG_DELTA_Y, REG_SQUAL, T_SRAD_NS
 from esair_min.core.script import unescape
 from esair_min.errors import ProtocolError

@@ -1,6 +1,6 @@
 """Who is registering: the RS's own check of a remote agent's identity.
 
-Zenoh's access control (transport/security.py) already keeps agents to their keys; this
+Zenoh's access control (transport/security_config.py) already keeps agents to their keys; this
 is the second, independent layer, so that a mistake in the ACL (or no ACL) still lets
 nobody register under a name that is not theirs:
 

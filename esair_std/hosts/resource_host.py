@@ -22,9 +22,9 @@ from ..transport import codec, records, wire
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..parts import Port
-from .host import build
+from .behavior_host import build
 from ..counters import Counters
-from ..words import counted
+from ..plurals import counted
 
 COMMANDS = 256
 

@@ -220,7 +220,7 @@ def access_control(sec: Security | None, robot: str,
             "subjects": subjects, "policies": policies}
 
 
-#: the control verbs an operator's `esair std` sends (modes/control.py); not the agents'
+#: the control verbs an operator's `esair std` sends (control/control_server.py); not the agents'
 #: (register, attach, report, resstate, resinfo, hello, join), which speak for a component
 OPERATOR_VERBS = ("ping", "ls", "add", "remove", "add-resource", "remove-resource", "put",
                   "get", "configure", "reaction", "inspect", "state", "kind", "sample", "send")

@@ -36,7 +36,7 @@ if TYPE_CHECKING:  # pragma: no cover
 
 class Server(Protocol):
     """The control endpoint, as these verbs are installed in and publish through it
-    (modes/control.py)."""
+    (control/control_server.py)."""
 
     verbs: Verbs
 

@@ -30,7 +30,7 @@ from ..transport.wire import Verbs
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..bs import BehaviorSupervisor
-    from ..operator import Operator
+    from .operator import Operator
     from ..parts import Joins, Mode
     from ..view import Robot
     from ..rs import ResourceSupervisor
@@ -106,7 +106,7 @@ class ControlServer:
             "report": self.v_report, "resstate": self.v_resstate,
             "resinfo": self.v_resstate_get, "hello": self.v_hello,
             "join": self.v_join,
-            # the operator's verbs (esair std sample / send): esair_std/operator.py
+            # the operator's verbs (esair std sample / send): esair_std/control/operator.py
             "sample": self.v_sample, "send": self.v_send,
         }.items():
             self.verbs.add(verb, fn)
@@ -234,7 +234,7 @@ class ControlServer:
 
     def v_ls(self, b: dict) -> list:
         if b.get("all"):                 # every row with the same keys, drivers too
-            from ..listing import components
+            from .listing import components
             return components(self.rt)
         return self.rt.ls()
 
@@ -310,7 +310,7 @@ class ControlServer:
 
     def _op(self) -> Any:
         if self._operator is None:
-            from ..operator import Operator
+            from .operator import Operator
             self._operator = Operator(self.rt)
         return self._operator
 

@@ -18,15 +18,15 @@ from __future__ import annotations
 import threading
 from typing import TYPE_CHECKING, Any
 
-from .connections import SensorHandle
-from .errors import ControlError, Refused
-from .level import Level, best_match
-from .policy import PRINCIPALS
-from .sample import Sample
-from .transport import keys
+from ..connections import SensorHandle
+from ..errors import ControlError, Refused
+from ..level import Level, best_match
+from ..policy import PRINCIPALS
+from ..sample import Sample
+from ..transport import keys
 
 if TYPE_CHECKING:  # pragma: no cover
-    from .view import RuntimeView
+    from ..view import RuntimeView
 
 #: The principal name of the command line's operator in ``allow``.
 OPERATOR = PRINCIPALS[0]
