@@ -23,7 +23,6 @@ from esair_min.model import picboot as B
 Progress = Callable[[str, int], None]
 
 DATA = 64                       # every frame carries 64 data bytes
-FRAME = 4 + DATA + 1            # command, address (3), data, checksum
 EE_BASE = 0xF00000              # data EEPROM in a hex file (and in the protocol)
 CONFIG = range(0x300000, 0x30000E)
 IDLOCS = range(0x200000, 0x200008)
@@ -48,9 +47,10 @@ class PicImage:
 
 
 def frame(cmd: str, address: int = 0, data: bytes = b"") -> bytes:
-    """One frame: command, 24-bit address, 64 data bytes (zero-padded), checksum."""
+    """One frame: command, 24-bit address, for W 64 data bytes (zero-padded), checksum."""
     body = bytes([ord(cmd), address >> 16 & 0xFF, address >> 8 & 0xFF, address & 0xFF])
-    body += data.ljust(DATA, b"\0")
+    if cmd == "W":
+        body += data.ljust(DATA, b"\0")
     return body + bytes([-sum(body) & 0xFF])
 
 

@@ -119,10 +119,10 @@ def test_the_bootloader_fills_the_boot_block_and_jumps_to_the_remapped_vectors(c
     assert central.boot.bootloader_bytes == program_bytes(hexfile) == BOOT_BYTES
     ih = IntelHex(str(hexfile))
     assert max(a for a in ih.addresses() if a < picboot.FLASH_END) < picboot.BOOT_END
-    # GOTO 0x0208 at 0x0008, GOTO 0x0218 at 0x0018 (EFkk Fkkk, word address)
+    # BRA 0x0208 at 0x0008, BRA 0x0218 at 0x0018 (D0 + an 11-bit word offset)
     for vector in (0x08, 0x18):
-        word = (0x0200 + vector) // 2
-        assert [ih[vector + i] for i in range(4)] == [word & 0xFF, 0xEF, word >> 8, 0xF0]
+        word = 0xD000 | (picboot.APP_START - 2) // 2
+        assert [ih[vector], ih[vector + 1]] == [word & 0xFF, word >> 8]
     assert ih[0x30000B] & 0x40 == 0          # CONFIG6H WRTB: the boot block write-protected
 
 
@@ -156,11 +156,11 @@ def test_papaman_central_written_read_back_and_answering_v(central, chip):
 
 
 # -- cut and damaged lines -----------------------------------------------------------
-#: bytes the host sent before the cut (69-byte frames: the hello, the tiny app's 8
-#: rows, their 8 reads, the record): in the first row, in the third, while verifying,
-#: inside the record's frame
-CUTS = {"first row": 69 + 30, "third row": 69 + 2 * 69 + 10, "verifying": 69 + 10 * 69 + 10,
-        "record": 69 + 16 * 69 + 40}
+#: bytes the host sent before the cut (the 5-byte hello, the tiny app's 8 rows in
+#: 69-byte frames, their 8 reads in 5-byte frames, the record): in the first row, in the
+#: third, while verifying, inside the record's frame
+CUTS = {"first row": 5 + 30, "third row": 5 + 2 * 69 + 10, "verifying": 5 + 8 * 69 + 12,
+        "record": 5 + 8 * 69 + 8 * 5 + 40}
 
 
 @pytest.mark.parametrize("where", sorted(CUTS))
@@ -178,17 +178,17 @@ def test_a_cut_flash_boots_into_the_bootloader_and_the_next_one_works(chip, tiny
 
 def test_damaged_and_dropped_bytes_are_sent_again(chip, tiny):
     image = load_image(tiny)
-    chip.line.fault = LineFault(after=69 + 69 + 20, damage=1)
+    chip.line.fault = LineFault(after=5 + 69 + 20, damage=1)
     write_image(chip.boot, image, wait=1.0)
     chip.reset()
-    chip.line.fault = LineFault(after=69 + 2 * 69 + 5, drop=3)
+    chip.line.fault = LineFault(after=5 + 2 * 69 + 5, drop=3)
     write_image(chip.boot, image, wait=1.0)
     chip.line.timeout = 0.05
     assert chip.line.read(4) == b"AAAA"
 
 
 def test_a_line_that_damages_every_frame_fails_and_leaves_the_bootloader(chip, tiny):
-    chip.line.fault = LineFault(after=69 + 69 + 20, damage=10_000)
+    chip.line.fault = LineFault(after=5 + 69 + 20, damage=10_000)
     with pytest.raises(FlashError, match=r"damaged frame \(checksum\).*after 3 tries"):
         write_image(chip.boot, load_image(tiny), wait=1.0)
     assert chip.in_bootloader()
