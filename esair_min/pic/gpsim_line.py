@@ -71,7 +71,7 @@ class SimLine:
         self._arrive = 0                         # the cycle the last byte sent is in
         self._cycle = 0
         self.tx_cycles: list[int] = []           # each TXREG write's cycle
-        self.write_cycles: list[int] = []        # each write's first byte on the line
+        self.writes: list[tuple[int, bytes]] = []   # (first byte's cycle, bytes) per write
         session.command(*SETUP, f"log on {self._log}", "log w 0xFAD", "log r 0xFAE")
         self._fh = open(self._log, "rb")         # noqa: SIM115 (closed in close())
         self.baud = 0
@@ -110,7 +110,7 @@ class SimLine:
         self.sent += sent
         if sent:
             self.s.command(*(f"U1.tx = {b:#04x}" for b in sent))
-            self.write_cycles.append(max(self._arrive, self.s.now))
+            self.writes.append((max(self._arrive, self.s.now), sent))
             self._arrive = max(self._arrive, self.s.now) + len(sent) * self.byte_cycles
         return len(data)
 
