@@ -259,3 +259,27 @@ def test_no_bootloader_answering(tiny, tmp_path):
     finally:
         os.close(master)
         os.close(slave)
+
+
+# -- over a pty, as esair flash does it ----------------------------------------------------
+def test_flash_pic_over_a_pty_to_the_gpsim_chip(central, tmp_path):
+    """flash_pic on a real pty: gpsim behind it (esair_min.pic.gpsim_pty), paced to the
+    wall clock; the application then answers ``v`` at its own 9600 baud on that pty."""
+    import serial
+
+    from esair_min.pic.gpsim_pty import GpsimPty
+
+    phases = set()
+    with GpsimPty(tmp_path, central.folder / "build-boot" / "bootloader.cod", CLOCK) as g:
+        flash_pic(central.folder / "firmware-app.hex", g.path, baud=picboot.BOOT_BAUD,
+                  progress=lambda phase, pct: phases.add((phase, pct)))
+        assert g.error is None
+        assert {("writing", 100), ("verifying", 100)} <= phases
+        with serial.Serial(g.path, 9600, timeout=0.2) as port:
+            seen = b""
+            for _ in range(100):                  # its notices, then our v's answer
+                port.write(b"v\r")
+                seen += port.read(200)
+                if b"OK esair-min/1 servos=12" in seen:
+                    break
+        assert b"OK esair-min/1 servos=12" in seen, seen
