@@ -153,3 +153,38 @@ class GpsimPty:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -m esair_min.pic.gpsim_pty BOARD_DIR``: a board's bootloader (from
+    ``esair build``) in gpsim behind a pty, until Ctrl-C or SIGTERM; prints the pty."""
+    import argparse
+    import signal
+    import tempfile
+
+    ap = argparse.ArgumentParser(prog="python -m esair_min.pic.gpsim_pty",
+                                 description=main.__doc__)
+    ap.add_argument("board_dir", type=Path, help="a built board folder (build/ROBOT/ROLE)")
+    ap.add_argument("--clock", type=int, default=20_000_000, help="the board's clock in Hz")
+    ns = ap.parse_args(argv)
+    cod = ns.board_dir / "build-boot" / "bootloader.cod"
+    if not cod.is_file():
+        print(f"error: {cod} not found: run esair build first", flush=True)
+        return 1
+    stop = threading.Event()
+    signal.signal(signal.SIGTERM, lambda *_: stop.set())
+    with tempfile.TemporaryDirectory() as tmp, GpsimPty(Path(tmp), cod, ns.clock) as g:
+        print(f"pty: {g.path}", flush=True)
+        try:
+            while not stop.wait(0.2) and g.error is None:
+                pass
+        except KeyboardInterrupt:
+            pass
+        if g.error is not None:
+            print(f"error: gpsim: {g.error}", flush=True)
+            return 1
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
