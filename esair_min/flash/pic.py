@@ -181,12 +181,14 @@ def flash_pic(hex_path: Path, port: str, *, baud: int, progress: Progress | None
     """Write ``hex_path`` (firmware-app.hex) through the bootloader on ``port``, verify it
     and start it. FlashError names what went wrong; the chip then boots into its
     bootloader (the record is written last)."""
+    import serial
+
     from esair_min.serialport import describe, open_port
 
     image = load_image(Path(hex_path))
     try:
         ser = open_port(port, baudrate=baud, timeout=0.1)
-    except Exception as exc:          # pySerial's errors, or an OSError
+    except (serial.SerialException, OSError, ValueError) as exc:
         raise FlashError(f"cannot open {port}: {describe(exc)}") from None
     try:
         _flash(Bootloader(ser, port), image, progress or (lambda phase, pct: None),

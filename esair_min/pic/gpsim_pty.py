@@ -21,6 +21,7 @@ from pathlib import Path
 
 from esair_min.pic.gpsim_i2c import GpsimSession
 from esair_min.pic.gpsim_line import SETUP, LineFault
+from esair_min.pic.toolchain import ToolchainError
 
 _TX_RE = re.compile(r"Wrote: 0x([0-9A-Fa-f]{4}) to \w+\(0x0FAD\)")
 _SPEEDS = {getattr(termios, f"B{b}"): b for b in
@@ -42,7 +43,7 @@ class GpsimPty:
         self.sent = 0                     # bytes the program has sent
         self.first_rx: int | None = None  # cycle of the first byte in, of the last out
         self.last_tx: int | None = None
-        self.error: BaseException | None = None
+        self.error: Exception | None = None
         self.rx_at: list[int] = []        # the cycle of each batch of bytes in
         self._fault: LineFault | None = None
         self._cmds: list[str] = []
@@ -132,7 +133,7 @@ class GpsimPty:
                         os.write(self._master, out)
                     except OSError:
                         pass
-        except BaseException as exc:      # reported by close() and to the test
+        except (ToolchainError, OSError) as exc:   # gpsim died: seen in .error
             self.error = exc
 
     def close(self) -> None:
