@@ -14,12 +14,12 @@ import pytest
 from intelhex import IntelHex
 
 from esair_min.flash import FlashError
-from esair_min.flash.pic import (EE_BASE, Bootloader, flash_pic, frame, load_image,
-                                 write_image)
+from esair_min.flash.pic import (EE_BASE, Bootloader, check_hello, flash_pic, frame,
+                                 load_image, write_image)
 from esair_min.model import picboot
 from esair_min.model.validate import load_robot
 from esair_min.pic.bootbuild import add_record, program_bytes
-from esair_min.pic.build import BuildError, build_robot, toolchain
+from esair_min.pic.build import BuildError, build_robot, summary_lines, toolchain
 from esair_min.pic.gpsim_i2c import GpsimSession
 from esair_min.pic.gpsim_line import LineFault, SimLine
 from esair_min.pic.toolchain import run_gpsim
@@ -134,6 +134,8 @@ def test_the_application_is_linked_above_it_with_exact_figures(central):
     image = load_image(central.folder / "firmware-app.hex")
     assert image.end == central.boot.app_end and image.end % picboot.ROW == 0
     assert image.tag == picboot.board_tag("papaman", "central")
+    assert central.boot.line("central") in summary_lines([central])
+    assert f"application above it {central.usage.program_bytes} B" in central.boot.line("c")
 
 
 # -- a whole application ---------------------------------------------------------------
@@ -244,6 +246,15 @@ def test_a_hex_for_another_board_is_refused_at_the_hello(chip, tiny, tmp_path):
     with pytest.raises(FlashError, match="built for another board"):
         write_image(chip.boot, load_image(tmp_path / "sensor.hex"), wait=1.0)
     assert chip.in_bootloader()
+
+
+def test_another_chip_or_version_at_the_hello(tiny):
+    image = load_image(tiny)
+    check_hello(image, 0x0427, picboot.VERSION, image.tag, "p")        # a PIC18F452, rev 7
+    with pytest.raises(FlashError, match="device id is 0x0C47, not a PIC18F452"):
+        check_hello(image, 0x0C47, picboot.VERSION, image.tag, "p")
+    with pytest.raises(FlashError, match="bootloader version 2"):
+        check_hello(image, 0x0427, 2, image.tag, "p")
 
 
 def test_no_bootloader_answering(tiny, tmp_path):
