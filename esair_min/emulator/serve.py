@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable, Protocol, TextIO
 
+from esair_min import sigs
 from esair_min.errors import EsairError
 from esair_min.model.robot import Robot
 from esair_min.emulator.clock import NS_PER_S, seconds_to_ns
@@ -87,7 +88,8 @@ class _Stop:
 
     def install(self) -> None:
         for sig in (signal.SIGTERM, signal.SIGINT):
-            self._old[sig] = signal.signal(sig, self)
+            if not sigs.ignored(sig):           # a background job keeps its ignore
+                self._old[sig] = signal.signal(sig, self)
 
     def restore(self) -> None:
         for sig, old in self._old.items():
