@@ -18,8 +18,9 @@ from esair_min.flash.pic import (EE_BASE, Bootloader, check_hello, flash_pic, fr
                                  load_image, write_image)
 from esair_min.model import picboot
 from esair_min.model.validate import load_robot
-from esair_min.pic.bootbuild import add_record, program_bytes
-from esair_min.pic.build import BuildError, build_robot, summary_lines, toolchain
+from esair_min.codegen import generate_robot
+from esair_min.pic.bootbuild import add_record, build_boot, program_bytes
+from esair_min.pic.build import BoardBuild, BuildError, build_board, summary_lines, toolchain
 from esair_min.pic.gpsim_i2c import GpsimSession
 from esair_min.pic.gpsim_line import LineFault, SimLine
 from esair_min.pic.toolchain import run_gpsim
@@ -41,9 +42,13 @@ def tc():
 
 @pytest.fixture(scope="module")
 def central(tc, tmp_path_factory):
-    robot = load_robot(resolve_robot("papaman"))
-    builds = build_robot(robot, tmp_path_factory.mktemp("fw"), tc, boot=True)
-    return next(b for b in builds if b.role == "central")
+    """PAPA-MAN's central alone, built as esair build does (the bootloader included)."""
+    out = tmp_path_factory.mktemp("fw")
+    generate_robot(load_robot(resolve_robot("papaman")), out)
+    folder = out / "central"
+    usage = build_board(folder, tc)
+    return BoardBuild("central", folder, usage, "pic18f452",
+                      build_boot(folder, tc, "papaman", "central"))
 
 
 @pytest.fixture(scope="module")
