@@ -53,11 +53,14 @@ def central(tc, tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def tiny(central, tmp_path_factory):
-    """The tiny application (sends 'A'), with the record for the central's bootloader."""
+    """The tiny application (sends 'A') with 10 bytes of data EEPROM at 0x30, and the
+    record for the central's bootloader."""
     out = tmp_path_factory.mktemp("tiny")
     subprocess.run(["gpasm", "-o", str(out / "tiny.hex"), str(FIXTURES / "tinyapp.asm")],
                    check=True, capture_output=True)
     ih = IntelHex(str(out / "tiny.hex"))
+    for i in range(10):
+        ih[EE_BASE + 0x30 + i] = 0xA0 + i
     add_record(ih, picboot.board_tag("papaman", "central"), "tiny")
     ih.write_hex_file(str(out / "tiny-app.hex"))
     return out / "tiny-app.hex"
@@ -162,11 +165,11 @@ def test_papaman_central_written_read_back_and_answering_v(central, chip):
 
 
 # -- cut and damaged lines -----------------------------------------------------------
-#: bytes the host sent before the cut (the 5-byte hello, the tiny app's 8 rows in
-#: 69-byte frames, their 8 reads in 5-byte frames, the record): in the first row, in the
-#: third, while verifying, inside the record's frame
-CUTS = {"first row": 5 + 30, "third row": 5 + 2 * 69 + 10, "verifying": 5 + 8 * 69 + 12,
-        "record": 5 + 8 * 69 + 8 * 5 + 40}
+#: bytes the host sent before the cut (the 5-byte hello, the tiny app's 8 rows and its
+#: EEPROM block in 69-byte frames, their 9 reads in 5-byte frames, the record): in the
+#: first row, in the third, while verifying, inside the record's frame
+CUTS = {"first row": 5 + 30, "third row": 5 + 2 * 69 + 10, "verifying": 5 + 9 * 69 + 12,
+        "record": 5 + 9 * 69 + 9 * 5 + 40}
 
 
 @pytest.mark.parametrize("where", sorted(CUTS))
@@ -179,6 +182,7 @@ def test_a_cut_flash_boots_into_the_bootloader_and_the_next_one_works(chip, tiny
     write_image(chip.boot, image, wait=1.0)    # in the bootloader still: no window needed
     chip.line.timeout = 0.05
     assert chip.line.read(8) == b"AAAAAAAA"    # the application runs
+    assert image.eeprom == {0: b"\xff" * 0x30 + bytes(range(0xA0, 0xAA)) + b"\xff" * 6}
     assert not chip.in_bootloader()            # and starts after a reset
 
 
