@@ -12,7 +12,6 @@ baud rate the program set on the pty (as a real line must match the PIC's), and
 from __future__ import annotations
 
 import os
-import re
 import termios
 import threading
 import time
@@ -20,10 +19,9 @@ import tty
 from pathlib import Path
 
 from esair_min.pic.gpsim_i2c import GpsimSession
-from esair_min.pic.gpsim_line import SETUP, LineFault
+from esair_min.pic.gpsim_line import SETUP, TX_RE, LineFault
 from esair_min.pic.toolchain import ToolchainError
 
-_TX_RE = re.compile(r"Wrote: 0x([0-9A-Fa-f]{4}) to \w+\(0x0FAD\)")
 _SPEEDS = {getattr(termios, f"B{b}"): b for b in
            (1200, 2400, 4800, 9600, 19200, 38400, 57600, 115200, 230400)}
 SLICE = 50_000            # most instruction cycles run in one batch (10 ms at 20 MHz)
@@ -41,10 +39,7 @@ class GpsimPty:
         self.timeout = timeout
         self.path = ""
         self.sent = 0                     # bytes the program has sent
-        self.first_rx: int | None = None  # cycle of the first byte in, of the last out
-        self.last_tx: int | None = None
         self.error: Exception | None = None
-        self.rx_at: list[int] = []        # the cycle of each batch of bytes in
         self._fault: LineFault | None = None
         self._cmds: list[str] = []
         self._lock = threading.Lock()
@@ -113,10 +108,6 @@ class GpsimPty:
                 data = self._take()
                 with self._lock:
                     cmds, self._cmds = self._cmds, []
-                if data:
-                    self.rx_at.append(s.now)
-                    if self.first_rx is None:
-                        self.first_rx = s.now
                 want = c0 + int((time.monotonic() - t0) * rate)
                 if want < s.now + 1000 and not data and not cmds:
                     time.sleep(0.001)
@@ -126,9 +117,8 @@ class GpsimPty:
                 text = self._logbuf + self._log.read().decode("latin-1")
                 cut = text.rfind("\n") + 1
                 self._logbuf = text[cut:]
-                out = bytes(int(m.group(1), 16) & 0xFF for m in _TX_RE.finditer(text[:cut]))
+                out = bytes(int(m.group(1), 16) & 0xFF for m in TX_RE.finditer(text[:cut]))
                 if out:
-                    self.last_tx = s.now
                     try:
                         os.write(self._master, out)
                     except OSError:
