@@ -94,11 +94,12 @@ _BY_FOLDER = {"net": "net", "hmi": "browser"}
 _BY_MODULE = {
     "gpsim": {"test_gpsim", "test_gpsim_bus", "test_gpsim_overrun", "test_gpsim_slaves",
               "test_gpsim_uart", "test_toolchain", "test_pic_build", "test_starfish_pic",
-              "test_starfish_gpsim", "test_gpsim_duplex", "test_gpsim_mux", "test_verify"},
+              "test_starfish_gpsim", "test_gpsim_duplex", "test_gpsim_mux", "test_verify",
+              "test_pic_bootloader"},
     "pty": {"test_pty", "test_minlink_pty", "test_liveview_tmux", "test_std_papaman",
             "test_std_papaman_c", "test_std_papaman_cli", "test_gpsim_uart",
             "test_starfish_pty", "test_pty_promise", "test_minlink_safety",
-            "test_std_papaman_safety", "test_minlink_duplex"},
+            "test_std_papaman_safety", "test_minlink_duplex", "test_pic_bootloader"},
     "avr": {"test_avr", "test_starfish_avr", "test_verify"},
 }
 _BY_FIXTURE = {"pic_firmware": "gpsim"}
@@ -130,6 +131,7 @@ LONGEST_FIRST = ["test_starfish_net", "test_std_operator_cli", "test_std_net", "
                  "test_hmi_starfish", "test_validate_errors", "test_std_record",
                  "test_gpsim_slaves", "test_script", "test_std_net_security",
                  "test_starfish_avr", "test_std_supervision", "test_validate_fuzz", "test_gpsim",
+                 "test_pic_bootloader",
                  "test_std_papaman_cli"]
 
 

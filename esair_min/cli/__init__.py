@@ -321,7 +321,7 @@ def build(robot: str, output: str) -> None:
 
     from esair_min.pic.build import build_robot, summary_lines
 
-    for line in summary_lines(build_robot(load(robot), Path(output))):
+    for line in summary_lines(build_robot(load(robot), Path(output), boot=True)):
         click.echo(line)
 
 
