@@ -21,6 +21,8 @@ from click.testing import CliRunner
 
 from esair_min.cli import main
 
+pytestmark = pytest.mark.slow
+
 ROOT = Path(__file__).resolve().parents[2]
 VERSION = "OK esair-min/1 servos=12 sensors=8 motions=5 image=ok checksum=off"
 INSTANCE = "0123abcd"            # the pty emulators here boot with this instance

@@ -24,6 +24,8 @@ from esair_min.core.stimulus import run_script
 from esair_min.resources import resolve_robot
 from esair_min.model.validate import load_robot
 
+pytestmark = pytest.mark.gpsim
+
 SCENARIO = Path(__file__).resolve().parents[1] / "fixtures" / "gpsim" / "papaman.txt"
 BALANCE = SCENARIO.with_name("balance.txt")
 BALANCE_EQUAL = SCENARIO.with_name("balance_equal.txt")

@@ -11,6 +11,8 @@ test_gpsim_overrun.py.
 
 from __future__ import annotations
 
+import pytest
+
 from pathlib import Path
 
 from hypothesis import HealthCheck, event, given, settings
@@ -23,6 +25,8 @@ from esair_min.emulator import Emulator
 from esair_min.emulator.uart import GAP, RING_BYTES
 from esair_min.model.validate import load_robot
 from tests.support.overrun_streams import burst, scripts
+
+pytestmark = pytest.mark.slow
 
 ROOT = Path(__file__).resolve().parents[2]
 FIXTURES = ROOT / "tests" / "fixtures" / "overrun"

@@ -31,6 +31,8 @@ from esair_std.drivers.minlink.link_errors import DifferentRobot, Expired, LinkE
 from tests.support.std import wait_for
 from tests.support.robot_ptys import VERSION, frames, pty_number, replies, start_on_number, stop
 
+pytestmark = pytest.mark.pty
+
 ROOT = Path(__file__).resolve().parents[2]
 PAPAMAN = ROOT / "boards" / "papaman"
 
