@@ -86,6 +86,15 @@ class Starting:
     def set_enabled(self, enabled: bool) -> None:
         pass
 
+    def notify_latch(self, state: dict | None, by: str = "") -> None:
+        pass
+
+    def halt(self, why: str) -> None:
+        pass              # the RS halts it once it has started (rs.py: add, restarted)
+
+    def release(self) -> None:
+        pass
+
     def check(self, now: float) -> float | None:
         return None
 

@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable, Protocol, TextIO
 
+from esair_min import sigs
 from esair_min.errors import EsairError
 from esair_min.model.robot import Robot
 from esair_min.emulator.clock import NS_PER_S, seconds_to_ns
@@ -36,6 +37,7 @@ class EmulateOptions:
     scenario: str | None = None
     hold_scenario: bool = False   # with --pty: the scenario plays on SIGUSR1, not at boot
     trace: Path | None = None
+    trace_rx: bool = False        # the trace also holds the lines the robot received
     faults: Faults = field(default_factory=Faults)
     speed: float | None = None    # with --pty only; None: real time (1)
     live: bool | None = None      # None: when stdout is a terminal
@@ -43,6 +45,7 @@ class EmulateOptions:
     instance: str | None = None   # the v reply's instance; None: random with --pty
     pose: tuple[float, float, float] | None = None   # an omni-base robot's start (mm, mm, rad)
     world_out: Path | None = None  # an omni-base robot's true pose, to this datagram socket
+    eeprom: Path | None = None    # the EEPROM's contents in this file (kept across runs)
 
 
 def generate_first(robot: Robot, out_dir: Path, log: Callable[[str], None]) -> bytes | None:
@@ -86,7 +89,8 @@ class _Stop:
 
     def install(self) -> None:
         for sig in (signal.SIGTERM, signal.SIGINT):
-            self._old[sig] = signal.signal(sig, self)
+            if not sigs.ignored(sig):           # a background job keeps its ignore
+                self._old[sig] = signal.signal(sig, self)
 
     def restore(self) -> None:
         for sig, old in self._old.items():
@@ -196,6 +200,8 @@ def emulate(robot: Robot, opts: EmulateOptions, out: TextIO | None = None,
                                                  buffering=1 if opts.pty else -1))
             except OSError as exc:
                 raise EsairError(f"cannot write the trace {opts.trace}: {exc.strerror}") from None
+        elif opts.trace_rx:
+            raise EsairError("--trace-rx adds to the trace: give --trace FILE too")
         instance = opts.instance
         if instance is None and opts.pty:      # each boot on a pty is a robot of its own
             instance = secrets.token_hex(4)

@@ -33,6 +33,11 @@ Resources, named from the board files:
 - ``<entry>.notices`` sensor: every ``!`` line as ``{"notice": text}`` (``R
   auto_balance``, ``E10 no answer on i2c``, ``READY ...``).
 
+The runtime's latched STOP (docs/std.md) holds the link (``halt()``): ``x`` goes at
+once, ahead of every command, and nothing but ``x`` and the polls goes until the
+release; a STOP made while the link is down is written first thing when it is back;
+the firmware's own reaction (``!R``) is answered with ``x`` at once.
+
 An ``Enn`` reply reaches the sender as ``CommandError(resource, "robot refused 'LINE':
 Enn text")``. While the link is down every resource is ``lost`` (``esair std ls`` shows
 the reason) and commands fail at once with ``ResourceLost``; they are ``ready`` again
@@ -143,13 +148,21 @@ class MotionActuator(_LinkAgent, Actuator):
             raise CommandError(self.name, str(exc)) from None
         if command in ("stand", {"stand": True}):
             return self._send(line)
-        ex = self._exchange(line)
+        return self._took(self._exchange(line))
+
+    def _took(self, ex: Exchange) -> dict:
         # a play and a stop say when the robot had the whole line (written, then its
         # bytes' time on the wire): the motion starts or stops then, while the reply may
         # come later (behind a feet reply on its way, full duplex); the HMI shows the
         # frame a motion reached from these times (docs/hmi.md)
         took = ex.t_sent + self.link.budget.line_s(ex.sent_bytes)
-        return {"line": line, "at": round(time.time() - (time.monotonic() - took), 4)}
+        return {"line": ex.line, "at": round(time.time() - (time.monotonic() - took), 4)}
+
+    def halt(self) -> Any:
+        """The latched STOP's ``x`` (the driver's halt() sent it): recorded as this
+        actuator's ``stop``, with when the robot had it; None when it could not go."""
+        ex = self.link.last_stop
+        return None if ex is None else self._took(ex)
 
 
 class PolledSensor(Sensor):
@@ -223,6 +236,7 @@ class FeetSensor(PolledSensor):
     """Polls ``s`` (a poll: commands go first)."""
 
     thread_name = "minlink-feet"
+    settings = ("rate_hz", "feet_hz")       # the same: the polls per second
 
     def __init__(self, link: Link, hz: float, share: float):
         super().__init__()
@@ -363,6 +377,15 @@ class MinLink(Driver):
 
     def resources(self) -> dict[str, Any]:
         return self.children
+
+    def halt(self) -> None:
+        """The runtime's latched STOP: the link sends ``x`` ahead of everything, then
+        refuses every line but the stop and the polls; while down, it sends ``x`` first
+        thing when it comes back (link.py, "Held")."""
+        self.link.hold(True)
+
+    def release(self) -> None:
+        self.link.hold(False)
 
     def close(self) -> None:
         link, emulated = getattr(self, "link", None), getattr(self, "emulated", None)
