@@ -25,6 +25,8 @@ from esair_min.resources import resolve_robot
 from esair_min.model.validate import load_robot
 from tests.support.board_lines import READY_OK
 
+pytestmark = pytest.mark.gpsim
+
 SCENARIO = Path(__file__).resolve().parents[1] / "fixtures" / "gpsim" / "papaman.txt"
 BALANCE = SCENARIO.with_name("balance.txt")
 BALANCE_EQUAL = SCENARIO.with_name("balance_equal.txt")

@@ -16,6 +16,8 @@ from esair_min.cli import main
 from esair_min.resources import resolve_robot
 from esair_min.model.validate import load_robot
 
+pytestmark = pytest.mark.gpsim
+
 GOAL_FLASH, GOAL_RAM = 8192, 512
 # Measured (program bytes, RAM bytes incl. the stack) + about 3 %. The peers' RAM: the
 # I2C slave's byte queue in the access bank (actuator 462, sensor 180 bytes measured).

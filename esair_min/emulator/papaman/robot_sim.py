@@ -39,7 +39,7 @@ from esair_min.core.trace import TraceWriter, TracingBus
 from esair_min.emulator.papaman.actuator import ActuatorBoard, stand_registers
 from esair_min.emulator.clock import NS_PER_S, VirtualClock, seconds_to_ns
 from esair_min.codegen.buildid import central_build_id
-from esair_min.emulator.eeprom import CyclingEeprom, attach_file
+from esair_min.emulator.eeprom_chip import CyclingEeprom, attach_file
 from esair_min.emulator.faults import Faults, corrupt
 from esair_min.emulator.i2c import TimedBus
 from esair_min.emulator.line import SerialHost
