@@ -76,6 +76,7 @@ class Bridge:
         self.watched: dict[str, str] = {}     # sensor -> "ok" or the refusal
         self.link: dict[str, dict] = {}
         self.runtime_up = False
+        self.latch: dict = {"stopped": False}     # the runtime's latched STOP (latch.py)
         self._last_sample: dict[str, float] = {}
         self._prev_counts: dict[str, tuple[float, int, int]] = {}
         self._stop = threading.Event()
@@ -117,6 +118,10 @@ class Bridge:
         self.bus.subscribe(keys.commands_all(self.robot), self._on_commands, with_key=True)
         # ls when told: a state changed, or the runtime came or went
         self.bus.subscribe(keys.changed(self.robot), self._on_changed)
+        # the latched STOP: asked now (an HMI started while it holds shows it), then
+        # told at each change
+        self.bus.subscribe(keys.latch(self.robot), self._on_latch)
+        self.latch = self.call("latch")
         self.bus.watch_alive(keys.alive(self.robot, "runtime", "runtime"),
                              lambda _key, _alive: self._kick.set())
         self._poll_once(inspect=True)
@@ -163,13 +168,18 @@ class Bridge:
         return {"t": "hello", "robot": self.robot, "robots": self.robots,
                 "problems": self.problems, "rows": self.rows, "link": self.link,
                 "watched": self.watched, "runtime_up": self.runtime_up,
-                "last": list(self.last.values()),
+                "last": list(self.last.values()), "latch": self.latch,
                 "states": [{"t": "state", "r": k, "v": v} for k, v in self.states.items()]}
 
     # ---- commands and samples (Zenoh's thread: hand over and return)
     def _on_changed(self, obj: Any) -> None:
         self.c.add("notices")
         self._kick.set()
+
+    def _on_latch(self, obj: Any) -> None:
+        if isinstance(obj, dict) and isinstance(obj.get("stopped"), bool):
+            self.latch = obj
+            self.emit({"t": "latch", "v": obj})
 
     def _on_commands(self, key: str, obj: Any) -> None:
         """A batch of an entry's command records (transport/records.py): each command
@@ -302,6 +312,10 @@ class Bridge:
             self.runtime_up = True
             self.emit({"t": "runtime", "up": True, "reason": ""})
             self.emit(_log("info", "runtime answers again"))
+            try:                      # a notice of the STOP may have been missed meanwhile
+                self._on_latch(self.call("latch", timeout=1.0))
+            except BridgeError:
+                pass
         self._changes(self.rows, rows)
         if rows != self.rows:
             self.rows = rows

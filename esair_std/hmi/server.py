@@ -53,7 +53,7 @@ PENDING_MAX = 10_000        # messages emitted and not yet handed to the pages (
 MAX_FRAME = 64 * 1024       # bytes of one frame from a page
 CSP = ("default-src 'self'; img-src 'self' data:; style-src 'self' 'unsafe-inline'; "
        "connect-src 'self'; frame-ancestors 'none'")
-OPERATOR_OPS = {"cmd", "stop", "add", "remove", "restart", "record"}
+OPERATOR_OPS = {"cmd", "stop", "release", "add", "remove", "restart", "record"}
 LOAD_MAX = 50_000           # samples of a recording sent to a page for replay
 
 
@@ -394,33 +394,35 @@ class HmiServer:
             self._log("error", f"{what} refused: {_unnamed(r, res)}")
             self._reply(page, ident, False, r, logged=True)
 
+    def _principal(self, page: Page) -> str:
+        """Who a page's STOP or release is from: ``hmi`` and the user logged in."""
+        return f"{self.who}:{page.user}" if page.user else self.who
+
     async def op_stop(self, page: Page, ident: Any, obj: dict) -> None:
-        """``stop`` to every motion actuator; the log says STOP only where it went
-        through, and why it was refused where not."""
+        """The runtime's latched STOP (docs/hmi.md): every motion stopped, every command
+        refused until an operator releases it."""
         assert self.bridge is not None
-        targets = [f"{e}.motion" for e in self.bridge.robots] or [
-            r["name"] for r in self.bridge.rows if r["name"].endswith(".motion")]
-        if not targets:
-            self._reply(page, ident, False, "no motion actuator to stop")
-            return
+        reason = obj.get("reason") or ""
+        if not isinstance(reason, str):
+            raise BadFrame("field 'reason' must be text")
         self.c.add("commands")
-        who = page.user or "operator"
-        refused = {}
-        for res in targets:
-            ok, r = await self._through(res, "stop")
-            if not ok:
-                refused[res] = r
-        went = [res for res in targets if res not in refused]
-        if went:
-            self._log("warning", f"STOP by {who}"
-                      + (f" on {', '.join(went)}" if refused else ""))
-        for res, why in refused.items():
-            self._log("error", f"STOP by {who} refused on {res}: {_unnamed(why, res)}")
-        if refused:
-            self._reply(page, ident, False, "; ".join(f"{res}: {why}" for res, why in refused.items()),
-                        logged=True)
-        else:
-            self._reply(page, ident, True, went)
+        r = await self._call(page, ident, self.bridge.call, "stop",
+                             {"who": self._principal(page), "reason": reason}, 10.0,
+                             what="STOP")
+        if r is not None:
+            self.emit({"t": "log", "level": "warning", "ts": time.time(),
+                       "text": f"STOP by {r['by']} at {r['at']}: every command refused "
+                               f"until released"})
+
+    async def op_release(self, page: Page, ident: Any, obj: dict) -> None:
+        """Release the STOP (operators only: OPERATOR_OPS); it starts nothing."""
+        assert self.bridge is not None
+        r = await self._call(page, ident, self.bridge.call, "release",
+                             {"who": self._principal(page)}, 10.0, what="release")
+        if r is not None:
+            self.emit({"t": "log", "level": "warning", "ts": time.time(),
+                       "text": f"released by {self._principal(page)} (STOP by {r['by']} at "
+                               f"{r['at']})"})
 
     async def op_add(self, page: Page, ident: Any, obj: dict) -> None:
         body = {"name": _field(obj, "name", str), "class": _field(obj, "class", str),
@@ -455,6 +457,7 @@ class HmiServer:
                 return
             assert self.bridge is not None and self.bridge.bus is not None
             tap.listen(self.bridge.bus, self.bridge.robot)     # the commands too
+            tap.put({"t": "latch", "v": self.bridge.latch})    # STOPPED or not, from here
             self.tap = tap
         elif not on and self.tap is not None:
             tap, self.tap = self.tap, None

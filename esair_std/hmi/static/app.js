@@ -55,6 +55,7 @@ class App {
     this.flushedAt = null;       // the server's "f" of the frame being read
     this.fps = FPS; this.feetFps = FEET_FPS;
     $("stop").addEventListener("click", () => this.stop());
+    $("release").addEventListener("click", () => this.release());
     $("login").addEventListener("submit", (e) => { e.preventDefault(); this.login(); });
     $("record").addEventListener("click", () => this.record());
     this.replay = new Replay(this);
@@ -140,6 +141,21 @@ class App {
     if (!r.ok && !r.logged) this.log.add("error", `STOP not sent: ${r.error}`);
   }
 
+  async release() {
+    const r = await this.send({ op: "release" });
+    if (!r.ok) this.log.add("error", `release: ${r.error}`);
+  }
+
+  // The runtime's latched STOP (docs/hmi.md): a banner that stays until an operator
+  // releases it, on every page, one opened later too (hello's "latch").
+  latched(m) {
+    const on = !!(m && m.stopped);
+    document.body.classList.toggle("stopped", on);
+    $("latch-text").textContent = on ? `STOPPED by ${m.by} at ${m.at}${m.reason ? ` (${m.reason})` : ""}`
+      + ": every command is refused until an operator releases it" : "";
+    $("latch").hidden = !on;
+  }
+
   async login() {
     const r = await this.send({ op: "login", user: $("login-user").value, password: $("login-pass").value });
     $("login-pass").value = "";
@@ -183,6 +199,7 @@ class App {
       case "watched": return;
       case "state": this.generic.state(m.r, m.v); this.dirty = true; return;
       case "recording": return this.recording(m);
+      case "latch": return this.latched(m.v);
       default: this.log.add("warning", `unknown message ${m.t}`);
     }
   }
@@ -209,6 +226,7 @@ class App {
     for (const s of m.states || []) this.generic.state(s.r, s.v);
     for (const p of m.problems) this.log.add("warning", p);
     this.recording(m.recording);
+    this.latched(m.latch);
     this.replay.refresh();
     for (const [res, v, played] of m.commanded || []) this.commanded(res, v, played);
     this.linkbar(); this.banner();
