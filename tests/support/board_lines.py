@@ -28,3 +28,19 @@ def version(robot: Robot, ok: bool = True, checksum: bool = False,
 
 def text(line: bytes) -> str:
     return line.decode().rstrip("\r\n")
+
+
+def _papaman() -> Robot:
+    from pathlib import Path
+
+    from esair_min.model.validate import load_robot
+    return load_robot(Path(__file__).resolve().parents[2] / "boards" / "papaman")
+
+
+PAPAMAN = _papaman()
+#: PAPA-MAN's lines (bytes with CR LF), its image valid or not
+READY_OK, READY_BAD = ready(PAPAMAN), ready(PAPAMAN, False)
+VERSION_OK, VERSION_BAD = version(PAPAMAN), version(PAPAMAN, False)
+#: the same as text (no CR LF)
+READY_OK_T, READY_BAD_T = text(READY_OK), text(READY_BAD)
+VERSION_OK_T, VERSION_BAD_T = text(VERSION_OK), text(VERSION_BAD)
