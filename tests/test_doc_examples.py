@@ -9,8 +9,9 @@ user would type it (issue 34 item 5: `robot.yaml` and `locate:Locate` existed no
 - a `module:Class` it names (`agent`, `add`) is imported;
 - `esair std new` and `esair std check` are run for real (in a scratch folder).
 
-Lines of the form `$ esair ...` count too; output lines do not. A block may hold lines
-that are not commands (comments, output): only lines that start with `esair ` are read,
+Lines of the form `$ esair ...` count too; output lines do not. A document's commands
+are checked in order, as a reader follows them. A block may hold lines that are not
+commands (comments, output): only lines that start with `esair ` are read,
 joined with their `\\` continuations."""
 
 from __future__ import annotations
@@ -85,12 +86,13 @@ def commands(lines: list[str], first: int) -> list[tuple[int, str]]:
 
 
 def examples() -> list[tuple[str, list[tuple[int, str]]]]:
+    """Per document, its commands in order (a folder an `esair std new` made is there for
+    the document's later blocks, as for a reader who follows it)."""
     found = []
     for doc in DOCS:
-        for first, lines in blocks(doc.read_text()):
-            cmds = commands(lines, first)
-            if cmds:
-                found.append((f"{doc.relative_to(ROOT)}:{first}", cmds))
+        cmds = [c for first, lines in blocks(doc.read_text()) for c in commands(lines, first)]
+        if cmds:
+            found.append((str(doc.relative_to(ROOT)), cmds))
     return found
 
 
@@ -172,7 +174,7 @@ EXAMPLES = examples()
 
 def test_the_docs_show_commands():
     """The extraction can fail: it finds the README's and the docs' commands."""
-    where = {w.split(":")[0] for w, _ in EXAMPLES}
+    where = {w for w, _ in EXAMPLES}
     assert {"README.md", "docs/std.md", "docs/std-network.md", "docs/std-starfish.md"} <= where
     assert sum(len(c) for _, c in EXAMPLES) > 50
 
@@ -199,6 +201,6 @@ def test_a_wrong_example_is_caught(tmp_path):
 def test_every_example_runs_as_written(where, cmds, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     made: dict[str, Path] = {}
-    wrong = [f"{where.split(':')[0]}:{n}: {cmd}\n    {why}" for n, cmd in cmds
+    wrong = [f"{where}:{n}: {cmd}\n    {why}" for n, cmd in cmds
              if (why := check(cmd, made, tmp_path)) is not None]
     assert wrong == [], "\n".join(wrong)
