@@ -9,6 +9,7 @@ import sys
 import click
 
 from esair_min import __version__
+from esair_min.cli import verify as _verify
 from esair_min.cli.pipes import friendly
 from esair_min.resources import resolve_robot
 
@@ -154,6 +155,8 @@ def _pose(text: str | None) -> tuple[float, float, float] | None:
               help="With --pty: the scenario plays when the emulator gets SIGUSR1, not at boot.")
 @click.option("--trace", type=click.Path(dir_okay=False), metavar="FILE",
               help="Write the event trace (docs/trace-format.md, with @ time marks).")
+@click.option("--trace-rx", is_flag=True,
+              help="With --trace: also each line the robot received (RX lines).")
 @click.option("--speed", type=float, metavar="FACTOR",
               help="With --pty: virtual seconds per wall second (default 1: real time).")
 @click.option("--nack-actuator", is_flag=True, help="Fault: the actuator board never ACKs.")
@@ -177,7 +180,8 @@ def _pose(text: str | None) -> tuple[float, float, float] | None:
 @friendly
 def emulate(robot: str, pty: bool, run_s: float | None, sends: tuple[str, ...],
             generate: str | None, scenario: str | None, hold_scenario: bool, trace: str | None,
-            speed: float | None, nack_actuator: bool, no_sensor: bool, corrupt_eeprom: bool, stuck_bus: bool,
+            trace_rx: bool, speed: float | None, nack_actuator: bool, no_sensor: bool,
+            corrupt_eeprom: bool, stuck_bus: bool,
             noise: float, seed: int, room: str | None, instance: str | None,
             pose: str | None, world_out: str | None) -> None:
     """Run the emulated robot behind a pseudo-terminal (--pty) or headless (--run).
@@ -197,7 +201,8 @@ def emulate(robot: str, pty: bool, run_s: float | None, sends: tuple[str, ...],
     opts = EmulateOptions(
         pty=pty, run_s=run_s, sends=sends, generate=Path(generate) if generate else None,
         scenario=scenario, hold_scenario=hold_scenario, trace=Path(trace) if trace else None,
-        speed=speed, faults=Faults(nack_actuator, no_sensor, corrupt_eeprom, noise, seed, stuck_bus),
+        trace_rx=trace_rx, speed=speed,
+        faults=Faults(nack_actuator, no_sensor, corrupt_eeprom, noise, seed, stuck_bus),
         room=Path(room) if room else None, instance=instance, pose=_pose(pose),
         world_out=Path(world_out) if world_out else None)
     status = run_emulator(load(robot), opts)
@@ -246,7 +251,7 @@ def plot(trace: str, output: str, robot: str, targets: bool) -> None:
     A STARFISH trace (esair emulate starfish --trace) is drawn as the robot's path on
     its room's map, with the wheels' speeds below. A FILE.mcap (`esair std record`) is
     drawn per channel, reactions marked."""
-    from esair_min.emulator.starfish_trace import is_starfish_trace
+    from esair_min.emulator.starfish.pose_trace import is_starfish_trace
 
     if trace.endswith(".mcap"):
         from esair_min.cli.plotmcap import plot_mcap
@@ -296,6 +301,10 @@ def build(robot: str, output: str) -> None:
 
     for line in summary_lines(build_robot(load(robot), Path(output))):
         click.echo(line)
+
+
+main.add_command(_verify.new)
+main.add_command(_verify.verify)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -104,12 +104,15 @@ INTERRUPTED = 130
                    "docs/hmi.md) and print its URL.")
 @click.option("--hmi-listen", default="127.0.0.1:8080", show_default=True,
               metavar="HOST:PORT", help="Where --hmi serves the page.")
+@click.option("--stopped", is_flag=True,
+              help="Start latched in the STOPPED state: no actuator command is taken until "
+                   "`esair std release` (docs/std.md, \"The latched stop\").")
 @insecure_option()
 @friendly
 def run_cmd(deployment: str, mode: str | None, seconds: float | None, endpoint: str | None,
             no_control: bool, port: str | None, trace: str | None, scenario: str | None,
             top: bool | None, join: tuple[str, ...], hmi: bool, hmi_listen: str,
-            insecure: bool) -> None:
+            stopped: bool, insecure: bool) -> None:
     """Deploy FILE (a deployment file, or a bundled example such as `lab`) and run it
     until Ctrl-C (exit status 130), or for --run SECONDS (exit status 1, naming them,
     when components are failed at the end). Other terminals control it
@@ -129,7 +132,8 @@ def run_cmd(deployment: str, mode: str | None, seconds: float | None, endpoint: 
     dep = _load(resolve_deployment(deployment), port, emulate)
     rt = Runtime(dep, mode=mode, endpoint=endpoint,
                  control=None if not no_control else False, join=list(join),
-                 settle_heap=True)        # this process is the runtime's (heap.py)
+                 settle_heap=True,        # this process is the runtime's (heap.py)
+                 stopped=stopped)
     if rt.mode_name == "thread" and not no_control:
         rt.control = True
     if hmi and not rt.control:
@@ -181,7 +185,7 @@ def run_cmd(deployment: str, mode: str | None, seconds: float | None, endpoint: 
         click.echo(f"error: {row['kind']} {row['name']!r} failed{why}", err=True)
     # Everything is stopped and closed. Leave without interpreter finalisation: a Zenoh
     # (Rust) thread that calls into Python while the interpreter finalises aborts the
-    # process ("FATAL: exception not rethrown") — seen rarely, never with os._exit.
+    # process ("FATAL: exception not rethrown"); os._exit skips finalisation.
     sys.stdout.flush()
     sys.stderr.flush()
     os._exit(INTERRUPTED if ctrl_c.hit else 1 if failed else 0)

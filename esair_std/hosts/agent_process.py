@@ -7,8 +7,8 @@ It exits when the runtime says stop, when its stdin closes (the local parent die
 with no parent's pipe to tell (``--no-stdin``), when the runtime's liveliness token goes
 away and the runtime does not answer. A local child does not watch the token: its pipe
 is the runtime's own word, while in a mesh of peers the token can go away and a ping go
-unanswered for a while when another peer's link drops (the robot's radio: seen twice,
-tests/net/test_starfish_net.py), and an agent that left then would stay failed. Zenoh
+unanswered for a while when another peer's link drops (the robot's radio), and an agent
+that left then would stay failed. Zenoh
 callbacks here only copy into the host's mailbox or answer at once; user code runs on the
 host's thread.
 """
@@ -183,6 +183,9 @@ class ZenohPort:
             raise ControlError("the runtime did not answer")
         wire.result(r)
 
+    def stop_robot(self, who: str, reason: str) -> None:
+        self._ctl("stop", {"who": who, "reason": reason})
+
     def state_changed(self, name: str, generation: int, phase: str, reason: str) -> None:
         try:
             self._ctl("report", {"name": name, "generation": generation, "phase": phase,
@@ -355,6 +358,8 @@ class Agent:
         verbs.add("detached", lambda b: host().notify_detached(str(b.get("resource"))))
         verbs.add("attached", lambda b: host().notify_attached(str(b.get("resource"))))
         verbs.add("enable", lambda b: host().set_enabled(bool(b.get("enabled"))))
+        verbs.add("latch", lambda b: host().notify_latch(
+            b.get("state") if isinstance(b.get("state"), dict) else None, str(b.get("by", ""))))
         verbs.add("counters", lambda _b: {**host().counters(), "offer_samples": dict(self.offers.c),
                                           "deliver_samples": dict(self.delivers),
                                           "put_samples": self.port.put_counters()})
@@ -430,8 +435,22 @@ class Agent:
         verbs.add("grant", lambda b: host.grant(str(b.get("who")), str(b.get("resource"))))
         verbs.add("revoke", lambda b: host.revoke(str(b.get("who")), b.get("resource")))
         verbs.add("counters", lambda _b: host.counters())
+        verbs.later("halt", self._halt)
+        verbs.add("release", lambda _b: host.release())
         verbs.later("stop", self._stop)
         return verbs
+
+    def _halt(self, b: dict, answer: wire.Answer) -> None:
+        """The latched STOP: commands refused at once (here, on Zenoh's thread); the
+        devices stopped on a thread of its own (a link waits for its ``x`` reply), then
+        the runtime answered."""
+        why = str(b.get("why") or "stopped")
+        self._resource.halted = why
+
+        def run() -> None:
+            self._resource.halt(why)
+            answer(wire.ok())
+        threading.Thread(target=run, name="esair:halt", daemon=True).start()
 
     # ---- leaving
     def watch_runtime(self) -> None:

@@ -32,7 +32,7 @@ from .thread import LocalPort
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..transport.bus import Bus
-    from ..view import RuntimeView
+    from ..runtime_view import RuntimeView
 
 log = logging.getLogger("esair_std.process")
 START_TIMEOUT = 20.0
@@ -308,6 +308,10 @@ class ProcessComponent(_Child):
     def set_enabled(self, enabled: bool) -> None:
         self.ask(self.key, {"op": "enable", "enabled": bool(enabled)}, 1.0)
 
+    def notify_latch(self, state: dict | None, by: str = "") -> None:
+        if self.phase not in ("failed", "stopped", "lost"):
+            self.ask(self.key, {"op": "latch", "state": state, "by": by}, 1.0)
+
     def counters(self) -> dict:
         r = self.ask(self.key, {"op": "counters"}, 1.0)
         return r["ok"] if isinstance(r, dict) and "ok" in r else {}
@@ -361,6 +365,13 @@ class ProcessResource(_Child):
 
     def revoke(self, who: str, resource: str | None = None) -> None:
         self.ask(self.key, {"op": "revoke", "who": who, "resource": resource}, 1.0)
+
+    def halt(self, why: str) -> None:
+        """The latched STOP, in the agent's host (it stops its devices, then answers)."""
+        self._call(self.name, {"op": "halt", "why": why}, 3.0)
+
+    def release(self) -> None:
+        self._call(self.name, {"op": "release"}, 1.0)
 
     def counters(self) -> dict:
         r = self.ask(self.key, {"op": "counters"}, 1.0)
@@ -432,8 +443,8 @@ class ProcessMode:
         pub = self._deliver_pubs.get(name)
         if pub is None:
             # BLOCK, never DROP: the sender is told "delivered" once this put returns,
-            # so Zenoh must not drop it under congestion (it did at load: 14 of 20 puts
-            # told delivered never came); the component reserved the room for it
+            # so Zenoh must not drop it under congestion (a dropped put would be a
+            # delivery told and never made); the component reserved the room for it
             pub = self._deliver_pubs[name] = self.bus.publisher(
                 keys.bs_deliver(self.rt.robot, name), drop=False, raw=True)
         pub(body)
@@ -512,10 +523,25 @@ class ProcessMode:
             child.rejoining = False
             with self._lock:
                 self._pending.pop((name, gen), None)
+            why = self.rt.rs.halted
+            if why is not None:          # a STOP made while it was away: before ready
+                self.threads.start(self._back, child, why, name=f"esair:back:{name}")
+                child.hello.set()
+                child.note()
+                return
             for res in child.children():
                 self.rt.rs.set_state(res, "ready", "")
         child.hello.set()
         child.note()
+
+    def _back(self, child: ProcessResource, why: str) -> None:
+        """A remote resource back while the robot is STOPPED: halted, then ready."""
+        try:
+            child.halt(why)
+        except StdError as exc:
+            log.error("%s: STOP not delivered on its return: %s", child.name, exc)
+        for res in child.children():
+            self.rt.rs.set_state(res, "ready", "")
 
     def drop_resource(self, host: ProcessResource) -> None:
         """``host`` stopped: no longer one of this mode's resource hosts."""
