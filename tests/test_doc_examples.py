@@ -56,6 +56,8 @@ def blocks(text: str) -> list[tuple[int, list[str]]]:
 
 #: what ends one command of a shell line: `a; b`, `a && b`, `a &`, `a | b`
 OPERATORS = {";", "&&", "||", "&", "|"}
+#: a redirection: `a > out.json`, `a 2> err`, `a < in`
+REDIRECTS = {">", ">>", "<", "&>"}
 
 
 def commands(lines: list[str], first: int) -> list[tuple[int, str]]:
@@ -71,14 +73,21 @@ def commands(lines: list[str], first: int) -> list[tuple[int, str]]:
             while line.endswith("\\") and i + 1 < len(lines):
                 i += 1
                 line = line[:-1] + " " + lines[i].strip()
-            lex = shlex.shlex(line, posix=True, punctuation_chars=";&|")
+            lex = shlex.shlex(line, posix=True, punctuation_chars=";&|<>")
             lex.whitespace_split, lex.commenters = True, "#"
             words: list[str] = []
+            redirect = False
             for token in [*lex, ";"]:
                 if token in OPERATORS:
                     if words and words[0] == "esair":
                         out.append((n, shlex.join(words)))
                     words = []
+                elif token in REDIRECTS:
+                    redirect = True          # the file after it is the shell's
+                    if words and words[-1].isdigit() and len(words) > 1:
+                        words.pop()          # `2> err`: the descriptor's number
+                elif redirect:
+                    redirect = False
                 else:
                     words.append(token)
         i += 1
@@ -190,6 +199,8 @@ def test_a_wrong_example_is_caught(tmp_path):
     assert check("esair std run lab -e tcp/10.0.0.1:7447", made, tmp_path) == (
         "refused: tcp/10.0.0.1:7447 reaches other computers without security (no --insecure)")
     assert check("esair std run lab -e tcp/10.0.0.1:7447 --insecure", made, tmp_path) is None
+    assert commands(["esair verify mybot --json > verify.json 2> err"], 9) == [
+        (9, "esair verify mybot --json")]
     assert commands(["esair std ls; esair std get logger   # two", "output line",
                      "$ esair emulate starfish --pty &", "esair std agent --connect \\",
                      "    tcp/127.0.0.1:7447 x m:C"], 1) == [
