@@ -45,6 +45,7 @@ class EmulateOptions:
     instance: str | None = None   # the v reply's instance; None: random with --pty
     pose: tuple[float, float, float] | None = None   # an omni-base robot's start (mm, mm, rad)
     world_out: Path | None = None  # an omni-base robot's true pose, to this datagram socket
+    eeprom: Path | None = None    # the EEPROM's contents in this file (kept across runs)
 
 
 def generate_first(robot: Robot, out_dir: Path, log: Callable[[str], None]) -> bytes | None:

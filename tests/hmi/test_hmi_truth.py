@@ -51,7 +51,7 @@ def test_a_refused_slider_goes_back_to_the_robots_angle_with_the_reason(robot, b
 
 
 def test_an_hmi_started_after_the_robot_moved_shows_the_pose_it_holds(robot, browser, papaman):
-    """A dance played to its end, STOP, a knee commanded by another sender: a second HMI
+    """A dance played to its end, STOP and release, a knee commanded by another sender: a second HMI
     started then shows the dance's last frame with that knee (the actuators' last commands,
     from the runtime), not every joint at its default."""
     page, errors = open_page(browser, robot.url)
@@ -60,6 +60,7 @@ def test_an_hmi_started_after_the_robot_moved_shows_the_pose_it_holds(robot, bro
                            "p.v.play === 'dance' && !p.stopped && h.pose.motion === null; }",
                            timeout=30000)
     assert page.evaluate("() => window.__hmi.send({op: 'stop'})")["ok"]
+    assert page.evaluate("() => window.__hmi.send({op: 'release'})")["ok"]  # the latch
     r = esair_std("send", "papaman.servo.l_knee", '{"angle": 77}', "-e", robot.endpoint)
     assert r.returncode == 0, r.stderr
     page.wait_for_function("() => window.__hmi.pose.angles.l_knee === 77")

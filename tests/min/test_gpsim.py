@@ -23,6 +23,7 @@ from esair_min.pic.gpsim_wave import read_register_log, transfer_kinds
 from esair_min.core.stimulus import run_script
 from esair_min.resources import resolve_robot
 from esair_min.model.validate import load_robot
+from tests.support.board_lines import READY_OK
 
 SCENARIO = Path(__file__).resolve().parents[1] / "fixtures" / "gpsim" / "papaman.txt"
 BALANCE = SCENARIO.with_name("balance.txt")
@@ -64,7 +65,7 @@ def test_papaman_scenario_gpsim_equals_python_core(robot, scenario_run):
     gpsim = scenario_run.trace()
     assert compare(python, gpsim, GpsimSetup.from_robot(robot)) == []
     replies = [line for _, line in scenario_run.replies]
-    assert replies[0] == b"!READY esair-min/1 image=ok\r\n"
+    assert replies[0] == READY_OK
     assert b"E10 no answer on i2c\r\n" in replies          # the sensor fault was seen
     writes = [t for t in scenario_run.transfers if t.segments[0].address == 0x10]
     assert len(writes) > 40                                 # the dance: a frame per tick
@@ -272,7 +273,7 @@ def test_balance_reaction_gpsim_equals_python_core(tipping_robot, tipping_centra
     python = run_script(tipping_robot, scenario.read_text())
     assert compare(python, run.trace(), setup) == []
     replies = [line for _, line in run.replies]
-    assert replies[:2] == [b"!READY esair-min/1 image=ok\r\n", b"OK\r\n"]
+    assert replies[:2] == [READY_OK, b"OK\r\n"]
     assert replies.count(BALANCE_LINE) == fires == python.count("TX " + BALANCE_LINE.hex().upper())
     if fires:
         assert len(replies) == 2 + fires
