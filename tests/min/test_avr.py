@@ -28,6 +28,7 @@ from esair_min.model.validate import load_robot
 from esair_min.pic.build import build_robot, summary_lines
 from esair_min.pic.gpsim_bench import frame_slips
 from tests.support.boundary_cases import OK, READY, RX_RING, STAND, all_cases, burst, events, ring_case
+from tests.support.board_lines import cut_stimulus, eeprom_stimulus, ready
 
 pytestmark = pytest.mark.avr
 
@@ -154,7 +155,7 @@ def scenario_avr(avr_robot, avr_build, host_avr, tmp_path_factory):
 def test_papaman_scenario_four_way(scenario_avr):
     run = scenario_avr
     replies = [line for _, line in run.replies]
-    assert replies[0] == b"!READY esair-min/1 image=ok\r\n"
+    assert replies[0] == ready(load_robot(ROOT / "boards" / "papaman-avr"))
     assert b"E10 no answer on i2c\r\n" in replies          # the sensor fault was seen
     writes = [t for t in run.transfers if t.segments[0].address == 0x10]
     assert len(writes) > 40                                 # the dance: a frame per tick
@@ -450,7 +451,7 @@ def test_the_emulator_runs_papaman_avr_at_the_avrs_bus_time(avr_robot):
     tw = TraceWriter()
     emu = Emulator(avr_robot, trace=tw)
     emu.settle()
-    assert emu.read() == b"!READY esair-min/1 image=ok\r\n"
+    assert emu.read() == ready(avr_robot)
     assert emu.tick_s == avr_robot.central.timer2.period_s == 17971 * 8 / 16e6
     assert emu.command("s") == ["OK " + ",".join(["512"] * 8)]
     emu.command("t")
@@ -513,3 +514,20 @@ def test_balance_reaction_compares_four_feet_sensors_a_foot(avr_robot, avr_build
     assert [line for _, line in run.replies].count(fired) == 3
     assert python.count("TX " + fired.hex().upper()) == 3
     assert run.mux_early == []
+
+
+@pytest.mark.parametrize("which", ["verbs", "cut"])
+def test_image_verbs_four_way(avr_robot, avr_build, host_avr, tmp_path, which):
+    """The image verbs (issue 32) and an EEPROM left by a cut write, on the ATmega328P
+    in simavr, the host C and the Python core: equal replies, page writes and reads."""
+    elf = avr_build["central"].folder / "firmware.elf"
+    stimulus = (eeprom_stimulus if which == "verbs" else cut_stimulus)(avr_robot)
+    run = four_way(avr_robot, host_avr, elf, stimulus, tmp_path)
+    replies = [line for _, line in run.replies]
+    if which == "verbs":
+        assert replies[:4] == [ready(avr_robot), b"OK 10 20 50\r\n", b"OK\r\n",
+                               b"E09 motion image invalid\r\n"]
+    else:
+        assert replies[0] == ready(avr_robot, False)
+        assert replies[2:4] == [b"E09 motion image invalid\r\n"] * 2
+    assert replies[-1] == b"OK\r\n"
