@@ -30,10 +30,10 @@ from esair_std.drivers.minlink.emulated import EmulatedRobot
 from esair_std.drivers.minlink.errors import DifferentRobot, Expired, LinkError
 from tests.support.std import wait_for
 from tests.support.robot_ptys import VERSION, frames, pty_number, replies, start_on_number, stop
-from tests.support.board_lines import PAPAMAN, READY_OK, version
+from tests.support.board_lines import PAPAMAN as PAPAMAN_ROBOT, READY_OK, version
 from esair_min.codegen.buildid import central_build_id
 
-BUILD = central_build_id(PAPAMAN)
+BUILD = central_build_id(PAPAMAN_ROBOT)
 
 ROOT = Path(__file__).resolve().parents[2]
 PAPAMAN = ROOT / "boards" / "papaman"
@@ -97,7 +97,7 @@ def test_a_robot_on_the_dead_robots_pty_number_is_refused(tmp_path, robot):
     # the only line the other robot answered is the probe (a read-only `v`)
     got = replies(tmp_path / "foreign.txt")
     assert got[0] == READY_OK     # its boot, to nobody
-    assert got[1:] and set(got[1:]) == {version(PAPAMAN, robot_id="bbbbbbbb")}
+    assert got[1:] and set(got[1:]) == {version(PAPAMAN_ROBOT, robot_id="bbbbbbbb")}
     assert frames(tmp_path / "foreign.txt") == 0
     assert _io_threads() == []
 
