@@ -15,7 +15,7 @@ are joined by one veth pair (tests/support/netns.py; root needed). Side by side 
    and from session open to registration (goal <= 300 ms).
 
 Run: sudo python bench/std_net.py [--n 2000]. Prints figures and ratios; asserts
-nothing. Parts 2-5 need the STD runtime's process mode (esair_std.modes.agent).
+nothing. Parts 2-5 need the STD runtime's process mode (esair_std.hosts.agent_process).
 """
 
 from __future__ import annotations
@@ -35,8 +35,8 @@ from tests.support import netns  # noqa: E402
 from tests.support.netstd import Center, Proc  # noqa: E402
 from tests.support.zpeer import Peer  # noqa: E402
 
-from esair_std.transport.certs import make_certs  # noqa: E402
-from esair_std.transport.security import Security, SecuritySpec, session_inserts  # noqa: E402
+from esair_std.transport.tls_certs import make_certs  # noqa: E402
+from esair_std.transport.security_config import Security, SecuritySpec, session_inserts  # noqa: E402
 
 
 def pct(values: list[float], q: float) -> float:
@@ -90,7 +90,7 @@ TLS_SECTION = """security:
 def remote_agent(host, endpoint: str, name: str, class_path: str, kind: str, **kw) -> Proc:
     args = dict(endpoint=endpoint, name=name, class_path=class_path, kind=kind, robot="lab",
                 hostname="bench-pc", **kw)
-    return Proc(host, [sys.executable, "-m", "esair_std.remote.agent", json.dumps(args)])
+    return Proc(host, [sys.executable, "-m", "esair_std.remote.remote_agent", json.dumps(args)])
 
 
 def remote_put(net, base: Path, n: int, tls: bool, round_: int = 0) -> dict:

@@ -23,8 +23,8 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from tests.support import netns  # noqa: E402
-from tests.support.netstd import Center, Proc  # noqa: E402
+from tests.support import netns
+from tests.support.netstd import Center, Proc
 
 NO_TLS = dict(ca=None, cert=None, key=None, users=None, user=None, password_file=None,
               mtls=False, verify_name=False)
@@ -53,7 +53,7 @@ def rounds(net, base: Path, lease_ms: int, agent_ms: int, n: int) -> list[tuple[
     center = Center(net[0], base / f"{lease_ms}-{agent_ms}", DEPLOYMENT.format(lease=lease_ms))
     kw = dict(endpoint=center.endpoint, name="far", class_path="tests.support.netcomps:Idle",
               kind="behavior", hostname="far", sec={**NO_TLS, "lease_ms": agent_ms})
-    far = Proc(net[1], [sys.executable, "-m", "esair_std.remote.agent", json.dumps(kw)])
+    far = Proc(net[1], [sys.executable, "-m", "esair_std.remote.remote_agent", json.dumps(kw)])
     out = []
     try:
         for _ in range(n):

@@ -1,5 +1,5 @@
 """What the simulator harnesses of PAPA-MAN's central board share (the PIC18F452 in gpsim,
-esair_min/pic/gpsim_harness.py; the ATmega328P in simavr, esair_min/avr/harness.py): the
+esair_min/pic/gpsim_harness.py; the ATmega328P in simavr, esair_min/avr/simavr_harness.py): the
 stimulus script's simulated time (:class:`SimScript`), the verbs whose meaning is the
 same in both (``rx``, ``boot``, ``tick``), the line loop that reads a script as the Python
 harness and the host C port read it, and where the ``boot`` wait ends
@@ -12,7 +12,7 @@ from __future__ import annotations
 from collections.abc import Callable, Iterable
 from typing import Any
 
-from esair_min.core.harness import TICKS_MAX
+from esair_min.core.stimulus import TICKS_MAX
 from esair_min.core.script import BLANK, decimal, line_text, script_lines, unescape, words
 from esair_min.errors import ProtocolError
 

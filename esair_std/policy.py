@@ -11,7 +11,7 @@ from fnmatch import fnmatchcase
 from .level import Level, best_match
 
 #: Principals that are not behaviors: the command line's operator (``esair std send``,
-#: esair_std/operator.py) and the browser HMI. ``allow`` may name them.
+#: esair_std/control/operator.py) and the browser HMI. ``allow`` may name them.
 PRINCIPALS = ("operator", "hmi")
 
 

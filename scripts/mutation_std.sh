@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Mutation testing of STD's safety rules with mutmut (docs/mutation.md, "STD").
 #
-# Mutates esair_std/supervisor.py, connections.py and modes/reshost.py (the supervisors,
+# Mutates esair_std/supervisor.py, connections.py and hosts/resource_host.py (the supervisors,
 # the connections, the resource host's command path and its deadlines) and runs, for
 # each mutant, tests/std/test_std_safety_rules.py in thread mode; WIDE=1 with the names
 # of that pass's survivors runs them again with the wider thread-mode selection of

@@ -13,7 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from esair_min.avr.harness import SimError, mux_line, parse_events, run_commands, symbol
+from esair_min.avr.simavr_harness import SimError, mux_line, parse_events, run_commands, symbol
 from esair_min.model.robot import Robot
 
 #: The node the sensor board is when it runs alone.

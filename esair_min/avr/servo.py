@@ -12,7 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from esair_min.model.encoding import encode_pair
-from esair_min.avr.harness import AvrRun, Pulse, pulses
+from esair_min.avr.simavr_harness import AvrRun, Pulse, pulses
 from esair_min.model.robot import Robot
 from esair_min.pic.gpsim_servo import expected_us
 

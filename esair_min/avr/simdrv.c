@@ -1,6 +1,6 @@
 /* esair-avr-sim: runs ATmega328P firmware in simavr 1.6 (one board, or the central
  * board with its peers on one TWI bus, in lockstep) and drives its USART and TWI from a
- * command stream (esair_min/avr/harness.py writes it and reads the events).
+ * command stream (esair_min/avr/simavr_harness.py writes it and reads the events).
  *
  * simavr executes the code cycle by cycle; this driver replaces two of its peripherals
  * where simavr 1.6 is not accurate enough for our timing claims:

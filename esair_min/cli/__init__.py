@@ -9,6 +9,7 @@ import sys
 import click
 
 from esair_min import __version__
+from esair_min.cli import verify as _verify
 from esair_min.cli.pipes import friendly
 from esair_min.resources import resolve_robot
 
@@ -172,6 +173,8 @@ def _pose(text: str | None) -> tuple[float, float, float] | None:
               help="With --pty: the scenario plays when the emulator gets SIGUSR1, not at boot.")
 @click.option("--trace", type=click.Path(dir_okay=False), metavar="FILE",
               help="Write the event trace (docs/trace-format.md, with @ time marks).")
+@click.option("--trace-rx", is_flag=True,
+              help="With --trace: also each line the robot received (RX lines).")
 @click.option("--speed", type=float, metavar="FACTOR",
               help="With --pty: virtual seconds per wall second (default 1: real time).")
 @click.option("--nack-actuator", is_flag=True, help="Fault: the actuator board never ACKs.")
@@ -198,7 +201,8 @@ def _pose(text: str | None) -> tuple[float, float, float] | None:
 @friendly
 def emulate(robot: str, pty: bool, run_s: float | None, sends: tuple[str, ...],
             generate: str | None, scenario: str | None, hold_scenario: bool, trace: str | None,
-            speed: float | None, nack_actuator: bool, no_sensor: bool, corrupt_eeprom: bool, stuck_bus: bool,
+            trace_rx: bool, speed: float | None, nack_actuator: bool, no_sensor: bool,
+            corrupt_eeprom: bool, stuck_bus: bool,
             noise: float, seed: int, room: str | None, instance: str | None,
             pose: str | None, world_out: str | None, eeprom_file: str | None) -> None:
     """Run the emulated robot behind a pseudo-terminal (--pty) or headless (--run).
@@ -218,7 +222,8 @@ def emulate(robot: str, pty: bool, run_s: float | None, sends: tuple[str, ...],
     opts = EmulateOptions(
         pty=pty, run_s=run_s, sends=sends, generate=Path(generate) if generate else None,
         scenario=scenario, hold_scenario=hold_scenario, trace=Path(trace) if trace else None,
-        speed=speed, faults=Faults(nack_actuator, no_sensor, corrupt_eeprom, noise, seed, stuck_bus),
+        trace_rx=trace_rx, speed=speed,
+        faults=Faults(nack_actuator, no_sensor, corrupt_eeprom, noise, seed, stuck_bus),
         room=Path(room) if room else None, instance=instance, pose=_pose(pose),
         world_out=Path(world_out) if world_out else None,
         eeprom=Path(eeprom_file) if eeprom_file else None)
@@ -229,7 +234,7 @@ def emulate(robot: str, pty: bool, run_s: float | None, sends: tuple[str, ...],
 
 @main.command(short_help="Send command lines to a port; print one reply per line.")
 @click.argument("port")
-@click.argument("commands", nargs=-1, required=True)
+@click.argument("commands", nargs=-1)
 @click.option("--baud", type=int, default=9600, show_default=True,
               help="Baud rate of a real serial port.")
 @click.option("--timeout", type=float, default=2.0, show_default=True,
@@ -246,6 +251,9 @@ def send(port: str, commands: tuple[str, ...], baud: int, timeout: float, notice
     """
     from esair_min.cli.send import open_port, send_commands
 
+    if not commands:
+        raise click.UsageError(f"no commands to send; to watch the board's notices and "
+                               f"replies and type commands, use: esair monitor {port}")
     ser = open_port(port, baud, timeout)
     try:
         failures = send_commands(ser, commands, timeout, click.echo, notices, checksum)
@@ -268,7 +276,7 @@ def plot(trace: str, output: str, robot: str, targets: bool) -> None:
     A STARFISH trace (esair emulate starfish --trace) is drawn as the robot's path on
     its room's map, with the wheels' speeds below. A FILE.mcap (`esair std record`) is
     drawn per channel, reactions marked."""
-    from esair_min.emulator.starfish_trace import is_starfish_trace
+    from esair_min.emulator.starfish.pose_trace import is_starfish_trace
 
     if trace.endswith(".mcap"):
         from esair_min.cli.plotmcap import plot_mcap
@@ -311,13 +319,32 @@ def generate(robot: str, output: str) -> None:
 @friendly
 def build(robot: str, output: str) -> None:
     """Generate every board's firmware, build it for its MCU (PIC18F452: SDCC; ATmega328P:
-    avr-gcc) and print its footprint; a warning fails the build."""
+    avr-gcc) and print its footprint (and an ATmega328P's fuses for a bare chip); a
+    warning fails the build."""
     from pathlib import Path
 
     from esair_min.pic.build import build_robot, summary_lines
 
-    for line in summary_lines(build_robot(load(robot), Path(output))):
+    model = load(robot)
+    for line in summary_lines(build_robot(model, Path(output), boot=True)):
         click.echo(line)
+    from esair_min.flash.avr import fuses_for
+
+    for board in model.boards:
+        if board.mcu.part == "atmega328p":
+            fuses, _ = fuses_for(board.mcu.clock_hz)
+            click.echo(f"{board.role}: a bare chip at {board.mcu.clock_hz / 1e6:g} MHz needs "
+                       f"{fuses.describe()} (esair flash --programmer NAME --fuses)")
+
+
+from esair_min.cli.flash import flash, monitor, run  # noqa: E402  (commands of real boards)
+
+main.add_command(flash)
+main.add_command(monitor)
+main.add_command(run)
+
+main.add_command(_verify.new)
+main.add_command(_verify.verify)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -13,7 +13,7 @@ import struct
 from typing import Callable
 
 from esair_min.core import protocol as P
-from esair_min.core.bus import Bus
+from esair_min.core.i2c_bus import Bus
 from esair_min.core.decoder import CommandTable, LineAssembler, Row
 from esair_min.core.image import crc16_ccitt
 from esair_min.components.motion.layout import DIR_ENTRY_BYTES, HEADER_BYTES, MAGIC, VERSION

@@ -1,4 +1,4 @@
-"""Simple I2C peripherals behind a :class:`~esair_min.core.bus.Bus`, without timing.
+"""Simple I2C peripherals behind a :class:`~esair_min.core.i2c_bus.Bus`, without timing.
 
 Used by the harness and the tests, and wrapped by the emulator (which adds time).
 Each device answers ``write(data)`` and ``write_read(wdata, n)``; a device whose

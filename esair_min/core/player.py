@@ -1,6 +1,6 @@
 """The frame player and the balance reaction (docs/protocol.md), stepped per tick.
 
-Both talk to the hardware only through a :class:`~esair_min.core.bus.Bus`; neither keeps
+Both talk to the hardware only through a :class:`~esair_min.core.i2c_bus.Bus`; neither keeps
 time other than the ticks it is stepped with.
 """
 
@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING, Literal, Sequence
 from esair_min.core.protocol import Code
 
 if TYPE_CHECKING:
-    from esair_min.core.bus import Bus
+    from esair_min.core.i2c_bus import Bus
 
 
 #: frames whose check is remembered (a motion replays the same few frames)

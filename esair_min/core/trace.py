@@ -5,7 +5,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, TextIO
 
 if TYPE_CHECKING:
-    from esair_min.core.bus import Bus
+    from esair_min.core.i2c_bus import Bus
 
 HEADER = "# esair-trace 1"
 
@@ -20,11 +20,15 @@ class TraceWriter:
     UART output is buffered and becomes one ``TX`` line per complete line (ending
     in LF), however the sender split it."""
 
+    #: also write ``RX`` lines (the emulator's ``--trace-rx``: the bytes its decoder took)
+    rx_lines = False
+
     def __init__(self, stream: TextIO | None = None, keep: bool = True):
         self.stream = stream
         self.keep = keep
         self.lines: list[str] = [HEADER]
         self._tx = bytearray()
+        self._rx = bytearray()
         if stream is not None:
             stream.write(HEADER + "\n")
         if not keep:                    # the emitter chosen once, not tested per line
@@ -50,6 +54,14 @@ class TraceWriter:
             if b == 0x0A:
                 self._emit(f"TX {self._tx.hex().upper()}")
                 self._tx.clear()
+
+    def rx(self, data: bytes) -> None:
+        """Bytes the decoder took, one ``RX`` line per LF (only with ``rx_lines``)."""
+        for b in data:
+            self._rx.append(b)
+            if b == 0x0A:
+                self._emit(f"RX {self._rx.hex().upper()}")
+                self._rx.clear()
 
     def write(self, addr: int, data: bytes, ack: bool) -> None:
         self._emit(f"W {addr:02X} {bytes(data).hex().upper()} {'ACK' if ack else 'NACK'}")

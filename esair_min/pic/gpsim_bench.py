@@ -26,7 +26,7 @@ from pathlib import Path
 
 from esair_min.pic.gpsim_harness import GpsimRun, GpsimSetup, _Script, _stimulus_line, setup_lines
 from esair_min.pic.gpsim_wave import read_edges
-from esair_min.core.harness import unescape
+from esair_min.core.stimulus import unescape
 from esair_min.core.image import build_image, write_hex
 from esair_min.model.robot import Robot
 from esair_min.pic.toolchain import Toolchain, ToolchainError, run_gpsim

@@ -29,8 +29,8 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from esair_min.components.omni_base.replay import FlowChange, Run, replay, reply_lines
-from esair_min.components.omni_base.replay import compare as compare_runs
+from esair_min.components.omni_base.sim_replay import FlowChange, Run, replay, reply_lines
+from esair_min.components.omni_base.sim_replay import compare as compare_runs
 from esair_min.core.script import unescape
 from esair_min.errors import ProtocolError
 from esair_min.model.hardware import Timer2Setting

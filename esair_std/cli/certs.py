@@ -32,7 +32,7 @@ def certs(folder: str, clients: tuple[str, ...], hosts: tuple[str, ...], days: i
       esair std agent --connect tls/HOST:7447 --ca DIR/ca.pem \\
           --cert DIR/NAME.pem --key DIR/NAME.key NAME module:Class
     Keep the .key files secret (they are written with mode 0600)."""
-    from esair_std.transport.certs import make_certs
+    from esair_std.transport.tls_certs import make_certs
 
     try:
         made = make_certs(folder, clients=clients, hosts=hosts, days=days)

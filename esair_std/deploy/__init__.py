@@ -3,12 +3,12 @@
 from ..errors import DeployError
 from ..level import Level
 from .bundled import bundled_examples, resolve_deployment
-from .classes import expected_bases, load_class, load_classes
+from .class_check import expected_bases, load_class, load_classes
 from .loader import load_deployment, load_document
 from .model import (DEFAULT_ENDPOINT, BehaviorSpec, ComponentSpec, Deployment,
                     ReactionSpec, ResourceSpec, RestartPolicy)
 from .rules import notes, resource_entries
-from .schema import deployment_schema
+from .json_schema import deployment_schema
 from .security import SecuritySpec
 
 __all__ = [

@@ -5,7 +5,7 @@ certificates (``ca``/``cert``/``key``, ``mtls``), Zenoh user/password logins (``
 on the control center, ``user``/``password_file`` on an agent), the link lease, and the
 remote agents let in (``agents``: Zenoh access control, default deny, and the RS's own
 identity check). Paths are relative to the deployment file's folder.
-:mod:`esair_std.transport.security` turns this into Zenoh configuration.
+:mod:`esair_std.transport.security_config` turns this into Zenoh configuration.
 """
 
 from __future__ import annotations

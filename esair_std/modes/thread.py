@@ -10,16 +10,17 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 from ..errors import ComponentError
+from ..latch import may_stop
 from ..level import Level
 from ..classes import component_class
 from ..spec import Spec
 from ..transport import keys
-from .host import ComponentHost
-from .reshost import ResourceHost
+from ..hosts.behavior_host import ComponentHost
+from ..hosts.resource_host import ResourceHost
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..parts import SampleHandle
-    from ..view import RuntimeView
+    from ..runtime_view import RuntimeView
 
 START_TIMEOUT = 10.0
 
@@ -85,6 +86,11 @@ class LocalPort:
     def set_reaction(self, who: str, name: str, enabled: bool) -> None:
         self.rt.bs.set_reaction(name, enabled)
 
+    def stop_robot(self, who: str, reason: str) -> None:
+        """A component's STOP: only one whose entry says ``may_stop: true``."""
+        may_stop(self.rt.bs.records, who)
+        self.rt.stop_robot(reason, by=who)
+
     # hosts report
     def state_changed(self, name: str, generation: int, phase: str, reason: str) -> None:
         if phase == "failed":
@@ -132,7 +138,7 @@ class ThreadMode:
         cls = component_class(spec.class_path, spec.base_dir, spec.where)
         host = ResourceHost(spec, cls, self.port)
         host.on_failed = lambda reason: self.rt.rs.failed(spec.name, generation, reason)
-        host.start()                  # its device's own open timeout (reshost.OPEN_TIMEOUT)
+        host.start()                  # its device's own open timeout (resource_host.OPEN_TIMEOUT)
         return host
 
     def open(self) -> None:

@@ -5,7 +5,7 @@
   endpoint is secured, a second listener on the loopback interface for the runtime's own
   children (they are trusted as ``local``; the secured endpoint is for other computers).
 * :class:`Center` — the ``ctl/join`` verb: a remote agent asks to be part of the robot.
-  Its identity is checked (``security.agents`` + :mod:`esair_std.remote.identity`), then
+  Its identity is checked (``security.agents`` + :mod:`esair_std.remote.registration`), then
   it is added like a local component, except that nothing is spawned: the agent is
   already running on its own computer. A behavior whose liveliness token goes is marked
   ``lost`` and its registrations are dropped; if it is not back within ``lost_grace``
@@ -28,14 +28,14 @@ from typing import TYPE_CHECKING, Any
 from ..errors import ControlError, Refused
 from ..modes.process import ProcessComponent, ProcessMode
 from ..spec import Spec
-from ..transport.security import LEASE_MS, access_control, link_inserts, session_inserts
-from .identity import Verifier
+from ..transport.security_config import LEASE_MS, access_control, link_inserts, session_inserts
+from .registration import Verifier
 from ..counters import Counters
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..deploy.model import Deployment
     from ..parts import RemoteComponent
-    from ..view import RuntimeView
+    from ..runtime_view import RuntimeView
 
 log = logging.getLogger("esair_std.remote")
 JOIN_WAIT = 10.0
@@ -151,7 +151,7 @@ class Center:
         self._check_identity(name, b.get("proof"))
         # a remote component never restarts from here: its process is not ours to start;
         # a behavior whose agent restarts it (esair std agent --restart) is not told to
-        # stop when it fails (remote/agent.py)
+        # stop when it fails (remote/remote_agent.py)
         info = {"host": str(b.get("host", "?"))[:64], "pid": b.get("pid"),
                 "restarts": spec.kind == "behavior" and spec.restart_max > 0,
                 "lease": _lease_s(b.get("lease_ms"))}

@@ -4,7 +4,7 @@ Process mode's ``put`` is mediated: the sender asks the runtime's BS, which deli
 into room the target reserved for it and answers at once (modes/process.py), or else
 offers the data to the target's process and answers with the target's word. In
 zenoh-python a query/reply costs more than a sample each way (side by side in
-bench/std.py: a relay through queries 2.3-2.5x a raw get, through samples 1.7x), so the
+bench/std_goals.py: a relay through queries 2.3-2.5x a raw get, through samples 1.7x), so the
 put takes samples:
 
     sender  --ctl/put/<sender>-->      BS    (SampleServer in the runtime)
@@ -15,7 +15,7 @@ put takes samples:
 (the offer and its result only when the target has no reserved room for the put).
 
 Every key names the process it comes from or goes to, so the ACL of a remote agent
-(transport/security.py) lets it send and receive only its own. Callbacks run on Zenoh's
+(transport/security_config.py) lets it send and receive only its own. Callbacks run on Zenoh's
 thread and only copy, enqueue and answer. An answer that does not come within the
 timeout (a lost sample, a dead process) is ``None`` to the caller, never a silent loss:
 the BS then goes on with its query-based offer and retries; the sender reports the put

@@ -16,7 +16,7 @@ import pytest
 from tests.support.boundary_cases import (E04, LIMITS, MAX_LINE, N, OK, PAPAMAN, READY, RX_RING, STAND,
                             Case, all_cases, burst, events, ring_case)
 from esair_min.core.decoder import LineAssembler
-from esair_min.core.harness import run_script
+from esair_min.core.stimulus import run_script
 from esair_min.core.image import build_image, parse_image
 from esair_min.core.player import BalanceReaction
 from esair_min.core.protocol import Code, add_checksum

@@ -11,7 +11,7 @@ import pytest
 from esair_min.core.central import CentralCore
 from esair_min.core.devices import Eeprom24, NullBus, RegisterSlave, SimpleBus
 from esair_min.errors import ProtocolError
-from esair_min.core.harness import Rig, main as harness_main, run_script, unescape
+from esair_min.core.stimulus import Rig, main as harness_main, run_script, unescape
 from esair_min.core.image import build_image, write_hex
 from esair_min.core.protocol import add_checksum
 from esair_min.model.robot import Robot

@@ -13,7 +13,7 @@ from tests.support.boundary_cases import N, PAPAMAN, READY, STAND, Case, events,
 from esair_min.core.central import CentralCore
 from esair_min.core.decoder import CommandTable, Decoded
 from esair_min.core.devices import Eeprom24, RegisterSlave, SimpleBus
-from esair_min.core.harness import Rig, run_script
+from esair_min.core.stimulus import Rig, run_script
 from esair_min.core.image import (build_image, crc16_ccitt, header_of, image_summary,
                                   parse_image, read_hex, write_hex)
 from esair_min.core.player import BalanceReaction

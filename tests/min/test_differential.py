@@ -2,7 +2,7 @@
 
 The central board's firmware is generated for PAPA-MAN and built with gcc (warnings are
 errors), once plainly and once under AddressSanitizer and UBSan. Both it and the Python
-harness (esair_min.core.harness) run the same stimulus scripts (docs/trace-format.md);
+harness (esair_min.core.stimulus) run the same stimulus scripts (docs/trace-format.md);
 their traces must be equal line for line (``@`` time marks ignored).
 """
 
@@ -16,7 +16,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from esair_min.core.harness import run_script
+from esair_min.core.stimulus import run_script
 from esair_min.core.protocol import add_checksum
 from esair_min.core.trace import without_marks
 from tests.support.overrun_streams import scripts as overrun_scripts

@@ -16,7 +16,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from esair_min.core import protocol as P
-from esair_min.core.harness import run_script
+from esair_min.core.stimulus import run_script
 from esair_min.core.image import build_image
 from esair_min.core.trace import without_marks
 from esair_min.model.validate import load_robot

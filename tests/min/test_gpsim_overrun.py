@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 from esair_min.codegen import generate_robot
-from esair_min.core.harness import run_script
+from esair_min.core.stimulus import run_script
 from esair_min.pic.build import build_board, toolchain
 from esair_min.pic.gpsim_harness import GpsimSetup, compare, run_stimulus
 

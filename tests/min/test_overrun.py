@@ -16,7 +16,7 @@ from pathlib import Path
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
-from esair_min.core.harness import Rig, run_line, run_script, unescape
+from esair_min.core.stimulus import Rig, run_line, run_script, unescape
 from esair_min.core.protocol import MAX_LINE
 from esair_min.core.trace import TraceWriter
 from esair_min.emulator import Emulator

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pytest
 
-from esair_min.core.harness import main as harness_main
+from esair_min.core.stimulus import main as harness_main
 from esair_min.core.image import build_image, write_hex
 
 ROOT = Path(__file__).resolve().parents[2]

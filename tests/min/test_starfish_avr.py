@@ -2,7 +2,7 @@
 `esair build starfish-avr` builds both boards with avr-gcc (warnings are errors) and
 prints their exact footprints; the central board's AVR build gives the same replies, the
 same I2C writes and the same flow-sensor register reads as the Python core for the same
-byte stream (esair_min/avr/starfish.py), on the scenario the gpsim test runs and on
+byte stream (esair_min/avr/starfish_simavr.py), on the scenario the gpsim test runs and on
 derandomized hypothesis streams, the watchdog stop included -- and the Python core equals
 the host C (test_starfish_c.py) and the PIC in gpsim (test_starfish_gpsim.py), whose
 literal replies and writes are asserted here too; the drive board's AVR build gives the
@@ -20,12 +20,12 @@ from click.testing import CliRunner
 from hypothesis import HealthCheck, assume, given, settings
 
 from esair_min.avr.build import build_board, elf_usage
-from esair_min.avr.harness import parse_events, run_commands, symbol
-from esair_min.avr.starfish import (BOOT_CYCLES, CentralSetup, differential, measure_central,
+from esair_min.avr.simavr_harness import parse_events, run_commands, symbol
+from esair_min.avr.starfish_simavr import (BOOT_CYCLES, CentralSetup, differential, measure_central,
                                     python_drive, run_central, run_drive)
 from esair_min.cli import main
 from esair_min.codegen import generate_robot
-from esair_min.components.omni_base.replay import compare
+from esair_min.components.omni_base.sim_replay import compare
 from esair_min.errors import ProtocolError
 from esair_min.model.validate import load_robot
 from esair_min.pic.starfish_drive import MotorOut
@@ -65,6 +65,11 @@ def test_build_prints_each_boards_exact_footprint_within_goal(built):
         "board    program memory           RAM                            stack  mcu",
         "central  3322 B of 32768 (10.1%)  314 B of 2048 (15.3%) + stack  -      atmega328p",
         "drive    1240 B of 32768 (3.8%)   41 B of 2048 (2.0%) + stack    -      atmega328p",
+        # the fuses of a bare chip, from each board file's clock (esair flash --fuses)
+        "central: a bare chip at 16 MHz needs lfuse 0xFF hfuse 0xD9 efuse 0xFD "
+        "(esair flash --programmer NAME --fuses)",
+        "drive: a bare chip at 16 MHz needs lfuse 0xFF hfuse 0xD9 efuse 0xFD "
+        "(esair flash --programmer NAME --fuses)",
     ]
     central = elf_usage(elf(built, "central"))
     assert central.program_bytes <= GOAL_FLASH and central.data_bytes <= GOAL_RAM

@@ -13,11 +13,11 @@ from pathlib import Path
 import pytest
 from click.testing import CliRunner
 
-from esair_min.avr.starfish import CentralSetup, script_commands
+from esair_min.avr.starfish_simavr import CentralSetup, script_commands
 from esair_min.cli import main
 from esair_min.codegen import generate_robot, render_robot
 from esair_min.components.omni_base.harness import run_script
-from esair_min.components.omni_base.replay import FlowChange
+from esair_min.components.omni_base.sim_replay import FlowChange
 from esair_min.errors import ProtocolError
 from esair_min.components.dc_motor import pwm_units
 from esair_min.model.validate import load_robot

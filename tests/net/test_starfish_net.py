@@ -217,8 +217,8 @@ def test_strangers_without_credentials_get_nothing_from_starfish(net, tmp_path):
     with its certificate, hears the microphones; a client with no certificate gets no
     session; one with a certificate of the CA that is no agent of the robot can neither
     hear the microphones, nor take a picture, nor drive the wheels."""
-    from esair_std.transport.certs import make_certs
-    from esair_std.transport.security import SecuritySpec, session_inserts
+    from esair_std.transport.tls_certs import make_certs
+    from esair_std.transport.security_config import SecuritySpec, session_inserts
     from tests.support.zpeer import Peer
 
     make_certs(tmp_path / "pki", clients=["localize", "stranger"], hosts=[net[0].addr])

@@ -1,4 +1,4 @@
-"""The link settings of every STD session (esair_std.transport.security.link_inserts)
+"""The link settings of every STD session (esair_std.transport.security_config.link_inserts)
 across a real veth link: a partition drops the remote computer's session after the
 lease (its liveliness token goes), the healed link brings it back by itself, and a
 numbered stream shows exactly which samples the partition lost. Raw Zenoh sessions:
@@ -6,7 +6,7 @@ the runtime's own partition tests build on this."""
 
 import time
 
-from esair_std.transport.security import link_inserts
+from esair_std.transport.security_config import link_inserts
 from tests.support.netns import net, wait_for  # noqa: F401  (fixture)
 from tests.support.zpeer import Peer
 

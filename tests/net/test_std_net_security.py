@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import pytest
 
-from esair_std.transport.certs import make_certs
-from esair_std.transport.security import SecuritySpec, session_inserts
+from esair_std.transport.tls_certs import make_certs
+from esair_std.transport.security_config import SecuritySpec, session_inserts
 from tests.support.netns import make_net, wait_for
 from tests.support.netstd import Center, agent
 from tests.support.zpeer import Peer

@@ -1,5 +1,5 @@
 """Security of the control endpoint at the Zenoh layer, between two network namespaces:
-mTLS, user/password and access control as esair_std.transport.security configures them,
+mTLS, user/password and access control as esair_std.transport.security_config configures them,
 checked with raw Zenoh sessions (the runtime's own checks are tested on top of these).
 
 The control center (host 0) is a Zenoh router listening on the control endpoint, with a
@@ -11,8 +11,8 @@ import pytest
 from pydantic import ValidationError
 
 from esair_std.errors import TransportError
-from esair_std.transport.certs import CertError, common_name, make_certs
-from esair_std.transport.security import Security, access_control, session_inserts
+from esair_std.transport.tls_certs import CertError, common_name, make_certs
+from esair_std.transport.security_config import Security, access_control, session_inserts
 from tests.support.netns import net  # noqa: F401  (fixture)
 from tests.support.std import wait_for
 from tests.support.zpeer import Peer

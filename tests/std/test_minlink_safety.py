@@ -27,7 +27,7 @@ import pytest
 from esair_min.model.validate import load_robot
 from esair_std.drivers.minlink import Link, LinkDown
 from esair_std.drivers.minlink.emulated import EmulatedRobot
-from esair_std.drivers.minlink.errors import DifferentRobot, Expired, LinkError
+from esair_std.drivers.minlink.link_errors import DifferentRobot, Expired, LinkError
 from tests.support.std import wait_for
 from tests.support.robot_ptys import VERSION, frames, pty_number, replies, start_on_number, stop
 from tests.support.board_lines import PAPAMAN as PAPAMAN_ROBOT, READY_OK, version
@@ -194,7 +194,7 @@ def _fake_robot(answers: list[bytes]) -> Iterator[tuple[str, list[bytes]]]:
 
 def test_a_damaged_version_reply_is_asked_again_not_believed(robot):
     """Without checksums, line noise can damage the `v` reply (bytes lost on the way,
-    seen in CI: `sensors= oin= mg=a`); the link believes a reply that names another robot
+    e.g. `sensors= oin= mg=a`); the link believes a reply that names another robot
     only when the next one says the same."""
     good = VERSION + b"0123abcd\r\n"
     damaged = b"OK esair-min/1 servos=12 sensors= oin= mg=a hcsmofi=8017\r\n"

@@ -7,7 +7,7 @@ stays up: an agent on the robot must not leave then."""
 from __future__ import annotations
 
 from esair_std import Runtime
-from esair_std.modes import agent as agent_mod
+from esair_std.hosts import agent_process as agent_mod
 from esair_std.spec import Spec
 from esair_std.transport.bus import Bus
 from tests.support.std import free_endpoint, wait_for

@@ -1,4 +1,4 @@
-"""The RS's own identity check of remote agents (esair_std.remote.identity): the layer
+"""The RS's own identity check of remote agents (esair_std.remote.registration): the layer
 that still stops a stranger when the Zenoh ACL lets it through."""
 
 import time
@@ -6,8 +6,8 @@ import time
 import pytest
 
 from esair_std.errors import Refused
-from esair_std.remote.identity import Verifier, prove_with_cert, prove_with_password
-from esair_std.transport.certs import make_certs
+from esair_std.remote.registration import Verifier, prove_with_cert, prove_with_password
+from esair_std.transport.tls_certs import make_certs
 
 
 @pytest.fixture(scope="module")

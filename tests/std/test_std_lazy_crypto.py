@@ -1,5 +1,5 @@
 """A runtime (with its control endpoint) without a ``security:`` section does not
-import ``cryptography`` (remote.identity imports it only where a certificate is used)."""
+import ``cryptography`` (remote.registration imports it only where a certificate is used)."""
 
 import subprocess
 import sys
@@ -34,7 +34,7 @@ def test_runtime_without_security_does_not_import_cryptography(mode):
 
 
 def test_a_certificate_check_does_import_it():
-    code = ("import sys; from esair_std.remote.identity import prove_with_cert\n"
+    code = ("import sys; from esair_std.remote.registration import prove_with_cert\n"
             "print('cryptography' in sys.modules)\n"
             "try:\n    prove_with_cert('t', 'a', 'no.pem', 'no.key')\n"
             "except OSError:\n    pass\n"

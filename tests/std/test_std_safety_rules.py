@@ -22,8 +22,8 @@ from esair_std.errors import ComponentError, ControlError
 from esair_std.connections import ActuatorConnection, ActuatorHandle, SensorConnection, SensorHandle
 from esair_std.errors import CommandError, Refused, ResourceLost, StdError
 from esair_std.level import Level
-from esair_std.modes import reshost
-from esair_std.modes.reshost import ResourceHost
+from esair_std.hosts import resource_host as reshost
+from esair_std.hosts.resource_host import ResourceHost
 from esair_std.sample import Sample
 from esair_std.spec import Spec as ResourceSpec
 from esair_std.supervisor import ChildSpec, Record, Starting, Supervisor
@@ -576,7 +576,7 @@ def test_a_slots_counters_are_read_and_counted_under_its_lock():
     """counters() is one moment's copy: it waits for the lock that report() and count()
     take (a driver's own thread reports while the host thread counts), so it never sees
     a sample counted without its number, nor a counter being added."""
-    from esair_std.modes.reshost import Slot
+    from esair_std.hosts.resource_host import Slot
 
     slot = Slot(None, "arm", object(), {})
     slot.count("expired")

@@ -167,7 +167,7 @@ def test_a_resource_coming_up_never_fails_a_behavior_at_start(start, mode):
     host (Zenoh's declarations still on their way) while the RS says ``ready``: it
     waits for the route, up to the command's timeout, and is answered (on main 1 such
     start in ~20 failed with "recorder: no answer: its host is gone")."""
-    from esair_std.modes.agent import ZenohPort
+    from esair_std.hosts.agent_process import ZenohPort
     from esair_std.modes.process import agent_command
     from esair_std.spec import Spec
     from esair_std.transport.bus import Bus

@@ -7,12 +7,12 @@ from tests.support.std import MODES, agent_children, esair, free_endpoint
 
 from esair_std import Runtime
 from esair_std.cli.client import Client
-from esair_std.drivers.minlink.errors import LinkDown
+from esair_std.drivers.minlink.link_errors import LinkDown
 from esair_std.errors import (CommandError, ComponentError, ControlError, DeployError, Refused,
                               ResourceLost, StdError, TransportError)
 from esair_std.transport import codec, wire
 from esair_std.transport.bus import Bus
-from esair_std.transport.certs import CertError
+from esair_std.transport.tls_certs import CertError
 from esair_min.errors import Mark
 
 DEP = {

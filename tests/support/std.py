@@ -84,7 +84,7 @@ def processes() -> list[tuple[int, int, bytes]]:
 def agent_children() -> list[int]:
     """Agent processes whose parent is this test process."""
     return [pid for pid, ppid, cmd in processes()
-            if ppid == os.getpid() and b"esair_std.modes.agent" in cmd]
+            if ppid == os.getpid() and b"esair_std.hosts.agent_process" in cmd]
 
 
 def esair(*args: str, check: bool = True, cwd: str | Path = ROOT,

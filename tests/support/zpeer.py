@@ -3,7 +3,7 @@
     python tests/support/zpeer.py CONFIG_JSON
 
 CONFIG_JSON is a zenoh config as a JSON object (e.g. from
-esair_std.transport.security.zenoh_config). Then each line on stdin is one command;
+esair_std.transport.security_config.zenoh_config). Then each line on stdin is one command;
 each answer is one JSON line on stdout:
 
     serve KEY              queryable on KEY replying "pong:<query payload>"     -> {"ok": "serve"}
@@ -77,7 +77,7 @@ def main():
         for key, value in json.loads(sys.argv[1]).items():
             conf.insert_json5(key, json.dumps(value))
         session = zenoh.open(conf)
-    except Exception as exc:
+    except Exception as exc:  # noqa: BLE001 - any error opening the session goes back as JSON
         out({"error": str(exc).split(" at ")[0]})
         return
     keep = []

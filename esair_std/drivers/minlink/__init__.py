@@ -10,7 +10,7 @@ See docs/std-papaman.md.
 
 from .budget import LineBudget, line_budget
 from .commands import RobotCommands
-from .errors import LinkDown, LinkError, RobotRefused
+from .link_errors import LinkDown, LinkError, RobotRefused
 from .link import Exchange, Link
 
 __all__ = ["Exchange", "LineBudget", "Link", "LinkDown", "LinkError", "RobotCommands",

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from esair_min.model.robot import Robot
 
 from .commands import RobotCommands
-from .errors import LinkError
+from .link_errors import LinkError
 
 BITS_PER_BYTE = 10          # start + 8 data + stop
 DEFAULT_FEET_SHARE = 0.5

@@ -13,7 +13,7 @@ from esair_min.model.board import Servo
 from esair_min.core.protocol import MAX_SPEED, encode_pair, frame_line
 from esair_min.model.robot import Robot
 
-from .errors import LinkError
+from .link_errors import LinkError
 
 VERSION_PREFIX = "esair-min/1"
 

@@ -34,7 +34,7 @@ import threading
 from pathlib import Path
 from typing import IO, Sequence
 
-from .errors import LinkError
+from .link_errors import LinkError
 
 START_TIMEOUT_S = 30.0
 

@@ -25,7 +25,7 @@ from esair_min.components.optical_flow.odometry import FlowOdometry, parse_odome
 from ..minlink.budget import LineBudget
 from ..minlink.commands import VERSION_PREFIX, RobotCommands
 from ..minlink.driver import PolledSensor, _LinkAgent
-from ..minlink.errors import LinkError
+from ..minlink.link_errors import LinkError
 from ..minlink.link import Link
 from .scene import wrap
 
@@ -104,6 +104,11 @@ class Wheels(_LinkAgent, Actuator):
             out[key] = int(round(v))
         self._send(velocity_line(out["vx"], out["vy"], out["w"]))
         return out
+
+    def halt(self) -> Any:
+        """The latched STOP's ``x`` (the driver's halt() sent it: the wheels to zero),
+        recorded as this actuator's ``stop``; None when it could not go."""
+        return None if self.link.last_stop is None else {"vx": 0, "vy": 0, "w": 0}
 
 
 class Odometry(PolledSensor):

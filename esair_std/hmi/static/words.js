@@ -1,3 +1,3 @@
 // Counts in words that agree with the numbers ("1 error", "2 errors"), as
-// esair_std/words.py's counted() says them for the CLI and the log.
+// esair_std/plurals.py's counted() says them for the CLI and the log.
 export const counted = (n, word) => `${n} ${word}${n === 1 ? "" : "s"}`;
