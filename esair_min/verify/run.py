@@ -38,6 +38,9 @@ def verify(robot: Robot, targets: tuple[str, ...], work: Path, script: str | Non
     work.mkdir(parents=True, exist_ok=True)
     path = work / "scenario.txt"
     path.write_text(sc.text)
+    if script is not None and script_name and Path(script_name).is_file():
+        path = Path(script_name)        # the builder's own: its name in errors, its folder
+                                        # for `image` lines
     if firmware is None and any(t != "python" for t in targets):
         t0 = time.monotonic()
         firmware = build(robot, targets, work / "firmware")
