@@ -36,6 +36,7 @@ if TYPE_CHECKING:  # pragma: no cover
         def state_of(self, name: str) -> str | None: ...
         def set_reaction(self, name: str, enabled: bool) -> None: ...
         def direct(self, name: str) -> Any: ...
+        def stop_robot(self, reason: str) -> None: ...
 
 STATES = ("starting", "running", "busy", "stopped", "failed")
 
@@ -83,6 +84,19 @@ class _Component(_Hosted):
 
     def detached(self, resource: str) -> None:
         """The resource was removed; its handle no longer works (the component runs on)."""
+
+    def robot_stopped(self, by: str, reason: str) -> None:
+        """The robot was STOPPED (docs/std.md, "The latched stop"): every actuator
+        command is refused until an operator releases it. Drop the motions you queued:
+        the release starts nothing, so nothing queued should play on after it."""
+
+    def robot_released(self, by: str) -> None:
+        """An operator released the STOP: commands are taken again."""
+
+    def stop_robot(self, reason: str = "") -> None:
+        """STOP the robot (latched, as ``esair std stop``): allowed only to a behavior
+        whose deployment entry says ``may_stop: true``; raises Refused otherwise."""
+        self._esair.stop_robot(reason)
 
 
 class Behavior(_Component):

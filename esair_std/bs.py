@@ -170,6 +170,15 @@ class BehaviorSupervisor(Supervisor[ComponentHost]):
         if rec is not None:
             rec.host.notify_detached(resource)
 
+    def notify_latch(self, state: dict | None, by: str = "") -> None:
+        """The robot was STOPPED (``state``) or released (None, by ``by``): every
+        behavior and reaction told (``robot_stopped`` / ``robot_released``)."""
+        for name, rec in list(self.records.items()):
+            try:
+                rec.host.notify_latch(state, by)
+            except Exception as exc:  # noqa: BLE001 - the others are told anyway
+                log.warning("%s: not told of the STOP: %s", name, exc)
+
     def notify_attached(self, behavior: str, resource: str) -> None:
         """``resource`` is back (restarted or added again): the behavior's handles to it
         work again."""

@@ -96,6 +96,17 @@ class Actuator(_Agent):
     def write(self, command: Any) -> Any:
         raise CommandError(self.name, "write() is not implemented")
 
+    def halt(self) -> None:
+        """The robot is STOPPED (docs/std.md, "The latched stop"): stop moving now
+        (send your device's stop; a wheel to zero). Called once per STOP from the
+        runtime's thread, not the host's: while a write() may still run; keep it short.
+        Default: nothing (an actuator that does not move by itself). What it returns,
+        if not None, is recorded as the answer to the command ``"stop"`` (recordings,
+        the HMI's pose). Every write() is refused until the release; release() follows."""
+
+    def release(self) -> None:
+        """The STOP was released: commands are taken again (starts nothing)."""
+
     def configure(self, key: str, value: Any) -> Any:
         raise self.no_setting(key)
 
@@ -112,3 +123,10 @@ class Driver(_Hosted):
 
     def close(self) -> None:
         """Close the link (after every child's close())."""
+
+    def halt(self) -> None:
+        """The robot is STOPPED: as Actuator.halt(), for the whole link (called before
+        the children's)."""
+
+    def release(self) -> None:
+        """The STOP was released (starts nothing)."""

@@ -58,6 +58,7 @@ class ResourceSupervisor(Supervisor[ResourceHost]):
         self.refused_on: dict[str, int] = {}               # resource -> registrations refused
         self._told: dict[str, list] = {}                   # entry -> (who, resource) told
         self.stays_detached: dict[str, set[str]] = {}      # who -> resources back, refused
+        self.halted: str | None = None         # the latched STOP's refusal (latch.py)
 
     @property
     def entries(self) -> dict[str, tuple[Spec, Any]]:
@@ -78,6 +79,8 @@ class ResourceSupervisor(Supervisor[ResourceHost]):
                 raise ControlError(f"a resource named {spec.name!r} is already deployed")
         rec = self.add_child(spec)
         kids = rec.host.children()
+        if self.halted is not None:           # STOPPED: before anyone may command it
+            self._halt_one(spec.name, rec.host, self.halted)
         with self._lock:
             clash = [k for k in kids if k in self.resources]
             if not clash:
@@ -134,6 +137,8 @@ class ResourceSupervisor(Supervisor[ResourceHost]):
         """The entry runs again: its children ready, every registration on them given
         to the new host (a behavior's handles work again without doing anything)."""
         kids = rec.host.children()
+        if self.halted is not None:           # STOPPED: before its grants come back
+            self._halt_one(name, rec.host, self.halted)
         gone = [r for r, (e, _k) in list(self.resources.items()) if e == name and r not in kids]
         with self._lock:
             for child, kind in kids.items():
@@ -174,6 +179,38 @@ class ResourceSupervisor(Supervisor[ResourceHost]):
             if kids[res] == "sensor":
                 self._sc.restore(who, res)
             self._on_attached(who, res)
+
+    # ---- the latched STOP (latch.py)
+    def halt(self, why: str) -> None:
+        """Every resource host STOPPED at once (in parallel: each stops its devices),
+        every command refused with ``why`` until :meth:`unhalt`."""
+        self.halted = why
+        hosts = [(n, r.host) for n, r in list(self.records.items()) if r.host is not None]
+        threads = [threading.Thread(target=self._halt_one, args=(n, h, why),
+                                    name=f"esair:halt:{n}", daemon=True)
+                   for n, h in hosts[1:]]
+        for t in threads:
+            t.start()
+        for n, h in hosts[:1]:
+            self._halt_one(n, h, why)
+        for t in threads:
+            t.join(5.0)
+
+    def unhalt(self) -> None:
+        """Released: every host takes commands again (nothing is started)."""
+        self.halted = None
+        for name, rec in list(self.records.items()):
+            try:
+                rec.host.release()
+            except StdError as exc:
+                log.error("%s: release not delivered: %s", name, exc)
+
+    @staticmethod
+    def _halt_one(name: str, host: Any, why: str) -> None:
+        try:
+            host.halt(why)
+        except StdError as exc:
+            log.error("%s: STOP not delivered: %s", name, exc)
 
     # ---- phase 3
     def register(self, who: str, resource: str, level: Level, uses: dict | None) -> Level:

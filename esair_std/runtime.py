@@ -26,6 +26,7 @@ from .bs import BehaviorSupervisor
 from .connections import ActuatorConnection, SensorConnection
 from .errors import ComponentError, ControlError, Refused, StdError
 from .heap import settle
+from .latch import Latch, refusal
 from .level import Level
 from .policy import uses_problem
 from .rs import ResourceSupervisor
@@ -55,7 +56,8 @@ def _load(deployment: str | Path | dict | Deployment) -> Deployment:
 class Runtime:
     def __init__(self, deployment: str | Path | dict | Deployment, mode: str | None = None,
                  endpoint: str | None = None, control: bool | None = None,
-                 join: list[str] | None = None, settle_heap: bool = False):
+                 join: list[str] | None = None, settle_heap: bool = False,
+                 stopped: bool | str = False):
         self.deployment = _load(deployment)
         # the process is the runtime's own (esair std run): its start-up heap is frozen
         # once the resources are open, before any behavior runs (heap.py)
@@ -85,6 +87,13 @@ class Runtime:
         self._changed = threading.Condition()   # a state changed (wait_state waits on it)
         self._version = 0
         self.bs.on_change = self.rs.on_change = self.note_change
+        # the latched STOP (latch.py); ``stopped``: start latched (True, or the reason)
+        self.latch = Latch()
+        self._latching = threading.Lock()
+        if stopped:
+            state, _ = self.latch.stop("operator", stopped if isinstance(stopped, str)
+                                       else "started stopped (--stopped)")
+            self.rs.halted = refusal(state)
         self._watch: threading.Thread | None = None
         self.started_at = 0.0
         if self.mode_name == "thread":
@@ -197,6 +206,43 @@ class Runtime:
         if rec is None:
             return {}
         return None if rec.spec.kind == "reaction" else rec.spec.uses
+
+    # ---- the latched STOP (docs/std.md, "The latched stop")
+    def stop_robot(self, reason: str = "", by: str = "operator") -> dict:
+        """STOP: every motion stopped at once, every queued actuator command dropped
+        (its sender told why), every new one refused until :meth:`release_robot`.
+        Sensors and behaviors go on. Returns the state (``by``, ``t``, ``at``,
+        ``reason``); a STOP while stopped stops the devices again and keeps the
+        first one's who and when."""
+        with self._latching:        # a STOP and a release never interleave (two pages)
+            state, _new = self.latch.stop(by, reason)
+            self.rs.halt(refusal(state))
+            self.bs.notify_latch(state)
+            self._latch_changed(state)
+        log.warning("STOPPED by %s%s", by, f": {reason}" if reason else "")
+        return state
+
+    def release_robot(self, by: str = "operator") -> dict:
+        """Release the STOP (the operator's deliberate act): commands are taken again;
+        nothing starts by itself. ControlError when the robot is not stopped."""
+        with self._latching:
+            was = self.latch.release(by)
+            self.rs.unhalt()
+            self.bs.notify_latch(None, by)
+            self._latch_changed(None, by)
+        log.warning("released by %s (stopped by %s at %s)", by, was["by"], was["at"])
+        return was
+
+    @property
+    def latched(self) -> dict | None:
+        """The STOP in effect (``by``, ``t``, ``at``, ``reason``), or None."""
+        return self.latch.get()
+
+    def _latch_changed(self, state: dict | None, by: str = "") -> None:
+        self.note_change()
+        server = self.server
+        if server is not None:
+            server.latch_changed(state, by)
 
     # ---- control (the CLI's verbs; also the Python API)
     def state(self, name: str) -> str | None:

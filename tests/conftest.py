@@ -94,12 +94,14 @@ _BY_FOLDER = {"net": "net", "hmi": "browser"}
 _BY_MODULE = {
     "gpsim": {"test_gpsim", "test_gpsim_bus", "test_gpsim_overrun", "test_gpsim_slaves",
               "test_gpsim_uart", "test_toolchain", "test_pic_build", "test_starfish_pic",
-              "test_starfish_gpsim", "test_gpsim_duplex", "test_gpsim_mux", "test_verify"},
+              "test_starfish_gpsim", "test_gpsim_duplex", "test_gpsim_mux", "test_verify",
+              "test_pic_bootloader"},
     "pty": {"test_pty", "test_minlink_pty", "test_liveview_tmux", "test_std_papaman",
             "test_std_papaman_c", "test_std_papaman_cli", "test_gpsim_uart",
             "test_starfish_pty", "test_pty_promise", "test_minlink_safety",
-            "test_std_papaman_safety", "test_minlink_duplex"},
-    "avr": {"test_avr", "test_starfish_avr", "test_verify"},
+            "test_std_papaman_safety", "test_minlink_duplex", "test_pic_bootloader", "test_monitor",
+            "test_flash_avr"},
+    "avr": {"test_avr", "test_starfish_avr", "test_verify", "test_flash_avr"},
 }
 _BY_FIXTURE = {"pic_firmware": "gpsim"}
 #: modules of many subprocesses, C builds or long hypothesis runs (--durations: the
@@ -107,7 +109,7 @@ _BY_FIXTURE = {"pic_firmware": "gpsim"}
 SLOW_MODULES = {"test_std_cli", "test_overrun", "test_differential", "test_decoder_props",
                 "test_validate_fuzz", "test_plot", "test_host_c_peers", "test_std_deploy_fuzz",
                 "test_std_lazy_crypto", "test_std_agent_lean", "test_cli_manner", "test_script",
-                "test_std_record", "test_bench_tmp"}
+                "test_std_record", "test_bench_tmp", "test_flash_avr"}
 
 
 def _in_process_mode(item) -> bool:
@@ -130,6 +132,7 @@ LONGEST_FIRST = ["test_starfish_net", "test_std_operator_cli", "test_std_net", "
                  "test_hmi_starfish", "test_validate_errors", "test_std_record",
                  "test_gpsim_slaves", "test_script", "test_std_net_security",
                  "test_starfish_avr", "test_std_supervision", "test_validate_fuzz", "test_gpsim",
+                 "test_pic_bootloader",
                  "test_std_papaman_cli"]
 
 

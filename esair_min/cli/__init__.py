@@ -100,28 +100,46 @@ def schema(indent: int) -> None:
     click.echo(json.dumps(doc, indent=indent, sort_keys=True))
 
 
-@main.command(short_help="Write the EEPROM motion image (Intel HEX).")
+@main.command(short_help="Build the EEPROM motion image; write it into a robot (--write).")
 @ROBOT
-@click.option("-o", "--output", required=True, metavar="FILE",
-              help="Where to write the image (Intel HEX, or raw with --bin).")
-@click.option("--bin", "raw", is_flag=True, help="Write raw bytes instead of Intel HEX.")
+@click.option("-o", "--output", metavar="FILE",
+              help="Write the image to FILE (Intel HEX, or raw with --bin).")
+@click.option("--bin", "raw", is_flag=True, help="With -o: raw bytes instead of Intel HEX.")
+@click.option("--write", "write_port", metavar="PORT",
+              help="Put the image into the robot on PORT over its link (only the chunks "
+                   "that differ are written), then check it there.")
+@click.option("--verify", "verify_port", metavar="PORT",
+              help="Compare the robot's EEPROM on PORT with the image (status 1 if it differs).")
+@click.option("--read", "read_file", metavar="FILE",
+              help="Read the robot's image (from --port) into FILE (Intel HEX).")
+@click.option("--port", metavar="PORT", help="The port for --read.")
+@click.option("--baud", type=int, help="Baud of a real port (default: the board file's).")
+@click.option("--timeout", type=float, default=3.0, show_default=True,
+              help="Seconds to wait for each reply.")
 @friendly
-def eeprom(robot: str, output: str, raw: bool) -> None:
-    """Build the EEPROM motion image of a robot and write it as Intel HEX."""
-    from esair_min.errors import ImageError
-    from esair_min.core.image import build_image, image_summary, write_hex
+def eeprom(robot: str, output: str | None, raw: bool, write_port: str | None,
+           verify_port: str | None, read_file: str | None, port: str | None,
+           baud: int | None, timeout: float) -> None:
+    """Build the EEPROM motion image of a robot (-o FILE), or put it into the robot over
+    its serial link (--write PORT), compare (--verify PORT) or read it back (--read FILE
+    --port PORT). Over the link the robot answers image=bad and plays nothing from the
+    first chunk written until the commit has checked the whole image (docs/protocol.md)."""
+    from esair_min.cli.eeprom import build_file, over_link
 
+    modes = [m for m in (output, write_port, verify_port, read_file) if m is not None]
+    if len(modes) != 1:
+        raise click.UsageError("give one of -o FILE, --write PORT, --verify PORT, "
+                               "--read FILE")
+    if (read_file is None) != (port is None):
+        raise click.UsageError("--port goes with --read (and --read needs it)")
     model = load(robot)
-    data = build_image(model)
-    if raw:
-        try:
-            with open(output, "wb") as f:
-                f.write(data)
-        except OSError as exc:
-            raise ImageError(f"cannot write {output}: {exc.strerror}") from None
-    else:
-        write_hex(data, output)
-    click.echo(f"{image_summary(model, data)} -> {output}")
+    if output is not None:
+        click.echo(build_file(model, output, raw))
+        return
+    status = over_link(model, write_port or verify_port or port or "", baud,
+                       write_port is not None, verify_port is not None, read_file, timeout)
+    if status:
+        sys.exit(status)
 
 
 def _pose(text: str | None) -> tuple[float, float, float] | None:
@@ -155,11 +173,16 @@ def _pose(text: str | None) -> tuple[float, float, float] | None:
               help="With --pty: the scenario plays when the emulator gets SIGUSR1, not at boot.")
 @click.option("--trace", type=click.Path(dir_okay=False), metavar="FILE",
               help="Write the event trace (docs/trace-format.md, with @ time marks).")
+@click.option("--trace-rx", is_flag=True,
+              help="With --trace: also each line the robot received (RX lines).")
 @click.option("--speed", type=float, metavar="FACTOR",
               help="With --pty: virtual seconds per wall second (default 1: real time).")
 @click.option("--nack-actuator", is_flag=True, help="Fault: the actuator board never ACKs.")
 @click.option("--no-sensor", is_flag=True, help="Fault: no sensor board on the bus.")
 @click.option("--corrupt-eeprom", is_flag=True, help="Fault: one byte of the image flipped.")
+@click.option("--eeprom", "eeprom_file", type=click.Path(dir_okay=False), metavar="FILE",
+              help="Keep the EEPROM's contents in FILE across runs (a new file: a blank "
+                   "EEPROM); every write goes to it at once.")
 @click.option("--stuck-bus", is_flag=True,
               help="Fault: SCL held low; every I2C transfer times out (E10).")
 @click.option("--noise", type=float, default=0.0, metavar="BYTES/S",
@@ -178,9 +201,10 @@ def _pose(text: str | None) -> tuple[float, float, float] | None:
 @friendly
 def emulate(robot: str, pty: bool, run_s: float | None, sends: tuple[str, ...],
             generate: str | None, scenario: str | None, hold_scenario: bool, trace: str | None,
-            speed: float | None, nack_actuator: bool, no_sensor: bool, corrupt_eeprom: bool, stuck_bus: bool,
+            trace_rx: bool, speed: float | None, nack_actuator: bool, no_sensor: bool,
+            corrupt_eeprom: bool, stuck_bus: bool,
             noise: float, seed: int, room: str | None, instance: str | None,
-            pose: str | None, world_out: str | None) -> None:
+            pose: str | None, world_out: str | None, eeprom_file: str | None) -> None:
     """Run the emulated robot behind a pseudo-terminal (--pty) or headless (--run).
 
     With --pty it serves until Ctrl-C or SIGTERM; when standard output is a terminal,
@@ -198,9 +222,11 @@ def emulate(robot: str, pty: bool, run_s: float | None, sends: tuple[str, ...],
     opts = EmulateOptions(
         pty=pty, run_s=run_s, sends=sends, generate=Path(generate) if generate else None,
         scenario=scenario, hold_scenario=hold_scenario, trace=Path(trace) if trace else None,
-        speed=speed, faults=Faults(nack_actuator, no_sensor, corrupt_eeprom, noise, seed, stuck_bus),
+        trace_rx=trace_rx, speed=speed,
+        faults=Faults(nack_actuator, no_sensor, corrupt_eeprom, noise, seed, stuck_bus),
         room=Path(room) if room else None, instance=instance, pose=_pose(pose),
-        world_out=Path(world_out) if world_out else None)
+        world_out=Path(world_out) if world_out else None,
+        eeprom=Path(eeprom_file) if eeprom_file else None)
     status = run_emulator(load(robot), opts)
     if status:
         sys.exit(status)
@@ -208,7 +234,7 @@ def emulate(robot: str, pty: bool, run_s: float | None, sends: tuple[str, ...],
 
 @main.command(short_help="Send command lines to a port; print one reply per line.")
 @click.argument("port")
-@click.argument("commands", nargs=-1, required=True)
+@click.argument("commands", nargs=-1)
 @click.option("--baud", type=int, default=9600, show_default=True,
               help="Baud rate of a real serial port.")
 @click.option("--timeout", type=float, default=2.0, show_default=True,
@@ -225,6 +251,9 @@ def send(port: str, commands: tuple[str, ...], baud: int, timeout: float, notice
     """
     from esair_min.cli.send import open_port, send_commands
 
+    if not commands:
+        raise click.UsageError(f"no commands to send; to watch the board's notices and "
+                               f"replies and type commands, use: esair monitor {port}")
     ser = open_port(port, baud, timeout)
     try:
         failures = send_commands(ser, commands, timeout, click.echo, notices, checksum)
@@ -247,7 +276,7 @@ def plot(trace: str, output: str, robot: str, targets: bool) -> None:
     A STARFISH trace (esair emulate starfish --trace) is drawn as the robot's path on
     its room's map, with the wheels' speeds below. A FILE.mcap (`esair std record`) is
     drawn per channel, reactions marked."""
-    from esair_min.emulator.starfish_trace import is_starfish_trace
+    from esair_min.emulator.starfish.pose_trace import is_starfish_trace
 
     if trace.endswith(".mcap"):
         from esair_min.cli.plotmcap import plot_mcap
@@ -290,14 +319,29 @@ def generate(robot: str, output: str) -> None:
 @friendly
 def build(robot: str, output: str) -> None:
     """Generate every board's firmware, build it for its MCU (PIC18F452: SDCC; ATmega328P:
-    avr-gcc) and print its footprint; a warning fails the build."""
+    avr-gcc) and print its footprint (and an ATmega328P's fuses for a bare chip); a
+    warning fails the build."""
     from pathlib import Path
 
     from esair_min.pic.build import build_robot, summary_lines
 
-    for line in summary_lines(build_robot(load(robot), Path(output))):
+    model = load(robot)
+    for line in summary_lines(build_robot(model, Path(output), boot=True)):
         click.echo(line)
+    from esair_min.flash.avr import fuses_for
 
+    for board in model.boards:
+        if board.mcu.part == "atmega328p":
+            fuses, _ = fuses_for(board.mcu.clock_hz)
+            click.echo(f"{board.role}: a bare chip at {board.mcu.clock_hz / 1e6:g} MHz needs "
+                       f"{fuses.describe()} (esair flash --programmer NAME --fuses)")
+
+
+from esair_min.cli.flash import flash, monitor, run  # noqa: E402  (commands of real boards)
+
+main.add_command(flash)
+main.add_command(monitor)
+main.add_command(run)
 
 main.add_command(_verify.new)
 main.add_command(_verify.verify)

@@ -20,11 +20,15 @@ class TraceWriter:
     UART output is buffered and becomes one ``TX`` line per complete line (ending
     in LF), however the sender split it."""
 
+    #: also write ``RX`` lines (the emulator's ``--trace-rx``: the bytes its decoder took)
+    rx_lines = False
+
     def __init__(self, stream: TextIO | None = None, keep: bool = True):
         self.stream = stream
         self.keep = keep
         self.lines: list[str] = [HEADER]
         self._tx = bytearray()
+        self._rx = bytearray()
         if stream is not None:
             stream.write(HEADER + "\n")
         if not keep:                    # the emitter chosen once, not tested per line
@@ -51,8 +55,20 @@ class TraceWriter:
                 self._emit(f"TX {self._tx.hex().upper()}")
                 self._tx.clear()
 
+    def rx(self, data: bytes) -> None:
+        """Bytes the decoder took, one ``RX`` line per LF (only with ``rx_lines``)."""
+        for b in data:
+            self._rx.append(b)
+            if b == 0x0A:
+                self._emit(f"RX {self._rx.hex().upper()}")
+                self._rx.clear()
+
     def write(self, addr: int, data: bytes, ack: bool) -> None:
         self._emit(f"W {addr:02X} {bytes(data).hex().upper()} {'ACK' if ack else 'NACK'}")
+
+    def probe(self, addr: int, ack: bool) -> None:
+        """An address alone (START, address + W, STOP): ACK polling and i2c_scan."""
+        self._emit(f"P {addr:02X} {'ACK' if ack else 'NACK'}")
 
     def read(self, addr: int, wdata: bytes, n: int, rdata: bytes | None) -> None:
         got = "NACK" if rdata is None else bytes(rdata).hex().upper()
@@ -80,7 +96,10 @@ class TracingBus:
 
     def write(self, addr: int, data: bytes) -> bool:
         ack = self.bus.write(addr, data)
-        self.writer.write(addr, data, ack)
+        if data:
+            self.writer.write(addr, data, ack)
+        else:
+            self.writer.probe(addr, ack)
         return ack
 
     def write_read(self, addr: int, wdata: bytes, n: int) -> bytes | None:

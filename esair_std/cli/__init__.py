@@ -27,6 +27,8 @@ LAZY: dict[str, str] = {
     "get": "control:get_cmd", "sample": "control:sample_cmd", "send": "control:send_cmd",
     "configure": "control:configure_cmd", "reaction": "control:reaction_cmd",
     "inspect": "control:inspect_cmd",
+    "stop": "control:stop_cmd", "release": "control:release_cmd",     # the latched STOP
+    "ping": "control:ping_cmd",
     "top": "top:top_cmd",
     "agent": "agent:agent_cmd",                 # many computers: docs/std-network.md
     "certs": "certs:certs",

@@ -108,15 +108,29 @@ def ls_cmd(c: Any, as_json: bool) -> None:
     parent and attached (docs/std.md); "starting": true while the runtime still adds its
     deployment's components (the list then grows)."""
     rows = c.call("ls", {"all": True})
-    starting = still_starting(c)
+    ping = c.call("ping")
+    starting = bool(ping.get("starting", False))
     if as_json:
         click.echo(json.dumps({"robot": c.robot, "endpoint": c.endpoint,
-                               "starting": starting, "components": rows}, indent=1))
+                               "starting": starting, "stopped": ping.get("stopped"),
+                               "components": rows}, indent=1))
         return
     click.echo(_table(rows, ["name", "kind", "state", "pid", "host", "restarts", "reason"]))
+    if ping.get("stopped"):
+        click.echo(stopped_line(ping["stopped"]))
     if starting:
         click.echo(f"robot {c.robot!r} is still starting: more of its components may "
                    "be listed soon", err=True)
+
+
+def stopped_line(state: dict | None, lead: str = "") -> str:
+    """``STOPPED by WHO at TIME (reason): release with esair std release``, or "" while
+    not stopped (the latched STOP: docs/std.md)."""
+    if not isinstance(state, dict):
+        return ""
+    why = f" ({state['reason']})" if state.get("reason") else ""
+    return (f"{lead}STOPPED by {state.get('by')} at {state.get('at')}{why}: release with "
+            f"esair std release")
 
 
 def still_starting(c: Any) -> bool:
@@ -299,5 +313,37 @@ def inspect_cmd(c: Any, name: str) -> None:
     click.echo(json.dumps(c.call("inspect", {"name": name}), indent=1))
 
 
+@click.command("stop")
+@click.option("--reason", default="", metavar="TEXT", help="Why (shown with the state).")
+@control
+def stop_cmd(c: Any, reason: str) -> None:
+    """STOP the robot, latched: every motion stopped at once, every queued actuator
+    command dropped, every new one refused (behaviors, reactions, remote agents, `esair
+    std send`, the HMI) until `esair std release`. Sensors and behaviors go on."""
+    state = c.call("stop", {"reason": reason}, timeout=10)
+    click.echo(stopped_line(state))
+
+
+@click.command("release")
+@control
+def release_cmd(c: Any) -> None:
+    """Release the STOP (an operator's deliberate act): actuator commands are taken
+    again. It starts nothing by itself."""
+    was = c.call("release", {}, timeout=10)
+    click.echo(f"released (stopped by {was.get('by')} at {was.get('at')})")
+
+
+@click.command("ping")
+@control
+def ping_cmd(c: Any) -> None:
+    """The runtime answering: robot, mode, pid, whether it still starts, and whether it
+    is STOPPED (by whom, when)."""
+    p = c.call("ping")
+    click.echo(f"robot {p['robot']} ({p['mode']} mode, pid {p['pid']})"
+               + (", starting" if p.get("starting") else "") + ": "
+               + (stopped_line(p.get("stopped")) or "running"))
+
+
 COMMANDS = [ls_cmd, add_cmd, remove_cmd, add_resource_cmd, remove_resource_cmd, put_cmd,
-            get_cmd, sample_cmd, send_cmd, configure_cmd, reaction_cmd, inspect_cmd]
+            get_cmd, sample_cmd, send_cmd, configure_cmd, reaction_cmd, inspect_cmd,
+            stop_cmd, release_cmd, ping_cmd]

@@ -9,7 +9,7 @@ from typing import Any
 import click
 
 from ..errors import StdError
-from .control import control, still_starting
+from .control import control, stopped_line
 
 COLOURS = {"running": "green", "ready": "green", "busy": "yellow", "starting": "cyan",
            "failed": "bold red", "lost": "bold red", "stopped": "dim"}
@@ -133,7 +133,9 @@ def top_cmd(c: Any, interval: float, count: int | None) -> None:
     n = 0
 
     def robot() -> str:          # while it starts, its list grows: the title says so
-        return f"{c.robot} (starting)" if still_starting(c) else c.robot
+        ping = c.call("ping")      # and while it is STOPPED, who stopped it and when
+        title = f"{c.robot} (starting)" if ping.get("starting") else c.robot
+        return title + stopped_line(ping.get("stopped"), " — ")
 
     with Live(render(snapshot(c), before, robot()), console=console,
               auto_refresh=False) as live:

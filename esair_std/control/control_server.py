@@ -20,7 +20,8 @@ import threading
 import time
 from typing import TYPE_CHECKING, Any, Callable
 
-from ..errors import ControlError
+from ..errors import ControlError, Refused
+from ..latch import may_stop
 from ..level import Level
 from ..sample import Sample  # noqa: F401 - documented payload type
 from ..transport import keys, wire
@@ -32,7 +33,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from ..bs import BehaviorSupervisor
     from .operator import Operator
     from ..parts import Joins, Mode
-    from ..view import Robot
+    from ..runtime_view import Robot
     from ..rs import ResourceSupervisor
 from ..transport.session import check_endpoint, hub_runtime
 from ..transport.threads import Threads
@@ -66,6 +67,12 @@ def _valid_timeout(body: dict) -> bool:
     except ControlError:
         return False
     return True
+
+
+def _latch_body(state: dict | None, by: str = "") -> dict:
+    if state is None:          # t: when (a recording orders the states by it)
+        return {"stopped": False, "released_by": by, "t": time.time()}
+    return {"stopped": True, **state}
 
 
 class _SampleRequest:
@@ -108,6 +115,8 @@ class ControlServer:
             "join": self.v_join,
             # the operator's verbs (esair std sample / send): esair_std/control/operator.py
             "sample": self.v_sample, "send": self.v_send,
+            # the latched STOP (latch.py): esair std stop / release
+            "stop": self.v_stop, "release": self.v_release, "latch": self.v_latch,
         }.items():
             self.verbs.add(verb, fn)
         self._operator: Operator | None = None     # on first use
@@ -129,7 +138,16 @@ class ControlServer:
                                  self._on_put_sample)
         self.token = self.bus.token(keys.alive(self.rt.robot, "runtime", "runtime"))
         self._notice = self.bus.publisher(keys.changed(robot))
+        self._latch = self.bus.publisher(keys.latch(robot))
         self.threads.start(self._notify, name="esair:changed")
+
+    def latch_changed(self, state: dict | None, by: str = "") -> None:
+        """The latched STOP's state for watchers (the HMI, recorders): ``esair/<robot>/
+        latch``."""
+        try:
+            self._latch(_latch_body(state, by))
+        except Exception as exc:  # noqa: BLE001 - the session is closing
+            log.debug("latch notice: %s", exc)
 
     def changed(self, version: int) -> None:
         """A component's state changed (any thread): the notice goes out from
@@ -230,7 +248,7 @@ class ControlServer:
         # starting: the deployment's components are still being added (resources, then
         # behaviors): a listing now is not the whole robot yet
         return {"robot": self.rt.robot, "mode": self.rt.mode_name, "pid": os.getpid(),
-                "starting": not self.rt.started_at}
+                "starting": not self.rt.started_at, "stopped": self.rt.latched}
 
     def v_ls(self, b: dict) -> list:
         if b.get("all"):                 # every row with the same keys, drivers too
@@ -320,6 +338,26 @@ class ControlServer:
 
     def v_send(self, b: dict) -> Any:
         return self._op().send(_need(b, "name"), b.get("value"), _timeout(b))
+
+    def v_stop(self, b: dict) -> dict:
+        who = b.get("who") or "operator"
+        reason = b.get("reason") or ""
+        if not isinstance(who, str) or not isinstance(reason, str):
+            raise ControlError("bad request: 'who' and 'reason' must be text")
+        may_stop(self.bs.records, who)
+        return self.rt.stop_robot(reason, by=who)
+
+    def v_release(self, b: dict) -> dict:
+        who = b.get("who") or "operator"
+        if not isinstance(who, str):
+            raise ControlError("bad request: 'who' must be text")
+        if who in self.bs.records:
+            raise Refused(f"{self.bs.records[who].spec.kind} {who!r} may not release the "
+                          f"STOP: only an operator may (esair std release)")
+        return self.rt.release_robot(by=who)
+
+    def v_latch(self, b: dict) -> dict:
+        return _latch_body(self.rt.latched)
 
     # ---- agent verbs (component processes)
     def v_register(self, b: dict) -> int:

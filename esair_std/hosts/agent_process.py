@@ -7,8 +7,8 @@ It exits when the runtime says stop, when its stdin closes (the local parent die
 with no parent's pipe to tell (``--no-stdin``), when the runtime's liveliness token goes
 away and the runtime does not answer. A local child does not watch the token: its pipe
 is the runtime's own word, while in a mesh of peers the token can go away and a ping go
-unanswered for a while when another peer's link drops (the robot's radio: seen twice,
-tests/net/test_starfish_net.py), and an agent that left then would stay failed. Zenoh
+unanswered for a while when another peer's link drops (the robot's radio), and an agent
+that left then would stay failed. Zenoh
 callbacks here only copy into the host's mailbox or answer at once; user code runs on the
 host's thread.
 """
@@ -48,6 +48,7 @@ MARGIN = 0.05           # the far side of a put, get or command (the BS, the act
                         # a behavior whose timeouts fit its step deadline never overruns
 RUNTIME_GRACE = 1.0     # seconds without the runtime's token before leaving
 HELLO_S = 10.0          # how long an agent asks the runtime to take its hello
+HELLO_ASK_S = 1.0       # each ask of it (the hello is asked again; answering is idempotent)
 
 
 class ZenohPort:
@@ -182,6 +183,9 @@ class ZenohPort:
             raise ControlError("the runtime did not answer")
         wire.result(r)
 
+    def stop_robot(self, who: str, reason: str) -> None:
+        self._ctl("stop", {"who": who, "reason": reason})
+
     def state_changed(self, name: str, generation: int, phase: str, reason: str) -> None:
         try:
             self._ctl("report", {"name": name, "generation": generation, "phase": phase,
@@ -220,6 +224,7 @@ class Agent:
         self.port = ZenohPort(bus, robot)
         self.done = threading.Event()
         self.why_done = ""         # why it left (leave())
+        self._wake: list[threading.Event] = []   # waits that end when it leaves
         self.host: ComponentHost | ResourceHost | None = None
         self.token_doubts = 0      # the runtime's token went away while it answered
 
@@ -228,6 +233,8 @@ class Agent:
         if not self.done.is_set():
             self.why_done = why
         self.done.set()
+        for event in list(self._wake):
+            event.set()
 
     @property
     def _component(self) -> ComponentHost:
@@ -247,14 +254,22 @@ class Agent:
         # queryable to be known (Zenoh's matching status, an event), for up to HELLO_S
         deadline = time.monotonic() + HELLO_S
         route = self.bus.route(keys.ctl(self.robot, "hello"))
+        self._wake.append(route.ready)         # its runtime gone (leave()): no more waiting
         r = None
-        while r is None:
-            left = deadline - time.monotonic()
-            if left <= 0 or not route.ready.wait(left):
-                break
-            r = self.bus.request(keys.ctl(self.robot, "hello"), body,
-                                 max(0.001, deadline - time.monotonic()))
-        route.undeclare()
+        try:
+            while r is None and not self.done.is_set():
+                left = deadline - time.monotonic()
+                if left <= 0 or not route.ready.wait(left) or self.done.is_set():
+                    break
+                # asked again each HELLO_ASK_S: an answer lost with a runtime that died
+                # meanwhile is not waited for past the next look at done
+                r = self.bus.request(keys.ctl(self.robot, "hello"), body,
+                                     max(0.001, min(HELLO_ASK_S, deadline - time.monotonic())))
+        finally:
+            self._wake.remove(route.ready)
+            route.undeclare()
+        if r is None and self.done.is_set():
+            raise TransportError(f"the runtime left during the hello ({self.why_done})")
         if r is None or "error" in r:
             raise TransportError(f"runtime refused hello: {r and wire.exception(r)}")
 
@@ -343,6 +358,8 @@ class Agent:
         verbs.add("detached", lambda b: host().notify_detached(str(b.get("resource"))))
         verbs.add("attached", lambda b: host().notify_attached(str(b.get("resource"))))
         verbs.add("enable", lambda b: host().set_enabled(bool(b.get("enabled"))))
+        verbs.add("latch", lambda b: host().notify_latch(
+            b.get("state") if isinstance(b.get("state"), dict) else None, str(b.get("by", ""))))
         verbs.add("counters", lambda _b: {**host().counters(), "offer_samples": dict(self.offers.c),
                                           "deliver_samples": dict(self.delivers),
                                           "put_samples": self.port.put_counters()})
@@ -418,8 +435,22 @@ class Agent:
         verbs.add("grant", lambda b: host.grant(str(b.get("who")), str(b.get("resource"))))
         verbs.add("revoke", lambda b: host.revoke(str(b.get("who")), b.get("resource")))
         verbs.add("counters", lambda _b: host.counters())
+        verbs.later("halt", self._halt)
+        verbs.add("release", lambda _b: host.release())
         verbs.later("stop", self._stop)
         return verbs
+
+    def _halt(self, b: dict, answer: wire.Answer) -> None:
+        """The latched STOP: commands refused at once (here, on Zenoh's thread); the
+        devices stopped on a thread of its own (a link waits for its ``x`` reply), then
+        the runtime answered."""
+        why = str(b.get("why") or "stopped")
+        self._resource.halted = why
+
+        def run() -> None:
+            self._resource.halt(why)
+            answer(wire.ok())
+        threading.Thread(target=run, name="esair:halt", daemon=True).start()
 
     # ---- leaving
     def watch_runtime(self) -> None:
@@ -458,13 +489,15 @@ class Agent:
         return isinstance(ok, dict) and ok.get("robot") == self.robot
 
 
-def _stdin_watch(done: threading.Event) -> None:
+def _stdin_watch(agent: Agent) -> None:
+    """The runtime's end of the pipe closes when the runtime's process ends, however it
+    ends (SIGKILL included): the agent leaves, a hello under way included."""
     try:
         while sys.stdin.buffer.read(1):
             pass
     except (OSError, ValueError):
         pass
-    done.set()
+    agent.leave("the runtime is gone")
 
 
 USAGE = """usage: python -m esair_std.hosts.agent_process --connect tcp/HOST:PORT --robot ROBOT
@@ -523,7 +556,7 @@ def main(argv: list[str] | None = None) -> int:
     bus = Bus(connect=[a.connect], options=options, runtime=a.connect)
     agent = Agent(bus, a.robot, spec, a.generation)
     if not a.no_stdin:
-        threading.Thread(target=_stdin_watch, args=(agent.done,), daemon=True).start()
+        threading.Thread(target=_stdin_watch, args=(agent,), daemon=True).start()
     code = 0
     try:
         if a.no_stdin:              # no parent's pipe: the token (and a ping) says
@@ -536,8 +569,9 @@ def main(argv: list[str] | None = None) -> int:
     except SystemExit:
         code = 0
     except StdError as exc:
-        log.error("%s: %s", spec.name, exc)
-        code = 1
+        if not agent.done.is_set():     # else its runtime left: nothing to say
+            log.error("%s: %s", spec.name, exc)
+            code = 1
     finally:
         if agent.host is not None:
             agent.host.stop(1.0)

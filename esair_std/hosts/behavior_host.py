@@ -266,6 +266,15 @@ class ComponentHost:
             if h.resource == resource:
                 h.detached = False
 
+    def notify_latch(self, state: dict | None, by: str = "") -> None:
+        """The robot was STOPPED (``state``) or released by ``by`` (state None): the
+        component's robot_stopped() / robot_released() runs on its thread."""
+        if len(self.notices) >= NOTICES:
+            self.c.add("notices_dropped")
+            return
+        self.notices.append(("latch", state, by))
+        self._wake.set()
+
     def set_enabled(self, enabled: bool) -> None:
         self.enabled = bool(enabled)
 
@@ -357,6 +366,9 @@ class ComponentHost:
 
     def set_reaction(self, name: str, enabled: bool) -> None:
         self.port.set_reaction(self.name, name, enabled)
+
+    def stop_robot(self, reason: str) -> None:
+        self.port.stop_robot(self.name, reason)
 
     # ---- the thread
     def _set_phase(self, phase: str) -> None:
@@ -471,7 +483,15 @@ class ComponentHost:
         deadline = time.monotonic() + timeout
         while True:
             while self.notices:
-                self._timed("detached", self.obj.detached, self.notices.popleft())
+                notice = self.notices.popleft()
+                if isinstance(notice, str):
+                    self._timed("detached", self.obj.detached, notice)
+                elif notice[1] is not None:
+                    st = notice[1]
+                    self._timed("robot_stopped", self.obj.robot_stopped, st.get("by", ""),
+                                st.get("reason", ""))
+                else:
+                    self._timed("robot_released", self.obj.robot_released, notice[2])
             try:
                 item = self.inbox.get_nowait()
             except queue.Empty:

@@ -8,6 +8,7 @@ opens the device, polls the sensors that set ``rate_hz``, and runs every ``write
 
 from __future__ import annotations
 
+import collections
 import logging
 import queue
 import threading
@@ -34,6 +35,8 @@ log = logging.getLogger("esair_std.resource")
 #: how long a device may take to open: an emulated robot (drivers/minlink/emulated.py)
 #: may itself take up to 30 s to start on a loaded machine, then the link probes it
 OPEN_TIMEOUT = 40.0
+#: an actuator's last commands kept for inspect (a motion, its STOP, a second STOP, ...)
+LAST_OK = 4
 
 class Slot:
     """One resource (a sensor or an actuator) as its host keeps it."""
@@ -51,6 +54,9 @@ class Slot:
         self.next_poll = 0.0
         self._lock = threading.Lock()
         self.c = dict(reported=0, commands=0, command_errors=0, polls_late=0)
+        # an actuator's last commands that went through, [when, command, its answer]:
+        # an HMI started later rebuilds the pose the robot holds from them (hmi/bridge.py)
+        self.last_ok: collections.deque[list] = collections.deque(maxlen=LAST_OK)
         self.granted: set[str] = set()
         # the command write() runs for: when it was queued and when its sender gives up
         # (time.monotonic()), so a driver can drop what it could not do in time
@@ -74,7 +80,10 @@ class Slot:
     def counters(self) -> dict:
         """The counters, the sample number and the state, as of one moment."""
         with self._lock:
-            return dict(self.c, seq=self.seq, state=self.state)
+            out = dict(self.c, seq=self.seq, state=self.state)
+            if self.last_ok:
+                out["last_ok"] = list(self.last_ok)
+            return out
 
     def set_state(self, state: str, reason: str) -> None:
         self.state, self.reason = state, reason
@@ -97,10 +106,13 @@ class ResourceHost:
         self.state = "starting"
         self.reason = ""
         self.on_failed: Callable[[str], None] | None = None   # the host's thread died
-        self.c = Counters(commands_refused=0, records_unsent=0)
+        self.c = Counters(commands_refused=0, records_unsent=0, refused_stopped=0)
+        # the latched STOP's refusal text while the robot is STOPPED (latch.py)
+        self.halted: str | None = None
         # command records not yet published (this host's thread only) and when they are due
         self._records: list[dict] = []
         self._records_due = 0.0
+        self._rec_lock = threading.Lock()    # records also come from a STOP's thread
         self.thread = threading.Thread(target=self._main, name=f"esair:{self.name}", daemon=True)
 
     # ---- life cycle (called by the RS / the agent)
@@ -147,6 +159,10 @@ class ResourceHost:
             return on_done(False, ResourceLost(resource, "removed"))
         if op == "write" and slot.kind != "actuator":
             return on_done(False, "is a sensor: it takes no commands")
+        halted = self.halted
+        if op == "write" and halted is not None:
+            self.c.add("refused_stopped")
+            return on_done(False, halted)
         try:
             if copy:
                 args = tuple(codec.copy(a) for a in args)
@@ -187,6 +203,59 @@ class ResourceHost:
         for name, slot in self.slots.items():
             if resource is None or name == resource:
                 slot.granted.discard(who)
+
+    # ---- the latched STOP (latch.py; any thread)
+    def halt(self, why: str) -> None:
+        """STOPPED: every command refused with ``why`` from now on, those queued
+        answered so at once, then the devices told to stop (Driver.halt, then each
+        Actuator.halt; on this thread, not the host's, which may be inside a write)."""
+        self.halted = why
+        keep = []
+        while True:                          # the queued writes go, their senders told
+            try:
+                item = self.commands.get_nowait()
+            except queue.Empty:
+                break
+            if item is not None and item[1] == "write":
+                self.c.add("refused_stopped")
+                item[3](False, why)
+            else:
+                keep.append(item)
+        for item in keep:
+            try:
+                self.commands.put_nowait(item)
+            except queue.Full:             # new commands came meanwhile: refused anyway
+                if item is not None:
+                    item[3](False, "command queue full")
+        stopped = False
+        for obj in self._movers():
+            try:
+                done = obj.halt()
+            except Exception as exc:  # noqa: BLE001 - the others are still stopped
+                log.error("%s: halt() raised %s: %s", self.name, type(exc).__name__, exc)
+                continue
+            slot = getattr(obj, "_esair", None)
+            if done is not None and isinstance(slot, Slot) and slot.host is self:
+                # recorded as its command "stop" (recorders, the HMI's pose)
+                self._ran(slot, "stop", None, {"ok": codec.copy(done)})
+                stopped = True
+        if stopped:
+            self._publish_records()
+
+    def release(self) -> None:
+        """The STOP is released: commands are taken again; nothing is started."""
+        self.halted = None
+        for obj in self._movers():
+            try:
+                obj.release()
+            except Exception as exc:  # noqa: BLE001
+                log.error("%s: release() raised %s: %s", self.name, type(exc).__name__, exc)
+
+    def _movers(self) -> list[Any]:
+        """The driver, then its actuators (those the STOP tells)."""
+        out: list[Any] = [self.driver] if self.driver is not None else []
+        return out + [s.obj for s in list(self.slots.values())
+                      if s.kind == "actuator" and s.obj is not self.driver]
 
     def states(self) -> dict[str, tuple[str, str]]:
         return {n: (s.state, s.reason) for n, s in self.slots.items()}
@@ -309,6 +378,9 @@ class ResourceHost:
         if time.monotonic() > expires:       # the sender gave up: do not act late
             slot.count("expired")
             return on_done(False, "expired in the queue")
+        if op == "write" and self.halted is not None:     # STOPPED while it waited
+            self.c.add("refused_stopped")
+            return on_done(False, self.halted)
         try:
             if slot.state == "lost":
                 raise ResourceLost(slot.name, f"lost: {slot.reason}" if slot.reason else "lost")
@@ -325,9 +397,12 @@ class ResourceHost:
             return None
         except CommandError as exc:
             slot.count("command_errors")
-            on_done(False, exc.reason)
+            why = exc.reason
+            if op == "write" and self.halted is not None:
+                why = self.halted              # STOPPED while it ran: the STOP's words
+            on_done(False, why)
             if op == "write":
-                self._ran(slot, args[0], asked, {"error": exc.reason})
+                self._ran(slot, args[0], asked, {"error": why})
             return None
         except Exception as exc:  # noqa: BLE001 - reaches the sender as CommandError
             slot.count("command_errors")
@@ -348,17 +423,25 @@ class ResourceHost:
         command number, ``t`` when it reached this host (time.time()). Published with the
         others of this entry in one message, at most records.BATCH_S after the first
         (transport/records.py)."""
-        slot.cseq += 1
-        now = time.time()
-        t = now if asked is None else now - (time.monotonic() - asked)
-        if not self._records:
-            self._records_due = time.monotonic() + records.BATCH_S
-        self._records.append(records.record(slot.name, slot.cseq, t, outcome, command))
-        if len(self._records) >= records.BATCH_MAX:
+        with self._rec_lock:
+            slot.cseq += 1
+            now = time.time()
+            t = now if asked is None else now - (time.monotonic() - asked)
+            if not self._records:
+                self._records_due = time.monotonic() + records.BATCH_S
+            self._records.append(records.record(slot.name, slot.cseq, t, outcome, command))
+            full = len(self._records) >= records.BATCH_MAX
+        if "ok" in outcome:
+            with slot._lock:
+                slot.last_ok.append([t, command, outcome["ok"]])
+        if full:
             self._publish_records()
 
     def _publish_records(self) -> None:
-        batch, self._records = self._records, []
+        with self._rec_lock:
+            batch, self._records = self._records, []
+        if not batch:
+            return
         try:
             self.port.publish_commands(self.name, batch)
         except Exception as exc:  # noqa: BLE001 - a record lost is not the command's fault

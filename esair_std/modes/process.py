@@ -32,7 +32,7 @@ from .thread import LocalPort
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..transport.bus import Bus
-    from ..view import RuntimeView
+    from ..runtime_view import RuntimeView
 
 log = logging.getLogger("esair_std.process")
 START_TIMEOUT = 20.0
@@ -58,9 +58,17 @@ def agent_command(endpoint: str, robot: str, spec: Spec, generation: int) -> lis
         # 0.57 s instead of 0.08 s); without it open takes ~1 ms, and the agent asks
         # again until the runtime answers its hello (agent.py)
         options["open/return_conditions/connect_scouted"] = False
-    return [sys.executable, "-m", "esair_std.hosts.agent_process", "--connect", endpoint,
+    # -P: the folder it starts in is not put on sys.path (a numpy.py there shadows
+    # nothing); the deployment's own modules are found by the class importer (classes.py)
+    return [sys.executable, "-P", "-m", "esair_std.hosts.agent_process", "--connect", endpoint,
             "--robot", robot, "--generation", str(generation),
             "--spec", json.dumps(spec.to_json()), "--session-options", json.dumps(options)]
+
+
+def _how_it_ended(status: int | None) -> str:
+    if status is not None and status < 0:
+        return f"was killed by signal {-status}"
+    return f"exited with status {status}" if status is not None else "exited"
 
 
 class _Child:
@@ -103,7 +111,7 @@ class _Child:
         self.proc = subprocess.Popen(
             agent_command(self.mode.rt.local_endpoint or self.mode.rt.endpoint, self.robot,
                           self.spec, self.generation),
-            stdin=subprocess.PIPE, env=env, cwd=self.mode.rt.base_dir)
+            stdin=subprocess.PIPE, env=env)   # in the user's folder: relative paths as in thread mode
         self.pid = self.proc.pid
         self.mode.threads.start(self._watch_exit, self.proc.pid, name=f"esair:exit:{self.name}")
 
@@ -131,8 +139,8 @@ class _Child:
             if self.hello.is_set():
                 break
             if self.ended.is_set():
-                raise ComponentError(f"{self.spec.kind} {self.name!r}: its process exited"
-                                     f" with status {self.exited()} before it started")
+                raise ComponentError(f"{self.spec.kind} {self.name!r}: its process "
+                                     f"{_how_it_ended(self.exited())} before it started")
             left = deadline - time.monotonic()
             if left <= 0:
                 self.kill()
@@ -150,7 +158,13 @@ class _Child:
             return None
 
     def exited(self) -> int | None:
-        return self.proc.poll() if self.proc is not None else None
+        """Its exit status once it ended (reaped here; negative: the signal's number)."""
+        if self.proc is None:
+            return None
+        if self.ended.is_set():
+            with contextlib.suppress(subprocess.TimeoutExpired):
+                return self.proc.wait(1.0)
+        return self.proc.poll()
 
     def kill(self) -> None:
         if self.proc is None:
@@ -294,6 +308,10 @@ class ProcessComponent(_Child):
     def set_enabled(self, enabled: bool) -> None:
         self.ask(self.key, {"op": "enable", "enabled": bool(enabled)}, 1.0)
 
+    def notify_latch(self, state: dict | None, by: str = "") -> None:
+        if self.phase not in ("failed", "stopped", "lost"):
+            self.ask(self.key, {"op": "latch", "state": state, "by": by}, 1.0)
+
     def counters(self) -> dict:
         r = self.ask(self.key, {"op": "counters"}, 1.0)
         return r["ok"] if isinstance(r, dict) and "ok" in r else {}
@@ -347,6 +365,13 @@ class ProcessResource(_Child):
 
     def revoke(self, who: str, resource: str | None = None) -> None:
         self.ask(self.key, {"op": "revoke", "who": who, "resource": resource}, 1.0)
+
+    def halt(self, why: str) -> None:
+        """The latched STOP, in the agent's host (it stops its devices, then answers)."""
+        self._call(self.name, {"op": "halt", "why": why}, 3.0)
+
+    def release(self) -> None:
+        self._call(self.name, {"op": "release"}, 1.0)
 
     def counters(self) -> dict:
         r = self.ask(self.key, {"op": "counters"}, 1.0)
@@ -418,8 +443,8 @@ class ProcessMode:
         pub = self._deliver_pubs.get(name)
         if pub is None:
             # BLOCK, never DROP: the sender is told "delivered" once this put returns,
-            # so Zenoh must not drop it under congestion (it did at load: 14 of 20 puts
-            # told delivered never came); the component reserved the room for it
+            # so Zenoh must not drop it under congestion (a dropped put would be a
+            # delivery told and never made); the component reserved the room for it
             pub = self._deliver_pubs[name] = self.bus.publisher(
                 keys.bs_deliver(self.rt.robot, name), drop=False, raw=True)
         pub(body)
@@ -498,10 +523,25 @@ class ProcessMode:
             child.rejoining = False
             with self._lock:
                 self._pending.pop((name, gen), None)
+            why = self.rt.rs.halted
+            if why is not None:          # a STOP made while it was away: before ready
+                self.threads.start(self._back, child, why, name=f"esair:back:{name}")
+                child.hello.set()
+                child.note()
+                return
             for res in child.children():
                 self.rt.rs.set_state(res, "ready", "")
         child.hello.set()
         child.note()
+
+    def _back(self, child: ProcessResource, why: str) -> None:
+        """A remote resource back while the robot is STOPPED: halted, then ready."""
+        try:
+            child.halt(why)
+        except StdError as exc:
+            log.error("%s: STOP not delivered on its return: %s", child.name, exc)
+        for res in child.children():
+            self.rt.rs.set_state(res, "ready", "")
 
     def drop_resource(self, host: ProcessResource) -> None:
         """``host`` stopped: no longer one of this mode's resource hosts."""

@@ -10,6 +10,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 from ..errors import ComponentError
+from ..latch import may_stop
 from ..level import Level
 from ..classes import component_class
 from ..spec import Spec
@@ -19,7 +20,7 @@ from ..hosts.resource_host import ResourceHost
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..parts import SampleHandle
-    from ..view import RuntimeView
+    from ..runtime_view import RuntimeView
 
 START_TIMEOUT = 10.0
 
@@ -84,6 +85,11 @@ class LocalPort:
 
     def set_reaction(self, who: str, name: str, enabled: bool) -> None:
         self.rt.bs.set_reaction(name, enabled)
+
+    def stop_robot(self, who: str, reason: str) -> None:
+        """A component's STOP: only one whose entry says ``may_stop: true``."""
+        may_stop(self.rt.bs.records, who)
+        self.rt.stop_robot(reason, by=who)
 
     # hosts report
     def state_changed(self, name: str, generation: int, phase: str, reason: str) -> None:

@@ -33,6 +33,7 @@ class Recorder:
             self.bridge.start()
             assert self.bridge.bus is not None
             self.tap.listen(self.bridge.bus, self.bridge.robot)
+            self.tap.put({"t": "latch", "v": self.bridge.latch})   # STOPPED or not, from here
         except BaseException:
             self.stop()
             raise

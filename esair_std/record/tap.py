@@ -3,7 +3,8 @@
 :class:`Tap` takes the samples a :class:`~esair_std.hmi.bridge.Bridge` emits (``{"t":
 "s", ...}``) and the command records the actuators' hosts publish (``esair/<robot>/
 command/<actuator>``: ``{seq, t, v: {command, ok | error}}``, subscribed with
-:meth:`Tap.listen`), and writes both to MCAP on a thread of its own: the callers (Zenoh's
+:meth:`Tap.listen`), and the latched STOP's state (``{"t": "latch"}``, on topic ``latch``), and writes them
+to MCAP on a thread of its own: the callers (Zenoh's
 thread, the bridge) only queue (bounded; what overflows is counted in ``dropped``). A
 sample or command number that does not follow the last one of its resource is a gap,
 counted too."""
@@ -23,6 +24,7 @@ from ..counters import Counters
 
 QUEUE = 100_000
 LINGER_S = records.BATCH_S + 0.1     # stop(): the last records in flight (their batch, the link)
+LATCH = "latch"      # the topic of the latched STOP's state: {stopped, by, t, at, reason}
 
 
 class Tap:
@@ -38,6 +40,7 @@ class Tap:
         self.c = Counters(written=0, dropped=0, gaps=0, commands=0, command_gaps=0)
         self._last: dict[str, int] = {}
         self._last_cmd: dict[str, int] = {}
+        self._latches = 0
         self._subs: list[tuple[Any, Any]] = []
         self._thread = threading.Thread(target=self._run, name="record:write", daemon=True)
         self._thread.start()
@@ -47,6 +50,13 @@ class Tap:
         """A message the bridge emitted: kept when it is a sample of a wanted sensor."""
         if msg.get("t") == "s" and self.wanted(str(msg.get("r"))):
             self._queue(msg)
+        elif msg.get("t") == "latch" and isinstance(msg.get("v"), dict):
+            # the latched STOP's state (STOPPED by whom and when, released) on topic LATCH
+            self._latches += 1
+            v = msg["v"]
+            t = v.get("t")
+            self._queue({"t": "s", "r": LATCH, "q": self._latches,
+                         "ts": t if isinstance(t, (int, float)) else time.time(), "v": v})
 
     def listen(self, bus: Any, robot: str) -> None:
         """Record the commands ``robot``'s actuators run, from ``bus`` (until stop())."""

@@ -25,6 +25,8 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from esair_min import sigs
+
 from ..errors import StdError, TransportError
 from ..level import Level
 from ..hosts.agent_process import Agent, ZenohPort
@@ -33,6 +35,7 @@ from ..transport import keys, wire
 from ..transport.bus import Bus
 from ..transport.security_config import LEASE_MS, link_inserts, session_inserts
 from ..counters import Counters
+from ..restart_window import RestartWindow
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..parts import SampleHandle
@@ -94,7 +97,7 @@ class RemoteAgent(Agent):
         self.joined = threading.Event()
         self.c = Counters(joins=0, partitions=0, restarts=0)
         self._rejoin_lock = threading.Lock()
-        self._restarts: list[float] = []           # when its behavior was restarted
+        self._restarts = RestartWindow(int(spec.restart_max or 0), float(spec.restart_within or 0.0))
         if spec.kind != "resource":
             self.port.on_failed = self._failed
 
@@ -165,12 +168,8 @@ class RemoteAgent(Agent):
         most, within = self.spec.restart_max, self.spec.restart_within
         if not most or self.done.is_set():
             return
-        now = time.monotonic()
-        self._restarts = [t for t in self._restarts if now - t < within]
-        again = len(self._restarts) < most
-        if again:
-            self._restarts.append(now)
-        else:
+        again = self._restarts.allow(time.monotonic())
+        if not again:
             log.error("%s: failed (%s); past its restart policy (%d within %g s): it "
                       "stays failed", self.spec.name, reason, most, within)
         threading.Thread(target=self._after_failure, args=(reason, again), daemon=True,
@@ -270,8 +269,8 @@ def run(endpoint: str, name: str, class_path: str, kind: str, uses: dict | None 
         agent = RemoteAgent(bus, robot, spec, proof_maker(lambda: robot, name, sec),
                             hostname or os.uname().nodename,
                             sec.lease_ms if sec is not None else LEASE_MS)
-        for sig in (signal.SIGINT, signal.SIGTERM):
-            signal.signal(sig, lambda *_: agent.leave("interrupted"))
+        for sig in (signal.SIGINT, signal.SIGTERM):      # an inherited ignore stays
+            sigs.install(sig, lambda *_: agent.leave("interrupted"))
         agent.watch_runtime()
         if kind == "resource":
             agent.run_resource()

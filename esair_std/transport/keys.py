@@ -110,3 +110,9 @@ def parse_alive(robot: str, key: str) -> tuple[str, str] | None:
 
 def changed(robot: str) -> str:
     return f"esair/{robot}/changed"
+
+
+def latch(robot: str) -> str:
+    """The latched STOP's state, published at each change: ``{"stopped": bool, "by",
+    "t", "at", "reason"}`` (latch.py)."""
+    return f"esair/{robot}/latch"

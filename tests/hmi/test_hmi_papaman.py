@@ -16,7 +16,7 @@ import yaml
 from websockets.sync.client import connect
 
 from esair_min.core.trace import without_marks
-from esair_min.emulator.actuator import encode
+from esair_min.emulator.papaman.actuator import encode
 from esair_min.model.validate import load_robot
 from esair_std.record import read_commands, read_samples
 from tests.support.hmi import PAPAMAN, esair_std, open_page, wait_for
@@ -213,6 +213,7 @@ def test_a_page_opened_after_stop_shows_the_pose_the_motion_reached(robot, brows
     assert later.evaluate("window.__hmi.played") == first.evaluate("window.__hmi.played")
     assert later.evaluate(ANGLES) == held
     later.close()
+    assert first.evaluate("window.__hmi.send({op: 'release'})")["ok"]    # the STOP latched
     # the frame a motion shows at a time into it, as the robot's frame player writes them:
     # frame 0 at the first tick after the PLY line (half a tick on, on average), frame i
     # i * delay_ticks ticks later; none before, the last one after the end
@@ -241,11 +242,13 @@ def test_a_page_opened_after_stop_shows_the_pose_the_motion_reached(robot, brows
     assert stopped.evaluate(ANGLES) == last
     assert stopped.evaluate("window.__hmi.played.stopped") is True
     stopped.close()
+    assert first.evaluate("window.__hmi.send({op: 'release'})")["ok"]
     first.close()
     assert errors == more == more2 == more3 == []
 
 
 STOP_DANCE = """async (wait) => { const h = window.__hmi;
+    await h.send({op: "release"});       // the last STOP latched (docs/hmi.md)
     const r = await h.send({op: "cmd", resource: "papaman.motion", command: {play: "dance"}});
     await new Promise((ok) => setTimeout(ok, wait));
     const s = await h.send({op: "stop"});
@@ -287,6 +290,7 @@ def test_a_dance_stopped_part_way_shows_the_frame_the_robot_reached(robot, brows
     assert len(close) >= 6, f"(wait ms, robot's frame, page's frame): {seen}"
     # stopped part-way (after its first frame, before its last) at least twice
     assert sum(0 < robot_i < len(dance) - 1 for _, robot_i, _ in close) >= 2, seen
+    assert page.evaluate("window.__hmi.send({op: 'release'})")["ok"]
     page.close()
     assert errors == []
 
@@ -409,10 +413,10 @@ def test_a_viewer_without_login_gets_no_command_through(robot, browser):
     failed = robot.status()["counters"]["failed_logins"]
     before = len(robot.trace_lines())
     for frame in ({"op": "cmd", "resource": "papaman.motion", "command": {"play": "dance"}},
-                  {"op": "stop"}, {"op": "remove", "name": "watcher"}):
+                  {"op": "stop"}, {"op": "release"}, {"op": "remove", "name": "watcher"}):
         r = page.evaluate("f => window.__hmi.send(f)", frame)
         assert (r["ok"], r["error"]) == (False, "viewers cannot command: log in as an operator")
-    assert robot.status()["counters"]["refused"] == refused + 3
+    assert robot.status()["counters"]["refused"] == refused + 4
     r = page.evaluate("window.__hmi.send({op: 'login', user: 'operator', password: 'guess'})")
     assert (r["ok"], r["error"]) == (False, "wrong user or password")
     assert robot.status()["counters"]["failed_logins"] == failed + 1

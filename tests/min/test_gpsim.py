@@ -3,7 +3,7 @@
 Needs the toolchain (scripts/install-toolchain.sh); without it these tests FAIL with
 the install hint. The firmware is generated and built once per module; each gpsim
 run is deterministic, so cycle counts are asserted as exact ceilings (a few % over
-the figures measured when they were written, see bench/firmware.py).
+the figures measured when they were written, see bench/firmware_sizes.py).
 """
 
 from __future__ import annotations
@@ -23,27 +23,28 @@ from esair_min.pic.gpsim_wave import read_register_log, transfer_kinds
 from esair_min.core.stimulus import run_script
 from esair_min.resources import resolve_robot
 from esair_min.model.validate import load_robot
+from tests.support.board_lines import READY_OK
 
 SCENARIO = Path(__file__).resolve().parents[1] / "fixtures" / "gpsim" / "papaman.txt"
 BALANCE = SCENARIO.with_name("balance.txt")
 BALANCE_EQUAL = SCENARIO.with_name("balance_equal.txt")
 BALANCE_LINE = b"!R auto_balance\r\n"
 
-# Ceilings (instruction cycles at 20 MHz), measured values + headroom.
+# Ceilings (instruction cycles at 20 MHz): the simulator's exact counts plus headroom
+# (each count: docs/toolchain.md, "Cycle ceilings the gpsim tests hold").
 # Decoder: the superloop's drain loop from the byte in hand to the branch back to its
 # head (esair_min/pic/gpsim_bench.py). Every byte that does not end a line takes the inline
 # fast path; a CR or LF calls core_rx_end (the bare call: a swallowed LF).
 DECODER_GOAL = 40                # issue 6: worst instruction cycles per ordinary byte
-# measured 36 (32 before the receive ring marked its losses: +4 for the mark test)
-DECODER_CHAR_WORST = 36
-DECODER_CHAR_MEAN = 36           # measured 35.6
-DECODER_LF_SWALLOWED = 40        # measured 40: core_rx_end and back (60 with the overrun flag call)
-TIMER2_ISR_WORST = 120           # measured 81 alone, 116 when a reply byte is served too
-ANY_ISR_WORST = 120              # measured 116 (TX with the 80-byte ring's wrap)
-TICK_TO_LAST_BYTE = 14_300       # dance frames: measured 12_761..13_893 (2.55..2.78 ms)
-FRAME_WRITE = 13_200             # measured 12_770: START..STOP of 1 + 25 bytes (wire 26 x 9 x 52)
-FRAME_READ = 14_600              # measured 14_157: 3 bytes, repeated START, 24 bytes read
-PULSE_ERROR = 0.01               # servo pulse width vs the commanded angle; measured <= 0.11 %
+DECODER_CHAR_WORST = 36          # the receive ring marks its losses (the mark test's cycles)
+DECODER_CHAR_MEAN = 36
+DECODER_LF_SWALLOWED = 40        # core_rx_end and back
+TIMER2_ISR_WORST = 120           # with a reply byte served in the same interrupt
+ANY_ISR_WORST = 120              # TX with the 80-byte ring's wrap
+TICK_TO_LAST_BYTE = 14_300       # dance frames
+FRAME_WRITE = 13_200             # START..STOP of 1 + 25 bytes (wire 26 x 9 x 52)
+FRAME_READ = 14_600              # 3 bytes, repeated START, 24 bytes read
+PULSE_ERROR = 0.01               # servo pulse width vs the commanded angle
 
 
 @pytest.fixture(scope="module")
@@ -64,7 +65,7 @@ def test_papaman_scenario_gpsim_equals_python_core(robot, scenario_run):
     gpsim = scenario_run.trace()
     assert compare(python, gpsim, GpsimSetup.from_robot(robot)) == []
     replies = [line for _, line in scenario_run.replies]
-    assert replies[0] == b"!READY esair-min/1 image=ok\r\n"
+    assert replies[0] == READY_OK
     assert b"E10 no answer on i2c\r\n" in replies          # the sensor fault was seen
     writes = [t for t in scenario_run.transfers if t.segments[0].address == 0x10]
     assert len(writes) > 40                                 # the dance: a frame per tick
@@ -230,8 +231,8 @@ def test_actuator_pulse_widths_match_commanded_angles(robot, actuator_fw, tmp_pa
               for p in pulses]
     assert [p.angle for p in pulses] == angles
     assert all(abs(p.error) <= PULSE_ERROR for p in pulses), "\n".join(report)
-    # gpsim's Timer1 drifts ~1 cycle per compare reprogrammed (measured 20 000.6 ..
-    # 20 002.8 us); the firmware adds exactly one frame of counts per period
+    # gpsim's Timer1 drifts about a cycle per compare reprogrammed; the firmware adds
+    # exactly one frame of counts per period
     assert all(abs(p.period_us - 20_000) <= 20 for p in pulses), "\n".join(report)
 
 
@@ -272,7 +273,7 @@ def test_balance_reaction_gpsim_equals_python_core(tipping_robot, tipping_centra
     python = run_script(tipping_robot, scenario.read_text())
     assert compare(python, run.trace(), setup) == []
     replies = [line for _, line in run.replies]
-    assert replies[:2] == [b"!READY esair-min/1 image=ok\r\n", b"OK\r\n"]
+    assert replies[:2] == [READY_OK, b"OK\r\n"]
     assert replies.count(BALANCE_LINE) == fires == python.count("TX " + BALANCE_LINE.hex().upper())
     if fires:
         assert len(replies) == 2 + fires

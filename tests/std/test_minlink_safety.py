@@ -30,6 +30,7 @@ from esair_std.drivers.minlink.emulated import EmulatedRobot
 from esair_std.drivers.minlink.link_errors import DifferentRobot, Expired, LinkError
 from tests.support.std import wait_for
 from tests.support.robot_ptys import VERSION, frames, pty_number, replies, start_on_number, stop
+from tests.support.board_lines import READY_OK
 
 ROOT = Path(__file__).resolve().parents[2]
 PAPAMAN = ROOT / "boards" / "papaman"
@@ -92,7 +93,7 @@ def test_a_robot_on_the_dead_robots_pty_number_is_refused(tmp_path, robot):
             stop(foreign)
     # the only line the other robot answered is the probe (a read-only `v`)
     got = replies(tmp_path / "foreign.txt")
-    assert got[0] == b"!READY esair-min/1 image=ok\r\n"     # its boot, to nobody
+    assert got[0] == READY_OK     # its boot, to nobody
     assert got[1:] and set(got[1:]) == {b"OK esair-min/1 servos=12 sensors=8 motions=5 image=ok "
                                 b"checksum=off id=bbbbbbbb\r\n"}
     assert frames(tmp_path / "foreign.txt") == 0
@@ -191,7 +192,7 @@ def _fake_robot(answers: list[bytes]) -> Iterator[tuple[str, list[bytes]]]:
 
 def test_a_damaged_version_reply_is_asked_again_not_believed(robot):
     """Without checksums, line noise can damage the `v` reply (bytes lost on the way,
-    seen in CI: `sensors= oin= mg=a`); the link believes a reply that names another robot
+    e.g. `sensors= oin= mg=a`); the link believes a reply that names another robot
     only when the next one says the same."""
     good = VERSION + b"0123abcd\r\n"
     damaged = b"OK esair-min/1 servos=12 sensors= oin= mg=a hcsmofi=8017\r\n"

@@ -37,3 +37,35 @@ class Mover(Behavior):
     def provide(self, requester):
         return {"results": self.results,
                 "states": {n: h.state for n, h in self.handles.items()}}
+
+
+class Nudger(Behavior):
+    """Sends papaman.servo.l_knee an angle every step (100 and 110 in turn) and keeps
+    each outcome, ``[kind, text]`` (ok, CommandError, ResourceLost), the last 400;
+    provide() gives them with the number sent so far."""
+
+    period = 0.05
+
+    def start(self):
+        self.knee = self.attach_actuator("papaman.servo.l_knee")
+        self.outcomes = []
+        self.sent = 0
+        self.told = []
+
+    def step(self):
+        self.sent += 1
+        try:
+            self.knee.send({"angle": 100 + 10 * (self.sent % 2)}, timeout=0.5)
+            self.outcomes.append(["ok", ""])
+        except (CommandError, ResourceLost) as exc:
+            self.outcomes.append([type(exc).__name__, str(exc)])
+        del self.outcomes[:-400]
+
+    def robot_stopped(self, by, reason):
+        self.told.append(["stopped", by, reason])
+
+    def robot_released(self, by):
+        self.told.append(["released", by])
+
+    def provide(self, requester):
+        return {"outcomes": self.outcomes, "sent": self.sent, "told": self.told}

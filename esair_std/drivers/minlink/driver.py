@@ -33,6 +33,11 @@ Resources, named from the board files:
 - ``<entry>.notices`` sensor: every ``!`` line as ``{"notice": text}`` (``R
   auto_balance``, ``E10 no answer on i2c``, ``READY ...``).
 
+The runtime's latched STOP (docs/std.md) holds the link (``halt()``): ``x`` goes at
+once, ahead of every command, and nothing but ``x`` and the polls goes until the
+release; a STOP made while the link is down is written first thing when it is back;
+the firmware's own reaction (``!R``) is answered with ``x`` at once.
+
 An ``Enn`` reply reaches the sender as ``CommandError(resource, "robot refused 'LINE':
 Enn text")``. While the link is down every resource is ``lost`` (``esair std ls`` shows
 the reason) and commands fail at once with ``ResourceLost``; they are ``ready`` again
@@ -56,7 +61,6 @@ times within T seconds, as behaviors' policy; the link takes back only its own c
 
 from __future__ import annotations
 
-import collections
 import threading
 import time
 from pathlib import Path
@@ -68,6 +72,7 @@ from esair_min.errors import EsairError
 from esair_min.model.validate import load_robot
 from esair_min.resources import resolve_robot
 
+from ...restart_window import RestartWindow
 from .budget import DEFAULT_FEET_SHARE, line_budget
 from .emulated import EmulatedRobot
 from .link_errors import LinkDown, LinkError
@@ -143,13 +148,21 @@ class MotionActuator(_LinkAgent, Actuator):
             raise CommandError(self.name, str(exc)) from None
         if command in ("stand", {"stand": True}):
             return self._send(line)
-        ex = self._exchange(line)
+        return self._took(self._exchange(line))
+
+    def _took(self, ex: Exchange) -> dict:
         # a play and a stop say when the robot had the whole line (written, then its
         # bytes' time on the wire): the motion starts or stops then, while the reply may
         # come later (behind a feet reply on its way, full duplex); the HMI shows the
         # frame a motion reached from these times (docs/hmi.md)
         took = ex.t_sent + self.link.budget.line_s(ex.sent_bytes)
-        return {"line": line, "at": round(time.time() - (time.monotonic() - took), 4)}
+        return {"line": ex.line, "at": round(time.time() - (time.monotonic() - took), 4)}
+
+    def halt(self) -> Any:
+        """The latched STOP's ``x`` (the driver's halt() sent it): recorded as this
+        actuator's ``stop``, with when the robot had it; None when it could not go."""
+        ex = self.link.last_stop
+        return None if ex is None else self._took(ex)
 
 
 class PolledSensor(Sensor):
@@ -223,6 +236,7 @@ class FeetSensor(PolledSensor):
     """Polls ``s`` (a poll: commands go first)."""
 
     thread_name = "minlink-feet"
+    settings = ("rate_hz", "feet_hz")       # the same: the polls per second
 
     def __init__(self, link: Link, hz: float, share: float):
         super().__init__()
@@ -332,9 +346,8 @@ class MinLink(Driver):
         expect = None
         if port == "emulate":
             emulate = opts.get("emulate") or {}
-            self._policy = _restart_policy(emulate.get("restart") if isinstance(
-                emulate, dict) else None)
-            self._restarts: collections.deque[float] = collections.deque()
+            self._restarts = RestartWindow(*_restart_policy(emulate.get("restart") if isinstance(
+                emulate, dict) else None))
             self.emulated = EmulatedRobot(path, emulate_args(emulate, base))
             expect = self.emulated.instance
             port = self.emulated.start()
@@ -364,6 +377,15 @@ class MinLink(Driver):
 
     def resources(self) -> dict[str, Any]:
         return self.children
+
+    def halt(self) -> None:
+        """The runtime's latched STOP: the link sends ``x`` ahead of everything, then
+        refuses every line but the stop and the polls; while down, it sends ``x`` first
+        thing when it comes back (link.py, "Held")."""
+        self.link.hold(True)
+
+    def release(self) -> None:
+        self.link.hold(False)
 
     def close(self) -> None:
         link, emulated = getattr(self, "link", None), getattr(self, "emulated", None)
@@ -410,17 +432,13 @@ class MinLink(Driver):
             reason = f"emulator exited (status {code})"
             self._lost = reason
             self._mark(False, reason)
-            now = time.monotonic()
-            most, within = self._policy
-            while self._restarts and now - self._restarts[0] > within:
-                self._restarts.popleft()
-            if len(self._restarts) >= most:
-                if most:
-                    self._lost = (f"{reason}; not restarted: {most} restart(s) within "
-                                  f"{within:g} s already")
+            window = self._restarts
+            if not window.allow(time.monotonic()):
+                if window.max:
+                    self._lost = (f"{reason}; not restarted: {window.max} restart(s) within "
+                                  f"{window.within:g} s already")
                     self._mark(False, self._lost)
                 return
-            self._restarts.append(now)
             try:
                 emulated.start()
             except LinkError as exc:

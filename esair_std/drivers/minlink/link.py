@@ -52,6 +52,15 @@ only line it got was the read-only ``v`` probe. ``may_open`` (if given) is asked
 before each reconnect; a reason from it keeps the port closed (the driver's emulated
 robot that exited: its pty may belong to another program by now).
 
+**Held** (:meth:`hold`, the runtime's latched STOP): the stop line (``x``) goes at
+once, ahead of every command waiting, which fails with :class:`Held`, as does every
+line but the stop, the version and the polls (sensors keep flowing) until
+``hold(False)``. While
+held, each (re)connect writes the stop line before any other byte (a STOP made while
+the link was down reaches the robot first thing), and a reaction's ``!R`` notice is
+answered with the stop line at once (the firmware cannot be told to hold its
+reactions: docs/std-papaman.md).
+
 Deadlines: a command carries one (``deadline``, a ``time.monotonic()``; by default its
 ``timeout`` from the call). A command not written by then fails with :class:`Expired`
 and is dropped, never sent; so does one ``asked`` before the link last came up.
@@ -75,7 +84,7 @@ from esair_min.serialport import LOCKED, describe, open_port
 from ...counters import Counters
 from .budget import LineBudget, line_budget
 from .commands import VERSION_PREFIX, RobotCommands
-from .link_errors import DifferentRobot, Expired, LinkDown, LinkError, RobotRefused
+from .link_errors import DifferentRobot, Expired, Held, LinkDown, LinkError, RobotRefused
 
 #: Reply codes a well-formed line cannot get: the line was damaged on the wire.
 WIRE_CODES = frozenset({Code.UNKNOWN, Code.TOO_LONG, Code.BAD_ARGUMENT, Code.BAD_CHECKSUM,
@@ -169,6 +178,12 @@ class Link:
         self._thread: threading.Thread | None = None
         self._poll: float | None = POLL_S
         self._last_write = 0.0
+        # the latched STOP (hold()): only these lines go while held; every (re)connect
+        # then writes the stop line before any other byte
+        self._held = False
+        self.last_stop: Exchange | None = None      # the stop line hold() last sent
+        self._held_lines = set(_lines_of(self.commands, ("stop", "version", "sensors",
+                                                         "odometry")))
 
     # -- life cycle -----------------------------------------------------------------------
     def open(self) -> None:
@@ -227,7 +242,8 @@ class Link:
 
     # -- commands -------------------------------------------------------------------------
     def exchange(self, line: str, timeout: float | None = None, deadline: float | None = None,
-                 asked: float | None = None, poll: bool = False) -> Exchange:
+                 asked: float | None = None, poll: bool = False,
+                 urgent: bool = False) -> Exchange:
         """Send ``line``, wait for its reply; raise on an ``Enn`` reply or a link down.
         ``deadline`` (``time.monotonic()``, default: ``timeout`` from now): written by
         then or dropped (:class:`Expired`); ``asked``: when the command was asked, to
@@ -238,6 +254,9 @@ class Link:
         deadline = now + timeout if deadline is None else min(deadline, now + timeout)
         if self._stop.is_set():
             raise LinkDown(f"link to {self.port} is closed: {line!r} not sent")
+        if self._held and not poll and not self._may_pass(line):
+            self.stats.add("held")
+            raise Held(f"link to {self.port} is held (the robot is STOPPED): {line!r} not sent")
         if not self._up:
             raise LinkDown(f"link to {self.port} is down ({self._reason}): {line!r} not sent")
         # the shape of its OK: a bare one, or its action's data (never two alike in flight)
@@ -255,9 +274,11 @@ class Link:
             if now > deadline:
                 self.stats.add("expired")
                 raise Expired(self._expired_text(ex))
-            ahead = self._queue or (poll and self._polls)
+            ahead = (self._queue and not urgent) or (poll and self._polls)
             if not ahead and self._may_go(ex):
                 self._write_started([self._start(ex)])      # releases _write_lock
+            elif urgent:                     # the stop line: ahead of every command
+                self._queue.appendleft(ex)
             elif len(self._queue) + len(self._polls) >= QUEUE_MAX:
                 self.stats.add("busy")
                 raise LinkError(f"link to {self.port} busy: {QUEUE_MAX} commands wait; "
@@ -278,6 +299,46 @@ class Link:
         if ex.error is not None:
             raise ex.error
         return ex
+
+    # -- the latched STOP -------------------------------------------------------------------
+    def hold(self, on: bool) -> Exchange | None:
+        """Hold (the module docstring, "Held") or let go. Holding fails every command
+        waiting and sends the stop line ahead of the rest; it returns that exchange
+        once answered (None: the link is down, the next connect sends it first, or its
+        reply did not come). Letting go sends nothing."""
+        with self._lock:
+            self._held = on
+            if not on:
+                return None
+            waiting = [ex for ex in self._queue if not ex.poll and not self._may_pass(ex.line)]
+            for ex in waiting:
+                self._queue.remove(ex)
+                ex.error = Held(f"link to {self.port} is held (the robot is STOPPED): "
+                                f"{ex.line!r} not sent")
+                ex.started.set()
+                ex.done.set()
+        self.stats.add("holds")
+        return self.send_stop()
+
+    @property
+    def held(self) -> bool:
+        return self._held
+
+    def send_stop(self) -> Exchange | None:
+        """The stop line, ahead of every waiting command; its exchange, or None when it
+        could not go now (down: the next connect sends it first while held)."""
+        try:
+            ex = self.exchange(self.commands.prefix("stop"), urgent=True)
+        except LinkError:
+            self.stats.add("stops_failed")
+            self.last_stop = None
+            return None
+        self.stats.add("stops_sent")
+        self.last_stop = ex
+        return ex
+
+    def _may_pass(self, line: str) -> bool:
+        return line in self._held_lines
 
     def _expired_text(self, ex: Exchange) -> str:
         return f"link to {self.port}: {ex.line!r} not written within its deadline; dropped"
@@ -461,6 +522,10 @@ class Link:
                 self._notices.append((text[1:], t))
             if self.on_notice is not None:
                 self.on_notice(text[1:], t)
+            if self._held and text.startswith("!R "):
+                self.stats.add("reactions_stopped")
+                threading.Thread(target=self.send_stop, name="minlink-hold",
+                                 daemon=True).start()
             return
         try:
             reply = parse_reply(text)
@@ -625,6 +690,9 @@ class Link:
                 port.timeout = POLL_S_NO_CANCEL
             self._poll = port.timeout
             port.reset_input_buffer()
+            if self._held:          # a STOP made while down: before any other byte
+                port.write(RESYNC + self.commands.wire(self.commands.prefix("stop")))
+                self.stats.add("stops_on_connect")
             self._probe(port)
         except LinkError:
             _close_quietly(port)
@@ -681,6 +749,17 @@ class Link:
                                  f"expected {self.robot_id or 'none'})")
         self.commands.check_version(data)
         self.robot_id, self._known = got, True
+
+
+def _lines_of(commands: Any, actions: tuple[str, ...]) -> list[str]:
+    """The lines of those of ``actions`` the command set has (no argument: stop, reads)."""
+    out = []
+    for action in actions:
+        try:
+            out.append(commands.prefix(action))
+        except LinkError:
+            pass
+    return out
 
 
 def _close_quietly(port: Any) -> None:

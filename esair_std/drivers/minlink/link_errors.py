@@ -34,3 +34,7 @@ class DifferentRobot(LinkDown):
 
 class Expired(LinkError):
     """A command that could not be written within its deadline: dropped, never sent."""
+
+
+class Held(LinkError):
+    """The robot is STOPPED (the runtime's latched stop): the line was not sent."""

@@ -20,7 +20,8 @@ Deployment entry (the entry's name prefixes the resources' names)::
                                 # 38400 baud, the longest O reply)
       timeout: 1.0              # the link's reply timeout (MinLink's)
       deadline: 0.5             # a wheel command not written by then is dropped
-      radio: {range_m: 3.0, heal_m: 0.1, pause_audio: true, device: eth1}
+      radio: {range_m: 3.0, heal_m: 0.1, pause_audio: true}   # device: only ESAIR's own
+                                # simulated link (linkswitch.py), never a real interface
       camera: {format: png, fov_deg: 60}
       allow: {"*": read, patrol: command, turn_and_shoot: command}
 
@@ -56,7 +57,6 @@ sense of that one world.
 from __future__ import annotations
 
 import base64
-import collections
 import math
 import threading
 import time
@@ -72,6 +72,7 @@ from ..minlink.driver import MinLink, NoticeSensor, _in, _restart_policy, emulat
 from ..minlink.emulated import EmulatedRobot
 from ..minlink.link_errors import LinkError
 from ..minlink.link import Link
+from ...restart_window import RestartWindow
 from .linkswitch import LinkSwitch
 
 # the renderers (numpy) and the camera (Pillow) are imported when the driver opens, not
@@ -280,6 +281,7 @@ class Starfish(MinLink):
             raise StarfishError(f"robot {robot_arg!r} has no omni base (its central board "
                                 "has no 'base:')")
         self._radio_lock = threading.Lock()
+        # before anything starts: a device ESAIR did not make is refused, nothing changed
         self.link_switch = LinkSwitch(str(radio["device"])) if radio.get("device") else None
         # the world first (its socket bound before the emulator sends), then the robot
         self.tap = WorldTap(start)
@@ -287,8 +289,7 @@ class Starfish(MinLink):
         self._closing = threading.Event()
         self._lost: str | None = None
         self._supervisor: threading.Thread | None = None
-        self._policy = _restart_policy(emulate.get("restart"))
-        self._restarts: collections.deque[float] = collections.deque()
+        self._restarts = RestartWindow(*_restart_policy(emulate.get("restart")))
         args = emulate_args(emulate, base) + [
             "--room", room_file, "--world-out", self.tap.path,
             "--pose", f"{start[0] * 1000:.1f},{start[1] * 1000:.1f},{start[2]:.6f}"]

@@ -105,6 +105,11 @@ class Wheels(_LinkAgent, Actuator):
         self._send(velocity_line(out["vx"], out["vy"], out["w"]))
         return out
 
+    def halt(self) -> Any:
+        """The latched STOP's ``x`` (the driver's halt() sent it: the wheels to zero),
+        recorded as this actuator's ``stop``; None when it could not go."""
+        return None if self.link.last_stop is None else {"vx": 0, "vy": 0, "w": 0}
+
 
 class Odometry(PolledSensor):
     """The pose from the flow sensors: ``O`` polled ``hz`` times a second on its own

@@ -2,9 +2,9 @@
 
 - ``Sequencer`` plays the operations it is given (``esair std put sequencer
   '["stand_up", "dance"]'``) one after another on ``papaman.motion``; when the link is
-  lost it drops what it has queued, reporting each dropped operation (its ``dropped``
-  and ``errors``, and a warning in the log): nothing asked before an outage is played
-  after it;
+  lost, or the robot is STOPPED (docs/std.md, "The latched stop"), it drops what it
+  has queued, reporting each dropped operation (its ``dropped`` and ``errors``, and a
+  warning in the log): nothing asked before an outage or a STOP is played after it;
 - ``BalanceWatcher`` reads the feet at 50 Hz and, when the load shifts from one foot to
   the other, stops the motion and stands the robot up (beside the firmware's own
   auto-balance reaction, whose ``!R`` notices it counts);
@@ -116,6 +116,13 @@ class Sequencer(Behavior):
             self._drop(f"the link is lost ({exc})")
         return False
 
+    def robot_stopped(self, by: str, reason: str) -> None:
+        """The robot was STOPPED: nothing queued plays on after the release."""
+        if self.playing is not None:
+            self.errors.append(f"{self.playing}: cut by the STOP")
+            self.playing = None
+        self._drop(f"the robot was STOPPED by {by}")
+
     def _drop(self, why: str) -> None:
         """Drop every queued operation, each one reported."""
         while self.queue:
@@ -174,6 +181,9 @@ class BalanceWatcher(Behavior):
             if self.tipping >= self.need:
                 self.tipping = 0
                 self._react(shift, s.seq)
+
+    def robot_stopped(self, by: str, reason: str) -> None:
+        self.standing = None           # no stand after the STOP's release
 
     def _react(self, shift: int, seq: int) -> None:
         record = {"shift": shift, "seq": seq, "sent": [], "t": time.time()}

@@ -55,6 +55,7 @@ class App {
     this.flushedAt = null;       // the server's "f" of the frame being read
     this.fps = FPS; this.feetFps = FEET_FPS;
     $("stop").addEventListener("click", () => this.stop());
+    $("release").addEventListener("click", () => this.release());
     $("login").addEventListener("submit", (e) => { e.preventDefault(); this.login(); });
     $("record").addEventListener("click", () => this.record());
     this.replay = new Replay(this);
@@ -114,9 +115,11 @@ class App {
     });
   }
 
+  // A command; its line in the log comes from the server (every page's, refused or not),
+  // the page adds one only when the server could not (not connected).
   async command(resource, command) {
     const r = await this.send({ op: "cmd", resource, command });
-    if (!r.ok) this.log.add("error", `${resource} ${JSON.stringify(command)}: ${r.error}`);
+    if (!r.ok && !r.logged) this.log.add("error", `${resource} ${JSON.stringify(command)}: ${r.error}`);
     return r;
   }
 
@@ -135,7 +138,22 @@ class App {
 
   async stop() {
     const r = await this.send({ op: "stop" });
-    if (!r.ok) this.log.add("error", `STOP: ${r.error}`);
+    if (!r.ok && !r.logged) this.log.add("error", `STOP not sent: ${r.error}`);
+  }
+
+  async release() {
+    const r = await this.send({ op: "release" });
+    if (!r.ok) this.log.add("error", `release: ${r.error}`);
+  }
+
+  // The runtime's latched STOP (docs/hmi.md): a banner that stays until an operator
+  // releases it, on every page, one opened later too (hello's "latch").
+  latched(m) {
+    const on = !!(m && m.stopped);
+    document.body.classList.toggle("stopped", on);
+    $("latch-text").textContent = on ? `STOPPED by ${m.by} at ${m.at}${m.reason ? ` (${m.reason})` : ""}`
+      + ": every command is refused until an operator releases it" : "";
+    $("latch").hidden = !on;
   }
 
   async login() {
@@ -181,6 +199,7 @@ class App {
       case "watched": return;
       case "state": this.generic.state(m.r, m.v); this.dirty = true; return;
       case "recording": return this.recording(m);
+      case "latch": return this.latched(m.v);
       default: this.log.add("warning", `unknown message ${m.t}`);
     }
   }
@@ -207,6 +226,7 @@ class App {
     for (const s of m.states || []) this.generic.state(s.r, s.v);
     for (const p of m.problems) this.log.add("warning", p);
     this.recording(m.recording);
+    this.latched(m.latch);
     this.replay.refresh();
     for (const [res, v, played] of m.commanded || []) this.commanded(res, v, played);
     this.linkbar(); this.banner();
@@ -232,7 +252,7 @@ class App {
     } else { this.generic.sample(m); this.dirty = true; }
   }
 
-  // A command that went through (`played`: where a motion is, server.py _played_at: the
+  // A command that went through (`played`: where a motion is, commanded.py played_at: the
   // ms it has played, stopped or not; sent with a STOP and to a page opened later, so
   // every page shows the frame the motion had reached, from the same numbers).
   commanded(res, v, played) {

@@ -1,0 +1,464 @@
+"""ESAIR STD benchmark: every goal of issue 11 item 8, each beside its baseline, measured
+side by side in one run on this machine.
+
+  thread mode  put p50 vs a bare queue.Queue two-thread round trip (goal <= 3x);
+               sensor -> behavior p99 at 50 Hz (goal <= 3 ms)
+  process mode put p50 vs a raw zenoh get between two processes (goal <= 2.5x);
+               sensor -> behavior p99 at 50 Hz (goal <= 10 ms)
+  fan-out      one 1 kHz sensor to 8 behaviors (+1 that cannot keep up): samples lost by
+               those that keep up (goal 0), overwrites of the slow one counted
+  add          add -> first sample (goal <= 20 ms thread, <= 300 ms process);
+               remove (goal <= 100 ms)
+  SIGKILL      a behavior process killed -> marked failed (goal <= 50 ms), restarted
+               (goal <= 1 s)
+  memory       thread mode with 10 behaviors (goal <= 60 MB RSS); per component process,
+               also after 20 puts of 50 KB to one (goal <= 30 MB RSS)
+
+Sample ages are measured in the behavior's step (period 1 ms): they include up to one
+step of polling. Run: python bench/std_goals.py [--quick] [--memory]. Prints the figures;
+asserts nothing. --memory prints only the memory rows (a few seconds).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+BENCH = Path(__file__).resolve().parent
+ROOT = BENCH.parent
+sys.path[:0] = [str(ROOT), str(BENCH)]
+
+from esair_std import Runtime  # noqa: E402
+from esair_std.deploy import load_deployment  # noqa: E402
+from tests.support.std import free_endpoint, wait_for  # noqa: E402
+
+ROWS: list[tuple[str, str, str, str]] = []
+
+
+def row(goal: str, measured: str, target: str, ok: bool | None) -> None:
+    verdict = "" if ok is None else ("met" if ok else "MISSED")
+    ROWS.append((goal, measured, target, verdict))
+    print(f"  {goal:<46} {measured:<30} {target:<16} {verdict}", flush=True)
+
+
+def pct(xs: list[float], p: float) -> float:
+    xs = sorted(xs)
+    return xs[min(len(xs) - 1, int(len(xs) * p))]
+
+
+def runtime(dep: dict, mode: str) -> Runtime:
+    dep = {"robot": "bench", **dep}
+    return Runtime(load_deployment(dep, base_dir=BENCH), mode=mode, endpoint=free_endpoint())
+
+
+def wait(fn, timeout: float = 60.0):
+    return wait_for(fn, timeout, what="the bench's condition")
+
+
+# ---- baselines
+def queue_round_trip(n: int) -> float:
+    import queue
+    a, b = queue.Queue(), queue.Queue()
+
+    def echo() -> None:
+        while (x := a.get()) is not None:
+            b.put(x)
+    t = threading.Thread(target=echo)
+    t.start()
+    times = []
+    for i in range(n):
+        t0 = time.perf_counter()
+        a.put(i)
+        b.get()
+        times.append(time.perf_counter() - t0)
+    a.put(None)
+    t.join()
+    return pct(times, 0.5)
+
+
+ZENOH_SERVER = """
+import sys, time
+from esair_std.transport.session import open_session
+s = open_session(listen=[sys.argv[1]])
+q = s.declare_queryable("bench/echo",
+                        lambda query: (query.reply(query.key_expr, query.payload), query.drop()))
+print("ready", flush=True)
+sys.stdin.read()
+import os
+os._exit(0)
+"""
+
+
+ZENOH_RELAY = """
+import queue, sys, threading
+from esair_std.transport.session import open_session
+s = open_session(listen=[sys.argv[1]], connect=[sys.argv[2]])
+q = queue.Queue()
+def work():
+    while True:
+        query = q.get()
+        replies = list(s.get("bench/echo", payload=query.payload.to_bytes(), timeout=1.0))
+        query.reply(query.key_expr, replies[0].ok.payload.to_bytes())
+        query.drop()
+threading.Thread(target=work, daemon=True).start()
+r = s.declare_queryable("bench/relay", q.put)
+print("ready", flush=True)
+sys.stdin.read()
+import os
+os._exit(0)
+"""
+
+
+def timed_gets(endpoint: str, key: str, body: dict, n: int) -> float:
+    """p50 of ``n`` plain ``session.get`` round trips to ``key`` (a session of its own)."""
+    from esair_std.transport.session import open_session
+    s = open_session(connect=[endpoint])
+    payload = json.dumps(body).encode()
+    wait(lambda: list(s.get(key, payload=payload, timeout=1.0)))
+    times = []
+    for _ in range(n):
+        t0 = time.perf_counter()
+        list(s.get(key, payload=payload, timeout=1.0))
+        times.append(time.perf_counter() - t0)
+    s.close()
+    return pct(times, 0.5)
+
+
+SAMPLE_HOP = """
+import sys, zenoh
+from esair_std.transport.session import open_session
+s = open_session(listen=[sys.argv[1]], connect=sys.argv[4:])
+pub = s.declare_publisher(sys.argv[3], congestion_control=zenoh.CongestionControl.DROP,
+                          express=True)
+s.declare_subscriber(sys.argv[2], zenoh.handlers.Callback(
+    lambda smp: pub.put(smp.payload.to_bytes()), indirect=False))
+print("ready", flush=True)
+sys.stdin.read()
+import os
+os._exit(0)
+"""
+
+
+def zenoh_sample_relay_round_trip(n: int) -> float:
+    """A mediated put's floor through samples, no ESAIR code: A -> R -> E -> R -> A,
+    four one-way samples (what transport/calls.py does, with the handling left out)."""
+    import queue
+
+    import zenoh
+
+    from esair_std.transport.session import open_session
+    e_ep, r_ep = free_endpoint(), free_endpoint()
+    procs = []
+    try:
+        for args in ([e_ep, "f/offer", "f/result"], [r_ep, "f/put", "f/offer", e_ep],
+                     [free_endpoint(), "f/result", "f/answer", r_ep]):
+            procs.append(subprocess.Popen([sys.executable, "-c", SAMPLE_HOP, *args],
+                                          stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                          text=True, cwd=ROOT))
+            procs[-1].stdout.readline()
+        s = open_session(connect=[r_ep])
+        got: queue.SimpleQueue = queue.SimpleQueue()
+        s.declare_subscriber("f/answer", zenoh.handlers.Callback(
+            lambda smp: got.put(1), indirect=False))
+        pub = s.declare_publisher("f/put", congestion_control=zenoh.CongestionControl.DROP,
+                                  express=True)
+        payload = json.dumps({"id": 1, "to": "echo", "data": {"i": 0}}).encode()
+
+        def one() -> bool:
+            pub.put(payload)
+            try:
+                return bool(got.get(timeout=1.0))
+            except queue.Empty:
+                return False
+        wait(one)
+        times = []
+        for _ in range(n):
+            t0 = time.perf_counter()
+            if one():
+                times.append(time.perf_counter() - t0)
+        s.close()
+        return pct(times, 0.5)
+    finally:
+        for p in procs:
+            p.stdin.close()
+            p.wait(5)
+
+
+def zenoh_relay_round_trip(n: int) -> float:
+    """The mediation's floor by queries: A gets from R, whose worker thread gets from E
+    first."""
+    e_ep, r_ep = free_endpoint(), free_endpoint()
+    echo = subprocess.Popen([sys.executable, "-c", ZENOH_SERVER, e_ep], stdin=subprocess.PIPE,
+                            stdout=subprocess.PIPE, text=True, cwd=ROOT)
+    relay = None
+    try:
+        echo.stdout.readline()
+        relay = subprocess.Popen([sys.executable, "-c", ZENOH_RELAY, r_ep, e_ep],
+                                 stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
+                                 cwd=ROOT)
+        relay.stdout.readline()
+        return timed_gets(r_ep, "bench/relay",
+                          {"from": "pinger", "to": "echo", "data": {"i": 0}}, n)
+    finally:
+        for p in (relay, echo):
+            if p is not None:
+                p.stdin.close()
+                p.wait(5)
+
+
+def zenoh_get_round_trip(n: int) -> float:
+    ep = free_endpoint()
+    srv = subprocess.Popen([sys.executable, "-c", ZENOH_SERVER, ep], stdin=subprocess.PIPE,
+                           stdout=subprocess.PIPE, text=True, cwd=ROOT)
+    try:
+        srv.stdout.readline()
+        return timed_gets(ep, "bench/echo", {"op": "offer", "from": "pinger",
+                                             "data": {"i": 0}}, n)
+    finally:
+        srv.stdin.close()
+        srv.wait(5)
+
+
+# ---- STD
+def put_get(mode: str, n: int) -> dict:
+    dep = {"behaviors": {"echo": {"class": "std_comps:Echo"},
+                         "pinger": {"class": "std_comps:Pinger", "n": n}}}
+    with runtime(dep, mode) as rt:
+        return wait(lambda: rt.get("pinger", timeout=5.0), timeout=300)
+
+
+def latency(mode: str, rate: float, seconds: float) -> dict:
+    dep = {"resources": {"tick": {"class": "std_comps:Ticker", "rate_hz": rate,
+                                  "allow": {"*": "read"}}},
+           "behaviors": {"lat": {"class": "std_comps:Latency", "uses": {"tick": "read"}}}}
+    with runtime(dep, mode) as rt:
+        time.sleep(seconds)
+        return rt.get("lat", timeout=5.0)
+
+
+def fanout(mode: str, seconds: float) -> tuple[list[dict], dict, int]:
+    beh = {f"w{i}": {"class": "std_comps:Latency", "period": 0.005, "uses": {"tick": "read"}}
+           for i in range(8)}
+    beh["slow"] = {"class": "std_comps:Latency", "period": 0.05, "slow": 0.04, "keep": 8,
+                   "uses": {"tick": "read"}}
+    dep = {"resources": {"tick": {"class": "std_comps:Ticker", "rate_hz": 1000,
+                                  "allow": {"*": "read"}}}, "behaviors": beh}
+    with runtime(dep, mode) as rt:
+        time.sleep(seconds)
+        fast = [rt.get(f"w{i}", timeout=5.0) for i in range(8)]
+        slow = rt.get("slow", timeout=5.0)
+        reported = rt.inspect("tick")["counters"]["seq"]
+    return fast, slow, reported
+
+
+def add_remove(mode: str, times: int) -> tuple[list[float], list[float]]:
+    dep = {"resources": {"tick": {"class": "std_comps:Ticker", "rate_hz": 1000,
+                                  "allow": {"*": "read"}}},
+           "behaviors": {"idle": {"class": "std_comps:Idle"}}}
+    firsts, removes = [], []
+    with runtime(dep, mode) as rt:
+        for k in range(times):
+            name = f"late{k}"
+            t0 = time.time()
+            rt.add(name, "std_comps:Latency", uses={"tick": "read"})
+            first = wait(lambda name=name: rt.get(name, timeout=5.0)["first_t"], timeout=30)
+            firsts.append(first - t0)
+            t1 = time.perf_counter()
+            rt.remove(name)
+            removes.append(time.perf_counter() - t1)
+    return firsts, removes
+
+
+def sigkill(times: int) -> tuple[list[float], list[float]]:
+    dep = {"behaviors": {"victim": {"class": "std_comps:Idle",
+                                    "restart": {"max": 100, "within": 60.0}}}}
+    failed, restarted = [], []
+    with runtime(dep, "process") as rt:
+        for _ in range(times):
+            rec = rt.bs.records["victim"]
+            host = rec.host
+            gen = rec.generation
+            t0 = time.perf_counter()
+            os.kill(host.pid, signal.SIGKILL)
+            while host.phase != "failed":
+                time.sleep(0.0002)
+            failed.append(time.perf_counter() - t0)
+            while not (rec.generation > gen and getattr(rec.host, "phase", "") == "running"):
+                time.sleep(0.0005)
+            restarted.append(time.perf_counter() - t0)
+            time.sleep(0.2)
+    return failed, restarted
+
+
+MEM_THREAD = """
+import sys, time
+sys.path[:0] = [sys.argv[1], sys.argv[2]]
+from esair_std import Runtime
+from esair_std.deploy import load_deployment
+beh = {f"b{i}": {"class": "std_comps:Latency", "period": 0.01, "uses": {"tick": "read"}}
+       for i in range(10)}
+dep = {"robot": "mem", "resources": {"tick": {"class": "std_comps:Ticker", "rate_hz": 50,
+       "allow": {"*": "read"}}}, "behaviors": beh}
+with Runtime(load_deployment(dep, base_dir=sys.argv[2]), mode="thread", control=sys.argv[3] == "1",
+             endpoint=sys.argv[4]) as rt:
+    time.sleep(2.0)
+    print(open("/proc/self/status").read().split("VmRSS:")[1].split()[0])
+"""
+
+
+def rss_kb(pid: int) -> tuple[int, int]:
+    """(RSS, PSS) in kB of a process."""
+    with open(f"/proc/{pid}/status") as f:
+        rss = int(f.read().split("VmRSS:")[1].split()[0])
+    try:
+        with open(f"/proc/{pid}/smaps_rollup") as f:
+            pss = int(f.read().split("Pss:")[1].split()[0])
+    except (OSError, IndexError):
+        pss = 0
+    return rss, pss
+
+
+def memory() -> tuple[dict, list[tuple[int, int]], int]:
+    out = {}
+    for control in ("0", "1"):
+        r = subprocess.run([sys.executable, "-c", MEM_THREAD, str(ROOT), str(BENCH), control,
+                            free_endpoint()], capture_output=True, text=True, timeout=120)
+        out[control] = int(r.stdout.split()[-1])
+    beh = {f"b{i}": {"class": "std_comps:Latency", "period": 0.01, "uses": {"tick": "read"}}
+           for i in range(10)}
+    dep = {"resources": {"tick": {"class": "std_comps:Ticker", "rate_hz": 50,
+                                  "allow": {"*": "read"}}}, "behaviors": beh}
+    with runtime(dep, "process") as rt:
+        time.sleep(2.0)
+        pids = {r["pid"] for r in rt.ls()}
+        procs = [rss_kb(p) for p in sorted(pids)]
+        own = rss_kb(os.getpid())[0]
+        b0 = next(r["pid"] for r in rt.ls() if r["name"] == "b0")
+        for _ in range(20):                      # big messages between local processes
+            rt.put("b0", "x" * 50_000, timeout=2.0)
+        time.sleep(0.2)
+        procs.append(("big", rss_kb(b0)[0]))
+    return out, procs, own
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--quick", action="store_true", help="fewer repetitions")
+    ap.add_argument("--memory", action="store_true", help="only the memory (RSS) rows")
+    ap.add_argument("--put", action="store_true",
+                    help="only the process-mode put rows (and their references)")
+    a = ap.parse_args()
+    n = 500 if a.quick else 2000
+    print(f"ESAIR STD bench ({os.cpu_count()} cores, load {os.getloadavg()[0]:.1f})")
+    print(f"  {'goal':<46} {'measured':<30} {'target':<16} verdict")
+    if a.put:
+        process_put(a.quick, n)
+        return
+    if not a.memory:
+        speed(a.quick, n)
+    memory_rows()
+
+
+def speed(quick: bool, n: int) -> None:
+    q = queue_round_trip(n)
+    t = put_get("thread", n)
+    r = t["put"]["p50"] / q
+    row("thread: put p50 / queue.Queue round trip",
+        f"{t['put']['p50']*1e6:.0f} us / {q*1e6:.0f} us = {r:.2f}x", "<= 3x", r <= 3)
+    r = t["get"]["p50"] / q
+    row("thread: get p50 (behavior->BS->behavior->back)",
+        f"{t['get']['p50']*1e6:.0f} us = {r:.2f}x queue", "(no goal)", None)
+
+    process_put(quick, n)
+    secs = 4.0 if quick else 10.0
+    for mode, goal in (("thread", 3e-3), ("process", 10e-3)):
+        lat = latency(mode, 50, secs)
+        ages = lat["ages"]
+        row(f"{mode}: sensor->behavior at 50 Hz p99 (p50)",
+            f"{ages['p99']*1e3:.2f} ms ({ages['p50']*1e3:.2f} ms), n={ages['n']}",
+            f"<= {goal*1e3:.0f} ms", ages["p99"] <= goal)
+
+    for mode in ("thread", "process"):
+        fast, slow, reported = fanout(mode, 2.0 if quick else 5.0)
+        lost = sum(f["gaps"] for f in fast)
+        got = sum(f["n"] for f in fast)
+        row(f"{mode}: 1 kHz to 8 behaviors: samples lost",
+            f"{lost} gaps in {got} samples ({reported} sent)", "0", lost == 0)
+        row(f"{mode}: the slow 9th: overwrites counted",
+            f"{slow['overwritten']} counted, {slow['gaps']} gaps seen", "counted",
+            slow["overwritten"] > 0 and slow["gaps"] > 0)
+
+    for mode, goal in (("thread", 0.020), ("process", 0.300)):
+        firsts, removes = add_remove(mode, 3 if quick else 8)
+        med = pct(firsts, 0.5)
+        row(f"{mode}: add -> first sample, median (max)",
+            f"{med*1e3:.1f} ms ({max(firsts)*1e3:.1f} ms)", f"<= {goal*1e3:.0f} ms", med <= goal)
+        med = pct(removes, 0.5)
+        row(f"{mode}: remove, median (max)", f"{med*1e3:.1f} ms ({max(removes)*1e3:.1f} ms)",
+            "<= 100 ms", med <= 0.1)
+
+    failed, restarted = sigkill(3 if quick else 8)
+    med = pct(failed, 0.5)
+    row("process: SIGKILL -> failed, median (max)",
+        f"{med*1e3:.1f} ms ({max(failed)*1e3:.1f} ms)", "<= 50 ms", max(failed) <= 0.05)
+    med = pct(restarted, 0.5)
+    row("process: SIGKILL -> restarted, median (max)",
+        f"{med*1e3:.0f} ms ({max(restarted)*1e3:.0f} ms)", "<= 1 s", max(restarted) <= 1.0)
+
+
+def process_put(quick: bool, n: int) -> None:
+    """Process mode's put against a raw zenoh get, in rounds interleaved (the machine is
+    shared and noisy), with the floors of any mediated put beside them."""
+    rounds = []
+    for _ in range(1 if quick else 3):
+        z = zenoh_get_round_trip(n // 4)
+        rounds.append((put_get("process", n // 4), z))
+    rounds.sort(key=lambda pz: pz[0]["put"]["p50"] / pz[1])
+    p, z = rounds[len(rounds) // 2]                       # the median round
+    r = p["put"]["p50"] / z
+    each = ", ".join(f"{pp['put']['p50'] / zz:.2f}" for pp, zz in rounds)
+    row("process: put p50 / raw zenoh get (2 procs)",
+        f"{p['put']['p50']*1e6:.0f} us / {z*1e6:.0f} us = {r:.2f}x", "<= 2.5x", r <= 2.5)
+    if len(rounds) > 1:
+        row("  each round (put/raw)", each, "", None)
+    row("process: get p50", f"{p['get']['p50']*1e6:.0f} us = {p['get']['p50']/z:.2f}x zenoh",
+        "(no goal)", None)
+    relay = zenoh_relay_round_trip(n // 4)
+    row("  reference: raw zenoh get through a relay", f"{relay*1e6:.0f} us = {relay/z:.2f}x "
+        "zenoh", "(floor by queries)", None)
+    floor = zenoh_sample_relay_round_trip(n // 4)
+    row("  reference: 4 raw samples A-R-E-R-A", f"{floor*1e6:.0f} us = {floor/z:.2f}x "
+        "zenoh", "(floor by samples)", None)
+
+
+
+def memory_rows() -> None:
+    thread_rss, procs, own = memory()
+    row("thread: RSS with 10 behaviors (no control)", f"{thread_rss['0']/1024:.1f} MB",
+        "<= 60 MB", thread_rss["0"] <= 60 * 1024)
+    row("thread: RSS with 10 behaviors + control", f"{thread_rss['1']/1024:.1f} MB",
+        "<= 60 MB", thread_rss["1"] <= 60 * 1024)
+    big = [r for tag, r in procs if tag == "big"]
+    procs = [p for p in procs if p[0] != "big"]
+    rss = [r for r, _ in procs if r]
+    pss = [p for _, p in procs if p]
+    row("process: RSS per component process, max (mean)",
+        f"{max(rss)/1024:.1f} MB ({sum(rss)/len(rss)/1024:.1f} MB)", "<= 30 MB",
+        max(rss) <= 30 * 1024)
+    if pss:
+        row("process: PSS per component process, mean", f"{sum(pss)/len(pss)/1024:.1f} MB",
+            "(shared pages split)", None)
+    row("process: a behavior's RSS after 20 50-KB puts", f"{big[0]/1024:.1f} MB", "<= 30 MB",
+        big[0] <= 30 * 1024)
+    row("process: the bench+runtime process RSS", f"{own/1024:.1f} MB", "(no goal)", None)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,277 @@
+"""The latched STOP (issue 34 item 1; docs/std.md, "The latched stop"), judged by the
+robot's own trace: the emulated PAPA-MAN writes every line it received (``--trace-rx``)
+and every write to its actuator board, so "no servo moved after the STOP" is read where
+the servos are, not from the host's word.
+
+Ten dances are queued (the CLI's STOP takes an interpreter's start to come), the one
+playing is cut by the STOP; then, until the release, no
+actuator write and no motion line reaches the robot, every behavior's command is
+refused with the STOP's words, and nothing queued plays after the release, while the
+nudger's next command moves the robot again. Both modes; the STOP by the Python API
+and by ``esair std stop``.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import pytest
+
+from esair_std.drivers.minlink.emulated import EmulatedRobot
+from esair_std.errors import ControlError, Refused
+from tests.std.test_std_papaman import example
+from tests.support.std import esair, wait_for
+
+ROOT = Path(__file__).resolve().parents[2]
+PAPAMAN = ROOT / "boards" / "papaman"
+REFUSAL = re.compile(r"papaman\.servo\.l_knee: stopped by (\S+) at \d\d:\d\d:\d\d: "
+                     r"release with esair std release")
+STOP_LINE = "RX 780D0A"             # x CR LF, as the robot's decoder took it
+DANCES = 10
+DANCE_FRAMES = 32                   # boards/papaman/central.yaml
+QUIET = {"RX 0D0A", STOP_LINE, "RX 730D0A", "RX 760D0A"}   # resync, x, s, v: move nothing
+
+
+def nudger() -> dict:
+    return {"nudger": {"class": "tests.support.papaman_comps:Nudger",
+                       "uses": {"papaman.servo.*": "command"}}}
+
+
+def frames(lines: list[str]) -> list[int]:
+    """Indexes of the dance's frame writes (all 12 servos: 25 bytes to the actuator)."""
+    return [i for i, line in enumerate(lines)
+            if line.startswith("W 10 ") and len(line.split()[2]) == 50 and line.endswith("ACK")]
+
+
+def after_stop(lines: list[str]) -> tuple[int, list[str]]:
+    """The index of the robot's first ``x`` after the dance began, and the actuator
+    writes and moving lines it got after that."""
+    first = frames(lines)[0]
+    at = next(i for i in range(first, len(lines)) if lines[i] == STOP_LINE)
+    moved = [line for line in lines[at + 1:]
+             if (line.startswith("W 10 ") and line.endswith(" ACK"))
+             or (line.startswith("RX ") and line not in QUIET)]
+    return at, moved
+
+
+def outcomes(rt) -> list[list[str]]:
+    return rt.get("nudger", timeout=5.0)["outcomes"]
+
+
+def stop(how: str, rt) -> str:
+    """STOP the robot ``how``; who the runtime says stopped it."""
+    if how == "api":
+        return rt.stop_robot("the test")["by"]
+    r = esair("stop", "--reason", "the test", "-e", rt.endpoint)
+    assert r.stdout.startswith("STOPPED by operator at "), r.stdout
+    assert r.stdout.rstrip().endswith("(the test): release with esair std release")
+    return "operator"
+
+
+def release(how: str, rt) -> None:
+    if how == "api":
+        rt.release_robot()
+    else:
+        r = esair("release", "-e", rt.endpoint)
+        assert r.stdout.startswith("released (stopped by operator at "), r.stdout
+
+
+@pytest.mark.parametrize("how", ["api", "cli"])
+def test_a_stop_latches_until_released(start, tmp_path, how):
+    trace = tmp_path / "trace.txt"
+    emu = EmulatedRobot(PAPAMAN, ["--trace", str(trace), "--trace-rx"])
+    emu.start()
+    try:
+        rt = start(example(emu.port, **nudger()), control=True)
+        rt.wait_state("nudger", "running")
+        rt.wait_state("sequencer", "running")
+        rt.put("sequencer", ["dance"] * DANCES, timeout=2.0)
+        wait_for(lambda: len(frames(trace.read_text().splitlines())) >= 3, timeout=20,
+                 what="the first dance playing")
+        by = stop(how, rt)
+        assert rt.latched is not None and rt.latched["by"] == by
+        n = len(outcomes(rt))
+        # the nudger's next commands: each refused with the STOP's words
+        got = wait_for(lambda: len(o := outcomes(rt)[n:]) >= 4 and o, timeout=20,
+                       what="the nudger's commands while STOPPED")
+        assert all(kind == "CommandError" and REFUSAL.fullmatch(text) for kind, text in got), got
+        assert {REFUSAL.fullmatch(text).group(1) for _, text in got} == {by}
+        seq = rt.get("sequencer")
+        # the one playing cut (if one played), the others dropped (each reported)
+        assert seq["queued"] == [] and seq["playing"] is None, seq
+        assert len(seq["done"]) + seq["dropped_total"] in (DANCES - 1, DANCES), seq
+        assert ["stopped", by, "the test"] in rt.get("nudger")["told"]
+        # the robot's trace, read while it is STOPPED
+        lines = trace.read_text().splitlines()
+        at, moved = after_stop(lines)
+        assert moved == [], moved[:5]
+        cut = len(frames(lines))
+        # stopped before the last dance ended (maybe between two: nothing to cut then)
+        assert cut < DANCE_FRAMES * DANCES, cut
+        # a second STOP keeps the first one's who and when
+        assert rt.stop_robot("again", by="someone")["by"] == by
+        release(how, rt)
+        assert rt.latched is None
+        m = len(outcomes(rt))
+        wait_for(lambda: ["ok", ""] in outcomes(rt)[m:], timeout=20,
+                 what="a command going through after the release")
+        assert ["released", "operator"] in rt.get("nudger")["told"]
+        done = len(seq["done"])
+        seq = rt.get("sequencer")
+        assert seq["playing"] is None and seq["queued"] == [] and len(seq["done"]) == done, seq
+    finally:
+        emu.stop()
+    lines = trace.read_text().splitlines()
+    assert len(frames(lines)) == cut         # nothing queued played after the release
+    assert any(line.startswith("W 10 ") and len(line.split()[2]) == 6
+               for line in lines[at:]), "no servo moved after the release"
+
+
+def test_a_stop_while_the_link_is_down_reaches_the_robot_first(start, tmp_path):
+    trace = tmp_path / "trace.txt"
+    emu = EmulatedRobot(PAPAMAN)
+    emu.start()
+    try:
+        rt = start(example(emu.port, **nudger()))
+        rt.wait_state("nudger", "running")
+        emu.kill()
+        wait_for(lambda: rt.state("papaman.servo.l_knee") == "lost", timeout=20,
+                 what="the link down")
+        rt.stop_robot("pulled")
+        emu.start(["--trace", str(trace), "--trace-rx"])          # plugged back
+        wait_for(lambda: rt.state("papaman.servo.l_knee") == "ready", timeout=30,
+                 what="the link back")
+        n = len(outcomes(rt))
+        got = wait_for(lambda: len(o := outcomes(rt)[n:]) >= 3 and o, timeout=20,
+                       what="commands after the link came back")
+        assert all(kind == "CommandError" and REFUSAL.fullmatch(text) for kind, text in got), got
+    finally:
+        emu.stop()
+    received = [line for line in trace.read_text().splitlines()
+                if line.startswith("RX ") and line != "RX 0D0A"]
+    assert received[0] == STOP_LINE, received[:3]
+    assert set(received) <= QUIET, sorted(set(received) - QUIET)
+
+
+def test_only_the_operator_releases_and_a_behavior_stops_only_when_granted(start, tmp_path):
+    emu = EmulatedRobot(PAPAMAN)
+    emu.start()
+    try:
+        dep = example(emu.port, **nudger())
+        rt = start(dep, control=True, stopped=True)
+        rt.wait_state("nudger", "running")
+        assert rt.latched["reason"] == "started stopped (--stopped)"
+        n = len(outcomes(rt))
+        got = wait_for(lambda: len(o := outcomes(rt)[n:]) >= 2 and o, timeout=20,
+                       what="commands while started STOPPED")
+        assert all(REFUSAL.fullmatch(text) for _, text in got), got
+        server = rt.server
+        with pytest.raises(Refused, match="behavior 'nudger' may not release the STOP"):
+            from esair_std.transport import wire
+            wire.result(server.answer("release", {"who": "nudger"}))
+        with pytest.raises(Refused, match="behavior 'nudger' may not STOP the robot"):
+            wire.result(server.answer("stop", {"who": "nudger"}))
+        assert rt.release_robot()["by"] == "operator"
+        with pytest.raises(ControlError, match="the robot is not stopped: nothing to release"):
+            rt.release_robot()
+        r = esair("ping", "-e", rt.endpoint)
+        assert r.stdout.rstrip().endswith(": running"), r.stdout
+    finally:
+        emu.stop()
+
+
+def test_a_remote_agents_commands_are_refused_too(tmp_path):
+    """A behavior on another computer (``esair std agent``): its commands go straight
+    to the actuator's host, which refuses them while STOPPED; it is told, and its
+    commands move the robot again after the release."""
+    import subprocess
+    import sys
+
+    from esair_std import Runtime
+    from tests.support.std import free_endpoint
+
+    emu = EmulatedRobot(PAPAMAN)
+    emu.start()
+    dep = example(emu.port)
+    dep["resources"]["papaman"]["allow"]["far"] = "command"
+    rt = Runtime(dep, mode="process", endpoint=free_endpoint())
+    proc = None
+    try:
+        rt.start()
+        proc = subprocess.Popen([sys.executable, "-m", "esair_min.cli", "std", "agent",
+                                 "--connect", rt.endpoint, "far",
+                                 "tests.support.papaman_comps:Nudger",
+                                 "--uses", "papaman.servo.*=command"], cwd=ROOT,
+                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        rt.wait_state("far", "running", timeout=60)
+
+        def far() -> dict:
+            return rt.get("far", timeout=5.0)
+        wait_for(lambda: ["ok", ""] in far()["outcomes"], timeout=20, what="a first move")
+        rt.stop_robot("remote")
+        n = len(far()["outcomes"])
+        got = wait_for(lambda: len(o := far()["outcomes"][n:]) >= 3 and o, timeout=20,
+                       what="the remote behavior's commands while STOPPED")
+        assert all(kind == "CommandError" and REFUSAL.fullmatch(text) for kind, text in got), got
+        assert ["stopped", "operator", "remote"] in far()["told"]
+        rt.release_robot()
+        m = len(far()["outcomes"])
+        wait_for(lambda: ["ok", ""] in far()["outcomes"][m:], timeout=20,
+                 what="its commands going through after the release")
+    finally:
+        if proc is not None:
+            proc.terminate()
+            proc.wait(30)
+        rt.stop()
+        emu.stop()
+
+
+def test_the_firmwares_balance_reaction_is_stopped_while_stopped(start, tmp_path):
+    """PAPA-MAN's firmware reacts by itself: a push fires its balance reaction, which
+    plays a motion (``!R auto_balance``). The firmware has no command to hold its
+    reactions; while STOPPED the link answers each notice with ``x`` at once: in the
+    robot's trace every notice is followed by an ``x``, and after it no frame is
+    written until the reaction fires again (its first frames go before the ``x``
+    arrives: docs/std-papaman.md)."""
+    trace = tmp_path / "trace.txt"
+    emu = EmulatedRobot(PAPAMAN, ["--trace", str(trace), "--trace-rx", "--scenario", "push",
+                                  "--hold-scenario"])
+    emu.start()
+    try:
+        rt = start(example(emu.port), stopped="the push")
+        rt.wait_state("watcher", "running")
+        wait_for(lambda: rt.get("watcher")["samples"] >= 2, timeout=30,
+                 what="the feet's samples")
+        emu.play_scenario()
+        wait_for(lambda: reactions(trace.read_text().splitlines())[0] >= 1, timeout=30,
+                 what="the reaction's notice, then the robot's x")
+        # the host's own reaction (stop, stand) was refused: the robot is STOPPED
+        wait_for(lambda: any("stopped by operator at " in e
+                             for e in rt.get("watcher")["errors"]), timeout=20,
+                 what="the watcher's stop refused")
+        wait_for(lambda: (r := reactions(trace.read_text().splitlines()))[0] == r[1],
+                 timeout=20, what="every notice answered with x")
+    finally:
+        emu.stop()
+    fired, stopped, moved = reactions(trace.read_text().splitlines())
+    assert fired >= 1 and stopped == fired and moved == [], (fired, stopped, moved[:3])
+
+
+NOTICE = "TX " + b"!R auto_balance\r\n".hex().upper()
+
+
+def reactions(lines: list[str]) -> tuple[int, int, list[str]]:
+    """The firmware's reactions (its ``!R`` notices), the ``x`` lines that followed
+    them, and the actuator writes that came while no reaction was playing: after an
+    ``x`` and before the next notice."""
+    fired = stopped = 0
+    quiet, moved = True, []
+    for ln in lines:
+        if ln == NOTICE:
+            fired, quiet = fired + 1, False
+        elif ln == STOP_LINE and fired > stopped:
+            stopped, quiet = stopped + 1, True
+        elif quiet and fired and ln.startswith("W 10 ") and ln.endswith(" ACK"):
+            moved.append(ln)
+    return fired, stopped, moved
