@@ -27,10 +27,10 @@ ROOT = Path(__file__).resolve().parents[2]
 PAPAMAN = ROOT / "boards" / "papaman"
 REFUSAL = re.compile(r"papaman\.servo\.l_knee: stopped by (\S+) at \d\d:\d\d:\d\d: "
                      r"release with esair std release")
-STOP_LINE = "RX 780D0A"             # x CR LF, as the robot's decoder took it
+STOP_LINE = "RX 780D"             # x CR, as the robot's decoder took it (docs/trace-format.md)
 DANCES = 10
 DANCE_FRAMES = 32                   # boards/papaman/central.yaml
-QUIET = {"RX 0D0A", STOP_LINE, "RX 730D0A", "RX 760D0A"}   # resync, x, s, v: move nothing
+QUIET = {"RX 0D", STOP_LINE, "RX 730D", "RX 760D"}   # resync, x, s, v: move nothing
 
 
 def nudger() -> dict:
@@ -149,7 +149,7 @@ def test_a_stop_while_the_link_is_down_reaches_the_robot_first(start, tmp_path):
     finally:
         emu.stop()
     received = [line for line in trace.read_text().splitlines()
-                if line.startswith("RX ") and line != "RX 0D0A"]
+                if line.startswith("RX ") and line != "RX 0D"]
     assert received[0] == STOP_LINE, received[:3]
     assert set(received) <= QUIET, sorted(set(received) - QUIET)
 
