@@ -125,7 +125,7 @@ class TimedMinLink(MinLink):
 class Sweep(Behavior):
     """Commands the robot's 12 servos in turn, back and forth by 5 degrees around their
     stand angles, one command in flight, as fast as the link answers, for
-    options['seconds'] (the robot busy while the HMI is watched: bench/hmi.py); then
+    options['seconds'] (the robot busy while the HMI is watched: bench/hmi_figures.py); then
     provide() gives the commands sent and failed."""
 
     SERVOS = ("l_hip_yaw", "l_hip_roll", "l_hip_pitch", "l_knee", "l_ankle_pitch", "l_ankle_roll",

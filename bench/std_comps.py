@@ -1,4 +1,4 @@
-"""Components of bench/std.py (imported by the runtime and by agent processes)."""
+"""Components of bench/std_goals.py (imported by the runtime and by agent processes)."""
 
 from __future__ import annotations
 

@@ -23,8 +23,8 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from tests.support import netns  # noqa: E402
-from tests.support.netstd import Center, Proc  # noqa: E402
+from tests.support import netns
+from tests.support.netstd import Center, Proc
 
 NO_TLS = dict(ca=None, cert=None, key=None, users=None, user=None, password_file=None,
               mtls=False, verify_name=False)

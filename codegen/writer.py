@@ -31,7 +31,7 @@ def write_if_changed(path: Path, data: bytes) -> bool:
 def write_tree(files: dict[str, str], out_dir: Path, *, check: bool = True) -> WriteResult:
     """Write ``{relative path: text}`` under ``out_dir`` in sorted order.
 
-    With ``check=False`` every file is written (the baseline of bench/codegen.py).
+    With ``check=False`` every file is written (the baseline of bench/codegen_time.py).
     """
     written: list[Path] = []
     unchanged: list[Path] = []

@@ -15,10 +15,10 @@ Called by what owns its process: an agent once its component or resource has sta
 runs :class:`esair_std.Runtime` as a library may call it too; the runtime does not unless
 asked (``settle_heap``), as the collector is its caller's.
 
-Only the young generations are collected first: a full collection at start-up found 178
-unreachable objects of 39 400 and took 188 ms at load 24 (every start of a component that
-long), so what start-up left in the old generation is frozen with the rest (never
-collected, a few kB, once). Objects freed by their reference count still are.
+Only the young generations are collected first: a full collection at start-up would cost
+every start of a component a long pause for a little cyclic garbage (docs/std.md, "The
+heap after start-up"), so what start-up left in the old generation is frozen with the
+rest (never collected, a few kB, once). Objects freed by their reference count still are.
 """
 
 from __future__ import annotations

@@ -24,11 +24,12 @@ import logging
 import queue
 import threading
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Callable, Generic, Literal, TypeVar
 
 from .errors import ControlError
 from .counters import Counters
+from .restart_window import RestartWindow
 
 if TYPE_CHECKING:  # pragma: no cover
     from .parts import Child
@@ -123,7 +124,7 @@ class Record(Generic[H]):
     child: ChildSpec | None = None
     generation: int = 1
     restarts: int = 0
-    failures: list = field(default_factory=list)
+    window: RestartWindow | None = None
     reason: str = ""
     handled: int = 0           # the last generation whose failure was handled
     removing: bool = False     # being removed: its failures are no longer events
@@ -131,6 +132,8 @@ class Record(Generic[H]):
     def __post_init__(self) -> None:
         if self.child is None:
             self.child = ChildSpec.of(self.spec)
+        if self.window is None:
+            self.window = RestartWindow(self.child.max, self.child.within)
 
 
 class Supervisor(Generic[H]):
@@ -277,14 +280,13 @@ class Supervisor(Generic[H]):
         now = time.monotonic()
         child = rec.child
         assert child is not None                 # set by Record.__post_init__
-        rec.failures = [t for t in rec.failures if now - t <= child.within]
-        if len(rec.failures) >= child.max:
+        assert rec.window is not None               # set by Record.__post_init__
+        if not rec.window.allow(now):
             log.warning("%s failed (%s); stays failed", name, reason)
             if child.past_limit == "remove":
                 self.records.pop(name, None)
             self.gave_up(name, rec)
             return
-        rec.failures.append(now)
         rec.restarts += 1
         self.c.add("restarts")
         rec.generation += 1

@@ -24,8 +24,8 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from tests.support import netns  # noqa: E402
-from tests.support.netstd import Center, agent, env  # noqa: E402
+from tests.support import netns
+from tests.support.netstd import Center, agent, env
 
 LAB = """
 robot: lab

@@ -94,12 +94,12 @@ _BY_FOLDER = {"net": "net", "hmi": "browser"}
 _BY_MODULE = {
     "gpsim": {"test_gpsim", "test_gpsim_bus", "test_gpsim_overrun", "test_gpsim_slaves",
               "test_gpsim_uart", "test_toolchain", "test_pic_build", "test_starfish_pic",
-              "test_starfish_gpsim", "test_gpsim_duplex", "test_gpsim_mux"},
+              "test_starfish_gpsim", "test_gpsim_duplex", "test_gpsim_mux", "test_verify"},
     "pty": {"test_pty", "test_minlink_pty", "test_liveview_tmux", "test_std_papaman",
             "test_std_papaman_c", "test_std_papaman_cli", "test_gpsim_uart",
             "test_starfish_pty", "test_pty_promise", "test_minlink_safety",
             "test_std_papaman_safety", "test_minlink_duplex"},
-    "avr": {"test_avr", "test_starfish_avr"},
+    "avr": {"test_avr", "test_starfish_avr", "test_verify"},
 }
 _BY_FIXTURE = {"pic_firmware": "gpsim"}
 #: modules of many subprocesses, C builds or long hypothesis runs (--durations: the

@@ -10,7 +10,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 
-#: a repository path as the docs write it: tests/min/test_x.py, bench/std.py, docs/img/a.png
+#: a repository path as the docs write it: tests/min/test_x.py, bench/std_goals.py, docs/img/a.png
 PATH = re.compile(r"(?<![\w/.-])((?:tests|bench|scripts|docs)/[\w./-]*\w\.(?:py|md|sh|txt|yaml|png))\b")
 
 
@@ -25,7 +25,7 @@ def sources() -> list[Path]:
 
 def test_the_sources_are_found():
     names = {p.relative_to(ROOT).as_posix() for p in sources()}
-    assert {"README.md", "docs/std.md", "scripts/mutation_c.py", "bench/std.py",
+    assert {"README.md", "docs/std.md", "scripts/mutation_c.py", "bench/std_goals.py",
             "esair_std/transport/security_config.py"} <= names
 
 

@@ -9,6 +9,7 @@ import sys
 import click
 
 from esair_min import __version__
+from esair_min.cli import verify as _verify
 from esair_min.cli.pipes import friendly
 from esair_min.resources import resolve_robot
 
@@ -250,7 +251,7 @@ def plot(trace: str, output: str, robot: str, targets: bool) -> None:
     A STARFISH trace (esair emulate starfish --trace) is drawn as the robot's path on
     its room's map, with the wheels' speeds below. A FILE.mcap (`esair std record`) is
     drawn per channel, reactions marked."""
-    from esair_min.emulator.starfish_trace import is_starfish_trace
+    from esair_min.emulator.starfish.pose_trace import is_starfish_trace
 
     if trace.endswith(".mcap"):
         from esair_min.cli.plotmcap import plot_mcap
@@ -300,6 +301,10 @@ def build(robot: str, output: str) -> None:
 
     for line in summary_lines(build_robot(load(robot), Path(output))):
         click.echo(line)
+
+
+main.add_command(_verify.new)
+main.add_command(_verify.verify)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -21,7 +21,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from esair_min.emulator.actuator import ServoBank, stand_registers
+from esair_min.emulator.papaman.actuator import ServoBank, stand_registers
 from esair_min.errors import EsairError
 from esair_min.model.robot import Robot
 

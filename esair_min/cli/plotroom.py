@@ -6,7 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from esair_min.emulator.starfish_trace import read_trace
+from esair_min.emulator.starfish.pose_trace import read_trace
 
 
 def plot_room(trace: Path | str, output: Path | str) -> int:

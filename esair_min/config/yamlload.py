@@ -16,7 +16,7 @@ from typing import Any
 
 import yaml
 
-from esair_min.config.words import kind_of  # noqa: F401  (also read from here)
+from esair_min.config.words import kind_of
 from esair_min.config.yamlerrors import explain
 from esair_min.errors import ConfigError, Mark, file_mark, path_mark
 
@@ -42,7 +42,7 @@ class _TooDeep(Exception):
 class _Loader(yaml.SafeLoader):
     """SafeLoader that stops at MAX_FLOW_LEVEL nested flow collections."""
 
-    def fetch_flow_collection_start(self, TokenClass):  # noqa: N803 - PyYAML's name
+    def fetch_flow_collection_start(self, TokenClass):  # the argument keeps PyYAML's name
         if self.flow_level >= MAX_FLOW_LEVEL:
             raise _TooDeep
         super().fetch_flow_collection_start(TokenClass)

@@ -11,8 +11,8 @@ import serial as _serial
 
 from esair_min.emulator.clock import VirtualClock
 from esair_min.emulator.faults import Faults
-from esair_min.emulator.robot import Emulator
-from esair_min.emulator.scenario import Scenario, load_scenario, resolve_scenario
+from esair_min.emulator.papaman.robot_sim import Emulator
+from esair_min.emulator.papaman.scenario import Scenario, load_scenario, resolve_scenario
 
 if __name__ not in _serial.protocol_handler_packages:
     _serial.protocol_handler_packages.append(__name__)

@@ -1,6 +1,6 @@
 """The host's end of an emulated robot's serial line, shared by every emulated robot
-(PAPA-MAN's :class:`~esair_min.emulator.robot.Emulator`, STARFISH's
-:class:`~esair_min.emulator.starfish.StarfishSim`).
+(PAPA-MAN's :class:`~esair_min.emulator.papaman.robot_sim.Emulator`, STARFISH's
+:class:`~esair_min.emulator.starfish.robot_sim.StarfishSim`).
 
 A robot using it has a :class:`~esair_min.emulator.clock.VirtualClock` (``clock``), the
 central board's :class:`~esair_min.emulator.uart.Uart` at the board file's baud

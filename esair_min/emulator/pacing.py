@@ -10,13 +10,13 @@ from __future__ import annotations
 import time
 
 from esair_min.emulator.clock import NS_PER_S
-from esair_min.emulator.robot import Emulator
+from esair_min.emulator.line import SerialHost
 
 
 class Pacer:
     """Keeps ``emu``'s virtual time at ``factor`` times the wall clock since creation."""
 
-    def __init__(self, emu: Emulator, factor: float = 1.0,
+    def __init__(self, emu: SerialHost, factor: float = 1.0,
                  wall=time.monotonic):
         self.emu = emu
         self.factor = factor

@@ -38,7 +38,7 @@ from esair_min.errors import EsairError
 from esair_min.emulator.clock import NS_PER_S, seconds_to_ns
 from esair_min.emulator.faults import Faults
 from esair_min.emulator.pacing import Pacer
-from esair_min.emulator.robot import Emulator
+from esair_min.emulator.papaman.robot_sim import Emulator
 
 SCHEME = "esair://"
 MAX_BLOCK_S = 60.0        # virtual seconds a read with timeout=None waits at speed=max

@@ -33,7 +33,7 @@ from dataclasses import dataclass
 from typing import Callable
 
 from esair_min.emulator.pacing import Pacer
-from esair_min.emulator.robot import Emulator
+from esair_min.emulator.line import SerialHost
 
 #: Longest wait between two looks at the port while nothing is due (s).
 IDLE_POLL_S = 0.02
@@ -81,7 +81,7 @@ def _discard_unread(path: str) -> None:
         os.close(fd)
 
 
-def serve_pty(emu: Emulator, on_path: Callable[[str], None],
+def serve_pty(emu: SerialHost, on_path: Callable[[str], None],
               stop: Callable[[], bool], factor: float = 1.0,
               on_idle: Callable[[], None] | None = None,
               port: PtyPort | None = None) -> None:

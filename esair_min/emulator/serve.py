@@ -1,21 +1,30 @@
-"""What ``esair emulate`` does: generate (optionally), then serve or run the robot."""
+"""What ``esair emulate`` does: generate (optionally), then serve or run the robot.
+
+One path for every robot: the options checked, the firmware generated, the trace file
+opened, then the robot served on a pty or run headless. What differs between robots
+(their boards, the options they refuse, their view and closing line) is each robot's
+``launch`` module (:mod:`.papaman.launch`, :mod:`.starfish.launch`), a :class:`RobotRun`.
+"""
 
 from __future__ import annotations
 
 import secrets
 import signal
 import sys
-from contextlib import ExitStack
+from contextlib import AbstractContextManager, ExitStack
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable, TextIO
+from typing import TYPE_CHECKING, Any, Callable, Protocol, TextIO
 
 from esair_min.errors import EsairError
 from esair_min.model.robot import Robot
 from esair_min.emulator.clock import NS_PER_S, seconds_to_ns
 from esair_min.emulator.faults import Faults
-from esair_min.emulator.robot import Emulator
+from esair_min.emulator.line import SerialHost
 from esair_min.model.identity import INSTANCE_RE
+
+if TYPE_CHECKING:  # pragma: no cover
+    from esair_min.emulator.ptyserver import PtyPort
 
 
 @dataclass
@@ -65,30 +74,6 @@ INTERRUPTED = 130
 RUN_STEP_NS = 50_000_000
 
 
-class _PlayOnSignal:
-    """SIGUSR1 while serving: the scenario plays (again) from its start, at the server
-    loop's next turn (the handler only sets a flag). The previous handler is put back by
-    :meth:`restore`."""
-
-    def __init__(self) -> None:
-        self.flag = False
-        self._old: object = None
-
-    def __call__(self, signum=None, frame=None) -> None:
-        self.flag = True
-
-    def install(self) -> None:
-        self._old = signal.signal(signal.SIGUSR1, self)
-
-    def take(self, emu: Emulator) -> None:
-        if self.flag:
-            self.flag = False
-            emu.play_scenario()
-
-    def restore(self) -> None:
-        signal.signal(signal.SIGUSR1, self._old)   # type: ignore[arg-type]
-
-
 class _Stop:
     """Set by SIGINT/SIGTERM: the loop ends at its next step (the previous handlers are
     put back by :meth:`restore`)."""
@@ -97,7 +82,7 @@ class _Stop:
         self.flag = False
         self._old: dict[int, object] = {}
 
-    def __call__(self, signum=None, frame=None) -> None:
+    def __call__(self, _signum=None, _frame=None) -> None:
         self.flag = True
 
     def install(self) -> None:
@@ -135,6 +120,60 @@ def check_options(opts: EmulateOptions) -> None:
         raise EsairError(f"--instance {opts.instance!r} must be 8 lowercase hex digits")
 
 
+class RobotRun(Protocol):
+    """One robot's part of ``esair emulate`` (a robot's ``launch`` module makes it): the
+    emulated boards, what its serve loop adds at each turn, and its closing line."""
+
+    #: a headless ``--run S`` ends S seconds after boot (True) or after settling (False)
+    run_from_boot: bool
+
+    def __init__(self, robot: Robot, opts: EmulateOptions, stack: ExitStack,
+                 image: bytes | None, trace: TextIO | None, instance: str | None,
+                 live: bool) -> None:
+        """The boards, closed by ``stack``; ``trace`` open for writing, or None."""
+
+    @staticmethod
+    def refuse(opts: EmulateOptions) -> None:
+        """Raise for options this robot would ignore."""
+
+    @property
+    def sim(self) -> SerialHost:
+        """What serve_pty and a headless run drive."""
+        ...
+
+    def install(self) -> None:
+        """Signal handlers of this robot while served (before the path is printed)."""
+
+    def restore(self) -> None:
+        """Put back what :meth:`install` replaced."""
+
+    def idle(self) -> None:
+        """One turn of the serve loop (the trace written, a side channel fed)."""
+
+    def view(self, port: PtyPort, out: TextIO) -> AbstractContextManager[Any]:
+        """The live terminal view (``poll()`` repaints it)."""
+        ...
+
+    def flush(self) -> None:
+        """Write what the trace holds so far."""
+
+    def closing(self) -> str | None:
+        """The line for standard error when the run ends (None: none)."""
+        ...
+
+
+def _robot_class(robot: Robot) -> type[RobotRun]:
+    """The robot's own part: STARFISH's when its central board drives an omni base,
+    PAPA-MAN's (servo and sensor boards) otherwise."""
+    if robot.central.base is not None:
+        from esair_min.emulator.starfish.launch import StarfishRun
+
+        return StarfishRun
+    from esair_min.emulator.papaman.launch import PapamanRun
+
+    return PapamanRun
+
+
 def emulate(robot: Robot, opts: EmulateOptions, out: TextIO | None = None,
             log: Callable[[str], None] | None = None) -> int:
     """Run ``esair emulate``: output (the pty path, or a headless run's lines) goes to
@@ -146,52 +185,38 @@ def emulate(robot: Robot, opts: EmulateOptions, out: TextIO | None = None,
         def log(text: str) -> None:
             print(text, file=sys.stderr)
     check_options(opts)
-    if robot.central.base is not None:
-        from esair_min.emulator.starfish_serve import emulate_starfish
-
-        return emulate_starfish(robot, opts, out, log, _serve_loop=_Stop, printer=_Printer)
-    for flag, given in (("--room", opts.room), ("--pose", opts.pose),
-                        ("--world-out", opts.world_out)):
-        if given is not None:
-            raise EsairError(f"{flag} is for a robot with an omni base (STARFISH); this robot "
-                             "has none")
+    robot_run = _robot_class(robot)
+    robot_run.refuse(opts)
     image = generate_first(robot, opts.generate, log) if opts.generate else None
     with ExitStack() as stack:
         trace = None
         if opts.trace is not None:
-            from esair_min.emulator.tracefile import FileTraceWriter
-
             try:
                 # served in real time, the trace is written line by line (tail -f works)
-                f = stack.enter_context(open(opts.trace, "w", encoding="ascii",
-                                             buffering=1 if opts.pty else -1))
+                trace = stack.enter_context(open(opts.trace, "w", encoding="ascii",
+                                                 buffering=1 if opts.pty else -1))
             except OSError as exc:
                 raise EsairError(f"cannot write the trace {opts.trace}: {exc.strerror}") from None
-            trace = FileTraceWriter(f)
-            trace.rx_lines = opts.trace_rx
         elif opts.trace_rx:
             raise EsairError("--trace-rx adds to the trace: give --trace FILE too")
-        live = opts.pty and (out.isatty() if opts.live is None else opts.live)
         instance = opts.instance
         if instance is None and opts.pty:      # each boot on a pty is a robot of its own
             instance = secrets.token_hex(4)
-        emu = Emulator(robot, scenario=opts.scenario, faults=opts.faults, trace=trace,
-                       eeprom_image=image, transcript=live, instance=instance,
-                       hold_scenario=opts.hold_scenario)
-        stack.callback(emu.close)
+        live = opts.pty and (out.isatty() if opts.live is None else opts.live)
+        run = robot_run(robot, opts, stack, image=image, trace=trace, instance=instance,
+                        live=live)
         if opts.pty:
-            _serve(emu, opts, out)
+            _serve(run, opts, out)
             return 0
-        return _run(emu, opts, out, log)
+        return _run(run, opts, out, log)
 
 
-def _serve(emu: Emulator, opts: EmulateOptions, out: TextIO) -> None:
+def _serve(run: RobotRun, opts: EmulateOptions, out: TextIO) -> None:
     from esair_min.emulator.ptyserver import PtyPort, serve_pty
 
     stop = _Stop()
     stop.install()
-    play = _PlayOnSignal()
-    play.install()                 # before the path is printed: a SIGUSR1 from then on counts
+    run.install()                  # before the path is printed: a signal from then on counts
     live = out.isatty() if opts.live is None else opts.live
     view = None
     port = PtyPort()
@@ -203,50 +228,53 @@ def _serve(emu: Emulator, opts: EmulateOptions, out: TextIO) -> None:
     with ExitStack() as stack:
         def on_idle() -> None:
             nonlocal view
-            play.take(emu)
+            run.idle()
             if not live:
                 return
-            if view is None:
-                from esair_min.emulator.liveview import LiveView
-
-                view = stack.enter_context(LiveView(emu, port))
+            if view is None:       # after the path is printed
+                view = stack.enter_context(run.view(port, out))
             view.poll()
 
         try:
-            serve_pty(emu, on_path, lambda: stop.flag, opts.speed or 1.0, on_idle, port)
+            serve_pty(run.sim, on_path, lambda: stop.flag, opts.speed or 1.0, on_idle, port)
         finally:
             stop.restore()
-            play.restore()
+            run.restore()
 
 
-def _run(emu: Emulator, opts: EmulateOptions, out: TextIO,
+def _run(run: RobotRun, opts: EmulateOptions, out: TextIO,
          log: Callable[[str], None]) -> int:
     """Headless: send the lines back to back once the robot is ready, run, print output
     as it comes. Ctrl-C (or SIGTERM) stops at the next step and keeps what ran."""
     assert opts.run_s is not None
+    sim = run.sim
     stop = _Stop()
     stop.install()
     try:
-        emu.settle(max_s=1.0)          # boot: the image check and !READY
+        sim.settle(max_s=1.0)          # boot: the image check and !READY
         if opts.sends:
-            emu.write(b"".join(s.encode("latin-1") + b"\r\n" for s in opts.sends))
-        start = emu.clock.now
-        end = start + seconds_to_ns(opts.run_s)
+            sim.write(b"".join(s.encode("latin-1") + b"\r\n" for s in opts.sends))
+        start = sim.clock.now
+        end = (0 if run.run_from_boot else start) + seconds_to_ns(opts.run_s)
         printer = _Printer(out)
         while not stop.flag:
-            printer(emu.read())
-            if emu.clock.now >= end:
+            printer(sim.read())
+            if sim.clock.now >= end:
                 break
-            emu.run_until(min(end, emu.clock.now + RUN_STEP_NS))
-        printer(emu.read(), last=True)
+            sim.run_until(min(end, sim.clock.now + RUN_STEP_NS))
+            run.flush()
+        printer(sim.read(), last=True)
+        run.flush()
     finally:
         stop.restore()
     if stop.flag:
-        log(f"interrupted after {(emu.clock.now - start) / NS_PER_S:.3f} s of the "
+        log(f"interrupted after {(sim.clock.now - start) / NS_PER_S:.3f} s of the "
             f"{opts.run_s:g} s run (virtual time): the output so far is printed"
             + (f" and the trace {opts.trace} is complete up to there" if opts.trace else ""))
-        return INTERRUPTED
-    return 0
+    closing = run.closing()
+    if closing is not None:
+        log(closing)
+    return INTERRUPTED if stop.flag else 0
 
 
 class _Printer:

@@ -21,7 +21,7 @@ class BusOverhead:
     part per byte written (address byte excluded: register/memory address and data) and
     per byte read. Least-squares fits to the START..STOP durations measured for every
     transfer kind of tests/fixtures/gpsim/papaman.txt: PIC18F452 in gpsim (wire), ATmega328P
-    in the simavr driver (TWSTA write to TWSTO write); bench/avr.py prints the fit and
+    in the simavr driver (TWSTA write to TWSTO write); bench/avr_vs_pic.py prints the fit and
     each kind's error (all within 0.4 %; wire time alone is 7-10 % short on the PIC)."""
 
     write_fixed: float

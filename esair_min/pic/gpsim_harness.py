@@ -227,10 +227,11 @@ def build_script(robot: Robot, stimulus: str, cod_name: str, image_name: str,
 
 def _build(robot: Robot, stimulus: str, cod_name: str, image_name: str,
            after_boot: tuple[str, ...], epilogue: tuple[str, ...],
-           boot_end: int | None) -> _Script:
+           boot_end: int | None, prologue: tuple[str, ...] = ()) -> _Script:
     s = GpsimSetup.from_robot(robot)
     sc = _Script(s, boot_end)
     sc.lines += setup_lines(s, cod_name, image_name)
+    sc.lines += prologue
     feed(sc, stimulus, _stimulus_line, after_boot)
     sc.lines += epilogue
     sc.lines += ["log off", 'FSCL.file = "/dev/null"', 'FSDA.file = "/dev/null"',
@@ -401,14 +402,16 @@ def boot_end(robot: Robot, cod: Path, workdir: Path, tc: Toolchain | None = None
 
 def run_stimulus(robot: Robot, stimulus: str, cod: Path, workdir: Path,
                  tc: Toolchain | None = None, timeout: float = 120.0,
-                 lead: float = BOOT_LEAD) -> GpsimRun:
+                 lead: float = BOOT_LEAD, prologue: tuple[str, ...] = (),
+                 epilogue: tuple[str, ...] = ()) -> GpsimRun:
     """Run ``stimulus`` on the central firmware ``cod`` (a .cod file) in ``workdir``;
-    ``lead``: see :func:`boot_end`."""
+    ``lead``: see :func:`boot_end`; ``prologue``: gpsim commands before the firmware
+    runs, ``epilogue``: after the last stimulus line (their output is in ``output``)."""
     workdir.mkdir(parents=True, exist_ok=True)
     cod_rel = Path(cod).resolve()
     end = boot_end(robot, cod_rel, workdir / "boot", tc, lead)
     write_hex(build_image(robot), workdir / "image.hex")
-    sc = _build(robot, stimulus, str(cod_rel), "image.hex", (), (), end)
+    sc = _build(robot, stimulus, str(cod_rel), "image.hex", (), epilogue, end, prologue)
     script = "\n".join(sc.lines) + "\n"
     out = run_gpsim(script, workdir, timeout=timeout, tc=tc, script_name="harness.stc")
     if "***ERROR" in out:

@@ -27,10 +27,11 @@ class Pose:
         return self.x + c * px - s * py, self.y + s * px + c * py
 
 
-_REST = (0.0, 0.0, 0.0)
+#: The velocity of a robot at rest (vx, vy, omega).
+REST = (0.0, 0.0, 0.0)
 
 
-def _pose(x: float, y: float, theta: float) -> Pose:
+def new_pose(x: float, y: float, theta: float) -> Pose:
     """``Pose(x, y, theta)`` without the frozen dataclass's ``__init__`` (a step's
     allocation: the same fields, the same object)."""
     p = _new(Pose)
@@ -129,7 +130,7 @@ class World:
         opts = self.options
         if dt_s > 0 and not (opts.lag_s > 0 or opts.slip or opts.slip_noise):
             if vx == 0 and vy == 0 and omega == 0:            # at rest: only time passes
-                self._v = _REST
+                self._v = REST
                 self.t_s += dt_s
                 return 0.0, 0.0, 0.0, False
             pose = self.pose
@@ -141,7 +142,7 @@ class World:
             cx, cy = self._checked
             if math.hypot(x - cx, y - cy) < self._margin:     # _clear(new), at once
                 self._touching = False
-                self.pose = _pose(x, y, th + omega * dt_s)
+                self.pose = new_pose(x, y, th + omega * dt_s)
                 self._v = (vx, vy, omega)
                 self.t_s += dt_s
                 return vx, vy, omega, False

@@ -10,7 +10,7 @@ import click
 from ..endpoint import endpoint_fault
 
 
-def check_endpoint(ctx: Any, param: Any, value: str | None) -> str | None:
+def check_endpoint(_ctx: Any, _param: Any, value: str | None) -> str | None:
     """``-e``: the form a deployment's ``endpoint`` has (the same checks and words)."""
     if value is None:
         return None

@@ -173,7 +173,7 @@ def run_cmd(deployment: str, mode: str | None, seconds: float | None, endpoint: 
         click.echo(f"interrupted: robot {rt.robot!r} stopped", err=True)
     # Everything is stopped and closed. Leave without interpreter finalisation: a Zenoh
     # (Rust) thread that calls into Python while the interpreter finalises aborts the
-    # process ("FATAL: exception not rethrown") — seen rarely, never with os._exit.
+    # process ("FATAL: exception not rethrown"); os._exit skips finalisation.
     sys.stdout.flush()
     sys.stderr.flush()
     os._exit(INTERRUPTED if ctrl_c.hit else 0)

@@ -33,7 +33,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from ..bs import BehaviorSupervisor
     from .operator import Operator
     from ..parts import Joins, Mode
-    from ..view import Robot
+    from ..runtime_view import Robot
     from ..rs import ResourceSupervisor
 from ..transport.session import check_endpoint, hub_runtime
 from ..transport.threads import Threads

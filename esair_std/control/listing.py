@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING, Any
 from ..level import Level
 
 if TYPE_CHECKING:  # pragma: no cover
-    from ..view import RuntimeView
+    from ..runtime_view import RuntimeView
 
 KEYS = ("name", "kind", "state", "pid", "host", "restarts", "reason", "class", "parent",
         "attached", "detached")

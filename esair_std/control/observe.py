@@ -32,7 +32,7 @@ from ..transport.wire import Verbs
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..transport.bus import Bus
-    from ..view import RuntimeView
+    from ..runtime_view import RuntimeView
 
 class Server(Protocol):
     """The control endpoint, as these verbs are installed in and publish through it

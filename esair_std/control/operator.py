@@ -26,7 +26,7 @@ from ..sample import Sample
 from ..transport import keys
 
 if TYPE_CHECKING:  # pragma: no cover
-    from ..view import RuntimeView
+    from ..runtime_view import RuntimeView
 
 #: The principal name of the command line's operator in ``allow``.
 OPERATOR = PRINCIPALS[0]

@@ -7,8 +7,8 @@ It exits when the runtime says stop, when its stdin closes (the local parent die
 with no parent's pipe to tell (``--no-stdin``), when the runtime's liveliness token goes
 away and the runtime does not answer. A local child does not watch the token: its pipe
 is the runtime's own word, while in a mesh of peers the token can go away and a ping go
-unanswered for a while when another peer's link drops (the robot's radio: seen twice,
-tests/net/test_starfish_net.py), and an agent that left then would stay failed. Zenoh
+unanswered for a while when another peer's link drops (the robot's radio), and an agent
+that left then would stay failed. Zenoh
 callbacks here only copy into the host's mailbox or answer at once; user code runs on the
 host's thread.
 """

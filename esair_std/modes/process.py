@@ -32,7 +32,7 @@ from .thread import LocalPort
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..transport.bus import Bus
-    from ..view import RuntimeView
+    from ..runtime_view import RuntimeView
 
 log = logging.getLogger("esair_std.process")
 START_TIMEOUT = 20.0
@@ -429,8 +429,8 @@ class ProcessMode:
         pub = self._deliver_pubs.get(name)
         if pub is None:
             # BLOCK, never DROP: the sender is told "delivered" once this put returns,
-            # so Zenoh must not drop it under congestion (it did at load: 14 of 20 puts
-            # told delivered never came); the component reserved the room for it
+            # so Zenoh must not drop it under congestion (a dropped put would be a
+            # delivery told and never made); the component reserved the room for it
             pub = self._deliver_pubs[name] = self.bus.publisher(
                 keys.bs_deliver(self.rt.robot, name), drop=False, raw=True)
         pub(body)

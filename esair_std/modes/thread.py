@@ -20,7 +20,7 @@ from ..hosts.resource_host import ResourceHost
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..parts import SampleHandle
-    from ..view import RuntimeView
+    from ..runtime_view import RuntimeView
 
 START_TIMEOUT = 10.0
 

@@ -35,7 +35,7 @@ from ..counters import Counters
 if TYPE_CHECKING:  # pragma: no cover
     from ..deploy.model import Deployment
     from ..parts import RemoteComponent
-    from ..view import RuntimeView
+    from ..runtime_view import RuntimeView
 
 log = logging.getLogger("esair_std.remote")
 JOIN_WAIT = 10.0

@@ -33,6 +33,7 @@ from ..transport import keys, wire
 from ..transport.bus import Bus
 from ..transport.security_config import LEASE_MS, link_inserts, session_inserts
 from ..counters import Counters
+from ..restart_window import RestartWindow
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..parts import SampleHandle
@@ -94,7 +95,7 @@ class RemoteAgent(Agent):
         self.joined = threading.Event()
         self.c = Counters(joins=0, partitions=0, restarts=0)
         self._rejoin_lock = threading.Lock()
-        self._restarts: list[float] = []           # when its behavior was restarted
+        self._restarts = RestartWindow(int(spec.restart_max or 0), float(spec.restart_within or 0.0))
         if spec.kind != "resource":
             self.port.on_failed = self._failed
 
@@ -165,12 +166,8 @@ class RemoteAgent(Agent):
         most, within = self.spec.restart_max, self.spec.restart_within
         if not most or self.done.is_set():
             return
-        now = time.monotonic()
-        self._restarts = [t for t in self._restarts if now - t < within]
-        again = len(self._restarts) < most
-        if again:
-            self._restarts.append(now)
-        else:
+        again = self._restarts.allow(time.monotonic())
+        if not again:
             log.error("%s: failed (%s); past its restart policy (%d within %g s): it "
                       "stays failed", self.spec.name, reason, most, within)
         threading.Thread(target=self._after_failure, args=(reason, again), daemon=True,

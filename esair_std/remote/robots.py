@@ -17,7 +17,7 @@ from ..errors import StdError
 from ..transport import keys, wire
 
 if TYPE_CHECKING:  # pragma: no cover
-    from ..view import RuntimeView
+    from ..runtime_view import RuntimeView
 
 ROBOT_NAME = re.compile(r"^[a-z][a-z0-9_]{0,31}$")
 

@@ -5,7 +5,7 @@ Callbacks given here run on Zenoh's threads: they must copy and return (the call
 modes/ only enqueue or answer at once; user code never runs on them). Queryable and
 subscriber callbacks run directly on Zenoh's network thread (``indirect=False``):
 zenoh-python's default hands each one to a Python thread of its own first, which cost
-50-100 us a hop here (bench/std.py); since ours only copy, enqueue or answer, the hand-off
+50-100 us a hop here (bench/std_goals.py); since ours only copy, enqueue or answer, the hand-off
 buys nothing. Liveliness callbacks, which may take locks of the runtime, keep it.
 """
 

@@ -4,7 +4,7 @@ Process mode's ``put`` is mediated: the sender asks the runtime's BS, which deli
 into room the target reserved for it and answers at once (modes/process.py), or else
 offers the data to the target's process and answers with the target's word. In
 zenoh-python a query/reply costs more than a sample each way (side by side in
-bench/std.py: a relay through queries 2.3-2.5x a raw get, through samples 1.7x), so the
+bench/std_goals.py: a relay through queries 2.3-2.5x a raw get, through samples 1.7x), so the
 put takes samples:
 
     sender  --ctl/put/<sender>-->      BS    (SampleServer in the runtime)

@@ -8,7 +8,7 @@ actuators' records in batches, on ``esair/<robot>/commands/<entry>`` (keys.comma
 time.time()). A batch leaves at most :data:`BATCH_S` after its first record, or at once
 with :data:`BATCH_MAX` records: at PAPA-MAN's ~120 servo commands a second that is ~20
 messages a second in place of ~120, and each message costs its receiver about the same
-whatever it holds (Zenoh's receive path: bench/hmi.py, docs/hmi.md). A listener takes
+whatever it holds (Zenoh's receive path: bench/hmi_figures.py, docs/hmi.md). A listener takes
 from a batch only the records of that entry's own actuators (``<entry>`` or
 ``<entry>.<child>``; the ACL lets a host publish its own entry's key only), so a host
 cannot speak for another's actuators.

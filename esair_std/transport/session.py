@@ -67,7 +67,7 @@ def open_session(listen: list[str] | None = None, connect: list[str] | None = No
             cfg.insert_json5("connect/timeout_ms", "2000")
         for path, value in (options or {}).items():
             cfg.insert_json5(path, json.dumps(value))
-    except Exception as exc:  # zenoh raises ZError for bad endpoints / config
+    except Exception as exc:  # noqa: BLE001 - zenoh raises ZError for bad endpoints / config
         raise TransportError(f"bad session config: {zenoh_message(exc)}") from None
     try:
         return zenoh.open(cfg)

@@ -36,8 +36,8 @@ class Threads:
 
         t = threading.Thread(target=run, name=name, daemon=True)
         with self._lock:          # started before join() can see it (joining a thread
-            self._live.add(t)     # not yet started raises RuntimeError: seen once when
-            t.start()             # a stop() came while a worker was being started)
+            self._live.add(t)     # not yet started raises RuntimeError, as when a stop()
+            t.start()             # comes while a worker is being started)
         return t
 
     def add(self, t: threading.Thread) -> None:

@@ -185,7 +185,3 @@ def op_of(req: Request) -> object:
     body = req.body
     return body.get("op") if body is not None else None
 
-
-def last_part(req: Request) -> str:
-    """The verb of a control request: the last part of its key (``ctl/<verb>``)."""
-    return req.key.rsplit("/", 1)[-1]

@@ -16,7 +16,7 @@ import yaml
 from websockets.sync.client import connect
 
 from esair_min.core.trace import without_marks
-from esair_min.emulator.actuator import encode
+from esair_min.emulator.papaman.actuator import encode
 from esair_min.model.validate import load_robot
 from esair_std.record import read_commands, read_samples
 from tests.support.hmi import PAPAMAN, esair_std, open_page, wait_for

@@ -59,7 +59,7 @@ def avr_build(avr_robot, tmp_path_factory):
     out = tmp_path_factory.mktemp("avr")
     try:
         builds = build_robot(avr_robot, out)
-    except Exception as exc:            # the toolchain is missing: say how to install it
+    except Exception as exc:  # noqa: BLE001 - the toolchain is missing: say how to install it
         pytest.fail(str(exc), pytrace=False)
     return {b.role: b for b in builds}
 
@@ -159,7 +159,7 @@ def test_papaman_scenario_four_way(scenario_avr):
     writes = [t for t in run.transfers if t.segments[0].address == 0x10]
     assert len(writes) > 40                                 # the dance: a frame per tick
     assert run.lost == []
-    assert 0 < run.stack_bytes <= 64                        # measured 41
+    assert 0 < run.stack_bytes <= 64
 
 
 def test_emulator_bus_time_per_transfer_kind_is_the_avrs(avr_robot, scenario_avr):
@@ -445,7 +445,7 @@ def test_the_emulator_runs_papaman_avr_at_the_avrs_bus_time(avr_robot):
     """The emulator takes an atmega328p central board: its tick is Timer1's, and a frame
     write costs what it costs the AVR's master (2.413 ms in simavr; 2.535 on the PIC)."""
     from esair_min.core.trace import TraceWriter
-    from esair_min.emulator.robot import Emulator
+    from esair_min.emulator.papaman.robot_sim import Emulator
 
     tw = TraceWriter()
     emu = Emulator(avr_robot, trace=tw)

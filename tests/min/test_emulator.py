@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 
 from esair_min.emulator import Emulator, VirtualClock
-from esair_min.emulator.actuator import ServoBank, decode, encode, step_toward
+from esair_min.emulator.papaman.actuator import ServoBank, decode, encode, step_toward
 from esair_min.emulator.i2c import (TimedBus, bits_ns, nack_bits, write_bits,
                                     write_read_bits)
 from esair_min.emulator.uart import RING_BYTES, byte_time_ns
@@ -317,7 +317,7 @@ def test_bytes_sent_during_the_boot_image_check_overrun_the_ring(robot):
 def test_live_view_shows_servos_sensors_lines_and_errors(robot):
     from rich.console import Console
 
-    from esair_min.emulator.liveview import Motion, render
+    from esair_min.emulator.papaman.view import Motion, render
     from esair_min.emulator.ptyserver import PtyPort
 
     emu = booted(robot, scenario="push", transcript=True)
@@ -337,7 +337,7 @@ def test_live_view_shows_servos_sensors_lines_and_errors(robot):
 
 
 def test_line_views_split_cr_lf_and_crlf_across_chunks():
-    from esair_min.emulator.robot import _Lines
+    from esair_min.emulator.papaman.robot_sim import _Lines
 
     lines = _Lines(3)
     assert lines.feed(b"ab\r") == ["ab"]

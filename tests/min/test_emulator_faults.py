@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 from esair_min.emulator import Emulator, Faults
-from esair_min.emulator.actuator import encode
+from esair_min.emulator.papaman.actuator import encode
 from esair_min.errors import EsairError
 from esair_min.core.protocol import parse_reply
 from esair_min.core.trace import TraceWriter

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from esair_min.emulator.scenario import load_scenario, resolve_scenario
+from esair_min.emulator.papaman.scenario import load_scenario, resolve_scenario
 from esair_min.errors import ConfigError
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -117,7 +117,7 @@ def test_the_sims_replayed_drive_ticks_are_the_ticks_run_as_events(starfish):
     each would have ended a stretch of wheel travel. Against a sim whose drive board is
     never taken for settled (every tick an event): the same trace, bus and poses."""
     from esair_min.components.omni_base.core import velocity_line
-    from esair_min.emulator.starfish import FlowOptions, StarfishSim, drive_square
+    from esair_min.emulator.starfish.robot_sim import FlowOptions, StarfishSim, drive_square
     from esair_min.world import Pose, World
 
     def run(eager: bool) -> tuple:
@@ -248,12 +248,12 @@ def test_a_write_of_the_same_speeds_leaves_a_settled_drive_board_settled(starfis
 def _sim_run(robot, mode: str, world: World, noise: float, seed: int,
              clock_events: list | None = None) -> tuple:
     """A seeded run of the sim (a square, then toward a wall turning, the watchdog stop,
-    a lifted sensor). ``mode``: "runs" as it is (ticks in runs: starfish_run);
+    a lifted sensor). ``mode``: "runs" as it is (ticks in runs: fused_run);
     "settled": every central tick an event of its own (_central_settled); "plain":
     that, through _timers_plain, and the travel through _replay and _advance, as before
     the fused paths."""
     from esair_min.components.omni_base.core import velocity_line, wheels_line
-    from esair_min.emulator.starfish import FlowOptions, StarfishSim, drive_square
+    from esair_min.emulator.starfish.robot_sim import FlowOptions, StarfishSim, drive_square
 
     sim = StarfishSim(robot, world, FlowOptions(noise=noise, seed=seed))
     if mode != "runs":
@@ -283,7 +283,7 @@ def _sim_run(robot, mode: str, world: World, noise: float, seed: int,
 
 
 def test_the_sims_fused_central_tick_is_the_plain_path(starfish):
-    """StarfishSim's central ticks in runs (starfish_run.central_run: tick after tick in
+    """StarfishSim's central ticks in runs (fused_run.central_run: tick after tick in
     one call while nothing else is due), its one-tick _central_settled and its _account
     (the travel, inlined) against the plain methods: the same trace, bus, notices,
     poses, sums and generator states, in a room with walls, with noise, lag and slip;
@@ -315,7 +315,7 @@ def _line_run(robot, plain: bool) -> tuple:
     by line (_collect_lines)."""
     from esair_min.components.omni_base.core import velocity_line
     from esair_min.emulator.line import SerialHost
-    from esair_min.emulator.starfish import FlowOptions, StarfishSim
+    from esair_min.emulator.starfish.robot_sim import FlowOptions, StarfishSim
 
     sim = StarfishSim(robot, World(pose=Pose(2500, 2500, 0.0)), FlowOptions(noise=0.02))
     if plain:

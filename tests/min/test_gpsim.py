@@ -3,7 +3,7 @@
 Needs the toolchain (scripts/install-toolchain.sh); without it these tests FAIL with
 the install hint. The firmware is generated and built once per module; each gpsim
 run is deterministic, so cycle counts are asserted as exact ceilings (a few % over
-the figures measured when they were written, see bench/firmware.py).
+the figures measured when they were written, see bench/firmware_sizes.py).
 """
 
 from __future__ import annotations
@@ -29,21 +29,21 @@ BALANCE = SCENARIO.with_name("balance.txt")
 BALANCE_EQUAL = SCENARIO.with_name("balance_equal.txt")
 BALANCE_LINE = b"!R auto_balance\r\n"
 
-# Ceilings (instruction cycles at 20 MHz), measured values + headroom.
+# Ceilings (instruction cycles at 20 MHz): the simulator's exact counts plus headroom
+# (each count: docs/toolchain.md, "Cycle ceilings the gpsim tests hold").
 # Decoder: the superloop's drain loop from the byte in hand to the branch back to its
 # head (esair_min/pic/gpsim_bench.py). Every byte that does not end a line takes the inline
 # fast path; a CR or LF calls core_rx_end (the bare call: a swallowed LF).
 DECODER_GOAL = 40                # issue 6: worst instruction cycles per ordinary byte
-# measured 36 (32 before the receive ring marked its losses: +4 for the mark test)
-DECODER_CHAR_WORST = 36
-DECODER_CHAR_MEAN = 36           # measured 35.6
-DECODER_LF_SWALLOWED = 40        # measured 40: core_rx_end and back (60 with the overrun flag call)
-TIMER2_ISR_WORST = 120           # measured 81 alone, 116 when a reply byte is served too
-ANY_ISR_WORST = 120              # measured 116 (TX with the 80-byte ring's wrap)
-TICK_TO_LAST_BYTE = 14_300       # dance frames: measured 12_761..13_893 (2.55..2.78 ms)
-FRAME_WRITE = 13_200             # measured 12_770: START..STOP of 1 + 25 bytes (wire 26 x 9 x 52)
-FRAME_READ = 14_600              # measured 14_157: 3 bytes, repeated START, 24 bytes read
-PULSE_ERROR = 0.01               # servo pulse width vs the commanded angle; measured <= 0.11 %
+DECODER_CHAR_WORST = 36          # the receive ring marks its losses (the mark test's cycles)
+DECODER_CHAR_MEAN = 36
+DECODER_LF_SWALLOWED = 40        # core_rx_end and back
+TIMER2_ISR_WORST = 120           # with a reply byte served in the same interrupt
+ANY_ISR_WORST = 120              # TX with the 80-byte ring's wrap
+TICK_TO_LAST_BYTE = 14_300       # dance frames
+FRAME_WRITE = 13_200             # START..STOP of 1 + 25 bytes (wire 26 x 9 x 52)
+FRAME_READ = 14_600              # 3 bytes, repeated START, 24 bytes read
+PULSE_ERROR = 0.01               # servo pulse width vs the commanded angle
 
 
 @pytest.fixture(scope="module")
@@ -230,8 +230,8 @@ def test_actuator_pulse_widths_match_commanded_angles(robot, actuator_fw, tmp_pa
               for p in pulses]
     assert [p.angle for p in pulses] == angles
     assert all(abs(p.error) <= PULSE_ERROR for p in pulses), "\n".join(report)
-    # gpsim's Timer1 drifts ~1 cycle per compare reprogrammed (measured 20 000.6 ..
-    # 20 002.8 us); the firmware adds exactly one frame of counts per period
+    # gpsim's Timer1 drifts about a cycle per compare reprogrammed; the firmware adds
+    # exactly one frame of counts per period
     assert all(abs(p.period_us - 20_000) <= 20 for p in pulses), "\n".join(report)
 
 

@@ -28,8 +28,8 @@ from esair_min.pic.toolchain import ToolchainError
 
 PULSE_ERROR = 0.01           # servo pulse width vs the commanded (clamped) angle
 SETTLE = 150_000             # cycles: start-up and a first PWM frame (30 ms)
-FRAME_WRITE = 12_400         # measured 12_261 cycles at 100 kHz: 26 bytes, START..STOP
-STRETCH_MAX = 40             # measured 18 cycles per read byte (CKP set by the ISR)
+FRAME_WRITE = 12_400         # cycles at 100 kHz: 26 bytes, START..STOP
+STRETCH_MAX = 40             # cycles per read byte (CKP set by the ISR)
 _REG_RE = re.compile(r"= \$([0-9a-fA-F]+) =")     # gpsim: REG230[...] = $00 = 0b00000000
 I2Q_BYTES = 32               # the actuator's I2C queue (hal_pic.c.j2: i2q_bytes)
 

@@ -39,8 +39,8 @@ def test_a_burst_overruns_the_same_way_on_the_pic_and_in_the_emulator(robot, pic
     for replies in (pic, emulated):
         assert "E12 input overrun" in replies
         assert 20 <= len(replies) < len(LINES)
-    assert abs(len(pic) - len(emulated)) <= 2          # measured: 27 and 27
-    # equal up to the first overrun (measured: the 17th reply on the PIC, the 16th in
-    # the emulator; without the transmit-ring wait the emulator answered all 36)
+    assert abs(len(pic) - len(emulated)) <= 2
+    # equal up to the first overrun (the PIC and the emulator overrun a reply apart;
+    # without the transmit-ring wait the emulator would answer every line)
     first = min(pic.index("E12 input overrun"), emulated.index("E12 input overrun"))
     assert first >= 12 and emulated[:first] == pic[:first]

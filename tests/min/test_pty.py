@@ -20,7 +20,7 @@ from pathlib import Path
 import pytest
 import serial
 
-from esair_min.emulator.actuator import encode
+from esair_min.emulator.papaman.actuator import encode
 from esair_min.cli.plot import read_trace, replay
 from esair_min.core.trace import without_marks
 from esair_min.model.validate import load_robot

@@ -18,7 +18,7 @@ import serial
 from click.testing import CliRunner
 
 from esair_min.cli import main
-from esair_min.emulator.starfish_trace import read_trace
+from esair_min.emulator.starfish.pose_trace import read_trace
 
 ROOT = Path(__file__).resolve().parents[2]
 START_TIMEOUT = 30
@@ -66,7 +66,7 @@ def ask(port: serial.Serial, line: str) -> str:
 def test_driven_over_the_pty_until_the_watchdog_stops_it(tmp_path):
     trace = tmp_path / "starfish.trace"
     # real time: the second O must come within the watchdog's 500 ms of the first even
-    # on a loaded machine (at --speed 4 that was 125 ms of wall time: it failed at load 17)
+    # on a loaded machine (a faster --speed leaves it too little wall time)
     with emulator("--trace", str(trace), "--instance", "0badcafe") as (_, path), \
             serial.Serial(path, 38400, timeout=5) as port:
         assert ask(port, "v") == VERSION + " id=0badcafe"
@@ -153,8 +153,8 @@ def test_trace_and_plot_of_a_headless_run(tmp_path):
 
 def test_live_view_draws_the_room_and_the_robot(starfish):
     from esair_min.emulator.ptyserver import PtyPort
-    from esair_min.emulator.starfish import StarfishSim
-    from esair_min.emulator.starfish_view import render
+    from esair_min.emulator.starfish.robot_sim import StarfishSim
+    from esair_min.emulator.starfish.view import render
     from esair_min.world import Pose, Room, World
 
     sim = StarfishSim(starfish, World(room=Room.box(2000, 1000), pose=Pose(500, 500, 1.6)))

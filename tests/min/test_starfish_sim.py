@@ -1,4 +1,4 @@
-"""STARFISH emulated in its room (esair_min.emulator.starfish): a square driven by a
+"""STARFISH emulated in its room (esair_min.emulator.starfish.robot_sim): a square driven by a
 host, the flow odometry against the world's true pose, the watchdog stopping the robot,
 a wall stopping it, a lifted flow sensor, and the trace."""
 
@@ -11,7 +11,7 @@ import pytest
 
 from esair_min.components.omni_base.core import WATCHDOG_NOTICE, velocity_line
 from esair_min.components.optical_flow.odometry import parse_odometry
-from esair_min.emulator.starfish import I2C_KEEP, FlowOptions, StarfishSim, drive_square
+from esair_min.emulator.starfish.robot_sim import I2C_KEEP, FlowOptions, StarfishSim, drive_square
 from esair_min.emulator.uart import byte_time_ns
 from esair_min.model.validate import load_robot
 from esair_min.world import Pose, World

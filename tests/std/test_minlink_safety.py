@@ -191,7 +191,7 @@ def _fake_robot(answers: list[bytes]) -> Iterator[tuple[str, list[bytes]]]:
 
 def test_a_damaged_version_reply_is_asked_again_not_believed(robot):
     """Without checksums, line noise can damage the `v` reply (bytes lost on the way,
-    seen in CI: `sensors= oin= mg=a`); the link believes a reply that names another robot
+    e.g. `sensors= oin= mg=a`); the link believes a reply that names another robot
     only when the next one says the same."""
     good = VERSION + b"0123abcd\r\n"
     damaged = b"OK esair-min/1 servos=12 sensors= oin= mg=a hcsmofi=8017\r\n"

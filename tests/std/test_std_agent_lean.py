@@ -1,5 +1,5 @@
 """A component process imports only what it needs (RSS per process, issue 11: <= 30 MB;
-bench/std.py measures it): none of the deployment loader's, the CLI's or error-only
+bench/std_goals.py measures it): none of the deployment loader's, the CLI's or error-only
 modules, while it runs a sensor and a behavior attached to it. Process mode only: in
 thread mode the components share the runtime's process, which loads the deployment."""
 

@@ -16,7 +16,7 @@ import yaml
 
 from tests.support.std import emulators_with, wait_for
 from esair_min.core.trace import without_marks
-from esair_min.emulator.actuator import encode
+from esair_min.emulator.papaman.actuator import encode
 from esair_min.model.validate import load_robot
 from esair_std.drivers.minlink.emulated import EmulatedRobot
 

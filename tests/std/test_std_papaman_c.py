@@ -12,7 +12,7 @@ import pytest
 from tests.support.c_robot import CFirmwareRobot
 from esair_min.codegen import generate_robot
 from tests.support.std import wait_for
-from esair_min.emulator.actuator import encode
+from esair_min.emulator.papaman.actuator import encode
 from tests.std.test_std_papaman import actuator_writes, example
 
 

@@ -1,7 +1,7 @@
 """transport/threads.py: a stop() that joins the runtime's threads while one of them is
 being started never meets a thread not yet started (Thread.join raises RuntimeError
-'cannot join thread before it is started': seen once, a runtime's stop() in
-test_std_agent_lean at load 20). Not a mode rule: the same class serves both modes."""
+'cannot join thread before it is started'). Not a mode rule: the same class serves both
+modes."""
 
 import threading
 

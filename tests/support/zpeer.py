@@ -77,7 +77,7 @@ def main():
         for key, value in json.loads(sys.argv[1]).items():
             conf.insert_json5(key, json.dumps(value))
         session = zenoh.open(conf)
-    except Exception as exc:
+    except Exception as exc:  # noqa: BLE001 - any error opening the session goes back as JSON
         out({"error": str(exc).split(" at ")[0]})
         return
     keep = []

@@ -37,10 +37,6 @@ class ImageLayout:
     def frame_bytes(self) -> int:
         return 2 * self.servos
 
-    @property
-    def directory_offset(self) -> int:
-        return HEADER_BYTES
-
 
 def image_layout(motions: Sequence[Motion], servos: int) -> ImageLayout:
     """Motions sorted by number; frames follow the directory back to back."""

@@ -39,9 +39,9 @@ _READ_NS = T_SRAD_NS + 8_000 + T_SRR_NS + 8_000
 #: A burst of the three reads (:meth:`Adns2610.deltas`): the sensor is free again, and
 #: the reader done, this long after the first address (the SQUAL's data byte, then tSRR,
 #: then 8 bits).
-_BURST_FREE_NS = 2 * _READ_NS + T_SRAD_NS + 8_000 + T_SRR_NS
-_BURST_END_NS = _BURST_FREE_NS + 8_000
-_TWOPI = 2.0 * math.pi                   # random.TWOPI
+BURST_FREE_NS = 2 * _READ_NS + T_SRAD_NS + 8_000 + T_SRR_NS
+BURST_END_NS = BURST_FREE_NS + 8_000
+TWOPI = 2.0 * math.pi                   # random.TWOPI
 _sqrt, _log, _cos, _sin, _hypot = math.sqrt, math.log, math.cos, math.sin, math.hypot
 
 
@@ -85,7 +85,7 @@ class Adns2610:
                 # second for the next call, so x takes the pair's first and y its
                 # second (the same floats, and the generator left as two calls leave it)
                 random = rng.random
-                x2pi = random() * _TWOPI
+                x2pi = random() * TWOPI
                 g2rad = _sqrt(-2.0 * _log(1.0 - random()))
                 acc[0] += (dx_mm + (0.0 + _cos(x2pi) * g2rad * (noise * abs(dx_mm)))) * k
                 acc[1] += (dy_mm + (0.0 + _sin(x2pi) * g2rad * (noise * abs(dy_mm)))) * k
@@ -142,8 +142,8 @@ class Adns2610:
             acc[0] -= dx
         self._reg = REG_SQUAL
         self._addr_at = None
-        self._free_at = t_ns + _BURST_FREE_NS
-        return dx, dy, 0 if self.lifted else self.surface, t_ns + _BURST_END_NS
+        self._free_at = t_ns + BURST_FREE_NS
+        return dx, dy, 0 if self.lifted else self.surface, t_ns + BURST_END_NS
 
     def register(self, reg: int) -> int:
         """A register's value as read (reading a delta clears it)."""

@@ -3,7 +3,7 @@ read by the 10-bit ADC and exposed as 2 registers (low byte, high byte) in the o
 the file. A sensor is on an ADC channel (``channel``) or on an input of the board's analog
 multiplexer (``mux_input``, :mod:`esair_min.components.analog_mux`). Its C lives in
 ``firmware_templates/sensor``; its Python behaviour (readings from a scenario) in
-:mod:`esair_min.emulator.scenario`.
+:mod:`esair_min.emulator.papaman.scenario`.
 """
 
 from __future__ import annotations

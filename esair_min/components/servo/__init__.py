@@ -3,7 +3,7 @@
 Registers: servo *m* has ``2m`` (low byte, ``angle % 100``) and ``2m+1`` (high byte,
 ``angle/100 + 10*speed``: the thesis's pair encoding, :mod:`esair_min.model.encoding`). Its C lives in
 ``firmware_templates/actuator`` (the board is made of servos); its Python behaviour in
-:mod:`esair_min.emulator.actuator`.
+:mod:`esair_min.emulator.papaman.actuator`.
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ from typing import Annotated, Any
 from pydantic import Field, StrictInt
 
 from esair_min.components.base import Checker, Component, PinClaim
-from esair_min.model.encoding import (PAIR_HIGH_MAX, encode_high, encode_pair,  # noqa: F401
+from esair_min.model.encoding import (PAIR_HIGH_MAX, encode_high, encode_pair,
                                       max_speed_at, pair_fits)
 from esair_min.model.types import Angle, Name, Pin, Section, Speed
 

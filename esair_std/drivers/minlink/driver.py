@@ -61,7 +61,6 @@ times within T seconds, as behaviors' policy; the link takes back only its own c
 
 from __future__ import annotations
 
-import collections
 import threading
 import time
 from pathlib import Path
@@ -73,6 +72,7 @@ from esair_min.errors import EsairError
 from esair_min.model.validate import load_robot
 from esair_min.resources import resolve_robot
 
+from ...restart_window import RestartWindow
 from .budget import DEFAULT_FEET_SHARE, line_budget
 from .emulated import EmulatedRobot
 from .link_errors import LinkDown, LinkError
@@ -345,9 +345,8 @@ class MinLink(Driver):
         expect = None
         if port == "emulate":
             emulate = opts.get("emulate") or {}
-            self._policy = _restart_policy(emulate.get("restart") if isinstance(
-                emulate, dict) else None)
-            self._restarts: collections.deque[float] = collections.deque()
+            self._restarts = RestartWindow(*_restart_policy(emulate.get("restart") if isinstance(
+                emulate, dict) else None))
             self.emulated = EmulatedRobot(path, emulate_args(emulate, base))
             expect = self.emulated.instance
             port = self.emulated.start()
@@ -432,17 +431,13 @@ class MinLink(Driver):
             reason = f"emulator exited (status {code})"
             self._lost = reason
             self._mark(False, reason)
-            now = time.monotonic()
-            most, within = self._policy
-            while self._restarts and now - self._restarts[0] > within:
-                self._restarts.popleft()
-            if len(self._restarts) >= most:
-                if most:
-                    self._lost = (f"{reason}; not restarted: {most} restart(s) within "
-                                  f"{within:g} s already")
+            window = self._restarts
+            if not window.allow(time.monotonic()):
+                if window.max:
+                    self._lost = (f"{reason}; not restarted: {window.max} restart(s) within "
+                                  f"{window.within:g} s already")
                     self._mark(False, self._lost)
                 return
-            self._restarts.append(now)
             try:
                 emulated.start()
             except LinkError as exc:

@@ -56,7 +56,6 @@ sense of that one world.
 from __future__ import annotations
 
 import base64
-import collections
 import math
 import threading
 import time
@@ -72,6 +71,7 @@ from ..minlink.driver import MinLink, NoticeSensor, _in, _restart_policy, emulat
 from ..minlink.emulated import EmulatedRobot
 from ..minlink.link_errors import LinkError
 from ..minlink.link import Link
+from ...restart_window import RestartWindow
 from .linkswitch import LinkSwitch
 
 # the renderers (numpy) and the camera (Pillow) are imported when the driver opens, not
@@ -287,8 +287,7 @@ class Starfish(MinLink):
         self._closing = threading.Event()
         self._lost: str | None = None
         self._supervisor: threading.Thread | None = None
-        self._policy = _restart_policy(emulate.get("restart"))
-        self._restarts: collections.deque[float] = collections.deque()
+        self._restarts = RestartWindow(*_restart_policy(emulate.get("restart")))
         args = emulate_args(emulate, base) + [
             "--room", room_file, "--world-out", self.tap.path,
             "--pose", f"{start[0] * 1000:.1f},{start[1] * 1000:.1f},{start[2]:.6f}"]

@@ -21,7 +21,7 @@ from typing import Any, Callable
 
 from rich.text import Text
 
-from esair_min.emulator.robot import Emulator
+from esair_min.emulator.papaman.robot_sim import Emulator
 from esair_min.emulator.transcript import Row
 
 LEVELS = "▁▂▃▄▅▆▇█"
@@ -249,7 +249,7 @@ class LiveView:
         self.live.__exit__(*exc)
         self.emu.on_tick = None
 
-    def _resized(self, signum=None, frame=None) -> None:
+    def _resized(self, _signum=None, _frame=None) -> None:
         self._resize = True
 
     def poll(self) -> None:

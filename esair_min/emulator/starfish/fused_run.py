@@ -1,17 +1,17 @@
 """STARFISH's central ticks in runs: while the drive board is settled and nothing else
 is due before the next tick, :func:`central_run` runs tick after tick in one call, on
-locals, instead of one clock event and six method calls per tick (issue 22 item 6).
+locals, instead of one clock event and six method calls per tick.
 
-Each tick does what :meth:`StarfishSim._central_settled` does (the plain path, one tick
-per event), in the same order and with the same float operations, so the traces are
-identical: the wheels' travel since the last tick (the drive board's replayed ticks
-ending its stretches), the world's step on its clear-of-walls path
-(:meth:`World.advance`, inlined; anything else goes through the world), both flow
-sensors' motion with their seeded Gaussian pairs (:meth:`Adns2610.move`, inlined), the
-central board's tick (:meth:`StarfishCore.tick`: the burst reads, the sums, the
-watchdog's count) and the trace row. The run's state lives in locals and is written
-back to the objects when it ends: nothing can look at them in between, since no other
-event runs inside the run.
+The declared source of its arithmetic is the plain path, one tick per clock event
+(``StarfishSim._timers_plain``): :meth:`World.advance` (``esair_min/world/body.py``),
+:meth:`Adns2610.move` and :meth:`Adns2610.deltas` (``components/optical_flow/core.py``)
+and :meth:`StarfishCore.tick`, with their constants imported from there (the burst's
+timing, ``TWOPI``, ``REST``). Each fused tick does what the plain path does, in the same
+order and with the same float operations, so the traces are identical; the check is
+tests/min/test_fast_paths.py (``test_the_sims_fused_central_tick_is_the_plain_path``:
+trace, bus, notices, poses, sums and generator states equal, with walls, noise, lag
+and slip). The run's state lives in locals and is written back to the objects when it
+ends: nothing can look at them in between, since no other event runs inside the run.
 
 A run is not started (the plain path runs the tick) when the world has lag or slip, a
 sensor's generator holds half a Gaussian pair, or a reader is not an
@@ -20,7 +20,7 @@ reads would come too early (the plain path runs that tick: its notice, its write
 error), and when the next tick is not the next thing to happen
 (:meth:`VirtualClock.advance_inline`).
 
-``sim`` is a :class:`~esair_min.emulator.starfish.StarfishSim` (typed ``Any``: that
+``sim`` is a :class:`~esair_min.emulator.starfish.robot_sim.StarfishSim` (typed ``Any``: that
 module imports this one).
 """
 
@@ -29,11 +29,11 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from esair_min.components.optical_flow.core import (_BURST_END_NS, _BURST_FREE_NS, _TWOPI,
+from esair_min.components.optical_flow.core import (BURST_END_NS, BURST_FREE_NS, TWOPI,
                                                     MAX_SPEED_IPS, MM_PER_INCH, REG_SQUAL,
                                                     Adns2610)
-from esair_min.emulator.starfish_trace import TraceRow
-from esair_min.world.body import _REST, _pose
+from esair_min.emulator.starfish.pose_trace import TraceRow
+from esair_min.world.body import REST, new_pose
 
 _M32 = (1 << 32) - 1
 _DELTAS = Adns2610.deltas
@@ -107,7 +107,7 @@ def central_run(sim: Any, now: int) -> None:
             if t < s._free_at:
                 late = True
                 break
-            t += _BURST_END_NS
+            t += BURST_END_NS
         if late:
             break                                    # the plain tick raises FlowTimingError
         # -- the wheels' travel since the last tick ------------------------------------
@@ -135,7 +135,7 @@ def central_run(sim: Any, now: int) -> None:
             vx, vy, om = a * s0 + b * s1 + c * s2, d * s0 + e * s1 + f * s2, g * s0 + h * s1 + i * s2
             svx = svy = omega = 0.0
             if vx == 0 and vy == 0 and om == 0:     # at rest: only time passes
-                wv = _REST
+                wv = REST
                 w_t += acc_dt
                 moved = True
             else:
@@ -152,7 +152,7 @@ def central_run(sim: Any, now: int) -> None:
                     svx, svy, omega = vx, vy, om
                 else:                                # near a wall: through the world
                     if moved:
-                        world.pose = _pose(px, py, pth)
+                        world.pose = new_pose(px, py, pth)
                         world.t_s, world._v, world._touching = w_t, wv, touch
                     svx, svy, omega, col = world.advance(acc_dt, vx, vy, om)
                     if col:
@@ -179,7 +179,7 @@ def central_run(sim: Any, now: int) -> None:
                     acc = s._acc
                     noise = s.noise
                     if noise:
-                        x2pi = rnd() * _TWOPI
+                        x2pi = rnd() * TWOPI
                         g2rad = _sqrt(-2.0 * _log(1.0 - rnd()))
                         acc[0] += (dx_mm + (0.0 + _cos(x2pi) * g2rad * (noise * abs(dx_mm)))) * k
                         acc[1] += (dy_mm + (0.0 + _sin(x2pi) * g2rad * (noise * abs(dy_mm)))) * k
@@ -201,13 +201,13 @@ def central_run(sim: Any, now: int) -> None:
             if rx:
                 rx = -128 if rx < -128 else 127 if rx > 127 else rx
                 acc[0] -= rx
-            s._free_at = t + _BURST_FREE_NS
+            s._free_at = t + BURST_FREE_NS
             sums[2] = 0 if s.lifted else s.surface
             if rx:
                 sums[0] = (sums[0] + rx) & _M32
             if ry:
                 sums[1] = (sums[1] + ry) & _M32
-            t += _BURST_END_NS
+            t += BURST_END_NS
         polls += 1
         idle = nidle
         nc += tick_ns
@@ -224,7 +224,7 @@ def central_run(sim: Any, now: int) -> None:
     sim._next_central = nc
     sim._collided = collided
     if moved:
-        world.pose = _pose(px, py, pth)
+        world.pose = new_pose(px, py, pth)
         world.t_s, world._v, world._touching = w_t, wv, touch
     if ran:
         core.t_ns, core.polls, core.idle_ticks = ct, polls, idle

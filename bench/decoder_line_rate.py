@@ -6,7 +6,7 @@ bus, ticking whenever an actuator write is held. Prints the rate, its multiple o
 11,520 B/s, and, measured in the same run on the same bytes, a naive ``bytes.split``
 line splitter as a baseline ratio. Never asserts wall-clock time.
 
-    python bench/decoder.py [--bytes N] [--repeat R]
+    python bench/decoder_line_rate.py [--bytes N] [--repeat R]
 """
 
 from __future__ import annotations
@@ -19,11 +19,11 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from esair_min.core.central import CentralCore  # noqa: E402
-from esair_min.core.devices import NullBus  # noqa: E402
-from esair_min.core.protocol import (add_checksum, encode_angles, encode_motor,  # noqa: E402
+from esair_min.core.central import CentralCore
+from esair_min.core.devices import NullBus
+from esair_min.core.protocol import (add_checksum, encode_angles, encode_motor,
                                 encode_play, encode_speeds)
-from esair_min.model.validate import load_robot  # noqa: E402
+from esair_min.model.validate import load_robot
 
 LINE_RATE = 115200 // 10       # bytes per second at 115200 baud, 8N1
 

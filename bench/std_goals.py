@@ -15,7 +15,7 @@ side by side in one run on this machine.
                also after 20 puts of 50 KB to one (goal <= 30 MB RSS)
 
 Sample ages are measured in the behavior's step (period 1 ms): they include up to one
-step of polling. Run: python bench/std.py [--quick] [--memory]. Prints the figures;
+step of polling. Run: python bench/std_goals.py [--quick] [--memory]. Prints the figures;
 asserts nothing. --memory prints only the memory rows (a few seconds).
 """
 

@@ -14,7 +14,7 @@
    servo, and the EEPROM read of one frame as one sequential read vs the thesis's
    per-byte random reads each followed by a 6 ms delay.
 
-Run: python bench/emulator.py [--seconds 60] [--repeat 5]. Prints ratios; asserts
+Run: python bench/emulator_speed.py [--seconds 60] [--repeat 5]. Prints ratios; asserts
 nothing.
 """
 

@@ -8,7 +8,7 @@
 
 CPU is user + system time from /proc/<pid>/stat of every process of the set, over a
 window of --window seconds after --settle seconds; "% of a core" = CPU seconds per
-wall second x 100. Run: python bench/std_idle.py [--window S] [--settle S]
+wall second x 100. Run: python bench/std_idle_cpu.py [--window S] [--settle S]
 [--before OTHER_CHECKOUT]. Prints the figures; asserts nothing.
 """
 

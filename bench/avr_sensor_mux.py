@@ -1,7 +1,7 @@
 """papaman-avr's sensor board before and after the analog mux (issue 24), side by side,
 all exact (linker sizes, simavr cycles): two runs print the same numbers.
 
-    python bench/avr_sensor.py
+    python bench/avr_sensor_mux.py
 
 before: six foot sensors on ADC0..ADC3, ADC6, ADC7 (the board file as it was: the TWI
 takes ADC4/ADC5); after: boards/papaman-avr, eight foot sensors through a 74HC4051 on

@@ -2,7 +2,7 @@
 both robots built (`esair build starfish-avr`, `esair build starfish`), then per board
 flash and RAM, the central board's kinematics, velocity-line end and tick, and the
 drive board's timer interrupt, in cycles and in time at each board's clock, with the
-AVR/PIC ratio. Run: python bench/starfish_avr.py (~1-2 min). Prints figures; asserts
+AVR/PIC ratio. Run: python bench/starfish_avr_vs_pic.py (~1-2 min). Prints figures; asserts
 nothing (the exact values are asserted in tests/min/test_starfish_avr.py and
 test_starfish_gpsim.py)."""
 

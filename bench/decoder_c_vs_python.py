@@ -1,7 +1,7 @@
 """Throughput of the host-built C decoder as a multiple of the Python decoder's, on
 the same input, in one run.
 
-    python bench/c_decoder.py [LINES]
+    python bench/decoder_c_vs_python.py [LINES]
 
 Generates PAPA-MAN's central firmware, builds ./firmware_host (gcc -O2), writes one
 stimulus script of LINES command lines (every kind of command, invalid and garbage

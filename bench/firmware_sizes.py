@@ -1,6 +1,6 @@
 """Exact figures of PAPA-MAN's PIC18F452 firmware, from gplink maps and gpsim cycles.
 
-    python bench/firmware.py [ROBOT]
+    python bench/firmware_sizes.py [ROBOT]
 
 Generates and builds every board (``esair build``), prints the footprint table, then
 runs the central firmware in gpsim on tests/fixtures/gpsim/papaman.txt and prints:

@@ -38,7 +38,7 @@ browser free (unpinned) and with the browser pinned to one core at nice 19
 (``taskset``), a stand-in for the remote center's own computer: the ratio to the same
 browser with its pages on about:blank is the floor the page itself adds.
 
-Run: python bench/hmi.py [--window 10] [--mode thread] [--baseline DIR]. Prints figures;
+Run: python bench/hmi_figures.py [--window 10] [--mode thread] [--baseline DIR]. Prints figures;
 asserts nothing.
 """
 
@@ -447,7 +447,7 @@ def rows_of(f: dict, window: float) -> list[tuple[str, str, str, float]]:
          f"{p50_99(one['arrivals'])}; {p50_99(one['waits'])}", "-", 0.0),
         ("the same, 3 pages on this computer's 2 cores",
          f"{p50_99(lat)} ({len(lat)} samples)", "-", 0.0),
-        *([("  floor: the least live page (bench/hmi.py FLOOR_JS), same load: p50 / p99",
+        *([("  floor: the least live page (bench/hmi_figures.py FLOOR_JS), same load: p50 / p99",
             f"{p50_99(f['floor']['lat'])} ({len(f['floor']['lat'])} samples)", "-", 0.0),
            ("    its sample -> the page got it (onmessage)", p50_99(f["floor"]["arr"]), "-", 0.0),
            ("    p99 of the page / p99 of the floor",
@@ -519,7 +519,7 @@ def main() -> None:
     with sync_playwright() as p:
         for name, root in trees:
             got[name] = rows_of(run_tree(p, root, args, tmp / name), args.window)
-    print(f"bench/hmi.py, mode {args.mode}, window {args.window:g} s, load {load0:.1f} -> "
+    print(f"bench/hmi_figures.py, mode {args.mode}, window {args.window:g} s, load {load0:.1f} -> "
           f"{os.getloadavg()[0]:.1f}; trees: " + ", ".join(f"{n} {r}" for n, r in trees))
     names = [n for n, _ in trees]
     print(f"{'figure':54s} " + " ".join(f"{n:>40s}" for n in names) + "  goal")

@@ -1,6 +1,6 @@
 """STARFISH emulator benchmark (issue 22): simulated seconds per wall second and per CPU
 second for STARFISH driving a square, side by side with PAPA-MAN dancing (bench/
-emulator.py's run) in the same process, interleaved; and the flow odometry's error
+emulator_speed.py's run) in the same process, interleaved; and the flow odometry's error
 over a 4 m square against the world's true pose.
 
 1. Speed: a host drives a 1.5 m square at 250 mm/s for --seconds simulated seconds
@@ -19,7 +19,7 @@ With ``--before OTHER_CHECKOUT`` (e.g. a worktree of main) the speeds of that tr
 measured too, side by side: each run is a fresh process of one tree, the two trees
 alternating, so load from other jobs hits both alike.
 
-Run: python bench/starfish.py [--seconds 60] [--repeat 3] [--before DIR]. Prints
+Run: python bench/starfish_emulator_speed.py [--seconds 60] [--repeat 3] [--before DIR]. Prints
 figures; asserts nothing.
 """
 
@@ -39,13 +39,13 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from esair_min.emulator.starfish import FlowOptions, StarfishSim, drive_square  # noqa: E402
+from esair_min.emulator.starfish.robot_sim import FlowOptions, StarfishSim, drive_square  # noqa: E402
 from esair_min.model.validate import load_robot  # noqa: E402
 from esair_min.world import Pose, World  # noqa: E402
 
 
 def _papaman_bench():
-    spec = importlib.util.spec_from_file_location("bench_emulator", ROOT / "bench" / "emulator.py")
+    spec = importlib.util.spec_from_file_location("bench_emulator", ROOT / "bench" / "emulator_speed.py")
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
     return mod
@@ -149,10 +149,17 @@ CHILD = """
 import importlib.util, json, sys, time
 root = sys.argv[1]
 sys.path.insert(0, root)
-from esair_min.emulator.starfish import StarfishSim, drive_square
+try:                                    # a tree from before the emulator's robot folders
+    from esair_min.emulator.starfish.robot_sim import StarfishSim, drive_square
+except ImportError:
+    from esair_min.emulator.starfish import StarfishSim, drive_square
 from esair_min.model.validate import load_robot
 from esair_min.world import Pose, World
-spec = importlib.util.spec_from_file_location("bench_emulator", root + "/bench/emulator.py")
+import os.path
+papaman_bench = root + "/bench/emulator_speed.py"
+if not os.path.exists(papaman_bench):
+    papaman_bench = root + "/bench/emulator.py"
+spec = importlib.util.spec_from_file_location("bench_emulator", papaman_bench)
 pm = importlib.util.module_from_spec(spec)
 spec.loader.exec_module(pm)
 seconds = float(sys.argv[2])
@@ -223,7 +230,7 @@ def main() -> None:
     print(f"  {'real time (the need)':34s} {1:10.0f}x {1:9.0f}x")
     print(f"  {'goal':34s} {200:10.0f}x {200:9.0f}x")
     print(f"  {'STARFISH driving a square':34s} {rate(sq, 'wall'):10.0f}x {rate(sq, 'cpu'):9.0f}x")
-    print(f"  {'PAPA-MAN dancing (bench/emulator)':34s} {rate(dance, 'wall'):10.0f}x "
+    print(f"  {'PAPA-MAN dancing (bench/emulator_speed)':34s} {rate(dance, 'wall'):10.0f}x "
           f"{rate(dance, 'cpu'):9.0f}x")
     print(f"  {'the floor (one function on locals)':34s} {'':>11s} {rate(fl, 'cpu'):9.0f}x")
     ratios = sorted((s["sim"] / s["cpu"]) / (f["sim"] / f["cpu"]) for s, f in zip(sq, fl, strict=True))

@@ -31,10 +31,10 @@ costs the runtime, a figure the machine's load moves far less than commands/s.
 
 Goal: live / none >= 0.95 for the robot's commands per second. ``--pinned`` also runs the
 browser pinned to one core at nice 19 (a stand-in for the remote center's own computer,
-as in bench/hmi.py). Beside each arm: the CPU (cores) of this process (the thread-mode
+as in bench/hmi_figures.py). Beside each arm: the CPU (cores) of this process (the thread-mode
 runtime and the robot's link), the HMI, the browser and the computer.
 
-Run: python bench/papaman_hmi.py [--pages 10] [--rounds 3] [--n 200] [--mode thread]
+Run: python bench/papaman_commands_with_hmi.py [--pages 10] [--rounds 3] [--n 200] [--mode thread]
 [--arms none,hmi,browser,blank,live] [--baseline DIR] [--idle 3] [--pinned]. Prints figures; asserts nothing.
 """
 
@@ -53,7 +53,7 @@ sys.path.insert(0, str(HERE))
 sys.path.insert(0, str(HERE.parent))
 
 import papaman_std as ps  # noqa: E402  (sets PYTHONPATH for process mode's agents)
-from hmi import LIVE, busy_s, cpu_of, pinned_chromium, tree  # noqa: E402
+from hmi_figures import LIVE, busy_s, cpu_of, pinned_chromium, tree  # noqa: E402
 
 from esair_std import Runtime  # noqa: E402
 from esair_std.drivers.minlink.emulated import EmulatedRobot  # noqa: E402

@@ -10,7 +10,7 @@ and localizes the second. The walls echo the source (first-order image sources, 
 ``--echo``, 0.5 by default): a room's reverberation, where the phase transform matters.
 Goal (issue 23): median <= 5 deg, p90 <= 10 deg at 10 dB.
 
-    python bench/starfish_localize.py [--trials 200] [--seed 1]
+    python bench/starfish_bearing_error.py [--trials 200] [--seed 1]
 """
 
 from __future__ import annotations

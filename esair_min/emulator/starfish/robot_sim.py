@@ -9,7 +9,7 @@ the bytes on the serial line. The world steps once per central tick (and at the 
 a run), with each wheel's mean rim speed since its last step, through the omni
 kinematics; each flow sensor then sees the floor move under it.
 
-The serial line is PAPA-MAN's (:mod:`.uart`, :mod:`.line`): bytes travel at the central
+The serial line is PAPA-MAN's (:mod:`..uart`, :mod:`..line`): bytes travel at the central
 board's declared baud, into the 64-byte receive ring, and a line is decoded when its
 last byte has arrived; a reply leaves through the 80-byte transmit ring at the same
 pace, and while it has no room there the board waits (bytes arriving meanwhile wait in
@@ -33,8 +33,8 @@ from esair_min.components.omni_base.kinematics import inverse
 from esair_min.components.optical_flow.core import Adns2610
 from esair_min.emulator.clock import VirtualClock
 from esair_min.emulator.line import SerialHost
-from esair_min.emulator.starfish_run import central_run, plan
-from esair_min.emulator.starfish_trace import TraceRow
+from esair_min.emulator.starfish.fused_run import central_run, plan
+from esair_min.emulator.starfish.pose_trace import TraceRow
 from esair_min.emulator.uart import GAP, RX_BYTE, RX_HOLD, RX_TAKE, Uart
 from esair_min.world import World
 
@@ -96,7 +96,7 @@ class StarfishSim(SerialHost):
         self._acc_dt = 0.0
         self._acc_travel = [0.0] * len(self.core.wheels)
         self._collided = False
-        self._run_plan = plan(self)    # (starfish_run: ticks in runs)
+        self._run_plan = plan(self)    # (fused_run: ticks in runs)
         self._reply(ready_line(self.robot.name))   # at reset: the robot it is
 
     @property
@@ -167,7 +167,7 @@ class StarfishSim(SerialHost):
             self._busy_until = self.uart.board_send(data, at)
 
     def _rx_mode(self) -> int:
-        """What the superloop would do with a byte arriving now (see :mod:`.uart`)."""
+        """What the superloop would do with a byte arriving now (see :mod:`..uart`)."""
         if self._busy_until > self.clock.now:
             return RX_HOLD if self._feed_pending else RX_BYTE
         return RX_TAKE

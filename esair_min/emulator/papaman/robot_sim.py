@@ -2,8 +2,8 @@
 
 The central board runs :class:`~esair_min.core.central.CentralCore` over emulated peripherals:
 
-- its UART (:mod:`.uart`) at line rate, with the 64-byte receive ring;
-- the I2C master on a :class:`~.i2c.TimedBus` (bus time at the declared speed, NACKs)
+- its UART (:mod:`..uart`) at line rate, with the 64-byte receive ring;
+- the I2C master on a :class:`~..i2c.TimedBus` (bus time at the declared speed, NACKs)
   to the 24LC256 holding the generated motion image, the actuator board's register map
   and the sensor board's register map;
 - Timer2, ticking at the computed period (``robot.central.timer2.period_s``): each tick
@@ -15,7 +15,7 @@ busy on the bus: a byte that arrives during an I2C transfer is handled when it e
 A reply that does not fit in the UART's transmit ring keeps the superloop waiting for
 room (as on the PIC), and that counts as busy too: input that comes faster than its
 replies can leave overruns the receive ring, as on the board.
-Everything happens on a :class:`~.clock.VirtualClock`, so a run is deterministic.
+Everything happens on a :class:`~..clock.VirtualClock`, so a run is deterministic.
 """
 
 from __future__ import annotations
@@ -36,13 +36,13 @@ from esair_min.core.image import build_image
 from esair_min.model.identity import check_instance
 from esair_min.model.robot import Robot
 from esair_min.core.trace import TraceWriter, TracingBus
-from esair_min.emulator.actuator import ActuatorBoard, stand_registers
+from esair_min.emulator.papaman.actuator import ActuatorBoard, stand_registers
 from esair_min.emulator.clock import NS_PER_S, VirtualClock, seconds_to_ns
 from esair_min.emulator.faults import Faults, corrupt
 from esair_min.emulator.i2c import TimedBus
 from esair_min.emulator.line import SerialHost
 from esair_min.model.mcu import bus_overhead_ns, cycles_per_second
-from esair_min.emulator.scenario import Scenario, load_scenario, quiet, resolve_scenario
+from esair_min.emulator.papaman.scenario import Scenario, load_scenario, quiet, resolve_scenario
 from esair_min.emulator.transcript import Transcript
 from esair_min.emulator.uart import GAP, RX_BYTE, RX_HOLD, RX_TAKE, Uart
 
@@ -321,7 +321,7 @@ class Emulator(SerialHost):
         self._feed()
 
     def _rx_mode(self) -> int:
-        """What the superloop would do with a byte arriving now (see :mod:`.uart`)."""
+        """What the superloop would do with a byte arriving now (see :mod:`..uart`)."""
         if not self.core.ready():
             return RX_HOLD                  # until the tick sends the held write
         if self.bus.busy_until > self.clock.now:

@@ -4,7 +4,7 @@ against the budgets at the configured baud and tick; flash and RAM of the core w
 stub hal; then both boards' real PIC builds (esair build): their footprints against the
 8 KB / 512 B goal (as a ratio), the port's kinematics, line end and tick
 (esair_min/pic/starfish_gpsim.py) and the drive board's timer interrupt
-(esair_min/pic/starfish_drive.py). Run: python bench/starfish_pic.py. Prints figures;
+(esair_min/pic/starfish_drive.py). Run: python bench/starfish_pic_cycles.py. Prints figures;
 asserts nothing."""
 
 from __future__ import annotations

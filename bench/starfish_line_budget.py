@@ -5,7 +5,7 @@ commands (20 and 50 a second) take, beside the baud error of the PIC18F452 at th
 file's clock (the validator refuses more than 2 %). Prints the table docs/std-starfish.md
 gives; the board file's own baud is marked.
 
-    python bench/starfish_line.py
+    python bench/starfish_line_budget.py
 """
 
 from __future__ import annotations

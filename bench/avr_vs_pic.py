@@ -1,7 +1,7 @@
 """ATmega328P figures beside the PIC18F452's (issue 24), all exact (simulator cycles,
 linker sizes): two runs print the same numbers.
 
-    python bench/avr.py [--no-pic]
+    python bench/avr_vs_pic.py [--no-pic]
 
 1. Flash and RAM of every board on each MCU: boards/papaman built with SDCC for the
    PIC18F452, boards/papaman-avr with avr-gcc for the ATmega328P.

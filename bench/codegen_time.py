@@ -1,6 +1,6 @@
 """Time to generate all PAPA-MAN boards (median of N runs) and ratios against baselines.
 
-    python bench/codegen.py [N]
+    python bench/codegen_time.py [N]
 
 cold  : generate into an empty folder (every file written)
 warm  : generate again into the same folder (write-if-changed: nothing written)

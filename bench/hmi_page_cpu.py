@@ -1,6 +1,6 @@
 """Where one live HMI page's CPU goes (issue 21 item 6), side by side in one run.
 
-`esair std run --hmi` as bench/hmi.py starts it (PAPA-MAN at 115200 baud, the feet
+`esair std run --hmi` as bench/hmi_figures.py starts it (PAPA-MAN at 115200 baud, the feet
 polled at 50 Hz, the 12 servos commanded in turn by a Sweep behavior), one page in
 headless chromium (1280x800), and over a window:
 
@@ -14,7 +14,7 @@ headless chromium (1280x800), and over a window:
 
 Each tree (``--baseline DIR`` first, then this one) in turn. Prints figures; asserts
 nothing.
-Run: python bench/hmi_page.py [--window 5] [--baseline DIR] [--pages 1]
+Run: python bench/hmi_page_cpu.py [--window 5] [--baseline DIR] [--pages 1]
 """
 
 from __future__ import annotations
@@ -32,7 +32,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from bench.hmi import LIVE, HmiRun, cpu_s, tree  # noqa: E402
+from bench.hmi_figures import LIVE, HmiRun, cpu_s, tree  # noqa: E402
 from tests.support.hmi import CHROMIUM, CHROMIUM_ARGS  # noqa: E402
 
 CATEGORIES = ["devtools.timeline", "disabled-by-default-devtools.timeline", "v8.execute",
@@ -201,7 +201,7 @@ def main() -> None:
     with sync_playwright() as p:
         for name, root in trees:
             got[name] = run_tree(p, root, args, tmp / name)
-    print(f"bench/hmi_page.py, {args.pages} page(s), window {args.window:g} s, load {load0:.1f} -> "
+    print(f"bench/hmi_page_cpu.py, {args.pages} page(s), window {args.window:g} s, load {load0:.1f} -> "
           f"{os.getloadavg()[0]:.1f}; trees: " + ", ".join(f"{n} {r}" for n, r in trees))
     names = [n for n, _ in trees]
     print(f"{'figure':48s}" + "".join(f"{n:>14s}" for n in names))
