@@ -336,8 +336,9 @@ class Emulator(SerialHost):
         """A run of bytes straight to the decoder (the UART's fast path), recorded."""
         self.transcript.rx(data)           # type: ignore[union-attr]
         if self._trace_rx:
-            self._rx_trace(data)
-        self.core.rx_run(data)
+            self._rx_traced(data)
+        else:
+            self.core.rx_run(data)
 
     def _rx_traced(self, data: bytes) -> None:
         """The UART's fast path with ``RX`` trace lines (``--trace-rx``): each line
