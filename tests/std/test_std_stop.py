@@ -166,6 +166,15 @@ def test_only_the_operator_releases_and_a_behavior_stops_only_when_granted(start
         got = wait_for(lambda: len(o := outcomes(rt)[n:]) >= 2 and o, timeout=20,
                        what="commands while started STOPPED")
         assert all(REFUSAL.fullmatch(text) for _, text in got), got
+        # the state where the operator looks: ls (its last line), top (its title), ping
+        stopped = ("STOPPED by operator at {} (started stopped (--stopped)): release with "
+                   "esair std release")
+        at = rt.latched["at"]
+        assert esair("ls", "-e", rt.endpoint).stdout.splitlines()[-1] == stopped.format(at)
+        assert esair("ls", "--json", "-e", rt.endpoint).stdout.count('"by": "operator"') == 1
+        top = esair("top", "--count", "1", "--interval", "0.1", "-e", rt.endpoint).stdout
+        assert f"— {stopped.format(at)}" in " ".join(top.split())     # its title, wrapped
+        assert esair("ping", "-e", rt.endpoint).stdout.rstrip().endswith(stopped.format(at))
         server = rt.server
         with pytest.raises(Refused, match="behavior 'nudger' may not release the STOP"):
             from esair_std.transport import wire
