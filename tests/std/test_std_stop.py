@@ -284,3 +284,41 @@ def reactions(lines: list[str]) -> tuple[int, int, list[str]]:
         elif quiet and fired and ln.startswith("W 10 ") and ln.endswith(" ACK"):
             moved.append(ln)
     return fired, stopped, moved
+
+
+@pytest.mark.slow
+def test_starfish_wheels_go_to_zero_and_stay_there(start):
+    """STARFISH's wheels, judged by its own odometry (the flow sensors): driving, then
+    STOPPED: the pose stops changing (the odometry polls go on, so the board's 0.5 s
+    watchdog never fires: only the STOP's ``x`` stops the wheels), the wheels' next
+    command is refused; released, a command drives it again."""
+    room = str(ROOT / "esair_std/examples/starfish/room.yaml")
+    rt = start({"resources": {"starfish": {
+        "class": "esair_std.drivers.starfish:Starfish", "room_file": room,
+        "allow": {"*": "read", "operator": "command"}}}}, control=True)
+    from esair_std.errors import CommandError
+    from tests.support.std import ask
+
+    def pose() -> tuple[float, float]:
+        v = ask(rt.endpoint, "sample", {"name": "starfish.odometry", "timeout": 5})["value"]
+        return v["x"], v["y"]
+    drive = {"name": "starfish.wheels", "value": {"vx": 200}, "timeout": 2}
+    ask(rt.endpoint, "send", drive)
+    p0 = pose()
+    wait_for(lambda: pose() != p0, timeout=20, what="the robot driving")
+    rt.stop_robot("wheels")
+    import time
+
+    def still() -> bool:                 # several polls' worth without a change
+        a = pose()
+        time.sleep(0.3)
+        return pose() == a
+    wait_for(still, timeout=10, what="the pose at rest")
+    rest = pose()
+    time.sleep(1.0)                      # twice the watchdog: it must not be what stopped it
+    assert pose() == rest
+    with pytest.raises(CommandError, match="stopped by operator at "):
+        ask(rt.endpoint, "send", drive)
+    rt.release_robot()
+    ask(rt.endpoint, "send", drive)
+    wait_for(lambda: pose() != rest, timeout=20, what="the robot driving again")
