@@ -158,7 +158,9 @@ def test_only_the_operator_releases_and_a_behavior_stops_only_when_granted(start
     emu = EmulatedRobot(PAPAMAN)
     emu.start()
     try:
-        dep = example(emu.port, **nudger())
+        dep = example(emu.port, **nudger(),
+                      stopper={"class": "tests.support.papaman_comps:Stopper", "may_stop": True},
+                      nostop={"class": "tests.support.papaman_comps:Stopper"})
         rt = start(dep, control=True, stopped=True)
         rt.wait_state("nudger", "running")
         assert rt.latched["reason"] == "started stopped (--stopped)"
@@ -184,6 +186,15 @@ def test_only_the_operator_releases_and_a_behavior_stops_only_when_granted(start
         assert rt.release_robot()["by"] == "operator"
         with pytest.raises(ControlError, match="the robot is not stopped: nothing to release"):
             rt.release_robot()
+        # a behavior STOPs the robot only when its entry grants it
+        rt.put("stopper", "tipping", timeout=5.0)
+        rt.put("nostop", "tipping", timeout=5.0)
+        wait_for(lambda: rt.get("stopper") == [""] and rt.get("nostop") != [], timeout=20,
+                 what="both behaviors' tries")
+        assert rt.get("nostop") == ["Refused: behavior 'nostop' may not STOP the robot (its "
+                                    "deployment entry would say 'may_stop: true')"]
+        assert (rt.latched["by"], rt.latched["reason"]) == ("stopper", "tipping")
+        rt.release_robot()
         r = esair("ping", "-e", rt.endpoint)
         assert r.stdout.rstrip().endswith(": running"), r.stdout
     finally:
