@@ -17,7 +17,7 @@ from esair_min.errors import GenerateError
 from esair_min.model.encoding import MAX_LINE
 from esair_min.model.hardware import BaudSetting, I2cSetting, Timer2Setting
 from esair_min.core.image import build_image
-from esair_min.components.motion.layout import HEADER_BYTES
+from esair_min.components.motion.layout import HEADER_BYTES, VERSION
 from esair_min.model.board import Board
 from esair_min.model.robot import Robot
 
@@ -27,6 +27,8 @@ Context = dict[str, Any]
 
 #: Bytes per EEPROM read while checking the image at reset (docs/protocol.md, Reset).
 IMAGE_CHECK_CHUNK = 32
+#: CMD_LEN of a variable-length row (image_write): its shortest length with this bit set.
+VARIABLE_LEN = 0x80
 #: Servo pulse ends closer than this are handled by one PWM interrupt.
 PWM_MERGE_US = 16
 #: ADC acquisition time before a conversion (datasheet: 12.86 us at 25 C; rounded up).
@@ -64,22 +66,27 @@ def _pin(name: str) -> dict[str, Any]:
 
 
 def _split_image_ok(line: bytes) -> tuple[bytes, bytes]:
-    """A line made with ``image_ok=True`` split around its ``ok`` (the C core sends
-    ``ok`` or ``bad`` between the two parts)."""
-    before, sep, after = line.partition(b"image=ok")
+    """A line made with ``image_ok=True`` (CRC 0) split around its ``ok crc=0000`` (the
+    C core sends ``ok crc=`` and the CRC, or ``bad``, between the two parts)."""
+    before, sep, after = line.partition(b"image=ok crc=0000")
     assert sep, line
     return before + b"image=", after
 
 
-def central_context(robot: Robot) -> Context:
-    """The central board's context: one piece per feature, each from the model only."""
+#: The build id a context is rendered with before its sources are hashed (codegen.buildid).
+BUILD_PLACEHOLDER = "00000000"
+
+
+def central_context(robot: Robot, build_id: str = BUILD_PLACEHOLDER) -> Context:
+    """The central board's context: one piece per feature, each from the model only.
+    ``build_id``: the firmware's id in its replies (codegen.buildid computes it)."""
     board = robot.central
     ctx = common_context(robot, board)
     servos = robot.servos
     commands = _command_context(robot)
     motions = _motion_context(robot)
     reactions = _reaction_context(robot)
-    texts = _texts(*_fixed_texts(robot), reactions["reactions"])
+    texts = _texts(*_fixed_texts(robot, build_id), reactions["reactions"])
     if board.spec.family == "avr":
         ctx["avr"] = ports.central_avr(board)
     ctx.update({
@@ -89,9 +96,8 @@ def central_context(robot: Robot) -> Context:
         "n_sensors": len(robot.sensors),
         **commands, **motions, **reactions, **_peer_context(robot),
         "texts": texts,
-        "rom": _rom(commands["commands"], servo.limit_rows(servos), motions["motions"],
-                    reactions["reactions"], commands["prefix_pool"], motions["image_header"],
-                    texts),
+        "rom": _rom(commands["commands"], servo.limit_rows(servos),
+                    reactions["reactions"], commands["prefix_pool"], texts),
         "near_base": PIC_NEAR_BASE,
         "text_pool_bytes": sum(len(t["text"]) + 1 for t in texts),
         **_clock_context(board),
@@ -115,7 +121,10 @@ def _command_context(robot: Robot) -> Context:
         if length > MAX_LINE:
             raise GenerateError(f"command '{c.name}' needs {length} characters, more than "
                                 f"the {MAX_LINE} of a line")
+        if c.variable and len(c.prefix) < 1:
+            raise GenerateError(f"command '{c.name}' needs a prefix")
         rows.append({"name": c.name, "at": at, "prefix_len": len(c.prefix), "length": length,
+                     "len_code": length | (VARIABLE_LEN if c.variable else 0),
                      "action": c.action.upper(),
                      "motion": numbers[c.motion] if c.motion else 0xFF})
     return {
@@ -129,27 +138,37 @@ def _command_context(robot: Robot) -> Context:
 
 
 def _motion_context(robot: Robot) -> Context:
-    """The motion directory and the EEPROM image it points into."""
+    """The EEPROM the image lives in, and the image the board files build (the host
+    port's EEPROM holds it; the firmware accepts any image that checks)."""
     eeprom = robot.eeprom
     image = build_image(robot) if eeprom is not None else b""
+    if eeprom is not None and eeprom.page_bytes & (eeprom.page_bytes - 1):
+        raise GenerateError(f"EEPROM '{eeprom.name}': page_bytes {eeprom.page_bytes} is not "
+                            "a power of two")
+    write_max = max((MAX_LINE - len(c.prefix)) // 2 for c in robot.commands
+                    if c.action == "image_write") if any(
+        c.action == "image_write" for c in robot.commands) else 0
     return {
         "motions": motion.directory_rows(robot.layout.slots),
         "has_eeprom": int(eeprom is not None),
         "eeprom": ({"address": eeprom.address, "address_bytes": eeprom.address_bytes,
-                    "size": eeprom.size_bytes} if eeprom else
-                   {"address": 0, "address_bytes": 2, "size": 0}),
+                    "size": eeprom.size_bytes, "page": eeprom.page_bytes} if eeprom else
+                   {"address": 0, "address_bytes": 2, "size": 0, "page": 1}),
         "image": image,
-        "image_header": image[:HEADER_BYTES],
+        "image_version": VERSION,
         "image_length": len(image),
         "image_crc": int.from_bytes(image[6:8], "little") if image else 0xFFFF,
         "image_chunk": IMAGE_CHECK_CHUNK,
+        # the line's hex pairs of a write (address, data, checksum) or a read's data
+        "buf_bytes": max(2 * len(robot.servos), HEADER_BYTES, P.READ_MAX, write_max, 1),
+        "read_max": P.READ_MAX, "poll_max": P.POLL_MAX,
+        "scan_first": P.SCAN_FIRST, "scan_last": P.SCAN_LAST,
     }
 
 
 def _reaction_context(robot: Robot) -> Context:
     """The reactions and the sensor groups they compare (as bit masks)."""
     numbers = {m.name: m.number for m in robot.motions}
-    slot_numbers = [s.number for s in robot.layout.slots]
     groups: list[str] = []
     reactions: list[dict[str, Any]] = []
     for r in robot.central.reactions:
@@ -160,7 +179,6 @@ def _reaction_context(robot: Robot) -> Context:
                           "group_b": groups.index(r.compare[1]), "threshold": r.threshold,
                           "samples": r.samples, "poll_ticks": r.poll_ticks,
                           "motion": numbers[r.motion],
-                          "motion_index": slot_numbers.index(numbers[r.motion]),
                           "notice": P.reaction_line(r.name)})
     group_masks = [{"name": g, "mask": pressure_sensor.group_mask(robot.sensors, g)}
                    for g in groups]
@@ -180,13 +198,14 @@ def _peer_context(robot: Robot) -> Context:
     return {"actuator": peer("actuator"), "sensor": peer("sensor")}
 
 
-def _fixed_texts(robot: Robot) -> tuple[bytes, bytes, bytes, bytes]:
+def _fixed_texts(robot: Robot, build_id: str) -> tuple[bytes, bytes, bytes, bytes]:
     """The version reply and the READY notice, each split around its image state."""
     uart = robot.central.uart
     checksum = bool(uart and uart.require_checksum)
     ver_pre, ver_post = _split_image_ok(P.ok_line(P.version_data(
-        len(robot.servos), len(robot.sensors), len(robot.motions), True, checksum)))
-    ready_pre, ready_post = _split_image_ok(P.ready_line(True))
+        len(robot.servos), len(robot.sensors), len(robot.motions), True, checksum,
+        build=build_id)))
+    ready_pre, ready_post = _split_image_ok(P.ready_line(True, build=build_id))
     return ver_pre, ver_post, ready_pre, ready_post
 
 
@@ -222,7 +241,7 @@ def _texts(ver_pre: bytes, ver_post: bytes, ready_pre: bytes, ready_post: bytes,
     assert all(P.NOTICE_LINE[c] == b"!" + P.ERROR_LINE[c] for c in codes)
     items = [("NONE", b"")] + [(f"E{int(c):02d}", P.ERROR_LINE[c]) for c in codes]
     items += [("BANG", b"!"), ("OK", P.OK_LINE), ("OK_SP", b"OK "), ("CRLF", b"\r\n"),
-              ("IMG_OK", b"ok"), ("IMG_BAD", b"bad"),
+              ("IMG_OK", b"ok crc="), ("IMG_BAD", b"bad"),
               ("VERSION_PRE", ver_pre), ("VERSION_POST", ver_post),
               ("READY_PRE", ready_pre), ("READY_POST", ready_post)]
     items += [(f"R_{r['name'].upper()}", r["notice"]) for r in reactions]
@@ -238,8 +257,9 @@ def _texts(ver_pre: bytes, ver_post: bytes, ready_pre: bytes, ready_post: bytes,
 
 #: Command actions in the order of their ES_ACT_* codes: the four refused while a
 #: motion plays first (the core tests ``action <= ES_ACT_BUSY_LAST``).
-ACTIONS = ("STAND", "MOTOR", "PLAY", "ANGLES", "SPEEDS", "VERSION", "SENSORS", "STOP")
-BUSY_ACTIONS = 4
+ACTIONS = ("STAND", "MOTOR", "PLAY", "ANGLES", "IMAGE_WRITE", "IMAGE_READ", "IMAGE_COMMIT",
+           "SPEEDS", "VERSION", "SENSORS", "STOP", "I2C_SCAN")
+BUSY_ACTIONS = 7
 
 
 def _u16(values: list[int]) -> bytes:
@@ -247,8 +267,8 @@ def _u16(values: list[int]) -> bytes:
 
 
 def _rom(commands: list[dict[str, Any]], servos: list[dict[str, Any]],
-         motions: list[dict[str, Any]], reactions: list[dict[str, Any]],
-         prefix_pool: bytes, header: bytes, texts: list[dict[str, Any]]) -> list[dict[str, Any]]:
+         reactions: list[dict[str, Any]], prefix_pool: bytes,
+         texts: list[dict[str, Any]]) -> list[dict[str, Any]]:
     """Every table of the central core as sections of one byte array (es_rom), columns
     indexed by row, 16-bit values little-endian: the core reads flash through one
     function. Each section: name (ES_R_<name>), at, what, lines of C initialiser."""
@@ -259,8 +279,8 @@ def _rom(commands: list[dict[str, Any]], servos: list[dict[str, Any]],
         ("PREFIX", "command prefixes, shared where one is part of another", [prefix_pool]),
         ("CMD_AT", "command rows: first prefix byte in ES_R_PREFIX", [col(commands, "at")]),
         ("CMD_PLEN", "prefix length", [col(commands, "prefix_len")]),
-        ("CMD_LEN", "characters of a matching line, checksum excluded",
-         [col(commands, "length")]),
+        ("CMD_LEN", "characters of a matching line, checksum excluded (bit 7: or more)",
+         [col(commands, "len_code")]),
         ("CMD_ACTION", "ES_ACT_*: " + " ".join(c["action"] for c in commands),
          [bytes(ACTIONS.index(c["action"]) for c in commands)]),
         ("CMD_MOTION", "fixed motion number, 0xFF: none", [col(commands, "motion")]),
@@ -268,21 +288,14 @@ def _rom(commands: list[dict[str, Any]], servos: list[dict[str, Any]],
         ("LIM_MAX", "maximum angle (16 bits)", [_u16([s["max"] for s in servos])]),
         ("STAND", "stand pose (16 bits)", [_u16([s["stand"] for s in servos])]),
         ("SPEED", "speed code after reset", [col(servos, "speed")]),
-        ("MOT_NUMBER", "motion directory: number (nn of PLYnn)", [col(motions, "number")]),
-        ("MOT_FRAMES", "frames", [col(motions, "frames")]),
-        ("MOT_DELAY", "ticks between frames", [col(motions, "delay")]),
-        ("MOT_OFFSET", "EEPROM offset of the first frame (16 bits)",
-         [_u16([m["offset"] for m in motions])]),
         ("RE_MASK_A", "reactions: sensors of the first group (bit i = sensor i)",
          [col(reactions, "mask_a")]),
         ("RE_MASK_B", "sensors of the second group", [col(reactions, "mask_b")]),
         ("RE_THRESHOLD", "threshold (16 bits)", [_u16([r["threshold"] for r in reactions])]),
         ("RE_SAMPLES", "samples", [col(reactions, "samples")]),
         ("RE_POLL", "poll ticks", [col(reactions, "poll_ticks")]),
-        ("RE_MOTION", "motion (directory index)", [col(reactions, "motion_index")]),
+        ("RE_MOTION", "motion (its number)", [col(reactions, "motion")]),
         ("RE_TEXT", "notice (text id)", [col(reactions, "text_id")]),
-        ("HEADER", "the image header compiled in: magic, version, count, length, CRC",
-         [header]),
         ("TEXT_AT", "where each text starts in ES_R_TEXT (16 bits)",
          [_u16([t["at"] for t in texts])]),
         ("TEXT", "every text sent, NUL-terminated; a notice is ! then the error line",

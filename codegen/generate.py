@@ -10,7 +10,8 @@ from esair_min.errors import GenerateError
 from esair_min.model.board import Board
 from esair_min.model.robot import Robot
 
-from .context import board_context
+from .buildid import central_build_id
+from .context import board_context, central_context
 from .drive import drive_context
 from .omni import omni_central_context
 from .render import render_board
@@ -60,7 +61,12 @@ def render_robot(robot: Robot) -> dict[str, str]:
             continue
         folder = template_folder(board)
         builder = EXTRA_BUILDERS.get(folder)
-        ctx = builder(robot) if builder else board_context(robot, board.role)
+        if builder:
+            ctx = builder(robot)
+        elif board.role == "central":   # the build id hashes the sources it goes into
+            ctx = central_context(robot, central_build_id(robot))
+        else:
+            ctx = board_context(robot, board.role)
         for rel, text in render_board(folder, ctx).items():
             files[f"{board.role}/{rel}"] = text
     if not files:

@@ -2,9 +2,12 @@
 the one class importer of ESAIR STD (the deployment check, the runtime, agents).
 
 The module is imported from the deployment file's folder first, then ``sys.path``:
-the folder is moved to the front of ``sys.path`` (and stays there, so the user's
-modules can import their neighbours later), and a module of the same name already
-imported from elsewhere is imported afresh from the folder. Every failure is one
+only the module the ``class:`` names is looked up in the folder first (a finder at the
+front of ``sys.meta_path`` knows those names, :class:`_OwnModules`); the folder is
+added at the END of ``sys.path``, so the user's modules still import their neighbours,
+while a file of the folder named like an installed module (``numpy.py``) shadows
+nothing. A module of the same name already imported from elsewhere is imported afresh
+from the folder. Every failure is one
 :class:`DeployError` at the entry's ``class:`` value, with a did-you-mean.
 Imports are serialised by a lock (``sys.path`` and ``sys.modules`` are global).
 
@@ -34,6 +37,27 @@ from .errors import ComponentError, DeployError
 CLASS_PATTERN = r"^[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*:[A-Za-z_][A-Za-z0-9_]*$"
 
 _lock = threading.RLock()
+
+
+class _OwnModules:
+    """A meta path finder: the deployments' own top-level modules (those a ``class:``
+    names) from their folders, before ``sys.path``; nothing else."""
+
+    def __init__(self) -> None:
+        self.folders: dict[str, str] = {}
+
+    def find_spec(self, fullname: str, path: Any = None, target: Any = None) -> Any:
+        folder = self.folders.get(fullname)
+        if folder is None or path is not None:
+            return None
+        from importlib.machinery import PathFinder
+        return PathFinder.find_spec(fullname, [folder])
+
+    def invalidate_caches(self) -> None:
+        pass
+
+
+_own = _OwnModules()
 
 
 def load_class(spec: Any, base_dir: str | Path | None = None, *,
@@ -94,11 +118,15 @@ def _a(noun: str) -> str:
 
 def _import(module_name: str, base: Path | None, mark: Mark | None) -> Any:
     if base is not None:
-        folder = str(base)
-        if folder in sys.path:
-            sys.path.remove(folder)
-        sys.path.insert(0, folder)
-        _forget_if_elsewhere(module_name.split(".")[0], base)
+        folder, top = str(base), module_name.split(".")[0]
+        if folder not in sys.path:
+            sys.path.append(folder)             # its neighbours, after everything else
+        here = base / top
+        if here.with_suffix(".py").is_file() or (here / "__init__.py").is_file():
+            _own.folders[top] = folder
+            if _own not in sys.meta_path:
+                sys.meta_path.insert(0, _own)
+        _forget_if_elsewhere(top, base)
     try:
         return importlib.import_module(module_name)
     except ModuleNotFoundError as exc:

@@ -46,3 +46,18 @@ def endpoint_fault(text: str, key: str = "'endpoint'") -> str | None:
         return None
     hint = " (write an IPv6 address in brackets: [::1])" if ":" in host else ""
     return f"{key} host {quote(host)} is not an IP address or host name{hint}"
+
+
+def reaches_beyond(endpoint: str) -> bool:
+    """Whether other computers can reach ``endpoint`` (any address but loopback, a host
+    name but ``localhost``; a Unix socket never)."""
+    proto, _, rest = endpoint.partition("/")
+    if proto == "unixsock-stream":
+        return False
+    host = rest.rpartition(":")[0].strip("[]") if ":" in rest else rest
+    if host == "localhost":
+        return False
+    try:
+        return not ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return True

@@ -100,28 +100,46 @@ def schema(indent: int) -> None:
     click.echo(json.dumps(doc, indent=indent, sort_keys=True))
 
 
-@main.command(short_help="Write the EEPROM motion image (Intel HEX).")
+@main.command(short_help="Build the EEPROM motion image; write it into a robot (--write).")
 @ROBOT
-@click.option("-o", "--output", required=True, metavar="FILE",
-              help="Where to write the image (Intel HEX, or raw with --bin).")
-@click.option("--bin", "raw", is_flag=True, help="Write raw bytes instead of Intel HEX.")
+@click.option("-o", "--output", metavar="FILE",
+              help="Write the image to FILE (Intel HEX, or raw with --bin).")
+@click.option("--bin", "raw", is_flag=True, help="With -o: raw bytes instead of Intel HEX.")
+@click.option("--write", "write_port", metavar="PORT",
+              help="Put the image into the robot on PORT over its link (only the chunks "
+                   "that differ are written), then check it there.")
+@click.option("--verify", "verify_port", metavar="PORT",
+              help="Compare the robot's EEPROM on PORT with the image (status 1 if it differs).")
+@click.option("--read", "read_file", metavar="FILE",
+              help="Read the robot's image (from --port) into FILE (Intel HEX).")
+@click.option("--port", metavar="PORT", help="The port for --read.")
+@click.option("--baud", type=int, help="Baud of a real port (default: the board file's).")
+@click.option("--timeout", type=float, default=3.0, show_default=True,
+              help="Seconds to wait for each reply.")
 @friendly
-def eeprom(robot: str, output: str, raw: bool) -> None:
-    """Build the EEPROM motion image of a robot and write it as Intel HEX."""
-    from esair_min.errors import ImageError
-    from esair_min.core.image import build_image, image_summary, write_hex
+def eeprom(robot: str, output: str | None, raw: bool, write_port: str | None,
+           verify_port: str | None, read_file: str | None, port: str | None,
+           baud: int | None, timeout: float) -> None:
+    """Build the EEPROM motion image of a robot (-o FILE), or put it into the robot over
+    its serial link (--write PORT), compare (--verify PORT) or read it back (--read FILE
+    --port PORT). Over the link the robot answers image=bad and plays nothing from the
+    first chunk written until the commit has checked the whole image (docs/protocol.md)."""
+    from esair_min.cli.eeprom import build_file, over_link
 
+    modes = [m for m in (output, write_port, verify_port, read_file) if m is not None]
+    if len(modes) != 1:
+        raise click.UsageError("give one of -o FILE, --write PORT, --verify PORT, "
+                               "--read FILE")
+    if (read_file is None) != (port is None):
+        raise click.UsageError("--port goes with --read (and --read needs it)")
     model = load(robot)
-    data = build_image(model)
-    if raw:
-        try:
-            with open(output, "wb") as f:
-                f.write(data)
-        except OSError as exc:
-            raise ImageError(f"cannot write {output}: {exc.strerror}") from None
-    else:
-        write_hex(data, output)
-    click.echo(f"{image_summary(model, data)} -> {output}")
+    if output is not None:
+        click.echo(build_file(model, output, raw))
+        return
+    status = over_link(model, write_port or verify_port or port or "", baud,
+                       write_port is not None, verify_port is not None, read_file, timeout)
+    if status:
+        sys.exit(status)
 
 
 def _pose(text: str | None) -> tuple[float, float, float] | None:
@@ -162,6 +180,9 @@ def _pose(text: str | None) -> tuple[float, float, float] | None:
 @click.option("--nack-actuator", is_flag=True, help="Fault: the actuator board never ACKs.")
 @click.option("--no-sensor", is_flag=True, help="Fault: no sensor board on the bus.")
 @click.option("--corrupt-eeprom", is_flag=True, help="Fault: one byte of the image flipped.")
+@click.option("--eeprom", "eeprom_file", type=click.Path(dir_okay=False), metavar="FILE",
+              help="Keep the EEPROM's contents in FILE across runs (a new file: a blank "
+                   "EEPROM); every write goes to it at once.")
 @click.option("--stuck-bus", is_flag=True,
               help="Fault: SCL held low; every I2C transfer times out (E10).")
 @click.option("--noise", type=float, default=0.0, metavar="BYTES/S",
@@ -183,7 +204,7 @@ def emulate(robot: str, pty: bool, run_s: float | None, sends: tuple[str, ...],
             trace_rx: bool, speed: float | None, nack_actuator: bool, no_sensor: bool,
             corrupt_eeprom: bool, stuck_bus: bool,
             noise: float, seed: int, room: str | None, instance: str | None,
-            pose: str | None, world_out: str | None) -> None:
+            pose: str | None, world_out: str | None, eeprom_file: str | None) -> None:
     """Run the emulated robot behind a pseudo-terminal (--pty) or headless (--run).
 
     With --pty it serves until Ctrl-C or SIGTERM; when standard output is a terminal,
@@ -204,7 +225,8 @@ def emulate(robot: str, pty: bool, run_s: float | None, sends: tuple[str, ...],
         trace_rx=trace_rx, speed=speed,
         faults=Faults(nack_actuator, no_sensor, corrupt_eeprom, noise, seed, stuck_bus),
         room=Path(room) if room else None, instance=instance, pose=_pose(pose),
-        world_out=Path(world_out) if world_out else None)
+        world_out=Path(world_out) if world_out else None,
+        eeprom=Path(eeprom_file) if eeprom_file else None)
     status = run_emulator(load(robot), opts)
     if status:
         sys.exit(status)

@@ -15,8 +15,8 @@ from typing import Callable
 from esair_min.core import protocol as P
 from esair_min.core.i2c_bus import Bus
 from esair_min.core.decoder import CommandTable, LineAssembler, Row
-from esair_min.core.image import build_image, crc16_ccitt
-from esair_min.components.motion.layout import HEADER_BYTES
+from esair_min.core.image import crc16_ccitt
+from esair_min.components.motion.layout import DIR_ENTRY_BYTES, HEADER_BYTES, MAGIC, VERSION
 from esair_min.core.player import BalanceReaction, Player
 from esair_min.core.protocol import Code
 from esair_min.model.encoding import encode_pair, pair_fits
@@ -24,17 +24,25 @@ from esair_min.model.robot import Robot
 
 #: Bytes per EEPROM read while checking the image at reset (docs/protocol.md, Reset).
 CHECK_CHUNK = 32
+#: The first magic byte of an image while it is being written (docs/protocol.md,
+#: "Writing the motion image"): the header chunk is stored with it, commit writes 'E'.
+OPEN_MAGIC = 0xFF
+#: Actions refused while a motion plays (E07).
+BUSY_ACTIONS = frozenset({"stand", "motor", "angles", "play", "image_write", "image_read",
+                          "image_commit"})
 
 
 class CentralCore:
     """The central board's decoder, command execution, frame player and reaction."""
 
     def __init__(self, robot: Robot, bus: Bus, send: Callable[[bytes], None],
-                 robot_id: str | None = None):
+                 robot_id: str | None = None, build_id: str | None = None):
         self.robot = robot
         # the v reply's id= (docs/protocol.md, "Robot id"): an emulator's boot; the
         # firmware has none
         self.robot_id = robot_id
+        # the firmware's build id (codegen.build_id) in v and !READY; None: no build=
+        self.build_id = build_id
         self.bus = bus
         self.send = send
         servos = robot.servos
@@ -54,14 +62,14 @@ class CentralCore:
         self._readings = struct.Struct(f"<{self._n_sensors}H")
         self._eeprom = eep.address if eep else None
         self._eeprom_abytes = eep.address_bytes if eep else 2
-        self._image = build_image(robot) if eep else b""   # "compiled into the firmware"
+        self._eeprom_size = eep.size_bytes if eep else 0
+        self._page = eep.page_bytes if eep else 1
         self._lines = LineAssembler()
         self._feed = self._lines.feed
         self._speeds = list(self._default_speeds)
         self._targets = list(self._stand)
         self._player = Player(bus, self._eeprom or 0, self._eeprom_abytes,
-                              self._actuator or 0, self._limits, robot.layout.slots,
-                              self._targets)
+                              self._actuator or 0, self._limits, self._targets)
         sensors = robot.sensors
         self._reactions = tuple(
             BalanceReaction(r.name,
@@ -71,6 +79,10 @@ class CentralCore:
             for r in robot.central.reactions)
         self._held: tuple[bytes, dict[int, int]] | None = None
         self._image_ok = False
+        self._crc = 0            # the valid image's CRC (v, !READY)
+        self._count = 0          # motions in its directory
+        self._w_open = False     # an image write is open (its header chunk was written)
+        self._w_len = 0          # that image's length
         self._ticks = 0
         self._last_sensors: tuple[int, ...] | None = None
 
@@ -90,6 +102,16 @@ class CentralCore:
     @property
     def image_ok(self) -> bool:
         return self._image_ok
+
+    @property
+    def image_crc(self) -> int | None:
+        """The CRC of the valid image, None while the image is not valid."""
+        return self._crc if self._image_ok else None
+
+    @property
+    def writing(self) -> bool:
+        """An image write is open (until a commit that checks)."""
+        return self._w_open
 
     @property
     def last_sensors(self) -> tuple[int, ...] | None:
@@ -117,25 +139,45 @@ class CentralCore:
         self._held = None
         self._ticks = 0
         self._last_sensors = None
-        self._image_ok = self._check_image()
-        self.send(P.ready_line(self._image_ok))
+        self._w_open = False
+        self._image_ok = self._check_image(MAGIC[0])
+        self.send(P.ready_line(self._image_ok, self._crc, self.build_id))
 
-    def _check_image(self) -> bool:
-        """Header (one read) against the compiled one, then its body in reads of
-        CHECK_CHUNK bytes against the compiled CRC."""
+    def _check_image(self, magic0: int) -> bool:
+        """The image on the EEPROM (docs/protocol.md, Reset): its header (one read), the
+        bytes it covers in reads of CHECK_CHUNK against its CRC, then each directory
+        entry (one read each): its servo count is this robot's, its frames follow the
+        previous motion's, the last ends the image. ``magic0``: the first magic byte
+        expected ('E'; OPEN_MAGIC while a write is open)."""
         if self._eeprom is None:
             return True
-        expected = self._image
         header = self._read_eeprom(0, HEADER_BYTES)
-        if header is None or header != expected[:HEADER_BYTES]:
+        if (header is None or header[0] != magic0 or header[1] != MAGIC[1]
+                or header[2] != VERSION):
+            return False
+        count = header[3]
+        length = header[4] | header[5] << 8
+        expect = HEADER_BYTES + DIR_ENTRY_BYTES * count   # where the frames must start
+        if length > self._eeprom_size or length < expect:
             return False
         crc = 0xFFFF
-        for at in range(HEADER_BYTES, len(expected), CHECK_CHUNK):
-            chunk = self._read_eeprom(at, min(CHECK_CHUNK, len(expected) - at))
+        for at in range(HEADER_BYTES, length, CHECK_CHUNK):
+            chunk = self._read_eeprom(at, min(CHECK_CHUNK, length - at))
             if chunk is None:
                 return False
             crc = crc16_ccitt(chunk, crc)
-        return crc == int.from_bytes(expected[6:8], "little")
+        if crc != header[6] | header[7] << 8:
+            return False
+        for i in range(count):
+            entry = self._read_eeprom(HEADER_BYTES + DIR_ENTRY_BYTES * i, DIR_ENTRY_BYTES)
+            if entry is None or entry[3] != self._n or entry[4] | entry[5] << 8 != expect:
+                return False
+            expect = (expect + entry[1] * 2 * self._n) & 0xFFFF
+        if expect != length:
+            return False
+        self._crc = crc
+        self._count = count
+        return True
 
     def _read_eeprom(self, at: int, n: int) -> bytes | None:
         assert self._eeprom is not None
@@ -189,7 +231,7 @@ class CentralCore:
             self.send(P.ERROR_LINE[row])
             return
         action = row.action
-        if action in ("stand", "motor", "angles", "play") and self._player.playing is not None:
+        if action in BUSY_ACTIONS and self._player.playing is not None:
             self.send(P.ERROR_LINE[Code.BUSY])
             return
         args = table.parse(row, body)
@@ -227,7 +269,8 @@ class CentralCore:
         if action == "version":
             self.send(P.ok_line(P.version_data(self._n, self._n_sensors,
                                                len(self.robot.motions), self._image_ok,
-                                               self._checksum, self.robot_id)))
+                                               self._checksum, self.robot_id, self._crc,
+                                               self.build_id)))
             return None
         if action == "sensors":
             values = self._read_sensors()
@@ -238,6 +281,16 @@ class CentralCore:
         if action == "stop":
             self._player.stop()
             self.send(P.OK_LINE)
+            return None
+        if action == "image_write":
+            return self._image_write(args[0])
+        if action == "image_read":
+            return self._image_read(args[0])
+        if action == "image_commit":
+            return self._image_commit()
+        if action == "i2c_scan":
+            found = [a for a in range(P.SCAN_FIRST, P.SCAN_LAST + 1) if self.bus.write(a, b"")]
+            self.send(("OK" + "".join(f" {a:02X}" for a in found)).encode() + P.EOL)
             return None
         raise AssertionError(f"unknown action {action}")  # the model allows no other
 
@@ -255,12 +308,90 @@ class CentralCore:
         return None
 
     def _play(self, number: int) -> Code | None:
-        if not self._player.has(number):
-            return Code.NO_MOTION
         if not self._image_ok:
             return Code.IMAGE_INVALID
-        if not self._player.start(number):
+        code = self._start(number)
+        if code is not None:
+            return code
+        self.send(P.OK_LINE)
+        return None
+
+    def _start(self, number: int) -> Code | None:
+        """Find motion ``number`` in the image's directory (one read per entry, in
+        order) and start it; E08 if it has none, E10 if a read fails."""
+        self._player.stop()
+        for i in range(self._count):
+            entry = self._read_eeprom(HEADER_BYTES + DIR_ENTRY_BYTES * i, DIR_ENTRY_BYTES)
+            if entry is None:
+                return Code.NO_ANSWER
+            if entry[0] == number:
+                ok = self._player.start(number, entry[1], entry[2], entry[4] | entry[5] << 8)
+                return None if ok else Code.NO_ANSWER
+        return Code.NO_MOTION
+
+    # -- writing the image (docs/protocol.md, "Writing the motion image") ---------------
+    def _image_write(self, raw: bytes) -> Code | None:
+        """``raw``: address (2 bytes), data, checksum byte."""
+        if sum(raw) & 0xFF:
+            return Code.BAD_CHECKSUM
+        at = raw[0] << 8 | raw[1]
+        data = bytearray(raw[2:-1])
+        k = len(data)
+        if at == 0:             # the header: its length bounds the writes that follow
+            length = data[4] | data[5] << 8 if k >= HEADER_BYTES else 0
+            if k < HEADER_BYTES or length > self._eeprom_size:
+                return Code.BAD_ARGUMENT
+        elif not self._w_open or at < HEADER_BYTES or at + k > self._w_len:
+            return Code.BAD_ARGUMENT
+        if at % self._page + k > self._page:
+            return Code.BAD_ARGUMENT
+        if at == 0:
+            self._w_open = True
+            self._w_len = length
+            self._image_ok = False
+            data[0] = OPEN_MAGIC
+        return self._eeprom_write(at, bytes(data))
+
+    def _eeprom_write(self, at: int, data: bytes) -> Code | None:
+        """One page write, then ACK polling until its write cycle ends; OK or E10."""
+        assert self._eeprom is not None
+        if not self.bus.write(self._eeprom, at.to_bytes(self._eeprom_abytes, "big") + data):
             return Code.NO_ANSWER
+        for _ in range(P.POLL_MAX):
+            if self.bus.write(self._eeprom, b""):
+                self.send(P.OK_LINE)
+                return None
+        return Code.NO_ANSWER
+
+    def _image_read(self, raw: bytes) -> Code | None:
+        at, n = raw[0] << 8 | raw[1], raw[2]
+        if not 1 <= n <= P.READ_MAX or at + n > self._eeprom_size:
+            return Code.BAD_ARGUMENT
+        data = self._read_eeprom(at, n)
+        if data is None:
+            return Code.NO_ANSWER
+        self.send(b"OK " + (data + bytes((P.chunk_checksum(at, data),))).hex().upper().encode()
+                  + P.EOL)
+        return None
+
+    def _image_commit(self) -> Code | None:
+        """With a write open: check the image as written (first magic byte OPEN_MAGIC),
+        then write its 'E'. Always: check the image as at reset; OK if it is valid."""
+        if self._w_open:
+            if not self._check_image(OPEN_MAGIC):
+                return Code.IMAGE_INVALID
+            assert self._eeprom is not None
+            if not self.bus.write(self._eeprom, bytes(self._eeprom_abytes) + MAGIC[:1]):
+                return Code.NO_ANSWER
+            for _ in range(P.POLL_MAX):
+                if self.bus.write(self._eeprom, b""):
+                    break
+            else:
+                return Code.NO_ANSWER
+            self._w_open = False
+        self._image_ok = self._check_image(MAGIC[0])
+        if not self._image_ok:
+            return Code.IMAGE_INVALID
         self.send(P.OK_LINE)
         return None
 
@@ -302,5 +433,6 @@ class CentralCore:
             if r.sample(values) and self._image_ok:
                 self._player.stop()
                 self.send(P.reaction_line(r.name))
-                if not self._player.start(r.motion):
-                    self.send(P.NOTICE_LINE[Code.NO_ANSWER])
+                code = self._start(r.motion)
+                if code is not None:
+                    self.send(P.NOTICE_LINE[code])

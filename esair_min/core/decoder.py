@@ -148,6 +148,7 @@ class Row:
     prefix: bytes
     length: int            # characters of a matching line, checksum excluded
     motion: int | None     # fixed play: the motion number
+    variable: bool = False  # lines of any length from ``length`` on match (image_write)
 
 
 @dataclass(frozen=True)
@@ -168,7 +169,8 @@ class CommandTable:
         self.servos = servos
         self.require_checksum = require_checksum
         self.rows = tuple(Row(c, c.action, c.prefix.encode("ascii"), c.length(servos),
-                              motion_numbers.get(c.motion) if c.motion else None)
+                              motion_numbers.get(c.motion) if c.motion else None,
+                              c.variable)
                           for c in commands)
 
     # -- checks in contract order ------------------------------------------------------
@@ -192,7 +194,7 @@ class CommandTable:
         n = len(body)
         for row in self.rows:
             if body.startswith(row.prefix):
-                if row.length == n:
+                if row.length == n or (row.variable and n > row.length):
                     return row
                 prefixed = True
         return Code.BAD_ARGUMENT if prefixed else Code.UNKNOWN
@@ -231,7 +233,16 @@ class CommandTable:
                 else:
                     return None
             return tuple(angles)
-        return ()   # stand, version, sensors, stop take no arguments
+        if action == "image_write":
+            # address, data bytes, checksum byte: an even count of hex digits
+            if len(a) % 2:
+                return None
+            raw = _hex_bytes(a)
+            return None if raw is None else (raw,)
+        if action == "image_read":
+            raw = _hex_bytes(a)
+            return None if raw is None else (raw,)
+        return ()   # stand, version, sensors, stop, image_commit, i2c_scan: no arguments
 
     def decode(self, line: bytes) -> Code | Decoded:
         """Checksum, match and arguments of one line (no busy check): for clients/tests."""
@@ -243,6 +254,20 @@ class CommandTable:
             return row
         args = self.parse(row, body)
         return Code.BAD_ARGUMENT if args is None else Decoded(row, args)
+
+
+_HEX_VALUE = {c: i for i, c in enumerate(_HEX)}
+
+
+def _hex_bytes(a: bytes) -> bytes | None:
+    """Pairs of upper-case hex digits as bytes, or None if a character is not one."""
+    out = bytearray()
+    for i in range(0, len(a) - 1, 2):
+        hi, lo = _HEX_VALUE.get(a[i]), _HEX_VALUE.get(a[i + 1])
+        if hi is None or lo is None:
+            return None
+        out.append(hi << 4 | lo)
+    return bytes(out)
 
 
 def _digits(a: bytes, start: int, count: int) -> int:

@@ -7,7 +7,7 @@ Each device answers ``write(data)`` and ``write_read(wdata, n)``; a device whose
 
 from __future__ import annotations
 
-from typing import Iterable, Protocol, Sequence
+from typing import Callable, Iterable, Protocol, Sequence
 
 from esair_min.errors import ProtocolError
 
@@ -40,10 +40,14 @@ class Eeprom24:
     data from the address on (random-address writes, wrapping at ``size``)."""
 
     def __init__(self, size: int, address: int, address_bytes: int = 2,
-                 data: bytes = b""):
+                 data: bytes = b"", page: int = 0):
         if len(data) > size:
             raise ProtocolError(f"{len(data)} bytes do not fit a {size}-byte EEPROM")
         self.size = size
+        #: page write size (a power of two): a write wraps inside its page; 0: no pages
+        self.page = page
+        #: called with (offset, bytes) after each stored write (a file behind the chip)
+        self.on_store: Callable[[int, bytes], None] | None = None
         self.address = address
         self.address_bytes = address_bytes
         self.memory = bytearray(b"\xff" * size)
@@ -74,9 +78,22 @@ class Eeprom24:
     def write(self, data: bytes) -> bool:
         if self.fault:
             return False
-        for b in self._set_pointer(data):
-            self.memory[self.pointer] = b
-            self.pointer = (self.pointer + 1) % self.size
+        payload = self._set_pointer(data)
+        page = self.page
+        start = self.pointer
+        store = self.on_store
+        if page and start % page + len(payload) <= page:    # one page, no wrap: a slice
+            self.memory[start:start + len(payload)] = payload
+            self.pointer = start - start % page + (start + len(payload)) % page
+            if payload and store is not None:
+                store(start, bytes(payload))
+            return True
+        for b in payload:
+            p = self.pointer
+            self.memory[p] = b
+            self.pointer = (p - p % page + (p + 1) % page) if page else (p + 1) % self.size
+            if store is not None:
+                store(p, bytes((b,)))
         return True
 
     def write_read(self, wdata: bytes, n: int) -> bytes | None:

@@ -96,8 +96,8 @@ def build_image(robot: Robot) -> bytes:
     frames = bytearray()
     for slot in layout.slots:
         m = by_number[slot.number]
-        directory += struct.pack("<BBBBH", slot.number, slot.frames, slot.delay_ticks, 0,
-                                 slot.offset)
+        directory += struct.pack("<BBBBH", slot.number, slot.frames, slot.delay_ticks,
+                                 len(servos), slot.offset)
         for f, frame in enumerate(m.frames):
             if len(frame.angles) != len(servos):
                 raise ImageError(f"motion '{m.name}' frame {f}: {len(frame.angles)} angles "
@@ -139,19 +139,23 @@ def parse_image(data: bytes, robot: Robot | None = None) -> ParsedImage:
     entries = [struct.unpack_from("<BBBBH", data, HEADER_BYTES + DIR_ENTRY_BYTES * i)
                for i in range(h.count)]
     last = -1
-    for number, count, delay, reserved, _ in entries:
+    servo_counts = {e[3] for e in entries}
+    for number, count, delay, servos, _ in entries:
         if number <= last or number > 99:
             raise ImageError(f"directory: motion number {number} out of order or above 99")
-        if count == 0 or delay == 0 or reserved != 0:
+        if count == 0 or delay == 0 or servos == 0 or len(servo_counts) > 1:
             raise ImageError(f"directory: motion {number} has frames {count}, "
-                             f"delay {delay}, reserved {reserved}")
+                             f"delay {delay}, servos {servos}")
+        if robot is not None and servos != len(robot.servos):
+            raise ImageError(f"directory: motion {number} has {servos} servos, the robot "
+                             f"{len(robot.servos)}")
         last = number
     total_frames = sum(e[1] for e in entries)
     frames_bytes = h.length - dir_end
     if robot is not None:
         frame_bytes = 2 * len(robot.servos)
-    elif total_frames and frames_bytes % total_frames == 0:
-        frame_bytes = frames_bytes // total_frames
+    elif servo_counts:
+        frame_bytes = 2 * next(iter(servo_counts))
     else:
         frame_bytes = 0
     if (frame_bytes == 0 or frame_bytes % 2 or frame_bytes * total_frames != frames_bytes) and (

@@ -12,7 +12,6 @@ from esair_min.core.protocol import Code
 
 if TYPE_CHECKING:
     from esair_min.core.i2c_bus import Bus
-    from esair_min.components.motion.layout import MotionSlot
 
 
 #: frames whose check is remembered (a motion replays the same few frames)
@@ -24,38 +23,34 @@ class Player:
     write to the actuator board per frame, on ticks."""
 
     def __init__(self, bus: Bus, eeprom: int, address_bytes: int, actuator: int,
-                 limits: Sequence[tuple[int, int]], slots: Sequence[MotionSlot],
-                 targets: list[int]):
+                 limits: Sequence[tuple[int, int]], targets: list[int]):
         self.bus = bus
         self.eeprom = eeprom
         self.address_bytes = address_bytes
         self.actuator = actuator
         self.limits = tuple(limits)
         self.frame_bytes = 2 * len(self.limits)
-        self.slots = {s.number: s for s in slots}
         self.targets = targets          # the core's list, updated on every frame written
         self.playing: int | None = None
-        self._slot: MotionSlot | None = None
+        self._frames = 0                # of the playing motion (its directory entry)
+        self._delay = 0
+        self._offset = 0
         self._next = 0                  # index of the frame held in _frame
         self._frame: bytes = b""
         self._wait = 0                  # ticks until the held frame is written
         self._checked: dict[bytes, tuple[list[int], bytes] | Literal[False]] = {}   # frame -> _check
 
-    def has(self, number: int) -> bool:
-        return number in self.slots
-
     def stop(self) -> None:
         """End the motion at once; a frame already read is dropped."""
         self.playing = None
-        self._slot = None
         self._frame = b""
 
-    def start(self, number: int) -> bool:
-        """Read the first frame of motion ``number``; False (and idle) if the read failed.
+    def start(self, number: int, frames: int, delay: int, offset: int) -> bool:
+        """Read the first frame of motion ``number`` (its directory entry: frames, delay
+        in ticks, offset of its first frame); False (and idle) if the read failed.
         The frame is written at the next tick."""
         self.stop()
-        slot = self.slots[number]
-        self._slot = slot
+        self._frames, self._delay, self._offset = frames, delay, offset
         self.playing = number
         self._next = 0
         if not self._read():
@@ -65,9 +60,7 @@ class Player:
         return True
 
     def _read(self) -> bool:
-        slot = self._slot
-        assert slot is not None
-        addr = slot.offset + self._next * self.frame_bytes
+        addr = (self._offset + self._next * self.frame_bytes) & 0xFFFF
         data = self.bus.write_read(self.eeprom, addr.to_bytes(self.address_bytes, "big"),
                                    self.frame_bytes)
         if data is None or len(data) != self.frame_bytes:
@@ -91,8 +84,8 @@ class Player:
         """One tick. Returns the code of a notice when the motion stopped on an error."""
         if self.playing is None:
             return None
-        self._wait -= 1
-        if self._wait > 0:
+        self._wait = (self._wait - 1) & 0xFF      # a byte, as in the C (delay 0: 256 ticks)
+        if self._wait:
             return None
         frame = self._frame
         checked = self._checked.get(frame)
@@ -108,16 +101,14 @@ class Player:
             self.stop()
             return Code.NO_ANSWER
         self.targets[:] = angles
-        slot = self._slot
-        assert slot is not None
         self._next += 1
-        if self._next >= slot.frames:
+        if self._next >= self._frames:
             self.stop()
             return None
         if not self._read():
             self.stop()
             return Code.NO_ANSWER
-        self._wait = slot.delay_ticks
+        self._wait = self._delay
         return None
 
 

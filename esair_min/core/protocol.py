@@ -24,9 +24,19 @@ ANGLE_CODE_LAST = 0x6C
 KEEP_CODE = "."
 #: The central board's UART rings (every port and the emulator): bytes received and
 #: not yet decoded, and bytes of replies not yet sent. The transmit ring holds the
-#: longest reply (``v`` with a checksum, 73 bytes) with one slot always free.
+#: longest reply (``v`` of a board requiring checksums, with its image CRC and build
+#: id: 91 bytes) with one slot always free.
 RX_RING = 64
-TX_RING = 80
+TX_RING = 96
+#: Data bytes a read of the image (``image_read``) returns at most: it is read into the
+#: core's buffer whole before the reply starts (so a failed read answers E10 alone).
+READ_MAX = 16
+#: The I2C addresses ``i2c_scan`` probes (0x00..0x07 and 0x78..0x7F are reserved).
+SCAN_FIRST = 0x08
+SCAN_LAST = 0x77
+#: Probes of the EEPROM after a page write before the write cycle counts as hung:
+#: each probe is ~11 bit times, so this covers the 24LC256's 5 ms at 400 kHz.
+POLL_MAX = 250
 
 
 class Code(IntEnum):
@@ -71,8 +81,15 @@ ERROR_LINE: dict[Code, bytes] = {c: t.encode() + EOL for c, t in ERROR_TEXT.item
 NOTICE_LINE: dict[Code, bytes] = {c: b"!" + t.encode() + EOL for c, t in ERROR_TEXT.items()}
 
 
-def ready_line(image_ok: bool) -> bytes:
-    return f"!READY {PROTOCOL_NAME} image={'ok' if image_ok else 'bad'}".encode() + EOL
+def image_state(image_ok: bool, crc: int = 0) -> str:
+    """``ok crc=HHHH`` (the valid image's CRC-16, upper-case hex) or ``bad``."""
+    return f"ok crc={crc:04X}" if image_ok else "bad"
+
+
+def ready_line(image_ok: bool, crc: int = 0, build: str | None = None) -> bytes:
+    """``!READY``; ``build`` is the firmware's build id (``build=``, last)."""
+    return (f"!READY {PROTOCOL_NAME} image={image_state(image_ok, crc)}"
+            + (f" build={build}" if build is not None else "")).encode() + EOL
 
 
 def reaction_line(name: str) -> bytes:
@@ -84,12 +101,19 @@ def ok_line(data: str | None = None) -> bytes:
 
 
 def version_data(servos: int, sensors: int, motions: int, image_ok: bool,
-                 checksum: bool, robot_id: str | None = None) -> str:
-    """The ``v`` reply's data; ``robot_id`` (esair_min.model.identity) ends it as
-    ``id=...`` when given."""
+                 checksum: bool, robot_id: str | None = None, crc: int = 0,
+                 build: str | None = None) -> str:
+    """The ``v`` reply's data: ``image=ok crc=HHHH`` or ``image=bad``, then the firmware's
+    ``build=`` id when given, then ``robot_id`` (esair_min.model.identity) as ``id=...``."""
     return (f"{PROTOCOL_NAME} servos={servos} sensors={sensors} motions={motions} "
-            f"image={'ok' if image_ok else 'bad'} checksum={'on' if checksum else 'off'}"
+            f"image={image_state(image_ok, crc)} checksum={'on' if checksum else 'off'}"
+            + (f" build={build}" if build is not None else "")
             + (f" id={robot_id}" if robot_id is not None else ""))
+
+
+def version_fields(data: str) -> dict[str, str]:
+    """The ``key=value`` words of a ``v`` reply's data (``crc`` only with a valid image)."""
+    return dict(w.split("=", 1) for w in data.split() if "=" in w)
 
 
 # -- checksum -------------------------------------------------------------------------
@@ -190,6 +214,41 @@ def encode_sensors(prefix: str = "s") -> str:
 
 def encode_stop(prefix: str = "x") -> str:
     return prefix
+
+
+def chunk_checksum(address: int, data: bytes | bytearray) -> int:
+    """The byte that makes the address's two bytes, the data and itself sum to 0 (mod 256)."""
+    return -((address >> 8) + (address & 0xFF) + sum(data)) & 0xFF
+
+
+def encode_image_write(address: int, data: bytes | bytearray, prefix: str = "w") -> str:
+    """``wAAAA<data hex><checksum hex>``: write ``data`` at image ``address``."""
+    if not 0 <= address <= 0xFFFF:
+        raise ProtocolError(f"address {address} is outside 0..65535")
+    if not data:
+        raise ProtocolError("a chunk needs at least one byte")
+    return (f"{prefix}{address:04X}{bytes(data).hex().upper()}"
+            f"{chunk_checksum(address, data):02X}")
+
+
+def encode_image_read(address: int, count: int, prefix: str = "r") -> str:
+    """``rAAAANN``: read ``count`` bytes (1..READ_MAX) of the EEPROM from ``address``."""
+    if not 0 <= address <= 0xFFFF:
+        raise ProtocolError(f"address {address} is outside 0..65535")
+    if not 1 <= count <= READ_MAX:
+        raise ProtocolError(f"count {count} is outside 1..{READ_MAX}")
+    return f"{prefix}{address:04X}{count:02X}"
+
+
+def decode_image_read(address: int, data: str) -> bytes:
+    """The bytes of a read's ``OK`` data (hex bytes, then the checksum byte)."""
+    try:
+        raw = bytes.fromhex(data)
+    except ValueError:
+        raise ProtocolError(f"not hex bytes: {data!r}") from None
+    if len(raw) < 2 or chunk_checksum(address, raw[:-1]) != raw[-1]:
+        raise ProtocolError(f"bad checksum in the read reply {data!r}")
+    return raw[:-1]
 
 
 def frame_line(line: str, checksum: bool = False) -> bytes:

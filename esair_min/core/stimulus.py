@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Callable, TextIO
 
 from esair_min.core.i2c_bus import Bus
+from esair_min.codegen.buildid import central_build_id
 from esair_min.core.central import CentralCore
 from esair_min.core.devices import Eeprom24, RegisterSlave, SimpleBus
 from esair_min.errors import EsairError, Mark, ProtocolError
@@ -58,13 +59,14 @@ class Rig:
         eep = robot.eeprom
         act, sen = robot.peer("actuator"), robot.peer("sensor")
         self.eeprom = (Eeprom24(eep.size_bytes, eep.address, eep.address_bytes,
-                                build_image(robot)) if eep else None)
+                                build_image(robot), eep.page_bytes) if eep else None)
         self.actuator = RegisterSlave(act.address, act.registers) if act else None
         self.sensor = RegisterSlave(sen.address, sen.registers) if sen else None
         devices = [d for d in (self.eeprom, self.actuator, self.sensor) if d is not None]
         self.lines = HeldBus(SimpleBus(devices))
         self.bus = TracingBus(self.lines, self.writer)
-        self.core = CentralCore(robot, self.bus, self.writer.tx)
+        self.core = CentralCore(robot, self.bus, self.writer.tx,
+                                build_id=central_build_id(robot))
         self.ring: deque[int] = deque()    # bytes, GAP set on the first after a loss
         self.lost = False                  # bytes were lost since the last one got in
         self.received = 0                  # bytes offered to the ring since the start

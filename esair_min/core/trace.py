@@ -73,6 +73,10 @@ class TraceWriter:
     def write(self, addr: int, data: bytes, ack: bool) -> None:
         self._emit(f"W {addr:02X} {bytes(data).hex().upper()} {'ACK' if ack else 'NACK'}")
 
+    def probe(self, addr: int, ack: bool) -> None:
+        """An address alone (START, address + W, STOP): ACK polling and i2c_scan."""
+        self._emit(f"P {addr:02X} {'ACK' if ack else 'NACK'}")
+
     def read(self, addr: int, wdata: bytes, n: int, rdata: bytes | None) -> None:
         got = "NACK" if rdata is None else bytes(rdata).hex().upper()
         self._emit(f"R {addr:02X} {bytes(wdata).hex().upper()} {n} {got}")
@@ -99,7 +103,10 @@ class TracingBus:
 
     def write(self, addr: int, data: bytes) -> bool:
         ack = self.bus.write(addr, data)
-        self.writer.write(addr, data, ack)
+        if data:
+            self.writer.write(addr, data, ack)
+        else:
+            self.writer.probe(addr, ack)
         return ack
 
     def write_read(self, addr: int, wdata: bytes, n: int) -> bytes | None:

@@ -20,7 +20,9 @@ used. Options:
 - ``scenario=NAME|FILE``: sensor readings over time (docs/emulator.md);
 - ``trace=FILE``: write the event trace (docs/trace-format.md);
 - ``nack=actuator``, ``absent=sensor``, ``corrupt=eeprom``, ``noise=<bytes/s>``,
-  ``seed=<n>``: faults (:class:`~.faults.Faults`).
+  ``seed=<n>``: faults (:class:`~.faults.Faults`);
+- ``eeprom=blank``: the EEPROM starts blank (no motion image: ``esair eeprom --write``);
+  ``eeprom=FILE``: the EEPROM's contents live in FILE (``esair emulate --eeprom``).
 
 The port's baud rate setting is ignored: bytes travel at the robot's declared baud.
 """
@@ -30,6 +32,7 @@ from __future__ import annotations
 import threading
 import time
 import urllib.parse
+from pathlib import Path
 
 from serial.serialutil import PortNotOpenError, SerialBase, SerialException
 from serial.serialutil import to_bytes  # type: ignore[attr-defined]  # pyserial has it; its stubs do not
@@ -42,7 +45,8 @@ from esair_min.emulator.papaman.robot_sim import Emulator
 
 SCHEME = "esair://"
 MAX_BLOCK_S = 60.0        # virtual seconds a read with timeout=None waits at speed=max
-OPTIONS = ("speed", "scenario", "trace", "nack", "absent", "corrupt", "stuck", "noise", "seed")
+OPTIONS = ("speed", "scenario", "trace", "nack", "absent", "corrupt", "stuck", "noise", "seed",
+           "eeprom")
 
 
 def parse_url(url: str) -> tuple[str, dict[str, str]]:
@@ -125,8 +129,12 @@ class Serial(SerialBase):
             if "trace" in opts:
                 self._trace_file = open(opts["trace"], "w", encoding="ascii")  # noqa: SIM115  (closed with the port)
                 trace = TraceWriter(self._trace_file, keep=False)
+            eeprom = opts.get("eeprom")
             self.emulator = Emulator(robot, scenario=opts.get("scenario"),
-                                     faults=faults, trace=trace)
+                                     faults=faults, trace=trace,
+                                     eeprom_image=b"" if eeprom == "blank" else None,
+                                     eeprom_file=Path(eeprom) if eeprom not in (None, "blank")
+                                     else None)
         except (EsairError, OSError) as exc:
             if self._trace_file is not None:
                 self._trace_file.close()

@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable, Protocol, TextIO
 
+from esair_min import sigs
 from esair_min.errors import EsairError
 from esair_min.model.robot import Robot
 from esair_min.emulator.clock import NS_PER_S, seconds_to_ns
@@ -44,6 +45,7 @@ class EmulateOptions:
     instance: str | None = None   # the v reply's instance; None: random with --pty
     pose: tuple[float, float, float] | None = None   # an omni-base robot's start (mm, mm, rad)
     world_out: Path | None = None  # an omni-base robot's true pose, to this datagram socket
+    eeprom: Path | None = None    # the EEPROM's contents in this file (kept across runs)
 
 
 def generate_first(robot: Robot, out_dir: Path, log: Callable[[str], None]) -> bytes | None:
@@ -87,7 +89,8 @@ class _Stop:
 
     def install(self) -> None:
         for sig in (signal.SIGTERM, signal.SIGINT):
-            self._old[sig] = signal.signal(sig, self)
+            if not sigs.ignored(sig):           # a background job keeps its ignore
+                self._old[sig] = signal.signal(sig, self)
 
     def restore(self) -> None:
         for sig, old in self._old.items():

@@ -95,7 +95,8 @@ class I2c(Section):
     devices: tuple[Device, ...] = Field((), description="what a master talks to")
 
 
-Action = Literal["stand", "motor", "play", "speeds", "angles", "version", "sensors", "stop"]
+Action = Literal["stand", "motor", "play", "speeds", "angles", "version", "sensors", "stop",
+                 "image_write", "image_read", "image_commit", "i2c_scan"]
 
 #: Characters of arguments each action takes after its prefix, per servo count N:
 #: ``speeds`` takes 3 digits per servo and ``angles`` one code per servo
@@ -103,7 +104,12 @@ Action = Literal["stand", "motor", "play", "speeds", "angles", "version", "senso
 ACTION_ARGS: dict[str, tuple[int, int]] = {   # (fixed, per servo)
     "stand": (0, 0), "motor": (5, 0), "play": (2, 0), "speeds": (0, 3), "angles": (0, 1),
     "version": (0, 0), "sensors": (0, 0), "stop": (0, 0),
+    # image_write: address (4 hex), at least one data byte (2 hex), checksum (2 hex);
+    # its lines have any length from that on (the only variable-length action)
+    "image_write": (8, 0), "image_read": (6, 0), "image_commit": (0, 0), "i2c_scan": (0, 0),
 }
+#: Actions whose lines may be longer than their arguments' minimum (more data bytes).
+VARIABLE_ACTIONS = frozenset({"image_write"})
 
 
 class Command(Section):
@@ -124,8 +130,14 @@ class Command(Section):
         return fixed + per_servo * servos
 
     def length(self, servos: int) -> int:
-        """Characters of a matching line, checksum suffix excluded."""
+        """Characters of a matching line, checksum suffix excluded (the shortest, for a
+        variable-length action)."""
         return len(self.prefix) + self.arg_chars(servos)
+
+    @property
+    def variable(self) -> bool:
+        """Lines of any length from :meth:`length` on match (``image_write``)."""
+        return self.action in VARIABLE_ACTIONS
 
 
 class Reaction(Section):

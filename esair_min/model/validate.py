@@ -425,9 +425,10 @@ class _Checker:
             if role is not None and role not in by_role:
                 self.report(central, loc_base + (i, "action"), f"command '{c.name}' "
                             f"(action {c.action}) needs a {role} board in this robot")
-            if c.action == "play" and central.device("eeprom") is None:
+            if (c.action == "play" or c.action.startswith("image_")) and \
+                    central.device("eeprom") is None:
                 self.report(central, loc_base + (i, "action"), f"command '{c.name}' "
-                            "(action play) needs an EEPROM among the I2C devices")
+                            f"(action {c.action}) needs an EEPROM among the I2C devices")
             for j in range(i):
                 o = commands[j]
                 if o.name == c.name:
@@ -435,8 +436,9 @@ class _Checker:
                                 f"command name '{c.name}' is already used at line "
                                 f"{self.doc(central).mark(loc_base + (j, 'name')).line}; "
                                 "each command needs its own name")
-                if o.length(n) == c.length(n) and (c.prefix.startswith(o.prefix)
-                                                   or o.prefix.startswith(c.prefix)):
+                same = (o.length(n) == c.length(n) or (o.variable and c.length(n) >= o.length(n))
+                        or (c.variable and o.length(n) >= c.length(n)))
+                if same and (c.prefix.startswith(o.prefix) or o.prefix.startswith(c.prefix)):
                     self.report(central, loc_base + (i, "prefix"),
                                 f"command '{c.name}' (prefix {c.prefix!r}, {c.length(n)}-char "
                                 f"lines) is ambiguous with '{o.name}' (prefix {o.prefix!r}, "

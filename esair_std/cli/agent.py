@@ -12,7 +12,9 @@ import click
 
 from esair_min.cli.pipes import friendly
 
+from ..endpoint import reaches_beyond
 from .jsontext import option_value
+from .options import exposure, insecure_option
 
 
 def _pairs(items: tuple[str, ...], what: str) -> dict[str, str]:
@@ -74,9 +76,10 @@ def _restart_policy(text: str | None, kind: str) -> tuple[int, float]:
               help="A behavior's restart policy, as restart: {max, within} in a deployment: "
                    "restarted by this agent at most MAX times in any WITHIN seconds "
                    "(default: never).")
+@insecure_option()
 @friendly
 def agent_cmd(endpoint, name, class_path, uses, allow, period, options, robot, ca, cert, key,
-              user, password_file, lease_ms, host_name, restart) -> None:
+              user, password_file, lease_ms, host_name, restart, insecure) -> None:
     """Run NAME (a Behavior, Sensor, Actuator or Driver class module:Class, imported from
     the current folder first) here, as an agent of the control center at --connect.
 
@@ -102,6 +105,9 @@ def agent_cmd(endpoint, name, class_path, uses, allow, period, options, robot, c
         raise click.BadParameter(f"{class_path} is not a Behavior, Sensor, Actuator or Driver",
                                  param_hint="module:Class")
     policy = _restart_policy(restart, kind)
+    if reaches_beyond(endpoint) and not (endpoint.startswith(("tls/", "quic/")) or user):
+        exposure(f"connecting to {endpoint}", "TLS (a tls/ endpoint, --ca and --cert) or a "
+                 "login (--user, --password-file)", insecure)
     sec = None
     if any((ca, cert, key, user, password_file)) or lease_ms is not None:
         lease = {} if lease_ms is None else {"lease_ms": lease_ms}

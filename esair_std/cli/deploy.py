@@ -54,13 +54,17 @@ def schema(indent: int) -> None:
 @friendly
 def new(example: str, folder: str) -> None:
     """Copy bundled example NAME (lab, papaman, starfish) into DIR: its deployment file and its
-    behaviors' modules, to edit. The copy passes `esair std check` and runs as is
-    (`esair std run DIR`); the classes are imported from DIR first."""
+    behaviors' modules, to edit. The copy is a robot of its own: DIR/DIR.yaml, named after
+    DIR, on a free loopback port; it passes `esair std check` and runs as is (`esair std run
+    DIR`); the classes are imported from DIR first."""
     from esair_std.deploy.bundled import copy_example
 
-    for path in copy_example(example, folder):
+    files, robot, endpoint = copy_example(example, folder)
+    for path in files:
         click.echo(f"wrote {path}")
     click.echo(f"run it: esair std run {folder}")
+    click.echo(f"robot {robot!r} listens on {endpoint}: other terminals give -e {endpoint} "
+               f"(or export ESAIR_STD_ENDPOINT={endpoint})")
 
 
 COMMANDS = (check, schema, new)

@@ -12,10 +12,12 @@ import sys
 
 import click
 
+from esair_min import sigs
 from esair_min.cli.pipes import friendly
 
 from ..plurals import counted
 from .client import default_endpoint
+from .options import exposure, insecure_option
 
 DEFAULT_LISTEN = "127.0.0.1:8080"
 
@@ -64,23 +66,26 @@ def tls_context(cert: str | None, key: str | None, client_ca: str | None) -> ssl
               help="Require browser certificates signed by this CA; such pages are operators.")
 @click.option("--record-dir", default=".", show_default=True, type=click.Path(file_okay=False),
               help="Where the page's record button writes its MCAP files (and replay reads).")
+@insecure_option()
 @friendly
 def hmi_cmd(endpoint: str | None, listen: str, password_file: str | None,
             tls_cert: str | None, tls_key: str | None, client_ca: str | None,
-            record_dir: str) -> None:
+            record_dir: str, insecure: bool) -> None:
     """Serve the robot's remote control center: live link state, pose, joints,
     feet, components and log in a browser; commands through the RS as principal
     `hmi` (the deployment's `allow` decides what it may command). Prints the URL on
     its first line and serves until Ctrl-C."""
     import logging
 
-    from ..hmi.auth import Auth
+    from ..hmi.auth import LOOPBACK, Auth
     from ..hmi.server import HmiServer
 
     host, port = split_listen(listen)
     tls = tls_context(tls_cert, tls_key, client_ca)
     auth = Auth.from_options(host, password_file, dict(os.environ),
-                             client_certs=bool(client_ca))
+                             client_certs=bool(client_ca), insecure=insecure)
+    if insecure and auth.open and host not in LOOPBACK:
+        exposure(f"listening on {host}", "", insecure)     # the warning
     os.environ.pop("ESAIR_HMI_PASSWORD", None)      # hashed in auth; not kept in the clear
     logging.basicConfig(level=logging.WARNING, format="hmi: %(message)s")
     logging.getLogger("websockets").setLevel(logging.ERROR)
@@ -91,7 +96,8 @@ def hmi_cmd(endpoint: str | None, listen: str, password_file: str | None,
         stop = asyncio.Event()
         loop = asyncio.get_running_loop()
         for sig in (signal.SIGINT, signal.SIGTERM):
-            loop.add_signal_handler(sig, stop.set)
+            if not sigs.ignored(sig):           # a background job keeps its ignore
+                loop.add_signal_handler(sig, stop.set)
 
         def ready(url: str) -> None:
             click.echo(url)
@@ -149,8 +155,8 @@ def record_cmd(out: str, names: tuple[str, ...], endpoint: str | None,
     from ..record import Recorder
     rec = Recorder(endpoint or default_endpoint(), out, list(names))
     stop = threading.Event()
-    signal.signal(signal.SIGTERM, lambda *_: stop.set())
-    signal.signal(signal.SIGINT, lambda *_: stop.set())
+    sigs.install(signal.SIGTERM, lambda *_: stop.set())
+    sigs.install(signal.SIGINT, lambda *_: stop.set())
     rec.start()
     click.echo(f"recording to {out}", err=True)
     stop.wait(seconds)

@@ -25,3 +25,23 @@ def endpoint_option(help_text: str) -> Any:
     return click.option("-e", "--endpoint", default=None, metavar="tcp/HOST:PORT",
                         envvar="ESAIR_STD_ENDPOINT", show_envvar=True,
                         callback=check_endpoint, help=help_text)
+
+
+def insecure_option() -> Any:
+    """``--insecure``: run on an address other computers reach without security."""
+    return click.option("--insecure", is_flag=True,
+                        help="Allow an address other computers reach without security "
+                             "(prints a warning): anyone on the network could command the "
+                             "robot.")
+
+
+def exposure(where: str, needs: str, insecure: bool) -> None:
+    """``where`` (``listening on tcp/0.0.0.0:7447``) reaches other computers without
+    security: refused, naming what it ``needs``, unless ``--insecure`` (then a warning
+    on stderr). The one wording of ``esair std run``, ``agent`` and ``hmi``."""
+    from ..errors import ControlError
+    if not insecure:
+        raise ControlError(f"{where} reaches other computers: it needs {needs}, or "
+                           "--insecure to go without")
+    click.echo(f"warning: {where} without security (--insecure): anyone on the network "
+               "can reach the robot", err=True)

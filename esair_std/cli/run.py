@@ -12,13 +12,15 @@ from typing import TYPE_CHECKING, Any
 
 import click
 
+from esair_min import sigs
 from esair_min.cli.pipes import friendly
 
 from ..errors import ControlError, TransportError
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..runtime import Runtime
-from .options import endpoint_option
+from ..endpoint import reaches_beyond
+from .options import endpoint_option, exposure, insecure_option
 from .table import table as _table
 
 
@@ -105,13 +107,15 @@ INTERRUPTED = 130
 @click.option("--stopped", is_flag=True,
               help="Start latched in the STOPPED state: no actuator command is taken until "
                    "`esair std release` (docs/std.md, \"The latched stop\").")
+@insecure_option()
 @friendly
 def run_cmd(deployment: str, mode: str | None, seconds: float | None, endpoint: str | None,
             no_control: bool, port: str | None, trace: str | None, scenario: str | None,
             top: bool | None, join: tuple[str, ...], hmi: bool, hmi_listen: str,
-            stopped: bool) -> None:
+            stopped: bool, insecure: bool) -> None:
     """Deploy FILE (a deployment file, or a bundled example such as `lab`) and run it
-    until Ctrl-C (exit status 130), or for --run SECONDS. Other terminals control it
+    until Ctrl-C (exit status 130), or for --run SECONDS (exit status 1, naming them,
+    when components are failed at the end). Other terminals control it
     with `esair std ls`, `add`, `remove`, `put`, ... over the control endpoint."""
     from ..deploy.bundled import resolve_deployment
     from ..runtime import Runtime
@@ -134,11 +138,15 @@ def run_cmd(deployment: str, mode: str | None, seconds: float | None, endpoint: 
         rt.control = True
     if hmi and not rt.control:
         raise ControlError("--hmi needs the control endpoint (drop --no-control)")
+    if rt.control and reaches_beyond(rt.endpoint) and not _secured(rt):
+        exposure(f"listening on {rt.endpoint}", "TLS client certificates (a tls/ endpoint) "
+                 "or logins: a security section (docs/std-network.md)", insecure)
     stop = threading.Event()
+    failed: list[dict] = []
     ctrl_c = _CtrlC(stop)
     old = signal.getsignal(signal.SIGTERM)
     try:
-        signal.signal(signal.SIGTERM, ctrl_c.on_sigterm)
+        sigs.install(signal.SIGTERM, ctrl_c.on_sigterm)
         with ctrl_c, rt:
             ctrl_c.started = True
             where = f", control endpoint {rt.endpoint}" if rt.control else ""
@@ -149,7 +157,7 @@ def run_cmd(deployment: str, mode: str | None, seconds: float | None, endpoint: 
             child = None
             if hmi:
                 from ..hmi.child import HmiChild
-                child = HmiChild(rt.local_endpoint or rt.endpoint, hmi_listen)
+                child = HmiChild(rt.local_endpoint or rt.endpoint, hmi_listen, insecure=insecure)
                 click.echo(f"hmi: {child.start()}", err=True)
             if top is None:
                 top = seconds is None and sys.stdout.isatty()
@@ -164,6 +172,7 @@ def run_cmd(deployment: str, mode: str | None, seconds: float | None, endpoint: 
             ctrl_c.stopping = True
             if seconds is not None and not ctrl_c.hit:
                 click.echo(_table(rt.summary(), SUMMARY_COLS))
+                failed = [r for r in rt.ls() if r["state"] == "failed"]
     except KeyboardInterrupt:
         pass                        # Ctrl-C while starting: the runtime stopped what ran
     except TransportError as exc:
@@ -171,12 +180,15 @@ def run_cmd(deployment: str, mode: str | None, seconds: float | None, endpoint: 
     signal.signal(signal.SIGTERM, old)
     if ctrl_c.hit:
         click.echo(f"interrupted: robot {rt.robot!r} stopped", err=True)
+    for row in failed:            # --run: a failed component fails the run (exit status 1)
+        why = f": {row['reason']}" if row.get("reason") else ""
+        click.echo(f"error: {row['kind']} {row['name']!r} failed{why}", err=True)
     # Everything is stopped and closed. Leave without interpreter finalisation: a Zenoh
     # (Rust) thread that calls into Python while the interpreter finalises aborts the
     # process ("FATAL: exception not rethrown"); os._exit skips finalisation.
     sys.stdout.flush()
     sys.stderr.flush()
-    os._exit(INTERRUPTED if ctrl_c.hit else 0)
+    os._exit(INTERRUPTED if ctrl_c.hit else 1 if failed else 0)
 
 
 class _CtrlC:
@@ -192,11 +204,12 @@ class _CtrlC:
         self.old: Any = None
 
     def __enter__(self) -> "_CtrlC":
-        self.old = signal.signal(signal.SIGINT, self._on_sigint)
+        # started with SIGINT ignored (a shell's background job): it stays ignored
+        self.old = sigs.install(signal.SIGINT, self._on_sigint)
         return self
 
     def __exit__(self, *exc: Any) -> None:
-        # stays installed: a Ctrl-C while the runtime stops is ignored (nothing to print)
+        # a Ctrl-C while the runtime stops is ignored (nothing to print)
         signal.signal(signal.SIGINT, signal.SIG_IGN)
 
     def _on_sigint(self, *_: Any) -> None:
@@ -214,6 +227,16 @@ class _CtrlC:
         self.stop.set()
         if first and not self.started:
             raise KeyboardInterrupt
+
+
+def _secured(rt: Runtime) -> bool:
+    """Whether only those who prove who they are reach the control endpoint: TLS with
+    client certificates on a tls/ or quic/ endpoint, or Zenoh logins."""
+    sec = getattr(rt.deployment, "security", None)
+    if sec is None:
+        return False
+    tls = rt.endpoint.startswith(("tls/", "quic/")) and sec.cert is not None and sec.mtls
+    return bool(tls or sec.users is not None)
 
 
 def _plain(exc: Exception, endpoint: str) -> Exception:

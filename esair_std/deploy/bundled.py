@@ -4,6 +4,7 @@ copy such an example into a folder of one's own (``esair std new NAME DIR``)."""
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 from esair_min.config.words import did_you_mean
@@ -44,9 +45,49 @@ def resolve_deployment(arg: str | Path) -> Path:
     return p
 
 
-def copy_example(name: str, folder: str | Path) -> list[Path]:
+def robot_name_for(folder: str | Path) -> str:
+    """A robot name (``[a-z][a-z0-9_]*``, at most 32) from a folder's name: ``my-Bot``
+    -> ``my_bot``."""
+    base = re.sub(r"[^a-z0-9_]", "_", Path(folder).resolve().name.lower())
+    if not base or not base[0].isalpha():
+        base = "robot_" + base
+    return base[:32].rstrip("_") or "robot"
+
+
+def free_port() -> int:
+    """A TCP port free on loopback now (never 7447, every example's)."""
+    import socket
+    while True:
+        with socket.socket() as s:
+            s.bind(("127.0.0.1", 0))
+            port = int(s.getsockname()[1])
+        if port != 7447:
+            return port
+
+
+def make_own(text: str, example: str, robot: str, run_as: str, endpoint: str) -> str:
+    """An example's deployment file made the copy's own: its robot name, its endpoint, and
+    header comments that run it as ``esair std run RUN_AS`` with other terminals told
+    where it listens."""
+    text = re.sub(r"^robot: .*$", f"robot: {robot}", text, count=1, flags=re.M)
+    text = re.sub(r"^endpoint: .*$", f"endpoint: {endpoint}", text, count=1, flags=re.M)
+    text = text.replace(f"esair std run {example} ", f"esair std run {run_as} ")
+    text = re.sub(rf"esair std run {re.escape(example)}$", f"esair std run {run_as}", text,
+                  flags=re.M)
+    lines = text.split("\n")
+    at = next(i for i, ln in enumerate(lines) if not ln.startswith("#"))
+    return "\n".join([f"# Copied by `esair std new {example} {run_as}`: robot {robot!r}, "
+                      f"listening on {endpoint}.",
+                      f"# Other terminals: export ESAIR_STD_ENDPOINT={endpoint} (or -e "
+                      f"{endpoint})", *lines[:at], *lines[at:]])
+
+
+def copy_example(name: str, folder: str | Path) -> tuple[list[Path], str, str]:
     """Copy bundled example ``name`` (its deployment file and behavior modules) into
-    ``folder`` (created; it must not hold files of the same names); the files written."""
+    ``folder`` (created; it must not hold files of the same names); the files written,
+    the copy's robot name and endpoint. The copy is its own robot: its deployment file
+    ``<folder>.yaml``, its robot named after the folder, listening on a loopback port of
+    its own, its comments running it from ``folder``."""
     names = bundled_examples()
     if name not in names:
         raise DeployError(f"no bundled example named '{name}'{did_you_mean(name, names)} "
@@ -57,15 +98,21 @@ def copy_example(name: str, folder: str | Path) -> list[Path]:
     dest = Path(folder)
     if dest.exists() and not dest.is_dir():
         raise DeployError("is a file, not a folder", path_mark(str(dest)))
-    clash = [dest / f.name for f in files if (dest / f.name).exists()]
+    own_file = f"{dest.resolve().name}.yaml"
+    targets = {f: dest / (own_file if f.name == f"{name}.yaml" else f.name) for f in files}
+    clash = [t for t in targets.values() if t.exists()]
     if clash:
         raise DeployError(f"{clash[0]} exists already: choose a new folder, or move it away "
                           "(nothing was written)")
+    endpoint, robot = f"tcp/127.0.0.1:{free_port()}", robot_name_for(dest)
     try:
         dest.mkdir(parents=True, exist_ok=True)
-        for f in files:
-            (dest / f.name).write_bytes(f.read_bytes())
+        for f, target in targets.items():
+            if f.name == f"{name}.yaml":
+                target.write_text(make_own(f.read_text(), name, robot, str(folder), endpoint))
+            else:
+                target.write_bytes(f.read_bytes())
     except OSError as exc:
         raise DeployError(f"cannot write the copy: {exc.strerror or exc}",
                           path_mark(str(dest))) from None
-    return [dest / f.name for f in files]
+    return sorted(targets.values()), robot, endpoint

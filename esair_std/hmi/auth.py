@@ -7,7 +7,8 @@
   read and not kept), a page is a viewer until it logs in.
 - With TLS client certificates (``--client-ca``), a page whose certificate the CA signed
   is an operator; the TLS handshake refuses any other.
-- Any other address without a password or client certificates: refused at start.
+- Any other address without a password or client certificates: refused at start, unless
+  ``--insecure`` (a warning; every page is an operator, as on loopback).
 
 Hashes are scrypt (hashlib) with a random salt; comparisons in constant time.
 """
@@ -72,24 +73,26 @@ def read_password_file(path: str | Path) -> dict[str, str]:
 
 class Auth:
     def __init__(self, host: str, users: dict[str, str] | None = None,
-                 client_certs: bool = False):
+                 client_certs: bool = False, insecure: bool = False):
         self.users = dict(users or {})
         self.client_certs = client_certs
-        self.open = host in LOOPBACK and not self.users and not client_certs
-        if not (host in LOOPBACK or self.users or client_certs):
-            raise AuthError(f"listening on {host} needs a login (--password-file or "
-                            "$ESAIR_HMI_PASSWORD) or TLS client certificates (--client-ca)")
+        # insecure: another address without a login, asked for (every page an operator)
+        self.open = (host in LOOPBACK or insecure) and not self.users and not client_certs
+        if not (host in LOOPBACK or self.users or client_certs or insecure):
+            raise AuthError(f"listening on {host} reaches other computers: it needs a login "
+                            "(--password-file or $ESAIR_HMI_PASSWORD) or TLS client "
+                            "certificates (--client-ca), or --insecure to go without")
         self._tokens: dict[str, str] = {}
         self.c = Counters(failed_logins=0)        # shown in /status.json
 
     @classmethod
     def from_options(cls, host: str, password_file: str | None, env: dict,
-                     client_certs: bool = False) -> "Auth":
+                     client_certs: bool = False, insecure: bool = False) -> "Auth":
         users = read_password_file(password_file) if password_file else {}
         plain = env.get("ESAIR_HMI_PASSWORD")
         if plain:
             users.setdefault("operator", hash_password(plain))
-        return cls(host, users, client_certs)
+        return cls(host, users, client_certs, insecure)
 
     def first_role(self) -> str:
         """The role of a page before any login."""

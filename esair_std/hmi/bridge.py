@@ -112,6 +112,7 @@ class Bridge:
         # a driver derived from MinLink (STARFISH's) has a link too, board files or not
         self.links = list(self.robots) + [e for e in d.get("links", []) if e not in self.robots]
         self.bus.subscribe(f"esair/{self.robot}/sensor/**", self._on_sample, with_key=True)
+        self._held()
         # every command an actuator ran, whoever sent it (a behavior, `esair std put`,
         # another page): the pose shows what the robot was told, not only this HMI's
         self.bus.subscribe(keys.commands_all(self.robot), self._on_commands, with_key=True)
@@ -144,7 +145,7 @@ class Bridge:
         """Its counters, and ``foreign_answers``: control answers from another runtime
         of the robot's name than the one at the endpoint, ignored (transport/bus.py)."""
         bus = self.bus
-        return dict(self.c.snapshot(), foreign_answers=bus.c_foreign if bus is not None else 0)
+        return dict(self.c.snapshot(), foreign_answers=bus.c["foreign_answers"] if bus is not None else 0)
 
     def call(self, verb: str, body: dict | None = None, timeout: float = 5.0) -> Any:
         """One control request; the ``ok`` value, or BridgeError with the runtime's
@@ -191,6 +192,26 @@ class Bridge:
             if "ok" in v and "command" in v:
                 self.c.add("commands_seen")
                 self.emit({"t": "ran", "r": res, "v": v["command"], "at": took(v["ok"])})
+
+    def _held(self) -> None:
+        """What each robot was last told before this HMI started (its actuators' last
+        commands that went through, kept by their host: ``last_ok`` in ``inspect``),
+        handed on as ``ran`` in the order they went, before any live record: the pose a
+        page shows is the one the robot holds, not every joint at its default."""
+        held = []
+        for entry in self.robots:
+            try:
+                c = self.call("inspect", {"name": entry}, timeout=2.0).get("counters", {})
+            except BridgeError as exc:
+                log.warning("hmi: %s's last commands not known: %s", entry, exc)
+                continue
+            for res, slot in c.items():       # the entry's actuators: "<entry>.<child>"
+                if (res.startswith(entry + ".") and isinstance(slot, dict)
+                        and isinstance(slot.get("last_ok"), list)):
+                    for t, command, ok in slot["last_ok"]:
+                        held.append((took(ok, t), res, command))
+        for at, res, command in sorted(held, key=lambda h: h[0]):
+            self.emit({"t": "ran", "r": res, "v": command, "at": at})
 
     def _on_sample(self, key: str, obj: Any) -> None:
         res = key.rsplit("/sensor/", 1)[-1]
@@ -379,11 +400,14 @@ class Bridge:
         info["errors"] = errs
 
 
-def took(result: Any) -> float:
+def took(result: Any, default: float | None = None) -> float:
     """When the robot took a command: its driver's ``at`` (a MIN link's motion: when the
-    robot had the whole line, docs/std-papaman.md), else now (when its answer or record came)."""
+    robot had the whole line, docs/std-papaman.md), else ``default`` or now (when its
+    answer or record came)."""
     at = result.get("at") if isinstance(result, dict) else None
-    return float(at) if isinstance(at, (int, float)) and not isinstance(at, bool) else time.time()
+    if isinstance(at, (int, float)) and not isinstance(at, bool):
+        return float(at)
+    return time.time() if default is None else default
 
 
 def _log(level: str, text: str) -> dict:

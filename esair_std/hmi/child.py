@@ -37,8 +37,9 @@ def _end(proc: subprocess.Popen[bytes]) -> None:
 
 
 class HmiChild:
-    def __init__(self, endpoint: str, listen: str, root: Path | None = None):
-        self.endpoint, self.listen = endpoint, listen
+    def __init__(self, endpoint: str, listen: str, root: Path | None = None,
+                 insecure: bool = False):
+        self.endpoint, self.listen, self.insecure = endpoint, listen, insecure
         self.root = root or Path(__file__).resolve().parents[2]   # the tree it runs from
         self.proc: subprocess.Popen[bytes] | None = None
         self.url = ""
@@ -51,8 +52,9 @@ class HmiChild:
         errors = self._errors = tempfile.TemporaryFile()  # noqa: SIM115
         self.proc = subprocess.Popen(
             [sys.executable, "-m", "esair_min.cli", "std", "hmi", "-e", self.endpoint,
-             "--listen", self.listen], stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
-            stderr=errors, env=env, preexec_fn=_die_with_parent)
+             "--listen", self.listen, *(["--insecure"] if self.insecure else [])],
+            stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=errors, env=env,
+            preexec_fn=_die_with_parent)
         assert self.proc.stdout is not None
         ready, _, _ = select.select([self.proc.stdout], [], [], START_TIMEOUT_S)
         line = self.proc.stdout.readline().decode(errors="replace").strip() if ready else ""

@@ -15,7 +15,6 @@ site cannot drive the robot through the user's browser.
 from __future__ import annotations
 
 import asyncio
-import collections
 import json
 import logging
 import mimetypes
@@ -37,6 +36,7 @@ from ..heap import settle
 from ..plurals import counted
 from .auth import Auth
 from .bridge import Bridge, BridgeError, took
+from .commanded import PoseBook
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..record.tap import Tap
@@ -55,7 +55,6 @@ CSP = ("default-src 'self'; img-src 'self' data:; style-src 'self' 'unsafe-inlin
        "connect-src 'self'; frame-ancestors 'none'")
 OPERATOR_OPS = {"cmd", "stop", "release", "add", "remove", "restart", "record"}
 LOAD_MAX = 50_000           # samples of a recording sent to a page for replay
-OWN_MAX = 64                # this HMI's commands whose records are still due
 
 
 def load_static(root: Path = STATIC) -> dict[str, tuple[bytes, str]]:
@@ -70,6 +69,17 @@ def load_static(root: Path = STATIC) -> dict[str, tuple[bytes, str]]:
             files["/" + path.relative_to(root).as_posix()] = (path.read_bytes(), ctype)
     files["/"] = files["/index.html"]
     return files
+
+
+def _compact(value: Any) -> str:
+    """A command as the log shows it: JSON without spaces, as the page sends it."""
+    return json.dumps(value, separators=(",", ":"))
+
+
+def _unnamed(why: str, res: str) -> str:
+    """A refusal's reason without the resource's name it starts with (the log's line
+    names it already)."""
+    return why[len(res) + 2:] if why.startswith(res + ": ") else why
 
 
 class BadFrame(Exception):
@@ -104,13 +114,7 @@ class HmiServer:
         self.pages: set[Page] = set()
         self.bridge: Bridge | None = None
         self.url = ""
-        self.commanded: dict[str, Any] = {}     # resource -> last command that went through
-        # motion actuator -> (the motion command that went through, when, when stopped):
-        # a page opened later plays it from where it is, or shows where STOP left it
-        self.played: dict[str, tuple[Any, float, float | None]] = {}
-        self._own: collections.deque[str] = collections.deque(maxlen=OWN_MAX)  # sent, record due
-        self._asking: list[str] = []       # this HMI's commands not answered yet
-        self._early: collections.deque[str] = collections.deque(maxlen=OWN_MAX)  # ... whose record came first
+        self.book = PoseBook()     # what the robot was last told: the pose a page shows
         self.record_dir = Path(record_dir)
         self.tap: Tap | None = None
         self.c = Counters(pages=0, frames=0, bad_frames=0, refused=0, dropped=0,
@@ -183,7 +187,7 @@ class HmiServer:
         msgs = []
         for m in got:
             if m.get("t") == "ran":               # a command any sender got through
-                m = self._ran(m["r"], m["v"], m.get("at") or time.time())
+                m = self.book.ran(m["r"], m["v"], m.get("at") or time.time())
                 if m is None:
                     continue
             msgs.append(m)
@@ -258,7 +262,7 @@ class HmiServer:
         self.pages.add(page)
         self.c.add("pages")
         assert self.bridge is not None
-        hello = dict(self.bridge.hello(), role=page.role, commanded=self.hello_commanded(),
+        hello = dict(self.bridge.hello(), role=page.role, commanded=self.book.hello(time.time()),
                      recording=self.recording_state(),
                      login=bool(self.auth.users) and page.role != "operator")
         self._send(page, json.dumps(hello, separators=(",", ":")))
@@ -275,9 +279,13 @@ class HmiServer:
         finally:
             self.pages.discard(page)
 
-    def _reply(self, page: Page, ident: Any, ok: bool, value: Any) -> None:
+    def _reply(self, page: Page, ident: Any, ok: bool, value: Any, logged: bool = False) -> None:
+        """The answer to a page's frame; ``logged``: its failure is in the log of every
+        page already (the page adds no line of its own)."""
         msg = {"t": "ack", "id": ident, "ok": ok}
         msg["result" if ok else "error"] = value
+        if logged:
+            msg["logged"] = True
         self._send(page, json.dumps(msg, separators=(",", ":")))
 
     async def _frame(self, page: Page, frame: str | bytes) -> None:
@@ -303,17 +311,21 @@ class HmiServer:
 
     async def _call(self, page: Page, ident: Any, fn: Callable[..., Any], *args: Any,
                     what: str = "") -> Any:
+        """``fn(*args)`` on an executor's thread, answered to the page; a failure is one
+        line in every page's log (``what: why``). Its value, or None when it failed."""
         loop = asyncio.get_running_loop()
         try:
             result = await loop.run_in_executor(None, fn, *args)
         except BridgeError as exc:
             self.c.add("command_errors")
-            self._reply(page, ident, False, str(exc))
-            self.emit({"t": "log", "level": "error", "text": f"{what}: {exc}",
-                       "ts": time.time()})
+            self._log("error", f"{what}: {exc}")
+            self._reply(page, ident, False, str(exc), logged=True)
             return None
         self._reply(page, ident, True, result)
         return result
+
+    def _log(self, level: str, text: str) -> None:
+        self.emit({"t": "log", "level": level, "text": text, "ts": time.time()})
 
     # ---- ops
     async def op_ping(self, page: Page, ident: Any, obj: dict) -> None:
@@ -339,96 +351,6 @@ class HmiServer:
         page.role, page.user = "operator", str(user)
         self._reply(page, ident, True, {"role": "operator", "token": token, "user": user})
 
-    def _ran(self, res: str, command: Any, at: float) -> dict | None:
-        """An actuator's record of a command it ran (bridge.py; ``at``: when it came), the
-        message to send: shown as commanded, except the record of a command this HMI sent,
-        shown when it was answered (a remote HMI whose ACL reads no records still shows
-        its own). Whichever of the two comes first gives a motion its start (or STOP) time."""
-        text = json.dumps([res, command], sort_keys=True)
-        if text in self._own:
-            self._own.remove(text)
-            return self._earlier(res, command, at)
-        if text in self._asking:          # its answer is still on its way: shown now
-            self._asking.remove(text)
-            self._early.append(text)
-        return self._commanded(res, command, emit=False, at=at)
-
-    def _asked(self, res: str, command: Any) -> str:
-        """A command of this HMI is sent (its record may come before its answer)."""
-        text = json.dumps([res, command], sort_keys=True)
-        self._asking.append(text)
-        return text
-
-    def _answered(self, text: str) -> None:
-        if text in self._asking:
-            self._asking.remove(text)
-
-    def _sent(self, res: str, command: Any, at: float | None = None) -> None:
-        """A command of this HMI went through (``at``: when its answer came): shown now,
-        its record skipped later; already shown if its record came first."""
-        text = json.dumps([res, command], sort_keys=True)
-        if text in self._early:
-            self._early.remove(text)
-            return
-        self._own.append(text)
-        self._commanded(res, command, at=at)
-
-    def _earlier(self, res: str, command: Any, at: float) -> dict | None:
-        """The record of this HMI's motion command came before its answer (the record is
-        handed over in a batch, later): the motion's start or STOP time is the record's.
-        A STOP's corrected position is the message to send."""
-        played = self.played.get(res)
-        if played is None or not res.endswith(".motion"):
-            return None
-        cmd, t0, t1 = played
-        if command == "stop" and t1 is not None and at < t1:
-            self.played[res] = (cmd, t0, max(t0, at))
-            return {"t": "commanded", "r": res, "v": command, "played": self._played_at(res, at)}
-        if command == cmd and t1 is None and at < t0:
-            self.played[res] = (cmd, at, None)
-        return None
-
-    def _commanded(self, res: str, command: Any, emit: bool = True,
-                   at: float | None = None) -> dict:
-        msg = {"t": "commanded", "r": res, "v": command}
-        now = time.time() if at is None else at
-        if res.endswith(".motion"):
-            played = self.played.get(res)
-            if command == "stop" and played is not None:
-                # the motion's entry is kept, with the time it was stopped: the frame a
-                # page shows is the one the motion had reached (pages open and opened later)
-                if played[2] is None:
-                    self.played[res] = played = (played[0], played[1], max(now, played[1]))
-                msg["played"] = self._played_at(res, now)
-                if emit:
-                    self.emit(msg)
-                return msg
-            entry = res[: -len(".motion")]      # a motion moves every servo of its robot
-            for key in [k for k in self.commanded if k.startswith(entry + ".servo.")]:
-                del self.commanded[key]
-            if command == "stop":
-                self.played.pop(res, None)
-            else:
-                self.played[res] = (command, now, None)
-        self.commanded.pop(res, None)
-        self.commanded[res] = command
-        if emit:
-            self.emit(msg)
-        return msg
-
-    def _played_at(self, res: str, now: float) -> dict:
-        """Where the motion commanded on ``res`` is: ``{"v": command, "ms": time it has
-        played (up to its STOP), "stopped": bool}``."""
-        command, t0, t1 = self.played[res]
-        return {"v": command, "ms": round(((t1 or now) - t0) * 1000, 1), "stopped": t1 is not None}
-
-    def hello_commanded(self) -> list:
-        """The commands a new page rebuilds the pose from, in the order they went
-        through: ``[resource, command]``, a motion's with ``played`` (_played_at) third."""
-        now = time.time()
-        return [[res, v, self._played_at(res, now)] if res in self.played else [res, v]
-                for res, v in self.commanded.items()]
-
     def _command(self, res: str, command: Any, answered: list[float]) -> Any:
         """The bridge's command (an executor's thread), and when its answer came: a
         motion's start or STOP time, taken here, not after the loop's next turn."""
@@ -437,33 +359,40 @@ class HmiServer:
         answered.append(took(r))
         return r
 
-    async def _send_command(self, page: Page, ident: Any, res: str, command: Any,
-                            what: str) -> Any:
-        """One command of this HMI through the bridge, answered to the page; once it went
+    async def _through(self, res: str, command: Any) -> tuple[bool, Any]:
+        """One command of this HMI through the bridge: ``(True, its answer)`` once it went
         through, shown as commanded at the time its answer came (its record may come
-        first: _ran). The answer's value, or None when it failed."""
-        asked = self._asked(res, command)
+        first: commanded.py), or ``(False, why it was refused)``."""
+        asked = self.book.asked(res, command)
         answered: list[float] = []
         try:
-            r = await self._call(page, ident, self._command, res, command, answered, what=what)
+            r = await asyncio.get_running_loop().run_in_executor(
+                None, self._command, res, command, answered)
+        except BridgeError as exc:
+            self.c.add("command_errors")
+            return False, str(exc)
         finally:
-            self._answered(asked)
-        if r is not None:
-            self._sent(res, command, answered[0])
-        return r
+            self.book.answered(asked)
+        shown = self.book.sent(res, command, answered[0])
+        if shown is not None:
+            self.emit(shown)
+        return True, r
 
     async def op_cmd(self, page: Page, ident: Any, obj: dict) -> None:
+        """One command; its line in every page's log, refused or not (the refusing page
+        shows the reason beside what it sent, app.js)."""
         res = _field(obj, "resource", str)
         if "command" not in obj:
             raise BadFrame("field 'command' missing")
         self.c.add("commands")
-        assert self.bridge is not None
-        r = await self._send_command(page, ident, res, obj["command"],
-                                     f"{res} {json.dumps(obj['command'])}")
-        if r is not None:
-            self.emit({"t": "log", "level": "info", "ts": time.time(),
-                       "text": f"{page.user or page.role}: {res} {json.dumps(obj['command'])}"
-                               f" -> {r}"})
+        what = f"{page.user or page.role}: {res} {_compact(obj['command'])}"
+        ok, r = await self._through(res, obj["command"])
+        if ok:
+            self._log("info", f"{what} -> {_compact(r)}")
+            self._reply(page, ident, True, r)
+        else:
+            self._log("error", f"{what} refused: {_unnamed(r, res)}")
+            self._reply(page, ident, False, r, logged=True)
 
     def _principal(self, page: Page) -> str:
         """Who a page's STOP or release is from: ``hmi`` and the user logged in."""

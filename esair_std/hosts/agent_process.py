@@ -48,6 +48,7 @@ MARGIN = 0.05           # the far side of a put, get or command (the BS, the act
                         # a behavior whose timeouts fit its step deadline never overruns
 RUNTIME_GRACE = 1.0     # seconds without the runtime's token before leaving
 HELLO_S = 10.0          # how long an agent asks the runtime to take its hello
+HELLO_ASK_S = 1.0       # each ask of it (the hello is asked again; answering is idempotent)
 
 
 class ZenohPort:
@@ -223,6 +224,7 @@ class Agent:
         self.port = ZenohPort(bus, robot)
         self.done = threading.Event()
         self.why_done = ""         # why it left (leave())
+        self._wake: list[threading.Event] = []   # waits that end when it leaves
         self.host: ComponentHost | ResourceHost | None = None
         self.token_doubts = 0      # the runtime's token went away while it answered
 
@@ -231,6 +233,8 @@ class Agent:
         if not self.done.is_set():
             self.why_done = why
         self.done.set()
+        for event in list(self._wake):
+            event.set()
 
     @property
     def _component(self) -> ComponentHost:
@@ -250,14 +254,22 @@ class Agent:
         # queryable to be known (Zenoh's matching status, an event), for up to HELLO_S
         deadline = time.monotonic() + HELLO_S
         route = self.bus.route(keys.ctl(self.robot, "hello"))
+        self._wake.append(route.ready)         # its runtime gone (leave()): no more waiting
         r = None
-        while r is None:
-            left = deadline - time.monotonic()
-            if left <= 0 or not route.ready.wait(left):
-                break
-            r = self.bus.request(keys.ctl(self.robot, "hello"), body,
-                                 max(0.001, deadline - time.monotonic()))
-        route.undeclare()
+        try:
+            while r is None and not self.done.is_set():
+                left = deadline - time.monotonic()
+                if left <= 0 or not route.ready.wait(left) or self.done.is_set():
+                    break
+                # asked again each HELLO_ASK_S: an answer lost with a runtime that died
+                # meanwhile is not waited for past the next look at done
+                r = self.bus.request(keys.ctl(self.robot, "hello"), body,
+                                     max(0.001, min(HELLO_ASK_S, deadline - time.monotonic())))
+        finally:
+            self._wake.remove(route.ready)
+            route.undeclare()
+        if r is None and self.done.is_set():
+            raise TransportError(f"the runtime left during the hello ({self.why_done})")
         if r is None or "error" in r:
             raise TransportError(f"runtime refused hello: {r and wire.exception(r)}")
 
@@ -477,13 +489,15 @@ class Agent:
         return isinstance(ok, dict) and ok.get("robot") == self.robot
 
 
-def _stdin_watch(done: threading.Event) -> None:
+def _stdin_watch(agent: Agent) -> None:
+    """The runtime's end of the pipe closes when the runtime's process ends, however it
+    ends (SIGKILL included): the agent leaves, a hello under way included."""
     try:
         while sys.stdin.buffer.read(1):
             pass
     except (OSError, ValueError):
         pass
-    done.set()
+    agent.leave("the runtime is gone")
 
 
 USAGE = """usage: python -m esair_std.hosts.agent_process --connect tcp/HOST:PORT --robot ROBOT
@@ -542,7 +556,7 @@ def main(argv: list[str] | None = None) -> int:
     bus = Bus(connect=[a.connect], options=options, runtime=a.connect)
     agent = Agent(bus, a.robot, spec, a.generation)
     if not a.no_stdin:
-        threading.Thread(target=_stdin_watch, args=(agent.done,), daemon=True).start()
+        threading.Thread(target=_stdin_watch, args=(agent,), daemon=True).start()
     code = 0
     try:
         if a.no_stdin:              # no parent's pipe: the token (and a ping) says
@@ -555,8 +569,9 @@ def main(argv: list[str] | None = None) -> int:
     except SystemExit:
         code = 0
     except StdError as exc:
-        log.error("%s: %s", spec.name, exc)
-        code = 1
+        if not agent.done.is_set():     # else its runtime left: nothing to say
+            log.error("%s: %s", spec.name, exc)
+            code = 1
     finally:
         if agent.host is not None:
             agent.host.stop(1.0)

@@ -8,6 +8,7 @@ opens the device, polls the sensors that set ``rate_hz``, and runs every ``write
 
 from __future__ import annotations
 
+import collections
 import logging
 import queue
 import threading
@@ -34,6 +35,8 @@ log = logging.getLogger("esair_std.resource")
 #: how long a device may take to open: an emulated robot (drivers/minlink/emulated.py)
 #: may itself take up to 30 s to start on a loaded machine, then the link probes it
 OPEN_TIMEOUT = 40.0
+#: an actuator's last commands kept for inspect (a motion, its STOP, a second STOP, ...)
+LAST_OK = 4
 
 class Slot:
     """One resource (a sensor or an actuator) as its host keeps it."""
@@ -51,6 +54,9 @@ class Slot:
         self.next_poll = 0.0
         self._lock = threading.Lock()
         self.c = dict(reported=0, commands=0, command_errors=0, polls_late=0)
+        # an actuator's last commands that went through, [when, command, its answer]:
+        # an HMI started later rebuilds the pose the robot holds from them (hmi/bridge.py)
+        self.last_ok: collections.deque[list] = collections.deque(maxlen=LAST_OK)
         self.granted: set[str] = set()
         # the command write() runs for: when it was queued and when its sender gives up
         # (time.monotonic()), so a driver can drop what it could not do in time
@@ -74,7 +80,10 @@ class Slot:
     def counters(self) -> dict:
         """The counters, the sample number and the state, as of one moment."""
         with self._lock:
-            return dict(self.c, seq=self.seq, state=self.state)
+            out = dict(self.c, seq=self.seq, state=self.state)
+            if self.last_ok:
+                out["last_ok"] = list(self.last_ok)
+            return out
 
     def set_state(self, state: str, reason: str) -> None:
         self.state, self.reason = state, reason
@@ -422,6 +431,9 @@ class ResourceHost:
                 self._records_due = time.monotonic() + records.BATCH_S
             self._records.append(records.record(slot.name, slot.cseq, t, outcome, command))
             full = len(self._records) >= records.BATCH_MAX
+        if "ok" in outcome:
+            with slot._lock:
+                slot.last_ok.append([t, command, outcome["ok"]])
         if full:
             self._publish_records()
 

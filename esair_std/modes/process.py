@@ -58,9 +58,17 @@ def agent_command(endpoint: str, robot: str, spec: Spec, generation: int) -> lis
         # 0.57 s instead of 0.08 s); without it open takes ~1 ms, and the agent asks
         # again until the runtime answers its hello (agent.py)
         options["open/return_conditions/connect_scouted"] = False
-    return [sys.executable, "-m", "esair_std.hosts.agent_process", "--connect", endpoint,
+    # -P: the folder it starts in is not put on sys.path (a numpy.py there shadows
+    # nothing); the deployment's own modules are found by the class importer (classes.py)
+    return [sys.executable, "-P", "-m", "esair_std.hosts.agent_process", "--connect", endpoint,
             "--robot", robot, "--generation", str(generation),
             "--spec", json.dumps(spec.to_json()), "--session-options", json.dumps(options)]
+
+
+def _how_it_ended(status: int | None) -> str:
+    if status is not None and status < 0:
+        return f"was killed by signal {-status}"
+    return f"exited with status {status}" if status is not None else "exited"
 
 
 class _Child:
@@ -103,7 +111,7 @@ class _Child:
         self.proc = subprocess.Popen(
             agent_command(self.mode.rt.local_endpoint or self.mode.rt.endpoint, self.robot,
                           self.spec, self.generation),
-            stdin=subprocess.PIPE, env=env, cwd=self.mode.rt.base_dir)
+            stdin=subprocess.PIPE, env=env)   # in the user's folder: relative paths as in thread mode
         self.pid = self.proc.pid
         self.mode.threads.start(self._watch_exit, self.proc.pid, name=f"esair:exit:{self.name}")
 
@@ -131,8 +139,8 @@ class _Child:
             if self.hello.is_set():
                 break
             if self.ended.is_set():
-                raise ComponentError(f"{self.spec.kind} {self.name!r}: its process exited"
-                                     f" with status {self.exited()} before it started")
+                raise ComponentError(f"{self.spec.kind} {self.name!r}: its process "
+                                     f"{_how_it_ended(self.exited())} before it started")
             left = deadline - time.monotonic()
             if left <= 0:
                 self.kill()
@@ -150,7 +158,13 @@ class _Child:
             return None
 
     def exited(self) -> int | None:
-        return self.proc.poll() if self.proc is not None else None
+        """Its exit status once it ended (reaped here; negative: the signal's number)."""
+        if self.proc is None:
+            return None
+        if self.ended.is_set():
+            with contextlib.suppress(subprocess.TimeoutExpired):
+                return self.proc.wait(1.0)
+        return self.proc.poll()
 
     def kill(self) -> None:
         if self.proc is None:

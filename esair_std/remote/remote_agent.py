@@ -25,6 +25,8 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from esair_min import sigs
+
 from ..errors import StdError, TransportError
 from ..level import Level
 from ..hosts.agent_process import Agent, ZenohPort
@@ -267,8 +269,8 @@ def run(endpoint: str, name: str, class_path: str, kind: str, uses: dict | None 
         agent = RemoteAgent(bus, robot, spec, proof_maker(lambda: robot, name, sec),
                             hostname or os.uname().nodename,
                             sec.lease_ms if sec is not None else LEASE_MS)
-        for sig in (signal.SIGINT, signal.SIGTERM):
-            signal.signal(sig, lambda *_: agent.leave("interrupted"))
+        for sig in (signal.SIGINT, signal.SIGTERM):      # an inherited ignore stays
+            sigs.install(sig, lambda *_: agent.leave("interrupted"))
         agent.watch_runtime()
         if kind == "resource":
             agent.run_resource()

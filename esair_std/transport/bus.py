@@ -18,6 +18,7 @@ from typing import Any, Callable, TypeVar
 
 import zenoh
 
+from ..counters import Counters
 from ..errors import TransportError
 from . import codec, keys, wire
 from .session import endpoint_hosts, open_session, peer_at
@@ -107,7 +108,9 @@ class Bus:
         self._pub_of: dict[str, tuple[Any, ...]] = {}     # key -> its publishers (``undeclare``)
         self._lock = threading.Lock()
         self.closed = False
-        self.c_foreign = 0      # control answers from a peer not at ``runtime``: ignored
+        # foreign_answers: control answers from a peer not at ``runtime``, ignored (the
+        # HMI's executor threads and pollers ask at once: added under the counters' lock)
+        self.c = Counters(foreign_answers=0)
 
     def _keep(self, obj: _T) -> _T:
         with self._lock:
@@ -138,8 +141,8 @@ class Bus:
                     continue
                 if only is not None and _zid(reply) != peer_at(
                         self.session, only, self._runtime_hosts):
-                    self.c_foreign += 1
-                    if self.c_foreign == 1:
+                    self.c.add("foreign_answers")
+                    if self.c["foreign_answers"] == 1:
                         log.warning("an answer on %s came from a peer that is not the "
                                     "runtime at %s: ignored (another runtime of this "
                                     "robot's name on the network?)", key, only)

@@ -25,8 +25,9 @@ from tests.support.hmi import ROOT, esair_std
 def test_another_address_without_login_is_refused():
     r = esair_std("hmi", "--listen", "0.0.0.0:0", "-e", "tcp/127.0.0.1:9")
     assert (r.returncode, r.stderr) == (
-        1, "error: listening on 0.0.0.0 needs a login (--password-file or $ESAIR_HMI_PASSWORD) "
-           "or TLS client certificates (--client-ca)\n")
+        1, "error: listening on 0.0.0.0 reaches other computers: it needs a login "
+           "(--password-file or $ESAIR_HMI_PASSWORD) or TLS client certificates (--client-ca), "
+           "or --insecure to go without\n")
 
 
 def test_hmi_password_stores_a_hash(tmp_path):

@@ -17,6 +17,7 @@ from esair_min.core.protocol import add_checksum
 from esair_min.model.robot import Robot
 from esair_min.core.trace import TraceWriter, TracingBus, without_marks
 from esair_min.model.validate import load_robot
+from tests.support.board_lines import ready, version
 
 ROOT = Path(__file__).resolve().parents[2]
 PAPAMAN = load_robot(ROOT / "boards" / "papaman")
@@ -85,19 +86,21 @@ def test_boot_checks_the_image_with_the_documented_reads():
     assert lines[1] == "R 50 0000 8 " + build_image(PAPAMAN)[:8].hex().upper()
     reads = [line.split()[2:4] for line in lines if line.startswith("R 50")]
     assert reads[1] == ["0008", "32"]
-    assert reads[-1] == ["0428", "6"]           # 8 + 33*32 = 1064, 6 bytes left of 1070
-    assert len(reads) == 1 + 34
-    assert tx(lines) == [b"!READY esair-min/1 image=ok\r\n"]
+    assert reads[34] == ["0428", "6"]           # 8 + 33*32 = 1064, 6 bytes left of 1070
+    # then the directory, one 6-byte entry a read
+    assert reads[35:] == [[f"{8 + 6 * i:04X}", "6"] for i in range(5)]
+    assert len(reads) == 1 + 34 + 5
+    assert tx(lines) == [ready(PAPAMAN)]
     assert rig.core.image_ok
 
 
 def test_boot_with_a_wrong_header_reads_nothing_more():
     rig = Rig(PAPAMAN)
-    rig.eeprom.poke(3, 9)           # motion count
+    rig.eeprom.poke(2, 9)           # format version
     rig.boot()
     assert [line for line in rig.writer.lines if line.startswith("R ")] == \
-        ["R 50 0000 8 454D0109" + build_image(PAPAMAN)[4:8].hex().upper()]
-    assert tx(rig.writer.lines) == [b"!READY esair-min/1 image=bad\r\n"]
+        ["R 50 0000 8 454D0905" + build_image(PAPAMAN)[4:8].hex().upper()]
+    assert tx(rig.writer.lines) == [ready(PAPAMAN, False)]
 
 
 def test_boot_with_a_silent_eeprom_is_bad():
@@ -105,7 +108,7 @@ def test_boot_with_a_silent_eeprom_is_bad():
     rig.eeprom.fault = True
     rig.boot()
     assert rig.writer.lines[1:] == ["R 50 0000 8 NACK",
-                                    "TX " + b"!READY esair-min/1 image=bad\r\n".hex().upper()]
+                                    "TX " + ready(PAPAMAN, False).hex().upper()]
 
 
 def test_boot_resets_the_state():
@@ -121,10 +124,11 @@ def test_boot_resets_the_state():
 # -- one command each ---------------------------------------------------------------
 
 def test_version():
-    assert say(booted(), "v") == \
-        [b"OK esair-min/1 servos=12 sensors=8 motions=5 image=ok checksum=off\r\n"]
-    assert say(booted(with_checksum()), "v*76") == \
-        [b"OK esair-min/1 servos=12 sensors=8 motions=5 image=ok checksum=on\r\n"]
+    assert say(booted(), "v") == [version(PAPAMAN)]
+    assert version(PAPAMAN).startswith(b"OK esair-min/1 servos=12 sensors=8 motions=5 "
+                                       b"image=ok crc=2C20 checksum=off build=")
+    robot = with_checksum()
+    assert say(booted(robot), "v*76") == [version(robot, checksum=True)]
 
 
 def test_stand_is_held_until_the_tick():
@@ -201,7 +205,9 @@ def test_play_and_its_refusals():
     assert say(rig, "PLYab") == [b"E03 bad argument\r\n"]
     at = mark(rig)
     assert say(rig, "PLY01") == [OK]
-    assert since(rig, at)[0].startswith("R 50 003E 24 ")        # sit's first frame
+    # the directory up to sit's entry, then sit's first frame
+    assert [x[:12] for x in since(rig, at)[:3]] == ["R 50 0008 6 ", "R 50 000E 6 ",
+                                                    "R 50 003E 24"]
     assert rig.core.playing == 1
     for busy in ("t", "oaa090", "c" + "." * 12, "PLY00", "SIT", "DNC"):
         assert say(rig, busy) == [b"E07 busy\r\n"]
@@ -235,7 +241,7 @@ def test_corrupt_image_is_e09_and_nothing_plays():
     rig = Rig(PAPAMAN)
     rig.eeprom.poke(0x100, 0x00)
     rig.boot()
-    assert tx(rig.writer.lines) == [b"!READY esair-min/1 image=bad\r\n"]
+    assert tx(rig.writer.lines) == [ready(PAPAMAN, False)]
     at = mark(rig)
     assert say(rig, "PLY03") == [b"E09 motion image invalid\r\n"]
     assert say(rig, "DNC") == [b"E09 motion image invalid\r\n"]
@@ -586,10 +592,9 @@ def test_harness_script(tmp_path):
               "fault actuator off\npoke 0 FF\nboot\n")
     lines = run_script(PAPAMAN, script, str(tmp_path / "s.txt"))
     assert tx(lines) == [
-        b"!READY esair-min/1 image=ok\r\n",
-        b"OK esair-min/1 servos=12 sensors=8 motions=5 image=ok checksum=off\r\n",
+        ready(PAPAMAN), version(PAPAMAN),
         b"OK 1,2,3,4,5,6,7,8\r\n", b"E10 no answer on i2c\r\n",
-        b"!READY esair-min/1 image=bad\r\n"]
+        ready(PAPAMAN, False)]
     assert "T 3" in lines and "T 1" in lines
 
 

@@ -73,9 +73,12 @@ def test_a_one_byte_address_eeprom():
     robot = variant(robot, "central", motions=(PAPAMAN.motion("stand"),), reactions=(),
                     commands=tuple(c for c in PAPAMAN.commands if c.motion is None))
     trace = run_script(robot, "boot\nrx PLY00\\r\ntick\n")
+    entry = "R 50 08 6 " + build_image(robot)[8:14].hex().upper()
     assert [line for line in trace if line.startswith("R 50")] == [
         "R 50 00 8 " + build_image(robot)[:8].hex().upper(),
         "R 50 08 30 " + build_image(robot)[8:].hex().upper(),
+        entry,                                    # the directory's shape, at boot
+        entry,                                    # PLY00 finds its entry
         "R 50 0E 24 " + build_image(robot)[14:].hex().upper()]
     assert events(trace) == [READY, "OK", burst(STAND)]
 
@@ -149,8 +152,8 @@ def test_rx_run_is_rx_byte_of_each_byte():
             core.tick()
         out.append(sent)
     assert out[0] == out[1]
-    assert out[0][:3] == [b"!READY esair-min/1 image=ok\r\n",
-                          b"OK esair-min/1 servos=12 sensors=8 motions=5 image=ok "
+    assert out[0][:3] == [b"!READY esair-min/1 image=ok crc=2C20\r\n",
+                          b"OK esair-min/1 servos=12 sensors=8 motions=5 image=ok crc=2C20 "
                           b"checksum=off\r\n", OK]
     assert b"E12 input overrun\r\n" in out[0]
 
@@ -294,7 +297,7 @@ def test_an_image_of_65536_bytes_is_refused():
 def image_with(entries: list[tuple[int, int, int, int, int]], body: bytes = b"") -> bytes:
     directory = b"".join(struct.pack("<BBBBH", *e) for e in entries)
     rest = directory + body
-    return struct.pack("<2sBBHH", b"EM", 1, len(entries), 8 + len(rest),
+    return struct.pack("<2sBBHH", b"EM", 2, len(entries), 8 + len(rest),
                        crc16_ccitt(rest)) + rest
 
 
@@ -314,9 +317,10 @@ def test_an_image_without_motions():
 
 
 @pytest.mark.parametrize("entries, body, message", [
-    ([(0, 1, 1, 0, 14)], b"", "0 frame bytes do not hold 1 frames"),
-    ([(0, 1, 1, 0, 14)], b"\x00\x00\x00", "3 frame bytes do not hold 1 frames"),
-    ([(100, 1, 1, 0, 14)], b"\x00\x00", "directory: motion number 100 out of order or above 99"),
+    ([(0, 1, 1, 1, 14)], b"", "0 frame bytes do not hold 1 frames"),
+    ([(0, 1, 1, 1, 14)], b"\x00\x00\x00", "3 frame bytes do not hold 1 frames"),
+    ([(100, 1, 1, 1, 14)], b"\x00\x00", "directory: motion number 100 out of order or above 99"),
+    ([(0, 1, 1, 0, 14)], b"\x00\x00", "directory: motion 0 has frames 1, delay 1, servos 0"),
 ])
 def test_parse_refuses(entries, body, message):
     with pytest.raises(ImageError) as e:
@@ -325,10 +329,10 @@ def test_parse_refuses(entries, body, message):
 
 
 def test_motion_number_99_and_a_servo_named_in_a_low_byte_error():
-    assert parse_image(image_with([(99, 1, 1, 0, 14)], b"\x00\x00")).motion(99).frames == \
+    assert parse_image(image_with([(99, 1, 1, 1, 14)], b"\x00\x00")).motion(99).frames == \
         (b"\x00\x00",)
     with pytest.raises(ImageError) as e:
-        parse_image(image_with([(0, 1, 1, 0, 14)], b"\x00\x00" * 5 + b"\x64\x00"))
+        parse_image(image_with([(0, 1, 1, 6, 14)], b"\x00\x00" * 5 + b"\x64\x00"))
     assert str(e.value) == "motion 0 frame 0: servo 5 low byte 100 is not below 100"
 
 

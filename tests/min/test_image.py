@@ -47,13 +47,13 @@ def test_crc_check_value():
 def test_papaman_image_layout():
     image = build_image(PAPAMAN)
     assert len(image) == 8 + 30 + 43 * 24 == 1070
-    assert image[:4] == b"EM\x01\x05"
+    assert image[:4] == b"EM\x02\x05"
     length, crc = struct.unpack_from("<HH", image, 4)
     assert length == 1070 and crc == crc16_ccitt(image[8:])
-    # directory: number, frames, delay, reserved, offset
+    # directory: number, frames, delay, servos, offset
     entries = [struct.unpack_from("<BBBBH", image, 8 + 6 * i) for i in range(5)]
-    assert entries == [(0, 1, 10, 0, 38), (1, 3, 20, 0, 62), (2, 4, 25, 0, 134),
-                       (3, 32, 1, 0, 230), (4, 3, 2, 0, 998)]
+    assert entries == [(0, 1, 10, 12, 38), (1, 3, 20, 12, 62), (2, 4, 25, 12, 134),
+                       (3, 32, 1, 12, 230), (4, 3, 2, 12, 998)]
     # sit's first frame: 90 -> (90, 0 + 30), 105 -> (5, 1 + 30)
     assert image[62:66] == bytes([90, 30, 90, 30])
     assert image[66:68] == bytes([5, 31])
@@ -87,14 +87,14 @@ def corrupt(offset: int, value: int, fix_crc: bool = True) -> bytes:
 @pytest.mark.parametrize("data, message", ids=range(12), argvalues=[
     (b"EM\x01", "image is 3 bytes, shorter than its 8-byte header"),
     (corrupt(0, ord("X")), "bad magic b'XM' (expected b'EM')"),
-    (corrupt(2, 2), "unsupported image version 2 (expected 1)"),
+    (corrupt(2, 1), "unsupported image version 1 (expected 2)"),
     (corrupt(4, 0x2F), "image length 1071 does not fit the 1070 bytes given and a "
      "5-motion directory"),
     (corrupt(4, 0x0A), "CRC mismatch: header says 0x"),      # length 1034: CRC of less
-    (corrupt(100, 7, fix_crc=False), "CRC mismatch: header says 0x5B57, bytes give 0x"),
+    (corrupt(100, 7, fix_crc=False), "CRC mismatch: header says 0x2C20, bytes give 0x"),
     (corrupt(8, 1), "directory: motion number 1 out of order or above 99"),
-    (corrupt(9 + 6, 0), "directory: motion 1 has frames 0, delay 20, reserved 0"),
-    (corrupt(11, 1), "directory: motion 0 has frames 1, delay 10, reserved 1"),
+    (corrupt(9 + 6, 0), "directory: motion 1 has frames 0, delay 20, servos 12"),
+    (corrupt(11, 1), "directory: motion 0 has frames 1, delay 10, servos 1"),
     (corrupt(12, 39), "directory: motion 0 at offset 39, expected 38"),
     (corrupt(38, 100), "motion 0 frame 0: servo 0 low byte 100 is not below 100"),
     (corrupt(9, 2), "1032 frame bytes do not hold 44 frames"),
@@ -170,7 +170,7 @@ def test_hex_errors(tmp_path):
 
 def test_summary():
     assert image_summary(PAPAMAN, build_image(PAPAMAN)) == \
-        "papaman: 5 motions, 43 frames, 1070 of 32768 bytes used, CRC 0x5B57"
+        "papaman: 5 motions, 43 frames, 1070 of 32768 bytes used, CRC 0x2C20"
 
 
 def test_cli_eeprom(tmp_path):
@@ -179,7 +179,7 @@ def test_cli_eeprom(tmp_path):
     res = runner.invoke(main, ["eeprom", str(ROOT / "boards" / "papaman"), "-o", str(out)])
     assert res.exit_code == 0, res.output
     assert res.output == ("papaman: 5 motions, 43 frames, 1070 of 32768 bytes used, "
-                          f"CRC 0x5B57 -> {out}\n")
+                          f"CRC 0x2C20 -> {out}\n")
     assert read_hex(out, 32768)[:1070] == build_image(PAPAMAN)
     raw = tmp_path / "p.bin"
     res = runner.invoke(main, ["eeprom", "papaman", "-o", str(raw), "--bin"])

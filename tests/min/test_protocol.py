@@ -39,15 +39,19 @@ def test_error_table_is_the_documented_one():
 
 
 def test_fixed_lines():
-    assert ready_line(True) == b"!READY esair-min/1 image=ok\r\n"
-    assert ready_line(False) == b"!READY esair-min/1 image=bad\r\n"
+    assert ready_line(True, 0x2C20) == b"!READY esair-min/1 image=ok crc=2C20\r\n"
+    assert ready_line(True, 0xAB, "0123abcd") == \
+        b"!READY esair-min/1 image=ok crc=00AB build=0123abcd\r\n"
+    assert ready_line(False, 0x2C20, "0123abcd") == \
+        b"!READY esair-min/1 image=bad build=0123abcd\r\n"
     assert reaction_line("auto_balance") == b"!R auto_balance\r\n"
     assert ok_line() == b"OK\r\n"
     assert ok_line("1,2") == b"OK 1,2\r\n"
-    assert version_data(12, 8, 5, True, False) == \
-        "esair-min/1 servos=12 sensors=8 motions=5 image=ok checksum=off"
-    assert version_data(3, 0, 0, False, True) == \
-        "esair-min/1 servos=3 sensors=0 motions=0 image=bad checksum=on"
+    assert version_data(12, 8, 5, True, False, crc=0x2C20) == \
+        "esair-min/1 servos=12 sensors=8 motions=5 image=ok crc=2C20 checksum=off"
+    assert version_data(3, 0, 0, False, True, "00ff00ff", 0x2C20, "0123abcd") == \
+        "esair-min/1 servos=3 sensors=0 motions=0 image=bad checksum=on build=0123abcd " \
+        "id=00ff00ff"
 
 
 def test_checksum_examples_of_the_doc():

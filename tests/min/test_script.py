@@ -8,6 +8,8 @@ stderr must be exactly the error line).
 
 from __future__ import annotations
 
+from tests.support.board_lines import ready
+
 import subprocess
 from pathlib import Path
 
@@ -186,4 +188,4 @@ def test_good_hex_variants_load_alike(robot, hosts, capsys, tmp_path):
     status, out, err = both(hosts, capsys, tmp_path / "s.txt")
     assert (status, err) == (0, "")
     replies = [bytes.fromhex(line[3:]) for line in out.splitlines() if line.startswith("TX ")]
-    assert replies[:2] == [b"!READY esair-min/1 image=ok\r\n", b"OK\r\n"]
+    assert replies[:2] == [ready(robot), b"OK\r\n"]

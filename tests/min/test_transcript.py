@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from tests.support.board_lines import ready, text, version
+
 from esair_min.emulator import Emulator
 from esair_min.emulator.transcript import Row, Transcript
 from esair_min.emulator.uart import GAP
@@ -43,7 +45,7 @@ def test_the_emulator_keeps_the_transcript(robot):
     for line in ("v", "PLY03", "PLY01", "x"):
         emu.command(line)
     rows = [(r.kind, r.text, r.reply) for r in emu.transcript.rows]
-    assert rows[0] == ("notice", "!READY esair-min/1 image=ok", None)
+    assert rows[0] == ("notice", text(ready(robot)), None)
     assert [r[1:] for r in rows[1:]] == [
-        ("v", "OK esair-min/1 servos=12 sensors=8 motions=5 image=ok checksum=off"),
+        ("v", text(version(robot))),
         ("PLY03", "OK"), ("PLY01", "E07 busy"), ("x", "OK")]

@@ -101,3 +101,23 @@ def test_stale_namespaces_of_dead_runs_are_removed():
         assert stale not in netns.clean_stale()
     finally:
         mine.close()
+
+
+OWNED = ("import sys; from esair_std.netsim import owned_link_fault as f; "
+         "print(f(sys.argv[1]))")
+
+
+def test_only_the_link_esair_made_is_a_simulations_to_switch(net):  # noqa: F811
+    """Its veth (alias esair-sim) in its namespace: yes; loopback there, or any device of
+    the machine's own namespace: no, with the reason."""
+    env = dict(os.environ, PYTHONPATH=str(netns.ROOT))
+    host = net[0]
+    assert host.run(sys.executable, "-c", OWNED, "eth1").stdout == "None\n"
+    assert host.run(sys.executable, "-c", OWNED, "lo").stdout == (
+        f"it is not a veth ESAIR made (alias 'esair-sim') in namespace {host.name}\n")
+    assert host.run(sys.executable, "-c", OWNED, "wlan9").stdout == (
+        f"no such link in namespace {host.name}\n")
+    out = subprocess.run([sys.executable, "-c", OWNED, "eth1"], capture_output=True, text=True,
+                         env=env, check=True).stdout
+    assert out == ("this process runs in the machine's own network namespace, not in one "
+                   "ESAIR made (esair-...)\n")

@@ -13,12 +13,14 @@ def mode(request):
 
 @pytest.fixture
 def start(mode):
-    """start(deployment_dict) -> a started Runtime in this test's mode; stopped after."""
+    """start(deployment_dict or file) -> a started Runtime in this test's mode; stopped
+    after."""
     started = []
 
     def _start(dep, **kw):
-        dep = dict(dep)
-        dep.setdefault("robot", "t")
+        if isinstance(dep, dict):
+            dep = dict(dep)
+            dep.setdefault("robot", "t")
         rt = Runtime(dep, mode=mode, endpoint=free_endpoint(), **kw)
         rt.start()
         started.append(rt)

@@ -62,20 +62,38 @@ def get_when(rt, name, ok, timeout, what):
     return wait_for(probe, timeout, what)
 
 
-def test_a_sound_turns_the_robot_and_its_picture_shows_the_source(start, tmp_path):
-    rt = start(starfish([1.5, 1.5, 0.0], [[1.5, 1.5], [2.3, 1.5]], tmp_path))
+def test_a_sound_turns_the_robot_and_its_picture_shows_the_source(start, tmp_path, monkeypatch):
+    # the deployment in a read-only folder (as an installed package), run from another
+    # folder: the pictures (store: relative, the default) land in the run's folder
+    install, run = tmp_path / "install", tmp_path / "run"
+    install.mkdir()
+    run.mkdir()
+    dep = starfish([1.5, 1.5, 0.0], [[1.5, 1.5], [2.3, 1.5]], None)
+    del dep["behaviors"]["turn_and_shoot"]["store"]
+    (install / "robot.yaml").write_text(json.dumps({"robot": "t", **dep}))
+    install.chmod(0o555)
+    monkeypatch.chdir(run)
+    try:
+        rt = start(install / "robot.yaml")
+        _sound_turns_and_shoots(rt, run / "starfish-pictures")
+    finally:
+        install.chmod(0o755)
+    assert sorted(p.name for p in install.iterdir()) == ["robot.yaml"]
+
+
+def _sound_turns_and_shoots(rt, store):
     get_when(rt, "patrol", lambda p: p["reached"] >= 1, 30, "patrol to reach a waypoint")
     assert rt.get("turn_and_shoot")["shots"] == 0             # silence: nothing to shoot
     src = (1.0, 3.5)
     rt.configure("starfish.mics", "source", {"x": src[0], "y": src[1], "on": True})
     ts = get_when(rt, "turn_and_shoot", lambda r: r["shots"], 30, "a picture")
     meta = ts["last"]
-    assert json.loads((tmp_path / "starfish-00001.json").read_text()) == meta
+    assert json.loads((store / "starfish-00001.json").read_text()) == meta
     pose = meta["pose"]
     # the robot faces the source: the world's true bearing from the picture's pose
     off = math.degrees(wrap(math.atan2(src[1] - pose[1], src[0] - pose[0]) - pose[2]))
     assert abs(off) <= 5.0, meta
-    img = cam.decode((tmp_path / meta["file"]).read_bytes())
+    img = cam.decode((store / meta["file"]).read_bytes())
     assert img.shape == (240, 320, 3)
     cols = cam.marker_columns(img)
     assert len(cols) > 3 and abs(cols.mean() - 160) <= 160 / math.tan(math.radians(30)) * \
@@ -85,6 +103,21 @@ def test_a_sound_turns_the_robot_and_its_picture_shows_the_source(start, tmp_pat
     # patrol got the wheels back and goes on
     reached = rt.get("patrol")["reached"]
     get_when(rt, "patrol", lambda p: p["reached"] > reached, 30, "patrol to go on")
+    no_failures(rt)
+
+
+def test_one_slow_wheel_reply_does_not_abort_the_shot(start, tmp_path):
+    """The first turn command's reply comes 1 s late (past its 0.5 s timeout): the next
+    step sends again and the shot goes on to its picture (issue 34 item 4)."""
+    dep = starfish([1.5, 1.5, 0.0], [[1.5, 1.5], [2.3, 1.5]], tmp_path)
+    dep["resources"]["starfish"]["class"] = "tests.support.starfish_comps:SlowWheelsOnce"
+    rt = start(dep)
+    get_when(rt, "patrol", lambda p: p["reached"] >= 1, 30, "patrol to reach a waypoint")
+    rt.configure("starfish.mics", "source", {"x": 1.0, "y": 3.5, "on": True})
+    ts = get_when(rt, "turn_and_shoot", lambda r: r["shots"] or r["aborted"], 30, "a picture")
+    assert (ts["shots"], ts["aborted"]) == (1, 0), ts
+    assert ts["missed"] >= 1                  # the slow reply was met, and sent again
+    assert json.loads((tmp_path / "starfish-00001.json").read_text()) == ts["last"]
     no_failures(rt)
 
 

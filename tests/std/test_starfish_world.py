@@ -73,7 +73,7 @@ def test_the_link_switch_runs_ip_for_the_newest_wanted_state(tmp_path):
     log = tmp_path / "ip.log"
     fake_ip = (sys.executable, "-c",
                f"import sys; open({str(log)!r}, 'a').write(' '.join(sys.argv[1:]) + chr(10))")
-    sw = LinkSwitch("eth9", command=fake_ip)
+    sw = LinkSwitch("eth9", command=fake_ip, owned=lambda dev: None)   # the worker alone
     sw.set(True)
     wait_for(lambda: sw.applied is True, 20, "the link up")
     sw.set(False)
@@ -83,7 +83,8 @@ def test_the_link_switch_runs_ip_for_the_newest_wanted_state(tmp_path):
 
 
 def test_a_failing_ip_is_counted_with_its_message():
-    sw = LinkSwitch("eth9", command=(sys.executable, "-c", "import sys; sys.exit('no such device')"))
+    sw = LinkSwitch("eth9", command=(sys.executable, "-c", "import sys; sys.exit('no such device')"),
+                    owned=lambda dev: None)
     sw.set(False)
     wait_for(lambda: sw.failures >= 1, 20, "a failure")
     sw.close()

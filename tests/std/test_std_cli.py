@@ -227,7 +227,7 @@ def test_agents_leave_when_the_runtime_is_killed():
                              "--mode", "process", "-e", ep], cwd=HERE,
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:
-        # every component running (an agent killed mid-hello waits out its hello, 10 s)
+        # every component running
         wait_for(lambda: lab_started(ep), timeout=60, what="every component running")
         assert len(leftover(ep)) >= 10
     finally:

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -543,31 +544,59 @@ def test_papaman_from_the_command_line(robot, mode):
     assert (r.returncode, r.stdout) == (0, '"t"\n'), r.stderr
     feet = json.loads(esair("sample", "papaman.feet", "-e", ep).stdout)
     assert feet["groups"] == {"left_foot": 2048, "right_foot": 2048}
+    # a setting it has not: the settings it has are listed
+    assert error_of("configure", "papaman.feet", "gain", "2", "-e", ep) == (
+        1, "error: papaman.feet: no setting 'gain' (settings: rate_hz, feet_hz)\n")
 
 
 @pytest.mark.pty
 def test_new_copies_an_example_that_checks_and_runs(tmp_path):
+    """The copy is a robot of its own (issue 34 item 5): its file and robot named after
+    its folder, a port of its own, comments that run it from there."""
     folder = tmp_path / "mybot"
     r = esair("new", "papaman", str(folder), cwd=tmp_path)
-    assert (r.returncode, r.stdout) == (0, f"wrote {folder}/papaman.yaml\n"
+    dep = folder / "mybot.yaml"
+    text = dep.read_text()
+    endpoint = re.search(r"^endpoint: (tcp/127\.0\.0\.1:(\d+))$", text, re.M)
+    assert endpoint and endpoint[2] != "7447"
+    endpoint = endpoint[1]
+    assert (r.returncode, r.stdout) == (0, f"wrote {dep}\n"
                                            f"wrote {folder}/papaman_behaviors.py\n"
-                                           f"run it: esair std run {folder}\n")
+                                           f"run it: esair std run {folder}\n"
+                                           f"robot 'mybot' listens on {endpoint}: other "
+                                           f"terminals give -e {endpoint} (or export "
+                                           f"ESAIR_STD_ENDPOINT={endpoint})\n")
+    assert sorted(p.name for p in folder.iterdir()) == ["mybot.yaml", "papaman_behaviors.py"]
+    assert "\nrobot: mybot\n" in text and "\n    robot: papaman " in text   # the board files
+    assert "esair std run papaman" not in text
+    assert f"#   esair std run {folder}   " in text
+    assert f"# Other terminals: export ESAIR_STD_ENDPOINT={endpoint}" in text
     elsewhere = tmp_path / "elsewhere"
     elsewhere.mkdir()
     r = esair("check", str(folder), cwd=elsewhere)
     assert r.returncode == 0 and r.stdout.endswith("classes: 4 imported\nok\n"), r.stderr
+    assert r.stdout.startswith("robot 'mybot': mode thread")
     # relative paths in the deployment are relative to its folder, not to the cwd
-    dep = folder / "papaman.yaml"
-    text = dep.read_text()
     assert text.count("      scenario: quiet\n") == 1
     dep.write_text(text.replace("      scenario: quiet\n",
                                 "      scenario: quiet\n      trace: trace.txt\n"))
-    r = esair("run", str(folder), "--run", "2", "--no-control", cwd=elsewhere)
+    r = esair("run", str(folder), "--run", "2", cwd=elsewhere)
     assert r.returncode == 0, r.stderr
+    assert f"robot 'mybot' running in thread mode, control endpoint {endpoint}" in r.stderr
     assert (folder / "trace.txt").read_text().startswith("# esair-trace 1\n")
     assert not (elsewhere / "trace.txt").exists()
+    # the other examples likewise: each copy its own robot on its own port
+    ports = {endpoint}
+    for example in ("lab", "starfish"):
+        r = esair("new", example, str(tmp_path / f"my-{example}"), cwd=tmp_path)
+        copy = (tmp_path / f"my-{example}" / f"my-{example}.yaml").read_text()
+        assert f"\nrobot: my_{example}\n" in copy and f"esair std run {example}" not in copy
+        ports.add(re.search(r"^endpoint: (.*)$", copy, re.M)[1])
+        r = esair("check", str(tmp_path / f"my-{example}"), cwd=elsewhere)
+        assert r.returncode == 0, r.stderr
+    assert len(ports) == 3
     assert error_of("new", "papaman", str(folder)) == (
-        1, f"error: {folder}/papaman.yaml exists already: choose a new folder, or move it "
+        1, f"error: {folder}/mybot.yaml exists already: choose a new folder, or move it "
            "away (nothing was written)\n")
     assert error_of("new", "papamn", str(tmp_path / "x")) == (
         1, "error: no bundled example named 'papamn' (did you mean 'papaman'?) (bundled: "

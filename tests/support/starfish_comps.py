@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import math
+import time
 
 from esair_std import Behavior
+from esair_std.drivers.starfish import Starfish
 
 
 class RadioWatcher(Behavior):
@@ -54,3 +56,23 @@ def example_scene(source=(1.0, 3.2), on=False, access_point=(1.0, 1.0), inner_wa
     scene = from_world(Room(walls, marks))
     scene.source.on = on
     return scene
+
+
+class SlowWheelsOnce(Starfish):
+    """STARFISH (the real driver, its emulated boards) whose wheels answer ONE turn
+    command late: the first ``{"w": ...}`` (turn_and_shoot's turns) is written ``slow_s``
+    seconds late (past its sender's 0.5 s timeout), every other one at once."""
+
+    def _open(self, opts: dict) -> None:
+        self.slow_s = float(opts.pop("slow_s", 1.0))    # the driver checks the rest by name
+        super()._open(opts)
+        self.slowed = 0
+        wheels = self.wheels
+        write = wheels.write
+
+        def slow_once(command):
+            if isinstance(command, dict) and set(command) == {"w"} and not self.slowed:
+                self.slowed += 1
+                time.sleep(self.slow_s)      # the one late reply under test
+            return write(command)
+        wheels.write = slow_once

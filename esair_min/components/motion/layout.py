@@ -12,9 +12,9 @@ from collections.abc import Sequence
 from esair_min.components.motion.schema import Motion
 
 MAGIC = b"EM"
-VERSION = 1
+VERSION = 2            # 2: a directory entry names its servo count (was reserved, 0)
 HEADER_BYTES = 8       # magic(2) version(1) count(1) length(u16 LE) crc16(u16 LE)
-DIR_ENTRY_BYTES = 6    # number(1) frames(1) delay_ticks(1) reserved(1) offset(u16 LE)
+DIR_ENTRY_BYTES = 6    # number(1) frames(1) delay_ticks(1) servos(1) offset(u16 LE)
 
 
 @dataclass(frozen=True)

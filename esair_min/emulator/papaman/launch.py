@@ -37,7 +37,7 @@ class PapamanRun:
             writer.rx_lines = opts.trace_rx
         self.sim = Emulator(robot, scenario=opts.scenario, faults=opts.faults, trace=writer,
                             eeprom_image=image, transcript=live, instance=instance,
-                            hold_scenario=opts.hold_scenario)
+                            hold_scenario=opts.hold_scenario, eeprom_file=opts.eeprom)
         stack.callback(self.sim.close)
         self._play = False
         self._old: Any = None

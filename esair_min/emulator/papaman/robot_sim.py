@@ -38,6 +38,8 @@ from esair_min.model.robot import Robot
 from esair_min.core.trace import TraceWriter, TracingBus
 from esair_min.emulator.papaman.actuator import ActuatorBoard, stand_registers
 from esair_min.emulator.clock import NS_PER_S, VirtualClock, seconds_to_ns
+from esair_min.codegen.buildid import central_build_id
+from esair_min.emulator.eeprom import CyclingEeprom, attach_file
 from esair_min.emulator.faults import Faults, corrupt
 from esair_min.emulator.i2c import TimedBus
 from esair_min.emulator.line import SerialHost
@@ -118,7 +120,8 @@ class Emulator(SerialHost):
     def __init__(self, robot: Robot, scenario: Scenario | str | Path | None = None,
                  faults: Faults = Faults(), trace: TraceWriter | None = None,  # noqa: B008 (frozen)
                  eeprom_image: bytes | None = None, transcript: bool = False,
-                 instance: str | None = None, hold_scenario: bool = False):
+                 instance: str | None = None, hold_scenario: bool = False,
+                 eeprom_file: Path | None = None):
         central = robot.central
         if central.uart is None or central.timer2 is None:
             raise EsairError("the central board needs uart: and tick: to be emulated")
@@ -137,10 +140,15 @@ class Emulator(SerialHost):
         self.image = build_image(robot) if eep else b""
         if eep is not None:
             data = self.image if eeprom_image is None else eeprom_image
-            self.eeprom = Eeprom24(eep.size_bytes, eep.address, eep.address_bytes, data)
+            self.eeprom = Eeprom24(eep.size_bytes, eep.address, eep.address_bytes, data,
+                                   eep.page_bytes)
+            if eeprom_file is not None:
+                attach_file(self.eeprom, eeprom_file)
             if faults.corrupt_eeprom:
                 self.corrupted_at = corrupt(self.eeprom.memory, len(data), self._rng)
-            devices.append(self.eeprom)
+            self.eeprom_bus = CyclingEeprom(self.eeprom, lambda: self.bus.cursor(),
+                                            NS_PER_S / central.i2c.speed_hz)
+            devices.append(self.eeprom_bus)
         act, sen = robot.peer("actuator"), robot.peer("sensor")
         self.actuator_slave = RegisterSlave(act.address, act.registers) if act else None
         self.actuator: ActuatorBoard | None = None
@@ -192,7 +200,8 @@ class Emulator(SerialHost):
 
         # -- the central board
         self.core = CentralCore(robot, core_bus, self._send,
-                                None if instance is None else check_instance(instance))
+                                None if instance is None else check_instance(instance),
+                                central_build_id(robot))
         self.uart = Uart(self.clock, central.uart.baud, self._feed,
                          rx_mode=self._rx_mode, direct=self._rx_core)
         self._trace_rx = trace is not None and trace.rx_lines

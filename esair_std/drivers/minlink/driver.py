@@ -236,6 +236,7 @@ class FeetSensor(PolledSensor):
     """Polls ``s`` (a poll: commands go first)."""
 
     thread_name = "minlink-feet"
+    settings = ("rate_hz", "feet_hz")       # the same: the polls per second
 
     def __init__(self, link: Link, hz: float, share: float):
         super().__init__()

@@ -20,7 +20,8 @@ Deployment entry (the entry's name prefixes the resources' names)::
                                 # 38400 baud, the longest O reply)
       timeout: 1.0              # the link's reply timeout (MinLink's)
       deadline: 0.5             # a wheel command not written by then is dropped
-      radio: {range_m: 3.0, heal_m: 0.1, pause_audio: true, device: eth1}
+      radio: {range_m: 3.0, heal_m: 0.1, pause_audio: true}   # device: only ESAIR's own
+                                # simulated link (linkswitch.py), never a real interface
       camera: {format: png, fov_deg: 60}
       allow: {"*": read, patrol: command, turn_and_shoot: command}
 
@@ -280,6 +281,7 @@ class Starfish(MinLink):
             raise StarfishError(f"robot {robot_arg!r} has no omni base (its central board "
                                 "has no 'base:')")
         self._radio_lock = threading.Lock()
+        # before anything starts: a device ESAIR did not make is refused, nothing changed
         self.link_switch = LinkSwitch(str(radio["device"])) if radio.get("device") else None
         # the world first (its socket bound before the emulator sends), then the robot
         self.tap = WorldTap(start)

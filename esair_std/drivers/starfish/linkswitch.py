@@ -1,6 +1,11 @@
-"""The radio model acting on a real network link: ``ip link set DEV up|down`` whenever
-the modelled radio is cut or heals (the namespace tests and the two-computer demo: the
+"""The radio model acting on a network link ESAIR made for a simulation: ``ip link set
+DEV up|down`` whenever the modelled radio is cut or heals (the namespace tests: the
 robot's end of the veth to the remote control center).
+
+Only such a link: a veth ESAIR made (its alias ``esair-sim``) in a network namespace ESAIR
+made (``esair-...``, esair_std/netsim.py) that this process runs in. Any other device (a
+robot's real ``wlan0``, which would cut the link to the robot) is refused before anything
+is switched (:func:`esair_std.netsim.owned_link_fault`).
 
 Changes are handed to one worker thread through a one-slot mailbox (only the newest
 wanted state matters), so the sensor that noticed the change never waits for ``ip``. A
@@ -12,12 +17,21 @@ from __future__ import annotations
 
 import subprocess
 import threading
+from typing import Callable
+
+from ...netsim import owned_link_fault
 
 
 class LinkSwitch:
-    def __init__(self, device: str, command: tuple[str, ...] = ("ip", "link", "set")):
+    def __init__(self, device: str, command: tuple[str, ...] = ("ip", "link", "set"),
+                 owned: Callable[[str], str | None] = owned_link_fault):
         if not device or not all(c.isalnum() or c in "-_.@" for c in device):
             raise ValueError(f"radio.device must be a network interface name, not {device!r}")
+        fault = owned(device)
+        if fault is not None:
+            raise ValueError(f"radio.device {device!r}: {fault}; the simulated radio switches "
+                             "only a link ESAIR made for a simulation (esair_std/netsim.py): "
+                             "nothing was changed")
         self.device, self.command = device, command
         self.wanted: bool | None = None
         self.applied: bool | None = None

@@ -192,6 +192,9 @@ class TurnAndShoot(Behavior):
         self.max_turn = float(self.options.get("max_turn", 2500))        # mrad/s
         self.cooldown = float(self.options.get("cooldown", 5.0))          # s between shots
         self.turn_timeout = float(self.options.get("turn_timeout", 6.0))
+        # a wheel command refused, failed or unanswered is logged and the next step sends
+        # again; the shot is given up only when no wheel command went through for this long
+        self.wheels_silent = float(self.options.get("wheels_silent_s", 2.0))
         self.gain = float(self.options.get("gain", 5000.0))               # mrad/s per rad
         self.store = Path(self.options.get("store", "starfish-pictures"))
         self.keep = int(self.options.get("keep", 20))
@@ -206,7 +209,8 @@ class TurnAndShoot(Behavior):
         self.since = 0.0
         self.quiet_until = 0.0
         self.pictures = []
-        self.shots = self.aborted = self.ignored = 0
+        self.shots = self.aborted = self.ignored = self.missed = 0
+        self.wheels_ok_at = 0.0             # when a wheel command last went through
         self.still = self.rounds = 0
         self.stood_at = 0.0
 
@@ -240,6 +244,7 @@ class TurnAndShoot(Behavior):
             self.bearing = data
             self.put(self.patrol, {"yield": self.turn_timeout + 2.0}, timeout=0.3)
             self.phase, self.since, self.rounds = "turning", time.monotonic(), 0
+            self.wheels_ok_at = self.since
         if self.phase == "checking":
             # the source heard again from where the robot stands now: it moved on while the
             # bearing travelled (patrol, the drive board's ramp), so aim again if need be
@@ -268,22 +273,33 @@ class TurnAndShoot(Behavior):
             if abs(err) <= self.tolerance:
                 # the wheels ramp down after the stop (the drive board's ramp): shoot only
                 # once the odometry says the robot stands, and turn again if it drifted
-                self.wheels.send("stop", timeout=0.5)
+                self._wheels("stop")
                 if self.still < 2:
                     return
                 self.phase, self.stood_at = "checking", time.time()
             elif time.monotonic() - self.since > self.turn_timeout:
-                self.wheels.send("stop", timeout=0.5)
+                self._wheels("stop")
                 self.aborted += 1
                 self._done()
             else:
                 w = _clamp(err * self.gain, self.max_turn)
                 w = math.copysign(max(abs(w), 150.0), w)
-                self.wheels.send({"w": round(w)}, timeout=0.5)
+                self._wheels({"w": round(w)})
         except (CommandError, ResourceLost, Refused) as exc:
-            self.log.warning("turn: %s", exc)
+            # a slow, failed or refused reply: the next step sends again (the drive
+            # board's watchdog stops the wheels meanwhile if nothing comes)
+            self.missed += 1
+            silent = time.monotonic() - self.wheels_ok_at
+            if silent <= self.wheels_silent:
+                self.log.warning("turn: %s; sending again", exc)
+                return
+            self.log.warning("turn: %s; the wheels silent for %.1f s: shot given up", exc, silent)
             self.aborted += 1
             self._done()
+
+    def _wheels(self, command):
+        self.wheels.send(command, timeout=0.5)
+        self.wheels_ok_at = time.monotonic()
 
     def _shoot(self):
         pic = self.camera.send("shoot", timeout=2.0)
@@ -305,7 +321,8 @@ class TurnAndShoot(Behavior):
 
     def provide(self, requester):
         return {"state": self.phase, "shots": self.shots, "aborted": self.aborted,
-                "ignored": self.ignored, "last": self.pictures[-1] if self.pictures else None,
+                "ignored": self.ignored, "missed": self.missed,
+                "last": self.pictures[-1] if self.pictures else None,
                 "store": str(self.store.resolve())}
 
 

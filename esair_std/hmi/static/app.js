@@ -115,9 +115,11 @@ class App {
     });
   }
 
+  // A command; its line in the log comes from the server (every page's, refused or not),
+  // the page adds one only when the server could not (not connected).
   async command(resource, command) {
     const r = await this.send({ op: "cmd", resource, command });
-    if (!r.ok) this.log.add("error", `${resource} ${JSON.stringify(command)}: ${r.error}`);
+    if (!r.ok && !r.logged) this.log.add("error", `${resource} ${JSON.stringify(command)}: ${r.error}`);
     return r;
   }
 
@@ -136,7 +138,7 @@ class App {
 
   async stop() {
     const r = await this.send({ op: "stop" });
-    if (!r.ok) this.log.add("error", `STOP: ${r.error}`);
+    if (!r.ok && !r.logged) this.log.add("error", `STOP not sent: ${r.error}`);
   }
 
   async release() {
@@ -250,7 +252,7 @@ class App {
     } else { this.generic.sample(m); this.dirty = true; }
   }
 
-  // A command that went through (`played`: where a motion is, server.py _played_at: the
+  // A command that went through (`played`: where a motion is, commanded.py played_at: the
   // ms it has played, stopped or not; sent with a STOP and to a page opened later, so
   // every page shows the frame the motion had reached, from the same numbers).
   commanded(res, v, played) {

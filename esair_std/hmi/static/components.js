@@ -14,6 +14,8 @@ export class Components {
     this.body.textContent = "";
     for (const r of rows) {
       const tr = document.createElement("tr"); tr.dataset.name = r.name;
+      // what a narrow table leaves out (style.css) is in the row's title
+      tr.title = COLS.slice(1).filter((c) => r[c] != null && r[c] !== "").map((c) => `${c}: ${r[c]}`).join("\n");
       for (const c of COLS) {
         const td = document.createElement("td"); td.textContent = r[c] ?? "";
         if (c === "state") td.className = `state-${r.state}`;
@@ -25,7 +27,7 @@ export class Components {
           const b = document.createElement("button"); b.className = "small"; b.textContent = label;
           b.addEventListener("click", async () => {
             const res = await this.app.send({ op, name: r.name });
-            this.app.log.add(res.ok ? "info" : "error", `${op} ${r.name}: ${res.ok ? "done" : res.error}`);
+            if (res.ok || !res.logged) this.app.log.add(res.ok ? "info" : "error", `${op} ${r.name}: ${res.ok ? "done" : res.error}`);
           });
           td.append(b);
         }
@@ -43,6 +45,6 @@ export class Components {
     }
     const name = form.querySelector("#add-name").value.trim();
     const res = await this.app.send({ op: "add", name, class: form.querySelector("#add-class").value.trim(), uses });
-    this.app.log.add(res.ok ? "info" : "error", `add ${name}: ${res.ok ? res.result : res.error}`);
+    if (res.ok || !res.logged) this.app.log.add(res.ok ? "info" : "error", `add ${name}: ${res.ok ? res.result : res.error}`);
   }
 }

@@ -1,10 +1,11 @@
 // Panels for any robot from its resource kinds and samples: a numeric sensor gets a
 // plot, an image sensor ({image: data URL or base64}) a picture; a room sensor ({walls})
 // and the pose sensors ({x, y}) of one resource entry share that entry's map; a
-// behavior's state (its `get`) is shown as it is, with a dial for a bearing in it (also
+// behavior's state (its `get`) is shown as fields, with a dial for a bearing in it (also
 // drawn on the map); an audio frame ({pcm: base64 int16, channels, n, rate}) a plot of
 // each channel's level and a line of its rate; an actuator that is not a MIN robot's
 // servo or motion gets a command box.
+import { showFields } from "./fields.js";
 import { counted } from "./words.js";
 const WINDOW_S = 10;
 const FLOOR_DB = -80;        // an audio level plot's bottom (dBFS): silence is drawn there
@@ -276,19 +277,21 @@ class RoomMap {
   }
 }
 
-// A behavior's state (its `get`): the JSON, and a dial for a bearing in it.
+// A behavior's state (its `get`): its fields, one a row (fields.js), and a dial for a
+// bearing in it.
 class State {
   constructor(box) {
-    this.pre = document.createElement("pre"); this.pre.className = "state";
-    this.dial = null; this.box = box; box.append(this.pre);
+    this.list = document.createElement("dl"); this.list.className = "fields";
+    this.dial = null; this.box = box; box.append(this.list);
   }
   push(v, bearing) {
-    this.pre.textContent = JSON.stringify(v);
+    this.value = v;
+    showFields(this.list, v);
     this.bearing = bearing;
     if (bearing && !this.dial) {
       this.dial = document.createElement("canvas"); this.dial.width = this.dial.height = 110;
       this.text = document.createElement("div"); this.text.className = "bearing";
-      this.box.insertBefore(this.text, this.pre); this.box.insertBefore(this.dial, this.text);
+      this.box.insertBefore(this.text, this.list); this.box.insertBefore(this.dial, this.text);
     }
   }
   draw() {

@@ -1,5 +1,6 @@
 // One slider per servo actuator, within the servo's limits from the board files; the
-// command is sent while dragging ("live", at most every 100 ms) or on release.
+// command is sent while dragging ("live", at most every 100 ms) or on release. A refused
+// command puts the slider back at the robot's angle, the reason beside it.
 const LIVE_MS = 100;
 const SHOW_MS = 250;           // the sliders follow the commands 4 times a second at most
 
@@ -7,6 +8,7 @@ export class Joints {
   constructor(el, liveBox, info, entry, app) {
     this.el = el; this.live = liveBox; this.app = app; this.entry = entry; this.inputs = {};
     this.due = {}; this.shownAt = -1e9;
+    this.held = {};            // servo -> the angle the robot was last told (commands, motions)
     el.textContent = "";
     if (!info) { el.textContent = "no servos"; return; }
     for (const s of info.servos) {
@@ -16,9 +18,12 @@ export class Joints {
       Object.assign(input, { type: "range", min: s.min, max: s.max, step: 1, value: s.stand });
       input.dataset.servo = s.name; input.title = `${s.name}: ${s.min}..${s.max}°`;
       const out = document.createElement("output"); out.textContent = `${s.stand}°`;
+      const why = document.createElement("small"); why.className = "why"; why.hidden = true;
+      this.held[s.name] = s.stand;
       let last = 0, timer = null;
       const sendNow = () => { last = performance.now(); timer = null;
-        this.app.command(`${entry}.servo.${s.name}`, { angle: Number(input.value) }); };
+        this.app.command(`${entry}.servo.${s.name}`, { angle: Number(input.value) })
+          .then((r) => this.answered(s.name, r)); };
       input.addEventListener("input", () => {
         out.textContent = `${input.value}°`; input.dataset.dragging = "1";
         this.inputs[s.name][2] = Number(input.value);
@@ -31,9 +36,9 @@ export class Joints {
         if (timer) { clearTimeout(timer); timer = null; }
         sendNow();
       });
-      row.append(name, input, out);
+      row.append(name, input, out, why);
       el.append(row);
-      this.inputs[s.name] = [input, out, s.stand];      // the slider, its number, the angle shown
+      this.inputs[s.name] = [input, out, s.stand, why];   // the slider, its number, the angle shown, the refusal
     }
   }
 
@@ -41,7 +46,21 @@ export class Joints {
   // and only when it changed: each write lays out and paints the panel again, and the
   // robot's 12 servos may be commanded 50 times a second (app.js, frame).
   set(servo, angle) {
-    if (this.inputs[servo]) this.due[servo] = angle;
+    if (this.inputs[servo]) { this.due[servo] = angle; this.held[servo] = angle; }
+  }
+
+  // A command's answer: went through, the reason goes; refused, the slider goes back to
+  // the robot's angle (unless it is still being dragged) and the reason shows beside it.
+  answered(servo, r) {
+    const [input, out, , why] = this.inputs[servo];
+    const res = `${this.entry}.servo.${servo}: `;        // the row names it already
+    const reason = r.ok ? "" : String(r.error).startsWith(res) ? r.error.slice(res.length) : r.error;
+    why.hidden = r.ok; why.textContent = r.ok ? "" : `refused: ${reason}`;
+    why.title = why.textContent;
+    if (r.ok || input.dataset.dragging) return;
+    const angle = this.held[servo];
+    input.value = angle; out.textContent = `${angle}°`; this.inputs[servo][2] = angle;
+    delete this.due[servo];
   }
 
   // true while something is still to be shown (the frame asks for another)

@@ -6,7 +6,7 @@
 
 #define ES_SERVOS          12u
 #define ES_SENSORS         8u
-#define ES_COMMANDS        10u
+#define ES_COMMANDS        14u
 #define ES_MOTIONS         5u
 #define ES_REACTIONS       1u
 #define ES_GROUPS          2u
@@ -19,13 +19,17 @@
 
 #define ES_LINE_MAX        40u   /* characters of a command line */
 #define ES_FRAME_BYTES     24u   /* one motion frame, 2 per servo */
-#define ES_BUF_BYTES       24u   /* frame / held write / image header */
+#define ES_BUF_BYTES       24u   /* frame / held write / image header / a line's hex bytes */
 #define ES_REQUIRE_CHECKSUM 0
 
 #define ES_HAS_EEPROM      1
 #define ES_EEPROM_ADDR     0x50
 #define ES_EEPROM_ADDR_BYTES 2u
 #define ES_EEPROM_SIZE     32768ul
+#define ES_EEPROM_PAGE     64u   /* page write size (a power of two) */
+/* Its size in 16 bits (a 64 KB EEPROM: 65535, and 1 more past it). */
+#define ES_EEPROM_MAX16    32768u
+#define ES_EEPROM_PAST     0u
 #define ES_HAS_ACTUATOR    1
 #define ES_ACTUATOR_ADDR   0x10
 #define ES_ACTUATOR_REGS   24u   /* size of its register map */
@@ -43,10 +47,13 @@
 #define ES_NEAR(n) static
 #endif
 
-/* The motion image compiled into the firmware (docs/eeprom-format.md). */
-#define ES_IMAGE_LENGTH    1070u
-#define ES_IMAGE_CRC       0x5B57u
-#define ES_IMAGE_CHUNK     32u   /* bytes per read of the reset check */
+/* The motion image (docs/eeprom-format.md): the firmware accepts any that checks. */
+#define ES_IMAGE_VERSION   2u
+#define ES_IMAGE_CHUNK     32u   /* bytes per read of the image check */
+#define ES_READ_MAX        16u   /* data bytes of an image read */
+#define ES_POLL_MAX        250u   /* probes of the EEPROM after a page write */
+#define ES_SCAN_FIRST      0x08   /* the I2C addresses i2c_scan probes */
+#define ES_SCAN_LAST       0x77
 
 /* Timer2 tick: prescale 16, PR2 233, postscale 12 = 8985.6 us at 20000000 Hz. */
 #define ES_T2CON           0x5E
@@ -57,6 +64,6 @@
 /* MSSP I2C master 100000 Hz: SSPADD 49. */
 #define ES_SSPADD          49u
 #define ES_RX_RING         64u
-#define ES_TX_RING         80u
+#define ES_TX_RING         96u
 
 #endif

@@ -1,0 +1,94 @@
+"""An address other computers reach, without security, is refused by `esair std run`,
+`agent` and `hmi` alike, or taken with an explicit --insecure that warns (issue 34
+item 3): nothing listens on every interface by accident."""
+
+import signal
+import socket
+import subprocess
+import sys
+import urllib.request
+
+import pytest
+
+from tests.support.std import MODES, ROOT, esair, free_endpoint, wait_for
+
+RUN_NEEDS = ("needs TLS client certificates (a tls/ endpoint) or logins: a security section "
+             "(docs/std-network.md), or --insecure to go without")
+
+
+def _any_port() -> int:
+    return int(free_endpoint().rsplit(":", 1)[1])
+
+
+def _listening(port: int) -> bool:
+    with socket.socket() as s:
+        return s.connect_ex(("127.0.0.1", port)) == 0
+
+
+@pytest.mark.parametrize("mode", MODES)
+def test_run_on_every_interface_without_security_is_refused(mode, tmp_path):
+    port = _any_port()
+    r = esair("run", "lab", "--mode", mode, "-e", f"tcp/0.0.0.0:{port}", "--run", "0",
+              check=False)
+    assert (r.returncode, r.stderr) == (
+        1, f"error: listening on tcp/0.0.0.0:{port} reaches other computers: it {RUN_NEEDS}\n")
+    # the file's endpoint likewise (here a host name: not loopback)
+    dep = tmp_path / "robot.yaml"
+    dep.write_text(f"robot: t\nmode: {mode}\nendpoint: tcp/robot.example:{port}\n"
+                   "behaviors:\n  b: {class: 'tests.support.comps:Faulty'}\n")
+    r = esair("run", str(dep), "--run", "0", check=False)
+    assert (r.returncode, r.stderr) == (
+        1, f"error: listening on tcp/robot.example:{port} reaches other computers: it "
+           f"{RUN_NEEDS}\n")
+    assert not _listening(port)
+    # loopback needs nothing
+    r = esair("run", "lab", "--mode", mode, "-e", f"tcp/127.0.0.1:{port}", "--run", "0")
+    assert "warning" not in r.stderr
+
+
+def test_run_and_hmi_with_insecure_warn_and_serve():
+    port = _any_port()
+    run = subprocess.Popen([sys.executable, "-m", "esair_min.cli", "std", "run", "lab",
+                            "-e", f"tcp/0.0.0.0:{port}", "--insecure", "--no-top"], cwd=ROOT,
+                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    hmi = None
+    try:
+        ep = f"tcp/127.0.0.1:{port}"
+        wait_for(lambda: run.poll() is not None or esair("ls", "-e", ep, check=False)
+                 .returncode == 0, 60, "the robot running")
+        assert run.poll() is None, run.communicate()
+        hmi = subprocess.Popen([sys.executable, "-m", "esair_min.cli", "std", "hmi", "-e", ep,
+                                "--listen", "0.0.0.0:0", "--insecure"], cwd=ROOT,
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        url = hmi.stdout.readline().strip()
+        assert url.startswith("http://"), hmi.communicate()
+        with urllib.request.urlopen(url.replace("0.0.0.0", "127.0.0.1"), timeout=30) as page:
+            assert page.status == 200
+        hmi.send_signal(signal.SIGTERM)
+        _, hmi_err = hmi.communicate(timeout=30)
+        assert ("warning: listening on 0.0.0.0 without security (--insecure): "
+                "anyone on the network can reach the robot") in hmi_err.splitlines()
+    finally:
+        run.send_signal(signal.SIGTERM)
+        _, err = run.communicate(timeout=60)
+        if hmi is not None and hmi.poll() is None:
+            hmi.kill()
+            hmi.wait(10)
+    assert run.returncode == 0, err
+    assert err.splitlines()[0] == (f"warning: listening on tcp/0.0.0.0:{port} without security "
+                                   "(--insecure): anyone on the network can reach the robot")
+
+
+def test_agent_to_another_computer_without_security_is_refused():
+    args = ("agent", "--connect", "tcp/192.0.2.7:7447", "pen", "esair_std.drivers.sim:Recorder",
+            "--allow", "*=command")
+    r = esair(*args, check=False)
+    assert (r.returncode, r.stderr) == (
+        1, "error: connecting to tcp/192.0.2.7:7447 reaches other computers: it needs TLS (a "
+           "tls/ endpoint, --ca and --cert) or a login (--user, --password-file), or "
+           "--insecure to go without\n")
+    # with --insecure: the warning, then it tries (nobody answers at that test address)
+    r = esair(*args, "--insecure", check=False)
+    assert r.stderr.splitlines()[0] == (
+        "warning: connecting to tcp/192.0.2.7:7447 without security (--insecure): anyone on "
+        "the network can reach the robot"), r.stderr
