@@ -333,3 +333,25 @@ def test_starfish_wheels_go_to_zero_and_stay_there(start):
     rt.release_robot()
     ask(rt.endpoint, "send", drive)
     wait_for(lambda: pose() != rest, timeout=20, what="the robot driving again")
+
+
+def test_esair_std_run_stopped_starts_latched():
+    """``esair std run --stopped``: the runtime answers STOPPED from its first answer."""
+    import signal
+    import subprocess
+    import sys
+
+    from tests.support.std import ask, free_endpoint
+    ep = free_endpoint()
+    proc = subprocess.Popen([sys.executable, "-m", "esair_min.cli", "std", "run", "lab",
+                             "--stopped", "-e", ep, "--no-top"], cwd=ROOT,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    try:
+        ping = wait_for(lambda: proc.poll() is None and ask(ep, "ping"), timeout=60,
+                        what="the runtime answering")
+        assert (ping["stopped"]["by"], ping["stopped"]["reason"]) == (
+            "operator", "started stopped (--stopped)")
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=30)
+    assert proc.returncode == 0, err
