@@ -24,7 +24,7 @@ from pathlib import Path
 from typing import Any
 
 from esair_min.model.robot import Robot
-from esair_min.verify.scenario import settle_ticks
+from esair_min.verify.default_scenario import settle_ticks
 from esair_min.verify.targets import Firmware, TargetRun
 
 FILL = 0xA5                 # the PIC stack area's watermark byte

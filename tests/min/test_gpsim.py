@@ -22,8 +22,12 @@ from esair_min.pic.gpsim_harness import GpsimSetup, boot_end, build_script, comp
 from esair_min.pic.gpsim_wave import read_register_log, transfer_kinds
 from esair_min.core.stimulus import run_script
 from esair_min.resources import resolve_robot
+from esair_min.core.image import build_image
 from esair_min.model.validate import load_robot
-from tests.support.board_lines import READY_OK
+from tests.support.board_lines import (READY_BAD, READY_OK, VERSION_BAD, VERSION_OK, cut_stimulus,
+                                       eeprom_stimulus)
+
+pytestmark = pytest.mark.gpsim
 
 SCENARIO = Path(__file__).resolve().parents[1] / "fixtures" / "gpsim" / "papaman.txt"
 BALANCE = SCENARIO.with_name("balance.txt")
@@ -341,3 +345,33 @@ def test_readings_that_tip_before_boot_are_refused(tipping_robot):
     # exactly the threshold (400) does not tip
     build_script(tipping_robot, "sensor 300 300 200 200 150 150 150 150\nboot\n",
                  "fw.cod", "image.hex")
+
+
+def test_image_verbs_gpsim_equals_python_core(robot, central, tmp_path):
+    """The image verbs on the PIC (issue 32): every reply, page write and EEPROM read
+    equal to the Python core's, the refusals included. (Not i2c_scan: gpsim's bus
+    models acknowledge every address; the AVR in simavr and the host C run it.)"""
+    _, cod, _ = central
+    stimulus = eeprom_stimulus(robot, scan=False)
+    run = run_stimulus(robot, stimulus, cod, tmp_path)
+    assert compare(run_script(robot, stimulus), run.trace(), GpsimSetup.from_robot(robot)) == []
+    replies = [line for _, line in run.replies]
+    assert replies[:7] == [READY_OK, b"OK\r\n",
+                           b"E09 motion image invalid\r\n", b"OK\r\n",
+                           b"E06 bad checksum\r\n", b"E03 bad argument\r\n",
+                           b"OK " + (build_image(robot)[16:32] + bytes((
+                               -(0x10 + sum(build_image(robot)[16:32])) & 0xFF,))).hex()
+                           .upper().encode() + b"\r\n"]
+    assert replies[7:] == [b"OK\r\n", VERSION_OK, b"OK\r\n"]
+
+
+def test_a_cut_write_gpsim_equals_python_core(robot, central, tmp_path):
+    """An EEPROM left by a cut write: image=bad, PLY03 E09 until rewritten and committed."""
+    _, cod, _ = central
+    stimulus = cut_stimulus(robot)
+    run = run_stimulus(robot, stimulus, cod, tmp_path)
+    assert compare(run_script(robot, stimulus), run.trace(), GpsimSetup.from_robot(robot)) == []
+    replies = [line for _, line in run.replies]
+    assert replies == [READY_BAD, VERSION_BAD, b"E09 motion image invalid\r\n",
+                       b"E09 motion image invalid\r\n", b"OK\r\n", b"OK\r\n", VERSION_OK,
+                       b"OK\r\n"]

@@ -21,8 +21,10 @@ from esair_min.errors import ConfigError
 from esair_min.model.validate import load_robot
 from esair_min.verify.new import copy_robot
 from esair_min.verify.report import report_lines
-from esair_min.verify.run import verify
+from esair_min.verify.runner import verify
 from esair_min.verify.targets import VerifyError, build, build_host, choose_targets
+
+pytestmark = [pytest.mark.avr, pytest.mark.gpsim]
 
 ROOT = Path(__file__).resolve().parents[2]
 

@@ -25,7 +25,7 @@ from typing import Any
 from esair_min.model.robot import Robot
 from esair_min.verify.budgets import Budget, memory_budgets
 from esair_min.verify.compare import Comparison, Difference
-from esair_min.verify.scenario import RING, Scenario
+from esair_min.verify.default_scenario import RING, Scenario
 from esair_min.verify.result import Progress, Report
 from esair_min.verify.targets import Firmware, TargetRun, VerifyError
 

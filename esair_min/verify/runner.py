@@ -9,9 +9,9 @@ from pathlib import Path
 from esair_min.model.robot import Robot
 from esair_min.verify import budgets as B
 from esair_min.verify.compare import compare_chip, compare_host
-from esair_min.verify.omni import is_omni, verify_omni
+from esair_min.verify.omni_base import is_omni, verify_omni
 from esair_min.verify.result import Progress, Report
-from esair_min.verify.scenario import Scenario, default_scenario
+from esair_min.verify.default_scenario import Scenario, default_scenario
 from esair_min.verify.targets import (Firmware, TargetRun, VerifyError, avr_watch, build,
                                       run_avr, run_host, run_pic, run_python)
 
