@@ -96,7 +96,7 @@ def before_x(trace: Path) -> list[float]:
             mark = int(line[2:])
         elif line.startswith("W 10 ") and line.endswith(" ACK"):
             last_w = mark
-        elif line == "RX 780D0A" and last_w is not None:
+        elif line == "RX 780D" and last_w is not None:
             out.append((mark - last_w) / 1000)
             last_w = None
     return out

@@ -4,7 +4,8 @@
 #   * Debian packages: gputils, gpsim, tmux (the live view's tests) (+ build deps when SDCC has to be built);
 #     iproute2 for the STD network-namespace tests (tests/support/netns.py, issue 12)
 #   * the ATmega328P toolchain (issue 24), pinned to bookworm's versions: gcc-avr, binutils-avr,
-#     avr-libc, and simavr's library (libsimavr-dev, libelf-dev) for esair_min/avr's simulator driver
+#     avr-libc, and simavr's library (libsimavr-dev, libelf-dev) for esair_min/avr's simulator driver;
+#     avrdude (esair flash) and arduino-core-avr (its bootloaders: the simulated Uno's, issue 32)
 #   * SDCC 4.2.0+dfsg built from Debian's *source* package, pic16 port only
 #   * device support generated from gputils' p18f452.inc:
 #       $PREFIX/include/esair/p18f452_regs.h   (register declarations)
@@ -24,7 +25,7 @@ SCRIPT_DIR="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 SDCC_UPSTREAM="4.2.0+dfsg"
 RUNTIME_PKGS="gputils gpsim iproute2 tmux"
 # ATmega328P (docs/toolchain.md, "ATmega328P"): exact versions, so every machine builds the same bytes
-AVR_PKGS="gcc-avr=1:5.4.0+Atmel3.6.2-3 binutils-avr=2.26.20160125+Atmel3.6.2-4 avr-libc=1:2.0.0+Atmel3.6.2-3 libsimavr-dev=1.6+dfsg-3 libsimavr2=1.6+dfsg-3 libelf-dev"
+AVR_PKGS="gcc-avr=1:5.4.0+Atmel3.6.2-3 binutils-avr=2.26.20160125+Atmel3.6.2-4 avr-libc=1:2.0.0+Atmel3.6.2-3 libsimavr-dev=1.6+dfsg-3 libsimavr2=1.6+dfsg-3 libelf-dev avrdude=7.1+dfsg-3 arduino-core-avr"
 BUILD_PKGS="bison flex libboost-dev zlib1g-dev make g++ gcc dpkg-dev"
 DISABLED_PORTS="mcs51 z80 z180 r2k r2ka r3ka sm83 tlcs90 ez80_z80 z80n ds390 ds400 pic14 hc08 s08 stm8 pdk13 pdk14 pdk15 mos6502"
 
@@ -153,6 +154,8 @@ avr_install() {      # the pinned AVR packages (apt_install checks names, not ve
 }
 avr_install
 command -v avr-gcc >/dev/null && [ -f /usr/include/simavr/sim_avr.h ] || die "avr-gcc or simavr's headers missing"
+command -v avrdude >/dev/null && [ -f /usr/share/arduino/hardware/arduino/avr/bootloaders/optiboot/optiboot.c ] \
+    || die "avrdude or arduino-core-avr's bootloaders missing"
 [ -f /usr/share/gputils/header/p18f452.inc ] || die "gputils' p18f452.inc not found"
 
 if [ "${ESAIR_FORCE_BUILD:-0}" != 1 ] && sdcc_works; then

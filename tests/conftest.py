@@ -116,6 +116,7 @@ LONGEST_FIRST = ["test_starfish_net", "test_std_operator_cli", "test_std_net", "
                  "test_hmi_starfish", "test_validate_errors", "test_std_record",
                  "test_gpsim_slaves", "test_script", "test_std_net_security",
                  "test_starfish_avr", "test_std_supervision", "test_validate_fuzz", "test_gpsim",
+                 "test_pic_bootloader",
                  "test_std_papaman_cli"]
 
 

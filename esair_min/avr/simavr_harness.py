@@ -53,12 +53,13 @@ class SimError(EsairError):
     """The simulator driver could not be built or run, or the firmware crashed."""
 
 
-def simulator(cache: Path | None = None) -> Path:
-    """The driver binary, compiled (``gcc -Werror``) against libsimavr on first use."""
-    src = SOURCE.read_bytes()
+def simulator(cache: Path | None = None, source: Path = SOURCE) -> Path:
+    """A driver binary (``simdrv.c`` unless ``source`` names another), compiled
+    (``gcc -Werror``) against libsimavr on first use."""
+    src = source.read_bytes()
     digest = hashlib.sha256(src).hexdigest()[:16]
     base = cache or Path(tempfile.gettempdir()) / "esair-avr-driver"
-    exe = base / f"simdrv-{digest}"
+    exe = base / f"{source.stem}-{digest}"
     if exe.exists():
         return exe
     if shutil.which("gcc") is None or not Path("/usr/include/simavr/sim_avr.h").exists():
@@ -67,7 +68,7 @@ def simulator(cache: Path | None = None) -> Path:
     base.mkdir(parents=True, exist_ok=True)
     tmp = exe.with_name(f"{exe.name}.{os.getpid()}.tmp")
     proc = subprocess.run(["gcc", "-O2", "-std=gnu11", "-Wall", "-Wextra", "-Werror", "-o",
-                           str(tmp), str(SOURCE), "-lsimavr", "-lelf"],
+                           str(tmp), str(source), "-lsimavr", "-lelf"],
                           capture_output=True, text=True, timeout=120)
     if proc.returncode != 0:
         raise SimError(f"cannot build the simavr driver:\n{proc.stderr[-2000:]}")

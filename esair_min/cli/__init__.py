@@ -234,7 +234,7 @@ def emulate(robot: str, pty: bool, run_s: float | None, sends: tuple[str, ...],
 
 @main.command(short_help="Send command lines to a port; print one reply per line.")
 @click.argument("port")
-@click.argument("commands", nargs=-1, required=True)
+@click.argument("commands", nargs=-1)
 @click.option("--baud", type=int, default=9600, show_default=True,
               help="Baud rate of a real serial port.")
 @click.option("--timeout", type=float, default=2.0, show_default=True,
@@ -251,6 +251,9 @@ def send(port: str, commands: tuple[str, ...], baud: int, timeout: float, notice
     """
     from esair_min.cli.send import open_port, send_commands
 
+    if not commands:
+        raise click.UsageError(f"no commands to send; to watch the board's notices and "
+                               f"replies and type commands, use: esair monitor {port}")
     ser = open_port(port, baud, timeout)
     try:
         failures = send_commands(ser, commands, timeout, click.echo, notices, checksum)
@@ -316,14 +319,29 @@ def generate(robot: str, output: str) -> None:
 @friendly
 def build(robot: str, output: str) -> None:
     """Generate every board's firmware, build it for its MCU (PIC18F452: SDCC; ATmega328P:
-    avr-gcc) and print its footprint; a warning fails the build."""
+    avr-gcc) and print its footprint (and an ATmega328P's fuses for a bare chip); a
+    warning fails the build."""
     from pathlib import Path
 
     from esair_min.pic.build import build_robot, summary_lines
 
-    for line in summary_lines(build_robot(load(robot), Path(output))):
+    model = load(robot)
+    for line in summary_lines(build_robot(model, Path(output), boot=True)):
         click.echo(line)
+    from esair_min.flash.avr import fuses_for
 
+    for board in model.boards:
+        if board.mcu.part == "atmega328p":
+            fuses, _ = fuses_for(board.mcu.clock_hz)
+            click.echo(f"{board.role}: a bare chip at {board.mcu.clock_hz / 1e6:g} MHz needs "
+                       f"{fuses.describe()} (esair flash --programmer NAME --fuses)")
+
+
+from esair_min.cli.flash import flash, monitor, run  # noqa: E402  (commands of real boards)
+
+main.add_command(flash)
+main.add_command(monitor)
+main.add_command(run)
 
 main.add_command(_verify.new)
 main.add_command(_verify.verify)

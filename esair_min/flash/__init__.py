@@ -2,5 +2,8 @@
 (``avr``), ESAIR's own serial bootloader for PIC18F452 boards (``pic``)."""
 
 
-class FlashError(Exception):
+from esair_min.errors import EsairError
+
+
+class FlashError(EsairError):
     """A flash that did not complete: the message names the likely cause and what to try."""

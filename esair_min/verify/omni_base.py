@@ -178,6 +178,9 @@ def verify_omni(robot: Robot, targets: tuple[str, ...], work: Path, script: str 
     work.mkdir(parents=True, exist_ok=True)
     path = work / "scenario.txt"
     path.write_text(sc.text)
+    if script is not None and name and Path(name).is_file():
+        path = Path(name)        # the builder's own: its name in errors, its folder
+                                        # for `image` lines
     if firmware is None and any(t != "python" for t in targets):
         t0 = time.monotonic()
         firmware = build(robot, targets, work / "firmware")

@@ -183,3 +183,27 @@ def test_at_1280x800_the_components_and_the_log_are_in_the_window(robot, browser
     assert joints.evaluate("e => e.scrollHeight <= e.clientHeight + 1")
     page.close()
     assert errors == []
+
+
+def test_the_banners_stick_right_under_the_header_whatever_its_height(robot, browser):
+    """At 760 px the header wraps (taller than the 46 px a banner stuck at before): a
+    banner (link lost, STOPPED) scrolled with the page sticks right under it, not under
+    its first row."""
+    page, errors = open_page(browser, robot.url, width=760, height=700)
+    got = page.evaluate("""async () => {
+      const head = document.querySelector('header#top'), out = [];
+      for (const id of ['banner', 'latch']) {
+        const b = document.getElementById(id);
+        if (!b) continue;
+        b.hidden = false; if (!b.textContent.trim()) b.textContent = 'shown by the test';
+        window.scrollTo(0, 600);
+        await new Promise((ok) => requestAnimationFrame(() => requestAnimationFrame(ok)));
+        out.push([id, Math.round(head.getBoundingClientRect().bottom),
+                  Math.round(b.getBoundingClientRect().top)]);
+        b.hidden = true; window.scrollTo(0, 0);
+      }
+      return out; }""")
+    assert got and all(h > 50 for _, h, _ in got), got        # wrapped
+    assert all(abs(h - top) <= 1 for _, h, top in got), got
+    page.close()
+    assert errors == []

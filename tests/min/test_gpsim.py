@@ -22,7 +22,10 @@ from esair_min.pic.gpsim_harness import GpsimSetup, boot_end, build_script, comp
 from esair_min.pic.gpsim_wave import read_register_log, transfer_kinds
 from esair_min.core.stimulus import run_script
 from esair_min.resources import resolve_robot
+from esair_min.core.image import build_image
 from esair_min.model.validate import load_robot
+from tests.support.board_lines import (READY_BAD, READY_OK, VERSION_BAD, VERSION_OK, cut_stimulus,
+                                       eeprom_stimulus)
 
 pytestmark = pytest.mark.gpsim
 
@@ -66,7 +69,7 @@ def test_papaman_scenario_gpsim_equals_python_core(robot, scenario_run):
     gpsim = scenario_run.trace()
     assert compare(python, gpsim, GpsimSetup.from_robot(robot)) == []
     replies = [line for _, line in scenario_run.replies]
-    assert replies[0] == b"!READY esair-min/1 image=ok\r\n"
+    assert replies[0] == READY_OK
     assert b"E10 no answer on i2c\r\n" in replies          # the sensor fault was seen
     writes = [t for t in scenario_run.transfers if t.segments[0].address == 0x10]
     assert len(writes) > 40                                 # the dance: a frame per tick
@@ -274,7 +277,7 @@ def test_balance_reaction_gpsim_equals_python_core(tipping_robot, tipping_centra
     python = run_script(tipping_robot, scenario.read_text())
     assert compare(python, run.trace(), setup) == []
     replies = [line for _, line in run.replies]
-    assert replies[:2] == [b"!READY esair-min/1 image=ok\r\n", b"OK\r\n"]
+    assert replies[:2] == [READY_OK, b"OK\r\n"]
     assert replies.count(BALANCE_LINE) == fires == python.count("TX " + BALANCE_LINE.hex().upper())
     if fires:
         assert len(replies) == 2 + fires
@@ -342,3 +345,33 @@ def test_readings_that_tip_before_boot_are_refused(tipping_robot):
     # exactly the threshold (400) does not tip
     build_script(tipping_robot, "sensor 300 300 200 200 150 150 150 150\nboot\n",
                  "fw.cod", "image.hex")
+
+
+def test_image_verbs_gpsim_equals_python_core(robot, central, tmp_path):
+    """The image verbs on the PIC (issue 32): every reply, page write and EEPROM read
+    equal to the Python core's, the refusals included. (Not i2c_scan: gpsim's bus
+    models acknowledge every address; the AVR in simavr and the host C run it.)"""
+    _, cod, _ = central
+    stimulus = eeprom_stimulus(robot, scan=False)
+    run = run_stimulus(robot, stimulus, cod, tmp_path)
+    assert compare(run_script(robot, stimulus), run.trace(), GpsimSetup.from_robot(robot)) == []
+    replies = [line for _, line in run.replies]
+    assert replies[:7] == [READY_OK, b"OK\r\n",
+                           b"E09 motion image invalid\r\n", b"OK\r\n",
+                           b"E06 bad checksum\r\n", b"E03 bad argument\r\n",
+                           b"OK " + (build_image(robot)[16:32] + bytes((
+                               -(0x10 + sum(build_image(robot)[16:32])) & 0xFF,))).hex()
+                           .upper().encode() + b"\r\n"]
+    assert replies[7:] == [b"OK\r\n", VERSION_OK, b"OK\r\n"]
+
+
+def test_a_cut_write_gpsim_equals_python_core(robot, central, tmp_path):
+    """An EEPROM left by a cut write: image=bad, PLY03 E09 until rewritten and committed."""
+    _, cod, _ = central
+    stimulus = cut_stimulus(robot)
+    run = run_stimulus(robot, stimulus, cod, tmp_path)
+    assert compare(run_script(robot, stimulus), run.trace(), GpsimSetup.from_robot(robot)) == []
+    replies = [line for _, line in run.replies]
+    assert replies == [READY_BAD, VERSION_BAD, b"E09 motion image invalid\r\n",
+                       b"E09 motion image invalid\r\n", b"OK\r\n", b"OK\r\n", VERSION_OK,
+                       b"OK\r\n"]

@@ -67,6 +67,11 @@ def test_build_prints_each_boards_exact_footprint_within_goal(built):
         "board    program memory           RAM                            stack  mcu",
         "central  3322 B of 32768 (10.1%)  314 B of 2048 (15.3%) + stack  -      atmega328p",
         "drive    1240 B of 32768 (3.8%)   41 B of 2048 (2.0%) + stack    -      atmega328p",
+        # the fuses of a bare chip, from each board file's clock (esair flash --fuses)
+        "central: a bare chip at 16 MHz needs lfuse 0xFF hfuse 0xD9 efuse 0xFD "
+        "(esair flash --programmer NAME --fuses)",
+        "drive: a bare chip at 16 MHz needs lfuse 0xFF hfuse 0xD9 efuse 0xFD "
+        "(esair flash --programmer NAME --fuses)",
     ]
     central = elf_usage(elf(built, "central"))
     assert central.program_bytes <= GOAL_FLASH and central.data_bytes <= GOAL_RAM

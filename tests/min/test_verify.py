@@ -126,7 +126,7 @@ def test_verify_cli_json_and_exit_status(tmp_path):
     result = CliRunner().invoke(
         main, ["verify", str(folder), "--targets", "python", "--script", str(bad)])
     assert result.exit_code == 1
-    assert "scenario.txt:4:1: bad script line 'frobnicate'" in result.stderr
+    assert f"{bad}:4:1: bad script line 'frobnicate'" in result.stderr
 
 
 def test_at_115200_baud_the_default_scenario_overruns_the_ring(tmp_path):
