@@ -8,6 +8,8 @@ import sys
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
+#: modules the benches share (not benches themselves)
+SHARED = {"toolkit.py"}
 
 
 def benches() -> list[tuple[str, str]]:
@@ -15,7 +17,7 @@ def benches() -> list[tuple[str, str]]:
     modules the benches deploy (``*_comps.py``) are not benches."""
     out = []
     for path in sorted(HERE.glob("*.py")):
-        if path.name.startswith("_") or path.stem.endswith("_comps"):
+        if path.name.startswith("_") or path.stem.endswith("_comps") or path.name in SHARED:
             continue
         doc = ast.get_docstring(ast.parse(path.read_text())) or ""
         first = " ".join(doc.split("\n\n")[0].split())
