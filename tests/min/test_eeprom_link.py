@@ -451,3 +451,30 @@ def test_cli_eeprom_needs_one_mode():
     assert "give one of -o FILE, --write PORT, --verify PORT, --read FILE" in res.stderr
     res = _cli("eeprom", "papaman", "--read", "x.hex")
     assert res.returncode == 2 and "--port goes with --read" in res.stderr
+
+
+def test_cli_read_and_verify_over_an_esair_url(image, tmp_path):
+    """--read FILE --port, --verify (status 0 / 1 with the hint) against in-process robots."""
+    from click.testing import CliRunner
+
+    from esair_min.cli import main
+    from esair_min.core.image import read_hex
+
+    url = f"esair://{ROOT / 'boards' / 'papaman'}?speed=max"
+    runner = CliRunner()
+    out = tmp_path / "back.hex"
+    res = runner.invoke(main, ["eeprom", "papaman", "--read", str(out), "--port", url])
+    assert res.exit_code == 0, res.output
+    assert res.stdout == f"papaman: read 1070 bytes -> {out}\n"
+    assert read_hex(out, 32768)[:IMAGE_LEN] == image
+    res = runner.invoke(main, ["eeprom", "papaman", "--verify", url])
+    assert (res.exit_code, res.stdout) == (0, "papaman: the robot holds this image (CRC 0x2C20)\n")
+    res = runner.invoke(main, ["eeprom", "papaman", "--verify", url + "&eeprom=blank"])
+    assert res.exit_code == 1
+    assert res.stdout == (f"papaman: the robot's image differs (67 chunks: 0x0000, 0x0010, "
+                          f"0x0020, 0x0030, 0x0040, 0x0050, 0x0060, 0x0070 ...; its image is "
+                          f"not valid); run esair eeprom papaman --write {url}&eeprom=blank\n")
+    res = runner.invoke(main, ["eeprom", "papaman", "--read", str(out), "--port",
+                               url + "&eeprom=blank"])
+    assert res.exit_code == 1
+    assert "error: the EEPROM holds no motion image (its first bytes are ff ff ff" in res.output
