@@ -260,8 +260,9 @@ def test_run_flashes_what_differs_then_monitors(build, tmp_path):
     with SimUno(chip, tmp_path / "ttyUNO", boot) as uno:
         status, out, err = run_until_ready(uno.port, build)
         assert status == 130, err
-        assert "central: 5708 bytes written to" in out
-        assert re.search(r"\d\d:\d\d:\d\d\.\d{3} < !READY esair-min/1 image=bad +\[board reset", out)
+        assert "central: 6748 bytes written to" in out
+        assert re.search(r"\d\d:\d\d:\d\d\.\d{3} < !READY esair-min/1 image=bad "
+                         r"build=[0-9a-f]{8} +\[board reset", out)
         assert "monitor stopped" in err and "Traceback" not in err
         assert holds(uno, build / "central" / "firmware.hex")
         status, out, err = run_until_ready(uno.port, build)       # nothing changed
