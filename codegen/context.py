@@ -16,6 +16,7 @@ from esair_min.core import protocol as P
 from esair_min.errors import GenerateError
 from esair_min.model.encoding import MAX_LINE
 from esair_min.model.hardware import BaudSetting, I2cSetting, Timer2Setting
+from esair_min.model import picboot
 from esair_min.core.image import build_image
 from esair_min.components.motion.layout import HEADER_BYTES, VERSION
 from esair_min.model.board import Board
@@ -54,6 +55,7 @@ def common_context(robot: Robot, board: Board) -> Context:
         "oscillator": timing.oscillator(board.mcu.clock_hz),
         "sync_pin": _pin(board.sync.pin) if board.sync else None,
         "pic_stack": PIC_STACK,
+        "boot": picboot.boot_context(robot.name, board.role, board.mcu.clock_hz),
         **ports.mcu_context(board),
     }
 

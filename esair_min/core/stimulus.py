@@ -45,6 +45,15 @@ class HeldBus:
         return None if self.held else self.bus.write_read(addr, wdata, n)
 
 
+def _build_id(robot: Robot) -> str | None:
+    """The build id of the robot's firmware; None for a model the generator cannot
+    render (a test's variant outside the validator's rules: it has no firmware)."""
+    try:
+        return central_build_id(robot)
+    except (EsairError, ValueError, OverflowError):
+        return None
+
+
 class Rig:
     """A central core wired to simple devices, a trace writer and a receive ring.
 
@@ -65,8 +74,7 @@ class Rig:
         devices = [d for d in (self.eeprom, self.actuator, self.sensor) if d is not None]
         self.lines = HeldBus(SimpleBus(devices))
         self.bus = TracingBus(self.lines, self.writer)
-        self.core = CentralCore(robot, self.bus, self.writer.tx,
-                                build_id=central_build_id(robot))
+        self.core = CentralCore(robot, self.bus, self.writer.tx, build_id=_build_id(robot))
         self.ring: deque[int] = deque()    # bytes, GAP set on the first after a loss
         self.lost = False                  # bytes were lost since the last one got in
         self.received = 0                  # bytes offered to the ring since the start

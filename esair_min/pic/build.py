@@ -19,6 +19,7 @@ from esair_min.errors import EsairError
 from esair_min.make import make_board
 from esair_min.model import mcu
 from esair_min.model.robot import Robot
+from esair_min.pic.bootbuild import BootBuildError, BootUsage, build_boot, has_bootloader
 from esair_min.pic.toolchain import MapUsage, Toolchain, ToolchainError, find_toolchain, parse_map
 
 FLASH_BYTES = 32768      # PIC18F452 program memory
@@ -37,6 +38,7 @@ class BoardBuild:
     folder: Path
     usage: MapUsage | AvrUsage
     part: str = "pic18f452"
+    boot: BootUsage | None = None     # ESAIR's bootloader and the application above it
 
     @property
     def flash_bytes(self) -> int:
@@ -87,8 +89,11 @@ def build_board(folder: Path, tc: Toolchain, timeout: float = 300.0,
     return usage
 
 
-def build_robot(robot: Robot, out_dir: Path, tc: Toolchain | None = None) -> list[BoardBuild]:
-    """Generate every board of ``robot`` under ``out_dir`` and build each for the PIC."""
+def build_robot(robot: Robot, out_dir: Path, tc: Toolchain | None = None,
+                boot: bool = False) -> list[BoardBuild]:
+    """Generate every board of ``robot`` under ``out_dir`` and build each for the PIC;
+    with ``boot`` also each PIC board's bootloader and the application linked above it
+    (``firmware-app.hex``, esair_min.pic.bootbuild), where the board has one."""
     from esair_min.codegen import generate_robot
 
     parts: dict[str, str] = {b.role: b.mcu.part for b in robot.boards}
@@ -113,7 +118,14 @@ def build_robot(robot: Robot, out_dir: Path, tc: Toolchain | None = None) -> lis
         else:
             assert tc is not None
             usage = build_board(folder, tc)
-        builds.append(BoardBuild(role, folder, usage, parts[role]))
+        boot_usage = None
+        if boot and parts[role] == "pic18f452" and has_bootloader(folder):
+            assert tc is not None
+            try:
+                boot_usage = build_boot(folder, tc, robot.name, role)
+            except BootBuildError as exc:
+                raise BuildError(str(exc)) from None
+        builds.append(BoardBuild(role, folder, usage, parts[role], boot_usage))
     return builds
 
 
@@ -134,4 +146,5 @@ def summary_lines(builds: list[BoardBuild]) -> list[str]:
                      f"{u.stack_bytes} B" if b.part == "pic18f452" else "-")
                     + ((b.part,) if avr else ()))
     widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
-    return ["  ".join(c.ljust(w) for c, w in zip(r, widths, strict=True)).rstrip() for r in rows]
+    return (["  ".join(c.ljust(w) for c, w in zip(r, widths, strict=True)).rstrip()
+             for r in rows] + [b.boot.line(b.role) for b in builds if b.boot is not None])

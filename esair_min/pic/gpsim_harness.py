@@ -447,14 +447,26 @@ def _normalise(line: str) -> str:
 def projections(lines: list[str], eeprom: int, actuator: int | None,
                 sensor: int | None) -> dict[str, list[str]]:
     """The parts of a trace that must be equal however bytes and ticks interleave:
-    the UART lines, the actuator writes, the EEPROM reads, the sensor reads."""
+    the UART lines, the actuator writes, the EEPROM reads and page writes, the sensor
+    reads. Probes (``P`` lines; an address alone on the wire) are left out: the EEPROM
+    acknowledges its polls after its own write cycle, which the Python core does not
+    time; their outcome is in the replies (``OK``, ``E10``, i2c_scan's list)."""
     out: dict[str, list[str]] = {"uart": [], "actuator": [], "eeprom": [], "sensor": []}
     by_addr = {eeprom: "eeprom", actuator: "actuator", sensor: "sensor"}
     for line in lines:
+        if line.startswith("P "):
+            continue
         if line.startswith("TX "):
             out["uart"].append(line)
         elif line[:2] in ("W ", "R "):
-            key = by_addr.get(int(line.split()[1], 16))
+            words = line.split()
+            addr = int(words[1], 16)
+            if words[0] == "W" and len(words) == 3 and (words[2] == "ACK" or addr == eeprom
+                                                        or addr not in by_addr):
+                continue      # an address alone (a probe): polls and i2c_scan, compared
+            if addr == eeprom and words[0] == "W" and words[-1] == "NACK":
+                continue      # ... by the replies (a refused write is a NACKed probe)
+            key = by_addr.get(addr)
             if key is None:
                 raise ToolchainError(f"I2C transfer to an unknown address: {line}")
             out[key].append(_normalise(line))

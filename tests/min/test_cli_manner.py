@@ -20,9 +20,12 @@ import pytest
 from click.testing import CliRunner
 
 from esair_min.cli import main
+from tests.support.board_lines import READY_OK_T, VERSION_OK_T
+
+pytestmark = pytest.mark.slow
 
 ROOT = Path(__file__).resolve().parents[2]
-VERSION = "OK esair-min/1 servos=12 sensors=8 motions=5 image=ok checksum=off"
+VERSION = VERSION_OK_T
 INSTANCE = "0123abcd"            # the pty emulators here boot with this instance
 VERSION_PTY = f"{VERSION} id={INSTANCE}"
 
@@ -57,7 +60,7 @@ def test_a_missing_path_names_the_path_only():
 @pytest.mark.parametrize("board, first", [
     ("actuator", "board 'actuator' [actuator], I2C slave at 0x10: servos: 12"),
     ("sensor", "board 'sensor' [sensor], I2C slave at 0x20: sensors: 8"),
-    ("central", "board 'central' [central], I2C master: commands: 10, motions: 5, reactions: 1"),
+    ("central", "board 'central' [central], I2C master: commands: 14, motions: 5, reactions: 1"),
 ])
 def test_check_a_lone_board_file_on_its_own_rules(board, first, monkeypatch):
     monkeypatch.chdir(ROOT)
@@ -113,7 +116,7 @@ def test_ctrl_c_during_a_run_keeps_what_ran(tmp_path):
             proc.wait()
     assert proc.returncode == 130
     lines = (got + out).decode().splitlines()
-    assert lines[:3] == ["!READY esair-min/1 image=ok", VERSION, "OK"]
+    assert lines[:3] == [READY_OK_T, VERSION, "OK"]
     err_text = err.decode()
     assert err_text.startswith("interrupted after ") and "Traceback" not in err_text
     assert err_text.endswith(f"s of the 100000 s run (virtual time): the output so far is "

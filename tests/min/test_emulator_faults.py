@@ -12,6 +12,7 @@ from esair_min.emulator.papaman.actuator import encode
 from esair_min.errors import EsairError
 from esair_min.core.protocol import parse_reply
 from esair_min.core.trace import TraceWriter
+from tests.support.board_lines import READY_BAD, READY_OK, READY_OK_T, VERSION_BAD_T
 
 ROOT = Path(__file__).resolve().parents[2]
 FIX = ROOT / "tests" / "fixtures" / "scenarios"
@@ -74,7 +75,7 @@ def test_scenario_readings_reach_the_s_command(robot):
 def test_actuator_nack(robot):
     emu = Emulator(robot, faults=Faults(actuator_nack=True))
     emu.settle()
-    assert emu.command("t") == ["!READY esair-min/1 image=ok", "E10 no answer on i2c"]
+    assert emu.command("t") == [READY_OK_T, "E10 no answer on i2c"]
     assert emu.command("oab100") == ["E10 no answer on i2c"]
     assert emu.command("PLY03") == ["OK"]           # the first frame is read, not written
     emu.run_for(0.05)
@@ -88,7 +89,7 @@ def test_actuator_nack(robot):
 def test_sensor_board_absent(robot):
     emu = Emulator(robot, faults=Faults(sensor_absent=True))
     emu.run_for(1.0)
-    assert emu.read() == b"!READY esair-min/1 image=ok\r\n!E10 no answer on i2c\r\n"
+    assert emu.read() == READY_OK + b"!E10 no answer on i2c\r\n"
     assert emu.command("s") == ["E10 no answer on i2c"]
     emu.run_for(1.0)
     assert emu.read() == b""                        # the notice is sent once
@@ -99,12 +100,11 @@ def test_corrupt_eeprom(robot):
     emu = Emulator(robot, faults=Faults(corrupt_eeprom=True, seed=3))
     assert emu.corrupted_at is not None and emu.corrupted_at >= 8
     emu.settle()
-    assert emu.read() == b"!READY esair-min/1 image=bad\r\n"
+    assert emu.read() == READY_BAD
     assert emu.command("PLY03") == ["E09 motion image invalid"]
     assert emu.command("DNC") == ["E09 motion image invalid"]
     assert emu.command("t") == ["OK"]
-    assert emu.command("v") == ["OK esair-min/1 servos=12 sensors=8 motions=5 image=bad "
-                                "checksum=off"]
+    assert emu.command("v") == [VERSION_BAD_T]
 
 
 def test_fault_at_run_time_and_recovery(robot):
@@ -145,7 +145,8 @@ def test_stuck_bus_times_out_like_the_pic(robot):
 def test_stuck_bus_from_reset_fails_the_image_check(robot):
     emu = Emulator(robot, faults=Faults(bus_stuck=True))
     emu.settle()
-    assert emu.read() == b"!READY esair-min/1 image=bad\r\n"
+    # the boot notice, and (its tick fell while it was sent) the balance poll's notice
+    assert emu.read() == READY_BAD + b"!E10 no answer on i2c\r\n"
     assert emu.command("PLY01") == ["E09 motion image invalid"]
 
 

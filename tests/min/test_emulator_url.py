@@ -9,8 +9,9 @@ import serial
 
 import esair_min.emulator  # noqa: F401  (registers esair://)
 from esair_min.emulator.protocol_esair import parse_url
+from tests.support.board_lines import READY_BAD, READY_OK, VERSION_BAD, VERSION_OK
 
-VERSION = b"OK esair-min/1 servos=12 sensors=8 motions=5 image=ok checksum=off\r\n"
+VERSION = VERSION_OK
 
 
 def test_registered_with_pyserial():
@@ -20,7 +21,7 @@ def test_registered_with_pyserial():
 def test_max_speed_port_answers_like_the_robot():
     port = serial.serial_for_url("esair://boards/papaman?speed=max", timeout=1)
     try:
-        assert port.readline() == b"!READY esair-min/1 image=ok\r\n"
+        assert port.readline() == READY_OK
         port.write(b"v\r\n")
         assert port.readline() == VERSION
         port.write(b"t\r\noab100\r\nzz\r\nPLY03\r\nt\r\n")
@@ -58,12 +59,13 @@ def test_url_options_scenario_faults_and_trace(tmp_path):
 def test_url_stuck_bus():
     port = serial.serial_for_url("esair://papaman?speed=max&stuck=bus", timeout=2)
     try:
-        assert port.readline() == b"!READY esair-min/1 image=bad\r\n"
-        port.write(b"v\r\n")
-        assert port.readline().startswith(b"OK esair-min/1 ")
-        port.write(b"t\r\n")
-        lines = [port.readline() for _ in range(2)]   # the reply, the balance poll's notice
-        assert sorted(lines) == [b"!E10 no answer on i2c\r\n", b"E10 no answer on i2c\r\n"]
+        assert port.readline() == READY_BAD
+        port.write(b"v\r\nt\r\n")
+        # the two replies, and the balance poll's notice (once) where its tick fell
+        lines = [port.readline() for _ in range(3)]
+        assert [x for x in lines if not x.startswith(b"!")] == [VERSION_BAD,
+                                                               b"E10 no answer on i2c\r\n"]
+        assert [x for x in lines if x.startswith(b"!")] == [b"!E10 no answer on i2c\r\n"]
     finally:
         port.close()
 
@@ -71,12 +73,15 @@ def test_url_stuck_bus():
 def test_real_time_port_takes_line_time():
     port = serial.serial_for_url("esair://papaman", timeout=2)
     try:
-        assert port.readline() == b"!READY esair-min/1 image=ok\r\n"
-        t0 = time.monotonic()
+        assert port.readline() == READY_OK
+        line_s = (2 + len(VERSION)) * 10 / 9600    # "v" CR, then the reply, at 9600 baud
+        v0, t0 = port.emulator.clock.now, time.monotonic()
         port.write(b"v\r\n")
         assert port.readline() == VERSION
-        took = time.monotonic() - t0
-        assert 0.070 <= took < 1.0           # 70 characters at 9600 baud: 72.9 ms
+        # the robot's own time passed the line time; the wall clock never less than that
+        # (virtual time follows the wall clock: it is never ahead), however loaded
+        assert (port.emulator.clock.now - v0) / 1e9 >= line_s
+        assert time.monotonic() - t0 >= line_s - 0.005   # 5 ms: the pacer's step
         port.reset_input_buffer()
         assert port.in_waiting == 0
     finally:
@@ -91,7 +96,8 @@ def test_parse_url():
 
 @pytest.mark.parametrize("url, message", [
     ("esair://papaman?colour=red", "unknown option 'colour' in 'esair://papaman?colour=red' "
-     "(known: speed, scenario, trace, nack, absent, corrupt, stuck, noise, seed)"),
+     "(known: speed, scenario, trace, nack, absent, corrupt, stuck, noise, seed, "
+     "eeprom)"),
     ("esair://?speed=max", "esair:// URL names no robot (e.g. esair://boards/papaman)"),
     ("esair://papaman?speed=fast", "speed='fast': use real, max or a factor > 0"),
     ("esair://papaman?nack=sensor", "option nack='sensor': only nack=actuator exists"),

@@ -22,7 +22,12 @@ from esair_min.pic.gpsim_harness import GpsimSetup, boot_end, build_script, comp
 from esair_min.pic.gpsim_wave import read_register_log, transfer_kinds
 from esair_min.core.stimulus import run_script
 from esair_min.resources import resolve_robot
+from esair_min.core.image import build_image
 from esair_min.model.validate import load_robot
+from tests.support.board_lines import (READY_BAD, READY_OK, VERSION_BAD, VERSION_OK, cut_stimulus,
+                                       eeprom_stimulus, ready)
+
+pytestmark = pytest.mark.gpsim
 
 SCENARIO = Path(__file__).resolve().parents[1] / "fixtures" / "gpsim" / "papaman.txt"
 BALANCE = SCENARIO.with_name("balance.txt")
@@ -40,7 +45,8 @@ DECODER_CHAR_MEAN = 36
 DECODER_LF_SWALLOWED = 40        # core_rx_end and back
 TIMER2_ISR_WORST = 120           # with a reply byte served in the same interrupt
 ANY_ISR_WORST = 120              # TX with the 80-byte ring's wrap
-TICK_TO_LAST_BYTE = 14_300       # dance frames
+TICK_TO_LAST_BYTE = 16_500       # dance frames, steady: measured 12_761..16_047 (the worst: a 92-byte
+                                 # v reply being built when the tick came; 13_893 before its CRC and build id)
 FRAME_WRITE = 13_200             # START..STOP of 1 + 25 bytes (wire 26 x 9 x 52)
 FRAME_READ = 14_600              # 3 bytes, repeated START, 24 bytes read
 PULSE_ERROR = 0.01               # servo pulse width vs the commanded angle
@@ -64,7 +70,7 @@ def test_papaman_scenario_gpsim_equals_python_core(robot, scenario_run):
     gpsim = scenario_run.trace()
     assert compare(python, gpsim, GpsimSetup.from_robot(robot)) == []
     replies = [line for _, line in scenario_run.replies]
-    assert replies[0] == b"!READY esair-min/1 image=ok\r\n"
+    assert replies[0] == READY_OK
     assert b"E10 no answer on i2c\r\n" in replies          # the sensor fault was seen
     writes = [t for t in scenario_run.transfers if t.segments[0].address == 0x10]
     assert len(writes) > 40                                 # the dance: a frame per tick
@@ -111,7 +117,13 @@ def test_frame_timing_on_the_bus(robot, scenario_run):
     # when it was read, and a poll tick's overrun delays the next by ~1 300 cycles
     assert len(timing.played) >= 30
     assert 26 * 9 * 50 < min(timing.to_last_byte) <= min(timing.played)
-    assert max(timing.played) <= TICK_TO_LAST_BYTE
+    # DNC looks its motion up in the image's directory (four 6-byte reads, ~22 000
+    # cycles) and reads its first frame before it answers: the tick that falls meanwhile
+    # is served after them, and the frames that follow catch up within three ticks,
+    # each still within its tick; from then on every frame is on time
+    tick = GpsimSetup.from_robot(robot).tick_cycles
+    assert max(timing.played[:3]) < tick
+    assert max(timing.played[3:]) <= TICK_TO_LAST_BYTE
     assert max(timing.write) <= FRAME_WRITE
     assert max(timing.read) <= FRAME_READ
     assert all(s > b for s, b in zip(timing.to_stop, timing.to_last_byte))
@@ -272,7 +284,7 @@ def test_balance_reaction_gpsim_equals_python_core(tipping_robot, tipping_centra
     python = run_script(tipping_robot, scenario.read_text())
     assert compare(python, run.trace(), setup) == []
     replies = [line for _, line in run.replies]
-    assert replies[:2] == [b"!READY esair-min/1 image=ok\r\n", b"OK\r\n"]
+    assert replies[:2] == [ready(tipping_robot), b"OK\r\n"]
     assert replies.count(BALANCE_LINE) == fires == python.count("TX " + BALANCE_LINE.hex().upper())
     if fires:
         assert len(replies) == 2 + fires
@@ -340,3 +352,33 @@ def test_readings_that_tip_before_boot_are_refused(tipping_robot):
     # exactly the threshold (400) does not tip
     build_script(tipping_robot, "sensor 300 300 200 200 150 150 150 150\nboot\n",
                  "fw.cod", "image.hex")
+
+
+def test_image_verbs_gpsim_equals_python_core(robot, central, tmp_path):
+    """The image verbs on the PIC (issue 32): every reply, page write and EEPROM read
+    equal to the Python core's, the refusals included. (Not i2c_scan: gpsim's bus
+    models acknowledge every address; the AVR in simavr and the host C run it.)"""
+    _, cod, _ = central
+    stimulus = eeprom_stimulus(robot, scan=False)
+    run = run_stimulus(robot, stimulus, cod, tmp_path)
+    assert compare(run_script(robot, stimulus), run.trace(), GpsimSetup.from_robot(robot)) == []
+    replies = [line for _, line in run.replies]
+    assert replies[:7] == [READY_OK, b"OK\r\n",
+                           b"E09 motion image invalid\r\n", b"OK\r\n",
+                           b"E06 bad checksum\r\n", b"E03 bad argument\r\n",
+                           b"OK " + (build_image(robot)[16:32] + bytes((
+                               -(0x10 + sum(build_image(robot)[16:32])) & 0xFF,))).hex()
+                           .upper().encode() + b"\r\n"]
+    assert replies[7:] == [b"OK\r\n", VERSION_OK, b"OK\r\n"]
+
+
+def test_a_cut_write_gpsim_equals_python_core(robot, central, tmp_path):
+    """An EEPROM left by a cut write: image=bad, PLY03 E09 until rewritten and committed."""
+    _, cod, _ = central
+    stimulus = cut_stimulus(robot)
+    run = run_stimulus(robot, stimulus, cod, tmp_path)
+    assert compare(run_script(robot, stimulus), run.trace(), GpsimSetup.from_robot(robot)) == []
+    replies = [line for _, line in run.replies]
+    assert replies == [READY_BAD, VERSION_BAD, b"E09 motion image invalid\r\n",
+                       b"E09 motion image invalid\r\n", b"OK\r\n", b"OK\r\n", VERSION_OK,
+                       b"OK\r\n"]

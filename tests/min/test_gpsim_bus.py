@@ -19,6 +19,9 @@ from esair_min.errors import ProtocolError
 from esair_min.pic.gpsim_harness import (GpsimRun, GpsimSetup, build_script, compare, projections,
                                      run_stimulus)
 from esair_min.core.stimulus import run_script
+from tests.support.board_lines import READY_BAD, READY_OK, VERSION_BAD, VERSION_OK
+
+pytestmark = pytest.mark.gpsim
 
 FIXTURES = Path(__file__).resolve().parents[1] / "fixtures" / "gpsim"
 BUS = FIXTURES / "bus.txt"                # SCL held, then SDA held, commands and a motion
@@ -29,7 +32,7 @@ CUT_LEAD = 0.25                           # bus_cut.txt: ticks end 1/4 tick afte
 E10 = b"E10 no answer on i2c\r\n"
 NOTICE = b"!E10 no answer on i2c\r\n"
 OK = b"OK\r\n"
-VERSION_OK = b"OK esair-min/1 servos=12 sensors=8 motions=5 image=ok checksum=off\r\n"
+VERSION_OK = VERSION_OK
 STAND = "W 10 005A145A145A145A145A145A145A145A145A145A145A145A14 ACK"
 
 # Instruction cycles (20 MHz): from the ISR's read of the CR that ends a line to the
@@ -37,7 +40,7 @@ STAND = "W 10 005A145A145A145A145A145A145A145A145A145A145A145A14 ACK"
 TIMEOUT_MIN = 8192             # the SSPIF countdown: 4 x 256 polls of 8 cycles
 HELD_WRITE_E10 = 38_800        # `t`: waits for the tick, then the START times out
 BUS_COMMAND_E10 = 13_400       # PLY01, s, DNC: the read at once times out
-NO_BUS_REPLY = 3_100           # v, x, E01, E06, E03 with the bus held
+NO_BUS_REPLY = 3_900           # v (92 bytes: measured 3 784), x, E01, E06, E03 with the bus held
 MOTION_NOTICE = 9_900          # sync tick -> !E10 of a frame write refused
 CUT_NOTICE = 17_700            # hold begins mid-write -> !E10
 
@@ -72,7 +75,7 @@ def test_held_bus_replies_equal_the_python_core(robot, bus_run):
     python = run_script(robot, BUS.read_text())
     assert compare(python, bus_run.trace(), GpsimSetup.from_robot(robot), held=True) == []
     assert [line for _, line in bus_run.replies] == [
-        b"!READY esair-min/1 image=ok\r\n", OK,
+        READY_OK, OK,
         NOTICE, E10, E10, E10, E10,                        # held SCL: poll, t, PLY01, s, DNC
         VERSION_OK, OK, b"E01 unknown command\r\n", b"E06 bad checksum\r\n",
         b"E03 bad argument\r\n",                           # v, x, hello, t*75, ozz100
@@ -153,8 +156,8 @@ def test_booting_with_the_bus_held_reports_a_bad_image(robot, central, tmp_path)
     python = run_script(robot, BUS_BOOT.read_text())
     assert compare(python, run.trace(), GpsimSetup.from_robot(robot), held=True) == []
     assert [line for _, line in run.replies] == [
-        b"!READY esair-min/1 image=bad\r\n", NOTICE,
-        b"OK esair-min/1 servos=12 sensors=8 motions=5 image=bad checksum=off\r\n", E10,
+        READY_BAD, NOTICE,
+        VERSION_BAD, E10,
         b"E09 motion image invalid\r\n", OK, b"E09 motion image invalid\r\n",
         b"OK 514,514,514,514,514,514,514,514\r\n"]
     assert run.bus_resets[0] < run.replies[0][0]           # the header read timed out
@@ -173,7 +176,7 @@ def test_a_transfer_cut_mid_byte_fails_and_the_bus_recovers(robot, central, tmp_
     addresses = setup.eeprom_address, setup.actuator_address, setup.sensor_address
     assert projections(python, *addresses)["uart"] == projections(run.trace(), *addresses)["uart"]
     assert [line for _, line in run.replies] == [
-        b"!READY esair-min/1 image=ok\r\n", OK, NOTICE, NOTICE, OK]
+        READY_OK, OK, NOTICE, NOTICE, OK]
     (hold,) = run.holds
     cut = [t for t in run.transfers if t.cut]
     assert len(cut) == 1 and cut[0].segments[0].address == setup.actuator_address

@@ -11,6 +11,8 @@ test_gpsim_overrun.py.
 
 from __future__ import annotations
 
+import pytest
+
 from pathlib import Path
 
 from hypothesis import HealthCheck, event, given, settings
@@ -23,12 +25,15 @@ from esair_min.emulator import Emulator
 from esair_min.emulator.uart import GAP, RING_BYTES
 from esair_min.model.validate import load_robot
 from tests.support.overrun_streams import burst, scripts
+from tests.support.board_lines import READY_OK_T, VERSION_OK_T, text, version
+
+pytestmark = pytest.mark.slow
 
 ROOT = Path(__file__).resolve().parents[2]
 FIXTURES = ROOT / "tests" / "fixtures" / "overrun"
 PAPAMAN = load_robot(ROOT / "boards" / "papaman")
 STAND = "W 10 00" + "5A14" * 12 + " ACK"
-VERSION = "OK esair-min/1 servos=12 sensors=8 motions=5 image=ok checksum=off"
+VERSION = VERSION_OK_T
 E12 = "E12 input overrun"
 PROPERTY_EXAMPLES = 400
 CR, LF = 0x0D, 0x0A
@@ -49,7 +54,7 @@ def test_issue_reproducer_moves_nothing_from_the_damaged_line():
     """Issue 10's reproducer: before the fix the first, intact v got E12 and
     cTTTTTTTTT + SIT ran (servos to angles nobody sent)."""
     trace = run_script(PAPAMAN, (FIXTURES / "issue10.txt").read_text())
-    assert replies(trace) == ["!READY esair-min/1 image=ok", "OK"] + [VERSION] * 27 + [E12]
+    assert replies(trace) == [READY_OK_T, "OK"] + [VERSION] * 27 + [E12]
     assert actuator_writes(trace) == [STAND]                    # t's write only
     gpsim_version = run_script(PAPAMAN, (FIXTURES / "issue10_gpsim.txt").read_text())
     assert replies(gpsim_version) == replies(trace)
@@ -59,7 +64,7 @@ def test_issue_reproducer_moves_nothing_from_the_damaged_line():
 def test_gaps_script_losses_after_a_line_end_mid_line_and_twice():
     trace = run_script(PAPAMAN, (FIXTURES / "gaps.txt").read_text())
     assert replies(trace) == [
-        "!READY esair-min/1 image=ok",
+        READY_OK_T,
         "OK", "OK", E12, VERSION,          # 1. t, x; the LF after the gap; v
         "OK", E12, "OK",                    # 2. t; oab<gap>TTTTTTTTTT; x
         "OK", "OK", E12, "OK", E12, "OK",   # 3. oab100, oac100; x<gap>; t; xxxx<gap>PLY01; x
@@ -155,9 +160,9 @@ class Oracle:
             self.held_origin = self.origin
         self.origin = None
 
-    def start(self, number: int) -> bool:
+    def start(self, number: int, frames: int, delay: int, offset: int) -> bool:
         self.motion_origin = self.origin or "reaction"
-        return self._start(number)
+        return self._start(number, frames, delay, offset)
 
     def tick(self) -> None:
         self.tick_held = self.core._held is not None
@@ -258,7 +263,7 @@ def test_emulator_reproducer_at_115200_baud(fast_robot):
     emu.write(b"SIT\r")
     emu.run_for(0.3)
     lines = emu.read().decode().split("\r\n")
-    assert lines == ["OK"] + [VERSION] * 27 + [E12, ""]
+    assert lines == ["OK"] + [text(version(fast_robot))] * 27 + [E12, ""]
     assert emu.uart.overruns == 4                       # TTT and the CR
     assert actuator_writes(trace.lines) == [STAND]
     assert emu.playing is None

@@ -24,11 +24,14 @@ from esair_min.emulator.papaman.actuator import encode
 from esair_min.cli.plot import read_trace, replay
 from esair_min.core.trace import without_marks
 from esair_min.model.validate import load_robot
+from tests.support.board_lines import PAPAMAN, text, version
+
+pytestmark = pytest.mark.pty
 
 ROOT = Path(__file__).resolve().parents[2]
 START_TIMEOUT = 30
 INSTANCE = "0123abcd"            # the emulators here boot with this instance
-VERSION = f"OK esair-min/1 servos=12 sensors=8 motions=5 image=ok checksum=off id={INSTANCE}"
+VERSION = text(version(PAPAMAN, robot_id=INSTANCE))
 
 
 def _env() -> dict[str, str]:
@@ -203,7 +206,7 @@ def test_faults_over_the_pty():
             assert ask(port, "t") == "E10 no answer on i2c"
             assert ask(port, "PLY03") == "E09 motion image invalid"
             assert ask(port, "s") == "E10 no answer on i2c"
-            assert ask(port, "v") == VERSION.replace("image=ok", "image=bad")
+            assert ask(port, "v") == text(version(PAPAMAN, False, robot_id=INSTANCE))
 
 
 def test_ctrl_c_exits_cleanly_and_the_port_reopens():

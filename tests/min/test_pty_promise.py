@@ -6,6 +6,8 @@ play, when it runs again, what it was sent meanwhile.
 
 from __future__ import annotations
 
+import pytest
+
 import os
 import signal
 import subprocess
@@ -16,9 +18,12 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import serial
+from tests.support.board_lines import PAPAMAN, version
+
+pytestmark = pytest.mark.pty
 
 ROOT = Path(__file__).resolve().parents[2]
-VERSION = b"OK esair-min/1 servos=12 sensors=8 motions=5 image=ok checksum=off id=0123abcd\r\n"
+VERSION = version(PAPAMAN, robot_id="0123abcd")
 TRIALS = 40
 
 

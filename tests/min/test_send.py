@@ -9,9 +9,10 @@ import pytest
 from click.testing import CliRunner
 
 from esair_min.cli import main
+from tests.support.board_lines import READY_BAD_T, READY_OK_T, VERSION_OK_T
 
 URL = "esair://boards/papaman?speed=max"
-VERSION = "OK esair-min/1 servos=12 sensors=8 motions=5 image=ok checksum=off"
+VERSION = VERSION_OK_T
 
 
 def send(*args: str):
@@ -33,7 +34,7 @@ def test_error_reply_exits_1():
 def test_notices_are_skipped_unless_asked():
     url = URL + "&scenario=push"
     r = send(url, "v", "--notices")
-    assert r.output.splitlines() == ["!READY esair-min/1 image=ok", VERSION]
+    assert r.output.splitlines() == [READY_OK_T, VERSION]
     r = send(url, "v")
     assert r.output.splitlines() == [VERSION]
 
@@ -108,7 +109,7 @@ def emulate(*args: str):
 def test_headless_run_prints_the_output():
     r = emulate("--run", "0.5", "--send", "v", "--send", "DNC")
     assert r.exit_code == 0, r.output
-    assert r.output.splitlines() == ["!READY esair-min/1 image=ok", VERSION, "OK"]
+    assert r.output.splitlines() == [READY_OK_T, VERSION, "OK"]
 
 
 @pytest.mark.parametrize("args, message", [
@@ -158,7 +159,7 @@ def test_generate_then_emulate_the_generated_image(monkeypatch, tmp_path):
     r = emulate("--run", "0.2", "--generate", str(out), "--send", "PLY03")
     assert calls == [("papaman", out)]
     assert r.exit_code == 0
-    assert r.stdout.splitlines() == ["!READY esair-min/1 image=bad", "E09 motion image invalid"]
+    assert r.stdout.splitlines() == [READY_BAD_T, "E09 motion image invalid"]
 
 
 def test_generate_writes_the_image_when_the_generator_does_not(monkeypatch, tmp_path):
@@ -172,7 +173,7 @@ def test_generate_writes_the_image_when_the_generator_does_not(monkeypatch, tmp_
     out = tmp_path / "build"
     r = emulate("--run", "0.2", "--generate", str(out), "--send", "PLY03")
     assert r.exit_code == 0
-    assert r.stdout.splitlines() == ["!READY esair-min/1 image=ok", "OK"]
+    assert r.stdout.splitlines() == [READY_OK_T, "OK"]
     robot = load_robot(resolve_robot("boards/papaman"))
     image = read_hex(out / "papaman-eeprom.hex", 32768)
     assert image[:len(build_image(robot))] == build_image(robot)

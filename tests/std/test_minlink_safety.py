@@ -30,6 +30,12 @@ from esair_std.drivers.minlink.emulated import EmulatedRobot
 from esair_std.drivers.minlink.link_errors import DifferentRobot, Expired, LinkError
 from tests.support.std import wait_for
 from tests.support.robot_ptys import VERSION, frames, pty_number, replies, start_on_number, stop
+from tests.support.board_lines import PAPAMAN as PAPAMAN_ROBOT, READY_OK, version
+from esair_min.codegen.buildid import central_build_id
+
+BUILD = central_build_id(PAPAMAN_ROBOT)
+
+pytestmark = pytest.mark.pty
 
 ROOT = Path(__file__).resolve().parents[2]
 PAPAMAN = ROOT / "boards" / "papaman"
@@ -51,7 +57,7 @@ def _io_threads() -> list[str]:
 
 def test_the_version_reply_names_the_board_set_and_the_emulators_boot(robot):
     with EmulatedRobot(PAPAMAN, instance="0123abcd") as emu, Link(robot, emu.port) as link:
-        assert link.version().endswith(" checksum=off id=0123abcd")
+        assert link.version().endswith(" checksum=off build=" + BUILD + " id=0123abcd")
         assert link.robot_id == "0123abcd"
     a, b = EmulatedRobot(PAPAMAN), EmulatedRobot(PAPAMAN)
     assert a.instance != b.instance                    # two robots, two ids
@@ -92,9 +98,8 @@ def test_a_robot_on_the_dead_robots_pty_number_is_refused(tmp_path, robot):
             stop(foreign)
     # the only line the other robot answered is the probe (a read-only `v`)
     got = replies(tmp_path / "foreign.txt")
-    assert got[0] == b"!READY esair-min/1 image=ok\r\n"     # its boot, to nobody
-    assert got[1:] and set(got[1:]) == {b"OK esair-min/1 servos=12 sensors=8 motions=5 image=ok "
-                                b"checksum=off id=bbbbbbbb\r\n"}
+    assert got[0] == READY_OK     # its boot, to nobody
+    assert got[1:] and set(got[1:]) == {version(PAPAMAN_ROBOT, robot_id="bbbbbbbb")}
     assert frames(tmp_path / "foreign.txt") == 0
     assert _io_threads() == []
 
@@ -123,7 +128,7 @@ def test_a_port_another_esair_program_holds_is_refused_without_a_byte(tmp_path, 
         with pytest.raises(EsairError) as sent:
             open_port(emu.port, 9600, 1.0)
         assert str(sent.value) == str(exc.value)
-        assert link.version().endswith(" checksum=off id=0123abcd")
+        assert link.version().endswith(" checksum=off build=" + BUILD + " id=0123abcd")
     assert replies(trace)[1:] == [VERSION + b"0123abcd\r\n"] * 2    # the probe, version()
     assert _io_threads() == []
 

@@ -10,6 +10,8 @@ both modes: the emulated robot the runtime owns is killed (SIGKILL) or stopped
 
 from __future__ import annotations
 
+import pytest
+
 import functools
 import os
 import signal
@@ -22,6 +24,9 @@ import yaml
 from esair_std.drivers.minlink.emulated import EmulatedRobot
 from tests.support.std import emulators_with, wait_for
 from tests.support.robot_ptys import VERSION, frames, pty_number, replies, start_on_number, stop
+from tests.support.board_lines import READY_OK
+
+pytestmark = pytest.mark.pty
 
 ROOT = Path(__file__).resolve().parents[2]
 PAPAMAN = ROOT / "boards" / "papaman"
@@ -94,7 +99,7 @@ def test_a_killed_robot_stays_lost_and_its_pty_number_is_never_driven(start, tmp
         assert all_lost(rt, "emulator exited (status -9)")
     finally:
         stop(foreign)
-    assert replies(other) == [b"!READY esair-min/1 image=ok\r\n"]   # not a byte from us
+    assert replies(other) == [READY_OK]   # not a byte from us
     rt.stop()
     assert emulators_with(str(trace)) == []
     assert not [t for t in threading.enumerate() if t.name.startswith("minlink")]
@@ -142,7 +147,7 @@ def test_a_different_robot_on_the_port_leaves_the_resources_lost(start, tmp_path
         if foreign is not None:
             stop(foreign)
     got = replies(other)
-    assert got[0] == b"!READY esair-min/1 image=ok\r\n"
+    assert got[0] == READY_OK
     assert got[1:] and set(got[1:]) == {VERSION + b"bbbbbbbb\r\n"}      # probes only
     assert frames(other) == 0
 

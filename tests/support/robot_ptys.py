@@ -12,6 +12,7 @@ import time
 from pathlib import Path
 
 from esair_min.core.trace import without_marks
+from tests.support.board_lines import PAPAMAN, version
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -96,7 +97,7 @@ def _hold_up_to(number: int, seconds: float = 20.0) -> list[tuple[int, int]] | N
 
 
 #: PAPA-MAN's `v` reply up to its id.
-VERSION = b"OK esair-min/1 servos=12 sensors=8 motions=5 image=ok checksum=off id="
+VERSION = version(PAPAMAN, robot_id="")[:-2]
 
 
 def replies(trace: Path) -> list[bytes]:
