@@ -17,7 +17,7 @@ import sys
 from esair_min.core import protocol as P
 from esair_min.core.image import build_image
 from esair_min.emulator.clock import NS_PER_S
-from esair_min.emulator.eeprom import T_WC_NS
+from esair_min.emulator.eeprom_chip import T_WC_NS
 from esair_min.imagelink import ImageLink
 from esair_min.serialport import open_port
 from esair_min.resources import resolve_robot

@@ -13,7 +13,7 @@ from esair_min.model.robot import Robot
 from .buildid import central_build_id
 from .context import board_context, central_context
 from .drive import drive_context
-from .omni import omni_central_context
+from .omni_context import omni_central_context
 from .render import render_board
 from .writer import write_tree
 

@@ -3,7 +3,7 @@
 #
 # Mutates esair_std/supervisor.py, connections.py and hosts/resource_host.py (the supervisors,
 # the connections, the resource host's command path and its deadlines) and runs, for
-# each mutant, tests/std/test_std_safety_rules.py in thread mode; WIDE=1 with the names
+# each mutant, tests/std/test_*_rules.py (and test_resource_host_runtime.py) in thread mode; WIDE=1 with the names
 # of that pass's survivors runs them again with the wider thread-mode selection of
 # scripts/mutation_std.toml. mutmut reads its
 # configuration from pyproject.toml only, so this works in a scratch copy of the

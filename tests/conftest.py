@@ -87,29 +87,13 @@ def fast_robot(tmp_path_factory):
 
 
 # --- markers (registered in pyproject.toml) -------------------------------------------
-# A test is marked by what it needs: its folder (net, hmi), its module (the gpsim and
-# pty modules below), or the fixtures it takes. `slow` marks the modules whose tests
-# take seconds each (measured with --durations); `-m "not slow"` is the fast loop.
+# A test is marked by what it needs: its folder (net, hmi), its module's ``pytestmark``
+# (gpsim, pty, avr, slow), or the fixtures it takes. A test that needs a simulator, a
+# pty, a network or a browser is also ``slow``, as is every process-mode run;
+# `-m "not slow"` is the fast loop.
 _BY_FOLDER = {"net": "net", "hmi": "browser"}
-_BY_MODULE = {
-    "gpsim": {"test_gpsim", "test_gpsim_bus", "test_gpsim_overrun", "test_gpsim_slaves",
-              "test_gpsim_uart", "test_toolchain", "test_pic_build", "test_starfish_pic",
-              "test_starfish_gpsim", "test_gpsim_duplex", "test_gpsim_mux", "test_verify",
-              "test_pic_bootloader"},
-    "pty": {"test_pty", "test_minlink_pty", "test_liveview_tmux", "test_std_papaman",
-            "test_std_papaman_c", "test_std_papaman_cli", "test_gpsim_uart",
-            "test_starfish_pty", "test_pty_promise", "test_minlink_safety",
-            "test_std_papaman_safety", "test_minlink_duplex", "test_pic_bootloader", "test_monitor",
-            "test_flash_avr"},
-    "avr": {"test_avr", "test_starfish_avr", "test_verify", "test_flash_avr"},
-}
 _BY_FIXTURE = {"pic_firmware": "gpsim"}
-#: modules of many subprocesses, C builds or long hypothesis runs (--durations: the
-#: biggest totals of the rest of the suite)
-SLOW_MODULES = {"test_std_cli", "test_overrun", "test_differential", "test_decoder_props",
-                "test_validate_fuzz", "test_plot", "test_host_c_peers", "test_std_deploy_fuzz",
-                "test_std_lazy_crypto", "test_std_agent_lean", "test_cli_manner", "test_script",
-                "test_std_record", "test_bench_tmp", "test_flash_avr"}
+_SLOW_NEEDS = {"net", "browser", "gpsim", "avr", "pty"}
 
 
 def _in_process_mode(item) -> bool:
@@ -130,7 +114,7 @@ LONGEST_FIRST = ["test_starfish_net", "test_std_operator_cli", "test_std_net", "
                  "test_avr", "test_hmi_papaman", "test_starfish_std", "test_overrun",
                  "test_std_papaman_safety", "test_std_papaman", "test_pty_promise",
                  "test_hmi_starfish", "test_validate_errors", "test_std_record",
-                 "test_gpsim_slaves", "test_script", "test_std_net_security",
+                 "test_gpsim_slaves", "test_verify", "test_script", "test_std_net_security",
                  "test_starfish_avr", "test_std_supervision", "test_validate_fuzz", "test_gpsim",
                  "test_pic_bootloader",
                  "test_std_papaman_cli"]
@@ -145,11 +129,9 @@ def pytest_collection_modifyitems(config, items):
         names = set()
         if len(rel) > 1 and rel[0] in _BY_FOLDER:
             names.add(_BY_FOLDER[rel[0]])
-        stem = item.path.stem
-        names |= {mark for mark, mods in _BY_MODULE.items() if stem in mods}
         names |= {mark for fix, mark in _BY_FIXTURE.items() if fix in item.fixturenames}
-        if names & {"net", "browser", "gpsim", "avr", "pty"} or stem in SLOW_MODULES \
-                or _in_process_mode(item):
+        names |= {m.name for m in item.iter_markers()}
+        if names & _SLOW_NEEDS or _in_process_mode(item):
             names.add("slow")
-        for name in sorted(names):
+        for name in sorted(names - {m.name for m in item.iter_markers()}):
             item.add_marker(getattr(pytest.mark, name))

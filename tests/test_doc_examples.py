@@ -9,8 +9,9 @@ user would type it (issue 34 item 5: `robot.yaml` and `locate:Locate` existed no
 - a `module:Class` it names (`agent`, `add`) is imported;
 - `esair std new` and `esair std check` are run for real (in a scratch folder).
 
-Lines of the form `$ esair ...` count too; output lines do not. A block may hold lines
-that are not commands (comments, output): only lines that start with `esair ` are read,
+Lines of the form `$ esair ...` count too; output lines do not. A document's commands
+are checked in order, as a reader follows them. A block may hold lines that are not
+commands (comments, output): only lines that start with `esair ` are read,
 joined with their `\\` continuations."""
 
 from __future__ import annotations
@@ -55,6 +56,8 @@ def blocks(text: str) -> list[tuple[int, list[str]]]:
 
 #: what ends one command of a shell line: `a; b`, `a && b`, `a &`, `a | b`
 OPERATORS = {";", "&&", "||", "&", "|"}
+#: a redirection: `a > out.json`, `a 2> err`, `a < in`
+REDIRECTS = {">", ">>", "<", "&>"}
 
 
 def commands(lines: list[str], first: int) -> list[tuple[int, str]]:
@@ -70,14 +73,21 @@ def commands(lines: list[str], first: int) -> list[tuple[int, str]]:
             while line.endswith("\\") and i + 1 < len(lines):
                 i += 1
                 line = line[:-1] + " " + lines[i].strip()
-            lex = shlex.shlex(line, posix=True, punctuation_chars=";&|")
+            lex = shlex.shlex(line, posix=True, punctuation_chars=";&|<>")
             lex.whitespace_split, lex.commenters = True, "#"
             words: list[str] = []
+            redirect = False
             for token in [*lex, ";"]:
                 if token in OPERATORS:
                     if words and words[0] == "esair":
                         out.append((n, shlex.join(words)))
                     words = []
+                elif token in REDIRECTS:
+                    redirect = True          # the file after it is the shell's
+                    if words and words[-1].isdigit() and len(words) > 1:
+                        words.pop()          # `2> err`: the descriptor's number
+                elif redirect:
+                    redirect = False
                 else:
                     words.append(token)
         i += 1
@@ -85,12 +95,13 @@ def commands(lines: list[str], first: int) -> list[tuple[int, str]]:
 
 
 def examples() -> list[tuple[str, list[tuple[int, str]]]]:
+    """Per document, its commands in order (a folder an `esair std new` made is there for
+    the document's later blocks, as for a reader who follows it)."""
     found = []
     for doc in DOCS:
-        for first, lines in blocks(doc.read_text()):
-            cmds = commands(lines, first)
-            if cmds:
-                found.append((f"{doc.relative_to(ROOT)}:{first}", cmds))
+        cmds = [c for first, lines in blocks(doc.read_text()) for c in commands(lines, first)]
+        if cmds:
+            found.append((str(doc.relative_to(ROOT)), cmds))
     return found
 
 
@@ -172,7 +183,7 @@ EXAMPLES = examples()
 
 def test_the_docs_show_commands():
     """The extraction can fail: it finds the README's and the docs' commands."""
-    where = {w.split(":")[0] for w, _ in EXAMPLES}
+    where = {w for w, _ in EXAMPLES}
     assert {"README.md", "docs/std.md", "docs/std-network.md", "docs/std-starfish.md"} <= where
     assert sum(len(c) for _, c in EXAMPLES) > 50
 
@@ -188,6 +199,8 @@ def test_a_wrong_example_is_caught(tmp_path):
     assert check("esair std run lab -e tcp/10.0.0.1:7447", made, tmp_path) == (
         "refused: tcp/10.0.0.1:7447 reaches other computers without security (no --insecure)")
     assert check("esair std run lab -e tcp/10.0.0.1:7447 --insecure", made, tmp_path) is None
+    assert commands(["esair verify mybot --json > verify.json 2> err"], 9) == [
+        (9, "esair verify mybot --json")]
     assert commands(["esair std ls; esair std get logger   # two", "output line",
                      "$ esair emulate starfish --pty &", "esair std agent --connect \\",
                      "    tcp/127.0.0.1:7447 x m:C"], 1) == [
@@ -199,6 +212,6 @@ def test_a_wrong_example_is_caught(tmp_path):
 def test_every_example_runs_as_written(where, cmds, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     made: dict[str, Path] = {}
-    wrong = [f"{where.split(':')[0]}:{n}: {cmd}\n    {why}" for n, cmd in cmds
+    wrong = [f"{where}:{n}: {cmd}\n    {why}" for n, cmd in cmds
              if (why := check(cmd, made, tmp_path)) is not None]
     assert wrong == [], "\n".join(wrong)

@@ -53,7 +53,7 @@ def verify(robot: str, script: str | None, targets: str | None, as_json: bool,
     from esair_min.model.validate import load_robot
     from esair_min.resources import resolve_robot
     from esair_min.verify.report import report_lines
-    from esair_min.verify.run import verify as run_verify
+    from esair_min.verify.runner import verify as run_verify
     from esair_min.verify.targets import choose_targets
 
     model = load_robot(resolve_robot(robot))

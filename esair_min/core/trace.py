@@ -29,6 +29,7 @@ class TraceWriter:
         self.lines: list[str] = [HEADER]
         self._tx = bytearray()
         self._rx = bytearray()
+        self._rx_cr = False
         if stream is not None:
             stream.write(HEADER + "\n")
         if not keep:                    # the emitter chosen once, not tested per line
@@ -56,10 +57,16 @@ class TraceWriter:
                 self._tx.clear()
 
     def rx(self, data: bytes) -> None:
-        """Bytes the decoder took, one ``RX`` line per LF (only with ``rx_lines``)."""
+        """Bytes the decoder took, one ``RX`` line per line end, CR or LF (an LF right
+        after a CR ends no line: CR LF counts once), the end included (only with
+        ``rx_lines``)."""
         for b in data:
+            if b == 0x0A and self._rx_cr and not self._rx:
+                self._rx_cr = False
+                continue
             self._rx.append(b)
-            if b == 0x0A:
+            self._rx_cr = b == 0x0D
+            if b in (0x0A, 0x0D):
                 self._emit(f"RX {self._rx.hex().upper()}")
                 self._rx.clear()
 

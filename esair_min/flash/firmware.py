@@ -1,5 +1,6 @@
-"""The firmware a flash writes: a board's ``firmware.hex`` in the robot's build folder,
-built first (``esair build``'s steps) when it is missing or older than any board file."""
+"""The firmware a flash writes: a board's ``firmware.hex`` in the robot's build folder
+(a PIC board's ``firmware-app.hex``, linked above ESAIR's bootloader), built first
+(``esair build``'s steps) when it is missing or older than any board file."""
 
 from __future__ import annotations
 
@@ -48,10 +49,12 @@ def firmware(robot: Robot, build_dir: Path, role: str,
     if board is None:
         roles = ", ".join(b.role for b in robot.boards)
         raise FlashError(f"robot '{robot.name}' has no board '{role}' (its boards: {roles})")
-    hex_path = build_dir / role / "firmware.hex"
+    # a PIC board is written through ESAIR's bootloader: the application linked above it
+    pic = board.mcu.part == "pic18f452"
+    hex_path = build_dir / role / ("firmware-app.hex" if pic else "firmware.hex")
     needed = stale(hex_path, board_files(robot))
     if needed and build:
         from esair_min.pic.build import build_robot
 
-        build_robot(robot, build_dir)
+        build_robot(robot, build_dir, boot=pic)
     return Firmware(role, board.mcu.part, board.mcu.clock_hz, hex_path, needed and build)

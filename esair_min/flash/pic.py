@@ -187,7 +187,8 @@ def flash_pic(hex_path: Path, port: str, *, baud: int, progress: Progress | None
 
     image = load_image(Path(hex_path))
     try:
-        ser = open_port(port, baudrate=baud, timeout=0.1)
+        # not locked again: esair flash holds the port's lock (esair_min/flash/portlock.py)
+        ser = open_port(port, baudrate=baud, timeout=0.1, exclusive=False)
     except (serial.SerialException, OSError, ValueError) as exc:
         raise FlashError(f"cannot open {port}: {describe(exc)}") from None
     try:

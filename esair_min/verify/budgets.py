@@ -24,7 +24,7 @@ from pathlib import Path
 from typing import Any
 
 from esair_min.model.robot import Robot
-from esair_min.verify.scenario import settle_ticks
+from esair_min.verify.default_scenario import settle_ticks
 from esair_min.verify.targets import Firmware, TargetRun
 
 FILL = 0xA5                 # the PIC stack area's watermark byte
@@ -97,6 +97,48 @@ def decoder_stimulus(robot: Robot) -> str:
     return "\n".join(lines) + "\n"
 
 
+def pic_decoder(robot: Robot, stimulus: str, cod: Path, lst: Path,
+                workdir: Path) -> tuple[list[int], list[int], int]:
+    """The PIC's decoder bench (esair_min.pic.gpsim_bench's breakpoints on the drain loop,
+    ``core_rx_end`` and the ISR): the cycles of each received byte that took no slow path
+    and had no interrupt inside, every ISR's cycles, and how many bytes sent were never
+    taken (lost: the decoder did not keep up), where ``measure_decoder`` gives up."""
+    from esair_min.core.image import build_image, write_hex
+    from esair_min.pic.gpsim_bench import (ISR_VECTOR, RETURN_CYCLES, bench_script, drain_loop,
+                                           function_spans, parse_hits, rx_stream)
+    from esair_min.pic.toolchain import ToolchainError, run_gpsim
+
+    text = lst.read_text(errors="replace")
+    spans = function_spans(text)
+    for need in ("_core_rx_end", "_isr"):
+        if need not in spans or not spans[need].exits:
+            raise ToolchainError(f"{lst}: no function {need} with a return in the listing")
+    loop, dec, isr = drain_loop(text), spans["_core_rx_end"], spans["_isr"]
+    workdir.mkdir(parents=True, exist_ok=True)
+    write_hex(build_image(robot), workdir / "image.hex")
+    breaks = ([f"break e {loop.body:#x}"] + [f"break e {a:#x}" for a in loop.ends]
+              + [f"break e {dec.entry:#x}", f"break e {ISR_VECTOR:#x}"]
+              + [f"break e {a:#x}" for a in isr.exits])
+    script, _ = bench_script(robot, stimulus, str(cod.resolve()), breaks)
+    hits = parse_hits(run_gpsim(script, workdir, timeout=300, script_name="bench.stc"))
+
+    def pair(entry: int, exits: set[int]) -> list[tuple[int, int]]:
+        out, start = [], None
+        for h in hits:
+            if h.addr == entry and start is None:
+                start = h.cycle
+            elif h.addr in exits and start is not None:
+                out.append((start, h.cycle + RETURN_CYCLES))
+                start = None
+        return out
+
+    calls, isrs = pair(loop.body, set(loop.ends)), pair(ISR_VECTOR, set(isr.exits))
+    slow = {h.cycle for h in hits if h.addr == dec.entry}
+    chars = [e - s for s, e in calls
+             if not any(s <= c < e for c in slow) and not any(s <= a and b <= e for a, b in isrs)]
+    return chars, [e - s for s, e in isrs], max(0, len(rx_stream(stimulus)) - len(calls))
+
+
 def avr_decoder(run: Any, rx_addr: int) -> list[int]:
     """Cycles of each received byte that does not end a line: from an entry of
     ``hal_uart_rx`` to the next, with no other watched function entered between (the
@@ -144,10 +186,21 @@ def tick_work(run: Any, actuator: int, frame_bytes: int, tick: int) -> tuple[lis
     return writes, whole
 
 
+def _without_probes(sim: Any) -> Any:
+    """The run's sync edges and its transfers but the probes (an address acknowledged with
+    no data: an I2C scan, ACK polling), which the Python core's trace lists as ``P``."""
+    from types import SimpleNamespace
+
+    return SimpleNamespace(sync_edges=sim.sync_edges, transfers=[
+        t for t in sim.transfers
+        if not (t.segments and not t.segments[0].data and t.segments[0].addr_ack)])
+
+
 # -- all of them ----------------------------------------------------------------------------
 
 def chip_budgets(robot: Robot, fw: Firmware, run: TargetRun, py: TargetRun,
-                 decoder: list[int], isr: list[int], stack: int, script: str) -> list[Budget]:
+                 decoder: list[int], isr: list[int], stack: int, script: str,
+                 lost: int = 0) -> list[Budget]:
     """The timing budgets of one chip target's run (see the module's doc)."""
     from esair_min.pic.gpsim_bench import frame_slips
 
@@ -175,13 +228,17 @@ def chip_budgets(robot: Robot, fw: Firmware, run: TargetRun, py: TargetRun,
                       f"{char} worst byte + {worst_isr} worst ISR, {len(decoder)} bytes timed; "
                       f"one byte at {c.uart.baud} baud: {byte}",
                       f"lower uart.baud to at most {top_baud} (or raise mcu.clock_hz)"))
+    if lost:
+        out.append(Budget(target, "bytes lost in the decoder bench", lost, 0, "bytes",
+                          f"at {c.uart.baud} baud the superloop did not take them in time",
+                          f"lower uart.baud to at most {top_baud}"))
     out.append(Budget(target, "worst ISR", worst_isr, byte, unit,
                       f"{len(isr)} interrupts; one byte at {c.uart.baud} baud: {byte}",
                       f"lower uart.baud to at most {int(10 * per_second / max(1, worst_isr))}"))
     act = robot.peer("actuator")
     if act is not None and s.tick_cycles:
         writes, whole = tick_work(run.sim, act.address, 2 * len(robot.servos), s.tick_cycles)
-        slips = frame_slips(run.sim, py.trace, act.address, s.tick_cycles)
+        slips = frame_slips(_without_probes(run.sim), py.trace, act.address, s.tick_cycles)
         worst = max(writes, default=0)
         need_ms = worst / per_second * 1e3 * 1.1
         out.append(Budget(target, "tick: frame write", worst, s.tick_cycles, unit,

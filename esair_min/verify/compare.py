@@ -11,13 +11,10 @@ side by side with the script line (the command) that led to them.
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass, field
 
 from esair_min.model.robot import Robot
 from esair_min.verify.targets import TargetRun
-
-_REFUSED = re.compile(r"^[RW] ([0-9A-F]{2}) .*NACK$")
 
 
 @dataclass
@@ -72,23 +69,30 @@ def compare_host(py: TargetRun, host: TargetRun, script: str) -> Comparison:
     return out
 
 
-def _parts(lines: list[str], robot: Robot, avr: bool) -> dict[str, list[tuple[int, str]]]:
-    """(trace index, normalised line) of the UART lines and of each device's transfers."""
+def _parts(lines: list[str], robot: Robot) -> dict[str, list[tuple[int, str]]]:
+    """(trace index, normalised line) of the UART lines and of each device's transfers.
+
+    A refused transfer is its address alone (``NACK aa``): on the wire the master stops
+    at the refused address byte, where the Python core lists what it wanted to send (a
+    read refused at its register-pointer write shows as a write). A probe, an address
+    with no data (an I2C scan, ACK polling), acknowledged, is ``P aa ACK``."""
     eep, act, sen = robot.eeprom, robot.peer("actuator"), robot.peer("sensor")
     by_addr = {d.address: name for name, d in (("eeprom", eep), ("actuator", act),
                                                ("sensor", sen)) if d is not None}
     out: dict[str, list[tuple[int, str]]] = {"uart": [], "actuator": [], "eeprom": [],
                                              "sensor": []}
     for i, line in enumerate(lines):
+        words = line.split()
         if line.startswith("TX "):
             out["uart"].append((i, line))
-        elif line[:2] in ("W ", "R "):
-            words = line.split()
+        elif words[0] in ("P", "W", "R") and len(words) >= 3:
             key = by_addr.get(int(words[1], 16), "unknown")
             if words[-1] == "NACK":
-                line = (_REFUSED.sub(r"W \1 NACK", line) if avr
-                        else f"{words[0]} {words[1]} NACK")
-            out.setdefault(key, []).append((i, line))
+                out.setdefault(key, []).append((i, f"NACK {words[1]}"))
+            elif words[0] == "P" or (words[0] == "W" and len(words) == 3):
+                out.setdefault("probe", []).append((i, f"P {words[1]} ACK"))
+            else:
+                out.setdefault(key, []).append((i, line))
     return out
 
 
@@ -112,19 +116,19 @@ def tick_tolerance(robot: Robot, command_bytes: int) -> int:
 
 
 def compare_chip(py: TargetRun, chip: TargetRun, script: str, robot: Robot) -> Comparison:
-    a = _parts(py.trace, robot, chip.target == "avr")
-    b = _parts(chip.trace, robot, chip.target == "avr")
+    a = _parts(py.trace, robot)
+    b = _parts(chip.trace, robot)
     out = Comparison(chip.target, sum(len(v) for v in a.values()))
 
     def diff(part: str, k: int, note: str = "") -> Difference:
-        pa, pb = a[part], b[part]
+        pa, pb = a.get(part, []), b.get(part, [])
         i = pa[k][0] if k < len(pa) else (pa[-1][0] if pa else 0)
         line = py.causes[i] if i < len(py.causes) else 0
         return Difference(part, k + 1, pa[k][1] if k < len(pa) else "(none)",
                           pb[k][1] if k < len(pb) else "(none)", line,
                           _command(script, line), note)
 
-    for part in ("uart", "actuator", "eeprom", "unknown"):
+    for part in ("uart", "actuator", "eeprom", "probe", "unknown"):
         x, y = [s for _, s in a.get(part, [])], [s for _, s in b.get(part, [])]
         if x != y:
             k = next((j for j, (p, q) in enumerate(zip(x, y)) if p != q), min(len(x), len(y)))
@@ -141,14 +145,43 @@ def compare_chip(py: TargetRun, chip: TargetRun, script: str, robot: Robot) -> C
     return out
 
 
+def _chip_ticks(chip: TargetRun, robot: Robot, n: int) -> list[int] | None:
+    """The Timer period of each of the chip's first ``n`` actuator writes, counted from
+    its first sync rising edge: a period whose work overran has no rising edge of its own
+    (the pin stays high), so the trace's ``T`` lines would undercount them."""
+    sim, act = chip.sim, robot.peer("actuator")
+    if sim is None or act is None:
+        return None
+    if chip.target == "pic":
+        from esair_min.pic.gpsim_harness import GpsimSetup
+
+        tick = GpsimSetup.from_robot(robot).tick_cycles
+    else:
+        from esair_min.avr.simavr_harness import AvrSetup
+
+        tick = AvrSetup.from_robot(robot).tick_cycles
+    ups = [c for c, v in sim.sync_edges if v == 1 and c > 0]
+    starts = [t.start for t in sim.transfers if t.segments and t.segments[0].address
+              == act.address and not t.segments[0].reading
+              and (t.segments[0].data or not t.segments[0].addr_ack)]     # no probes
+    if not ups or len(starts) < n:
+        return None
+    return [(c - ups[0]) // tick for c in starts[:n]]
+
+
 def _timing(py: TargetRun, chip: TargetRun, pa: list[tuple[int, str]],
             pb: list[tuple[int, str]], robot: Robot, script: str) -> Difference | None:
     """The first actuator write whose tick, counted from the first write, differs from
-    the Python core's by more than :func:`tick_tolerance` (or lands earlier)."""
+    the Python core's by more than :func:`tick_tolerance` of its command line (later), or
+    by more than that of the first write's line (earlier: the first one came late)."""
     if not pa:
         return None
-    ta, tb = _ticks(py.trace), _ticks(chip.trace)
-    a0, b0 = ta[pa[0][0]], tb[pb[0][0]]
+    ta = _ticks(py.trace)
+    tb = _chip_ticks(chip, robot, len(pb))
+    if tb is None:
+        t_lines = _ticks(chip.trace)
+        tb = [t_lines[j] for j, _ in pb]
+    a0, b0 = ta[pa[0][0]], tb[0]
 
     def sent_before(i: int) -> tuple[int, int]:
         line = py.causes[i] if i < len(py.causes) else 0
@@ -156,12 +189,12 @@ def _timing(py: TargetRun, chip: TargetRun, pa: list[tuple[int, str]],
         return (len(command[3:].split(" (line")[0]) if command.startswith("rx ") else 0), line
 
     early = tick_tolerance(robot, sent_before(pa[0][0])[0])   # the first write's own lateness
-    for k, ((i, text), (j, _)) in enumerate(zip(pa, pb)):
+    for k, ((i, text), chip_tick) in enumerate(zip(pa, tb)):
         sent, line = sent_before(i)
         command = _command(script, line)
-        drift = (tb[j] - b0) - (ta[i] - a0)
+        drift = (chip_tick - b0) - (ta[i] - a0)
         if drift < -early or drift > tick_tolerance(robot, sent):
             return Difference("timing", k + 1, f"{text} at tick {ta[i] - a0} after the first write",
-                              f"at tick {tb[j] - b0}", line, command,
+                              f"at tick {chip_tick - b0}", line, command,
                               f"tolerance {tick_tolerance(robot, sent)} tick(s)")
     return None

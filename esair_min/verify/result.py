@@ -8,7 +8,7 @@ from typing import Any, Callable
 
 from esair_min.verify.budgets import Budget
 from esair_min.verify.compare import Comparison
-from esair_min.verify.scenario import Scenario
+from esair_min.verify.default_scenario import Scenario
 from esair_min.verify.targets import TargetRun
 
 

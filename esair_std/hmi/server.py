@@ -457,7 +457,8 @@ class HmiServer:
                 return
             assert self.bridge is not None and self.bridge.bus is not None
             tap.listen(self.bridge.bus, self.bridge.robot)     # the commands too
-            tap.put({"t": "latch", "v": self.bridge.latch})    # STOPPED or not, from here
+            if self.bridge.latch.get("stopped"):      # STOPPED from its start: said first
+                tap.put({"t": "latch", "v": self.bridge.latch})
             self.tap = tap
         elif not on and self.tap is not None:
             tap, self.tap = self.tap, None

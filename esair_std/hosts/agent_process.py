@@ -48,7 +48,6 @@ MARGIN = 0.05           # the far side of a put, get or command (the BS, the act
                         # a behavior whose timeouts fit its step deadline never overruns
 RUNTIME_GRACE = 1.0     # seconds without the runtime's token before leaving
 HELLO_S = 10.0          # how long an agent asks the runtime to take its hello
-HELLO_ASK_S = 1.0       # each ask of it (the hello is asked again; answering is idempotent)
 
 
 class ZenohPort:
@@ -261,10 +260,9 @@ class Agent:
                 left = deadline - time.monotonic()
                 if left <= 0 or not route.ready.wait(left) or self.done.is_set():
                     break
-                # asked again each HELLO_ASK_S: an answer lost with a runtime that died
-                # meanwhile is not waited for past the next look at done
+                # a runtime that dies meanwhile closes the link: Zenoh ends the query then
                 r = self.bus.request(keys.ctl(self.robot, "hello"), body,
-                                     max(0.001, min(HELLO_ASK_S, deadline - time.monotonic())))
+                                     max(0.001, deadline - time.monotonic()))
         finally:
             self._wake.remove(route.ready)
             route.undeclare()

@@ -3,7 +3,7 @@ sample of the sensors it watches (JSON messages with a JSON schema, one channel 
 sensor, its sequence number and time stamp kept), so Foxglove, Lichtblick and
 PlotJuggler open it; :class:`~.replay.Replay` publishes a recording again as sensors."""
 
-from .mcapio import COMMAND_SCHEMA, SCHEMA, read_commands, read_samples
+from .mcapio import COMMAND_SCHEMA, SCHEMA, read_commands, read_latch, read_samples
 from .recorder import Recorder
 
-__all__ = ["COMMAND_SCHEMA", "SCHEMA", "Recorder", "read_commands", "read_samples"]
+__all__ = ["COMMAND_SCHEMA", "SCHEMA", "Recorder", "read_commands", "read_latch", "read_samples"]

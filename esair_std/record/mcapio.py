@@ -2,7 +2,9 @@
 encoded as JSON under the JSON schema :data:`SCHEMA`; log time = the sample's time.
 Commands, one channel per actuator (topic ``command/<actuator>``), messages ``{"seq",
 "t", "command", "ok" | "error"}`` under :data:`COMMAND_SCHEMA`; log time = when the
-command reached the actuator's host."""
+command reached the actuator's host. The latched STOP's state (docs/std.md), one
+channel ``latch``, messages ``{"seq", "t", "stopped", ...}`` under :data:`LATCH_SCHEMA`
+(at the recording's start when the robot is STOPPED then, and at each change)."""
 
 from __future__ import annotations
 
@@ -32,6 +34,17 @@ COMMAND_SCHEMA = {
                    "error": {"type": "string", "description": "why it failed"}},
     "required": ["seq", "t", "command"]}
 COMMAND_TOPIC = "command/"
+LATCH_TOPIC = "latch"
+LATCH_SCHEMA = {
+    "type": "object", "title": "esair.Latch",
+    "properties": {"seq": {"type": "integer", "description": "the state's number, from 1"},
+                   "t": {"type": "number", "description": "seconds since the epoch: the STOP "
+                                                          "or the release"},
+                   "stopped": {"type": "boolean"},
+                   "by": {"type": "string", "description": "who STOPPED it"},
+                   "reason": {"type": "string"},
+                   "released_by": {"type": "string", "description": "who released it"}},
+    "required": ["seq", "t", "stopped"]}
 
 
 class SampleWriter:
@@ -69,6 +82,19 @@ class SampleWriter:
                            data=json.dumps(dict(record, seq=seq, t=t),
                                            separators=(",", ":")).encode())
 
+    def write_latch(self, seq: int, t: float, state: dict) -> None:
+        """One state of the latched STOP (``{"stopped", "by", "reason", ...}``)."""
+        ch = self.channels.get(LATCH_TOPIC)
+        if ch is None:
+            schema = self.w.register_schema(name="esair.Latch", encoding="jsonschema",
+                                            data=json.dumps(LATCH_SCHEMA).encode())
+            ch = self.channels[LATCH_TOPIC] = self.w.register_channel(
+                topic=LATCH_TOPIC, message_encoding="json", schema_id=schema)
+        ns = int(t * 1e9)
+        self.w.add_message(channel_id=ch, log_time=ns, publish_time=ns, sequence=seq,
+                           data=json.dumps(dict(state, seq=seq, t=t),
+                                           separators=(",", ":")).encode())
+
     def finish(self) -> None:
         self.w.finish()
 
@@ -87,6 +113,13 @@ def read_commands(path: str | Path) -> Iterator[tuple[str, int, float, dict]]:
             yield topic, seq, t, value
 
 
+def read_latch(path: str | Path) -> Iterator[tuple[float, dict]]:
+    """(t, state) of every state of the latched STOP recorded, in log time order."""
+    for kind, _topic, _seq, t, value in _read(path):
+        if kind == "latch":
+            yield t, value
+
+
 def _read(path: str | Path) -> Iterator[tuple[str, str, int, float, Any]]:
     try:
         f = open(path, "rb")  # noqa: SIM115 - closed by the with below
@@ -98,7 +131,10 @@ def _read(path: str | Path) -> Iterator[tuple[str, str, int, float, Any]]:
                 if channel.message_encoding != "json":
                     continue
                 m = json.loads(message.data)
-                if _schema is not None and _schema.name == "esair.Command":
+                if _schema is not None and _schema.name == "esair.Latch":
+                    yield ("latch", channel.topic, int(m["seq"]), float(m["t"]),
+                           {k: v for k, v in m.items() if k not in ("seq", "t")})
+                elif _schema is not None and _schema.name == "esair.Command":
                     rec = {k: v for k, v in m.items() if k not in ("seq", "t")}
                     yield ("command", channel.topic[len(COMMAND_TOPIC):], int(m["seq"]),
                            float(m["t"]), rec)

@@ -33,7 +33,8 @@ class Recorder:
             self.bridge.start()
             assert self.bridge.bus is not None
             self.tap.listen(self.bridge.bus, self.bridge.robot)
-            self.tap.put({"t": "latch", "v": self.bridge.latch})   # STOPPED or not, from here
+            if self.bridge.latch.get("stopped"):   # STOPPED from its start: said first
+                self.tap.put({"t": "latch", "v": self.bridge.latch})
         except BaseException:
             self.stop()
             raise

@@ -3,7 +3,7 @@
 :class:`Tap` takes the samples a :class:`~esair_std.hmi.bridge.Bridge` emits (``{"t":
 "s", ...}``) and the command records the actuators' hosts publish (``esair/<robot>/
 command/<actuator>``: ``{seq, t, v: {command, ok | error}}``, subscribed with
-:meth:`Tap.listen`), and the latched STOP's state (``{"t": "latch"}``, on topic ``latch``), and writes them
+:meth:`Tap.listen`), and the latched STOP's state (``{"t": "latch"}``, channel ``latch``), and writes them
 to MCAP on a thread of its own: the callers (Zenoh's
 thread, the bridge) only queue (bounded; what overflows is counted in ``dropped``). A
 sample or command number that does not follow the last one of its resource is a gap,
@@ -24,7 +24,6 @@ from ..counters import Counters
 
 QUEUE = 100_000
 LINGER_S = records.BATCH_S + 0.1     # stop(): the last records in flight (their batch, the link)
-LATCH = "latch"      # the topic of the latched STOP's state: {stopped, by, t, at, reason}
 
 
 class Tap:
@@ -51,12 +50,11 @@ class Tap:
         if msg.get("t") == "s" and self.wanted(str(msg.get("r"))):
             self._queue(msg)
         elif msg.get("t") == "latch" and isinstance(msg.get("v"), dict):
-            # the latched STOP's state (STOPPED by whom and when, released) on topic LATCH
-            self._latches += 1
+            # the latched STOP's state (STOPPED by whom and when, released): channel latch
             v = msg["v"]
             t = v.get("t")
-            self._queue({"t": "s", "r": LATCH, "q": self._latches,
-                         "ts": t if isinstance(t, (int, float)) else time.time(), "v": v})
+            self._queue({"t": "l", "ts": t if isinstance(t, (int, float)) else time.time(),
+                         "v": {k: x for k, x in v.items() if k != "t"}})
 
     def listen(self, bus: Any, robot: str) -> None:
         """Record the commands ``robot``'s actuators run, from ``bus`` (until stop())."""
@@ -87,6 +85,10 @@ class Tap:
                 return
             if m["t"] == "c":
                 self._write_command(m["r"], m["m"])
+                continue
+            if m["t"] == "l":
+                self._latches += 1
+                self.writer.write_latch(self._latches, float(m["ts"]), m["v"])
                 continue
             res, seq = m["r"], int(m["q"])
             last = self._last.get(res)

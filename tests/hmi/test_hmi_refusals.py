@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import asyncio
 import json
+import threading
 import time
 from typing import Any
 
@@ -51,7 +52,19 @@ def run(refuse: bool, frame: dict) -> tuple[list[dict], list[str]]:
     srv.emit = lambda m: lines.append(f"{m['level']} {m['text']}") if m.get("t") == "log" else None
     page = Page(None, "operator")
     page.user = "ann"
-    asyncio.run(srv._frame(page, json.dumps(dict(frame, id=7))))
+    # a loop of its own, on a thread of its own: the browser tests' Playwright may run
+    # one on this thread (its session-wide browser)
+    errors: list[BaseException] = []
+
+    def serve() -> None:
+        try:
+            asyncio.run(srv._frame(page, json.dumps(dict(frame, id=7))))
+        except BaseException as exc:  # noqa: BLE001 - raised again below
+            errors.append(exc)
+    t = threading.Thread(target=serve)
+    t.start()
+    t.join(30)
+    assert not t.is_alive() and errors == [], errors
     return answers, lines
 
 

@@ -122,10 +122,10 @@ def test_stop_and_release_racing_from_two_pages_leave_everyone_agreeing(robot, b
 def test_an_hmi_started_while_stopped_shows_it_and_a_recording_keeps_it(tmp_path):
     """The STOP lives in the runtime: an HMI (a bridge) started while it holds shows
     it from its hello on (an HMI restarted, a page opened later), is told of each
-    change, and a recording holds the state from its start (topic ``latch``)."""
+    change, and a recording holds the state from its start (channel ``latch``)."""
     from esair_std import Runtime
     from esair_std.hmi.bridge import Bridge
-    from esair_std.record import read_samples
+    from esair_std.record import read_latch, read_samples
     from esair_std.record.recorder import Recorder
     from tests.support.std import free_endpoint
 
@@ -153,8 +153,9 @@ def test_an_hmi_started_while_stopped_shows_it_and_a_recording_keeps_it(tmp_path
         c = rec.stop()
         bridge.close()
         rt.stop()
-    assert c["written"] == 3
-    states = [(v["stopped"], v.get("by"), v.get("reason")) for topic, _seq, _t, v
-              in read_samples(tmp_path / "r.mcap") if topic == "latch"]
+    assert c["written"] == 0 and c["channels"] == 1        # no sensor asked for: the STOPs
+    states = [(v["stopped"], v.get("by"), v.get("reason"))
+              for _t, v in read_latch(tmp_path / "r.mcap")]
+    assert list(read_samples(tmp_path / "r.mcap")) == []     # not samples of a sensor
     assert states == [(True, "operator", "maintenance"), (False, None, None),
                       (True, "hmi:ann", "again")]

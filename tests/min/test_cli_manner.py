@@ -22,6 +22,8 @@ from click.testing import CliRunner
 from esair_min.cli import main
 from tests.support.board_lines import READY_OK_T, VERSION_OK_T
 
+pytestmark = pytest.mark.slow
+
 ROOT = Path(__file__).resolve().parents[2]
 VERSION = VERSION_OK_T
 INSTANCE = "0123abcd"            # the pty emulators here boot with this instance

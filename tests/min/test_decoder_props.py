@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import pytest
+
 import dataclasses
 from pathlib import Path
 
@@ -17,6 +19,8 @@ from esair_min.core.protocol import (MAX_LINE, add_checksum, decode_pair, encode
                                 parse_reply)
 from esair_min.model.robot import Robot
 from esair_min.model.validate import load_robot
+
+pytestmark = pytest.mark.slow
 
 ROOT = Path(__file__).resolve().parents[2]
 PAPAMAN = load_robot(ROOT / "boards" / "papaman")

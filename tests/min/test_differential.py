@@ -21,6 +21,8 @@ from esair_min.core.protocol import add_checksum
 from esair_min.core.trace import without_marks
 from tests.support.overrun_streams import scripts as overrun_scripts
 
+pytestmark = pytest.mark.slow
+
 ROOT = Path(__file__).resolve().parents[2]
 SCENARIO = ROOT / "tests" / "scenarios" / "papaman.txt"
 

@@ -74,11 +74,14 @@ def test_real_time_port_takes_line_time():
     port = serial.serial_for_url("esair://papaman", timeout=2)
     try:
         assert port.readline() == READY_OK
-        t0 = time.monotonic()
+        line_s = (2 + len(VERSION)) * 10 / 9600    # "v" CR, then the reply, at 9600 baud
+        v0, t0 = port.emulator.clock.now, time.monotonic()
         port.write(b"v\r\n")
         assert port.readline() == VERSION
-        took = time.monotonic() - t0
-        assert 0.070 <= took < 1.0           # 70 characters at 9600 baud: 72.9 ms
+        # the robot's own time passed the line time; the wall clock never less than that
+        # (virtual time follows the wall clock: it is never ahead), however loaded
+        assert (port.emulator.clock.now - v0) / 1e9 >= line_s
+        assert time.monotonic() - t0 >= line_s - 0.005   # 5 ms: the pacer's step
         port.reset_input_buffer()
         assert port.in_waiting == 0
     finally:

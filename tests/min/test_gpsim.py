@@ -27,6 +27,8 @@ from esair_min.model.validate import load_robot
 from tests.support.board_lines import (READY_BAD, READY_OK, VERSION_BAD, VERSION_OK, cut_stimulus,
                                        eeprom_stimulus, ready)
 
+pytestmark = pytest.mark.gpsim
+
 SCENARIO = Path(__file__).resolve().parents[1] / "fixtures" / "gpsim" / "papaman.txt"
 BALANCE = SCENARIO.with_name("balance.txt")
 BALANCE_EQUAL = SCENARIO.with_name("balance_equal.txt")

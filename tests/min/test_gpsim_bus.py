@@ -21,6 +21,8 @@ from esair_min.pic.gpsim_harness import (GpsimRun, GpsimSetup, build_script, com
 from esair_min.core.stimulus import run_script
 from tests.support.board_lines import READY_BAD, READY_OK, VERSION_BAD, VERSION_OK
 
+pytestmark = pytest.mark.gpsim
+
 FIXTURES = Path(__file__).resolve().parents[1] / "fixtures" / "gpsim"
 BUS = FIXTURES / "bus.txt"                # SCL held, then SDA held, commands and a motion
 BUS_BOOT = FIXTURES / "bus_boot.txt"      # booting with SCL held

@@ -14,9 +14,13 @@ lines unanswered, at most 64 bytes, so it cannot fill the 64-byte ring.
 
 from __future__ import annotations
 
+import pytest
+
 from esair_min.emulator import Emulator
 from esair_min.pic.gpsim_harness import GpsimSetup, run_stimulus
 from tests.support.board_lines import VERSION_OK_T
+
+pytestmark = pytest.mark.gpsim
 
 READING = 514            # a value gpsim's sensor stand-in can return (docs/toolchain.md)
 FEET = "OK " + ",".join([str(READING)] * 8)

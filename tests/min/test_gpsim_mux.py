@@ -23,6 +23,8 @@ from esair_min.pic.build import BuildError, build_board, toolchain
 from esair_min.pic.gpsim_i2c import GpsimSession, I2cMaster, I2cTiming
 from esair_min.pic.gpsim_mux import GpsimMux, MuxSession
 
+pytestmark = pytest.mark.gpsim
+
 ROOT = Path(__file__).resolve().parents[2]
 
 #: PAPA-MAN's sensor board on the PIC with papaman-avr's wiring: the eight feet on an

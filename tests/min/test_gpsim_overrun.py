@@ -17,6 +17,8 @@ from esair_min.core.stimulus import run_script
 from esair_min.pic.build import build_board, toolchain
 from esair_min.pic.gpsim_harness import GpsimSetup, compare, run_stimulus
 
+pytestmark = pytest.mark.gpsim
+
 FIXTURES = Path(__file__).resolve().parents[1] / "fixtures" / "overrun"
 E12 = b"E12 input overrun\r\n"
 STAND = bytes.fromhex("00" + "5A14" * 12)

@@ -26,6 +26,8 @@ from esair_min.model.hardware import ADC_PINS
 from esair_min.core.protocol import encode_pair
 from esair_min.pic.toolchain import ToolchainError
 
+pytestmark = pytest.mark.gpsim
+
 PULSE_ERROR = 0.01           # servo pulse width vs the commanded (clamped) angle
 SETTLE = 150_000             # cycles: start-up and a first PWM frame (30 ms)
 FRAME_WRITE = 12_400         # cycles at 100 kHz: 26 bytes, START..STOP

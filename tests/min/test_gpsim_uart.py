@@ -8,8 +8,12 @@ that wait (esair_min/emulator/uart.py), so PC software sees there what the board
 
 from __future__ import annotations
 
+import pytest
+
 from esair_min.emulator import Emulator
 from esair_min.pic.gpsim_harness import run_stimulus
+
+pytestmark = [pytest.mark.gpsim, pytest.mark.pty]
 
 LINES = ["t", "oab100", "v", "s", "zz", "a" + "002" * 12, "c" + "N" * 12, "x", "oab095",
          "PLY09", "t", "oal100"] * 3

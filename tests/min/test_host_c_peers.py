@@ -13,6 +13,8 @@ from hypothesis import strategies as st
 
 from esair_min.codegen import generate_robot
 
+pytestmark = pytest.mark.slow
+
 ROOT = Path(__file__).resolve().parents[2]
 SANITIZE = "-fsanitize=address,undefined -fno-sanitize-recover=all"
 SLOW_OK = settings(max_examples=60, deadline=None,

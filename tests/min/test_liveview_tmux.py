@@ -23,8 +23,8 @@ SERVOS = ["l_hip_yaw", "l_hip_roll", "l_hip_pitch", "l_knee", "l_ankle_pitch",
           "l_ankle_roll", "r_hip_yaw", "r_hip_roll", "r_hip_pitch", "r_knee",
           "r_ankle_pitch", "r_ankle_roll"]
 
-pytestmark = pytest.mark.skipif(shutil.which("tmux") is None,
-                                reason="tmux missing: run scripts/install-toolchain.sh")
+pytestmark = [pytest.mark.skipif(shutil.which("tmux") is None,
+                                reason="tmux missing: run scripts/install-toolchain.sh"), pytest.mark.pty]
 
 
 class Tmux:

@@ -11,6 +11,8 @@ test_gpsim_overrun.py.
 
 from __future__ import annotations
 
+import pytest
+
 from pathlib import Path
 
 from hypothesis import HealthCheck, event, given, settings
@@ -24,6 +26,8 @@ from esair_min.emulator.uart import GAP, RING_BYTES
 from esair_min.model.validate import load_robot
 from tests.support.overrun_streams import burst, scripts
 from tests.support.board_lines import READY_OK_T, VERSION_OK_T, text, version
+
+pytestmark = pytest.mark.slow
 
 ROOT = Path(__file__).resolve().parents[2]
 FIXTURES = ROOT / "tests" / "fixtures" / "overrun"

@@ -26,6 +26,8 @@ from esair_min.pic.gpsim_line import LineFault, SimLine
 from esair_min.pic.toolchain import run_gpsim
 from esair_min.resources import resolve_robot
 
+pytestmark = [pytest.mark.gpsim, pytest.mark.pty]
+
 FIXTURES = Path(__file__).resolve().parents[1] / "fixtures" / "pic"
 CLOCK = 20_000_000
 #: the bootloader's exact size (gpasm); the boot block holds 512

@@ -16,6 +16,8 @@ from esair_min.cli import main
 from esair_min.resources import resolve_robot
 from esair_min.model.validate import load_robot
 
+pytestmark = pytest.mark.gpsim
+
 # Issue 32's goal for the central board with the image verbs (issue 6's was 8 KB: 8188 B
 # before them).
 GOAL_FLASH, GOAL_RAM = 9216, 512

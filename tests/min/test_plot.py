@@ -14,6 +14,8 @@ from esair_min.errors import EsairError
 from esair_min.cli.plot import plot_trace, read_trace, replay
 from esair_min.core.trace import TraceWriter
 
+pytestmark = pytest.mark.slow
+
 ROOT = Path(__file__).resolve().parents[2]
 PNG = b"\x89PNG\r\n\x1a\n"
 

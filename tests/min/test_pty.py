@@ -26,6 +26,8 @@ from esair_min.core.trace import without_marks
 from esair_min.model.validate import load_robot
 from tests.support.board_lines import PAPAMAN, text, version
 
+pytestmark = pytest.mark.pty
+
 ROOT = Path(__file__).resolve().parents[2]
 START_TIMEOUT = 30
 INSTANCE = "0123abcd"            # the emulators here boot with this instance

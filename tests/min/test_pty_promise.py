@@ -6,6 +6,8 @@ play, when it runs again, what it was sent meanwhile.
 
 from __future__ import annotations
 
+import pytest
+
 import os
 import signal
 import subprocess
@@ -17,6 +19,8 @@ from pathlib import Path
 
 import serial
 from tests.support.board_lines import PAPAMAN, version
+
+pytestmark = pytest.mark.pty
 
 ROOT = Path(__file__).resolve().parents[2]
 VERSION = version(PAPAMAN, robot_id="0123abcd")

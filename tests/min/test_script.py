@@ -18,6 +18,8 @@ import pytest
 from esair_min.core.stimulus import main as harness_main
 from esair_min.core.image import build_image, write_hex
 
+pytestmark = pytest.mark.slow
+
 ROOT = Path(__file__).resolve().parents[2]
 PAPAMAN = str(ROOT / "boards" / "papaman")
 COMMANDS = ("(boot, rx TEXT, tick [N], sensor V..., fault DEVICE on|off, poke OFFSET BYTE, "

@@ -31,6 +31,8 @@ from esair_min.model.validate import load_robot
 from esair_min.pic.starfish_drive import MotorOut
 from tests.support import starfish_streams as streams
 
+pytestmark = pytest.mark.avr
+
 ROOT = Path(__file__).resolve().parents[2]
 SCENARIO = ROOT / "tests" / "scenarios" / "starfish_gpsim.txt"
 GOAL_FLASH, GOAL_RAM = 8192, 1024          # issue 24: the central board

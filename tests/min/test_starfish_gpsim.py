@@ -25,6 +25,8 @@ from esair_min.pic.starfish_gpsim import (MARGIN, Setup, compare, differential, 
                                           python_side)
 from tests.support import starfish_streams as streams
 
+pytestmark = pytest.mark.gpsim
+
 SCENARIO = Path(__file__).resolve().parents[1] / "scenarios" / "starfish_gpsim.txt"
 
 

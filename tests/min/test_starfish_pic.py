@@ -12,6 +12,8 @@ from esair_min.codegen import generate_robot
 from esair_min.pic.build import BuildError, toolchain
 from esair_min.pic.starfish_bench import measure_core
 
+pytestmark = pytest.mark.gpsim
+
 MAIN = Path("tests/fixtures/pic/starfish_core_bench.c")
 
 

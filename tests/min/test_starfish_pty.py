@@ -20,6 +20,8 @@ from click.testing import CliRunner
 from esair_min.cli import main
 from esair_min.emulator.starfish.pose_trace import read_trace
 
+pytestmark = pytest.mark.pty
+
 ROOT = Path(__file__).resolve().parents[2]
 START_TIMEOUT = 30
 VERSION = "OK esair-min/1 starfish wheels=3 flow=2 watchdog=500 checksum=off"

@@ -13,6 +13,8 @@ import pytest
 from esair_min.pic.toolchain import (ToolchainError, Toolchain, compile_and_link, find_toolchain,
                                  parse_map, run_gpsim)
 
+pytestmark = pytest.mark.gpsim
+
 FIXTURES = Path(__file__).resolve().parents[1] / "fixtures" / "pic"
 PIC_PREAMBLE = """\
 load {cod}

@@ -9,6 +9,8 @@ added).
 
 from __future__ import annotations
 
+import pytest
+
 import copy
 import tempfile
 from pathlib import Path
@@ -22,6 +24,8 @@ from pydantic import BaseModel
 from esair_min.model import board as model
 from esair_min.errors import ConfigError
 from esair_min.model.validate import load_robot
+
+pytestmark = pytest.mark.slow
 
 ROOT = Path(__file__).resolve().parents[2]
 PAPAMAN = ROOT / "boards" / "papaman"

@@ -21,8 +21,10 @@ from esair_min.errors import ConfigError
 from esair_min.model.validate import load_robot
 from esair_min.verify.new import copy_robot
 from esair_min.verify.report import report_lines
-from esair_min.verify.run import verify
+from esair_min.verify.runner import verify
 from esair_min.verify.targets import VerifyError, build, build_host, choose_targets
+
+pytestmark = [pytest.mark.avr, pytest.mark.gpsim]
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -124,7 +126,7 @@ def test_verify_cli_json_and_exit_status(tmp_path):
     result = CliRunner().invoke(
         main, ["verify", str(folder), "--targets", "python", "--script", str(bad)])
     assert result.exit_code == 1
-    assert "scenario.txt:4:1: bad script line 'frobnicate'" in result.stderr
+    assert f"{bad}:4:1: bad script line 'frobnicate'" in result.stderr
 
 
 def test_at_115200_baud_the_default_scenario_overruns_the_ring(tmp_path):

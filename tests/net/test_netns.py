@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from tests.support import netns
-from tests.support.netns import make_net, net, net3  # noqa: F401  (fixtures)
+from tests.support.netns import make_net
 
 # Connect to HOST:PORT; print "ok" or the error's class name.
 CONNECT = """
@@ -40,7 +40,7 @@ def _serve(host):
     return proc
 
 
-def test_two_hosts_reach_each_other_and_a_partition_cuts_them(net):  # noqa: F811
+def test_two_hosts_reach_each_other_and_a_partition_cuts_them(net):
     a, b = net[0], net[1]
     assert (a.addr, b.addr) == ("10.77.0.1", "10.77.0.2")
     _serve(a)
@@ -52,13 +52,13 @@ def test_two_hosts_reach_each_other_and_a_partition_cuts_them(net):  # noqa: F81
     netns.wait_for(lambda: _connect(b, a.addr) == "ok", timeout=10, what="the link back")
 
 
-def test_addresses_exist_only_inside_the_namespaces(net):  # noqa: F811
+def test_addresses_exist_only_inside_the_namespaces(net):
     own = subprocess.run(["ip", "-br", "addr"], capture_output=True, text=True).stdout
     assert "10.77.0." not in own
     assert "10.77.0.1/24" in net[0].run("ip", "-br", "addr").stdout
 
 
-def test_three_hosts_share_one_link(net3):  # noqa: F811
+def test_three_hosts_share_one_link(net3):
     _serve(net3[0])
     assert _connect(net3[1], net3[0].addr) == "ok"
     assert _connect(net3[2], net3[0].addr) == "ok"
@@ -107,7 +107,7 @@ OWNED = ("import sys; from esair_std.netsim import owned_link_fault as f; "
          "print(f(sys.argv[1]))")
 
 
-def test_only_the_link_esair_made_is_a_simulations_to_switch(net):  # noqa: F811
+def test_only_the_link_esair_made_is_a_simulations_to_switch(net):
     """Its veth (alias esair-sim) in its namespace: yes; loopback there, or any device of
     the machine's own namespace: no, with the reason."""
     env = dict(os.environ, PYTHONPATH=str(netns.ROOT))

@@ -15,7 +15,7 @@ from pathlib import Path
 
 from esair_std.drivers.starfish import camera as cam
 from esair_std.drivers.starfish.scene import wrap
-from tests.support.netns import net, wait_for  # noqa: F401  (fixture)
+from tests.support.netns import wait_for
 from tests.support.netstd import Center, agent
 
 B = "esair_std.examples.starfish.starfish_behaviors"
@@ -129,7 +129,7 @@ def wait_running(center, names, timeout, what):
         raise AssertionError(f"{exc}; {rows}") from None
 
 
-def test_starfish_hears_turns_shoots_and_reconnects_across_a_veth(net, tmp_path):  # noqa: F811
+def test_starfish_hears_turns_shoots_and_reconnects_across_a_veth(net, tmp_path):
     store = tmp_path / "remote-pictures"
     # in range: (1.5, 1.5) - (2.3, 1.5); out of range beyond 3.0 m toward (4.8, 3.2)
     robot = ROBOT.replace("WAYPOINTS", "[[1.5, 1.5], [2.3, 1.5]]").replace("ROOM", ROOM)
@@ -212,7 +212,7 @@ MICS, WHEELS = "esair/starfish/sensor/starfish.mics", "esair/starfish/actuator/s
 CAMERA = "esair/starfish/actuator/starfish.camera"
 
 
-def test_strangers_without_credentials_get_nothing_from_starfish(net, tmp_path):  # noqa: F811
+def test_strangers_without_credentials_get_nothing_from_starfish(net, tmp_path):
     """mTLS and access control as in docs/std-network.md: the remote center's localize,
     with its certificate, hears the microphones; a client with no certificate gets no
     session; one with a certificate of the CA that is no agent of the robot can neither

@@ -7,7 +7,7 @@ import time
 
 import pytest
 
-from tests.support.netns import net, net3, wait_for  # noqa: F401  (fixtures)
+from tests.support.netns import wait_for
 from tests.support.netstd import Center, agent
 
 LAB = """
@@ -24,7 +24,7 @@ behaviors:
 """
 
 
-def test_remote_agent_registers_is_discovered_and_drives_a_local_actuator(net, tmp_path):  # noqa: F811
+def test_remote_agent_registers_is_discovered_and_drives_a_local_actuator(net, tmp_path):
     center = Center(net[0], tmp_path, LAB)
     pusher = agent(net[1], center.endpoint, "pusher", "tests.support.netcomps:Pusher",
                    "--uses", "arm=command")
@@ -39,7 +39,7 @@ def test_remote_agent_registers_is_discovered_and_drives_a_local_actuator(net, t
     assert pusher.proc.poll() is None
 
 
-def test_starfish_remote_locate_steers_a_local_behavior(net, tmp_path):  # noqa: F811
+def test_starfish_remote_locate_steers_a_local_behavior(net, tmp_path):
     """The thesis's STARFISH: a remote behavior computes from a local sensor's stream
     and sends a heading to a local behavior, which turns the local wheel."""
     center = Center(net[0], tmp_path, LAB)
@@ -69,7 +69,7 @@ behaviors:
 """
 
 
-def test_partition_marks_remote_agents_lost_and_they_come_back_by_themselves(net, tmp_path):  # noqa: F811
+def test_partition_marks_remote_agents_lost_and_they_come_back_by_themselves(net, tmp_path):
     center = Center(net[0], tmp_path, PARTITION)
     agent(net[1], center.endpoint, "ticks", "tests.support.netcomps:Counter", "--allow", "watch2=read",
           "-o", "rate=200")
@@ -117,7 +117,7 @@ def test_partition_marks_remote_agents_lost_and_they_come_back_by_themselves(net
     assert puts["failed"] == 0 and puts["ok"] > 100, puts
 
 
-def test_local_puts_go_on_while_a_remote_stream_is_cut_again_and_again(net, tmp_path):  # noqa: F811
+def test_local_puts_go_on_while_a_remote_stream_is_cut_again_and_again(net, tmp_path):
     """A remote sensor streams 200 samples/s to a local behavior and a remote behavior
     commands a local actuator; the link is cut three times. Local puts through the BS
     must never fail: with Zenoh's default 2 routing threads the control center stalled
@@ -141,7 +141,7 @@ def test_local_puts_go_on_while_a_remote_stream_is_cut_again_and_again(net, tmp_
     assert puts["failed"] == 0 and puts["ok"] > 100, puts
 
 
-def test_a_sigkilled_remote_agent_is_marked_failed(net, tmp_path):  # noqa: F811
+def test_a_sigkilled_remote_agent_is_marked_failed(net, tmp_path):
     center = Center(net[0], tmp_path, PARTITION)
     pusher = agent(net[1], center.endpoint, "pusher", "tests.support.netcomps:Pusher",
                    "--uses", "arm=command")
@@ -159,7 +159,7 @@ VERBS = ["ping", "ls", "add", "remove", "add-resource", "remove-resource", "put"
          "resstate", "hello", "join", "nosuchverb"]
 
 
-def test_garbage_and_oversized_messages_are_refused_without_a_crash(net, tmp_path):  # noqa: F811
+def test_garbage_and_oversized_messages_are_refused_without_a_crash(net, tmp_path):
     """Every key the runtime and its (local and remote) agents listen on gets every kind
     of bad payload, from another computer: error replies or nothing, no crash, no change."""
     import json
@@ -227,7 +227,7 @@ behaviors:
 
 
 @pytest.mark.parametrize("mode", ["thread", "process"])
-def test_robots_talk_to_robots_when_their_control_centers_are_joined(net3, tmp_path, mode):  # noqa: F811
+def test_robots_talk_to_robots_when_their_control_centers_are_joined(net3, tmp_path, mode):
     a = Center(net3[0], tmp_path / "a", ROBOT_A, mode=mode)
     b = Center(net3[2], tmp_path / "b", ROBOT_B, False, "--join", a.endpoint)
     wait_for(lambda: len(b.get("turn")) >= 10, 30, what="headings from robot a")
@@ -238,7 +238,7 @@ def test_robots_talk_to_robots_when_their_control_centers_are_joined(net3, tmp_p
     assert a.get("locate")["sent"] >= 10
 
 
-def test_a_thread_mode_runtime_takes_no_remote_agents(net, tmp_path):  # noqa: F811
+def test_a_thread_mode_runtime_takes_no_remote_agents(net, tmp_path):
     center = Center(net[0], tmp_path, LAB, mode="thread")
     proc = agent(net[1], center.endpoint, "pusher", "tests.support.netcomps:Pusher", "--uses", "arm=command")
     assert proc.wait_exit(60) == 1
@@ -266,7 +266,7 @@ def _cut(center: Center, host, name: str, seconds: float) -> None:
     host.link(up=True)
 
 
-def test_a_remote_behavior_failed_during_a_cut_is_restarted_under_its_policy(net, tmp_path):  # noqa: F811
+def test_a_remote_behavior_failed_during_a_cut_is_restarted_under_its_policy(net, tmp_path):
     """Issue 19.7: its own code fails while the link is cut (its send gives up); when the
     link returns its agent restarts it under --restart (the control center, which
     cannot start a remote process, takes it back); past the policy it stays failed."""
@@ -299,7 +299,7 @@ def test_a_remote_behavior_failed_during_a_cut_is_restarted_under_its_policy(net
     assert not any("restarted" in ln for ln in strict.lines)
 
 
-def test_remote_calls_give_up_at_their_timeout_across_3_and_9_s_cuts(net, tmp_path):  # noqa: F811
+def test_remote_calls_give_up_at_their_timeout_across_3_and_9_s_cuts(net, tmp_path):
     """Issue 19.8: a remote behavior whose send()/put() timeouts (0.6 s) fit its step
     deadline (1 s) never overruns while the link is cut: each call gives up at its
     timeout (counted as failed), the behavior is not failed, and the same instance goes

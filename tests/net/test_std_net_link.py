@@ -7,13 +7,13 @@ the runtime's own partition tests build on this."""
 import time
 
 from esair_std.transport.security_config import link_inserts
-from tests.support.netns import net, wait_for  # noqa: F401  (fixture)
+from tests.support.netns import wait_for
 from tests.support.zpeer import Peer
 
 SENSOR, TOKEN = "esair/lab/sensor/s", "esair/lab/alive/sensor/s"
 
 
-def _pair(net, lease_ms):  # noqa: F811
+def _pair(net, lease_ms):
     ep = f"tcp/{net[0].addr}:7447"
     center = Peer(net[0], {"mode": "router", "scouting/multicast/enabled": False,
                            "listen/endpoints": [ep], **link_inserts(lease_ms)})
@@ -32,7 +32,7 @@ def _events(center, kind):
     return [e for e in list(center.events) if kind in e]
 
 
-def test_partition_drops_the_session_and_the_healed_link_brings_it_back(net):  # noqa: F811
+def test_partition_drops_the_session_and_the_healed_link_brings_it_back(net):
     center, agent = _pair(net, lease_ms=800)
     agent.cmd(f"stream {SENSOR} 200 30")
     wait_for(lambda: len(center.samples(SENSOR)) > 50, what="the stream")
@@ -52,7 +52,7 @@ def test_partition_drops_the_session_and_the_healed_link_brings_it_back(net):  #
     assert seqs[0] == 1 and seqs == sorted(seqs)
 
 
-def test_a_link_without_partition_loses_nothing(net):  # noqa: F811
+def test_a_link_without_partition_loses_nothing(net):
     center, agent = _pair(net, lease_ms=2000)
     agent.cmd(f"stream {SENSOR} 1000 1")
     wait_for(lambda: center.samples(SENSOR)[-1:] == ["1000"], timeout=15, what="sample 1000")

@@ -13,7 +13,7 @@ from pydantic import ValidationError
 from esair_std.errors import TransportError
 from esair_std.transport.tls_certs import CertError, common_name, make_certs
 from esair_std.transport.security_config import Security, access_control, session_inserts
-from tests.support.netns import net  # noqa: F401  (fixture)
+
 from tests.support.std import wait_for
 from tests.support.zpeer import Peer
 
@@ -81,7 +81,7 @@ def _tls(pki, who: str, ca: str = "good", **kw) -> Security:
     ("none", NONE),                  # no client certificate at all
     ("other", NONE),                 # certificate from another CA
 ])
-def test_mtls_endpoint_lets_in_only_certificates_of_its_ca(net, pki, who, expect):  # noqa: F811
+def test_mtls_endpoint_lets_in_only_certificates_of_its_ca(net, pki, who, expect):
     endpoint = "tls/10.77.0.1:7447"
     center = _center(net[0], _tls(pki, "server"), pki, endpoint)
     if who == "none":
@@ -93,14 +93,14 @@ def test_mtls_endpoint_lets_in_only_certificates_of_its_ca(net, pki, who, expect
 
 @pytest.mark.parametrize("login, expect", [
     ("pw-good", ALL), ("pw-bad", NONE), (None, NONE)])
-def test_user_password_endpoint_lets_in_only_known_logins(net, pki, login, expect):  # noqa: F811
+def test_user_password_endpoint_lets_in_only_known_logins(net, pki, login, expect):
     endpoint = "tcp/10.77.0.1:7447"
     center = _center(net[0], Security(users=pki / "users.txt"), pki, endpoint)
     sec = Security(user="locate", password_file=pki / login) if login else None
     assert _reach(center, _agent(net[1], sec, pki, endpoint)) == expect
 
 
-def test_acl_lets_an_agent_touch_only_the_keys_of_its_grants(net, pki):  # noqa: F811
+def test_acl_lets_an_agent_touch_only_the_keys_of_its_grants(net, pki):
     """Valid certificates both; `intruder` is no agent of the deployment, `locate` reads
     feet but commands nothing: the ACL stops what the link layer lets through."""
     endpoint = "tls/10.77.0.1:7447"
@@ -122,7 +122,7 @@ def test_acl_lets_an_agent_touch_only_the_keys_of_its_grants(net, pki):  # noqa:
     wait_for(heard, timeout=20, what="the change notice at the agent")
 
 
-def test_acl_command_grant_opens_the_actuator_key(net, pki):  # noqa: F811
+def test_acl_command_grant_opens_the_actuator_key(net, pki):
     endpoint = "tcp/10.77.0.1:7447"
     sec = Security(users=pki / "users.txt", agents={"locate": {"user": "locate"}})
     center = _center(net[0], sec, pki, endpoint,
@@ -134,7 +134,7 @@ def test_acl_command_grant_opens_the_actuator_key(net, pki):  # noqa: F811
     assert agent.get(ACT, 2.0) == ["pong:hi"]
 
 
-def test_acl_lets_a_resource_host_publish_command_records_of_its_own_entry_only(net, pki):  # noqa: F811
+def test_acl_lets_a_resource_host_publish_command_records_of_its_own_entry_only(net, pki):
     """A host of the entry `locate` (provides) publishes its command records on
     commands/locate (transport/records.py); a batch on another entry's key is stopped,
     so it cannot speak for another host's actuators. Order tells: the stopped put went

@@ -34,15 +34,21 @@ def start(mode):
 
 
 
+#: The safety-rule modules (the tests scripts/mutation_std.sh runs), fast ones first.
+SAFETY_RULES = ("test_supervisor_rules.py", "test_connections_rules.py",
+                "test_resource_host_rules.py", "test_resource_host_runtime.py")
+
+
 def pytest_collection_modifyitems(items):
-    """test_std_safety_rules's tests named one by one (mutmut passes each mutant's tests
-    as a set, in no order) run in the module's order: it puts the fast tests first, so a
-    mutant they kill is not first run past the ones that start a robot. Every other
-    item keeps its place (pytest groups module-scoped parametrized fixtures); in a
-    normal run this changes nothing."""
-    mine = [item for item in items if item.path.name == "test_std_safety_rules.py"]
+    """The safety-rule tests named one by one (mutmut passes each mutant's tests as a
+    set, in no order) run in these modules' order, each module's in its own: the fast
+    tests first, so a mutant they kill is not first run past the ones that start a
+    robot. Every other item keeps its place (pytest groups module-scoped parametrized
+    fixtures); in a normal run this changes nothing."""
+    mine = [item for item in items if item.path.name in SAFETY_RULES]
     if mine:
         at = items.index(mine[0])
-        rest = [item for item in items if item.path.name != "test_std_safety_rules.py"]
-        mine.sort(key=lambda item: item.reportinfo()[1] or 0)
+        rest = [item for item in items if item.path.name not in SAFETY_RULES]
+        mine.sort(key=lambda item: (SAFETY_RULES.index(item.path.name),
+                                    item.reportinfo()[1] or 0))
         items[:] = rest[:at] + mine + rest[at:]

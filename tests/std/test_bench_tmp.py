@@ -4,6 +4,8 @@ with TMPDIR pointing at a folder of the test's own."""
 
 from __future__ import annotations
 
+import pytest
+
 import os
 import signal
 import subprocess
@@ -11,6 +13,8 @@ import sys
 from pathlib import Path
 
 from tests.support.std import ROOT, wait_for
+
+pytestmark = pytest.mark.slow
 
 BENCH = ROOT / "bench" / "papaman_std.py"
 

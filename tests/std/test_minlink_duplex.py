@@ -23,6 +23,8 @@ from esair_std.drivers.minlink import Exchange, Link, LinkDown, RobotRefused
 from esair_std.drivers.minlink.emulated import EmulatedRobot
 from esair_std.drivers.minlink.link import OUT_OF_STEP, WIRE_CODES
 
+pytestmark = pytest.mark.pty
+
 ROOT = Path(__file__).resolve().parents[2]
 PAPAMAN = ROOT / "boards" / "papaman"
 URL = f"esair://{PAPAMAN}"

@@ -19,6 +19,8 @@ from esair_std.drivers.minlink import Link, LinkDown, RobotRefused
 from esair_std.drivers.minlink.emulated import EmulatedRobot
 from esair_std.drivers.minlink.link import WIRE_CODES
 
+pytestmark = pytest.mark.pty
+
 ROOT = Path(__file__).resolve().parents[2]
 PAPAMAN = ROOT / "boards" / "papaman"
 

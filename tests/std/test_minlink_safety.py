@@ -35,6 +35,8 @@ from esair_min.codegen.buildid import central_build_id
 
 BUILD = central_build_id(PAPAMAN_ROBOT)
 
+pytestmark = pytest.mark.pty
+
 ROOT = Path(__file__).resolve().parents[2]
 PAPAMAN = ROOT / "boards" / "papaman"
 

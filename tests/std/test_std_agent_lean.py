@@ -3,6 +3,7 @@ bench/std_goals.py measures it): none of the deployment loader's, the CLI's or e
 modules, while it runs a sensor and a behavior attached to it. Process mode only: in
 thread mode the components share the runtime's process, which loads the deployment."""
 
+import pytest
 import os
 import subprocess
 import sys
@@ -10,6 +11,8 @@ from pathlib import Path
 
 from tests.support.std import agent_children, free_endpoint, wait_for
 from esair_std import Runtime
+
+pytestmark = pytest.mark.slow
 
 HERE = Path(__file__).resolve().parents[2]  # the checkout: tests.support imports from here
 

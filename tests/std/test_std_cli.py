@@ -12,6 +12,8 @@ import pytest
 from tests.support.std import (MODES, components, esair, free_endpoint, lab_started, processes,
                                 std_run, wait_for)
 
+pytestmark = pytest.mark.slow
+
 HERE = str(Path(__file__).resolve().parents[2])  # the checkout
 
 

@@ -7,6 +7,8 @@ with one change anywhere (a value replaced, a key deleted, a key added).
 
 from __future__ import annotations
 
+import pytest
+
 import copy
 import tempfile
 from pathlib import Path
@@ -17,6 +19,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from esair_std.deploy import DeployError, Deployment, load_deployment
+
+pytestmark = pytest.mark.slow
 
 EXAMPLE = yaml.safe_load(Path("tests/fixtures/std_lab/lab.yaml").read_text())
 KEYS = ["robot", "mode", "endpoint", "resources", "behaviors", "reactions", "security",

@@ -9,6 +9,8 @@ import pytest
 
 from tests.support.std import MODES, free_endpoint
 
+pytestmark = pytest.mark.slow
+
 HERE = Path(__file__).resolve().parents[2]  # the checkout: tests.support imports from here
 
 SCRIPT = """

@@ -93,3 +93,27 @@ def test_the_signal_helper_keeps_an_ignore_and_installs_otherwise():
                            env=env, check=True)
     assert (kept.stdout, plain.stdout) == ("False\n", "True\n")
     assert sigs.ignored(signal.SIGINT) is False                  # pytest's own: a handler
+
+
+def test_an_agent_started_as_a_background_job_ignores_sigint():
+    """SIGINT to the agent, then `esair std remove` from another process (which starts
+    long after the SIGINT was handled): the agent leaves because it was removed, not
+    because it was interrupted."""
+    ep = free_endpoint()
+    run = _start("run", "lab", "--mode", "process", "-e", ep, "--no-top")
+    agent = None
+    try:
+        wait_for(lambda: run.poll() is not None or esair("ls", "-e", ep, check=False)
+                 .returncode == 0, 60, "the robot running")
+        agent = _start("agent", "--connect", ep, "spare", "esair_std.examples.lab.lab:Logger")
+        line = agent.stderr.readline()
+        assert line.startswith("agent 'spare' joined robot 'lab'"), line + agent.stderr.read()
+        agent.send_signal(signal.SIGINT)
+        esair("remove", "spare", "-e", ep)
+        _, said = agent.communicate(timeout=60)
+    finally:
+        for proc in (agent, run):
+            if proc is not None and proc.poll() is None:
+                proc.send_signal(signal.SIGTERM)
+                proc.communicate(timeout=60)
+    assert said.splitlines()[-1] == "agent 'spare' left robot 'lab': stopped by the control center"

@@ -409,7 +409,8 @@ def test_send_commands_an_actuator_as_the_operator(lab):
 def test_ls_json_is_one_object_with_the_same_keys_for_every_component(lab):
     ep, mode = lab
     out = json.loads(esair("ls", "--json", "-e", ep).stdout)
-    assert list(out) == ["robot", "endpoint", "starting", "components"]
+    assert list(out) == ["robot", "endpoint", "starting", "stopped", "components"]
+    assert out["stopped"] is None                  # not STOPPED (docs/std.md)
     assert (out["robot"], out["endpoint"], out["starting"]) == ("lab", ep, False)
     rows = {r["name"]: r for r in out["components"]}
     keys = ["name", "kind", "state", "pid", "host", "restarts", "reason", "class", "parent",

@@ -20,6 +20,8 @@ from esair_min.emulator.papaman.actuator import encode
 from esair_min.model.validate import load_robot
 from esair_std.drivers.minlink.emulated import EmulatedRobot
 
+pytestmark = pytest.mark.pty
+
 ROOT = Path(__file__).resolve().parents[2]
 PAPAMAN = ROOT / "boards" / "papaman"
 EXAMPLE = ROOT / "esair_std" / "examples" / "papaman" / "papaman.yaml"

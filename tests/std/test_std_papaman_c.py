@@ -15,6 +15,8 @@ from tests.support.std import wait_for
 from esair_min.emulator.papaman.actuator import encode
 from tests.std.test_std_papaman import actuator_writes, example
 
+pytestmark = pytest.mark.pty
+
 
 @pytest.fixture(scope="module")
 def firmware(robot, tmp_path_factory):

@@ -15,6 +15,8 @@ from tests.support.std import MODES, components, esair, free_endpoint, processes
 
 from esair_std.drivers.minlink.emulated import EmulatedRobot
 
+pytestmark = pytest.mark.pty
+
 HERE = Path(__file__).resolve().parents[2]  # the checkout: tests.support imports from here
 ROOT = HERE
 EXAMPLE = ROOT / "esair_std" / "examples" / "papaman"

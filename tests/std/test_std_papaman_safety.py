@@ -10,6 +10,8 @@ both modes: the emulated robot the runtime owns is killed (SIGKILL) or stopped
 
 from __future__ import annotations
 
+import pytest
+
 import functools
 import os
 import signal
@@ -23,6 +25,8 @@ from esair_std.drivers.minlink.emulated import EmulatedRobot
 from tests.support.std import emulators_with, wait_for
 from tests.support.robot_ptys import VERSION, frames, pty_number, replies, start_on_number, stop
 from tests.support.board_lines import READY_OK
+
+pytestmark = pytest.mark.pty
 
 ROOT = Path(__file__).resolve().parents[2]
 PAPAMAN = ROOT / "boards" / "papaman"

@@ -16,6 +16,8 @@ from mcap.reader import make_reader
 from esair_std.record import COMMAND_SCHEMA, SCHEMA, read_commands, read_samples
 from tests.support.std import MODES, components, esair, free_endpoint, std_run, wait_for
 
+pytestmark = pytest.mark.slow
+
 ROOT = Path(__file__).resolve().parents[2]
 
 

@@ -21,18 +21,4 @@ def make_net(n: int = 2) -> Net:
     return Net(n)
 
 
-@pytest.fixture
-def net():
-    """Two hosts joined by a veth pair; removed after the test whatever its outcome."""
-    with make_net(2) as n:
-        yield n
-
-
-@pytest.fixture
-def net3():
-    """Three hosts on one bridged link (two control centers and a remote agent)."""
-    with make_net(3) as n:
-        yield n
-
-
 ROOT = Path(__file__).resolve().parents[2]

@@ -69,3 +69,21 @@ class Nudger(Behavior):
 
     def provide(self, requester):
         return {"outcomes": self.outcomes, "sent": self.sent, "told": self.told}
+
+
+class Stopper(Behavior):
+    """STOPs the robot with the reason it is put (``self.stop_robot``); provide() gives
+    what each try raised ("" when it went)."""
+
+    def start(self):
+        self.tries = []
+
+    def receive(self, sender, data):
+        try:
+            self.stop_robot(str(data))
+            self.tries.append("")
+        except Exception as exc:  # noqa: BLE001 - kept for the test
+            self.tries.append(f"{type(exc).__name__}: {exc}")
+
+    def provide(self, requester):
+        return self.tries

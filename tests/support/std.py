@@ -5,6 +5,7 @@ import signal
 import socket
 import subprocess
 import sys
+import threading
 import time
 from contextlib import contextmanager
 from pathlib import Path
@@ -132,3 +133,15 @@ def call(rt, probe, do, *args):
     """Make behavior ``probe`` (comps.Probe) run ``do(*args)``; its outcome."""
     rt.put(probe, {"do": do, "args": list(args)}, timeout=5.0)
     return rt.get(probe, timeout=5.0)
+
+
+def logged(caplog, logger: str) -> list[tuple[str, str]]:
+    return [(r.levelname, r.getMessage()) for r in caplog.records if r.name == logger]
+
+
+def in_thread(fn, *args):
+    """Run ``fn(*args)`` on a daemon thread: the thread, and a list that gets its result."""
+    box: list = []
+    t = threading.Thread(target=lambda: box.append(fn(*args)), daemon=True)
+    t.start()
+    return t, box

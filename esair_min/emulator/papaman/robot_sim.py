@@ -40,7 +40,7 @@ from esair_min.core.trace import TraceWriter, TracingBus
 from esair_min.emulator.papaman.actuator import ActuatorBoard, stand_registers
 from esair_min.emulator.clock import NS_PER_S, VirtualClock, seconds_to_ns
 from esair_min.codegen.buildid import central_build_id
-from esair_min.emulator.eeprom import CyclingEeprom, attach_file
+from esair_min.emulator.eeprom_chip import CyclingEeprom, attach_file
 from esair_min.emulator.faults import Faults, corrupt
 from esair_min.emulator.i2c import TimedBus
 from esair_min.emulator.line import SerialHost
@@ -346,13 +346,20 @@ class Emulator(SerialHost):
         """A run of bytes straight to the decoder (the UART's fast path), recorded."""
         self.transcript.rx(data)           # type: ignore[union-attr]
         if self._trace_rx:
-            self._rx_trace(data)
-        self.core.rx_run(data)
+            self._rx_traced(data)
+        else:
+            self.core.rx_run(data)
 
     def _rx_traced(self, data: bytes) -> None:
-        """The UART's fast path with ``RX`` trace lines (``--trace-rx``)."""
-        self._rx_trace(data)
-        self.core.rx_run(data)
+        """The UART's fast path with ``RX`` trace lines (``--trace-rx``): each line
+        traced before it is decoded (before its reply)."""
+        start = 0
+        while start < len(data):
+            ends = [i for i in (data.find(b"\r", start), data.find(b"\n", start)) if i >= 0]
+            end = min(ends) + 1 if ends else len(data)
+            self._rx_trace(data[start:end])
+            self.core.rx_run(data[start:end])
+            start = end
 
     def _rx_trace(self, data: bytes) -> None:
         self._mark(self.clock.now)

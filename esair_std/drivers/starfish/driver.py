@@ -63,12 +63,15 @@ import time
 from pathlib import Path
 from typing import Any
 
+from pydantic import ValidationError
+
 from esair_std import Actuator, CommandError, Sensor
 from esair_min.errors import EsairError
 from esair_min.model.validate import load_robot
 from esair_min.resources import resolve_robot
 
-from ..minlink.driver import MinLink, NoticeSensor, _in, _restart_policy, emulate_args
+from ..minlink.driver import MinLink, NoticeSensor, emulate_args, in_folder
+from ..minlink.options import RestartPolicy
 from ..minlink.emulated import EmulatedRobot
 from ..minlink.link_errors import LinkError
 from ..minlink.link import Link
@@ -196,6 +199,9 @@ class Starfish(MinLink):
     """STARFISH's wheels, odometry and notices over its MIN link; its microphones, camera
     and radio rendered from the emulated world (see the module docstring)."""
 
+    #: not MinLink's schema: this driver checks its own options when it opens
+    Options = None
+
     def open(self) -> None:
         self.tap: Any = None
         self.link_switch: LinkSwitch | None = None
@@ -227,7 +233,7 @@ class Starfish(MinLink):
         if "room_file" not in opts:
             raise StarfishError("option 'room_file' is missing (the world's room: "
                                 "esair_min.world's YAML, mm)")
-        room_file = _in(base, str(opts["room_file"]))
+        room_file = in_folder(base, str(opts["room_file"]))
         try:
             self.room = load_scene(room_file)
         except EsairError as exc:
@@ -273,7 +279,7 @@ class Starfish(MinLink):
         self.camera = Camera(self.room, fov_deg=_num(cam, "fov_deg", 60.0, "camera."))
         robot_arg = opts.get("robot", "starfish")
         try:
-            path = resolve_robot(_in(base, str(robot_arg), must_exist=True))
+            path = resolve_robot(in_folder(base, str(robot_arg), must_exist=True))
             robot = load_robot(path)
         except EsairError as exc:
             raise StarfishError(f"robot {robot_arg!r}: {exc}") from None
@@ -289,7 +295,11 @@ class Starfish(MinLink):
         self._closing = threading.Event()
         self._lost: str | None = None
         self._supervisor: threading.Thread | None = None
-        self._restarts = RestartWindow(*_restart_policy(emulate.get("restart")))
+        try:
+            policy = RestartPolicy.model_validate(emulate.get("restart") or {})
+        except ValidationError as exc:
+            raise StarfishError(f"option 'emulate.restart': {exc.errors()[0]['msg']}") from None
+        self._restarts = RestartWindow(policy.max, policy.within)
         args = emulate_args(emulate, base) + [
             "--room", room_file, "--world-out", self.tap.path,
             "--pose", f"{start[0] * 1000:.1f},{start[1] * 1000:.1f},{start[2]:.6f}"]

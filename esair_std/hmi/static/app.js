@@ -59,6 +59,10 @@ class App {
     $("login").addEventListener("submit", (e) => { e.preventDefault(); this.login(); });
     $("record").addEventListener("click", () => this.record());
     this.replay = new Replay(this);
+    // the banners stick right under the header, whatever its height (it wraps in a
+    // window under 1100 px): --head in style.css
+    new ResizeObserver(() => document.documentElement.style.setProperty(
+      "--head", `${$("top").offsetHeight}px`)).observe($("top"));
     window.__hmi = this;         // for tests and the bench
     document.addEventListener("visibilitychange", () => this.visibility());
     this.connect();

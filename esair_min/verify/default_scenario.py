@@ -69,6 +69,7 @@ class _Writer:
         self.lines: list[str] = []
         uart = robot.central.uart
         self.checksum = bool(uart is not None and uart.require_checksum)
+        self.ticks = 0                  # ticks since boot
 
     def comment(self, text: str) -> None:
         self.lines.append(f"# {text}")
@@ -82,6 +83,18 @@ class _Writer:
 
     def tick(self, n: int) -> None:
         self.lines.append(f"tick {n}")
+        self.ticks += n
+
+    def between_polls(self) -> None:
+        """Ticks until the last one is no reaction's poll tick, so a change of the sensor
+        board (readings, a fault) that follows cannot cut a poll's read in a chip (its
+        script stands early in the tick after the last one, while the read may still run)."""
+        polls = [r.poll_ticks for r in self.robot.central.reactions]
+        if polls and min(polls) >= 3:
+            period = min(polls)
+            k = (2 - self.ticks) % period
+            if k:
+                self.tick(k)
 
 
 def _escape(text: str) -> str:
@@ -95,6 +108,51 @@ def _letter(i: int) -> str:
 def _angle_code(angle: int) -> str | None:
     """The ``c`` command's character for ``angle`` (3-degree steps), None if none."""
     return chr(0x30 + angle // 3) if angle % 3 == 0 and 0 <= angle <= 180 else None
+
+
+def _image_link(w: _Writer, sc: Scenario, robot: Robot, by_action: dict[str, list[str]],
+                targets: tuple[str, ...]) -> None:
+    """The motion image's verbs over the link (docs/protocol.md), where the table has
+    them: reads at and beyond their limits, refused writes (a bad checksum, a chunk with
+    no header written first: the image stays as it is), a commit of the valid image, the
+    I2C scan."""
+    from esair_min.core import protocol
+
+    read_max = int(getattr(protocol, "READ_MAX", 16))
+    size = robot.eeprom.size_bytes if robot.eeprom is not None else 0
+    for prefix in by_action.get("image_read", []):
+        w.comment(f"image read: '{prefix}', 1 and {read_max} bytes, 0 and {read_max + 1}, "
+                  "past the EEPROM's end")
+        w.send(f"{prefix}000001")
+        w.send(f"{prefix}0000{read_max:02X}")
+        w.send(f"{prefix}000000")
+        w.send(f"{prefix}0000{read_max + 1:02X}")
+        if size:
+            w.send(f"{prefix}{min(size - 1, 0xFFFF):04X}02")
+        sc.covers.append(f"{prefix} (image read: 1, {read_max}, beyond)")
+    for prefix in by_action.get("image_write", []):
+        w.comment(f"image write: '{prefix}' refused (a bad checksum; a chunk before the header)")
+        at, data = 0x0040, b"\x00"
+        good = -((at >> 8) + (at & 0xFF) + sum(data)) & 0xFF
+        w.send(f"{prefix}{at:04X}{data.hex().upper()}{(good + 1) & 0xFF:02X}")
+        w.send(f"{prefix}{at:04X}{data.hex().upper()}{good:02X}")
+        sc.covers.append(f"{prefix} (image write: E06, E03)")
+    for prefix in by_action.get("image_commit", []):
+        w.comment(f"image commit: '{prefix}' with no write open (the image is checked)")
+        from esair_min.core.image import build_image
+
+        check_s = (len(build_image(robot)) + 32) * 9 * 1.3 / robot.central.i2c.speed_hz
+        w.send(prefix, settle_ticks(robot, len(prefix) + 1) + math.ceil(check_s / _tick_s(robot)))
+        sc.covers.append(f"{prefix} (image commit)")
+    for prefix in by_action.get("i2c_scan", []):
+        if "pic" in targets:
+            sc.skipped.append(f"{prefix} (i2c scan): gpsim's MSSP master drives SDA through "
+                              "the ACK clock, so every address would seem to answer (drop "
+                              "pic from --targets to scan)")
+            continue
+        w.comment(f"i2c scan: '{prefix}'")
+        w.send(prefix, settle_ticks(robot, 2) + 2)
+        sc.covers.append(f"{prefix} (i2c scan)")
 
 
 def default_scenario(robot: Robot, targets: tuple[str, ...]) -> Scenario:
@@ -170,6 +228,7 @@ def default_scenario(robot: Robot, targets: tuple[str, ...]) -> Scenario:
         w.comment(f"sensors: '{prefix}'")
         w.send(prefix)
         sc.covers.append(f"{prefix} (sensors)")
+    _image_link(w, sc, robot, by_action, targets)
     stop = by_action["stop"][0] if by_action.get("stop") else None
     play = [p for p in by_action.get("play", []) if p not in by_action.get("fixed", [])]
     for prefix in play:
@@ -220,8 +279,10 @@ def default_scenario(robot: Robot, targets: tuple[str, ...]) -> Scenario:
                     readings[i] = low
                 w.comment(f"reaction '{r.name}': '{r.compare[0]}' heavier than "
                           f"'{r.compare[1]}' by more than {r.threshold}")
+                w.between_polls()
                 w.lines.append("sensor " + " ".join(map(str, readings)))
                 w.tick(r.poll_ticks * (r.samples + 1) + motion_ticks(r.motion))
+                w.between_polls()
                 w.lines.append("sensor " + " ".join([str(LEVEL)] * n_sensors))
                 w.tick(r.poll_ticks * 2)
                 sc.covers.append(f"reaction {r.name}")
@@ -231,11 +292,13 @@ def default_scenario(robot: Robot, targets: tuple[str, ...]) -> Scenario:
                               "readings cannot tip (drop pic from --targets to fire them)")
     if robot.peer("sensor") is not None and by_action.get("sensors"):
         w.comment("a missing slave: the sensor board stops answering")
+        w.between_polls()
         w.lines.append("fault sensor on")
         polls = max((r.poll_ticks for r in central.reactions), default=0)
         if polls:                   # a poll fails first: its notice, then the command's E10
             w.tick(2 * polls + settle_ticks(robot, 0))
         w.send(by_action["sensors"][0])
+        w.between_polls()
         w.lines.append("fault sensor off")
         if polls:
             w.tick(2 * polls + settle_ticks(robot, 0))

@@ -25,7 +25,7 @@ from typing import Any
 from esair_min.model.robot import Robot
 from esair_min.verify.budgets import Budget, memory_budgets
 from esair_min.verify.compare import Comparison, Difference
-from esair_min.verify.scenario import RING, Scenario
+from esair_min.verify.default_scenario import RING, Scenario
 from esair_min.verify.result import Progress, Report
 from esair_min.verify.targets import Firmware, TargetRun, VerifyError
 
@@ -178,6 +178,9 @@ def verify_omni(robot: Robot, targets: tuple[str, ...], work: Path, script: str 
     work.mkdir(parents=True, exist_ok=True)
     path = work / "scenario.txt"
     path.write_text(sc.text)
+    if script is not None and name and Path(name).is_file():
+        path = Path(name)        # the builder's own: its name in errors, its folder
+                                        # for `image` lines
     if firmware is None and any(t != "python" for t in targets):
         t0 = time.monotonic()
         firmware = build(robot, targets, work / "firmware")

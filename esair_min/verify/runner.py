@@ -9,9 +9,9 @@ from pathlib import Path
 from esair_min.model.robot import Robot
 from esair_min.verify import budgets as B
 from esair_min.verify.compare import compare_chip, compare_host
-from esair_min.verify.omni import is_omni, verify_omni
+from esair_min.verify.omni_base import is_omni, verify_omni
 from esair_min.verify.result import Progress, Report
-from esair_min.verify.scenario import Scenario, default_scenario
+from esair_min.verify.default_scenario import Scenario, default_scenario
 from esair_min.verify.targets import (Firmware, TargetRun, VerifyError, avr_watch, build,
                                       run_avr, run_host, run_pic, run_python)
 
@@ -38,6 +38,9 @@ def verify(robot: Robot, targets: tuple[str, ...], work: Path, script: str | Non
     work.mkdir(parents=True, exist_ok=True)
     path = work / "scenario.txt"
     path.write_text(sc.text)
+    if script is not None and script_name and Path(script_name).is_file():
+        path = Path(script_name)        # the builder's own: its name in errors, its folder
+                                        # for `image` lines
     if firmware is None and any(t != "python" for t in targets):
         t0 = time.monotonic()
         firmware = build(robot, targets, work / "firmware")
@@ -88,16 +91,14 @@ def _budgets(target: str, robot: Robot, fw: Firmware, run: TargetRun, py: Target
     central = fw.builds["central"]
     if target == "pic":
         from esair_min.codegen.context import PIC_STACK
-        from esair_min.pic.gpsim_bench import measure_decoder
         from esair_min.pic.toolchain import ToolchainError
 
         lst = central.folder / "build-pic" / "firmware.lst"
         try:
-            fig = measure_decoder(robot, B.decoder_stimulus(robot), central.cod, lst,
-                                  work / "pic-decoder")
+            decoder, isr, lost = B.pic_decoder(robot, B.decoder_stimulus(robot), central.cod,
+                                               lst, work / "pic-decoder")
         except ToolchainError as exc:
             raise VerifyError(f"gpsim (decoder bench): {exc}") from None
-        decoder, isr = fig.chars, fig.isr
         _, _, area = B.pic_stack_commands(lst)
         stack = B.pic_stack_bytes(run.sim.output, area, PIC_STACK["size"])
     else:
@@ -108,7 +109,8 @@ def _budgets(target: str, robot: Robot, fw: Firmware, run: TargetRun, py: Target
         bench = run_stimulus(robot, B.decoder_stimulus(robot), elf, work / "avr-decoder",
                              isrs=True, watch=watch)
         decoder = B.avr_decoder(bench, watch[0])
+        lost = len(bench.lost)
         isr = [s for spans in run.sim.isr_spans().values() for s in spans]
         stack = run.sim.stack_bytes
-    return (B.chip_budgets(robot, fw, run, py, decoder, isr, stack, script)
+    return (B.chip_budgets(robot, fw, run, py, decoder, isr, stack, script, lost)
             + B.memory_budgets(fw, target, stack))
