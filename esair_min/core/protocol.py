@@ -24,10 +24,11 @@ ANGLE_CODE_LAST = 0x6C
 KEEP_CODE = "."
 #: The central board's UART rings (every port and the emulator): bytes received and
 #: not yet decoded, and bytes of replies not yet sent. The transmit ring holds the
-#: longest reply (``v`` of a board requiring checksums, with its image CRC and build
-#: id: 91 bytes) with one slot always free.
+#: longest reply (``v`` with its image CRC and build id: 92 bytes) with one slot always
+#: free, and room for a short reply still leaving before it (as 80 had for the 68-byte
+#: ``v`` before them): so a ``v`` during a dance does not hold the superloop past a tick.
 RX_RING = 64
-TX_RING = 96
+TX_RING = 104
 #: Data bytes a read of the image (``image_read``) returns at most: it is read into the
 #: core's buffer whole before the reply starts (so a failed read answers E10 alone).
 READ_MAX = 16

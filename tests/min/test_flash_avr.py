@@ -254,17 +254,23 @@ def run_until_ready(port: Path, build: Path) -> tuple[int, str, str]:
     return proc.returncode, "".join(lines) + out, err
 
 
-def test_run_flashes_what_differs_then_monitors(build, tmp_path):
+def test_run_flashes_writes_the_motions_then_monitors_and_skips_what_is_done(build, tmp_path):
+    """esair run against the simulated Uno with a blank 24LC256 on its TWI: flash, the
+    motions over the link, the monitor; run again: the build id matches, the image's CRC
+    too, nothing is written."""
     chip = tmp_path / "flash.bin"
     boot = new_chip(chip, "optiboot")
-    with SimUno(chip, tmp_path / "ttyUNO", boot) as uno:
+    with SimUno(chip, tmp_path / "ttyUNO", boot, eeprom=tmp_path / "ee.bin") as uno:
         status, out, err = run_until_ready(uno.port, build)
         assert status == 130, err
-        assert "central: 5708 bytes written to" in out
-        assert re.search(r"\d\d:\d\d:\d\d\.\d{3} < !READY esair-min/1 image=bad +\[board reset", out)
+        assert re.search(r"central: \d+ bytes written to", out)
+        assert re.search(r"motions: wrote (\d+) of \1 chunks", out)
+        assert re.search(r"\d\d:\d\d:\d\d\.\d{3} < !READY esair-min/1 image=ok crc=[0-9A-F]{4} "
+                         r"build=[0-9a-f]{8} +\[board reset", out)
         assert "monitor stopped" in err and "Traceback" not in err
         assert holds(uno, build / "central" / "firmware.hex")
         status, out, err = run_until_ready(uno.port, build)       # nothing changed
         assert status == 130, err
-        assert "central: " in out and "already holds the built firmware: not flashed" in out
-        assert "written to" not in out
+        assert re.search(r"central: \S+ already runs build [0-9a-f]{8}: not flashed", out)
+        assert "motions: the robot already holds them" in out
+        assert "written to" not in out and "wrote" not in out
