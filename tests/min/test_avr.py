@@ -422,6 +422,14 @@ def test_the_actuators_tables_are_in_flash(avr_build):
 BOUNDARY = {c.name: c for c in all_cases()}
 
 
+def _replies(ev: list[str]) -> list[str]:
+    return [e for e in ev if not e.startswith("W ")]
+
+
+def _writes(ev: list[str]) -> list[str]:
+    return [e for e in ev if e.startswith("W ")]
+
+
 @pytest.mark.parametrize("name", ["motor limits", "angles limits", "argument ranges",
                                   "40-character line", "ring 64", "ring 65"])
 def test_boundary_cases_on_avr(fast_avr, tmp_path, name):
@@ -441,8 +449,14 @@ def test_boundary_cases_on_avr(fast_avr, tmp_path, name):
         expected, text = case.expected, case.text
     stimulus = text + "tick 60\n"
     got = events(run_stimulus(robot, stimulus, elf, tmp_path).trace())
-    assert got[:len(expected)] == expected
-    assert got == events(run_script(robot, stimulus))
+    py = events(run_script(robot, stimulus))
+    # the replies in order and the actuator writes in order (as compare() projects): a
+    # play's OK and its first frame's write come within a tick of each other on the
+    # line-rate board (the play reads the image's directory first), and which of the
+    # two is on the wire first then depends on the replies still queued before the OK
+    for part in (_replies, _writes):
+        assert part(got)[:len(part(expected))] == part(expected)
+        assert part(got) == part(py)
 
 
 def test_the_emulator_runs_papaman_avr_at_the_avrs_bus_time(avr_robot):
