@@ -12,7 +12,9 @@
  *
  * A pty has no DTR line (TIOCMGET/TIOCMSET fail with ENOTTY), so the Uno's auto-reset
  * (DTR through a 100 nF capacitor to RESET) is modelled by what causes it: the port being
- * opened. The pty master sees its slave opened (POLLHUP ends) and the chip gets an
+ * opened. The pty master sees its slave opened (POLLHUP ends), or the opener flush the
+ * port's input (tcflush, which pySerial and avrdude do when they open a port: packet mode
+ * reports it even when a close and an open fall between two polls), and the chip gets an
  * external reset (MCUSR.EXTRF), as a real board does when avrdude or a terminal opens it.
  * At start the chip gets a power-on reset (PORF).
  *
@@ -38,6 +40,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/ioctl.h>
 #include <sys/mman.h>
 #include <termios.h>
 #include <time.h>
@@ -425,6 +428,11 @@ static int open_pty(const char *link)
         perror("posix_openpt");
         return -1;
     }
+    int one = 1;
+    if (ioctl(master, TIOCPKT, &one) != 0) {
+        perror("TIOCPKT");
+        return -1;
+    }
     const char *name = ptsname(master);
     int s = open(name, O_RDWR | O_NOCTTY);      /* raw mode, as a USB-serial port starts */
     struct termios t;
@@ -531,7 +539,7 @@ int main(int argc, char **argv)
         } else if (ahead < -0.02) {
             t0 += -ahead - 0.02;
         }
-        struct pollfd p = {master, POLLIN, 0};
+        struct pollfd p = {master, POLLIN | POLLPRI, 0};
         if (poll(&p, 1, 0) < 0) {
             continue;
         }
@@ -546,11 +554,16 @@ int main(int argc, char **argv)
             fflush(stdout);
         }
         opened = open_now;
-        if (open_now && (p.revents & POLLIN)) {
-            uint8_t buf[256];
+        if (open_now && (p.revents & (POLLIN | POLLPRI))) {
+            uint8_t buf[257];
             ssize_t n = read(master, buf, sizeof buf);
-            if (n > 0) {
-                host_sent(buf, (int)n);
+            if (n > 1 && buf[0] == TIOCPKT_DATA) {
+                host_sent(buf + 1, (int)n - 1);
+            } else if (n == 1 && (buf[0] & TIOCPKT_FLUSHREAD)) {
+                reset(EXTRF);
+                crashed = 0;
+                printf("reset %llu flush\n", now());
+                fflush(stdout);
             }
         }
         if (damage_at) {

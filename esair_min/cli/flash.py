@@ -188,21 +188,14 @@ def _wait_ready(ser: Any, timeout: float = 5.0) -> str | None:
     return None
 
 
-def _write_motions(model: Robot, port: str, baud: int) -> None:
+def _write_motions(model: Robot, ser: Any) -> None:
     """The robot's motion image into its EEPROM over its link (only what differs)."""
-    from esair_min.cli.send import open_port
     from esair_min.core.image import build_image
     from esair_min.imagelink import ImageLink
 
-    ser = open_port(port, baud, 0.05)
-    try:
-        if _wait_ready(ser) is None:
-            raise FlashError(f"the central board on {port} did not say !READY after the "
-                             "flash: the motions are not written")
-        image = build_image(model)
-        res = ImageLink(ser, model).write_image(image)
-    finally:
-        ser.close()
+    image = build_image(model)
+    ser.timeout = 0.05
+    res = ImageLink(ser, model).write_image(image)
     if res.written == 0:
         click.echo(f"motions: the robot already holds them (CRC 0x{res.crc:04X})")
     else:
@@ -236,6 +229,9 @@ def run(robot: str, ports: tuple[str, ...], bootloader: str, attempts: int,
     from esair_min.flash.firmware import firmware
     from esair_min.flash.portlock import PortLock
 
+    from esair_min.cli.send import open_port
+    from esair_min.codegen.buildid import central_build_id
+
     model = _load(robot)
     by_role = _ports(ports, model)
     out = Path(build_dir) if build_dir else Path("build") / model.name
@@ -243,24 +239,20 @@ def run(robot: str, ports: tuple[str, ...], bootloader: str, attempts: int,
     central = model.central.role if model.central is not None else model.boards[0].role
     board = model.board(central)
     baud = board.uart.baud if board is not None and board.uart is not None else 9600
+    link: Any = None                     # the central board's port, kept open once it booted
     for role, port in by_role.items():
         fw = firmware(model, out, role)
         if fw.built:
             click.echo(f"built {out}", err=True)
         if role == central:
-            from esair_min.codegen.buildid import central_build_id
-
-            from esair_min.cli.send import open_port
-
-            ser = open_port(port, baud, 0.1)
-            try:
-                ready = _wait_ready(ser)
-            finally:
-                ser.close()
+            link = open_port(port, baud, 0.1)       # (opening resets an Arduino)
+            ready = _wait_ready(link)
             want = central_build_id(model)
             if ready is not None and f"build={want}" in ready.split():
                 click.echo(f"{role}: {port} already runs build {want}: not flashed")
                 continue
+            link.close()
+            link = None
         if fw.part == "pic18f452":
             with PortLock(port):
                 _flash_pic(fw.hex_path, port, None, bar)
@@ -273,7 +265,17 @@ def run(robot: str, ports: tuple[str, ...], bootloader: str, attempts: int,
                 continue
             flash_avr(plan, bar, watch_fd=lock.fd)
         click.echo(f"{role}: {fw.image_bytes()} bytes written to {port} and verified")
-    if model.central is not None and model.central.motions:
-        _write_motions(model, by_role[central], baud)
-    sys.exit(run_monitor(by_role[central], baud, model,
-                         Path(log_path) if log_path else None))
+    port = by_role[central]
+    if link is None:
+        link = open_port(port, baud, 0.1)
+        if _wait_ready(link) is None:
+            link.close()
+            raise FlashError(f"the central board on {port} did not say !READY after the "
+                             "flash (is its firmware running? esair monitor shows it)")
+    try:
+        if model.central is not None and model.central.motions:
+            _write_motions(model, link)
+    except BaseException:
+        link.close()
+        raise
+    sys.exit(run_monitor(port, baud, model, Path(log_path) if log_path else None, link))

@@ -99,5 +99,5 @@ def _add_loader_fields(data: dict[str, Any], doc: Document, base: Path) -> None:
                 options = entry.get("options")
                 entry.update(name=name, mark=doc.mark(loc, key=True),
                              class_mark=doc.mark(loc + ("class",)), base_dir=base,
-                             options_doc=options_document(doc, loc, options)
-                             if isinstance(options, dict) else None)
+                             options_doc=options_document(
+                                 doc, loc, options if isinstance(options, dict) else {}))

@@ -19,7 +19,10 @@ Every key names the process it comes from or goes to, so the ACL of a remote age
 thread and only copy, enqueue and answer. An answer that does not come within the
 timeout (a lost sample, a dead process) is ``None`` to the caller, never a silent loss:
 the BS then goes on with its query-based offer and retries; the sender reports the put
-failed. Garbage (not JSON, no id, a foreign id) is counted and dropped.
+failed. Requests may be dropped on a congested link (their caller then times out);
+answers never are (a dropped answer to a done request left its caller reporting a
+delivered put as failed): one answer per request bounds the wait.
+Garbage (not JSON, no id, a foreign id) is counted and dropped.
 """
 
 from __future__ import annotations
@@ -216,8 +219,10 @@ class SampleServer:
                 if pub is None:
                     if len(self._pubs) >= PEERS:
                         return None
+                    # never dropped: a lost answer leaves its caller waiting for a
+                    # request that was done (one answer per request bounds them)
                     pub = self._pubs[request_key] = self.bus.publisher(
-                        self.answer_key(request_key), drop=True)
+                        self.answer_key(request_key), drop=False)
         return pub
 
     def _on_request(self, key: str, obj: Any) -> None:

@@ -1,6 +1,7 @@
-"""A MinLink entry's options are a schema (esair_std/drivers/minlink/options.py): a bad
-one is a deployment error at its line, like every other (each fixture file: one error),
-and the driver words the same error by the option's path for an entry with no file."""
+"""A MinLink entry's options are a schema (esair_std/drivers/minlink/options.py), and so
+are a Starfish entry's (drivers/starfish/options.py): a bad one is a deployment error at
+its line, like every other (each fixture file: one error), and the driver words the same
+error by the option's path for an entry with no file."""
 
 from pathlib import Path
 
@@ -21,6 +22,8 @@ FIXTURES = Path(__file__).resolve().parents[1] / "fixtures" / "std_minlink_optio
     ("no_port", ":3:3: missing required key 'port'"),
     ("restart_max_negative", ":7:48: 'max' must be at least 0, not -1"),   # under options:
     ("restart_key_misspelt", ":5:33: unknown key 'whithin' (did you mean 'within'?)"),
+    # STARFISH's driver: its own schema (esair_std/drivers/starfish/options.py)
+    ("starfish_radio_range_text", ":6:22: 'range_m' must be a number, not text 'far'"),
 ])
 def test_a_bad_option_is_reported_at_its_line(name, message):
     path = FIXTURES / f"{name}.yaml"
