@@ -45,8 +45,6 @@ def test_every_board_builds_with_its_map_and_symbols(builds):
         assert 0 < b.usage.program_bytes < 32768
 
 
-@pytest.mark.xfail(strict=True, reason="the central board is 9 494 B, 278 B over issue 32's "
-                   "9 KB goal (docs/firmware.md, Sizes): not reached yet")
 def test_central_flash_goal(builds):
     central = builds["central"].usage
     assert central.program_bytes <= GOAL_FLASH, summary_lines(list(builds.values()))
