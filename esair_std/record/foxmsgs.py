@@ -19,11 +19,13 @@ import base64
 import binascii
 import json
 import math
+import operator
+import sys
 import time
+from array import array
 from dataclasses import dataclass
 from typing import Any
 
-import numpy as np
 from foxglove import messages as fm
 
 JSON_TYPES = ["object", "array", "string", "number", "boolean", "null"]
@@ -298,14 +300,22 @@ class Converter:
         return Out(f"/{entry}/scene", SCENE, fm.SceneUpdate(entities=[ent]).encode(), t)
 
     def _levels(self, sensor: str, t: float, v: dict) -> list[Out]:
+        """The RMS level of each channel of one frame of interleaved 16-bit PCM (no
+        numpy: it would add ~14 MB to the live server's RSS)."""
         n = v["channels"]
+        if n <= 0:
+            return []
         try:
-            pcm = np.frombuffer(base64.b64decode(v["pcm"]), dtype="<i2")
-            frames = pcm[: len(pcm) // n * n].reshape(-1, n).astype(np.float64) / 32768.0
+            pcm = array("h", base64.b64decode(v["pcm"]))
         except (binascii.Error, ValueError):
             return []
-        if n <= 0 or not len(frames):
+        if sys.byteorder == "big":
+            pcm.byteswap()                       # the frames are little-endian
+        frames = len(pcm) // n
+        if not frames:
             return []
-        rms = np.sqrt((frames ** 2).mean(axis=0))
-        return [Out(f"/{sensor.replace('.', '/')}/levels", levels_schema(n),
-                    _js({f"mic{i}": round(float(x), 6) for i, x in enumerate(rms)}), t)]
+        levels = {}
+        for i in range(n):
+            ch = pcm[i:frames * n:n]
+            levels[f"mic{i}"] = round(math.sqrt(sum(map(operator.mul, ch, ch)) / frames) / 32768, 6)
+        return [Out(f"/{sensor.replace('.', '/')}/levels", levels_schema(n), _js(levels), t)]
