@@ -22,6 +22,7 @@ from esair_min.core.image import header_of
 from esair_min.errors import EsairError, ProtocolError
 from esair_min.model.encoding import CHECKSUM_CHARS, MAX_LINE
 from esair_min.model.robot import Robot
+from esair_min.serialport import describe
 
 #: Data bytes a chunk carries at most (16 fills a line with a one-letter prefix).
 CHUNK_MAX = 16
@@ -90,7 +91,7 @@ class ImageLink:
             if not self._fits(len(data)):
                 return
             self._sent.append((urgent.popleft(), len(data)))
-            self.ser.write(data)
+            self._io(self.ser.write, data)
         q = self._queue
         while q and (urgent is None or
                      sum(1 for line, _ in self._sent if line in self._reads) < READ_AHEAD):
@@ -98,13 +99,23 @@ class ImageLink:
             if not self._fits(len(data)):
                 return
             self._sent.append((q.popleft(), len(data)))
-            self.ser.write(data)
+            self._io(self.ser.write, data)
+
+    def _io(self, fn: Callable[..., Any], *args: Any) -> Any:
+        """A call on the port; its failure (a device gone, a robot killed behind its
+        pty) as an EsairError."""
+        import serial
+
+        try:
+            return fn(*args)
+        except (serial.SerialException, OSError) as exc:
+            raise EsairError(f"the robot's port failed: {describe(exc)}") from None
 
     def _reply(self) -> str:
         """The next reply line (notices skipped)."""
         deadline = time.monotonic() + self.timeout
         while True:
-            got = self.ser.readline()
+            got = self._io(self.ser.readline)
             self._buf += got
             if self._buf.endswith(b"\n"):
                 text = self._buf.decode("latin-1").strip("\r\n")

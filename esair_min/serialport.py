@@ -34,7 +34,8 @@ def open_port(url: str, **settings: Any) -> Any:
     other ESAIR programs; pySerial's exceptions pass through (see :func:`describe`)."""
     import serial
 
-    import esair_min.emulator  # noqa: F401  (registers the esair:// URL scheme)
+    if url.startswith("esair://"):   # the emulator is big: only its own URLs import it
+        import esair_min.emulator  # noqa: F401  (registers the esair:// URL scheme)
 
     if "://" not in url:
         settings.setdefault("exclusive", True)

@@ -19,7 +19,10 @@ Every key names the process it comes from or goes to, so the ACL of a remote age
 thread and only copy, enqueue and answer. An answer that does not come within the
 timeout (a lost sample, a dead process) is ``None`` to the caller, never a silent loss:
 the BS then goes on with its query-based offer and retries; the sender reports the put
-failed. Garbage (not JSON, no id, a foreign id) is counted and dropped.
+failed. Requests may be dropped on a congested link (their caller then times out);
+answers never are (a dropped answer to a done request left its caller reporting a
+delivered put as failed): one answer per request bounds the wait.
+Garbage (not JSON, no id, a foreign id) is counted and dropped.
 """
 
 from __future__ import annotations
@@ -34,6 +37,7 @@ from typing import Any, Callable
 
 from ..errors import TransportError
 from .bus import Bus
+from .codec import JSON, JSONObject
 from ..counters import Counters
 
 log = logging.getLogger("esair_std.transport")
@@ -41,7 +45,7 @@ PENDING = 4096           # calls waiting for an answer at once; more are refused
 PEERS = 1024             # distinct keys a caller sends to / a server answers to
 
 
-def _id(obj: Any) -> int | None:
+def _id(obj: JSON) -> int | None:
     oid = obj.get("id") if isinstance(obj, dict) else None
     return oid if isinstance(oid, int) and not isinstance(oid, bool) else None
 
@@ -55,8 +59,8 @@ class SampleCaller:
         self.bus = bus
         self.peer_of = peer_of
         self._ids = itertools.count(1)
-        self._pending: dict[int, tuple[str, Callable[[Any], None], float]] = {}
-        self._pubs: dict[str, Callable[[Any], None]] = {}
+        self._pending: dict[int, tuple[str, Callable[[JSON], None], float]] = {}
+        self._pubs: dict[str, Callable[[JSON], None]] = {}
         self._lock = threading.Lock()
         self._due = threading.Condition(self._lock)    # an earlier deadline, or closed
         self._deadlines: list[tuple[float, int]] = []  # heap (deadline, id); answered
@@ -71,8 +75,8 @@ class SampleCaller:
     def _garbage(self, _why: str) -> None:
         self.c.add("bad_answers")
 
-    def call(self, key: str, peer: str, body: dict[str, Any], timeout: float,
-             done: Callable[[Any], None]) -> bool:
+    def call(self, key: str, peer: str, body: JSONObject, timeout: float,
+             done: Callable[[JSON], None]) -> bool:
         """Send ``body`` (plus an id) to ``key``; ``done(answer or None)`` once, on a
         Zenoh thread or this caller's timer. False: too many calls wait (not sent).
         TransportError: ``body`` cannot be sent (not JSON, over the size cap)."""
@@ -112,7 +116,7 @@ class SampleCaller:
         if pub is not None:
             self.bus.undeclare(key)
 
-    def wait(self, key: str, peer: str, body: dict[str, Any], timeout: float) -> Any:
+    def wait(self, key: str, peer: str, body: JSONObject, timeout: float) -> Any:
         """``call`` from a thread that waits: the answer, or None."""
         box: queue.SimpleQueue[Any] = queue.SimpleQueue()
         if not self.call(key, peer, body, timeout, box.put):
@@ -122,7 +126,7 @@ class SampleCaller:
         except queue.Empty:
             return None
 
-    def _finish(self, oid: int, answer: Any) -> bool:
+    def _finish(self, oid: int, answer: JSON) -> bool:
         with self._lock:
             entry = self._pending.pop(oid, None)
         if entry is not None:
@@ -187,11 +191,11 @@ class SampleServer:
     enqueue or answer."""
 
     def __init__(self, bus: Bus, requests: str, answer_key: Callable[[str], str],
-                 handler: Callable[[str, dict[str, Any], Callable[[dict[str, Any]], None]], None]):
+                 handler: Callable[[str, JSONObject, Callable[[JSONObject], None]], None]):
         self.bus = bus
         self.answer_key = answer_key
         self.handler = handler
-        self._pubs: dict[str, Callable[[Any], None]] = {}
+        self._pubs: dict[str, Callable[[JSON], None]] = {}
         self._lock = threading.Lock()
         self.c = Counters(requests=0, bad_requests=0)
         bus.subscribe(requests, self._on_request, with_key=True, garbage=self._garbage)
@@ -207,7 +211,7 @@ class SampleServer:
         if pub is not None:
             self.bus.undeclare(self.answer_key(request_key))
 
-    def _publisher(self, request_key: str) -> Callable[[Any], None] | None:
+    def _publisher(self, request_key: str) -> Callable[[JSON], None] | None:
         pub = self._pubs.get(request_key)
         if pub is None:
             with self._lock:
@@ -215,8 +219,10 @@ class SampleServer:
                 if pub is None:
                     if len(self._pubs) >= PEERS:
                         return None
+                    # never dropped: a lost answer leaves its caller waiting for a
+                    # request that was done (one answer per request bounds them)
                     pub = self._pubs[request_key] = self.bus.publisher(
-                        self.answer_key(request_key), drop=True)
+                        self.answer_key(request_key), drop=False)
         return pub
 
     def _on_request(self, key: str, obj: Any) -> None:
@@ -231,7 +237,7 @@ class SampleServer:
         self.c.add("requests")
         sent = [False]
 
-        def answer(out: dict[str, Any]) -> None:
+        def answer(out: JSONObject) -> None:
             if not sent[0]:
                 sent[0] = True
                 try:

@@ -305,7 +305,7 @@ def test_the_put_samples_answer_or_count_garbage(robot_mode):
                              ("esair/lab/bs/logger/deliver", b'{"data": 1}'),
                              ("esair/lab/bs/logger/deliver", b"x" * 300_000)]:
             bus.session.put(key, payload, congestion_control=zenoh.CongestionControl.BLOCK)
-        # the answers go out with DROP (a sender notices a lost one by its timeout): the
+        # the answers wait for a congested link (transport/calls.py): the
         # 300 KB payloads above must have gone through first, or a loaded machine drops
         # answers behind them. One more handshake says so.
         while not answers.empty():                      # none but the handshake's

@@ -1,0 +1,504 @@
+"""ESAIR STD on the robot's own small computer (issue 37 item 1).
+
+Stands in for a Raspberry Pi Zero 2 W class board: the robot's host side (runtime,
+behaviors, drivers) runs inside a Linux control group capped at 25 % of one core and
+128 MB (cgroup v1 ``cpu`` + ``memory``, or v2, whichever the machine has; needs root);
+the emulated boards (and, in process mode, STARFISH's remote control center) are moved
+out of it, where real hardware (or another computer) would be. Each robot and mode runs
+twice, capped and uncapped (the same group without limits), and the figures are printed
+side by side:
+
+- RSS and PSS of the processes in the group (the robot side), CPU over an idle window
+  as a share of one core, process start -> all components running;
+- PAPA-MAN (feet polled at 8 Hz): command -> register write p99 (the emulator's trace,
+  in its virtual time, mapped from time.monotonic() by its pacer's origin) against the
+  line-and-tick floor (tick + oMSAAA's line time), feet samples lost;
+- STARFISH: sound onset -> picture per shot against its floor (the turn at the board
+  files' max_omega_mrad_s), audio frames lost. STARFISH's driver renders the room's
+  audio and pictures itself: that simulation work is inside the cap.
+
+    python bench/small_computer.py [--robots papaman,starfish] [--modes thread,process]
+        [--window 10] [--n 100] [--shots 3] [--caps capped,uncapped]
+Prints figures; asserts nothing. Every control group it made is removed at the end
+(also on an error or Ctrl-C), after every process in it has been ended.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import secrets
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+BENCH = ROOT / "bench"
+PAPAMAN = ROOT / "boards" / "papaman"
+STARFISH_ROOM = ROOT / "esair_std" / "examples" / "starfish" / "room.yaml"
+CPU_SHARE = 0.25
+MEMORY = 128 << 20
+SOURCES = [(1.0, 3.5), (0.4, 0.4), (2.7, 3.7), (0.3, 2.0), (2.6, 0.3), (1.8, 3.7)]
+
+
+# ---- the control group ----------------------------------------------------------------
+class Cap:
+    """A control group of its own (v2, or v1's ``cpu`` and ``memory`` hierarchies); with
+    ``limit`` False the same group without limits (to measure alike). Removed on exit,
+    after killing what is left in it (only this bench's processes are ever in it)."""
+
+    V2 = Path("/sys/fs/cgroup/cgroup.controllers")
+
+    def __init__(self, limit: bool, cpu: float = CPU_SHARE, memory: int = MEMORY):
+        self.limit, self.cpu, self.memory = limit, cpu, memory
+        self.name = f"esair-small-{secrets.token_hex(4)}"
+        self.v2 = self.V2.exists()
+        base = Path("/sys/fs/cgroup")
+        self.dirs = [base / self.name] if self.v2 else \
+            [base / "cpu" / self.name, base / "memory" / self.name]
+
+    def __enter__(self) -> "Cap":
+        made = []
+        try:
+            for d in self.dirs:
+                d.mkdir()
+                made.append(d)
+            if self.limit:
+                if self.v2:
+                    (self.dirs[0] / "cpu.max").write_text(f"{int(self.cpu * 100000)} 100000")
+                    (self.dirs[0] / "memory.max").write_text(str(self.memory))
+                else:
+                    (self.dirs[0] / "cpu.cfs_period_us").write_text("100000")
+                    (self.dirs[0] / "cpu.cfs_quota_us").write_text(str(int(self.cpu * 100000)))
+                    (self.dirs[1] / "memory.limit_in_bytes").write_text(str(self.memory))
+        except BaseException:
+            for d in reversed(made):
+                d.rmdir()
+            raise
+        return self
+
+    def join(self) -> None:
+        """Put the calling process in the group (a child's preexec_fn)."""
+        for d in self.dirs:
+            (d / "cgroup.procs").write_text(str(os.getpid()))
+
+    def release(self, pid: int) -> None:
+        """Move ``pid`` out of the group, back to the root group."""
+        for d in self.dirs:
+            try:
+                (d.parent / "cgroup.procs").write_text(str(pid))
+            except OSError:
+                pass                                  # gone meanwhile
+
+    def pids(self) -> list[int]:
+        try:
+            return [int(p) for p in (self.dirs[-1] / "cgroup.procs").read_text().split()]
+        except OSError:
+            return []
+
+    def memory_events(self) -> dict:
+        """Peak usage (MB) and OOM kills in the group."""
+        d = self.dirs[-1]
+        try:
+            if self.v2:
+                ev = dict(line.split() for line in (d / "memory.events").read_text().splitlines())
+                peak = d / "memory.peak"
+                return {"peak_mb": int(peak.read_text()) / 2**20 if peak.exists() else None,
+                        "oom_kills": int(ev.get("oom_kill", 0))}
+            oom = dict(line.split() for line in (d / "memory.oom_control").read_text().splitlines())
+            return {"peak_mb": int((d / "memory.max_usage_in_bytes").read_text()) / 2**20,
+                    "oom_kills": int(oom.get("oom_kill", 0))}
+        except OSError:
+            return {"peak_mb": None, "oom_kills": None}
+
+    def __exit__(self, *exc) -> None:
+        for _ in range(100):
+            left = self.pids()
+            if not left:
+                break
+            for pid in left:
+                try:
+                    os.kill(pid, signal.SIGKILL)
+                except ProcessLookupError:
+                    pass
+            time.sleep(0.05)
+        for d in reversed(self.dirs):
+            for _ in range(100):
+                try:
+                    d.rmdir()
+                    break
+                except FileNotFoundError:
+                    break
+                except OSError:                       # EBUSY while the last exit settles
+                    time.sleep(0.05)
+
+
+class Mover(threading.Thread):
+    """Moves out of the group, as soon as they show, the processes that stand for real
+    hardware or another computer: the emulated boards and ``remote`` agents."""
+
+    def __init__(self, cap: Cap, remote: tuple[str, ...] = ()):
+        super().__init__(daemon=True, name="mover")
+        self.cap, self.remote = cap, remote
+        self.done = threading.Event()
+        self.moved: set[int] = set()
+
+    def run(self) -> None:
+        while not self.done.wait(0.02):
+            for pid in self.cap.pids():
+                if pid in self.moved:
+                    continue
+                try:
+                    cmd = Path(f"/proc/{pid}/cmdline").read_bytes().split(b"\0")
+                except OSError:
+                    continue
+                spec = cmd[cmd.index(b"--spec") + 1] if b"--spec" in cmd else b""
+                if b"emulate" in cmd or any(f'"name": "{r}"'.encode() in spec or
+                                            f'"name":"{r}"'.encode() in spec for r in self.remote):
+                    self.cap.release(pid)
+                    self.moved.add(pid)
+
+
+# ---- measuring the group --------------------------------------------------------------
+def memory_of(pids: list[int]) -> tuple[float, float]:
+    """(RSS MB, PSS MB) summed over ``pids``."""
+    rss = pss = 0
+    for pid in pids:
+        try:
+            text = Path(f"/proc/{pid}/smaps_rollup").read_text()
+        except OSError:
+            continue
+        for line in text.splitlines():
+            if line.startswith("Rss:"):
+                rss += int(line.split()[1])
+            elif line.startswith("Pss:"):
+                pss += int(line.split()[1])
+    return rss / 1024, pss / 1024
+
+
+def cpu_of(pids: list[int]) -> dict[int, float]:
+    """CPU seconds (user + system) of each of ``pids``."""
+    out = {}
+    for pid in pids:
+        try:
+            fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        out[pid] = (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+    return out
+
+
+def pct(xs: list[float], q: float) -> float:
+    xs = sorted(xs)
+    return xs[min(len(xs) - 1, int(q * len(xs)))] if xs else float("nan")
+
+
+def free_endpoint() -> str:
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        return f"tcp/127.0.0.1:{sock.getsockname()[1]}"
+
+
+# ---- the emulated PAPA-MAN outside the cap, its pacer's origin known --------------------
+def serve_emulator(trace: str) -> None:
+    """Child: PAPA-MAN's emulated boards behind a pty, tracing; prints the pty path, the
+    wall clock (time.monotonic()) and the virtual time (ns) of the pacer's origin."""
+    from contextlib import ExitStack
+
+    from esair_min.emulator.ptyserver import PtyPort, serve_pty
+    from esair_min.emulator.serve import EmulateOptions, _robot_class
+    from esair_min.model.validate import load_robot
+
+    robot = load_robot(PAPAMAN)
+    opts = EmulateOptions(pty=True, trace=Path(trace), live=False)
+    stop = threading.Event()
+    signal.signal(signal.SIGTERM, lambda *_: stop.set())
+    with ExitStack() as stack, open(trace, "w", encoding="ascii", buffering=1) as f:
+        run = _robot_class(robot)(robot, opts, stack, image=None, trace=f,
+                                  instance=secrets.token_hex(4), live=False)
+
+        def on_path(path: str) -> None:      # the pacer was made just before this call
+            print(path, time.monotonic(), run.sim.clock.now, flush=True)
+
+        serve_pty(run.sim, on_path, stop.is_set, 1.0, run.idle, PtyPort())
+        run.flush()
+
+
+# ---- the robot side, inside the group ---------------------------------------------------
+def papaman_deployment(port: str, n: int, go: str) -> dict:
+    uses = {"papaman.servo.*": "command", "papaman.motion": "command"}
+    return {"robot": "papaman",
+            "resources": {"papaman": {"class": "esair_std.drivers.minlink:MinLink",
+                                      "robot": str(PAPAMAN), "port": port, "feet_hz": 8,
+                                      "allow": {"*": "command"}}},
+            "behaviors": {
+                "stepper": {"class": "small_computer_comps:GoStepper", "n": n,
+                            "every": 0.0373, "go": go, "uses": uses},
+                "feet": {"class": "small_computer_comps:SeqCounter", "period": 0.05,
+                         "sensor": "papaman.feet", "uses": {"papaman.feet": "read"}}}}
+
+
+def starfish_deployment(store: str) -> dict:
+    import yaml
+    from esair_std.deploy import resolve_deployment
+
+    dep = yaml.safe_load(Path(resolve_deployment("starfish")).read_text())
+    dep["resources"]["starfish"].update(pose=[1.5, 1.5, 0.0], room_file=str(STARFISH_ROOM))
+    dep["reactions"]["reconnect"]["room_file"] = str(STARFISH_ROOM)
+    dep["behaviors"]["patrol"]["waypoints"] = [[1.5, 1.5], [2.3, 1.5]]
+    mod = "esair_std.examples.starfish.starfish_behaviors"
+    for name in ("patrol", "localize", "turn_and_shoot"):
+        dep["behaviors"][name]["class"] = f"{mod}:" + dep["behaviors"][name]["class"].split(":")[1]
+    dep["reactions"]["reconnect"]["class"] = f"{mod}:Reconnect"
+    dep["behaviors"]["turn_and_shoot"].update(store=store, cooldown=0.5)
+    dep["behaviors"]["ears"] = {"class": "small_computer_comps:SeqCounter", "period": 0.05,
+                                "sensor": "starfish.mics", "uses": {"starfish.mics": "read"}}
+    return dep
+
+
+def _get(rt, name: str, key: str, timeout: float):
+    from esair_std import StdError
+
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        try:
+            v = rt.get(name, timeout=2.0)
+        except StdError:
+            v = None
+        if v and v.get(key):
+            return v
+        time.sleep(0.05)
+    return None
+
+
+def inner(args) -> None:
+    """Child, in the group: run the robot side; print ``ready`` (time.monotonic()) once
+    every component runs, wait for ``go`` on standard input, run the figure, print its
+    JSON, then wait for ``end`` and stop."""
+    import tempfile
+
+    from esair_std import Runtime
+
+    store = tempfile.mkdtemp(prefix="esair-bench-")
+    go = os.path.join(store, "go")
+    dep = papaman_deployment(args.port, args.n, go) if args.robot == "papaman" \
+        else starfish_deployment(store)
+    with Runtime(dep, mode=args.mode, endpoint=free_endpoint(), settle_heap=True) as rt:
+        end = time.monotonic() + 300
+        while time.monotonic() < end and \
+                any(c["state"] not in ("running", "busy", "ready") for c in rt.ls()):
+            time.sleep(0.02)
+        print(json.dumps({"ready": time.monotonic()}), flush=True)
+        sys.stdin.readline()
+        out = papaman_figure(rt, go) if args.robot == "papaman" else starfish_figure(rt, args.shots)
+        print(json.dumps(out), flush=True)
+        sys.stdin.readline()
+    import shutil
+    shutil.rmtree(store, ignore_errors=True)
+
+
+def papaman_figure(rt, go: str) -> dict:
+    Path(go).touch()
+    got = _get(rt, "stepper", "done", 600) or {"sent": [], "errors": -1}
+    return {"sent": got["sent"], "errors": got["errors"],
+            "feet": rt.get("feet", timeout=10.0)}
+
+
+def starfish_figure(rt, shots: int) -> dict:
+    _get(rt, "patrol", "reached", 120)
+    out = []
+    for k in range(shots):
+        x, y = SOURCES[k % len(SOURCES)]
+        before = rt.get("turn_and_shoot", timeout=10.0)["shots"]
+        t0 = time.time()
+        rt.configure("starfish.mics", "source", {"x": x, "y": y, "on": True})
+        end, got = time.monotonic() + 30, None
+        while time.monotonic() < end:
+            r = rt.get("turn_and_shoot", timeout=10.0)
+            if r["shots"] > before:
+                got = r
+                break
+            time.sleep(0.05)
+        rt.configure("starfish.mics", "source", {"x": x, "y": y, "on": False})
+        if got:
+            out.append({"took": got["last"]["t"] - t0,
+                        "turned": abs(float(got["last"]["bearing"]["bearing"]))})
+        else:
+            out.append(None)
+        time.sleep(1.0)
+    return {"shots": out, "ears": rt.get("ears", timeout=10.0)}
+
+
+# ---- the bench --------------------------------------------------------------------------
+def one(robot: str, mode: str, limit: bool, args) -> dict:
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(
+        [str(ROOT), str(BENCH), *filter(None, [os.environ.get("PYTHONPATH")])]))
+    emu = None
+    res: dict = {"robot": robot, "mode": mode, "capped": limit}
+    with Cap(limit) as cap:
+        res["groups"] = [str(d) for d in cap.dirs]
+        cmd = [sys.executable, str(Path(__file__).resolve()), "--inner", robot, "--mode", mode,
+               "--n", str(args.n), "--shots", str(args.shots)]
+        tmp = None
+        if robot == "papaman":
+            import tempfile
+            tmp = tempfile.TemporaryDirectory(prefix="esair-bench-")
+            trace = Path(tmp.name) / "trace.txt"
+            emu = subprocess.Popen([sys.executable, str(Path(__file__).resolve()),
+                                    "--emulator", str(trace)], env=env,
+                                   stdout=subprocess.PIPE, text=True)
+            assert emu.stdout is not None
+            path, wall0, virt0 = emu.stdout.readline().split()
+            cmd += ["--port", path]
+        mover = Mover(cap, remote=("localize", "turn_and_shoot") if robot == "starfish" else ())
+        mover.start()
+        t_exec = time.monotonic()
+        child = subprocess.Popen(cmd, env=env, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                 text=True, preexec_fn=cap.join)
+        try:
+            assert child.stdout is not None and child.stdin is not None
+            line = child.stdout.readline()
+            if not line:
+                res["error"] = f"the robot side exited ({child.wait()}) before it was ready"
+                return res
+            res["ready_s"] = json.loads(line)["ready"] - t_exec
+            time.sleep(args.settle)
+            pids = cap.pids()
+            c0, t0 = cpu_of(pids), time.monotonic()
+            time.sleep(args.window)
+            pids = cap.pids()
+            c1, dt = cpu_of(pids), time.monotonic() - t0
+            res["cpu_pct"] = 100 * sum(c1[p] - c0[p] for p in c1 if p in c0) / dt
+            res["rss_mb"], res["pss_mb"] = memory_of(pids)
+            res["processes"] = len(pids)
+            child.stdin.write("go\n")
+            child.stdin.flush()
+            line = child.stdout.readline()
+            if not line:
+                res["error"] = f"the robot side exited ({child.wait()}) during the figure"
+                return res
+            fig = json.loads(line)
+            res.update(cap.memory_events())
+            child.stdin.write("end\n")
+            child.stdin.flush()
+            child.wait(120)
+        finally:
+            mover.done.set()
+            if child.poll() is None:
+                child.kill()
+                child.wait()
+            if emu is not None:
+                emu.terminate()
+                emu.wait(30)
+    if robot == "papaman":
+        assert tmp is not None
+        res.update(register_writes(fig, trace, float(wall0), int(virt0)))
+        tmp.cleanup()
+    else:
+        res.update(shots(fig))
+    return res
+
+
+def line_and_tick_ms() -> float:
+    from esair_min.model.validate import load_robot
+    from esair_std.drivers.minlink import line_budget
+
+    b = line_budget(load_robot(PAPAMAN))
+    return (b.tick_s + b.line_s(len("odc100\r\n") - 1)) * 1e3
+
+
+def register_writes(fig: dict, trace: Path, wall0: float, virt0: int) -> dict:
+    writes, mark = [], 0.0
+    for line in trace.read_text().splitlines():
+        if line.startswith("@ "):
+            mark = int(line[2:]) / 1e6
+        elif line.startswith("W 10 ") and len(line.split()[2]) == 6:
+            writes.append(mark)
+    sent = [virt0 / 1e9 + (t - wall0) for t in fig["sent"]]
+    lat = [(w - s) * 1e3 for s, w in zip(sent, writes)]
+    return {"cmd_p50_ms": pct(lat, 0.5), "cmd_p99_ms": pct(lat, 0.99), "cmd_n": len(lat),
+            "cmd_errors": fig["errors"], "writes": len(writes),
+            "samples": fig["feet"]["samples"], "lost": fig["feet"]["lost"]}
+
+
+def shots(fig: dict) -> dict:
+    from esair_min.model.validate import load_robot
+
+    omega = load_robot(ROOT / "boards" / "starfish").central.base.max_omega_mrad_s / 1000
+    each = [None if s is None else (s["took"], s["turned"] / omega) for s in fig["shots"]]
+    return {"shots": each, "samples": fig["ears"]["samples"], "lost": fig["ears"]["lost"]}
+
+
+def show(rows: list[dict], floor_ms: float) -> None:
+    for r in rows:
+        tag = f"{r['robot']:8s} {r['mode']:7s} {'capped' if r['capped'] else 'uncapped':8s}"
+        if "error" in r:
+            print(f"{tag} ERROR: {r['error']}")
+            continue
+        mem = f"peak {r['peak_mb']:.0f} MB, OOM kills {r['oom_kills']}" \
+            if r.get("peak_mb") is not None else ""
+        print(f"{tag} RSS {r['rss_mb']:6.1f} MB  PSS {r['pss_mb']:6.1f} MB "
+              f"({r['processes']} processes; {mem})  CPU {r['cpu_pct']:5.1f} % of a core  "
+              f"start -> ready {r['ready_s']:5.2f} s")
+        if r["robot"] == "papaman":
+            print(f"{'':26s} command -> register write p50 {r['cmd_p50_ms']:.2f} ms, "
+                  f"p99 {r['cmd_p99_ms']:.2f} ms = {r['cmd_p99_ms'] / floor_ms:.2f}x the "
+                  f"line-and-tick floor {floor_ms:.2f} ms (n {r['cmd_n']}, errors "
+                  f"{r['cmd_errors']}); feet samples {r['samples']}, lost {r['lost']}")
+        else:
+            each = ", ".join("none in 30 s" if s is None else
+                             f"{s[0]:.2f} s ({s[0] / max(s[1], 1e-3):.2f}x floor {s[1]:.2f} s)"
+                             for s in r["shots"])
+            print(f"{'':26s} sound -> picture: {each}; audio frames {r['samples']}, "
+                  f"lost {r['lost']}")
+
+
+def _interrupted(*_) -> None:
+    raise KeyboardInterrupt
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--robots", default="papaman,starfish")
+    ap.add_argument("--modes", default="thread,process")
+    ap.add_argument("--caps", default="capped,uncapped")
+    ap.add_argument("--window", type=float, default=10.0, help="CPU window, seconds")
+    ap.add_argument("--settle", type=float, default=3.0, help="seconds after ready")
+    ap.add_argument("--n", type=int, default=100, help="PAPA-MAN: commands")
+    ap.add_argument("--shots", type=int, default=3, help="STARFISH: shots")
+    ap.add_argument("--inner", help=argparse.SUPPRESS)
+    ap.add_argument("--mode", help=argparse.SUPPRESS)
+    ap.add_argument("--port", help=argparse.SUPPRESS)
+    ap.add_argument("--emulator", help=argparse.SUPPRESS)
+    args = ap.parse_args()
+    if args.emulator:
+        return serve_emulator(args.emulator)
+    if args.inner:
+        args.robot = args.inner
+        return inner(args)
+    signal.signal(signal.SIGTERM, _interrupted)      # the groups are removed then too
+    if os.geteuid() != 0:
+        raise SystemExit("small_computer.py needs root (it makes a control group)")
+    floor = line_and_tick_ms()
+    print(f"the robot side capped at {CPU_SHARE:.0%} of one core and {MEMORY >> 20} MB "
+          f"(cgroup {'v2' if Cap.V2.exists() else 'v1'}), standing in for a Raspberry Pi "
+          f"Zero 2 W class board; the emulated boards (and STARFISH's remote center in "
+          f"process mode) outside; load average {os.getloadavg()[0]:.1f} on "
+          f"{os.cpu_count()} cores")
+    rows = []
+    for robot in args.robots.split(","):
+        for mode in args.modes.split(","):
+            for cap in args.caps.split(","):
+                rows.append(one(robot, mode, cap == "capped", args))
+                show(rows[-1:], floor)
+    print(json.dumps({"rows": rows, "floor_ms": floor, "cpu_share": CPU_SHARE,
+                      "memory_mb": MEMORY >> 20}))
+
+
+if __name__ == "__main__":
+    main()
