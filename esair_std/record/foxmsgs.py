@@ -112,7 +112,9 @@ COMMAND = json_schema("esair.Command", {
                                            "actuator's host"},
     "command": {"type": JSON_TYPES, "description": "the command as sent"},
     "ok": {"type": JSON_TYPES, "description": "the actuator's answer (the command ran)"},
-    "error": {"type": "string", "description": "why it failed"}}, ["seq", "t", "command"])
+    "error": {"type": "string", "description": "why it failed"},
+    "by": {"type": "string", "description": "its sender: a behavior, operator, hmi, ..."}},
+    ["seq", "t", "command"])
 LINK = json_schema("esair.Link", {
     "entry": {"type": "string", "description": "the MIN link's resource entry"},
     "state": {"type": "string", "description": "ready, lost or gone"},

@@ -115,6 +115,9 @@ def check_content(robot: str, got: dict[str, list[dict]], raw: dict[str, list[by
     else:
         assert got["/papaman/reactions"][0]["reaction"] == "auto_balance"
         assert got["/papaman/joints"][-1]["l_knee"] == 100
+        knee = got["command/papaman.servo.l_knee"][0]        # with its sender and result
+        assert (knee["command"], knee["ok"], knee["by"]) == ({"angle": 100, "speed": 3},
+                                                             "odd100", "operator")
         assert set(got["papaman.feet"][-1]["value"]["values"]) == {
             f"{s}_{p}_{q}" for s in "lr" for p in ("toe", "heel") for q in ("in", "out")}
 

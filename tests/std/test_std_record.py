@@ -64,8 +64,9 @@ def test_record_then_replay(tmp_path, mode):
         assert [(r[0], r[1]) for r in rows] == [("command/papaman.servo.l_knee",
                                                  "esair.Command")] * 3
         assert [{k: v for k, v in r[2].items() if k not in ("seq", "t")} for r in rows] == [
-            {"command": sent[0], "ok": "odd100"}, {"command": sent[1], "error": refusal},
-            {"command": sent[2], "ok": "odd090"}]
+            {"command": sent[0], "ok": "odd100", "by": "operator"},
+            {"command": sent[1], "error": refusal, "by": "operator"},
+            {"command": sent[2], "ok": "odd090", "by": "operator"}]
         seqs = [r[2]["seq"] for r in rows]
         assert seqs == list(range(seqs[0], seqs[0] + 3)) and [r[4] for r in rows] == seqs
         assert [r[3] for r in rows] == sorted(r[3] for r in rows)
