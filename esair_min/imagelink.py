@@ -49,7 +49,7 @@ class ImageLink:
         self.robot = robot
         self.timeout = timeout
         prefixes = {c.action: c.prefix for c in robot.commands}
-        missing = [a for a in ("image_write", "image_read", "image_commit", "version")
+        missing = [a for a in ("image_write", "image_read", "image_commit", "version", "stop")
                    if a not in prefixes]
         if missing:
             raise EsairError(f"robot '{robot.name}': its central board's command table has "
@@ -58,6 +58,7 @@ class ImageLink:
         self.p_read = prefixes["image_read"]
         self.p_commit = prefixes["image_commit"]
         self.p_version = prefixes["version"]
+        self.p_stop = prefixes["stop"]
         uart = robot.central.uart
         self.checksum = bool(uart and uart.require_checksum)
         eep = robot.eeprom
@@ -174,8 +175,16 @@ class ImageLink:
         except ProtocolError as exc:
             raise EsairError(f"reading the EEPROM at 0x{at:04X}: {exc}") from None
 
+    def stop(self) -> None:
+        """Stop a playing motion: the image verbs are refused (E07) while one plays."""
+        reply = self.ask(self.p_stop)
+        if reply != "OK":
+            raise EsairError(f"the robot answers {reply!r} to {self.p_stop!r}")
+
     def read(self, at: int, length: int, progress: Progress | None = None) -> bytes:
-        """``length`` bytes of the EEPROM from ``at`` (pipelined reads)."""
+        """``length`` bytes of the EEPROM from ``at`` (pipelined reads; a playing
+        motion is stopped first)."""
+        self.stop()
         parts = [(a, min(P.READ_MAX, at + length - a)) for a in range(at, at + length,
                                                                       P.READ_MAX)]
         for a, n in parts:
@@ -211,6 +220,7 @@ class ImageLink:
             if progress:
                 progress(len(image), len(image))
             return WriteResult(len(chunks), 0, time.monotonic() - start, want)
+        self.stop()
         for at, n in chunks:
             self._queue.append(self._read_line(at, n))
         self._reads = set(self._queue)

@@ -188,6 +188,30 @@ def _wait_ready(ser: Any, timeout: float = 5.0) -> str | None:
     return None
 
 
+def _booted(link: Any, part: str) -> str | None:
+    """The central board's boot line: its ``!READY`` (opening the port reset an Arduino),
+    or for a PIC18F452 board, which no port reset reaches, its reply to ``v``."""
+    if part != "pic18f452":
+        return _wait_ready(link)
+    import time as _time
+
+    link.reset_input_buffer()
+    buf = b""
+    deadline = _time.monotonic() + 10.0
+    asked = 0.0
+    while _time.monotonic() < deadline:
+        if _time.monotonic() - asked > 0.5:      # asked again: a board still starting
+            link.write(b"v\r\n")                 # (its bootloader's wait) missed it
+            asked = _time.monotonic()
+        buf += link.readline()
+        if buf.endswith(b"\n"):
+            line = buf.decode("latin-1").strip()
+            buf = b""
+            if line.startswith("OK esair-min"):
+                return line
+    return None
+
+
 def _write_motions(model: Robot, ser: Any) -> None:
     """The robot's motion image into its EEPROM over its link (only what differs)."""
     from esair_min.core.image import build_image
@@ -246,7 +270,7 @@ def run(robot: str, ports: tuple[str, ...], bootloader: str, attempts: int,
             click.echo(f"built {out}", err=True)
         if role == central:
             link = open_port(port, baud, 0.1)       # (opening resets an Arduino)
-            ready = _wait_ready(link)
+            ready = _booted(link, fw.part)
             want = central_build_id(model)
             if ready is not None and f"build={want}" in ready.split():
                 click.echo(f"{role}: {port} already runs build {want}: not flashed")
@@ -268,7 +292,7 @@ def run(robot: str, ports: tuple[str, ...], bootloader: str, attempts: int,
     port = by_role[central]
     if link is None:
         link = open_port(port, baud, 0.1)
-        if _wait_ready(link) is None:
+        if _booted(link, firmware(model, out, central).part) is None:
             link.close()
             raise FlashError(f"the central board on {port} did not say !READY after the "
                              "flash (is its firmware running? esair monitor shows it)")
