@@ -75,14 +75,15 @@ def native(cls: Any) -> Schema:
 
 
 def infer(value: Any, key: str = "") -> dict:
-    """A JSON schema of ``value``'s shape (types, field names, units where known)."""
+    """A JSON schema of ``value``'s shape (types, field names, units where known); a
+    scalar field may also be null (a sensor that has no reading for once)."""
     out: dict[str, Any]
     if isinstance(value, bool):
-        out = {"type": "boolean"}
+        out = {"type": ["boolean", "null"]}
     elif isinstance(value, (int, float)):
-        out = {"type": "number"}
+        out = {"type": ["number", "null"]}
     elif isinstance(value, str):
-        out = {"type": "string"}
+        out = {"type": ["string", "null"]}
     elif isinstance(value, list):
         out = {"type": "array"}
         if value and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value):
@@ -93,8 +94,6 @@ def infer(value: Any, key: str = "") -> dict:
         out = {"type": JSON_TYPES}
     if key in UNITS:
         out["description"] = UNITS[key]
-    if out.get("type") != "object" and out.get("type") not in ("array",) and value is None:
-        out = {"type": JSON_TYPES}
     return out
 
 
