@@ -52,7 +52,7 @@ class SampleWriter:
         self.w.start(profile="", library="esair")
         self.conv = Converter()
         self.channels: dict[str, int] = {}
-        self.data_channels = 0        # the samples' and commands' (what `record` counts)
+        self.data_channels = 0        # the samples', commands', latch's (what `record` counts)
         self._schemas: dict[str, int] = {}
 
     def put(self, out: Out) -> None:
@@ -64,7 +64,8 @@ class SampleWriter:
                     name=out.schema.name, encoding=out.schema.encoding, data=out.schema.data)
             ch = self.channels[out.topic] = self.w.register_channel(
                 topic=out.topic, message_encoding=out.schema.message_encoding, schema_id=sid)
-            self.data_channels += out.schema.name.startswith(("esair.Sample.", "esair.Command"))
+            self.data_channels += out.schema.name.startswith(("esair.Sample.", "esair.Command",
+                                                              "esair.Latch"))
         ns = int(out.t * 1e9)
         self.w.add_message(channel_id=ch, log_time=ns, publish_time=ns,
                            sequence=out.seq & 0xFFFFFFFF, data=out.data)
