@@ -14,7 +14,7 @@ from esair_min import sigs
 from esair_min.cli.pipes import friendly
 
 from .client import default_endpoint
-from .options import exposure, insecure_option
+from .shared_options import exposure, insecure_option
 
 DEFAULT_LISTEN = "127.0.0.1:8765"
 
