@@ -89,7 +89,7 @@ def flash(robot: str, role: str, port: str, bootloader: str, programmer: str | N
     then also writes the fuses its clock needs). The port's lock is held throughout:
     a port another ESAIR program has open is refused.
     """
-    from esair_min.flash.avr import AvrFlash, flash_avr, fuses_for
+    from esair_min.flash.avrdude import AvrFlash, flash_avr, fuses_for
     from esair_min.flash.firmware import firmware
     from esair_min.flash.portlock import PortLock
 
@@ -244,7 +244,7 @@ def run(robot: str, ports: tuple[str, ...], bootloader: str, attempts: int,
     board as esair monitor does (Ctrl-C ends it).
     """
     from esair_min.cli.monitorloop import run_monitor
-    from esair_min.flash.avr import AvrFlash, flash_avr, holds_image
+    from esair_min.flash.avrdude import AvrFlash, flash_avr, holds_image
     from esair_min.flash.firmware import firmware
     from esair_min.flash.portlock import PortLock
 
