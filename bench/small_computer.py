@@ -338,6 +338,7 @@ def starfish_figure(rt, shots: int) -> dict:
 def one(robot: str, mode: str, limit: bool, args) -> dict:
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(
         [str(ROOT), str(BENCH), *filter(None, [os.environ.get("PYTHONPATH")])]))
+    env.pop("PYTHONDONTWRITEBYTECODE", None)       # bytecode read, as installed on a robot
     emu = None
     res: dict = {"robot": robot, "mode": mode, "capped": limit}
     with Cap(limit) as cap:
@@ -484,12 +485,17 @@ def main() -> None:
     signal.signal(signal.SIGTERM, _interrupted)      # the groups are removed then too
     if os.geteuid() != 0:
         raise SystemExit("small_computer.py needs root (it makes a control group)")
+    # an installed package has its bytecode: compiled once here (a start would otherwise
+    # compile every module it imports, with PYTHONDONTWRITEBYTECODE set)
+    subprocess.run([sys.executable, "-m", "compileall", "-q", str(ROOT / "esair_std"),
+                    str(ROOT / "esair_min"), str(BENCH / "small_computer_comps.py")],
+                   check=False, stdout=subprocess.DEVNULL)
     floor = line_and_tick_ms()
     print(f"the robot side capped at {CPU_SHARE:.0%} of one core and {MEMORY >> 20} MB "
           f"(cgroup {'v2' if Cap.V2.exists() else 'v1'}), standing in for a Raspberry Pi "
           f"Zero 2 W class board; the emulated boards (and STARFISH's remote center in "
           f"process mode) outside; load average {os.getloadavg()[0]:.1f} on "
-          f"{os.cpu_count()} cores")
+          f"{os.cpu_count()} cores; bytecode compiled first, as an installed package has it")
     rows = []
     for robot in args.robots.split(","):
         for mode in args.modes.split(","):
