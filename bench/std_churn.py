@@ -21,7 +21,7 @@ BENCH = Path(__file__).resolve().parent
 sys.path[:0] = [str(BENCH.parent), str(BENCH)]
 
 from esair_std import Runtime  # noqa: E402
-from tests.support.std import free_endpoint  # noqa: E402
+from toolkit import free_endpoint  # noqa: E402
 
 
 def rss_mb() -> float:

@@ -28,7 +28,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import socket
 import statistics
 import subprocess
 import sys
@@ -38,24 +37,19 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+sys.path[:0] = [str(ROOT), str(ROOT / "bench")]
 
 from esair_std import Runtime  # noqa: E402
 from esair_std.cli.client import Client  # noqa: E402
 from esair_std.drivers.minlink.emulated import EmulatedRobot  # noqa: E402
 from esair_std.transport import keys, records  # noqa: E402
 from esair_std.transport.bus import Bus  # noqa: E402
+from toolkit import free_port  # noqa: E402
 
 PAPAMAN = ROOT / "boards" / "papaman"
 DANCE_WAIT_S = 0.12        # the dance (32 frames, one a tick) is playing then
 TICK_MS = 8.9856
 X_LINE_MS = 3 * 10 / 9600 * 1000
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def deployment(port: str) -> dict:

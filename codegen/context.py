@@ -102,7 +102,7 @@ def central_context(robot: Robot, build_id: str = BUILD_PLACEHOLDER) -> Context:
                     reactions["reactions"], commands["prefix_pool"], texts),
         "near_base": PIC_NEAR_BASE,
         "text_pool_bytes": sum(len(t["text"]) + 1 for t in texts),
-        **_clock_context(board),
+        **_clock_context(board, P.TX_RING_TABLE),
     })
     return ctx
 
@@ -211,14 +211,14 @@ def _fixed_texts(robot: Robot, build_id: str) -> tuple[bytes, bytes, bytes, byte
     return ver_pre, ver_post, ready_pre, ready_post
 
 
-def _clock_context(board: Board) -> Context:
+def _clock_context(board: Board, tx_ring: int = P.TX_RING) -> Context:
     """Timer2, the baud divisor, the I2C master's SSPADD and the UART rings."""
     t2, baud, i2c = board.timer2, board.baud, board.i2c_setting
     if t2 is None or baud is None or i2c is None:
         raise GenerateError(f"central board '{board.board}' needs tick:, uart: and an "
                             f"I2C master")
     uart = board.uart
-    rings = {"rx_ring": P.RX_RING, "tx_ring": P.TX_RING}
+    rings = {"rx_ring": P.RX_RING, "tx_ring": tx_ring}
     if board.spec.family != "pic18":
         return rings                     # the PIC18F452's register values only on that part
     assert (isinstance(t2, Timer2Setting) and isinstance(baud, BaudSetting)

@@ -22,6 +22,7 @@ from esair_min.core.image import header_of
 from esair_min.errors import EsairError, ProtocolError
 from esair_min.model.encoding import CHECKSUM_CHARS, MAX_LINE
 from esair_min.model.robot import Robot
+from esair_min.serialport import describe
 
 #: Data bytes a chunk carries at most (16 fills a line with a one-letter prefix).
 CHUNK_MAX = 16
@@ -48,7 +49,7 @@ class ImageLink:
         self.robot = robot
         self.timeout = timeout
         prefixes = {c.action: c.prefix for c in robot.commands}
-        missing = [a for a in ("image_write", "image_read", "image_commit", "version")
+        missing = [a for a in ("image_write", "image_read", "image_commit", "version", "stop")
                    if a not in prefixes]
         if missing:
             raise EsairError(f"robot '{robot.name}': its central board's command table has "
@@ -57,6 +58,7 @@ class ImageLink:
         self.p_read = prefixes["image_read"]
         self.p_commit = prefixes["image_commit"]
         self.p_version = prefixes["version"]
+        self.p_stop = prefixes["stop"]
         uart = robot.central.uart
         self.checksum = bool(uart and uart.require_checksum)
         eep = robot.eeprom
@@ -90,7 +92,7 @@ class ImageLink:
             if not self._fits(len(data)):
                 return
             self._sent.append((urgent.popleft(), len(data)))
-            self.ser.write(data)
+            self._io(self.ser.write, data)
         q = self._queue
         while q and (urgent is None or
                      sum(1 for line, _ in self._sent if line in self._reads) < READ_AHEAD):
@@ -98,13 +100,23 @@ class ImageLink:
             if not self._fits(len(data)):
                 return
             self._sent.append((q.popleft(), len(data)))
-            self.ser.write(data)
+            self._io(self.ser.write, data)
+
+    def _io(self, fn: Callable[..., Any], *args: Any) -> Any:
+        """A call on the port; its failure (a device gone, a robot killed behind its
+        pty) as an EsairError."""
+        import serial
+
+        try:
+            return fn(*args)
+        except (serial.SerialException, OSError) as exc:
+            raise EsairError(f"the robot's port failed: {describe(exc)}") from None
 
     def _reply(self) -> str:
         """The next reply line (notices skipped)."""
         deadline = time.monotonic() + self.timeout
         while True:
-            got = self.ser.readline()
+            got = self._io(self.ser.readline)
             self._buf += got
             if self._buf.endswith(b"\n"):
                 text = self._buf.decode("latin-1").strip("\r\n")
@@ -163,8 +175,16 @@ class ImageLink:
         except ProtocolError as exc:
             raise EsairError(f"reading the EEPROM at 0x{at:04X}: {exc}") from None
 
+    def stop(self) -> None:
+        """Stop a playing motion: the image verbs are refused (E07) while one plays."""
+        reply = self.ask(self.p_stop)
+        if reply != "OK":
+            raise EsairError(f"the robot answers {reply!r} to {self.p_stop!r}")
+
     def read(self, at: int, length: int, progress: Progress | None = None) -> bytes:
-        """``length`` bytes of the EEPROM from ``at`` (pipelined reads)."""
+        """``length`` bytes of the EEPROM from ``at`` (pipelined reads; a playing
+        motion is stopped first)."""
+        self.stop()
         parts = [(a, min(P.READ_MAX, at + length - a)) for a in range(at, at + length,
                                                                       P.READ_MAX)]
         for a, n in parts:
@@ -200,6 +220,7 @@ class ImageLink:
             if progress:
                 progress(len(image), len(image))
             return WriteResult(len(chunks), 0, time.monotonic() - start, want)
+        self.stop()
         for at, n in chunks:
             self._queue.append(self._read_line(at, n))
         self._reads = set(self._queue)

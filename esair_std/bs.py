@@ -40,7 +40,7 @@ class BehaviorSupervisor(Supervisor[ComponentHost]):
         self.c.update(puts_ok=0, puts_failed=0, gets_ok=0, gets_failed=0)
 
     # ---- phases 1-2
-    def add(self, spec: Spec) -> Record:
+    def add(self, spec: Spec) -> Record[ComponentHost]:
         """Phase 1 calls this directly; later requests go through ``request``."""
         if spec.name in self.records:
             raise ControlError(f"a {self.records[spec.name].spec.kind} named {spec.name!r}"
@@ -59,13 +59,13 @@ class BehaviorSupervisor(Supervisor[ComponentHost]):
     def stop_all(self) -> None:
         self.stop_children()
 
-    def released(self, name: str, rec: Record, why: str) -> None:
+    def released(self, name: str, rec: Record[ComponentHost], why: str) -> None:
         self._rs.release(name)
         if why == "removed":
             self._forget(name)
 
     # ---- phase 3: the mediator
-    def _target(self, name: str) -> tuple[Record | None, str]:
+    def _target(self, name: str) -> tuple[Record[ComponentHost] | None, str]:
         rec = self.records.get(name)
         if rec is None:
             return None, f"no behavior {name!r}{_hint(name, list(self.records))}"
@@ -74,7 +74,7 @@ class BehaviorSupervisor(Supervisor[ComponentHost]):
         return rec, ""
 
     def _until(self, counter: str, target: str, timeout: float, late: str,
-               attempt: Callable[[Record, float], tuple[str, Any]]) -> tuple[bool, Any]:
+               attempt: Callable[[Record[ComponentHost], float], tuple[str, Any]]) -> tuple[bool, Any]:
         """The mediator's one retry loop: ``attempt(record, seconds left)`` answers
         ("ok", value), ("final", why) to give up now, or (anything else, why) while the
         target is busy; retried (backoff 0.5 ms doubling to 10 ms) until ``timeout``.
@@ -113,7 +113,7 @@ class BehaviorSupervisor(Supervisor[ComponentHost]):
         if not ok:
             return False, data
 
-        def offer(rec: Record, _left: float) -> tuple[str, Any]:
+        def offer(rec: Record[ComponentHost], _left: float) -> tuple[str, Any]:
             r = rec.host.offer(sender, data)
             return ("ok", "") if r == "delivered" else ("busy", r)
         return self._until("puts", target, timeout, "did not take the data", offer)
@@ -126,7 +126,7 @@ class BehaviorSupervisor(Supervisor[ComponentHost]):
         if not ok:
             return False, data
 
-        def take(rec: Record, left: float) -> tuple[str, Any]:
+        def take(rec: Record[ComponentHost], left: float) -> tuple[str, Any]:
             taker = getattr(rec.host, "take", None)     # None: still starting, or failed
             if taker is None:
                 return "busy", rec.host.state
@@ -153,10 +153,10 @@ class BehaviorSupervisor(Supervisor[ComponentHost]):
             if r == "delivered":
                 self.c.add("puts_ok")
             done(r == "delivered")
-        return rec.host.offer_async(sender, data, result, timeout)
+        return bool(rec.host.offer_async(sender, data, result, timeout))
 
     def get(self, requester: str, target: str, timeout: float) -> tuple[bool, Any]:
-        def provide(rec: Record, left: float) -> tuple[str, Any]:
+        def provide(rec: Record[ComponentHost], left: float) -> tuple[str, Any]:
             status, value = rec.host.provide(requester, left)
             return ("final", f"{target!r}: {value}") if status == "failed" else (status, value)
         return self._until("gets", target, timeout, "gave no data", provide)
@@ -170,7 +170,7 @@ class BehaviorSupervisor(Supervisor[ComponentHost]):
         if rec is not None:
             rec.host.notify_detached(resource)
 
-    def notify_latch(self, state: dict | None, by: str = "") -> None:
+    def notify_latch(self, state: dict[str, Any] | None, by: str = "") -> None:
         """The robot was STOPPED (``state``) or released (None, by ``by``): every
         behavior and reaction told (``robot_stopped`` / ``robot_released``)."""
         for name, rec in list(self.records.items()):

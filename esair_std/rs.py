@@ -43,7 +43,7 @@ class ResourceSupervisor(Supervisor[ResourceHost]):
     def __init__(self, start_host: Callable[[Spec, int], Any], sc: SensorConnection,
                  on_detached: Callable[[str, str], None],
                  on_attached: Callable[[str, str], None] | None = None,
-                 uses_of: Callable[[str], dict | None] | None = None):
+                 uses_of: Callable[[str], dict[str, Any] | None] | None = None):
         super().__init__("rs", start_host)     # mode: (spec, generation) -> started host
         self._sc = sc
         self._on_detached = on_detached        # (behavior, resource): tell the behavior
@@ -56,7 +56,7 @@ class ResourceSupervisor(Supervisor[ResourceHost]):
         self.parked: dict[tuple[str, str], Level] = {}     # grants on removed resources
         self.refusals = 0
         self.refused_on: dict[str, int] = {}               # resource -> registrations refused
-        self._told: dict[str, list] = {}                   # entry -> (who, resource) told
+        self._told: dict[str, list[tuple[str, str]]] = {}                   # entry -> (who, resource) told
         self.stays_detached: dict[str, set[str]] = {}      # who -> resources back, refused
         self.halted: str | None = None         # the latched STOP's refusal (latch.py)
 
@@ -110,7 +110,7 @@ class ResourceSupervisor(Supervisor[ResourceHost]):
             self.resources.clear()
 
     # ---- the supervisor's hooks
-    def released(self, name: str, rec: Record, why: str) -> None:
+    def released(self, name: str, rec: Record[ResourceHost], why: str) -> None:
         kids = [r for r, (e, _k) in list(self.resources.items()) if e == name]
         if why == "failed":
             # the registrations stay (the policy did not change): handles show the
@@ -133,7 +133,7 @@ class ResourceSupervisor(Supervisor[ResourceHost]):
         for who, res in sorted(told):
             self._on_detached(who, res)
 
-    def restarted(self, name: str, rec: Record) -> None:
+    def restarted(self, name: str, rec: Record[ResourceHost]) -> None:
         """The entry runs again: its children ready, every registration on them given
         to the new host (a behavior's handles work again without doing anything)."""
         kids = rec.host.children()
@@ -155,7 +155,7 @@ class ResourceSupervisor(Supervisor[ResourceHost]):
         for res in gone:                      # the new host no longer has it: removed
             self.set_state(res, "lost", "not provided after the restart")
 
-    def gave_up(self, name: str, rec: Record) -> None:
+    def gave_up(self, name: str, rec: Record[ResourceHost]) -> None:
         why = rec.reason or "failed"
         for res, (e, _k) in list(self.resources.items()):
             if e == name:
@@ -213,7 +213,7 @@ class ResourceSupervisor(Supervisor[ResourceHost]):
             log.error("%s: STOP not delivered: %s", name, exc)
 
     # ---- phase 3
-    def register(self, who: str, resource: str, level: Level, uses: dict | None) -> Level:
+    def register(self, who: str, resource: str, level: Level, uses: dict[str, Any] | None) -> Level:
         try:
             return self._register(who, resource, level, uses)
         except Refused:
@@ -222,7 +222,7 @@ class ResourceSupervisor(Supervisor[ResourceHost]):
                 self.refused_on[resource] = self.refused_on.get(resource, 0) + 1
             raise
 
-    def _register(self, who: str, resource: str, level: Level, uses: dict | None) -> Level:
+    def _register(self, who: str, resource: str, level: Level, uses: dict[str, Any] | None) -> Level:
         """Grant ``who`` the ``level`` on ``resource`` or raise Refused with the reason.
         ``uses`` None: a reaction (its resources are fixed in the deployment)."""
         level = Level.parse(level)

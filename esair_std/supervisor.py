@@ -74,7 +74,7 @@ class Starting:
     def offer(self, sender: str, data: Any) -> str:
         return self.state
 
-    def provide(self, requester: str, timeout: float) -> tuple:
+    def provide(self, requester: str, timeout: float) -> tuple[Any, ...]:
         return ("busy", self.state)
 
     def notify_detached(self, resource: str) -> None:
@@ -86,7 +86,7 @@ class Starting:
     def set_enabled(self, enabled: bool) -> None:
         pass
 
-    def notify_latch(self, state: dict | None, by: str = "") -> None:
+    def notify_latch(self, state: dict[str, Any] | None, by: str = "") -> None:
         pass
 
     def halt(self, why: str) -> None:
@@ -98,10 +98,10 @@ class Starting:
     def check(self, now: float) -> float | None:
         return None
 
-    def children(self) -> dict:
+    def children(self) -> dict[str, Any]:
         return {}
 
-    def counters(self) -> dict:
+    def counters(self) -> dict[str, Any]:
         return {}
 
     def grant(self, who: str, resource: str) -> None:
@@ -147,7 +147,7 @@ class Supervisor(Generic[H]):
     def __init__(self, name: str, start_host: Callable[[Any, int], H]):
         self._start_host = start_host      # (component spec, generation) -> started host
         self.records: dict[str, Record[H]] = {}
-        self._requests: queue.Queue = queue.Queue(maxsize=REQUESTS)
+        self._requests: queue.Queue[Any] = queue.Queue(maxsize=REQUESTS)
         self._thread = threading.Thread(target=self._main, name=f"esair:{name}", daemon=True)
         self._closing = False
         self.c = Counters(restarts=0)
@@ -176,7 +176,7 @@ class Supervisor(Generic[H]):
         if not self._thread.is_alive() or threading.current_thread() is self._thread:
             return fn(*args)
         done = threading.Event()
-        box: list = []
+        box: list[Any] = []
         try:
             self._requests.put((fn, args, box, done), timeout=1.0)
         except queue.Full:

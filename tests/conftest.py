@@ -114,7 +114,7 @@ LONGEST_FIRST = ["test_starfish_net", "test_std_operator_cli", "test_std_net", "
                  "test_avr", "test_hmi_papaman", "test_starfish_std", "test_overrun",
                  "test_std_papaman_safety", "test_std_papaman", "test_pty_promise",
                  "test_hmi_starfish", "test_validate_errors", "test_std_record",
-                 "test_gpsim_slaves", "test_script", "test_std_net_security",
+                 "test_gpsim_slaves", "test_verify", "test_script", "test_std_net_security",
                  "test_starfish_avr", "test_std_supervision", "test_validate_fuzz", "test_gpsim",
                  "test_pic_bootloader",
                  "test_std_papaman_cli"]

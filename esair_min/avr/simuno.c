@@ -3,7 +3,7 @@
  * real avrdude and the real bootloader in the chip's flash talk through it
  * (esair_min/avr/uno.py starts it; docs/hardware.md says what is modelled).
  *
- *   esair-avr-uno MCU FLASH_FILE BOOT_ADDR FREQ LINK [DAMAGE_AT]
+ *   esair-avr-uno MCU FLASH_FILE BOOT_ADDR FREQ LINK [DAMAGE_AT [EEPROM_FILE]]
  *
  * FLASH_FILE is the chip's flash, mapped shared: what the bootloader writes with SPM is in
  * the file at once, so it survives the process being killed (a cable pulled, a power
@@ -12,7 +12,9 @@
  *
  * A pty has no DTR line (TIOCMGET/TIOCMSET fail with ENOTTY), so the Uno's auto-reset
  * (DTR through a 100 nF capacitor to RESET) is modelled by what causes it: the port being
- * opened. The pty master sees its slave opened (POLLHUP ends) and the chip gets an
+ * opened. The pty master sees its slave opened (POLLHUP ends), or the opener flush the
+ * port's input (tcflush, which pySerial and avrdude do when they open a port: packet mode
+ * reports it even when a close and an open fall between two polls), and the chip gets an
  * external reset (MCUSR.EXTRF), as a real board does when avrdude or a terminal opens it.
  * At start the chip gets a power-on reset (PORF).
  *
@@ -22,7 +24,11 @@
  * When the two bauds differ, each character is resampled at the receiver's bit time
  * (start bit at the falling edge, bits sampled mid-bit, FE when the stop bit reads 0),
  * both ways, so a wrong baud gives the garbage it gives on a wire. DAMAGE_AT (optional):
- * the host's byte of that number (1 = the first since start) has bit 0 flipped on the line.
+ * the host's byte of that number (1 = the first since start) has bit 0 flipped on the line
+ * (0: none). EEPROM_FILE (optional): a 24LC256 at 0x50 on the TWI, its 32 KB a file
+ * mapped shared (2 address bytes, MSB first; a write wraps inside its 64-byte page; reads
+ * run on; its write cycle is not modelled: ACK polling succeeds at once). Nothing else
+ * answers on the bus.
  *
  * Events on stdout: "ready PTY", "reset CYCLE open", "hangup CYCLE", "page CYCLE ADDR N"
  * (a page write armed by the code in flash, after N bytes from the host), "damaged CYCLE N", "crash CYCLE".
@@ -34,6 +40,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/ioctl.h>
 #include <sys/mman.h>
 #include <termios.h>
 #include <time.h>
@@ -41,6 +48,7 @@
 #include <simavr/sim_avr.h>
 #include <simavr/sim_io.h>
 #include <simavr/avr_uart.h>
+#include <simavr/avr_twi.h>
 
 #define R_MCUSR 0x54
 #define R_SPMCSR 0x57
@@ -238,10 +246,163 @@ static void spm_write(struct avr_t *a, avr_io_addr_t addr, uint8_t v, void *para
     spm_w(a, addr, v, spm_p);
 }
 
+/* -- a 24LC256 on the TWI ----------------------------------------------------------------
+ * simavr 1.6's TWI master does not reach its peers here, so the chip's TWI is driven as in
+ * simdrv.c (whose timing this is): TWCR/TWDR/TWSR owned by this driver, a START or STOP
+ * takes one SCL period, a byte 9, of 16 + 2*TWBR*4^TWPS cycles. */
+#define R_TWBR 0xB8
+#define R_TWSR 0xB9
+#define R_TWDR 0xBB
+#define R_TWCR 0xBC
+#define B_TWINT 0x80
+#define B_TWEA 0x40
+#define B_TWSTA 0x20
+#define B_TWSTO 0x10
+#define B_TWEN 0x04
+#define EE_ADDR 0x50
+#define EE_SIZE 32768u
+#define EE_PAGE 64u
+static uint8_t *ee_mem;
+static unsigned ee_at;
+static int ee_index;
+static avr_twi_t *twi;
+enum { T_IDLE, T_START, T_ADDR, T_WRITE, T_READ };
+enum { A_NONE, A_START, A_ADDR, A_WRITE, A_READ, A_STOP };
+static int t_state = T_IDLE, t_action = A_NONE, t_ack, t_sel;
+static unsigned long long t_due;
+static uint8_t t_byte;
+
+static unsigned scl_cycles(void)
+{
+    return 16u + 2u * avr->data[R_TWBR] * (1u << (2u * (avr->data[R_TWSR] & 3u)));
+}
+
+static void twi_status(uint8_t st)
+{
+    avr->data[R_TWSR] = (uint8_t)((avr->data[R_TWSR] & 0x07u) | st);
+    avr_raise_interrupt(avr, &twi->twi);
+}
+
+static void twi_schedule(int action, unsigned periods)
+{
+    t_action = action;
+    t_due = now() + periods * scl_cycles();
+}
+
+static void twcr_write(struct avr_t *a, avr_io_addr_t addr, uint8_t v, void *param)
+{
+    (void)param;
+    uint8_t keep_int = (uint8_t)(a->data[addr] & B_TWINT);
+    if (v & B_TWINT) {
+        keep_int = 0;
+        avr_clear_interrupt(a, &twi->twi);
+        avr_regbit_clear(a, twi->twi.raised);
+    }
+    a->data[addr] = (uint8_t)((v & (uint8_t)~B_TWINT) | keep_int);
+    if ((a->data[addr] & B_TWINT) && (a->data[addr] & 0x01u)) {
+        avr_raise_interrupt(a, &twi->twi);
+    }
+    if (!(v & B_TWEN)) {
+        t_state = T_IDLE;
+        t_action = A_NONE;
+        return;
+    }
+    if (!(v & B_TWINT)) {
+        return;
+    }
+    if (v & B_TWSTO) {
+        t_state = T_IDLE;
+        twi_schedule(A_STOP, 1);
+    } else if (v & B_TWSTA) {
+        t_byte = t_state == T_IDLE ? 0x08 : 0x10;
+        t_state = T_START;
+        twi_schedule(A_START, 1);
+    } else {
+        t_byte = a->data[R_TWDR];
+        t_ack = (v & B_TWEA) != 0;
+        twi_schedule(t_state == T_START ? A_ADDR : t_state == T_WRITE ? A_WRITE : A_READ, 9);
+    }
+}
+
+static void twi_step(void)
+{
+    if (t_action == A_NONE || now() < t_due) {
+        return;
+    }
+    int action = t_action;
+    t_action = A_NONE;
+    if (action == A_START) {
+        twi_status(t_byte);
+    } else if (action == A_ADDR) {
+        int read = t_byte & 1;
+        t_sel = ee_mem != NULL && (t_byte >> 1) == EE_ADDR;
+        ee_index = 0;
+        t_state = !t_sel ? T_ADDR : (read ? T_READ : T_WRITE);
+        twi_status(read ? (t_sel ? 0x40 : 0x48) : (t_sel ? 0x18 : 0x20));
+    } else if (action == A_WRITE) {
+        if (t_sel) {
+            if (ee_index == 0) {
+                ee_at = ((unsigned)t_byte << 8) & (EE_SIZE - 1);
+            } else if (ee_index == 1) {
+                ee_at |= t_byte;
+            } else {
+                ee_mem[ee_at] = t_byte;
+                ee_at = (ee_at & ~(EE_PAGE - 1)) | ((ee_at + 1) & (EE_PAGE - 1));
+            }
+            ee_index++;
+        }
+        twi_status(t_sel ? 0x28 : 0x30);
+    } else if (action == A_READ) {
+        uint8_t b = 0xFF;
+        if (t_sel) {
+            b = ee_mem[ee_at];
+            ee_at = (ee_at + 1) & (EE_SIZE - 1);
+        }
+        avr->data[R_TWDR] = b;
+        twi_status(t_ack ? 0x50 : 0x58);
+    } else if (action == A_STOP) {
+        avr->data[R_TWCR] &= (uint8_t)~B_TWSTO;
+        avr->data[R_TWSR] = (uint8_t)((avr->data[R_TWSR] & 0x07u) | 0xF8u);
+        t_sel = 0;
+    }
+}
+
+static int ee_attach(const char *path)
+{
+    int fd = open(path, O_RDWR);
+    void *m = fd < 0 ? MAP_FAILED : mmap(NULL, EE_SIZE, PROT_READ | PROT_WRITE, MAP_SHARED, fd, 0);
+    if (m == MAP_FAILED) {
+        fprintf(stderr, "cannot map %s (%u bytes)\n", path, EE_SIZE);
+        return -1;
+    }
+    ee_mem = m;
+    return 0;
+}
+
+static void twi_take(void)
+{
+    for (avr_io_t *io = avr->io_port; io; io = io->next) {
+        if (io->kind && strcmp(io->kind, "twi") == 0) {
+            twi = (avr_twi_t *)io;
+        }
+    }
+    if (!twi) {
+        return;
+    }
+    avr->io[AVR_DATA_TO_IO(R_TWCR)].w.c = twcr_write;
+    avr->io[AVR_DATA_TO_IO(R_TWDR)].w.c = NULL;          /* plain memory */
+    avr->io[AVR_DATA_TO_IO(R_TWDR)].r.c = NULL;
+    avr->io[AVR_DATA_TO_IO(R_TWSR)].w.c = NULL;
+    avr->data[R_TWSR] = 0xF8;
+}
+
 static void reset(uint8_t cause)
 {
     avr_reset(avr);
     avr->data[R_MCUSR] = cause;
+    avr->data[R_TWSR] = 0xF8;
+    t_state = T_IDLE;
+    t_action = A_NONE;
     q_n = 0;
     n_held = 0;
     last_due = 0;
@@ -267,6 +428,11 @@ static int open_pty(const char *link)
         perror("posix_openpt");
         return -1;
     }
+    int one = 1;
+    if (ioctl(master, TIOCPKT, &one) != 0) {
+        perror("TIOCPKT");
+        return -1;
+    }
     const char *name = ptsname(master);
     int s = open(name, O_RDWR | O_NOCTTY);      /* raw mode, as a USB-serial port starts */
     struct termios t;
@@ -290,7 +456,8 @@ static int open_pty(const char *link)
 int main(int argc, char **argv)
 {
     if (argc < 6) {
-        fprintf(stderr, "usage: %s MCU FLASH_FILE BOOT_ADDR FREQ LINK [DAMAGE_AT]\n", argv[0]);
+        fprintf(stderr, "usage: %s MCU FLASH_FILE BOOT_ADDR FREQ LINK [DAMAGE_AT [EEPROM]]\n",
+                argv[0]);
         return 2;
     }
     avr = avr_make_mcu_by_name(argv[1]);
@@ -336,6 +503,10 @@ int main(int argc, char **argv)
     }
     avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUTPUT),
                             on_tx, NULL);
+    if (argc > 7 && ee_attach(argv[7]) != 0) {
+        return 2;
+    }
+    twi_take();
     if (open_pty(argv[5]) != 0) {
         return 2;
     }
@@ -347,6 +518,7 @@ int main(int argc, char **argv)
     for (;;) {
         if (!crashed) {
             rx_step();
+            twi_step();
             int st = avr_run(avr);
             if (st == cpu_Done || st == cpu_Crashed) {
                 printf("crash %llu\n", now());
@@ -367,7 +539,7 @@ int main(int argc, char **argv)
         } else if (ahead < -0.02) {
             t0 += -ahead - 0.02;
         }
-        struct pollfd p = {master, POLLIN, 0};
+        struct pollfd p = {master, POLLIN | POLLPRI, 0};
         if (poll(&p, 1, 0) < 0) {
             continue;
         }
@@ -382,11 +554,16 @@ int main(int argc, char **argv)
             fflush(stdout);
         }
         opened = open_now;
-        if (open_now && (p.revents & POLLIN)) {
-            uint8_t buf[256];
+        if (open_now && (p.revents & (POLLIN | POLLPRI))) {
+            uint8_t buf[257];
             ssize_t n = read(master, buf, sizeof buf);
-            if (n > 0) {
-                host_sent(buf, (int)n);
+            if (n > 1 && buf[0] == TIOCPKT_DATA) {
+                host_sent(buf + 1, (int)n - 1);
+            } else if (n == 1 && (buf[0] & TIOCPKT_FLUSHREAD)) {
+                reset(EXTRF);
+                crashed = 0;
+                printf("reset %llu flush\n", now());
+                fflush(stdout);
             }
         }
         if (damage_at) {

@@ -135,6 +135,7 @@ class SimUno:
     part: str = "atmega328p"
     clock_hz: int = 16_000_000
     damage_at: int = 0
+    eeprom: Path | None = None       # a 24LC256 at 0x50: its 32 KB in this file
 
     def __post_init__(self) -> None:
         self.events: list[str] = []
@@ -144,7 +145,13 @@ class SimUno:
     def __enter__(self) -> SimUno:
         exe = simulator(source=SOURCE)
         args = [str(exe), self.part, str(self.flash), str(self.boot), str(self.clock_hz),
-                str(self.port)] + ([str(self.damage_at)] if self.damage_at else [])
+                str(self.port)]
+        if self.damage_at or self.eeprom is not None:
+            args.append(str(self.damage_at))
+        if self.eeprom is not None:
+            if not self.eeprom.exists():
+                self.eeprom.write_bytes(b"\xff" * 32768)       # a new, blank 24LC256
+            args.append(str(self.eeprom))
         self._proc = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                                       text=True, stdin=subprocess.DEVNULL)
         threading.Thread(target=self._read, daemon=True).start()

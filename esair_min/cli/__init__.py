@@ -188,6 +188,9 @@ def _pose(text: str | None) -> tuple[float, float, float] | None:
 @click.option("--noise", type=float, default=0.0, metavar="BYTES/S",
               help="Fault: random bytes injected into the robot's receive line.")
 @click.option("--seed", type=int, default=0, show_default=True, help="Seed of the faults.")
+@click.option("--strict-baud", is_flag=True,
+              help="With --pty: bytes sent or read at another baud than the board file's "
+                   "cross garbled, as on a real wire (a pty itself ignores the baud).")
 @click.option("--instance", metavar="HEX8",
               help="This boot's instance in the 'v' reply's id (8 hex digits; with --pty "
                    "a random one by default, docs/protocol.md).")
@@ -204,7 +207,8 @@ def emulate(robot: str, pty: bool, run_s: float | None, sends: tuple[str, ...],
             trace_rx: bool, speed: float | None, nack_actuator: bool, no_sensor: bool,
             corrupt_eeprom: bool, stuck_bus: bool,
             noise: float, seed: int, room: str | None, instance: str | None,
-            pose: str | None, world_out: str | None, eeprom_file: str | None) -> None:
+            pose: str | None, world_out: str | None, eeprom_file: str | None,
+            strict_baud: bool) -> None:
     """Run the emulated robot behind a pseudo-terminal (--pty) or headless (--run).
 
     With --pty it serves until Ctrl-C or SIGTERM; when standard output is a terminal,
@@ -226,7 +230,7 @@ def emulate(robot: str, pty: bool, run_s: float | None, sends: tuple[str, ...],
         faults=Faults(nack_actuator, no_sensor, corrupt_eeprom, noise, seed, stuck_bus),
         room=Path(room) if room else None, instance=instance, pose=_pose(pose),
         world_out=Path(world_out) if world_out else None,
-        eeprom=Path(eeprom_file) if eeprom_file else None)
+        eeprom=Path(eeprom_file) if eeprom_file else None, strict_baud=strict_baud)
     status = run_emulator(load(robot), opts)
     if status:
         sys.exit(status)
@@ -339,6 +343,9 @@ def build(robot: str, output: str) -> None:
 
 from esair_min.cli.flash import flash, monitor, run  # noqa: E402  (commands of real boards)
 
+from esair_min.cli.doctor import doctor  # noqa: E402  (the bring-up checklist)
+
+main.add_command(doctor)
 main.add_command(flash)
 main.add_command(monitor)
 main.add_command(run)

@@ -6,6 +6,7 @@ from __future__ import annotations
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 import click
 
@@ -170,6 +171,62 @@ def _ports(ports: tuple[str, ...], model: Robot) -> dict[str, str]:
     return out
 
 
+def _wait_ready(ser: Any, timeout: float = 5.0) -> str | None:
+    """The board's ``!READY`` line on an open port (opening it reset an Arduino), read
+    line by line so that nothing after it is taken; None when none comes in ``timeout``."""
+    import time as _time
+
+    buf = b""
+    deadline = _time.monotonic() + timeout
+    while _time.monotonic() < deadline:
+        buf += ser.readline()
+        if buf.endswith(b"\n"):
+            line = buf.decode("latin-1").strip()
+            buf = b""
+            if line.startswith("!READY"):
+                return line
+    return None
+
+
+def _booted(link: Any, part: str) -> str | None:
+    """The central board's boot line: its ``!READY`` (opening the port reset an Arduino),
+    or for a PIC18F452 board, which no port reset reaches, its reply to ``v``."""
+    if part != "pic18f452":
+        return _wait_ready(link)
+    import time as _time
+
+    link.reset_input_buffer()
+    buf = b""
+    deadline = _time.monotonic() + 10.0
+    asked = 0.0
+    while _time.monotonic() < deadline:
+        if _time.monotonic() - asked > 0.5:      # asked again: a board still starting
+            link.write(b"v\r\n")                 # (its bootloader's wait) missed it
+            asked = _time.monotonic()
+        buf += link.readline()
+        if buf.endswith(b"\n"):
+            line = buf.decode("latin-1").strip()
+            buf = b""
+            if line.startswith("OK esair-min"):
+                return line
+    return None
+
+
+def _write_motions(model: Robot, ser: Any) -> None:
+    """The robot's motion image into its EEPROM over its link (only what differs)."""
+    from esair_min.core.image import build_image
+    from esair_min.imagelink import ImageLink
+
+    image = build_image(model)
+    ser.timeout = 0.05
+    res = ImageLink(ser, model).write_image(image)
+    if res.written == 0:
+        click.echo(f"motions: the robot already holds them (CRC 0x{res.crc:04X})")
+    else:
+        click.echo(f"motions: wrote {res.written} of {res.chunks} chunks ({len(image)} bytes) "
+                   f"in {res.seconds:.1f} s, CRC 0x{res.crc:04X}")
+
+
 @click.command(short_help="Build, flash what changed, then monitor a real robot.")
 @click.argument("robot", metavar="ROBOT")
 @click.option("--port", "ports", multiple=True, required=True, metavar="[BOARD=]PORT",
@@ -186,22 +243,40 @@ def _ports(ports: tuple[str, ...], model: Robot) -> dict[str, str]:
 def run(robot: str, ports: tuple[str, ...], bootloader: str, attempts: int,
         build_dir: str | None, log_path: str | None) -> None:
     """Build the robot (if a board file changed), flash each board given a port unless
-    its flash already holds the built firmware (read back and compared through its
-    bootloader), then monitor the central board as esair monitor does (Ctrl-C ends it).
+    it already runs the built firmware (the central board: the build id of its !READY;
+    another: its flash read back and compared through its bootloader), write the motions
+    into the robot's EEPROM over its link if its image differs, then monitor the central
+    board as esair monitor does (Ctrl-C ends it).
     """
     from esair_min.cli.monitorloop import run_monitor
     from esair_min.flash.avr import AvrFlash, flash_avr, holds_image
     from esair_min.flash.firmware import firmware
     from esair_min.flash.portlock import PortLock
 
+    from esair_min.cli.send import open_port
+    from esair_min.codegen.buildid import central_build_id
+
     model = _load(robot)
     by_role = _ports(ports, model)
     out = Path(build_dir) if build_dir else Path("build") / model.name
     bar = _Bar(sys.stderr.isatty())
+    central = model.central.role if model.central is not None else model.boards[0].role
+    board = model.board(central)
+    baud = board.uart.baud if board is not None and board.uart is not None else 9600
+    link: Any = None                     # the central board's port, kept open once it booted
     for role, port in by_role.items():
         fw = firmware(model, out, role)
         if fw.built:
             click.echo(f"built {out}", err=True)
+        if role == central:
+            link = open_port(port, baud, 0.1)       # (opening resets an Arduino)
+            ready = _booted(link, fw.part)
+            want = central_build_id(model)
+            if ready is not None and f"build={want}" in ready.split():
+                click.echo(f"{role}: {port} already runs build {want}: not flashed")
+                continue
+            link.close()
+            link = None
         if fw.part == "pic18f452":
             with PortLock(port):
                 _flash_pic(fw.hex_path, port, None, bar)
@@ -209,15 +284,22 @@ def run(robot: str, ports: tuple[str, ...], bootloader: str, attempts: int,
             continue
         plan = AvrFlash(fw.hex_path, port, fw.part, "arduino", bootloader, None, attempts)
         with PortLock(port) as lock:
-            if holds_image(plan, bar, watch_fd=lock.fd):
+            if role != central and holds_image(plan, bar, watch_fd=lock.fd):
                 click.echo(f"{role}: {port} already holds the built firmware: not flashed")
                 continue
             flash_avr(plan, bar, watch_fd=lock.fd)
         click.echo(f"{role}: {fw.image_bytes()} bytes written to {port} and verified")
-    click.echo("motions: not written by this version (the EEPROM writer comes with issue 32 "
-               "item 2); the board's !READY says whether its image checks", err=True)
-    central = model.central.role if model.central is not None else model.boards[0].role
-    board = model.board(central)
-    baud = board.uart.baud if board is not None and board.uart is not None else 9600
-    sys.exit(run_monitor(by_role[central], baud, model,
-                         Path(log_path) if log_path else None))
+    port = by_role[central]
+    if link is None:
+        link = open_port(port, baud, 0.1)
+        if _booted(link, firmware(model, out, central).part) is None:
+            link.close()
+            raise FlashError(f"the central board on {port} did not say !READY after the "
+                             "flash (is its firmware running? esair monitor shows it)")
+    try:
+        if model.central is not None and model.central.motions:
+            _write_motions(model, link)
+    except BaseException:
+        link.close()
+        raise
+    sys.exit(run_monitor(port, baud, model, Path(log_path) if log_path else None, link))

@@ -113,8 +113,10 @@ def _history_file() -> Path:
         / "esair" / "monitor_history"
 
 
-def run_monitor(port: str, baud: int, robot: Robot | None, log_path: Path | None) -> int:
-    """Monitor ``port`` until Ctrl-C (status 130) or the port is lost (EsairError)."""
+def run_monitor(port: str, baud: int, robot: Robot | None, log_path: Path | None,
+                ser: Any = None) -> int:
+    """Monitor ``port`` until Ctrl-C (status 130) or the port is lost (EsairError);
+    ``ser``: the port already open (esair run keeps it open: reopening resets an Arduino)."""
     from esair_min.cli.send import open_port
 
     log = None
@@ -124,7 +126,10 @@ def run_monitor(port: str, baud: int, robot: Robot | None, log_path: Path | None
         except OSError as exc:
             raise EsairError(f"cannot write {log_path}: {exc.strerror}") from None
     try:
-        ser = open_port(port, baud, 0.1)
+        if ser is None:
+            ser = open_port(port, baud, 0.1)
+        else:
+            ser.timeout = 0.1
     except EsairError:
         if log is not None:
             log.close()
@@ -141,12 +146,13 @@ def run_monitor(port: str, baud: int, robot: Robot | None, log_path: Path | None
             readline.read_history_file(hist)
         except OSError:
             pass
-    print(f"monitoring {port}" + (f" at {baud} baud" if "://" not in port else "")
-          + ": type a command and Enter to send it; Ctrl-C ends", file=sys.stderr)
     reader = threading.Thread(target=_reader, args=(ser, mon, robot, stop, lost), daemon=True)
-    reader.start()
     status = 130
     try:
+        reader.start()
+        print(f"monitoring {port}" + (f" at {baud} baud" if "://" not in port else "")
+              + ": type a command and Enter to send it; Ctrl-C ends", file=sys.stderr,
+              flush=True)
         while True:
             text = input(PROMPT) if tty else sys.stdin.readline()
             if not tty and text == "":

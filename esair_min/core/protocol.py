@@ -24,10 +24,13 @@ ANGLE_CODE_LAST = 0x6C
 KEEP_CODE = "."
 #: The central board's UART rings (every port and the emulator): bytes received and
 #: not yet decoded, and bytes of replies not yet sent. The transmit ring holds the
-#: longest reply (``v`` of a board requiring checksums, with its image CRC and build
-#: id: 91 bytes) with one slot always free.
+#: longest reply with one slot always free: 80 on a STARFISH central board (its ``v``
+#: and ``O`` replies); on a board with a command table (PAPA-MAN) 104, for its ``v`` with
+#: the image's CRC and the build id (92 bytes) and a short reply still leaving before
+#: it (as 80 had for its 68-byte ``v`` before them).
 RX_RING = 64
-TX_RING = 96
+TX_RING = 80
+TX_RING_TABLE = 104
 #: Data bytes a read of the image (``image_read``) returns at most: it is read into the
 #: core's buffer whole before the reply starts (so a failed read answers E10 alone).
 READ_MAX = 16

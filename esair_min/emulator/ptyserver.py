@@ -54,6 +54,26 @@ class PtyPort:
     dropped: int = 0
     opened: int = 0          # how many times a program opened it
     stale: int = 0           # bytes programs wrote while the server was stopped: dropped
+    garbled: int = 0         # bytes that crossed at a baud other than the robot's
+
+
+#: termios speed codes -> bauds (the port's setting, which a pty keeps but ignores)
+_SPEEDS = {getattr(termios, f"B{n}"): n for n in
+           (1200, 2400, 4800, 9600, 19200, 38400, 57600, 115200, 230400)}
+
+
+def _garbled(data: bytes) -> bytes:
+    """What a UART makes of bytes sent at another baud: framing errors and wrong bytes,
+    never a line end (modelled: each byte with its top bit set)."""
+    return bytes((b ^ 0xA5) | 0x80 for b in data)
+
+
+def _port_baud(master: int) -> int | None:
+    """The baud the program set on the port (None: one not in the table)."""
+    try:
+        return _SPEEDS.get(termios.tcgetattr(master)[5])
+    except termios.error:
+        return None
 
 
 def open_pty() -> tuple[int, int, str]:
@@ -84,9 +104,10 @@ def _discard_unread(path: str) -> None:
 def serve_pty(emu: SerialHost, on_path: Callable[[str], None],
               stop: Callable[[], bool], factor: float = 1.0,
               on_idle: Callable[[], None] | None = None,
-              port: PtyPort | None = None) -> None:
+              port: PtyPort | None = None, baud: int | None = None) -> None:
     """Run ``emu`` in real time behind a pty until ``stop()``; ``on_idle`` runs each loop;
-    ``port`` (if given) is kept up to date."""
+    ``port`` (if given) is kept up to date. With ``baud`` (the robot's), bytes cross
+    garbled both ways while the program's port is set to another baud, as on a wire."""
     master, slave, path = open_pty()
     os.close(slave)            # a program opening the port is then visible (no POLLHUP)
     port = PtyPort() if port is None else port
@@ -117,6 +138,10 @@ def serve_pty(emu: SerialHost, on_path: Callable[[str], None],
                 while stale := _read(master):
                     port.stale += len(stale)
             last = now
+            wrong = baud is not None and port.open and _port_baud(master) != baud
+            if data and wrong:
+                port.garbled += len(data)
+                data = _garbled(data)
             if data:
                 # input first: its bytes start on the wire now, and the sleep below
                 # must already know when they (and the reply) next need a look
@@ -126,6 +151,9 @@ def serve_pty(emu: SerialHost, on_path: Callable[[str], None],
                 port.dropped += len(pending)      # nobody listens: lost, as on a wire
                 pending.clear()
             elif pending:
+                if wrong:
+                    port.garbled += len(pending)
+                    pending[:] = _garbled(bytes(pending))
                 try:
                     n = os.write(master, pending)
                     del pending[:n]

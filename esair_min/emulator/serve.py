@@ -46,6 +46,7 @@ class EmulateOptions:
     pose: tuple[float, float, float] | None = None   # an omni-base robot's start (mm, mm, rad)
     world_out: Path | None = None  # an omni-base robot's true pose, to this datagram socket
     eeprom: Path | None = None    # the EEPROM's contents in this file (kept across runs)
+    strict_baud: bool = False     # with --pty: bytes at another baud than the robot's garbled
 
 
 def generate_first(robot: Robot, out_dir: Path, log: Callable[[str], None]) -> bytes | None:
@@ -115,6 +116,8 @@ def check_options(opts: EmulateOptions) -> None:
     if opts.hold_scenario and not opts.pty:
         raise EsairError("--hold-scenario works with --pty only; with --run the scenario "
                          "plays from boot")
+    if opts.strict_baud and not opts.pty:
+        raise EsairError("--strict-baud works with --pty only (a port's baud setting)")
     if opts.speed is not None and not opts.speed > 0:
         raise EsairError(f"--speed {opts.speed:g} must be more than 0")
     if opts.run_s is not None and opts.run_s < 0:
@@ -209,12 +212,13 @@ def emulate(robot: Robot, opts: EmulateOptions, out: TextIO | None = None,
         run = robot_run(robot, opts, stack, image=image, trace=trace, instance=instance,
                         live=live)
         if opts.pty:
-            _serve(run, opts, out)
+            uart = robot.central.uart
+            _serve(run, opts, out, uart.baud if opts.strict_baud and uart else None)
             return 0
         return _run(run, opts, out, log)
 
 
-def _serve(run: RobotRun, opts: EmulateOptions, out: TextIO) -> None:
+def _serve(run: RobotRun, opts: EmulateOptions, out: TextIO, baud: int | None) -> None:
     from esair_min.emulator.ptyserver import PtyPort, serve_pty
 
     stop = _Stop()
@@ -239,7 +243,8 @@ def _serve(run: RobotRun, opts: EmulateOptions, out: TextIO) -> None:
             view.poll()
 
         try:
-            serve_pty(run.sim, on_path, lambda: stop.flag, opts.speed or 1.0, on_idle, port)
+            serve_pty(run.sim, on_path, lambda: stop.flag, opts.speed or 1.0, on_idle, port,
+                      baud)
         finally:
             stop.restore()
             run.restore()

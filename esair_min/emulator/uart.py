@@ -54,8 +54,9 @@ class Uart:
 
     def __init__(self, clock: VirtualClock, baud: int, on_rx: Callable[[], None],
                  rx_mode: Callable[[], int] | None = None,
-                 direct: Callable[[bytes], None] | None = None):
+                 direct: Callable[[bytes], None] | None = None, tx_ring: int = TX_RING):
         self.clock = clock
+        self.tx_ring = tx_ring            # the board's transmit ring (protocol.TX_RING*)
         self.baud = baud
         self.byte_ns = byte_time_ns(baud)
         self._on_rx = on_rx
@@ -223,7 +224,7 @@ class Uart:
         last_start = t + (len(data) - 1) * self.byte_ns
         self._tx_free = t + len(data) * self.byte_ns
         self.tx_bytes += len(data)
-        room = last_start - TX_RING * self.byte_ns
+        room = last_start - self.tx_ring * self.byte_ns
         return room if room > at_ns else at_ns
 
     def _deliver(self) -> None:

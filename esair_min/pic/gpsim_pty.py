@@ -31,12 +31,13 @@ class GpsimPty:
     """Start with :meth:`start`; :attr:`path` is the pty a program opens."""
 
     def __init__(self, workdir: Path, cod: Path, clock_hz: int, speed: float = 1.0,
-                 timeout: float = 300.0):
+                 timeout: float = 300.0, eeprom: bool = False):
         self.workdir = Path(workdir)
         self.cod = Path(cod)
         self.clock_hz = clock_hz
         self.speed = speed
         self.timeout = timeout
+        self.eeprom = eeprom              # a 24LC256 at 0x50 on the I2C bus (the motions')
         self.path = ""
         self.sent = 0                     # bytes the program has sent
         self.error: Exception | None = None
@@ -60,6 +61,8 @@ class GpsimPty:
         s = GpsimSession(self.workdir, timeout=self.timeout).start(self.cod, self.clock_hz)
         self._session = s
         s.command(*SETUP, f"log on {log}", "log w 0xFAD")
+        if self.eeprom:
+            s.command("module load e24xx256 EE", "attach nscl EE.SCL", "attach nsda EE.SDA")
         self._follow_baud()
         self._log = open(log, "rb")     # noqa: SIM115 (closed in close())
         self._thread = threading.Thread(target=self._run, name="gpsim-pty", daemon=True)
@@ -157,6 +160,8 @@ def main(argv: list[str] | None = None) -> int:
                                  description=main.__doc__)
     ap.add_argument("board_dir", type=Path, help="a built board folder (build/ROBOT/ROLE)")
     ap.add_argument("--clock", type=int, default=20_000_000, help="the board's clock in Hz")
+    ap.add_argument("--eeprom", action="store_true",
+                    help="a blank 24LC256 at 0x50 on the I2C bus, for the motions")
     ns = ap.parse_args(argv)
     cod = ns.board_dir / "build-boot" / "bootloader.cod"
     if not cod.is_file():
@@ -164,7 +169,7 @@ def main(argv: list[str] | None = None) -> int:
         return 1
     stop = threading.Event()
     signal.signal(signal.SIGTERM, lambda *_: stop.set())
-    with tempfile.TemporaryDirectory() as tmp, GpsimPty(Path(tmp), cod, ns.clock) as g:
+    with tempfile.TemporaryDirectory() as tmp, GpsimPty(Path(tmp), cod, ns.clock, eeprom=ns.eeprom) as g:
         print(f"pty: {g.path}", flush=True)
         try:
             while not stop.wait(0.2) and g.error is None:

@@ -1,4 +1,5 @@
-"""Import every class of a deployment, checking each kind's base class.
+"""Import every class of a deployment, checking each kind's base class and, when the
+class declares them (``Options``), the entry's options against its schema.
 
 The importer itself is :func:`esair_std.classes.load_class` (one for the deployment
 check, the runtime and agents); it is re-exported here.
@@ -7,6 +8,7 @@ check, the runtime and agents); it is re-exported here.
 from __future__ import annotations
 
 from ..classes import load_class
+from .class_options import check_options, options_model
 from .model import Deployment
 
 __all__ = ["expected_bases", "load_class", "load_classes"]
@@ -14,9 +16,15 @@ __all__ = ["expected_bases", "load_class", "load_classes"]
 
 def load_classes(dep: Deployment) -> dict[str, type]:
     """Import every class of ``dep`` (name -> class), checking each kind's base class
-    when esair_std defines it; the first failure raises."""
-    return {spec.name: load_class(spec, expect=expected_bases(kind))
-            for kind, spec in dep.components()}
+    when esair_std defines it, and the entry's options against the class's ``Options``
+    (each error at its option's line); the first failure raises."""
+    out = {}
+    for kind, spec in dep.components():
+        cls = out[spec.name] = load_class(spec, expect=expected_bases(kind))
+        model = options_model(cls)
+        if model is not None:
+            check_options(model, dict(spec.options), spec.options_doc)
+    return out
 
 
 _BASES = {"resource": ("Sensor", "Actuator", "Driver"), "behavior": ("Behavior",),

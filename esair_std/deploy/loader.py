@@ -20,6 +20,7 @@ from esair_min.config.schema_errors import config_error
 from esair_min.config.yamlload import Document, FileKind, load_yaml
 
 from ..errors import DeployError
+from .class_options import options_document
 from .marks import dict_document
 from .model import SECTIONS, Deployment
 from .raw import check_raw
@@ -95,5 +96,8 @@ def _add_loader_fields(data: dict[str, Any], doc: Document, base: Path) -> None:
         for name, entry in entries.items():
             if isinstance(entry, dict):
                 loc = (section, name)
+                options = entry.get("options")
                 entry.update(name=name, mark=doc.mark(loc, key=True),
-                             class_mark=doc.mark(loc + ("class",)), base_dir=base)
+                             class_mark=doc.mark(loc + ("class",)), base_dir=base,
+                             options_doc=options_document(
+                                 doc, loc, options if isinstance(options, dict) else {}))

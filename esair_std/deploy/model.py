@@ -103,6 +103,8 @@ class ComponentSpec(BaseModel):
     base_dir: SkipJsonSchema[Path] = Field(Path("."), exclude=True, repr=False,
                                            description="folder its module is imported from "
                                                        "first")
+    options_doc: SkipJsonSchema[Any] = Field(None, exclude=True, repr=False,
+                                             description="where each option is written")
 
     @model_validator(mode="before")
     @classmethod
@@ -110,7 +112,8 @@ class ComponentSpec(BaseModel):
         """Keys that are not the section's own go to ``options``."""
         if not isinstance(data, dict):
             return data
-        own = set(cls.KEYS) | {"name", "mark", "class_mark", "base_dir", "class_path"}
+        own = set(cls.KEYS) | {"name", "mark", "class_mark", "base_dir", "class_path",
+                               "options_doc"}
         extra = {k: v for k, v in data.items() if k not in own}
         if not extra:
             return data

@@ -21,6 +21,7 @@ import zenoh
 from ..counters import Counters
 from ..errors import TransportError
 from . import codec, keys, wire
+from .codec import JSON, JSONObject
 from .session import endpoint_hosts, open_session, peer_at
 
 log = logging.getLogger("esair_std.transport")
@@ -46,7 +47,7 @@ class Request:
         except TransportError as exc:
             self.error = exc.message
 
-    def reply(self, obj: Any) -> None:
+    def reply(self, obj: JSON) -> None:
         if self._done:
             return
         self._done = True
@@ -118,7 +119,7 @@ class Bus:
         return obj
 
     # request/reply
-    def request(self, key: str, body: dict[str, Any], timeout: float,
+    def request(self, key: str, body: JSONObject, timeout: float,
                 express: bool = False) -> Any:
         """The first reply's JSON, or None when nobody answers (no queryable / timeout).
         ``express``: the request is sent at once, never held to share a batch (a command
@@ -199,7 +200,7 @@ class Bus:
         if raw:
             put: Callable[[Any], None] = pub.put
         else:
-            def put(obj: Any) -> None:
+            def put(obj: JSON) -> None:
                 pub.put(codec.encode(obj))
         with self._lock:
             self._pub_of[key] = self._pub_of.get(key, ()) + (pub,)

@@ -37,6 +37,7 @@ from typing import Any, Callable
 
 from ..errors import TransportError
 from .bus import Bus
+from .codec import JSON, JSONObject
 from ..counters import Counters
 
 log = logging.getLogger("esair_std.transport")
@@ -44,7 +45,7 @@ PENDING = 4096           # calls waiting for an answer at once; more are refused
 PEERS = 1024             # distinct keys a caller sends to / a server answers to
 
 
-def _id(obj: Any) -> int | None:
+def _id(obj: JSON) -> int | None:
     oid = obj.get("id") if isinstance(obj, dict) else None
     return oid if isinstance(oid, int) and not isinstance(oid, bool) else None
 
@@ -58,8 +59,8 @@ class SampleCaller:
         self.bus = bus
         self.peer_of = peer_of
         self._ids = itertools.count(1)
-        self._pending: dict[int, tuple[str, Callable[[Any], None], float]] = {}
-        self._pubs: dict[str, Callable[[Any], None]] = {}
+        self._pending: dict[int, tuple[str, Callable[[JSON], None], float]] = {}
+        self._pubs: dict[str, Callable[[JSON], None]] = {}
         self._lock = threading.Lock()
         self._due = threading.Condition(self._lock)    # an earlier deadline, or closed
         self._deadlines: list[tuple[float, int]] = []  # heap (deadline, id); answered
@@ -74,8 +75,8 @@ class SampleCaller:
     def _garbage(self, _why: str) -> None:
         self.c.add("bad_answers")
 
-    def call(self, key: str, peer: str, body: dict[str, Any], timeout: float,
-             done: Callable[[Any], None]) -> bool:
+    def call(self, key: str, peer: str, body: JSONObject, timeout: float,
+             done: Callable[[JSON], None]) -> bool:
         """Send ``body`` (plus an id) to ``key``; ``done(answer or None)`` once, on a
         Zenoh thread or this caller's timer. False: too many calls wait (not sent).
         TransportError: ``body`` cannot be sent (not JSON, over the size cap)."""
@@ -115,7 +116,7 @@ class SampleCaller:
         if pub is not None:
             self.bus.undeclare(key)
 
-    def wait(self, key: str, peer: str, body: dict[str, Any], timeout: float) -> Any:
+    def wait(self, key: str, peer: str, body: JSONObject, timeout: float) -> Any:
         """``call`` from a thread that waits: the answer, or None."""
         box: queue.SimpleQueue[Any] = queue.SimpleQueue()
         if not self.call(key, peer, body, timeout, box.put):
@@ -125,7 +126,7 @@ class SampleCaller:
         except queue.Empty:
             return None
 
-    def _finish(self, oid: int, answer: Any) -> bool:
+    def _finish(self, oid: int, answer: JSON) -> bool:
         with self._lock:
             entry = self._pending.pop(oid, None)
         if entry is not None:
@@ -190,11 +191,11 @@ class SampleServer:
     enqueue or answer."""
 
     def __init__(self, bus: Bus, requests: str, answer_key: Callable[[str], str],
-                 handler: Callable[[str, dict[str, Any], Callable[[dict[str, Any]], None]], None]):
+                 handler: Callable[[str, JSONObject, Callable[[JSONObject], None]], None]):
         self.bus = bus
         self.answer_key = answer_key
         self.handler = handler
-        self._pubs: dict[str, Callable[[Any], None]] = {}
+        self._pubs: dict[str, Callable[[JSON], None]] = {}
         self._lock = threading.Lock()
         self.c = Counters(requests=0, bad_requests=0)
         bus.subscribe(requests, self._on_request, with_key=True, garbage=self._garbage)
@@ -210,7 +211,7 @@ class SampleServer:
         if pub is not None:
             self.bus.undeclare(self.answer_key(request_key))
 
-    def _publisher(self, request_key: str) -> Callable[[Any], None] | None:
+    def _publisher(self, request_key: str) -> Callable[[JSON], None] | None:
         pub = self._pubs.get(request_key)
         if pub is None:
             with self._lock:
@@ -236,7 +237,7 @@ class SampleServer:
         self.c.add("requests")
         sent = [False]
 
-        def answer(out: dict[str, Any]) -> None:
+        def answer(out: JSONObject) -> None:
             if not sent[0]:
                 sent[0] = True
                 try:

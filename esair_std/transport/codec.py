@@ -4,14 +4,21 @@ component to another obeys the same rules (and is copied) whichever mode runs.""
 from __future__ import annotations
 
 import json
-from typing import Any
+from typing import Any, Union
 
 from ..errors import TransportError
+
+#: Data on the wire: what ``json`` reads and writes (a request's body, a sample's value,
+#: a command and its answer). Decoded data is typed ``Any`` where the code reads fields
+#: it has just checked; what is sent is typed ``JSON``.
+JSON = Union[dict[str, "JSON"], list["JSON"], str, int, float, bool, None]
+#: A JSON object: a request's or a reply's body.
+JSONObject = dict[str, JSON]
 
 MAX_BYTES = 256 * 1024
 
 
-def encode(obj: Any) -> bytes:
+def encode(obj: JSON) -> bytes:
     try:
         data = json.dumps(obj, separators=(",", ":"), allow_nan=False).encode()
     except (TypeError, ValueError) as exc:

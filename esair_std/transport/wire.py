@@ -30,6 +30,7 @@ from typing import Any, Callable, Protocol
 from ..errors import (CommandError, ComponentError, ControlError, DeployError, Refused,
                       ResourceLost, StdError, TransportError)
 from ..counters import Counters
+from .codec import JSON, JSONObject
 
 log = logging.getLogger("esair_std.transport")
 
@@ -38,11 +39,11 @@ ERRORS: dict[str, type[StdError]] = {cls.__name__: cls for cls in (
     StdError, Refused, CommandError, ResourceLost, ComponentError, ControlError,
     TransportError, DeployError)}
 
-Reply = dict[str, Any]
+Reply = JSONObject
 Answer = Callable[[Reply], None]
 
 
-def ok(value: Any = None) -> Reply:
+def ok(value: JSON = None) -> Reply:
     """A reply that carries ``value``."""
     return {"ok": value}
 
@@ -64,7 +65,7 @@ def error(exc: BaseException) -> Reply:
     return out
 
 
-def failure(value: Any, resource: str) -> StdError:
+def failure(value: JSON, resource: str) -> StdError:
     """What a resource host's ``on_done(False, value)`` means: its StdError, or a
     CommandError of ``resource`` in the driver's own words."""
     return value if isinstance(value, StdError) else CommandError(resource, str(value))
@@ -99,13 +100,13 @@ class Request(Protocol):
     @property
     def key(self) -> str: ...
     @property
-    def body(self) -> dict[str, Any] | None: ...
+    def body(self) -> JSONObject | None: ...
     @property
     def error(self) -> str: ...
     def reply(self, obj: Reply) -> None: ...
 
 
-Handler = Callable[[dict[str, Any]], Any]
+Handler = Callable[[dict[str, Any]], Any]  # a decoded body: read after its checks
 LaterHandler = Callable[[dict[str, Any], Answer], None]
 
 
@@ -134,7 +135,7 @@ class Verbs:
     def names(self) -> list[str]:
         return sorted([*self._now, *self._later])
 
-    def serve(self, verb: object, body: dict[str, Any] | None, error_: str,
+    def serve(self, verb: object, body: JSONObject | None, error_: str,
               answer: Answer) -> None:
         """Answer one request (``body`` None: garbage, ``error_`` says why)."""
         if body is None:
@@ -150,7 +151,7 @@ class Verbs:
         except Exception as exc:  # noqa: BLE001 - told to the asker, not lost
             answer(self._failed(verb, exc))
 
-    def answer(self, verb: object, body: dict[str, Any] | None, error_: str = "") -> Reply:
+    def answer(self, verb: object, body: JSONObject | None, error_: str = "") -> Reply:
         """The reply of a verb that answers at once (``verb`` as the request named it:
         not a string, it is unknown)."""
         fn = self._now.get(verb) if isinstance(verb, str) else None

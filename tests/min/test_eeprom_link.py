@@ -9,6 +9,8 @@ from __future__ import annotations
 import random
 import shutil
 import subprocess
+import threading
+import time
 from pathlib import Path
 
 import pytest
@@ -19,6 +21,8 @@ from esair_min.core import protocol as P
 from esair_min.core.stimulus import run_script
 from esair_min.core.image import build_image
 from esair_min.core.trace import without_marks
+from esair_min.errors import EsairError
+from esair_min.imagelink import ImageLink
 from esair_min.model.validate import load_robot
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -377,7 +381,8 @@ def _emulator(file: Path):
 def _kill(proc) -> None:
     import signal
 
-    proc.send_signal(signal.SIGKILL)
+    if proc.poll() is None:
+        proc.send_signal(signal.SIGKILL)
     proc.wait(timeout=30)
     for f in (proc.stdout, proc.stderr):
         if f is not None:
@@ -395,43 +400,47 @@ def test_cli_writes_a_blank_robot_and_survives_sigkills(robot, variant, image, t
     file = tmp_path / "eeprom.bin"
     proc, port = _emulator(file)
     try:
-        assert _cli("send", port, "v", "PLY03").stdout.splitlines()[1] == \
-            "E09 motion image invalid"
+        with _port(port) as ser:
+            assert ImageLink(ser, robot).ask("PLY03") == "E09 motion image invalid"
         res = _cli("eeprom", "papaman", "--write", port)
         assert res.returncode == 0, res.stderr
         assert res.stdout.startswith("papaman: wrote 67 of 67 chunks (1070 bytes) in ")
         assert res.stdout.rstrip().endswith("image valid, CRC 0x2C20")
-        assert _cli("send", port, "PLY03", "t").stdout.splitlines() == ["OK", "E07 busy"]
+        with _port(port) as ser:
+            link = ImageLink(ser, robot)
+            assert (link.ask("PLY03"), link.ask("t")) == ("OK", "E07 busy")
     finally:
         _kill(proc)
     assert file.read_bytes()[:IMAGE_LEN] == image
-    crcs = {f"{int.from_bytes(i[6:8], 'little'):04X}" for i in (image, build_image(variant))}
+    crcs = {int.from_bytes(i[6:8], "little") for i in (image, build_image(variant))}
     rng = random.Random(5)
     proc, port = _emulator(file)
     for _ in range(3):
-        import time
-
-        import os
-        import sys
-        env = dict(os.environ, PYTHONPATH=str(ROOT))
-        writer = subprocess.Popen([sys.executable, "-m", "esair_min.cli", "eeprom",
-                                   str(variant.source), "--write", port],
-                                  stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                                  env=env, cwd=ROOT)
-        time.sleep(rng.uniform(1.0, 2.5))
-        _kill(proc)
-        writer.wait(timeout=60)
+        ser = _port(port)
+        link = ImageLink(ser, robot)
+        cut = threading.Timer(rng.uniform(0.3, 1.2), _kill, (proc,))
+        cut.start()
+        with pytest.raises(EsairError):
+            link.write_image(build_image(variant))      # until the robot dies under it
+            link.ask("v")
+            time.sleep(5)
+            link.ask("v")
+        cut.join()
+        ser.close()
         proc, port = _emulator(file)
-        out = _cli("send", port, "v", "PLY03").stdout.splitlines()
-        fields = P.version_fields(out[0][3:])
-        if fields["image"] == "bad":
-            assert out[1] == "E09 motion image invalid"
+        with _port(port) as ser:
+            link = ImageLink(ser, robot)
+            crc = link.robot_crc()
+            play = link.ask("PLY03")
+        if crc is None:
+            assert play == "E09 motion image invalid"
         else:
-            assert fields["crc"] in crcs and out[1] == "OK"
+            assert crc in crcs and play == "OK"
     try:
-        res = _cli("eeprom", "papaman", "--write", port)
-        assert res.returncode == 0, res.stderr
-        assert _cli("eeprom", "papaman", "--verify", port).returncode == 0
+        with _port(port) as ser:
+            link = ImageLink(ser, robot)
+            assert link.write_image(image).crc == 0x2C20
+            assert link.verify(image) == []
     finally:
         _kill(proc)
 
@@ -442,3 +451,30 @@ def test_cli_eeprom_needs_one_mode():
     assert "give one of -o FILE, --write PORT, --verify PORT, --read FILE" in res.stderr
     res = _cli("eeprom", "papaman", "--read", "x.hex")
     assert res.returncode == 2 and "--port goes with --read" in res.stderr
+
+
+def test_cli_read_and_verify_over_an_esair_url(image, tmp_path):
+    """--read FILE --port, --verify (status 0 / 1 with the hint) against in-process robots."""
+    from click.testing import CliRunner
+
+    from esair_min.cli import main
+    from esair_min.core.image import read_hex
+
+    url = f"esair://{ROOT / 'boards' / 'papaman'}?speed=max"
+    runner = CliRunner()
+    out = tmp_path / "back.hex"
+    res = runner.invoke(main, ["eeprom", "papaman", "--read", str(out), "--port", url])
+    assert res.exit_code == 0, res.output
+    assert res.stdout == f"papaman: read 1070 bytes -> {out}\n"
+    assert read_hex(out, 32768)[:IMAGE_LEN] == image
+    res = runner.invoke(main, ["eeprom", "papaman", "--verify", url])
+    assert (res.exit_code, res.stdout) == (0, "papaman: the robot holds this image (CRC 0x2C20)\n")
+    res = runner.invoke(main, ["eeprom", "papaman", "--verify", url + "&eeprom=blank"])
+    assert res.exit_code == 1
+    assert res.stdout == (f"papaman: the robot's image differs (67 chunks: 0x0000, 0x0010, "
+                          f"0x0020, 0x0030, 0x0040, 0x0050, 0x0060, 0x0070 ...; its image is "
+                          f"not valid); run esair eeprom papaman --write {url}&eeprom=blank\n")
+    res = runner.invoke(main, ["eeprom", "papaman", "--read", str(out), "--port",
+                               url + "&eeprom=blank"])
+    assert res.exit_code == 1
+    assert "error: the EEPROM holds no motion image (its first bytes are ff ff ff" in res.output

@@ -13,7 +13,7 @@ from esair_min.emulator.i2c import (TimedBus, bits_ns, nack_bits, write_bits,
 from esair_min.emulator.uart import RING_BYTES, byte_time_ns
 from esair_min.core.devices import RegisterSlave, SimpleBus
 from esair_min.errors import EsairError
-from esair_min.core.protocol import TX_RING, parse_reply
+from esair_min.core.protocol import TX_RING_TABLE as TX_RING, parse_reply
 from esair_min.core.trace import TraceWriter, without_marks
 from tests.support.board_lines import READY_OK, READY_OK_T, VERSION_OK, VERSION_OK_T
 

@@ -234,37 +234,57 @@ def test_debians_optiboot_hex_does_not_fit_the_boot_section():
         read_flash_hex(shipped, 32768)
 
 
-def run_until_ready(port: Path, build: Path) -> tuple[int, str, str]:
-    """``esair run papaman-avr --port PORT`` until its monitor shows the board's !READY,
-    then Ctrl-C (SIGINT): (status, stdout, stderr)."""
+def run_until_motions(port: Path, build: Path) -> tuple[int, str, str]:
+    """``esair run papaman-avr --port PORT`` until it monitors (the motions written or
+    skipped), then Ctrl-C (SIGINT): (status, stdout, stderr)."""
     import signal
 
     proc = subprocess.Popen([sys.executable, "-m", "esair_min.cli", "run", str(BOARDS),
                              "--port", str(port), "-o", str(build), "--attempts", "1"],
                             env=ENV, text=True, stdin=subprocess.DEVNULL,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE)
-    assert proc.stdout is not None
+    assert proc.stderr is not None
     lines = []
-    for line in proc.stdout:
+    for line in proc.stderr:                 # the monitor's banner: it now takes Ctrl-C
         lines.append(line)
-        if "!READY" in line:
+        if line.startswith("monitoring "):
             break
     proc.send_signal(signal.SIGINT)
     out, err = proc.communicate(timeout=60)
-    return proc.returncode, "".join(lines) + out, err
+    return proc.returncode, out, "".join(lines) + err
 
 
-def test_run_flashes_what_differs_then_monitors(build, tmp_path):
+def ready_line(port: Path, timeout: float = 30) -> str:
+    """The !READY the board sends when its port is opened (which resets it)."""
+    ser = open_port(str(port), baudrate=9600, timeout=0.2)
+    try:
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            line = ser.readline().decode("latin-1")
+            if line.startswith("!READY") and line.endswith("\n"):
+                return line.strip()
+        raise AssertionError("no !READY")
+    finally:
+        ser.close()
+
+
+def test_run_flashes_writes_the_motions_then_monitors_and_skips_what_is_done(build, tmp_path):
+    """esair run against the simulated Uno with a blank 24LC256 on its TWI: flash, the
+    motions over the link, the monitor; run again: the build id matches, the image's CRC
+    too, nothing is written."""
     chip = tmp_path / "flash.bin"
     boot = new_chip(chip, "optiboot")
-    with SimUno(chip, tmp_path / "ttyUNO", boot) as uno:
-        status, out, err = run_until_ready(uno.port, build)
+    with SimUno(chip, tmp_path / "ttyUNO", boot, eeprom=tmp_path / "ee.bin") as uno:
+        status, out, err = run_until_motions(uno.port, build)
         assert status == 130, err
-        assert "central: 5708 bytes written to" in out
-        assert re.search(r"\d\d:\d\d:\d\d\.\d{3} < !READY esair-min/1 image=bad +\[board reset", out)
+        assert re.search(r"central: \d+ bytes written to", out)
+        assert re.search(r"motions: wrote (\d+) of \1 chunks", out)
         assert "monitor stopped" in err and "Traceback" not in err
         assert holds(uno, build / "central" / "firmware.hex")
-        status, out, err = run_until_ready(uno.port, build)       # nothing changed
+        assert re.fullmatch(r"!READY esair-min/1 image=ok crc=[0-9A-F]{4} build=[0-9a-f]{8}",
+                            ready_line(uno.port))
+        status, out, err = run_until_motions(uno.port, build)     # nothing changed
         assert status == 130, err
-        assert "central: " in out and "already holds the built firmware: not flashed" in out
-        assert "written to" not in out
+        assert re.search(r"central: \S+ already runs build [0-9a-f]{8}: not flashed", out)
+        assert "motions: the robot already holds them" in out
+        assert "written to" not in out and "wrote" not in out

@@ -25,7 +25,7 @@ from esair_min.resources import resolve_robot
 from esair_min.core.image import build_image
 from esair_min.model.validate import load_robot
 from tests.support.board_lines import (READY_BAD, READY_OK, VERSION_BAD, VERSION_OK, cut_stimulus,
-                                       eeprom_stimulus)
+                                       eeprom_stimulus, ready)
 
 pytestmark = pytest.mark.gpsim
 
@@ -45,7 +45,8 @@ DECODER_CHAR_MEAN = 36
 DECODER_LF_SWALLOWED = 40        # core_rx_end and back
 TIMER2_ISR_WORST = 120           # with a reply byte served in the same interrupt
 ANY_ISR_WORST = 120              # TX with the 80-byte ring's wrap
-TICK_TO_LAST_BYTE = 14_300       # dance frames
+TICK_TO_LAST_BYTE = 16_500       # dance frames, steady: measured 12_761..16_047 (the worst: a 92-byte
+                                 # v reply being built when the tick came; 13_893 before its CRC and build id)
 FRAME_WRITE = 13_200             # START..STOP of 1 + 25 bytes (wire 26 x 9 x 52)
 FRAME_READ = 14_600              # 3 bytes, repeated START, 24 bytes read
 PULSE_ERROR = 0.01               # servo pulse width vs the commanded angle
@@ -116,7 +117,13 @@ def test_frame_timing_on_the_bus(robot, scenario_run):
     # when it was read, and a poll tick's overrun delays the next by ~1 300 cycles
     assert len(timing.played) >= 30
     assert 26 * 9 * 50 < min(timing.to_last_byte) <= min(timing.played)
-    assert max(timing.played) <= TICK_TO_LAST_BYTE
+    # DNC looks its motion up in the image's directory (four 6-byte reads, ~22 000
+    # cycles) and reads its first frame before it answers: the tick that falls meanwhile
+    # is served after them, and the frames that follow catch up within three ticks,
+    # each still within its tick; from then on every frame is on time
+    tick = GpsimSetup.from_robot(robot).tick_cycles
+    assert max(timing.played[:3]) < tick
+    assert max(timing.played[3:]) <= TICK_TO_LAST_BYTE
     assert max(timing.write) <= FRAME_WRITE
     assert max(timing.read) <= FRAME_READ
     assert all(s > b for s, b in zip(timing.to_stop, timing.to_last_byte))
@@ -277,7 +284,7 @@ def test_balance_reaction_gpsim_equals_python_core(tipping_robot, tipping_centra
     python = run_script(tipping_robot, scenario.read_text())
     assert compare(python, run.trace(), setup) == []
     replies = [line for _, line in run.replies]
-    assert replies[:2] == [READY_OK, b"OK\r\n"]
+    assert replies[:2] == [ready(tipping_robot), b"OK\r\n"]
     assert replies.count(BALANCE_LINE) == fires == python.count("TX " + BALANCE_LINE.hex().upper())
     if fires:
         assert len(replies) == 2 + fires

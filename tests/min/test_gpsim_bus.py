@@ -40,7 +40,7 @@ STAND = "W 10 005A145A145A145A145A145A145A145A145A145A145A145A14 ACK"
 TIMEOUT_MIN = 8192             # the SSPIF countdown: 4 x 256 polls of 8 cycles
 HELD_WRITE_E10 = 38_800        # `t`: waits for the tick, then the START times out
 BUS_COMMAND_E10 = 13_400       # PLY01, s, DNC: the read at once times out
-NO_BUS_REPLY = 3_100           # v, x, E01, E06, E03 with the bus held
+NO_BUS_REPLY = 3_900           # v (92 bytes: measured 3 784), x, E01, E06, E03 with the bus held
 MOTION_NOTICE = 9_900          # sync tick -> !E10 of a frame write refused
 CUT_NOTICE = 17_700            # hold begins mid-write -> !E10
 

@@ -22,9 +22,9 @@ pytestmark = pytest.mark.gpsim
 # before them).
 GOAL_FLASH, GOAL_RAM = 9216, 512
 # Measured (program bytes, RAM bytes incl. the stack) + about 3 %; the central board's
-# measured exactly (9 494 B, 498 B). The peers' RAM: the I2C slave's byte queue in the
+# measured exactly (9 494 B, 506 B). The peers' RAM: the I2C slave's byte queue in the
 # access bank (actuator 462, sensor 180 bytes measured).
-CEILINGS = {"central": (9_494, 498), "actuator": (7_250, 476), "sensor": (2_020, 185)}
+CEILINGS = {"central": (9_494, 506), "actuator": (7_250, 476), "sensor": (2_020, 185)}
 
 
 @pytest.fixture(scope="module")

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import sys
 
-from tests.support.netns import net, wait_for  # noqa: F401  (fixture)
+from tests.support.netns import wait_for
 from tests.support.netstd import Center, Proc, agent, cli
 
 LAB = """
@@ -24,7 +24,7 @@ FETCH = ("import sys, urllib.request; "
          "print(urllib.request.urlopen(sys.argv[1], timeout=30).status)")
 
 
-def test_run_hmi_and_agent_with_insecure_warn_and_serve(net, tmp_path):  # noqa: F811
+def test_run_hmi_and_agent_with_insecure_warn_and_serve(net, tmp_path):
     center = Center(net[0], tmp_path, LAB)             # run ... --insecure (netstd)
     assert f"warning: listening on {center.endpoint} {WARNING}" in center.run.lines
     hmi = Proc(net[0], cli("hmi", "-e", center.endpoint, "--listen", f"{net[0].addr}:0",

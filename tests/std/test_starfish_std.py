@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 from esair_std import CommandError, Runtime
-from esair_std.errors import ComponentError
+from esair_std.errors import ComponentError, DeployError
 
 from esair_std.drivers.starfish import camera as cam
 from esair_std.drivers.starfish.scene import wrap
@@ -150,16 +150,33 @@ def test_the_driver_refuses_bad_settings_by_name_and_changes_nothing(start):
 
 
 @pytest.mark.parametrize("options, message", [
-    ({"snr": 3}, "starfish: unknown option 'snr' (options: camera, deadline, echo, emulate, "
-                 "odometry_hz, port, pose, radio, robot, room_file, seed, snr_db, timeout)"),
+    ({"snr": 3}, "resources.starfish.snr: unknown key 'snr' (did you mean 'snr_db'?)"),
+    ({"room_file": None}, "resources.starfish: missing required key 'room_file'"),
+    ({"radio": {"range_m": "far"}},
+     "resources.starfish.radio.range_m: 'range_m' must be a number, not text 'far'"),
+    ({"pose": [1, 1]}, "resources.starfish.pose: 'pose' must have at least 3 items, not 2"),
+    ({"camera": {"format": "gif"}}, "resources.starfish.camera.format: 'format' must be one "
+                                    "of 'png' or 'jpeg', not text 'gif'"),
+])
+def test_bad_driver_options_are_deployment_errors_at_their_place(options, message):
+    """The driver's options schema (esair_std/drivers/starfish/options.py) is checked with
+    the deployment's classes, before anything starts: in a file the error is at its
+    line, in a mapping at its path."""
+    opts = {"room_file": ROOM, **options}
+    if opts["room_file"] is None:
+        del opts["room_file"]
+    dep = {"robot": "t", "resources": {"starfish": {"class": "esair_std.drivers.starfish:Starfish",
+                                                    **opts, "allow": {"*": "read"}}}}
+    with pytest.raises(DeployError) as exc, Runtime(dep, mode="thread", endpoint=free_endpoint()):
+        pass
+    assert str(exc.value) == message
+    assert agent_children() == []
+
+
+@pytest.mark.parametrize("options, message", [
     ({"port": "/dev/ttyUSB0"}, "starfish: port '/dev/ttyUSB0': the simulated microphones, camera "
                                "and radio need the emulated world (port: emulate)"),
-    ({"room_file": None}, "starfish: option 'room_file' is missing (the world's room: "
-                          "esair_min.world's YAML, mm)"),
-    ({"radio": {"range_m": "far"}}, "starfish: option 'radio.range_m' must be a number, not 'far'"),
     ({"pose": [0.1, 1, 0]}, "starfish: start pose (0.1, 1.0) is closer than 0.15 m to a wall"),
-    ({"pose": [1, 1]}, "starfish: option 'pose' must be [x, y, heading], not [1, 1]"),
-    ({"camera": {"format": "gif"}}, "starfish: camera.format must be 'png' or 'jpeg', not 'gif'"),
     ({"emulate": {"room": "x.yaml"}}, "starfish: option 'emulate.room' is the driver's own (give "
                                       "room_file and pose)"),
     ({"odometry_hz": 26}, "starfish: odometry_hz 26 exceeds the line: at 38400 baud one 'O' "
@@ -167,9 +184,8 @@ def test_the_driver_refuses_bad_settings_by_name_and_changes_nothing(start):
                           "wheels' commands the other half): at most 25.6 a second"),
 ])
 def test_bad_driver_options_stop_the_start_with_the_reason(mode, options, message):
+    """What needs the room or the line is checked when the driver opens."""
     opts = {"room_file": ROOM, **options}
-    if opts["room_file"] is None:
-        del opts["room_file"]
     dep = {"robot": "t", "resources": {"starfish": {"class": "esair_std.drivers.starfish:Starfish",
                                                     **opts, "allow": {"*": "read"}}}}
     with pytest.raises(ComponentError) as exc, Runtime(dep, mode=mode, endpoint=free_endpoint()):

@@ -349,7 +349,9 @@ def test_esair_std_run_stopped_starts_latched():
                         what="the runtime answering")
         assert (ping["stopped"]["by"], ping["stopped"]["reason"]) == (
             "operator", "started stopped (--stopped)")
+        wait_for(lambda: proc.poll() is not None or ask(ep, "ping")["starting"] is False,
+                 timeout=60, what="the runtime started")
     finally:
         proc.send_signal(signal.SIGTERM)
-        _, err = proc.communicate(timeout=30)
+        _, err = proc.communicate(timeout=60)
     assert proc.returncode == 0, err

@@ -30,6 +30,7 @@ from typing import Callable
 from esair_min.model import hardware
 from esair_min.core.i2c_bus import Bus
 from esair_min.core.central import CentralCore
+from esair_min.core.protocol import TX_RING_TABLE
 from esair_min.core.devices import Eeprom24, RegisterSlave, SimpleBus
 from esair_min.errors import EsairError
 from esair_min.core.image import build_image
@@ -202,7 +203,7 @@ class Emulator(SerialHost):
         self.core = CentralCore(robot, core_bus, self._send,
                                 None if instance is None else check_instance(instance),
                                 central_build_id(robot))
-        self.uart = Uart(self.clock, central.uart.baud, self._feed,
+        self.uart = Uart(self.clock, central.uart.baud, self._feed, tx_ring=TX_RING_TABLE,
                          rx_mode=self._rx_mode, direct=self._rx_core)
         self._trace_rx = trace is not None and trace.rx_lines
         if self._trace_rx:

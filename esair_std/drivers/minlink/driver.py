@@ -66,6 +66,8 @@ import time
 from pathlib import Path
 from typing import Any
 
+from pydantic import BaseModel
+
 from esair_std import Actuator, CommandError, Driver, ResourceLost, Sensor
 
 from esair_min.errors import EsairError
@@ -73,16 +75,16 @@ from esair_min.model.validate import load_robot
 from esair_min.resources import resolve_robot
 
 from ...restart_window import RestartWindow
-from .budget import DEFAULT_FEET_SHARE, line_budget
+from ...deploy.class_options import check_options
+from ...errors import DeployError
+from .budget import line_budget
 from .emulated import EmulatedRobot
 from .link_errors import LinkDown, LinkError
 from .link import DIFFERENT_ROBOT, Exchange, Link
-
-DEFAULT_FEET_HZ = 8.0
-DEFAULT_DEADLINE_S = 0.5
+from .options import DEFAULT_DEADLINE_S, MinLinkOptions
 
 
-class _LinkAgent:
+class LinkAgent:
     """What servo, motion and feet share: send a line, map the link's errors."""
 
     link: Link
@@ -108,7 +110,7 @@ class _LinkAgent:
             raise CommandError(self.name, str(exc)) from None     # type: ignore[attr-defined]
 
 
-class ServoActuator(_LinkAgent, Actuator):
+class ServoActuator(LinkAgent, Actuator):
     def __init__(self, link: Link, servo: str):
         self.link, self.servo = link, servo
 
@@ -128,7 +130,7 @@ class ServoActuator(_LinkAgent, Actuator):
         return self._send(line)
 
 
-class MotionActuator(_LinkAgent, Actuator):
+class MotionActuator(LinkAgent, Actuator):
     def __init__(self, link: Link):
         self.link = link
 
@@ -269,13 +271,6 @@ class NoticeSensor(Sensor):
             self.report({"notice": text})
 
 
-def _number(opts: dict, key: str, default: float) -> float:
-    value = opts.get(key, default)
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise LinkError(f"option {key!r} must be a number, got {value!r}")
-    return float(value)
-
-
 #: ``emulate:`` options that name a file: relative to the deployment file's folder (a
 #: scenario only when such a file exists there; else it is a name in ROBOT/scenarios/).
 PATH_OPTIONS = ("trace", "generate", "scenario")
@@ -295,12 +290,12 @@ def emulate_args(opts: dict, base: Path | None = None) -> list[str]:
             args.append(flag)
         elif value not in (False, None):
             if base is not None and key in PATH_OPTIONS and isinstance(value, str):
-                value = _in(base, value, must_exist=key == "scenario")
+                value = in_folder(base, value, must_exist=key == "scenario")
             args += [flag, str(value)]
     return args
 
 
-def _in(base: Path, value: str, must_exist: bool = False) -> str:
+def in_folder(base: Path, value: str, must_exist: bool = False) -> str:
     """``value`` relative to ``base`` when it is a relative path (and, ``must_exist``,
     a file is there)."""
     p = Path(value)
@@ -312,16 +307,19 @@ def _in(base: Path, value: str, must_exist: bool = False) -> str:
 class MinLink(Driver):
     """One MIN robot over its serial link (see the module docstring)."""
 
+    #: the entry's options (checked with the deployment, each error at its line)
+    Options: type[BaseModel] | None = MinLinkOptions
+
     def open(self) -> None:
-        opts = dict(self.options)
+        try:
+            o = check_options(MinLinkOptions, dict(self.options))
+        except DeployError as exc:      # an entry added at run time: its options' paths
+            raise LinkError(f"{self.name}: {exc}") from None
+        assert isinstance(o, MinLinkOptions)
         base = Path(getattr(self._esair.spec, "base_dir", None) or ".")   # the file's folder
-        robot_arg = opts.get("robot", self.name)
-        if isinstance(robot_arg, str):
-            robot_arg = _in(base, robot_arg, must_exist=True)
-        port = opts.get("port")
-        if not port:
-            raise LinkError(f"{self.name}: option 'port' is missing (a serial device, a pty, "
-                            f"an esair:// URL or 'emulate')")
+        robot_arg = o.robot if o.robot is not None else self.name
+        robot_arg = in_folder(base, robot_arg, must_exist=True)
+        port = o.port
         try:
             path = resolve_robot(str(robot_arg))
             robot = load_robot(path)
@@ -329,15 +327,8 @@ class MinLink(Driver):
             raise LinkError(f"{self.name}: robot {robot_arg!r}: {exc}") from None
         self.children: dict[str, Any] = {}
         self.emulated: EmulatedRobot | None = None
-        hz = _number(opts, "feet_hz", DEFAULT_FEET_HZ)
-        share = _number(opts, "feet_share", DEFAULT_FEET_SHARE)
-        timeout = _number(opts, "timeout", 1.0)
-        deadline = _number(opts, "deadline", DEFAULT_DEADLINE_S)
-        if not deadline > 0:
-            raise LinkError(f"{self.name}: option 'deadline' {deadline:g} must be more than 0 s")
-        duplex = opts.get("duplex", True)
-        if not isinstance(duplex, bool):
-            raise LinkError(f"{self.name}: option 'duplex' must be true or false, got {duplex!r}")
+        hz, share, timeout, deadline = o.feet_hz, o.feet_share, o.timeout, o.deadline
+        duplex = o.duplex
         if hz != 0:                                         # 0: the feet are not polled
             line_budget(robot).check_feet_hz(hz, share)    # refused before anything starts
         self._closing = threading.Event()
@@ -345,10 +336,9 @@ class MinLink(Driver):
         self._supervisor: threading.Thread | None = None
         expect = None
         if port == "emulate":
-            emulate = opts.get("emulate") or {}
-            self._restarts = RestartWindow(*_restart_policy(emulate.get("restart") if isinstance(
-                emulate, dict) else None))
-            self.emulated = EmulatedRobot(path, emulate_args(emulate, base))
+            policy = o.emulate.restart
+            self._restarts = RestartWindow(policy.max, policy.within)
+            self.emulated = EmulatedRobot(path, emulate_args(o.emulate.args(), base))
             expect = self.emulated.instance
             port = self.emulated.start()
         self.notices = NoticeSensor()
@@ -445,20 +435,3 @@ class MinLink(Driver):
                 self._lost = f"{reason}; its restart failed: {exc}"
                 self._mark(False, self._lost)
                 return
-
-
-def _restart_policy(value: Any) -> tuple[int, float]:
-    """(max, within) of ``emulate: {restart: {max: N, within: T}}``; (0, 0): never."""
-    if value is None:
-        return 0, 0.0
-    if not isinstance(value, dict) or set(value) - {"max", "within"}:
-        raise LinkError(f"option 'emulate.restart' must be {{max: N, within: SECONDS}}, "
-                        f"got {value!r}")
-    most, within = value.get("max", 0), value.get("within", 0)
-    if isinstance(most, bool) or not isinstance(most, int) or most < 0:
-        raise LinkError(f"option 'emulate.restart.max' must be a whole number 0 or more, "
-                        f"got {most!r}")
-    if isinstance(within, bool) or not isinstance(within, (int, float)) or within < 0:
-        raise LinkError(f"option 'emulate.restart.within' must be 0 or more seconds, "
-                        f"got {within!r}")
-    return most, float(within)

@@ -57,18 +57,21 @@ sense of that one world.
 from __future__ import annotations
 
 import base64
-import math
 import threading
 import time
 from pathlib import Path
 from typing import Any
+
 
 from esair_std import Actuator, CommandError, Sensor
 from esair_min.errors import EsairError
 from esair_min.model.validate import load_robot
 from esair_min.resources import resolve_robot
 
-from ..minlink.driver import MinLink, NoticeSensor, _in, _restart_policy, emulate_args
+from ..minlink.driver import MinLink, NoticeSensor, emulate_args, in_folder
+from ...deploy.class_options import check_options
+from ...errors import DeployError
+from .options import StarfishOptions
 from ..minlink.emulated import EmulatedRobot
 from ..minlink.link_errors import LinkError
 from ..minlink.link import Link
@@ -82,19 +85,8 @@ RATE, FRAME = 16000, 1024
 #: the share of the serial line the odometry polls may take; the rest carries the wheels'
 #: commands (20-50 a second from the behaviors)
 ODOMETRY_SHARE = 0.5
-OPTIONS = ("camera", "deadline", "echo", "emulate", "odometry_hz", "port", "pose", "radio", "robot",
-           "room_file", "seed", "snr_db", "timeout")
-
-
 class StarfishError(ValueError):
     """A bad option of the Starfish entry (the message names it)."""
-
-
-def _num(opts: dict, key: str, default: float, what: str = "") -> float:
-    value = opts.get(key, default)
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise StarfishError(f"option '{what}{key}' must be a number, not {value!r}")
-    return float(value)
 
 
 class Mics(Sensor):
@@ -196,6 +188,9 @@ class Starfish(MinLink):
     """STARFISH's wheels, odometry and notices over its MIN link; its microphones, camera
     and radio rendered from the emulated world (see the module docstring)."""
 
+    #: the entry's options (checked with the deployment, each error at its line)
+    Options = StarfishOptions
+
     def open(self) -> None:
         self.tap: Any = None
         self.link_switch: LinkSwitch | None = None
@@ -216,64 +211,40 @@ class Starfish(MinLink):
         from .scene import load_scene
         from .worldtap import WorldTap
         self.encode_frame, self.encode_picture = encode_frame, encode
-        unknown = sorted(set(opts) - set(OPTIONS))
-        if unknown:
-            raise StarfishError(f"unknown option {unknown[0]!r} (options: {', '.join(OPTIONS)})")
+        try:
+            o = check_options(StarfishOptions, opts)
+        except DeployError as exc:      # an entry added at run time: its options' paths
+            raise StarfishError(str(exc)) from None
+        assert isinstance(o, StarfishOptions)
         base = Path(getattr(self._esair.spec, "base_dir", None) or ".")   # the file's folder
-        port = opts.get("port", "emulate")
-        if port != "emulate":
-            raise StarfishError(f"port {port!r}: the simulated microphones, camera and radio "
-                                "need the emulated world (port: emulate)")
-        if "room_file" not in opts:
-            raise StarfishError("option 'room_file' is missing (the world's room: "
-                                "esair_min.world's YAML, mm)")
-        room_file = _in(base, str(opts["room_file"]))
+        if o.port != "emulate":
+            raise StarfishError(f"port {o.port!r}: the simulated microphones, camera and "
+                                "radio need the emulated world (port: emulate)")
+        room_file = in_folder(base, o.room_file)
         try:
             self.room = load_scene(room_file)
         except EsairError as exc:
             raise StarfishError(f"room_file: {exc}") from None
-        pose = opts.get("pose", [1.0, 1.0, 0.0])
-        if not isinstance(pose, list) or len(pose) != 3 or not all(
-                isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in pose):
-            raise StarfishError(f"option 'pose' must be [x, y, heading], not {pose!r}")
-        start = (float(pose[0]), float(pose[1]), float(pose[2]))
+        start = (o.pose[0], o.pose[1], o.pose[2])
         if self.room.clearance(start[:2]) < 0.15:
             raise StarfishError(f"start pose ({start[0]}, {start[1]}) is closer than 0.15 m "
                                 f"to a wall")
-        hz = _num(opts, "odometry_hz", 10.0)
-        timeout = _num(opts, "timeout", 1.0)
-        deadline = _num(opts, "deadline", 0.5)
-        if not hz > 0:
-            raise StarfishError(f"odometry_hz must be more than 0, not {hz:g}")
-        if not deadline > 0:
-            raise StarfishError(f"option 'deadline' {deadline:g} must be more than 0 s")
-        self.audio = AudioRenderer(self.room, snr_db=_num(opts, "snr_db", 20.0),
-                                   seed=int(_num(opts, "seed", 0)),
-                                   reflection_gain=_num(opts, "echo", 0.5))
-        radio = opts.get("radio") or {}
-        cam = opts.get("camera") or {}
-        emulate = opts.get("emulate") or {}
-        if not isinstance(radio, dict) or not isinstance(cam, dict) or not isinstance(emulate, dict):
-            raise StarfishError("options 'radio', 'camera' and 'emulate' must be mappings")
+        hz, timeout, deadline = o.odometry_hz, o.timeout, o.deadline
+        self.audio = AudioRenderer(self.room, snr_db=o.snr_db, seed=int(o.seed),
+                                   reflection_gain=o.echo)
+        radio, cam = o.radio, o.camera
+        emulate = o.emulate.args()
         bad = sorted(set(emulate) & {"room", "pose", "world_out", "instance"})
         if bad:
             raise StarfishError(f"option 'emulate.{bad[0]}' is the driver's own (give "
                                 f"room_file and pose)")
-        self.radio = RadioModel(self.room, _num(radio, "range_m", 3.0, "radio."),
-                                _num(radio, "heal_m", 0.1, "radio."))
-        self.pause_audio = bool(radio.get("pause_audio", True))
-        unknown = sorted(set(radio) - {"range_m", "heal_m", "pause_audio", "device"})
-        if unknown:
-            raise StarfishError(f"unknown option 'radio.{unknown[0]}' (radio options: device, "
-                                "heal_m, pause_audio, range_m)")
-        self.picture_format = cam.get("format", "png")
-        if self.picture_format not in ("png", "jpeg"):
-            raise StarfishError(f"camera.format must be 'png' or 'jpeg', "
-                                f"not {self.picture_format!r}")
-        self.camera = Camera(self.room, fov_deg=_num(cam, "fov_deg", 60.0, "camera."))
-        robot_arg = opts.get("robot", "starfish")
+        self.radio = RadioModel(self.room, radio.range_m, radio.heal_m)
+        self.pause_audio = radio.pause_audio
+        self.picture_format = cam.format
+        self.camera = Camera(self.room, fov_deg=cam.fov_deg)
+        robot_arg = o.robot
         try:
-            path = resolve_robot(_in(base, str(robot_arg), must_exist=True))
+            path = resolve_robot(in_folder(base, str(robot_arg), must_exist=True))
             robot = load_robot(path)
         except EsairError as exc:
             raise StarfishError(f"robot {robot_arg!r}: {exc}") from None
@@ -282,14 +253,15 @@ class Starfish(MinLink):
                                 "has no 'base:')")
         self._radio_lock = threading.Lock()
         # before anything starts: a device ESAIR did not make is refused, nothing changed
-        self.link_switch = LinkSwitch(str(radio["device"])) if radio.get("device") else None
+        self.link_switch = LinkSwitch(radio.device) if radio.device else None
         # the world first (its socket bound before the emulator sends), then the robot
         self.tap = WorldTap(start)
         self.children: dict[str, Any] = {}
         self._closing = threading.Event()
         self._lost: str | None = None
         self._supervisor: threading.Thread | None = None
-        self._restarts = RestartWindow(*_restart_policy(emulate.get("restart")))
+        policy = o.emulate.restart
+        self._restarts = RestartWindow(policy.max, policy.within)
         args = emulate_args(emulate, base) + [
             "--room", room_file, "--world-out", self.tap.path,
             "--pose", f"{start[0] * 1000:.1f},{start[1] * 1000:.1f},{start[2]:.6f}"]

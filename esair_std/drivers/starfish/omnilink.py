@@ -24,7 +24,7 @@ from esair_min.components.optical_flow.odometry import FlowOdometry, parse_odome
 
 from ..minlink.budget import LineBudget
 from ..minlink.commands import VERSION_PREFIX, RobotCommands
-from ..minlink.driver import PolledSensor, _LinkAgent
+from ..minlink.driver import PolledSensor, LinkAgent
 from ..minlink.link_errors import LinkError
 from ..minlink.link import Link
 from .scene import wrap
@@ -78,7 +78,7 @@ def omni_budget(robot: Any) -> LineBudget:
                       feet_reply_bytes=ODOMETRY_REPLY_BYTES)
 
 
-class Wheels(_LinkAgent, Actuator):
+class Wheels(LinkAgent, Actuator):
     """The body velocity in the robot's frame: ``{"vx": mm/s, "vy": mm/s, "w": mrad/s}``
     (missing keys 0) or ``"stop"``."""
 

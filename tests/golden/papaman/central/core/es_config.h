@@ -64,6 +64,6 @@
 /* MSSP I2C master 100000 Hz: SSPADD 49. */
 #define ES_SSPADD          49u
 #define ES_RX_RING         64u
-#define ES_TX_RING         96u
+#define ES_TX_RING         104u
 
 #endif

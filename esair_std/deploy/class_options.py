@@ -1,0 +1,57 @@
+"""A component class's own options schema: ``Options``, a pydantic model on the class
+(a driver's ``MinLinkOptions``), checked against the entry's options when the deployment's
+classes are imported, each error at the line of the option in the file.
+
+The options of an entry are its keys that are not the section's own and those under
+``options:`` (:class:`~esair_std.deploy.model.ComponentSpec`); :func:`options_document`
+keeps, for each, where it was written.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from pydantic import BaseModel, ValidationError
+
+from esair_min.config.schema_errors import config_error
+from esair_min.config.yamlload import Document
+from esair_min.errors import Mark
+
+from ..errors import DeployError
+from .marks import dict_document
+
+
+def options_document(doc: Document, entry: tuple[str, str], options: dict[str, Any]) -> Document:
+    """``options`` as a Document whose marks are where ``doc`` has them: an option written
+    as a key of the entry (``entry + (key, ...)``) or under its ``options:``."""
+    values: dict[tuple[Any, ...], Mark] = {}
+    keys: dict[tuple[Any, ...], Mark] = {}
+    for src, marks in ((doc.value_marks, values), (doc.key_marks, keys)):
+        for loc, mark in src.items():
+            if loc[:2] != entry or len(loc) < 3:
+                continue
+            rest = loc[2:]
+            if rest[0] == "options":
+                rest = rest[1:]
+                if not rest:
+                    continue
+            marks[rest] = mark
+    values.setdefault((), doc.mark(entry, key=True))
+    return Document(doc.path, options, values, keys)
+
+
+def options_model(cls: type) -> type[BaseModel] | None:
+    """The class's ``Options`` schema, if it declares one."""
+    model = getattr(cls, "Options", None)
+    return model if isinstance(model, type) and issubclass(model, BaseModel) else None
+
+
+def check_options(model: type[BaseModel], options: dict[str, Any],
+                  doc: Document | None = None) -> BaseModel:
+    """``options`` as ``model``; a :class:`DeployError` at the option's place in ``doc``
+    (by default: its path in ``options``) when they do not fit."""
+    try:
+        return model.model_validate(options)
+    except ValidationError as exc:
+        err = config_error(exc, doc if doc is not None else dict_document(options), model)
+        raise DeployError(err.message, err.mark) from None
