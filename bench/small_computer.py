@@ -64,6 +64,11 @@ class Cap:
 
     def __enter__(self) -> "Cap":
         made = []
+        if self.v2:            # the controllers must be enabled for the root's children
+            try:
+                (self.dirs[0].parent / "cgroup.subtree_control").write_text("+cpu +memory")
+            except OSError:
+                pass           # already enabled, or refused: the limits' writes say so
         try:
             for d in self.dirs:
                 d.mkdir()
