@@ -296,7 +296,9 @@ def inner(args) -> None:
     go = os.path.join(store, "go")
     dep = papaman_deployment(args.port, args.n, go) if args.robot == "papaman" \
         else starfish_deployment(store)
-    with Runtime(dep, mode=args.mode, endpoint=args.endpoint, settle_heap=True) as rt:
+    # the control endpoint on in both modes, as ``esair std run`` has it
+    with Runtime(dep, mode=args.mode, endpoint=args.endpoint, settle_heap=True,
+                 control=True) as rt:
         end = time.monotonic() + 300
         while time.monotonic() < end and \
                 any(c["state"] not in ("running", "busy", "ready") for c in rt.ls()):
