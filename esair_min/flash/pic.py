@@ -28,6 +28,7 @@ CONFIG = range(0x300000, 0x30000E)
 IDLOCS = range(0x200000, 0x200008)
 REPLY_S = 1.0                   # a row's erase and write take ~18 ms; EEPROM 64 x 4 ms
 RETRIES = 3                     # a frame damaged on the line is sent again this often
+REPAIRS = 2                     # a row that does not read back is written again this often
 ERRORS = {ord("S"): "the bootloader saw a damaged frame (checksum)",
           ord("A"): "the bootloader refused the address",
           ord("?"): "the bootloader did not know the command"}
@@ -129,6 +130,10 @@ class Bootloader:
             self.port.reset_input_buffer()
             self.port.write(frame(cmd, address, data))
             got = self._read(1, timeout)
+            if not got and retries > 1:
+                # late rather than lost (a loaded line or simulator): a frame sent again
+                # now would take this one's late answer as its own
+                got = self._read(1, timeout)
             if got and got[0] == ord("K"):
                 rest = self._read(reply + 1, timeout)
                 if len(rest) == reply + 1 and (sum(got + rest) & 0xFF) == 0:
@@ -216,6 +221,11 @@ def _flash(boot: Bootloader, image: PicImage, progress: Progress, wait: float) -
     progress("verifying", 0)
     for i, (address, data) in enumerate(writes):
         got = boot.exchange("R", address, reply=DATA)
+        for _ in range(REPAIRS):           # a row that does not read back: written again
+            if got == data:
+                break
+            boot.exchange("W", address, data)
+            got = boot.exchange("R", address, reply=DATA)
         if got != data:
             at = next(j for j in range(DATA) if got[j] != data[j])
             raise FlashError(f"{boot.name}: verify failed at 0x{address + at:06X}: wrote "
