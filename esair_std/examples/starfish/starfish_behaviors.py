@@ -200,6 +200,11 @@ class TurnAndShoot(Behavior):
         # ramps out, the turn starts slower, so the odometry keeps the heading
         self.flow_max, self.flow_r = turn.flow_limit(robot)
         self.wheel_r = turn.wheel_radius(robot)
+        self.max_drive = float(turn.base_of(robot).max_speed_mm_s)
+        self.handover = float(self.options.get("handover_s", 0.06))
+        # what a drive command landing during the handover can add before the next turn
+        # command replaces it (the drive's ramp over two of this behavior's periods)
+        self.handover_mm_s = self.accel * self.wheel_r * 2 * self.period
         self.max_turn = min(float(self.options.get("max_turn", omega * 1000)), omega * 1000)
         self.cooldown = float(self.options.get("cooldown", 5.0))          # s between shots
         self.turn_timeout = float(self.options.get("turn_timeout", 6.0))
@@ -224,8 +229,9 @@ class TurnAndShoot(Behavior):
         self.rtt = 0.02                     # a wheel command's round trip, smoothed
         self.turn: dict = {}
         self.last_xy: tuple[float, float, float] | None = None
+        self.moved: collections.deque[bool] = collections.deque(maxlen=2)   # the last frames
         # (t, translation speed mm/s) from the odometry
-        self.drives: collections.deque[tuple[float, float]] = collections.deque(maxlen=10)
+        self.drives: collections.deque[tuple[float, float, float]] = collections.deque(maxlen=10)
 
     def receive(self, sender, data):
         if self.phase != "idle" or time.monotonic() < self.quiet_until:
@@ -249,8 +255,9 @@ class TurnAndShoot(Behavior):
                     self.stood = True
             if self.last_xy is not None and s.t > self.last_xy[0]:
                 moved = math.hypot(s.value["x"] - self.last_xy[1], s.value["y"] - self.last_xy[2])
-                self.drives.append((s.t, 1000 * moved / (s.t - self.last_xy[0])))
+                self.drives.append((s.t, 1000 * moved / (s.t - self.last_xy[0]), s.t - self.last_xy[0]))
             self.last_xy = (s.t, s.value["x"], s.value["y"])
+            self.moved.append(bool(s.value.get("moving", True)))
             self.headings.append((s.t, s.value["th"]))
         if self.phase == "idle" and self.pending is not None:
             data, self.pending = self.pending, None
@@ -315,17 +322,24 @@ class TurnAndShoot(Behavior):
         self.stop_sent, self.stood = 0.0, False
         self.going = False
         # driving: turn at what the flow sensors can follow until the drive has ramped out
-        # the odometry's speed lags a robot speeding up (patrol's ramp): its top of the
-        # last second with a margin
+        # the odometry's speed is a frame's mean and lags a robot speeding up (patrol's
+        # ramp): the most it can be now, from the last frame on at the drive's ramp; and
+        # patrol may send one more drive command while its yield is on its way (its
+        # period: handover_s), so the turn starts at what the flow sensors can follow
+        # until whatever drive there is has ramped out
         v = 0.0
-        if self.turn["corrections"] == 0 and self.drives:
-            top = max(sp for t, sp in self.drives if t > self.drives[-1][0] - 1.0)
-            v = 1.25 * top + 50.0 if top > 20.0 else 0.0
+        if self.turn["corrections"] == 0 and self.drives and any(self.moved):
+            t_last, v_last, dt = self.drives[-1]
+            top = max(sp for t, sp, _ in self.drives if t > t_last - 1.0)
+            v = min(self.max_drive, max(1.25 * top + 50.0, v_last + self.accel * self.wheel_r *
+                                        (time.time() - t_last + dt)))
         self.turn.setdefault("drive_mm_s", round(v))
         self.slow_until, self.slow_rate, self.slow_for = 0.0, self.max_turn / 1000.0, 0.0
-        if v > 20.0:
+        if self.turn["corrections"] == 0:
+            v = max(v, self.handover_mm_s)
             self.slow_rate = max(0.2, (0.85 * self.flow_max - v) / self.flow_r)
-            self.slow_for = (v + self.wheel_r * self.slow_rate) / (self.accel * self.wheel_r) + 0.02
+            self.slow_for = self.handover + (v + self.wheel_r * self.slow_rate) / (
+                self.accel * self.wheel_r)
         self.phase = "turning" if abs(angle) > self.tolerance else "settling"
 
     def _turning(self):
