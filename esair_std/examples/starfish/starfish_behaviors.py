@@ -331,8 +331,10 @@ class TurnAndShoot(Behavior):
         if self.turn["corrections"] == 0 and self.drives and any(self.moved):
             t_last, v_last, dt = self.drives[-1]
             top = max(sp for t, sp, _ in self.drives if t > t_last - 1.0)
-            v = min(self.max_drive, max(1.25 * top + 50.0, v_last + self.accel * self.wheel_r *
-                                        (time.time() - t_last + dt)))
+            v = 1.25 * top + 50.0
+            if len(self.drives) > 1 and v_last > self.drives[-2][1] + 30.0:     # speeding up
+                v = max(v, v_last + self.accel * self.wheel_r * (time.time() - t_last + dt))
+            v = min(self.max_drive, v)
         self.turn.setdefault("drive_mm_s", round(v))
         self.slow_until, self.slow_rate, self.slow_for = 0.0, self.max_turn / 1000.0, 0.0
         if self.turn["corrections"] == 0:
