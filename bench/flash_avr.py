@@ -25,7 +25,7 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from esair_min.avr.uno import SimUno, new_chip  # noqa: E402
-from esair_min.flash.avr import BOOTLOADER_BAUD, AvrFlash, flash_avr  # noqa: E402
+from esair_min.flash.avrdude import BOOTLOADER_BAUD, AvrFlash, flash_avr  # noqa: E402
 from esair_min.flash.firmware import firmware  # noqa: E402
 from esair_min.model.validate import load_robot  # noqa: E402
 

@@ -332,7 +332,7 @@ def build(robot: str, output: str) -> None:
     model = load(robot)
     for line in summary_lines(build_robot(model, Path(output), boot=True)):
         click.echo(line)
-    from esair_min.flash.avr import fuses_for
+    from esair_min.flash.avrdude import fuses_for
 
     for board in model.boards:
         if board.mcu.part == "atmega328p":

@@ -1,5 +1,5 @@
 """``esair doctor ROBOT --port PORT``: the bring-up checklist of a real robot
-(esair_min.doctor)."""
+(esair_min.bringup)."""
 
 from __future__ import annotations
 
@@ -31,7 +31,7 @@ def doctor(robot: str, port: str, baud: int | None, move: bool, timeout: float) 
     import serial
 
     from esair_min.cli.flash import _load
-    from esair_min.doctor import Check, Doctor
+    from esair_min.bringup import Check, Doctor
     from esair_min.flash.portlock import holder
     from esair_min.serialport import describe, open_port
 

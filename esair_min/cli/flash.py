@@ -89,7 +89,7 @@ def flash(robot: str, role: str, port: str, bootloader: str, programmer: str | N
     then also writes the fuses its clock needs). The port's lock is held throughout:
     a port another ESAIR program has open is refused.
     """
-    from esair_min.flash.avr import AvrFlash, flash_avr, fuses_for
+    from esair_min.flash.avrdude import AvrFlash, flash_avr, fuses_for
     from esair_min.flash.firmware import firmware
     from esair_min.flash.portlock import PortLock
 
@@ -171,21 +171,31 @@ def _ports(ports: tuple[str, ...], model: Robot) -> dict[str, str]:
     return out
 
 
-def _wait_ready(ser: Any, timeout: float = 5.0) -> str | None:
-    """The board's ``!READY`` line on an open port (opening it reset an Arduino), read
-    line by line so that nothing after it is taken; None when none comes in ``timeout``."""
+def _line_starting(ser: Any, prefix: str, timeout: float, ask: bytes = b"") -> str | None:
+    """The first line from ``ser`` that starts with ``prefix``, read line by line so that
+    nothing after it is taken; ``ask`` is sent first and again every 0.5 s (a board still
+    starting misses it). None when none comes in ``timeout``."""
     import time as _time
 
     buf = b""
     deadline = _time.monotonic() + timeout
+    asked = 0.0
     while _time.monotonic() < deadline:
+        if ask and _time.monotonic() - asked > 0.5:
+            ser.write(ask)
+            asked = _time.monotonic()
         buf += ser.readline()
         if buf.endswith(b"\n"):
             line = buf.decode("latin-1").strip()
             buf = b""
-            if line.startswith("!READY"):
+            if line.startswith(prefix):
                 return line
     return None
+
+
+def _wait_ready(ser: Any, timeout: float = 5.0) -> str | None:
+    """The board's ``!READY`` line on an open port (opening it reset an Arduino)."""
+    return _line_starting(ser, "!READY", timeout)
 
 
 def _booted(link: Any, part: str) -> str | None:
@@ -193,23 +203,8 @@ def _booted(link: Any, part: str) -> str | None:
     or for a PIC18F452 board, which no port reset reaches, its reply to ``v``."""
     if part != "pic18f452":
         return _wait_ready(link)
-    import time as _time
-
     link.reset_input_buffer()
-    buf = b""
-    deadline = _time.monotonic() + 10.0
-    asked = 0.0
-    while _time.monotonic() < deadline:
-        if _time.monotonic() - asked > 0.5:      # asked again: a board still starting
-            link.write(b"v\r\n")                 # (its bootloader's wait) missed it
-            asked = _time.monotonic()
-        buf += link.readline()
-        if buf.endswith(b"\n"):
-            line = buf.decode("latin-1").strip()
-            buf = b""
-            if line.startswith("OK esair-min"):
-                return line
-    return None
+    return _line_starting(link, "OK esair-min", 10.0, ask=b"v\r\n")
 
 
 def _write_motions(model: Robot, ser: Any) -> None:
@@ -249,7 +244,7 @@ def run(robot: str, ports: tuple[str, ...], bootloader: str, attempts: int,
     board as esair monitor does (Ctrl-C ends it).
     """
     from esair_min.cli.monitorloop import run_monitor
-    from esair_min.flash.avr import AvrFlash, flash_avr, holds_image
+    from esair_min.flash.avrdude import AvrFlash, flash_avr, holds_image
     from esair_min.flash.firmware import firmware
     from esair_min.flash.portlock import PortLock
 

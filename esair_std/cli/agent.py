@@ -14,7 +14,7 @@ from esair_min.cli.pipes import friendly
 
 from ..endpoint import reaches_beyond
 from .jsontext import option_value
-from .options import exposure, insecure_option
+from .shared_options import exposure, insecure_option
 
 
 def _pairs(items: tuple[str, ...], what: str) -> dict[str, str]:

@@ -15,7 +15,7 @@ from ..errors import ControlError
 from esair_min.cli.pipes import friendly
 
 from .jsontext import json_or_text, option_value
-from .options import endpoint_option
+from .shared_options import endpoint_option
 from .table import table as _table
 
 ENDPOINT = endpoint_option("The runtime's control endpoint (default: $ESAIR_STD_ENDPOINT, "

@@ -17,7 +17,7 @@ from esair_min.cli.pipes import friendly
 
 from ..plurals import counted
 from .client import default_endpoint
-from .options import exposure, insecure_option
+from .shared_options import exposure, insecure_option
 
 DEFAULT_LISTEN = "127.0.0.1:8080"
 

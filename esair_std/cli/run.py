@@ -20,7 +20,7 @@ from ..errors import ControlError, TransportError
 if TYPE_CHECKING:  # pragma: no cover
     from ..runtime import Runtime
 from ..endpoint import reaches_beyond
-from .options import endpoint_option, exposure, insecure_option
+from .shared_options import endpoint_option, exposure, insecure_option
 from .table import table as _table
 
 

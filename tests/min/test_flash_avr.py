@@ -21,6 +21,7 @@ import pytest
 from esair_min.avr.uno import SimUno, new_chip, read_flash_hex
 from esair_min.model.validate import load_robot
 from esair_min.serialport import open_port
+from tests.support.monitoring import run_until_monitoring
 
 pytestmark = pytest.mark.avr
 
@@ -237,21 +238,8 @@ def test_debians_optiboot_hex_does_not_fit_the_boot_section():
 def run_until_motions(port: Path, build: Path) -> tuple[int, str, str]:
     """``esair run papaman-avr --port PORT`` until it monitors (the motions written or
     skipped), then Ctrl-C (SIGINT): (status, stdout, stderr)."""
-    import signal
-
-    proc = subprocess.Popen([sys.executable, "-m", "esair_min.cli", "run", str(BOARDS),
-                             "--port", str(port), "-o", str(build), "--attempts", "1"],
-                            env=ENV, text=True, stdin=subprocess.DEVNULL,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
-    assert proc.stderr is not None
-    lines = []
-    for line in proc.stderr:                 # the monitor's banner: it now takes Ctrl-C
-        lines.append(line)
-        if line.startswith("monitoring "):
-            break
-    proc.send_signal(signal.SIGINT)
-    out, err = proc.communicate(timeout=60)
-    return proc.returncode, out, "".join(lines) + err
+    return run_until_monitoring(["run", str(BOARDS), "--port", str(port), "-o", str(build),
+                                 "--attempts", "1"], ENV)
 
 
 def ready_line(port: Path, timeout: float = 30) -> str:

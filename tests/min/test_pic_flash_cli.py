@@ -19,6 +19,7 @@ import serial
 from esair_min.model.validate import load_robot
 from esair_min.pic.build import BuildError, build_robot, toolchain
 from esair_min.resources import resolve_robot
+from tests.support.monitoring import run_until_monitoring
 
 pytestmark = [pytest.mark.gpsim, pytest.mark.pty]
 
@@ -83,23 +84,6 @@ def test_esair_flash_with_no_bootloader_answering_exits_non_zero(built):
     assert "no bootloader answered" in proc.stderr and "Traceback" not in proc.stderr
 
 
-def run_until_monitoring(port: str, built: Path) -> tuple[int, str, str]:
-    """``esair run papaman --port PORT`` until it monitors, then Ctrl-C (SIGINT)."""
-    proc = subprocess.Popen([sys.executable, "-m", "esair_min.cli", "run", "papaman",
-                             "--port", port, "-o", str(built)], env=ENV, text=True,
-                            stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, cwd=ROOT)
-    assert proc.stderr is not None
-    lines = []
-    for line in proc.stderr:                 # the monitor's banner: it now takes Ctrl-C
-        lines.append(line)
-        if line.startswith("monitoring "):
-            break
-    proc.send_signal(signal.SIGINT)
-    out, err = proc.communicate(timeout=60)
-    return proc.returncode, out, "".join(lines) + err
-
-
 def test_esair_run_flashes_a_blank_pic_writes_the_motions_then_skips_what_is_done(built):
     """A chip holding only its bootloader, a blank 24LC256 on its bus: esair run flashes
     the central through the bootloader, writes the motions over the robot's link and
@@ -113,12 +97,13 @@ def test_esair_run_flashes_a_blank_pic_writes_the_motions_then_skips_what_is_don
         line = sim.stdout.readline()
         assert line.startswith("pty: "), line
         port = line.split()[1]
-        status, out, err = run_until_monitoring(port, built)
+        run = ["run", "papaman", "--port", port, "-o", str(built)]
+        status, out, err = run_until_monitoring(run, ENV, ROOT)
         assert status == 130, out + err
         assert "central: written to" in out and "verified" in out
         assert "motions: wrote 67 of 67 chunks (1070 bytes)" in out, out
         assert "Traceback" not in err
-        status, out, err = run_until_monitoring(port, built)
+        status, out, err = run_until_monitoring(run, ENV, ROOT)
         assert status == 130, out + err
         assert re.search(r"central: \S+ already runs build [0-9a-f]{8}: not flashed", out), out
         assert "motions: the robot already holds them (CRC 0x2C20)" in out, out

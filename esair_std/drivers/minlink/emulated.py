@@ -91,9 +91,11 @@ class EmulatedRobot:
         ready, _, _ = select.select([proc.stdout], [], [], START_TIMEOUT_S)
         line = proc.stdout.readline().decode(errors="replace").strip() if ready else ""
         if not line.startswith("/dev/"):
+            self._errors = None                  # read here, before _reap closes it
             self._reap(signal.SIGKILL)
             errors.seek(0)
             err = errors.read().decode(errors="replace").strip()
+            errors.close()
             raise LinkError(f"the emulator did not start ({' '.join(cmd[2:])}): "
                             f"{err.splitlines()[-1] if err else 'no pty path printed'}")
         with self._lock:
