@@ -14,11 +14,14 @@ side by side:
   in its virtual time, mapped from time.monotonic() by its pacer's origin) against the
   line-and-tick floor (tick + oMSAAA's line time), feet samples lost;
 - STARFISH: sound onset -> picture per shot against its floor (the turn at the board
-  files' max_omega_mrad_s), audio frames lost. STARFISH's driver renders the room's
+  files' max_omega_mrad_s), audio frames lost.
+- the control endpoint under the cap: ``ls`` and ``ping`` asked from outside the group
+  (the client ``esair std`` uses), p50 / p99 and how many went unanswered in 5 s (issue
+  37 item 5's goal: p99 <= 1 s). STARFISH's driver renders the room's
   audio and pictures itself: that simulation work is inside the cap.
 
     python bench/small_computer.py [--robots papaman,starfish] [--modes thread,process]
-        [--window 10] [--n 100] [--shots 3] [--caps capped,uncapped]
+        [--window 10] [--n 100] [--shots 3] [--asks 20] [--caps capped,uncapped]
 Prints figures; asserts nothing. Every control group it made is removed at the end
 (also on an error or Ctrl-C), after every process in it has been ended.
 """
@@ -64,6 +67,11 @@ class Cap:
 
     def __enter__(self) -> "Cap":
         made = []
+        if self.v2:            # the controllers must be enabled for the root's children
+            try:
+                (self.dirs[0].parent / "cgroup.subtree_control").write_text("+cpu +memory")
+            except OSError:
+                pass           # already enabled, or refused: the limits' writes say so
         try:
             for d in self.dirs:
                 d.mkdir()
@@ -288,7 +296,9 @@ def inner(args) -> None:
     go = os.path.join(store, "go")
     dep = papaman_deployment(args.port, args.n, go) if args.robot == "papaman" \
         else starfish_deployment(store)
-    with Runtime(dep, mode=args.mode, endpoint=free_endpoint(), settle_heap=True) as rt:
+    # the control endpoint on in both modes, as ``esair std run`` has it
+    with Runtime(dep, mode=args.mode, endpoint=args.endpoint, settle_heap=True,
+                 control=True) as rt:
         end = time.monotonic() + 300
         while time.monotonic() < end and \
                 any(c["state"] not in ("running", "busy", "ready") for c in rt.ls()):
@@ -338,12 +348,14 @@ def starfish_figure(rt, shots: int) -> dict:
 def one(robot: str, mode: str, limit: bool, args) -> dict:
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(
         [str(ROOT), str(BENCH), *filter(None, [os.environ.get("PYTHONPATH")])]))
+    env.pop("PYTHONDONTWRITEBYTECODE", None)       # bytecode read, as installed on a robot
     emu = None
     res: dict = {"robot": robot, "mode": mode, "capped": limit}
     with Cap(limit) as cap:
         res["groups"] = [str(d) for d in cap.dirs]
+        ep = free_endpoint()
         cmd = [sys.executable, str(Path(__file__).resolve()), "--inner", robot, "--mode", mode,
-               "--n", str(args.n), "--shots", str(args.shots)]
+               "--n", str(args.n), "--shots", str(args.shots), "--endpoint", ep]
         tmp = None
         if robot == "papaman":
             import tempfile
@@ -376,6 +388,7 @@ def one(robot: str, mode: str, limit: bool, args) -> dict:
             res["cpu_pct"] = 100 * sum(c1[p] - c0[p] for p in c1 if p in c0) / dt
             res["rss_mb"], res["pss_mb"] = memory_of(pids)
             res["processes"] = len(pids)
+            res.update(control_asks(ep, robot, args.asks))
             child.stdin.write("go\n")
             child.stdin.flush()
             line = child.stdout.readline()
@@ -402,6 +415,28 @@ def one(robot: str, mode: str, limit: bool, args) -> dict:
     else:
         res.update(shots(fig))
     return res
+
+
+def control_asks(ep: str, robot: str, n: int) -> dict:
+    """The control endpoint under the cap: ``n`` rounds of ``ls`` and ``ping`` from
+    outside the group (the client ``esair std`` uses), each one's time; unanswered in 5 s
+    counted."""
+    from esair_std.cli.client import Client
+    from esair_std.errors import StdError
+
+    took, missed = [], 0
+    with Client(ep, robot=robot) as c:
+        for _ in range(n):
+            for verb in ("ls", "ping"):
+                t = time.monotonic()
+                try:
+                    c.call(verb, None, 5.0)
+                    took.append((time.monotonic() - t) * 1e3)
+                except StdError:
+                    missed += 1
+            time.sleep(0.2)
+    return {"ask_p50_ms": pct(took, 0.5), "ask_p99_ms": pct(took, 0.99),
+            "ask_n": len(took), "ask_missed": missed}
 
 
 def line_and_tick_ms() -> float:
@@ -445,6 +480,9 @@ def show(rows: list[dict], floor_ms: float) -> None:
         print(f"{tag} RSS {r['rss_mb']:6.1f} MB  PSS {r['pss_mb']:6.1f} MB "
               f"({r['processes']} processes; {mem})  CPU {r['cpu_pct']:5.1f} % of a core  "
               f"start -> ready {r['ready_s']:5.2f} s")
+        print(f"{'':26s} control endpoint (ls, ping; goal p99 <= 1 s): p50 "
+              f"{r['ask_p50_ms']:.1f} ms, p99 {r['ask_p99_ms']:.1f} ms (n {r['ask_n']}, "
+              f"unanswered {r['ask_missed']})")
         if r["robot"] == "papaman":
             print(f"{'':26s} command -> register write p50 {r['cmd_p50_ms']:.2f} ms, "
                   f"p99 {r['cmd_p99_ms']:.2f} ms = {r['cmd_p99_ms'] / floor_ms:.2f}x the "
@@ -471,6 +509,8 @@ def main() -> None:
     ap.add_argument("--settle", type=float, default=3.0, help="seconds after ready")
     ap.add_argument("--n", type=int, default=100, help="PAPA-MAN: commands")
     ap.add_argument("--shots", type=int, default=3, help="STARFISH: shots")
+    ap.add_argument("--asks", type=int, default=20, help="rounds of ls + ping")
+    ap.add_argument("--endpoint", help=argparse.SUPPRESS)
     ap.add_argument("--inner", help=argparse.SUPPRESS)
     ap.add_argument("--mode", help=argparse.SUPPRESS)
     ap.add_argument("--port", help=argparse.SUPPRESS)
@@ -484,12 +524,17 @@ def main() -> None:
     signal.signal(signal.SIGTERM, _interrupted)      # the groups are removed then too
     if os.geteuid() != 0:
         raise SystemExit("small_computer.py needs root (it makes a control group)")
+    # an installed package has its bytecode: compiled once here (a start would otherwise
+    # compile every module it imports, with PYTHONDONTWRITEBYTECODE set)
+    subprocess.run([sys.executable, "-m", "compileall", "-q", str(ROOT / "esair_std"),
+                    str(ROOT / "esair_min"), str(BENCH / "small_computer_comps.py")],
+                   check=False, stdout=subprocess.DEVNULL)
     floor = line_and_tick_ms()
     print(f"the robot side capped at {CPU_SHARE:.0%} of one core and {MEMORY >> 20} MB "
           f"(cgroup {'v2' if Cap.V2.exists() else 'v1'}), standing in for a Raspberry Pi "
           f"Zero 2 W class board; the emulated boards (and STARFISH's remote center in "
           f"process mode) outside; load average {os.getloadavg()[0]:.1f} on "
-          f"{os.cpu_count()} cores")
+          f"{os.cpu_count()} cores; bytecode compiled first, as an installed package has it")
     rows = []
     for robot in args.robots.split(","):
         for mode in args.modes.split(","):

@@ -37,8 +37,9 @@ def read_mcap(path: Path | str) -> tuple[dict[str, dict[str, list]], list[tuple[
     try:
         with open(path, "rb") as f:
             for schema, channel, message in make_reader(f).iter_messages(log_time_order=True):
-                if schema is not None and schema.name == "esair.Command":
-                    continue                    # the commands recorded: not samples
+                name = schema.name if schema is not None else "esair.Sample"
+                if name != "esair.Sample" and not name.startswith("esair.Sample."):
+                    continue                    # commands, the latch, Foxglove's: not samples
                 m = json.loads(message.data)
                 t, value = float(m["t"]), m["value"]
                 if isinstance(value, dict) and isinstance(value.get("notice"), str):

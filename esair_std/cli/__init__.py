@@ -34,6 +34,7 @@ LAZY: dict[str, str] = {
     "certs": "certs:certs",
     "hmi": "hmi:hmi_cmd", "hmi-password": "hmi:hmi_password_cmd",   # docs/hmi.md
     "record": "hmi:record_cmd", "replay": "hmi:replay_cmd",
+    "foxglove": "foxglove:foxglove_cmd",        # docs/foxglove.md
 }
 
 

@@ -104,6 +104,11 @@ INTERRUPTED = 130
                    "docs/hmi.md) and print its URL.")
 @click.option("--hmi-listen", default="127.0.0.1:8080", show_default=True,
               metavar="HOST:PORT", help="Where --hmi serves the page.")
+@click.option("--foxglove", "foxglove", is_flag=True,
+              help="Also serve the robot live to Foxglove / Lichtblick (`esair std foxglove`, "
+                   "docs/foxglove.md) and print its ws:// URL.")
+@click.option("--foxglove-listen", default="127.0.0.1:8765", show_default=True,
+              metavar="HOST:PORT", help="Where --foxglove listens.")
 @click.option("--stopped", is_flag=True,
               help="Start latched in the STOPPED state: no actuator command is taken until "
                    "`esair std release` (docs/std.md, \"The latched stop\").")
@@ -112,7 +117,7 @@ INTERRUPTED = 130
 def run_cmd(deployment: str, mode: str | None, seconds: float | None, endpoint: str | None,
             no_control: bool, port: str | None, trace: str | None, scenario: str | None,
             top: bool | None, join: tuple[str, ...], hmi: bool, hmi_listen: str,
-            stopped: bool, insecure: bool) -> None:
+            foxglove: bool, foxglove_listen: str, stopped: bool, insecure: bool) -> None:
     """Deploy FILE (a deployment file, or a bundled example such as `lab`) and run it
     until Ctrl-C (exit status 130), or for --run SECONDS (exit status 1, naming them,
     when components are failed at the end). Other terminals control it
@@ -136,8 +141,9 @@ def run_cmd(deployment: str, mode: str | None, seconds: float | None, endpoint: 
                  stopped=stopped)
     if rt.mode_name == "thread" and not no_control:
         rt.control = True
-    if hmi and not rt.control:
-        raise ControlError("--hmi needs the control endpoint (drop --no-control)")
+    if (hmi or foxglove) and not rt.control:
+        raise ControlError(f"--{'hmi' if hmi else 'foxglove'} needs the control endpoint "
+                           "(drop --no-control)")
     if rt.control and reaches_beyond(rt.endpoint) and not _secured(rt):
         exposure(f"listening on {rt.endpoint}", "TLS client certificates (a tls/ endpoint) "
                  "or logins: a security section (docs/std-network.md)", insecure)
@@ -154,20 +160,24 @@ def run_cmd(deployment: str, mode: str | None, seconds: float | None, endpoint: 
                 where += f" (local: {rt.local_endpoint})"
             click.echo(f"robot {rt.robot!r} running in {rt.mode_name} mode{where} "
                        f"({len(rt.ls())} components)", err=True)
-            child = None
-            if hmi:
-                from ..hmi.child import HmiChild
-                child = HmiChild(rt.local_endpoint or rt.endpoint, hmi_listen, insecure=insecure)
-                click.echo(f"hmi: {child.start()}", err=True)
+            from ..hmi.child import HmiChild
+            children: list[HmiChild] = []
             if top is None:
                 top = seconds is None and sys.stdout.isatty()
             try:
+                for on, name, listen in ((hmi, "hmi", hmi_listen),
+                                         (foxglove, "foxglove", foxglove_listen)):
+                    if on:
+                        child = HmiChild(rt.local_endpoint or rt.endpoint, listen,
+                                         insecure=insecure, command=name)
+                        children.append(child)
+                        click.echo(f"{name}: {child.start()}", err=True)
                 if top:
                     _live(rt, stop, seconds)
                 else:
                     stop.wait(seconds)
             finally:
-                if child is not None:
+                for child in children:
                     child.stop()
             ctrl_c.stopping = True
             if seconds is not None and not ctrl_c.hit:

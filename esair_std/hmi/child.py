@@ -1,5 +1,6 @@
-"""``esair std run ... --hmi``: the HMI as a child process of the runtime's command (its
-own process, as on the remote center's computer), ended with it."""
+"""``esair std run ... --hmi`` (and ``--foxglove``): the HMI (the Foxglove server) as a
+child process of the runtime's command (its own process, as on the remote center's
+computer), ended with it."""
 
 from __future__ import annotations
 
@@ -38,8 +39,9 @@ def _end(proc: subprocess.Popen[bytes]) -> None:
 
 class HmiChild:
     def __init__(self, endpoint: str, listen: str, root: Path | None = None,
-                 insecure: bool = False):
+                 insecure: bool = False, command: str = "hmi"):
         self.endpoint, self.listen, self.insecure = endpoint, listen, insecure
+        self.command = command              # "hmi" or "foxglove": the same life cycle
         self.root = root or Path(__file__).resolve().parents[2]   # the tree it runs from
         self.proc: subprocess.Popen[bytes] | None = None
         self.url = ""
@@ -51,19 +53,20 @@ class HmiChild:
         # not a pipe: nobody has to drain it; closed in stop()
         errors = self._errors = tempfile.TemporaryFile()  # noqa: SIM115
         self.proc = subprocess.Popen(
-            [sys.executable, "-m", "esair_min.cli", "std", "hmi", "-e", self.endpoint,
+            [sys.executable, "-m", "esair_min.cli", "std", self.command, "-e", self.endpoint,
              "--listen", self.listen, *(["--insecure"] if self.insecure else [])],
             stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=errors, env=env,
             preexec_fn=_die_with_parent)
         assert self.proc.stdout is not None
         ready, _, _ = select.select([self.proc.stdout], [], [], START_TIMEOUT_S)
         line = self.proc.stdout.readline().decode(errors="replace").strip() if ready else ""
-        if not line.startswith(("http://", "https://")):
+        if not line.startswith(("http://", "https://", "ws://", "wss://")):
             _end(self.proc)                       # its last words are complete
             errors.seek(0)
             err = errors.read().decode(errors="replace").strip().splitlines()
             self.stop()
-            raise StdError(f"the HMI did not start: {err[-1] if err else 'no URL printed'}")
+            what = "the HMI" if self.command == "hmi" else f"esair std {self.command}"
+            raise StdError(f"{what} did not start: {err[-1] if err else 'no URL printed'}")
         self.url = line
         return line
 

@@ -411,7 +411,8 @@ class Agent:
         t = b.get("timeout", 1.0)
         self._resource.submit(res, "write", (b.get("cmd"),), self._answer(req.reply, res),
                               float(t) if isinstance(t, (int, float)) else 1.0,
-                              copy=False)     # just decoded from the wire: its own already
+                              copy=False,     # just decoded from the wire: its own already
+                              sender=who)
 
     @staticmethod
     def _answer(answer: wire.Answer, resource: str) -> Callable[[bool, Any], None]:

@@ -143,7 +143,7 @@ class ResourceHost:
     # ---- requests (any thread)
     def submit(self, resource: str, op: str, args: tuple,
                on_done: Callable[[bool, Any], None], timeout: float = 1.0,
-               copy: bool = True) -> None:
+               copy: bool = True, sender: str = "") -> None:
         """Queue ``op`` (write | configure) for the host thread; ``on_done(ok, value)`` is
         called once, from the host thread (or here if it cannot be queued). ``value`` is
         the result, or a ResourceLost / the error's text. ``copy=False``: ``args`` were
@@ -167,21 +167,22 @@ class ResourceHost:
             if copy:
                 args = tuple(codec.copy(a) for a in args)
             now = time.monotonic()
-            self.commands.put_nowait((slot, op, args, on_done, now + timeout, now))
+            self.commands.put_nowait((slot, op, args, on_done, now + timeout, now, sender))
         except queue.Full:
             self.c.add("commands_refused")
             on_done(False, "command queue full")
         except StdError as exc:
             on_done(False, exc.message)
 
-    def _submit(self, resource: str, op: str, args: tuple, timeout: float) -> Any:
+    def _submit(self, resource: str, op: str, args: tuple, timeout: float,
+                sender: str = "") -> Any:
         done = threading.Event()
         box: list = []
 
         def finished(ok: bool, value: Any) -> None:
             box.append((ok, value))
             done.set()
-        self.submit(resource, op, args, finished, timeout)
+        self.submit(resource, op, args, finished, timeout, sender=sender)
         if not done.wait(timeout):
             raise CommandError(resource, f"no answer within {timeout:g} s")
         ok, value = box[0]
@@ -190,7 +191,7 @@ class ResourceHost:
         raise wire.failure(value, resource)
 
     def command(self, sender: str, resource: str, command: Any, timeout: float) -> Any:
-        return self._submit(resource, "write", (command,), timeout)
+        return self._submit(resource, "write", (command,), timeout, sender)
 
     def configure(self, resource: str, key: str, value: Any, timeout: float = 2.0) -> Any:
         return self._submit(resource, "configure", (str(key), value), timeout)
@@ -374,7 +375,7 @@ class ResourceHost:
         return wait
 
     def _run(self, slot: Slot, op: str, args: tuple, on_done: Any, expires: float,
-             asked: float | None = None) -> None:
+             asked: float | None = None, sender: str = "") -> None:
         if time.monotonic() > expires:       # the sender gave up: do not act late
             slot.count("expired")
             return on_done(False, "expired in the queue")
@@ -393,7 +394,7 @@ class ResourceHost:
         except ResourceLost as exc:
             on_done(False, exc)
             if op == "write":
-                self._ran(slot, args[0], asked, {"error": exc.reason})
+                self._ran(slot, args[0], asked, {"error": exc.reason}, sender)
             return None
         except CommandError as exc:
             slot.count("command_errors")
@@ -402,25 +403,27 @@ class ResourceHost:
                 why = self.halted              # STOPPED while it ran: the STOP's words
             on_done(False, why)
             if op == "write":
-                self._ran(slot, args[0], asked, {"error": why})
+                self._ran(slot, args[0], asked, {"error": why}, sender)
             return None
         except Exception as exc:  # noqa: BLE001 - reaches the sender as CommandError
             slot.count("command_errors")
             on_done(False, f"{type(exc).__name__}: {exc}")
             if op == "write":
-                self._ran(slot, args[0], asked, {"error": f"{type(exc).__name__}: {exc}"})
+                self._ran(slot, args[0], asked, {"error": f"{type(exc).__name__}: {exc}"}, sender)
             return None
         except BaseException as exc:
             on_done(False, ResourceLost(slot.name, f"its host died: {type(exc).__name__}: {exc}"))
             raise
         on_done(True, value)
         if op == "write":
-            self._ran(slot, args[0], asked, {"ok": value})
+            self._ran(slot, args[0], asked, {"ok": value}, sender)
 
-    def _ran(self, slot: Slot, command: Any, asked: float | None, outcome: dict) -> None:
+    def _ran(self, slot: Slot, command: Any, asked: float | None, outcome: dict,
+             sender: str = "") -> None:
         """A command the actuator ran and its outcome, for recorders (after its sender has
-        its answer): ``{r, seq, t, v: {command, ok | error}}``, ``seq`` the actuator's
-        command number, ``t`` when it reached this host (time.time()). Published with the
+        its answer): ``{r, seq, t, v: {command, ok | error, by}}``, ``seq`` the actuator's
+        command number, ``t`` when it reached this host (time.time()), ``by`` its sender
+        (left out when the host itself ran it: a STOP's halt). Published with the
         others of this entry in one message, at most records.BATCH_S after the first
         (transport/records.py)."""
         with self._rec_lock:
@@ -429,7 +432,9 @@ class ResourceHost:
             t = now if asked is None else now - (time.monotonic() - asked)
             if not self._records:
                 self._records_due = time.monotonic() + records.BATCH_S
-            self._records.append(records.record(slot.name, slot.cseq, t, outcome, command))
+            self._records.append(records.record(slot.name, slot.cseq, t,
+                                                dict(outcome, by=sender) if sender else outcome,
+                                                command))
             full = len(self._records) >= records.BATCH_MAX
         if "ok" in outcome:
             with slot._lock:

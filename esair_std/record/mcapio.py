@@ -1,10 +1,12 @@
-"""MCAP files of samples: one channel per sensor, messages ``{"seq", "t", "value"}``
-encoded as JSON under the JSON schema :data:`SCHEMA`; log time = the sample's time.
-Commands, one channel per actuator (topic ``command/<actuator>``), messages ``{"seq",
-"t", "command", "ok" | "error"}`` under :data:`COMMAND_SCHEMA`; log time = when the
-command reached the actuator's host. The latched STOP's state (docs/std.md), one
-channel ``latch``, messages ``{"seq", "t", "stopped", ...}`` under :data:`LATCH_SCHEMA`
-(at the recording's start when the robot is STOPPED then, and at each change)."""
+"""MCAP recordings (docs/hmi.md, docs/foxglove.md): what :mod:`.foxmsgs` makes of a
+running robot, written with the ``mcap`` library. Each sensor keeps a channel of its own
+(topic = its name, messages ``{"seq", "t", "value"}``, JSON schema ``esair.Sample.<sensor>``
+giving the value's fields; files before them: one schema :data:`SCHEMA`); commands, one
+channel per actuator (topic ``command/<actuator>``, ``{"seq", "t", "command", "ok" |
+"error"}``, schema :data:`COMMAND_SCHEMA`, log time = when the command reached the
+actuator's host); the latched STOP's state (docs/std.md), channel ``latch``, ``{"seq",
+"t", "stopped", ...}`` under :data:`LATCH_SCHEMA`; and the Foxglove-native channels.
+The readers here read the samples, commands and latch of both kinds of file."""
 
 from __future__ import annotations
 
@@ -16,6 +18,7 @@ from mcap.reader import make_reader
 from mcap.writer import Writer
 
 from ..errors import StdError
+from .foxmsgs import COMMAND, Converter, Out, Schema
 
 SCHEMA = {"type": "object", "title": "esair.Sample",
           "properties": {"seq": {"type": "integer", "description": "the sensor's sample number, from 1"},
@@ -24,15 +27,7 @@ SCHEMA = {"type": "object", "title": "esair.Sample",
           "required": ["seq", "t", "value"]}
 
 
-COMMAND_SCHEMA = {
-    "type": "object", "title": "esair.Command",
-    "properties": {"seq": {"type": "integer", "description": "the actuator's command number, from 1"},
-                   "t": {"type": "number", "description": "seconds since the epoch, when it reached "
-                                                          "the actuator's host"},
-                   "command": {"description": "the command as sent"},
-                   "ok": {"description": "the actuator's answer (the command ran)"},
-                   "error": {"type": "string", "description": "why it failed"}},
-    "required": ["seq", "t", "command"]}
+COMMAND_SCHEMA = json.loads(COMMAND.data)
 COMMAND_TOPIC = "command/"
 LATCH_TOPIC = "latch"
 LATCH_SCHEMA = {
@@ -45,55 +40,55 @@ LATCH_SCHEMA = {
                    "reason": {"type": "string"},
                    "released_by": {"type": "string", "description": "who released it"}},
     "required": ["seq", "t", "stopped"]}
+LATCH = Schema("esair.Latch", "jsonschema", json.dumps(LATCH_SCHEMA).encode())
 
 
 class SampleWriter:
+    """Writes :class:`~.foxmsgs.Out` messages: a schema registered once per name, a
+    channel once per topic; the samples' and commands' own numbers as the sequence."""
+
     def __init__(self, f: BinaryIO):
         self.w = Writer(f)
         self.w.start(profile="", library="esair")
-        self.schema = self.w.register_schema(name="esair.Sample", encoding="jsonschema",
-                                             data=json.dumps(SCHEMA).encode())
+        self.conv = Converter()
         self.channels: dict[str, int] = {}
-        self._command_schema: int | None = None
+        self.data_channels = 0        # the samples', commands', latch's (what `record` counts)
+        self._schemas: dict[str, int] = {}
+
+    def put(self, out: Out) -> None:
+        ch = self.channels.get(out.topic)
+        if ch is None:
+            sid = self._schemas.get(out.schema.name)
+            if sid is None:
+                sid = self._schemas[out.schema.name] = self.w.register_schema(
+                    name=out.schema.name, encoding=out.schema.encoding, data=out.schema.data)
+            ch = self.channels[out.topic] = self.w.register_channel(
+                topic=out.topic, message_encoding=out.schema.message_encoding, schema_id=sid)
+            self.data_channels += out.schema.name.startswith(("esair.Sample.", "esair.Command",
+                                                              "esair.Latch"))
+        ns = int(out.t * 1e9)
+        self.w.add_message(channel_id=ch, log_time=ns, publish_time=ns,
+                           sequence=out.seq & 0xFFFFFFFF, data=out.data)
 
     def write(self, topic: str, seq: int, t: float, value: Any) -> None:
-        ch = self.channels.get(topic)
-        if ch is None:
-            ch = self.channels[topic] = self.w.register_channel(
-                topic=topic, message_encoding="json", schema_id=self.schema)
-        ns = int(t * 1e9)
-        self.w.add_message(channel_id=ch, log_time=ns, publish_time=ns, sequence=seq & 0xFFFFFFFF,
-                           data=json.dumps({"seq": seq, "t": t, "value": value},
-                                           separators=(",", ":")).encode())
+        """One sample of the sensor ``topic``, and the native messages made of it."""
+        for out in self.conv.sample(topic, seq, t, value):
+            self.put(out)
+
+    def write_message(self, msg: dict) -> None:
+        """A bridge message that is no sample: a log line, a behavior's state, the link."""
+        for out in self.conv.message(msg):
+            self.put(out)
 
     def write_command(self, actuator: str, seq: int, t: float, record: dict) -> None:
         """One command ``record`` ({command, ok | error}) of ``actuator``."""
-        topic = COMMAND_TOPIC + actuator
-        ch = self.channels.get(topic)
-        if ch is None:
-            if self._command_schema is None:
-                self._command_schema = self.w.register_schema(
-                    name="esair.Command", encoding="jsonschema",
-                    data=json.dumps(COMMAND_SCHEMA).encode())
-            ch = self.channels[topic] = self.w.register_channel(
-                topic=topic, message_encoding="json", schema_id=self._command_schema)
-        ns = int(t * 1e9)
-        self.w.add_message(channel_id=ch, log_time=ns, publish_time=ns, sequence=seq & 0xFFFFFFFF,
-                           data=json.dumps(dict(record, seq=seq, t=t),
-                                           separators=(",", ":")).encode())
+        for out in self.conv.command(actuator, seq, t, record):
+            self.put(out)
 
     def write_latch(self, seq: int, t: float, state: dict) -> None:
         """One state of the latched STOP (``{"stopped", "by", "reason", ...}``)."""
-        ch = self.channels.get(LATCH_TOPIC)
-        if ch is None:
-            schema = self.w.register_schema(name="esair.Latch", encoding="jsonschema",
-                                            data=json.dumps(LATCH_SCHEMA).encode())
-            ch = self.channels[LATCH_TOPIC] = self.w.register_channel(
-                topic=LATCH_TOPIC, message_encoding="json", schema_id=schema)
-        ns = int(t * 1e9)
-        self.w.add_message(channel_id=ch, log_time=ns, publish_time=ns, sequence=seq,
-                           data=json.dumps(dict(state, seq=seq, t=t),
-                                           separators=(",", ":")).encode())
+        self.put(Out(LATCH_TOPIC, LATCH, json.dumps(dict(state, seq=seq, t=t),
+                                                    separators=(",", ":")).encode(), t, seq))
 
     def finish(self) -> None:
         self.w.finish()
@@ -131,14 +126,15 @@ def _read(path: str | Path) -> Iterator[tuple[str, str, int, float, Any]]:
                 if channel.message_encoding != "json":
                     continue
                 m = json.loads(message.data)
-                if _schema is not None and _schema.name == "esair.Latch":
+                name = _schema.name if _schema is not None else "esair.Sample"
+                if name == "esair.Latch":
                     yield ("latch", channel.topic, int(m["seq"]), float(m["t"]),
                            {k: v for k, v in m.items() if k not in ("seq", "t")})
-                elif _schema is not None and _schema.name == "esair.Command":
+                elif name == "esair.Command":
                     rec = {k: v for k, v in m.items() if k not in ("seq", "t")}
                     yield ("command", channel.topic[len(COMMAND_TOPIC):], int(m["seq"]),
                            float(m["t"]), rec)
-                else:
+                elif name == "esair.Sample" or name.startswith("esair.Sample."):
                     yield "sample", channel.topic, int(m["seq"]), float(m["t"]), m["value"]
         except (ValueError, KeyError, TypeError) as exc:
             raise StdError(f"{path} is not an MCAP recording of ESAIR samples: {exc}") from None

@@ -4,7 +4,8 @@
 "s", ...}``) and the command records the actuators' hosts publish (``esair/<robot>/
 command/<actuator>``: ``{seq, t, v: {command, ok | error}}``, subscribed with
 :meth:`Tap.listen`), and the latched STOP's state (``{"t": "latch"}``, channel ``latch``), and writes them
-to MCAP on a thread of its own: the callers (Zenoh's
+to MCAP on a thread of its own, with the log lines, behaviors' states and link
+state it emits (Foxglove's channels: foxmsgs.py): the callers (Zenoh's
 thread, the bridge) only queue (bounded; what overflows is counted in ``dropped``). A
 sample or command number that does not follow the last one of its resource is a gap,
 counted too."""
@@ -55,6 +56,9 @@ class Tap:
             t = v.get("t")
             self._queue({"t": "l", "ts": t if isinstance(t, (int, float)) else time.time(),
                          "v": {k: x for k, x in v.items() if k != "t"}})
+        elif msg.get("t") in ("log", "state", "link", "ls"):
+            # log lines and state changes, a behavior's bearing, the link: native channels
+            self._queue({"t": "m", "m": msg})
 
     def listen(self, bus: Any, robot: str) -> None:
         """Record the commands ``robot``'s actuators run, from ``bus`` (until stop())."""
@@ -85,6 +89,9 @@ class Tap:
                 return
             if m["t"] == "c":
                 self._write_command(m["r"], m["m"])
+                continue
+            if m["t"] == "m":
+                self.writer.write_message(m["m"])
                 continue
             if m["t"] == "l":
                 self._latches += 1
@@ -126,4 +133,4 @@ class Tap:
             self._thread.join()
         self.writer.finish()
         self.f.close()
-        return dict(self.c, channels=len(self.writer.channels))
+        return dict(self.c, channels=self.writer.data_channels)

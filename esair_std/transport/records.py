@@ -3,10 +3,11 @@ recorders (``esair std record``, the HMI's ● rec) and the HMI's pose and slide
 
 The host of a resource entry (an actuator, or a driver and its children) publishes its
 actuators' records in batches, on ``esair/<robot>/commands/<entry>`` (keys.commands): a JSON list of
-``{"r": actuator, "seq": n, "t": when, "v": {"command": ..., "ok" | "error": ...}}``
-(``seq`` the actuator's command number, ``t`` when the command reached the host,
-time.time()). A batch leaves at most :data:`BATCH_S` after its first record, or at once
-with :data:`BATCH_MAX` records: at PAPA-MAN's ~120 servo commands a second that is ~20
+``{"r": actuator, "seq": n, "t": when, "v": {"command": ..., "ok" | "error": ..., "by":
+sender}}`` (``seq`` the actuator's command number, ``t`` when the command reached the
+host, time.time(); ``by`` who sent it, absent for the host's own halt on a STOP). A
+batch leaves at most :data:`BATCH_S` after its first record, or at once with
+:data:`BATCH_MAX` records: at PAPA-MAN's ~120 servo commands a second that is ~20
 messages a second in place of ~120, and each message costs its receiver about the same
 whatever it holds (Zenoh's receive path: bench/hmi_figures.py, docs/hmi.md). A listener takes
 from a batch only the records of that entry's own actuators (``<entry>`` or

@@ -359,9 +359,9 @@ def test_record_button_then_replay_with_the_time_slider(robot, browser):
     feet = [s for s in read_samples(path) if s[0] == "papaman.feet"]
     assert len(feet) >= 3 and [s[1] for s in feet] == list(range(feet[0][1], feet[0][1] + len(feet)))
     knee = [c for c in read_commands(path) if c[0] == "papaman.servo.l_knee"]
-    assert [c[3] for c in knee] == [{"command": sent[0], "ok": "odd100"},
-                                    {"command": sent[1], "error": refusal},
-                                    {"command": sent[2], "ok": "odd090"}]
+    assert [c[3] for c in knee] == [{"command": sent[0], "ok": "odd100", "by": "hmi"},
+                                    {"command": sent[1], "error": refusal, "by": "hmi"},
+                                    {"command": sent[2], "ok": "odd090", "by": "hmi"}]
     assert [c[1] for c in knee] == list(range(knee[0][1], knee[0][1] + 3))
     assert len(list(read_commands(path))) == 3
     said = f"recorded {path.name}: {len(list(read_samples(path)))} samples and 3 commands, 0 dropped"

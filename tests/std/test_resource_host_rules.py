@@ -245,7 +245,7 @@ def test_records_share_a_message_until_their_batch_is_due_or_full(held, monkeypa
     host.stop()
     assert port.batches == [("arm", 3), ("arm", 2)]   # the rest when the host stopped
     assert [(r, rec["seq"], rec["v"]) for r, rec in port.records] == [
-        ("arm", i + 1, {"command": i, "ok": {"ran": i}}) for i in range(5)]
+        ("arm", i + 1, {"command": i, "ok": {"ran": i}, "by": "b"}) for i in range(5)]
 
 
 def test_a_record_leaves_by_itself_once_its_batch_is_due(held, monkeypatch):

@@ -333,8 +333,9 @@ def test_each_command_run_is_published_once_with_its_number_time_and_outcome(mod
         assert warm == list(range(warm[0], warm[0] + len(warm)))
         assert [r["seq"] for r in got] == [warm[-1] + 1, warm[-1] + 2]
         n = got[0]["v"]["ok"]["n"]
-        assert [r["v"] for r in got] == [{"command": "a", "ok": {"n": n, "gain": 1}},
-                                         {"command": {"fail": "jam"}, "error": "ValueError: jam"}]
+        assert [r["v"] for r in got] == [   # with its sender
+            {"command": "a", "ok": {"n": n, "gain": 1}, "by": "c"},
+            {"command": {"fail": "jam"}, "error": "ValueError: jam", "by": "c"}]
         assert all(before <= r["t"] <= after for r in got)
     finally:
         bus.close()

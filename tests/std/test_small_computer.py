@@ -69,7 +69,7 @@ def test_a_short_run_prints_its_figures_and_leaves_nothing(tmp_path):
     env = dict(os.environ, TMPDIR=str(tmp_path), PYTHONPATH=str(ROOT), **{key: value})
     out = subprocess.run([sys.executable, str(ROOT / "bench" / "small_computer.py"),
                           "--robots", "papaman", "--modes", "thread", "--window", "1",
-                          "--settle", "0.5", "--n", "12"],
+                          "--settle", "0.5", "--n", "12", "--asks", "3"],
                          cwd=ROOT, env=env, capture_output=True, text=True, timeout=600)
     assert out.returncode == 0, out.stderr
     assert "Raspberry Pi Zero 2 W" in out.stdout
@@ -80,6 +80,7 @@ def test_a_short_run_prints_its_figures_and_leaves_nothing(tmp_path):
         assert r["cmd_n"] == 12 and r["cmd_errors"] == 0 and r["writes"] >= 12
         assert r["processes"] == 1 and r["rss_mb"] > 0 and r["pss_mb"] > 0
         assert r["samples"] > 0 and r["lost"] >= 0 and r["ready_s"] > 0
+        assert r["ask_n"] == 6 and r["ask_missed"] == 0
         assert r["groups"] and not any(Path(d).exists() for d in r["groups"])
     assert _marked(marker) == []
     assert list(tmp_path.iterdir()) == []

@@ -13,7 +13,7 @@ import click
 
 from esair_std import cli
 
-MODULES = ("deploy", "run", "control", "top", "agent", "certs", "hmi")
+MODULES = ("deploy", "run", "control", "top", "agent", "certs", "hmi", "foxglove")
 
 
 def test_the_lazy_table_holds_every_command_the_modules_define():

@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 from mcap.reader import make_reader
 
-from esair_std.record import COMMAND_SCHEMA, SCHEMA, read_commands, read_samples
+from esair_std.record import COMMAND_SCHEMA, read_commands, read_samples
 from tests.support.std import MODES, components, esair, free_endpoint, std_run, wait_for
 
 pytestmark = pytest.mark.slow
@@ -50,6 +50,8 @@ def test_record_then_replay(tmp_path, mode):
         assert rec.wait(timeout=30) == 0
         samples = list(read_samples(out))
         commands = list(read_commands(out))
+        with open(out, "rb") as f:
+            summary = make_reader(f).get_summary()
         assert rec.stderr.read().splitlines()[-1] == (
             f"{out}: {len(samples)} samples and {len(commands)} commands on 2 channels, "
             "0 dropped, 0 gaps in seq")
@@ -62,8 +64,9 @@ def test_record_then_replay(tmp_path, mode):
         assert [(r[0], r[1]) for r in rows] == [("command/papaman.servo.l_knee",
                                                  "esair.Command")] * 3
         assert [{k: v for k, v in r[2].items() if k not in ("seq", "t")} for r in rows] == [
-            {"command": sent[0], "ok": "odd100"}, {"command": sent[1], "error": refusal},
-            {"command": sent[2], "ok": "odd090"}]
+            {"command": sent[0], "ok": "odd100", "by": "operator"},
+            {"command": sent[1], "error": refusal, "by": "operator"},
+            {"command": sent[2], "ok": "odd090", "by": "operator"}]
         seqs = [r[2]["seq"] for r in rows]
         assert seqs == list(range(seqs[0], seqs[0] + 3)) and [r[4] for r in rows] == seqs
         assert [r[3] for r in rows] == sorted(r[3] for r in rows)
@@ -74,12 +77,15 @@ def test_record_then_replay(tmp_path, mode):
         seqs = [s[1] for s in samples]
         assert seqs == list(range(seqs[0], seqs[0] + len(seqs)))
         assert set(samples[0][3]["groups"]) == {"left_foot", "right_foot"}
-        with open(out, "rb") as f:
-            summary = make_reader(f).get_summary()
         schemas = {s.name: s for s in summary.schemas.values()}
-        assert {n: (s.encoding, json.loads(s.data)) for n, s in schemas.items()} == {
-            "esair.Sample": ("jsonschema", SCHEMA), "esair.Command": ("jsonschema", COMMAND_SCHEMA)}
-        assert [c.message_encoding for c in summary.channels.values()] == ["json", "json"]
+        assert json.loads(schemas["esair.Command"].data) == COMMAND_SCHEMA
+        feet = json.loads(schemas["esair.Sample.papaman.feet"].data)     # its fields, named
+        assert set(feet["properties"]["value"]["properties"]["values"]["properties"]) == {
+            f"{s}_{p}_{q}" for s in "lr" for p in ("toe", "heel") for q in ("in", "out")}
+        topics = {c.topic: c.message_encoding for c in summary.channels.values()}
+        assert {t: e for t, e in topics.items() if not t.startswith("/")} == {
+            "papaman.feet": "json", "command/papaman.servo.l_knee": "json"}
+        assert topics["/papaman/joints"] == "json" and topics["/log"] == "protobuf"
 
         r = subprocess.run([sys.executable, "-m", "esair_min.cli", "plot", str(out), "-o",
                             str(tmp_path / "run.png")], capture_output=True, text=True)

@@ -411,3 +411,14 @@ class ClosingPair(Pair):
         with open(self.options["closed"], "a") as f:
             f.write("closed\n")
         raise OSError("bus error")
+
+
+class GatedSink(Sink):
+    """A Sink whose receive() waits until the file ``options.release`` exists: its
+    mailbox fills and stays full until the test opens the gate. Keeps each put's ``i``
+    only (its padding makes it big enough to be a plain offer in process mode)."""
+
+    def receive(self, sender, data):
+        while not os.path.exists(self.options["release"]) and not self.stopping:
+            time.sleep(0.01)
+        super().receive(sender, {"i": data["i"]})
