@@ -112,7 +112,7 @@ def _in_process_mode(item) -> bool:
 #: one after the other, never side by side (both cut links and load the CPU).
 LONGEST_FIRST = ["test_starfish_net", "test_std_operator_cli", "test_std_net", "test_std_cli",
                  "test_avr", "test_hmi_papaman", "test_starfish_std", "test_overrun",
-                 "test_std_papaman_safety", "test_std_papaman", "test_pty_promise",
+                 "test_std_papaman_safety", "test_std_stop", "test_std_papaman", "test_pty_promise",
                  "test_hmi_starfish", "test_validate_errors", "test_std_record",
                  "test_gpsim_slaves", "test_verify", "test_script", "test_std_net_security",
                  "test_starfish_avr", "test_std_supervision", "test_validate_fuzz", "test_gpsim",

@@ -44,7 +44,7 @@ class Tmux:
     def screen(self, history: bool = False) -> str:
         return self("capture-pane", "-p", "-t", "v", *(["-S", "-"] if history else []))
 
-    def wait(self, predicate, what: str, timeout: float = 20) -> str:
+    def wait(self, predicate, what: str, timeout: float = 90) -> str:
         deadline = time.monotonic() + timeout
         while True:
             text = self.screen()

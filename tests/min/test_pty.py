@@ -116,7 +116,12 @@ def test_dance_plays_one_frame_per_tick_in_one_burst(tmp_path):
     with emulator("--trace", str(trace)) as (_, path):
         with serial.Serial(path, 9600, timeout=3) as port:
             assert ask(port, "PLY03") == "OK"
-            time.sleep(0.6)                  # 32 frames at one per 8.99 ms tick
+            # the dance's end, told by the robot (an EEPROM read is refused while it
+            # plays), not by a fixed wait the emulator may lag behind on a loaded machine
+            deadline = time.monotonic() + 60
+            while ask(port, "r000001") == "E07 busy":
+                assert time.monotonic() < deadline, "the dance never ended"
+                time.sleep(0.05)
             assert ask(port, "v") == VERSION
     tick, per_tick = 0, {}
     for line in without_marks(trace.read_text().splitlines()):
