@@ -18,10 +18,15 @@ def run_until_monitoring(args: list[str], env: Mapping[str, str],
                             stderr=subprocess.PIPE, cwd=cwd)
     assert proc.stderr is not None
     lines = []
-    for line in proc.stderr:
-        lines.append(line)
-        if line.startswith("monitoring "):
-            break
-    proc.send_signal(signal.SIGINT)
-    out, err = proc.communicate(timeout=60)
+    try:
+        for line in proc.stderr:
+            lines.append(line)
+            if line.startswith("monitoring "):
+                break
+        proc.send_signal(signal.SIGINT)
+        out, err = proc.communicate(timeout=60)
+    finally:                         # a failed run leaves no monitor behind
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
     return proc.returncode, out, "".join(lines) + err
