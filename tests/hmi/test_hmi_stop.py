@@ -149,6 +149,9 @@ def test_an_hmi_started_while_stopped_shows_it_and_a_recording_keeps_it(tmp_path
                  what="the release told")
         rt.stop_robot("again", by="hmi:ann")
         wait_for(lambda: bridge.latch.get("by") == "hmi:ann", what="the STOP told")
+        # the recorder hears it on a bridge of its own: stopped only once it wrote it
+        wait_for(lambda: rec.tap is not None and rec.tap._latches >= 3,
+                 what="the recorder wrote the three states")
     finally:
         c = rec.stop()
         bridge.close()
