@@ -10,6 +10,7 @@ from typing import Any
 from ..errors import TransportError
 from ..transport import keys, wire
 from ..transport.bus import Bus
+from ..transport.codec import JSONObject
 from ..transport.session import check_endpoint
 
 DEFAULT_ENDPOINT = "tcp/127.0.0.1:7447"
@@ -33,7 +34,7 @@ class Client:
             raise TransportError("ESAIR_STD_SESSION is not a JSON object") from None
         # the client dials the runtime only, and nobody dials it: no listener, no peers
         # taken from gossip (it asks the runtime, which reads the agents for it)
-        alone = {"listen/endpoints": [], "scouting/gossip/autoconnect": {"peer": []}}
+        alone: JSONObject = {"listen/endpoints": [], "scouting/gossip/autoconnect": {"peer": []}}
         self.bus = Bus(connect=[self.endpoint], options={**alone, **options},
                        runtime=self.endpoint)
         try:

@@ -194,9 +194,11 @@ class ControlServer:
 
     def _enqueue(self, req: Request | _SampleRequest) -> None:
         b = req.body
-        if (req.key.endswith("/ctl/put") and b is not None and isinstance(b.get("to"), str)
+        to = b.get("to") if b is not None else None
+        frm = b.get("from", "") if b is not None else None
+        if (req.key.endswith("/ctl/put") and b is not None and isinstance(to, str)
                 and not b.get("wait")
-                and isinstance(b.get("from", ""), str) and _valid_timeout(b)):
+                and isinstance(frm, str) and _valid_timeout(b)):
             # fast path: the first offer straight from this callback, answered from the
             # offer's answer; a busy target goes on through a worker (retries until the
             # rest of the timeout)
@@ -211,7 +213,7 @@ class ControlServer:
                     b["timeout"] = max(0.0, deadline - time.monotonic())
                     self._to_worker(req)
             try:
-                if self.bs.put_first(b.get("from") or "operator", b["to"], b.get("data"),
+                if self.bs.put_first(frm or "operator", to, b.get("data"),
                                         timeout, first):
                     return
             except Exception as exc:  # noqa: BLE001 - fall back to the ordinary path

@@ -31,6 +31,7 @@ from ..sample import Sample
 from ..classes import component_class
 from ..spec import Spec
 from ..transport import keys, wire
+from ..transport.codec import JSON
 from ..transport.bus import Bus, Request
 from ..heap import settle
 from ..transport.calls import SampleCaller, SampleServer
@@ -198,7 +199,7 @@ class ZenohPort:
             pub = self._pubs[resource] = self.bus.publisher(keys.sensor(self.robot, resource))
         pub(sample.to_wire())
 
-    def publish_commands(self, entry: str, batch: list[dict]) -> None:
+    def publish_commands(self, entry: str, batch: list[JSON]) -> None:
         """The commands an entry's actuators ran, for recorders (transport/records.py;
         never waits for a congested link)."""
         pub = self._cmd_pubs.get(entry)
@@ -357,7 +358,7 @@ class Agent:
         verbs.add("attached", lambda b: host().notify_attached(str(b.get("resource"))))
         verbs.add("enable", lambda b: host().set_enabled(bool(b.get("enabled"))))
         verbs.add("latch", lambda b: host().notify_latch(
-            b.get("state") if isinstance(b.get("state"), dict) else None, str(b.get("by", ""))))
+            st if isinstance(st := b.get("state"), dict) else None, str(b.get("by", ""))))
         verbs.add("counters", lambda _b: {**host().counters(), "offer_samples": dict(self.offers.c),
                                           "deliver_samples": dict(self.delivers),
                                           "put_samples": self.port.put_counters()})
@@ -432,7 +433,8 @@ class Agent:
 
         verbs.later("configure", configure)
         verbs.add("grant", lambda b: host.grant(str(b.get("who")), str(b.get("resource"))))
-        verbs.add("revoke", lambda b: host.revoke(str(b.get("who")), b.get("resource")))
+        verbs.add("revoke", lambda b: host.revoke(
+            str(b.get("who")), None if (r := b.get("resource")) is None else str(r)))
         verbs.add("counters", lambda _b: host.counters())
         verbs.later("halt", self._halt)
         verbs.add("release", lambda _b: host.release())

@@ -20,6 +20,7 @@ from ..resource import Actuator, Driver, Sensor
 from ..sample import Sample
 from ..spec import Spec
 from ..transport import codec, records, wire
+from ..transport.codec import JSON
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..parts import Port
@@ -110,7 +111,7 @@ class ResourceHost:
         # the latched STOP's refusal text while the robot is STOPPED (latch.py)
         self.halted: str | None = None
         # command records not yet published (this host's thread only) and when they are due
-        self._records: list[dict] = []
+        self._records: list[JSON] = []
         self._records_due = 0.0
         self._rec_lock = threading.Lock()    # records also come from a STOP's thread
         self.thread = threading.Thread(target=self._main, name=f"esair:{self.name}", daemon=True)

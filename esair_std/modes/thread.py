@@ -15,6 +15,7 @@ from ..level import Level
 from ..classes import component_class
 from ..spec import Spec
 from ..transport import keys
+from ..transport.codec import JSON
 from ..hosts.behavior_host import ComponentHost
 from ..hosts.resource_host import ResourceHost
 
@@ -100,7 +101,7 @@ class LocalPort:
     def publish(self, resource: str, sample: Any) -> None:
         self.rt.sc.route(resource, sample)
 
-    def publish_commands(self, entry: str, batch: list[dict]) -> None:
+    def publish_commands(self, entry: str, batch: list[JSON]) -> None:
         """The commands an entry's actuators ran, for recorders outside
         (transport/records.py): on Zenoh when the runtime serves its control endpoint
         (else nobody outside could listen)."""

@@ -25,7 +25,7 @@ a bug in a handler is an "internal error" reply, never a silent timeout.
 from __future__ import annotations
 
 import logging
-from typing import Any, Callable, Protocol
+from typing import Callable, Protocol
 
 from ..errors import (CommandError, ComponentError, ControlError, DeployError, Refused,
                       ResourceLost, StdError, TransportError)
@@ -85,7 +85,7 @@ def exception(reply: Reply, resource: str = "?") -> StdError:
     return cls(message)
 
 
-def result(reply: Reply, resource: str = "?") -> Any:
+def result(reply: Reply, resource: str = "?") -> JSON:
     """The ``ok`` value of a reply, or its error raised (:func:`exception`)."""
     if "error" in reply:
         raise exception(reply, resource)
@@ -106,8 +106,8 @@ class Request(Protocol):
     def reply(self, obj: Reply) -> None: ...
 
 
-Handler = Callable[[dict[str, Any]], Any]  # a decoded body: read after its checks
-LaterHandler = Callable[[dict[str, Any], Answer], None]
+Handler = Callable[[JSONObject], JSON]  # a decoded body: read after its checks
+LaterHandler = Callable[[JSONObject, Answer], None]
 
 
 class Verbs:
