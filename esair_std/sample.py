@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from typing import Any
 
+from .transport.codec import JSONObject
+
 
 class Sample:
     """One reading: ``seq`` numbers every sample of a sensor from 1, ``t`` is
@@ -11,7 +13,7 @@ class Sample:
     Immutable, compared by value (a plain class, not a dataclass: see esair_min's Mark)."""
 
     __slots__ = ("value", "seq", "t", "source")
-    value: Any
+    value: Any          # the sensor's reading, as its resource reported it (JSON)
     seq: int
     t: float
     source: str
@@ -46,7 +48,7 @@ class Sample:
     def __reduce__(self) -> tuple[type[Sample], tuple[Any, int, float, str]]:
         return (Sample, self._key())
 
-    def to_wire(self) -> dict[str, Any]:
+    def to_wire(self) -> JSONObject:
         return {"v": self.value, "seq": self.seq, "t": self.t, "src": self.source}
 
     @classmethod

@@ -128,7 +128,7 @@ class Observe:
     def v_restart(self, b: dict) -> str:
         name = b.get("name")
         rec = self.rt.bs.records.get(name) if isinstance(name, str) else None
-        if rec is None:
+        if rec is None or not isinstance(name, str):
             raise ControlError(f"no behavior or reaction {name!r}")
         spec = rec.spec
         self.rt.bs.request(self.rt.bs.remove, name)

@@ -13,7 +13,7 @@ import queue
 import threading
 import time
 from collections import deque
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 from ..behavior import Behavior
 from ..connections import ActuatorHandle, SensorHandle
@@ -98,7 +98,9 @@ class ComponentHost:
         period = spec.period if spec.has_period else getattr(cls, "period", None)
         self.period = float(period) if period else None
         dl = spec.options.get("deadline", getattr(cls, "deadline", None))
-        self.deadline = float(dl) if dl else max(10 * (self.period or 0.1), 1.0)
+        # a number (or its text); anything else raises here as float() does
+        self.deadline = (float(cast("str | float", dl)) if dl
+                         else max(10 * (self.period or 0.1), 1.0))
         self.thread = threading.Thread(target=self._main, name=f"esair:{self.name}", daemon=True)
 
     @property

@@ -26,7 +26,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ..errors import ControlError, Refused
-from ..modes.process import ProcessComponent, ProcessMode
+from ..modes.process import ProcessComponent, ProcessMode, ProcessResource
 from ..spec import Spec
 from ..transport.security_config import LEASE_MS, access_control, link_inserts, session_inserts
 from .registration import Verifier
@@ -192,7 +192,7 @@ class Center:
         entry = self.rt.rs.entries.get(spec.name)
         if entry is not None:
             host = entry[1]
-            if not getattr(host, "remote", False):
+            if not isinstance(host, ProcessResource) or not host.remote:
                 raise ControlError(f"a resource named {spec.name!r} is already deployed")
             mode.remote[spec.name] = info
             mode.rejoin(host)                     # its hello sets its children ready again
