@@ -18,6 +18,7 @@ if TYPE_CHECKING:  # pragma: no cover
 
     from .connections import ActuatorHandle, SensorHandle
     from .spec import Spec
+    from .transport.codec import JSON
 
     class _Host(Protocol):
         """What a component reaches through its host (hosts/behavior_host.py's hosts)."""
@@ -30,9 +31,9 @@ if TYPE_CHECKING:  # pragma: no cover
         def attach_sensor(self, name: str, keep: int) -> SensorHandle: ...
         def attach_actuator(self, name: str) -> ActuatorHandle: ...
         def register(self, resource: str, level: str) -> str: ...
-        def configure(self, resource: str, key: str, value: Any) -> Any: ...
-        def put(self, name: str, data: Any, timeout: float) -> bool: ...
-        def get(self, name: str, timeout: float) -> Any: ...
+        def configure(self, resource: str, key: str, value: JSON) -> JSON: ...
+        def put(self, name: str, data: JSON, timeout: float) -> bool: ...
+        def get(self, name: str, timeout: float) -> JSON: ...
         def state_of(self, name: str) -> str | None: ...
         def set_reaction(self, name: str, enabled: bool) -> None: ...
         def direct(self, name: str) -> Any: ...
@@ -109,7 +110,7 @@ class Behavior(_Component):
     def receive(self, sender: str, data: Any) -> None:
         """The BS delivers another behavior's ``put(self.name, data)``."""
 
-    def provide(self, requester: str) -> Any:
+    def provide(self, requester: str) -> JSON:
         """The BS asks for data on another behavior's ``get(self.name)``."""
         return None
 
@@ -129,12 +130,12 @@ class Behavior(_Component):
         attach_* register for you. Raises Refused with the reason."""
         return self._esair.register(resource, level)
 
-    def configure(self, resource: str, key: str, value: Any) -> Any:
+    def configure(self, resource: str, key: str, value: JSON) -> Any:
         """ioctl-like setting, checked by the RS (needs a registration at ``configure``)."""
         return self._esair.configure(resource, key, value)
 
     # other behaviors, through the BS
-    def put(self, name: str, data: Any, timeout: float = 1.0) -> bool:
+    def put(self, name: str, data: JSON, timeout: float = 1.0) -> bool:
         """Deliver ``data`` to behavior ``name``; False (counted, logged) on failure."""
         return self._esair.put(name, data, timeout)
 

@@ -65,7 +65,7 @@ def error(exc: BaseException) -> Reply:
     return out
 
 
-def failure(value: JSON, resource: str) -> StdError:
+def failure(value: JSON | StdError, resource: str) -> StdError:
     """What a resource host's ``on_done(False, value)`` means: its StdError, or a
     CommandError of ``resource`` in the driver's own words."""
     return value if isinstance(value, StdError) else CommandError(resource, str(value))
