@@ -50,7 +50,8 @@ class Client:
                                  "(is `esair std run` running?)")
         return robot
 
-    def call(self, verb: str, body: dict | None = None, timeout: float | None = None) -> Any:
+    def call(self, verb: str, body: JSONObject | None = None,
+             timeout: float | None = None) -> Any:    # the ok value, read as the verb says
         r = self.bus.request(keys.ctl(self.robot, verb), body or {}, timeout or self.timeout)
         if r is None:
             raise TransportError(f"the runtime of robot {self.robot!r} on {self.endpoint} "
@@ -63,5 +64,5 @@ class Client:
     def __enter__(self) -> "Client":
         return self
 
-    def __exit__(self, *exc: Any) -> None:
+    def __exit__(self, *exc: object) -> None:
         self.close()

@@ -3,14 +3,17 @@ usage error: exit status 2)."""
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Callable, TypeVar
 
 import click
 
 from ..endpoint import endpoint_fault
 
+_F = TypeVar("_F", bound=Callable[..., object])     # a click command's function
 
-def check_endpoint(_ctx: Any, _param: Any, value: str | None) -> str | None:
+
+def check_endpoint(_ctx: click.Context, _param: click.Parameter,
+                   value: str | None) -> str | None:
     """``-e``: the form a deployment's ``endpoint`` has (the same checks and words)."""
     if value is None:
         return None
@@ -20,14 +23,14 @@ def check_endpoint(_ctx: Any, _param: Any, value: str | None) -> str | None:
     return value
 
 
-def endpoint_option(help_text: str) -> Any:
+def endpoint_option(help_text: str) -> Callable[[_F], _F]:
     """``-e/--endpoint``, by default $ESAIR_STD_ENDPOINT."""
     return click.option("-e", "--endpoint", default=None, metavar="tcp/HOST:PORT",
                         envvar="ESAIR_STD_ENDPOINT", show_envvar=True,
                         callback=check_endpoint, help=help_text)
 
 
-def insecure_option() -> Any:
+def insecure_option() -> Callable[[_F], _F]:
     """``--insecure``: run on an address other computers reach without security."""
     return click.option("--insecure", is_flag=True,
                         help="Allow an address other computers reach without security "

@@ -4,12 +4,15 @@ and rates (steps, samples, commands per second), refreshed from the control endp
 from __future__ import annotations
 
 import time
-from typing import Any
+from typing import TYPE_CHECKING
 
 import click
 
 from ..errors import StdError
-from .control import control, stopped_line
+from .control import Caller, _Connection, control, stopped_line
+
+if TYPE_CHECKING:  # pragma: no cover
+    from rich.table import Table
 
 COLOURS = {"running": "green", "ready": "green", "busy": "yellow", "starting": "cyan",
            "failed": "bold red", "lost": "bold red", "stopped": "dim"}
@@ -28,7 +31,7 @@ REASON_WIDTH = 48
 GROUP_FROM = 3
 
 
-def snapshot(c: Any) -> list[dict]:
+def snapshot(c: Caller) -> list[dict]:
     rows = []
     for row in c.call("ls", {"all": True}):
         if row["kind"] == "driver":
@@ -82,7 +85,7 @@ def grouped(rows: list[dict]) -> list[dict]:
     return out
 
 
-def render(rows: list[dict], before: dict[str, tuple[float, int]], robot: str) -> Any:
+def render(rows: list[dict], before: dict[str, tuple[float, int]], robot: str) -> Table:
     from rich.table import Table
     from rich.text import Text
     now = time.monotonic()
@@ -124,7 +127,7 @@ COLUMNS = ("name", "kind", "state", "pid", "host", "restarts", "events/s", "reas
 @click.option("--count", type=click.IntRange(min=1), default=None,
               help="Stop after this many refreshes (default: until Ctrl-C).")
 @control
-def top_cmd(c: Any, interval: float, count: int | None) -> None:
+def top_cmd(c: _Connection, interval: float, count: int | None) -> None:
     """Live table of components: state, pid, host, restarts and events per second."""
     from rich.console import Console
     from rich.live import Live
