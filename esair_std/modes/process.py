@@ -18,12 +18,13 @@ import subprocess
 import sys
 import threading
 import time
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Callable
 
 from ..errors import ComponentError, ResourceLost, StdError, TransportError
 from ..parts import NO_ANSWER
 from ..spec import Spec
 from ..transport import codec, keys, session, wire
+from ..transport.codec import JSON, JSONObject
 from ..transport.calls import SampleCaller
 from ..transport.security_config import link_inserts
 from ..transport.threads import Threads
@@ -151,7 +152,7 @@ class _Child:
             self.kill()
             raise ComponentError(self.info["error"])
 
-    def ask(self, key: str, body: dict, timeout: float) -> Any:
+    def ask(self, key: str, body: JSONObject, timeout: float) -> JSON:
         try:
             return self.bus.request(key, body, timeout)
         except StdError:
@@ -227,7 +228,7 @@ class ProcessComponent(_Child):
             self.credit_open = open_
             self.credit_room = max(self.credit_room, room)
 
-    def deliver_reserved(self, sender: str, data: Any) -> bool:
+    def deliver_reserved(self, sender: str, data: JSON) -> bool:
         """Deliver ``data`` into the room the component reserved: True if sent (the
         sender may be told "delivered"), False to ask it instead."""
         if self.remote or self.phase != "running" or not self.credit_open:
@@ -251,7 +252,7 @@ class ProcessComponent(_Child):
             return False
         return True
 
-    def offer(self, sender: str, data: Any) -> str:
+    def offer(self, sender: str, data: JSON) -> str:
         if self.phase in ("failed", "stopped"):
             return self.phase
         if self.deliver_reserved(sender, data):
@@ -259,7 +260,8 @@ class ProcessComponent(_Child):
         r = self.ask(self.key, {"op": "offer", "from": sender, "data": data}, 1.0)
         return r.get("ok", "gone") if isinstance(r, dict) else "gone"
 
-    def offer_async(self, sender: str, data: Any, done: Any, timeout: float) -> bool:
+    def offer_async(self, sender: str, data: JSON, done: Callable[[str], None],
+                    timeout: float) -> bool:
         """``offer`` without waiting: ``done(result)`` on a Zenoh thread, or "gone"
         after ``timeout`` (transport/calls.py). False: not sent, use ``offer``."""
         if self.phase in ("failed", "stopped"):
@@ -269,7 +271,7 @@ class ProcessComponent(_Child):
             done("delivered")
             return True
 
-        def answer(a: Any) -> None:
+        def answer(a: JSON) -> None:
             r = a.get("r") if isinstance(a, dict) else None
             done(r if isinstance(r, str) else "gone")
         try:
@@ -279,7 +281,7 @@ class ProcessComponent(_Child):
         except StdError:
             return False
 
-    def provide(self, requester: str, timeout: float) -> tuple:
+    def provide(self, requester: str, timeout: float) -> tuple[str, JSON]:
         if self.phase in ("failed", "stopped"):
             return ("busy", self.phase)
         r = self.ask(self.key, {"op": "provide", "from": requester, "timeout": timeout},
@@ -288,7 +290,7 @@ class ProcessComponent(_Child):
             return tuple(r["ok"])
         return ("busy", NO_ANSWER)
 
-    def take(self, sender: str, data: Any, timeout: float) -> tuple:
+    def take(self, sender: str, data: JSON, timeout: float) -> tuple[str, JSON]:
         """A put the sender waits for: receive() runs in the agent, its outcome answers
         (ComponentHost.take)."""
         if self.phase in ("failed", "stopped"):
@@ -330,6 +332,16 @@ class ProcessComponent(_Child):
         self.stop_process(self.key, timeout)
 
 
+def _result(r: JSON, resource: str) -> JSON:
+    """The ok value of a resource host's reply, or its error raised; no reply, or one
+    that is no JSON object, is ResourceLost (never an AttributeError in a sender)."""
+    if r is None:
+        raise ResourceLost(resource, "its host process does not answer")
+    if not isinstance(r, dict):
+        raise ResourceLost(resource, "its host process answered with no reply object")
+    return wire.result(r, resource)
+
+
 class ProcessResource(_Child):
     """The runtime's view of a resource entry (and its children) in an agent process."""
 
@@ -342,21 +354,15 @@ class ProcessResource(_Child):
     def children(self) -> dict[str, str]:
         return dict(self.info.get("children", {}))
 
-    def _call(self, resource: str, body: dict, timeout: float) -> Any:
-        r = self.ask(self.key, body, timeout + 0.5)
-        if r is None:
-            raise ResourceLost(resource, "its host process does not answer")
-        return wire.result(r, resource)
+    def _call(self, resource: str, body: JSONObject, timeout: float) -> JSON:
+        return _result(self.ask(self.key, body, timeout + 0.5), resource)
 
-    def command(self, sender: str, resource: str, command: Any, timeout: float) -> Any:
-        r = self.ask(keys.actuator(self.robot, resource),
-                     {"from": sender, "cmd": command, "timeout": max(0.0, timeout - MARGIN)},
-                     timeout)
-        if r is None:
-            raise ResourceLost(resource, "its host process does not answer")
-        return wire.result(r, resource)
+    def command(self, sender: str, resource: str, command: JSON, timeout: float) -> JSON:
+        return _result(self.ask(keys.actuator(self.robot, resource),
+                                {"from": sender, "cmd": command,
+                                 "timeout": max(0.0, timeout - MARGIN)}, timeout), resource)
 
-    def configure(self, resource: str, key: str, value: Any, timeout: float = 2.0) -> Any:
+    def configure(self, resource: str, key: str, value: JSON, timeout: float = 2.0) -> JSON:
         return self._call(resource, {"op": "configure", "resource": resource, "key": key,
                                      "value": value, "timeout": timeout}, timeout)
 
