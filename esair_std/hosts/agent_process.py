@@ -31,8 +31,8 @@ from ..sample import Sample
 from ..classes import component_class
 from ..spec import Spec
 from ..transport import keys, wire
-from ..transport.codec import JSON
-from ..transport.bus import Bus, Request
+from ..transport.codec import JSON, JSONObject
+from ..transport.bus import Bus, Request, Route
 from ..heap import settle
 from ..transport.calls import SampleCaller, SampleServer
 from ..transport.wire import Verbs
@@ -40,7 +40,7 @@ from ..transport.wire import Verbs
 if TYPE_CHECKING:  # pragma: no cover
     from ..parts import SampleHandle
     from .behavior_host import ComponentHost
-    from .resource_host import ResourceHost
+    from .resource_host import OnDone, ResourceHost
 
 log = logging.getLogger("esair_std.agent")
 MARGIN = 0.05           # the far side of a put, get or command (the BS, the actuator's host)
@@ -59,18 +59,18 @@ class ZenohPort:
     def __init__(self, bus: Bus, robot: str):
         self.bus = bus
         self.robot = robot
-        self._pubs: dict[str, Any] = {}
-        self._cmd_pubs: dict[str, Any] = {}
+        self._pubs: dict[str, Callable[[JSON], None]] = {}
+        self._cmd_pubs: dict[str, Callable[[JSON], None]] = {}
         self._calls: dict[str, SampleCaller] = {}
-        self._routes: dict[str, Any] = {}        # actuator -> transport.bus.Route
+        self._routes: dict[str, Route] = {}      # actuator -> its route
 
-    def _ctl(self, verb: str, body: dict, timeout: float = 5.0) -> Any:
+    def _ctl(self, verb: str, body: JSONObject, timeout: float = 5.0) -> Any:  # as verb says
         r = self.bus.request(keys.ctl(self.robot, verb), body, timeout)
         if r is None:
             raise TransportError(f"the runtime did not answer {verb!r} within {timeout:g} s")
         return wire.result(r, str(body.get("resource", "?")))
 
-    def register(self, who: str, resource: str, level: Any) -> int:
+    def register(self, who: str, resource: str, level: Level | str) -> int:
         return self._ctl("register", {"who": who, "resource": resource,
                                       "level": Level.parse(level).name})
 
@@ -82,8 +82,8 @@ class ZenohPort:
             self.bus.subscribe(keys.sensor(self.robot, resource),
                                lambda obj: push(Sample.from_wire(obj)))
 
-    def command(self, who: str, resource: str, command: Any, timeout: float,
-                direct: bool = False) -> Any:
+    def command(self, who: str, resource: str, command: JSON, timeout: float,
+                direct: bool = False) -> JSON:
         """The actuator's answer, within ``timeout``. When no host answers its key yet,
         the runtime says why: a resource that is lost fails at once with its reason; one
         that is ready (its host's declarations still on their way, e.g. at start-up) is
@@ -127,7 +127,7 @@ class ZenohPort:
         if state != "ready":
             raise ResourceLost(resource, f"{state}: {why}" if why else str(state))
 
-    def configure(self, who: str | None, resource: str, key: str, value: Any) -> Any:
+    def configure(self, who: str | None, resource: str, key: str, value: JSON) -> JSON:
         return self._ctl("configure", {"who": who, "resource": resource, "key": key,
                                        "value": value})
 
@@ -137,7 +137,7 @@ class ZenohPort:
     def resource_state(self, resource: str) -> str | None:
         return self._ctl("state", {"name": resource}, 2.0)
 
-    def put(self, who: str, target: str, data: Any, timeout: float) -> tuple[bool, str]:
+    def put(self, who: str, target: str, data: JSON, timeout: float) -> tuple[bool, str]:
         """Through the BS, as samples (transport/calls.py: the put's fast path)."""
         calls = self._calls.get(who)
         if calls is None:
@@ -165,7 +165,7 @@ class ZenohPort:
                 out[k] = out.get(k, 0) + v
         return out
 
-    def get(self, who: str, target: str, timeout: float) -> tuple[bool, Any]:
+    def get(self, who: str, target: str, timeout: float) -> tuple[bool, JSON]:
         try:
             r = self._ctl("get", {"from": who, "to": target,
                                   "timeout": max(0.0, timeout - MARGIN)}, max(0.001, timeout))
@@ -246,7 +246,7 @@ class Agent:
         """The host of a resource agent (run_resource made it)."""
         return cast("ResourceHost", self.host)
 
-    def hello(self, **extra: Any) -> None:
+    def hello(self, **extra: JSON) -> None:
         body = dict(name=self.spec.name, kind=self.spec.kind, generation=self.generation,
                     pid=os.getpid(), host=os.uname().nodename, **extra)
         # a behavior's session returns from open before the runtime's declarations may
@@ -314,16 +314,17 @@ class Agent:
     def _bad_delivery(self, _why: str) -> None:
         self.delivers["bad"] += 1
 
-    def _on_deliver(self, obj: Any) -> None:
+    def _on_deliver(self, obj: JSON) -> None:
         """A put the BS delivered into reserved room (on Zenoh's thread: enqueue only)."""
         sender = obj.get("from") if isinstance(obj, dict) else None
-        if not isinstance(sender, str) or "data" not in obj:
+        if not isinstance(obj, dict) or not isinstance(sender, str) or "data" not in obj:
             self.delivers["bad"] += 1
             return
         self.delivers["samples"] += 1
         self._component.deliver_reserved(sender, obj["data"])
 
-    def _on_offer(self, _key: str, body: dict, answer: Any) -> None:
+    def _on_offer(self, _key: str, body: JSONObject,
+                  answer: Callable[[JSONObject], None]) -> None:
         """A put's first offer (transport/calls.py): answered before the behavior's
         thread is woken."""
         r = self._component.offer(str(body.get("from")), body.get("data"), wake=False)
@@ -416,10 +417,11 @@ class Agent:
                               sender=who)
 
     @staticmethod
-    def _answer(answer: wire.Answer, resource: str) -> Callable[[bool, Any], None]:
+    def _answer(answer: wire.Answer, resource: str) -> OnDone:
         """A resource host's ``on_done(ok, value)`` as a reply."""
-        def done(ok: bool, value: Any) -> None:
-            answer(wire.ok(value) if ok else wire.error(wire.failure(value, resource)))
+        def done(ok: bool, value: JSON | StdError) -> None:
+            answer(wire.ok(value) if ok and not isinstance(value, StdError)
+                   else wire.error(wire.failure(value, resource)))
         return done
 
     def _rs_verbs(self) -> Verbs:

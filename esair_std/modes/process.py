@@ -417,12 +417,12 @@ class ProcessMode:
                                    lambda key: keys.name_in(key, 2))
         self.credit_lock = threading.Lock()
         self.credits = dict(reports=0, bad_reports=0)
-        self._deliver_pubs: dict[str, Any] = {}
+        self._deliver_pubs: dict[str, Callable[[bytes], None]] = {}
         self.bus.subscribe(keys.bs_credit(self.rt.robot, "*"), self._on_credit,
                            with_key=True, garbage=self._bad_credit)
         self.bus.watch_alive(keys.alive_all(self.rt.robot), self._alive)
 
-    def counters(self) -> dict[str, Any]:
+    def counters(self) -> JSONObject:
         """The BS's put path to the agents (``esair std inspect runtime``): the offers'
         samples and the components' reports of their room."""
         offers = getattr(self, "offers", None)
@@ -433,17 +433,17 @@ class ProcessMode:
     def _bad_credit(self, _why: str) -> None:
         self.credits["bad_reports"] += 1
 
-    def _on_credit(self, key: str, obj: Any) -> None:
+    def _on_credit(self, key: str, obj: JSON) -> None:
         """A component's report of its room (on Zenoh's thread: record only)."""
-        gen = obj.get("gen") if isinstance(obj, dict) else None
-        room = obj.get("room") if isinstance(obj, dict) else None
+        body = obj if isinstance(obj, dict) else {}
+        gen, room = body.get("gen"), body.get("room")
         host = (self._component(keys.name_in(key, 2), gen)
                 if isinstance(gen, int) and isinstance(room, int) else None)
         if host is None or host.remote or not isinstance(room, int):
             self.credits["bad_reports"] += 1
             return
         self.credits["reports"] += 1
-        host.credit(obj.get("open") is True, room)
+        host.credit(body.get("open") is True, room)
 
     def deliver(self, name: str, body: bytes) -> None:
         pub = self._deliver_pubs.get(name)
@@ -516,7 +516,7 @@ class ProcessMode:
         host.reason = "its host process is gone"
         self.rt.rs.failed(host.name, host.generation, host.reason)
 
-    def hello(self, b: dict[str, Any]) -> None:
+    def hello(self, b: dict[str, Any]) -> None:     # the agent's hello (agent_process.py)
         name, gen = b.get("name", ""), b.get("generation", 0)
         with self._lock:
             child = self._pending.get((name, gen))
@@ -566,14 +566,14 @@ class ProcessMode:
         with self._pending_cond:
             self._pending_cond.notify_all()
 
-    def wait_pending(self, name: str, done: Any, timeout: float) -> bool:
+    def wait_pending(self, name: str, done: Callable[[], bool], timeout: float) -> bool:
         """Wait until generation 1 of ``name`` is starting (its hello may come) or
         ``done()``; False after ``timeout``."""
         with self._pending_cond:
             return self._pending_cond.wait_for(
                 lambda: (name, 1) in self._pending or done(), timeout)
 
-    def _component(self, name: str, generation: Any) -> ProcessComponent | None:
+    def _component(self, name: str, generation: int) -> ProcessComponent | None:
         """The component ``name`` of that generation, deployed or still starting."""
         rec = self.rt.bs.records.get(name)
         host = rec.host if rec is not None else None
