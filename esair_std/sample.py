@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from .transport.codec import JSONObject
+from .transport.codec import JSON, JSONObject
 
 
 class Sample:
@@ -52,5 +52,10 @@ class Sample:
         return {"v": self.value, "seq": self.seq, "t": self.t, "src": self.source}
 
     @classmethod
-    def from_wire(cls, d: dict[str, Any]) -> "Sample":
-        return cls(d["v"], int(d["seq"]), float(d["t"]), str(d["src"]))
+    def from_wire(cls, d: JSON) -> "Sample":
+        """The sample :meth:`to_wire` sent; garbage raises (KeyError, ValueError)."""
+        seq, t = (d["seq"], d["t"]) if isinstance(d, dict) else (None, None)
+        if not isinstance(d, dict) or not isinstance(seq, (int, float, str)) \
+                or not isinstance(t, (int, float, str)):
+            raise ValueError(f"not a sample: {d!r}")
+        return cls(d["v"], int(seq), float(t), str(d["src"]))
