@@ -23,7 +23,7 @@ import signal
 import sys
 import threading
 import time
-from typing import TYPE_CHECKING, Any, Callable, cast
+from typing import TYPE_CHECKING, Callable, cast
 
 from ..errors import CommandError, ControlError, Refused, ResourceLost, StdError, TransportError
 from ..level import Level
@@ -51,6 +51,18 @@ RUNTIME_GRACE = 1.0     # seconds without the runtime's token before leaving
 HELLO_S = 10.0          # how long an agent asks the runtime to take its hello
 
 
+def _str(v: JSON) -> str | None:
+    """A name or state the runtime answered (None: it has none)."""
+    return v if isinstance(v, str) else None
+
+
+def _int(v: JSON) -> int:
+    """A level the runtime answered."""
+    if isinstance(v, (int, float, str)):
+        return int(v)
+    raise TransportError(f"the runtime answered {v!r}, not a number")
+
+
 class ZenohPort:
     """What a hosted component calls to reach the runtime: the LocalPort's methods,
     carried as ``ctl/<verb>`` requests, plus direct sensor subscriptions and actuator
@@ -64,15 +76,15 @@ class ZenohPort:
         self._calls: dict[str, SampleCaller] = {}
         self._routes: dict[str, Route] = {}      # actuator -> its route
 
-    def _ctl(self, verb: str, body: JSONObject, timeout: float = 5.0) -> Any:  # as verb says
+    def _ctl(self, verb: str, body: JSONObject, timeout: float = 5.0) -> JSON:
         r = self.bus.request(keys.ctl(self.robot, verb), body, timeout)
         if r is None:
             raise TransportError(f"the runtime did not answer {verb!r} within {timeout:g} s")
         return wire.result(r, str(body.get("resource", "?")))
 
     def register(self, who: str, resource: str, level: Level | str) -> int:
-        return self._ctl("register", {"who": who, "resource": resource,
-                                      "level": Level.parse(level).name})
+        return _int(self._ctl("register", {"who": who, "resource": resource,
+                                           "level": Level.parse(level).name}))
 
     def attach_sensor(self, who: str, resource: str, handle: SampleHandle | None,
                       direct: bool = False) -> None:
@@ -121,9 +133,12 @@ class ZenohPort:
         if left <= 0:
             return
         try:
-            state, why = self._ctl("resinfo", {"resource": resource}, left)
+            info = self._ctl("resinfo", {"resource": resource}, left)
         except StdError:
             return
+        if not isinstance(info, list) or len(info) != 2:
+            return                                   # the runtime does not say
+        state, why = info
         if state != "ready":
             raise ResourceLost(resource, f"{state}: {why}" if why else str(state))
 
@@ -132,10 +147,10 @@ class ZenohPort:
                                        "value": value})
 
     def kind_of(self, resource: str) -> str | None:
-        return self._ctl("kind", {"resource": resource})
+        return _str(self._ctl("kind", {"resource": resource}))
 
     def resource_state(self, resource: str) -> str | None:
-        return self._ctl("state", {"name": resource}, 2.0)
+        return _str(self._ctl("state", {"name": resource}, 2.0))
 
     def put(self, who: str, target: str, data: JSON, timeout: float) -> tuple[bool, str]:
         """Through the BS, as samples (transport/calls.py: the put's fast path)."""
@@ -156,10 +171,10 @@ class ZenohPort:
             return False, str(r.get("error", "the runtime's answer made no sense"))
         return bool(ok.get("delivered")), str(ok.get("reason", ""))
 
-    def put_counters(self) -> dict:
+    def put_counters(self) -> dict[str, int]:
         """The put path's samples (transport/calls.py): sent, answered, timed out,
         answers refused."""
-        out: dict = {}
+        out: dict[str, int] = {}
         for calls in self._calls.values():
             for k, v in calls.c.items():
                 out[k] = out.get(k, 0) + v
@@ -171,10 +186,12 @@ class ZenohPort:
                                   "timeout": max(0.0, timeout - MARGIN)}, max(0.001, timeout))
         except StdError as exc:
             return False, exc.message
+        if not isinstance(r, dict):
+            return False, "the runtime's answer made no sense"
         return (True, r["data"]) if r["ok"] else (False, r["reason"])
 
     def state_of(self, name: str) -> str | None:
-        return self._ctl("state", {"name": name}, 2.0)
+        return _str(self._ctl("state", {"name": name}, 2.0))
 
     def set_reaction(self, who: str, name: str, enabled: bool) -> None:
         r = self.bus.request(keys.ctl(self.robot, "reaction"),
@@ -341,12 +358,12 @@ class Agent:
         def host() -> ComponentHost:
             return self._component
 
-        def provide(b: dict, answer: wire.Answer) -> None:
+        def provide(b: JSONObject, answer: wire.Answer) -> None:
             if host().request_provide(str(b.get("from")),
                                     lambda v: answer(wire.ok(list(v)))) != "queued":
                 answer(wire.ok(["busy", host().state]))
 
-        def take(b: dict, answer: wire.Answer) -> None:    # a put its sender waits for
+        def take(b: JSONObject, answer: wire.Answer) -> None:    # a put its sender waits for
             if host().request_take(str(b.get("from")), b.get("data"),
                                  lambda v: answer(wire.ok(list(v)))) != "queued":
                 answer(wire.ok(["busy", host().state]))
@@ -366,7 +383,7 @@ class Agent:
         verbs.later("stop", self._stop)
         return verbs
 
-    def _stop(self, _b: dict, answer: wire.Answer) -> None:
+    def _stop(self, _b: JSONObject, answer: wire.Answer) -> None:
         answer(wire.ok())
         self.leave("stopped by the control center")
 
@@ -428,7 +445,7 @@ class Agent:
         """The ``rs/<entry>`` endpoint: what the runtime's RS asks the resource host."""
         host, verbs = self._resource, Verbs(unknown="unknown op {verb!r}")
 
-        def configure(b: dict, answer: wire.Answer) -> None:
+        def configure(b: JSONObject, answer: wire.Answer) -> None:
             res = str(b.get("resource"))
             host.submit(res, "configure", (str(b.get("key")), b.get("value")),
                         self._answer(answer, res), 2.0)
@@ -443,7 +460,7 @@ class Agent:
         verbs.later("stop", self._stop)
         return verbs
 
-    def _halt(self, b: dict, answer: wire.Answer) -> None:
+    def _halt(self, b: JSONObject, answer: wire.Answer) -> None:
         """The latched STOP: commands refused at once (here, on Zenoh's thread); the
         devices stopped on a thread of its own (a link waits for its ``x`` reply), then
         the runtime answered."""
@@ -466,7 +483,7 @@ class Agent:
                     threading.Timer(RUNTIME_GRACE, self._runtime_gone, (lost,)).start()
         self.bus.watch_alive(keys.alive(self.robot, "runtime", "runtime"), on_alive)
 
-    def _runtime_gone(self, lost: dict) -> None:
+    def _runtime_gone(self, lost: dict[str, float | None]) -> None:
         """The runtime's token has been away for RUNTIME_GRACE. The token is only a hint:
         in a mesh of peers its withdrawal can also come when another peer's link drops
         (the robot's radio), while this agent's own link to the runtime stays up. So the

@@ -261,12 +261,17 @@ class ResourceHost:
             except Exception as exc:  # noqa: BLE001
                 log.error("%s: release() raised %s: %s", self.name, type(exc).__name__, exc)
 
+    def _is_driver(self, obj: object) -> bool:
+        """``obj`` is this entry's driver (a driver that is also its own child resource:
+        it is told, opened and closed once, as the driver)."""
+        return obj is self.driver
+
     def _movers(self) -> list[Driver | Actuator]:
         """The driver, then its actuators (those the STOP tells)."""
         out: list[Driver | Actuator] = [self.driver] if self.driver is not None else []
         return out + [s.obj for s in list(self.slots.values())
                       if s.kind == "actuator" and isinstance(s.obj, Actuator)
-                      and s.obj is not self.driver]
+                      and not self._is_driver(s.obj)]
 
     def states(self) -> dict[str, tuple[str, str]]:
         return {n: (s.state, s.reason) for n, s in self.slots.items()}
@@ -302,7 +307,7 @@ class ResourceHost:
         if isinstance(obj, Sensor) and isinstance(rate, (int, float)) and rate > 0:
             obj.rate_hz = float(rate)         # the deployment's rate_hz wins
         for slot in self.slots.values():
-            if slot.obj is not self.driver:
+            if not self._is_driver(slot.obj):
                 slot.obj.open()
 
     def _main(self) -> None:
@@ -470,7 +475,7 @@ class ResourceHost:
         if self._records:                 # what the last commands ran goes out
             self._publish_records()
         for s in self.slots.values():
-            if s.obj is not self.driver:
+            if not self._is_driver(s.obj):
                 try:
                     s.obj.close()
                 except Exception as exc:  # noqa: BLE001

@@ -86,11 +86,11 @@ class _Child:
         self.reason = ""
         self.pid: int | None = None
         self.hostname = ""
-        self.info: dict = {}
+        self.info: JSONObject = {}               # its hello
         self.hello = threading.Event()
         self.ended = threading.Event()           # its process exited (not yet reaped)
         self.changed = threading.Event()         # hello, a phase reported, or ended
-        self.proc: subprocess.Popen | None = None
+        self.proc: subprocess.Popen[bytes] | None = None
         self.remote = spec.name in mode.remote   # a remote agent (esair_std.remote): not ours
         self.quiet = False                       # remote: do not tell it to stop
         self.rejoining = False
@@ -150,13 +150,14 @@ class _Child:
             self.changed.wait(left)
         if self.info.get("error"):
             self.kill()
-            raise ComponentError(self.info["error"])
+            raise ComponentError(str(self.info["error"]))
 
     def ask(self, key: str, body: JSONObject, timeout: float) -> JSON:
         try:
-            return self.bus.request(key, body, timeout)
+            r: JSON = self.bus.request(key, body, timeout)
         except StdError:
             return None
+        return r
 
     def exited(self) -> int | None:
         """Its exit status once it ended (reaped here; negative: the signal's number)."""
@@ -310,13 +311,14 @@ class ProcessComponent(_Child):
     def set_enabled(self, enabled: bool) -> None:
         self.ask(self.key, {"op": "enable", "enabled": bool(enabled)}, 1.0)
 
-    def notify_latch(self, state: dict | None, by: str = "") -> None:
+    def notify_latch(self, state: JSONObject | None, by: str = "") -> None:
         if self.phase not in ("failed", "stopped", "lost"):
             self.ask(self.key, {"op": "latch", "state": state, "by": by}, 1.0)
 
-    def counters(self) -> dict:
+    def counters(self) -> JSONObject:
         r = self.ask(self.key, {"op": "counters"}, 1.0)
-        return r["ok"] if isinstance(r, dict) and "ok" in r else {}
+        ok = r.get("ok") if isinstance(r, dict) else None
+        return ok if isinstance(ok, dict) else {}
 
     def check(self, now: float) -> float | None:
         return None              # its agent watches the deadlines; its exit is an event
@@ -352,7 +354,8 @@ class ProcessResource(_Child):
         return keys.rs(self.robot, self.name)
 
     def children(self) -> dict[str, str]:
-        return dict(self.info.get("children", {}))
+        kids = self.info.get("children", {})
+        return {str(k): str(v) for k, v in kids.items()} if isinstance(kids, dict) else {}
 
     def _call(self, resource: str, body: JSONObject, timeout: float) -> JSON:
         return _result(self.ask(self.key, body, timeout + 0.5), resource)
@@ -379,9 +382,10 @@ class ProcessResource(_Child):
     def release(self) -> None:
         self._call(self.name, {"op": "release"}, 1.0)
 
-    def counters(self) -> dict:
+    def counters(self) -> JSONObject:
         r = self.ask(self.key, {"op": "counters"}, 1.0)
-        return r["ok"] if isinstance(r, dict) and "ok" in r else {}
+        ok = r.get("ok") if isinstance(r, dict) else None
+        return ok if isinstance(ok, dict) else {}
 
     def on_exit(self) -> None:
         self.mode.resource_gone(self)
@@ -402,7 +406,8 @@ class ProcessMode:
         self._resources: dict[str, ProcessResource] = {}
         self._lock = threading.Lock()
         self._pending_cond = threading.Condition(self._lock)   # _pending changed
-        self.remote: dict[str, dict] = {}         # name -> {host, pid} of remote agents
+        # name -> the join of a remote agent ({host, pid, lease...}: remote/center.py)
+        self.remote: dict[str, dict[str, Any]] = {}
         self.threads = Threads()      # exit watchers, lost tokens: joined by the runtime's stop
 
     @property
