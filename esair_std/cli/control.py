@@ -135,7 +135,7 @@ def ls_cmd(c: _Connection, as_json: bool) -> None:
                    "be listed soon", err=True)
 
 
-def stopped_line(state: dict | None, lead: str = "") -> str:
+def stopped_line(state: JSON, lead: str = "") -> str:
     """``STOPPED by WHO at TIME (reason): release with esair std release``, or "" while
     not stopped (the latched STOP: docs/std.md)."""
     if not isinstance(state, dict):
@@ -162,8 +162,8 @@ def still_starting(c: _Connection) -> bool:
               help="An option (self.options); VALUE is JSON or text (text that starts "
                    "with {, [ or \" as a JSON string).")
 @control
-def add_cmd(c: _Connection, name: str, class_path: str, uses: tuple, period: float | None,
-            options: tuple) -> None:
+def add_cmd(c: _Connection, name: str, class_path: str, uses: tuple[str, ...],
+            period: float | None, options: tuple[str, ...]) -> None:
     """Add behavior NAME (module:Class, imported from the deployment's folder first)."""
     opts = options_of(options)
     state = c.call("add", {"name": name, "class": class_path, "uses": pairs(uses, "--uses"),
@@ -189,7 +189,8 @@ def remove_cmd(c: _Connection, name: str) -> None:
               help="An option (self.options); VALUE is JSON or text (text that starts "
                    "with {, [ or \" as a JSON string).")
 @control
-def add_resource_cmd(c: _Connection, name: str, class_path: str, allow: tuple, options: tuple) -> None:
+def add_resource_cmd(c: _Connection, name: str, class_path: str, allow: tuple[str, ...],
+                     options: tuple[str, ...]) -> None:
     """Add resource NAME (a Sensor, Actuator or Driver class) while the robot runs."""
     opts = options_of(options)
     kids = c.call("add-resource", {"name": name, "class": class_path,

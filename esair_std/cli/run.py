@@ -153,7 +153,7 @@ def run_cmd(deployment: str, mode: str | None, seconds: float | None, endpoint: 
         exposure(f"listening on {rt.endpoint}", "TLS client certificates (a tls/ endpoint) "
                  "or logins: a security section (docs/std-network.md)", insecure)
     stop = threading.Event()
-    failed: list[dict] = []
+    failed: list[JSONObject] = []
     ctrl_c = _CtrlC(stop)
     old = signal.getsignal(signal.SIGTERM)
     try:
