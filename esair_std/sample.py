@@ -18,7 +18,7 @@ class Sample:
     t: float
     source: str
 
-    def __init__(self, value: Any, seq: int, t: float, source: str):
+    def __init__(self, value: JSON, seq: int, t: float, source: str):
         object.__setattr__(self, "value", value)
         object.__setattr__(self, "seq", seq)
         object.__setattr__(self, "t", t)
@@ -30,7 +30,7 @@ class Sample:
     def __delattr__(self, name: str) -> None:
         raise AttributeError(f"cannot delete field {name!r} of an immutable Sample")
 
-    def _key(self) -> tuple[Any, int, float, str]:
+    def _key(self) -> tuple[object, int, float, str]:
         return (self.value, self.seq, self.t, self.source)
 
     def __eq__(self, other: object) -> bool:
@@ -45,7 +45,7 @@ class Sample:
         return (f"Sample(value={self.value!r}, seq={self.seq!r}, t={self.t!r}, "
                 f"source={self.source!r})")
 
-    def __reduce__(self) -> tuple[type[Sample], tuple[Any, int, float, str]]:
+    def __reduce__(self) -> tuple[type[Sample], tuple[object, int, float, str]]:
         return (Sample, self._key())
 
     def to_wire(self) -> JSONObject:

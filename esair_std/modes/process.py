@@ -521,15 +521,17 @@ class ProcessMode:
         host.reason = "its host process is gone"
         self.rt.rs.failed(host.name, host.generation, host.reason)
 
-    def hello(self, b: dict[str, Any]) -> None:     # the agent's hello (agent_process.py)
+    def hello(self, b: JSONObject) -> None:          # the agent's hello (agent_process.py)
         name, gen = b.get("name", ""), b.get("generation", 0)
         with self._lock:
-            child = self._pending.get((name, gen))
-        if child is None:
+            child = (self._pending.get((name, gen))
+                     if isinstance(name, str) and isinstance(gen, int) else None)
+        if child is None or not isinstance(name, str) or not isinstance(gen, int):
             raise ComponentError(f"no component {name!r} (generation {gen}) is starting")
         child.info = b
-        child.pid = b.get("pid", child.pid)
-        child.hostname = b.get("host", "")
+        pid = b.get("pid", child.pid)
+        child.pid = pid if isinstance(pid, int) else child.pid
+        child.hostname = str(b.get("host", ""))
         if child.rejoining and isinstance(child, ProcessResource):   # a remote resource back
             child.rejoining = False
             with self._lock:
