@@ -11,7 +11,7 @@ The runtime builds the object and calls every method on the behavior's own threa
 from __future__ import annotations
 
 import logging
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 if TYPE_CHECKING:  # pragma: no cover
     from typing import Protocol
@@ -110,7 +110,7 @@ class Behavior(_Component):
     def receive(self, sender: str, data: Any) -> None:
         """The BS delivers another behavior's ``put(self.name, data)``."""
 
-    def provide(self, requester: str) -> JSON:
+    def provide(self, requester: str) -> object:
         """The BS asks for data on another behavior's ``get(self.name)``."""
         return None
 
@@ -130,14 +130,16 @@ class Behavior(_Component):
         attach_* register for you. Raises Refused with the reason."""
         return self._esair.register(resource, level)
 
-    def configure(self, resource: str, key: str, value: JSON) -> Any:
+    def configure(self, resource: str, key: str, value: object) -> Any:
         """ioctl-like setting, checked by the RS (needs a registration at ``configure``)."""
-        return self._esair.configure(resource, key, value)
+        # JSON, checked where it is encoded (else TransportError)
+        return self._esair.configure(resource, key, cast("JSON", value))
 
     # other behaviors, through the BS
-    def put(self, name: str, data: JSON, timeout: float = 1.0) -> bool:
+    def put(self, name: str, data: object, timeout: float = 1.0) -> bool:
         """Deliver ``data`` to behavior ``name``; False (counted, logged) on failure."""
-        return self._esair.put(name, data, timeout)
+        # JSON, checked where it is copied or encoded (else the put fails: False)
+        return self._esair.put(name, cast("JSON", data), timeout)
 
     def get(self, name: str, timeout: float = 1.0) -> Any:
         """Ask behavior ``name`` for data (its ``provide()``); None (counted) on failure."""

@@ -104,14 +104,14 @@ class BehaviorSupervisor(Supervisor[ComponentHost]):
             time.sleep(min(delay, left))
             delay = min(delay * 2, 0.01)
 
-    def _copied(self, data: JSON) -> tuple[bool, JSON]:
+    def _copied(self, data: object) -> tuple[bool, JSON]:
         try:
             return True, codec.copy(data)
         except TransportError as exc:
             self.c.add("puts_failed")
             return False, exc.message
 
-    def put(self, sender: str, target: str, data: JSON, timeout: float) -> tuple[bool, str]:
+    def put(self, sender: str, target: str, data: object, timeout: float) -> tuple[bool, str]:
         ok, data = self._copied(data)
         if not ok:
             return False, str(data)
@@ -121,7 +121,8 @@ class BehaviorSupervisor(Supervisor[ComponentHost]):
             return ("ok", "") if r == "delivered" else ("busy", r)
         return self._until("puts", target, timeout, "did not take the data", offer)
 
-    def put_wait(self, sender: str, target: str, data: JSON, timeout: float) -> tuple[bool, str]:
+    def put_wait(self, sender: str, target: str, data: object,
+                 timeout: float) -> tuple[bool, str]:
         """A put whose sender waits until the target's receive() ran: (True, "") when it
         took the data, (False, why) when it refused it (raised Refused), failed, or took
         no data within ``timeout`` (retried while busy)."""

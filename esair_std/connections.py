@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import threading
 from collections import deque
-from typing import TYPE_CHECKING, Any, Callable
+from typing import TYPE_CHECKING, Any, Callable, cast
 
 from .errors import CommandError, Refused, ResourceLost, StdError
 from .level import Level
@@ -94,7 +94,7 @@ class ActuatorHandle(_Handle):
         self.failed = 0
         self.detached = False
 
-    def send(self, command: JSON, timeout: float = 1.0) -> Any:
+    def send(self, command: object, timeout: float = 1.0) -> Any:
         """The actuator's ``write()`` result. Raises only CommandError (the actuator
         refused or failed it, no answer within ``timeout``, or the sender is not, or no
         longer, registered to command it: "refused: ...") or ResourceLost (removed,
@@ -103,7 +103,8 @@ class ActuatorHandle(_Handle):
             self.failed += 1
             raise ResourceLost(self.resource, "detached: the resource was removed")
         try:
-            result = self._send(self.resource, command, timeout)
+            # JSON, checked where it is copied or encoded (else TransportError, below)
+            result = self._send(self.resource, cast(JSON, command), timeout)
         except (CommandError, ResourceLost):
             self.failed += 1
             raise

@@ -318,7 +318,8 @@ class Runtime:
     def remove_resource(self, name: str) -> list[str]:
         return self.rs.request(self.rs.remove, name)
 
-    def put(self, name: str, data: JSON, timeout: float = 1.0, sender: str = "operator") -> None:
+    def put(self, name: str, data: object, timeout: float = 1.0,
+            sender: str = "operator") -> None:
         ok, why = self.bs.put(sender, name, data, timeout)
         if not ok:
             raise ControlError(f"put to {name!r} failed: {why}")

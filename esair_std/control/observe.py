@@ -137,7 +137,7 @@ class Observe:
         return self.rt.bs.request(self.rt.bs.add, spec).host.state
 
     def v_describe(self, b: JSONObject) -> JSONObject:
-        out: JSONObject = {}
+        out: dict[str, JSONObject] = {}
         for entry, (spec, _host) in list(self.rt.rs.entries.items()):
             d: JSONObject = {"class": spec.class_path}
             robot = spec.options.get("robot") if isinstance(spec.options, dict) else None

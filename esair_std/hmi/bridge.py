@@ -36,6 +36,7 @@ from ..counters import Counters
 from ..errors import StdError, TransportError
 from ..transport import keys, records
 from ..transport.bus import Bus
+from ..transport.codec import JSON
 from ..transport.session import check_endpoint
 
 log = logging.getLogger("esair_std.hmi")
@@ -188,8 +189,8 @@ class Bridge:
         if bad:
             self.c.add("records_refused", bad)
         for res, rec in got:
-            v = rec["v"]
-            if "ok" in v and "command" in v:
+            v: JSON = rec["v"]              # an object (records.unpack checked it)
+            if isinstance(v, dict) and "ok" in v and "command" in v:
                 self.c.add("commands_seen")
                 self.emit({"t": "ran", "r": res, "v": v["command"], "at": took(v["ok"])})
 

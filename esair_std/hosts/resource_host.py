@@ -72,11 +72,11 @@ class Slot:
         self.asked: float | None = None
         self.expires: float | None = None
 
-    def report(self, value: JSON) -> None:
-        value = codec.copy(value)
+    def report(self, value: object) -> None:
+        copied = codec.copy(value)
         with self._lock:
             self.seq += 1
-            sample = Sample(value, self.seq, time.time(), self.name)
+            sample = Sample(copied, self.seq, time.time(), self.name)
             self.c["reported"] += 1
         self.host.port.publish(self.name, sample)
 

@@ -14,7 +14,7 @@ from __future__ import annotations
 import contextlib
 import logging
 import threading
-from typing import Any, Callable, Literal, Protocol, TypeVar, overload
+from typing import Any, Callable, Literal, Mapping, Protocol, TypeVar, overload
 
 import zenoh
 
@@ -110,7 +110,7 @@ class Bus:
     answers: without this, 2 of 6 `esair std inspect` answered from such a peer."""
 
     def __init__(self, listen: list[str] | None = None, connect: list[str] | None = None,
-                 options: JSONObject | None = None, runtime: str | None = None):
+                 options: Mapping[str, object] | None = None, runtime: str | None = None):
         self.session = open_session(listen, connect, options)
         self.runtime = runtime
         self._runtime_hosts = endpoint_hosts(runtime) if runtime else set()

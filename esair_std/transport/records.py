@@ -17,20 +17,10 @@ cannot speak for another's actuators.
 
 from __future__ import annotations
 
-from typing import TypedDict
-
 from .codec import JSON, JSONObject
 
 BATCH_S = 0.05        # a record waits at most this long for others to share its message
 BATCH_MAX = 256       # ... and goes at once with this many
-
-
-class Ran(TypedDict):
-    """One record of a batch, as :func:`unpack` hands it on (``v`` checked an object)."""
-
-    seq: JSON
-    t: JSON
-    v: JSONObject
 
 
 def record(resource: str, seq: int, t: float, outcome: JSONObject,
@@ -38,13 +28,13 @@ def record(resource: str, seq: int, t: float, outcome: JSONObject,
     return {"r": resource, "seq": seq, "t": t, "v": dict(outcome, command=command)}
 
 
-def unpack(key: str, obj: JSON) -> tuple[list[tuple[str, Ran]], int]:
+def unpack(key: str, obj: JSON) -> tuple[list[tuple[str, JSONObject]], int]:
     """The ``(actuator, {seq, t, v})`` of a batch heard on ``key``, and how many of its
     items were not records of that entry's actuators (left out)."""
     entry = key.rsplit("/", 1)[-1]
     if not isinstance(obj, list):
         return [], 1
-    out: list[tuple[str, Ran]] = []
+    out: list[tuple[str, JSONObject]] = []
     bad = 0
     for item in obj:
         r = item.get("r") if isinstance(item, dict) else None

@@ -8,10 +8,11 @@ from __future__ import annotations
 import json
 import os
 import re
+from typing import Mapping
+
 import zenoh
 
 from ..errors import TransportError
-from .codec import JSONObject
 
 
 # Zenoh routes every message a session receives on its "rx" pool of threads, 2 by default.
@@ -44,7 +45,7 @@ def hub_runtime() -> None:
 
 
 def open_session(listen: list[str] | None = None, connect: list[str] | None = None,
-                 options: JSONObject | None = None) -> "zenoh.Session":
+                 options: Mapping[str, object] | None = None) -> "zenoh.Session":
     cfg = zenoh.Config()
     try:
         cfg.insert_json5("mode", '"peer"')
