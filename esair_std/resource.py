@@ -19,12 +19,12 @@ from .behavior import _Hosted
 if TYPE_CHECKING:  # pragma: no cover
     from typing import Protocol
 
-    from .transport.codec import JSONObject
+    from .transport.codec import JSON
 
     class _Slot(Protocol):
         """What a resource reaches through its slot (hosts/resource_host.py)."""
         name: str
-        options: JSONObject
+        options: dict[str, object]
         host: Any          # the resource's host: a driver's children reach their own driver
 
         def report(self, value: object) -> None: ...
@@ -87,7 +87,7 @@ class Sensor(_Agent):
         """Report one sample now (numbered, time-stamped, routed by the SC)."""
         self._esair.report(value)
 
-    def configure(self, key: str, value: Any) -> object:
+    def configure(self, key: str, value: Any) -> JSON:
         if key == "rate_hz":
             self.rate_hz = float(value)
             return self.rate_hz
@@ -95,7 +95,7 @@ class Sensor(_Agent):
 
 
 class Actuator(_Agent):
-    def write(self, command: Any) -> object:
+    def write(self, command: Any) -> JSON:
         raise CommandError(self.name, "write() is not implemented")
 
     def halt(self) -> None:
@@ -109,7 +109,7 @@ class Actuator(_Agent):
     def release(self) -> None:
         """The STOP was released: commands are taken again (starts nothing)."""
 
-    def configure(self, key: str, value: Any) -> object:
+    def configure(self, key: str, value: Any) -> JSON:
         raise self.no_setting(key)
 
 

@@ -80,7 +80,7 @@ class Runtime:
         self.ac = ActuatorConnection(self.rs)
         self.bs = BehaviorSupervisor(self._start_component, self.rs, self._forget)
         self.server: ControlServer | None = None
-        self.session_options: JSONObject | None = None
+        self.session_options: Mapping[str, object] | None = None
         self.extra_listen: list[str] = []
         self.local_endpoint: str | None = None     # where local children connect
         self.child_session: dict[str, str] | None = None   # their login (remote/center.py)

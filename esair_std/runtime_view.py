@@ -84,7 +84,7 @@ class Robot(RuntimeView, Protocol):
     extra_listen: list[str]
     join: list[str]
     started_at: float        # 0 while it starts (its deployment's components being added)
-    session_options: JSONObject | None
+    session_options: Mapping[str, object] | None
 
     def add(self, name: str, class_path: str, uses: Mapping[str, Level | str] | None = None,
             period: float | None = None, options: JSONObject | None = None) -> str: ...

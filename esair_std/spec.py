@@ -26,7 +26,7 @@ class Spec:
     kind: str
     name: str
     class_path: str
-    options: JSONObject
+    options: dict[str, object]       # the user's own (YAML, sent as JSON)
     base_dir: str | None
     period: float | None
     has_period: bool
@@ -39,7 +39,7 @@ class Spec:
     where: str
 
     def __init__(self, kind: str, name: str, class_path: str,
-                 options: JSONObject | None = None,
+                 options: dict[str, object] | None = None,
                  base_dir: str | None = None, period: float | None = None,
                  has_period: bool = False, uses: dict[str, str] | None = None,
                  restart_max: int = 0, restart_within: float = 0.0,

@@ -50,7 +50,7 @@ class Slot:
     """One resource (a sensor or an actuator) as its host keeps it."""
 
     def __init__(self, host: "ResourceHost", name: str, obj: Sensor | Actuator,
-                 options: JSONObject):
+                 options: dict[str, object]):
         self.host = host
         self.name = name
         self.obj = obj

@@ -14,7 +14,8 @@ from __future__ import annotations
 import contextlib
 import logging
 import threading
-from typing import Any, Callable, Literal, Mapping, Protocol, TypeVar, overload
+from typing import (Any, Callable, Literal, Mapping, Protocol, TypeVar, overload,
+                    runtime_checkable)
 
 import zenoh
 
@@ -28,6 +29,7 @@ log = logging.getLogger("esair_std.transport")
 _T = TypeVar("_T", bound="Declared")
 
 
+@runtime_checkable
 class Declared(Protocol):
     """What the bus declared on its session (a queryable, a subscriber, a publisher, a
     token, a querier): undeclared when the bus closes."""
@@ -257,7 +259,10 @@ class Bus:
         return self._keep(self.session.declare_subscriber(
             key, zenoh.handlers.Callback(cb, indirect=False)))
 
-    def unsubscribe(self, sub: Declared) -> None:
+    def unsubscribe(self, sub: object) -> None:
+        """Undeclare ``sub`` (what :meth:`subscribe` gave; anything else is left)."""
+        if not isinstance(sub, Declared):
+            return
         with self._lock:
             if sub in self._decl:
                 self._decl.remove(sub)
