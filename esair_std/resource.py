@@ -19,8 +19,6 @@ from .behavior import _Hosted
 if TYPE_CHECKING:  # pragma: no cover
     from typing import Protocol
 
-    from .transport.codec import JSON
-
     class _Slot(Protocol):
         """What a resource reaches through its slot (hosts/resource_host.py)."""
         name: str
@@ -87,7 +85,7 @@ class Sensor(_Agent):
         """Report one sample now (numbered, time-stamped, routed by the SC)."""
         self._esair.report(value)
 
-    def configure(self, key: str, value: Any) -> JSON:
+    def configure(self, key: str, value: Any) -> object:
         if key == "rate_hz":
             self.rate_hz = float(value)
             return self.rate_hz
@@ -95,7 +93,7 @@ class Sensor(_Agent):
 
 
 class Actuator(_Agent):
-    def write(self, command: Any) -> JSON:
+    def write(self, command: Any) -> object:
         raise CommandError(self.name, "write() is not implemented")
 
     def halt(self) -> None:
@@ -109,7 +107,7 @@ class Actuator(_Agent):
     def release(self) -> None:
         """The STOP was released: commands are taken again (starts nothing)."""
 
-    def configure(self, key: str, value: Any) -> JSON:
+    def configure(self, key: str, value: Any) -> object:
         raise self.no_setting(key)
 
 

@@ -39,7 +39,7 @@ class Spec:
     where: str
 
     def __init__(self, kind: str, name: str, class_path: str,
-                 options: dict[str, object] | None = None,
+                 options: Mapping[str, object] | None = None,
                  base_dir: str | None = None, period: float | None = None,
                  has_period: bool = False, uses: dict[str, str] | None = None,
                  restart_max: int = 0, restart_within: float = 0.0,
@@ -49,7 +49,8 @@ class Spec:
             kind=kind,                           # behavior | reaction | resource
             name=name,
             class_path=class_path,               # module:Class
-            options={} if options is None else options,
+            options=({} if options is None else options if isinstance(options, dict)
+                     else dict(options)),
             base_dir=base_dir,
             period=period,                       # None: the class's own
             has_period=has_period,               # the deployment set period (maybe to None)

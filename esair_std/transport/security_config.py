@@ -53,7 +53,7 @@ LEASE_MS = 2000          # default link lease of every STD session (zenoh's own:
 RETRY = {"period_init_ms": 100, "period_max_ms": 250, "period_increase_factor": 1.5}
 
 
-def link_inserts(lease_ms: int = LEASE_MS) -> dict[str, object]:
+def link_inserts(lease_ms: int = LEASE_MS) -> JSONObject:
     """Zenoh config entries every STD session should have, with or without security:
     a short link lease (a silent computer is dropped, and its liveliness tokens gone,
     after ``lease_ms``; zenoh sends 4 keep-alives per lease) and fast reconnection
@@ -82,7 +82,7 @@ def _password(base: Path, sec: Security) -> str | None:
 
 
 def session_inserts(sec: Security | None, base_dir: str | Path = ".", *,
-                    listen: bool) -> dict[str, object]:
+                    listen: bool) -> JSONObject:
     """The zenoh config entries (``Config.insert_json5`` path -> value) for ``sec``.
 
     ``listen``: this session accepts peers (control center) rather than only connecting.
@@ -91,7 +91,7 @@ def session_inserts(sec: Security | None, base_dir: str | Path = ".", *,
     if sec is None:
         return {}
     base = Path(base_dir)
-    out: dict[str, object] = link_inserts(sec.lease_ms)
+    out: JSONObject = link_inserts(sec.lease_ms)
     tls = "transport/link/tls/"
     ca = _file(base, sec.ca, "ca")
     cert, key = _file(base, sec.cert, "cert"), _file(base, sec.key, "key")
