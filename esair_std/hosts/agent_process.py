@@ -308,7 +308,7 @@ class Agent:
 
     def _report_room(self) -> None:
         self._credit({"gen": self.generation, "open": self._component.open,
-                      "room": self._component.room()})
+                      "full": self._component.full, "room": self._component.room()})
 
     def _bad_delivery(self, _why: str) -> None:
         self.delivers["bad"] += 1

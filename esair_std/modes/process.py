@@ -207,7 +207,9 @@ class ProcessComponent(_Child):
     arrives (loopback, at most RESERVED of them under way), so "delivered" is never a
     guess. A remote agent, across a link that may be cut, is always asked."""
 
+    credit_known = False     # a report came: the state below is known without asking
     credit_open = False      # the last report: the component takes data
+    credit_full = False      # the last report: its mailbox is full (listed busy)
     credit_room = 0          # deliveries into reserved room it allows, ever
     credit_sent = 0          # deliveries into reserved room sent, ever
 
@@ -217,14 +219,18 @@ class ProcessComponent(_Child):
 
     @property
     def state(self) -> str:
-        if self.remote or self.phase in ("failed", "stopped", "starting", "lost"):
-            return self.phase        # a remote agent reports its phases: no round trip
-        r = self.ask(self.key, {"op": "state"}, 0.5)
-        return r["ok"] if isinstance(r, dict) and "ok" in r else self.phase
+        """Known here, never asked of the agent: its phase (reported), busy while its
+        last report of its room says it takes no data or its mailbox is full. A round
+        trip per component made ``ls`` wait on every starved or frozen agent in turn."""
+        if self.remote or self.phase != "running" or not self.credit_known:
+            return self.phase        # a remote agent reports its phases
+        return "busy" if not self.credit_open or self.credit_full else "running"
 
-    def credit(self, open_: bool, room: int) -> None:
+    def credit(self, open_: bool, room: int, full: bool = False) -> None:
         with self.mode.credit_lock:
+            self.credit_known = True
             self.credit_open = open_
+            self.credit_full = full
             self.credit_room = max(self.credit_room, room)
 
     def deliver_reserved(self, sender: str, data: Any) -> bool:
@@ -437,7 +443,7 @@ class ProcessMode:
             self.credits["bad_reports"] += 1
             return
         self.credits["reports"] += 1
-        host.credit(obj.get("open") is True, room)
+        host.credit(obj.get("open") is True, room, obj.get("full") is True)
 
     def deliver(self, name: str, body: bytes) -> None:
         pub = self._deliver_pubs.get(name)
@@ -446,7 +452,7 @@ class ProcessMode:
             # so Zenoh must not drop it under congestion (a dropped put would be a
             # delivery told and never made); the component reserved the room for it
             pub = self._deliver_pubs[name] = self.bus.publisher(
-                keys.bs_deliver(self.rt.robot, name), drop=False, raw=True)
+                keys.bs_deliver(self.rt.robot, name), drop=False, raw=True, express=True)
         pub(body)
 
     def forget(self, name: str) -> None:
