@@ -18,7 +18,7 @@ import subprocess
 import sys
 import threading
 import time
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Callable
 
 from ..errors import ComponentError, ResourceLost, StdError, TransportError
 from ..parts import NO_ANSWER
@@ -233,9 +233,12 @@ class ProcessComponent(_Child):
             self.credit_full = full
             self.credit_room = max(self.credit_room, room)
 
-    def deliver_reserved(self, sender: str, data: Any) -> bool:
+    def deliver_reserved(self, sender: str, data: Any,
+                         told: Callable[[], None] | None = None) -> bool:
         """Deliver ``data`` into the room the component reserved: True if sent (the
-        sender may be told "delivered"), False to ask it instead."""
+        sender may be told "delivered"), False to ask it instead. ``told``: called once
+        the room is taken, before the delivery's sample goes (the sender's answer is on
+        its way a publish sooner); a sample that then cannot go is counted."""
         if self.remote or self.phase != "running" or not self.credit_open:
             return False
         try:
@@ -248,6 +251,14 @@ class ProcessComponent(_Child):
             if not self.credit_open or self.credit_sent >= self.credit_room:
                 return False
             self.credit_sent += 1
+        if told is not None:
+            told()
+            try:
+                self.mode.deliver(self.name, body)
+            except Exception as exc:  # noqa: BLE001 - the session or publisher is gone
+                self.mode.credits["unsent"] += 1
+                log.warning("delivery to %s not sent: %s", self.name, exc)
+            return True
         try:
             self.mode.deliver(self.name, body)
         except Exception as exc:  # noqa: BLE001 - not sent: ask instead
@@ -271,8 +282,7 @@ class ProcessComponent(_Child):
         if self.phase in ("failed", "stopped"):
             done(self.phase)
             return True
-        if self.deliver_reserved(sender, data):
-            done("delivered")
+        if self.deliver_reserved(sender, data, lambda: done("delivered")):
             return True
 
         def answer(a: Any) -> None:
@@ -416,7 +426,9 @@ class ProcessMode:
         self.offers = SampleCaller(self.bus, keys.bs_result(self.rt.robot, "*"),
                                    lambda key: keys.name_in(key, 2))
         self.credit_lock = threading.Lock()
-        self.credits = dict(reports=0, bad_reports=0)
+        # unsent: deliveries into reserved room told "delivered" whose sample could not
+        # go (the session closing, the component removed meanwhile)
+        self.credits = dict(reports=0, bad_reports=0, unsent=0)
         self._deliver_pubs: dict[str, Any] = {}
         self.bus.subscribe(keys.bs_credit(self.rt.robot, "*"), self._on_credit,
                            with_key=True, garbage=self._bad_credit)
