@@ -41,8 +41,10 @@ class Echo(Behavior):
 class Pinger(Behavior):
     """run(): ``n`` puts and ``n`` gets to 'echo', timed (seconds); provide() the figures.
     ``raw`` (process mode): a key the runtime's process answers by a bare Zenoh queryable;
-    each put is then followed by a raw ``get`` of that key from this agent's own session,
-    timed alike: the reference taken between the same two processes, at the same time."""
+    ``n`` raw ``get``s of that key from this agent's own session come first, timed alike:
+    the reference taken between the same two processes, in the same run (before the
+    puts: a get right after a put would carry the delivery's work in the other
+    processes)."""
 
     def _raw(self):
         key = self.options.get("raw")
@@ -63,15 +65,15 @@ class Pinger(Behavior):
         n = int(self.options.get("n", 2000))
         raw = self._raw()
         puts, gets, raws, failed = [], [], [], 0
+        for _ in range(n if raw is not None else 0):
+            t = time.perf_counter()
+            failed += not raw()
+            raws.append(time.perf_counter() - t)
         for i in range(n):
             t = time.perf_counter()
             ok = self.put("echo", {"i": i}, timeout=1.0)
             puts.append(time.perf_counter() - t)
             failed += not ok
-            if raw is not None:
-                t = time.perf_counter()
-                failed += not raw()
-                raws.append(time.perf_counter() - t)
         for _ in range(n):
             t = time.perf_counter()
             v = self.get("echo", timeout=1.0)

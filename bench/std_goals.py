@@ -150,9 +150,11 @@ os._exit(0)
 """
 
 
-def zenoh_sample_relay_round_trip(n: int) -> float:
+def zenoh_sample_relay_round_trip(n: int, hops: int = 4) -> float:
     """A mediated put's floor through samples, no ESAIR code: A -> R -> E -> R -> A,
-    four one-way samples (what transport/calls.py does, with the handling left out)."""
+    four one-way samples (what transport/calls.py does, with the handling left out);
+    ``hops=2``: A -> R -> A, a put into room the target reserved (R answers at once, its
+    delivery to E off the sender's path)."""
     import queue
 
     import zenoh
@@ -160,9 +162,12 @@ def zenoh_sample_relay_round_trip(n: int) -> float:
     from esair_std.transport.session import open_session
     e_ep, r_ep = free_endpoint(), free_endpoint()
     procs = []
+    chain = ([e_ep, "f/offer", "f/result"], [r_ep, "f/put", "f/offer", e_ep],
+             [free_endpoint(), "f/result", "f/answer", r_ep])
+    if hops == 2:
+        chain = ([r_ep, "f/put", "f/answer"],)
     try:
-        for args in ([e_ep, "f/offer", "f/result"], [r_ep, "f/put", "f/offer", e_ep],
-                     [free_endpoint(), "f/result", "f/answer", r_ep]):
+        for args in chain:
             procs.append(subprocess.Popen([sys.executable, "-c", SAMPLE_HOP, *args],
                                           stdin=subprocess.PIPE, stdout=subprocess.PIPE,
                                           text=True, cwd=ROOT))
@@ -248,6 +253,10 @@ def put_get(mode: str, n: int) -> dict:
             assert rt.server is not None and rt.server.bus is not None
             rt.server.bus.session.declare_queryable(RAW_KEY, zenoh.handlers.Callback(
                 lambda q: (q.reply(q.key_expr, q.payload), q.drop()), indirect=False))
+        # busy while it runs: asked gently until done (a get to a busy behavior is retried
+        # by the BS every few ms, a load on both processes that the figures would carry)
+        wait_for(lambda: rt.state("pinger") == "running" or time.sleep(0.2), 300,
+                 what="the pinger's run")
         return wait(lambda: rt.get("pinger", timeout=5.0), timeout=300)
 
 
@@ -459,6 +468,12 @@ def process_put(quick: bool, n: int) -> None:
     p = rounds[len(rounds) // 2]
     z = zenoh_get_round_trip(n // 4)
     row("  reference: raw zenoh get, a fresh server", f"{z*1e6:.0f} us", "", None)
+    two = zenoh_sample_relay_round_trip(n // 4, hops=2)
+    row("  reference: 2 raw samples A-R-A", f"{two*1e6:.0f} us = {two/z:.2f}x zenoh",
+        "(the put's floor)", None)
+    row("process: put p50 / its floor (2 raw samples)",
+        f"{p['put']['p50']*1e6:.0f} us / {two*1e6:.0f} us = {p['put']['p50']/two:.2f}x", "",
+        None)
     row("process: get p50", f"{p['get']['p50']*1e6:.0f} us = {p['get']['p50']/z:.2f}x zenoh",
         "(no goal)", None)
     relay = zenoh_relay_round_trip(n // 4)
