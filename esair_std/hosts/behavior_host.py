@@ -76,6 +76,7 @@ class ComponentHost:
         self.taken = 0                 # reserved deliveries taken out, ever
         self._told_taken = 0           # ``taken`` when on_room was last called
         self._told_full = False        # ``full`` when on_room was last called
+        self._report_lock = threading.Lock()   # one report at a time, the last one true
         self.on_room: Any = None       # process mode: tells the BS (open, room()) anew
         self.notices: deque = deque()
         self._phase = "starting"        # starting | running | busy | stopped | failed
@@ -146,12 +147,15 @@ class ComponentHost:
 
     def _room_changed(self) -> None:
         if self.on_room is not None:
-            self._told_taken = self.taken
-            self._told_full = self._full()
-            try:
-                self.on_room()
-            except Exception as exc:  # noqa: BLE001 - the BS falls back to asking
-                log.debug("%s: room not reported: %s", self.name, exc)
+            # the behavior's thread and a transport thread (a put that fills the
+            # mailbox) may both report: one at a time, so the last one sent is the truth
+            with self._report_lock:
+                self._told_taken = self.taken
+                self._told_full = self._full()
+                try:
+                    self.on_room()
+                except Exception as exc:  # noqa: BLE001 - the BS falls back to asking
+                    log.debug("%s: room not reported: %s", self.name, exc)
 
     def start(self) -> None:
         self.thread.start()

@@ -11,6 +11,8 @@ import threading
 
 from esair_std.cli.client import Client
 from esair_std.control.control_server import WORKERS
+from esair_std.errors import ControlError
+from esair_std.hosts.behavior_host import INBOX
 from tests.support.std import wait_for
 
 PUTS = WORKERS + 2        # more than the pool: every worker waits, two more queue
@@ -52,3 +54,35 @@ def test_ls_and_ping_answer_while_every_worker_waits_on_a_put(start, tmp_path):
     assert pong["robot"] == "t"
     assert events[:2] == ["ls", "ping"], f"ls/ping waited behind the puts: {events}"
     assert events[2:] == ["put True"] * PUTS, events
+
+
+BIG = "x" * 9000        # over modes/process.py's RESERVED_BYTES: a plain offer, never reserved
+
+
+def test_a_full_mailbox_is_listed_busy_and_running_again_once_it_drains(start, tmp_path):
+    """In process mode ``ls`` now takes a behavior's state from its own reports, not by
+    asking its process: a mailbox filled by plain offers while receive() is held must
+    still be listed busy, and running again once the behavior drains it."""
+    release = tmp_path / "release"
+    rt = start({"behaviors": {"sink": {"class": "tests.support.comps:GatedSink",
+                                       "release": str(release), "deadline": 120}}},
+               control=True)
+
+    def listed() -> str:
+        return {r["name"]: r["state"] for r in rt.ls()}["sink"]
+
+    assert listed() == "running"
+    sent = 0
+    while True:                          # plain offers until the mailbox takes no more
+        try:
+            rt.put("sink", {"i": sent, "pad": BIG}, timeout=0.3)
+        except ControlError:
+            break
+        sent += 1
+        assert sent <= 10 * INBOX, "the mailbox never filled"
+    wait_for(lambda: listed() == "busy", 10, what="the full mailbox listed busy")
+    assert rt.state("sink") == "busy"
+    release.touch()
+    wait_for(lambda: len(rt.get("sink", timeout=5.0)["got"]) == sent, 60,
+             what="the mailbox to drain")
+    wait_for(lambda: listed() == "running", 10, what="the drained mailbox listed running")
