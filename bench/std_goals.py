@@ -531,16 +531,17 @@ def process_put(quick: bool, n: int) -> None:
     machine is shared and noisy; the median round's figures), with the floors of any
     mediated put beside them."""
     rounds = [put_get("process", n // 4) for _ in range(3 if quick else 5)]
+    median = {}
     for q in ("p50", "p99"):
         rounds.sort(key=lambda p: p["put"][q] / p["raw"][q])
-        p = rounds[len(rounds) // 2]                       # the median round
+        p = median[q] = rounds[len(rounds) // 2]           # the median round
         r = p["put"][q] / p["raw"][q]
         each = ", ".join(f"{pp['put'][q] / pp['raw'][q]:.2f}" for pp in rounds)
         row(f"process: put {q} / raw zenoh get (same 2 procs)",
             f"{p['put'][q]*1e6:.0f} us / {p['raw'][q]*1e6:.0f} us = {r:.2f}x", "<= 1.5x",
             r <= 1.5)
         row("  each round (put/raw)", each, "", None)
-    p = rounds[len(rounds) // 2]
+    p = median["p50"]
     z = zenoh_get_round_trip(n // 4)
     row("  reference: raw zenoh get, a fresh server", f"{z*1e6:.0f} us", "", None)
     two = zenoh_sample_relay_round_trip(n // 4, hops=2)
