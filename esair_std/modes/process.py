@@ -220,8 +220,8 @@ class ProcessComponent(_Child):
     @property
     def state(self) -> str:
         """Known here, never asked of the agent: its phase (reported), busy while its
-        last report of its room says it takes no data or its mailbox is full. A round
-        trip per component made ``ls`` wait on every starved or frozen agent in turn."""
+        last report of its room says it takes no data or its mailbox is full (a round
+        trip per component would make ``ls`` wait on every starved or frozen agent)."""
         if self.remote or self.phase != "running" or not self.credit_known:
             return self.phase        # a remote agent reports its phases
         return "busy" if not self.credit_open or self.credit_full else "running"
