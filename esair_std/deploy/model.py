@@ -109,11 +109,9 @@ class ComponentSpec(BaseModel):
     options_doc: SkipJsonSchema[InstanceOf[Document] | None] = Field(
         None, exclude=True, repr=False, description="where each option is written")
 
-
     @model_validator(mode="before")
     @classmethod
     def _gather_options(cls, data: object) -> object:
-
         """Keys that are not the section's own go to ``options``."""
         if not isinstance(data, dict):
             return data

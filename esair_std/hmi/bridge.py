@@ -342,7 +342,6 @@ class Bridge:
         before = {str(r["name"]): r for r in old}
         for r in new:
             prev = before.pop(str(r["name"]), None)
-
             if prev is None:
                 if old:
                     self.emit(_log("info", f"{r['name']}: added ({r['kind']}, {r['state']})"))
@@ -399,7 +398,6 @@ class Bridge:
             self.link = out
             self.emit({"t": "link", "link": {**out}})
 
-
     def _counters(self, entry: str, info: JSONObject, now: float) -> None:
         self.c.add("inspects")
         try:
@@ -430,5 +428,4 @@ def took(result: JSON, default: float | None = None) -> float:
 
 
 def _log(level: str, text: str) -> JSONObject:
-
     return {"t": "log", "level": level, "text": text, "ts": time.time()}

@@ -68,7 +68,6 @@ def entries_info(describe: Mapping[str, object]) -> tuple[JSONObject, list[str]]
 
 
 def min_links(entries: Mapping[str, Mapping[str, object]]) -> list[str]:
-
     """The entries of a ``describe`` answer whose driver is a MinLink or a class derived
     from it (PAPA-MAN's MinLink, STARFISH's Starfish): each is a serial link the page's
     link bar shows, with or without board files the page can read. Run in the runtime,

@@ -25,7 +25,6 @@ from http import HTTPStatus
 from pathlib import Path
 from typing import TYPE_CHECKING, Callable, TypeAlias, TypeVar, cast
 
-
 from websockets.asyncio.server import ServerConnection, broadcast, serve
 from websockets.datastructures import Headers
 from websockets.exceptions import ConnectionClosed
@@ -321,7 +320,6 @@ class HmiServer:
 
     async def _call(self, page: Page, ident: Ident, fn: Callable[..., _J], *args: object,
                     what: str = "") -> _J | None:
-
         """``fn(*args)`` on an executor's thread, answered to the page; a failure is one
         line in every page's log (``what: why``). Its value, or None when it failed."""
         loop = asyncio.get_running_loop()
@@ -429,7 +427,6 @@ class HmiServer:
         """Release the STOP (operators only: OPERATOR_OPS); it starts nothing."""
         assert self.bridge is not None
         r = await self._call(page, ident, self.bridge.ask, "release",
-
                              {"who": self._principal(page)}, 10.0, what="release")
         if r is not None:
             self.emit({"t": "log", "level": "warning", "ts": time.time(),
@@ -501,7 +498,6 @@ class HmiServer:
         def load() -> list[JSON]:
             from ..record.mcapio import read_samples
             out: list[JSON] = []
-
             for topic, seq, t, value in read_samples(path):
                 out.append([topic, seq, t, value])
                 if len(out) >= LOAD_MAX:
