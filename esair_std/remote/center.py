@@ -23,7 +23,7 @@ import socket
 import tempfile
 import threading
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from ..errors import ControlError, Refused
 from ..modes.process import ProcessComponent, ProcessMode
@@ -95,7 +95,7 @@ def session(rt: RuntimeView) -> tuple[dict, list[str], str | None]:
     return options, [local], local
 
 
-def _lease_s(value: Any) -> float | None:
+def _lease_s(value: object) -> float | None:
     """The lease (s) a joining agent says its session declared (``lease_ms``), if sane."""
     if isinstance(value, (int, float)) and not isinstance(value, bool) and 100 <= value <= 600_000:
         return value / 1000.0
@@ -220,7 +220,7 @@ class Center:
             self._mode().remote.pop(spec.name, None)
         self._mode().pending_changed()
 
-    def _check_identity(self, name: str, proof: Any) -> None:
+    def _check_identity(self, name: str, proof: object) -> None:
         if self.verifier is None or self.sec is None:
             return                                 # no agents listed: the link decides
         ident = self.sec.agents.get(name)
