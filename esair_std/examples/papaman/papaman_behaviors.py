@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import collections
 import time
-from typing import Any
 
 from esair_std import Behavior, CommandError, Refused, ResourceLost
 
@@ -58,7 +57,7 @@ class Sequencer(Behavior):
         self.errors: list[str] = []
         self.operation_deadline = float(self.options.get("operation_deadline", OPERATION_DEADLINE_S))
 
-    def receive(self, sender: str, data: Any) -> None:
+    def receive(self, sender: str, data: object) -> None:
         """Queue the operations, all or none: raising Refused tells a sender that waits
         (`esair std put`) why, and the sequencer runs on."""
         ops = [data] if isinstance(data, str) else data
@@ -103,7 +102,7 @@ class Sequencer(Behavior):
                 ticks = MOTION_TICKS[motion] + 1 + MARGIN_TICKS
                 self.playing, self.until = op, now + ticks * TICK_S
 
-    def _send(self, op: str, command: Any) -> bool:
+    def _send(self, op: str, command: object) -> bool:
         try:
             self.motion.send(command, timeout=SEND_TIMEOUT_S)
             return True
@@ -134,7 +133,7 @@ class Sequencer(Behavior):
         self.errors.append(f"{op}: dropped: {why}")
         self.log.warning("operation %r dropped: %s", op, why)
 
-    def provide(self, requester: str) -> Any:
+    def provide(self, requester: str) -> dict[str, object]:
         return {"playing": self.playing, "queued": [op for op, _ in self.queue],
                 "done": self.done[-20:], "refused": self.refused,
                 "dropped": self.dropped[-20:], "dropped_total": len(self.dropped),
@@ -216,7 +215,7 @@ class BalanceWatcher(Behavior):
             self.errors.append(str(exc))
         return False
 
-    def provide(self, requester: str) -> Any:
+    def provide(self, requester: str) -> dict[str, object]:
         ages = sorted(self.ages)
         return {"reactions": self.reactions[-10:], "firmware_reactions": self.firmware,
                 "samples": self.samples, "errors": self.errors[-5:],
@@ -233,7 +232,7 @@ class Logger(Behavior):
         self.failed = 0
 
     def step(self) -> None:
-        record: dict[str, Any] = {"t": time.time()}
+        record: dict[str, object] = {"t": time.time()}
         for name in ("sequencer", "watcher"):
             value = self.get(name, timeout=0.2)
             if value is None:
@@ -242,5 +241,5 @@ class Logger(Behavior):
         self.records.append(record)
         self.log.info("%s", record)
 
-    def provide(self, requester: str) -> Any:
+    def provide(self, requester: str) -> dict[str, object]:
         return {"records": list(self.records)[-5:], "failed": self.failed}
