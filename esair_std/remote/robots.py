@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 
 from ..errors import StdError
 from ..transport import keys, wire
-from ..transport.codec import JSON
+from ..transport.codec import JSON, JSONObject
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..runtime_view import RuntimeView
@@ -55,7 +55,8 @@ def get(rt: RuntimeView, requester: str, target: str, timeout: float) -> tuple[b
     return (True, r.get("data")) if r.get("ok") else (False, str(r.get("reason", "")))
 
 
-def _ask(rt: RuntimeView, robot: str, verb: str, body: dict, timeout: float) -> dict | str:
+def _ask(rt: RuntimeView, robot: str, verb: str, body: JSONObject,
+         timeout: float) -> JSONObject | str:
     server = getattr(rt, "server", None)
     if server is None or server.bus is None:
         return f"robot {robot!r} is out of reach: this runtime has no control endpoint"
