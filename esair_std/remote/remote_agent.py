@@ -23,7 +23,7 @@ import signal
 import threading
 import time
 from pathlib import Path
-from typing import TYPE_CHECKING, Callable
+from typing import TYPE_CHECKING, Callable, cast
 
 from esair_min import sigs
 
@@ -210,8 +210,9 @@ class RemoteAgent(Agent):
             self._component.start()
 
 
-def component_spec(name: str, class_path: str, kind: str, uses: dict, period: float | None,
-                   options: dict, allow: dict | None = None,
+def component_spec(name: str, class_path: str, kind: str, uses: dict[str, Level | str],
+                   period: float | None, options: dict[str, object],
+                   allow: dict[str, Level | str] | None = None,
                    restart: tuple[int, float] = (0, 0.0)) -> Spec:
     return Spec(kind, name, class_path, dict(options), os.getcwd(), period=period,
                 has_period=period is not None,
@@ -246,17 +247,19 @@ def proof_maker(robot_fn: Callable[[], str], name: str,
 
 def find_robot(bus: Bus, endpoint: str) -> str:
     for wait in (2.0, 3.0):
-        r = bus.request("esair/*/ctl/ping", {}, wait)
+        r = cast("JSONObject | None", bus.request("esair/*/ctl/ping", {}, wait))  # an object
         if r is not None and "ok" in r:
-            return r["ok"]["robot"]
+            ok = cast(JSONObject, r["ok"])             # ping's answer: {"robot", ...}
+            return str(ok["robot"])
     raise TransportError(f"no ESAIR STD control center answers on {endpoint} (with access "
                          "control on, name the robot: --robot NAME)")
 
 
-def run(endpoint: str, name: str, class_path: str, kind: str, uses: dict | None = None,
-        period: float | None = None, options: dict | None = None, robot: str | None = None,
+def run(endpoint: str, name: str, class_path: str, kind: str,
+        uses: dict[str, Level | str] | None = None, period: float | None = None,
+        options: dict[str, object] | None = None, robot: str | None = None,
         sec: SecuritySpec | None = None, hostname: str | None = None,
-        allow: dict | None = None, ready: Callable[[RemoteAgent], None] | None = None,
+        allow: dict[str, Level | str] | None = None, ready: Callable[[RemoteAgent], None] | None = None,
         restart: tuple[int, float] = (0, 0.0),
         left: Callable[[RemoteAgent], None] | None = None) -> int:
     """Run the agent until it is told to stop or signalled; its exit status. ``ready``
@@ -305,9 +308,9 @@ class _Security:
     """A security section already validated by ``esair std agent`` (its pydantic model,
     dumped to JSON): the fields the transport reads, without loading pydantic here."""
 
-    def __init__(self, fields: dict):
+    def __init__(self, fields: dict[str, object]):
         for k, v in fields.items():
-            setattr(self, k, Path(v) if k in _PATHS and v is not None else v)
+            setattr(self, k, Path(str(v)) if k in _PATHS and v is not None else v)
 
 
 def joined_line(agent: RemoteAgent, endpoint: str) -> str:
