@@ -67,7 +67,7 @@ def entries_info(describe: Mapping[str, object]) -> tuple[JSONObject, list[str]]
     return robots, problems
 
 
-def min_links(entries: Mapping[str, Mapping[str, object]]) -> list[str]:
+def min_links(entries: Mapping[str, object]) -> list[str]:
     """The entries of a ``describe`` answer whose driver is a MinLink or a class derived
     from it (PAPA-MAN's MinLink, STARFISH's Starfish): each is a serial link the page's
     link bar shows, with or without board files the page can read. Run in the runtime,
@@ -76,7 +76,7 @@ def min_links(entries: Mapping[str, Mapping[str, object]]) -> list[str]:
     base = getattr(sys.modules.get("esair_std.drivers.minlink.driver"), "MinLink", None)
     out = []
     for entry, d in entries.items():
-        path = str(d.get("class", ""))
+        path = str(cast("Mapping[str, object]", d).get("class", ""))   # an entry: an object
         module, _, name = path.partition(":")
         cls = getattr(sys.modules.get(module), name, None) if module in sys.modules else None
         if path == MINLINK or (isinstance(base, type) and isinstance(cls, type)

@@ -12,6 +12,7 @@ counted too."""
 
 from __future__ import annotations
 
+import functools
 import queue
 import threading
 import time
@@ -47,7 +48,7 @@ class Tap:
         self._last: dict[str, int] = {}
         self._last_cmd: dict[str, int] = {}
         self._latches = 0
-        self._subs: list[tuple[Bus, object]] = []       # (bus, its subscription)
+        self._subs: list[Callable[[], None]] = []    # each undoes a subscription
         self._thread = threading.Thread(target=self._run, name="record:write", daemon=True)
         self._thread.start()
 
@@ -68,8 +69,8 @@ class Tap:
 
     def listen(self, bus: Bus, robot: str) -> None:
         """Record the commands ``robot``'s actuators run, from ``bus`` (until stop())."""
-        self._subs.append((bus, bus.subscribe(keys.commands_all(robot), self._on_commands,
-                                              with_key=True)))
+        sub = bus.subscribe(keys.commands_all(robot), self._on_commands, with_key=True)
+        self._subs.append(functools.partial(bus.unsubscribe, sub))
 
     def _on_commands(self, key: str, obj: JSON) -> None:
         """A batch of an entry's command records (transport/records.py); items that are
@@ -79,7 +80,7 @@ class Tap:
             self.c.add("dropped", bad)
         for res, rec in got:
             if self.wanted(res):
-                self._queue({"t": "c", "r": res, "m": rec})
+                self._queue({"t": "c", "r": res, "m": cast(JSONObject, rec)})
 
     def _queue(self, msg: JSONObject) -> None:
         try:
@@ -136,8 +137,8 @@ class Tap:
         so the file holds every command run before the stop."""
         if self._subs:
             time.sleep(LINGER_S)
-        for bus, sub in self._subs:
-            bus.unsubscribe(sub)
+        for unsubscribe in self._subs:
+            unsubscribe()
         self._subs.clear()
         self.q.put(None)
         if self._thread.is_alive():

@@ -66,7 +66,7 @@ def grants_for(deployment: Deployment, agent: str) -> dict[str, list[str]]:
     return {"reads": reads, "commands": commands, "provides": [agent, f"{agent}.$*"]}
 
 
-def _local_login(options: dict[str, object], rt: RuntimeView) -> None:
+def _local_login(options: JSONObject, rt: RuntimeView) -> None:
     """With ``users`` every session must log in, the runtime's own children too: a login
     made for this run is added to a copy of the users file; children get it in their
     environment (rt.child_session), not on their command line."""
@@ -83,7 +83,7 @@ def _local_login(options: dict[str, object], rt: RuntimeView) -> None:
                         "transport/auth/usrpwd/password": password}
 
 
-def session(rt: RuntimeView) -> tuple[dict[str, object], list[str], str | None]:
+def session(rt: RuntimeView) -> tuple[JSONObject, list[str], str | None]:
     """(zenoh options, extra listen endpoints, endpoint for local children or None)."""
     sec = getattr(rt.deployment, "security", None)
     if sec is None:

@@ -211,7 +211,7 @@ class RemoteAgent(Agent):
 
 
 def component_spec(name: str, class_path: str, kind: str, uses: dict[str, Level | str],
-                   period: float | None, options: dict[str, object],
+                   period: float | None, options: JSONObject,
                    allow: dict[str, Level | str] | None = None,
                    restart: tuple[int, float] = (0, 0.0)) -> Spec:
     return Spec(kind, name, class_path, dict(options), os.getcwd(), period=period,
@@ -221,9 +221,9 @@ def component_spec(name: str, class_path: str, kind: str, uses: dict[str, Level 
                 allow={k: Level.parse(v).name for k, v in (allow or {}).items()})
 
 
-def session_options(sec: SecuritySpec | None) -> dict[str, object]:
+def session_options(sec: SecuritySpec | None) -> JSONObject:
     """The remote agent's Zenoh options: a client, the link settings, its credentials."""
-    opts: dict[str, object] = {"mode": "client", "listen/endpoints": [], **link_inserts()}
+    opts: JSONObject = {"mode": "client", "listen/endpoints": [], **link_inserts()}
     opts.update(session_inserts(sec, ".", listen=False))
     return opts
 
@@ -257,7 +257,7 @@ def find_robot(bus: Bus, endpoint: str) -> str:
 
 def run(endpoint: str, name: str, class_path: str, kind: str,
         uses: dict[str, Level | str] | None = None, period: float | None = None,
-        options: dict[str, object] | None = None, robot: str | None = None,
+        options: JSONObject | None = None, robot: str | None = None,
         sec: SecuritySpec | None = None, hostname: str | None = None,
         allow: dict[str, Level | str] | None = None, ready: Callable[[RemoteAgent], None] | None = None,
         restart: tuple[int, float] = (0, 0.0),

@@ -84,7 +84,7 @@ from .link import DIFFERENT_ROBOT, Exchange, Link
 from .options import DEFAULT_DEADLINE_S, MinLinkOptions
 from ...transport.codec import JSON, JSONObject
 
-_R = TypeVar("_R")     # what one poll of a PolledSensor gets
+_R = TypeVar("_R", bound=JSON)     # what one poll of a PolledSensor gets
 
 
 class LinkAgent(Actuator):
@@ -190,7 +190,7 @@ class PolledSensor(Sensor, Generic[_R]):
         """One poll's reply (raises the link's errors)."""
         raise NotImplementedError
 
-    def value(self, reply: _R) -> object:
+    def value(self, reply: _R) -> JSON:
         """The sample ``reply`` reports, or None: nothing to report (a bad reply)."""
         return reply
 
@@ -236,7 +236,7 @@ class PolledSensor(Sensor, Generic[_R]):
         self.report(value)
 
 
-class FeetSensor(PolledSensor[dict[str, object]]):
+class FeetSensor(PolledSensor[JSONObject]):
     """Polls ``s`` (a poll: commands go first)."""
 
     thread_name = "minlink-feet"
@@ -246,7 +246,7 @@ class FeetSensor(PolledSensor[dict[str, object]]):
         super().__init__()
         self.link, self.hz, self.share = link, hz, share
 
-    def fetch(self) -> dict[str, object]:
+    def fetch(self) -> JSONObject:
         return self.link.feet(poll=True)
 
     def configure(self, key: str, value: JSON) -> float:

@@ -89,6 +89,8 @@ from .link_errors import DifferentRobot, Expired, Held, LinkDown, LinkError, Rob
 if TYPE_CHECKING:  # pragma: no cover
     from serial import Serial           # pySerial is imported when a port opens
 
+    from ...transport.codec import JSONObject
+
 #: Reply codes a well-formed line cannot get: the line was damaged on the wire.
 WIRE_CODES = frozenset({Code.UNKNOWN, Code.TOO_LONG, Code.BAD_ARGUMENT, Code.BAD_CHECKSUM,
                         Code.OVERRUN, Code.BAD_CHARACTER})
@@ -436,7 +438,7 @@ class Link:
     def stop(self) -> None:
         self.command(self.commands.prefix("stop"))
 
-    def feet(self, poll: bool = False) -> dict[str, object]:
+    def feet(self, poll: bool = False) -> JSONObject:
         """The ``s`` reply as a sample value; ``poll``: waits while commands wait."""
         return self.commands.feet(self.command(self.commands.prefix("sensors"), poll=poll))
 

@@ -80,7 +80,6 @@ from .linkswitch import LinkSwitch
 from ...transport.codec import JSON, JSONObject
 
 if TYPE_CHECKING:  # pragma: no cover
-    from .radio import RadioState
     from .worldtap import WorldTap
 
 # the renderers (numpy) and the camera (Pillow) are imported when the driver opens, not
@@ -170,10 +169,10 @@ class RoomMap(Sensor):
     def __init__(self, robot: "Starfish"):
         self.robot = robot
 
-    def read(self) -> dict[str, object]:
+    def read(self) -> JSONObject:
         room, radio = self.robot.room, self.robot.radio
-        marks: list[dict[str, object]] = [
-            {"kind": "pole", "x": lm["x"], "y": lm["y"], "r": lm["r"], "color": lm["color"]}
+        marks: list[JSON] = [
+            {"kind": "pole", "x": lm["x"], "y": lm["y"], "r": lm["r"], "color": list(lm["color"])}
             for lm in room.landmarks]
         src = room.source
         marks.append({"kind": "sound", "x": src.x, "y": src.y, "on": src.on})
@@ -188,7 +187,7 @@ class Radio(Sensor):
     def __init__(self, robot: "Starfish"):
         self.robot = robot
 
-    def read(self) -> RadioState:
+    def read(self) -> JSONObject:
         return self.robot.radio_state()
 
 
@@ -314,13 +313,13 @@ class Starfish(MinLink):
             self.odometry.reset()
         super()._link_state(up, reason)
 
-    def radio_state(self) -> RadioState:
+    def radio_state(self) -> JSONObject:
         assert self.tap is not None         # the driver is open
         x, y, _ = self.tap.pose()
         with self._radio_lock:
             state = self.radio.update(x, y)
         if self.link_switch is not None:
-            self.link_switch.set(state["up"])
+            self.link_switch.set(state["up"] is True)     # a bool (RadioModel.update)
         return state
 
     def resources(self) -> dict[str, Sensor | Actuator]:
