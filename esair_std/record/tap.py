@@ -80,7 +80,7 @@ class Tap:
             self.c.add("dropped", bad)
         for res, rec in got:
             if self.wanted(res):
-                self._queue({"t": "c", "r": res, "m": cast(JSONObject, rec)})
+                self._queue({"t": "c", "r": res, "m": rec})
 
     def _queue(self, msg: JSONObject) -> None:
         try:
