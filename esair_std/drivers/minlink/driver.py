@@ -64,7 +64,7 @@ from __future__ import annotations
 import threading
 import time
 from pathlib import Path
-from typing import Any, Generic, TypeVar
+from typing import Generic, TypeVar
 
 from pydantic import BaseModel
 
@@ -162,7 +162,7 @@ class MotionActuator(LinkAgent, Actuator):
         took = ex.t_sent + self.link.budget.line_s(ex.sent_bytes)
         return {"line": ex.line, "at": round(time.time() - (time.monotonic() - took), 4)}
 
-    def halt(self) -> Any:
+    def halt(self) -> JSONObject | None:
         """The latched STOP's ``x`` (the driver's halt() sent it): recorded as this
         actuator's ``stop``, with when the robot had it; None when it could not go."""
         ex = self.link.last_stop

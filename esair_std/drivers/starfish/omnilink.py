@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import math
 import threading
-from typing import Any
 
 from esair_std import Actuator, CommandError
 from esair_min.components.omni_base.core import velocity_line
@@ -110,7 +109,7 @@ class Wheels(LinkAgent, Actuator):
         self._send(velocity_line(out["vx"], out["vy"], out["w"]))
         return out
 
-    def halt(self) -> Any:
+    def halt(self) -> dict[str, int] | None:
         """The latched STOP's ``x`` (the driver's halt() sent it: the wheels to zero),
         recorded as this actuator's ``stop``; None when it could not go."""
         return None if self.link.last_stop is None else {"vx": 0, "vy": 0, "w": 0}
