@@ -28,8 +28,9 @@ class Sine(Sensor):
 
     def configure(self, key: str, value: JSON) -> object:
         if key in ("amplitude", "freq_hz"):
-            setattr(self, key, float(value))      # type: ignore[arg-type]  # refused: the caller's
-            return float(value)                   # type: ignore[arg-type]
+            number = float(value)   # type: ignore[arg-type]  # no number: TypeError, the caller's
+            setattr(self, key, number)
+            return number
         return super().configure(key, value)
 
 

@@ -252,7 +252,7 @@ class FeetSensor(PolledSensor[JSONObject]):
     def configure(self, key: str, value: JSON) -> float:
         if key in ("rate_hz", "feet_hz"):
             try:
-                hz = float(value)           # type: ignore[arg-type]  # TypeError: refused
+                hz = float(value)       # type: ignore[arg-type]  # no number: TypeError, refused
                 self.link.budget.check_feet_hz(hz, self.share)
             except (TypeError, ValueError, LinkError) as exc:
                 raise CommandError(self.name, str(exc)) from None
