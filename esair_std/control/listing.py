@@ -41,11 +41,12 @@ def components(rt: RuntimeView) -> list[JSONObject]:
             for who in whos:
                 uses.setdefault(who, set()).add(res)
     rows: list[JSONObject] = []
-    for row in rt.ls():
+    listed = rt.ls()
+    for row in listed:
         if row["kind"] in ("behavior", "reaction"):
             rows.append(_row(row, parent="", attached=uses.get(str(row["name"]), ())))
     kids_of: dict[str, list[JSONObject]] = {}
-    for row in rt.ls():
+    for row in listed:
         if row["kind"] not in ("behavior", "reaction"):
             name = str(row["name"])
             entry = rt.rs.resources.get(name, (name, ""))[0]

@@ -196,7 +196,7 @@ class Bus:
     def publisher(self, key: str, drop: bool = False, raw: Literal[False] = False,
                   express: bool | None = None) -> Callable[[JSON], None]: ...
     @overload
-    def publisher(self, key: str, drop: bool, raw: Literal[True],
+    def publisher(self, key: str, drop: bool = False, *, raw: Literal[True],
                   express: bool | None = None) -> Callable[[bytes], None]: ...
 
     def publisher(self, key: str, drop: bool = False, raw: bool = False,
@@ -213,7 +213,8 @@ class Bus:
                 express=True if express is None else express))
         else:
             pub = self._keep(self.session.declare_publisher(
-                key, congestion_control=zenoh.CongestionControl.BLOCK))
+                key, congestion_control=zenoh.CongestionControl.BLOCK,
+                express=bool(express)))
 
         with self._lock:
             self._pub_of[key] = self._pub_of.get(key, ()) + (pub,)
