@@ -173,20 +173,38 @@ class Mover(threading.Thread):
 
 
 # ---- measuring the group --------------------------------------------------------------
-def memory_of(pids: list[int]) -> tuple[float, float]:
-    """(RSS MB, PSS MB) summed over ``pids``."""
+def memory_of(pids: list[int]) -> tuple[float, float, list]:
+    """(RSS MB, PSS MB) summed over ``pids``, and each one's (what it is, RSS, PSS)."""
     rss = pss = 0
+    each = []
     for pid in pids:
         try:
             text = Path(f"/proc/{pid}/smaps_rollup").read_text()
+            cmd = Path(f"/proc/{pid}/cmdline").read_bytes().split(b"\0")
         except OSError:
             continue
+        r = p = 0
         for line in text.splitlines():
             if line.startswith("Rss:"):
-                rss += int(line.split()[1])
+                r = int(line.split()[1])
             elif line.startswith("Pss:"):
-                pss += int(line.split()[1])
-    return rss / 1024, pss / 1024
+                p = int(line.split()[1])
+        rss, pss = rss + r, pss + p
+        each.append((what(cmd), r / 1024, p / 1024))
+    return rss / 1024, pss / 1024, each
+
+
+def what(cmd: list[bytes]) -> str:
+    """A process of the robot side by its command line: an agent by its component's
+    name, else its module."""
+    if b"--spec" in cmd:
+        try:
+            return str(json.loads(cmd[cmd.index(b"--spec") + 1])["name"])
+        except (ValueError, KeyError, IndexError):
+            return "agent"
+    if b"-m" in cmd:
+        return cmd[cmd.index(b"-m") + 1].decode().rsplit(".", 1)[-1]
+    return "runtime"
 
 
 def cpu_of(pids: list[int]) -> dict[int, float]:
@@ -386,7 +404,7 @@ def one(robot: str, mode: str, limit: bool, args) -> dict:
             pids = cap.pids()
             c1, dt = cpu_of(pids), time.monotonic() - t0
             res["cpu_pct"] = 100 * sum(c1[p] - c0[p] for p in c1 if p in c0) / dt
-            res["rss_mb"], res["pss_mb"] = memory_of(pids)
+            res["rss_mb"], res["pss_mb"], res["each"] = memory_of(pids)
             res["processes"] = len(pids)
             res.update(control_asks(ep, robot, args.asks))
             child.stdin.write("go\n")
@@ -480,6 +498,9 @@ def show(rows: list[dict], floor_ms: float) -> None:
         print(f"{tag} RSS {r['rss_mb']:6.1f} MB  PSS {r['pss_mb']:6.1f} MB "
               f"({r['processes']} processes; {mem})  CPU {r['cpu_pct']:5.1f} % of a core  "
               f"start -> ready {r['ready_s']:5.2f} s")
+        if r["processes"] > 1:
+            print(f"{'':26s} each (RSS / PSS MB): " + ", ".join(
+                f"{n} {a:.1f} / {b:.1f}" for n, a, b in r["each"]))
         print(f"{'':26s} control endpoint (ls, ping; goal p99 <= 1 s): p50 "
               f"{r['ask_p50_ms']:.1f} ms, p99 {r['ask_p99_ms']:.1f} ms (n {r['ask_n']}, "
               f"unanswered {r['ask_missed']})")

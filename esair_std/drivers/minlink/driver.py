@@ -71,8 +71,6 @@ from pydantic import BaseModel
 from esair_std import Actuator, CommandError, Driver, ResourceLost, Sensor
 
 from esair_min.errors import EsairError
-from esair_min.model.validate import load_robot
-from esair_min.resources import resolve_robot
 
 from ...restart_window import RestartWindow
 from ...deploy.class_options import check_options
@@ -320,6 +318,10 @@ class MinLink(Driver):
         robot_arg = o.robot if o.robot is not None else self.name
         robot_arg = in_folder(base, robot_arg, must_exist=True)
         port = o.port
+        # the board model (pydantic) is loaded here, where the link opens: a runtime
+        # that only checks this class's options (process mode) never loads it
+        from esair_min.model.validate import load_robot
+        from esair_min.resources import resolve_robot
         try:
             path = resolve_robot(str(robot_arg))
             robot = load_robot(path)

@@ -74,17 +74,19 @@ import collections
 import threading
 import time
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Any, Callable
 
 from esair_min.errors import ProtocolError
 from esair_min.core.protocol import RX_RING, Code, parse_reply
-from esair_min.model.robot import Robot
 from esair_min.serialport import LOCKED, describe, open_port
 
 from ...counters import Counters
 from .budget import LineBudget, line_budget
 from .commands import VERSION_PREFIX, RobotCommands
 from .link_errors import DifferentRobot, Expired, Held, LinkDown, LinkError, RobotRefused
+
+if TYPE_CHECKING:  # pragma: no cover - the model is loaded by whoever opens a link
+    from esair_min.model.robot import Robot
 
 #: Reply codes a well-formed line cannot get: the line was damaged on the wire.
 WIRE_CODES = frozenset({Code.UNKNOWN, Code.TOO_LONG, Code.BAD_ARGUMENT, Code.BAD_CHECKSUM,
