@@ -17,6 +17,7 @@ pytestmark = pytest.mark.slow
 
 SAYS = """\
 import os
+import sys
 
 from esair_std import Behavior
 
