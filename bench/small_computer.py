@@ -479,12 +479,33 @@ def register_writes(fig: dict, trace: Path, wall0: float, virt0: int) -> dict:
             "samples": fig["feet"]["samples"], "lost": fig["feet"]["lost"]}
 
 
+def audio_sim_pct(dep: dict, frames: int = 150) -> float:
+    """The share of a core STARFISH's room simulation takes in the robot side's driver:
+    its microphone frames (16 kHz x 4, 1024 samples each, the room's echoes and noise)
+    rendered here, one after the other, as the driver does (the robot's own work, the
+    frames' encoding and publishing, is not in it)."""
+    from esair_std.drivers.starfish.mics import RATE, AudioRenderer
+    from esair_std.drivers.starfish.scene import load_scene
+
+    o = dep["resources"]["starfish"]
+    room = load_scene(str(STARFISH_ROOM))           # its source as in the idle window
+    audio = AudioRenderer(room, snr_db=float(o.get("snr_db", 20.0)),
+                          reflection_gain=float(o.get("echo", 0.0)))
+    pose = tuple(o.get("pose", (1.5, 1.5, 0.0)))
+    audio.render(pose)
+    t = time.process_time()
+    for _ in range(frames):
+        audio.render(pose)
+    return 100 * (time.process_time() - t) / frames * RATE / audio.frame
+
+
 def shots(fig: dict) -> dict:
     from esair_min.model.validate import load_robot
 
     omega = load_robot(ROOT / "boards" / "starfish").central.base.max_omega_mrad_s / 1000
     each = [None if s is None else (s["took"], s["turned"] / omega) for s in fig["shots"]]
-    return {"shots": each, "samples": fig["ears"]["samples"], "lost": fig["ears"]["lost"]}
+    return {"shots": each, "samples": fig["ears"]["samples"], "lost": fig["ears"]["lost"],
+            "sim_cpu_pct": audio_sim_pct(starfish_deployment(str(ROOT)))}
 
 
 def show(rows: list[dict], floor_ms: float) -> None:
@@ -515,6 +536,9 @@ def show(rows: list[dict], floor_ms: float) -> None:
                              for s in r["shots"])
             print(f"{'':26s} sound -> picture: {each}; audio frames {r['samples']}, "
                   f"lost {r['lost']}")
+            print(f"{'':26s} the room's audio simulation alone: {r['sim_cpu_pct']:.1f} % of a "
+                  f"core (rendered here): the robot side without it "
+                  f"{r['cpu_pct'] - r['sim_cpu_pct']:.1f} %")
 
 
 def _interrupted(*_) -> None:

@@ -56,8 +56,14 @@ class FrameError(ValueError):
     """A microphone frame that cannot be decoded (the message says why)."""
 
 
+_TAPS = np.arange(-KERNEL_HALF, KERNEL_HALF + 1)
+_WINDOW = np.kaiser(2 * KERNEL_HALF + 1, 8.0)     # computed once: each frame's 4+ kernels use it
+
+
 def _fractional_kernel(frac: float, half: int = KERNEL_HALF) -> np.ndarray:
     """Taps h[k], k = -half..half, delaying a signal by ``frac`` (0 <= frac < 1) samples."""
+    if half == KERNEL_HALF:
+        return np.sinc(_TAPS - frac) * _WINDOW
     k = np.arange(-half, half + 1)
     return np.sinc(k - frac) * np.kaiser(2 * half + 1, 8.0)
 
