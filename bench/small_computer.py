@@ -397,6 +397,9 @@ def one(robot: str, mode: str, limit: bool, args) -> dict:
                 res["error"] = f"the robot side exited ({child.wait()}) before it was ready"
                 return res
             res["ready_s"] = json.loads(line)["ready"] - t_exec
+            # the CPU the start took (every process in the group, since it began): the
+            # start's floor under the cap is this over the cap's share, however loaded
+            res["start_cpu_s"] = sum(cpu_of(cap.pids()).values())
             time.sleep(args.settle)
             pids = cap.pids()
             c0, t0 = cpu_of(pids), time.monotonic()
@@ -518,7 +521,8 @@ def show(rows: list[dict], floor_ms: float) -> None:
             if r.get("peak_mb") is not None else ""
         print(f"{tag} RSS {r['rss_mb']:6.1f} MB  PSS {r['pss_mb']:6.1f} MB "
               f"({r['processes']} processes; {mem})  CPU {r['cpu_pct']:5.1f} % of a core  "
-              f"start -> ready {r['ready_s']:5.2f} s")
+              f"start -> ready {r['ready_s']:5.2f} s ({r['start_cpu_s']:.2f} s of CPU: "
+              f"{r['start_cpu_s'] / CPU_SHARE:.2f} s at {CPU_SHARE:.0%} of a core)")
         if r["processes"] > 1:
             print(f"{'':26s} each (RSS / PSS MB): " + ", ".join(
                 f"{n} {a:.1f} / {b:.1f}" for n, a, b in r["each"]))
