@@ -83,11 +83,14 @@ def runtime_side(ep: str, board: str, numpy: bool = False) -> tuple[subprocess.P
     return proc, float(proc.stdout.readline())
 
 
-def forked_children(ep: str, board: str, n: int) -> tuple[list[int], list[int]]:
+def forked_children(ep: str, board: str, n: int) -> tuple[list[int], list[int], float]:
     """``n`` children forked from this process (which imported Zenoh's module only),
     each with its own session connected to ``ep``; the first loads the board model.
-    Each waits until the pipe whose writing end is returned with it closes."""
+    Each waits until the pipe whose writing end is returned with it closes; and the
+    CPU seconds Zenoh's import took here."""
+    t = time.process_time()
     import zenoh
+    import_cpu = time.process_time() - t
 
     gc.collect()
     gc.freeze()
@@ -118,7 +121,12 @@ def forked_children(ep: str, board: str, n: int) -> tuple[list[int], list[int]]:
     for r, _ in ready:
         os.read(r, 1)
         os.close(r)
-    return pids, [w for _, w in ready]
+    return pids, [w for _, w in ready], import_cpu
+
+
+def cpu_s(pid: int) -> float:
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
 def main() -> None:
@@ -143,16 +151,19 @@ def main() -> None:
         proc.stdin.flush()
         proc.wait(30)
         ep = free_endpoint()
-        proc, _ = runtime_side(ep, "")
+        proc, runtime_cpu = runtime_side(ep, "")
         n = args.children or CHILDREN[robot]
-        pids, release = forked_children(ep, board, n)
+        pids, release, import_cpu = forked_children(ep, board, n)
+        start_cpu = runtime_cpu + import_cpu + sum(cpu_s(p) for p in pids)
         time.sleep(1.0)
         rows = [("runtime", proc.pid), ("zygote", os.getpid())] + \
             [(f"child {i + 1}", p) for i, p in enumerate(pids)]
         each = [(name, *memory(pid)) for name, pid in rows]
         print(f"{robot:8s} process floor ({n} forked children): PSS "
               f"{sum(e[2] for e in each):.1f} MB (RSS {sum(e[1] for e in each):.1f}): " +
-              ", ".join(f"{n} {r:.1f} / {p:.1f}" for n, r, p in each))
+              ", ".join(f"{n} {r:.1f} / {p:.1f}" for n, r, p in each) +
+              f"; {start_cpu:.3f} s of CPU to hold it (start floor "
+              f"{start_cpu / CPU_SHARE:.2f} s at {CPU_SHARE:.0%} of a core)")
         for w in release:
             os.close(w)
         for pid in pids:
