@@ -20,8 +20,8 @@ import math
 from typing import Sequence
 
 import numpy as np
-# numpy's FFT (the same pocketfft as scipy.fft, the same results to the bit): scipy.fft
-# would cost the process that localizes ~27 MB more RSS
+# numpy's FFT (numpy 2's is the same pocketfft as scipy.fft, the same results to the
+# bit): scipy.fft would cost the process that localizes ~27 MB more RSS
 from numpy import fft
 
 from .mics import SPEED_OF_SOUND

@@ -2,8 +2,8 @@
 sequence numbers — and, in simulation, the audio those microphones hear in the room.
 
 :class:`AudioRenderer` renders each frame from the room and the robot's pose: the
-source emits a continuous band-limited noise (scipy's Butterworth band-pass over a
-seeded Gaussian stream, filter state kept from frame to frame); each microphone, at its
+source emits a continuous band-limited noise (a Kaiser-windowed FIR band-pass, numpy, over
+a seeded Gaussian stream, its tail kept from frame to frame); each microphone, at its
 own position on the robot, hears that stream
 
 - delayed by its distance to the source over the speed of sound — a fractional delay:
