@@ -31,7 +31,7 @@ Resources, named from the board files:
   sum}}``, polled ``feet_hz`` times a second by the driver's own poller (so that a
   refused poll marks it lost and the next good one ready again);
 - ``<entry>.notices`` sensor: every ``!`` line as ``{"notice": text}`` (``R
-  auto_balance``, ``E10 no answer on i2c``, ``READY ...``).
+  auto_balance``, ``H auto_balance`` while held, ``E10 no answer on i2c``, ``READY ...``).
 
 The runtime's latched STOP (docs/std.md) holds the link (``halt()``): ``x`` goes at
 once, ahead of every command, then ``h1`` holds the firmware's own reactions (a tip
