@@ -154,6 +154,30 @@ def test_a_stop_while_the_link_is_down_reaches_the_robot_first(start, tmp_path):
     assert set(received) <= QUIET, sorted(set(received) - QUIET)
 
 
+def test_a_release_while_the_link_is_down_reaches_the_robot_when_it_is_back(start, tmp_path):
+    """The release's ``h0`` (the firmware's reactions let go) cannot go while the link is
+    down: it goes when the link is back, and no ``x`` or ``h1`` with it."""
+    trace = tmp_path / "trace.txt"
+    emu = EmulatedRobot(PAPAMAN)
+    emu.start()
+    try:
+        rt = start(example(emu.port))
+        rt.wait_state("sequencer", "running")
+        rt.stop_robot("pulled")
+        emu.kill()
+        wait_for(lambda: rt.state("papaman.motion") == "lost", timeout=20,
+                 what="the link down")
+        rt.release_robot()
+        emu.start(["--trace", str(trace), "--trace-rx"])          # plugged back
+        wait_for(lambda: RELEASE_LINE in trace.read_text().splitlines(), timeout=30,
+                 what="the release's h0 after the link came back")
+    finally:
+        emu.stop()
+    received = [line for line in trace.read_text().splitlines()
+                if line.startswith("RX ") and line != "RX 0D"]
+    assert STOP_LINE not in received and HOLD_LINE not in received, received[:5]
+
+
 def test_only_the_operator_releases_and_a_behavior_stops_only_when_granted(start, tmp_path):
     emu = EmulatedRobot(PAPAMAN)
     emu.start()
