@@ -55,10 +55,10 @@ robot that exited: its pty may belong to another program by now).
 **Held** (:meth:`hold`, the runtime's latched STOP): the stop line (``x``) goes at
 once, ahead of every command waiting, which fails with :class:`Held`, as does every
 line but the stop, the version and the polls (sensors keep flowing) until
-``hold(False)``; then the firmware's reactions are held too (``h1``, where the command
-table has the ``hold`` verb: a reaction that fires sends ``!H`` and moves nothing,
-docs/protocol.md). While held, each (re)connect writes the stop line and ``h1`` before
-any other byte (a STOP made while the link was down, or a robot reset since, which
+``hold(False)``. Right after the stop line the firmware's own reactions are held too
+(``h1``, where the command table has the ``hold`` verb: a reaction that fires then sends
+``!H`` and moves nothing, docs/protocol.md). While held, each (re)connect writes the
+stop line and ``h1`` before any other byte (a STOP made while the link was down, or a robot reset since, which
 releases its reactions, is told first thing). ``hold(False)`` sends ``h0``; one that
 could not go is sent at the next connect. A reaction's ``!R`` while held (one that fired
 before ``h1`` arrived, or a robot without the verb) is answered with the stop line at
@@ -727,8 +727,8 @@ class Link:
             port.reset_input_buffer()
             if self._held:          # a STOP made while down: before any other byte
                 wire = RESYNC + self.commands.wire(self.commands.prefix("stop"))
-                if self._hold_lines is not None:       # and the reactions held (a reset
-                    wire += self.commands.wire(self._hold_lines[0])   # released them)
+                if self._hold_lines is not None:   # and h1: a reset releases reactions
+                    wire += self.commands.wire(self._hold_lines[0])
                 port.write(wire)
                 self.stats.add("stops_on_connect")
             self._probe(port)
