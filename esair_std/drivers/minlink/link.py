@@ -58,11 +58,11 @@ line but the stop, the version and the polls (sensors keep flowing) until
 ``hold(False)``. Right after the stop line the firmware's own reactions are held too
 (``h1``, where the command table has the ``hold`` verb: a reaction that fires then sends
 ``!H`` and moves nothing, docs/protocol.md). While held, each (re)connect writes the
-stop line and ``h1`` before any other byte (a STOP made while the link was down, or a robot reset since, which
-releases its reactions, is told first thing). ``hold(False)`` sends ``h0``; one that
-could not go is sent at the next connect. A reaction's ``!R`` while held (one that fired
-before ``h1`` arrived, or a robot without the verb) is answered with the stop line at
-once (docs/std-papaman.md).
+stop line and ``h1`` before any other byte (a STOP made while the link was down, or a
+robot reset since, which releases its reactions, is told first thing). ``hold(False)``
+sends ``h0``; one that could not go is sent at the next connect. A reaction's ``!R``
+while held (one that fired before ``h1`` arrived, or a robot without the verb) is
+answered with the stop line at once (docs/std-papaman.md).
 
 Deadlines: a command carries one (``deadline``, a ``time.monotonic()``; by default its
 ``timeout`` from the call). A command not written by then fails with :class:`Expired`
