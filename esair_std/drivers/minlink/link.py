@@ -61,8 +61,9 @@ line but the stop, the version and the polls (sensors keep flowing) until
 stop line and ``h1`` before any other byte (a STOP made while the link was down, or a
 robot reset since, which releases its reactions, is told first thing). ``hold(False)``
 sends ``h0``; one that could not go is sent at the next connect. A reaction's ``!R``
-while held (one that fired before ``h1`` arrived, or a robot without the verb) is
-answered with the stop line at once (docs/std-papaman.md).
+while held (one that fired before ``h1`` arrived, or a robot without the verb), and a
+robot's ``!READY`` (a reset, which releases its reactions, while the port stayed open)
+are answered with the stop line and ``h1`` at once (docs/std-papaman.md).
 
 Deadlines: a command carries one (``deadline``, a ``time.monotonic()``; by default its
 ``timeout`` from the call). A command not written by then fails with :class:`Expired`
@@ -554,9 +555,12 @@ class Link:
                 self.on_notice(text[1:], t)
             if text.startswith("!H "):
                 self.stats.add("reactions_held")      # the firmware held it: nothing moved
-            elif self._held and text.startswith("!R "):
-                self.stats.add("reactions_stopped")
-                threading.Thread(target=self.send_stop, name="minlink-hold",
+            elif self._held and text.startswith(("!R ", "!READY")):
+                # a reaction moves (not held yet, or no verb), or the robot was reset,
+                # which released its reactions: stop it and hold them again
+                self.stats.add("reactions_stopped" if text.startswith("!R ")
+                               else "resets_while_held")
+                threading.Thread(target=self._hold_again, name="minlink-hold",
                                  daemon=True).start()
             return
         try:
@@ -739,6 +743,10 @@ class Link:
             _close_quietly(port)
             raise LinkError(f"cannot open {self.port}: {describe(exc)}") from None
         return port
+
+    def _hold_again(self) -> None:
+        if self.send_stop() is not None:
+            self._send_hold(True)
 
     def _send_release(self) -> None:
         """The ``h0`` a release could not send (the link was down), now it is back."""
