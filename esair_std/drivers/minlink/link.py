@@ -194,6 +194,7 @@ class Link:
         if self._hold_lines is not None:
             self._held_lines.add(self._hold_lines[0])
         self._release_due = False       # an h0 that could not go: sent at the next connect
+        self._told_held = False         # the last connect wrote the stop line and h1
 
     # -- life cycle -----------------------------------------------------------------------
     def open(self) -> None:
@@ -207,6 +208,7 @@ class Link:
         self._thread = threading.Thread(target=self._run, name=f"minlink-io:{self.port}",
                                         daemon=True)
         self._thread.start()
+        self._after_up()
 
     def close(self) -> None:
         """Stop the I/O thread, close the port, fail the commands still in flight."""
@@ -700,9 +702,7 @@ class Link:
             self.stats.add("reconnects")
             if self.on_state is not None:
                 self.on_state(True, "up")
-            if self._release_due and not self._held:
-                threading.Thread(target=self._send_release, name="minlink-release",
-                                 daemon=True).start()
+            self._after_up()
             return
 
     def _connect(self) -> Any:
@@ -729,7 +729,8 @@ class Link:
                 port.timeout = POLL_S_NO_CANCEL
             self._poll = port.timeout
             port.reset_input_buffer()
-            if self._held:          # a STOP made while down: before any other byte
+            self._told_held = self._held
+            if self._told_held:     # a STOP made while down: before any other byte
                 wire = RESYNC + self.commands.wire(self.commands.prefix("stop"))
                 if self._hold_lines is not None:   # and h1: a reset releases reactions
                     wire += self.commands.wire(self._hold_lines[0])
@@ -743,6 +744,16 @@ class Link:
             _close_quietly(port)
             raise LinkError(f"cannot open {self.port}: {describe(exc)}") from None
         return port
+
+    def _after_up(self) -> None:
+        """What changed while the connect was under way: a STOP its first bytes did not
+        carry (hold() could not send while the link was not up), or a release due."""
+        if self._held and not self._told_held:
+            threading.Thread(target=self._hold_again, name="minlink-hold",
+                             daemon=True).start()
+        elif self._release_due and not self._held:
+            threading.Thread(target=self._send_release, name="minlink-release",
+                             daemon=True).start()
 
     def _hold_again(self) -> None:
         if self.send_stop() is not None:
