@@ -25,7 +25,7 @@ import os
 import signal
 import sys
 from array import array
-from typing import Any, TypedDict
+from typing import TypedDict
 
 # the C module, not socket.py: an agent imports no more than it needs
 import _socket
@@ -63,7 +63,7 @@ class _Request(TypedDict):
     cwd: str
 
 
-def _child(sock: Any, req: _Request, fds: list[int]) -> None:
+def _child(sock: _socket.socket, req: _Request, fds: list[int]) -> None:
     """In the forked agent: its descriptors, folder, environment and command line, then
     the agent itself. Never returns."""
     code = 1
@@ -97,7 +97,7 @@ def _child(sock: Any, req: _Request, fds: list[int]) -> None:
         os._exit(code)
 
 
-def _fork(sock: Any, req: _Request, fds: list[int]) -> int:
+def _fork(sock: _socket.socket, req: _Request, fds: list[int]) -> int:
     """Forks the agent as a grandchild; its pid."""
     r, w = os.pipe()
     middle = os.fork()
@@ -118,7 +118,7 @@ def _fork(sock: Any, req: _Request, fds: list[int]) -> int:
     return int(text)
 
 
-def _receive(sock: Any) -> tuple[bytes, list[int]]:
+def _receive(sock: _socket.socket) -> tuple[bytes, list[int]]:
     """One request and the descriptors passed with it (socket.recv_fds's way)."""
     fds = array("i")
     msg, ancillary, _flags, _addr = sock.recvmsg(MAX_REQUEST, _socket.CMSG_LEN(3 * fds.itemsize))
@@ -128,7 +128,7 @@ def _receive(sock: Any) -> tuple[bytes, list[int]]:
     return msg, list(fds)
 
 
-def serve(sock: Any) -> None:
+def serve(sock: _socket.socket) -> None:
     sock.send(b'{"ready": true}')
     while True:
         try:
