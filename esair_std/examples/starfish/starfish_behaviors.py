@@ -187,15 +187,30 @@ class TurnAndShoot(Behavior):
     deadline = 3.0
 
     def start(self):
+        from esair_min.model.validate import load_robot
+        from esair_min.resources import resolve_robot
+        from esair_std.drivers.starfish import turn
+        self._turn = turn
         self.patrol = self.options.get("patrol", "patrol")
-        self.tolerance = math.radians(float(self.options.get("tolerance_deg", 1.5)))
-        self.max_turn = float(self.options.get("max_turn", 2500))        # mrad/s
+        self.tolerance = math.radians(float(self.options.get("tolerance_deg", 3.0)))
+        # the turn's limits from the board files: the top rate and the drive board's ramp
+        robot = load_robot(resolve_robot(str(self.options.get("robot", "starfish"))))
+        omega, self.accel = turn.turn_limits(robot)
+        # the flow sensors lose counts beyond their top speed: while the patrol's drive
+        # ramps out, the turn starts slower, so the odometry keeps the heading
+        self.flow_max, self.flow_r = turn.flow_limit(robot)
+        self.wheel_r = turn.wheel_radius(robot)
+        self.max_drive = float(turn.base_of(robot).max_speed_mm_s)
+        self.handover = float(self.options.get("handover_s", 0.06))
+        # what a drive command landing during the handover can add before the next turn
+        # command replaces it (the drive's ramp over two of this behavior's periods)
+        self.handover_mm_s = self.accel * self.wheel_r * 2 * self.period
+        self.max_turn = min(float(self.options.get("max_turn", omega * 1000)), omega * 1000)
         self.cooldown = float(self.options.get("cooldown", 5.0))          # s between shots
         self.turn_timeout = float(self.options.get("turn_timeout", 6.0))
         # a wheel command refused, failed or unanswered is logged and the next step sends
         # again; the shot is given up only when no wheel command went through for this long
         self.wheels_silent = float(self.options.get("wheels_silent_s", 2.0))
-        self.gain = float(self.options.get("gain", 5000.0))               # mrad/s per rad
         self.store = Path(self.options.get("store", "starfish-pictures"))
         self.keep = int(self.options.get("keep", 20))
         self.odometry = self.attach_sensor("starfish.odometry", keep=64)
@@ -211,13 +226,14 @@ class TurnAndShoot(Behavior):
         self.pictures = []
         self.shots = self.aborted = self.ignored = self.missed = 0
         self.wheels_ok_at = 0.0             # when a wheel command last went through
-        self.still = self.rounds = 0
-        self.stood_at = 0.0
+        self.rtt = 0.02                     # a wheel command's round trip, smoothed
+        self.turn: dict = {}
+        self.last_xy: tuple[float, float, float] | None = None
+        self.moved: collections.deque[bool] = collections.deque(maxlen=2)   # the last frames
+        # (t, translation speed mm/s) from the odometry
+        self.drives: collections.deque[tuple[float, float, float]] = collections.deque(maxlen=10)
 
     def receive(self, sender, data):
-        if self.phase == "checking":
-            self.pending = data             # a bearing heard since the robot stopped?
-            return
         if self.phase != "idle" or time.monotonic() < self.quiet_until:
             self.ignored += 1
             return
@@ -232,9 +248,17 @@ class TurnAndShoot(Behavior):
 
     def step(self):
         for s in self.odometry.samples():
+            if self.phase in ("turning", "settling") and self.headings:
+                self.turned += self.sign * wrap(s.value["th"] - self.headings[-1][1])
+                self.odo = (s.t, self.turned)
+                if self.phase == "settling" and s.t > self.stop_sent and not s.value.get("moving", True):
+                    self.stood = True
+            if self.last_xy is not None and s.t > self.last_xy[0]:
+                moved = math.hypot(s.value["x"] - self.last_xy[1], s.value["y"] - self.last_xy[2])
+                self.drives.append((s.t, 1000 * moved / (s.t - self.last_xy[0]), s.t - self.last_xy[0]))
+            self.last_xy = (s.t, s.value["x"], s.value["y"])
+            self.moved.append(bool(s.value.get("moving", True)))
             self.headings.append((s.t, s.value["th"]))
-            # odometry samples in a row that saw the robot standing
-            self.still = 0 if s.value.get("moving", True) else self.still + 1
         if self.phase == "idle" and self.pending is not None:
             data, self.pending = self.pending, None
             th = self._heading_at(data.get("t"))
@@ -243,48 +267,34 @@ class TurnAndShoot(Behavior):
             self.target = wrap(th + float(data["bearing"]))
             self.bearing = data
             self.put(self.patrol, {"yield": self.turn_timeout + 2.0}, timeout=0.3)
-            self.phase, self.since, self.rounds = "turning", time.monotonic(), 0
+            self.since = time.monotonic()
             self.wheels_ok_at = self.since
-        if self.phase == "checking":
-            # the source heard again from where the robot stands now: it moved on while the
-            # bearing travelled (patrol, the drive board's ramp), so aim again if need be
-            data, self.pending = self.pending, None
-            if data is None or float(data.get("t", 0)) < self.stood_at:
-                if time.monotonic() - self.since > self.turn_timeout:
-                    self._shoot()           # no newer bearing: the last aim stands
-                    self._done()
-                return
-            if abs(float(data["bearing"])) <= 2 * self.tolerance or self.rounds >= 3:
-                self._shoot()
-                self._done()
-                return
-            th = self._heading_at(data.get("t"))
-            if th is None:
-                return
-            self.target = wrap(th + float(data["bearing"]))
-            self.phase = "turning"
-            self.rounds += 1
-        if self.phase != "turning":
+            # the turn's record: its first aim, corrections, top rate commanded, and when
+            # (time.time()) the bearing was taken up, the wheels went, stopped, stood
+            self.turn = {"deg": 0.0, "corrections": -1, "max_w": 0, "at": {"heard": time.time()}}
+            self._aim()
+        if self.phase == "idle":
             return
-        if not self.headings:
-            return
-        err = wrap(self.target - self.headings[-1][1])
         try:
-            if abs(err) <= self.tolerance:
-                # the wheels ramp down after the stop (the drive board's ramp): shoot only
-                # once the odometry says the robot stands, and turn again if it drifted
-                self._wheels("stop")
-                if self.still < 2:
-                    return
-                self.phase, self.stood_at = "checking", time.time()
-            elif time.monotonic() - self.since > self.turn_timeout:
+            if time.monotonic() - self.since > self.turn_timeout:
                 self._wheels("stop")
                 self.aborted += 1
                 self._done()
-            else:
-                w = _clamp(err * self.gain, self.max_turn)
-                w = math.copysign(max(abs(w), 150.0), w)
-                self._wheels({"w": round(w)})
+            elif self.phase == "turning":
+                self._turning()
+            elif self.phase == "settling":
+                if self.stop_sent == 0.0:
+                    self._stop()            # the stop's reply was missed: again
+                elif self.stood:
+                    err = wrap(self.target - self.headings[-1][1])
+                    self.turn.setdefault("miss_deg", round(math.degrees(err), 2))
+                    self.turn["at"]["stood"] = time.time()
+                    if abs(err) > self.tolerance and self.turn["corrections"] < 1:
+                        self._aim()         # the one correction, from the odometry
+                    else:
+                        self.turn["odo_th"] = self.headings[-1][1]
+                        self._shoot()
+                        self._done()
         except (CommandError, ResourceLost, Refused) as exc:
             # a slow, failed or refused reply: the next step sends again (the drive
             # board's watchdog stops the wheels meanwhile if nothing comes)
@@ -296,6 +306,79 @@ class TurnAndShoot(Behavior):
             self.log.warning("turn: %s; the wheels silent for %.1f s: shot given up", exc, silent)
             self.aborted += 1
             self._done()
+
+    def _aim(self):
+        """Start a turn to ``target`` from the latest heading: the top rate, stopped when
+        the ramp down will end at the target (the profile); the odometry corrects the
+        model's prediction on the way."""
+        angle = wrap(self.target - self.headings[-1][1]) if self.headings else 0.0
+        self.turn["corrections"] += 1
+        if self.turn["corrections"] == 0:
+            self.turn["deg"] = round(math.degrees(angle), 2)
+        self.sign = 1.0 if angle >= 0 else -1.0
+        self.goal, self.turned = abs(angle), 0.0
+        self.model = self._turn.RampModel(self.accel)
+        self.odo = (self.headings[-1][0] if self.headings else time.time(), 0.0)
+        self.stop_sent, self.stood = 0.0, False
+        self.going = False
+        # driving: turn at what the flow sensors can follow until the drive has ramped out
+        # the odometry's speed is a frame's mean and lags a robot speeding up (patrol's
+        # ramp): the most it can be now, from the last frame on at the drive's ramp; and
+        # patrol may send one more drive command while its yield is on its way (its
+        # period: handover_s), so the turn starts at what the flow sensors can follow
+        # until whatever drive there is has ramped out
+        v = 0.0
+        if self.turn["corrections"] == 0 and self.drives and any(self.moved):
+            t_last, v_last, dt = self.drives[-1]
+            top = max(sp for t, sp, _ in self.drives if t > t_last - 1.0)
+            v = 1.25 * top + 50.0
+            if len(self.drives) > 1 and v_last > self.drives[-2][1] + 30.0:     # speeding up
+                v = max(v, v_last + self.accel * self.wheel_r * (time.time() - t_last + dt))
+            v = min(self.max_drive, v)
+        self.turn.setdefault("drive_mm_s", round(v))
+        self.slow_until, self.slow_rate, self.slow_for = 0.0, self.max_turn / 1000.0, 0.0
+        if self.turn["corrections"] == 0:
+            v = max(v, self.handover_mm_s)
+            self.slow_rate = max(0.2, (0.85 * self.flow_max - v) / self.flow_r)
+            self.slow_for = self.handover + (v + self.wheel_r * self.slow_rate) / (
+                self.accel * self.wheel_r)
+        self.phase = "turning" if abs(angle) > self.tolerance else "settling"
+
+    def _turning(self):
+        rate = self.max_turn / 1000.0
+        if (self.slow_for and not self.going) or time.time() < self.slow_until:
+            rate = min(rate, self.slow_rate)
+        if self.going:
+            now = time.time()
+            latency = self.rtt / 2 + 0.005
+            t_stop = self._turn.stop_time(self.model, self.odo[1], self.odo[0], now, self.goal,
+                                          latency, 0.1)
+            if t_stop is not None:
+                time.sleep(max(0.0, t_stop - time.time()))
+                self._stop()
+                return
+        w = round(self.sign * rate * 1000)
+        t0 = time.time()
+        self._wheels({"w": w})
+        self.rtt += 0.2 * (time.time() - t0 - self.rtt)
+        self.turn["max_w"] = max(self.turn["max_w"], abs(w))
+        if not self.going:                  # the wheels ramp up from here
+            self.going = True
+            self.turn["at"].setdefault("go", t0)
+            self.model.command(t0 + self.rtt / 2, rate)
+            if self.slow_for:
+                self.slow_until = t0 + self.rtt / 2 + self.slow_for
+                self.model.command(self.slow_until, self.max_turn / 1000.0)
+
+    def _stop(self):
+        self.phase = "settling"
+        t0 = time.time()
+        if self.going:
+            self.model.command(t0 + self.rtt / 2, 0.0)
+        self.stop_sent = 0.0
+        self._wheels("stop")
+        self.stop_sent = t0
+        self.turn["at"]["stop"] = t0
 
     def _wheels(self, command):
         self.wheels.send(command, timeout=0.5)
@@ -309,7 +392,7 @@ class TurnAndShoot(Behavior):
         image = base64.b64decode(pic["image"])
         (self.store / f"{stem}.{'png' if pic['format'] == 'png' else 'jpg'}").write_bytes(image)
         meta = {"file": f"{stem}.{'png' if pic['format'] == 'png' else 'jpg'}", "pose": pic["pose"],
-                "t": pic["t"], "bearing": self.bearing, "bytes": len(image)}
+                "t": pic["t"], "bearing": self.bearing, "bytes": len(image), "turn": self.turn}
         (self.store / f"{stem}.json").write_text(json.dumps(meta))
         self.pictures = (self.pictures + [meta])[-self.keep:]
 
