@@ -101,15 +101,21 @@ def shots(mode: str, places: list[tuple[float, float]]) -> list[dict]:
                 floor = profile_time(angle, omega, accel) + 1 / hz + camera_time(pose)
                 err = math.degrees(abs(math.remainder(
                     math.atan2(y - pose[1], x - pose[0]) - pose[2], 2 * math.pi)))
+                # the error's parts: the aim (the target vs the odometry's heading at the
+                # picture), the odometry (its heading vs the true one), the rest the bearing
+                aim = math.degrees(math.remainder(turn["target"] - turn["odo_th"], 2 * math.pi))
+                odo = math.degrees(math.remainder(pose[2] - turn["odo_th"], 2 * math.pi))
                 r = {"src": (x, y), "deg": turn["deg"], "s": last["t"] - t0, "floor": floor,
-                     "corr": turn["corrections"], "max_w": turn["max_w"], "err": err}
+                     "corr": turn["corrections"], "max_w": turn["max_w"], "err": err,
+                     "aim": aim, "odo": odo}
                 r["ratio"] = r["s"] / floor
                 out.append(r)
                 at = " ".join(f"{k_} {v - t0:.2f}" for k_, v in turn["at"].items())
                 print(f"  {mode:>7} {k + 1:>2}: source ({x:4.2f}, {y:4.2f}) turn {turn['deg']:7.1f} "
                       f"deg | {r['s']:5.2f} s, floor {floor:4.2f} s, {r['ratio']:4.2f}x | "
                       f"corrections {r['corr']} (first aim off {turn.get('miss_deg', 0):+.1f} deg) | "
-                      f"error {err:4.1f} deg | top {r['max_w']} mrad/s | {at}", flush=True)
+                      f"error {err:4.1f} deg (aim {aim:+.1f}, odometry {odo:+.1f}) | "
+                      f"top {r['max_w']} mrad/s | {at}", flush=True)
                 time.sleep(0.8)                    # the cooldown, and patrol drives again
     return out
 

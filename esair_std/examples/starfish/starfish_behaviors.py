@@ -192,7 +192,10 @@ class TurnAndShoot(Behavior):
         from esair_std.drivers.starfish import turn
         self._turn = turn
         self.patrol = self.options.get("patrol", "patrol")
-        self.tolerance = math.radians(float(self.options.get("tolerance_deg", 3.0)))
+        self.tolerance = math.radians(float(self.options.get("tolerance_deg", 1.0)))
+        # the correction's top rate (rad/s): slow enough that a wheel command's late
+        # arrival (tens of ms on a loaded computer) moves the aim by a fraction of a degree
+        self.correction_rate = float(self.options.get("correction_rate", 0.5))
         # the turn's limits from the board files: the top rate and the drive board's ramp
         robot = load_robot(resolve_robot(str(self.options.get("robot", "starfish"))))
         omega, self.accel = turn.turn_limits(robot)
@@ -271,7 +274,8 @@ class TurnAndShoot(Behavior):
             self.wheels_ok_at = self.since
             # the turn's record: its first aim, corrections, top rate commanded, and when
             # (time.time()) the bearing was taken up, the wheels went, stopped, stood
-            self.turn = {"deg": 0.0, "corrections": -1, "max_w": 0, "at": {"heard": time.time()}}
+            self.turn = {"deg": 0.0, "corrections": -1, "max_w": 0, "target": round(self.target, 5),
+                         "at": {"heard": time.time()}}
             self._aim()
         if self.phase == "idle":
             return
@@ -288,6 +292,7 @@ class TurnAndShoot(Behavior):
                 elif self.stood:
                     err = wrap(self.target - self.headings[-1][1])
                     self.turn.setdefault("miss_deg", round(math.degrees(err), 2))
+                    self.turn["aim_deg"] = round(math.degrees(err), 2)   # the last stand's
                     self.turn["at"]["stood"] = time.time()
                     if abs(err) > self.tolerance and self.turn["corrections"] < 1:
                         self._aim()         # the one correction, from the odometry
@@ -336,7 +341,10 @@ class TurnAndShoot(Behavior):
                 v = max(v, v_last + self.accel * self.wheel_r * (time.time() - t_last + dt))
             v = min(self.max_drive, v)
         self.turn.setdefault("drive_mm_s", round(v))
-        self.slow_until, self.slow_rate, self.slow_for = 0.0, self.max_turn / 1000.0, 0.0
+        self.top = self.max_turn / 1000.0
+        if self.turn["corrections"] > 0:
+            self.top = min(self.top, self.correction_rate)
+        self.slow_until, self.slow_rate, self.slow_for = 0.0, self.top, 0.0
         if self.turn["corrections"] == 0:
             v = max(v, self.handover_mm_s)
             self.slow_rate = max(0.2, (0.85 * self.flow_max - v) / self.flow_r)
@@ -345,7 +353,7 @@ class TurnAndShoot(Behavior):
         self.phase = "turning" if abs(angle) > self.tolerance else "settling"
 
     def _turning(self):
-        rate = self.max_turn / 1000.0
+        rate = self.top
         if (self.slow_for and not self.going) or time.time() < self.slow_until:
             rate = min(rate, self.slow_rate)
         if self.going:
@@ -368,7 +376,7 @@ class TurnAndShoot(Behavior):
             self.model.command(t0 + self.rtt / 2, rate)
             if self.slow_for:
                 self.slow_until = t0 + self.rtt / 2 + self.slow_for
-                self.model.command(self.slow_until, self.max_turn / 1000.0)
+                self.model.command(self.slow_until, self.top)
 
     def _stop(self):
         self.phase = "settling"
