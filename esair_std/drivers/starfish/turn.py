@@ -101,10 +101,22 @@ def stop_time(model: RampModel, angle_then: float, t_then: float, now: float, go
     ``t_then`` (odometry), the model carries it on; None if not within the horizon."""
     base = model.at(t_then)[0]
     accel = model.accel
-    n = max(1, int(horizon / 0.002))
-    for k in range(n + 1):
-        t = now + horizon * k / n
+
+    def reaches(t: float) -> bool:
         angle, rate = model.at(t + latency)
-        if angle_then + angle - base + rate * rate / (2 * accel) >= goal:
+        return angle_then + angle - base + rate * rate / (2 * accel) >= goal
+
+    if reaches(now):
+        return now
+    n = max(1, int(horizon / 0.002))
+    for k in range(1, n + 1):
+        t = now + horizon * k / n
+        if reaches(t):
+            # the moment within the last 2 ms step, to a few microseconds (at the top
+            # rate a whole step would be a third of a degree)
+            lo = t - horizon / n
+            for _ in range(10):
+                mid = (lo + t) / 2
+                lo, t = (lo, mid) if reaches(mid) else (mid, t)
             return t
     return None
