@@ -70,7 +70,12 @@ def q(values: list[float], p: float) -> float:
     return v[min(len(v) - 1, int(round(p * (len(v) - 1))))]
 
 
-def done(now: dict, before: dict) -> dict | None:
+def done(rt, before: dict) -> dict | None:
+    from esair_std.errors import ControlError
+    try:
+        now = rt.get("turn_and_shoot")
+    except ControlError:                   # a get unanswered in 1 s (a loaded machine)
+        return None
     return now if now["shots"] > before["shots"] or now["aborted"] > before["aborted"] else None
 
 
@@ -89,7 +94,7 @@ def shots(mode: str, places: list[tuple[float, float]]) -> list[dict]:
                 before = rt.get("turn_and_shoot")
                 t0 = time.time()
                 rt.configure("starfish.mics", "source", {"x": x, "y": y, "on": True})
-                got = wait(lambda b=before: done(rt.get("turn_and_shoot"), b), 30)
+                got = wait(lambda b=before: done(rt, b), 30)
                 rt.configure("starfish.mics", "source", {"x": x, "y": y, "on": False})
                 if not got or got["shots"] == before["shots"]:
                     print(f"  {mode}: shot {k + 1} at ({x}, {y}): no picture "

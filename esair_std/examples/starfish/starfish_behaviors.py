@@ -204,7 +204,19 @@ class TurnAndShoot(Behavior):
         self.flow_max, self.flow_r = turn.flow_limit(robot)
         self.wheel_r = turn.wheel_radius(robot)
         self.max_drive = float(turn.base_of(robot).max_speed_mm_s)
+        # the odometry's times from the central board's own tick count (its samples
+        # reach this behavior a varying while after the board read the sensors)
+        self.tick = float(getattr(robot.central.timer2, "period_s", 0.01))
+        self.offsets: collections.deque[float] = collections.deque(maxlen=10)
+        self.n_prev: int | None = None
+        self.n_wraps = 0
+        self.going = False
+        self.last_step = 0.0
+        self.gap = self.period              # between two steps, smoothed
         self.handover = float(self.options.get("handover_s", 0.06))
+        # the central board stops the wheels when no command came for 0.5 s: the turn's
+        # rate is sent again after this long
+        self.refeed = float(self.options.get("refeed_s", 0.2))
         # what a drive command landing during the handover can add before the next turn
         # command replaces it (the drive's ramp over two of this behavior's periods)
         self.handover_mm_s = self.accel * self.wheel_r * 2 * self.period
@@ -250,10 +262,14 @@ class TurnAndShoot(Behavior):
         return min(self.headings, key=lambda h: abs(h[0] - t))[1]
 
     def step(self):
+        now = time.time()
+        if self.last_step:
+            self.gap += 0.2 * (now - self.last_step - self.gap)
+        self.last_step = now
         for s in self.odometry.samples():
             if self.phase in ("turning", "settling") and self.headings:
                 self.turned += self.sign * wrap(s.value["th"] - self.headings[-1][1])
-                self.odo = (s.t, self.turned)
+                self.odo = (self._board_time(s), self.turned)
                 if self.phase == "settling" and s.t > self.stop_sent and not s.value.get("moving", True):
                     self.stood = True
             if self.last_xy is not None and s.t > self.last_xy[0]:
@@ -312,6 +328,22 @@ class TurnAndShoot(Behavior):
             self.aborted += 1
             self._done()
 
+    def _board_time(self, s) -> float:
+        """When the central board read the sample, on this computer's clock: its tick
+        count against the least delayed of the recent samples; the sample's own time
+        when the two disagree by more than a reply's delay (a lagging board, a restart)."""
+        n = s.value.get("n")
+        if not isinstance(n, int):
+            return float(s.t)
+        if self.n_prev is not None and n < self.n_prev:
+            self.n_wraps += 1               # 16 bits, or a restarted board: a new base
+            self.offsets.clear()
+        self.n_prev = n
+        board = (n + 65536 * self.n_wraps) * self.tick
+        self.offsets.append(s.t - board)
+        t = board + min(self.offsets)
+        return t if s.t - 0.05 <= t <= s.t else float(s.t)
+
     def _aim(self):
         """Start a turn to ``target`` from the latest heading: the top rate, stopped when
         the ramp down will end at the target (the profile); the odometry corrects the
@@ -326,6 +358,7 @@ class TurnAndShoot(Behavior):
         self.odo = (self.headings[-1][0] if self.headings else time.time(), 0.0)
         self.stop_sent, self.stood = 0.0, False
         self.going = False
+        self.sent = (0, 0.0)                # the last rate sent (mrad/s), when
         # driving: turn at what the flow sensors can follow until the drive has ramped out
         # the odometry's speed is a frame's mean and lags a robot speeding up (patrol's
         # ramp): the most it can be now, from the last frame on at the drive's ramp; and
@@ -356,18 +389,20 @@ class TurnAndShoot(Behavior):
         rate = self.top
         if (self.slow_for and not self.going) or time.time() < self.slow_until:
             rate = min(rate, self.slow_rate)
-        if self.going:
-            now = time.time()
-            latency = self.rtt / 2 + 0.005
-            t_stop = self._turn.stop_time(self.model, self.odo[1], self.odo[0], now, self.goal,
-                                          latency, 0.1)
-            if t_stop is not None:
-                time.sleep(max(0.0, t_stop - time.time()))
-                self._stop()
-                return
+        # the stop is looked for over the next two steps or so (steps come late on a
+        # loaded computer, and a stop found late overshoots); a step waits 0.25 s at most
+        if self.going and self._stop_due(min(0.25, max(0.1, 2.5 * self.gap))):
+            return
         w = round(self.sign * rate * 1000)
         t0 = time.time()
+        # the drive board holds the rate: past the handover (patrol's last command may
+        # land after the first turn command) it is sent again only when it changes or
+        # the board's watchdog would stop the robot, so a slow reply rarely holds up the stop
+        handover = t0 - self.turn["at"].get("go", t0) < 0.2
+        if self.going and not handover and w == self.sent[0] and t0 - self.sent[1] < self.refeed:
+            return
         self._wheels({"w": w})
+        self.sent = (w, t0)
         self.rtt += 0.2 * (time.time() - t0 - self.rtt)
         self.turn["max_w"] = max(self.turn["max_w"], abs(w))
         if not self.going:                  # the wheels ramp up from here
@@ -377,6 +412,20 @@ class TurnAndShoot(Behavior):
             if self.slow_for:
                 self.slow_until = t0 + self.rtt / 2 + self.slow_for
                 self.model.command(self.slow_until, self.top)
+            if self.turn["corrections"] > 0:
+                # the correction, short and from standing: its stop planned now and
+                # waited for here rather than at the mercy of the next steps
+                self._stop_due(0.4)
+
+    def _stop_due(self, horizon: float) -> bool:
+        """Send the stop if it is due within ``horizon`` s (waiting for its moment)."""
+        t_stop = self._turn.stop_time(self.model, self.odo[1], self.odo[0], time.time(),
+                                      self.goal, self.rtt / 2 + 0.005, horizon)
+        if t_stop is None:
+            return False
+        time.sleep(max(0.0, t_stop - time.time()))
+        self._stop()
+        return True
 
     def _stop(self):
         self.phase = "settling"
