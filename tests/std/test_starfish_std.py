@@ -124,8 +124,9 @@ def test_one_slow_wheel_reply_does_not_abort_the_shot(start, tmp_path):
 def test_the_turn_keeps_within_max_omega_and_a_shot_takes_one_correction_at_most(start, tmp_path):
     """A sound behind the robot (about 135 deg to turn): the robot's own odometry (its
     central board's tick count, not the host's clock) shows the turn never faster than
-    the board files' max_omega_mrad_s, at its top rate for a part, and at most two turns
-    (the aim and one correction) between the sound and the picture (issue 37 item 4)."""
+    the board files' max_omega_mrad_s, at its top rate for a part, at most two turns
+    (the aim and one correction) between the sound and the picture, and its heading
+    there on the target (issue 37 item 4)."""
     from esair_min.model.validate import load_robot
     from esair_min.resources import resolve_robot
     from esair_std.drivers.starfish.turn import turn_limits
@@ -166,6 +167,9 @@ def test_the_turn_keeps_within_max_omega_and_a_shot_takes_one_correction_at_most
     # turns: runs of turning samples, each ended by one that saw the robot standing
     runs = sum(1 for a, b in zip([None] + turning, turning) if b and not a)
     assert 1 <= runs <= 2 and turning[-1] is None, turning
+    # the aim, apart from the bearing's own error: the target against the odometry's
+    # heading where the robot stood for its picture, well within the 5 deg of the picture
+    assert abs(math.degrees(wrap(turn["target"] - trace[-1][1]))) <= 2.5, turn
     no_failures(rt)
 
 

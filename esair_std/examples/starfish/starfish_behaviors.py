@@ -387,6 +387,8 @@ class TurnAndShoot(Behavior):
 
     def _turning(self):
         rate = self.top
+        if self.going and 0 < self.slow_until - time.time() < 1.5 * self.gap:
+            time.sleep(self.slow_until - time.time())     # the slow start's end, on time
         if (self.slow_for and not self.going) or time.time() < self.slow_until:
             rate = min(rate, self.slow_rate)
         # the stop is looked for over the next two steps or so (steps come late on a
@@ -402,6 +404,8 @@ class TurnAndShoot(Behavior):
         if self.going and not handover and w == self.sent[0] and t0 - self.sent[1] < self.refeed:
             return
         self._wheels({"w": w})
+        if self.going and self.slow_for and w != self.sent[0]:
+            self.model.command(t0 + self.rtt / 2, rate)      # the slow start ended: when it did
         self.sent = (w, t0)
         self.rtt += 0.2 * (time.time() - t0 - self.rtt)
         self.turn["max_w"] = max(self.turn["max_w"], abs(w))
@@ -418,7 +422,10 @@ class TurnAndShoot(Behavior):
                 self._stop_due(0.4)
 
     def _stop_due(self, horizon: float) -> bool:
-        """Send the stop if it is due within ``horizon`` s (waiting for its moment)."""
+        """Send the stop if it is due within ``horizon`` s (waiting for its moment); not
+        past the slow start's end, whose rate a later step has still to send."""
+        if self.slow_until > time.time():
+            horizon = min(horizon, self.slow_until - time.time())
         t_stop = self._turn.stop_time(self.model, self.odo[1], self.odo[0], time.time(),
                                       self.goal, self.rtt / 2 + 0.005, horizon)
         if t_stop is None:
