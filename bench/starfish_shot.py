@@ -7,8 +7,10 @@ the time-optimal profile within the board files' top turn rate and the drive boa
 ramp (esair_std/drivers/starfish/turn.py) + one frame of odometry (1 / odometry_hz) +
 the camera's time (rendering and encoding a picture at the shot's pose, median of 3,
 on this computer). Printed per shot: the source, the turn, the time, the floor, their
-ratio, the corrections, the localization error (the true bearing of the source from the
-picture's pose); then p50/p90 of the time and of the error. Goals: every shot <= 1.3x
+ratio, the corrections, the error (the source's true bearing from the picture's true
+pose) and its parts: the aim (the target against the odometry's heading at the picture)
+and the odometry (its heading against the true one); then p50/p90 of the time, of the
+error and of the aim. Goals: every shot <= 1.3x
 its floor, p90 <= 2 s, error median <= 5 deg and p90 <= 10 deg at 10 dB.
 
     python bench/starfish_shot.py [--seed 1] [--shots 12] [--mode thread|process|both]
@@ -112,7 +114,7 @@ def shots(mode: str, places: list[tuple[float, float]]) -> list[dict]:
                 odo = math.degrees(math.remainder(pose[2] - turn["odo_th"], 2 * math.pi))
                 r = {"src": (x, y), "deg": turn["deg"], "s": last["t"] - t0, "floor": floor,
                      "corr": turn["corrections"], "max_w": turn["max_w"], "err": err,
-                     "aim": aim, "odo": odo}
+                     "aim": aim, "odo": odo, "miss": turn.get("miss_deg", 0.0)}
                 r["ratio"] = r["s"] / floor
                 out.append(r)
                 at = " ".join(f"{k_} {v - t0:.2f}" for k_, v in turn["at"].items())
@@ -140,11 +142,15 @@ def main() -> None:
         if not res:
             continue
         lat, err, ratio = [r["s"] for r in res], [r["err"] for r in res], [r["ratio"] for r in res]
+        aim, miss = [abs(r["aim"]) for r in res], [abs(r["miss"]) for r in res]
         print(f"  {mode:>7}: {len(res)}/{len(places)} shots; time p50 {q(lat, .5):.2f} s, p90 "
               f"{q(lat, .9):.2f} s, max {max(lat):.2f} s; ratio to floor p50 {q(ratio, .5):.2f}x, "
               f"max {max(ratio):.2f}x ({sum(x <= 1.3 for x in ratio)}/{len(res)} <= 1.3x); "
               f"error p50 {q(err, .5):.1f} deg, p90 {q(err, .9):.1f} deg; corrections max "
-              f"{max(r['corr'] for r in res)}; load average "
+              f"{max(r['corr'] for r in res)} ({sum(r['corr'] for r in res)} of {len(res)} took one); "
+              f"aim (target vs the odometry's heading at the picture) |p50| {q(aim, .5):.1f} deg, "
+              f"|p90| {q(aim, .9):.1f} deg, max {max(aim):.1f} deg; first aim off |p50| "
+              f"{q(miss, .5):.1f} deg, max {max(miss):.1f} deg; load average "
               f"{' '.join(f'{v:.1f}' for v in os.getloadavg())}")
 
 

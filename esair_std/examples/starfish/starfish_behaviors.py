@@ -19,6 +19,7 @@ import base64
 import collections
 import json
 import math
+import statistics
 import time
 from pathlib import Path
 from typing import Any
@@ -241,7 +242,10 @@ class TurnAndShoot(Behavior):
         self.pictures = []
         self.shots = self.aborted = self.ignored = self.missed = 0
         self.wheels_ok_at = 0.0             # when a wheel command last went through
-        self.rtt = 0.02                     # a wheel command's round trip, smoothed
+        # a wheel command's round trip: the median of the last few (one reply late on a
+        # loaded computer must not move every later command's expected arrival)
+        self.rtt = 0.02
+        self.rtts: collections.deque[float] = collections.deque([0.02], maxlen=7)
         self.turn: dict = {}
         self.last_xy: tuple[float, float, float] | None = None
         self.moved: collections.deque[bool] = collections.deque(maxlen=2)   # the last frames
@@ -407,15 +411,17 @@ class TurnAndShoot(Behavior):
         if self.going and self.slow_for and w != self.sent[0]:
             self.model.command(t0 + self.rtt / 2, rate)      # the slow start ended: when it did
         self.sent = (w, t0)
-        self.rtt += 0.2 * (time.time() - t0 - self.rtt)
+        self.rtts.append(time.time() - t0)
+        self.rtt = statistics.median(self.rtts)
         self.turn["max_w"] = max(self.turn["max_w"], abs(w))
         if not self.going:                  # the wheels ramp up from here
             self.going = True
             self.turn["at"].setdefault("go", t0)
             self.model.command(t0 + self.rtt / 2, rate)
             if self.slow_for:
+                # the top rate enters the model when it is sent (the stop is not looked
+                # for past then: a stop the model found beyond would skip the fast part)
                 self.slow_until = t0 + self.rtt / 2 + self.slow_for
-                self.model.command(self.slow_until, self.top)
             if self.turn["corrections"] > 0:
                 # the correction, short and from standing: its stop planned now and
                 # waited for here rather than at the mercy of the next steps
