@@ -168,8 +168,9 @@ def test_the_turn_keeps_within_max_omega_and_a_shot_takes_one_correction_at_most
     runs = sum(1 for a, b in zip([None] + turning, turning) if b and not a)
     assert 1 <= runs <= 2 and turning[-1] is None, turning
     # the aim, apart from the bearing's own error: the target against the odometry's
-    # heading where the robot stood for its picture, well within the 5 deg of the picture
-    assert abs(math.degrees(wrap(turn["target"] - trace[-1][1]))) <= 2.5, turn
+    # heading where the robot stood for its picture (of the picture's 5 deg, the bearing
+    # takes the rest)
+    assert abs(math.degrees(wrap(turn["target"] - trace[-1][1]))) <= 3.0, turn
     no_failures(rt)
 
 

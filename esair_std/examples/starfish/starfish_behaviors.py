@@ -196,7 +196,7 @@ class TurnAndShoot(Behavior):
         self.tolerance = math.radians(float(self.options.get("tolerance_deg", 1.0)))
         # the correction's top rate (rad/s): slow enough that a wheel command's late
         # arrival (tens of ms on a loaded computer) moves the aim by a fraction of a degree
-        self.correction_rate = float(self.options.get("correction_rate", 0.5))
+        self.correction_rate = float(self.options.get("correction_rate", 0.25))
         # the turn's limits from the board files: the top rate and the drive board's ramp
         robot = load_robot(resolve_robot(str(self.options.get("robot", "starfish"))))
         omega, self.accel = turn.turn_limits(robot)
@@ -380,7 +380,9 @@ class TurnAndShoot(Behavior):
         self.turn.setdefault("drive_mm_s", round(v))
         self.top = self.max_turn / 1000.0
         if self.turn["corrections"] > 0:
-            self.top = min(self.top, self.correction_rate)
+            # slow (a stop landing late costs little); a miss of many degrees (a stalled
+            # computer) turns faster, so that its correction takes about a second at most
+            self.top = min(self.top, max(self.correction_rate, abs(angle) / 1.0))
         self.slow_until, self.slow_rate, self.slow_for = 0.0, self.top, 0.0
         if self.turn["corrections"] == 0:
             v = max(v, self.handover_mm_s)
@@ -408,20 +410,24 @@ class TurnAndShoot(Behavior):
         if self.going and not handover and w == self.sent[0] and t0 - self.sent[1] < self.refeed:
             return
         self._wheels({"w": w})
+        t1 = time.time()
+        # where the command landed: the middle of its own round trip (a slow one may have
+        # been slow either way; the middle is off by half of it at most)
+        landed = (t0 + t1) / 2
         if self.going and self.slow_for and w != self.sent[0]:
-            self.model.command(t0 + self.rtt / 2, rate)      # the slow start ended: when it did
+            self.model.command(landed, rate)      # the slow start ended: when it did
         self.sent = (w, t0)
-        self.rtts.append(time.time() - t0)
+        self.rtts.append(t1 - t0)
         self.rtt = statistics.median(self.rtts)
         self.turn["max_w"] = max(self.turn["max_w"], abs(w))
         if not self.going:                  # the wheels ramp up from here
             self.going = True
             self.turn["at"].setdefault("go", t0)
-            self.model.command(t0 + self.rtt / 2, rate)
+            self.model.command(landed, rate)
             if self.slow_for:
                 # the top rate enters the model when it is sent (the stop is not looked
                 # for past then: a stop the model found beyond would skip the fast part)
-                self.slow_until = t0 + self.rtt / 2 + self.slow_for
+                self.slow_until = landed + self.slow_for
             if self.turn["corrections"] > 0:
                 # the correction, short and from standing: its stop planned now and
                 # waited for here rather than at the mercy of the next steps
