@@ -246,6 +246,10 @@ class TurnAndShoot(Behavior):
         # loaded computer must not move every later command's expected arrival)
         self.rtt = 0.02
         self.rtts: collections.deque[float] = collections.deque([0.02], maxlen=7)
+        # what the stops' landing needs beyond that, learned from the first aims' misses
+        self.lead = 0.0
+        self.stop_rate = 0.0
+        self.sign = 1.0
         self.turn: dict = {}
         self.last_xy: tuple[float, float, float] | None = None
         self.moved: collections.deque[bool] = collections.deque(maxlen=2)   # the last frames
@@ -311,6 +315,8 @@ class TurnAndShoot(Behavior):
                     self._stop()            # the stop's reply was missed: again
                 elif self.stood:
                     err = wrap(self.target - self.headings[-1][1])
+                    if self.turn["corrections"] == 0:
+                        self._learn(err)
                     self.turn.setdefault("miss_deg", round(math.degrees(err), 2))
                     self.turn["aim_deg"] = round(math.degrees(err), 2)   # the last stand's
                     self.turn["at"]["stood"] = time.time()
@@ -361,6 +367,7 @@ class TurnAndShoot(Behavior):
         self.model = self._turn.RampModel(self.accel)
         self.odo = (self.headings[-1][0] if self.headings else time.time(), 0.0)
         self.stop_sent, self.stood = 0.0, False
+        self.stop_rate = 0.0                # the model's rate when the stop was sent
         self.going = False
         self.sent = (0, 0.0)                # the last rate sent (mrad/s), when
         # driving: turn at what the flow sensors can follow until the drive has ramped out
@@ -439,17 +446,28 @@ class TurnAndShoot(Behavior):
         if self.slow_until > time.time():
             horizon = min(horizon, self.slow_until - time.time())
         t_stop = self._turn.stop_time(self.model, self.odo[1], self.odo[0], time.time(),
-                                      self.goal, self.rtt / 2 + 0.005, horizon)
+                                      self.goal, self.rtt / 2 + 0.005 + self.lead, horizon)
         if t_stop is None:
             return False
         time.sleep(max(0.0, t_stop - time.time()))
         self._stop()
         return True
 
+    def _learn(self, err: float) -> None:
+        """The stop's lead from the first aim's miss: past the target in the turn's
+        direction, the stop landed later than expected by the miss over the rate it
+        stopped from (a loaded computer's misses of many degrees are not learned)."""
+        if self.stop_rate > 1.0 and abs(err) < math.radians(6):
+            late = -self.sign * err / self.stop_rate
+            self.lead = max(-0.03, min(0.05, self.lead + 0.5 * late))
+        self.turn["lead_ms"] = round(1000 * self.lead, 1)
+
     def _stop(self):
         self.phase = "settling"
         t0 = time.time()
         if self.going:
+            if not self.stop_rate:
+                self.stop_rate = self.model.at(t0 + self.rtt / 2)[1]
             self.model.command(t0 + self.rtt / 2, 0.0)
         self.stop_sent = 0.0
         self._wheels("stop")
