@@ -37,8 +37,7 @@ from websockets.protocol import State
 from ..counters import Counters
 from ..hmi.bridge import Bridge, BridgeError
 from ..transport import keys, records
-from .foxmsgs import Converter, Out, Schema
-from .mcapio import LATCH, LATCH_TOPIC
+from .foxmsgs import LATCH, LATCH_TOPIC, Converter, Out, Schema
 
 log = logging.getLogger("esair_std.foxglove")
 SUBPROTOCOL = "foxglove.websocket.v1"
@@ -76,7 +75,7 @@ class FoxServer:
         self.bridge: Bridge | None = None
         self.clients: set[_Client] = set()
         self.channels: dict[str, tuple[int, Schema]] = {}
-        self.last: dict[int, tuple[int, bytes]] = {}    # channel id -> its last message
+        self.last: dict[int, tuple[int, Out]] = {}      # channel id -> its last message
         self.c = Counters(messages=0, dropped=0, origin_refused=0, calls=0, call_errors=0)
         self.url = ""
         self._loop: asyncio.AbstractEventLoop | None = None
@@ -140,11 +139,11 @@ class FoxServer:
                 self._send(client, adv)
         cid = ch[0]
         ns = int(out.t * 1e9)
-        self.last[cid] = (ns, out.data)
+        self.last[cid] = (ns, out)
         self.c.add("messages")
         for client in list(self.clients):
             sub = client.subs.get(cid)
-            if sub is not None:
+            if sub is not None:                  # (encoded only for a subscriber)
                 self._data(client, sub, ns, out.data)
 
     def _data(self, client: _Client, sub: int, ns: int, data: bytes) -> None:
@@ -234,7 +233,8 @@ class FoxServer:
                     cid, sub = int(s["channelId"]), int(s["id"])
                     client.subs[cid] = sub
                     if cid in self.last:             # what it shows now: its last message
-                        self._data(client, sub, *self.last[cid])
+                        ns, out = self.last[cid]
+                        self._data(client, sub, ns, out.data)
             elif op == "unsubscribe":
                 gone = {int(i) for i in m["subscriptionIds"]}
                 client.subs = {c: s for c, s in client.subs.items() if s not in gone}
