@@ -278,6 +278,68 @@ def test_garbage_frames_get_an_error_status_and_lose_nothing(live):
         client.close()
 
 
+LAYOUT = json.loads((ROOT / "docs" / "foxglove-layout.json").read_text())
+GENERIC = {"/log", "/tf"}                        # every robot's
+
+
+def layout_refs() -> list[tuple[str, str, str]]:
+    """What docs/foxglove-layout.json shows: (panel, topic, message path or "")."""
+    refs = []
+    for panel, cfg in LAYOUT["configById"].items():
+        for topic in cfg.get("topics", {}):
+            refs.append((panel, topic, ""))
+        if "imageMode" in cfg:
+            refs.append((panel, cfg["imageMode"]["imageTopic"], ""))
+        if "topicToRender" in cfg:
+            refs.append((panel, cfg["topicToRender"], ""))
+        for path in cfg.get("paths", []):
+            m = re.fullmatch(r'"([^"]+)"\.(.+)|(/[^.]+)\.(.+)', path["value"])
+            assert m, path
+            refs.append((panel, m.group(1) or m.group(3), m.group(2) or m.group(4)))
+    return refs
+
+
+def test_the_layout_names_only_what_a_robot_publishes(live):
+    """No viewer runs here: the layout's panels are checked against the channels the
+    live server advertises (their schemas fit the panel) and each plotted path against
+    a message of its channel (the recording has the same channels: the first test)."""
+    refs = layout_refs()
+    assert {t for _p, t, _f in refs} - GENERIC <= {t for _p, t, _f in refs
+                                                   if "starfish" in t or "papaman" in t}
+    mine = [(p, t, f) for p, t, f in refs if t in GENERIC or live.robot in t]
+    client = FoxClient(live.url)
+    try:
+        client.pump(0.5)
+        if live.robot == "starfish":
+            live.std("configure", "starfish.mics", "source", '{"x": 1.0, "y": 3.5, "on": true}')
+        else:
+            for joint in {f for _p, t, f in mine if t == "/papaman/joints"}:
+                assert client.call("command", {"resource": f"papaman.servo.{joint}",
+                                               "command": {"angle": 90}})[0], joint
+        want = {t for _p, t, _f in mine}
+        wait_for(lambda: client.pump(0.3) or want <= set(by_topic(client)), timeout=90,
+                 what=f"{sorted(want - set(by_topic(client)))} of the layout")
+    finally:
+        client.close()
+    schema = {c.topic: c.name for c in client.channels.values()}
+    fits = {"3D": {"foxglove.SceneUpdate", "foxglove.PoseInFrame"},
+            "Image": {"foxglove.CompressedImage"}, "RosOut": {"foxglove.Log"}}
+    for panel, topic, path in mine:
+        kind = panel.split("!")[0]
+        if kind in fits:
+            assert schema[topic] in fits[kind], (panel, topic, schema[topic])
+            continue
+        msg = json.loads(by_topic(client)[topic][-1])
+        for key in path.split("."):
+            msg = msg[key]
+        assert isinstance(msg, (int, float)), (panel, topic, path, msg)
+    if live.robot == "starfish":                # the 3-D panel follows the robot's frame
+        follow = LAYOUT["configById"]["3D!room"]["followTf"]
+        tf = check_all({"/tf": next(c for c in client.channels.values() if c.topic == "/tf")},
+                       {"/tf": by_topic(client)["/tf"][-1:]})
+        assert tf["/tf"][0]["child_frame_id"] == follow
+
+
 def test_a_foreign_origin_is_refused(live):
     with pytest.raises(InvalidStatus) as exc:
         FoxClient(live.url, origin="https://evil.example")
