@@ -56,9 +56,13 @@ class BridgeError(StdError):
 
 class Bridge:
     def __init__(self, endpoint: str, emit: Emit, who: str = PRINCIPAL,
-                 session_options: dict | None = None):
+                 session_options: dict | None = None,
+                 on_commands: Callable[[str, Any], None] | None = None):
         self.endpoint = check_endpoint(endpoint)
         self.emit = emit
+        # the command records whole (key, batch), instead of ``ran`` messages (the live
+        # Foxglove server: one subscription, not two)
+        self.on_commands = on_commands
         self.who = who
         if session_options is None:
             extra = os.environ.get("ESAIR_STD_SESSION") or "{}"
@@ -112,10 +116,12 @@ class Bridge:
         # a driver derived from MinLink (STARFISH's) has a link too, board files or not
         self.links = list(self.robots) + [e for e in d.get("links", []) if e not in self.robots]
         self.bus.subscribe(f"esair/{self.robot}/sensor/**", self._on_sample, with_key=True)
-        self._held()
+        if self.on_commands is None:
+            self._held()
         # every command an actuator ran, whoever sent it (a behavior, `esair std put`,
         # another page): the pose shows what the robot was told, not only this HMI's
-        self.bus.subscribe(keys.commands_all(self.robot), self._on_commands, with_key=True)
+        self.bus.subscribe(keys.commands_all(self.robot), self.on_commands or self._on_commands,
+                           with_key=True)
         # ls when told: a state changed, or the runtime came or went
         self.bus.subscribe(keys.changed(self.robot), self._on_changed)
         # the latched STOP: asked now (an HMI started while it holds shows it), then

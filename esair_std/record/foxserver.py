@@ -37,13 +37,14 @@ from websockets.protocol import State
 
 from ..counters import Counters
 from ..hmi.bridge import Bridge, BridgeError
-from ..transport import keys, records
+from ..transport import records
 from . import foxcommands as cmds
 from .foxmsgs import LATCH, LATCH_TOPIC, Converter, Out, Schema
 
 log = logging.getLogger("esair_std.foxglove")
 SUBPROTOCOL = "foxglove.websocket.v1"
 PENDING_MAX = 20_000          # emitted, not yet converted (counted as dropped past it)
+LAZY_S = 0.1                  # what is not a sample waits this long at most for a sample's flush
 CLIENT_BUFFER = 4 * 1024 * 1024
 MESSAGE_DATA, SERVICE_RESPONSE = 1, 3                   # server -> client (binary)
 CLIENT_MESSAGE, SERVICE_REQUEST = 1, 2                  # client -> server (binary)
@@ -76,21 +77,49 @@ class FoxServer:
         self._pending: list[dict] = []
         self._lock = threading.Lock()
         self._woken = False
+        self._ticking = self._lazy_seen = False
 
     # ---- any thread: queue and wake the loop once
     def emit(self, msg: dict) -> None:
+        """Queue ``msg``; a sample wakes the loop (once for all that come meanwhile).
+        The rest (command records, log lines, link and behaviors' states) ride with the
+        next sample's flush, or go with a tick every LAZY_S while they come: no wake-up
+        of their own while samples flow."""
         loop = self._loop
         if loop is None:
             return
+        lazy = msg.get("t") != "s"
         with self._lock:
             if len(self._pending) >= PENDING_MAX:
                 self.c.add("dropped")
                 return
             self._pending.append(msg)
-            if self._woken:
-                return
-            self._woken = True
-        loop.call_soon_threadsafe(self._flush)
+            if lazy:
+                self._lazy_seen = True
+                if self._woken or self._ticking:
+                    return
+                self._ticking = True
+                call = self._tick_later
+            else:
+                if self._woken:
+                    return
+                self._woken = True
+                call = self._flush
+        loop.call_soon_threadsafe(call)
+
+    def _tick_later(self) -> None:
+        assert self._loop is not None
+        self._loop.call_later(LAZY_S, self._tick)
+
+    def _tick(self) -> None:
+        with self._lock:
+            again, self._lazy_seen = self._lazy_seen, False
+            self._ticking = again
+            waiting = bool(self._pending)
+        if waiting:
+            self._flush()
+        if again:
+            self._tick_later()
 
     def _on_commands(self, key: str, obj: Any) -> None:
         got, _bad = records.unpack(key, obj)
@@ -305,12 +334,11 @@ class FoxServer:
     # ---- life cycle
     async def serve(self, ready: Callable[[str], None], stop: asyncio.Event) -> None:
         self._loop = asyncio.get_running_loop()
-        self.bridge = Bridge(self.endpoint, self.emit, who=cmds.PRINCIPAL)
+        self.bridge = Bridge(self.endpoint, self.emit, who=cmds.PRINCIPAL,
+                             on_commands=self._on_commands)
         bridge = self.bridge
         bridge.showing = lambda: bool(self.clients)     # behaviors' states: while one looks
         await self._loop.run_in_executor(None, bridge.start)
-        assert bridge.bus is not None
-        bridge.bus.subscribe(keys.commands_all(bridge.robot), self._on_commands, with_key=True)
         self.emit({"t": "latch", "v": bridge.latch})
         try:
             async with serve(self._client, self.host, self.port, process_request=self._http,

@@ -314,8 +314,9 @@ def test_the_layout_names_only_what_a_robot_publishes(live):
             live.std("configure", "starfish.mics", "source", '{"x": 1.0, "y": 3.5, "on": true}')
         else:
             for joint in {f for _p, t, f in mine if t == "/papaman/joints"}:
-                assert client.call("command", {"resource": f"papaman.servo.{joint}",
-                                               "command": {"angle": 90}})[0], joint
+                ok, why = client.call("command", {"resource": f"papaman.servo.{joint}",
+                                                  "command": {"angle": 90}})
+                assert ok, (joint, why)
         want = {t for _p, t, _f in mine}
         wait_for(lambda: client.pump(0.3) or want <= set(by_topic(client)), timeout=90,
                  what=f"{sorted(want - set(by_topic(client)))} of the layout")
