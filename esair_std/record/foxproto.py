@@ -16,6 +16,7 @@ from collections.abc import Iterable
 from .foxschemas import SCHEMAS
 
 _D = struct.Struct("<d")
+_BYTE = [bytes((i,)) for i in range(0x80)]
 
 # foxglove.Log.Level, foxglove.LinePrimitive.Type
 LOG_LEVELS = {"debug": 1, "info": 2, "warning": 3, "error": 4, "fatal": 5}
@@ -28,6 +29,8 @@ def schema_bytes(name: str) -> bytes:
 
 
 def _varint(n: int) -> bytes:
+    if 0 <= n < 0x80:
+        return _BYTE[n]
     if n < 0:
         n += 1 << 64                       # int64 / enum: two's complement, 10 bytes
     out = bytearray()

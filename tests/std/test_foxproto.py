@@ -107,3 +107,15 @@ def test_the_microphones_levels_are_their_rms():
     got = __import__("json").loads(out.data)
     assert out.topic == "/starfish/mics/levels"
     assert [got[f"mic{i}"] for i in range(4)] == pytest.approx(want, abs=1e-6)
+
+
+@pytest.mark.parametrize("n", [0, 125, 126, 65535, 65536, 200_000])
+def test_the_live_servers_websocket_frames_are_websockets_own(n):
+    """foxserver writes its frames' headers itself: as websockets serializes them."""
+    from websockets.frames import Frame, Opcode
+
+    from esair_std.record.foxserver import _ws_frame
+    data = bytes(range(256)) * (n // 256) + bytes(n % 256)
+    assert _ws_frame(data) == Frame(Opcode.BINARY, data).serialize(mask=False)
+    text = "é" * (n // 2)
+    assert _ws_frame(text) == Frame(Opcode.TEXT, text.encode()).serialize(mask=False)
