@@ -25,7 +25,6 @@ import json
 import logging
 import ssl as _ssl
 import struct
-import threading
 import time
 from http import HTTPStatus
 from typing import Any, Callable
@@ -37,6 +36,7 @@ from websockets.protocol import State
 
 from ..counters import Counters
 from ..hmi.bridge import Bridge, BridgeError
+from ..hmi.handover import Handover
 from ..transport import records
 from . import foxcommands as cmds
 from .foxmsgs import LATCH, LATCH_TOPIC, Converter, Out, Schema
@@ -88,10 +88,7 @@ class FoxServer:
                           published=0, publish_errors=0, bad_frames=0)
         self.url = ""
         self._loop: asyncio.AbstractEventLoop | None = None
-        self._pending: list[dict] = []
-        self._lock = threading.Lock()
-        self._woken = False
-        self._ticking = self._lazy_seen = False
+        self._handover = Handover(self._flush, LAZY_S, PENDING_MAX)
 
     # ---- any thread: queue and wake the loop once
     def emit(self, msg: dict) -> None:
@@ -99,41 +96,8 @@ class FoxServer:
         The rest (command records, log lines, link and behaviors' states) ride with the
         next sample's flush, or go with a tick every LAZY_S while they come: no wake-up
         of their own while samples flow."""
-        loop = self._loop
-        if loop is None:
-            return
-        lazy = msg.get("t") != "s"
-        with self._lock:
-            if len(self._pending) >= PENDING_MAX:
-                self.c.add("dropped")
-                return
-            self._pending.append(msg)
-            if lazy:
-                self._lazy_seen = True
-                if self._woken or self._ticking:
-                    return
-                self._ticking = True
-                call = self._tick_later
-            else:
-                if self._woken:
-                    return
-                self._woken = True
-                call = self._flush
-        loop.call_soon_threadsafe(call)
-
-    def _tick_later(self) -> None:
-        assert self._loop is not None
-        self._loop.call_later(LAZY_S, self._tick)
-
-    def _tick(self) -> None:
-        with self._lock:
-            again, self._lazy_seen = self._lazy_seen, False
-            self._ticking = again
-            waiting = bool(self._pending)
-        if waiting:
-            self._flush()
-        if again:
-            self._tick_later()
+        if not self._handover.put(msg, msg.get("t") != "s"):
+            self.c.add("dropped")
 
     def _on_commands(self, key: str, obj: Any) -> None:
         got, _bad = records.unpack(key, obj)
@@ -142,9 +106,7 @@ class FoxServer:
 
     # ---- the loop
     def _flush(self) -> None:
-        with self._lock:
-            got, self._pending = self._pending, []
-            self._woken = False
+        got = self._handover.take()
         n = 0
         for m in got:
             for out in self._convert(m):
@@ -346,7 +308,7 @@ class FoxServer:
 
     # ---- life cycle
     async def serve(self, ready: Callable[[str], None], stop: asyncio.Event) -> None:
-        self._loop = asyncio.get_running_loop()
+        self._loop = self._handover.loop = asyncio.get_running_loop()
         self.bridge = Bridge(self.endpoint, self.emit, who=cmds.PRINCIPAL,
                              on_commands=self._on_commands)
         bridge = self.bridge
