@@ -96,6 +96,9 @@ class Bridge:
                           gets=0)
         self.want: Callable[[str], bool] = lambda name: True    # the sensors to watch
         self.showing: Callable[[], bool] = lambda: True         # a page shows what we ask
+        # the link entries' counters (inspect) and reply ages (every TICK_S) are the link
+        # bar's: an owner without one (the live Foxglove server) asks none, ticks seldom
+        self.link_bar = True
 
     # ---- life cycle
     def start(self) -> None:
@@ -247,7 +250,7 @@ class Bridge:
             if kicked and now - self._asked < LS_MIN_S:      # a burst of notices: one ls
                 self._stop.wait(LS_MIN_S - (now - self._asked))
                 now = time.monotonic()
-            inspect = self.showing() and now - inspected >= INSPECT_S
+            inspect = self.link_bar and self.showing() and now - inspected >= INSPECT_S
             if inspect:
                 inspected = now
             try:
@@ -260,7 +263,7 @@ class Bridge:
             except Exception as exc:  # noqa: BLE001 - keep polling
                 log.error("hmi poll: %s", exc)
             if now >= tick:
-                tick = now + TICK_S
+                tick = now + (TICK_S if self.link_bar else LS_SAFETY_S)
 
     def _run_states(self) -> None:
         while not self._stop.wait(STATE_PERIOD_S):

@@ -313,6 +313,7 @@ class FoxServer:
                              on_commands=self._on_commands)
         bridge = self.bridge
         bridge.showing = lambda: bool(self.clients)     # behaviors' states: while one looks
+        bridge.link_bar = False         # /link is the link's state at each change only
         await self._loop.run_in_executor(None, bridge.start)
         self.emit({"t": "latch", "v": bridge.latch})
         try:
