@@ -9,7 +9,7 @@ import os
 import signal
 import ssl
 import sys
-from typing import Any, Callable
+from typing import Awaitable, Callable
 
 import click
 
@@ -50,7 +50,7 @@ def quiet_logs(prefix: str) -> None:
     logging.getLogger("websockets").setLevel(logging.ERROR)
 
 
-def serve(run: Callable[[Callable[[str], None], asyncio.Event], Any]) -> None:
+def serve(run: Callable[[Callable[[str], None], asyncio.Event], Awaitable[None]]) -> None:
     """``await run(ready, stop)`` until Ctrl-C or SIGTERM sets ``stop``; ``ready(url)``
     prints the URL on stdout's first line. Ends the process (as `esair std run`: no
     interpreter finalisation under Zenoh's threads)."""

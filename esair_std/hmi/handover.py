@@ -11,18 +11,20 @@ import asyncio
 import threading
 from typing import Callable
 
+from ..transport.codec import JSONObject
+
 
 class Handover:
     def __init__(self, flush: Callable[[], None], lazy_s: float, limit: int):
         self.flush, self.lazy_s, self.limit = flush, lazy_s, limit
         self.loop: asyncio.AbstractEventLoop | None = None     # set by the loop's owner
-        self._items: list[dict] = []
+        self._items: list[JSONObject] = []
         self._lock = threading.Lock()
         self._soon = False        # a flush is asked for, as soon as the loop can
         self._armed = False       # the lazy tick is due within lazy_s
         self._seen = False        # a lazy message came since the last tick
 
-    def put(self, msg: dict, lazy: bool) -> bool:
+    def put(self, msg: JSONObject, lazy: bool) -> bool:
         """Any thread: queue ``msg``; False when the list is full (the caller counts
         the drop). Before the loop runs, nothing is queued."""
         loop = self.loop
@@ -46,7 +48,7 @@ class Handover:
         loop.call_soon_threadsafe(call)
         return True
 
-    def take(self) -> list[dict]:
+    def take(self) -> list[JSONObject]:
         """The loop (in ``flush``): everything queued, in order."""
         with self._lock:
             got, self._items = self._items, []

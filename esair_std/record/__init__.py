@@ -10,7 +10,7 @@ not load them."""
 from __future__ import annotations
 
 import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
     from .mcapio import COMMAND_SCHEMA, SCHEMA, read_commands, read_latch, read_samples
@@ -19,7 +19,7 @@ if TYPE_CHECKING:
 __all__ = ["COMMAND_SCHEMA", "SCHEMA", "Recorder", "read_commands", "read_latch", "read_samples"]
 
 
-def __getattr__(name: str) -> Any:
+def __getattr__(name: str) -> object:
     if name not in __all__:
         raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
     module = ".recorder" if name == "Recorder" else ".mcapio"

@@ -9,9 +9,8 @@ deployment's ``allow`` grants ``operator: command``."""
 from __future__ import annotations
 
 import json
-from typing import Any
-
 from ..hmi.bridge import Bridge, BridgeError
+from ..transport.codec import JSON
 
 PRINCIPAL, COMMANDER = "foxglove", "operator"
 
@@ -30,7 +29,7 @@ RESPONSE = {"type": "object", "title": "esair.ServiceResponse",
 TOPICS = {f"/esair/{name}": name for name in REQUESTS}     # client publish -> the request
 
 
-def parse(payload: bytes) -> dict:
+def parse(payload: bytes) -> dict[str, JSON]:
     """A request's JSON object (empty: ``{}``), or BridgeError."""
     try:
         body = json.loads(payload) if payload else {}
@@ -41,7 +40,7 @@ def parse(payload: bytes) -> dict:
     return body
 
 
-def run(bridge: Bridge, name: str, body: dict) -> Any:
+def run(bridge: Bridge, name: str, body: dict[str, JSON]) -> JSON:
     """Request ``name`` (a key of REQUESTS) with ``body`` through the RS: the runtime's
     answer, or BridgeError with its words (a refusal among them). Blocks: not on the
     server's loop."""

@@ -25,7 +25,7 @@ import sys
 import time
 from array import array
 from dataclasses import dataclass
-from typing import Any, Callable
+from typing import Callable
 
 from . import foxproto as fp
 
@@ -68,9 +68,9 @@ class Out:
         return self._data
 
 
-def json_schema(title: str, properties: dict, required: list[str] | None = None,
-                extra: Any = None) -> Schema:
-    s: dict[str, Any] = {"type": "object", "title": title, "properties": properties}
+def json_schema(title: str, properties: dict[str, object], required: list[str] | None = None,
+                extra: object = None) -> Schema:
+    s: dict[str, object] = {"type": "object", "title": title, "properties": properties}
     if required:
         s["required"] = required
     if extra is not None:
@@ -82,10 +82,10 @@ def native(name: str) -> Schema:
     return Schema(name, "protobuf", fp.schema_bytes(name))
 
 
-def infer(value: Any, key: str = "") -> dict:
+def infer(value: object, key: str = "") -> dict[str, object]:
     """A JSON schema of ``value``'s shape (types, field names, units where known); a
     scalar field may also be null (a sensor that has no reading for once)."""
-    out: dict[str, Any]
+    out: dict[str, object]
     if isinstance(value, bool):
         out = {"type": ["boolean", "null"]}
     elif isinstance(value, (int, float)):
@@ -105,7 +105,7 @@ def infer(value: Any, key: str = "") -> dict:
     return out
 
 
-def sample_schema(sensor: str, value: Any) -> Schema:
+def sample_schema(sensor: str, value: object) -> Schema:
     """``{"seq", "t", "value"}`` with ``value``'s shape (schema ``esair.Sample.<sensor>``)."""
     return json_schema("esair.Sample." + sensor, {
         "seq": {"type": "integer", "description": "the sensor's sample number, from 1"},
@@ -150,7 +150,7 @@ def levels_schema(n: int) -> Schema:
         for i in range(n)}, [f"mic{i}" for i in range(n)])
 
 
-def _js(obj: Any) -> bytes:
+def _js(obj: object) -> bytes:
     return json.dumps(obj, separators=(",", ":")).encode()
 
 
@@ -158,12 +158,12 @@ def _yaw(th: float) -> bytes:
     return fp.quaternion(0.0, 0.0, math.sin(th / 2), math.cos(th / 2))
 
 
-def _color(rgb: Any, a: float = 1.0) -> bytes:
+def _color(rgb: object, a: float = 1.0) -> bytes:
     r, g, b = (list(rgb) + [128, 128, 128])[:3] if isinstance(rgb, list) else (128, 128, 128)
     return fp.color(r / 255, g / 255, b / 255, a)
 
 
-def _num(v: Any) -> bool:
+def _num(v: object) -> bool:
     return isinstance(v, (int, float)) and not isinstance(v, bool)
 
 
@@ -222,7 +222,7 @@ class Converter:
                 out.append(Out(f"/{entry}/joints", JOINTS, lambda: _js(now), t))
         return out
 
-    def sample(self, sensor: str, seq: int, t: float, v: Any) -> list[Out]:
+    def sample(self, sensor: str, seq: int, t: float, v: object) -> list[Out]:
         schema = self.schemas.get(sensor)
         if schema is None:
             schema = self.schemas[sensor] = sample_schema(sensor, v)
@@ -246,7 +246,7 @@ class Converter:
                            _js({"reaction": name, "text": text}), t))
         return out
 
-    def state(self, behavior: str, v: Any) -> list[Out]:
+    def state(self, behavior: str, v: object) -> list[Out]:
         """A behavior's state with a bearing (``last: {bearing, t}``): an arrow on every
         room's scene, from the robot (frame ``base_link``)."""
         last = v.get("last") if isinstance(v, dict) else None

@@ -27,7 +27,7 @@ import ssl as _ssl
 import struct
 import time
 from http import HTTPStatus
-from typing import Any, Callable
+from typing import Callable
 
 from websockets.asyncio.server import ServerConnection, serve
 from websockets.exceptions import ConnectionClosed
@@ -38,6 +38,7 @@ from ..counters import Counters
 from ..hmi.bridge import Bridge, BridgeError
 from ..hmi.handover import Handover
 from ..transport import records
+from ..transport.codec import JSON
 from . import foxcommands as cmds
 from .foxmsgs import LATCH, LATCH_TOPIC, Converter, Out, Schema
 
@@ -99,7 +100,7 @@ class FoxServer:
         if not self._handover.put(msg, msg.get("t") != "s"):
             self.c.add("dropped")
 
-    def _on_commands(self, key: str, obj: Any) -> None:
+    def _on_commands(self, key: str, obj: JSON) -> None:
         got, _bad = records.unpack(key, obj)
         for res, rec in got:
             self.emit({"t": "c", "r": res, "m": rec})
