@@ -65,8 +65,6 @@ from typing import TYPE_CHECKING
 
 from esair_std import Actuator, CommandError, Sensor
 from esair_min.errors import EsairError
-from esair_min.model.validate import load_robot
-from esair_min.resources import resolve_robot
 
 from ..minlink.driver import MinLink, NoticeSensor, emulate_args, in_folder
 from ...deploy.class_options import check_options
@@ -217,6 +215,8 @@ class Starfish(MinLink):
         from .radio import RadioModel
         from .scene import load_scene
         from .worldtap import WorldTap
+        from esair_min.model.validate import load_robot      # the board model (pydantic)
+        from esair_min.resources import resolve_robot
         self.encode_frame, self.encode_picture = encode_frame, encode
         try:
             o = check_options(StarfishOptions, opts)

@@ -28,7 +28,7 @@ from esair_std import Behavior, CommandError, Reaction, Refused, ResourceLost
 if TYPE_CHECKING:  # pragma: no cover
     from esair_std.drivers.starfish.gccphat import Localizer
 
-# numpy and scipy (the room, the planner, GCC-PHAT) are imported in start() by the
+# numpy (the room, the planner, GCC-PHAT) is imported in start() by the
 # components that need them, so patrol's process and the runtime do not carry them
 
 
@@ -128,7 +128,7 @@ class Localize(Behavior):
     deadline = 3.0
 
     def start(self):
-        from esair_std.drivers.starfish.gccphat import Localizer   # numpy/scipy: remote side
+        from esair_std.drivers.starfish.gccphat import Localizer   # numpy: remote side
         from esair_std.drivers.starfish.mics import FrameError, decode_frame
         self._Localizer: type[Localizer] = Localizer
         self._decode, self._FrameError = decode_frame, FrameError
