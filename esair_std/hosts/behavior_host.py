@@ -88,6 +88,9 @@ class ComponentHost:
         self.generation = generation
         self.inbox: queue.Queue[_Item] = queue.Queue(maxsize=INBOX + RESERVED)
         self._reserved_in = 0          # reserved slots in use (their items in inbox)
+        # the mailbox's check and put (or get) and _reserved_in change at once: a plain
+        # offer checked against a count a moment stale took the reserved room
+        self._box = threading.Lock()
         self.taken = 0                 # reserved deliveries taken out, ever
         self._told_taken = 0           # ``taken`` when on_room was last called
         self._told_full = False        # ``full`` when on_room was last called
@@ -200,12 +203,7 @@ class ComponentHost:
         if self._phase != "running" or self._busy:
             self.c.add("refused")
             return "busy" if self._phase in ("running", "busy", "starting") else self._phase
-        if self._full():
-            self.c.add("refused")
-            return "busy"
-        try:
-            self.inbox.put_nowait(("deliver", sender, data))
-        except queue.Full:
+        if not self._enqueue(("deliver", sender, data)):
             self.c.add("refused")
             return "busy"
         if self.on_room is not None and self._full():
@@ -218,17 +216,12 @@ class ComponentHost:
         """The BS's delivery into room this host reserved for it (it sends no more than
         room() allows): taken into the mailbox, False (counted) if it finds no room —
         a stopped host, or more than reported (garbage)."""
-        with self._lock:
+        with self._box:
             ok = self._phase not in ("failed", "stopped") and self._reserved_in < RESERVED
             if ok:
-                self._reserved_in += 1
-        if ok:
-            try:
+                # never Full: at most INBOX plain items (_enqueue) and RESERVED these
                 self.inbox.put_nowait(("reserved", sender, data))
-            except queue.Full:          # offers raced past INBOX: not lost silently
-                with self._lock:
-                    self._reserved_in -= 1
-                ok = False
+                self._reserved_in += 1
         if not ok:
             self.c.add("reserved_refused")
             return False
@@ -239,13 +232,30 @@ class ComponentHost:
     def wake(self) -> None:
         self._wake.set()
 
+    def _enqueue(self, item: _Item) -> bool:
+        """Put a plain item (an offer, a take, a provide request) unless INBOX of them
+        wait: checked and put at once, so the room reserved for the BS stays free."""
+        with self._box:
+            if self._full():
+                return False
+            self.inbox.put_nowait(item)
+            return True
+
+    def _take_item(self) -> _Item:
+        """The mailbox's next item (queue.Empty if none); a reserved one frees its slot
+        and counts as taken in the same step."""
+        with self._box:
+            item = self.inbox.get_nowait()
+            if item[0] == "reserved":
+                self._reserved_in -= 1
+                self.taken += 1
+            return item
+
     def request_provide(self, requester: str, reply: Reply) -> str:
         """Queue a provide() call; ``reply((status, data))`` is called from the host thread."""
         if self._phase != "running" or self._busy or self._full() or self._stop.is_set():
             return "busy"
-        try:
-            self.inbox.put_nowait(("provide", requester, reply))
-        except queue.Full:
+        if not self._enqueue(("provide", requester, reply)):
             return "busy"
         self._wake.set()
         return "queued"
@@ -265,9 +275,7 @@ class ComponentHost:
         ("failed", why). "busy" when it takes no data now."""
         if self._phase != "running" or self._busy or self._full():
             return "busy"
-        try:
-            self.inbox.put_nowait(("take", sender, (data, reply)))
-        except queue.Full:
+        if not self._enqueue(("take", sender, (data, reply))):
             return "busy"
         self._wake.set()
         return "queued"
@@ -529,7 +537,7 @@ class ComponentHost:
                 else:
                     self._timed("robot_released", obj.robot_released, notice[2])
             try:
-                item = self.inbox.get_nowait()
+                item = self._take_item()
             except queue.Empty:
                 left = deadline - time.monotonic()
                 if left <= 0 or self._stop.is_set():
@@ -541,9 +549,6 @@ class ComponentHost:
             if self._told_full and not self._full():
                 self._room_changed()      # room again: listed running again
             if item[0] == "reserved":
-                with self._lock:
-                    self._reserved_in -= 1
-                    self.taken += 1
                 if self.taken - self._told_taken >= RESERVED // 2:
                     self._room_changed()
                 self._receive(item[1], item[2])
