@@ -5,7 +5,7 @@ then, each over ``--window`` seconds:
 
 1. the HMI process with one client (a plain WebSocket on its /ws: every batch it sends,
    read and dropped, as a page's socket would be) and no Foxglove client; then the
-   Foxglove server with one client (tests/support/foxclient.py: subscribed to every
+   Foxglove server with one client (bench/toolkit/foxclient.py: subscribed to every
    channel) and no HMI client: each process's CPU (utime + stime from /proc, share of
    one core) and RSS at the end of its window; goal: the Foxglove server <= the HMI;
 2. sample -> client: a sample's own time stamp (time.time() when reported) to when the
@@ -39,8 +39,8 @@ sys.path.insert(0, str(ROOT))
 
 from websockets.sync.client import connect  # noqa: E402
 
-from tests.support.foxclient import FoxClient  # noqa: E402
-from tests.support.std import free_endpoint, wait_for  # noqa: E402
+from bench.toolkit import free_endpoint, wait_for  # noqa: E402
+from bench.toolkit.foxclient import FoxClient  # noqa: E402
 
 TICK = os.sysconf("SC_CLK_TCK")
 

@@ -37,8 +37,7 @@ sys.path[:0] = [str(ROOT), str(BENCH)]
 
 from esair_std import Runtime  # noqa: E402
 from esair_std.deploy import load_deployment  # noqa: E402
-from tests.support.std import wait_for  # noqa: E402
-from toolkit import free_endpoint  # noqa: E402
+from toolkit import free_endpoint, wait_for  # noqa: E402
 
 ROWS: list[tuple[str, str, str, str]] = []
 

@@ -88,16 +88,45 @@ def agent_children() -> list[int]:
             if ppid == os.getpid() and b"esair_std.hosts.agent_process" in cmd]
 
 
+#: ``esair std`` verbs that only talk to a running robot or read a file: :func:`esair`
+#: runs them in this process (``check`` only with ``--no-import``: its imports of a
+#: deployment's modules stay in a child, no module cached from an earlier check)
+IN_PROCESS = {"ls", "get", "put", "add", "remove", "add-resource", "remove-resource", "sample",
+              "send", "configure", "reaction", "inspect", "stop", "release", "ping", "top",
+              "schema", "new"}
+
+
 def esair(*args: str, check: bool = True, cwd: str | Path = ROOT,
-          stdin: str | None = None) -> subprocess.CompletedProcess:
-    """``esair std ARGS`` in a child process (from ``cwd``, the checkout by default;
-    ``stdin``: its standard input)."""
-    r = subprocess.run([sys.executable, "-m", "esair_min.cli", "std", *args],
-                       capture_output=True, text=True, timeout=90, cwd=cwd, input=stdin,
-                       env=dict(os.environ, COLUMNS="200"))
+          stdin: str | None = None, env: dict | None = None) -> subprocess.CompletedProcess:
+    """``esair std ARGS`` from ``cwd`` (the checkout by default; ``stdin``: its standard
+    input; ``env``: variables set for it): the verbs of :data:`IN_PROCESS` run in this
+    process (:func:`std_cli`), every other (``run``, ``agent``, ``hmi``...) in a child
+    process."""
+    here = Path(cwd).resolve() == Path.cwd().resolve()
+    if here and args and (args[0] in IN_PROCESS or args[0] == "check" and "--no-import" in args):
+        r = std_cli(*args, stdin=stdin, env=env)
+    else:
+        r = subprocess.run([sys.executable, "-m", "esair_min.cli", "std", *args],
+                           capture_output=True, text=True, timeout=90, cwd=cwd, input=stdin,
+                           env=dict(os.environ, COLUMNS="200", **(env or {})))
     if check and r.returncode != 0:
         raise AssertionError(f"esair std {' '.join(args)}: {r.returncode}\n{r.stderr}")
     return r
+
+
+def std_cli(*args: str, stdin: str | None = None,
+            env: dict | None = None) -> subprocess.CompletedProcess:
+    """``esair std ARGS`` run in this process by the command line's own click entry point
+    (what the ``esair`` program runs): the exit status, standard output and standard
+    error apart, as a child's, without an interpreter's start. An exception no command
+    turns into a status is raised: the user would see its traceback."""
+    from click.testing import CliRunner
+
+    from esair_min.cli import main
+    r = CliRunner().invoke(main, ["std", *args], input=stdin,
+                           env={"COLUMNS": "200", **(env or {})}, catch_exceptions=False,
+                           prog_name="esair")
+    return subprocess.CompletedProcess(["esair", "std", *args], r.exit_code, r.stdout, r.stderr)
 
 
 @contextmanager

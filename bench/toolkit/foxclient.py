@@ -1,0 +1,94 @@
+"""A Foxglove WebSocket protocol client (subprotocol ``foxglove.websocket.v1``) on the
+plain ``websockets`` package, for the live server's tests and bench/foxglove_figures.py:
+subscribes to every channel advertised, decodes each message against its schema
+(tests/support/foxcheck.py, in the tests), calls services."""
+
+from __future__ import annotations
+
+import base64
+import json
+import struct
+import time
+from dataclasses import dataclass
+from typing import Any
+
+from websockets.sync.client import ClientConnection, connect
+
+SUBPROTOCOL = "foxglove.websocket.v1"
+
+
+@dataclass
+class Chan:
+    topic: str
+    name: str
+    encoding: str
+    data: bytes
+
+
+class FoxClient:
+    def __init__(self, url: str, origin: str | None = None):
+        self._cm = connect(url, subprotocols=[SUBPROTOCOL],   # type: ignore[list-item]
+                           origin=origin, max_size=None)  # type: ignore[arg-type]
+        self.ws: ClientConnection = self._cm.__enter__()
+        self.channels: dict[int, Chan] = {}
+        self.services: dict[str, int] = {}
+        self.subs: dict[int, int] = {}          # subscription id -> channel id
+        self.info: dict = {}
+        self.got: list[tuple[str, int, bytes, float]] = []   # topic, log ns, data, rx
+        self.answers: dict[int, tuple[bool, Any]] = {}
+        self._calls = 0
+
+    def close(self) -> None:
+        self._cm.__exit__(None, None, None)
+
+    def pump(self, seconds: float = 0.2) -> None:
+        """Read what comes for ``seconds``; subscribe to each new channel."""
+        end = time.monotonic() + seconds
+        while True:
+            left = end - time.monotonic()
+            if left <= 0:
+                return
+            try:
+                frame = self.ws.recv(timeout=left)
+            except TimeoutError:
+                return
+            self._frame(frame)
+
+    def _frame(self, frame: str | bytes) -> None:
+        if isinstance(frame, str):
+            m = json.loads(frame)
+            op = m["op"]
+            if op == "serverInfo":
+                self.info = m
+            elif op == "advertise":
+                new = []
+                for c in m["channels"]:
+                    data = (base64.b64decode(c["schema"]) if c["schemaEncoding"] == "protobuf"
+                            else c["schema"].encode())
+                    self.channels[c["id"]] = Chan(c["topic"], c["schemaName"],
+                                                  c["schemaEncoding"], data)
+                    new.append({"id": 1000 + c["id"], "channelId": c["id"]})
+                    self.subs[1000 + c["id"]] = c["id"]
+                self.ws.send(json.dumps({"op": "subscribe", "subscriptions": new}))
+            elif op == "advertiseServices":
+                self.services.update({s["name"]: s["id"] for s in m["services"]})
+            elif op == "serviceCallFailure":
+                self.answers[m["callId"]] = (False, m["message"])
+            return
+        if frame[0] == 1:
+            sub, ns = struct.unpack_from("<IQ", frame, 1)
+            self.got.append((self.channels[self.subs[sub]].topic, ns, frame[13:], time.time()))
+        elif frame[0] == 3:
+            _sid, call, n = struct.unpack_from("<III", frame, 1)
+            self.answers[call] = (True, json.loads(frame[13 + n:])["ok"])
+
+    def call(self, service: str, body: dict, timeout: float = 15.0) -> tuple[bool, Any]:
+        self._calls += 1
+        call = self._calls
+        enc = b"json"
+        self.ws.send(struct.pack("<BIII", 2, self.services[service], call, len(enc)) + enc
+                     + json.dumps(body).encode())
+        end = time.monotonic() + timeout
+        while call not in self.answers and time.monotonic() < end:
+            self.pump(0.1)
+        return self.answers.pop(call)
