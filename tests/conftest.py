@@ -1,5 +1,7 @@
 """Fixtures shared by the test modules."""
 
+import compileall
+import os
 import subprocess
 from pathlib import Path
 
@@ -11,6 +13,16 @@ from esair_min.pic.build import BuildError, build_board, toolchain
 from esair_min.model.validate import load_robot
 
 ROOT = Path(__file__).resolve().parent.parent
+
+
+def pytest_sessionstart(session):
+    """The checkout's modules compiled once (the controller, or the one process of
+    ``-n 0``): each child the tests start (``esair``, an emulator, a robot's agents)
+    loads them instead of compiling the sources again at its start, which it does where
+    PYTHONDONTWRITEBYTECODE is set (Python then reads byte code, never writes it)."""
+    if "PYTEST_XDIST_WORKER" not in os.environ:
+        for folder in ("esair_min", "esair_std", "codegen", "tests/support", "bench/toolkit"):
+            compileall.compile_dir(ROOT / folder, quiet=1)
 
 
 @pytest.fixture(scope="session")

@@ -2,25 +2,18 @@
 
 import os
 import signal
-import socket
 import subprocess
 import sys
 import threading
-import time
 from contextlib import contextmanager
 from pathlib import Path
 
+from bench.toolkit import free_endpoint, processes, wait_for  # noqa: F401  (the tests' too)
 
 #: the checkout: child processes start here, so ``tests.support`` imports in them
 ROOT = Path(__file__).resolve().parents[2]
 
 MODES = ["thread", "process"]
-
-
-def free_endpoint() -> str:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return f"tcp/127.0.0.1:{s.getsockname()[1]}"
 
 
 def ask(ep: str, verb: str, body: dict | None = None, timeout: float = 5.0):
@@ -63,23 +56,6 @@ def emulators_with(text: str) -> list[int]:
     """Pids of `esair emulate` processes whose command line holds ``text``."""
     return [pid for pid, _ppid, cmd in processes()
             if b"emulate" in cmd.split(b"\0") and text.encode() in cmd.split(b"\0")]
-
-
-def processes() -> list[tuple[int, int, bytes]]:
-    """(pid, parent pid, command line) of every process readable in /proc now."""
-    out = []
-    for d in os.listdir("/proc"):
-        if not d.isdigit():
-            continue
-        try:
-            with open(f"/proc/{d}/stat") as f:
-                ppid = int(f.read().rsplit(")", 1)[1].split()[1])
-            with open(f"/proc/{d}/cmdline", "rb") as f:
-                cmd = f.read()
-        except (OSError, IndexError, ValueError):
-            continue
-        out.append((int(d), ppid, cmd))
-    return out
 
 
 def agent_children() -> list[int]:
@@ -144,18 +120,6 @@ def std_run(deployment: str, mode: str, ep: str, deployed, what: str = "deployed
         proc.send_signal(signal.SIGTERM)
         _, err = proc.communicate(timeout=30)
     assert proc.returncode == 0, err
-
-
-def wait_for(fn, timeout=10.0, what="condition"):
-    """Poll fn() until it returns a truthy value (state-based; no timing asserted)."""
-    deadline = time.monotonic() + timeout
-    while True:
-        v = fn()
-        if v:
-            return v
-        if time.monotonic() > deadline:
-            raise AssertionError(f"timed out waiting for {what}; last value {v!r}")
-        time.sleep(0.005)
 
 
 def call(rt, probe, do, *args):
