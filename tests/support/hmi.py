@@ -59,7 +59,7 @@ class HmiRun:
                 raise AssertionError(f"esair std run exited: {(self.tmp / 'run.err').read_text()}")
             m = re.search(r"^hmi: (http://\S+)$", (self.tmp / "run.err").read_text(), re.M)
             return m and m.group(1)
-        self.url = wait_for(url, timeout=90, what="the HMI's URL")
+        self.url = wait_for(url, timeout=120, what="the HMI's URL")
         return self
 
     def std(self, *args: str) -> str:

@@ -113,7 +113,7 @@ def std_run(deployment: str, mode: str, ep: str, deployed, what: str = "deployed
                              "--mode", mode, "-e", ep], cwd=ROOT,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
-        wait_for(lambda: proc.poll() is not None or deployed(), timeout=60, what=what)
+        wait_for(lambda: proc.poll() is not None or deployed(), timeout=120, what=what)
         assert proc.poll() is None, proc.communicate()
         yield proc
     finally:
