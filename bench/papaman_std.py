@@ -434,7 +434,7 @@ def main() -> None:
         for m in modes:
             runs.setdefault(f"{m} x2", []).append(rates(m, args.n, senders=2))
         if "process" in modes:
-            from std import zenoh_get_round_trip   # bench/std_goals.py: a raw zenoh get
+            from zenoh_floors import zenoh_get_round_trip   # a raw zenoh get
             runs.setdefault("zenoh", []).append({"rt": zenoh_get_round_trip(500)})
     med = {m: {k: statistics.median(x[k] for x in rs) for k in rs[0]} for m, rs in runs.items()}
     for m, r in med.items():

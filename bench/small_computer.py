@@ -17,11 +17,12 @@ side by side:
   files' max_omega_mrad_s), audio frames lost.
 - the control endpoint under the cap: ``ls`` and ``ping`` asked from outside the group
   (the client ``esair std`` uses), p50 / p99 and how many went unanswered in 5 s (issue
-  37 item 5's goal: p99 <= 1 s). STARFISH's driver renders the room's
+  37 item 5's goal: p99 <= 1 s); in process mode again with the behaviors' processes
+  stopped (SIGSTOP), as agents starved of the CPU or cut off. STARFISH's driver renders the room's
   audio and pictures itself: that simulation work is inside the cap.
 
     python bench/small_computer.py [--robots papaman,starfish] [--modes thread,process]
-        [--window 10] [--n 100] [--shots 3] [--asks 20] [--caps capped,uncapped]
+        [--window 10] [--n 100] [--shots 3] [--asks 20] [--caps capped,uncapped] [--tree DIR]
 Prints figures; asserts nothing. Every control group it made is removed at the end
 (also on an error or Ctrl-C), after every process in it has been ended.
 """
@@ -42,6 +43,8 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 BENCH = ROOT / "bench"
+# --tree DIR: the robot side runs the esair_std of another checkout (an older commit)
+TREE = Path(sys.argv[sys.argv.index("--tree") + 1]).resolve() if "--tree" in sys.argv else ROOT
 PAPAMAN = ROOT / "boards" / "papaman"
 STARFISH_ROOM = ROOT / "esair_std" / "examples" / "starfish" / "room.yaml"
 CPU_SHARE = 0.25
@@ -347,7 +350,7 @@ def starfish_figure(rt, shots: int) -> dict:
 # ---- the bench --------------------------------------------------------------------------
 def one(robot: str, mode: str, limit: bool, args) -> dict:
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(
-        [str(ROOT), str(BENCH), *filter(None, [os.environ.get("PYTHONPATH")])]))
+        [str(TREE), str(BENCH), *filter(None, [os.environ.get("PYTHONPATH")])]))
     env.pop("PYTHONDONTWRITEBYTECODE", None)       # bytecode read, as installed on a robot
     emu = None
     res: dict = {"robot": robot, "mode": mode, "capped": limit}
@@ -370,8 +373,9 @@ def one(robot: str, mode: str, limit: bool, args) -> dict:
         mover = Mover(cap, remote=("localize", "turn_and_shoot") if robot == "starfish" else ())
         mover.start()
         t_exec = time.monotonic()
+        # in the measured checkout: a deployment's classes are looked for from there first
         child = subprocess.Popen(cmd, env=env, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-                                 text=True, preexec_fn=cap.join)
+                                 text=True, preexec_fn=cap.join, cwd=TREE)
         try:
             assert child.stdout is not None and child.stdin is not None
             line = child.stdout.readline()
@@ -389,6 +393,8 @@ def one(robot: str, mode: str, limit: bool, args) -> dict:
             res["rss_mb"], res["pss_mb"] = memory_of(pids)
             res["processes"] = len(pids)
             res.update(control_asks(ep, robot, args.asks))
+            if mode == "process":
+                res.update(control_asks(ep, robot, args.asks, frozen=cap.pids()))
             child.stdin.write("go\n")
             child.stdin.flush()
             line = child.stdout.readline()
@@ -417,26 +423,40 @@ def one(robot: str, mode: str, limit: bool, args) -> dict:
     return res
 
 
-def control_asks(ep: str, robot: str, n: int) -> dict:
+def control_asks(ep: str, robot: str, n: int, frozen: list[int] | None = None) -> dict:
     """The control endpoint under the cap: ``n`` rounds of ``ls`` and ``ping`` from
     outside the group (the client ``esair std`` uses), each one's time; unanswered in 5 s
-    counted."""
+    counted. ``frozen`` (process mode: the group's processes): the behaviors' and
+    reactions' processes among them are stopped (SIGSTOP) meanwhile, as agents starved of
+    the CPU or cut off would be (figures ``frozen_*``); continued after."""
     from esair_std.cli.client import Client
     from esair_std.errors import StdError
 
-    took, missed = [], 0
+    took, missed, stopped = [], 0, []
     with Client(ep, robot=robot) as c:
-        for _ in range(n):
-            for verb in ("ls", "ping"):
-                t = time.monotonic()
-                try:
-                    c.call(verb, None, 5.0)
-                    took.append((time.monotonic() - t) * 1e3)
-                except StdError:
-                    missed += 1
-            time.sleep(0.2)
-    return {"ask_p50_ms": pct(took, 0.5), "ask_p99_ms": pct(took, 0.99),
-            "ask_n": len(took), "ask_missed": missed}
+        try:
+            if frozen is not None:
+                stopped = [r["pid"] for r in c.call("ls", None, 10.0)
+                           if r["kind"] in ("behavior", "reaction") and r["pid"] in frozen]
+                for pid in stopped:
+                    os.kill(pid, signal.SIGSTOP)
+            for _ in range(n):
+                for verb in ("ls", "ping"):
+                    t = time.monotonic()
+                    try:
+                        c.call(verb, None, 5.0)
+                        took.append((time.monotonic() - t) * 1e3)
+                    except StdError:
+                        missed += 1
+                time.sleep(0.2)
+        finally:
+            for pid in stopped:
+                os.kill(pid, signal.SIGCONT)
+    tag = "frozen_" if frozen is not None else ""
+    return {f"{tag}ask_p50_ms": pct(took, 0.5) if took else None,
+            f"{tag}ask_p99_ms": pct(took, 0.99) if took else None,
+            f"{tag}ask_n": len(took), f"{tag}ask_missed": missed,
+            f"{tag}stopped": len(stopped)}
 
 
 def line_and_tick_ms() -> float:
@@ -483,6 +503,12 @@ def show(rows: list[dict], floor_ms: float) -> None:
         print(f"{'':26s} control endpoint (ls, ping; goal p99 <= 1 s): p50 "
               f"{r['ask_p50_ms']:.1f} ms, p99 {r['ask_p99_ms']:.1f} ms (n {r['ask_n']}, "
               f"unanswered {r['ask_missed']})")
+        if r.get("frozen_ask_n") is not None:
+            ms = ("none answered" if r["frozen_ask_p50_ms"] is None else
+                  f"p50 {r['frozen_ask_p50_ms']:.1f} ms, p99 {r['frozen_ask_p99_ms']:.1f} ms")
+            print(f"{'':26s} the same, {r['frozen_stopped']} behavior processes stopped "
+                  f"(SIGSTOP): {ms} (n {r['frozen_ask_n']}, unanswered "
+                  f"{r['frozen_ask_missed']})")
         if r["robot"] == "papaman":
             print(f"{'':26s} command -> register write p50 {r['cmd_p50_ms']:.2f} ms, "
                   f"p99 {r['cmd_p99_ms']:.2f} ms = {r['cmd_p99_ms'] / floor_ms:.2f}x the "
@@ -510,6 +536,9 @@ def main() -> None:
     ap.add_argument("--n", type=int, default=100, help="PAPA-MAN: commands")
     ap.add_argument("--shots", type=int, default=3, help="STARFISH: shots")
     ap.add_argument("--asks", type=int, default=20, help="rounds of ls + ping")
+    ap.add_argument("--tree", metavar="DIR",
+                    help="run the esair_std of the checkout DIR (an older commit) under "
+                         "this bench: a before beside an after")
     ap.add_argument("--endpoint", help=argparse.SUPPRESS)
     ap.add_argument("--inner", help=argparse.SUPPRESS)
     ap.add_argument("--mode", help=argparse.SUPPRESS)
@@ -526,8 +555,8 @@ def main() -> None:
         raise SystemExit("small_computer.py needs root (it makes a control group)")
     # an installed package has its bytecode: compiled once here (a start would otherwise
     # compile every module it imports, with PYTHONDONTWRITEBYTECODE set)
-    subprocess.run([sys.executable, "-m", "compileall", "-q", str(ROOT / "esair_std"),
-                    str(ROOT / "esair_min"), str(BENCH / "small_computer_comps.py")],
+    subprocess.run([sys.executable, "-m", "compileall", "-q", str(TREE / "esair_std"),
+                    str(TREE / "esair_min"), str(BENCH / "small_computer_comps.py")],
                    check=False, stdout=subprocess.DEVNULL)
     floor = line_and_tick_ms()
     print(f"the robot side capped at {CPU_SHARE:.0%} of one core and {MEMORY >> 20} MB "

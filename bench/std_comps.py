@@ -39,11 +39,36 @@ class Echo(Behavior):
 
 
 class Pinger(Behavior):
-    """run(): ``n`` puts and ``n`` gets to 'echo', timed (seconds); provide() the figures."""
+    """run(): ``n`` puts and ``n`` gets to 'echo', timed (seconds); provide() the figures.
+    ``raw`` (process mode): a key the runtime's process answers by a bare Zenoh queryable;
+    ``n`` raw ``get``s of that key from this agent's own session come first, timed alike:
+    the reference taken between the same two processes, in the same run (before the
+    puts: a get right after a put would carry the delivery's work in the other
+    processes)."""
+
+    def _raw(self):
+        key = self.options.get("raw")
+        bus = getattr(self._esair.port, "bus", None)
+        if not key or bus is None:
+            return None
+        payload = b'{"i":0}'
+
+        def get():
+            return any(r.ok is not None for r in bus.session.get(key, payload=payload,
+                                                                 timeout=1.0))
+        end = time.monotonic() + 30
+        while not get() and time.monotonic() < end:     # until the bench's queryable is up
+            time.sleep(0.01)
+        return get
 
     def run(self):
         n = int(self.options.get("n", 2000))
-        puts, gets, failed = [], [], 0
+        raw = self._raw()
+        puts, gets, raws, failed = [], [], [], 0
+        for _ in range(n if raw is not None else 0):
+            t = time.perf_counter()
+            failed += not raw()
+            raws.append(time.perf_counter() - t)
         for i in range(n):
             t = time.perf_counter()
             ok = self.put("echo", {"i": i}, timeout=1.0)
@@ -54,7 +79,8 @@ class Pinger(Behavior):
             v = self.get("echo", timeout=1.0)
             gets.append(time.perf_counter() - t)
             failed += v is None
-        self.result = {"put": _pcts(puts), "get": _pcts(gets), "failed": failed}
+        self.result = {"put": _pcts(puts), "get": _pcts(gets), "raw": _pcts(raws),
+                       "failed": failed}
 
     def provide(self, requester):
         return getattr(self, "result", None)

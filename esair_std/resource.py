@@ -96,7 +96,7 @@ class Actuator(_Agent):
     def write(self, command: Any) -> Any:
         raise CommandError(self.name, "write() is not implemented")
 
-    def halt(self) -> None:
+    def halt(self) -> object:
         """The robot is STOPPED (docs/std.md, "The latched stop"): stop moving now
         (send your device's stop; a wheel to zero). Called once per STOP from the
         runtime's thread, not the host's: while a write() may still run; keep it short.

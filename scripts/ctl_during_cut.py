@@ -5,9 +5,12 @@ agent commanding a local actuator (and, with --stream, a remote 200 Hz sensor re
 a local behavior). The link is cut, and from the control center's computer one client
 session asks ``ctl/ping`` then ``ctl/ls`` every 50 ms for the next SECONDS: each
 answer's time, after the cut, is printed with the time it took. Then the same with the
-link up, as the baseline.
+link up, as the baseline. With --puts RATE, an operator's puts to the remote behavior
+(timeout 2 s each, RATE a second, none waiting for another) go on meanwhile: during the
+cut each one holds a worker of the control endpoint until its timeout (issue 37 item 5:
+``ls`` must not wait behind them).
 
-Run: sudo python scripts/ctl_during_cut.py [--seconds 5] [--stream]
+Run: sudo python scripts/ctl_during_cut.py [--seconds 5] [--stream] [--puts 20]
 """
 
 from __future__ import annotations
@@ -55,8 +58,27 @@ for line in sys.stdin:
 """
 
 
-def probe(center: Center, seconds: float, cut, verbs=("ping", "ls")) -> list:
+PUTTER = r"""
+import sys, threading, time
+from esair_std.transport.bus import Bus
+bus = Bus(connect=[sys.argv[1]], options={"mode": "client", "listen/endpoints": []})
+every = 1.0 / float(sys.argv[2])
+def put():
+    bus.request("esair/lab/ctl/put", {"to": "pusher", "data": 1, "timeout": 2.0}, 5.0)
+print("ready", flush=True)
+while True:
+    threading.Thread(target=put, daemon=True).start()
+    time.sleep(every)
+"""
+
+
+def probe(center: Center, seconds: float, cut, verbs=("ping", "ls"), puts: float = 0) -> list:
     e = env()
+    putter = None
+    if puts:
+        putter = center.host.popen(sys.executable, "-c", PUTTER, center.endpoint, str(puts),
+                                   stdout=subprocess.PIPE, text=True, env=e)
+        assert putter.stdout.readline().strip() == "ready"
     e.pop("ZENOH_RUNTIME", None)      # the asker: Zenoh's defaults
     asker = center.host.popen(sys.executable, "-c", ASKER, center.endpoint, stdin=subprocess.PIPE,
                               stdout=subprocess.PIPE, text=True, env=e)
@@ -77,6 +99,9 @@ def probe(center: Center, seconds: float, cut, verbs=("ping", "ls")) -> list:
         time.sleep(0.05)
     asker.stdin.close()
     asker.wait(10)
+    if putter is not None:
+        putter.kill()
+        putter.wait(10)
     return out
 
 
@@ -94,6 +119,10 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--seconds", type=float, default=5.0)
     ap.add_argument("--stream", action="store_true", help="a remote 200 Hz sensor too")
+    ap.add_argument("--puts", type=float, default=0.0,
+                    help="operator puts a second to the remote behavior meanwhile")
+    ap.add_argument("--only-open", action="store_true",
+                    help="the open session's rows only (not a new session per ls)")
     ap.add_argument("--rx", type=int, default=None,
                     help="the control center's Zenoh routing threads (default: the "
                          "runtime's 16; Zenoh's own default is 2)")
@@ -113,11 +142,17 @@ def main() -> None:
             netns.wait_for(lambda: center.state("ticks") == "ready", 60, what="ticks")
             center.ctl("add", "watch2", "bench.toolkit.netcomps:Watch", "--uses", "ticks=read")
         netns.wait_for(lambda: center.state("pusher") == "running", 60, what="pusher")
-        show("link up (baseline)", probe(center, args.seconds, lambda: None))
-        show("link cut", probe(center, args.seconds, lambda: net[1].link(up=False)))
+        show("link up (baseline)", probe(center, args.seconds, lambda: None, puts=args.puts))
+        show("link cut", probe(center, args.seconds, lambda: net[1].link(up=False),
+                               puts=args.puts))
         net[1].link(up=True)
         netns.wait_for(lambda: center.state("pusher") == "running", 60, what="pusher back")
         time.sleep(2)
+        if args.only_open:
+            show("link healed", probe(center, args.seconds, lambda: None, puts=args.puts))
+            center.run.proc.terminate()
+            center.run.wait_exit(30)
+            return
         show("a new session (peer, as esair std ls) for each ls, link up (baseline)",
              probe(center, args.seconds, lambda: None, ("new",)))
         show("a new session (peer, as esair std ls) for each ls, link cut",

@@ -2,7 +2,10 @@
 
 Zenoh's callback only queues the request (a bounded queue; when full the asker is told
 at once); a small pool of worker threads answers from the verb table (transport/wire.py:
-the envelope, its errors and the table are those of every endpoint). Garbage (not JSON,
+the envelope, its errors and the table are those of every endpoint). The verbs that
+only read the runtime's own tables (``ping``, ``ls``, ``state``...: :data:`QUICK`) have a
+lane of their own: a verb that waits (a put retried until its timeout, a call to a
+dead or partitioned agent) may take every worker of the pool, never ``ls``'s. Garbage (not JSON,
 not an object, missing or wrong fields, unknown verb) gets an error and changes nothing.
 
 When a component's state changes (the runtime's ``note_change``), a notice goes out on
@@ -42,6 +45,10 @@ from ..counters import Counters
 log = logging.getLogger("esair_std.control")
 WORKERS = 8
 PENDING = 256
+#: verbs answered from the runtime's own tables, never by a call over the network: their
+#: own queue and workers (a listing must answer while every other worker waits)
+QUICK = frozenset({"ping", "ls", "state", "latch", "kind", "resinfo"})
+QUICK_WORKERS = 2
 
 
 def _need(body: dict, field: str, kind: type | tuple = str) -> Any:
@@ -97,6 +104,7 @@ class ControlServer:
         self.endpoint = check_endpoint(rt.endpoint)
         self.bus: Bus | None = None
         self._q: queue.Queue = queue.Queue(maxsize=PENDING)
+        self._quick: queue.Queue = queue.Queue(maxsize=PENDING)    # QUICK's lane
         self._workers: list[threading.Thread] = []
         self.threads = Threads()     # what may be in a Zenoh call: joined at stop (threads.py)
         self._closing = False
@@ -129,8 +137,10 @@ class ControlServer:
                        connect=list(getattr(self.rt, "join", None) or []) or None,
                        options=getattr(self.rt, "session_options", None))
         for _ in range(WORKERS):
-            t = self.threads.start(self._work, name="esair:ctl")
-            self._workers.append(t)
+            self._workers.append(self.threads.start(self._work, self._q, name="esair:ctl"))
+        for _ in range(QUICK_WORKERS):
+            self._workers.append(self.threads.start(self._work, self._quick,
+                                                    name="esair:ctl-quick"))
         self.bus.serve(keys.ctl(self.rt.robot, "*"), self._enqueue)
         robot = self.rt.robot
         self.puts = SampleServer(self.bus, keys.ctl_put(robot, "*"),
@@ -182,11 +192,12 @@ class ControlServer:
         self._changed.set()                 # _notify ends
         if self.bus is not None:
             self.bus.close()
-        for _ in self._workers:             # a full queue: each worker ends after its item
-            try:
-                self._q.put_nowait(None)
-            except queue.Full:
-                pass
+        for q, n in ((self._q, WORKERS), (self._quick, QUICK_WORKERS)):
+            for _ in range(n):              # a full queue: each worker ends after its item
+                try:
+                    q.put_nowait(None)
+                except queue.Full:
+                    pass
 
     def join(self, timeout: float) -> list[str]:
         """Waits for the workers (after :meth:`close`); the names of those still running."""
@@ -226,15 +237,16 @@ class ControlServer:
         self._enqueue(_SampleRequest(keys.ctl(self.rt.robot, "put"), body, answer))
 
     def _to_worker(self, req: Request | _SampleRequest) -> None:
+        quick = req.key.rsplit("/", 1)[-1] in QUICK
         try:
-            self._q.put_nowait(req)
+            (self._quick if quick else self._q).put_nowait(req)
         except queue.Full:
             self.c.add("refused_full")
             req.reply(wire.error(ControlError("runtime busy: too many requests waiting")))
 
-    def _work(self) -> None:
+    def _work(self, q: queue.Queue) -> None:
         while True:
-            req = self._q.get()
+            req = q.get()
             if req is None or self._closing:
                 return
             req.reply(self.answer(req.key.rsplit("/", 1)[-1], req.body, req.error))

@@ -40,11 +40,12 @@ def components(rt: RuntimeView) -> list[dict]:
             for who in whos:
                 uses.setdefault(who, set()).add(res)
     rows = []
-    for row in rt.ls():
+    listed = rt.ls()
+    for row in listed:
         if row["kind"] in ("behavior", "reaction"):
             rows.append(_row(row, parent="", attached=uses.get(row["name"], ())))
     kids_of: dict[str, list[dict]] = {}
-    for row in rt.ls():
+    for row in listed:
         if row["kind"] not in ("behavior", "reaction"):
             entry = rt.rs.resources.get(row["name"], (row["name"], ""))[0]
             kids_of.setdefault(entry, []).append(row)

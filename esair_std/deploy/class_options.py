@@ -9,8 +9,6 @@ keeps, for each, where it was written.
 
 from __future__ import annotations
 
-from typing import Any
-
 from pydantic import BaseModel, ValidationError
 
 from esair_min.config.schema_errors import config_error
@@ -18,14 +16,14 @@ from esair_min.config.yamlload import Document
 from esair_min.errors import Mark
 
 from ..errors import DeployError
-from .marks import dict_document
+from .marks import Loc, dict_document
 
 
-def options_document(doc: Document, entry: tuple[str, str], options: dict[str, Any]) -> Document:
+def options_document(doc: Document, entry: tuple[str, str], options: dict[str, object]) -> Document:
     """``options`` as a Document whose marks are where ``doc`` has them: an option written
     as a key of the entry (``entry + (key, ...)``) or under its ``options:``."""
-    values: dict[tuple[Any, ...], Mark] = {}
-    keys: dict[tuple[Any, ...], Mark] = {}
+    values: dict[Loc, Mark] = {}
+    keys: dict[Loc, Mark] = {}
     for src, marks in ((doc.value_marks, values), (doc.key_marks, keys)):
         for loc, mark in src.items():
             if loc[:2] != entry or len(loc) < 3:
@@ -46,7 +44,7 @@ def options_model(cls: type) -> type[BaseModel] | None:
     return model if isinstance(model, type) and issubclass(model, BaseModel) else None
 
 
-def check_options(model: type[BaseModel], options: dict[str, Any],
+def check_options(model: type[BaseModel], options: dict[str, object],
                   doc: Document | None = None) -> BaseModel:
     """``options`` as ``model``; a :class:`DeployError` at the option's place in ``doc``
     (by default: its path in ``options``) when they do not fit."""

@@ -2,20 +2,21 @@
 
 from __future__ import annotations
 
-from typing import Any
+from collections.abc import Mapping
 
-from .model import BehaviorSpec, Deployment, ReactionSpec, ResourceSpec
+from ..level import Level
+from .model import BehaviorSpec, ComponentSpec, Deployment, ReactionSpec, ResourceSpec
 
 
 def _plural(n: int, word: str) -> str:
     return f"{n} {word}" if n == 1 else f"{n} {word}s"
 
 
-def _levels(mapping: dict[str, Any]) -> str:
+def _levels(mapping: Mapping[str, Level]) -> str:
     return ", ".join(f"{k}: {v.name}" for k, v in mapping.items())
 
 
-def _options(options: dict[str, Any]) -> str:
+def _options(options: Mapping[str, object]) -> str:
     return "  options " + ", ".join(f"{k}={v!r}" for k, v in options.items()) if options else ""
 
 
@@ -38,7 +39,7 @@ def deployment_summary(dep: Deployment) -> list[str]:
     return lines
 
 
-def _details(spec: Any) -> str:
+def _details(spec: ComponentSpec) -> str:
     if isinstance(spec, ResourceSpec):
         allow = f"allow {_levels(spec.allow)}" if spec.allow else "allow nobody"
         r = spec.restart

@@ -2,12 +2,11 @@
 
 from __future__ import annotations
 
-from typing import Any
-
+from ..transport.codec import JSONObject
 from .model import Deployment
 
 
-def deployment_schema() -> dict[str, Any]:
+def deployment_schema() -> JSONObject:
     """JSON Schema (draft 2020-12) of a deployment file, for editors and validators."""
     doc = Deployment.model_json_schema(by_alias=True)
     doc["$schema"] = "https://json-schema.org/draft/2020-12/schema"

@@ -11,8 +11,6 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from pathlib import Path
-from typing import Any
-
 from pydantic import ValidationError
 
 from esair_min.errors import ConfigError
@@ -30,7 +28,7 @@ from .rules import check_rules
 DEPLOYMENT_FILE = FileKind("deployment file", "a deployment", "robot:, resources:, behaviors:, ...")
 
 
-def load_deployment(source: str | Path | Mapping[str, Any], *,
+def load_deployment(source: str | Path | Mapping[str, object], *,
                     base_dir: str | Path | None = None) -> Deployment:
     """Read and check a deployment.
 
@@ -43,7 +41,7 @@ def load_deployment(source: str | Path | Mapping[str, Any], *,
     return deployment
 
 
-def read_document(source: str | Path | Mapping[str, Any]) -> Document:
+def read_document(source: str | Path | Mapping[str, object]) -> Document:
     """The YAML file (marks: line:column) or the mapping (marks: paths) as a Document."""
     if isinstance(source, Mapping):
         return dict_document(source)
@@ -58,7 +56,7 @@ def read_document(source: str | Path | Mapping[str, Any]) -> Document:
         raise DeployError(exc.message, exc.mark) from None
 
 
-def load_document(source: str | Path | Mapping[str, Any], *,
+def load_document(source: str | Path | Mapping[str, object], *,
                   base_dir: str | Path | None = None,
                   edit: Callable[[Document], None] | None = None,
                   ) -> tuple[Deployment, Document]:
@@ -85,7 +83,7 @@ def load_document(source: str | Path | Mapping[str, Any], *,
     return deployment, doc
 
 
-def _add_loader_fields(data: dict[str, Any], doc: Document, base: Path) -> None:
+def _add_loader_fields(data: dict[str, object], doc: Document, base: Path) -> None:
     """Fill what is not written in the file: source, folder, each entry's name and marks."""
     data["source"] = None if doc.path == "<dict>" else doc.path
     data["base_dir"] = base

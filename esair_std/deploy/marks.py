@@ -8,7 +8,7 @@ the same checks and messages then serve both.
 from __future__ import annotations
 
 import re
-from typing import Any, Mapping
+from typing import Mapping
 
 from esair_min.errors import Mark
 from esair_min.config.yamlload import Document
@@ -19,6 +19,8 @@ ROOT = "(top level)"
 #: Deepest nesting walked in a dict (a YAML file is limited the same way).
 MAX_DEPTH = 32
 _PLAIN = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
+#: Where a value is in a deployment: its keys and list indexes from the top.
+Loc = tuple[str | int, ...]
 
 
 class PathMark(Mark):
@@ -36,7 +38,7 @@ class PathMark(Mark):
         return self.where
 
 
-def where(loc: tuple[Any, ...]) -> str:
+def where(loc: Loc) -> str:
     """``('behaviors', 'follow', 'uses', 'a.b')`` -> ``behaviors.follow.uses['a.b']``."""
     out = ""
     for part in loc:
@@ -49,13 +51,13 @@ def where(loc: tuple[Any, ...]) -> str:
     return out or ROOT
 
 
-def dict_document(data: Mapping[str, Any]) -> Document:
+def dict_document(data: Mapping[str, object]) -> Document:
     """A Document over ``data`` whose marks are paths; refuses what YAML could not hold."""
-    value_marks: dict[tuple[Any, ...], Mark] = {}
-    key_marks: dict[tuple[Any, ...], Mark] = {}
+    value_marks: dict[Loc, Mark] = {}
+    key_marks: dict[Loc, Mark] = {}
     open_ids: set[int] = set()
 
-    def walk(value: Any, loc: tuple[Any, ...]) -> Any:
+    def walk(value: object, loc: Loc) -> object:
         mark = PathMark("<dict>", 0, 0, where(loc))
         value_marks[loc] = mark
         if isinstance(value, (dict, list, tuple)):

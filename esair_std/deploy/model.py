@@ -15,11 +15,14 @@ from fnmatch import fnmatchcase
 from pathlib import Path
 from typing import Annotated, Any, ClassVar, Literal
 
-from pydantic import (BaseModel, ConfigDict, Field, PlainSerializer, PlainValidator,
+from pydantic import (BaseModel, ConfigDict, Field, InstanceOf, PlainSerializer, PlainValidator,
                       StrictBool, StrictFloat, StrictInt, StrictStr, WithJsonSchema,
                       model_validator)
 from pydantic.json_schema import SkipJsonSchema
 from pydantic_core import PydanticCustomError
+
+from esair_min.config.yamlload import Document
+from esair_min.errors import Mark
 
 from ..classes import CLASS_PATTERN as CLASS_PATTERN  # ``module:Class``: the importer's own
 from ..endpoint import DEFAULT_ENDPOINT as DEFAULT_ENDPOINT, PROTOCOLS as PROTOCOLS
@@ -43,7 +46,7 @@ Seconds = Annotated[StrictFloat, Field(gt=0, allow_inf_nan=False)]
 LEVEL_CHOICES = "'read', 'command' or 'configure'"
 
 
-def _level(value: Any) -> Level:
+def _level(value: object) -> Level:
     if isinstance(value, Level):
         return value
     if isinstance(value, str) and value in Level.__members__:
@@ -96,19 +99,19 @@ class ComponentSpec(BaseModel):
                                                 "other keys of the entry are added to them")
     # Set by the loader, not keys of the file:
     name: SkipJsonSchema[str] = Field("", exclude=True, description="the entry's name")
-    mark: SkipJsonSchema[Any] = Field(None, exclude=True, repr=False,
-                                      description="where the entry's name is written")
-    class_mark: SkipJsonSchema[Any] = Field(None, exclude=True, repr=False,
-                                            description="where its class is written")
+    mark: SkipJsonSchema[InstanceOf[Mark] | None] = Field(
+        None, exclude=True, repr=False, description="where the entry's name is written")
+    class_mark: SkipJsonSchema[InstanceOf[Mark] | None] = Field(
+        None, exclude=True, repr=False, description="where its class is written")
     base_dir: SkipJsonSchema[Path] = Field(Path("."), exclude=True, repr=False,
                                            description="folder its module is imported from "
                                                        "first")
-    options_doc: SkipJsonSchema[Any] = Field(None, exclude=True, repr=False,
-                                             description="where each option is written")
+    options_doc: SkipJsonSchema[InstanceOf[Document] | None] = Field(
+        None, exclude=True, repr=False, description="where each option is written")
 
     @model_validator(mode="before")
     @classmethod
-    def _gather_options(cls, data: Any) -> Any:
+    def _gather_options(cls, data: object) -> object:
         """Keys that are not the section's own go to ``options``."""
         if not isinstance(data, dict):
             return data

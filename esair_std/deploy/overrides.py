@@ -6,7 +6,7 @@ through the same checks as ``esair std check`` and errors keep their ``file:line
 
 from __future__ import annotations
 
-from typing import Any
+from collections.abc import Mapping
 
 from esair_min.config.yamlload import Document
 from esair_min.errors import path_mark
@@ -14,7 +14,7 @@ from esair_min.errors import path_mark
 from ..errors import DeployError
 
 
-def _entries(doc: Document) -> dict[str, Any]:
+def _entries(doc: Document) -> dict[str, object]:
     data = doc.data
     resources = data.get("resources") if isinstance(data, dict) else None
     return resources if isinstance(resources, dict) else {}
@@ -35,7 +35,7 @@ def set_port(doc: Document, port: str) -> None:
                           "option", path_mark(doc.path))
 
 
-def set_emulate(doc: Document, options: dict[str, Any]) -> None:
+def set_emulate(doc: Document, options: Mapping[str, object]) -> None:
     """Merge ``options`` (e.g. ``{"trace": FILE}``) into the ``emulate`` options of every
     resource entry whose port is ``emulate``; none: DeployError naming the first option."""
     hit = False

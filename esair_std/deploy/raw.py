@@ -12,15 +12,13 @@ from __future__ import annotations
 
 import difflib
 import re
-from typing import Any
-
 from esair_min.errors import Mark
 from esair_min.config.words import did_you_mean, quote, show
 from esair_min.config.yamlload import Document, kind_of
 
 from ..endpoint import endpoint_fault
 from ..errors import DeployError
-from .marks import PathMark
+from .marks import Loc, PathMark
 from .model import (CHILD_PATTERN, CLASS_PATTERN, KIND, NAME_PATTERN,
                     REF_PATTERN, SECTIONS, BehaviorSpec, ReactionSpec, ResourceSpec,
                     top_keys)
@@ -40,7 +38,7 @@ def at(mark: Mark) -> str:
     return str(mark) if isinstance(mark, PathMark) else f"line {mark.line}"
 
 
-def check_raw(doc: Document) -> dict[str, Any]:
+def check_raw(doc: Document) -> dict[str, object]:
     """Check ``doc.data``; return it with each entry's options under ``options``."""
     data = doc.data
     if not isinstance(data, dict):
@@ -57,8 +55,8 @@ def check_raw(doc: Document) -> dict[str, Any]:
                           doc.mark(("robot",)))
     if isinstance(data.get("endpoint"), str):
         check_endpoint(data["endpoint"], doc)
-    out = dict(data)
-    seen: dict[str, tuple[str, Any]] = {}
+    out: dict[str, object] = dict(data)
+    seen: dict[str, tuple[str, Mark]] = {}
     for section in SECTIONS:
         entries = data.get(section)
         if entries is None and section in data:
@@ -70,8 +68,8 @@ def check_raw(doc: Document) -> dict[str, Any]:
     return out
 
 
-def _entry(doc: Document, section: str, name: str, entry: Any,
-           seen: dict[str, tuple[str, Any]]) -> Any:
+def _entry(doc: Document, section: str, name: str, entry: object,
+           seen: dict[str, tuple[str, Mark]]) -> object:
     """Check one entry's name and values; its own keys plus ``options``."""
     loc = (section, name)
     _check_name(doc, section, name, seen)
@@ -93,7 +91,7 @@ def _entry(doc: Document, section: str, name: str, entry: Any,
 
 
 def _check_name(doc: Document, section: str, name: str,
-                seen: dict[str, tuple[str, Any]]) -> None:
+                seen: dict[str, tuple[str, Mark]]) -> None:
     kind = KIND[section]
     mark = doc.mark((section, name), key=True)
     if not re.match(NAME_PATTERN, name):
@@ -105,13 +103,13 @@ def _check_name(doc: Document, section: str, name: str,
     seen[name] = (f"a {kind}", mark)
 
 
-def _split_options(doc: Document, section: str, entry: dict[str, Any],
-                   loc: tuple[Any, ...]) -> dict[str, Any]:
+def _split_options(doc: Document, section: str, entry: dict[str, object],
+                   loc: Loc) -> dict[str, object]:
     """The entry's own keys, and every other key (and those under ``options:``)
     gathered under ``options``."""
     own = SPECS[section].KEYS
     out = {k: v for k, v in entry.items() if k in own}
-    options: dict[str, Any] = {}
+    options: dict[str, object] = {}
     for key, value in entry.items():
         if key not in own:
             _not_a_typo(doc, section, loc + (key,), key)
@@ -131,7 +129,7 @@ def _split_options(doc: Document, section: str, entry: dict[str, Any],
     return out
 
 
-def _not_a_typo(doc: Document, section: str, loc: tuple[Any, ...], key: str) -> None:
+def _not_a_typo(doc: Document, section: str, loc: Loc, key: str) -> None:
     """An unknown key becomes an option, unless it looks like a misspelt key."""
     own = SPECS[section].KEYS
     close = difflib.get_close_matches(key, own, n=1, cutoff=TYPO_CUTOFF)
@@ -146,7 +144,7 @@ def _not_a_typo(doc: Document, section: str, loc: tuple[Any, ...], key: str) -> 
                               "'options:'", doc.mark(loc, key=True))
 
 
-def _check_class(doc: Document, entry: dict[str, Any], loc: tuple[Any, ...]) -> None:
+def _check_class(doc: Document, entry: dict[str, object], loc: Loc) -> None:
     value = entry.get("class")
     if not isinstance(value, str) or re.match(CLASS_PATTERN, value):
         return
@@ -159,8 +157,8 @@ def _check_class(doc: Document, entry: dict[str, Any], loc: tuple[Any, ...]) -> 
                       f"name), not {show(value)}{hint}", doc.mark(loc + ("class",)))
 
 
-def _check_refs(doc: Document, section: str, entry: dict[str, Any],
-                loc: tuple[Any, ...]) -> None:
+def _check_refs(doc: Document, section: str, entry: dict[str, object],
+                loc: Loc) -> None:
     """The names in ``uses``/``allow`` (patterns allowed) and a reaction's resources."""
     for key, what in (("uses", "a resource name, entry.child or a pattern"),
                       ("allow", "a behavior name or a pattern")):
@@ -186,21 +184,21 @@ def _check_refs(doc: Document, section: str, entry: dict[str, Any],
                                   doc.mark(loc + ("resources", i)))
 
 
-def _check_seconds(doc: Document, value: Any, loc: tuple[Any, ...]) -> None:
+def _check_seconds(doc: Document, value: object, loc: Loc) -> None:
     """A duration must be > 0 (other faults -- text, inf -- are the model's to word)."""
     if isinstance(value, (int, float)) and not isinstance(value, bool) and value <= 0:
         raise DeployError(f"{quote(loc[-1])} must be greater than 0 (seconds), not {value}",
                           doc.mark(loc))
 
 
-def _check_rate(doc: Document, value: Any, loc: tuple[Any, ...]) -> None:
-    ok = isinstance(value, (int, float)) and not isinstance(value, bool)
-    if not ok or not 0 < value < float("inf"):
+def _check_rate(doc: Document, value: object, loc: Loc) -> None:
+    if (not isinstance(value, (int, float)) or isinstance(value, bool)
+            or not 0 < value < float("inf")):
         raise DeployError(f"'rate_hz' must be a number greater than 0 (samples per "
                           f"second), not {show(value)}", doc.mark(loc))
 
 
-def check_endpoint(text: str, doc: Document, loc: tuple[Any, ...] = ("endpoint",)) -> None:
+def check_endpoint(text: str, doc: Document, loc: Loc = ("endpoint",)) -> None:
     """A Zenoh locator the runtime can listen on; one precise message per fault."""
     fault = endpoint_fault(text, quote(loc[-1]))
     if fault is not None:

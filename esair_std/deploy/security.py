@@ -28,7 +28,7 @@ class AgentIdentity(BaseModel):
                                    description="the agent's login (a line of `users`)")
 
     @model_validator(mode="after")
-    def _one(self):
+    def _one(self) -> AgentIdentity:
         if (self.cn is None) == (self.user is None):
             raise ValueError("give exactly one of 'cn' (certificate common name) or 'user'")
         return self
@@ -62,7 +62,7 @@ class SecuritySpec(BaseModel):
                     "(their `esair std` control verbs only; turns the access control on)")
 
     @model_validator(mode="after")
-    def _consistent(self):
+    def _consistent(self) -> SecuritySpec:
         if (self.cert is None) != (self.key is None):
             raise ValueError("'cert' and 'key' go together")
         if self.mtls and self.cert is not None and self.ca is None:

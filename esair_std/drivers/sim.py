@@ -6,10 +6,10 @@ from __future__ import annotations
 
 import math
 import time
-from typing import Any
 
 from ..errors import CommandError
 from ..resource import Actuator, Driver, Sensor
+from ..transport.codec import JSON, JSONObject
 
 
 class Sine(Sensor):
@@ -26,10 +26,11 @@ class Sine(Sensor):
         return round(self.amplitude * math.sin(2 * math.pi * self.freq_hz
                                                * (time.monotonic() - self.t0)), 6)
 
-    def configure(self, key: str, value: Any) -> Any:
+    def configure(self, key: str, value: JSON) -> object:
         if key in ("amplitude", "freq_hz"):
-            setattr(self, key, float(value))
-            return float(value)
+            number = float(value)   # type: ignore[arg-type]  # no number: TypeError, the caller's
+            setattr(self, key, number)
+            return number
         return super().configure(key, value)
 
 
@@ -52,11 +53,11 @@ class Recorder(Actuator):
 
     def open(self) -> None:
         self.keep = int(self.options.get("keep", 100))
-        self.commands: list = []
+        self.commands: list[JSON] = []
         self.count = 0
         self.speed = int(self.options.get("speed", 5))
 
-    def write(self, command: Any) -> Any:
+    def write(self, command: JSON) -> JSONObject:
         if isinstance(command, dict) and "angle" in command:
             a = command["angle"]
             if not isinstance(a, (int, float)) or not 0 <= a <= 180:
@@ -65,7 +66,7 @@ class Recorder(Actuator):
         self.commands = (self.commands + [command])[-self.keep:]
         return {"count": self.count, "speed": self.speed}
 
-    def configure(self, key: str, value: Any) -> Any:
+    def configure(self, key: str, value: JSON) -> object:
         if key == "speed":
             if not isinstance(value, int) or not 1 <= value <= 9:
                 raise CommandError(self.name, f"speed {value!r} out of range 1-9")
@@ -78,11 +79,12 @@ class _Temp(Sensor):
     rate_hz = 5.0
 
     def read(self) -> float:
-        return 20.0 + self._esair.host.driver.fan_off_s() * 0.1
+        bench: Bench = self._esair.host.driver
+        return 20.0 + bench.fan_off_s() * 0.1
 
 
 class _Fan(Actuator):
-    def write(self, command: Any) -> Any:
+    def write(self, command: JSON) -> JSON:
         if command not in ("on", "off"):
             raise CommandError(self.name, f"expected 'on' or 'off', not {command!r}")
         self._esair.host.driver.set_fan(command == "on")
@@ -104,5 +106,5 @@ class Bench(Driver):
         if on != self.fan_on:
             self.fan_on, self.since = on, time.monotonic()
 
-    def resources(self) -> dict:
+    def resources(self) -> dict[str, Sensor | Actuator]:
         return {"temp": _Temp(), "fan": _Fan()}

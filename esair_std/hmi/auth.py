@@ -20,6 +20,7 @@ import hashlib
 import hmac
 import os
 import secrets
+from collections.abc import Mapping
 from pathlib import Path
 
 from ..counters import Counters
@@ -86,7 +87,7 @@ class Auth:
         self.c = Counters(failed_logins=0)        # shown in /status.json
 
     @classmethod
-    def from_options(cls, host: str, password_file: str | None, env: dict,
+    def from_options(cls, host: str, password_file: str | None, env: Mapping[str, str],
                      client_certs: bool = False, insecure: bool = False) -> "Auth":
         users = read_password_file(password_file) if password_file else {}
         plain = env.get("ESAIR_HMI_PASSWORD")

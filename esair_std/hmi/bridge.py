@@ -30,12 +30,13 @@ import logging
 import os
 import threading
 import time
-from typing import Any, Callable
+from typing import Callable, cast
 
 from ..counters import Counters
 from ..errors import StdError, TransportError
 from ..transport import keys, records
 from ..transport.bus import Bus
+from ..transport.codec import JSON, JSONObject
 from ..transport.session import check_endpoint
 
 log = logging.getLogger("esair_std.hmi")
@@ -47,7 +48,7 @@ PRINCIPAL = "hmi"
 STATE_PERIOD_S = 0.5       # each running behavior's get, this often, while a page shows it
 STATE_TIMEOUT_S = 0.3
 
-Emit = Callable[[dict], None]
+Emit = Callable[[JSONObject], None]
 
 
 class BridgeError(StdError):
@@ -56,7 +57,7 @@ class BridgeError(StdError):
 
 class Bridge:
     def __init__(self, endpoint: str, emit: Emit, who: str = PRINCIPAL,
-                 session_options: dict | None = None):
+                 session_options: JSONObject | None = None):
         self.endpoint = check_endpoint(endpoint)
         self.emit = emit
         self.who = who
@@ -69,14 +70,14 @@ class Bridge:
         self.options = session_options
         self.bus: Bus | None = None
         self.robot = ""
-        self.robots: dict[str, Any] = {}      # MIN link entry -> robot_info
+        self.robots: JSONObject = {}          # MIN link entry -> robot_info
         self.links: list[str] = []            # every MIN link entry (robots' and others')
         self.problems: list[str] = []
-        self.rows: list[dict] = []
+        self.rows: list[JSONObject] = []
         self.watched: dict[str, str] = {}     # sensor -> "ok" or the refusal
-        self.link: dict[str, dict] = {}
+        self.link: dict[str, JSONObject] = {}
         self.runtime_up = False
-        self.latch: dict = {"stopped": False}     # the runtime's latched STOP (latch.py)
+        self.latch: JSONObject = {"stopped": False}     # the runtime's latched STOP (latch.py)
         self._last_sample: dict[str, float] = {}
         self._prev_counts: dict[str, tuple[float, int, int]] = {}
         self._stop = threading.Event()
@@ -85,8 +86,8 @@ class Bridge:
         self._poll_lock = threading.Lock()    # one ls at a time (poller, refresh())
         self._thread: threading.Thread | None = None
         self._state_thread: threading.Thread | None = None
-        self.last: dict[str, dict] = {}       # sensor -> its last sample message
-        self.states: dict[str, Any] = {}      # behavior -> its last get value
+        self.last: dict[str, JSONObject] = {}     # sensor -> its last sample message
+        self.states: dict[str, JSON] = {}     # behavior -> its last get value
         self.c = Counters(samples=0, samples_unwatched=0, ls_failed=0, gets_failed=0,
                           commands_seen=0, records_refused=0, notices=0, ls=0, inspects=0,
                           gets=0)
@@ -107,10 +108,12 @@ class Bridge:
                               "(is `esair std run` running?)")
         self.robot = robot
         self.runtime_up = True
-        d = self.call("describe")       # the runtime reads the board files, not this process
-        self.robots, self.problems = d.get("robots", {}), d.get("problems", [])
+        d = self.ask("describe")        # the runtime reads the board files, not this process
+        self.robots = cast(JSONObject, d.get("robots", {}))
+        self.problems = cast("list[str]", d.get("problems", []))
         # a driver derived from MinLink (STARFISH's) has a link too, board files or not
-        self.links = list(self.robots) + [e for e in d.get("links", []) if e not in self.robots]
+        links = cast("list[str]", d.get("links", []))
+        self.links = list(self.robots) + [e for e in links if e not in self.robots]
         self.bus.subscribe(f"esair/{self.robot}/sensor/**", self._on_sample, with_key=True)
         self._held()
         # every command an actuator ran, whoever sent it (a behavior, `esair std put`,
@@ -121,7 +124,7 @@ class Bridge:
         # the latched STOP: asked now (an HMI started while it holds shows it), then
         # told at each change
         self.bus.subscribe(keys.latch(self.robot), self._on_latch)
-        self.latch = self.call("latch")
+        self.latch = self.ask("latch")
         self.bus.watch_alive(keys.alive(self.robot, "runtime", "runtime"),
                              lambda _key, _alive: self._kick.set())
         self._poll_once(inspect=True)
@@ -147,49 +150,57 @@ class Bridge:
         bus = self.bus
         return dict(self.c.snapshot(), foreign_answers=bus.c["foreign_answers"] if bus is not None else 0)
 
-    def call(self, verb: str, body: dict | None = None, timeout: float = 5.0) -> Any:
+    def call(self, verb: str, body: JSONObject | None = None, timeout: float = 5.0) -> JSON:
         """One control request; the ``ok`` value, or BridgeError with the runtime's
         message (the error's type prefixed when it is a refusal)."""
         assert self.bus is not None
-        r = self.bus.request(keys.ctl(self.robot, verb), body or {}, timeout)
+        # a control answer is an object: {"ok": value} or {"error": why}
+        r = cast("JSONObject | None", self.bus.request(keys.ctl(self.robot, verb), body or {},
+                                                       timeout))
         if r is None:
             raise BridgeError(f"the runtime did not answer {verb!r} within {timeout:g} s")
         if "error" in r:
-            raise BridgeError(r["error"])
+            raise BridgeError(str(r["error"]))
         return r.get("ok")
 
-    def command(self, resource: str, command: Any, timeout: float = 2.0) -> Any:
+    def ask(self, verb: str, body: JSONObject | None = None,
+            timeout: float = 5.0) -> JSONObject:
+        """``call`` of a verb whose ``ok`` value is an object (describe, latch, inspect,
+        get: control/control_server.py)."""
+        return cast(JSONObject, self.call(verb, body, timeout))
+
+    def command(self, resource: str, command: JSON, timeout: float = 2.0) -> JSON:
         return self.call("command", {"who": self.who, "resource": resource,
                                      "command": command, "timeout": timeout},
                          timeout=timeout + 3.0)
 
-    def hello(self) -> dict:
+    def hello(self) -> JSONObject:
         """What a newly connected page gets first."""
         return {"t": "hello", "robot": self.robot, "robots": self.robots,
-                "problems": self.problems, "rows": self.rows, "link": self.link,
-                "watched": self.watched, "runtime_up": self.runtime_up,
-                "last": list(self.last.values()), "latch": self.latch,
+                "problems": [*self.problems], "rows": [*self.rows], "link": {**self.link},
+                "watched": {**self.watched}, "runtime_up": self.runtime_up,
+                "last": [*self.last.values()], "latch": self.latch,
                 "states": [{"t": "state", "r": k, "v": v} for k, v in self.states.items()]}
 
     # ---- commands and samples (Zenoh's thread: hand over and return)
-    def _on_changed(self, obj: Any) -> None:
+    def _on_changed(self, obj: JSON) -> None:
         self.c.add("notices")
         self._kick.set()
 
-    def _on_latch(self, obj: Any) -> None:
+    def _on_latch(self, obj: JSON) -> None:
         if isinstance(obj, dict) and isinstance(obj.get("stopped"), bool):
             self.latch = obj
             self.emit({"t": "latch", "v": obj})
 
-    def _on_commands(self, key: str, obj: Any) -> None:
+    def _on_commands(self, key: str, obj: JSON) -> None:
         """A batch of an entry's command records (transport/records.py): each command
         that went through is handed on as ``{"t": "ran", "r": actuator, "v": command}``."""
         got, bad = records.unpack(key, obj)
         if bad:
             self.c.add("records_refused", bad)
         for res, rec in got:
-            v = rec["v"]
-            if "ok" in v and "command" in v:
+            v: JSON = rec["v"]              # an object (records.unpack checked it)
+            if isinstance(v, dict) and "ok" in v and "command" in v:
                 self.c.add("commands_seen")
                 self.emit({"t": "ran", "r": res, "v": v["command"], "at": took(v["ok"])})
 
@@ -198,22 +209,25 @@ class Bridge:
         commands that went through, kept by their host: ``last_ok`` in ``inspect``),
         handed on as ``ran`` in the order they went, before any live record: the pose a
         page shows is the one the robot holds, not every joint at its default."""
-        held = []
+        held: list[tuple[float, str, JSON]] = []
         for entry in self.robots:
             try:
-                c = self.call("inspect", {"name": entry}, timeout=2.0).get("counters", {})
+                c = cast(JSONObject, self.ask("inspect", {"name": entry}, timeout=2.0)
+                         .get("counters", {}))
             except BridgeError as exc:
                 log.warning("hmi: %s's last commands not known: %s", entry, exc)
                 continue
             for res, slot in c.items():       # the entry's actuators: "<entry>.<child>"
                 if (res.startswith(entry + ".") and isinstance(slot, dict)
                         and isinstance(slot.get("last_ok"), list)):
-                    for t, command, ok in slot["last_ok"]:
+                    # [when, command, its answer] each (hosts' last_ok)
+                    for t, command, ok in cast("list[tuple[float, JSON, JSON]]",
+                                               slot["last_ok"]):
                         held.append((took(ok, t), res, command))
         for at, res, command in sorted(held, key=lambda h: h[0]):
             self.emit({"t": "ran", "r": res, "v": command, "at": at})
 
-    def _on_sample(self, key: str, obj: Any) -> None:
+    def _on_sample(self, key: str, obj: JSON) -> None:
         res = key.rsplit("/sensor/", 1)[-1]
         if self.watched.get(res) != "ok" or not isinstance(obj, dict):
             self.c.add("samples_unwatched")
@@ -221,7 +235,7 @@ class Bridge:
         self.c.add("samples")
         now = self._last_sample[res] = time.time()
         # rx: when this process got it (the page splits sample -> pixel at it, docs/hmi.md)
-        msg = {"t": "s", "r": res, "q": obj.get("seq"), "ts": obj.get("t"), "v": obj.get("v"),
+        msg: JSONObject = {"t": "s", "r": res, "q": obj.get("seq"), "ts": obj.get("t"), "v": obj.get("v"),
                "rx": round(now, 4)}
         self.last[res] = msg          # one reference per sensor: replaced, never grows
         self.emit(msg)
@@ -269,16 +283,16 @@ class Bridge:
         """Each running behavior's ``get`` (as ``esair std get`` shows it, asked as the
         principal ``hmi``); a change is emitted as ``{"t": "state", "r", "v"}``."""
         rows = self.rows
-        running = {r["name"] for r in rows
+        running = {str(r["name"]) for r in rows
                    if r["kind"] == "behavior" and r["state"] in ("running", "busy")}
         for name in list(self.states):
             if name not in running:
                 del self.states[name]
-        busy = {r["name"] for r in rows if r["state"] == "busy"}    # it would not answer
+        busy = {str(r["name"]) for r in rows if r["state"] == "busy"}    # it would not answer
         for name in sorted(running - busy):
             self.c.add("gets")
             try:
-                r = self.call("get", {"from": self.who, "to": name, "timeout": STATE_TIMEOUT_S},
+                r = self.ask("get", {"from": self.who, "to": name, "timeout": STATE_TIMEOUT_S},
                               timeout=STATE_TIMEOUT_S + 1.0)
             except BridgeError:
                 self.c.add("gets_failed")
@@ -298,7 +312,8 @@ class Bridge:
     def _poll_locked(self, inspect: bool) -> None:
         self.c.add("ls")
         try:
-            rows = self.call("ls", {"all": True}, timeout=1.0)   # as `esair std ls` shows
+            rows = cast("list[JSONObject]",                      # as `esair std ls` shows
+                        self.call("ls", {"all": True}, timeout=1.0))
         except BridgeError as exc:
             self._asked = time.monotonic()
             self.c.add("ls_failed")
@@ -319,14 +334,14 @@ class Bridge:
         self._changes(self.rows, rows)
         if rows != self.rows:
             self.rows = rows
-            self.emit({"t": "ls", "rows": rows})
+            self.emit({"t": "ls", "rows": cast("list[JSON]", rows)})
         self._watch_new(rows)
         self._link(rows, inspect)
 
-    def _changes(self, old: list[dict], new: list[dict]) -> None:
-        before = {r["name"]: r for r in old}
+    def _changes(self, old: list[JSONObject], new: list[JSONObject]) -> None:
+        before = {str(r["name"]): r for r in old}
         for r in new:
-            prev = before.pop(r["name"], None)
+            prev = before.pop(str(r["name"]), None)
             if prev is None:
                 if old:
                     self.emit(_log("info", f"{r['name']}: added ({r['kind']}, {r['state']})"))
@@ -337,8 +352,9 @@ class Bridge:
         for name in before:
             self.emit(_log("info", f"{name}: removed"))
 
-    def _watch_new(self, rows: list[dict]) -> None:
-        present = {r["name"] for r in rows if r["kind"] == "sensor" and self.want(r["name"])}
+    def _watch_new(self, rows: list[JSONObject]) -> None:
+        present = {str(r["name"]) for r in rows
+                   if r["kind"] == "sensor" and self.want(str(r["name"]))}
         for name in list(self.watched):
             if name not in present:
                 del self.watched[name]        # removed: watched again if it comes back
@@ -349,14 +365,14 @@ class Bridge:
             except BridgeError as exc:
                 self.watched[name] = str(exc)
                 self.emit(_log("warning", f"{name}: not shown: {exc}"))
-            self.emit({"t": "watched", "watched": dict(self.watched)})
+            self.emit({"t": "watched", "watched": {**self.watched}})
 
-    def _link(self, rows: list[dict], inspect: bool) -> None:
+    def _link(self, rows: list[JSONObject], inspect: bool) -> None:
         """Per MIN link entry: state, last reply age, commands/s, errors."""
         now = time.time()
-        out = {}
+        out: dict[str, JSONObject] = {}
         for entry in self.links:
-            mine = [r for r in rows if r["name"].startswith(entry + ".")]
+            mine = [r for r in rows if str(r["name"]).startswith(entry + ".")]
             if not mine:
                 out[entry] = {"state": "gone", "reason": "not deployed"}
                 continue
@@ -380,12 +396,13 @@ class Bridge:
                                    f"link {entry}: {info['state']}"
                                    + (f" ({info['reason']})" if info["reason"] else "")))
             self.link = out
-            self.emit({"t": "link", "link": out})
+            self.emit({"t": "link", "link": {**out}})
 
-    def _counters(self, entry: str, info: dict, now: float) -> None:
+    def _counters(self, entry: str, info: JSONObject, now: float) -> None:
         self.c.add("inspects")
         try:
-            c = self.call("inspect", {"name": entry}, timeout=1.0).get("counters", {})
+            c = cast("dict[str, object]",
+                     self.ask("inspect", {"name": entry}, timeout=1.0).get("counters", {}))
         except BridgeError:
             return
         cmds = sum(v.get("commands", 0) for v in c.values() if isinstance(v, dict))
@@ -400,7 +417,7 @@ class Bridge:
         info["errors"] = errs
 
 
-def took(result: Any, default: float | None = None) -> float:
+def took(result: JSON, default: float | None = None) -> float:
     """When the robot took a command: its driver's ``at`` (a MIN link's motion: when the
     robot had the whole line, docs/std-papaman.md), else ``default`` or now (when its
     answer or record came)."""
@@ -410,5 +427,5 @@ def took(result: Any, default: float | None = None) -> float:
     return time.time() if default is None else default
 
 
-def _log(level: str, text: str) -> dict:
+def _log(level: str, text: str) -> JSONObject:
     return {"t": "log", "level": level, "text": text, "ts": time.time()}

@@ -15,28 +15,29 @@ from __future__ import annotations
 
 import collections
 import json
-from typing import Any
+
+from ..transport.codec import JSON, JSONObject
 
 OWN_MAX = 64                # this HMI's commands whose records are still due
 
 #: motion actuator -> (the motion command that went through, when, when stopped or None)
-Played = tuple[Any, float, "float | None"]
+Played = tuple[JSON, float, "float | None"]
 
 
-def _key(res: str, command: Any) -> str:
+def _key(res: str, command: JSON) -> str:
     return json.dumps([res, command], sort_keys=True)
 
 
 class PoseBook:
     def __init__(self) -> None:
-        self.commanded: dict[str, Any] = {}     # resource -> last command that went through
+        self.commanded: dict[str, JSON] = {}     # resource -> last command that went through
         self.played: dict[str, Played] = {}
         self.own: collections.deque[str] = collections.deque(maxlen=OWN_MAX)  # sent, record due
         self.asking: list[str] = []             # this HMI's commands not answered yet
         self.early: collections.deque[str] = collections.deque(maxlen=OWN_MAX)  # ... whose record came first
 
     # ---- this HMI's commands
-    def asked(self, res: str, command: Any) -> str:
+    def asked(self, res: str, command: JSON) -> str:
         """A command of this HMI is sent (its record may come before its answer)."""
         text = _key(res, command)
         self.asking.append(text)
@@ -47,7 +48,7 @@ class PoseBook:
         if text in self.asking:
             self.asking.remove(text)
 
-    def sent(self, res: str, command: Any, at: float) -> dict | None:
+    def sent(self, res: str, command: JSON, at: float) -> JSONObject | None:
         """A command of this HMI went through (``at``: when its answer came): the message
         to show it now, its record skipped later; None when its record came first (shown
         already)."""
@@ -59,7 +60,7 @@ class PoseBook:
         return self._commanded(res, command, at)
 
     # ---- every sender's records
-    def ran(self, res: str, command: Any, at: float) -> dict | None:
+    def ran(self, res: str, command: JSON, at: float) -> JSONObject | None:
         """An actuator's record of a command it ran (``at``: when the robot took it): the
         message to send, or None. Shown as commanded, except the record of a command this
         HMI sent, shown when it was answered (a remote HMI whose ACL reads no records still
@@ -74,7 +75,7 @@ class PoseBook:
             self.early.append(text)
         return self._commanded(res, command, at)
 
-    def _earlier(self, res: str, command: Any, at: float) -> dict | None:
+    def _earlier(self, res: str, command: JSON, at: float) -> JSONObject | None:
         """The record of this HMI's motion command came after its answer but says the
         robot took it earlier: the motion's start or STOP time is the record's. A STOP's
         corrected position is the message to send."""
@@ -89,8 +90,8 @@ class PoseBook:
             self.played[res] = (cmd, at, None)
         return None
 
-    def _commanded(self, res: str, command: Any, now: float) -> dict:
-        msg = {"t": "commanded", "r": res, "v": command}
+    def _commanded(self, res: str, command: JSON, now: float) -> JSONObject:
+        msg: JSONObject = {"t": "commanded", "r": res, "v": command}
         if res.endswith(".motion"):
             played = self.played.get(res)
             if command == "stop":
@@ -111,13 +112,13 @@ class PoseBook:
         return msg
 
     # ---- what a page is shown
-    def played_at(self, res: str, now: float) -> dict:
+    def played_at(self, res: str, now: float) -> JSONObject:
         """Where the motion commanded on ``res`` is: ``{"v": command, "ms": time it has
         played (up to its STOP), "stopped": bool}``."""
         command, t0, t1 = self.played[res]
         return {"v": command, "ms": round(((t1 or now) - t0) * 1000, 1), "stopped": t1 is not None}
 
-    def hello(self, now: float) -> list:
+    def hello(self, now: float) -> list[JSON]:
         """The commands a new page rebuilds the pose from, in the order they went
         through: ``[resource, command]``, a motion's with ``played`` (played_at) third."""
         return [[res, v, self.played_at(res, now)] if res in self.played else [res, v]

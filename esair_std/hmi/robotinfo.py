@@ -6,29 +6,31 @@ actuator board's optional ``figure:`` (how to draw the robot)."""
 from __future__ import annotations
 
 import sys
-from typing import Any
+from collections.abc import Mapping
+from typing import cast
 
 from esair_min.errors import EsairError
 from esair_min.model.validate import load_robot
 from esair_min.resources import resolve_robot
 
 from ..drivers.minlink.budget import line_budget
+from ..transport.codec import JSON, JSONObject
 
 MINLINK = "esair_std.drivers.minlink:MinLink"
 
 
-def robot_info(robot_arg: str) -> dict[str, Any]:
+def robot_info(robot_arg: str) -> JSONObject:
     """The page's description of the robot of ``robot_arg`` (a bundled example's name,
     a folder, a board file). Raises EsairError when it cannot be loaded."""
     robot = load_robot(resolve_robot(robot_arg))
     names = [s.name for s in robot.servos]
-    balance = None
+    balance: JSONObject | None = None
     for r in robot.central.reactions:
         if r.kind == "balance":
             balance = {"name": r.name, "compare": list(r.compare), "threshold": r.threshold,
                        "samples": r.samples}
             break
-    groups: dict[str, list[str]] = {}
+    groups: dict[str, list[JSON]] = {}
     for s in robot.sensors:
         groups.setdefault(s.group, []).append(s.name)
     return {
@@ -41,7 +43,7 @@ def robot_info(robot_arg: str) -> dict[str, Any]:
                     for m in robot.motions],
         "sensors": [{"name": s.name, "group": s.group, "min": s.min, "max": s.max}
                     for s in robot.sensors],
-        "groups": groups,
+        "groups": {**groups},
         "balance": balance,
         # the board files' figure: section (None: the page shows the joints as dials)
         "figure": (robot.actuator.figure.model_dump(mode="json")
@@ -49,11 +51,13 @@ def robot_info(robot_arg: str) -> dict[str, Any]:
     }
 
 
-def entries_info(describe: dict) -> tuple[dict[str, Any], list[str]]:
+def entries_info(describe: Mapping[str, object]) -> tuple[JSONObject, list[str]]:
     """Robot descriptions of the MIN link entries of a ``describe`` answer, and the
     problems met (an entry whose board files cannot be read here gets generic panels)."""
-    robots, problems = {}, []
-    for entry, d in (describe.get("entries") or {}).items():
+    robots: JSONObject = {}
+    problems: list[str] = []
+    entries = cast("Mapping[str, Mapping[str, object]]", describe.get("entries") or {})
+    for entry, d in entries.items():
         if d.get("class") != MINLINK:
             continue
         try:
@@ -63,7 +67,7 @@ def entries_info(describe: dict) -> tuple[dict[str, Any], list[str]]:
     return robots, problems
 
 
-def min_links(entries: dict) -> list[str]:
+def min_links(entries: Mapping[str, object]) -> list[str]:
     """The entries of a ``describe`` answer whose driver is a MinLink or a class derived
     from it (PAPA-MAN's MinLink, STARFISH's Starfish): each is a serial link the page's
     link bar shows, with or without board files the page can read. Run in the runtime,
@@ -72,7 +76,7 @@ def min_links(entries: dict) -> list[str]:
     base = getattr(sys.modules.get("esair_std.drivers.minlink.driver"), "MinLink", None)
     out = []
     for entry, d in entries.items():
-        path = str(d.get("class", ""))
+        path = str(cast("Mapping[str, object]", d).get("class", ""))   # an entry: an object
         module, _, name = path.partition(":")
         cls = getattr(sys.modules.get(module), name, None) if module in sys.modules else None
         if path == MINLINK or (isinstance(base, type) and isinstance(cls, type)

@@ -23,7 +23,7 @@ import threading
 import time
 from http import HTTPStatus
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Callable
+from typing import TYPE_CHECKING, Callable, TypeAlias, TypeVar, cast
 
 from websockets.asyncio.server import ServerConnection, broadcast, serve
 from websockets.datastructures import Headers
@@ -34,6 +34,7 @@ from ..counters import Counters
 from ..errors import StdError
 from ..heap import settle
 from ..plurals import counted
+from ..transport.codec import JSON, JSONObject
 from .auth import Auth
 from .bridge import Bridge, BridgeError, took
 from .commanded import PoseBook
@@ -56,6 +57,11 @@ CSP = ("default-src 'self'; img-src 'self' data:; style-src 'self' 'unsafe-inlin
 OPERATOR_OPS = {"cmd", "stop", "release", "add", "remove", "restart", "record"}
 LOAD_MAX = 50_000           # samples of a recording sent to a page for replay
 
+#: a page's frame's ``id``, echoed in its answer
+Ident: TypeAlias = "int | str | None"
+_T = TypeVar("_T")
+_J = TypeVar("_J", bound=JSON)
+
 
 def load_static(root: Path = STATIC) -> dict[str, tuple[bytes, str]]:
     files = {}
@@ -71,7 +77,7 @@ def load_static(root: Path = STATIC) -> dict[str, tuple[bytes, str]]:
     return files
 
 
-def _compact(value: Any) -> str:
+def _compact(value: JSON) -> str:
     """A command as the log shows it: JSON without spaces, as the page sends it."""
     return json.dumps(value, separators=(",", ":"))
 
@@ -95,7 +101,7 @@ class Page:
         self.hidden = False         # in the background: no samples (op "view")
 
 
-def _field(frame: dict, name: str, kind: type | tuple) -> Any:
+def _field(frame: JSONObject, name: str, kind: type[_T]) -> _T:
     v = frame.get(name)
     if not isinstance(v, kind) or isinstance(v, bool) and kind is not bool:
         raise BadFrame(f"field {name!r} missing or of the wrong type")
@@ -122,14 +128,14 @@ class HmiServer:
                           held=0)       # samples not sent to pages in the background
         self._stop: asyncio.Event | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
-        self._pending: list[dict] = []            # emitted, not yet sent (bounded)
+        self._pending: list[JSONObject] = []      # emitted, not yet sent (bounded)
         self._pending_lock = threading.Lock()
         self._flush_soon = False      # a flush is asked for, as soon as the loop can
         self._lazy_armed = False      # the loop's lazy tick is due within LAZY_S
         self._lazy_seen = False       # a lazy message came since the last tick
 
     # ---- fan-out (any thread -> the loop)
-    def emit(self, msg: dict) -> None:
+    def emit(self, msg: JSONObject) -> None:
         """Hand ``msg`` to the pages. The caller (Zenoh's thread, the bridge's poller)
         only appends it to a bounded list; the loop is woken once for all that came
         meanwhile, encodes them once, and writes every page the same frame (``{"t": "b",
@@ -184,12 +190,14 @@ class HmiServer:
         with self._pending_lock:
             got, self._pending = self._pending, []
             self._flush_soon = False
-        msgs = []
+        msgs: list[JSON] = []
         for m in got:
             if m.get("t") == "ran":               # a command any sender got through
-                m = self.book.ran(m["r"], m["v"], m.get("at") or time.time())
-                if m is None:
+                shown = self.book.ran(str(m["r"]), m["v"],
+                                      cast("float | None", m.get("at")) or time.time())
+                if shown is None:
                     continue
+                m = shown
             msgs.append(m)
         if not msgs or not self.pages:         # nobody to encode them for
             return
@@ -201,7 +209,7 @@ class HmiServer:
             self._send(shown, json.dumps({"t": "b", "f": f, "m": msgs}, separators=(",", ":")))
         hidden = [p for p in self.pages if p.hidden]
         if hidden:                          # the same without the samples
-            rest = [m for m in msgs if m.get("t") != "s"]
+            rest = [m for m in msgs if cast(JSONObject, m).get("t") != "s"]
             self.c.add("held", (len(msgs) - len(rest)) * len(hidden))
             if rest:
                 self._send(hidden, json.dumps({"t": "b", "f": f, "m": rest}, separators=(",", ":")))
@@ -223,14 +231,14 @@ class HmiServer:
         if ready:
             broadcast(ready, text)
 
-    def status(self) -> dict:
+    def status(self) -> JSONObject:
         pages = list(self.pages)
-        return {"counters": dict(self.c.snapshot(), open_pages=len(pages),
-                                 hidden_pages=sum(p.hidden for p in pages),
-                                 **self.auth.c.snapshot()),
+        return {"counters": {**self.c.snapshot(), "open_pages": len(pages),
+                             "hidden_pages": sum(p.hidden for p in pages),
+                             **self.auth.c.snapshot()},
                 # each open page: its role, whether hidden, the frames it lost
                 "pages": [{"role": p.role, "hidden": p.hidden, **p.c.snapshot()} for p in pages],
-                "bridge": self.bridge.counters() if self.bridge else {}}
+                "bridge": {**self.bridge.counters()} if self.bridge else {}}
 
     # ---- HTTP
     def _http(self, connection: ServerConnection, request: Request) -> Response | None:
@@ -279,10 +287,11 @@ class HmiServer:
         finally:
             self.pages.discard(page)
 
-    def _reply(self, page: Page, ident: Any, ok: bool, value: Any, logged: bool = False) -> None:
+    def _reply(self, page: Page, ident: Ident, ok: bool, value: JSON,
+               logged: bool = False) -> None:
         """The answer to a page's frame; ``logged``: its failure is in the log of every
         page already (the page adds no line of its own)."""
-        msg = {"t": "ack", "id": ident, "ok": ok}
+        msg: JSONObject = {"t": "ack", "id": ident, "ok": ok}
         msg["result" if ok else "error"] = value
         if logged:
             msg["logged"] = True
@@ -309,8 +318,8 @@ class HmiServer:
             return
         await handler(page, ident, obj)
 
-    async def _call(self, page: Page, ident: Any, fn: Callable[..., Any], *args: Any,
-                    what: str = "") -> Any:
+    async def _call(self, page: Page, ident: Ident, fn: Callable[..., _J], *args: object,
+                    what: str = "") -> _J | None:
         """``fn(*args)`` on an executor's thread, answered to the page; a failure is one
         line in every page's log (``what: why``). Its value, or None when it failed."""
         loop = asyncio.get_running_loop()
@@ -328,17 +337,17 @@ class HmiServer:
         self.emit({"t": "log", "level": level, "text": text, "ts": time.time()})
 
     # ---- ops
-    async def op_ping(self, page: Page, ident: Any, obj: dict) -> None:
+    async def op_ping(self, page: Page, ident: Ident, obj: JSONObject) -> None:
         self._reply(page, ident, True, obj.get("ts"))
 
-    async def op_view(self, page: Page, ident: Any, obj: dict) -> None:
+    async def op_view(self, page: Page, ident: Ident, obj: JSONObject) -> None:
         """``{"op": "view", "hidden": bool}``: the page went to the background (another
         tab, a minimized window) or came back; a hidden page gets no samples (it would not
         draw them), everything else still (the link, the log, the components)."""
         page.hidden = _field(obj, "hidden", bool)
         self._reply(page, ident, True, page.hidden)
 
-    async def op_login(self, page: Page, ident: Any, obj: dict) -> None:
+    async def op_login(self, page: Page, ident: Ident, obj: JSONObject) -> None:
         if "token" in obj:
             user = self.auth.resume(obj["token"])
             token = obj["token"] if user else None
@@ -351,7 +360,7 @@ class HmiServer:
         page.role, page.user = "operator", str(user)
         self._reply(page, ident, True, {"role": "operator", "token": token, "user": user})
 
-    def _command(self, res: str, command: Any, answered: list[float]) -> Any:
+    def _command(self, res: str, command: JSON, answered: list[float]) -> JSON:
         """The bridge's command (an executor's thread), and when its answer came: a
         motion's start or STOP time, taken here, not after the loop's next turn."""
         assert self.bridge is not None
@@ -359,7 +368,7 @@ class HmiServer:
         answered.append(took(r))
         return r
 
-    async def _through(self, res: str, command: Any) -> tuple[bool, Any]:
+    async def _through(self, res: str, command: JSON) -> tuple[bool, JSON]:
         """One command of this HMI through the bridge: ``(True, its answer)`` once it went
         through, shown as commanded at the time its answer came (its record may come
         first: commanded.py), or ``(False, why it was refused)``."""
@@ -378,7 +387,7 @@ class HmiServer:
             self.emit(shown)
         return True, r
 
-    async def op_cmd(self, page: Page, ident: Any, obj: dict) -> None:
+    async def op_cmd(self, page: Page, ident: Ident, obj: JSONObject) -> None:
         """One command; its line in every page's log, refused or not (the refusing page
         shows the reason beside what it sent, app.js)."""
         res = _field(obj, "resource", str)
@@ -391,14 +400,14 @@ class HmiServer:
             self._log("info", f"{what} -> {_compact(r)}")
             self._reply(page, ident, True, r)
         else:
-            self._log("error", f"{what} refused: {_unnamed(r, res)}")
+            self._log("error", f"{what} refused: {_unnamed(str(r), res)}")
             self._reply(page, ident, False, r, logged=True)
 
     def _principal(self, page: Page) -> str:
         """Who a page's STOP or release is from: ``hmi`` and the user logged in."""
         return f"{self.who}:{page.user}" if page.user else self.who
 
-    async def op_stop(self, page: Page, ident: Any, obj: dict) -> None:
+    async def op_stop(self, page: Page, ident: Ident, obj: JSONObject) -> None:
         """The runtime's latched STOP (docs/hmi.md): every motion stopped, every command
         refused until an operator releases it."""
         assert self.bridge is not None
@@ -406,7 +415,7 @@ class HmiServer:
         if not isinstance(reason, str):
             raise BadFrame("field 'reason' must be text")
         self.c.add("commands")
-        r = await self._call(page, ident, self.bridge.call, "stop",
+        r = await self._call(page, ident, self.bridge.ask, "stop",
                              {"who": self._principal(page), "reason": reason}, 10.0,
                              what="STOP")
         if r is not None:
@@ -414,17 +423,17 @@ class HmiServer:
                        "text": f"STOP by {r['by']} at {r['at']}: every command refused "
                                f"until released"})
 
-    async def op_release(self, page: Page, ident: Any, obj: dict) -> None:
+    async def op_release(self, page: Page, ident: Ident, obj: JSONObject) -> None:
         """Release the STOP (operators only: OPERATOR_OPS); it starts nothing."""
         assert self.bridge is not None
-        r = await self._call(page, ident, self.bridge.call, "release",
+        r = await self._call(page, ident, self.bridge.ask, "release",
                              {"who": self._principal(page)}, 10.0, what="release")
         if r is not None:
             self.emit({"t": "log", "level": "warning", "ts": time.time(),
                        "text": f"released by {self._principal(page)} (STOP by {r['by']} at "
                                f"{r['at']})"})
 
-    async def op_add(self, page: Page, ident: Any, obj: dict) -> None:
+    async def op_add(self, page: Page, ident: Ident, obj: JSONObject) -> None:
         body = {"name": _field(obj, "name", str), "class": _field(obj, "class", str),
                 "uses": obj.get("uses") or {}, "options": obj.get("options") or {}}
         if not isinstance(body["uses"], dict) or not isinstance(body["options"], dict):
@@ -433,19 +442,19 @@ class HmiServer:
         await self._call(page, ident, self.bridge.call, "add", body, 30.0,
                          what=f"add {body['name']}")
 
-    async def op_remove(self, page: Page, ident: Any, obj: dict) -> None:
+    async def op_remove(self, page: Page, ident: Ident, obj: JSONObject) -> None:
         assert self.bridge is not None
         name = _field(obj, "name", str)
         await self._call(page, ident, self.bridge.call, "remove", {"name": name}, 30.0,
                          what=f"remove {name}")
 
-    async def op_restart(self, page: Page, ident: Any, obj: dict) -> None:
+    async def op_restart(self, page: Page, ident: Ident, obj: JSONObject) -> None:
         assert self.bridge is not None
         name = _field(obj, "name", str)
         await self._call(page, ident, self.bridge.call, "restart", {"name": name}, 30.0,
                          what=f"restart {name}")
 
-    async def op_record(self, page: Page, ident: Any, obj: dict) -> None:
+    async def op_record(self, page: Page, ident: Ident, obj: JSONObject) -> None:
         on = _field(obj, "on", bool)
         if on and self.tap is None:
             from ..record.tap import Tap
@@ -470,25 +479,25 @@ class HmiServer:
         self._reply(page, ident, True, state)
         self.emit(state)
 
-    def recording_state(self) -> dict:
+    def recording_state(self) -> JSONObject:
         tap = self.tap
         return {"t": "recording", "on": tap is not None, "file": tap.path.name if tap else ""}
 
-    async def op_recordings(self, page: Page, ident: Any, obj: dict) -> None:
+    async def op_recordings(self, page: Page, ident: Ident, obj: JSONObject) -> None:
         files = sorted(self.record_dir.glob("*.mcap"), key=lambda p: p.stat().st_mtime)
         self._reply(page, ident, True, [{"file": p.name, "bytes": p.stat().st_size}
                                         for p in files])
 
-    async def op_load(self, page: Page, ident: Any, obj: dict) -> None:
+    async def op_load(self, page: Page, ident: Ident, obj: JSONObject) -> None:
         name = _field(obj, "file", str)
         path = self.record_dir / name
         if "/" in name or not name.endswith(".mcap") or not path.is_file():
             self._reply(page, ident, False, f"no recording {name!r}")
             return
 
-        def load() -> list:
+        def load() -> list[JSON]:
             from ..record.mcapio import read_samples
-            out = []
+            out: list[JSON] = []
             for topic, seq, t, value in read_samples(path):
                 out.append([topic, seq, t, value])
                 if len(out) >= LOAD_MAX:

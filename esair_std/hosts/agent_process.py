@@ -30,7 +30,7 @@ from ..level import Level
 from ..sample import Sample
 from ..classes import component_class
 from ..spec import Spec
-from ..transport import keys, wire
+from ..transport import codec, keys, wire
 from ..transport.bus import Bus, Request
 from ..heap import settle
 from ..transport.calls import SampleCaller, SampleServer
@@ -193,10 +193,16 @@ class ZenohPort:
             log.error("%s: report %s not delivered: %s", name, phase, exc)
 
     def publish(self, resource: str, sample: Sample) -> None:
+        self.publish_encoded(resource, codec.encode(sample.to_wire()))
+
+    def publish_encoded(self, resource: str, data: bytes) -> None:
+        """A sample already encoded (``codec.encode(sample.to_wire())``): a resource
+        host encodes each sample once, the copy it makes in thread mode."""
         pub = self._pubs.get(resource)
         if pub is None:
-            pub = self._pubs[resource] = self.bus.publisher(keys.sensor(self.robot, resource))
-        pub(sample.to_wire())
+            pub = self._pubs[resource] = self.bus.publisher(keys.sensor(self.robot, resource),
+                                                            raw=True)
+        pub(data)
 
     def publish_commands(self, entry: str, batch: list[dict]) -> None:
         """The commands an entry's actuators ran, for recorders (transport/records.py;
@@ -308,7 +314,7 @@ class Agent:
 
     def _report_room(self) -> None:
         self._credit({"gen": self.generation, "open": self._component.open,
-                      "room": self._component.room()})
+                      "full": self._component.full, "room": self._component.room()})
 
     def _bad_delivery(self, _why: str) -> None:
         self.delivers["bad"] += 1

@@ -75,6 +75,8 @@ class ComponentHost:
         self._reserved_in = 0          # reserved slots in use (their items in inbox)
         self.taken = 0                 # reserved deliveries taken out, ever
         self._told_taken = 0           # ``taken`` when on_room was last called
+        self._told_full = False        # ``full`` when on_room was last called
+        self._report_lock = threading.Lock()   # one report at a time, the last one true
         self.on_room: Any = None       # process mode: tells the BS (open, room()) anew
         self.notices: deque = deque()
         self._phase = "starting"        # starting | running | busy | stopped | failed
@@ -129,6 +131,11 @@ class ComponentHost:
         """Takes data now: running and not busy (the mailbox's room is room())."""
         return self._phase == "running" and not self._busy
 
+    @property
+    def full(self) -> bool:
+        """The mailbox takes no more plain offers now (state "busy")."""
+        return self._full()
+
     def room(self) -> int:
         """How many deliveries into reserved room the BS may have sent, ever: what it
         may send beyond those already taken out (a running total, so a report that is
@@ -140,11 +147,15 @@ class ComponentHost:
 
     def _room_changed(self) -> None:
         if self.on_room is not None:
-            self._told_taken = self.taken
-            try:
-                self.on_room()
-            except Exception as exc:  # noqa: BLE001 - the BS falls back to asking
-                log.debug("%s: room not reported: %s", self.name, exc)
+            # the behavior's thread and a transport thread (a put that fills the
+            # mailbox) may both report: one at a time, so the last one sent is the truth
+            with self._report_lock:
+                self._told_taken = self.taken
+                self._told_full = self._full()
+                try:
+                    self.on_room()
+                except Exception as exc:  # noqa: BLE001 - the BS falls back to asking
+                    log.debug("%s: room not reported: %s", self.name, exc)
 
     def start(self) -> None:
         self.thread.start()
@@ -180,6 +191,8 @@ class ComponentHost:
         except queue.Full:
             self.c.add("refused")
             return "busy"
+        if self.on_room is not None and self._full():
+            self._room_changed()      # the runtime lists it busy without asking it
         if wake:
             self._wake.set()
         return "delivered"
@@ -502,6 +515,8 @@ class ComponentHost:
                 if self.inbox.empty() and not self.notices:
                     self._wake.wait(left)
                 continue
+            if self._told_full and not self._full():
+                self._room_changed()      # room again: listed running again
             if item[0] == "reserved":
                 with self._lock:
                     self._reserved_in -= 1

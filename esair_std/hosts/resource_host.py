@@ -64,12 +64,24 @@ class Slot:
         self.expires: float | None = None
 
     def report(self, value: Any) -> None:
-        value = codec.copy(value)
+        port = self.host.port
+        encoded = getattr(port, "publish_encoded", None)
+        if encoded is not None:
+            # process mode: the sample is encoded once, for the wire (that is its copy);
+            # data that is not JSON raises here, before it counts
+            with self._lock:
+                sample = Sample(value, self.seq + 1, time.time(), self.name)
+                data = codec.encode(sample.to_wire())
+                self.seq += 1
+                self.c["reported"] += 1
+            encoded(self.name, data)
+            return
+        value = codec.copy(value)      # thread mode: the behaviors get this very copy
         with self._lock:
             self.seq += 1
             sample = Sample(value, self.seq, time.time(), self.name)
             self.c["reported"] += 1
-        self.host.port.publish(self.name, sample)
+        port.publish(self.name, sample)
 
     def count(self, key: str) -> None:
         """One more of counter ``key`` (under the lock that report() and counters() take:

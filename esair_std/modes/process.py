@@ -18,7 +18,7 @@ import subprocess
 import sys
 import threading
 import time
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Callable
 
 from ..errors import ComponentError, ResourceLost, StdError, TransportError
 from ..parts import NO_ANSWER
@@ -207,7 +207,9 @@ class ProcessComponent(_Child):
     arrives (loopback, at most RESERVED of them under way), so "delivered" is never a
     guess. A remote agent, across a link that may be cut, is always asked."""
 
+    credit_known = False     # a report came: the state below is known without asking
     credit_open = False      # the last report: the component takes data
+    credit_full = False      # the last report: its mailbox is full (listed busy)
     credit_room = 0          # deliveries into reserved room it allows, ever
     credit_sent = 0          # deliveries into reserved room sent, ever
 
@@ -217,19 +219,26 @@ class ProcessComponent(_Child):
 
     @property
     def state(self) -> str:
-        if self.remote or self.phase in ("failed", "stopped", "starting", "lost"):
-            return self.phase        # a remote agent reports its phases: no round trip
-        r = self.ask(self.key, {"op": "state"}, 0.5)
-        return r["ok"] if isinstance(r, dict) and "ok" in r else self.phase
+        """Known here, never asked of the agent: its phase (reported), busy while its
+        last report of its room says it takes no data or its mailbox is full (a round
+        trip per component would make ``ls`` wait on every starved or frozen agent)."""
+        if self.remote or self.phase != "running" or not self.credit_known:
+            return self.phase        # a remote agent reports its phases
+        return "busy" if not self.credit_open or self.credit_full else "running"
 
-    def credit(self, open_: bool, room: int) -> None:
+    def credit(self, open_: bool, room: int, full: bool = False) -> None:
         with self.mode.credit_lock:
+            self.credit_known = True
             self.credit_open = open_
+            self.credit_full = full
             self.credit_room = max(self.credit_room, room)
 
-    def deliver_reserved(self, sender: str, data: Any) -> bool:
+    def deliver_reserved(self, sender: str, data: Any,
+                         told: Callable[[], None] | None = None) -> bool:
         """Deliver ``data`` into the room the component reserved: True if sent (the
-        sender may be told "delivered"), False to ask it instead."""
+        sender may be told "delivered"), False to ask it instead. ``told``: called once
+        the room is taken, before the delivery's sample goes (the sender's answer is on
+        its way a publish sooner); a sample that then cannot go is counted."""
         if self.remote or self.phase != "running" or not self.credit_open:
             return False
         try:
@@ -242,6 +251,14 @@ class ProcessComponent(_Child):
             if not self.credit_open or self.credit_sent >= self.credit_room:
                 return False
             self.credit_sent += 1
+        if told is not None:
+            told()
+            try:
+                self.mode.deliver(self.name, body)
+            except Exception as exc:  # noqa: BLE001 - the session or publisher is gone
+                self.mode.credits["unsent"] += 1
+                log.warning("delivery to %s not sent: %s", self.name, exc)
+            return True
         try:
             self.mode.deliver(self.name, body)
         except Exception as exc:  # noqa: BLE001 - not sent: ask instead
@@ -265,8 +282,7 @@ class ProcessComponent(_Child):
         if self.phase in ("failed", "stopped"):
             done(self.phase)
             return True
-        if self.deliver_reserved(sender, data):
-            done("delivered")
+        if self.deliver_reserved(sender, data, lambda: done("delivered")):
             return True
 
         def answer(a: Any) -> None:
@@ -410,7 +426,9 @@ class ProcessMode:
         self.offers = SampleCaller(self.bus, keys.bs_result(self.rt.robot, "*"),
                                    lambda key: keys.name_in(key, 2))
         self.credit_lock = threading.Lock()
-        self.credits = dict(reports=0, bad_reports=0)
+        # unsent: deliveries into reserved room told "delivered" whose sample could not
+        # go (the session closing, the component removed meanwhile)
+        self.credits = dict(reports=0, bad_reports=0, unsent=0)
         self._deliver_pubs: dict[str, Any] = {}
         self.bus.subscribe(keys.bs_credit(self.rt.robot, "*"), self._on_credit,
                            with_key=True, garbage=self._bad_credit)
@@ -437,7 +455,7 @@ class ProcessMode:
             self.credits["bad_reports"] += 1
             return
         self.credits["reports"] += 1
-        host.credit(obj.get("open") is True, room)
+        host.credit(obj.get("open") is True, room, obj.get("full") is True)
 
     def deliver(self, name: str, body: bytes) -> None:
         pub = self._deliver_pubs.get(name)
@@ -446,7 +464,7 @@ class ProcessMode:
             # so Zenoh must not drop it under congestion (a dropped put would be a
             # delivery told and never made); the component reserved the room for it
             pub = self._deliver_pubs[name] = self.bus.publisher(
-                keys.bs_deliver(self.rt.robot, name), drop=False, raw=True)
+                keys.bs_deliver(self.rt.robot, name), drop=False, raw=True, express=True)
         pub(body)
 
     def forget(self, name: str) -> None:

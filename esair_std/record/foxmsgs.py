@@ -24,9 +24,19 @@ import sys
 import time
 from array import array
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Protocol
 
 from foxglove import messages as fm
+
+if TYPE_CHECKING:  # pragma: no cover
+    from foxglove._foxglove_py import Schema as FoxSchema
+
+
+class _Native(Protocol):
+    """A Foxglove message class: it gives its schema."""
+
+    @staticmethod
+    def get_schema() -> FoxSchema: ...
 
 JSON_TYPES = ["object", "array", "string", "number", "boolean", "null"]
 UNITS = {"x": "m", "y": "m", "th": "rad", "distance": "m", "r": "m", "range_m": "m",
@@ -59,9 +69,9 @@ class Out:
     seq: int = 0
 
 
-def json_schema(title: str, properties: dict, required: list[str] | None = None,
-                extra: Any = None) -> Schema:
-    s: dict[str, Any] = {"type": "object", "title": title, "properties": properties}
+def json_schema(title: str, properties: dict[str, object], required: list[str] | None = None,
+                extra: object = None) -> Schema:
+    s: dict[str, object] = {"type": "object", "title": title, "properties": properties}
     if required:
         s["required"] = required
     if extra is not None:
@@ -69,15 +79,15 @@ def json_schema(title: str, properties: dict, required: list[str] | None = None,
     return Schema(title, "jsonschema", json.dumps(s).encode())
 
 
-def native(cls: Any) -> Schema:
+def native(cls: _Native) -> Schema:
     s = cls.get_schema()
     return Schema(s.name, s.encoding, bytes(s.data))
 
 
-def infer(value: Any, key: str = "") -> dict:
+def infer(value: object, key: str = "") -> dict[str, object]:
     """A JSON schema of ``value``'s shape (types, field names, units where known); a
     scalar field may also be null (a sensor that has no reading for once)."""
-    out: dict[str, Any]
+    out: dict[str, object]
     if isinstance(value, bool):
         out = {"type": ["boolean", "null"]}
     elif isinstance(value, (int, float)):
@@ -97,7 +107,7 @@ def infer(value: Any, key: str = "") -> dict:
     return out
 
 
-def sample_schema(sensor: str, value: Any) -> Schema:
+def sample_schema(sensor: str, value: object) -> Schema:
     """``{"seq", "t", "value"}`` with ``value``'s shape (schema ``esair.Sample.<sensor>``)."""
     return json_schema("esair.Sample." + sensor, {
         "seq": {"type": "integer", "description": "the sensor's sample number, from 1"},
@@ -134,7 +144,7 @@ def levels_schema(n: int) -> Schema:
         for i in range(n)}, [f"mic{i}" for i in range(n)])
 
 
-def _js(obj: Any) -> bytes:
+def _js(obj: object) -> bytes:
     return json.dumps(obj, separators=(",", ":")).encode()
 
 
@@ -147,12 +157,12 @@ def _yaw(th: float) -> fm.Quaternion:
     return fm.Quaternion(x=0.0, y=0.0, z=math.sin(th / 2), w=math.cos(th / 2))
 
 
-def _color(rgb: Any, a: float = 1.0) -> fm.Color:
+def _color(rgb: object, a: float = 1.0) -> fm.Color:
     r, g, b = (list(rgb) + [128, 128, 128])[:3] if isinstance(rgb, list) else (128, 128, 128)
     return fm.Color(r=r / 255, g=g / 255, b=b / 255, a=a)
 
 
-def _num(v: Any) -> bool:
+def _num(v: object) -> bool:
     return isinstance(v, (int, float)) and not isinstance(v, bool)
 
 
@@ -212,7 +222,7 @@ class Converter:
                 out.append(Out(f"/{entry}/joints", JOINTS, _js(dict(joints, t=t)), t))
         return out
 
-    def sample(self, sensor: str, seq: int, t: float, v: Any) -> list[Out]:
+    def sample(self, sensor: str, seq: int, t: float, v: object) -> list[Out]:
         schema = self.schemas.get(sensor)
         if schema is None:
             schema = self.schemas[sensor] = sample_schema(sensor, v)
@@ -236,7 +246,7 @@ class Converter:
                            _js({"reaction": name, "text": text}), t))
         return out
 
-    def state(self, behavior: str, v: Any) -> list[Out]:
+    def state(self, behavior: str, v: object) -> list[Out]:
         """A behavior's state with a bearing (``last: {bearing, t}``): an arrow on every
         room's scene, from the robot (frame ``base_link``)."""
         last = v.get("last") if isinstance(v, dict) else None

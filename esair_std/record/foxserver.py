@@ -27,7 +27,7 @@ import struct
 import threading
 import time
 from http import HTTPStatus
-from typing import Any, Callable
+from typing import Callable
 
 from websockets.asyncio.server import ServerConnection, serve
 from websockets.exceptions import ConnectionClosed
@@ -37,6 +37,7 @@ from websockets.protocol import State
 from ..counters import Counters
 from ..hmi.bridge import Bridge, BridgeError
 from ..transport import keys, records
+from ..transport.codec import JSON
 from .foxmsgs import Converter, Out, Schema
 from .mcapio import LATCH, LATCH_TOPIC
 
@@ -99,7 +100,7 @@ class FoxServer:
             self._woken = True
         loop.call_soon_threadsafe(self._flush)
 
-    def _on_commands(self, key: str, obj: Any) -> None:
+    def _on_commands(self, key: str, obj: JSON) -> None:
         got, _bad = records.unpack(key, obj)
         for res, rec in got:
             self.emit({"t": "c", "r": res, "m": rec})
@@ -266,7 +267,7 @@ class FoxServer:
         self._send(client, struct.pack("<BIII", SERVICE_RESPONSE, sid, call, len(encoding))
                    + encoding + out)
 
-    def _call(self, name: str, body: dict) -> Any:
+    def _call(self, name: str, body: dict) -> JSON:
         bridge = self.bridge
         assert bridge is not None
         if name == "command":

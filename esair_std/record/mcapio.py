@@ -12,12 +12,13 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Any, BinaryIO, Iterator
+from typing import BinaryIO, Iterator, cast
 
 from mcap.reader import make_reader
 from mcap.writer import Writer
 
 from ..errors import StdError
+from ..transport.codec import JSON, JSONObject
 from .foxmsgs import COMMAND, Converter, Out, Schema
 
 SCHEMA = {"type": "object", "title": "esair.Sample",
@@ -70,22 +71,22 @@ class SampleWriter:
         self.w.add_message(channel_id=ch, log_time=ns, publish_time=ns,
                            sequence=out.seq & 0xFFFFFFFF, data=out.data)
 
-    def write(self, topic: str, seq: int, t: float, value: Any) -> None:
+    def write(self, topic: str, seq: int, t: float, value: JSON) -> None:
         """One sample of the sensor ``topic``, and the native messages made of it."""
         for out in self.conv.sample(topic, seq, t, value):
             self.put(out)
 
-    def write_message(self, msg: dict) -> None:
+    def write_message(self, msg: JSONObject) -> None:
         """A bridge message that is no sample: a log line, a behavior's state, the link."""
         for out in self.conv.message(msg):
             self.put(out)
 
-    def write_command(self, actuator: str, seq: int, t: float, record: dict) -> None:
+    def write_command(self, actuator: str, seq: int, t: float, record: JSONObject) -> None:
         """One command ``record`` ({command, ok | error}) of ``actuator``."""
         for out in self.conv.command(actuator, seq, t, record):
             self.put(out)
 
-    def write_latch(self, seq: int, t: float, state: dict) -> None:
+    def write_latch(self, seq: int, t: float, state: JSONObject) -> None:
         """One state of the latched STOP (``{"stopped", "by", "reason", ...}``)."""
         self.put(Out(LATCH_TOPIC, LATCH, json.dumps(dict(state, seq=seq, t=t),
                                                     separators=(",", ":")).encode(), t, seq))
@@ -94,28 +95,28 @@ class SampleWriter:
         self.w.finish()
 
 
-def read_samples(path: str | Path) -> Iterator[tuple[str, int, float, Any]]:
+def read_samples(path: str | Path) -> Iterator[tuple[str, int, float, JSON]]:
     """(topic, seq, t, value) of every sample, in log time order (commands left out)."""
     for kind, topic, seq, t, value in _read(path):
         if kind == "sample":
             yield topic, seq, t, value
 
 
-def read_commands(path: str | Path) -> Iterator[tuple[str, int, float, dict]]:
+def read_commands(path: str | Path) -> Iterator[tuple[str, int, float, JSONObject]]:
     """(actuator, seq, t, {command, ok | error}) of every command, in log time order."""
     for kind, topic, seq, t, value in _read(path):
         if kind == "command":
-            yield topic, seq, t, value
+            yield topic, seq, t, cast(JSONObject, value)     # _read made it an object
 
 
-def read_latch(path: str | Path) -> Iterator[tuple[float, dict]]:
+def read_latch(path: str | Path) -> Iterator[tuple[float, JSONObject]]:
     """(t, state) of every state of the latched STOP recorded, in log time order."""
     for kind, _topic, _seq, t, value in _read(path):
         if kind == "latch":
-            yield t, value
+            yield t, cast(JSONObject, value)                 # _read made it an object
 
 
-def _read(path: str | Path) -> Iterator[tuple[str, str, int, float, Any]]:
+def _read(path: str | Path) -> Iterator[tuple[str, str, int, float, JSON]]:
     try:
         f = open(path, "rb")  # noqa: SIM115 - closed by the with below
     except OSError as exc:

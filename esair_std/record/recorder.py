@@ -8,6 +8,7 @@ from __future__ import annotations
 import fnmatch
 
 from ..hmi.bridge import Bridge
+from ..transport.codec import JSONObject
 from .tap import Tap
 
 
@@ -22,7 +23,7 @@ class Recorder:
     def _wanted(self, name: str) -> bool:
         return not self.names or any(fnmatch.fnmatchcase(name, p) for p in self.names)
 
-    def _emit(self, msg: dict) -> None:
+    def _emit(self, msg: JSONObject) -> None:
         tap = self.tap
         if tap is not None:
             tap.put(msg)
@@ -39,7 +40,7 @@ class Recorder:
             self.stop()
             raise
 
-    def stop(self) -> dict:
+    def stop(self) -> dict[str, int]:
         tap, self.tap = self.tap, None
         c = tap.stop() if tap is not None else {}
         self.bridge.close()

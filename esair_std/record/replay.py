@@ -12,9 +12,7 @@ from __future__ import annotations
 
 import threading
 import time
-from typing import Any
-
-from ..resource import Driver, Sensor
+from ..resource import Actuator, Driver, Sensor
 from .mcapio import read_samples
 
 
@@ -39,7 +37,7 @@ class Replay(Driver):
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name="replay", daemon=True)
 
-    def resources(self) -> dict[str, Any]:
+    def resources(self) -> dict[str, Sensor | Actuator]:
         if not self._thread.is_alive():
             self._thread.start()
         return dict(self.kids)

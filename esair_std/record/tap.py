@@ -12,16 +12,21 @@ counted too."""
 
 from __future__ import annotations
 
+import functools
 import queue
 import threading
 import time
 from pathlib import Path
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Callable, cast
 
 from ..errors import StdError
 from ..transport import keys, records
 from .mcapio import SampleWriter
 from ..counters import Counters
+from ..transport.codec import JSON, JSONObject
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ..transport.bus import Bus
 
 QUEUE = 100_000
 LINGER_S = records.BATCH_S + 0.1     # stop(): the last records in flight (their batch, the link)
@@ -36,23 +41,25 @@ class Tap:
         except OSError as exc:
             raise StdError(f"cannot write {self.path}: {exc.strerror}") from None
         self.writer = SampleWriter(self.f)
-        self.q: queue.Queue = queue.Queue(QUEUE)
+        # what the writer thread gets (None: stop), tagged by "t": s sample, l latch,
+        # m message, c command record
+        self.q: queue.Queue[JSONObject | None] = queue.Queue(QUEUE)
         self.c = Counters(written=0, dropped=0, gaps=0, commands=0, command_gaps=0)
         self._last: dict[str, int] = {}
         self._last_cmd: dict[str, int] = {}
         self._latches = 0
-        self._subs: list[tuple[Any, Any]] = []
+        self._subs: list[Callable[[], None]] = []    # each undoes a subscription
         self._thread = threading.Thread(target=self._run, name="record:write", daemon=True)
         self._thread.start()
 
     # ---- what the callers hand over (any thread: queue only)
-    def put(self, msg: dict) -> None:
+    def put(self, msg: JSONObject) -> None:
         """A message the bridge emitted: kept when it is a sample of a wanted sensor."""
         if msg.get("t") == "s" and self.wanted(str(msg.get("r"))):
             self._queue(msg)
         elif msg.get("t") == "latch" and isinstance(msg.get("v"), dict):
             # the latched STOP's state (STOPPED by whom and when, released): channel latch
-            v = msg["v"]
+            v = cast(JSONObject, msg["v"])
             t = v.get("t")
             self._queue({"t": "l", "ts": t if isinstance(t, (int, float)) else time.time(),
                          "v": {k: x for k, x in v.items() if k != "t"}})
@@ -60,12 +67,12 @@ class Tap:
             # log lines and state changes, a behavior's bearing, the link: native channels
             self._queue({"t": "m", "m": msg})
 
-    def listen(self, bus: Any, robot: str) -> None:
+    def listen(self, bus: Bus, robot: str) -> None:
         """Record the commands ``robot``'s actuators run, from ``bus`` (until stop())."""
-        self._subs.append((bus, bus.subscribe(keys.commands_all(robot), self._on_commands,
-                                              with_key=True)))
+        sub = bus.subscribe(keys.commands_all(robot), self._on_commands, with_key=True)
+        self._subs.append(functools.partial(bus.unsubscribe, sub))
 
-    def _on_commands(self, key: str, obj: Any) -> None:
+    def _on_commands(self, key: str, obj: JSON) -> None:
         """A batch of an entry's command records (transport/records.py); items that are
         not records of that entry's actuators are counted dropped."""
         got, bad = records.unpack(key, obj)
@@ -75,7 +82,7 @@ class Tap:
             if self.wanted(res):
                 self._queue({"t": "c", "r": res, "m": rec})
 
-    def _queue(self, msg: dict) -> None:
+    def _queue(self, msg: JSONObject) -> None:
         try:
             self.q.put_nowait(msg)
         except queue.Full:
@@ -87,27 +94,32 @@ class Tap:
             m = self.q.get()
             if m is None:
                 return
+            # the fields' types: what put() and _on_commands() checked, or a sample's
             if m["t"] == "c":
-                self._write_command(m["r"], m["m"])
+                self._write_command(cast(str, m["r"]), cast(JSONObject, m["m"]))
                 continue
             if m["t"] == "m":
-                self.writer.write_message(m["m"])
+                self.writer.write_message(cast(JSONObject, m["m"]))
                 continue
             if m["t"] == "l":
                 self._latches += 1
-                self.writer.write_latch(self._latches, float(m["ts"]), m["v"])
+                self.writer.write_latch(self._latches, float(cast(float, m["ts"])),
+                                        cast(JSONObject, m["v"]))
                 continue
-            res, seq = m["r"], int(m["q"])
+            res, seq = cast(str, m["r"]), int(cast(int, m["q"]))
             last = self._last.get(res)
             if last is not None and seq != last + 1:
                 self.c.add("gaps")
             self._last[res] = seq
-            self.writer.write(res, seq, float(m["ts"]), m["v"])
+            self.writer.write(res, seq, float(cast(float, m["ts"])), m["v"])
             self.c.add("written")
 
-    def _write_command(self, res: str, rec: dict) -> None:
+    def _write_command(self, res: str, rec: JSONObject) -> None:
         try:
-            seq, t, v = int(rec["seq"]), float(rec["t"]), dict(rec["v"])
+            # a record's fields as records.unpack found them: anything but its v (an object)
+            seq = int(cast("int | float | str", rec["seq"]))
+            t = float(cast("int | float | str", rec["t"]))
+            v = dict(cast(JSONObject, rec["v"]))
         except (KeyError, TypeError, ValueError):
             self.c.add("dropped")                  # not a command record
             return
@@ -118,15 +130,15 @@ class Tap:
         self.writer.write_command(res, seq, t, v)
         self.c.add("commands")
 
-    def stop(self) -> dict:
+    def stop(self) -> dict[str, int]:
         """Stop listening, write what is queued, close the file; the counters and the
         number of channels. While it listens to commands, it listens LINGER_S more first:
         a command's record leaves its host up to records.BATCH_S after the command ran,
         so the file holds every command run before the stop."""
         if self._subs:
             time.sleep(LINGER_S)
-        for bus, sub in self._subs:
-            bus.unsubscribe(sub)
+        for unsubscribe in self._subs:
+            unsubscribe()
         self._subs.clear()
         self.q.put(None)
         if self._thread.is_alive():

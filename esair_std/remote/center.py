@@ -23,11 +23,12 @@ import socket
 import tempfile
 import threading
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, cast
 
 from ..errors import ControlError, Refused
 from ..modes.process import ProcessComponent, ProcessMode
 from ..spec import Spec
+from ..transport.codec import JSONObject
 from ..transport.security_config import LEASE_MS, access_control, link_inserts, session_inserts
 from .registration import Verifier
 from ..counters import Counters
@@ -39,12 +40,15 @@ if TYPE_CHECKING:  # pragma: no cover
 
 log = logging.getLogger("esair_std.remote")
 JOIN_WAIT = 10.0
+#: what a supervisor's add() did: (True, None) or (False, its exception)
+_Taken = tuple[bool, "BaseException | None"]
 
 
 def _free_loopback_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+        port: int = s.getsockname()[1]
+        return port
 
 
 def grants_for(deployment: Deployment, agent: str) -> dict[str, list[str]]:
@@ -62,7 +66,7 @@ def grants_for(deployment: Deployment, agent: str) -> dict[str, list[str]]:
     return {"reads": reads, "commands": commands, "provides": [agent, f"{agent}.$*"]}
 
 
-def _local_login(options: dict, rt: RuntimeView) -> None:
+def _local_login(options: JSONObject, rt: RuntimeView) -> None:
     """With ``users`` every session must log in, the runtime's own children too: a login
     made for this run is added to a copy of the users file; children get it in their
     environment (rt.child_session), not on their command line."""
@@ -72,14 +76,14 @@ def _local_login(options: dict, rt: RuntimeView) -> None:
     user, password = f"esair-local-{secrets.token_hex(4)}", secrets.token_hex(16)
     fd, path = tempfile.mkstemp(prefix="esair-users-", suffix=".txt")
     with os.fdopen(fd, "w") as f:
-        f.write(Path(users).read_text().rstrip("\n") + f"\n{user}:{password}\n")
+        f.write(Path(str(users)).read_text().rstrip("\n") + f"\n{user}:{password}\n")
     atexit.register(Path(path).unlink, missing_ok=True)
     options["transport/auth/usrpwd/dictionary_file"] = path
     rt.child_session = {"transport/auth/usrpwd/user": user,
                         "transport/auth/usrpwd/password": password}
 
 
-def session(rt: RuntimeView) -> tuple[dict, list[str], str | None]:
+def session(rt: RuntimeView) -> tuple[JSONObject, list[str], str | None]:
     """(zenoh options, extra listen endpoints, endpoint for local children or None)."""
     sec = getattr(rt.deployment, "security", None)
     if sec is None:
@@ -95,7 +99,7 @@ def session(rt: RuntimeView) -> tuple[dict, list[str], str | None]:
     return options, [local], local
 
 
-def _lease_s(value: Any) -> float | None:
+def _lease_s(value: object) -> float | None:
     """The lease (s) a joining agent says its session declared (``lease_ms``), if sane."""
     if isinstance(value, (int, float)) and not isinstance(value, bool) and 100 <= value <= 600_000:
         return value / 1000.0
@@ -130,14 +134,14 @@ class Center:
         return mode
 
     # ---- ctl/join
-    def join(self, b: dict) -> dict:
+    def join(self, b: JSONObject) -> JSONObject:
         try:
             return self._join(b)
         except (Refused, ControlError):
             self.c.add("joins_refused")
             raise
 
-    def _join(self, b: dict) -> dict:
+    def _join(self, b: JSONObject) -> JSONObject:
         spec_json = b.get("spec")
         if not isinstance(spec_json, dict):
             raise ControlError("bad request: 'spec' must be an object")
@@ -152,7 +156,7 @@ class Center:
         # a remote component never restarts from here: its process is not ours to start;
         # a behavior whose agent restarts it (esair std agent --restart) is not told to
         # stop when it fails (remote/remote_agent.py)
-        info = {"host": str(b.get("host", "?"))[:64], "pid": b.get("pid"),
+        info: JSONObject = {"host": str(b.get("host", "?"))[:64], "pid": b.get("pid"),
                 "restarts": spec.kind == "behavior" and spec.restart_max > 0,
                 "lease": _lease_s(b.get("lease_ms"))}
         spec = Spec.from_json({**spec.to_json(), "restart_max": 0, "base_dir": None})
@@ -169,16 +173,16 @@ class Center:
             self.rt.bs.request(self.rt.bs.remove, name)
             self.c.add("back")
         mode.remote[name] = info
-        box: list = []
+        box: list[_Taken] = []
         mode.threads.start(self._add, spec, box, name=f"esair:join:{name}")
         if not mode.wait_pending(name, lambda: bool(box), JOIN_WAIT):
             raise ControlError(f"{name!r}: the behavior supervisor did not take it in time")
         if box and not box[0][0]:
-            raise box[0][1]
+            raise cast(BaseException, box[0][1])
         self.c.add("joins")
         return {"generation": 1, "robot": self.rt.robot}
 
-    def _add(self, spec: Spec, box: list) -> None:
+    def _add(self, spec: Spec, box: list[_Taken]) -> None:
         try:
             self.rt.bs.request(self.rt.bs.add, spec, timeout=JOIN_WAIT + 20)
             box.append((True, None))
@@ -187,7 +191,7 @@ class Center:
             self._mode().remote.pop(spec.name, None)
         self._mode().pending_changed()
 
-    def _join_resource(self, spec: Spec, info: dict) -> dict:
+    def _join_resource(self, spec: Spec, info: JSONObject) -> JSONObject:
         mode = self._mode()
         entry = self.rt.rs.entries.get(spec.name)
         if entry is not None:
@@ -202,16 +206,16 @@ class Center:
             raise ControlError(f"a {self.rt.bs.records[spec.name].spec.kind} named "
                                f"{spec.name!r} is already deployed")
         mode.remote[spec.name] = info
-        box: list = []
+        box: list[_Taken] = []
         mode.threads.start(self._add_resource, spec, box, name=f"esair:join:{spec.name}")
         if not mode.wait_pending(spec.name, lambda: bool(box), JOIN_WAIT):
             raise ControlError(f"{spec.name!r}: the resource supervisor did not take it")
         if box and not box[0][0]:
-            raise box[0][1]
+            raise cast(BaseException, box[0][1])
         self.c.add("joins")
         return {"generation": 1, "robot": self.rt.robot}
 
-    def _add_resource(self, spec: Spec, box: list) -> None:
+    def _add_resource(self, spec: Spec, box: list[_Taken]) -> None:
         try:
             self.rt.rs.request(self.rt.rs.add, spec, timeout=JOIN_WAIT + 20)
             box.append((True, None))
@@ -220,7 +224,7 @@ class Center:
             self._mode().remote.pop(spec.name, None)
         self._mode().pending_changed()
 
-    def _check_identity(self, name: str, proof: Any) -> None:
+    def _check_identity(self, name: str, proof: object) -> None:
         if self.verifier is None or self.sec is None:
             return                                 # no agents listed: the link decides
         ident = self.sec.agents.get(name)
@@ -241,7 +245,8 @@ class Center:
 
     def _grace_over(self, host: RemoteComponent) -> None:
         rec = self.rt.bs.records.get(host.name)
-        if rec is not None and rec.host is host and host.phase == "lost":
+        current: object = rec.host if rec is not None else None     # a ProcessComponent
+        if rec is not None and current is host and host.phase == "lost":
             self.rt.mode.reported(host.name, host.generation, "failed",
                                   f"remote agent unreachable for at least "
                                   f"{self.unreachable_for(host.name):g} s")

@@ -31,16 +31,20 @@ from pathlib import Path
 
 
 from ..errors import Refused
+from ..transport.codec import JSONObject
 
 MAX_AGE = 30.0
-_b64 = lambda b: base64.b64encode(b).decode()  # noqa: E731
+
+
+def _b64(b: bytes) -> str:
+    return base64.b64encode(b).decode()
 
 
 def _text(robot: str, name: str, t: float, nonce: str) -> bytes:
     return f"esair-register|{robot}|{name}|{t:.3f}|{nonce}".encode()
 
 
-def prove_with_cert(robot: str, name: str, cert: str | Path, key: str | Path) -> dict:
+def prove_with_cert(robot: str, name: str, cert: str | Path, key: str | Path) -> JSONObject:
     """The proof an agent holding ``cert``/``key`` sends with its registration."""
     from cryptography.hazmat.primitives import hashes, serialization
     from cryptography.hazmat.primitives.asymmetric import ec
@@ -54,7 +58,7 @@ def prove_with_cert(robot: str, name: str, cert: str | Path, key: str | Path) ->
             "sig": _b64(sig)}
 
 
-def prove_with_password(robot: str, name: str, user: str, password: str) -> dict:
+def prove_with_password(robot: str, name: str, user: str, password: str) -> JSONObject:
     t, nonce = time.time(), os.urandom(12).hex()
     mac = hmac.new(password.encode(), _text(robot, name, t, nonce), hashlib.sha256).digest()
     return {"kind": "user", "user": user, "t": t, "nonce": nonce, "mac": _b64(mac)}
@@ -102,7 +106,8 @@ class Verifier:
             while len(self._seen) > 4096:
                 self._seen.popitem(last=False)
 
-    def _check_cert(self, name: str, proof: dict, text: bytes, cn: str | None) -> None:
+    def _check_cert(self, name: str, proof: dict[str, object], text: bytes,
+                    cn: str | None) -> None:
         if self._ca is None or cn is None:
             raise Refused(f"{name}: this robot does not know {name} by a certificate")
         from cryptography import x509
@@ -134,7 +139,8 @@ class Verifier:
         except (InvalidSignature, TypeError, AttributeError):
             raise Refused(f"{name}: bad signature on the proof of identity") from None
 
-    def _check_user(self, name: str, proof: dict, text: bytes, user: str | None) -> None:
+    def _check_user(self, name: str, proof: dict[str, object], text: bytes,
+                    user: str | None) -> None:
         if user is None or proof.get("user") != user or user not in self._users:
             raise Refused(f"{name}: this robot does not know {name} by that login")
         want = hmac.new(self._users[user].encode(), text, hashlib.sha256).digest()

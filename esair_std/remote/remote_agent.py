@@ -23,7 +23,7 @@ import signal
 import threading
 import time
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Callable, cast
 
 from esair_min import sigs
 
@@ -33,11 +33,13 @@ from ..hosts.agent_process import Agent, ZenohPort
 from ..spec import Spec
 from ..transport import keys, wire
 from ..transport.bus import Bus
+from ..transport.codec import JSON, JSONObject
 from ..transport.security_config import LEASE_MS, link_inserts, session_inserts
 from ..counters import Counters
 from ..restart_window import RestartWindow
 
 if TYPE_CHECKING:  # pragma: no cover
+    from ..deploy.security import SecuritySpec
     from ..parts import SampleHandle
 
 log = logging.getLogger("esair_std.remote")
@@ -50,9 +52,9 @@ class RemotePort(ZenohPort):
         super().__init__(bus, robot)
         self.registered: dict[str, Level] = {}     # resource -> level
         self.attached: set[str] = set()            # sensors attached (subscribed once)
-        self.on_failed: Any = None                 # its behavior failed (RemoteAgent)
+        self.on_failed: Callable[[str], None] | None = None    # its behavior failed (RemoteAgent)
 
-    def register(self, who: str, resource: str, level: Any) -> int:
+    def register(self, who: str, resource: str, level: Level | str) -> int:
         out = super().register(who, resource, level)
         lv = Level.parse(level)
         self.registered[resource] = max(lv, self.registered.get(resource, lv))
@@ -87,7 +89,7 @@ class RemotePort(ZenohPort):
 class RemoteAgent(Agent):
     port: RemotePort
 
-    def __init__(self, bus: Bus, robot: str, spec: Spec, proof_fn: Any, hostname: str,
+    def __init__(self, bus: Bus, robot: str, spec: Spec, proof_fn: Callable[[], JSON], hostname: str,
                  lease_ms: int = LEASE_MS):
         super().__init__(bus, robot, spec, 1)
         self.lease_ms = lease_ms                   # its session's: when the center drops it
@@ -112,10 +114,10 @@ class RemoteAgent(Agent):
             raise TransportError(f"join refused: {wire.exception(r)}")
         self.c.add("joins")
 
-    def hello(self, **extra: Any) -> None:
+    def hello(self, **extra: JSON) -> None:
         t0 = time.perf_counter()
         self.join()
-        body = dict(name=self.spec.name, kind=self.spec.kind, generation=self.generation,
+        body: JSONObject = dict(name=self.spec.name, kind=self.spec.kind, generation=self.generation,
                     pid=os.getpid(), host=self.hostname, **extra)
         r = self.bus.request(keys.ctl(self.robot, "hello"), body, 10.0)
         if r is None or "error" in r:
@@ -143,7 +145,7 @@ class RemoteAgent(Agent):
             while not self.joined.is_set() and not self.done.is_set():
                 try:
                     if self.spec.kind == "resource":
-                        self.hello(children=self._resource.children())
+                        self.hello(children={**self._resource.children()})
                     else:
                         self.hello()
                         state = self.host.state if self.host is not None else "running"
@@ -208,8 +210,9 @@ class RemoteAgent(Agent):
             self._component.start()
 
 
-def component_spec(name: str, class_path: str, kind: str, uses: dict, period: float | None,
-                   options: dict, allow: dict | None = None,
+def component_spec(name: str, class_path: str, kind: str, uses: dict[str, Level | str],
+                   period: float | None, options: JSONObject,
+                   allow: dict[str, Level | str] | None = None,
                    restart: tuple[int, float] = (0, 0.0)) -> Spec:
     return Spec(kind, name, class_path, dict(options), os.getcwd(), period=period,
                 has_period=period is not None,
@@ -218,21 +221,24 @@ def component_spec(name: str, class_path: str, kind: str, uses: dict, period: fl
                 allow={k: Level.parse(v).name for k, v in (allow or {}).items()})
 
 
-def session_options(sec: Any) -> dict:
+def session_options(sec: SecuritySpec | None) -> JSONObject:
     """The remote agent's Zenoh options: a client, the link settings, its credentials."""
-    opts = {"mode": "client", "listen/endpoints": [], **link_inserts()}
+    opts: JSONObject = {"mode": "client", "listen/endpoints": [], **link_inserts()}
     opts.update(session_inserts(sec, ".", listen=False))
     return opts
 
 
-def proof_maker(robot_fn: Any, name: str, sec: Any) -> Any:
-    def proof() -> dict | None:
+def proof_maker(robot_fn: Callable[[], str], name: str,
+                sec: SecuritySpec | None) -> Callable[[], JSONObject | None]:
+    def proof() -> JSONObject | None:
         if sec is None:
             return None
         from .registration import prove_with_cert, prove_with_password   # hashlib: OpenSSL
         if sec.cert is not None:
+            assert sec.key is not None                  # SecuritySpec: cert and key go together
             return prove_with_cert(robot_fn(), name, sec.cert, sec.key)
         if sec.user is not None:
+            assert sec.password_file is not None        # ... and user and password_file
             password = Path(sec.password_file).read_text().strip()
             return prove_with_password(robot_fn(), name, sec.user, password)
         return None
@@ -241,18 +247,21 @@ def proof_maker(robot_fn: Any, name: str, sec: Any) -> Any:
 
 def find_robot(bus: Bus, endpoint: str) -> str:
     for wait in (2.0, 3.0):
-        r = bus.request("esair/*/ctl/ping", {}, wait)
+        r = cast("JSONObject | None", bus.request("esair/*/ctl/ping", {}, wait))  # an object
         if r is not None and "ok" in r:
-            return r["ok"]["robot"]
+            ok = cast(JSONObject, r["ok"])             # ping's answer: {"robot", ...}
+            return str(ok["robot"])
     raise TransportError(f"no ESAIR STD control center answers on {endpoint} (with access "
                          "control on, name the robot: --robot NAME)")
 
 
-def run(endpoint: str, name: str, class_path: str, kind: str, uses: dict | None = None,
-        period: float | None = None, options: dict | None = None, robot: str | None = None,
-        sec: Any = None, hostname: str | None = None,
-        allow: dict | None = None, ready: Any = None,
-        restart: tuple[int, float] = (0, 0.0), left: Any = None) -> int:
+def run(endpoint: str, name: str, class_path: str, kind: str,
+        uses: dict[str, Level | str] | None = None, period: float | None = None,
+        options: JSONObject | None = None, robot: str | None = None,
+        sec: SecuritySpec | None = None, hostname: str | None = None,
+        allow: dict[str, Level | str] | None = None, ready: Callable[[RemoteAgent], None] | None = None,
+        restart: tuple[int, float] = (0, 0.0),
+        left: Callable[[RemoteAgent], None] | None = None) -> int:
     """Run the agent until it is told to stop or signalled; its exit status. ``ready``
     (agent): called once it joined and runs its component; ``left`` (agent): once it is
     done (``agent.why_done`` says why)."""
@@ -299,9 +308,9 @@ class _Security:
     """A security section already validated by ``esair std agent`` (its pydantic model,
     dumped to JSON): the fields the transport reads, without loading pydantic here."""
 
-    def __init__(self, fields: dict):
+    def __init__(self, fields: dict[str, object]):
         for k, v in fields.items():
-            setattr(self, k, Path(v) if k in _PATHS and v is not None else v)
+            setattr(self, k, Path(str(v)) if k in _PATHS and v is not None else v)
 
 
 def joined_line(agent: RemoteAgent, endpoint: str) -> str:

@@ -11,10 +11,11 @@ timeout and failure rules. Only put and get cross: resources stay with their rob
 from __future__ import annotations
 
 import re
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from ..errors import StdError
 from ..transport import keys, wire
+from ..transport.codec import JSON, JSONObject
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..runtime_view import RuntimeView
@@ -28,7 +29,7 @@ def split(target: str) -> tuple[str, str] | None:
     return (robot, name) if sep else None
 
 
-def put(rt: RuntimeView, sender: str, target: str, data: Any, timeout: float) -> tuple[bool, str]:
+def put(rt: RuntimeView, sender: str, target: str, data: JSON, timeout: float) -> tuple[bool, str]:
     robot, name = split(target) or ("", "")   # a local name: not of the form robot/behavior
     if not ROBOT_NAME.match(robot) or not name:
         return False, f"{target!r} is not of the form robot/behavior"
@@ -41,7 +42,7 @@ def put(rt: RuntimeView, sender: str, target: str, data: Any, timeout: float) ->
     return bool(r.get("delivered")), str(r.get("reason", ""))
 
 
-def get(rt: RuntimeView, requester: str, target: str, timeout: float) -> tuple[bool, Any]:
+def get(rt: RuntimeView, requester: str, target: str, timeout: float) -> tuple[bool, JSON]:
     robot, name = split(target) or ("", "")   # a local name: not of the form robot/behavior
     if not ROBOT_NAME.match(robot) or not name:
         return False, f"{target!r} is not of the form robot/behavior"
@@ -54,7 +55,8 @@ def get(rt: RuntimeView, requester: str, target: str, timeout: float) -> tuple[b
     return (True, r.get("data")) if r.get("ok") else (False, str(r.get("reason", "")))
 
 
-def _ask(rt: RuntimeView, robot: str, verb: str, body: dict, timeout: float) -> dict | str:
+def _ask(rt: RuntimeView, robot: str, verb: str, body: JSONObject,
+         timeout: float) -> JSONObject | str:
     server = getattr(rt, "server", None)
     if server is None or server.bus is None:
         return f"robot {robot!r} is out of reach: this runtime has no control endpoint"

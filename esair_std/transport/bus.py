@@ -195,7 +195,8 @@ class Bus:
                 express=True if express is None else express))
         else:
             pub = self._keep(self.session.declare_publisher(
-                key, congestion_control=zenoh.CongestionControl.BLOCK))
+                key, congestion_control=zenoh.CongestionControl.BLOCK,
+                express=bool(express)))
 
         if raw:
             put: Callable[[Any], None] = pub.put

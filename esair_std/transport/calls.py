@@ -222,7 +222,7 @@ class SampleServer:
                     # never dropped: a lost answer leaves its caller waiting for a
                     # request that was done (one answer per request bounds them)
                     pub = self._pubs[request_key] = self.bus.publisher(
-                        self.answer_key(request_key), drop=False)
+                        self.answer_key(request_key), drop=False, express=True)
         return pub
 
     def _on_request(self, key: str, obj: Any) -> None:

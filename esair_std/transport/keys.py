@@ -6,7 +6,7 @@
     esair/<robot>/bs/<behavior>/offer  BS -> behavior: that put's first offer (sample)
     esair/<robot>/bs/<behavior>/result behavior -> BS: the offer's answer (sample)
     esair/<robot>/bs/<sender>/answer   BS -> sender: the put's outcome (sample)
-    esair/<robot>/bs/<behavior>/credit behavior -> BS: open or not, room reserved (sample)
+    esair/<robot>/bs/<behavior>/credit behavior -> BS: open or not, full or not, room reserved (sample)
     esair/<robot>/bs/<behavior>/deliver BS -> behavior: a put into reserved room (sample)
     esair/<robot>/rs/<entry>           RS -> resource host (configure, grant, revoke...)
     esair/<robot>/sensor/<resource>    sensor samples, published by the sensor's host

@@ -17,7 +17,7 @@ __all__ = ["Exchange", "LineBudget", "Link", "LinkDown", "LinkError", "RobotComm
            "RobotRefused", "line_budget"]
 
 
-def __getattr__(name: str):
+def __getattr__(name: str) -> type:
     # the STD driver needs the runtime's classes: imported only when asked for, so the
     # link itself works without them
     if name == "MinLink":

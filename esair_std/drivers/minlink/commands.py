@@ -8,12 +8,17 @@ a :class:`LinkError` naming the servo, the value and the board file.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from esair_min.errors import ProtocolError
 from esair_min.model.board import Servo
 from esair_min.core.protocol import MAX_SPEED, encode_pair, frame_line
 from esair_min.model.robot import Robot
 
 from .link_errors import LinkError
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ...transport.codec import JSONObject
 
 VERSION_PREFIX = "esair-min/1"
 
@@ -126,12 +131,12 @@ class RobotCommands:
             return None
         return tuple(int(p) for p in parts)
 
-    def feet(self, data: str) -> dict[str, object]:
+    def feet(self, data: str) -> JSONObject:
         """The ``s`` reply as a sample value: readings by name and each group's sum."""
         values = self.parse_sensors(data)
         assert values is not None
         by_name = dict(zip(self.sensor_names, values))
-        return {"values": by_name,
+        return {"values": {**by_name},
                 "groups": {g: sum(by_name[n] for n in names) for g, names in self.groups.items()}}
 
     def expected_version(self) -> dict[str, str]:

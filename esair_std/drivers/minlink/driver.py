@@ -64,7 +64,7 @@ from __future__ import annotations
 import threading
 import time
 from pathlib import Path
-from typing import Any
+from typing import Generic, TypeVar
 
 from pydantic import BaseModel
 
@@ -82,13 +82,15 @@ from .emulated import EmulatedRobot
 from .link_errors import LinkDown, LinkError
 from .link import DIFFERENT_ROBOT, Exchange, Link
 from .options import DEFAULT_DEADLINE_S, MinLinkOptions
+from ...transport.codec import JSON, JSONObject
+
+_R = TypeVar("_R", bound=JSON)     # what one poll of a PolledSensor gets
 
 
-class LinkAgent:
-    """What servo, motion and feet share: send a line, map the link's errors."""
+class LinkAgent(Actuator):
+    """What the actuators over the link share: send a line, map the link's errors."""
 
     link: Link
-    _esair: Any
     deadline_s: float = DEFAULT_DEADLINE_S
 
     def _send(self, line: str) -> str:
@@ -105,16 +107,16 @@ class LinkAgent:
         try:
             return self.link.exchange(line, deadline=deadline, asked=asked)
         except LinkDown as exc:
-            raise ResourceLost(self.name, str(exc)) from None     # type: ignore[attr-defined]
+            raise ResourceLost(self.name, str(exc)) from None
         except LinkError as exc:
-            raise CommandError(self.name, str(exc)) from None     # type: ignore[attr-defined]
+            raise CommandError(self.name, str(exc)) from None
 
 
 class ServoActuator(LinkAgent, Actuator):
     def __init__(self, link: Link, servo: str):
         self.link, self.servo = link, servo
 
-    def write(self, command: Any) -> Any:
+    def write(self, command: JSON) -> str:
         if isinstance(command, dict):
             unknown = set(command) - {"angle", "speed"}
             if unknown or "angle" not in command:
@@ -134,7 +136,7 @@ class MotionActuator(LinkAgent, Actuator):
     def __init__(self, link: Link):
         self.link = link
 
-    def write(self, command: Any) -> Any:
+    def write(self, command: JSON) -> str | JSONObject:
         cmds = self.link.commands
         try:
             if command in ("stand", {"stand": True}):
@@ -152,7 +154,7 @@ class MotionActuator(LinkAgent, Actuator):
             return self._send(line)
         return self._took(self._exchange(line))
 
-    def _took(self, ex: Exchange) -> dict:
+    def _took(self, ex: Exchange) -> JSONObject:
         # a play and a stop say when the robot had the whole line (written, then its
         # bytes' time on the wire): the motion starts or stops then, while the reply may
         # come later (behind a feet reply on its way, full duplex); the HMI shows the
@@ -160,14 +162,14 @@ class MotionActuator(LinkAgent, Actuator):
         took = ex.t_sent + self.link.budget.line_s(ex.sent_bytes)
         return {"line": ex.line, "at": round(time.time() - (time.monotonic() - took), 4)}
 
-    def halt(self) -> Any:
+    def halt(self) -> JSONObject | None:
         """The latched STOP's ``x`` (the driver's halt() sent it): recorded as this
         actuator's ``stop``, with when the robot had it; None when it could not go."""
         ex = self.link.last_stop
         return None if ex is None else self._took(ex)
 
 
-class PolledSensor(Sensor):
+class PolledSensor(Sensor, Generic[_R]):
     """A sensor polled over the link on its own thread, ``hz`` times a second while the
     link is up (the host does not poll it: ``rate_hz`` stays None; 0: not polled). A
     poll the robot refuses marks it lost, the next good one ready again; a link down is
@@ -184,11 +186,11 @@ class PolledSensor(Sensor):
         self._fault = False
         self.polls = 0
 
-    def fetch(self) -> Any:
+    def fetch(self) -> _R:
         """One poll's reply (raises the link's errors)."""
         raise NotImplementedError
 
-    def value(self, reply: Any) -> Any:
+    def value(self, reply: _R) -> JSON:
         """The sample ``reply`` reports, or None: nothing to report (a bad reply)."""
         return reply
 
@@ -234,7 +236,7 @@ class PolledSensor(Sensor):
         self.report(value)
 
 
-class FeetSensor(PolledSensor):
+class FeetSensor(PolledSensor[JSONObject]):
     """Polls ``s`` (a poll: commands go first)."""
 
     thread_name = "minlink-feet"
@@ -244,13 +246,13 @@ class FeetSensor(PolledSensor):
         super().__init__()
         self.link, self.hz, self.share = link, hz, share
 
-    def fetch(self) -> Any:
+    def fetch(self) -> JSONObject:
         return self.link.feet(poll=True)
 
-    def configure(self, key: str, value: Any) -> Any:
+    def configure(self, key: str, value: JSON) -> float:
         if key in ("rate_hz", "feet_hz"):
             try:
-                hz = float(value)
+                hz = float(value)       # type: ignore[arg-type]  # no number: TypeError, refused
                 self.link.budget.check_feet_hz(hz, self.share)
             except (TypeError, ValueError, LinkError) as exc:
                 raise CommandError(self.name, str(exc)) from None
@@ -276,7 +278,7 @@ class NoticeSensor(Sensor):
 PATH_OPTIONS = ("trace", "generate", "scenario")
 
 
-def emulate_args(opts: dict, base: Path | None = None) -> list[str]:
+def emulate_args(opts: dict[str, object], base: Path | None = None) -> list[str]:
     """``esair emulate`` arguments from the ``emulate:`` option of the entry (relative
     paths taken from ``base``, the deployment file's folder)."""
     if not isinstance(opts, dict):
@@ -325,7 +327,7 @@ class MinLink(Driver):
             robot = load_robot(path)
         except EsairError as exc:
             raise LinkError(f"{self.name}: robot {robot_arg!r}: {exc}") from None
-        self.children: dict[str, Any] = {}
+        self.children: dict[str, Sensor | Actuator] = {}
         self.emulated: EmulatedRobot | None = None
         hz, share, timeout, deadline = o.feet_hz, o.feet_share, o.timeout, o.deadline
         duplex = o.duplex
@@ -352,20 +354,21 @@ class MinLink(Driver):
             if self.emulated is not None:
                 self.emulated.stop()
             raise
-        kids: dict[str, Any] = {
+        kids: dict[str, Sensor | Actuator] = {
             f"servo.{s.name}": ServoActuator(self.link, s.name) for s in robot.servos}
         kids["motion"] = MotionActuator(self.link)
         kids["feet"] = FeetSensor(self.link, hz, share)
         kids["notices"] = self.notices
         for kid in kids.values():
-            kid.deadline_s = deadline
+            if isinstance(kid, LinkAgent):
+                kid.deadline_s = deadline
         self.children = kids
         if self.emulated is not None:
             self._supervisor = threading.Thread(target=self._supervise, daemon=True,
                                                 name=f"minlink-emulator:{self.name}")
             self._supervisor.start()
 
-    def resources(self) -> dict[str, Any]:
+    def resources(self) -> dict[str, Sensor | Actuator]:
         return self.children
 
     def halt(self) -> None:

@@ -74,7 +74,7 @@ import collections
 import threading
 import time
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from typing import TYPE_CHECKING, Callable
 
 from esair_min.errors import ProtocolError
 from esair_min.core.protocol import RX_RING, Code, parse_reply
@@ -85,6 +85,11 @@ from ...counters import Counters
 from .budget import LineBudget, line_budget
 from .commands import VERSION_PREFIX, RobotCommands
 from .link_errors import DifferentRobot, Expired, Held, LinkDown, LinkError, RobotRefused
+
+if TYPE_CHECKING:  # pragma: no cover
+    from serial import Serial           # pySerial is imported when a port opens
+
+    from ...transport.codec import JSONObject
 
 #: Reply codes a well-formed line cannot get: the line was damaged on the wire.
 WIRE_CODES = frozenset({Code.UNKNOWN, Code.TOO_LONG, Code.BAD_ARGUMENT, Code.BAD_CHECKSUM,
@@ -128,7 +133,7 @@ class Exchange:
 
 StateCallback = Callable[[bool, str], None]
 NoticeCallback = Callable[[str, float], None]
-_Start = tuple[Exchange, Any, bytes]
+_Start = tuple[Exchange, "Serial", bytes]
 
 
 class Link:
@@ -170,7 +175,7 @@ class Link:
         self._queue: collections.deque[Exchange] = collections.deque()   # commands
         self._polls: collections.deque[Exchange] = collections.deque()   # polls
         self._stop = threading.Event()
-        self._port: Any = None
+        self._port: Serial | None = None
         self._up = False
         self._reason = "not opened"
         self._buf = bytearray()
@@ -367,6 +372,7 @@ class Link:
         self._last_write = now
         self._flight.append(ex)
         ex.started.set()
+        assert self._port is not None       # _pump starts exchanges while the port is open
         return ex, self._port, wire
 
     def _pump(self) -> tuple[list[_Start], list[Exchange]]:
@@ -397,7 +403,7 @@ class Link:
             return
         self._write_lock.acquire()
         self._lock.release()
-        failed: tuple[str, Any] | None = None
+        failed: tuple[str, Serial] | None = None
         try:
             for ex, port, wire in starts:
                 try:
@@ -432,7 +438,7 @@ class Link:
     def stop(self) -> None:
         self.command(self.commands.prefix("stop"))
 
-    def feet(self, poll: bool = False) -> dict[str, object]:
+    def feet(self, poll: bool = False) -> JSONObject:
         """The ``s`` reply as a sample value; ``poll``: waits while commands wait."""
         return self.commands.feet(self.command(self.commands.prefix("sensors"), poll=poll))
 
@@ -472,6 +478,7 @@ class Link:
 
     def _service(self) -> None:
         port = self._port
+        assert port is not None     # else taken down meanwhile: _run's except, as any error
         data = port.read(1)
         if data:
             more = port.in_waiting
@@ -621,7 +628,7 @@ class Link:
                                     f"not sent")
             ex.done.set()
 
-    def _down(self, reason: str, failed: Any = None) -> None:
+    def _down(self, reason: str, failed: Serial | None = None) -> None:
         """The link is down: fail the commands in flight, close the port (the I/O thread
         reopens it). ``failed``: the port an error came from; if the link has moved on
         from it (the other thread took it down first), nothing more is done."""
@@ -666,15 +673,15 @@ class Link:
                 self.on_state(True, "up")
             return
 
-    def _connect(self) -> Any:
+    def _connect(self) -> Serial:
         """Open the port and probe it with ``v``; the robot must be the board files' one."""
         import serial
 
         deadline, wait = time.monotonic() + LOCK_WAIT_S, 0.02
         while True:
             try:
-                port = open_port(self.port, baudrate=self.baud, timeout=POLL_S,
-                                 write_timeout=self.timeout)
+                port: Serial = open_port(self.port, baudrate=self.baud, timeout=POLL_S,
+                                         write_timeout=self.timeout)
                 break
             except (serial.SerialException, ValueError, OSError) as exc:
                 why = describe(exc)
@@ -702,7 +709,7 @@ class Link:
             raise LinkError(f"cannot open {self.port}: {describe(exc)}") from None
         return port
 
-    def _probe(self, port: Any, attempts: int = 4) -> None:
+    def _probe(self, port: Serial, attempts: int = 4) -> None:
         """Send ``v`` until a version reply comes (a noisy line may damage a few). A line
         end goes first: it ends whatever noise left in the robot's line buffer. A reply
         that is not the board files' robot is believed only when the next one says the
@@ -751,7 +758,7 @@ class Link:
         self.robot_id, self._known = got, True
 
 
-def _lines_of(commands: Any, actions: tuple[str, ...]) -> list[str]:
+def _lines_of(commands: RobotCommands, actions: tuple[str, ...]) -> list[str]:
     """The lines of those of ``actions`` the command set has (no argument: stop, reads)."""
     out = []
     for action in actions:
@@ -762,7 +769,7 @@ def _lines_of(commands: Any, actions: tuple[str, ...]) -> list[str]:
     return out
 
 
-def _close_quietly(port: Any) -> None:
+def _close_quietly(port: Serial | None) -> None:
     if port is None:
         return
     try:

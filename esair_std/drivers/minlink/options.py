@@ -5,7 +5,7 @@ entry added at run time has no file)."""
 
 from __future__ import annotations
 
-from typing import Annotated, Any
+from typing import Annotated
 
 from pydantic import BaseModel, ConfigDict, Field
 
@@ -38,7 +38,7 @@ class EmulateOptions(BaseModel):
 
     restart: RestartPolicy = Field(default_factory=RestartPolicy)
 
-    def args(self) -> dict[str, Any]:
+    def args(self) -> dict[str, object]:
         """The child's options (every key but ``restart``)."""
         return dict(self.model_extra or {})
 

@@ -13,7 +13,7 @@ and a path planner. See docs/std-starfish.md.
 """
 
 
-def __getattr__(name: str):
+def __getattr__(name: str) -> type:
     # the driver needs the runtime's classes: imported only when asked for, so the pure
     # computation (rendering, localization) works without them
     if name == "Starfish":

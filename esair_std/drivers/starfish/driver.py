@@ -60,7 +60,7 @@ import base64
 import threading
 import time
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 
 from esair_std import Actuator, CommandError, Sensor
@@ -77,6 +77,10 @@ from ..minlink.link_errors import LinkError
 from ..minlink.link import Link
 from ...restart_window import RestartWindow
 from .linkswitch import LinkSwitch
+from ...transport.codec import JSON, JSONObject
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .worldtap import WorldTap
 
 # the renderers (numpy) and the camera (Pillow) are imported when the driver opens, not
 # when its module is imported: the runtime imports every class of a deployment to check
@@ -97,16 +101,17 @@ class Mics(Sensor):
         self.robot = robot
         self.frames_paused = 0
 
-    def read(self) -> Any:
+    def read(self) -> JSONObject | None:
         r = self.robot
         n0 = r.audio.n0
+        assert r.tap is not None            # the driver is open
         pcm = r.audio.render(r.tap.pose())
         if r.pause_audio and not r.radio_state()["up"]:
             self.frames_paused += 1
             return None
         return r.encode_frame(pcm, r.audio.seq, n0, r.audio.mics.tolist(), time.time())
 
-    def configure(self, key: str, value: Any) -> Any:
+    def configure(self, key: str, value: JSON) -> JSON:
         r = self.robot
         if key == "source":
             from .scene import SceneError, Source
@@ -129,19 +134,20 @@ class CameraShoot(Actuator):
         self.robot = robot
         self.seq = 0
 
-    def write(self, command: Any) -> Any:
-        fmt = self.robot.picture_format
+    def write(self, command: JSON) -> JSONObject:
+        fmt: JSON = self.robot.picture_format
         if isinstance(command, dict) and command.get("shoot") is True and set(command) <= {"shoot", "format"}:
             fmt = command.get("format", fmt)
         elif command != "shoot":
             raise CommandError(self.name, f"expected 'shoot' or {{'shoot': true, 'format': "
                                           f"'png'|'jpeg'}}, got {command!r}")
-        if fmt not in ("png", "jpeg"):
+        if not isinstance(fmt, str) or fmt not in ("png", "jpeg"):
             raise CommandError(self.name, f"picture format must be 'png' or 'jpeg', not {fmt!r}")
+        assert self.robot.tap is not None   # the driver is open
         pose = self.robot.tap.pose()
         data = self.robot.encode_picture(self.robot.camera.render(pose), fmt)
         self.seq += 1
-        pic = {"seq": self.seq, "t": time.time(), "pose": [round(v, 4) for v in pose],
+        pic: JSONObject = {"seq": self.seq, "t": time.time(), "pose": [round(v, 4) for v in pose],
                "format": fmt, "w": self.robot.camera.width, "h": self.robot.camera.height,
                "image": base64.b64encode(data).decode("ascii")}
         self.robot.pictures.report(pic)        # for watchers (the HMI): the last picture
@@ -163,10 +169,11 @@ class RoomMap(Sensor):
     def __init__(self, robot: "Starfish"):
         self.robot = robot
 
-    def read(self) -> Any:
+    def read(self) -> JSONObject:
         room, radio = self.robot.room, self.robot.radio
-        marks = [{"kind": "pole", "x": lm["x"], "y": lm["y"], "r": lm["r"], "color": lm["color"]}
-                 for lm in room.landmarks]
+        marks: list[JSON] = [
+            {"kind": "pole", "x": lm["x"], "y": lm["y"], "r": lm["r"], "color": list(lm["color"])}
+            for lm in room.landmarks]
         src = room.source
         marks.append({"kind": "sound", "x": src.x, "y": src.y, "on": src.on})
         ap = room.access_point
@@ -180,7 +187,7 @@ class Radio(Sensor):
     def __init__(self, robot: "Starfish"):
         self.robot = robot
 
-    def read(self) -> Any:
+    def read(self) -> JSONObject:
         return self.robot.radio_state()
 
 
@@ -192,7 +199,7 @@ class Starfish(MinLink):
     Options = StarfishOptions
 
     def open(self) -> None:
-        self.tap: Any = None
+        self.tap: WorldTap | None = None
         self.link_switch: LinkSwitch | None = None
         try:
             self._open(dict(self.options))
@@ -203,7 +210,7 @@ class Starfish(MinLink):
             self.close()
             raise
 
-    def _open(self, opts: dict) -> None:
+    def _open(self, opts: dict[str, object]) -> None:
         from .camera import Camera, encode
         from .mics import AudioRenderer, encode_frame
         from .omnilink import Odometry, OmniCommands, Wheels, omni_budget
@@ -256,7 +263,7 @@ class Starfish(MinLink):
         self.link_switch = LinkSwitch(radio.device) if radio.device else None
         # the world first (its socket bound before the emulator sends), then the robot
         self.tap = WorldTap(start)
-        self.children: dict[str, Any] = {}
+        self.children: dict[str, Sensor | Actuator] = {}
         self._closing = threading.Event()
         self._lost: str | None = None
         self._supervisor: threading.Thread | None = None
@@ -284,13 +291,14 @@ class Starfish(MinLink):
         base_ = robot.central.base
         self.wheels = Wheels(self.link, base_.max_speed_mm_s, base_.max_omega_mrad_s)
         self.odometry = Odometry(self.link, robot, hz, start)
-        kids: dict[str, Any] = {"wheels": self.wheels, "odometry": self.odometry,
+        kids: dict[str, Sensor | Actuator] = {"wheels": self.wheels, "odometry": self.odometry,
                                 "notices": self.notices}
         self.wheels.deadline_s = deadline
         self.children = kids
         self.pictures = Pictures()
-        self.simulated = {"mics": Mics(self), "camera": CameraShoot(self), "radio": Radio(self),
-                          "pictures": self.pictures, "map": RoomMap(self)}
+        self.simulated: dict[str, Sensor | Actuator] = {
+            "mics": Mics(self), "camera": CameraShoot(self), "radio": Radio(self),
+            "pictures": self.pictures, "map": RoomMap(self)}
         self._supervisor = threading.Thread(target=self._supervise, daemon=True,
                                             name=f"minlink-emulator:{self.name}")
         self._supervisor.start()
@@ -300,19 +308,21 @@ class Starfish(MinLink):
         if up and emulated is not None and emulated.starts != self._starts:
             # a restarted robot: its world and its flow sums start again at the start pose
             self._starts = emulated.starts
+            assert self.tap is not None
             self.tap.restart()
             self.odometry.reset()
         super()._link_state(up, reason)
 
-    def radio_state(self) -> dict:
+    def radio_state(self) -> JSONObject:
+        assert self.tap is not None         # the driver is open
         x, y, _ = self.tap.pose()
         with self._radio_lock:
             state = self.radio.update(x, y)
         if self.link_switch is not None:
-            self.link_switch.set(state["up"])
+            self.link_switch.set(state["up"] is True)     # a bool (RadioModel.update)
         return state
 
-    def resources(self) -> dict[str, Any]:
+    def resources(self) -> dict[str, Sensor | Actuator]:
         return {**self.children, **getattr(self, "simulated", {})}
 
     def close(self) -> None:

@@ -55,7 +55,7 @@ class Localizer:
     """Bearing and confidence of the loudest broadband source heard by an array whose
     microphones sit at ``mics`` (metres, robot frame)."""
 
-    def __init__(self, mics: Sequence[Sequence[float]], rate: int, interp: int = 16,
+    def __init__(self, mics: Sequence[Sequence[float]] | np.ndarray, rate: int, interp: int = 16,
                  step_deg: float = 0.5, band: tuple[float, float] | None = DEFAULT_BAND,
                  speed_of_sound: float = SPEED_OF_SOUND, phat: bool = True):
         self.phat = phat

@@ -32,11 +32,14 @@ from __future__ import annotations
 
 import base64
 import math
-from typing import Any, Sequence
+from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
 
 from .scene import Scene
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ...transport.codec import JSONObject
 
 RATE = 16000
 FRAME = 1024
@@ -59,7 +62,8 @@ class FrameError(ValueError):
 def _fractional_kernel(frac: float, half: int = KERNEL_HALF) -> np.ndarray:
     """Taps h[k], k = -half..half, delaying a signal by ``frac`` (0 <= frac < 1) samples."""
     k = np.arange(-half, half + 1)
-    return np.sinc(k - frac) * np.kaiser(2 * half + 1, 8.0)
+    taps: np.ndarray = np.sinc(k - frac) * np.kaiser(2 * half + 1, 8.0)
+    return taps
 
 
 class AudioRenderer:
@@ -163,7 +167,7 @@ class AudioRenderer:
 
 
 def encode_frame(pcm: np.ndarray, seq: int, n0: int, mics: Sequence[Sequence[float]],
-                 t: float, rate: int = RATE) -> dict[str, Any]:
+                 t: float, rate: int = RATE) -> JSONObject:
     """One frame as the JSON object a sensor reports."""
     data = np.ascontiguousarray(pcm, dtype="<i2")
     return {"seq": int(seq), "n0": int(n0), "rate": int(rate), "channels": int(data.shape[1]),
@@ -171,7 +175,7 @@ def encode_frame(pcm: np.ndarray, seq: int, n0: int, mics: Sequence[Sequence[flo
             "t": float(t), "pcm": base64.b64encode(data.tobytes()).decode("ascii")}
 
 
-def decode_frame(frame: Any) -> tuple[np.ndarray, np.ndarray, int]:
+def decode_frame(frame: object) -> tuple[np.ndarray, np.ndarray, int]:
     """(samples as float in [-1, 1), shape (n, channels); mic positions (channels, 2);
     rate) from a frame object; FrameError on anything malformed."""
     if not isinstance(frame, dict):

@@ -16,17 +16,18 @@ from __future__ import annotations
 
 import math
 import threading
-from typing import Any
 
 from esair_std import Actuator, CommandError
 from esair_min.components.omni_base.core import velocity_line
 from esair_min.components.optical_flow.odometry import FlowOdometry, parse_odometry
+from esair_min.model.robot import Robot
 
 from ..minlink.budget import LineBudget
 from ..minlink.commands import VERSION_PREFIX, RobotCommands
 from ..minlink.driver import PolledSensor, LinkAgent
 from ..minlink.link_errors import LinkError
 from ..minlink.link import Link
+from ...transport.codec import JSON, JSONObject
 from .scene import wrap
 
 #: the omni base's lines by action (docs/protocol.md, STARFISH)
@@ -38,10 +39,12 @@ ODOMETRY_REPLY_BYTES = len("OK n=65535") + 2 * len(" a=-2147483648,-2147483648,2
 class OmniCommands(RobotCommands):
     """The command set of a central board with ``base:`` (it has no command table)."""
 
-    def __init__(self, robot: Any):
+    def __init__(self, robot: Robot):
         super().__init__(robot)
         self.flow = len(robot.central.flow_sensors)
-        self.wheels = len(robot.board("drive").motors)
+        drive = robot.board("drive")
+        assert drive is not None            # an omni base has its drive board (validate.py)
+        self.wheels = len(drive.motors)
 
     def prefix(self, action: str) -> str:
         try:
@@ -68,10 +71,11 @@ class OmniCommands(RobotCommands):
                 "checksum": "on" if self.checksum else "off"}
 
 
-def omni_budget(robot: Any) -> LineBudget:
+def omni_budget(robot: Robot) -> LineBudget:
     """The line's budget; its "feet" exchange is the odometry poll (``O`` and its longest
     reply), the only poll the omni base has."""
     central = robot.central
+    assert central.uart is not None and central.timer2 is not None
     checksum = bool(central.uart.require_checksum)
     return LineBudget(baud=central.uart.baud, tick_s=central.timer2.period_s, sensor_read_s=0.0,
                       feet_request_bytes=len("O") + (3 if checksum else 0) + 2,
@@ -85,14 +89,14 @@ class Wheels(LinkAgent, Actuator):
     def __init__(self, link: Link, max_v: int, max_w: int):
         self.link, self.max_v, self.max_w = link, max_v, max_w
 
-    def write(self, command: Any) -> Any:
+    def write(self, command: JSON) -> dict[str, int]:
         if command == "stop":
             self._send("x")
             return {"vx": 0, "vy": 0, "w": 0}
         if not isinstance(command, dict) or set(command) - {"vx", "vy", "w"}:
             raise CommandError(self.name, f"expected {{'vx': mm/s, 'vy': mm/s, 'w': mrad/s}} or "
                                           f"'stop', got {command!r}")
-        out = {}
+        out: dict[str, int] = {}
         for key, limit, unit in (("vx", self.max_v, "mm/s"), ("vy", self.max_v, "mm/s"),
                                  ("w", self.max_w, "mrad/s")):
             v = command.get(key, 0)
@@ -105,20 +109,20 @@ class Wheels(LinkAgent, Actuator):
         self._send(velocity_line(out["vx"], out["vy"], out["w"]))
         return out
 
-    def halt(self) -> Any:
+    def halt(self) -> dict[str, int] | None:
         """The latched STOP's ``x`` (the driver's halt() sent it: the wheels to zero),
         recorded as this actuator's ``stop``; None when it could not go."""
         return None if self.link.last_stop is None else {"vx": 0, "vy": 0, "w": 0}
 
 
-class Odometry(PolledSensor):
+class Odometry(PolledSensor[str]):
     """The pose from the flow sensors: ``O`` polled ``hz`` times a second on its own
     thread, the sums integrated from ``start`` (x m, y m, heading rad). ``reset()``
     starts again from ``start`` (a restarted robot's sums begin at 0 where it stands)."""
 
     thread_name = "starfish-odometry"
 
-    def __init__(self, link: Link, robot: Any, hz: float, start: tuple[float, float, float]):
+    def __init__(self, link: Link, robot: Robot, hz: float, start: tuple[float, float, float]):
         super().__init__()
         self.link, self.robot, self.hz, self.start = link, robot, hz, start
         self._lock = threading.Lock()
@@ -132,10 +136,10 @@ class Odometry(PolledSensor):
             self.pose = (x, y, th)
             self.last_n: int | None = None
 
-    def fetch(self) -> Any:
+    def fetch(self) -> str:
         return self.link.command("O")
 
-    def value(self, data: Any) -> Any:
+    def value(self, data: str) -> JSONObject | None:
         try:
             n, sensors = parse_odometry("OK " + data)
         except (ValueError, IndexError):

@@ -10,17 +10,22 @@ from __future__ import annotations
 
 import heapq
 import math
+from typing import cast
 
 import numpy as np
 
 from .scene import Scene
 
 
+Point = tuple[float, float]      # m
+Cell = tuple[int, int]          # (column, row) of the planner's grid
+
+
 class NoPath(ValueError):
     """No way from start to goal keeps the margin to the walls."""
 
 
-def _free_segment(room: Scene, p, q, margin: float, step: float) -> bool:
+def _free_segment(room: Scene, p: Point, q: Point, margin: float, step: float) -> bool:
     if room.blocked(p, q):
         return False
     n = max(2, int(math.hypot(q[0] - p[0], q[1] - p[1]) / step) + 1)
@@ -39,11 +44,11 @@ def plan(room: Scene, start: tuple[float, float], goal: tuple[float, float], mar
     ys = y0 + np.arange(ny) * resolution
     free = np.array([[room.clearance((x, y)) >= margin for y in ys] for x in xs])
 
-    def cell(p):
+    def cell(p: Point) -> Cell:
         return (min(max(int(round((p[0] - x0) / resolution)), 0), nx - 1),
                 min(max(int(round((p[1] - y0) / resolution)), 0), ny - 1))
 
-    def nearest_free(c):
+    def nearest_free(c: Cell) -> Cell:
         if free[c]:
             return c
         idx = np.argwhere(free)
@@ -51,10 +56,10 @@ def plan(room: Scene, start: tuple[float, float], goal: tuple[float, float], mar
             raise NoPath("no cell of the room keeps the margin to the walls")
         # only free cells reachable in a straight line from the point itself
         order = np.argsort(np.hypot(idx[:, 0] - c[0], idx[:, 1] - c[1]))
-        return tuple(int(v) for v in idx[order[0]])
+        return cast(Cell, tuple(int(v) for v in idx[order[0]]))
 
     s, g = nearest_free(cell(start)), nearest_free(cell(goal))
-    came: dict = {s: None}
+    came: dict[Cell, Cell | None] = {s: None}
     cost = {s: 0.0}
     todo = [(0.0, s)]
     steps = [(dx, dy, math.hypot(dx, dy)) for dx in (-1, 0, 1) for dy in (-1, 0, 1) if dx or dy]

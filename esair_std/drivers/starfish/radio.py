@@ -11,8 +11,12 @@ reports it, the namespace tests turn it into a veth going down and up.
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 from .scene import Scene
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ...transport.codec import JSONObject
 
 
 class RadioModel:
@@ -24,7 +28,7 @@ class RadioModel:
         self.up = True
         self.cuts = 0
 
-    def update(self, x: float, y: float) -> dict:
+    def update(self, x: float, y: float) -> JSONObject:
         ap = self.room.access_point
         dist = math.hypot(x - ap[0], y - ap[1])
         los = not self.room.blocked((x, y), ap)

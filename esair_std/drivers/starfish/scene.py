@@ -16,9 +16,15 @@ from +x. Pure computation: no clock, no thread, no I/O.
 from __future__ import annotations
 
 import math
-from typing import Any, Iterable
+from pathlib import Path
+from typing import TYPE_CHECKING, Iterable, TypedDict
 
 import numpy as np
+
+if TYPE_CHECKING:  # pragma: no cover
+    from esair_min.world import Room
+
+    from ...transport.codec import JSONObject
 
 EPS = 1e-9
 
@@ -27,11 +33,20 @@ SOURCE_RADIUS = 0.08
 SOURCE_HEIGHT = 0.5
 
 
+class Pole(TypedDict):
+    """A landmark the camera sees: a vertical cylinder (m) in an RGB colour."""
+    x: float
+    y: float
+    r: float
+    height: float
+    color: tuple[int, int, int]
+
+
 class SceneError(ValueError):
     """A scene description that cannot be used (the message says which field)."""
 
 
-def _num(value: Any, what: str) -> float:
+def _num(value: object, what: str) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
         raise SceneError(f"{what} must be a finite number, not {value!r}")
     return float(value)
@@ -47,7 +62,7 @@ class Source:
         self.x, self.y, self.on, self.level = float(x), float(y), bool(on), float(level)
 
     @classmethod
-    def from_dict(cls, d: Any, what: str = "source") -> "Source":
+    def from_dict(cls, d: object, what: str = "source") -> "Source":
         if not isinstance(d, dict):
             raise SceneError(f"{what} must be a mapping with x, y (and on, level), not {d!r}")
         unknown = set(d) - {"x", "y", "on", "level"}
@@ -64,14 +79,14 @@ class Source:
             raise SceneError(f"{what}.level must be in (0, 1], not {level!r}")
         return cls(_num(d["x"], f"{what}.x"), _num(d["y"], f"{what}.y"), on, level)
 
-    def to_dict(self) -> dict:
+    def to_dict(self) -> JSONObject:
         return {"x": self.x, "y": self.y, "on": self.on, "level": self.level}
 
 
 class Scene:
     """Walls (segments), landmarks (cylinders), the sound source and the access point."""
 
-    def __init__(self, walls: Iterable[Iterable[float]], landmarks: Iterable[dict] = (),
+    def __init__(self, walls: Iterable[Iterable[float]], landmarks: Iterable[Pole] = (),
                  source: Source | None = None, access_point: tuple[float, float] = (0.0, 0.0),
                  wall_height: float = 1.0):
         w = np.asarray([list(s) for s in walls], dtype=float)
@@ -84,7 +99,7 @@ class Scene:
         self.b = w[:, 2:4]
         if (np.hypot(*(self.b - self.a).T) < EPS).any():
             raise SceneError("a wall segment has zero length")
-        self.landmarks = [dict(lm) for lm in landmarks]
+        self.landmarks = [lm.copy() for lm in landmarks]
         self.source = source if source is not None else Source(0.0, 0.0, on=False)
         self.access_point = (float(access_point[0]), float(access_point[1]))
         self.wall_height = float(wall_height)
@@ -148,13 +163,13 @@ def wrap(angle: float) -> float:
 PALETTE = [(40, 160, 60), (230, 200, 40), (40, 90, 220), (200, 90, 200), (60, 200, 200)]
 
 
-def from_world(world_room: Any, source_kind: str = "sound", radio_kind: str = "access_point",
+def from_world(world_room: Room, source_kind: str = "sound", radio_kind: str = "access_point",
                wall_height: float = 1.0) -> Scene:
     """The scene of an :class:`esair_min.world.Room` (millimetres; see the module
     docstring for the landmarks' kinds)."""
     walls = [[s.x0 / 1000, s.y0 / 1000, s.x1 / 1000, s.y1 / 1000] for s in world_room.walls]
     source, ap = None, None
-    poles: list[Any] = []
+    poles: list[Pole] = []
     for lm in world_room.landmarks:
         if lm.kind == source_kind and source is None:
             source = Source(lm.x / 1000, lm.y / 1000, on=False)
@@ -166,7 +181,7 @@ def from_world(world_room: Any, source_kind: str = "sound", radio_kind: str = "a
     return Scene(walls, poles, source, ap if ap is not None else (0.0, 0.0), wall_height)
 
 
-def load_scene(path: Any) -> Scene:
+def load_scene(path: str | Path) -> Scene:
     """The scene of a room file (esair_min.world.load_room: its errors name the file)."""
     from esair_min.world import load_room
 

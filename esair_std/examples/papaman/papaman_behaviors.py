@@ -15,9 +15,9 @@ from __future__ import annotations
 
 import collections
 import time
-from typing import Any
 
 from esair_std import Behavior, CommandError, Refused, ResourceLost
+from esair_std.transport.codec import JSON, JSONObject
 
 #: thesis ch. 5.2 operations -> the robot's motions (boards/papaman/central.yaml)
 OPERATIONS = {"stand_up": "stand", "sit_down": "sit", "prostrate": "prostrate",
@@ -58,7 +58,7 @@ class Sequencer(Behavior):
         self.errors: list[str] = []
         self.operation_deadline = float(self.options.get("operation_deadline", OPERATION_DEADLINE_S))
 
-    def receive(self, sender: str, data: Any) -> None:
+    def receive(self, sender: str, data: object) -> None:
         """Queue the operations, all or none: raising Refused tells a sender that waits
         (`esair std put`) why, and the sequencer runs on."""
         ops = [data] if isinstance(data, str) else data
@@ -103,7 +103,7 @@ class Sequencer(Behavior):
                 ticks = MOTION_TICKS[motion] + 1 + MARGIN_TICKS
                 self.playing, self.until = op, now + ticks * TICK_S
 
-    def _send(self, op: str, command: Any) -> bool:
+    def _send(self, op: str, command: JSON) -> bool:
         try:
             self.motion.send(command, timeout=SEND_TIMEOUT_S)
             return True
@@ -134,11 +134,11 @@ class Sequencer(Behavior):
         self.errors.append(f"{op}: dropped: {why}")
         self.log.warning("operation %r dropped: %s", op, why)
 
-    def provide(self, requester: str) -> Any:
+    def provide(self, requester: str) -> JSON:
         return {"playing": self.playing, "queued": [op for op, _ in self.queue],
-                "done": self.done[-20:], "refused": self.refused,
-                "dropped": self.dropped[-20:], "dropped_total": len(self.dropped),
-                "errors": self.errors[-5:]}
+                "done": list(self.done[-20:]), "refused": self.refused,
+                "dropped": list(self.dropped[-20:]), "dropped_total": len(self.dropped),
+                "errors": list(self.errors[-5:])}
 
 
 class BalanceWatcher(Behavior):
@@ -216,10 +216,10 @@ class BalanceWatcher(Behavior):
             self.errors.append(str(exc))
         return False
 
-    def provide(self, requester: str) -> Any:
+    def provide(self, requester: str) -> JSON:
         ages = sorted(self.ages)
-        return {"reactions": self.reactions[-10:], "firmware_reactions": self.firmware,
-                "samples": self.samples, "errors": self.errors[-5:],
+        return {"reactions": list(self.reactions[-10:]), "firmware_reactions": self.firmware,
+                "samples": self.samples, "errors": list(self.errors[-5:]),
                 "age_p50_ms": ages[len(ages) // 2] * 1e3 if ages else None,
                 "age_p99_ms": ages[int(len(ages) * 0.99)] * 1e3 if ages else None}
 
@@ -228,12 +228,12 @@ class Logger(Behavior):
     """Gets the sequencer's and the watcher's state; keeps the last ``keep`` records."""
 
     def start(self) -> None:
-        self.records: collections.deque[dict] = collections.deque(
+        self.records: collections.deque[JSON] = collections.deque(
             maxlen=int(self.options.get("keep", 100)))
         self.failed = 0
 
     def step(self) -> None:
-        record: dict[str, Any] = {"t": time.time()}
+        record: JSONObject = {"t": time.time()}
         for name in ("sequencer", "watcher"):
             value = self.get(name, timeout=0.2)
             if value is None:
@@ -242,5 +242,5 @@ class Logger(Behavior):
         self.records.append(record)
         self.log.info("%s", record)
 
-    def provide(self, requester: str) -> Any:
+    def provide(self, requester: str) -> JSON:
         return {"records": list(self.records)[-5:], "failed": self.failed}

@@ -21,9 +21,12 @@ import json
 import math
 import time
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 from esair_std import Behavior, CommandError, Reaction, Refused, ResourceLost
+
+if TYPE_CHECKING:  # pragma: no cover
+    from esair_std.drivers.starfish.gccphat import Localizer
 
 # numpy and scipy (the room, the planner, GCC-PHAT) are imported in start() by the
 # components that need them, so patrol's process and the runtime do not carry them
@@ -127,7 +130,7 @@ class Localize(Behavior):
     def start(self):
         from esair_std.drivers.starfish.gccphat import Localizer   # numpy/scipy: remote side
         from esair_std.drivers.starfish.mics import FrameError, decode_frame
-        self._Localizer: Any = Localizer
+        self._Localizer: type[Localizer] = Localizer
         self._decode, self._FrameError = decode_frame, FrameError
         self.target = self.options.get("target", "turn_and_shoot")
         self.min_confidence = float(self.options.get("min_confidence", 0.3))
@@ -136,7 +139,7 @@ class Localize(Behavior):
         self.max_per_step = int(self.options.get("max_per_step", 3))
         self.skipped = 0
         self.mics = self.attach_sensor("starfish.mics", keep=16)
-        self.localizer: Any = None
+        self.localizer: Localizer | None = None
         self.geometry = None
         self.frames = self.bad_frames = self.confident = self.published = 0
         self.lost_frames = 0                 # holes in the frames' own sequence numbers
@@ -166,6 +169,7 @@ class Localize(Behavior):
             key = (rate, mics.tobytes())
             if key != self.geometry:
                 self.localizer, self.geometry = self._Localizer(mics, rate), key
+            assert self.localizer is not None           # made with the geometry
             bearing, conf = self.localizer.locate(pcm)
             self.last = {"bearing": round(bearing, 5), "confidence": round(conf, 3),
                          "frame": s.value.get("seq"), "t": s.value.get("t")}
