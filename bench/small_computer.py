@@ -176,20 +176,38 @@ class Mover(threading.Thread):
 
 
 # ---- measuring the group --------------------------------------------------------------
-def memory_of(pids: list[int]) -> tuple[float, float]:
-    """(RSS MB, PSS MB) summed over ``pids``."""
+def memory_of(pids: list[int]) -> tuple[float, float, list]:
+    """(RSS MB, PSS MB) summed over ``pids``, and each one's (what it is, RSS, PSS)."""
     rss = pss = 0
+    each = []
     for pid in pids:
         try:
             text = Path(f"/proc/{pid}/smaps_rollup").read_text()
+            cmd = Path(f"/proc/{pid}/cmdline").read_bytes().split(b"\0")
         except OSError:
             continue
+        r = p = 0
         for line in text.splitlines():
             if line.startswith("Rss:"):
-                rss += int(line.split()[1])
+                r = int(line.split()[1])
             elif line.startswith("Pss:"):
-                pss += int(line.split()[1])
-    return rss / 1024, pss / 1024
+                p = int(line.split()[1])
+        rss, pss = rss + r, pss + p
+        each.append((what(cmd), r / 1024, p / 1024))
+    return rss / 1024, pss / 1024, each
+
+
+def what(cmd: list[bytes]) -> str:
+    """A process of the robot side by its command line: an agent by its component's
+    name, else its module."""
+    if b"--spec" in cmd:
+        try:
+            return str(json.loads(cmd[cmd.index(b"--spec") + 1])["name"])
+        except (ValueError, KeyError, IndexError):
+            return "agent"
+    if b"-m" in cmd:
+        return cmd[cmd.index(b"-m") + 1].decode().rsplit(".", 1)[-1]
+    return "runtime"
 
 
 def cpu_of(pids: list[int]) -> dict[int, float]:
@@ -383,6 +401,9 @@ def one(robot: str, mode: str, limit: bool, args) -> dict:
                 res["error"] = f"the robot side exited ({child.wait()}) before it was ready"
                 return res
             res["ready_s"] = json.loads(line)["ready"] - t_exec
+            # the CPU the start took (every process in the group, since it began): the
+            # start's floor under the cap is this over the cap's share, however loaded
+            res["start_cpu_s"] = sum(cpu_of(cap.pids()).values())
             time.sleep(args.settle)
             pids = cap.pids()
             c0, t0 = cpu_of(pids), time.monotonic()
@@ -390,7 +411,7 @@ def one(robot: str, mode: str, limit: bool, args) -> dict:
             pids = cap.pids()
             c1, dt = cpu_of(pids), time.monotonic() - t0
             res["cpu_pct"] = 100 * sum(c1[p] - c0[p] for p in c1 if p in c0) / dt
-            res["rss_mb"], res["pss_mb"] = memory_of(pids)
+            res["rss_mb"], res["pss_mb"], res["each"] = memory_of(pids)
             res["processes"] = len(pids)
             res.update(control_asks(ep, robot, args.asks))
             if mode == "process":
@@ -481,12 +502,33 @@ def register_writes(fig: dict, trace: Path, wall0: float, virt0: int) -> dict:
             "samples": fig["feet"]["samples"], "lost": fig["feet"]["lost"]}
 
 
+def audio_sim_pct(dep: dict, frames: int = 150) -> float:
+    """The share of a core STARFISH's room simulation takes in the robot side's driver:
+    its microphone frames (16 kHz x 4, 1024 samples each, the room's echoes and noise)
+    rendered here, one after the other, as the driver does (the robot's own work, the
+    frames' encoding and publishing, is not in it)."""
+    from esair_std.drivers.starfish.mics import RATE, AudioRenderer
+    from esair_std.drivers.starfish.scene import load_scene
+
+    o = dep["resources"]["starfish"]
+    room = load_scene(str(STARFISH_ROOM))           # its source as in the idle window
+    audio = AudioRenderer(room, snr_db=float(o.get("snr_db", 20.0)),
+                          reflection_gain=float(o.get("echo", 0.0)))
+    pose = tuple(o.get("pose", (1.5, 1.5, 0.0)))
+    audio.render(pose)
+    t = time.process_time()
+    for _ in range(frames):
+        audio.render(pose)
+    return 100 * (time.process_time() - t) / frames * RATE / audio.frame
+
+
 def shots(fig: dict) -> dict:
     from esair_min.model.validate import load_robot
 
     omega = load_robot(ROOT / "boards" / "starfish").central.base.max_omega_mrad_s / 1000
     each = [None if s is None else (s["took"], s["turned"] / omega) for s in fig["shots"]]
-    return {"shots": each, "samples": fig["ears"]["samples"], "lost": fig["ears"]["lost"]}
+    return {"shots": each, "samples": fig["ears"]["samples"], "lost": fig["ears"]["lost"],
+            "sim_cpu_pct": audio_sim_pct(starfish_deployment(str(ROOT)))}
 
 
 def show(rows: list[dict], floor_ms: float) -> None:
@@ -499,7 +541,11 @@ def show(rows: list[dict], floor_ms: float) -> None:
             if r.get("peak_mb") is not None else ""
         print(f"{tag} RSS {r['rss_mb']:6.1f} MB  PSS {r['pss_mb']:6.1f} MB "
               f"({r['processes']} processes; {mem})  CPU {r['cpu_pct']:5.1f} % of a core  "
-              f"start -> ready {r['ready_s']:5.2f} s")
+              f"start -> ready {r['ready_s']:5.2f} s ({r['start_cpu_s']:.2f} s of CPU: "
+              f"{r['start_cpu_s'] / CPU_SHARE:.2f} s at {CPU_SHARE:.0%} of a core)")
+        if r["processes"] > 1:
+            print(f"{'':26s} each (RSS / PSS MB): " + ", ".join(
+                f"{n} {a:.1f} / {b:.1f}" for n, a, b in r["each"]))
         print(f"{'':26s} control endpoint (ls, ping; goal p99 <= 1 s): p50 "
               f"{r['ask_p50_ms']:.1f} ms, p99 {r['ask_p99_ms']:.1f} ms (n {r['ask_n']}, "
               f"unanswered {r['ask_missed']})")
@@ -520,6 +566,9 @@ def show(rows: list[dict], floor_ms: float) -> None:
                              for s in r["shots"])
             print(f"{'':26s} sound -> picture: {each}; audio frames {r['samples']}, "
                   f"lost {r['lost']}")
+            print(f"{'':26s} the room's audio simulation alone: {r['sim_cpu_pct']:.1f} % of a "
+                  f"core (rendered here): the robot side without it "
+                  f"{r['cpu_pct'] - r['sim_cpu_pct']:.1f} %")
 
 
 def _interrupted(*_) -> None:

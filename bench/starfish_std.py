@@ -3,8 +3,9 @@ emulated boards, started by the driver) in the example's room.
 
 1. sound onset -> picture taken, thread and process mode side by side: the source is
    switched on (``configure starfish.mics source``) and the time to the picture's own
-   time stamp is measured; beside it, the baseline of the rotation alone at the turn's
-   top speed (the angle the robot had to turn / 2.5 rad/s). Goal <= 2 s.
+   time stamp is measured; beside it, the rotation alone: the turn's time-optimal profile
+   within the board files' limits (esair_std/drivers/starfish/turn.py; each shot against
+   its own floor: bench/starfish_shot.py). Goal <= 2 s.
 2. the robot side's memory and CPU while patrolling, process mode (``esair std run
    starfish --mode process`` in a child process): RSS of the runtime and of the driver,
    patrol and reconnect processes (the robot's), and of localize and turn_and_shoot
@@ -42,7 +43,6 @@ from esair_std.deploy import load_deployment, resolve_deployment  # noqa: E402
 BENCH = Path(__file__).resolve().parent
 
 SOURCES = [(1.0, 3.5), (0.4, 0.4), (2.7, 3.7), (0.3, 2.0), (2.6, 0.3), (1.8, 3.7)]
-TURN_RATE = 2.5          # rad/s: turn_and_shoot's max_turn
 
 
 def wait(fn, timeout: float):
@@ -72,6 +72,10 @@ def deployment(store: str) -> dict:
 
 
 def onset_to_picture(mode: str, shots: int) -> list[tuple[float, float]]:
+    from esair_min.model.validate import load_robot
+    from esair_min.resources import resolve_robot
+    from esair_std.drivers.starfish.turn import profile_time, turn_limits
+    limits = turn_limits(load_robot(resolve_robot("starfish")))
     out = []
     with tempfile.TemporaryDirectory() as store, \
             Runtime(deployment(store), mode=mode, endpoint=free_endpoint()) as rt:
@@ -88,7 +92,7 @@ def onset_to_picture(mode: str, shots: int) -> list[tuple[float, float]]:
                 print(f"  {mode}: shot {k + 1}: no picture within 30 s")
                 continue
             turned = abs(float(got["last"]["bearing"]["bearing"]))
-            out.append((got["last"]["t"] - t0, turned / TURN_RATE))
+            out.append((got["last"]["t"] - t0, profile_time(turned, *limits)))
             time.sleep(1.0)                   # the cooldown, and patrol drives again
     return out
 
@@ -187,7 +191,8 @@ def main() -> None:
 
 
 def onset(shots: int) -> None:
-    print("1. sound onset -> picture taken (goal <= 2 s), beside the rotation alone at 2.5 rad/s")
+    print("1. sound onset -> picture taken (goal <= 2 s), beside the rotation alone "
+          "(the turn's profile)")
     for mode in ("thread", "process"):
         res = onset_to_picture(mode, shots)
         if res:

@@ -181,7 +181,8 @@ def _reaction_context(robot: Robot) -> Context:
                           "group_b": groups.index(r.compare[1]), "threshold": r.threshold,
                           "samples": r.samples, "poll_ticks": r.poll_ticks,
                           "motion": numbers[r.motion],
-                          "notice": P.reaction_line(r.name)})
+                          "notice": P.reaction_line(r.name),
+                          "held_notice": P.held_reaction_line(r.name)})
     group_masks = [{"name": g, "mask": pressure_sensor.group_mask(robot.sensors, g)}
                    for g in groups]
     for r in reactions:
@@ -237,7 +238,8 @@ def _texts(ver_pre: bytes, ver_post: bytes, ready_pre: bytes, ready_post: bytes,
            reactions: list[dict[str, Any]]) -> list[dict[str, Any]]:
     """Every text the central core sends, in one NUL-separated pool (es_text): the
     error line of code c is text c (text 0 is empty); a notice is ``!`` then the error
-    line (esair_min.core.protocol builds NOTICE_LINE so); the reactions' notices last."""
+    line (esair_min.core.protocol builds NOTICE_LINE so); the reactions' notices last, each
+    reaction's ``!R`` followed by its ``!H`` (the core sends text RE_TEXT + held)."""
     codes = sorted(P.Code)
     assert [int(c) for c in codes] == list(range(1, len(codes) + 1)), codes
     assert all(P.NOTICE_LINE[c] == b"!" + P.ERROR_LINE[c] for c in codes)
@@ -246,13 +248,15 @@ def _texts(ver_pre: bytes, ver_post: bytes, ready_pre: bytes, ready_post: bytes,
               ("IMG_OK", b"ok crc="), ("IMG_BAD", b"bad"),
               ("VERSION_PRE", ver_pre), ("VERSION_POST", ver_post),
               ("READY_PRE", ready_pre), ("READY_POST", ready_post)]
-    items += [(f"R_{r['name'].upper()}", r["notice"]) for r in reactions]
+    for r in reactions:
+        items += [(f"R_{r['name'].upper()}", r["notice"]),
+                  (f"H_{r['name'].upper()}", r["held_notice"])]
     texts, at = [], 0
     for i, (name, text) in enumerate(items):
         assert b"*/" not in text and b"\0" not in text, text   # shown in a C comment
         texts.append({"id": i, "name": name, "text": text, "data": text + b"\0", "at": at})
         at += len(text) + 1
-    for r, t in zip(reactions, texts[len(texts) - len(reactions):], strict=True):
+    for r, t in zip(reactions, texts[len(texts) - 2 * len(reactions)::2], strict=True):
         r["text_id"] = t["id"]
     return texts
 
@@ -260,7 +264,7 @@ def _texts(ver_pre: bytes, ver_post: bytes, ready_pre: bytes, ready_post: bytes,
 #: Command actions in the order of their ES_ACT_* codes: the four refused while a
 #: motion plays first (the core tests ``action <= ES_ACT_BUSY_LAST``).
 ACTIONS = ("STAND", "MOTOR", "PLAY", "ANGLES", "IMAGE_WRITE", "IMAGE_READ", "IMAGE_COMMIT",
-           "SPEEDS", "VERSION", "SENSORS", "STOP", "I2C_SCAN")
+           "SPEEDS", "VERSION", "SENSORS", "STOP", "I2C_SCAN", "HOLD")
 BUSY_ACTIONS = 7
 
 
@@ -297,7 +301,8 @@ def _rom(commands: list[dict[str, Any]], servos: list[dict[str, Any]],
         ("RE_SAMPLES", "samples", [col(reactions, "samples")]),
         ("RE_POLL", "poll ticks", [col(reactions, "poll_ticks")]),
         ("RE_MOTION", "motion (its number)", [col(reactions, "motion")]),
-        ("RE_TEXT", "notice (text id)", [col(reactions, "text_id")]),
+        ("RE_TEXT", "notice (text id; its held notice is the next)",
+         [col(reactions, "text_id")]),
         ("TEXT_AT", "where each text starts in ES_R_TEXT (16 bits)",
          [_u16([t["at"] for t in texts])]),
         ("TEXT", "every text sent, NUL-terminated; a notice is ! then the error line",

@@ -1,7 +1,8 @@
 """A Foxglove WebSocket protocol client (subprotocol ``foxglove.websocket.v1``) on the
 plain ``websockets`` package, for the live server's tests and bench/foxglove_figures.py:
 subscribes to every channel advertised, decodes each message against its schema
-(tests/support/foxcheck.py, in the tests), calls services."""
+(tests/support/foxcheck.py, in the tests), calls services, publishes on client channels
+and keeps the status messages."""
 
 from __future__ import annotations
 
@@ -36,7 +37,9 @@ class FoxClient:
         self.info: dict = {}
         self.got: list[tuple[str, int, bytes, float]] = []   # topic, log ns, data, rx
         self.answers: dict[int, tuple[bool, Any]] = {}
+        self.statuses: list[tuple[int, str]] = []          # level, message
         self._calls = 0
+        self._pubs: dict[str, int] = {}                   # topic -> its client channel id
 
     def close(self) -> None:
         self._cm.__exit__(None, None, None)
@@ -74,6 +77,8 @@ class FoxClient:
                 self.services.update({s["name"]: s["id"] for s in m["services"]})
             elif op == "serviceCallFailure":
                 self.answers[m["callId"]] = (False, m["message"])
+            elif op == "status":
+                self.statuses.append((m["level"], m["message"]))
             return
         if frame[0] == 1:
             sub, ns = struct.unpack_from("<IQ", frame, 1)
@@ -92,3 +97,26 @@ class FoxClient:
         while call not in self.answers and time.monotonic() < end:
             self.pump(0.1)
         return self.answers.pop(call)
+
+    def advertise(self, topic: str, encoding: str = "json") -> int:
+        """A client channel (client publish) on ``topic``: its id."""
+        cid = self._pubs[topic] = len(self._pubs) + 1
+        self.ws.send(json.dumps({"op": "advertise", "channels": [
+            {"id": cid, "topic": topic, "encoding": encoding, "schemaName": topic}]}))
+        return cid
+
+    def publish(self, topic: str, body: Any, timeout: float = 15.0) -> tuple[int, str]:
+        """``body`` (JSON) on the client channel of ``topic`` (advertised first): the
+        status the server answers with (level, message)."""
+        cid = self._pubs.get(topic) or self.advertise(topic)
+        return self.send_expecting_status(struct.pack("<BI", 1, cid) + json.dumps(body).encode(),
+                                          timeout)
+
+    def send_expecting_status(self, frame: str | bytes, timeout: float = 15.0) -> tuple[int, str]:
+        """Send ``frame``; the next status message the server sends."""
+        seen = len(self.statuses)
+        self.ws.send(frame)
+        end = time.monotonic() + timeout
+        while len(self.statuses) == seen and time.monotonic() < end:
+            self.pump(0.1)
+        return self.statuses[seen]

@@ -78,6 +78,7 @@ class CentralCore:
                             r.threshold, r.samples, r.poll_ticks, numbers[r.motion])
             for r in robot.central.reactions)
         self._held: tuple[bytes, dict[int, int]] | None = None
+        self._reactions_held = False   # h1: a reaction that fires moves nothing (RAM only)
         self._image_ok = False
         self._crc = 0            # the valid image's CRC (v, !READY)
         self._count = 0          # motions in its directory
@@ -118,6 +119,11 @@ class CentralCore:
         return self._last_sensors
 
     @property
+    def reactions_held(self) -> bool:
+        """The reactions are held (``h1`` since the last ``h0`` or reset)."""
+        return self._reactions_held
+
+    @property
     def ticks(self) -> int:
         return self._ticks
 
@@ -137,6 +143,7 @@ class CentralCore:
             r.count = 0
             r.failing = False
         self._held = None
+        self._reactions_held = False
         self._ticks = 0
         self._last_sensors = None
         self._w_open = False
@@ -280,6 +287,10 @@ class CentralCore:
             return None
         if action == "stop":
             self._player.stop()
+            self.send(P.OK_LINE)
+            return None
+        if action == "hold":
+            self._reactions_held = bool(args[0])
             self.send(P.OK_LINE)
             return None
         if action == "image_write":
@@ -431,6 +442,9 @@ class CentralCore:
                     self.send(P.NOTICE_LINE[Code.NO_ANSWER])
                 continue
             if r.sample(values) and self._image_ok:
+                if self._reactions_held:      # held: told, nothing stopped or started
+                    self.send(P.held_reaction_line(r.name))
+                    continue
                 self._player.stop()
                 self.send(P.reaction_line(r.name))
                 code = self._start(r.motion)

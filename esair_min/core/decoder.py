@@ -242,6 +242,9 @@ class CommandTable:
         if action == "image_read":
             raw = _hex_bytes(a)
             return None if raw is None else (raw,)
+        if action == "hold":
+            held = _digits(a, 0, 1)
+            return None if held not in (0, 1) else (held,)
         return ()   # stand, version, sensors, stop, image_commit, i2c_scan: no arguments
 
     def decode(self, line: bytes) -> Code | Decoded:

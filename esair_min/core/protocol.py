@@ -99,6 +99,11 @@ def reaction_line(name: str) -> bytes:
     return f"!R {name}".encode() + EOL
 
 
+def held_reaction_line(name: str) -> bytes:
+    """Reaction ``name`` would have fired, but the reactions are held (``h1``)."""
+    return f"!H {name}".encode() + EOL
+
+
 def ok_line(data: str | None = None) -> bytes:
     return OK_LINE if data is None else f"OK {data}".encode() + EOL
 

@@ -96,7 +96,7 @@ class I2c(Section):
 
 
 Action = Literal["stand", "motor", "play", "speeds", "angles", "version", "sensors", "stop",
-                 "image_write", "image_read", "image_commit", "i2c_scan"]
+                 "image_write", "image_read", "image_commit", "i2c_scan", "hold"]
 
 #: Characters of arguments each action takes after its prefix, per servo count N:
 #: ``speeds`` takes 3 digits per servo and ``angles`` one code per servo
@@ -107,6 +107,8 @@ ACTION_ARGS: dict[str, tuple[int, int]] = {   # (fixed, per servo)
     # image_write: address (4 hex), at least one data byte (2 hex), checksum (2 hex);
     # its lines have any length from that on (the only variable-length action)
     "image_write": (8, 0), "image_read": (6, 0), "image_commit": (0, 0), "i2c_scan": (0, 0),
+    # hold: one digit, 1 holds the firmware's reactions, 0 releases them
+    "hold": (1, 0),
 }
 #: Actions whose lines may be longer than their arguments' minimum (more data bytes).
 VARIABLE_ACTIONS = frozenset({"image_write"})

@@ -265,31 +265,50 @@ def default_scenario(robot: Robot, targets: tuple[str, ...]) -> Scenario:
     good = add_checksum(stand)
     w.send(good[:-1] + ("0" if good[-1] != "0" else "1"), raw=True)
     sc.covers.append("bad lines: E01, E02, E13, E06, a good checksum")
+
+    def tip_each(held: bool) -> None:
+        for r in central.reactions:
+            a = [i for i, x in enumerate(robot.sensors) if x.group == r.compare[0]]
+            b = [i for i, x in enumerate(robot.sensors) if x.group == r.compare[1]]
+            readings = [LEVEL] * n_sensors
+            high = min(1023, LEVEL + r.threshold // max(1, len(a)) + 1)
+            low = max(0, LEVEL - r.threshold // max(1, len(b)) - 1)
+            for i in a:
+                readings[i] = high
+            for i in b:
+                readings[i] = low
+            w.comment(f"reaction '{r.name}'{' (held)' if held else ''}: "
+                      f"'{r.compare[0]}' heavier than '{r.compare[1]}' by more "
+                      f"than {r.threshold}")
+            w.between_polls()
+            w.lines.append("sensor " + " ".join(map(str, readings)))
+            w.tick(r.poll_ticks * (r.samples + 1)
+                   + (0 if held else motion_ticks(r.motion)))
+            w.between_polls()
+            w.lines.append("sensor " + " ".join([str(LEVEL)] * n_sensors))
+            w.tick(r.poll_ticks * 2)
+            if not held:
+                sc.covers.append(f"reaction {r.name}")
+
     if central.reactions and n_sensors:
         if tip:
-            for r in central.reactions:
-                a = [i for i, x in enumerate(robot.sensors) if x.group == r.compare[0]]
-                b = [i for i, x in enumerate(robot.sensors) if x.group == r.compare[1]]
-                readings = [LEVEL] * n_sensors
-                high = min(1023, LEVEL + r.threshold // max(1, len(a)) + 1)
-                low = max(0, LEVEL - r.threshold // max(1, len(b)) - 1)
-                for i in a:
-                    readings[i] = high
-                for i in b:
-                    readings[i] = low
-                w.comment(f"reaction '{r.name}': '{r.compare[0]}' heavier than "
-                          f"'{r.compare[1]}' by more than {r.threshold}")
-                w.between_polls()
-                w.lines.append("sensor " + " ".join(map(str, readings)))
-                w.tick(r.poll_ticks * (r.samples + 1) + motion_ticks(r.motion))
-                w.between_polls()
-                w.lines.append("sensor " + " ".join([str(LEVEL)] * n_sensors))
-                w.tick(r.poll_ticks * 2)
-                sc.covers.append(f"reaction {r.name}")
+            tip_each(False)
         else:
             sc.skipped.append("reactions: gpsim's stand-in for a sensor board outside "
                               "0x50..0x57 answers the same byte for every register, so the "
                               "readings cannot tip (drop pic from --targets to fire them)")
+    for prefix in by_action.get("hold", []):
+        tipped = tip and bool(central.reactions) and n_sensors > 0
+        w.comment(f"reactions held: '{prefix}1'" + (", each tipped (!H, nothing moves)"
+                                                    if tipped else "")
+                  + f", '{prefix}2' refused, '{prefix}0'")
+        w.send(f"{prefix}1")
+        if tipped:
+            tip_each(True)
+        w.send(f"{prefix}2")
+        w.send(f"{prefix}0")
+        sc.covers.append(f"{prefix} (hold{': each reaction held' if tipped else ''}, "
+                         "E03, released)")
     if robot.peer("sensor") is not None and by_action.get("sensors"):
         w.comment("a missing slave: the sensor board stops answering")
         w.between_polls()

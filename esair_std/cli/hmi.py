@@ -3,11 +3,9 @@
 
 from __future__ import annotations
 
-import asyncio
 import getpass
 import os
 import signal
-import ssl
 import sys
 
 import click
@@ -17,96 +15,42 @@ from esair_min.cli.pipes import friendly
 
 from ..plurals import counted
 from .client import default_endpoint
-from .shared_options import exposure, insecure_option
+from .shared_options import exposure, server_options
 
 DEFAULT_LISTEN = "127.0.0.1:8080"
 
 
-def split_listen(listen: str) -> tuple[str, int]:
-    from ..errors import ControlError
-    host, sep, port = listen.rpartition(":")
-    host = host.strip("[]")
-    if not sep or not host or not port.isdigit() or not 0 <= int(port) <= 65535:
-        raise ControlError(f"--listen {listen!r} is not HOST:PORT (e.g. {DEFAULT_LISTEN})")
-    return host, int(port)
-
-
-def tls_context(cert: str | None, key: str | None, client_ca: str | None) -> ssl.SSLContext | None:
-    from ..errors import ControlError
-    if not cert and not client_ca:
-        return None
-    if not cert or not key:
-        raise ControlError("TLS needs --tls-cert and --tls-key (and --client-ca for client "
-                           "certificates)")
-    ctx = ssl.create_default_context(ssl.Purpose.CLIENT_AUTH)
-    try:
-        ctx.load_cert_chain(cert, key)
-        if client_ca:
-            ctx.load_verify_locations(client_ca)
-            ctx.verify_mode = ssl.CERT_REQUIRED
-    except (OSError, ssl.SSLError) as exc:
-        raise ControlError(f"TLS: {exc}") from None
-    return ctx
-
-
 @click.command("hmi")
-@click.option("-e", "--endpoint", default=None, metavar="tcp/HOST:PORT",
-              help="The runtime's control endpoint (default tcp/127.0.0.1:7447, or "
-                   "$ESAIR_STD_ENDPOINT).")
-@click.option("--listen", default=DEFAULT_LISTEN, show_default=True, metavar="HOST:PORT",
-              help="Where the page is served. Any address but loopback needs a login or "
-                   "client certificates. Port 0: any free port.")
+@server_options(DEFAULT_LISTEN, "Where the page is served. Any address but loopback needs a "
+                "login or client certificates.",
+                "Require browser certificates signed by this CA; such pages are operators.")
 @click.option("--password-file", default=None, metavar="FILE",
               help="USER:HASH lines (`esair std hmi-password`): pages are viewers until "
                    "they log in. $ESAIR_HMI_PASSWORD gives user 'operator' a password.")
-@click.option("--tls-cert", default=None, metavar="PEM", help="Serve HTTPS with this "
-              "certificate (e.g. from `esair std certs`).")
-@click.option("--tls-key", default=None, metavar="PEM", help="Its private key.")
-@click.option("--client-ca", default=None, metavar="PEM",
-              help="Require browser certificates signed by this CA; such pages are operators.")
 @click.option("--record-dir", default=".", show_default=True, type=click.Path(file_okay=False),
               help="Where the page's record button writes its MCAP files (and replay reads).")
-@insecure_option()
 @friendly
-def hmi_cmd(endpoint: str | None, listen: str, password_file: str | None,
-            tls_cert: str | None, tls_key: str | None, client_ca: str | None,
-            record_dir: str, insecure: bool) -> None:
+def hmi_cmd(endpoint: str | None, listen: str, tls_cert: str | None, tls_key: str | None,
+            client_ca: str | None, insecure: bool, password_file: str | None,
+            record_dir: str) -> None:
     """Serve the robot's remote control center: live link state, pose, joints,
     feet, components and log in a browser; commands through the RS as principal
     `hmi` (the deployment's `allow` decides what it may command). Prints the URL on
     its first line and serves until Ctrl-C."""
-    import logging
-
     from ..hmi.auth import LOOPBACK, Auth
     from ..hmi.server import HmiServer
+    from .serving import quiet_logs, serve, split_listen, tls_context
 
-    host, port = split_listen(listen)
+    host, port = split_listen(listen, DEFAULT_LISTEN)
     tls = tls_context(tls_cert, tls_key, client_ca)
     auth = Auth.from_options(host, password_file, dict(os.environ),
                              client_certs=bool(client_ca), insecure=insecure)
     if insecure and auth.open and host not in LOOPBACK:
         exposure(f"listening on {host}", "", insecure)     # the warning
     os.environ.pop("ESAIR_HMI_PASSWORD", None)      # hashed in auth; not kept in the clear
-    logging.basicConfig(level=logging.WARNING, format="hmi: %(message)s")
-    logging.getLogger("websockets").setLevel(logging.ERROR)
-    server = HmiServer(endpoint or default_endpoint(), host, port, auth, tls,
-                       record_dir=record_dir)
-
-    async def main() -> None:
-        stop = asyncio.Event()
-        loop = asyncio.get_running_loop()
-        for sig in (signal.SIGINT, signal.SIGTERM):
-            if not sigs.ignored(sig):           # a background job keeps its ignore
-                loop.add_signal_handler(sig, stop.set)
-
-        def ready(url: str) -> None:
-            click.echo(url)
-            sys.stdout.flush()
-        await server.serve(ready, stop)
-    asyncio.run(main())
-    sys.stdout.flush()
-    sys.stderr.flush()
-    os._exit(0)      # as `esair std run`: no interpreter finalisation under Zenoh's threads
+    quiet_logs("hmi")
+    serve(HmiServer(endpoint or default_endpoint(), host, port, auth, tls,
+                    record_dir=record_dir).serve)
 
 
 @click.command("hmi-password")

@@ -3,7 +3,7 @@ usage error: exit status 2)."""
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Callable
 
 import click
 
@@ -45,3 +45,26 @@ def exposure(where: str, needs: str, insecure: bool) -> None:
                            "--insecure to go without")
     click.echo(f"warning: {where} without security (--insecure): anyone on the network "
                "can reach the robot", err=True)
+
+
+def server_options(default_listen: str, listen_help: str,
+                   client_ca_help: str) -> Callable[[Any], Any]:
+    """``-e``, ``--listen``, ``--tls-cert``, ``--tls-key``, ``--client-ca`` and
+    ``--insecure`` of a server others connect to (``esair std hmi``, ``foxglove``; what
+    they do with them: serving.py)."""
+    options = [
+        endpoint_option("The runtime's control endpoint (default tcp/127.0.0.1:7447)."),
+        click.option("--listen", default=default_listen, show_default=True, metavar="HOST:PORT",
+                     help=listen_help + " Port 0: any free port."),
+        click.option("--tls-cert", default=None, metavar="PEM", help="Serve over TLS (https://, "
+                     "wss://) with this certificate (e.g. from `esair std certs`)."),
+        click.option("--tls-key", default=None, metavar="PEM", help="Its private key."),
+        click.option("--client-ca", default=None, metavar="PEM",
+                     help=client_ca_help),
+        insecure_option()]
+
+    def decorate(f: Any) -> Any:
+        for option in reversed(options):
+            f = option(f)
+        return f
+    return decorate

@@ -57,9 +57,13 @@ class BridgeError(StdError):
 
 class Bridge:
     def __init__(self, endpoint: str, emit: Emit, who: str = PRINCIPAL,
-                 session_options: JSONObject | None = None):
+                 session_options: JSONObject | None = None,
+                 on_commands: Callable[[str, JSON], None] | None = None):
         self.endpoint = check_endpoint(endpoint)
         self.emit = emit
+        # the command records whole (key, batch), instead of ``ran`` messages (the live
+        # Foxglove server: one subscription, not two)
+        self.on_commands = on_commands
         self.who = who
         if session_options is None:
             extra = os.environ.get("ESAIR_STD_SESSION") or "{}"
@@ -93,6 +97,9 @@ class Bridge:
                           gets=0)
         self.want: Callable[[str], bool] = lambda name: True    # the sensors to watch
         self.showing: Callable[[], bool] = lambda: True         # a page shows what we ask
+        # the link entries' counters (inspect) and reply ages (every TICK_S) are the link
+        # bar's: an owner without one (the live Foxglove server) asks none, ticks seldom
+        self.link_bar = True
 
     # ---- life cycle
     def start(self) -> None:
@@ -115,10 +122,12 @@ class Bridge:
         links = cast("list[str]", d.get("links", []))
         self.links = list(self.robots) + [e for e in links if e not in self.robots]
         self.bus.subscribe(f"esair/{self.robot}/sensor/**", self._on_sample, with_key=True)
-        self._held()
+        if self.on_commands is None:
+            self._held()
         # every command an actuator ran, whoever sent it (a behavior, `esair std put`,
         # another page): the pose shows what the robot was told, not only this HMI's
-        self.bus.subscribe(keys.commands_all(self.robot), self._on_commands, with_key=True)
+        self.bus.subscribe(keys.commands_all(self.robot), self.on_commands or self._on_commands,
+                           with_key=True)
         # ls when told: a state changed, or the runtime came or went
         self.bus.subscribe(keys.changed(self.robot), self._on_changed)
         # the latched STOP: asked now (an HMI started while it holds shows it), then
@@ -255,7 +264,7 @@ class Bridge:
             if kicked and now - self._asked < LS_MIN_S:      # a burst of notices: one ls
                 self._stop.wait(LS_MIN_S - (now - self._asked))
                 now = time.monotonic()
-            inspect = self.showing() and now - inspected >= INSPECT_S
+            inspect = self.link_bar and self.showing() and now - inspected >= INSPECT_S
             if inspect:
                 inspected = now
             try:
@@ -268,7 +277,7 @@ class Bridge:
             except Exception as exc:  # noqa: BLE001 - keep polling
                 log.error("hmi poll: %s", exc)
             if now >= tick:
-                tick = now + TICK_S
+                tick = now + (TICK_S if self.link_bar else LS_SAFETY_S)
 
     def _run_states(self) -> None:
         while not self._stop.wait(STATE_PERIOD_S):

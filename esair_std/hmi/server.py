@@ -19,7 +19,6 @@ import json
 import logging
 import mimetypes
 import ssl as _ssl
-import threading
 import time
 from http import HTTPStatus
 from pathlib import Path
@@ -38,6 +37,7 @@ from ..transport.codec import JSON, JSONObject
 from .auth import Auth
 from .bridge import Bridge, BridgeError, took
 from .commanded import PoseBook
+from .handover import Handover
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..record.tap import Tap
@@ -128,11 +128,7 @@ class HmiServer:
                           held=0)       # samples not sent to pages in the background
         self._stop: asyncio.Event | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
-        self._pending: list[JSONObject] = []      # emitted, not yet sent (bounded)
-        self._pending_lock = threading.Lock()
-        self._flush_soon = False      # a flush is asked for, as soon as the loop can
-        self._lazy_armed = False      # the loop's lazy tick is due within LAZY_S
-        self._lazy_seen = False       # a lazy message came since the last tick
+        self._handover = Handover(self._flush, LAZY_S, PENDING_MAX)   # emitted, not yet sent
 
     # ---- fan-out (any thread -> the loop)
     def emit(self, msg: JSONObject) -> None:
@@ -150,46 +146,11 @@ class HmiServer:
         tap = self.tap
         if tap is not None:
             tap.put(msg)
-        loop = self._loop
-        if loop is None or loop.is_closed():
-            return
-        lazy = msg.get("t") in LAZY
-        with self._pending_lock:
-            if len(self._pending) >= PENDING_MAX:
-                self.c.add("dropped")
-                return
-            self._pending.append(msg)
-            if lazy:
-                self._lazy_seen = True
-                if self._flush_soon or self._lazy_armed:
-                    return
-                self._lazy_armed = True
-            else:
-                if self._flush_soon:
-                    return
-                self._flush_soon = True
-        loop.call_soon_threadsafe(self._arm_lazy if lazy else self._flush)
-
-    def _arm_lazy(self) -> None:
-        assert self._loop is not None
-        self._loop.call_later(LAZY_S, self._lazy_tick)
-
-    def _lazy_tick(self) -> None:
-        """Every LAZY_S while lazy messages come: what waits goes now (when no sample's
-        frame took it); after a tick with none since the last, the tick stops."""
-        with self._pending_lock:
-            again, self._lazy_seen = self._lazy_seen, False
-            self._lazy_armed = again
-            waiting = bool(self._pending)
-        if waiting:
-            self._flush()
-        if again:
-            self._arm_lazy()
+        if not self._handover.put(msg, msg.get("t") in LAZY):
+            self.c.add("dropped")
 
     def _flush(self) -> None:
-        with self._pending_lock:
-            got, self._pending = self._pending, []
-            self._flush_soon = False
+        got = self._handover.take()
         msgs: list[JSON] = []
         for m in got:
             if m.get("t") == "ran":               # a command any sender got through
@@ -512,7 +473,7 @@ class HmiServer:
 
     # ---- life cycle
     async def serve(self, ready: Callable[[str], None], stop: asyncio.Event) -> None:
-        self._loop = asyncio.get_running_loop()
+        self._loop = self._handover.loop = asyncio.get_running_loop()
         self.bridge = Bridge(self.endpoint, self.emit, who=self.who)
         # the link's counters and the behaviors' states are asked for while a page shows
         # them (a list of the set: taken at once, while the loop may change the set)

@@ -28,6 +28,7 @@ from ..transport.calls import SampleCaller
 from ..transport.security_config import link_inserts
 from ..transport.threads import Threads
 from ..hosts.agent_process import MARGIN
+from .forkserver import ForkServer, Forked
 from .thread import LocalPort
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -41,6 +42,9 @@ START_TIMEOUT = 20.0
 RESOURCE_START_TIMEOUT = 45.0
 RESERVED_BYTES = 8192    # a put this small may go into a component's reserved room: at
                          # most host.RESERVED of them under way fit any link's queue
+
+
+AGENT_MODULE = "esair_std.hosts.agent_process"
 
 
 def agent_command(endpoint: str, robot: str, spec: Spec, generation: int) -> list[str]:
@@ -60,7 +64,7 @@ def agent_command(endpoint: str, robot: str, spec: Spec, generation: int) -> lis
         options["open/return_conditions/connect_scouted"] = False
     # -P: the folder it starts in is not put on sys.path (a numpy.py there shadows
     # nothing); the deployment's own modules are found by the class importer (classes.py)
-    return [sys.executable, "-P", "-m", "esair_std.hosts.agent_process", "--connect", endpoint,
+    return [sys.executable, "-P", "-m", AGENT_MODULE, "--connect", endpoint,
             "--robot", robot, "--generation", str(generation),
             "--spec", json.dumps(spec.to_json()), "--session-options", json.dumps(options)]
 
@@ -89,7 +93,7 @@ class _Child:
         self.hello = threading.Event()
         self.ended = threading.Event()           # its process exited (not yet reaped)
         self.changed = threading.Event()         # hello, a phase reported, or ended
-        self.proc: subprocess.Popen | None = None
+        self.proc: subprocess.Popen | Forked | None = None
         self.remote = spec.name in mode.remote   # a remote agent (esair_std.remote): not ours
         self.quiet = False                       # remote: do not tell it to stop
         self.rejoining = False
@@ -97,23 +101,16 @@ class _Child:
     def spawn(self) -> None:
         if self.remote:
             return                               # already running on its own computer
-        env = dict(os.environ)
-        paths = [p for p in sys.path if p and os.path.isdir(p)]
-        env["PYTHONPATH"] = os.pathsep.join(paths)
-        # glibc gives each thread that allocates its own malloc arena (zenoh's threads,
-        # the component's): two arenas hold the same data in 0.1-0.35 MB less RSS
-        env.setdefault("MALLOC_ARENA_MAX", "2")
-        if session.hub_runtime_set:              # the control center's, not a child's
-            env.pop("ZENOH_RUNTIME", None)
-        child_login = getattr(self.mode.rt, "child_session", None)
-        if child_login:                          # the runtime's own login (security.users)
-            env["ESAIR_STD_SESSION"] = json.dumps(child_login)
-        self.proc = subprocess.Popen(
-            agent_command(self.mode.rt.local_endpoint or self.mode.rt.endpoint, self.robot,
-                          self.spec, self.generation),
-            stdin=subprocess.PIPE, env=env)   # in the user's folder: relative paths as in thread mode
-        self.pid = self.proc.pid
-        self.mode.threads.start(self._watch_exit, self.proc.pid, name=f"esair:exit:{self.name}")
+        env = self.mode.child_env()
+        cmd = agent_command(self.mode.rt.local_endpoint or self.mode.rt.endpoint, self.robot,
+                            self.spec, self.generation)
+        # forked by the zygote when it can (modes/forkserver.py), else a new interpreter;
+        # either way in the user's folder: relative paths as in thread mode
+        args = cmd[cmd.index(AGENT_MODULE) + 1:]
+        forked = self.mode.forks.spawn(args, env, cmd) if self.mode.forks else None
+        proc = forked or subprocess.Popen(cmd, stdin=subprocess.PIPE, env=env)
+        self.proc, self.pid = proc, proc.pid
+        self.mode.threads.start(self._watch_exit, proc.pid, name=f"esair:exit:{self.name}")
 
     def _watch_exit(self, pid: int) -> None:
         """Blocks until the process exits (waitid with WNOWAIT: Popen still reaps it),
@@ -414,6 +411,22 @@ class ProcessMode:
         self._pending_cond = threading.Condition(self._lock)   # _pending changed
         self.remote: dict[str, dict] = {}         # name -> {host, pid} of remote agents
         self.threads = Threads()      # exit watchers, lost tokens: joined by the runtime's stop
+        self.forks: ForkServer | None = None
+
+    def child_env(self) -> dict[str, str]:
+        """The environment of an agent process."""
+        env = dict(os.environ)
+        paths = [p for p in sys.path if p and os.path.isdir(p)]
+        env["PYTHONPATH"] = os.pathsep.join(paths)
+        # glibc gives each thread that allocates its own malloc arena (zenoh's threads,
+        # the component's): two arenas hold the same data in 0.1-0.35 MB less RSS
+        env.setdefault("MALLOC_ARENA_MAX", "2")
+        if session.hub_runtime_set:              # the control center's, not a child's
+            env.pop("ZENOH_RUNTIME", None)
+        child_login = getattr(self.rt, "child_session", None)
+        if child_login:                          # the runtime's own login (security.users)
+            env["ESAIR_STD_SESSION"] = json.dumps(child_login)
+        return env
 
     @property
     def bus(self) -> Bus:
@@ -423,6 +436,8 @@ class ProcessMode:
         return server.bus
 
     def open(self) -> None:
+        # started first: its imports overlap the runtime's own start
+        self.forks = ForkServer(self.child_env())
         self.offers = SampleCaller(self.bus, keys.bs_result(self.rt.robot, "*"),
                                    lambda key: keys.name_in(key, 2))
         self.credit_lock = threading.Lock()
@@ -673,3 +688,5 @@ class ProcessMode:
             offers.close()
         for res in self._resources.values():
             res.kill()
+        if self.forks is not None:
+            self.forks.close()

@@ -11,7 +11,9 @@ shapes, as the HMI's generic panels, come the native channels: a picture
 landmarks}`` -> ``foxglove.SceneUpdate`` (with a behavior's ``last.bearing`` as an arrow),
 microphones ``{pcm, channels}`` -> their RMS level per channel, a servo's ``{angle}``
 commands -> the joints, one message per change, a ``!R`` notice -> a reaction, log lines
--> ``foxglove.Log``. The Foxglove messages and schemas are the SDK's (foxglove-sdk)."""
+-> ``foxglove.Log``. The Foxglove messages are encoded by foxproto.py (their schemas are
+foxglove-sdk's, shipped in foxschemas.py). A message's bytes are made when first asked
+for (:attr:`Out.data`): the live server asks only for channels a client subscribes to."""
 
 from __future__ import annotations
 
@@ -19,33 +21,20 @@ import base64
 import binascii
 import json
 import math
-import operator
 import sys
 import time
 from array import array
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Protocol
+from typing import Callable
 
-from foxglove import messages as fm
-
-if TYPE_CHECKING:  # pragma: no cover
-    from foxglove._foxglove_py import Schema as FoxSchema
-
-
-class _Native(Protocol):
-    """A Foxglove message class: it gives its schema."""
-
-    @staticmethod
-    def get_schema() -> FoxSchema: ...
+from . import foxproto as fp
 
 JSON_TYPES = ["object", "array", "string", "number", "boolean", "null"]
 UNITS = {"x": "m", "y": "m", "th": "rad", "distance": "m", "r": "m", "range_m": "m",
          "angle": "degrees", "bearing": "rad, from the robot's heading, counterclockwise",
          "t": "seconds since the epoch", "rate": "Hz"}
-LEVELS = {"debug": fm.LogLevel.Debug, "info": fm.LogLevel.Info,
-          "warning": fm.LogLevel.Warning, "error": fm.LogLevel.Error}
 
-LOG_TOPIC, TF_TOPIC, LINK_TOPIC = "/log", "/tf", "/link"
+LOG_TOPIC, TF_TOPIC, LINK_TOPIC, LATCH_TOPIC = "/log", "/tf", "/link", "latch"
 COMMAND_TOPIC = "command/"
 
 
@@ -60,13 +49,23 @@ class Schema:
         return "json" if self.encoding == "jsonschema" else "protobuf"
 
 
-@dataclass(frozen=True)
 class Out:
-    topic: str
-    schema: Schema
-    data: bytes
-    t: float               # log time, seconds since the epoch
-    seq: int = 0
+    """One message of channel ``topic``: ``data`` (its bytes, or what makes them on
+    first use), ``t`` its log time (seconds since the epoch)."""
+    __slots__ = ("_data", "_make", "schema", "seq", "t", "topic")
+
+    def __init__(self, topic: str, schema: Schema, data: bytes | Callable[[], bytes],
+                 t: float, seq: int = 0):
+        self.topic, self.schema, self.t, self.seq = topic, schema, t, seq
+        self._data: bytes | None = data if isinstance(data, bytes) else None
+        self._make: Callable[[], bytes] | None = None if isinstance(data, bytes) else data
+
+    @property
+    def data(self) -> bytes:
+        if self._data is None:
+            assert self._make is not None
+            self._data, self._make = self._make(), None
+        return self._data
 
 
 def json_schema(title: str, properties: dict[str, object], required: list[str] | None = None,
@@ -79,9 +78,8 @@ def json_schema(title: str, properties: dict[str, object], required: list[str] |
     return Schema(title, "jsonschema", json.dumps(s).encode())
 
 
-def native(cls: _Native) -> Schema:
-    s = cls.get_schema()
-    return Schema(s.name, s.encoding, bytes(s.data))
+def native(name: str) -> Schema:
+    return Schema(name, "protobuf", fp.schema_bytes(name))
 
 
 def infer(value: object, key: str = "") -> dict[str, object]:
@@ -134,8 +132,16 @@ REACTION = json_schema("esair.Reaction", {
 JOINTS = json_schema("esair.Joints", {
     "t": {"type": "number", "description": "seconds since the epoch, when the change ran"}},
     ["t"], {"type": "number", "description": "the joint's commanded angle, degrees"})
-LOG, POSE, TF = native(fm.Log), native(fm.PoseInFrame), native(fm.FrameTransform)
-IMAGE, SCENE = native(fm.CompressedImage), native(fm.SceneUpdate)
+LOG, POSE, TF = native("foxglove.Log"), native("foxglove.PoseInFrame"), native("foxglove.FrameTransform")
+IMAGE, SCENE = native("foxglove.CompressedImage"), native("foxglove.SceneUpdate")
+LATCH = json_schema("esair.Latch", {
+    "seq": {"type": "integer", "description": "the state's number, from 1"},
+    "t": {"type": "number", "description": "seconds since the epoch: the STOP or the release"},
+    "stopped": {"type": "boolean"},
+    "by": {"type": "string", "description": "who STOPPED it"},
+    "reason": {"type": "string"},
+    "released_by": {"type": "string", "description": "who released it"}},
+    ["seq", "t", "stopped"])
 
 
 def levels_schema(n: int) -> Schema:
@@ -148,18 +154,13 @@ def _js(obj: object) -> bytes:
     return json.dumps(obj, separators=(",", ":")).encode()
 
 
-def _stamp(t: float) -> fm.Timestamp:
-    sec = int(t)
-    return fm.Timestamp(sec=sec, nsec=min(999_999_999, int((t - sec) * 1e9)))
+def _yaw(th: float) -> bytes:
+    return fp.quaternion(0.0, 0.0, math.sin(th / 2), math.cos(th / 2))
 
 
-def _yaw(th: float) -> fm.Quaternion:
-    return fm.Quaternion(x=0.0, y=0.0, z=math.sin(th / 2), w=math.cos(th / 2))
-
-
-def _color(rgb: object, a: float = 1.0) -> fm.Color:
+def _color(rgb: object, a: float = 1.0) -> bytes:
     r, g, b = (list(rgb) + [128, 128, 128])[:3] if isinstance(rgb, list) else (128, 128, 128)
-    return fm.Color(r=r / 255, g=g / 255, b=b / 255, a=a)
+    return fp.color(r / 255, g / 255, b / 255, a)
 
 
 def _num(v: object) -> bool:
@@ -197,9 +198,7 @@ class Converter:
         return []
 
     def log(self, level: str, text: str, t: float, name: str = "esair") -> Out:
-        m = fm.Log(timestamp=_stamp(t), level=LEVELS.get(level, fm.LogLevel.Info),
-                   message=text, name=name, file="", line=0)
-        return Out(LOG_TOPIC, LOG, m.encode(), t)
+        return Out(LOG_TOPIC, LOG, lambda: fp.log(t, fp.LOG_LEVELS.get(level, 2), text, name), t)
 
     def links(self, link: dict) -> list[Out]:
         out = []
@@ -212,21 +211,22 @@ class Converter:
         return out
 
     def command(self, actuator: str, seq: int, t: float, rec: dict) -> list[Out]:
-        out = [Out(COMMAND_TOPIC + actuator, COMMAND, _js(dict(rec, seq=seq, t=t)), t, seq)]
+        out = [Out(COMMAND_TOPIC + actuator, COMMAND, lambda: _js(dict(rec, seq=seq, t=t)), t, seq)]
         cmd = rec.get("command")
         if "ok" in rec and ".servo." in actuator and isinstance(cmd, dict) and _num(cmd.get("angle")):
             entry, joint = actuator.split(".servo.", 1)
             joints = self.joints.setdefault(entry, {})
             if joints.get(joint) != cmd["angle"]:
                 joints[joint] = float(cmd["angle"])
-                out.append(Out(f"/{entry}/joints", JOINTS, _js(dict(joints, t=t)), t))
+                now = dict(joints, t=t)
+                out.append(Out(f"/{entry}/joints", JOINTS, lambda: _js(now), t))
         return out
 
     def sample(self, sensor: str, seq: int, t: float, v: object) -> list[Out]:
         schema = self.schemas.get(sensor)
         if schema is None:
             schema = self.schemas[sensor] = sample_schema(sensor, v)
-        out = [Out(sensor, schema, _js({"seq": seq, "t": t, "value": v}), t, seq)]
+        out = [Out(sensor, schema, lambda: _js({"seq": seq, "t": t, "value": v}), t, seq)]
         if not isinstance(v, dict):
             return out
         entry = sensor.split(".", 1)[0]
@@ -253,80 +253,83 @@ class Converter:
         if not isinstance(last, dict) or not _num(last.get("bearing")):
             return []
         t = float(last["t"]) if _num(last.get("t")) else 0.0
-        arrow = fm.ArrowPrimitive(pose=fm.Pose(position=fm.Vector3(x=0.0, y=0.0, z=0.1),
-                                               orientation=_yaw(float(last["bearing"]))),
-                                  shaft_length=0.8, shaft_diameter=0.03, head_length=0.15,
-                                  head_diameter=0.08, color=fm.Color(r=1.0, g=0.3, b=0.1, a=1.0))
-        ent = fm.SceneEntity(timestamp=_stamp(t), frame_id="base_link", id=f"bearing:{behavior}",
-                             frame_locked=True, arrows=[arrow])
-        return [Out(f"/{entry}/scene", SCENE, fm.SceneUpdate(entities=[ent]).encode(), t)
-                for entry in self.room]
+        bearing = float(last["bearing"])
+
+        def make() -> bytes:
+            arrow = fp.arrow(fp.pose(fp.vector3(0.0, 0.0, 0.1), _yaw(bearing)), 0.8, 0.03, 0.15,
+                             0.08, fp.color(1.0, 0.3, 0.1, 1.0))
+            return fp.scene_update([fp.scene_entity(t, "base_link", f"bearing:{behavior}",
+                                                    frame_locked=True, arrows=[arrow])])
+        return [Out(f"/{entry}/scene", SCENE, make, t) for entry in self.room]
 
     # ---- the native shapes
     def _picture(self, entry: str, t: float, v: dict) -> list[Out]:
-        try:
-            data = base64.b64decode(v["image"], validate=True)
-        except (binascii.Error, ValueError):
-            return []
+        """The picture's own bytes (JPEG/PNG, not decoded) in a CompressedImage."""
         ts = float(v["t"]) if _num(v.get("t")) else t
-        m = fm.CompressedImage(timestamp=_stamp(ts), frame_id="camera", data=data,
-                               format=str(v["format"]))
-        return [Out(f"/{entry}/camera", IMAGE, m.encode(), t)]
+        image, fmt = v["image"], str(v["format"])
+
+        def make() -> bytes:
+            try:
+                data = base64.b64decode(image, validate=True)
+            except (binascii.Error, ValueError):
+                data = b""                       # a bad sample: an empty image
+            return fp.compressed_image(ts, "camera", data, fmt)
+        return [Out(f"/{entry}/camera", IMAGE, make, t)]
 
     def _pose(self, entry: str, t: float, v: dict) -> list[Out]:
         x, y, th = float(v["x"]), float(v["y"]), float(v["th"])
-        pose = fm.Pose(position=fm.Vector3(x=x, y=y, z=0.0), orientation=_yaw(th))
-        p = fm.PoseInFrame(timestamp=_stamp(t), frame_id="world", pose=pose)
-        tf = fm.FrameTransform(timestamp=_stamp(t), parent_frame_id="world",
-                               child_frame_id="base_link",
-                               translation=fm.Vector3(x=x, y=y, z=0.0), rotation=_yaw(th))
-        return [Out(f"/{entry}/pose", POSE, p.encode(), t), Out(TF_TOPIC, TF, tf.encode(), t)]
+        return [Out(f"/{entry}/pose", POSE, lambda: fp.pose_in_frame(
+                    t, "world", fp.pose(fp.vector3(x, y, 0.0), _yaw(th))), t),
+                Out(TF_TOPIC, TF, lambda: fp.frame_transform(
+                    t, "world", "base_link", fp.vector3(x, y, 0.0), _yaw(th)), t)]
 
     def _scene(self, entry: str, t: float, v: dict) -> Out:
-        walls = [fm.LinePrimitive(type=fm.LinePrimitiveLineType.LineList, thickness=0.05,
-                                  scale_invariant=False, color=fm.Color(r=0.8, g=0.8, b=0.8, a=1.0),
-                                  points=[p for w in v["walls"] if isinstance(w, list) and len(w) == 4
-                                          for p in (fm.Point3(x=float(w[0]), y=float(w[1]), z=0.0),
-                                                    fm.Point3(x=float(w[2]), y=float(w[3]), z=0.0))])]
-        cylinders, spheres = [], []
-        for lm in v["landmarks"]:
-            if not isinstance(lm, dict) or not (_num(lm.get("x")) and _num(lm.get("y"))):
-                continue
-            at = fm.Pose(position=fm.Vector3(x=float(lm["x"]), y=float(lm["y"]), z=0.25),
-                         orientation=_yaw(0.0))
-            kind = lm.get("kind")
-            if kind == "pole":
-                d = 2 * float(lm.get("r", 0.1))
-                cylinders.append(fm.CylinderPrimitive(pose=at, size=fm.Vector3(x=d, y=d, z=0.5),
-                                                      bottom_scale=1.0, top_scale=1.0,
-                                                      color=_color(lm.get("color"))))
-            elif kind == "access_point":
-                spheres.append(fm.SpherePrimitive(pose=at, size=fm.Vector3(x=0.2, y=0.2, z=0.2),
-                                                  color=fm.Color(r=0.2, g=0.6, b=1.0, a=1.0)))
-            elif kind == "sound" and lm.get("on", True):
-                spheres.append(fm.SpherePrimitive(pose=at, size=fm.Vector3(x=0.25, y=0.25, z=0.25),
-                                                  color=fm.Color(r=1.0, g=0.2, b=0.2, a=1.0)))
-        ent = fm.SceneEntity(timestamp=_stamp(t), frame_id="world", id="room",
-                             lines=walls, cylinders=cylinders, spheres=spheres)
-        return Out(f"/{entry}/scene", SCENE, fm.SceneUpdate(entities=[ent]).encode(), t)
+        return Out(f"/{entry}/scene", SCENE, lambda: _room(t, v), t)
 
     def _levels(self, sensor: str, t: float, v: dict) -> list[Out]:
-        """The RMS level of each channel of one frame of interleaved 16-bit PCM (no
-        numpy: it would add ~14 MB to the live server's RSS)."""
         n = v["channels"]
         if n <= 0:
             return []
-        try:
-            pcm = array("h", base64.b64decode(v["pcm"]))
-        except (binascii.Error, ValueError):
-            return []
-        if sys.byteorder == "big":
-            pcm.byteswap()                       # the frames are little-endian
-        frames = len(pcm) // n
-        if not frames:
-            return []
-        levels = {}
-        for i in range(n):
-            ch = pcm[i:frames * n:n]
-            levels[f"mic{i}"] = round(math.sqrt(sum(map(operator.mul, ch, ch)) / frames) / 32768, 6)
-        return [Out(f"/{sensor.replace('.', '/')}/levels", levels_schema(n), _js(levels), t)]
+        pcm = v["pcm"]
+        return [Out(f"/{sensor.replace('.', '/')}/levels", levels_schema(n),
+                    lambda: _js(_rms(pcm, n)), t)]
+
+
+def _rms(pcm64: str, n: int) -> dict[str, float]:
+    """The RMS level of each channel of one frame of interleaved little-endian 16-bit
+    PCM, full scale = 1 (math.hypot: the square root of the sum of squares in C; no
+    numpy: it would add ~14 MB to the live server's RSS); a bad frame: zeros."""
+    try:
+        pcm = array("h", base64.b64decode(pcm64))
+    except (binascii.Error, ValueError):
+        pcm = array("h")
+    if sys.byteorder == "big":
+        pcm.byteswap()
+    frames = len(pcm) // n
+    return {f"mic{i}": round(math.hypot(*pcm[i:frames * n:n]) / math.sqrt(frames) / 32768, 6)
+            if frames else 0.0 for i in range(n)}
+
+
+def _room(t: float, v: dict) -> bytes:
+    """A map sample as the scene's entity ``room``: walls as lines, poles as cylinders,
+    the access point and the sound source (when on) as spheres."""
+    points = [fp.point3(float(x), float(y), 0.0) for w in v["walls"]
+              if isinstance(w, list) and len(w) == 4 for x, y in ((w[0], w[1]), (w[2], w[3]))]
+    walls = [fp.line_list(0.05, points, fp.color(0.8, 0.8, 0.8, 1.0))]
+    cylinders, spheres = [], []
+    for lm in v["landmarks"]:
+        if not isinstance(lm, dict) or not (_num(lm.get("x")) and _num(lm.get("y"))):
+            continue
+        at = fp.pose(fp.vector3(float(lm["x"]), float(lm["y"]), 0.25), _yaw(0.0))
+        kind = lm.get("kind")
+        if kind == "pole":
+            d = 2 * float(lm.get("r", 0.1))
+            cylinders.append(fp.cylinder(at, fp.vector3(d, d, 0.5), 1.0, 1.0,
+                                         _color(lm.get("color"))))
+        elif kind == "access_point":
+            spheres.append(fp.sphere(at, fp.vector3(0.2, 0.2, 0.2), fp.color(0.2, 0.6, 1.0, 1.0)))
+        elif kind == "sound" and lm.get("on", True):
+            spheres.append(fp.sphere(at, fp.vector3(0.25, 0.25, 0.25),
+                                     fp.color(1.0, 0.2, 0.2, 1.0)))
+    return fp.scene_update([fp.scene_entity(t, "world", "room", lines=walls,
+                                            cylinders=cylinders, spheres=spheres)])

@@ -9,12 +9,13 @@ user opens could otherwise read the robot and call its services from the browser
 the HMI, a handshake whose ``Origin`` is not this server's own (or one given with
 ``--allow-origin``) gets 403.
 
-Services (JSON): ``command`` {resource, command} sends through the RS as the principal
-``operator`` (so only where the resource's ``allow`` grants ``operator: command``, as
-``esair std send``), ``stop`` {reason} and ``release`` {} the latched STOP, as
-``foxglove``. The bridge's threads only queue (bounded, drops counted); the loop converts
-and writes each subscriber's frames (a client whose socket holds more than
-CLIENT_BUFFER bytes loses frames, counted)."""
+Commands (foxcommands.py): services ``command`` {resource, command}, ``stop`` {reason}
+and ``release`` {}, and the same as client-publish topics ``/esair/command`` ...; through
+the RS, a command as the principal ``operator`` (only where the resource's ``allow``
+grants ``operator: command``). A frame the protocol does not know gets an error status;
+the client stays connected and loses nothing. The bridge's threads only queue (bounded,
+drops counted); the loop converts and writes each subscriber's frames (a client whose
+socket holds more than CLIENT_BUFFER bytes loses frames, counted)."""
 
 from __future__ import annotations
 
@@ -24,7 +25,6 @@ import json
 import logging
 import ssl as _ssl
 import struct
-import threading
 import time
 from http import HTTPStatus
 from typing import Callable
@@ -36,35 +36,42 @@ from websockets.protocol import State
 
 from ..counters import Counters
 from ..hmi.bridge import Bridge, BridgeError
-from ..transport import keys, records
+from ..hmi.handover import Handover
+from ..transport import records
 from ..transport.codec import JSON
-from .foxmsgs import Converter, Out, Schema
-from .mcapio import LATCH, LATCH_TOPIC
+from . import foxcommands as cmds
+from .foxmsgs import LATCH, LATCH_TOPIC, Converter, Out, Schema
 
 log = logging.getLogger("esair_std.foxglove")
 SUBPROTOCOL = "foxglove.websocket.v1"
 PENDING_MAX = 20_000          # emitted, not yet converted (counted as dropped past it)
+LAZY_S = 0.1                  # what is not a sample waits this long at most for a sample's flush
 CLIENT_BUFFER = 4 * 1024 * 1024
-PRINCIPAL, COMMANDER = "foxglove", "operator"
-MESSAGE_DATA, SERVICE_REQUEST, SERVICE_RESPONSE = 1, 2, 3
+MESSAGE_DATA, SERVICE_RESPONSE = 1, 3                   # server -> client (binary)
+CLIENT_MESSAGE, SERVICE_REQUEST = 1, 2                  # client -> server (binary)
+INFO, ERROR = 0, 2                                      # status levels
 
-REQUESTS = {
-    "command": {"type": "object", "title": "esair.CommandRequest", "required": ["resource", "command"],
-                "properties": {"resource": {"type": "string", "description": "the actuator"},
-                               "command": {"description": "the command, as esair std send"}}},
-    "stop": {"type": "object", "title": "esair.StopRequest",
-             "properties": {"reason": {"type": "string"}}},
-    "release": {"type": "object", "title": "esair.ReleaseRequest", "properties": {}},
-}
-RESPONSE = {"type": "object", "title": "esair.ServiceResponse",
-            "properties": {"ok": {"description": "the runtime's answer"}}}
+
+def _ws_frame(data: str | bytes) -> bytes:
+    """One final WebSocket frame: text (opcode 1) or binary (2)."""
+    if isinstance(data, str):
+        data, op = data.encode(), 0x81
+    else:
+        op = 0x82
+    n = len(data)
+    if n < 126:
+        return bytes((op, n)) + data
+    if n < 1 << 16:
+        return struct.pack("!BBH", op, 126, n) + data
+    return struct.pack("!BBQ", op, 127, n) + data
 
 
 class _Client:
     def __init__(self, ws: ServerConnection):
         self.ws = ws
         self.subs: dict[int, int] = {}          # channel id -> subscription id
-        self.c = Counters(sent=0, dropped=0)
+        self.pubs: dict[int, str] = {}          # its channel id -> the request (client publish)
+        self.c = Counters(frames=0, dropped=0)
         self.out: list[str | bytes] = []        # frames of this flush, written at its end
 
 
@@ -77,28 +84,21 @@ class FoxServer:
         self.bridge: Bridge | None = None
         self.clients: set[_Client] = set()
         self.channels: dict[str, tuple[int, Schema]] = {}
-        self.last: dict[int, tuple[int, bytes]] = {}    # channel id -> its last message
-        self.c = Counters(messages=0, dropped=0, origin_refused=0, calls=0, call_errors=0)
+        self.last: dict[int, tuple[int, Out]] = {}      # channel id -> its last message
+        self.c = Counters(messages=0, dropped=0, origin_refused=0, calls=0, call_errors=0,
+                          published=0, publish_errors=0, bad_frames=0)
         self.url = ""
         self._loop: asyncio.AbstractEventLoop | None = None
-        self._pending: list[dict] = []
-        self._lock = threading.Lock()
-        self._woken = False
+        self._handover = Handover(self._flush, LAZY_S, PENDING_MAX)
 
     # ---- any thread: queue and wake the loop once
     def emit(self, msg: dict) -> None:
-        loop = self._loop
-        if loop is None:
-            return
-        with self._lock:
-            if len(self._pending) >= PENDING_MAX:
-                self.c.add("dropped")
-                return
-            self._pending.append(msg)
-            if self._woken:
-                return
-            self._woken = True
-        loop.call_soon_threadsafe(self._flush)
+        """Queue ``msg``; a sample wakes the loop (once for all that come meanwhile).
+        The rest (command records, log lines, link and behaviors' states) ride with the
+        next sample's flush, or go with a tick every LAZY_S while they come: no wake-up
+        of their own while samples flow."""
+        if not self._handover.put(msg, msg.get("t") != "s"):
+            self.c.add("dropped")
 
     def _on_commands(self, key: str, obj: JSON) -> None:
         got, _bad = records.unpack(key, obj)
@@ -107,12 +107,13 @@ class FoxServer:
 
     # ---- the loop
     def _flush(self) -> None:
-        with self._lock:
-            got, self._pending = self._pending, []
-            self._woken = False
+        got = self._handover.take()
+        n = 0
         for m in got:
             for out in self._convert(m):
                 self._publish(out)
+                n += 1
+        self.c.add("messages", n)
         for client in list(self.clients):
             self._write(client)
 
@@ -141,11 +142,10 @@ class FoxServer:
                 self._send(client, adv)
         cid = ch[0]
         ns = int(out.t * 1e9)
-        self.last[cid] = (ns, out.data)
-        self.c.add("messages")
+        self.last[cid] = (ns, out)
         for client in list(self.clients):
             sub = client.subs.get(cid)
-            if sub is not None:
+            if sub is not None:                  # (encoded only for a subscriber)
                 self._data(client, sub, ns, out.data)
 
     def _data(self, client: _Client, sub: int, ns: int, data: bytes) -> None:
@@ -154,7 +154,6 @@ class FoxServer:
             client.c.add("dropped")
             self.c.add("dropped")
             return
-        client.c.add("sent")
         client.out.append(struct.pack("<BIQ", MESSAGE_DATA, sub, ns) + data)
 
     @staticmethod
@@ -165,19 +164,17 @@ class FoxServer:
 
     @staticmethod
     def _write(client: _Client) -> None:
-        """The frames waiting, in one write to the socket (one frame each, as the
-        protocol has it: one system call per message cost more than the rest of the
-        server's loop)."""
+        """The frames waiting, in one write to the socket (one WebSocket frame each, as
+        the protocol has it: one system call per message cost more than the rest of the
+        server's loop). A server's frames are whole and unmasked (RFC 6455 5.2), no
+        extension is negotiated (compression=None): their header is written here, not by
+        websockets' frame objects, which cost more than the rest per message."""
         frames, client.out = client.out, []
         ws = client.ws
         if not frames or ws.state is not State.OPEN or ws.transport is None:
             return
-        for f in frames:
-            if isinstance(f, str):
-                ws.protocol.send_text(f.encode())
-            else:
-                ws.protocol.send_binary(f)
-        ws.transport.write(b"".join(ws.protocol.data_to_send()))
+        client.c.add("frames", len(frames))
+        ws.transport.write(b"".join(_ws_frame(f) for f in frames))
 
     @staticmethod
     def _channel(topic: str, cid: int, schema: Schema) -> dict:
@@ -203,7 +200,9 @@ class FoxServer:
         client = _Client(ws)
         await ws.send(json.dumps({
             "op": "serverInfo", "name": f"esair {self.bridge.robot if self.bridge else ''}",
-            "capabilities": ["services"], "supportedEncodings": ["json"], "metadata": {},
+            "capabilities": ["clientPublish", "services"], "supportedEncodings": ["json"],
+            "metadata": {"clientPublish": json.dumps(
+                {topic: cmds.REQUESTS[name] for topic, name in cmds.TOPICS.items()})},
             "sessionId": str(int(time.time()))}))
         await ws.send(json.dumps({"op": "advertise", "channels": [
             self._channel(t, *ch) for t, ch in self.channels.items()]}))
@@ -211,9 +210,9 @@ class FoxServer:
             {"id": i + 1, "name": name, "type": f"esair.{name}",
              "request": {"encoding": "json", "schemaName": req["title"],
                          "schemaEncoding": "jsonschema", "schema": json.dumps(req)},
-             "response": {"encoding": "json", "schemaName": RESPONSE["title"],
-                          "schemaEncoding": "jsonschema", "schema": json.dumps(RESPONSE)}}
-            for i, (name, req) in enumerate(REQUESTS.items())]}))
+             "response": {"encoding": "json", "schemaName": cmds.RESPONSE["title"],
+                          "schemaEncoding": "jsonschema", "schema": json.dumps(cmds.RESPONSE)}}
+            for i, (name, req) in enumerate(cmds.REQUESTS.items())]}))
         self.clients.add(client)
         try:
             async for frame in ws:
@@ -235,30 +234,71 @@ class FoxServer:
                     cid, sub = int(s["channelId"]), int(s["id"])
                     client.subs[cid] = sub
                     if cid in self.last:             # what it shows now: its last message
-                        self._data(client, sub, *self.last[cid])
+                        ns, out = self.last[cid]
+                        self._data(client, sub, ns, out.data)
             elif op == "unsubscribe":
                 gone = {int(i) for i in m["subscriptionIds"]}
                 client.subs = {c: s for c, s in client.subs.items() if s not in gone}
+            elif op == "advertise":                  # client publish: its channels
+                for ch in m["channels"]:
+                    topic, name = ch["topic"], cmds.TOPICS.get(ch["topic"])
+                    if name is None or ch.get("encoding") != "json":
+                        raise ValueError(f"client channel {topic!r} ({ch.get('encoding')}): "
+                                         f"this server takes JSON on {', '.join(cmds.TOPICS)}")
+                    client.pubs[int(ch["id"])] = name
+            elif op == "unadvertise":
+                for i in m["channelIds"]:
+                    client.pubs.pop(int(i), None)
+            else:
+                raise ValueError(f"unknown op {op!r}")
         except (ValueError, KeyError, TypeError, AttributeError) as exc:
-            self._send(client, json.dumps({"op": "status", "level": 2,
-                                           "message": f"bad request: {exc}"}))
+            self.c.add("bad_frames")
+            self._status(client, ERROR, f"bad request: {exc}")
+
+    def _status(self, client: _Client, level: int, message: str) -> None:
+        self._send(client, json.dumps({"op": "status", "level": level, "message": message}))
 
     async def _binary(self, client: _Client, frame: bytes) -> None:
-        if len(frame) < 13 or frame[0] != SERVICE_REQUEST:
+        """A service call or a client-published message; each waits for the RS's
+        answer before the client's next frame is read (one at a time per client)."""
+        if len(frame) >= 13 and frame[0] == SERVICE_REQUEST:
+            await self._service(client, frame)
+        elif len(frame) >= 5 and frame[0] == CLIENT_MESSAGE:
+            await self._published(client, frame)
+        else:
+            self.c.add("bad_frames")
+            self._status(client, ERROR, f"bad request: a binary frame of {len(frame)} bytes "
+                                        f"with opcode {frame[:1].hex() or 'none'}")
+
+    async def _published(self, client: _Client, frame: bytes) -> None:
+        (cid,) = struct.unpack_from("<I", frame, 1)
+        name = client.pubs.get(cid)
+        try:
+            if name is None:
+                raise BridgeError(f"client channel {cid} is not advertised")
+            topic = f"/esair/{name}"
+            assert self._loop is not None and self.bridge is not None
+            ok = await self._loop.run_in_executor(None, cmds.run, self.bridge, name,
+                                                  cmds.parse(frame[5:]))
+        except BridgeError as exc:
+            self.c.add("publish_errors")
+            self._status(client, ERROR, f"{f'/esair/{name}' if name else 'publish'}: {exc}")
             return
+        self.c.add("published")
+        self._status(client, INFO, f"{topic}: {json.dumps(ok)}")
+
+    async def _service(self, client: _Client, frame: bytes) -> None:
         sid, call, n = struct.unpack_from("<III", frame, 1)
         encoding, payload = frame[13:13 + n], frame[13 + n:]
-        names = list(REQUESTS)
+        names = list(cmds.REQUESTS)
         self.c.add("calls")
         try:
             if not 0 < sid <= len(names):
                 raise BridgeError(f"no service {sid}")
-            body = json.loads(payload) if payload else {}
-            if not isinstance(body, dict):
-                raise BridgeError("the request must be a JSON object")
-            assert self._loop is not None
-            ok = await self._loop.run_in_executor(None, self._call, names[sid - 1], body)
-        except (BridgeError, ValueError) as exc:
+            assert self._loop is not None and self.bridge is not None
+            ok = await self._loop.run_in_executor(None, cmds.run, self.bridge, names[sid - 1],
+                                                  cmds.parse(payload))
+        except BridgeError as exc:
             self.c.add("call_errors")
             self._send(client, json.dumps({"op": "serviceCallFailure", "serviceId": sid,
                                            "callId": call, "message": str(exc)}))
@@ -267,29 +307,15 @@ class FoxServer:
         self._send(client, struct.pack("<BIII", SERVICE_RESPONSE, sid, call, len(encoding))
                    + encoding + out)
 
-    def _call(self, name: str, body: dict) -> JSON:
-        bridge = self.bridge
-        assert bridge is not None
-        if name == "command":
-            res = body.get("resource")
-            if not isinstance(res, str) or "command" not in body:
-                raise BridgeError("a command needs 'resource' and 'command'")
-            return bridge.call("command", {"who": COMMANDER, "resource": res,
-                                           "command": body["command"], "timeout": 2.0}, 5.0)
-        if name == "stop":
-            return bridge.call("stop", {"who": PRINCIPAL, "reason": str(body.get("reason") or "")},
-                               10.0)
-        return bridge.call("release", {"who": COMMANDER}, 10.0)
-
     # ---- life cycle
     async def serve(self, ready: Callable[[str], None], stop: asyncio.Event) -> None:
-        self._loop = asyncio.get_running_loop()
-        self.bridge = Bridge(self.endpoint, self.emit, who=PRINCIPAL)
+        self._loop = self._handover.loop = asyncio.get_running_loop()
+        self.bridge = Bridge(self.endpoint, self.emit, who=cmds.PRINCIPAL,
+                             on_commands=self._on_commands)
         bridge = self.bridge
         bridge.showing = lambda: bool(self.clients)     # behaviors' states: while one looks
+        bridge.link_bar = False         # /link is the link's state at each change only
         await self._loop.run_in_executor(None, bridge.start)
-        assert bridge.bus is not None
-        bridge.bus.subscribe(keys.commands_all(bridge.robot), self._on_commands, with_key=True)
         self.emit({"t": "latch", "v": bridge.latch})
         try:
             async with serve(self._client, self.host, self.port, process_request=self._http,

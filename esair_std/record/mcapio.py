@@ -19,7 +19,7 @@ from mcap.writer import Writer
 
 from ..errors import StdError
 from ..transport.codec import JSON, JSONObject
-from .foxmsgs import COMMAND, Converter, Out, Schema
+from .foxmsgs import COMMAND, LATCH, LATCH_TOPIC, Converter, Out
 
 SCHEMA = {"type": "object", "title": "esair.Sample",
           "properties": {"seq": {"type": "integer", "description": "the sensor's sample number, from 1"},
@@ -30,18 +30,7 @@ SCHEMA = {"type": "object", "title": "esair.Sample",
 
 COMMAND_SCHEMA = json.loads(COMMAND.data)
 COMMAND_TOPIC = "command/"
-LATCH_TOPIC = "latch"
-LATCH_SCHEMA = {
-    "type": "object", "title": "esair.Latch",
-    "properties": {"seq": {"type": "integer", "description": "the state's number, from 1"},
-                   "t": {"type": "number", "description": "seconds since the epoch: the STOP "
-                                                          "or the release"},
-                   "stopped": {"type": "boolean"},
-                   "by": {"type": "string", "description": "who STOPPED it"},
-                   "reason": {"type": "string"},
-                   "released_by": {"type": "string", "description": "who released it"}},
-    "required": ["seq", "t", "stopped"]}
-LATCH = Schema("esair.Latch", "jsonschema", json.dumps(LATCH_SCHEMA).encode())
+LATCH_SCHEMA = json.loads(LATCH.data)
 
 
 class SampleWriter:

@@ -26,7 +26,6 @@ from pathlib import Path
 from typing import TYPE_CHECKING, cast
 
 from ..errors import ControlError, Refused
-from ..modes.process import ProcessComponent, ProcessMode
 from ..spec import Spec
 from ..transport.codec import JSONObject
 from ..transport.security_config import LEASE_MS, access_control, link_inserts, session_inserts
@@ -35,6 +34,7 @@ from ..counters import Counters
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..deploy.model import Deployment
+    from ..modes.process import ProcessMode
     from ..parts import RemoteComponent
     from ..runtime_view import RuntimeView
 
@@ -129,8 +129,11 @@ class Center:
         """The runtime's process mode (remote agents join only a process-mode runtime:
         the control endpoint refuses ``join`` in thread mode)."""
         mode = self.rt.mode
-        if not isinstance(mode, ProcessMode):
+        if getattr(mode, "name", None) != "process":
             raise ControlError("this runtime runs in thread mode: it takes no remote agents")
+        # imported here: a thread-mode runtime carries no process-mode code
+        from ..modes.process import ProcessMode
+        assert isinstance(mode, ProcessMode)
         return mode
 
     # ---- ctl/join
@@ -161,6 +164,7 @@ class Center:
                 "lease": _lease_s(b.get("lease_ms"))}
         spec = Spec.from_json({**spec.to_json(), "restart_max": 0, "base_dir": None})
         mode = self._mode()
+        from ..modes.process import ProcessComponent
         if spec.kind == "resource":
             return self._join_resource(spec, info)
         rec = self.rt.bs.records.get(name)

@@ -41,6 +41,8 @@ class Bridge:
             raise BridgeError(WHY)
         return {"by": "hmi:operator", "at": "12:00:00", "line": "x"}
 
+    ask = call      # the server asks STOP and release with Bridge.ask (an object answer)
+
 
 def run(refuse: bool, frame: dict) -> tuple[list[dict], list[str]]:
     """``frame`` from an operator's page: its answers and the log's lines (level text)."""

@@ -47,7 +47,8 @@ E12 = b"E12 input overrun\r\n"
 # The image verbs, i2c_scan and the build id (issue 32) took the central board from
 # 5708 B / 326 B to 6748 B / 367 B (the 104-byte transmit ring included); 6728 B / 365 B
 # since the sensor read starts from a RAM byte, not a const array copied to .data.
-SIZES = {"central": (6728, 365), "actuator": (2388, 273), "sensor": (1022, 42)}
+# The reactions' hold verb (h1/h0, its row and each reaction's !H text) -> 6810 B / 366 B.
+SIZES = {"central": (6810, 366), "actuator": (2388, 273), "sensor": (1022, 42)}
 GOAL_FLASH, GOAL_RAM = 7168, 1024          # issue 32: the central board (issue 24: 8 KB)
 PULSE_ERROR = 0.01                          # issue 24: servo pulses within 1 %
 
@@ -78,7 +79,7 @@ def test_papaman_avr_builds_with_exact_sizes_within_goal(avr_build):
     # the AVR's stack grows at run time on top of the static RAM: not "RAM (with stack)"
     assert lines[0].split() == ["board", "program", "memory", "RAM", "stack", "mcu"]
     assert lines[1].split()[0] == "central"
-    assert "6728 B of 32768" in lines[1] and "365 B of 2048 (17.8%) + stack" in lines[1]
+    assert "6810 B of 32768" in lines[1] and "366 B of 2048 (17.9%) + stack" in lines[1]
     assert lines[1].rstrip().endswith("atmega328p")
 
 
@@ -515,6 +516,7 @@ def test_a_conversion_before_the_mux_settles_reads_the_previous_input(avr_build,
 
 
 BALANCE = ROOT / "tests" / "fixtures" / "gpsim" / "balance.txt"
+BALANCE_HELD = BALANCE.with_name("balance_held.txt")
 
 
 def test_balance_reaction_compares_four_feet_sensors_a_foot(avr_robot, avr_build, tmp_path):
@@ -549,3 +551,27 @@ def test_image_verbs_four_way(avr_robot, avr_build, host_avr, tmp_path, which):
         assert replies[0] == ready(avr_robot, False)
         assert replies[2:4] == [b"E09 motion image invalid\r\n"] * 2
     assert replies[-1] == b"OK\r\n"
+
+
+def test_held_reactions_four_way(avr_robot, avr_build, host_avr, tmp_path):
+    """``h1`` holds auto_balance and ``h0`` releases it (tests/fixtures/gpsim/
+    balance_held.txt) on the three AVR boards in simavr, the host C and the Python core:
+    the same trace; while held a tip sends ``!H`` and no frame but the dance's is
+    written, released it fires ``!R`` and the balance motion."""
+    stimulus = BALANCE_HELD.read_text()
+    python = run_script(avr_robot, stimulus)
+    script = tmp_path / "s.txt"
+    script.write_text(stimulus)
+    proc = subprocess.run([str(host_avr), str(script)], capture_output=True, text=True,
+                          timeout=120)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert without_marks(proc.stdout) == without_marks(python)
+    elfs = {role: b.folder / "firmware.elf" for role, b in avr_build.items()}
+    run = run_robot(avr_robot, stimulus, elfs, tmp_path)
+    assert compare(python, run.trace(), AvrSetup.from_robot(avr_robot)) == []
+    held, fired = b"!H auto_balance\r\n", b"!R auto_balance\r\n"
+    assert [line for _, line in run.replies][1:] == [b"OK\r\n", b"OK\r\n", held, held,
+                                                     b"E03 bad argument\r\n", b"OK\r\n", fired]
+    writes = [t for t in run.transfers if t.segments[0].address == 0x10]
+    frames = {m.name: len(m.frames) for m in avr_robot.motions}
+    assert len(writes) == frames["dance"] + frames["balance"]

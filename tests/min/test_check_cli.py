@@ -19,7 +19,7 @@ PAPAMAN = ROOT / "boards" / "papaman"
 
 SUMMARY = """\
 robot 'papaman': 3 boards (actuator [actuator], central [central], sensor [sensor])
-  servos: 12, sensors: 8, commands: 14, motions: 5 (stand, sit, prostrate, dance, balance), reactions: 1
+  servos: 12, sensors: 8, commands: 15, motions: 5 (stand, sit, prostrate, dance, balance), reactions: 1
   EEPROM 'motion_store': 1070 of 32768 bytes used (3.3 %)
   tick: 8.9856 ms (Timer2 prescale 16, PR2 233, postscale 12 at 20000000 Hz)
   UART: 9600 baud, SPBRG 129 BRGH=1, error +0.16 %

@@ -67,7 +67,8 @@ motor = st.builds(lambda m, s, a: f"o{m}{s}{a:03d}", st.sampled_from("abcdefghij
                   st.sampled_from("abcdfkz{"), st.integers(0, 999))
 angle_chars = st.sampled_from("0123456789:;<=>?@ABCDEFGHIJKLMNOPQRSTUVWXYZ[]^_`abcdefghijkl.m/")
 commands = st.one_of(
-    st.sampled_from(["t", "v", "s", "x", "SIT", "DNC", "PLY", "PLY0", "tt", "o", "q", ""]),
+    st.sampled_from(["t", "v", "s", "x", "SIT", "DNC", "PLY", "PLY0", "tt", "o", "q", "",
+                     "h1", "h0", "h2", "h"]),
     motor,
     st.builds(lambda n: f"PLY{n:02d}", st.integers(0, 7) | st.just(99)),
     st.builds(lambda ds: "a" + "".join(ds), st.lists(digits3, min_size=11, max_size=13)),

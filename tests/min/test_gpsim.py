@@ -32,7 +32,9 @@ pytestmark = pytest.mark.gpsim
 SCENARIO = Path(__file__).resolve().parents[1] / "fixtures" / "gpsim" / "papaman.txt"
 BALANCE = SCENARIO.with_name("balance.txt")
 BALANCE_EQUAL = SCENARIO.with_name("balance_equal.txt")
+BALANCE_HELD = SCENARIO.with_name("balance_held.txt")
 BALANCE_LINE = b"!R auto_balance\r\n"
+HELD_LINE = b"!H auto_balance\r\n"
 
 # Ceilings (instruction cycles at 20 MHz): the simulator's exact counts plus headroom
 # (each count: docs/toolchain.md, "Cycle ceilings the gpsim tests hold").
@@ -382,3 +384,20 @@ def test_a_cut_write_gpsim_equals_python_core(robot, central, tmp_path):
     assert replies == [READY_BAD, VERSION_BAD, b"E09 motion image invalid\r\n",
                        b"E09 motion image invalid\r\n", b"OK\r\n", b"OK\r\n", VERSION_OK,
                        b"OK\r\n"]
+
+
+def test_held_reactions_gpsim_equals_python_core(tipping_robot, tipping_central, tmp_path):
+    """``h1`` holds the balance reaction on the PIC as in the Python core: while held, a
+    tip sends ``!H auto_balance`` and writes no frame (the dance plays on whole); after
+    ``h0`` the same tip fires ``!R`` and the balance motion."""
+    stimulus = BALANCE_HELD.read_text()
+    run = run_stimulus(tipping_robot, stimulus, tipping_central, tmp_path)
+    python = run_script(tipping_robot, stimulus)
+    assert compare(python, run.trace(), GpsimSetup.from_robot(tipping_robot)) == []
+    replies = [line for _, line in run.replies]
+    assert replies == [ready(tipping_robot), b"OK\r\n", b"OK\r\n", HELD_LINE, HELD_LINE,
+                       b"E03 bad argument\r\n", b"OK\r\n", BALANCE_LINE]
+    writes = [t for t in run.transfers if t.segments[0].address == 0x10]
+    dance = next(m for m in tipping_robot.motions if m.name == "dance")
+    balance = next(m for m in tipping_robot.motions if m.name == "balance")
+    assert len(writes) == len(dance.frames) + len(balance.frames)

@@ -22,9 +22,10 @@ pytestmark = pytest.mark.gpsim
 # before them; 9494 B with them before the hand-written table helpers and RAM pointers).
 GOAL_FLASH, GOAL_RAM = 9216, 512
 # Measured (program bytes, RAM bytes incl. the stack) + about 3 %; the central board's
-# measured exactly (8 926 B, 504 B). The peers' RAM: the I2C slave's byte queue in the
-# access bank (actuator 462, sensor 180 bytes measured).
-CEILINGS = {"central": (8_926, 504), "actuator": (7_250, 476), "sensor": (2_020, 185)}
+# measured exactly (9 028 B, 505 B; 8 926 B, 504 B before the reactions' hold verb).
+# The peers' RAM: the I2C slave's byte queue in the access bank (actuator 462, sensor
+# 180 bytes measured).
+CEILINGS = {"central": (9_028, 505), "actuator": (7_250, 476), "sensor": (2_020, 185)}
 
 
 @pytest.fixture(scope="module")

@@ -98,7 +98,7 @@ def test_commands_replies_and_servo_state(tmp_path, robot):
             assert ask(port, "x") == "OK"
             assert ask(port, "t*74") == "OK"
             assert ask(port, "t*99") == "E06 bad checksum"
-            assert ask(port, "hello") == "E01 unknown command"
+            assert ask(port, "zebra") == "E01 unknown command"
             assert ask(port, "c" + "N" * 10 + "P.") == "OK"
             time.sleep(0.5)                                    # servos reach their targets
     lines = without_marks(trace.read_text().splitlines())

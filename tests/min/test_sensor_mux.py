@@ -137,6 +137,6 @@ def test_esair_check_names_the_mux():
 
     result = CliRunner().invoke(main, ["check", str(ROOT / "boards" / "papaman-avr")])
     assert result.exit_code == 0, result.output
-    assert "  servos: 12, sensors: 8, commands: 14" in result.stdout
+    assert "  servos: 12, sensors: 8, commands: 15" in result.stdout
     assert ("  mux: 8 of 8 inputs on ADC0, select PB0, PB1, PB2 (S0 first), settling 10 us\n"
             in result.stdout)

@@ -163,8 +163,8 @@ def test_each_item_of_a_kind_reports_its_own_error(tmp_path: Path) -> None:
     with pytest.raises(ConfigErrors) as info:
         load_robot(robot)
     assert [(e.mark.line, e.message) for e in info.value.each() if e.mark] == [
-        (66, "motion 'sit' frame 0: angle 190 for servo 'r_ankle_roll' is outside its "
+        (68, "motion 'sit' frame 0: angle 190 for servo 'r_ankle_roll' is outside its "
              "limits 60..120"),
-        (67, "motion 'sit' frame 1: angle 10 for servo 'l_hip_yaw' is outside its limits "
+        (69, "motion 'sit' frame 1: angle 10 for servo 'l_hip_yaw' is outside its limits "
              "60..120"),
     ]

@@ -12,8 +12,10 @@ from __future__ import annotations
 import io
 import json
 import re
+import struct
 import subprocess
 import sys
+import time
 from collections import defaultdict
 from pathlib import Path
 
@@ -204,6 +206,142 @@ def test_commands_only_where_the_operator_is_granted(live):
         assert ok and answer.endswith("090")     # the servo's reply to the angle
     finally:
         client.close()
+
+
+def test_client_publish_commands_only_where_the_operator_is_granted(live):
+    """Client publish (``/esair/command``, ``/esair/stop``, ``/esair/release``): through
+    the RS as the services, the answer as a status message."""
+    client = FoxClient(live.url)
+    try:
+        client.pump(0.5)
+        assert "clientPublish" in client.info["capabilities"]
+        assert set(json.loads(client.info["metadata"]["clientPublish"])) == {
+            "/esair/command", "/esair/stop", "/esair/release"}
+        if live.robot == "starfish":
+            level, why = client.publish("/esair/command", {"resource": "starfish.wheels",
+                                                           "command": {"vx": 0, "vy": 0, "w": 0}})
+            assert level == 2 and "'operator' up to read, not command" in why
+            return
+        # a joint angle: the servo's reply, the command's record (by the operator) and
+        # the joints' channel show it
+        level, said = client.publish("/esair/command", {"resource": "papaman.servo.l_knee",
+                                                        "command": {"angle": 95}})
+        assert level == 0 and said.startswith("/esair/command: ") and said.endswith('095"'), said
+        wait_for(lambda: client.pump(0.2) or any(
+            json.loads(d)["command"] == {"angle": 95} and json.loads(d)["by"] == "operator"
+            for d in by_topic(client)["command/papaman.servo.l_knee"]),
+            timeout=30, what="the command's record")
+        wait_for(lambda: client.pump(0.2) or json.loads(by_topic(client)["/papaman/joints"][-1])[
+            "l_knee"] == 95, timeout=30, what="the joint at 95 degrees")
+        # a motion, the STOP (a command refused), the release
+        assert client.publish("/esair/command", {"resource": "papaman.motion",
+                                                 "command": "stand"}) == (0, '/esair/command: "t"')
+        level, said = client.publish("/esair/stop", {"reason": "by client publish"})
+        assert level == 0 and '"by": "foxglove"' in said
+        level, why = client.publish("/esair/command", {"resource": "papaman.servo.l_knee",
+                                                       "command": {"angle": 90}})
+        assert level == 2 and "stopped by foxglove" in why
+        assert client.publish("/esair/release", {})[0] == 0
+        assert client.publish("/esair/command", {"resource": "papaman.servo.l_knee",
+                                                 "command": {"angle": 90}})[0] == 0
+    finally:
+        client.close()
+
+
+def test_garbage_frames_get_an_error_status_and_lose_nothing(live):
+    """Each frame the protocol does not know gets an error status; the client stays
+    connected and its subscriptions lose no sample meanwhile."""
+    sensor = "starfish.odometry" if live.robot == "starfish" else "papaman.feet"
+    client = FoxClient(live.url)
+    try:
+        wait_for(lambda: client.pump(0.2) or len(by_topic(client)[sensor]) >= 2,
+                 timeout=30, what=f"{sensor}'s samples")
+        garbage: list[str | bytes] = [
+            b"", b"\x07abc", b"\x02\x00\x00",         # no opcode, an unknown one, too short
+            b"\x01\x63\x00\x00\x00{}",               # on a client channel not advertised
+            "not json", '{"op": "nonsense"}', '{"no": "op"}',
+            json.dumps({"op": "advertise", "channels": [{"id": 7, "topic": "/elsewhere",
+                                                         "encoding": "json", "schemaName": "x"}]}),
+            json.dumps({"op": "advertise", "channels": [{"id": 8, "topic": "/esair/command",
+                                                         "encoding": "cdr", "schemaName": "x"}]}),
+            json.dumps({"op": "subscribe", "subscriptions": [{"id": "x"}]})]
+        for frame in garbage:
+            level, message = client.send_expecting_status(frame)
+            assert level == 2 and message.startswith("bad request: ") or (
+                level == 2 and "not advertised" in message), (frame, message)
+        cid = client.advertise("/esair/command")
+        level, message = client.send_expecting_status(struct.pack("<BI", 1, cid) + b"[1, 2")
+        assert level == 2 and "not JSON" in message
+        client.pump(2.0)
+        seqs = [json.loads(d)["seq"] for d in by_topic(client)[sensor]]
+        assert len(seqs) >= 4 and seqs == list(range(seqs[0], seqs[0] + len(seqs))), seqs
+    finally:
+        client.close()
+
+
+LAYOUT = json.loads((ROOT / "docs" / "foxglove-layout.json").read_text())
+GENERIC = {"/log", "/tf"}                        # every robot's
+
+
+def layout_refs() -> list[tuple[str, str, str]]:
+    """What docs/foxglove-layout.json shows: (panel, topic, message path or "")."""
+    refs = []
+    for panel, cfg in LAYOUT["configById"].items():
+        for topic in cfg.get("topics", {}):
+            refs.append((panel, topic, ""))
+        if "imageMode" in cfg:
+            refs.append((panel, cfg["imageMode"]["imageTopic"], ""))
+        if "topicToRender" in cfg:
+            refs.append((panel, cfg["topicToRender"], ""))
+        for path in cfg.get("paths", []):
+            m = re.fullmatch(r'"([^"]+)"\.(.+)|(/[^.]+)\.(.+)', path["value"])
+            assert m, path
+            refs.append((panel, m.group(1) or m.group(3), m.group(2) or m.group(4)))
+    return refs
+
+
+def test_the_layout_names_only_what_a_robot_publishes(live):
+    """No viewer runs here: the layout's panels are checked against the channels the
+    live server advertises (their schemas fit the panel) and each plotted path against
+    a message of its channel (the recording has the same channels: the first test)."""
+    refs = layout_refs()
+    assert {t for _p, t, _f in refs} - GENERIC <= {t for _p, t, _f in refs
+                                                   if "starfish" in t or "papaman" in t}
+    mine = [(p, t, f) for p, t, f in refs if t in GENERIC or live.robot in t]
+    client = FoxClient(live.url)
+    try:
+        client.pump(0.5)
+        if live.robot == "starfish":
+            live.std("configure", "starfish.mics", "source", '{"x": 1.0, "y": 3.5, "on": true}')
+        else:
+            for joint in {f for _p, t, f in mine if t == "/papaman/joints"}:
+                # (again while the pushes' reactions or the load make one fail)
+                end = time.monotonic() + 60
+                while not (said := client.call("command", {"resource": f"papaman.servo.{joint}",
+                                                           "command": {"angle": 90}}))[0]:
+                    assert time.monotonic() < end, (joint, said)
+        want = {t for _p, t, _f in mine}
+        wait_for(lambda: client.pump(0.3) or want <= set(by_topic(client)), timeout=90,
+                 what=f"{sorted(want - set(by_topic(client)))} of the layout")
+    finally:
+        client.close()
+    schema = {c.topic: c.name for c in client.channels.values()}
+    fits = {"3D": {"foxglove.SceneUpdate", "foxglove.PoseInFrame"},
+            "Image": {"foxglove.CompressedImage"}, "RosOut": {"foxglove.Log"}}
+    for panel, topic, path in mine:
+        kind = panel.split("!")[0]
+        if kind in fits:
+            assert schema[topic] in fits[kind], (panel, topic, schema[topic])
+            continue
+        msg = json.loads(by_topic(client)[topic][-1])
+        for key in path.split("."):
+            msg = msg[key]
+        assert isinstance(msg, (int, float)), (panel, topic, path, msg)
+    if live.robot == "starfish":                # the 3-D panel follows the robot's frame
+        follow = LAYOUT["configById"]["3D!room"]["followTf"]
+        tf = check_all({"/tf": next(c for c in client.channels.values() if c.topic == "/tf")},
+                       {"/tf": by_topic(client)["/tf"][-1:]})
+        assert tf["/tf"][0]["child_frame_id"] == follow
 
 
 def test_a_foreign_origin_is_refused(live):

@@ -234,3 +234,23 @@ def test_papaman_avr_feet_are_papaman_s_eight(robot):
     assert list(feet["values"]) == [s.name for s in robot.sensors]          # type: ignore[call-overload]
     assert feet["groups"] == {"left_foot": 2048, "right_foot": 2048}
     assert _io_threads() == []
+
+
+def test_a_held_link_holds_the_firmwares_reactions_again_after_a_reset(robot):
+    """Held, the link tells the robot ``x`` then ``h1`` (its core's reactions held). A
+    reset while the port stays open releases them (RAM only): the robot's ``!READY``
+    makes the link hold them again at once. ``hold(False)`` sends ``h0``."""
+    from tests.support.std import wait_for
+
+    with Link(robot, URL) as link:
+        core = link._port.emulator.core
+        assert link.hold(True) is not None
+        wait_for(lambda: core.reactions_held, timeout=10, what="h1 after the x")
+        with link._port._emu_lock:
+            core.boot()                       # a reset in place: released, then !READY
+        assert not core.reactions_held
+        wait_for(lambda: core.reactions_held, timeout=10, what="h1 after the reset")
+        assert link.stats["resets_while_held"] == 1 and link.stats["stops_sent"] == 2
+        wait_for(lambda: link.stats["hold_lines_sent"] == 2, timeout=10, what="h1 answered")
+        link.hold(False)
+        assert not core.reactions_held and link.stats["hold_lines_sent"] == 3

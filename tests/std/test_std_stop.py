@@ -28,9 +28,11 @@ PAPAMAN = ROOT / "boards" / "papaman"
 REFUSAL = re.compile(r"papaman\.servo\.l_knee: stopped by (\S+) at \d\d:\d\d:\d\d: "
                      r"release with esair std release")
 STOP_LINE = "RX 780D"             # x CR, as the robot's decoder took it (docs/trace-format.md)
+HOLD_LINE = "RX 68310D"           # h1 CR: the firmware's reactions held (docs/protocol.md)
+RELEASE_LINE = "RX 68300D"        # h0 CR: released
 DANCES = 10
 DANCE_FRAMES = 32                   # boards/papaman/central.yaml
-QUIET = {"RX 0D", STOP_LINE, "RX 730D", "RX 760D"}   # resync, x, s, v: move nothing
+QUIET = {"RX 0D", STOP_LINE, HOLD_LINE, "RX 730D", "RX 760D"}   # resync, x, h1, s, v
 
 
 def nudger() -> dict:
@@ -148,8 +150,32 @@ def test_a_stop_while_the_link_is_down_reaches_the_robot_first(start, tmp_path):
         emu.stop()
     received = [line for line in trace.read_text().splitlines()
                 if line.startswith("RX ") and line != "RX 0D"]
-    assert received[0] == STOP_LINE, received[:3]
+    assert received[:2] == [STOP_LINE, HOLD_LINE], received[:3]
     assert set(received) <= QUIET, sorted(set(received) - QUIET)
+
+
+def test_a_release_while_the_link_is_down_reaches_the_robot_when_it_is_back(start, tmp_path):
+    """The release's ``h0`` (the firmware's reactions let go) cannot go while the link is
+    down: it goes when the link is back, and no ``x`` or ``h1`` with it."""
+    trace = tmp_path / "trace.txt"
+    emu = EmulatedRobot(PAPAMAN)
+    emu.start()
+    try:
+        rt = start(example(emu.port))
+        rt.wait_state("sequencer", "running")
+        rt.stop_robot("pulled")
+        emu.kill()
+        wait_for(lambda: rt.state("papaman.motion") == "lost", timeout=20,
+                 what="the link down")
+        rt.release_robot()
+        emu.start(["--trace", str(trace), "--trace-rx"])          # plugged back
+        wait_for(lambda: RELEASE_LINE in trace.read_text().splitlines(), timeout=30,
+                 what="the release's h0 after the link came back")
+    finally:
+        emu.stop()
+    received = [line for line in trace.read_text().splitlines()
+                if line.startswith("RX ") and line != "RX 0D"]
+    assert STOP_LINE not in received and HOLD_LINE not in received, received[:5]
 
 
 def test_only_the_operator_releases_and_a_behavior_stops_only_when_granted(start, tmp_path):
@@ -245,54 +271,56 @@ def test_a_remote_agents_commands_are_refused_too(tmp_path):
         emu.stop()
 
 
-def test_the_firmwares_balance_reaction_is_stopped_while_stopped(start, tmp_path):
+def test_the_firmwares_balance_reaction_is_held_while_stopped(start, tmp_path):
     """PAPA-MAN's firmware reacts by itself: a push fires its balance reaction, which
-    plays a motion (``!R auto_balance``). The firmware has no command to hold its
-    reactions; while STOPPED the link answers each notice with ``x`` at once: in the
-    robot's trace every notice is followed by an ``x``, and after it no frame is
-    written until the reaction fires again (its first frames go before the ``x``
-    arrives: docs/std-papaman.md)."""
+    plays a motion. A runtime started STOPPED tells the robot ``x`` then ``h1`` before
+    any moving line; the push then sends ``!H auto_balance`` (held) and, by the robot's
+    own trace, no servo is written at all. After the release (``h0``) the same push
+    fires ``!R auto_balance`` and the balance motion moves the servos again. (No host
+    behavior commands the robot here: the moves are the firmware's.)"""
     trace = tmp_path / "trace.txt"
     emu = EmulatedRobot(PAPAMAN, ["--trace", str(trace), "--trace-rx", "--scenario", "push",
                                   "--hold-scenario"])
     emu.start()
     try:
-        rt = start(example(emu.port), stopped="the push")
-        rt.wait_state("watcher", "running")
-        wait_for(lambda: rt.get("watcher")["samples"] >= 2, timeout=30,
-                 what="the feet's samples")
+        dep = example(emu.port)
+        del dep["behaviors"]["watcher"], dep["behaviors"]["logger"]
+        rt = start(dep, stopped="the push")
+        rt.wait_state("sequencer", "running")
+        wait_for(lambda: HOLD_LINE in trace.read_text().splitlines(), timeout=30,
+                 what="the robot told to hold its reactions")
         emu.play_scenario()
-        wait_for(lambda: reactions(trace.read_text().splitlines())[0] >= 1, timeout=30,
-                 what="the reaction's notice, then the robot's x")
-        # the host's own reaction (stop, stand) was refused: the robot is STOPPED
-        wait_for(lambda: any("stopped by operator at " in e
-                             for e in rt.get("watcher")["errors"]), timeout=20,
-                 what="the watcher's stop refused")
-        wait_for(lambda: (r := reactions(trace.read_text().splitlines()))[0] == r[1],
-                 timeout=20, what="every notice answered with x")
+        wait_for(lambda: HELD_NOTICE in trace.read_text().splitlines(), timeout=30,
+                 what="the reaction held (its !H notice)")
+        wait_for(lambda: trace.read_text().splitlines().count(HELD_NOTICE) >= 2, timeout=30,
+                 what="the push held to its end")
+        rt.release_robot()
+        wait_for(lambda: RELEASE_LINE in trace.read_text().splitlines(), timeout=30,
+                 what="the robot told to release its reactions")
+        emu.play_scenario()
+        wait_for(lambda: len(servo_writes(trace.read_text().splitlines())) >= 3, timeout=30,
+                 what="the balance motion's frames after the release")
     finally:
         emu.stop()
-    fired, stopped, moved = reactions(trace.read_text().splitlines())
-    assert fired >= 1 and stopped == fired and moved == [], (fired, stopped, moved[:3])
+    lines = trace.read_text().splitlines()
+    received = [line for line in lines if line.startswith("RX ") and line != "RX 0D"]
+    held = received.index(HOLD_LINE)         # the link's v and polls may come first
+    assert received[held - 1] == STOP_LINE and set(received[:held]) <= QUIET, received[:held]
+    released = lines.index(RELEASE_LINE)
+    assert NOTICE not in lines[:released] and HELD_NOTICE in lines[:released]
+    assert servo_writes(lines[:released]) == []
+    assert NOTICE in lines[released:] and HELD_NOTICE not in lines[released:]
+    writes = servo_writes(lines)
+    assert writes and all(i > lines.index(NOTICE) for i in writes)
 
 
 NOTICE = "TX " + b"!R auto_balance\r\n".hex().upper()
+HELD_NOTICE = "TX " + b"!H auto_balance\r\n".hex().upper()
 
 
-def reactions(lines: list[str]) -> tuple[int, int, list[str]]:
-    """The firmware's reactions (its ``!R`` notices), the ``x`` lines that followed
-    them, and the actuator writes that came while no reaction was playing: after an
-    ``x`` and before the next notice."""
-    fired = stopped = 0
-    quiet, moved = True, []
-    for ln in lines:
-        if ln == NOTICE:
-            fired, quiet = fired + 1, False
-        elif ln == STOP_LINE and fired > stopped:
-            stopped, quiet = stopped + 1, True
-        elif quiet and fired and ln.startswith("W 10 ") and ln.endswith(" ACK"):
-            moved.append(ln)
-    return fired, stopped, moved
+def servo_writes(lines: list[str]) -> list[int]:
+    """Indexes of the acknowledged writes to the actuator board."""
+    return [i for i, ln in enumerate(lines) if ln.startswith("W 10 ") and ln.endswith(" ACK")]
 
 
 @pytest.mark.slow

@@ -76,3 +76,21 @@ class SlowWheelsOnce(Starfish):
                 time.sleep(self.slow_s)      # the one late reply under test
             return write(command)
         wheels.write = slow_once
+
+
+class OdometryTrace(Behavior):
+    """Every odometry sample as [n (the central board's ticks), th, moving, t]: the
+    robot's own record of a turn."""
+
+    period = 0.05
+
+    def start(self):
+        self.odometry = self.attach_sensor("starfish.odometry", keep=64)
+        self.trace = []
+
+    def step(self):
+        for s in self.odometry.samples():
+            self.trace.append([s.value["n"], s.value["th"], s.value["moving"], s.t])
+
+    def provide(self, requester):
+        return {"trace": self.trace[-600:], "gaps": self.odometry.overwritten}

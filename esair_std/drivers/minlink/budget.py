@@ -10,11 +10,13 @@ poll may use at most ``share`` of the line (default half), the rest is for comma
 from __future__ import annotations
 
 from dataclasses import dataclass
-
-from esair_min.model.robot import Robot
+from typing import TYPE_CHECKING
 
 from .commands import RobotCommands
 from .link_errors import LinkError
+
+if TYPE_CHECKING:  # pragma: no cover - the model is loaded by whoever opens a link
+    from esair_min.model.robot import Robot
 
 BITS_PER_BYTE = 10          # start + 8 data + stop
 DEFAULT_FEET_SHARE = 0.5

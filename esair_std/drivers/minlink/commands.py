@@ -11,13 +11,14 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from esair_min.errors import ProtocolError
-from esair_min.model.board import Servo
 from esair_min.core.protocol import MAX_SPEED, encode_pair, frame_line
-from esair_min.model.robot import Robot
 
 from .link_errors import LinkError
 
-if TYPE_CHECKING:  # pragma: no cover
+if TYPE_CHECKING:  # pragma: no cover - the model is loaded by whoever opens a link
+    from esair_min.model.board import Servo
+    from esair_min.model.robot import Robot
+
     from ...transport.codec import JSONObject
 
 VERSION_PREFIX = "esair-min/1"

@@ -31,12 +31,14 @@ Resources, named from the board files:
   sum}}``, polled ``feet_hz`` times a second by the driver's own poller (so that a
   refused poll marks it lost and the next good one ready again);
 - ``<entry>.notices`` sensor: every ``!`` line as ``{"notice": text}`` (``R
-  auto_balance``, ``E10 no answer on i2c``, ``READY ...``).
+  auto_balance``, ``H auto_balance`` while held, ``E10 no answer on i2c``, ``READY ...``).
 
 The runtime's latched STOP (docs/std.md) holds the link (``halt()``): ``x`` goes at
-once, ahead of every command, and nothing but ``x`` and the polls goes until the
-release; a STOP made while the link is down is written first thing when it is back;
-the firmware's own reaction (``!R``) is answered with ``x`` at once.
+once, ahead of every command, then ``h1`` holds the firmware's own reactions (a tip
+sends ``!H`` and moves nothing), and nothing but those and the polls goes until the
+release, which sends ``h0``; a STOP made while the link is down is written first thing
+(``x`` then ``h1``) when it is back; a reaction's ``!R`` while held is answered with
+``x`` at once.
 
 An ``Enn`` reply reaches the sender as ``CommandError(resource, "robot refused 'LINE':
 Enn text")``. While the link is down every resource is ``lost`` (``esair std ls`` shows
@@ -71,8 +73,6 @@ from pydantic import BaseModel
 from esair_std import Actuator, CommandError, Driver, ResourceLost, Sensor
 
 from esair_min.errors import EsairError
-from esair_min.model.validate import load_robot
-from esair_min.resources import resolve_robot
 
 from ...restart_window import RestartWindow
 from ...deploy.class_options import check_options
@@ -322,6 +322,10 @@ class MinLink(Driver):
         robot_arg = o.robot if o.robot is not None else self.name
         robot_arg = in_folder(base, robot_arg, must_exist=True)
         port = o.port
+        # the board model (pydantic) is loaded here, where the link opens: a runtime
+        # that only checks this class's options (process mode) never loads it
+        from esair_min.model.validate import load_robot
+        from esair_min.resources import resolve_robot
         try:
             path = resolve_robot(str(robot_arg))
             robot = load_robot(path)
@@ -372,9 +376,10 @@ class MinLink(Driver):
         return self.children
 
     def halt(self) -> None:
-        """The runtime's latched STOP: the link sends ``x`` ahead of everything, then
-        refuses every line but the stop and the polls; while down, it sends ``x`` first
-        thing when it comes back (link.py, "Held")."""
+        """The runtime's latched STOP: the link sends ``x`` ahead of everything and
+        ``h1`` (the firmware's reactions held), then refuses every line but those and
+        the polls; while down, it sends them first thing when it comes back (link.py,
+        "Held")."""
         self.link.hold(True)
 
     def release(self) -> None:

@@ -55,11 +55,15 @@ robot that exited: its pty may belong to another program by now).
 **Held** (:meth:`hold`, the runtime's latched STOP): the stop line (``x``) goes at
 once, ahead of every command waiting, which fails with :class:`Held`, as does every
 line but the stop, the version and the polls (sensors keep flowing) until
-``hold(False)``. While
-held, each (re)connect writes the stop line before any other byte (a STOP made while
-the link was down reaches the robot first thing), and a reaction's ``!R`` notice is
-answered with the stop line at once (the firmware cannot be told to hold its
-reactions: docs/std-papaman.md).
+``hold(False)``. Right after the stop line the firmware's own reactions are held too
+(``h1``, where the command table has the ``hold`` verb: a reaction that fires then sends
+``!H`` and moves nothing, docs/protocol.md). While held, each (re)connect writes the
+stop line and ``h1`` before any other byte (a STOP made while the link was down, or a
+robot reset since, which releases its reactions, is told first thing). ``hold(False)``
+sends ``h0``; one that could not go is sent at the next connect. A reaction's ``!R``
+while held (one that fired before ``h1`` arrived, or a robot without the verb), and a
+robot's ``!READY`` (a reset, which releases its reactions, while the port stayed open)
+are answered with the stop line and ``h1`` at once (docs/std-papaman.md).
 
 Deadlines: a command carries one (``deadline``, a ``time.monotonic()``; by default its
 ``timeout`` from the call). A command not written by then fails with :class:`Expired`
@@ -78,7 +82,6 @@ from typing import TYPE_CHECKING, Callable
 
 from esair_min.errors import ProtocolError
 from esair_min.core.protocol import RX_RING, Code, parse_reply
-from esair_min.model.robot import Robot
 from esair_min.serialport import LOCKED, describe, open_port
 
 from ...counters import Counters
@@ -86,7 +89,8 @@ from .budget import LineBudget, line_budget
 from .commands import VERSION_PREFIX, RobotCommands
 from .link_errors import DifferentRobot, Expired, Held, LinkDown, LinkError, RobotRefused
 
-if TYPE_CHECKING:  # pragma: no cover
+if TYPE_CHECKING:  # pragma: no cover - the model is loaded by whoever opens a link
+    from esair_min.model.robot import Robot
     from serial import Serial           # pySerial is imported when a port opens
 
     from ...transport.codec import JSONObject
@@ -189,6 +193,13 @@ class Link:
         self.last_stop: Exchange | None = None      # the stop line hold() last sent
         self._held_lines = set(_lines_of(self.commands, ("stop", "version", "sensors",
                                                          "odometry")))
+        # the reactions' hold verb (h1 holds, h0 releases), where the table has it
+        verb = _lines_of(self.commands, ("hold",))
+        self._hold_lines = (verb[0] + "1", verb[0] + "0") if verb else None
+        if self._hold_lines is not None:
+            self._held_lines.add(self._hold_lines[0])
+        self._release_due = False       # an h0 that could not go: sent at the next connect
+        self._told_held = False         # the last connect wrote the stop line and h1
 
     # -- life cycle -----------------------------------------------------------------------
     def open(self) -> None:
@@ -202,6 +213,7 @@ class Link:
         self._thread = threading.Thread(target=self._run, name=f"minlink-io:{self.port}",
                                         daemon=True)
         self._thread.start()
+        self._after_up()
 
     def close(self) -> None:
         """Stop the I/O thread, close the port, fail the commands still in flight."""
@@ -310,20 +322,28 @@ class Link:
         """Hold (the module docstring, "Held") or let go. Holding fails every command
         waiting and sends the stop line ahead of the rest; it returns that exchange
         once answered (None: the link is down, the next connect sends it first, or its
-        reply did not come). Letting go sends nothing."""
+        reply did not come), after which ``h1`` holds the firmware's reactions. Letting
+        go sends ``h0`` (at the next connect if it cannot go now)."""
         with self._lock:
             self._held = on
-            if not on:
-                return None
-            waiting = [ex for ex in self._queue if not ex.poll and not self._may_pass(ex.line)]
+            self._release_due = False
+            waiting = [] if not on else [
+                ex for ex in self._queue if not ex.poll and not self._may_pass(ex.line)]
             for ex in waiting:
                 self._queue.remove(ex)
                 ex.error = Held(f"link to {self.port} is held (the robot is STOPPED): "
                                 f"{ex.line!r} not sent")
                 ex.started.set()
                 ex.done.set()
+        if not on:
+            if not self._send_hold(False):
+                self._release_due = True
+            return None
         self.stats.add("holds")
-        return self.send_stop()
+        ex = self.send_stop()
+        if ex is not None:
+            self._send_hold(True)
+        return ex
 
     @property
     def held(self) -> bool:
@@ -341,6 +361,19 @@ class Link:
         self.stats.add("stops_sent")
         self.last_stop = ex
         return ex
+
+    def _send_hold(self, on: bool) -> bool:
+        """The reactions' hold line (``h1``/``h0``) ahead of waiting commands; False
+        when it could not go (True for a robot without the verb: nothing to say)."""
+        if self._hold_lines is None:
+            return True
+        try:
+            self.exchange(self._hold_lines[0 if on else 1], urgent=True)
+        except LinkError:
+            self.stats.add("hold_lines_failed")
+            return False
+        self.stats.add("hold_lines_sent")
+        return True
 
     def _may_pass(self, line: str) -> bool:
         return line in self._held_lines
@@ -529,9 +562,14 @@ class Link:
                 self._notices.append((text[1:], t))
             if self.on_notice is not None:
                 self.on_notice(text[1:], t)
-            if self._held and text.startswith("!R "):
-                self.stats.add("reactions_stopped")
-                threading.Thread(target=self.send_stop, name="minlink-hold",
+            if text.startswith("!H "):
+                self.stats.add("reactions_held")      # the firmware held it: nothing moved
+            elif self._held and text.startswith(("!R ", "!READY")):
+                # a reaction moves (not held yet, or no verb), or the robot was reset,
+                # which released its reactions: stop it and hold them again
+                self.stats.add("reactions_stopped" if text.startswith("!R ")
+                               else "resets_while_held")
+                threading.Thread(target=self._hold_again, name="minlink-hold",
                                  daemon=True).start()
             return
         try:
@@ -671,6 +709,7 @@ class Link:
             self.stats.add("reconnects")
             if self.on_state is not None:
                 self.on_state(True, "up")
+            self._after_up()
             return
 
     def _connect(self) -> Serial:
@@ -697,8 +736,12 @@ class Link:
                 port.timeout = POLL_S_NO_CANCEL
             self._poll = port.timeout
             port.reset_input_buffer()
-            if self._held:          # a STOP made while down: before any other byte
-                port.write(RESYNC + self.commands.wire(self.commands.prefix("stop")))
+            self._told_held = self._held
+            if self._told_held:     # a STOP made while down: before any other byte
+                wire = RESYNC + self.commands.wire(self.commands.prefix("stop"))
+                if self._hold_lines is not None:   # and h1: a reset releases reactions
+                    wire += self.commands.wire(self._hold_lines[0])
+                port.write(wire)
                 self.stats.add("stops_on_connect")
             self._probe(port)
         except LinkError:
@@ -708,6 +751,25 @@ class Link:
             _close_quietly(port)
             raise LinkError(f"cannot open {self.port}: {describe(exc)}") from None
         return port
+
+    def _after_up(self) -> None:
+        """What changed while the connect was under way: a STOP its first bytes did not
+        carry (hold() could not send while the link was not up), or a release due."""
+        if self._held and not self._told_held:
+            threading.Thread(target=self._hold_again, name="minlink-hold",
+                             daemon=True).start()
+        elif self._release_due and not self._held:
+            threading.Thread(target=self._send_release, name="minlink-release",
+                             daemon=True).start()
+
+    def _hold_again(self) -> None:
+        if self.send_stop() is not None:
+            self._send_hold(True)
+
+    def _send_release(self) -> None:
+        """The ``h0`` a release could not send (the link was down), now it is back."""
+        if self._send_hold(False):
+            self._release_due = False
 
     def _probe(self, port: Serial, attempts: int = 4) -> None:
         """Send ``v`` until a version reply comes (a noisy line may damage a few). A line

@@ -31,8 +31,10 @@ Resources:
   missing keys 0) -> ``V±vvvv±vvvv±wwww``, or ``"stop"`` -> ``x``, over the MIN link;
   the board file's limits refused by name before sending; the central board's 0.5 s
   watchdog stops the robot when no command comes (``!W watchdog stop``);
-- ``<entry>.odometry`` sensor: ``{"x", "y", "th", "moving", "squal"}`` ``odometry_hz``
-  times a second: the flow sensors' sums (``O``) integrated from ``pose``;
+- ``<entry>.odometry`` sensor: ``{"x", "y", "th", "moving", "squal", "n"}``
+  ``odometry_hz`` times a second: the flow sensors' sums (``O``) integrated from
+  ``pose``; ``n`` is the reply's count of the central board's ticks (16 bits): the
+  robot's own clock;
 - ``<entry>.notices`` sensor: the robot's ``!`` lines (MinLink's);
 - ``<entry>.mics`` sensor: the microphone array's frames (mics.py) rendered from the
   world's TRUE pose 15.625 times a second; ``configure(mics, "source", {...})`` places /
@@ -65,8 +67,6 @@ from typing import TYPE_CHECKING
 
 from esair_std import Actuator, CommandError, Sensor
 from esair_min.errors import EsairError
-from esair_min.model.validate import load_robot
-from esair_min.resources import resolve_robot
 
 from ..minlink.driver import MinLink, NoticeSensor, emulate_args, in_folder
 from ...deploy.class_options import check_options
@@ -217,6 +217,8 @@ class Starfish(MinLink):
         from .radio import RadioModel
         from .scene import load_scene
         from .worldtap import WorldTap
+        from esair_min.model.validate import load_robot      # the board model (pydantic)
+        from esair_min.resources import resolve_robot
         self.encode_frame, self.encode_picture = encode_frame, encode
         try:
             o = check_options(StarfishOptions, opts)

@@ -2,8 +2,8 @@
 sequence numbers — and, in simulation, the audio those microphones hear in the room.
 
 :class:`AudioRenderer` renders each frame from the room and the robot's pose: the
-source emits a continuous band-limited noise (scipy's Butterworth band-pass over a
-seeded Gaussian stream, filter state kept from frame to frame); each microphone, at its
+source emits a continuous band-limited noise (a Kaiser-windowed FIR band-pass, numpy, over
+a seeded Gaussian stream, its tail kept from frame to frame); each microphone, at its
 own position on the robot, hears that stream
 
 - delayed by its distance to the source over the speed of sound — a fractional delay:
@@ -59,10 +59,18 @@ class FrameError(ValueError):
     """A microphone frame that cannot be decoded (the message says why)."""
 
 
+_TAPS = np.arange(-KERNEL_HALF, KERNEL_HALF + 1)
+_WINDOW = np.kaiser(2 * KERNEL_HALF + 1, 8.0)     # computed once: each frame's 4+ kernels use it
+
+
 def _fractional_kernel(frac: float, half: int = KERNEL_HALF) -> np.ndarray:
     """Taps h[k], k = -half..half, delaying a signal by ``frac`` (0 <= frac < 1) samples."""
-    k = np.arange(-half, half + 1)
-    taps: np.ndarray = np.sinc(k - frac) * np.kaiser(2 * half + 1, 8.0)
+    taps: np.ndarray
+    if half == KERNEL_HALF:
+        taps = np.sinc(_TAPS - frac) * _WINDOW
+    else:
+        k = np.arange(-half, half + 1)
+        taps = np.sinc(k - frac) * np.kaiser(2 * half + 1, 8.0)
     return taps
 
 

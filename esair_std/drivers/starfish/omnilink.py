@@ -154,4 +154,4 @@ class Odometry(PolledSensor[str]):
             abs(self.pose[2] - before[2]) > 1e-4
         return {"x": round(self.pose[0], 4), "y": round(self.pose[1], 4),
                 "th": round(wrap(self.pose[2]), 5), "moving": moving,
-                "squal": [q for _, _, q in sensors]}
+                "squal": [q for _, _, q in sensors], "n": n}

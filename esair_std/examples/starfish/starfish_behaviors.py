@@ -19,6 +19,7 @@ import base64
 import collections
 import json
 import math
+import statistics
 import time
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -28,7 +29,7 @@ from esair_std import Behavior, CommandError, Reaction, Refused, ResourceLost
 if TYPE_CHECKING:  # pragma: no cover
     from esair_std.drivers.starfish.gccphat import Localizer
 
-# numpy and scipy (the room, the planner, GCC-PHAT) are imported in start() by the
+# numpy (the room, the planner, GCC-PHAT) is imported in start() by the
 # components that need them, so patrol's process and the runtime do not carry them
 
 
@@ -128,7 +129,7 @@ class Localize(Behavior):
     deadline = 3.0
 
     def start(self):
-        from esair_std.drivers.starfish.gccphat import Localizer   # numpy/scipy: remote side
+        from esair_std.drivers.starfish.gccphat import Localizer   # numpy: remote side
         from esair_std.drivers.starfish.mics import FrameError, decode_frame
         self._Localizer: type[Localizer] = Localizer
         self._decode, self._FrameError = decode_frame, FrameError
@@ -191,15 +192,45 @@ class TurnAndShoot(Behavior):
     deadline = 3.0
 
     def start(self):
+        from esair_min.model.validate import load_robot
+        from esair_min.resources import resolve_robot
+        from esair_std.drivers.starfish import turn
+        self._turn = turn
         self.patrol = self.options.get("patrol", "patrol")
-        self.tolerance = math.radians(float(self.options.get("tolerance_deg", 1.5)))
-        self.max_turn = float(self.options.get("max_turn", 2500))        # mrad/s
+        self.tolerance = math.radians(float(self.options.get("tolerance_deg", 1.0)))
+        # the correction's top rate (rad/s): slow enough that a wheel command's late
+        # arrival (tens of ms on a loaded computer) moves the aim by a fraction of a degree
+        self.correction_rate = float(self.options.get("correction_rate", 0.25))
+        # the turn's limits from the board files: the top rate and the drive board's ramp
+        robot = load_robot(resolve_robot(str(self.options.get("robot", "starfish"))))
+        omega, self.accel = turn.turn_limits(robot)
+        # the flow sensors lose counts beyond their top speed: while the patrol's drive
+        # ramps out, the turn starts slower, so the odometry keeps the heading
+        self.flow_max, self.flow_r = turn.flow_limit(robot)
+        self.wheel_r = turn.wheel_radius(robot)
+        self.max_drive = float(turn.base_of(robot).max_speed_mm_s)
+        # the odometry's times from the central board's own tick count (its samples
+        # reach this behavior a varying while after the board read the sensors)
+        self.tick = float(getattr(robot.central.timer2, "period_s", 0.01))
+        self.offsets: collections.deque[float] = collections.deque(maxlen=10)
+        self.n_prev: int | None = None
+        self.n_wraps = 0
+        self.going = False
+        self.last_step = 0.0
+        self.gap = self.period              # between two steps, smoothed
+        self.handover = float(self.options.get("handover_s", 0.06))
+        # the central board stops the wheels when no command came for 0.5 s: the turn's
+        # rate is sent again after this long
+        self.refeed = float(self.options.get("refeed_s", 0.2))
+        # what a drive command landing during the handover can add before the next turn
+        # command replaces it (the drive's ramp over two of this behavior's periods)
+        self.handover_mm_s = self.accel * self.wheel_r * 2 * self.period
+        self.max_turn = min(float(self.options.get("max_turn", omega * 1000)), omega * 1000)
         self.cooldown = float(self.options.get("cooldown", 5.0))          # s between shots
         self.turn_timeout = float(self.options.get("turn_timeout", 6.0))
         # a wheel command refused, failed or unanswered is logged and the next step sends
         # again; the shot is given up only when no wheel command went through for this long
         self.wheels_silent = float(self.options.get("wheels_silent_s", 2.0))
-        self.gain = float(self.options.get("gain", 5000.0))               # mrad/s per rad
         self.store = Path(self.options.get("store", "starfish-pictures"))
         self.keep = int(self.options.get("keep", 20))
         self.odometry = self.attach_sensor("starfish.odometry", keep=64)
@@ -215,13 +246,21 @@ class TurnAndShoot(Behavior):
         self.pictures = []
         self.shots = self.aborted = self.ignored = self.missed = 0
         self.wheels_ok_at = 0.0             # when a wheel command last went through
-        self.still = self.rounds = 0
-        self.stood_at = 0.0
+        # a wheel command's round trip: the median of the last few (one reply late on a
+        # loaded computer must not move every later command's expected arrival)
+        self.rtt = 0.02
+        self.rtts: collections.deque[float] = collections.deque([0.02], maxlen=7)
+        # what the stops' landing needs beyond that, learned from the first aims' misses
+        self.lead = 0.0
+        self.stop_rate = 0.0
+        self.sign = 1.0
+        self.turn: dict = {}
+        self.last_xy: tuple[float, float, float] | None = None
+        self.moved: collections.deque[bool] = collections.deque(maxlen=2)   # the last frames
+        # (t, translation speed mm/s) from the odometry
+        self.drives: collections.deque[tuple[float, float, float]] = collections.deque(maxlen=10)
 
     def receive(self, sender, data):
-        if self.phase == "checking":
-            self.pending = data             # a bearing heard since the robot stopped?
-            return
         if self.phase != "idle" or time.monotonic() < self.quiet_until:
             self.ignored += 1
             return
@@ -235,10 +274,22 @@ class TurnAndShoot(Behavior):
         return min(self.headings, key=lambda h: abs(h[0] - t))[1]
 
     def step(self):
+        now = time.time()
+        if self.last_step:
+            self.gap += 0.2 * (now - self.last_step - self.gap)
+        self.last_step = now
         for s in self.odometry.samples():
+            if self.phase in ("turning", "settling") and self.headings:
+                self.turned += self.sign * wrap(s.value["th"] - self.headings[-1][1])
+                self.odo = (self._board_time(s), self.turned)
+                if self.phase == "settling" and s.t > self.stop_sent and not s.value.get("moving", True):
+                    self.stood = True
+            if self.last_xy is not None and s.t > self.last_xy[0]:
+                moved = math.hypot(s.value["x"] - self.last_xy[1], s.value["y"] - self.last_xy[2])
+                self.drives.append((s.t, 1000 * moved / (s.t - self.last_xy[0]), s.t - self.last_xy[0]))
+            self.last_xy = (s.t, s.value["x"], s.value["y"])
+            self.moved.append(bool(s.value.get("moving", True)))
             self.headings.append((s.t, s.value["th"]))
-            # odometry samples in a row that saw the robot standing
-            self.still = 0 if s.value.get("moving", True) else self.still + 1
         if self.phase == "idle" and self.pending is not None:
             data, self.pending = self.pending, None
             th = self._heading_at(data.get("t"))
@@ -247,48 +298,38 @@ class TurnAndShoot(Behavior):
             self.target = wrap(th + float(data["bearing"]))
             self.bearing = data
             self.put(self.patrol, {"yield": self.turn_timeout + 2.0}, timeout=0.3)
-            self.phase, self.since, self.rounds = "turning", time.monotonic(), 0
+            self.since = time.monotonic()
             self.wheels_ok_at = self.since
-        if self.phase == "checking":
-            # the source heard again from where the robot stands now: it moved on while the
-            # bearing travelled (patrol, the drive board's ramp), so aim again if need be
-            data, self.pending = self.pending, None
-            if data is None or float(data.get("t", 0)) < self.stood_at:
-                if time.monotonic() - self.since > self.turn_timeout:
-                    self._shoot()           # no newer bearing: the last aim stands
-                    self._done()
-                return
-            if abs(float(data["bearing"])) <= 2 * self.tolerance or self.rounds >= 3:
-                self._shoot()
-                self._done()
-                return
-            th = self._heading_at(data.get("t"))
-            if th is None:
-                return
-            self.target = wrap(th + float(data["bearing"]))
-            self.phase = "turning"
-            self.rounds += 1
-        if self.phase != "turning":
+            # the turn's record: its first aim, corrections, top rate commanded, and when
+            # (time.time()) the bearing was taken up, the wheels went, stopped, stood
+            self.turn = {"deg": 0.0, "corrections": -1, "max_w": 0, "target": round(self.target, 5),
+                         "at": {"heard": time.time()}}
+            self._aim()
+        if self.phase == "idle":
             return
-        if not self.headings:
-            return
-        err = wrap(self.target - self.headings[-1][1])
         try:
-            if abs(err) <= self.tolerance:
-                # the wheels ramp down after the stop (the drive board's ramp): shoot only
-                # once the odometry says the robot stands, and turn again if it drifted
-                self._wheels("stop")
-                if self.still < 2:
-                    return
-                self.phase, self.stood_at = "checking", time.time()
-            elif time.monotonic() - self.since > self.turn_timeout:
+            if time.monotonic() - self.since > self.turn_timeout:
                 self._wheels("stop")
                 self.aborted += 1
                 self._done()
-            else:
-                w = _clamp(err * self.gain, self.max_turn)
-                w = math.copysign(max(abs(w), 150.0), w)
-                self._wheels({"w": round(w)})
+            elif self.phase == "turning":
+                self._turning()
+            elif self.phase == "settling":
+                if self.stop_sent == 0.0:
+                    self._stop()            # the stop's reply was missed: again
+                elif self.stood:
+                    err = wrap(self.target - self.headings[-1][1])
+                    if self.turn["corrections"] == 0:
+                        self._learn(err)
+                    self.turn.setdefault("miss_deg", round(math.degrees(err), 2))
+                    self.turn["aim_deg"] = round(math.degrees(err), 2)   # the last stand's
+                    self.turn["at"]["stood"] = time.time()
+                    if abs(err) > self.tolerance and self.turn["corrections"] < 1:
+                        self._aim()         # the one correction, from the odometry
+                    else:
+                        self.turn["odo_th"] = self.headings[-1][1]
+                        self._shoot()
+                        self._done()
         except (CommandError, ResourceLost, Refused) as exc:
             # a slow, failed or refused reply: the next step sends again (the drive
             # board's watchdog stops the wheels meanwhile if nothing comes)
@@ -300,6 +341,142 @@ class TurnAndShoot(Behavior):
             self.log.warning("turn: %s; the wheels silent for %.1f s: shot given up", exc, silent)
             self.aborted += 1
             self._done()
+
+    def _board_time(self, s) -> float:
+        """When the central board read the sample, on this computer's clock: its tick
+        count against the least delayed of the recent samples; the sample's own time
+        when the two disagree by more than a reply's delay (a lagging board, a restart)."""
+        n = s.value.get("n")
+        if not isinstance(n, int):
+            return float(s.t)
+        if self.n_prev is not None and n < self.n_prev:
+            self.n_wraps += 1               # 16 bits, or a restarted board: a new base
+            self.offsets.clear()
+        self.n_prev = n
+        board = (n + 65536 * self.n_wraps) * self.tick
+        self.offsets.append(s.t - board)
+        t = board + min(self.offsets)
+        return t if s.t - 0.05 <= t <= s.t else float(s.t)
+
+    def _aim(self):
+        """Start a turn to ``target`` from the latest heading: the top rate, stopped when
+        the ramp down will end at the target (the profile); the odometry corrects the
+        model's prediction on the way."""
+        angle = wrap(self.target - self.headings[-1][1]) if self.headings else 0.0
+        self.turn["corrections"] += 1
+        if self.turn["corrections"] == 0:
+            self.turn["deg"] = round(math.degrees(angle), 2)
+        self.sign = 1.0 if angle >= 0 else -1.0
+        self.goal, self.turned = abs(angle), 0.0
+        self.model = self._turn.RampModel(self.accel)
+        self.odo = (self.headings[-1][0] if self.headings else time.time(), 0.0)
+        self.stop_sent, self.stood = 0.0, False
+        self.stop_rate = 0.0                # the model's rate when the stop was sent
+        self.going = False
+        self.sent = (0, 0.0)                # the last rate sent (mrad/s), when
+        # driving: turn at what the flow sensors can follow until the drive has ramped out
+        # the odometry's speed is a frame's mean and lags a robot speeding up (patrol's
+        # ramp): the most it can be now, from the last frame on at the drive's ramp; and
+        # patrol may send one more drive command while its yield is on its way (its
+        # period: handover_s), so the turn starts at what the flow sensors can follow
+        # until whatever drive there is has ramped out
+        v = 0.0
+        if self.turn["corrections"] == 0 and self.drives and any(self.moved):
+            t_last, v_last, dt = self.drives[-1]
+            top = max(sp for t, sp, _ in self.drives if t > t_last - 1.0)
+            v = 1.25 * top + 50.0
+            if len(self.drives) > 1 and v_last > self.drives[-2][1] + 30.0:     # speeding up
+                v = max(v, v_last + self.accel * self.wheel_r * (time.time() - t_last + dt))
+            v = min(self.max_drive, v)
+        self.turn.setdefault("drive_mm_s", round(v))
+        self.top = self.max_turn / 1000.0
+        if self.turn["corrections"] > 0:
+            # slow (a stop landing late costs little); a miss of many degrees (a stalled
+            # computer) turns faster, so that its correction takes about a second at most
+            self.top = min(self.top, max(self.correction_rate, abs(angle) / 1.0))
+        self.slow_until, self.slow_rate, self.slow_for = 0.0, self.top, 0.0
+        if self.turn["corrections"] == 0:
+            v = max(v, self.handover_mm_s)
+            self.slow_rate = max(0.2, (0.85 * self.flow_max - v) / self.flow_r)
+            self.slow_for = self.handover + (v + self.wheel_r * self.slow_rate) / (
+                self.accel * self.wheel_r)
+        self.phase = "turning" if abs(angle) > self.tolerance else "settling"
+
+    def _turning(self):
+        rate = self.top
+        if self.going and 0 < self.slow_until - time.time() < 1.5 * self.gap:
+            time.sleep(self.slow_until - time.time())     # the slow start's end, on time
+        if (self.slow_for and not self.going) or time.time() < self.slow_until:
+            rate = min(rate, self.slow_rate)
+        # the stop is looked for over the next two steps or so (steps come late on a
+        # loaded computer, and a stop found late overshoots); a step waits 0.25 s at most
+        if self.going and self._stop_due(min(0.25, max(0.1, 2.5 * self.gap))):
+            return
+        w = round(self.sign * rate * 1000)
+        t0 = time.time()
+        # the drive board holds the rate: past the handover (patrol's last command may
+        # land after the first turn command) it is sent again only when it changes or
+        # the board's watchdog would stop the robot, so a slow reply rarely holds up the stop
+        handover = t0 - self.turn["at"].get("go", t0) < 0.2
+        if self.going and not handover and w == self.sent[0] and t0 - self.sent[1] < self.refeed:
+            return
+        self._wheels({"w": w})
+        t1 = time.time()
+        # where the command landed: the middle of its own round trip (a slow one may have
+        # been slow either way; the middle is off by half of it at most)
+        landed = (t0 + t1) / 2
+        if self.going and self.slow_for and w != self.sent[0]:
+            self.model.command(landed, rate)      # the slow start ended: when it did
+        self.sent = (w, t0)
+        self.rtts.append(t1 - t0)
+        self.rtt = statistics.median(self.rtts)
+        self.turn["max_w"] = max(self.turn["max_w"], abs(w))
+        if not self.going:                  # the wheels ramp up from here
+            self.going = True
+            self.turn["at"].setdefault("go", t0)
+            self.model.command(landed, rate)
+            if self.slow_for:
+                # the top rate enters the model when it is sent (the stop is not looked
+                # for past then: a stop the model found beyond would skip the fast part)
+                self.slow_until = landed + self.slow_for
+            if self.turn["corrections"] > 0:
+                # the correction, short and from standing: its stop planned now and
+                # waited for here rather than at the mercy of the next steps
+                self._stop_due(0.4)
+
+    def _stop_due(self, horizon: float) -> bool:
+        """Send the stop if it is due within ``horizon`` s (waiting for its moment); not
+        past the slow start's end, whose rate a later step has still to send."""
+        if self.slow_until > time.time():
+            horizon = min(horizon, self.slow_until - time.time())
+        t_stop = self._turn.stop_time(self.model, self.odo[1], self.odo[0], time.time(),
+                                      self.goal, self.rtt / 2 + 0.005 + self.lead, horizon)
+        if t_stop is None:
+            return False
+        time.sleep(max(0.0, t_stop - time.time()))
+        self._stop()
+        return True
+
+    def _learn(self, err: float) -> None:
+        """The stop's lead from the first aim's miss: past the target in the turn's
+        direction, the stop landed later than expected by the miss over the rate it
+        stopped from (a loaded computer's misses of many degrees are not learned)."""
+        if self.stop_rate > 1.0 and abs(err) < math.radians(6):
+            late = -self.sign * err / self.stop_rate
+            self.lead = max(-0.03, min(0.05, self.lead + 0.5 * late))
+        self.turn["lead_ms"] = round(1000 * self.lead, 1)
+
+    def _stop(self):
+        self.phase = "settling"
+        t0 = time.time()
+        if self.going:
+            if not self.stop_rate:
+                self.stop_rate = self.model.at(t0 + self.rtt / 2)[1]
+            self.model.command(t0 + self.rtt / 2, 0.0)
+        self.stop_sent = 0.0
+        self._wheels("stop")
+        self.stop_sent = t0
+        self.turn["at"]["stop"] = t0
 
     def _wheels(self, command):
         self.wheels.send(command, timeout=0.5)
@@ -313,7 +490,7 @@ class TurnAndShoot(Behavior):
         image = base64.b64decode(pic["image"])
         (self.store / f"{stem}.{'png' if pic['format'] == 'png' else 'jpg'}").write_bytes(image)
         meta = {"file": f"{stem}.{'png' if pic['format'] == 'png' else 'jpg'}", "pose": pic["pose"],
-                "t": pic["t"], "bearing": self.bearing, "bytes": len(image)}
+                "t": pic["t"], "bearing": self.bearing, "bytes": len(image), "turn": self.turn}
         (self.store / f"{stem}.json").write_text(json.dumps(meta))
         self.pictures = (self.pictures + [meta])[-self.keep:]
 

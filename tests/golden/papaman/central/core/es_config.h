@@ -6,7 +6,7 @@
 
 #define ES_SERVOS          12u
 #define ES_SENSORS         8u
-#define ES_COMMANDS        14u
+#define ES_COMMANDS        15u
 #define ES_MOTIONS         5u
 #define ES_REACTIONS       1u
 #define ES_GROUPS          2u

@@ -1,0 +1,102 @@
+"""STARFISH's turn profile (esair_std/drivers/starfish/turn.py) against the emulated
+drive board (esair_min's StarfishSim, on its virtual clock): a turn commanded at the
+board files' top rate and stopped when RampModel says the ramp down ends at the goal
+never turns faster than max_omega_mrad_s nor speeds up faster than the drive board's
+ramp, comes to rest on its goal, and takes the profile's time (issue 37 item 4)."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from esair_min.components.omni_base.core import velocity_line
+from esair_min.emulator.starfish.robot_sim import FlowOptions, StarfishSim
+from esair_min.emulator.uart import byte_time_ns
+from esair_min.model.validate import load_robot
+from esair_min.resources import resolve_robot
+from esair_min.world import Pose, World
+from esair_std.drivers.starfish.turn import RampModel, profile_time, stop_time, turn_limits
+
+
+@pytest.fixture(scope="module")
+def robot():
+    return load_robot(resolve_robot("starfish"))
+
+
+def test_the_limits_are_the_board_files(robot):
+    omega, accel = turn_limits(robot)
+    assert omega == robot.central.base.max_omega_mrad_s / 1000
+    motor = robot.board("drive").motors[0]
+    assert accel == pytest.approx(motor.ramp_mm_s2 / motor.mount_radius_mm)
+
+
+@pytest.mark.parametrize("deg", [12, 40, 95, 175])
+def test_a_turn_stopped_by_the_ramp_model_rests_on_its_goal_within_the_limits(robot, deg):
+    omega, accel = turn_limits(robot)
+    tick = robot.central.timer2.period_s
+    sim = StarfishSim(robot, World(pose=Pose(3000, 2000, 0.0)), FlowOptions(noise=0.0))
+    goal = math.radians(deg)
+    model = RampModel(accel)
+    go = velocity_line(0, 0, round(omega * 1000))
+    # a line takes effect once its last byte is in: its characters' time on the wire
+    byte_s = byte_time_ns(robot.central.uart.baud) / 1e9
+    t_go = sim.now_s
+    sim.command(go)
+    model.command(t_go + (len(go) + 1) * byte_s, omega)
+    stopped_at = None
+    while stopped_at is None:                 # the host's loop: a command every 20 ms
+        for _ in range(10):
+            now = sim.now_s
+            t = stop_time(model, 0.0, t_go, now, goal, 2 * byte_s, 0.002)
+            if t is not None:
+                stopped_at = now
+                model.command(now + 2 * byte_s, 0.0)
+                sim.command("x")
+                break
+            sim.run_for(0.002)
+        else:
+            sim.command(go)
+        assert sim.now_s - t_go < 3.0
+    sim.run_for(0.5)
+    rows = [r for r in sim.trace if r.t_s >= t_go]
+    turned = rows[-1].theta - rows[0].theta
+    # rests on its goal: the stop's quantization (the host's 2 ms, the drive board's
+    # 10 ms control tick) and the wheels' duties leave well under a degree
+    assert abs(math.degrees(turned - goal)) < 1.0, math.degrees(turned)
+    rates = [(b.theta - a.theta) / (b.t_s - a.t_s) for a, b in zip(rows, rows[1:])
+             if b.t_s - a.t_s >= tick / 2]
+    assert max(rates) <= omega * 1.02, max(rates)
+    assert max(rates) >= min(omega, math.sqrt(goal * accel)) * 0.9
+    # speeds up and slows down no faster than the ramp (over the control tick's steps)
+    span = 5
+    for a, b, c in zip(rows, rows[span:], rows[2 * span:]):
+        r0 = (b.theta - a.theta) / (b.t_s - a.t_s)
+        r1 = (c.theta - b.theta) / (c.t_s - b.t_s)
+        assert abs(r1 - r0) / ((c.t_s - a.t_s) / 2) <= accel * 1.1
+    # at rest within the profile's time (and a control tick or two of quantization)
+    moving = [b.t_s for a, b in zip(rows, rows[1:]) if abs(b.theta - a.theta) > 1e-6]
+    took = moving[-1] - t_go
+    assert profile_time(goal, omega, accel) - 0.02 <= took <= profile_time(goal, omega, accel) + 0.03
+    assert stopped_at is not None and model.at(stopped_at + 1.0)[1] == 0.0
+
+
+def test_the_profile_is_time_optimal_within_the_limits(robot):
+    omega, accel = turn_limits(robot)
+    for deg in (5, 30, 60, 120, 180):
+        a = math.radians(deg)
+        t = profile_time(a, omega, accel)
+        model = RampModel(accel)
+        model.command(0.0, omega)
+        # the stop sent at the last moment the ramp down can still end at the goal
+        t_stop = stop_time(model, 0.0, 0.0, 0.0, a, 0.0, t)
+        assert t_stop is not None
+        model.command(t_stop, 0.0)
+        angle, rate = model.at(t + 0.005)
+        assert rate == 0.0 and angle == pytest.approx(a, abs=math.radians(0.3))
+        samples = [model.at(k * 0.001)[1] for k in range(int(t * 1000) + 5)]
+        assert max(samples) <= omega + 1e-9
+        assert all(abs(y - x) <= accel * 0.001 + 1e-9 for x, y in zip(samples, samples[1:]))
+        # no profile within the limits does it faster: a bang-bang at the limits
+        assert t == pytest.approx(2 * math.sqrt(a / accel) if a < omega ** 2 / accel
+                                  else a / omega + omega / accel)
