@@ -7,7 +7,7 @@ The names below are the stable public API.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING
 
 from .behavior import Behavior
 from .errors import CommandError, Refused, ResourceLost, StdError
@@ -16,11 +16,14 @@ from .reaction import Reaction
 from .resource import Actuator, Driver, Sensor
 from .sample import Sample
 
+if TYPE_CHECKING:  # pragma: no cover
+    from .runtime import Runtime
+
 __all__ = ["Behavior", "Reaction", "Sensor", "Actuator", "Driver", "Refused", "Runtime",
            "Sample", "CommandError", "ResourceLost", "Level", "StdError"]
 
 
-def __getattr__(name: str) -> Any:
+def __getattr__(name: str) -> type[Runtime]:
     # Runtime pulls in the deployment loader (pydantic): loaded only when asked for, so
     # that an agent process hosting one component stays small.
     if name == "Runtime":

@@ -11,13 +11,14 @@ The runtime builds the object and calls every method on the behavior's own threa
 from __future__ import annotations
 
 import logging
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 if TYPE_CHECKING:  # pragma: no cover
     from typing import Protocol
 
     from .connections import ActuatorHandle, SensorHandle
     from .spec import Spec
+    from .transport.codec import JSON
 
     class _Host(Protocol):
         """What a component reaches through its host (hosts/behavior_host.py's hosts)."""
@@ -30,12 +31,12 @@ if TYPE_CHECKING:  # pragma: no cover
         def attach_sensor(self, name: str, keep: int) -> SensorHandle: ...
         def attach_actuator(self, name: str) -> ActuatorHandle: ...
         def register(self, resource: str, level: str) -> str: ...
-        def configure(self, resource: str, key: str, value: Any) -> Any: ...
-        def put(self, name: str, data: Any, timeout: float) -> bool: ...
-        def get(self, name: str, timeout: float) -> Any: ...
+        def configure(self, resource: str, key: str, value: JSON) -> JSON: ...
+        def put(self, name: str, data: JSON, timeout: float) -> bool: ...
+        def get(self, name: str, timeout: float) -> JSON: ...
         def state_of(self, name: str) -> str | None: ...
         def set_reaction(self, name: str, enabled: bool) -> None: ...
-        def direct(self, name: str) -> Any: ...
+        def direct(self, name: str) -> SensorHandle | ActuatorHandle: ...
         def stop_robot(self, reason: str) -> None: ...
 
 STATES = ("starting", "running", "busy", "stopped", "failed")
@@ -109,7 +110,7 @@ class Behavior(_Component):
     def receive(self, sender: str, data: Any) -> None:
         """The BS delivers another behavior's ``put(self.name, data)``."""
 
-    def provide(self, requester: str) -> Any:
+    def provide(self, requester: str) -> object:
         """The BS asks for data on another behavior's ``get(self.name)``."""
         return None
 
@@ -129,14 +130,16 @@ class Behavior(_Component):
         attach_* register for you. Raises Refused with the reason."""
         return self._esair.register(resource, level)
 
-    def configure(self, resource: str, key: str, value: Any) -> Any:
+    def configure(self, resource: str, key: str, value: object) -> Any:
         """ioctl-like setting, checked by the RS (needs a registration at ``configure``)."""
-        return self._esair.configure(resource, key, value)
+        # JSON, checked where it is encoded (else TransportError)
+        return self._esair.configure(resource, key, cast("JSON", value))
 
     # other behaviors, through the BS
-    def put(self, name: str, data: Any, timeout: float = 1.0) -> bool:
+    def put(self, name: str, data: object, timeout: float = 1.0) -> bool:
         """Deliver ``data`` to behavior ``name``; False (counted, logged) on failure."""
-        return self._esair.put(name, data, timeout)
+        # JSON, checked where it is copied or encoded (else the put fails: False)
+        return self._esair.put(name, cast("JSON", data), timeout)
 
     def get(self, name: str, timeout: float = 1.0) -> Any:
         """Ask behavior ``name`` for data (its ``provide()``); None (counted) on failure."""

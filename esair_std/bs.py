@@ -14,25 +14,27 @@ from __future__ import annotations
 import difflib
 import logging
 import time
-from typing import TYPE_CHECKING, Any, Callable
+from typing import TYPE_CHECKING, Callable, TypeVar
 
 from .errors import ControlError, TransportError
 from .spec import Spec
 from .supervisor import Record, Supervisor
 from .transport import codec
+from .transport.codec import JSON, JSONObject
 from .parts import NO_ANSWER, ComponentHost
 
 if TYPE_CHECKING:  # pragma: no cover
     from .parts import Registry
 
 log = logging.getLogger("esair_std.bs")
+_V = TypeVar("_V")      # what a mediator's attempt answers with
 
 
 class BehaviorSupervisor(Supervisor[ComponentHost]):
     """Behaviors and reactions on the generic supervisor (supervisor.py), plus the
     mediator (phase 3)."""
 
-    def __init__(self, start_host: Callable[[Spec, int], Any], rs: Registry,
+    def __init__(self, start_host: Callable[[Spec, int], ComponentHost], rs: Registry,
                  forget: Callable[[str], None] | None = None):
         super().__init__("bs", start_host)   # mode: (spec, generation) -> started host
         self._rs = rs
@@ -74,7 +76,8 @@ class BehaviorSupervisor(Supervisor[ComponentHost]):
         return rec, ""
 
     def _until(self, counter: str, target: str, timeout: float, late: str,
-               attempt: Callable[[Record[ComponentHost], float], tuple[str, Any]]) -> tuple[bool, Any]:
+               attempt: Callable[[Record[ComponentHost], float], tuple[str, _V]],
+               ) -> tuple[bool, _V | str]:
         """The mediator's one retry loop: ``attempt(record, seconds left)`` answers
         ("ok", value), ("final", why) to give up now, or (anything else, why) while the
         target is busy; retried (backoff 0.5 ms doubling to 10 ms) until ``timeout``.
@@ -82,7 +85,7 @@ class BehaviorSupervisor(Supervisor[ComponentHost]):
         "<target> <late> within <timeout> s (<why>)"."""
         deadline = time.monotonic() + max(0.0, float(timeout))
         delay = 0.0005
-        said = None              # the target's own last reason (not "no answer")
+        said: _V | str | None = None     # the target's own last reason (not "no answer")
         while True:
             rec, why = self._target(target)
             status, value = (("final", why) if rec is None else
@@ -101,32 +104,33 @@ class BehaviorSupervisor(Supervisor[ComponentHost]):
             time.sleep(min(delay, left))
             delay = min(delay * 2, 0.01)
 
-    def _copied(self, data: Any) -> tuple[bool, Any]:
+    def _copied(self, data: object) -> tuple[bool, JSON]:
         try:
             return True, codec.copy(data)
         except TransportError as exc:
             self.c.add("puts_failed")
             return False, exc.message
 
-    def put(self, sender: str, target: str, data: Any, timeout: float) -> tuple[bool, str]:
+    def put(self, sender: str, target: str, data: object, timeout: float) -> tuple[bool, str]:
         ok, data = self._copied(data)
         if not ok:
-            return False, data
+            return False, str(data)
 
-        def offer(rec: Record[ComponentHost], _left: float) -> tuple[str, Any]:
+        def offer(rec: Record[ComponentHost], _left: float) -> tuple[str, str]:
             r = rec.host.offer(sender, data)
             return ("ok", "") if r == "delivered" else ("busy", r)
         return self._until("puts", target, timeout, "did not take the data", offer)
 
-    def put_wait(self, sender: str, target: str, data: Any, timeout: float) -> tuple[bool, str]:
+    def put_wait(self, sender: str, target: str, data: object,
+                 timeout: float) -> tuple[bool, str]:
         """A put whose sender waits until the target's receive() ran: (True, "") when it
         took the data, (False, why) when it refused it (raised Refused), failed, or took
         no data within ``timeout`` (retried while busy)."""
         ok, data = self._copied(data)
         if not ok:
-            return False, data
+            return False, str(data)
 
-        def take(rec: Record[ComponentHost], left: float) -> tuple[str, Any]:
+        def take(rec: Record[ComponentHost], left: float) -> tuple[str, str]:
             taker = getattr(rec.host, "take", None)     # None: still starting, or failed
             if taker is None:
                 return "busy", rec.host.state
@@ -138,7 +142,7 @@ class BehaviorSupervisor(Supervisor[ComponentHost]):
             return status, ("" if status == "ok" else why)
         return self._until("puts", target, timeout, "did not take the data", take)
 
-    def put_first(self, sender: str, target: str, data: Any, timeout: float,
+    def put_first(self, sender: str, target: str, data: JSON, timeout: float,
                   done: Callable[[bool], None]) -> bool:
         """Process mode's fast path: the first offer without blocking a thread.
         ``data`` was decoded from the wire just now (it is a copy already). False: not
@@ -155,8 +159,8 @@ class BehaviorSupervisor(Supervisor[ComponentHost]):
             done(r == "delivered")
         return bool(rec.host.offer_async(sender, data, result, timeout))
 
-    def get(self, requester: str, target: str, timeout: float) -> tuple[bool, Any]:
-        def provide(rec: Record[ComponentHost], left: float) -> tuple[str, Any]:
+    def get(self, requester: str, target: str, timeout: float) -> tuple[bool, JSON]:
+        def provide(rec: Record[ComponentHost], left: float) -> tuple[str, JSON]:
             status, value = rec.host.provide(requester, left)
             return ("final", f"{target!r}: {value}") if status == "failed" else (status, value)
         return self._until("gets", target, timeout, "gave no data", provide)
@@ -170,7 +174,7 @@ class BehaviorSupervisor(Supervisor[ComponentHost]):
         if rec is not None:
             rec.host.notify_detached(resource)
 
-    def notify_latch(self, state: dict[str, Any] | None, by: str = "") -> None:
+    def notify_latch(self, state: JSONObject | None, by: str = "") -> None:
         """The robot was STOPPED (``state``) or released (None, by ``by``): every
         behavior and reaction told (``robot_stopped`` / ``robot_released``)."""
         for name, rec in list(self.records.items()):

@@ -26,7 +26,11 @@ import re
 import sys
 import threading
 from pathlib import Path
-from typing import Any
+from types import ModuleType
+from typing import TYPE_CHECKING, Protocol, Sequence, cast
+
+if TYPE_CHECKING:  # pragma: no cover
+    from importlib.machinery import ModuleSpec
 
 from esair_min.errors import Mark
 
@@ -46,7 +50,8 @@ class _OwnModules:
     def __init__(self) -> None:
         self.folders: dict[str, str] = {}
 
-    def find_spec(self, fullname: str, path: Any = None, target: Any = None) -> Any:
+    def find_spec(self, fullname: str, path: Sequence[str] | None = None,
+                  target: ModuleType | None = None) -> ModuleSpec | None:
         folder = self.folders.get(fullname)
         if folder is None or path is not None:
             return None
@@ -60,7 +65,15 @@ class _OwnModules:
 _own = _OwnModules()
 
 
-def load_class(spec: Any, base_dir: str | Path | None = None, *,
+class _ClassEntry(Protocol):
+    """What load_class reads of a loaded deployment's entry (deploy/model.py)."""
+
+    class_path: str
+    base_dir: str | Path | None
+    class_mark: Mark | None
+
+
+def load_class(spec: object, base_dir: str | Path | None = None, *,
                mark: Mark | None = None, expect: tuple[type, ...] | type | None = None,
                ) -> type:
     """The class ``spec`` names: a spec of a loaded deployment (its ``class_path``,
@@ -72,7 +85,8 @@ def load_class(spec: Any, base_dir: str | Path | None = None, *,
     missing attribute, something that is not a class, or a wrong base class.
     """
     if not isinstance(spec, str) and hasattr(spec, "class_mark"):   # a ComponentSpec
-        path, base, mark = spec.class_path, base_dir or spec.base_dir, mark or spec.class_mark
+        entry = cast(_ClassEntry, spec)
+        path, base, mark = entry.class_path, base_dir or entry.base_dir, mark or entry.class_mark
     else:
         path, base = spec, base_dir
     if not isinstance(path, str) or not re.match(CLASS_PATTERN, path):
@@ -116,7 +130,7 @@ def _a(noun: str) -> str:
     return f"an {noun}" if noun[:1].lower() in "aeiou" else f"a {noun}"
 
 
-def _import(module_name: str, base: Path | None, mark: Mark | None) -> Any:
+def _import(module_name: str, base: Path | None, mark: Mark | None) -> ModuleType:
     if base is not None:
         folder, top = str(base), module_name.split(".")[0]
         if folder not in sys.path:
@@ -207,7 +221,7 @@ def component_class(class_path: str, base_dir: str | None, where: str = "",
     return cls
 
 
-def quote(name: Any) -> str:
+def quote(name: object) -> str:
     """As esair_min.config.schema_errors.quote, without importing pydantic."""
     text = str(name)
     return f"'{text}'" if text.isprintable() else repr(text)

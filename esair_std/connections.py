@@ -16,11 +16,12 @@ from __future__ import annotations
 
 import threading
 from collections import deque
-from typing import TYPE_CHECKING, Any, Callable
+from typing import TYPE_CHECKING, Any, Callable, cast
 
 from .errors import CommandError, Refused, ResourceLost, StdError
 from .level import Level
 from .sample import Sample
+from .transport.codec import JSON
 
 if TYPE_CHECKING:  # pragma: no cover
     from .parts import Grants, SampleHandle
@@ -84,7 +85,7 @@ class SensorHandle(_Handle):
 class ActuatorHandle(_Handle):
     """A behavior's end of the AC for one actuator."""
 
-    def __init__(self, resource: str, send_fn: Callable[[str, Any, float], Any],
+    def __init__(self, resource: str, send_fn: Callable[[str, JSON, float], JSON],
                  state_fn: Callable[[str], str | None]):
         self.resource = resource
         self._send = send_fn
@@ -93,7 +94,7 @@ class ActuatorHandle(_Handle):
         self.failed = 0
         self.detached = False
 
-    def send(self, command: Any, timeout: float = 1.0) -> Any:
+    def send(self, command: object, timeout: float = 1.0) -> Any:
         """The actuator's ``write()`` result. Raises only CommandError (the actuator
         refused or failed it, no answer within ``timeout``, or the sender is not, or no
         longer, registered to command it: "refused: ...") or ResourceLost (removed,
@@ -102,7 +103,8 @@ class ActuatorHandle(_Handle):
             self.failed += 1
             raise ResourceLost(self.resource, "detached: the resource was removed")
         try:
-            result = self._send(self.resource, command, timeout)
+            # JSON, checked where it is copied or encoded (else TransportError, below)
+            result = self._send(self.resource, cast(JSON, command), timeout)
         except (CommandError, ResourceLost):
             self.failed += 1
             raise
@@ -210,8 +212,8 @@ class ActuatorConnection:
             self.refused += 1
             raise Refused(f"behavior {sender!r} is not registered to command {resource!r}")
 
-    def command(self, sender: str, resource: str, command: Any, timeout: float,
-                direct: bool = False) -> Any:
+    def command(self, sender: str, resource: str, command: JSON, timeout: float,
+                direct: bool = False) -> JSON:
         if not direct:
             self.check(sender, resource)
         host = self._rs.host_of(resource)

@@ -12,20 +12,25 @@ from __future__ import annotations
 
 import threading
 import time
-from typing import Any, Mapping
+from typing import TYPE_CHECKING, Mapping, cast
 
 from .errors import ControlError, Refused
+from .transport.codec import JSONObject
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .parts import ComponentHost
+    from .supervisor import Record
 
 #: what a refused command's sender reads (by, at as HH:MM:SS local time)
 REFUSAL = "stopped by {by} at {at}: release with esair std release"
 
 
-def refusal(state: dict[str, Any]) -> str:
+def refusal(state: JSONObject) -> str:
     """The text every refused command gets while ``state`` (a STOP) holds."""
-    return REFUSAL.format(by=state["by"], at=clock(state["t"]))
+    return REFUSAL.format(by=state["by"], at=clock(cast(float, state["t"])))  # Latch.stop's
 
 
-def may_stop(records: Mapping[str, Any], who: str) -> None:
+def may_stop(records: Mapping[str, Record[ComponentHost]], who: str) -> None:
     """Refused unless ``who`` is no deployed component (``records``: the BS's), or one
     whose entry grants it the STOP (``may_stop: true``)."""
     rec = records.get(who)
@@ -44,11 +49,11 @@ class Latch:
 
     def __init__(self) -> None:
         self._lock = threading.Lock()
-        self.state: dict[str, Any] | None = None
+        self.state: JSONObject | None = None
         self.stops = 0          # STOPs ever (a second STOP while stopped counts too)
         self.releases = 0
 
-    def stop(self, by: str, reason: str = "") -> tuple[dict[str, Any], bool]:
+    def stop(self, by: str, reason: str = "") -> tuple[JSONObject, bool]:
         """Latch (or stay latched: the first STOP's who and when are kept); the state
         and whether this STOP latched it."""
         with self._lock:
@@ -60,7 +65,7 @@ class Latch:
                           "n": self.stops}
             return dict(self.state), True
 
-    def release(self, by: str) -> dict[str, Any]:
+    def release(self, by: str) -> JSONObject:
         """Unlatch; the STOP that held. ControlError when none does."""
         with self._lock:
             if self.state is None:
@@ -69,6 +74,6 @@ class Latch:
             self.releases += 1
         return dict(was, released_by=by)
 
-    def get(self) -> dict[str, Any] | None:
+    def get(self) -> JSONObject | None:
         with self._lock:
             return None if self.state is None else dict(self.state)

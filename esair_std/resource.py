@@ -22,10 +22,10 @@ if TYPE_CHECKING:  # pragma: no cover
     class _Slot(Protocol):
         """What a resource reaches through its slot (hosts/resource_host.py)."""
         name: str
-        options: dict[str, Any]
-        host: Any          # the resource's host (a driver's children reach their driver)
+        options: dict[str, object]
+        host: Any          # the resource's host: a driver's children reach their own driver
 
-        def report(self, value: Any) -> None: ...
+        def report(self, value: object) -> None: ...
         def set_state(self, state: str, reason: str) -> None: ...
 from .errors import CommandError
 
@@ -77,15 +77,15 @@ class Sensor(_Agent):
     rate_hz: float | None = None
     settings: tuple[str, ...] = ("rate_hz",)
 
-    def read(self) -> Any:
+    def read(self) -> object:
         """Polled at ``rate_hz``; the value returned is reported (None: nothing)."""
         return None
 
-    def report(self, value: Any) -> None:
+    def report(self, value: object) -> None:
         """Report one sample now (numbered, time-stamped, routed by the SC)."""
         self._esair.report(value)
 
-    def configure(self, key: str, value: Any) -> Any:
+    def configure(self, key: str, value: Any) -> object:
         if key == "rate_hz":
             self.rate_hz = float(value)
             return self.rate_hz
@@ -93,7 +93,7 @@ class Sensor(_Agent):
 
 
 class Actuator(_Agent):
-    def write(self, command: Any) -> Any:
+    def write(self, command: Any) -> object:
         raise CommandError(self.name, "write() is not implemented")
 
     def halt(self) -> object:
@@ -107,7 +107,7 @@ class Actuator(_Agent):
     def release(self) -> None:
         """The STOP was released: commands are taken again (starts nothing)."""
 
-    def configure(self, key: str, value: Any) -> Any:
+    def configure(self, key: str, value: Any) -> object:
         raise self.no_setting(key)
 
 

@@ -14,13 +14,14 @@ from __future__ import annotations
 import difflib
 import logging
 import threading
-from typing import TYPE_CHECKING, Any, Callable
+from typing import TYPE_CHECKING, Callable, Mapping
 
 from .errors import ControlError, Refused, ResourceLost, StdError
 from .level import Level, best_match
 from .spec import Spec
 from .parts import ResourceHost
-from .supervisor import Record, Supervisor
+from .supervisor import Record, Starting, Supervisor
+from .transport.codec import JSON
 
 if TYPE_CHECKING:  # pragma: no cover
     from .connections import SensorConnection
@@ -40,10 +41,10 @@ class ResourceSupervisor(Supervisor[ResourceHost]):
     # registrations end first (a behavior's are released after its stop(): bs.py)
     release_before_stop = True
 
-    def __init__(self, start_host: Callable[[Spec, int], Any], sc: SensorConnection,
+    def __init__(self, start_host: Callable[[Spec, int], ResourceHost], sc: SensorConnection,
                  on_detached: Callable[[str, str], None],
                  on_attached: Callable[[str, str], None] | None = None,
-                 uses_of: Callable[[str], dict[str, Any] | None] | None = None):
+                 uses_of: Callable[[str], Mapping[str, Level | str] | None] | None = None):
         super().__init__("rs", start_host)     # mode: (spec, generation) -> started host
         self._sc = sc
         self._on_detached = on_detached        # (behavior, resource): tell the behavior
@@ -61,7 +62,7 @@ class ResourceSupervisor(Supervisor[ResourceHost]):
         self.halted: str | None = None         # the latched STOP's refusal (latch.py)
 
     @property
-    def entries(self) -> dict[str, tuple[Spec, Any]]:
+    def entries(self) -> dict[str, tuple[Spec, ResourceHost | Starting]]:
         """entry -> (spec, host) of every resource entry, in the order added."""
         return {n: (r.spec, r.host) for n, r in list(self.records.items())}
 
@@ -206,14 +207,15 @@ class ResourceSupervisor(Supervisor[ResourceHost]):
                 log.error("%s: release not delivered: %s", name, exc)
 
     @staticmethod
-    def _halt_one(name: str, host: Any, why: str) -> None:
+    def _halt_one(name: str, host: ResourceHost | Starting, why: str) -> None:
         try:
             host.halt(why)
         except StdError as exc:
             log.error("%s: STOP not delivered: %s", name, exc)
 
     # ---- phase 3
-    def register(self, who: str, resource: str, level: Level, uses: dict[str, Any] | None) -> Level:
+    def register(self, who: str, resource: str, level: Level,
+                 uses: Mapping[str, Level | str] | None) -> Level:
         try:
             return self._register(who, resource, level, uses)
         except Refused:
@@ -222,7 +224,8 @@ class ResourceSupervisor(Supervisor[ResourceHost]):
                 self.refused_on[resource] = self.refused_on.get(resource, 0) + 1
             raise
 
-    def _register(self, who: str, resource: str, level: Level, uses: dict[str, Any] | None) -> Level:
+    def _register(self, who: str, resource: str, level: Level,
+                  uses: Mapping[str, Level | str] | None) -> Level:
         """Grant ``who`` the ``level`` on ``resource`` or raise Refused with the reason.
         ``uses`` None: a reaction (its resources are fixed in the deployment)."""
         level = Level.parse(level)
@@ -275,7 +278,7 @@ class ResourceSupervisor(Supervisor[ResourceHost]):
             host.revoke(who)
 
     # ---- phase 4
-    def configure(self, who: str | None, resource: str, key: str, value: Any) -> Any:
+    def configure(self, who: str | None, resource: str, key: str, value: JSON) -> JSON:
         """``who`` None: the operator (the control CLI), not subject to registration."""
         host = self.host_of(resource)
         if who is not None and self.granted(who, resource) < Level.configure:
@@ -287,7 +290,7 @@ class ResourceSupervisor(Supervisor[ResourceHost]):
         return host.configure(resource, key, value)
 
     # ---- lookups
-    def host_of(self, resource: str) -> Any:
+    def host_of(self, resource: str) -> ResourceHost:
         """The host of ``resource``; ResourceLost when there is none, or while it is
         lost (its host failed and is restarting, or stays failed)."""
         with self._lock:
@@ -295,7 +298,8 @@ class ResourceSupervisor(Supervisor[ResourceHost]):
             rec = self.records.get(r[0]) if r is not None else None
             if rec is None:
                 raise ResourceLost(resource, "no such resource")
-            if rec.handled >= rec.generation or rec.host.state in ("starting", "failed"):
+            if (rec.handled >= rec.generation or isinstance(rec.host, Starting)
+                    or rec.host.state in ("starting", "failed")):
                 state, why = self.states.get(resource, ("lost", ""))
                 raise ResourceLost(resource, f"lost: {why}" if why else "lost")
             return rec.host

@@ -19,7 +19,7 @@ import threading
 import time
 import weakref
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Mapping
 
 from . import spec as specmod
 from .bs import BehaviorSupervisor
@@ -31,11 +31,13 @@ from .level import Level
 from .policy import uses_problem
 from .rs import ResourceSupervisor
 from .spec import Spec
+from .transport.codec import JSON, JSONObject
 
 if TYPE_CHECKING:  # pragma: no cover
     from .deploy.model import Deployment
     from .control.control_server import ControlServer
-    from .parts import Mode
+    from .parts import ComponentHost, Mode, ResourceHost
+    from .supervisor import Record
     from .remote.center import Center
 
 log = logging.getLogger("esair_std.runtime")
@@ -45,7 +47,7 @@ WATCH_IDLE = 1.0      # the watchdog's longest sleep (a component added meanwhil
 WAIT_RECHECK = 0.1    # wait_state: how often a state no event announces (busy) is looked at
 
 
-def _load(deployment: str | Path | dict | Deployment) -> Deployment:
+def _load(deployment: str | Path | dict[str, object] | Deployment) -> Deployment:
     """A Deployment from a path, a dict or an already loaded Deployment."""
     if isinstance(deployment, (str, Path, dict)):
         from .deploy import load_deployment
@@ -54,7 +56,8 @@ def _load(deployment: str | Path | dict | Deployment) -> Deployment:
 
 
 class Runtime:
-    def __init__(self, deployment: str | Path | dict | Deployment, mode: str | None = None,
+    def __init__(self, deployment: str | Path | dict[str, object] | Deployment,
+                 mode: str | None = None,
                  endpoint: str | None = None, control: bool | None = None,
                  join: list[str] | None = None, settle_heap: bool = False,
                  stopped: bool | str = False):
@@ -77,7 +80,7 @@ class Runtime:
         self.ac = ActuatorConnection(self.rs)
         self.bs = BehaviorSupervisor(self._start_component, self.rs, self._forget)
         self.server: ControlServer | None = None
-        self.session_options: dict | None = None
+        self.session_options: Mapping[str, object] | None = None
         self.extra_listen: list[str] = []
         self.local_endpoint: str | None = None     # where local children connect
         self.child_session: dict[str, str] | None = None   # their login (remote/center.py)
@@ -161,7 +164,7 @@ class Runtime:
     def __enter__(self) -> "Runtime":
         return self.start()
 
-    def __exit__(self, *exc: Any) -> None:
+    def __exit__(self, *exc: object) -> None:
         self.stop()
 
     def _watchdog(self) -> None:
@@ -180,12 +183,12 @@ class Runtime:
                 nxt = None
             wait = WATCH_IDLE if nxt is None else min(max(nxt, 0.001), WATCH_IDLE)
 
-    def _start_component(self, spec: Spec, generation: int) -> Any:
+    def _start_component(self, spec: Spec, generation: int) -> ComponentHost:
         host = self.mode.start_component(spec, generation)
         self._kick.set()                    # its deadline joins the watchdog's
         return host
 
-    def _start_resource(self, spec: Spec, generation: int) -> Any:
+    def _start_resource(self, spec: Spec, generation: int) -> ResourceHost:
         return self.mode.start_resource(spec, generation)
 
     def _forget(self, name: str) -> None:
@@ -199,7 +202,7 @@ class Runtime:
     def _attached(self, behavior: str, resource: str) -> None:
         self.bs.notify_attached(behavior, resource)
 
-    def _uses_of(self, who: str) -> dict | None:
+    def _uses_of(self, who: str) -> dict[str, str] | None:
         """What ``who`` may register for: its ``uses`` (None: a reaction, fixed in the
         deployment; {}: not deployed, nothing)."""
         rec = self.bs.records.get(who)
@@ -208,7 +211,7 @@ class Runtime:
         return None if rec.spec.kind == "reaction" else rec.spec.uses
 
     # ---- the latched STOP (docs/std.md, "The latched stop")
-    def stop_robot(self, reason: str = "", by: str = "operator") -> dict:
+    def stop_robot(self, reason: str = "", by: str = "operator") -> JSONObject:
         """STOP: every motion stopped at once, every queued actuator command dropped
         (its sender told why), every new one refused until :meth:`release_robot`.
         Sensors and behaviors go on. Returns the state (``by``, ``t``, ``at``,
@@ -222,7 +225,7 @@ class Runtime:
         log.warning("STOPPED by %s%s", by, f": {reason}" if reason else "")
         return state
 
-    def release_robot(self, by: str = "operator") -> dict:
+    def release_robot(self, by: str = "operator") -> JSONObject:
         """Release the STOP (the operator's deliberate act): commands are taken again;
         nothing starts by itself. ControlError when the robot is not stopped."""
         with self._latching:
@@ -234,11 +237,11 @@ class Runtime:
         return was
 
     @property
-    def latched(self) -> dict | None:
+    def latched(self) -> JSONObject | None:
         """The STOP in effect (``by``, ``t``, ``at``, ``reason``), or None."""
         return self.latch.get()
 
-    def _latch_changed(self, state: dict | None, by: str = "") -> None:
+    def _latch_changed(self, state: JSONObject | None, by: str = "") -> None:
         self.note_change()
         server = self.server
         if server is not None:
@@ -253,8 +256,8 @@ class Runtime:
                 s = self.rs.entries[name][1].state
         return s
 
-    def ls(self) -> list[dict]:
-        rows = []
+    def ls(self) -> list[JSONObject]:
+        rows: list[JSONObject] = []
         for name, rec in list(self.bs.records.items()):
             rows.append(dict(name=name, kind=rec.spec.kind, state=rec.host.state,
                              pid=getattr(rec.host, "pid", os.getpid()),
@@ -275,10 +278,10 @@ class Runtime:
                                  **{"class": spec.class_path}))
         return rows
 
-    def add(self, name: str, class_path: str, uses: dict | None = None,
-            period: float | None = None, options: dict | None = None,
+    def add(self, name: str, class_path: str, uses: Mapping[str, Level | str] | None = None,
+            period: float | None = None, options: JSONObject | None = None,
             restart: tuple[int, float] = (0, 0.0), kind: str = "behavior",
-            resources: tuple = (), enabled: bool = True) -> str:
+            resources: tuple[str, ...] = (), enabled: bool = True) -> str:
         _check_name(name)
         s = Spec(kind, name, class_path, dict(options or {}), self.base_dir,
                  period=period, has_period=period is not None,
@@ -299,8 +302,9 @@ class Runtime:
     def remove(self, name: str) -> None:
         self.bs.request(self.bs.remove, name)
 
-    def add_resource(self, name: str, class_path: str, allow: dict | None = None,
-                     options: dict | None = None,
+    def add_resource(self, name: str, class_path: str,
+                     allow: Mapping[str, Level | str] | None = None,
+                     options: JSONObject | None = None,
                      restart: tuple[int, float] = (0, 0.0)) -> dict[str, str]:
         _check_name(name)
         if name in self.bs.records:
@@ -314,7 +318,8 @@ class Runtime:
     def remove_resource(self, name: str) -> list[str]:
         return self.rs.request(self.rs.remove, name)
 
-    def put(self, name: str, data: Any, timeout: float = 1.0, sender: str = "operator") -> None:
+    def put(self, name: str, data: object, timeout: float = 1.0,
+            sender: str = "operator") -> None:
         ok, why = self.bs.put(sender, name, data, timeout)
         if not ok:
             raise ControlError(f"put to {name!r} failed: {why}")
@@ -325,13 +330,13 @@ class Runtime:
             raise ControlError(f"get from {name!r} failed: {value}")
         return value
 
-    def configure(self, resource: str, key: str, value: Any) -> Any:
+    def configure(self, resource: str, key: str, value: JSON) -> Any:
         return self.rs.configure(None, resource, key, value)
 
     def reaction(self, name: str, enabled: bool) -> None:
         self.bs.set_reaction(name, enabled)
 
-    def inspect(self, name: str) -> dict:
+    def inspect(self, name: str) -> JSONObject:
         rec = self.bs.records.get(name)
         if rec is not None:
             return dict(name=name, kind=rec.spec.kind, state=rec.host.state,
@@ -383,17 +388,19 @@ class Runtime:
             with self._changed:
                 self._changed.wait_for(moved, min(left, WAIT_RECHECK))
 
-    def summary(self) -> list[dict]:
+    def summary(self) -> list[JSONObject]:
         """Per component: state, samples delivered/overwritten, puts ok/failed, restarts."""
-        rows = []
+        rows: list[JSONObject] = []
         for row in self.ls():
             try:
-                info = self.inspect(row["name"])
+                info = self.inspect(str(row["name"]))
             except StdError:
                 continue
             c = info.get("counters", {})
-            recv = sum(v.get("received", 0) for v in c.values() if isinstance(v, dict))
-            over = sum(v.get("overwritten", 0) for v in c.values() if isinstance(v, dict))
+            if not isinstance(c, dict):
+                c = {}
+            recv = sum(_count(v, "received") for v in c.values() if isinstance(v, dict))
+            over = sum(_count(v, "overwritten") for v in c.values() if isinstance(v, dict))
             rows.append(dict(name=row["name"], kind=row["kind"], state=row["state"],
                              samples=recv if row["kind"] in ("behavior", "reaction")
                              else c.get("reported", 0),
@@ -424,7 +431,13 @@ def _stop_at_exit(rt: Runtime) -> None:
         pass
 
 
-def _reason(rec: Any) -> str:
+def _count(counters: JSONObject, key: str) -> int | float:
+    """A number among a handle's counters (0 when it has none of that name)."""
+    v = counters.get(key, 0)
+    return v if isinstance(v, (int, float)) else 0
+
+
+def _reason(rec: Record[ComponentHost]) -> str:
     if rec.host.state != "failed":
         return ""
     return getattr(rec.host, "reason", "") or rec.reason

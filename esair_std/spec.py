@@ -7,9 +7,10 @@ Keeping it here means the runtime reads the deployment model in one place only.
 from __future__ import annotations
 
 import os
-from typing import Any, Protocol
+from typing import Any, Iterable, Mapping, Protocol, TypedDict, cast
 
 from .level import Level
+from .transport.codec import JSON, JSONObject
 
 KINDS = ("behavior", "reaction", "resource")
 
@@ -25,7 +26,7 @@ class Spec:
     kind: str
     name: str
     class_path: str
-    options: dict[str, Any]
+    options: dict[str, object]       # the user's own (YAML, sent as JSON)
     base_dir: str | None
     period: float | None
     has_period: bool
@@ -38,7 +39,7 @@ class Spec:
     where: str
 
     def __init__(self, kind: str, name: str, class_path: str,
-                 options: dict[str, Any] | None = None,
+                 options: Mapping[str, object] | None = None,
                  base_dir: str | None = None, period: float | None = None,
                  has_period: bool = False, uses: dict[str, str] | None = None,
                  restart_max: int = 0, restart_within: float = 0.0,
@@ -48,7 +49,8 @@ class Spec:
             kind=kind,                           # behavior | reaction | resource
             name=name,
             class_path=class_path,               # module:Class
-            options={} if options is None else options,
+            options=({} if options is None else options if isinstance(options, dict)
+                     else dict(options)),
             base_dir=base_dir,
             period=period,                       # None: the class's own
             has_period=has_period,               # the deployment set period (maybe to None)
@@ -78,19 +80,19 @@ class Spec:
     def __repr__(self) -> str:
         return "Spec(" + ", ".join(f"{k}={getattr(self, k)!r}" for k in self.__slots__) + ")"
 
-    def to_json(self) -> dict[str, Any]:
-        d = {k: _copy(getattr(self, k)) for k in self.__slots__}
+    def to_json(self) -> JSONObject:
+        d: JSONObject = {k: _copy(getattr(self, k)) for k in self.__slots__}
         d["resources"] = list(self.resources)
         return d
 
     @classmethod
-    def from_json(cls, d: dict[str, Any]) -> "Spec":
+    def from_json(cls, d: dict[str, Any]) -> "Spec":   # to_json's fields, off the wire
         d = dict(d)
         d["resources"] = tuple(d.get("resources", ()))
         return cls(**d)
 
 
-def _copy(value: Any) -> Any:
+def _copy(value: JSON) -> JSON:
     """A deep copy of JSON-like data (dicts, lists, tuples), as dataclasses.asdict made."""
     if isinstance(value, dict):
         return {k: _copy(v) for k, v in value.items()}
@@ -99,30 +101,50 @@ def _copy(value: Any) -> Any:
     return value
 
 
-def _where(entry: Any) -> str:
+def _where(entry: object) -> str:
     mark = getattr(entry, "mark", None)
     return str(mark) if mark is not None else ""
 
 
-def _level_map(m: Any) -> dict[str, str]:
+def _level_map(m: Mapping[str, Level | str] | None) -> dict[str, str]:
     return {str(k): Level.parse(v).name for k, v in dict(m or {}).items()}
 
 
-def _entries(group: Any) -> list[tuple[str, Any]]:
+class Entry(Protocol):
+    """What :func:`specs_of` reads of every entry of a deployment (deploy/model.py's
+    ComponentSpec); the rest (``allow``, ``uses``, ``period``...) it reads with getattr."""
+
+    @property
+    def class_path(self) -> str: ...
+    @property
+    def options(self) -> Mapping[str, Any] | None: ...     # the user's own options
+
+
+class _Named(Entry, Protocol):
+    @property
+    def name(self) -> str: ...
+
+
+def _entries(group: object) -> list[tuple[str, Entry]]:
     """(name, entry) pairs of a deployment group, in file order (dict or sequence)."""
     if isinstance(group, dict):
         return list(group.items())
-    return [(e.name, e) for e in (group or ())]
+    return [(e.name, e) for e in cast("Iterable[_Named]", group or ())]
 
 
-def _period(entry: Any) -> tuple[float | None, bool]:
+def _period(entry: object) -> tuple[float | None, bool]:
     """An entry's ``period`` and whether the deployment set it (maybe to None)."""
     period = getattr(entry, "period", None)
     fields = getattr(entry, "model_fields_set", None)
     return period, ("period" in fields) if fields is not None else period is not None
 
 
-def _restart(entry: Any) -> dict[str, Any]:
+class _Restart(TypedDict):
+    restart_max: int
+    restart_within: float
+
+
+def _restart(entry: object) -> _Restart:
     """An entry's ``restart: {max, within}`` as Spec fields (none: no restart)."""
     restart = getattr(entry, "restart", None)
     if not restart:
@@ -146,7 +168,7 @@ def specs_of(deployment: Groups) -> tuple[list[Spec], list[Spec], list[Spec]]:
     """The resources, behaviors and reactions of a loaded deployment, in file order."""
     base = getattr(deployment, "base_dir", None)
 
-    def folder(e: Any) -> str:
+    def folder(e: object) -> str:
         return str(getattr(e, "base_dir", None) or base or os.getcwd())
 
     res, beh, rea = [], [], []

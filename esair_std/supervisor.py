@@ -25,16 +25,28 @@ import queue
 import threading
 import time
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Callable, Generic, Literal, TypeVar
+from typing import (TYPE_CHECKING, Callable, Generic, Literal, TypeVar, TypeVarTuple, Union,
+                    Unpack, cast)
 
 from .errors import ControlError
 from .counters import Counters
 from .restart_window import RestartWindow
+from .spec import Spec
+from .transport.codec import JSON, JSONObject
 
 if TYPE_CHECKING:  # pragma: no cover
     from .parts import Child
 
 H = TypeVar("H", bound="Child")     # the kind of host a supervisor's children have
+_R = TypeVar("_R")
+_Ts = TypeVarTuple("_Ts")
+#: a request's outcome, as the supervisor's thread hands it back: (True, value) or
+#: (False, the exception it raised)
+_Outcome = Union[tuple[Literal[True], object], tuple[Literal[False], Exception]]
+#: one item of the request queue: fn, its args, the box for its outcome (None: a failure
+#: event, nobody waits) and the event that says it is there
+_Item = tuple[Callable[..., object], tuple[object, ...], Union[list[_Outcome], None],
+              Union[threading.Event, None]]
 
 log = logging.getLogger("esair_std.supervisor")
 REQUESTS = 256          # requests and failure events waiting for the supervisor's thread
@@ -57,7 +69,7 @@ class ChildSpec:
             raise ValueError(f"past_limit must be one of {PAST_LIMIT}, not {self.past_limit!r}")
 
     @classmethod
-    def of(cls, spec: Any) -> "ChildSpec":
+    def of(cls, spec: Spec) -> "ChildSpec":
         """The child spec of a component Spec (its ``restart: {max, within}``)."""
         return cls(spec.name, spec.kind, int(spec.restart_max or 0),
                    float(spec.restart_within or 0.0))
@@ -71,10 +83,10 @@ class Starting:
         self.phase = state
         self.reason = reason
 
-    def offer(self, sender: str, data: Any) -> str:
+    def offer(self, sender: str, data: JSON) -> str:
         return self.state
 
-    def provide(self, requester: str, timeout: float) -> tuple[Any, ...]:
+    def provide(self, requester: str, timeout: float) -> tuple[str, JSON]:
         return ("busy", self.state)
 
     def notify_detached(self, resource: str) -> None:
@@ -86,7 +98,7 @@ class Starting:
     def set_enabled(self, enabled: bool) -> None:
         pass
 
-    def notify_latch(self, state: dict[str, Any] | None, by: str = "") -> None:
+    def notify_latch(self, state: JSONObject | None, by: str = "") -> None:
         pass
 
     def halt(self, why: str) -> None:
@@ -98,10 +110,10 @@ class Starting:
     def check(self, now: float) -> float | None:
         return None
 
-    def children(self) -> dict[str, Any]:
+    def children(self) -> dict[str, str]:
         return {}
 
-    def counters(self) -> dict[str, Any]:
+    def counters(self) -> JSONObject:
         return {}
 
     def grant(self, who: str, resource: str) -> None:
@@ -119,7 +131,7 @@ class Record(Generic[H]):
     """A supervised child: its component spec, its host (or a stand-in while it
     starts), its restart history."""
 
-    spec: Any
+    spec: Spec
     host: H | Starting
     child: ChildSpec | None = None
     generation: int = 1
@@ -144,10 +156,10 @@ class Supervisor(Generic[H]):
     #: behavior's stop() still reaches what it registered for)
     release_before_stop = False
 
-    def __init__(self, name: str, start_host: Callable[[Any, int], H]):
+    def __init__(self, name: str, start_host: Callable[[Spec, int], H]):
         self._start_host = start_host      # (component spec, generation) -> started host
         self.records: dict[str, Record[H]] = {}
-        self._requests: queue.Queue[Any] = queue.Queue(maxsize=REQUESTS)
+        self._requests: queue.Queue[_Item | None] = queue.Queue(maxsize=REQUESTS)
         self._thread = threading.Thread(target=self._main, name=f"esair:{name}", daemon=True)
         self._closing = False
         self.c = Counters(restarts=0)
@@ -168,7 +180,8 @@ class Supervisor(Generic[H]):
         if not self._thread.is_alive():
             self._thread.start()
 
-    def request(self, fn: Callable[..., Any], *args: Any, timeout: float = 30.0) -> Any:
+    def request(self, fn: Callable[[Unpack[_Ts]], _R], *args: Unpack[_Ts],
+                timeout: float = 30.0) -> _R:
         """Run ``fn(*args)`` on the supervisor's thread (one request at a time); its result.
         Before ``start`` (phase 1) or on that thread itself, it runs here."""
         if self._closing:
@@ -176,19 +189,19 @@ class Supervisor(Generic[H]):
         if not self._thread.is_alive() or threading.current_thread() is self._thread:
             return fn(*args)
         done = threading.Event()
-        box: list[Any] = []
+        box: list[_Outcome] = []
         try:
             self._requests.put((fn, args, box, done), timeout=1.0)
         except queue.Full:
             raise ControlError("the supervisor is busy: try again") from None
         if not done.wait(timeout):
             raise ControlError(f"request not done within {timeout:g} s")
-        ok, value = box[0]
-        if not ok:
-            raise value
-        return value
+        outcome = box[0]
+        if outcome[0] is False:
+            raise outcome[1]
+        return cast(_R, outcome[1])         # what fn returned (_main)
 
-    def add_child(self, spec: Any) -> Record[H]:
+    def add_child(self, spec: Spec) -> Record[H]:
         """Start ``spec`` as generation 1 (on the supervisor's thread, or in phase 1)."""
         rec: Record[H] = Record(spec, Starting())
         self.records[spec.name] = rec       # known before its start() asks for anything
@@ -252,11 +265,12 @@ class Supervisor(Generic[H]):
             if item is None or self._closing:
                 return
             fn, args, box, done = item
+            value: _Outcome
             try:
                 value = (True, fn(*args))
             except Exception as exc:  # noqa: BLE001 - handed to the requester
                 value = (False, exc)
-            if box is not None:
+            if box is not None and done is not None:
                 box.append(value)
                 done.set()
             elif not value[0]:

@@ -78,8 +78,11 @@ def _restart_policy(text: str | None, kind: str) -> tuple[int, float]:
                    "(default: never).")
 @insecure_option()
 @friendly
-def agent_cmd(endpoint, name, class_path, uses, allow, period, options, robot, ca, cert, key,
-              user, password_file, lease_ms, host_name, restart, insecure) -> None:
+def agent_cmd(endpoint: str, name: str, class_path: str, uses: tuple[str, ...],
+              allow: tuple[str, ...], period: float | None, options: tuple[str, ...],
+              robot: str | None, ca: str | None, cert: str | None, key: str | None,
+              user: str | None, password_file: str | None, lease_ms: int | None,
+              host_name: str | None, restart: str | None, insecure: bool) -> None:
     """Run NAME (a Behavior, Sensor, Actuator or Driver class module:Class, imported from
     the current folder first) here, as an agent of the control center at --connect.
 

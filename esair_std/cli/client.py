@@ -10,6 +10,7 @@ from typing import Any
 from ..errors import TransportError
 from ..transport import keys, wire
 from ..transport.bus import Bus
+from ..transport.codec import JSONObject
 from ..transport.session import check_endpoint
 
 DEFAULT_ENDPOINT = "tcp/127.0.0.1:7447"
@@ -33,7 +34,7 @@ class Client:
             raise TransportError("ESAIR_STD_SESSION is not a JSON object") from None
         # the client dials the runtime only, and nobody dials it: no listener, no peers
         # taken from gossip (it asks the runtime, which reads the agents for it)
-        alone = {"listen/endpoints": [], "scouting/gossip/autoconnect": {"peer": []}}
+        alone: JSONObject = {"listen/endpoints": [], "scouting/gossip/autoconnect": {"peer": []}}
         self.bus = Bus(connect=[self.endpoint], options={**alone, **options},
                        runtime=self.endpoint)
         try:
@@ -49,7 +50,8 @@ class Client:
                                  "(is `esair std run` running?)")
         return robot
 
-    def call(self, verb: str, body: dict | None = None, timeout: float | None = None) -> Any:
+    def call(self, verb: str, body: JSONObject | None = None,
+             timeout: float | None = None) -> Any:    # the ok value, read as the verb says
         r = self.bus.request(keys.ctl(self.robot, verb), body or {}, timeout or self.timeout)
         if r is None:
             raise TransportError(f"the runtime of robot {self.robot!r} on {self.endpoint} "
@@ -62,5 +64,5 @@ class Client:
     def __enter__(self) -> "Client":
         return self
 
-    def __exit__(self, *exc: Any) -> None:
+    def __exit__(self, *exc: object) -> None:
         self.close()

@@ -7,16 +7,20 @@ from __future__ import annotations
 import functools
 import json
 import sys
-from typing import Any, Callable
+from typing import IO, TYPE_CHECKING, Any, Callable, Protocol
 
 import click
 
 from ..errors import ControlError
+from ..transport.codec import JSON, JSONObject
 from esair_min.cli.pipes import friendly
 
 from .jsontext import json_or_text, option_value
 from .shared_options import endpoint_option
 from .table import table as _table
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .client import Client
 
 ENDPOINT = endpoint_option("The runtime's control endpoint (default: $ESAIR_STD_ENDPOINT, "
                            "else tcp/127.0.0.1:7447).")
@@ -28,21 +32,29 @@ ROBOT = click.option("-r", "--robot", default=None,
 MAX_DATA = 256 * 1024 - 1024
 
 
+class Caller(Protocol):
+    """What asks the runtime a control verb: the control client, or the runtime itself
+    (``esair std run``'s live table)."""
+
+    def call(self, verb: str, body: JSONObject | None = None) -> Any: ...   # its answer
+
+
 class _Connection:
     """The runtime's control client, connected when a command first uses it: a command
     checks its arguments (a JSON typo, a bad pair) before it connects."""
 
     def __init__(self, endpoint: str | None, robot: str | None):
         self._args = (endpoint, robot)
-        self._client: Any = None
+        self._client: Client | None = None
 
-    def _connected(self) -> Any:
+    def _connected(self) -> Client:
         if self._client is None:
             from .client import Client
             self._client = Client(*self._args)
         return self._client
 
-    def call(self, verb: str, body: dict | None = None, timeout: float | None = None) -> Any:
+    def call(self, verb: str, body: JSONObject | None = None,
+             timeout: float | None = None) -> Any:             # the answer, read as told
         return self._connected().call(verb, body, timeout)
 
     @property
@@ -58,14 +70,14 @@ class _Connection:
             self._client.close()
 
 
-def control(fn: Callable[..., Any]) -> Callable[..., Any]:
+def control(fn: Callable[..., None]) -> Callable[..., None]:
     """Give ``fn`` the runtime's control client (connected at its first use) as its first
     argument."""
 
     @ENDPOINT
     @ROBOT
     @functools.wraps(fn)
-    def wrapper(endpoint: str | None, robot: str | None, **kw: Any) -> Any:
+    def wrapper(endpoint: str | None, robot: str | None, **kw: object) -> None:
         c = _Connection(endpoint, robot)
         try:
             return fn(c, **kw)
@@ -78,12 +90,12 @@ TEXT = click.option("--text", "as_text", is_flag=True,
                     help="Send it as text (a string) as it is, never read as JSON.")
 
 
-def value(text: str, what: str, as_text: bool = False) -> Any:
+def value(text: str, what: str, as_text: bool = False) -> JSON:
     """JSON or text (jsontext.json_or_text); with --text, the text itself."""
     return text if as_text else json_or_text(text, what)
 
 
-def options_of(items: tuple[str, ...]) -> dict[str, Any]:
+def options_of(items: tuple[str, ...]) -> JSONObject:
     """``-o KEY=VALUE ...`` as a dict, each VALUE JSON or text."""
     return {k: option_value(k, v) for k, v in pairs(items, "option").items()}
 
@@ -101,7 +113,7 @@ def pairs(items: tuple[str, ...], what: str) -> dict[str, str]:
 @click.command("ls")
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
 @control
-def ls_cmd(c: Any, as_json: bool) -> None:
+def ls_cmd(c: _Connection, as_json: bool) -> None:
     """List components: name, kind, state, pid, host, restarts, reason (a driver's row
     before its children's). --json: {"robot", "endpoint", "components": [...]}, every
     component with the keys name, kind, state, pid, host, restarts, reason, class,
@@ -123,7 +135,7 @@ def ls_cmd(c: Any, as_json: bool) -> None:
                    "be listed soon", err=True)
 
 
-def stopped_line(state: dict | None, lead: str = "") -> str:
+def stopped_line(state: JSON, lead: str = "") -> str:
     """``STOPPED by WHO at TIME (reason): release with esair std release``, or "" while
     not stopped (the latched STOP: docs/std.md)."""
     if not isinstance(state, dict):
@@ -133,7 +145,7 @@ def stopped_line(state: dict | None, lead: str = "") -> str:
             f"esair std release")
 
 
-def still_starting(c: Any) -> bool:
+def still_starting(c: _Connection) -> bool:
     """Whether the runtime still adds its deployment's components (ping's ``starting``;
     False from a runtime that does not say)."""
     return bool(c.call("ping").get("starting", False))
@@ -150,8 +162,8 @@ def still_starting(c: Any) -> bool:
               help="An option (self.options); VALUE is JSON or text (text that starts "
                    "with {, [ or \" as a JSON string).")
 @control
-def add_cmd(c: Any, name: str, class_path: str, uses: tuple, period: float | None,
-            options: tuple) -> None:
+def add_cmd(c: _Connection, name: str, class_path: str, uses: tuple[str, ...],
+            period: float | None, options: tuple[str, ...]) -> None:
     """Add behavior NAME (module:Class, imported from the deployment's folder first)."""
     opts = options_of(options)
     state = c.call("add", {"name": name, "class": class_path, "uses": pairs(uses, "--uses"),
@@ -162,7 +174,7 @@ def add_cmd(c: Any, name: str, class_path: str, uses: tuple, period: float | Non
 @click.command("remove")
 @click.argument("name")
 @control
-def remove_cmd(c: Any, name: str) -> None:
+def remove_cmd(c: _Connection, name: str) -> None:
     """Remove behavior (or reaction) NAME: it is stopped and its registrations end."""
     c.call("remove", {"name": name}, timeout=30)
     click.echo(f"{name}: removed")
@@ -177,7 +189,8 @@ def remove_cmd(c: Any, name: str) -> None:
               help="An option (self.options); VALUE is JSON or text (text that starts "
                    "with {, [ or \" as a JSON string).")
 @control
-def add_resource_cmd(c: Any, name: str, class_path: str, allow: tuple, options: tuple) -> None:
+def add_resource_cmd(c: _Connection, name: str, class_path: str, allow: tuple[str, ...],
+                     options: tuple[str, ...]) -> None:
     """Add resource NAME (a Sensor, Actuator or Driver class) while the robot runs."""
     opts = options_of(options)
     kids = c.call("add-resource", {"name": name, "class": class_path,
@@ -190,7 +203,7 @@ def add_resource_cmd(c: Any, name: str, class_path: str, allow: tuple, options: 
 @click.command("remove-resource")
 @click.argument("name")
 @control
-def remove_resource_cmd(c: Any, name: str) -> None:
+def remove_resource_cmd(c: _Connection, name: str) -> None:
     """Remove resource NAME at once; attached behaviors are told and keep running."""
     told = c.call("remove-resource", {"name": name}, timeout=30)
     click.echo(f"{name}: removed" + (f" (detached: {', '.join(told)})" if told else ""))
@@ -208,7 +221,7 @@ def remove_resource_cmd(c: Any, name: str) -> None:
                    "ran (a refusal is then not reported here).")
 @TEXT
 @control
-def put_cmd(c: Any, name: str, data: str | None, file: Any, timeout: float,
+def put_cmd(c: _Connection, name: str, data: str | None, file: IO[str] | None, timeout: float,
             no_wait: bool, as_text: bool) -> None:
     """Deliver DATA (JSON, or text) to behavior NAME through the BS, as `operator`, and
     wait until its receive() took it: a behavior refuses data by raising
@@ -222,6 +235,7 @@ def put_cmd(c: Any, name: str, data: str | None, file: Any, timeout: float,
     if data == "-":
         data = sys.stdin.read()
     elif data is None:                   # then FILE was given (checked above)
+        assert file is not None
         data = file.read()
     obj = value(data, "DATA" if file is None else f"DATA in {file.name}", as_text)
     size = len(json.dumps(obj, separators=(",", ":")).encode())     # as the wire has it
@@ -240,7 +254,7 @@ def put_cmd(c: Any, name: str, data: str | None, file: Any, timeout: float,
 @click.option("--timeout", type=click.FloatRange(0, 3600), default=1.0, show_default=True,
               help="Seconds to wait for the behavior.")
 @control
-def get_cmd(c: Any, name: str, timeout: float) -> None:
+def get_cmd(c: _Connection, name: str, timeout: float) -> None:
     """Ask behavior NAME for data (its provide()) through the BS; print it as JSON."""
     r = c.call("get", {"to": name, "timeout": timeout}, timeout=timeout + 5)
     if not r["ok"]:
@@ -259,7 +273,7 @@ def get_cmd(c: Any, name: str, timeout: float) -> None:
               help="Seconds to wait for a first sample.")
 @click.option("--meta", is_flag=True, help="Print {resource, seq, t, value}, not the value.")
 @control
-def sample_cmd(c: Any, name: str, timeout: float, meta: bool) -> None:
+def sample_cmd(c: _Connection, name: str, timeout: float, meta: bool) -> None:
     """Print the latest sample of sensor NAME as JSON (e.g. papaman.feet)."""
     s = c.call("sample", {"name": name, "timeout": timeout}, timeout=timeout + 5)
     click.echo(json.dumps(s if meta else s["value"]))
@@ -272,7 +286,7 @@ def sample_cmd(c: Any, name: str, timeout: float, meta: bool) -> None:
               help="Seconds the actuator may take.")
 @TEXT
 @control
-def send_cmd(c: Any, name: str, val: str, timeout: float, as_text: bool) -> None:
+def send_cmd(c: _Connection, name: str, val: str, timeout: float, as_text: bool) -> None:
     """Send one command VALUE (JSON, or text) to actuator NAME as the operator; print the
     actuator's answer. Refused unless its resource's allow grants `operator: command`.
     VALUE that starts like JSON ({, [ or ") must be JSON (--text sends it as text)."""
@@ -287,7 +301,7 @@ def send_cmd(c: Any, name: str, val: str, timeout: float, as_text: bool) -> None
 @click.argument("val", metavar="VALUE")
 @TEXT
 @control
-def configure_cmd(c: Any, resource: str, key: str, val: str, as_text: bool) -> None:
+def configure_cmd(c: _Connection, resource: str, key: str, val: str, as_text: bool) -> None:
     """Set KEY of RESOURCE to VALUE (JSON or text), as the operator. VALUE that starts
     like JSON ({, [ or ") must be JSON (--text sends it as text)."""
     setting = value(val, "VALUE", as_text)
@@ -299,7 +313,7 @@ def configure_cmd(c: Any, resource: str, key: str, val: str, as_text: bool) -> N
 @click.argument("name")
 @click.argument("action", type=click.Choice(["enable", "disable"]))
 @control
-def reaction_cmd(c: Any, name: str, action: str) -> None:
+def reaction_cmd(c: _Connection, name: str, action: str) -> None:
     """Enable or disable reaction NAME."""
     c.call("reaction", {"name": name, "enabled": action == "enable"})
     click.echo(f"{name}: {action}d")
@@ -308,7 +322,7 @@ def reaction_cmd(c: Any, name: str, action: str) -> None:
 @click.command("inspect")
 @click.argument("name")
 @control
-def inspect_cmd(c: Any, name: str) -> None:
+def inspect_cmd(c: _Connection, name: str) -> None:
     """A component's state and counters, as JSON."""
     click.echo(json.dumps(c.call("inspect", {"name": name}), indent=1))
 
@@ -316,7 +330,7 @@ def inspect_cmd(c: Any, name: str) -> None:
 @click.command("stop")
 @click.option("--reason", default="", metavar="TEXT", help="Why (shown with the state).")
 @control
-def stop_cmd(c: Any, reason: str) -> None:
+def stop_cmd(c: _Connection, reason: str) -> None:
     """STOP the robot, latched: every motion stopped at once, every queued actuator
     command dropped, every new one refused (behaviors, reactions, remote agents, `esair
     std send`, the HMI) until `esair std release`. Sensors and behaviors go on."""
@@ -326,7 +340,7 @@ def stop_cmd(c: Any, reason: str) -> None:
 
 @click.command("release")
 @control
-def release_cmd(c: Any) -> None:
+def release_cmd(c: _Connection) -> None:
     """Release the STOP (an operator's deliberate act): actuator commands are taken
     again. It starts nothing by itself."""
     was = c.call("release", {}, timeout=10)
@@ -335,7 +349,7 @@ def release_cmd(c: Any) -> None:
 
 @click.command("ping")
 @control
-def ping_cmd(c: Any) -> None:
+def ping_cmd(c: _Connection) -> None:
     """The runtime answering: robot, mode, pid, whether it still starts, and whether it
     is STOPPED (by whom, when)."""
     p = c.call("ping")

@@ -8,9 +8,11 @@ command's ``--text`` (or, for an option, written as a JSON string)."""
 from __future__ import annotations
 
 import json
-from typing import Any
+from typing import NoReturn
 
 import click
+
+from ..transport.codec import JSON
 
 #: The first characters of a value that was meant as JSON (after leading blanks).
 LIKE_JSON = ("{", "[", '"')
@@ -19,7 +21,7 @@ class _NotJsonNumber(ValueError):
     """NaN, Infinity, -Infinity: Python's json reads them, JSON has no such numbers."""
 
 
-def _no_constant(name: str) -> Any:
+def _no_constant(name: str) -> NoReturn:
     raise _NotJsonNumber(name)
 
 
@@ -27,12 +29,13 @@ def _no_constant(name: str) -> Any:
 USE_TEXT = "to send it as text use --text"
 
 
-def json_or_text(text: str, what: str, hint: str = USE_TEXT) -> Any:
+def json_or_text(text: str, what: str, hint: str = USE_TEXT) -> JSON:
     """``text`` as JSON (1, 2.5, true, {"a": 1}, "s") if it parses, else the text itself;
     raises click.UsageError when it starts like JSON and does not parse (``what`` names
     the value: ``DATA``, ``VALUE``, ``-o gain``)."""
     try:
-        return json.loads(text, parse_constant=_no_constant)
+        obj: JSON = json.loads(text, parse_constant=_no_constant)
+        return obj
     except _NotJsonNumber as exc:
         # sent as is it would put non-standard JSON on the wire: text, or an error as below
         if not text.lstrip().startswith(LIKE_JSON):
@@ -50,7 +53,7 @@ def json_or_text(text: str, what: str, hint: str = USE_TEXT) -> Any:
         raise click.UsageError(f"{what} is JSON nested too deeply to be read") from None
 
 
-def option_value(key: str, text: str) -> Any:
+def option_value(key: str, text: str) -> JSON:
     """The VALUE of ``-o KEY=VALUE``: as :func:`json_or_text`; text that starts like JSON
     is given as a JSON string."""
     return json_or_text(text, f"-o {key}",

@@ -8,6 +8,7 @@ import signal
 import sys
 import threading
 import time
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import click
@@ -16,21 +17,25 @@ from esair_min import sigs
 from esair_min.cli.pipes import friendly
 
 from ..errors import ControlError, TransportError
+from ..transport.codec import JSONObject
 
 if TYPE_CHECKING:  # pragma: no cover
+    from esair_min.config.yamlload import Document
+
+    from ..deploy.model import Deployment
     from ..runtime import Runtime
 from ..endpoint import reaches_beyond
 from .shared_options import endpoint_option, exposure, insecure_option
 from .table import table as _table
 
 
-def _load(path: Any, port: str | None, emulate: dict[str, str]) -> Any:
+def _load(path: str | Path, port: str | None, emulate: dict[str, str]) -> Deployment:
     """The deployment, through the one loader ``esair std check`` uses, with the command
     line's ``--port`` / ``--trace`` / ``--scenario`` applied to the document first."""
     from ..deploy import load_document
     from ..deploy.overrides import set_emulate, set_port
 
-    def edit(doc: Any) -> None:
+    def edit(doc: Document) -> None:
         if port is not None:
             set_port(doc, port)
         if emulate:
@@ -45,11 +50,11 @@ class _Local:
         self.rt = rt
         self.robot = rt.robot
 
-    def call(self, verb: str, body: dict | None = None) -> Any:
+    def call(self, verb: str, body: JSONObject | None = None) -> Any:      # as the client's
         if verb == "ls":
             from ..control.listing import components
             return components(self.rt) if (body or {}).get("all") else self.rt.ls()
-        return self.rt.inspect((body or {})["name"])
+        return self.rt.inspect(str((body or {})["name"]))
 
 
 def _live(rt: Runtime, stop: threading.Event, seconds: float | None) -> None:
@@ -148,7 +153,7 @@ def run_cmd(deployment: str, mode: str | None, seconds: float | None, endpoint: 
         exposure(f"listening on {rt.endpoint}", "TLS client certificates (a tls/ endpoint) "
                  "or logins: a security section (docs/std-network.md)", insecure)
     stop = threading.Event()
-    failed: list[dict] = []
+    failed: list[JSONObject] = []
     ctrl_c = _CtrlC(stop)
     old = signal.getsignal(signal.SIGTERM)
     try:
@@ -211,23 +216,23 @@ class _CtrlC:
         self.hit = False
         self.started = False
         self.stopping = False
-        self.old: Any = None
+        self.old: object = None        # the handler SIGINT had
 
     def __enter__(self) -> "_CtrlC":
         # started with SIGINT ignored (a shell's background job): it stays ignored
         self.old = sigs.install(signal.SIGINT, self._on_sigint)
         return self
 
-    def __exit__(self, *exc: Any) -> None:
+    def __exit__(self, *exc: object) -> None:
         # a Ctrl-C while the runtime stops is ignored (nothing to print)
         signal.signal(signal.SIGINT, signal.SIG_IGN)
 
-    def _on_sigint(self, *_: Any) -> None:
+    def _on_sigint(self, *_: object) -> None:
         first = not self.hit
         self.hit = True
         self._stop_now(first)
 
-    def on_sigterm(self, *_: Any) -> None:
+    def on_sigterm(self, *_: object) -> None:
         """SIGTERM (a service manager's stop, exit status 0): the robot stops; while it
         starts, the start is interrupted as Ctrl-C interrupts it (a resource whose open
         hangs would otherwise hold the stop up to its own time limit)."""

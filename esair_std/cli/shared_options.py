@@ -3,14 +3,17 @@ usage error: exit status 2)."""
 
 from __future__ import annotations
 
-from typing import Any, Callable
+from typing import Callable, TypeVar
 
 import click
 
 from ..endpoint import endpoint_fault
 
+_F = TypeVar("_F", bound=Callable[..., object])     # a click command's function
 
-def check_endpoint(_ctx: Any, _param: Any, value: str | None) -> str | None:
+
+def check_endpoint(_ctx: click.Context, _param: click.Parameter,
+                   value: str | None) -> str | None:
     """``-e``: the form a deployment's ``endpoint`` has (the same checks and words)."""
     if value is None:
         return None
@@ -20,14 +23,14 @@ def check_endpoint(_ctx: Any, _param: Any, value: str | None) -> str | None:
     return value
 
 
-def endpoint_option(help_text: str) -> Any:
+def endpoint_option(help_text: str) -> Callable[[_F], _F]:
     """``-e/--endpoint``, by default $ESAIR_STD_ENDPOINT."""
     return click.option("-e", "--endpoint", default=None, metavar="tcp/HOST:PORT",
                         envvar="ESAIR_STD_ENDPOINT", show_envvar=True,
                         callback=check_endpoint, help=help_text)
 
 
-def insecure_option() -> Any:
+def insecure_option() -> Callable[[_F], _F]:
     """``--insecure``: run on an address other computers reach without security."""
     return click.option("--insecure", is_flag=True,
                         help="Allow an address other computers reach without security "
@@ -48,7 +51,7 @@ def exposure(where: str, needs: str, insecure: bool) -> None:
 
 
 def server_options(default_listen: str, listen_help: str,
-                   client_ca_help: str) -> Callable[[Any], Any]:
+                   client_ca_help: str) -> Callable[[_F], _F]:
     """``-e``, ``--listen``, ``--tls-cert``, ``--tls-key``, ``--client-ca`` and
     ``--insecure`` of a server others connect to (``esair std hmi``, ``foxglove``; what
     they do with them: serving.py)."""
@@ -63,7 +66,7 @@ def server_options(default_listen: str, listen_help: str,
                      help=client_ca_help),
         insecure_option()]
 
-    def decorate(f: Any) -> Any:
+    def decorate(f: _F) -> _F:
         for option in reversed(options):
             f = option(f)
         return f

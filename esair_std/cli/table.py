@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+from typing import Mapping, Sequence
 
-def table(rows: list[dict], cols: list[str]) -> str:
+
+def table(rows: Sequence[Mapping[str, object]], cols: list[str]) -> str:
     """``cols`` as upper-case headers over one left-justified line per row."""
     widths = {c: max(len(c), *(len(str(r.get(c, ""))) for r in rows)) if rows else len(c)
               for c in cols}

@@ -4,18 +4,24 @@ and rates (steps, samples, commands per second), refreshed from the control endp
 from __future__ import annotations
 
 import time
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import click
 
 from ..errors import StdError
-from .control import control, stopped_line
+from .control import Caller, _Connection, control, stopped_line
+
+if TYPE_CHECKING:  # pragma: no cover
+    from rich.table import Table
+
+#: a row of ``ls``'s answer as the live table reads and extends it (count, label...)
+Row = dict[str, Any]
 
 COLOURS = {"running": "green", "ready": "green", "busy": "yellow", "starting": "cyan",
            "failed": "bold red", "lost": "bold red", "stopped": "dim"}
 
 
-def _rate_source(kind: str, counters: dict) -> int:
+def _rate_source(kind: str, counters: Row) -> int:
     if kind in ("behavior", "reaction"):
         return int(counters.get("steps", 0)) + sum(
             int(v.get("received", 0)) for v in counters.values() if isinstance(v, dict))
@@ -28,8 +34,8 @@ REASON_WIDTH = 48
 GROUP_FROM = 3
 
 
-def snapshot(c: Any) -> list[dict]:
-    rows = []
+def snapshot(c: Caller) -> list[Row]:
+    rows: list[Row] = []
     for row in c.call("ls", {"all": True}):
         if row["kind"] == "driver":
             row["count"] = 0
@@ -47,7 +53,7 @@ def snapshot(c: Any) -> list[dict]:
     return grouped(rows)
 
 
-def grouped(rows: list[dict]) -> list[dict]:
+def grouped(rows: list[Row]) -> list[Row]:
     """A driver's children under it, shown by their name within it (``.motion``);
     children sharing a prefix, GROUP_FROM or more, as one row (``.servo.* (12)``) whose
     state is the worst of theirs (``ready``, or e.g. ``lost 3/12``) and count their sum."""
@@ -56,8 +62,8 @@ def grouped(rows: list[dict]) -> list[dict]:
         if r.get("parent"):
             prefix_n[(r["parent"], r["name"].rpartition(".")[0])] = prefix_n.get(
                 (r["parent"], r["name"].rpartition(".")[0]), 0) + 1
-    out: list[dict] = []
-    groups: dict[str, dict] = {}
+    out: list[Row] = []
+    groups: dict[str, Row] = {}
     for r in rows:
         parent = r.get("parent")
         if not parent:
@@ -82,11 +88,11 @@ def grouped(rows: list[dict]) -> list[dict]:
     return out
 
 
-def render(rows: list[dict], before: dict[str, tuple[float, int]], robot: str) -> Any:
+def render(rows: list[Row], before: dict[str, tuple[float, int]], robot: str) -> Table:
     from rich.table import Table
     from rich.text import Text
     now = time.monotonic()
-    cells = []
+    cells: list[tuple[str, ...]] = []
     for r in rows:
         if r["count"] is None:              # its counters did not come in time
             rate = "?"
@@ -94,8 +100,8 @@ def render(rows: list[dict], before: dict[str, tuple[float, int]], robot: str) -
             t0, n0 = before.get(r["name"], (now, r["count"]))
             rate = f"{(r['count'] - n0) / (now - t0) if now > t0 else 0.0:.0f}"
             before[r["name"]] = (now, r["count"])
-        cells.append((r.get("label", r["name"]), r["kind"], r["state"], str(r["pid"]),
-                      r["host"], str(r.get("restarts", 0)), rate,
+        cells.append((r["label"] if "label" in r else r["name"], r["kind"], r["state"],
+                      str(r["pid"]), r["host"], str(r.get("restarts", 0)), rate,
                       r.get("reason", "")))
     t = Table(title=f"ESAIR STD — robot {robot}", expand=False)
     for i, col in enumerate(COLUMNS):
@@ -124,7 +130,7 @@ COLUMNS = ("name", "kind", "state", "pid", "host", "restarts", "events/s", "reas
 @click.option("--count", type=click.IntRange(min=1), default=None,
               help="Stop after this many refreshes (default: until Ctrl-C).")
 @control
-def top_cmd(c: Any, interval: float, count: int | None) -> None:
+def top_cmd(c: _Connection, interval: float, count: int | None) -> None:
     """Live table of components: state, pid, host, restarts and events per second."""
     from rich.console import Console
     from rich.live import Live

@@ -21,13 +21,14 @@ import os
 import queue
 import threading
 import time
-from typing import TYPE_CHECKING, Any, Callable
+from typing import TYPE_CHECKING, Callable, TypeVar, overload
 
 from ..errors import ControlError, Refused
 from ..latch import may_stop
 from ..level import Level
 from ..sample import Sample  # noqa: F401 - documented payload type
 from ..transport import keys, wire
+from ..transport.codec import JSON, JSONObject
 from ..transport.bus import Bus, Request
 from ..transport.calls import SampleServer
 from ..transport.wire import Verbs
@@ -45,13 +46,21 @@ from ..counters import Counters
 log = logging.getLogger("esair_std.control")
 WORKERS = 8
 PENDING = 256
+_T = TypeVar("_T")
 #: verbs answered from the runtime's own tables, never by a call over the network: their
 #: own queue and workers (a listing must answer while every other worker waits)
 QUICK = frozenset({"ping", "ls", "state", "latch", "kind", "resinfo"})
 QUICK_WORKERS = 2
 
 
-def _need(body: dict, field: str, kind: type | tuple = str) -> Any:
+@overload
+def _need(body: JSONObject, field: str) -> str: ...
+@overload
+def _need(body: JSONObject, field: str, kind: type[_T]) -> _T: ...
+
+
+def _need(body: JSONObject, field: str,
+          kind: type[object] | tuple[type[object], ...] = str) -> object:
     if field not in body:
         raise ControlError(f"bad request: missing {field!r}")
     v = body[field]
@@ -61,14 +70,14 @@ def _need(body: dict, field: str, kind: type | tuple = str) -> Any:
     return v
 
 
-def _timeout(body: dict, default: float = 1.0) -> float:
+def _timeout(body: JSONObject, default: float = 1.0) -> float:
     t = body.get("timeout", default)
     if isinstance(t, bool) or not isinstance(t, (int, float)) or not 0 <= t <= 3600:
         raise ControlError("bad request: 'timeout' must be a number of seconds (0-3600)")
     return float(t)
 
 
-def _valid_timeout(body: dict) -> bool:
+def _valid_timeout(body: JSONObject) -> bool:
     try:
         _timeout(body)
     except ControlError:
@@ -76,7 +85,7 @@ def _valid_timeout(body: dict) -> bool:
     return True
 
 
-def _latch_body(state: dict | None, by: str = "") -> dict:
+def _latch_body(state: JSONObject | None, by: str = "") -> JSONObject:
     if state is None:          # t: when (a recording orders the states by it)
         return {"stopped": False, "released_by": by, "t": time.time()}
     return {"stopped": True, **state}
@@ -87,7 +96,7 @@ class _SampleRequest:
 
     __slots__ = ("key", "body", "error", "reply")
 
-    def __init__(self, key: str, body: dict, answer: Callable[[dict], None]):
+    def __init__(self, key: str, body: JSONObject, answer: Callable[[JSONObject], None]):
         self.key, self.body, self.error, self.reply = key, body, "", answer
 
 
@@ -103,8 +112,9 @@ class ControlServer:
         self.bs, self.rs, self.mode, self.center = bs, rs, mode, center
         self.endpoint = check_endpoint(rt.endpoint)
         self.bus: Bus | None = None
-        self._q: queue.Queue = queue.Queue(maxsize=PENDING)
-        self._quick: queue.Queue = queue.Queue(maxsize=PENDING)    # QUICK's lane
+        self._q: queue.Queue[Request | _SampleRequest | None] = queue.Queue(maxsize=PENDING)
+        self._quick: queue.Queue[Request | _SampleRequest | None] = queue.Queue(
+            maxsize=PENDING)                                          # QUICK's lane
         self._workers: list[threading.Thread] = []
         self.threads = Threads()     # what may be in a Zenoh call: joined at stop (threads.py)
         self._closing = False
@@ -112,7 +122,7 @@ class ControlServer:
         self._version = 0
         self.c = Counters(requests=0, bad_requests=0, refused_full=0, change_notices=0)
         self.verbs = Verbs(unknown="unknown control verb {verb!r}")
-        for verb, fn in {
+        table: dict[str, wire.Handler] = {
             "ping": self.v_ping, "ls": self.v_ls, "add": self.v_add, "remove": self.v_remove,
             "add-resource": self.v_add_resource, "remove-resource": self.v_remove_resource,
             "put": self.v_put, "get": self.v_get, "configure": self.v_configure,
@@ -125,7 +135,8 @@ class ControlServer:
             "sample": self.v_sample, "send": self.v_send,
             # the latched STOP (latch.py): esair std stop / release
             "stop": self.v_stop, "release": self.v_release, "latch": self.v_latch,
-        }.items():
+        }
+        for verb, fn in table.items():
             self.verbs.add(verb, fn)
         self._operator: Operator | None = None     # on first use
         from .observe import install as _observe   # outside principals: the HMI (observe.py)
@@ -151,7 +162,7 @@ class ControlServer:
         self._latch = self.bus.publisher(keys.latch(robot))
         self.threads.start(self._notify, name="esair:changed")
 
-    def latch_changed(self, state: dict | None, by: str = "") -> None:
+    def latch_changed(self, state: JSONObject | None, by: str = "") -> None:
         """The latched STOP's state for watchers (the HMI, recorders): ``esair/<robot>/
         latch``."""
         try:
@@ -177,11 +188,11 @@ class ControlServer:
             except Exception as exc:  # noqa: BLE001 - the session is closing
                 log.debug("change notice: %s", exc)
 
-    def counters(self) -> dict:
+    def counters(self) -> JSONObject:
         """The control endpoint's own counters (``esair std inspect runtime``): requests,
         garbage refused, requests refused while full, and the put path's samples."""
         self.c["bad_requests"] = self.verbs.c["bad_requests"]
-        out = dict(self.c, put_samples=dict(self.puts.c))
+        out: JSONObject = dict(self.c, put_samples=dict(self.puts.c))
         out.update(self.mode.counters())
         return out
 
@@ -205,9 +216,11 @@ class ControlServer:
 
     def _enqueue(self, req: Request | _SampleRequest) -> None:
         b = req.body
-        if (req.key.endswith("/ctl/put") and b is not None and isinstance(b.get("to"), str)
+        to = b.get("to") if b is not None else None
+        frm = b.get("from", "") if b is not None else None
+        if (req.key.endswith("/ctl/put") and b is not None and isinstance(to, str)
                 and not b.get("wait")
-                and isinstance(b.get("from", ""), str) and _valid_timeout(b)):
+                and isinstance(frm, str) and _valid_timeout(b)):
             # fast path: the first offer straight from this callback, answered from the
             # offer's answer; a busy target goes on through a worker (retries until the
             # rest of the timeout)
@@ -222,14 +235,15 @@ class ControlServer:
                     b["timeout"] = max(0.0, deadline - time.monotonic())
                     self._to_worker(req)
             try:
-                if self.bs.put_first(b.get("from") or "operator", b["to"], b.get("data"),
+                if self.bs.put_first(frm or "operator", to, b.get("data"),
                                         timeout, first):
                     return
             except Exception as exc:  # noqa: BLE001 - fall back to the ordinary path
                 log.debug("put fast path: %s", exc)
         self._to_worker(req)
 
-    def _on_put_sample(self, key: str, body: dict, answer: Callable[[dict], None]) -> None:
+    def _on_put_sample(self, key: str, body: JSONObject,
+                       answer: Callable[[JSONObject], None]) -> None:
         """A component process's put, as a sample on ``ctl/put/<sender>``
         (transport/calls.py): the same handling as the ``ctl/put`` query, the sender
         named by the key (which a remote agent's ACL lets only it use)."""
@@ -244,31 +258,31 @@ class ControlServer:
             self.c.add("refused_full")
             req.reply(wire.error(ControlError("runtime busy: too many requests waiting")))
 
-    def _work(self, q: queue.Queue) -> None:
+    def _work(self, q: queue.Queue[Request | _SampleRequest | None]) -> None:
         while True:
             req = q.get()
             if req is None or self._closing:
                 return
             req.reply(self.answer(req.key.rsplit("/", 1)[-1], req.body, req.error))
 
-    def answer(self, verb: str, body: dict | None, error: str = "") -> dict:
+    def answer(self, verb: str, body: JSONObject | None, error: str = "") -> JSONObject:
         self.c.add("requests")
         return self.verbs.answer(verb, body, error)
 
     # ---- user verbs (the CLI)
-    def v_ping(self, b: dict) -> dict:
+    def v_ping(self, b: JSONObject) -> JSONObject:
         # starting: the deployment's components are still being added (resources, then
         # behaviors): a listing now is not the whole robot yet
         return {"robot": self.rt.robot, "mode": self.rt.mode_name, "pid": os.getpid(),
                 "starting": not self.rt.started_at, "stopped": self.rt.latched}
 
-    def v_ls(self, b: dict) -> list:
+    def v_ls(self, b: JSONObject) -> list[JSONObject]:
         if b.get("all"):                 # every row with the same keys, drivers too
             from .listing import components
             return components(self.rt)
         return self.rt.ls()
 
-    def v_add(self, b: dict) -> str:
+    def v_add(self, b: JSONObject) -> str:
         uses = b.get("uses") or {}
         if not isinstance(uses, dict):
             raise ControlError("bad request: 'uses' must be an object")
@@ -286,10 +300,10 @@ class ControlServer:
         return self.rt.add(_need(b, "name"), _need(b, "class"), uses=uses, period=period,
                            options=opts)
 
-    def v_remove(self, b: dict) -> None:
+    def v_remove(self, b: JSONObject) -> None:
         self.rt.remove(_need(b, "name"))
 
-    def v_add_resource(self, b: dict) -> dict:
+    def v_add_resource(self, b: JSONObject) -> dict[str, str]:
         allow = b.get("allow") or {}
         opts = b.get("options") or {}
         if not isinstance(allow, dict) or not isinstance(opts, dict):
@@ -301,11 +315,11 @@ class ControlServer:
         return self.rt.add_resource(_need(b, "name"), _need(b, "class"), allow=allow,
                                     options=opts)
 
-    def v_remove_resource(self, b: dict) -> list:
+    def v_remove_resource(self, b: JSONObject) -> list[str]:
         return self.rt.remove_resource(_need(b, "name"))
 
-    def v_put(self, b: dict) -> dict:
-        sender, to = b.get("from") or "operator", _need(b, "to")
+    def v_put(self, b: JSONObject) -> JSONObject:
+        sender, to = str(b.get("from") or "operator"), _need(b, "to")
         if "/" in to:                             # another robot's behavior: remote/robots.py
             from ..remote import robots
             ok, why = robots.put(self.rt, str(sender), to, b.get("data"), _timeout(b))
@@ -315,8 +329,8 @@ class ControlServer:
             ok, why = self.bs.put(sender, to, b.get("data"), _timeout(b))
         return {"delivered": ok, "reason": why}
 
-    def v_get(self, b: dict) -> dict:
-        sender, to = b.get("from") or "operator", _need(b, "to")
+    def v_get(self, b: JSONObject) -> JSONObject:
+        sender, to = str(b.get("from") or "operator"), _need(b, "to")
         if "/" in to:
             from ..remote import robots
             ok, value = robots.get(self.rt, str(sender), to, _timeout(b))
@@ -324,34 +338,34 @@ class ControlServer:
             ok, value = self.bs.get(sender, to, _timeout(b))
         return {"ok": ok, "data": value if ok else None, "reason": "" if ok else value}
 
-    def v_configure(self, b: dict) -> Any:
+    def v_configure(self, b: JSONObject) -> JSON:
         who = b.get("who")
         return self.rs.configure(who if isinstance(who, str) else None,
                                     _need(b, "resource"), _need(b, "key"), b.get("value"))
 
-    def v_reaction(self, b: dict) -> None:
+    def v_reaction(self, b: JSONObject) -> None:
         self.bs.set_reaction(_need(b, "name"), _need(b, "enabled", bool))
 
-    def v_inspect(self, b: dict) -> dict:
+    def v_inspect(self, b: JSONObject) -> JSONObject:
         return self.rt.inspect(_need(b, "name"))
 
-    def v_state(self, b: dict) -> str | None:
+    def v_state(self, b: JSONObject) -> str | None:
         return self.rt.state(_need(b, "name"))
 
-    def _op(self) -> Any:
+    def _op(self) -> Operator:
         if self._operator is None:
             from .operator import Operator
             self._operator = Operator(self.rt)
         return self._operator
 
-    def v_sample(self, b: dict) -> dict:
+    def v_sample(self, b: JSONObject) -> JSONObject:
         s = self._op().sample(_need(b, "name"), _timeout(b, 2.0))
         return {"resource": s.source, "seq": s.seq, "t": s.t, "value": s.value}
 
-    def v_send(self, b: dict) -> Any:
+    def v_send(self, b: JSONObject) -> JSON:
         return self._op().send(_need(b, "name"), b.get("value"), _timeout(b))
 
-    def v_stop(self, b: dict) -> dict:
+    def v_stop(self, b: JSONObject) -> JSONObject:
         who = b.get("who") or "operator"
         reason = b.get("reason") or ""
         if not isinstance(who, str) or not isinstance(reason, str):
@@ -359,7 +373,7 @@ class ControlServer:
         may_stop(self.bs.records, who)
         return self.rt.stop_robot(reason, by=who)
 
-    def v_release(self, b: dict) -> dict:
+    def v_release(self, b: JSONObject) -> JSONObject:
         who = b.get("who") or "operator"
         if not isinstance(who, str):
             raise ControlError("bad request: 'who' must be text")
@@ -368,40 +382,40 @@ class ControlServer:
                           f"STOP: only an operator may (esair std release)")
         return self.rt.release_robot(by=who)
 
-    def v_latch(self, b: dict) -> dict:
+    def v_latch(self, b: JSONObject) -> JSONObject:
         return _latch_body(self.rt.latched)
 
     # ---- agent verbs (component processes)
-    def v_register(self, b: dict) -> int:
+    def v_register(self, b: JSONObject) -> int:
         try:
             level = Level.parse(_need(b, "level"))
         except ValueError as exc:
             raise ControlError(f"bad request: {exc}") from None
         return self.mode.port.register(_need(b, "who"), _need(b, "resource"), level)
 
-    def v_attach(self, b: dict) -> None:
+    def v_attach(self, b: JSONObject) -> None:
         self.mode.port.attach_sensor(_need(b, "who"), _need(b, "resource"), None,
                                         direct=bool(b.get("direct")))
 
-    def v_kind(self, b: dict) -> str | None:
+    def v_kind(self, b: JSONObject) -> str | None:
         return self.rs.kind_of(_need(b, "resource"))
 
-    def v_report(self, b: dict) -> None:
+    def v_report(self, b: JSONObject) -> None:
         self.mode.reported(_need(b, "name"), _need(b, "generation", int),
                               _need(b, "phase"), str(b.get("reason", "")))
 
-    def v_resstate(self, b: dict) -> None:
+    def v_resstate(self, b: JSONObject) -> None:
         self.rs.set_state(_need(b, "resource"), _need(b, "state"), str(b.get("reason", "")))
 
-    def v_resstate_get(self, b: dict) -> list:
+    def v_resstate_get(self, b: JSONObject) -> list[str]:
         """[state, reason] of a resource ("gone" when there is none)."""
         state, why = self.rs.states.get(_need(b, "resource"), ("gone", "no such resource"))
         return [state, why]
 
-    def v_hello(self, b: dict) -> None:
+    def v_hello(self, b: JSONObject) -> None:
         self.mode.hello(b)
 
-    def v_join(self, b: dict) -> dict:
+    def v_join(self, b: JSONObject) -> JSONObject:
         if self.rt.mode_name != "process":
             raise ControlError("this runtime runs in thread mode: it takes no remote agents")
         if self.center is None:

@@ -13,9 +13,10 @@ it is attached to (read through the SC, or registered at command level).
 from __future__ import annotations
 
 import os
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Iterable
 
 from ..level import Level
+from ..transport.codec import JSONObject
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..runtime_view import RuntimeView
@@ -24,7 +25,7 @@ KEYS = ("name", "kind", "state", "pid", "host", "restarts", "reason", "class", "
         "attached", "detached")
 
 
-def components(rt: RuntimeView) -> list[dict]:
+def components(rt: RuntimeView) -> list[JSONObject]:
     """The rows of ``rt`` (a Runtime): behaviors and reactions, then each resource entry
     (a driver's row before its children's), in deployment order."""
     readers: dict[str, set[str]] = {}      # resource -> who reads it
@@ -39,15 +40,16 @@ def components(rt: RuntimeView) -> list[dict]:
         for res, whos in table.items():
             for who in whos:
                 uses.setdefault(who, set()).add(res)
-    rows = []
+    rows: list[JSONObject] = []
     listed = rt.ls()
     for row in listed:
         if row["kind"] in ("behavior", "reaction"):
-            rows.append(_row(row, parent="", attached=uses.get(row["name"], ())))
-    kids_of: dict[str, list[dict]] = {}
+            rows.append(_row(row, parent="", attached=uses.get(str(row["name"]), ())))
+    kids_of: dict[str, list[JSONObject]] = {}
     for row in listed:
         if row["kind"] not in ("behavior", "reaction"):
-            entry = rt.rs.resources.get(row["name"], (row["name"], ""))[0]
+            name = str(row["name"])
+            entry = rt.rs.resources.get(name, (name, ""))[0]
             kids_of.setdefault(entry, []).append(row)
     for entry, (spec, host) in list(rt.rs.entries.items()):
         kids = kids_of.get(entry, [])
@@ -72,13 +74,14 @@ def components(rt: RuntimeView) -> list[dict]:
                              **{"class": spec.class_path}, parent="", attached=[],
                              detached=[]))
         for k in kids:
-            who = (commanders if k["kind"] == "actuator" else readers).get(k["name"], ())
+            who = (commanders if k["kind"] == "actuator" else readers).get(str(k["name"]), ())
             rows.append(_row(k, parent=entry if driver else "", attached=who))
     return rows
 
 
-def _row(row: dict, parent: str, attached: Any) -> dict:
+def _row(row: JSONObject, parent: str, attached: Iterable[str]) -> JSONObject:
     out = {k: row.get(k, "") for k in KEYS}
+    detached = row.get("detached") or []
     out.update(parent=parent, attached=sorted(attached), restarts=row.get("restarts", 0),
-               detached=list(row.get("detached") or []))
+               detached=list(detached) if isinstance(detached, list) else [])
     return out

@@ -23,11 +23,13 @@ from __future__ import annotations
 
 import os
 import re
-from typing import TYPE_CHECKING, Any, Protocol
+from typing import TYPE_CHECKING, Callable, Protocol
 
 from ..errors import ControlError, Refused
 from ..level import Level
+from ..sample import Sample
 from ..transport import keys
+from ..transport.codec import JSON, JSONObject
 from ..transport.wire import Verbs
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -56,12 +58,12 @@ class _Forward:
     the SC marks it detached when the sensor is removed, and a later watch attaches it
     again."""
 
-    def __init__(self, put: Any):
+    def __init__(self, put: Callable[[JSON], None]):
         self._put = put
         self.published = 0
         self.detached = True
 
-    def push(self, sample: Any) -> None:
+    def push(self, sample: Sample) -> None:
         self._put(sample.to_wire())
         self.published += 1
 
@@ -77,7 +79,7 @@ class Observe:
                          "restart": self.v_restart, "describe": self.v_describe}.items():
             self.server.verbs.add(verb, fn)
 
-    def _who(self, b: dict) -> str:
+    def _who(self, b: JSONObject) -> str:
         who = b.get("who")
         if not isinstance(who, str) or not re.fullmatch(r"[a-z][a-z0-9_]*", who):
             raise ControlError("bad request: 'who' must be a name of the form [a-z][a-z0-9_]*")
@@ -87,13 +89,13 @@ class Observe:
         return who
 
     @staticmethod
-    def _resource(b: dict) -> str:
+    def _resource(b: JSONObject) -> str:
         res = b.get("resource")
         if not isinstance(res, str):
             raise ControlError("bad request: missing 'resource'")
         return res
 
-    def v_watch(self, b: dict) -> dict:
+    def v_watch(self, b: JSONObject) -> JSONObject:
         who, res = self._who(b), self._resource(b)
         if self.rt.rs.kind_of(res) != "sensor":
             raise Refused(f"{res!r} is not a sensor")
@@ -114,7 +116,7 @@ class Observe:
             self.rt.sc.attach(who, res, None)  # listed; the samples are on Zenoh already
         return {"key": keys.sensor(self.rt.robot, res)}
 
-    def v_command(self, b: dict) -> Any:
+    def v_command(self, b: JSONObject) -> JSON:
         who, res = self._who(b), self._resource(b)
         if "command" not in b:
             raise ControlError("bad request: missing 'command'")
@@ -125,19 +127,19 @@ class Observe:
             self.rt.rs.register(who, res, Level.command, PRINCIPAL_USES)
         return self.rt.ac.command(who, res, b["command"], float(t))
 
-    def v_restart(self, b: dict) -> str:
+    def v_restart(self, b: JSONObject) -> str:
         name = b.get("name")
         rec = self.rt.bs.records.get(name) if isinstance(name, str) else None
-        if rec is None:
+        if rec is None or not isinstance(name, str):
             raise ControlError(f"no behavior or reaction {name!r}")
         spec = rec.spec
         self.rt.bs.request(self.rt.bs.remove, name)
         return self.rt.bs.request(self.rt.bs.add, spec).host.state
 
-    def v_describe(self, b: dict) -> dict:
-        out: dict[str, Any] = {}
+    def v_describe(self, b: JSONObject) -> JSONObject:
+        out: dict[str, JSONObject] = {}
         for entry, (spec, _host) in list(self.rt.rs.entries.items()):
-            d: dict[str, Any] = {"class": spec.class_path}
+            d: JSONObject = {"class": spec.class_path}
             robot = spec.options.get("robot") if isinstance(spec.options, dict) else None
             if isinstance(robot, str):
                 path = os.path.join(spec.base_dir or "", robot)

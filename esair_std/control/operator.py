@@ -16,7 +16,7 @@ request waits for the next sample; later ones answer at once.
 from __future__ import annotations
 
 import threading
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from ..connections import SensorHandle
 from ..errors import ControlError, Refused
@@ -24,6 +24,7 @@ from ..level import Level, best_match
 from ..policy import PRINCIPALS
 from ..sample import Sample
 from ..transport import keys
+from ..transport.codec import JSON
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..runtime_view import RuntimeView
@@ -39,7 +40,8 @@ class Operator:
         self.rt = rt
         self.who = who
         self._lock = threading.Lock()
-        self._watched: dict[str, Any] = {}          # resource -> handle / latest box
+        # resource -> its handle (thread mode) / a box holding its latest sample
+        self._watched: dict[str, SensorHandle | list[Sample | None]] = {}
         self._fresh = threading.Condition(self._lock)
 
     # ---- sample
@@ -77,10 +79,10 @@ class Operator:
             rt.sc.attach(self.who, resource, handle)
             self._watched[resource] = handle
             return
-        box: list = [None]
+        box: list[Sample | None] = [None]
         self._watched[resource] = box
 
-        def keep(obj: Any) -> None:               # transport thread: store, notify, return
+        def keep(obj: JSON) -> None:              # transport thread: store, notify, return
             try:
                 sample = Sample.from_wire(obj)
             except Exception:  # noqa: BLE001 - garbage on the key is not a sample
@@ -94,7 +96,7 @@ class Operator:
         bus.subscribe(keys.sensor(rt.robot, resource), keep)
 
     # ---- send
-    def send(self, resource: str, command: Any, timeout: float) -> Any:
+    def send(self, resource: str, command: JSON, timeout: float) -> JSON:
         """Carry out one ``command`` on actuator ``resource`` as the operator; the
         actuator's answer. Refused unless its ``allow`` grants the operator command."""
         entry = self._need(resource, "actuator")

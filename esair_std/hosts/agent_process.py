@@ -23,7 +23,7 @@ import signal
 import sys
 import threading
 import time
-from typing import TYPE_CHECKING, Any, Callable, cast
+from typing import TYPE_CHECKING, Callable, cast
 
 from ..errors import CommandError, ControlError, Refused, ResourceLost, StdError, TransportError
 from ..level import Level
@@ -31,7 +31,8 @@ from ..sample import Sample
 from ..classes import component_class
 from ..spec import Spec
 from ..transport import codec, keys, wire
-from ..transport.bus import Bus, Request
+from ..transport.codec import JSON, JSONObject
+from ..transport.bus import Bus, Request, Route
 from ..heap import settle
 from ..transport.calls import SampleCaller, SampleServer
 from ..transport.wire import Verbs
@@ -39,7 +40,7 @@ from ..transport.wire import Verbs
 if TYPE_CHECKING:  # pragma: no cover
     from ..parts import SampleHandle
     from .behavior_host import ComponentHost
-    from .resource_host import ResourceHost
+    from .resource_host import OnDone, ResourceHost
 
 log = logging.getLogger("esair_std.agent")
 MARGIN = 0.05           # the far side of a put, get or command (the BS, the actuator's host)
@@ -50,6 +51,18 @@ RUNTIME_GRACE = 1.0     # seconds without the runtime's token before leaving
 HELLO_S = 10.0          # how long an agent asks the runtime to take its hello
 
 
+def _str(v: JSON) -> str | None:
+    """A name or state the runtime answered (None: it has none)."""
+    return v if isinstance(v, str) else None
+
+
+def _int(v: JSON) -> int:
+    """A level the runtime answered."""
+    if isinstance(v, (int, float, str)):
+        return int(v)
+    raise TransportError(f"the runtime answered {v!r}, not a number")
+
+
 class ZenohPort:
     """What a hosted component calls to reach the runtime: the LocalPort's methods,
     carried as ``ctl/<verb>`` requests, plus direct sensor subscriptions and actuator
@@ -58,20 +71,20 @@ class ZenohPort:
     def __init__(self, bus: Bus, robot: str):
         self.bus = bus
         self.robot = robot
-        self._pubs: dict[str, Any] = {}
-        self._cmd_pubs: dict[str, Any] = {}
+        self._pubs: dict[str, Callable[[bytes], None]] = {}
+        self._cmd_pubs: dict[str, Callable[[JSON], None]] = {}
         self._calls: dict[str, SampleCaller] = {}
-        self._routes: dict[str, Any] = {}        # actuator -> transport.bus.Route
+        self._routes: dict[str, Route] = {}      # actuator -> its route
 
-    def _ctl(self, verb: str, body: dict, timeout: float = 5.0) -> Any:
+    def _ctl(self, verb: str, body: JSONObject, timeout: float = 5.0) -> JSON:
         r = self.bus.request(keys.ctl(self.robot, verb), body, timeout)
         if r is None:
             raise TransportError(f"the runtime did not answer {verb!r} within {timeout:g} s")
         return wire.result(r, str(body.get("resource", "?")))
 
-    def register(self, who: str, resource: str, level: Any) -> int:
-        return self._ctl("register", {"who": who, "resource": resource,
-                                      "level": Level.parse(level).name})
+    def register(self, who: str, resource: str, level: Level | str) -> int:
+        return _int(self._ctl("register", {"who": who, "resource": resource,
+                                           "level": Level.parse(level).name}))
 
     def attach_sensor(self, who: str, resource: str, handle: SampleHandle | None,
                       direct: bool = False) -> None:
@@ -81,8 +94,8 @@ class ZenohPort:
             self.bus.subscribe(keys.sensor(self.robot, resource),
                                lambda obj: push(Sample.from_wire(obj)))
 
-    def command(self, who: str, resource: str, command: Any, timeout: float,
-                direct: bool = False) -> Any:
+    def command(self, who: str, resource: str, command: JSON, timeout: float,
+                direct: bool = False) -> JSON:
         """The actuator's answer, within ``timeout``. When no host answers its key yet,
         the runtime says why: a resource that is lost fails at once with its reason; one
         that is ready (its host's declarations still on their way, e.g. at start-up) is
@@ -120,23 +133,26 @@ class ZenohPort:
         if left <= 0:
             return
         try:
-            state, why = self._ctl("resinfo", {"resource": resource}, left)
+            info = self._ctl("resinfo", {"resource": resource}, left)
         except StdError:
             return
+        if not isinstance(info, list) or len(info) != 2:
+            return                                   # the runtime does not say
+        state, why = info
         if state != "ready":
             raise ResourceLost(resource, f"{state}: {why}" if why else str(state))
 
-    def configure(self, who: str | None, resource: str, key: str, value: Any) -> Any:
+    def configure(self, who: str | None, resource: str, key: str, value: JSON) -> JSON:
         return self._ctl("configure", {"who": who, "resource": resource, "key": key,
                                        "value": value})
 
     def kind_of(self, resource: str) -> str | None:
-        return self._ctl("kind", {"resource": resource})
+        return _str(self._ctl("kind", {"resource": resource}))
 
     def resource_state(self, resource: str) -> str | None:
-        return self._ctl("state", {"name": resource}, 2.0)
+        return _str(self._ctl("state", {"name": resource}, 2.0))
 
-    def put(self, who: str, target: str, data: Any, timeout: float) -> tuple[bool, str]:
+    def put(self, who: str, target: str, data: JSON, timeout: float) -> tuple[bool, str]:
         """Through the BS, as samples (transport/calls.py: the put's fast path)."""
         calls = self._calls.get(who)
         if calls is None:
@@ -155,25 +171,27 @@ class ZenohPort:
             return False, str(r.get("error", "the runtime's answer made no sense"))
         return bool(ok.get("delivered")), str(ok.get("reason", ""))
 
-    def put_counters(self) -> dict:
+    def put_counters(self) -> dict[str, int]:
         """The put path's samples (transport/calls.py): sent, answered, timed out,
         answers refused."""
-        out: dict = {}
+        out: dict[str, int] = {}
         for calls in self._calls.values():
             for k, v in calls.c.items():
                 out[k] = out.get(k, 0) + v
         return out
 
-    def get(self, who: str, target: str, timeout: float) -> tuple[bool, Any]:
+    def get(self, who: str, target: str, timeout: float) -> tuple[bool, JSON]:
         try:
             r = self._ctl("get", {"from": who, "to": target,
                                   "timeout": max(0.0, timeout - MARGIN)}, max(0.001, timeout))
         except StdError as exc:
             return False, exc.message
+        if not isinstance(r, dict):
+            return False, "the runtime's answer made no sense"
         return (True, r["data"]) if r["ok"] else (False, r["reason"])
 
     def state_of(self, name: str) -> str | None:
-        return self._ctl("state", {"name": name}, 2.0)
+        return _str(self._ctl("state", {"name": name}, 2.0))
 
     def set_reaction(self, who: str, name: str, enabled: bool) -> None:
         r = self.bus.request(keys.ctl(self.robot, "reaction"),
@@ -204,7 +222,7 @@ class ZenohPort:
                                                             raw=True)
         pub(data)
 
-    def publish_commands(self, entry: str, batch: list[dict]) -> None:
+    def publish_commands(self, entry: str, batch: list[JSON]) -> None:
         """The commands an entry's actuators ran, for recorders (transport/records.py;
         never waits for a congested link)."""
         pub = self._cmd_pubs.get(entry)
@@ -251,7 +269,7 @@ class Agent:
         """The host of a resource agent (run_resource made it)."""
         return cast("ResourceHost", self.host)
 
-    def hello(self, **extra: Any) -> None:
+    def hello(self, **extra: JSON) -> None:
         body = dict(name=self.spec.name, kind=self.spec.kind, generation=self.generation,
                     pid=os.getpid(), host=os.uname().nodename, **extra)
         # a behavior's session returns from open before the runtime's declarations may
@@ -319,16 +337,17 @@ class Agent:
     def _bad_delivery(self, _why: str) -> None:
         self.delivers["bad"] += 1
 
-    def _on_deliver(self, obj: Any) -> None:
+    def _on_deliver(self, obj: JSON) -> None:
         """A put the BS delivered into reserved room (on Zenoh's thread: enqueue only)."""
         sender = obj.get("from") if isinstance(obj, dict) else None
-        if not isinstance(sender, str) or "data" not in obj:
+        if not isinstance(obj, dict) or not isinstance(sender, str) or "data" not in obj:
             self.delivers["bad"] += 1
             return
         self.delivers["samples"] += 1
         self._component.deliver_reserved(sender, obj["data"])
 
-    def _on_offer(self, _key: str, body: dict, answer: Any) -> None:
+    def _on_offer(self, _key: str, body: JSONObject,
+                  answer: Callable[[JSONObject], None]) -> None:
         """A put's first offer (transport/calls.py): answered before the behavior's
         thread is woken."""
         r = self._component.offer(str(body.get("from")), body.get("data"), wake=False)
@@ -345,12 +364,12 @@ class Agent:
         def host() -> ComponentHost:
             return self._component
 
-        def provide(b: dict, answer: wire.Answer) -> None:
+        def provide(b: JSONObject, answer: wire.Answer) -> None:
             if host().request_provide(str(b.get("from")),
                                     lambda v: answer(wire.ok(list(v)))) != "queued":
                 answer(wire.ok(["busy", host().state]))
 
-        def take(b: dict, answer: wire.Answer) -> None:    # a put its sender waits for
+        def take(b: JSONObject, answer: wire.Answer) -> None:    # a put its sender waits for
             if host().request_take(str(b.get("from")), b.get("data"),
                                  lambda v: answer(wire.ok(list(v)))) != "queued":
                 answer(wire.ok(["busy", host().state]))
@@ -363,14 +382,14 @@ class Agent:
         verbs.add("attached", lambda b: host().notify_attached(str(b.get("resource"))))
         verbs.add("enable", lambda b: host().set_enabled(bool(b.get("enabled"))))
         verbs.add("latch", lambda b: host().notify_latch(
-            b.get("state") if isinstance(b.get("state"), dict) else None, str(b.get("by", ""))))
+            st if isinstance(st := b.get("state"), dict) else None, str(b.get("by", ""))))
         verbs.add("counters", lambda _b: {**host().counters(), "offer_samples": dict(self.offers.c),
                                           "deliver_samples": dict(self.delivers),
                                           "put_samples": self.port.put_counters()})
         verbs.later("stop", self._stop)
         return verbs
 
-    def _stop(self, _b: dict, answer: wire.Answer) -> None:
+    def _stop(self, _b: JSONObject, answer: wire.Answer) -> None:
         answer(wire.ok())
         self.leave("stopped by the control center")
 
@@ -421,31 +440,33 @@ class Agent:
                               sender=who)
 
     @staticmethod
-    def _answer(answer: wire.Answer, resource: str) -> Callable[[bool, Any], None]:
+    def _answer(answer: wire.Answer, resource: str) -> OnDone:
         """A resource host's ``on_done(ok, value)`` as a reply."""
-        def done(ok: bool, value: Any) -> None:
-            answer(wire.ok(value) if ok else wire.error(wire.failure(value, resource)))
+        def done(ok: bool, value: JSON | StdError) -> None:
+            answer(wire.ok(value) if ok and not isinstance(value, StdError)
+                   else wire.error(wire.failure(value, resource)))
         return done
 
     def _rs_verbs(self) -> Verbs:
         """The ``rs/<entry>`` endpoint: what the runtime's RS asks the resource host."""
         host, verbs = self._resource, Verbs(unknown="unknown op {verb!r}")
 
-        def configure(b: dict, answer: wire.Answer) -> None:
+        def configure(b: JSONObject, answer: wire.Answer) -> None:
             res = str(b.get("resource"))
             host.submit(res, "configure", (str(b.get("key")), b.get("value")),
                         self._answer(answer, res), 2.0)
 
         verbs.later("configure", configure)
         verbs.add("grant", lambda b: host.grant(str(b.get("who")), str(b.get("resource"))))
-        verbs.add("revoke", lambda b: host.revoke(str(b.get("who")), b.get("resource")))
+        verbs.add("revoke", lambda b: host.revoke(
+            str(b.get("who")), None if (r := b.get("resource")) is None else str(r)))
         verbs.add("counters", lambda _b: host.counters())
         verbs.later("halt", self._halt)
         verbs.add("release", lambda _b: host.release())
         verbs.later("stop", self._stop)
         return verbs
 
-    def _halt(self, b: dict, answer: wire.Answer) -> None:
+    def _halt(self, b: JSONObject, answer: wire.Answer) -> None:
         """The latched STOP: commands refused at once (here, on Zenoh's thread); the
         devices stopped on a thread of its own (a link waits for its ``x`` reply), then
         the runtime answered."""
@@ -468,7 +489,7 @@ class Agent:
                     threading.Timer(RUNTIME_GRACE, self._runtime_gone, (lost,)).start()
         self.bus.watch_alive(keys.alive(self.robot, "runtime", "runtime"), on_alive)
 
-    def _runtime_gone(self, lost: dict) -> None:
+    def _runtime_gone(self, lost: dict[str, float | None]) -> None:
         """The runtime's token has been away for RUNTIME_GRACE. The token is only a hint:
         in a mesh of peers its withdrawal can also come when another peer's link drops
         (the robot's radio), while this agent's own link to the runtime stays up. So the

@@ -13,9 +13,9 @@ import queue
 import threading
 import time
 from collections import deque
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Callable, Literal, TypeVar, TypeVarTuple, Union, Unpack, cast
 
-from ..behavior import Behavior
+from ..behavior import Behavior, _Component
 from ..connections import ActuatorHandle, SensorHandle
 from ..errors import Refused
 from ..level import Level
@@ -24,6 +24,7 @@ from ..spec import Spec
 if TYPE_CHECKING:  # pragma: no cover
     from ..parts import Port
 from ..transport import codec
+from ..transport.codec import JSON, JSONObject
 from ..counters import Counters
 
 INBOX = 64          # deliveries + provide requests waiting for the behavior's thread
@@ -32,6 +33,20 @@ RESERVED = 16       # more mailbox slots, reserved for the BS's deliveries into 
 NOTICES = 64        # detach notices waiting for the behavior's thread
 
 log = logging.getLogger("esair_std.host")
+_T = TypeVar("_T")
+_R = TypeVar("_R")
+_Ts = TypeVarTuple("_Ts")
+#: (status, value) of a provide() or a take: ("ok", data), ("busy" | "failed" |
+#: "refused", why)
+Outcome = tuple[str, JSON]
+Reply = Callable[[Outcome], None]
+#: a mailbox item: a delivery (offered or into reserved room), a put whose sender waits
+#: for receive(), a provide() request
+_Item = Union[tuple[Literal["deliver", "reserved"], str, JSON],
+              tuple[Literal["take"], str, tuple[JSON, Reply]],
+              tuple[Literal["provide"], str, Reply]]
+#: a notice for the component's thread: a detached resource, or the latch's change
+_Notice = Union[str, tuple[str, Union[JSONObject, None], str]]
 
 
 class _Reply:
@@ -39,9 +54,9 @@ class _Reply:
 
     def __init__(self) -> None:
         self._ev = threading.Event()
-        self.value: Any = None
+        self.value: Outcome = ("busy", "no answer")
 
-    def __call__(self, value: Any) -> None:
+    def __call__(self, value: Outcome) -> None:
         self.value = value
         self._ev.set()
 
@@ -53,39 +68,39 @@ class _Abandoned(BaseException):
     """Raised on an abandoned host's thread to leave without touching anything."""
 
 
-def build(cls: type[object], host: object) -> Any:
+def build(cls: type[_T], host: object) -> _T:
     """An instance of a user class with its host set before the user's __init__ runs."""
-    obj: Any = cls.__new__(cls)
-    obj._esair = host
-    obj.__init__()
+    obj = cls.__new__(cls)
+    setattr(obj, "_esair", host)  # noqa: B010 - no class of _T declares it
+    cls.__init__(obj)
     return obj
 
 
 class ComponentHost:
     """Runs one Behavior (or Reaction) object: life cycle, mailbox, counters."""
 
-    def __init__(self, spec: Spec, cls: type, port: Port, generation: int = 1):
+    def __init__(self, spec: Spec, cls: type[_Component], port: Port, generation: int = 1):
         self.spec = spec
         self.name = spec.name
         self.kind = spec.kind
         self.cls = cls
         self.port = port
         self.generation = generation
-        self.inbox: queue.Queue = queue.Queue(maxsize=INBOX + RESERVED)
+        self.inbox: queue.Queue[_Item] = queue.Queue(maxsize=INBOX + RESERVED)
         self._reserved_in = 0          # reserved slots in use (their items in inbox)
         self.taken = 0                 # reserved deliveries taken out, ever
         self._told_taken = 0           # ``taken`` when on_room was last called
         self._told_full = False        # ``full`` when on_room was last called
         self._report_lock = threading.Lock()   # one report at a time, the last one true
-        self.on_room: Any = None       # process mode: tells the BS (open, room()) anew
-        self.notices: deque = deque()
+        self.on_room: Callable[[], None] | None = None   # process mode: tells the BS anew
+        self.notices: deque[_Notice] = deque()
         self._phase = "starting"        # starting | running | busy | stopped | failed
         self.reason = ""
         self._busy = False
         self.enabled = spec.enabled
-        self.obj: Any = None
-        self.handles: dict[str, Any] = {}
-        self._direct: dict[str, Any] = {}
+        self.obj: _Component | None = None
+        self.handles: dict[str, SensorHandle | ActuatorHandle] = {}
+        self._direct: dict[str, SensorHandle | ActuatorHandle] = {}
         self._lock = threading.Lock()
         self._stop = threading.Event()
         self._wake = threading.Event()
@@ -100,7 +115,9 @@ class ComponentHost:
         period = spec.period if spec.has_period else getattr(cls, "period", None)
         self.period = float(period) if period else None
         dl = spec.options.get("deadline", getattr(cls, "deadline", None))
-        self.deadline = float(dl) if dl else max(10 * (self.period or 0.1), 1.0)
+        # a number (or its text); anything else raises here as float() does
+        self.deadline = (float(cast("str | float", dl)) if dl
+                         else max(10 * (self.period or 0.1), 1.0))
         self.thread = threading.Thread(target=self._main, name=f"esair:{self.name}", daemon=True)
 
     @property
@@ -173,7 +190,7 @@ class ComponentHost:
                 self._phase = "stopped"
 
     # ---- the BS's requests (any thread; never run user code here)
-    def offer(self, sender: str, data: Any, wake: bool = True) -> str:
+    def offer(self, sender: str, data: JSON, wake: bool = True) -> str:
         """Take ``data`` into the mailbox: "delivered", else why not. ``wake=False``:
         the caller calls ``wake()`` itself (after answering, so the behavior's thread
         does not take the GIL from the answer)."""
@@ -197,7 +214,7 @@ class ComponentHost:
             self._wake.set()
         return "delivered"
 
-    def deliver_reserved(self, sender: str, data: Any) -> bool:
+    def deliver_reserved(self, sender: str, data: JSON) -> bool:
         """The BS's delivery into room this host reserved for it (it sends no more than
         room() allows): taken into the mailbox, False (counted) if it finds no room —
         a stopped host, or more than reported (garbage)."""
@@ -222,7 +239,7 @@ class ComponentHost:
     def wake(self) -> None:
         self._wake.set()
 
-    def request_provide(self, requester: str, reply: Any) -> str:
+    def request_provide(self, requester: str, reply: Reply) -> str:
         """Queue a provide() call; ``reply((status, data))`` is called from the host thread."""
         if self._phase != "running" or self._busy or self._full() or self._stop.is_set():
             return "busy"
@@ -233,7 +250,7 @@ class ComponentHost:
         self._wake.set()
         return "queued"
 
-    def provide(self, requester: str, timeout: float) -> tuple:
+    def provide(self, requester: str, timeout: float) -> Outcome:
         r = _Reply()
         if self.request_provide(requester, r) != "queued":
             return ("busy", self.state)
@@ -242,7 +259,7 @@ class ComponentHost:
         return ("busy", f"no answer within {timeout:g} s")
 
     # a put the sender waits for (esair std put): receive() runs, its outcome answers
-    def request_take(self, sender: str, data: Any, reply: Any) -> str:
+    def request_take(self, sender: str, data: JSON, reply: Reply) -> str:
         """Queue ``receive(sender, data)``; ``reply((status, why))`` is called from the
         host thread: ("ok", ""), ("refused", why) when receive() raised Refused, or
         ("failed", why). "busy" when it takes no data now."""
@@ -255,7 +272,7 @@ class ComponentHost:
         self._wake.set()
         return "queued"
 
-    def take(self, sender: str, data: Any, timeout: float) -> tuple:
+    def take(self, sender: str, data: JSON, timeout: float) -> Outcome:
         r = _Reply()
         if self.request_take(sender, data, r) != "queued":
             return ("busy", self.state)
@@ -279,7 +296,7 @@ class ComponentHost:
             if h.resource == resource:
                 h.detached = False
 
-    def notify_latch(self, state: dict | None, by: str = "") -> None:
+    def notify_latch(self, state: JSONObject | None, by: str = "") -> None:
         """The robot was STOPPED (``state``) or released by ``by`` (state None): the
         component's robot_stopped() / robot_released() runs on its thread."""
         if len(self.notices) >= NOTICES:
@@ -308,8 +325,8 @@ class ComponentHost:
             return None
         return left + 0.001
 
-    def counters(self) -> dict:
-        out = dict(self.c)
+    def counters(self) -> JSONObject:
+        out: JSONObject = dict(self.c)
         for key, h in self.handles.items():
             out[key] = h.counters()
         return out
@@ -332,10 +349,10 @@ class ComponentHost:
         self.handles[f"actuator:{resource}"] = h
         return h
 
-    def _command(self, resource: str, command: Any, timeout: float) -> Any:
+    def _command(self, resource: str, command: JSON, timeout: float) -> JSON:
         return self.port.command(self.name, resource, command, timeout)
 
-    def direct(self, resource: str) -> Any:
+    def direct(self, resource: str) -> SensorHandle | ActuatorHandle:
         if resource not in self.spec.resources:
             raise Refused(f"reaction {self.name!r} does not list {resource!r} in its resources")
         h = self._direct.get(resource)
@@ -354,7 +371,7 @@ class ComponentHost:
             self.handles[f"{kind}:{resource}"] = h
         return h
 
-    def put(self, target: str, data: Any, timeout: float) -> bool:
+    def put(self, target: str, data: JSON, timeout: float) -> bool:
         ok, reason = self.port.put(self.name, target, data, timeout)
         self.c.add("puts_ok" if ok else "puts_failed")
         if not ok:
@@ -362,7 +379,7 @@ class ComponentHost:
             log.warning("%s: %s", self.name, self.last_failure)
         return ok
 
-    def get(self, target: str, timeout: float) -> Any:
+    def get(self, target: str, timeout: float) -> JSON:
         ok, value = self.port.get(self.name, target, timeout)
         self.c.add("gets_ok" if ok else "gets_failed")
         if not ok:
@@ -374,7 +391,7 @@ class ComponentHost:
     def state_of(self, name: str) -> str | None:
         return self.port.state_of(name)
 
-    def configure(self, resource: str, key: str, value: Any) -> Any:
+    def configure(self, resource: str, key: str, value: JSON) -> JSON:
         return self.port.configure(self.name, resource, key, value)
 
     def set_reaction(self, name: str, enabled: bool) -> None:
@@ -405,7 +422,7 @@ class ComponentHost:
         self.port.state_changed(self.name, self.generation, "failed", reason)
         self._room_changed()
 
-    def _timed(self, what: str, fn: Any, *args: Any) -> Any:
+    def _timed(self, what: str, fn: Callable[[Unpack[_Ts]], _R], *args: Unpack[_Ts]) -> _R:
         self._call_name = what
         self._call_started = time.monotonic()
         try:
@@ -417,19 +434,19 @@ class ComponentHost:
 
     def _main(self) -> None:
         try:
-            self.obj = build(self.cls, self)
-            self.obj.start()
+            obj = self.obj = build(self.cls, self)
+            obj.start()
             if self._stop.is_set():
                 return
-            runs = (self.period is None and isinstance(self.obj, Behavior)
-                    and type(self.obj).run is not Behavior.run)
+            runs = (self.period is None and isinstance(obj, Behavior)
+                    and type(obj).run is not Behavior.run)
             self.busy = runs               # busy from the moment it is seen running
             self._set_phase("running")
             self.started.set()
             if self.period is None:
-                if runs:
+                if runs and isinstance(obj, Behavior):
                     try:
-                        self.obj.run()
+                        obj.run()
                     finally:
                         self.busy = False
                 while not self._stop.is_set():
@@ -440,7 +457,7 @@ class ComponentHost:
                     now = time.monotonic()
                     if now >= nxt:
                         if self.enabled:
-                            self._timed("step", self.obj.step)
+                            self._timed("step", obj.step)
                             self.c.add("steps")
                         nxt += self.period
                         if nxt < time.monotonic():
@@ -463,20 +480,20 @@ class ComponentHost:
                 if self._phase != "failed":
                     self._phase = "stopped"
 
-    def _receive(self, sender: str, data: Any) -> None:
+    def _receive(self, sender: str, data: JSON) -> None:
         """receive(); a Refused it raises refuses the data (counted, logged: the sender
         did not wait), it does not fail the behavior."""
         try:
-            self._timed("receive", self.obj.receive, sender, data)
+            self._timed("receive", self._behavior().receive, sender, data)
         except Refused as exc:
             self.c.add("refused_puts")
             log.warning("%s refused %s's data: %s", self.name, sender, exc)
         self.c.add("received")
 
-    def _take(self, sender: str, data: Any, reply: Any) -> None:
+    def _take(self, sender: str, data: JSON, reply: Reply) -> None:
         """receive() for a sender that waits for the outcome (request_take)."""
         try:
-            self._timed("receive", self.obj.receive, sender, data)
+            self._timed("receive", self._behavior().receive, sender, data)
         except Refused as exc:
             self.c.add("refused_puts")
             self.c.add("received")
@@ -491,20 +508,26 @@ class ComponentHost:
         self.c.add("received")
         reply(("ok", ""))
 
+    def _behavior(self) -> Behavior:
+        """The component as a behavior: only behaviors are offered data (bs.py, _target)."""
+        return cast(Behavior, self.obj)
+
     def _serve(self, timeout: float) -> None:
         """Handle notices and mailbox items; wait at most ``timeout`` for the first."""
+        obj = self.obj
+        assert obj is not None                  # built before the first _serve (_main)
         deadline = time.monotonic() + timeout
         while True:
             while self.notices:
                 notice = self.notices.popleft()
                 if isinstance(notice, str):
-                    self._timed("detached", self.obj.detached, notice)
+                    self._timed("detached", obj.detached, notice)
                 elif notice[1] is not None:
                     st = notice[1]
-                    self._timed("robot_stopped", self.obj.robot_stopped, st.get("by", ""),
-                                st.get("reason", ""))
+                    self._timed("robot_stopped", obj.robot_stopped, str(st.get("by", "")),
+                                str(st.get("reason", "")))
                 else:
-                    self._timed("robot_released", self.obj.robot_released, notice[2])
+                    self._timed("robot_released", obj.robot_released, notice[2])
             try:
                 item = self.inbox.get_nowait()
             except queue.Empty:
@@ -531,7 +554,7 @@ class ComponentHost:
             elif item[0] == "provide":
                 reply = item[2]
                 try:
-                    value = codec.copy(self._timed("provide", self.obj.provide, item[1]))
+                    value = codec.copy(self._timed("provide", self._behavior().provide, item[1]))
                 except _Abandoned:
                     reply(("failed", "provide() overran its deadline"))
                     raise

@@ -13,13 +13,14 @@ import logging
 import queue
 import threading
 import time
-from typing import TYPE_CHECKING, Any, Callable
+from typing import TYPE_CHECKING, Callable, Union, cast
 
 from ..errors import CommandError, ComponentError, ResourceLost, StdError
 from ..resource import Actuator, Driver, Sensor
 from ..sample import Sample
 from ..spec import Spec
 from ..transport import codec, records, wire
+from ..transport.codec import JSON, JSONObject
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..parts import Port
@@ -38,10 +39,18 @@ OPEN_TIMEOUT = 40.0
 #: an actuator's last commands kept for inspect (a motion, its STOP, a second STOP, ...)
 LAST_OK = 4
 
+#: a queued request's answer: ``on_done(ok, value)``, value the result, or a StdError /
+#: the error's text
+OnDone = Callable[[bool, Union[JSON, StdError]], None]
+#: a queued request: slot, op (write | configure), its args, on_done, when it expires,
+#: when it was asked (time.monotonic()), its sender
+_Cmd = tuple["Slot", str, tuple[JSON, ...], OnDone, float, float, str]
+
 class Slot:
     """One resource (a sensor or an actuator) as its host keeps it."""
 
-    def __init__(self, host: "ResourceHost", name: str, obj: Any, options: dict):
+    def __init__(self, host: "ResourceHost", name: str, obj: Sensor | Actuator,
+                 options: dict[str, object]):
         self.host = host
         self.name = name
         self.obj = obj
@@ -56,30 +65,30 @@ class Slot:
         self.c = dict(reported=0, commands=0, command_errors=0, polls_late=0)
         # an actuator's last commands that went through, [when, command, its answer]:
         # an HMI started later rebuilds the pose the robot holds from them (hmi/bridge.py)
-        self.last_ok: collections.deque[list] = collections.deque(maxlen=LAST_OK)
+        self.last_ok: collections.deque[list[JSON]] = collections.deque(maxlen=LAST_OK)
         self.granted: set[str] = set()
         # the command write() runs for: when it was queued and when its sender gives up
         # (time.monotonic()), so a driver can drop what it could not do in time
         self.asked: float | None = None
         self.expires: float | None = None
 
-    def report(self, value: Any) -> None:
+    def report(self, value: object) -> None:
         port = self.host.port
         encoded = getattr(port, "publish_encoded", None)
         if encoded is not None:
             # process mode: the sample is encoded once, for the wire (that is its copy);
             # data that is not JSON raises here, before it counts
             with self._lock:
-                sample = Sample(value, self.seq + 1, time.time(), self.name)
+                sample = Sample(cast(JSON, value), self.seq + 1, time.time(), self.name)
                 data = codec.encode(sample.to_wire())
                 self.seq += 1
                 self.c["reported"] += 1
             encoded(self.name, data)
             return
-        value = codec.copy(value)      # thread mode: the behaviors get this very copy
+        copied = codec.copy(value)     # thread mode: the behaviors get this very copy
         with self._lock:
             self.seq += 1
-            sample = Sample(value, self.seq, time.time(), self.name)
+            sample = Sample(copied, self.seq, time.time(), self.name)
             self.c["reported"] += 1
         port.publish(self.name, sample)
 
@@ -89,10 +98,10 @@ class Slot:
         with self._lock:
             self.c[key] = self.c.get(key, 0) + 1
 
-    def counters(self) -> dict:
+    def counters(self) -> JSONObject:
         """The counters, the sample number and the state, as of one moment."""
         with self._lock:
-            out = dict(self.c, seq=self.seq, state=self.state)
+            out: JSONObject = dict(self.c, seq=self.seq, state=self.state)
             if self.last_ok:
                 out["last_ok"] = list(self.last_ok)
             return out
@@ -103,7 +112,7 @@ class Slot:
 
 
 class ResourceHost:
-    def __init__(self, spec: Spec, cls: type, port: Port):
+    def __init__(self, spec: Spec, cls: type[Sensor | Actuator | Driver], port: Port):
         self.spec = spec
         self.name = spec.name
         self.cls = cls
@@ -111,7 +120,7 @@ class ResourceHost:
         self.options = spec.options
         self.driver: Driver | None = None
         self.slots: dict[str, Slot] = {}
-        self.commands: queue.Queue = queue.Queue(maxsize=COMMANDS)
+        self.commands: queue.Queue[_Cmd | None] = queue.Queue(maxsize=COMMANDS)
         self._stop = threading.Event()
         self._opened = threading.Event()
         self._error: str | None = None
@@ -122,7 +131,7 @@ class ResourceHost:
         # the latched STOP's refusal text while the robot is STOPPED (latch.py)
         self.halted: str | None = None
         # command records not yet published (this host's thread only) and when they are due
-        self._records: list[dict] = []
+        self._records: list[JSON] = []
         self._records_due = 0.0
         self._rec_lock = threading.Lock()    # records also come from a STOP's thread
         self.thread = threading.Thread(target=self._main, name=f"esair:{self.name}", daemon=True)
@@ -153,8 +162,8 @@ class ResourceHost:
         self.state = "stopped"
 
     # ---- requests (any thread)
-    def submit(self, resource: str, op: str, args: tuple,
-               on_done: Callable[[bool, Any], None], timeout: float = 1.0,
+    def submit(self, resource: str, op: str, args: tuple[JSON, ...],
+               on_done: OnDone, timeout: float = 1.0,
                copy: bool = True, sender: str = "") -> None:
         """Queue ``op`` (write | configure) for the host thread; ``on_done(ok, value)`` is
         called once, from the host thread (or here if it cannot be queued). ``value`` is
@@ -186,26 +195,26 @@ class ResourceHost:
         except StdError as exc:
             on_done(False, exc.message)
 
-    def _submit(self, resource: str, op: str, args: tuple, timeout: float,
-                sender: str = "") -> Any:
+    def _submit(self, resource: str, op: str, args: tuple[JSON, ...], timeout: float,
+                sender: str = "") -> JSON:
         done = threading.Event()
-        box: list = []
+        box: list[tuple[bool, JSON | StdError]] = []
 
-        def finished(ok: bool, value: Any) -> None:
+        def finished(ok: bool, value: JSON | StdError) -> None:
             box.append((ok, value))
             done.set()
         self.submit(resource, op, args, finished, timeout, sender=sender)
         if not done.wait(timeout):
             raise CommandError(resource, f"no answer within {timeout:g} s")
         ok, value = box[0]
-        if ok:
+        if ok and not isinstance(value, StdError):
             return value
         raise wire.failure(value, resource)
 
-    def command(self, sender: str, resource: str, command: Any, timeout: float) -> Any:
+    def command(self, sender: str, resource: str, command: JSON, timeout: float) -> JSON:
         return self._submit(resource, "write", (command,), timeout, sender)
 
-    def configure(self, resource: str, key: str, value: Any, timeout: float = 2.0) -> Any:
+    def configure(self, resource: str, key: str, value: JSON, timeout: float = 2.0) -> JSON:
         return self._submit(resource, "configure", (str(key), value), timeout)
 
     def grant(self, who: str, resource: str) -> None:
@@ -264,24 +273,31 @@ class ResourceHost:
             except Exception as exc:  # noqa: BLE001
                 log.error("%s: release() raised %s: %s", self.name, type(exc).__name__, exc)
 
-    def _movers(self) -> list[Any]:
+    def _is_driver(self, obj: object) -> bool:
+        """``obj`` is this entry's driver (a driver that is also its own child resource:
+        it is told, opened and closed once, as the driver)."""
+        return obj is self.driver
+
+    def _movers(self) -> list[Driver | Actuator]:
         """The driver, then its actuators (those the STOP tells)."""
-        out: list[Any] = [self.driver] if self.driver is not None else []
+        out: list[Driver | Actuator] = [self.driver] if self.driver is not None else []
         return out + [s.obj for s in list(self.slots.values())
-                      if s.kind == "actuator" and s.obj is not self.driver]
+                      if s.kind == "actuator" and isinstance(s.obj, Actuator)
+                      and not self._is_driver(s.obj)]
 
     def states(self) -> dict[str, tuple[str, str]]:
         return {n: (s.state, s.reason) for n, s in self.slots.items()}
 
-    def counters(self) -> dict:
-        out: dict = dict(self.c)
+    def counters(self) -> JSONObject:
+        out: JSONObject = dict(self.c)
         for n, s in self.slots.items():
             out[n] = s.counters()
         return out
 
     # ---- the host thread
     def _open(self) -> None:
-        obj = build(self.cls, self)
+        obj: Sensor | Actuator | Driver = build(self.cls, self)
+        items: list[tuple[str, object]]
         if isinstance(obj, Driver):
             self.driver = obj
             obj.open()
@@ -303,7 +319,7 @@ class ResourceHost:
         if isinstance(obj, Sensor) and isinstance(rate, (int, float)) and rate > 0:
             obj.rate_hz = float(rate)         # the deployment's rate_hz wins
         for slot in self.slots.values():
-            if slot.obj is not self.driver:
+            if not self._is_driver(slot.obj):
                 slot.obj.open()
 
     def _main(self) -> None:
@@ -372,7 +388,7 @@ class ResourceHost:
                 continue
             if now >= s.next_poll:
                 try:
-                    value = s.obj.read()
+                    value = cast(Sensor, s.obj).read()     # a sensor's slot (rate above)
                     if value is not None:
                         s.report(value)
                 except Exception as exc:  # noqa: BLE001 - a failing read loses the device
@@ -386,7 +402,7 @@ class ResourceHost:
             wait = min(wait, max(0.0, s.next_poll - now))
         return wait
 
-    def _run(self, slot: Slot, op: str, args: tuple, on_done: Any, expires: float,
+    def _run(self, slot: Slot, op: str, args: tuple[JSON, ...], on_done: OnDone, expires: float,
              asked: float | None = None, sender: str = "") -> None:
         if time.monotonic() > expires:       # the sender gave up: do not act late
             slot.count("expired")
@@ -400,9 +416,10 @@ class ResourceHost:
             if op == "write":
                 slot.count("commands")
                 slot.asked, slot.expires = asked, expires
-                value = codec.copy(slot.obj.write(*args))
+                # submit() queues writes for actuators only, as (command,)
+                value = codec.copy(cast(Actuator, slot.obj).write(*args))
             else:
-                value = codec.copy(slot.obj.configure(*args))
+                value = codec.copy(slot.obj.configure(*cast("tuple[str, JSON]", args)))
         except ResourceLost as exc:
             on_done(False, exc)
             if op == "write":
@@ -430,7 +447,7 @@ class ResourceHost:
         if op == "write":
             self._ran(slot, args[0], asked, {"ok": value}, sender)
 
-    def _ran(self, slot: Slot, command: Any, asked: float | None, outcome: dict,
+    def _ran(self, slot: Slot, command: JSON, asked: float | None, outcome: JSONObject,
              sender: str = "") -> None:
         """A command the actuator ran and its outcome, for recorders (after its sender has
         its answer): ``{r, seq, t, v: {command, ok | error, by}}``, ``seq`` the actuator's
@@ -470,7 +487,7 @@ class ResourceHost:
         if self._records:                 # what the last commands ran goes out
             self._publish_records()
         for s in self.slots.values():
-            if s.obj is not self.driver:
+            if not self._is_driver(s.obj):
                 try:
                     s.obj.close()
                 except Exception as exc:  # noqa: BLE001

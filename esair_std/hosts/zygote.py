@@ -25,7 +25,7 @@ import os
 import signal
 import sys
 from array import array
-from typing import Any
+from typing import TypedDict
 
 # the C module, not socket.py: an agent imports no more than it needs
 import _socket
@@ -55,7 +55,15 @@ def _set_cmdline(argv: list[str]) -> None:
         pass                                               # cosmetic only
 
 
-def _child(sock: Any, req: dict, fds: list[int]) -> None:
+class _Request(TypedDict):
+    """The runtime's request for one agent (modes/forkserver.py, spawn)."""
+
+    argv: list[str]
+    env: dict[str, str]
+    cwd: str
+
+
+def _child(sock: _socket.socket, req: _Request, fds: list[int]) -> None:
     """In the forked agent: its descriptors, folder, environment and command line, then
     the agent itself. Never returns."""
     code = 1
@@ -89,7 +97,7 @@ def _child(sock: Any, req: dict, fds: list[int]) -> None:
         os._exit(code)
 
 
-def _fork(sock: Any, req: dict, fds: list[int]) -> int:
+def _fork(sock: _socket.socket, req: _Request, fds: list[int]) -> int:
     """Forks the agent as a grandchild; its pid."""
     r, w = os.pipe()
     middle = os.fork()
@@ -110,7 +118,7 @@ def _fork(sock: Any, req: dict, fds: list[int]) -> int:
     return int(text)
 
 
-def _receive(sock: Any) -> tuple[bytes, list[int]]:
+def _receive(sock: _socket.socket) -> tuple[bytes, list[int]]:
     """One request and the descriptors passed with it (socket.recv_fds's way)."""
     fds = array("i")
     msg, ancillary, _flags, _addr = sock.recvmsg(MAX_REQUEST, _socket.CMSG_LEN(3 * fds.itemsize))
@@ -120,7 +128,7 @@ def _receive(sock: Any) -> tuple[bytes, list[int]]:
     return msg, list(fds)
 
 
-def serve(sock: Any) -> None:
+def serve(sock: _socket.socket) -> None:
     sock.send(b'{"ready": true}')
     while True:
         try:
@@ -132,7 +140,7 @@ def serve(sock: Any) -> None:
         try:
             if len(os.listdir("/proc/self/task")) != 1:
                 raise RuntimeError("the fork server has threads: it must not fork")
-            answer: dict = {"pid": _fork(sock, json.loads(msg), fds)}
+            answer: dict[str, int | str] = {"pid": _fork(sock, json.loads(msg), fds)}
         except Exception as exc:  # noqa: BLE001 - the runtime starts it otherwise
             answer = {"error": f"{type(exc).__name__}: {exc}"}
         finally:

@@ -21,6 +21,7 @@ import subprocess
 import sys
 import threading
 import time
+from typing import TypedDict
 
 log = logging.getLogger("esair_std.process")
 READY_TIMEOUT = 30.0     # its imports on a loaded, capped computer
@@ -39,6 +40,14 @@ def _subreaper(on: bool) -> None:
     if libc.prctl(PR_SET_CHILD_SUBREAPER, int(on), 0, 0, 0) != 0:
         raise OSError(ctypes.get_errno(), "prctl(PR_SET_CHILD_SUBREAPER)")
 
+
+
+class _Answer(TypedDict, total=False):
+    """The fork server's word (hosts/zygote.py): its readiness, a forked agent's pid, or
+    why it could not fork."""
+
+    pid: int
+    error: str
 
 class Forked:
     """An agent forked by the zygote: what the runtime uses of a ``subprocess.Popen``
@@ -86,7 +95,7 @@ class ForkServer:
     def __init__(self, env: dict[str, str]):
         self.startup = {k: env.get(k) for k in STARTUP}
         self.sock: socket.socket | None = None
-        self.proc: subprocess.Popen | None = None
+        self.proc: subprocess.Popen[bytes] | None = None
         self.broken = ""
         if sys.platform != "linux" or env.get("ESAIR_STD_FORK", "1") == "0":
             self.broken = "not used"
@@ -137,13 +146,14 @@ class ForkServer:
             os.close(r)
         return Forked(int(answer["pid"]), w, args)
 
-    def _receive(self, timeout: float) -> dict:
+    def _receive(self, timeout: float) -> _Answer:
         assert self.sock is not None
         self.sock.settimeout(timeout)
         msg = self.sock.recv(65536)
         if not msg:
             raise OSError("the fork server exited")
-        return json.loads(msg)
+        answer: _Answer = json.loads(msg)
+        return answer
 
     def close(self) -> None:
         if self.sock is not None:

@@ -24,6 +24,7 @@ from ..errors import ComponentError, ResourceLost, StdError, TransportError
 from ..parts import NO_ANSWER
 from ..spec import Spec
 from ..transport import codec, keys, session, wire
+from ..transport.codec import JSON, JSONObject
 from ..transport.calls import SampleCaller
 from ..transport.security_config import link_inserts
 from ..transport.threads import Threads
@@ -89,11 +90,11 @@ class _Child:
         self.reason = ""
         self.pid: int | None = None
         self.hostname = ""
-        self.info: dict = {}
+        self.info: JSONObject = {}               # its hello
         self.hello = threading.Event()
         self.ended = threading.Event()           # its process exited (not yet reaped)
         self.changed = threading.Event()         # hello, a phase reported, or ended
-        self.proc: subprocess.Popen | Forked | None = None
+        self.proc: subprocess.Popen[bytes] | Forked | None = None
         self.remote = spec.name in mode.remote   # a remote agent (esair_std.remote): not ours
         self.quiet = False                       # remote: do not tell it to stop
         self.rejoining = False
@@ -146,13 +147,14 @@ class _Child:
             self.changed.wait(left)
         if self.info.get("error"):
             self.kill()
-            raise ComponentError(self.info["error"])
+            raise ComponentError(str(self.info["error"]))
 
-    def ask(self, key: str, body: dict, timeout: float) -> Any:
+    def ask(self, key: str, body: JSONObject, timeout: float) -> JSON:
         try:
-            return self.bus.request(key, body, timeout)
+            r: JSON = self.bus.request(key, body, timeout)
         except StdError:
             return None
+        return r
 
     def exited(self) -> int | None:
         """Its exit status once it ended (reaped here; negative: the signal's number)."""
@@ -230,7 +232,7 @@ class ProcessComponent(_Child):
             self.credit_full = full
             self.credit_room = max(self.credit_room, room)
 
-    def deliver_reserved(self, sender: str, data: Any,
+    def deliver_reserved(self, sender: str, data: JSON,
                          told: Callable[[], None] | None = None) -> bool:
         """Deliver ``data`` into the room the component reserved: True if sent (the
         sender may be told "delivered"), False to ask it instead. ``told``: called once
@@ -265,7 +267,7 @@ class ProcessComponent(_Child):
             return False
         return True
 
-    def offer(self, sender: str, data: Any) -> str:
+    def offer(self, sender: str, data: JSON) -> str:
         if self.phase in ("failed", "stopped"):
             return self.phase
         if self.deliver_reserved(sender, data):
@@ -273,7 +275,8 @@ class ProcessComponent(_Child):
         r = self.ask(self.key, {"op": "offer", "from": sender, "data": data}, 1.0)
         return r.get("ok", "gone") if isinstance(r, dict) else "gone"
 
-    def offer_async(self, sender: str, data: Any, done: Any, timeout: float) -> bool:
+    def offer_async(self, sender: str, data: JSON, done: Callable[[str], None],
+                    timeout: float) -> bool:
         """``offer`` without waiting: ``done(result)`` on a Zenoh thread, or "gone"
         after ``timeout`` (transport/calls.py). False: not sent, use ``offer``."""
         if self.phase in ("failed", "stopped"):
@@ -282,7 +285,7 @@ class ProcessComponent(_Child):
         if self.deliver_reserved(sender, data, lambda: done("delivered")):
             return True
 
-        def answer(a: Any) -> None:
+        def answer(a: JSON) -> None:
             r = a.get("r") if isinstance(a, dict) else None
             done(r if isinstance(r, str) else "gone")
         try:
@@ -292,7 +295,7 @@ class ProcessComponent(_Child):
         except StdError:
             return False
 
-    def provide(self, requester: str, timeout: float) -> tuple:
+    def provide(self, requester: str, timeout: float) -> tuple[str, JSON]:
         if self.phase in ("failed", "stopped"):
             return ("busy", self.phase)
         r = self.ask(self.key, {"op": "provide", "from": requester, "timeout": timeout},
@@ -301,7 +304,7 @@ class ProcessComponent(_Child):
             return tuple(r["ok"])
         return ("busy", NO_ANSWER)
 
-    def take(self, sender: str, data: Any, timeout: float) -> tuple:
+    def take(self, sender: str, data: JSON, timeout: float) -> tuple[str, JSON]:
         """A put the sender waits for: receive() runs in the agent, its outcome answers
         (ComponentHost.take)."""
         if self.phase in ("failed", "stopped"):
@@ -321,13 +324,14 @@ class ProcessComponent(_Child):
     def set_enabled(self, enabled: bool) -> None:
         self.ask(self.key, {"op": "enable", "enabled": bool(enabled)}, 1.0)
 
-    def notify_latch(self, state: dict | None, by: str = "") -> None:
+    def notify_latch(self, state: JSONObject | None, by: str = "") -> None:
         if self.phase not in ("failed", "stopped", "lost"):
             self.ask(self.key, {"op": "latch", "state": state, "by": by}, 1.0)
 
-    def counters(self) -> dict:
+    def counters(self) -> JSONObject:
         r = self.ask(self.key, {"op": "counters"}, 1.0)
-        return r["ok"] if isinstance(r, dict) and "ok" in r else {}
+        ok = r.get("ok") if isinstance(r, dict) else None
+        return ok if isinstance(ok, dict) else {}
 
     def check(self, now: float) -> float | None:
         return None              # its agent watches the deadlines; its exit is an event
@@ -343,6 +347,16 @@ class ProcessComponent(_Child):
         self.stop_process(self.key, timeout)
 
 
+def _result(r: JSON, resource: str) -> JSON:
+    """The ok value of a resource host's reply, or its error raised; no reply, or one
+    that is no JSON object, is ResourceLost (never an AttributeError in a sender)."""
+    if r is None:
+        raise ResourceLost(resource, "its host process does not answer")
+    if not isinstance(r, dict):
+        raise ResourceLost(resource, "its host process answered with no reply object")
+    return wire.result(r, resource)
+
+
 class ProcessResource(_Child):
     """The runtime's view of a resource entry (and its children) in an agent process."""
 
@@ -353,23 +367,18 @@ class ProcessResource(_Child):
         return keys.rs(self.robot, self.name)
 
     def children(self) -> dict[str, str]:
-        return dict(self.info.get("children", {}))
+        kids = self.info.get("children", {})
+        return {str(k): str(v) for k, v in kids.items()} if isinstance(kids, dict) else {}
 
-    def _call(self, resource: str, body: dict, timeout: float) -> Any:
-        r = self.ask(self.key, body, timeout + 0.5)
-        if r is None:
-            raise ResourceLost(resource, "its host process does not answer")
-        return wire.result(r, resource)
+    def _call(self, resource: str, body: JSONObject, timeout: float) -> JSON:
+        return _result(self.ask(self.key, body, timeout + 0.5), resource)
 
-    def command(self, sender: str, resource: str, command: Any, timeout: float) -> Any:
-        r = self.ask(keys.actuator(self.robot, resource),
-                     {"from": sender, "cmd": command, "timeout": max(0.0, timeout - MARGIN)},
-                     timeout)
-        if r is None:
-            raise ResourceLost(resource, "its host process does not answer")
-        return wire.result(r, resource)
+    def command(self, sender: str, resource: str, command: JSON, timeout: float) -> JSON:
+        return _result(self.ask(keys.actuator(self.robot, resource),
+                                {"from": sender, "cmd": command,
+                                 "timeout": max(0.0, timeout - MARGIN)}, timeout), resource)
 
-    def configure(self, resource: str, key: str, value: Any, timeout: float = 2.0) -> Any:
+    def configure(self, resource: str, key: str, value: JSON, timeout: float = 2.0) -> JSON:
         return self._call(resource, {"op": "configure", "resource": resource, "key": key,
                                      "value": value, "timeout": timeout}, timeout)
 
@@ -386,9 +395,10 @@ class ProcessResource(_Child):
     def release(self) -> None:
         self._call(self.name, {"op": "release"}, 1.0)
 
-    def counters(self) -> dict:
+    def counters(self) -> JSONObject:
         r = self.ask(self.key, {"op": "counters"}, 1.0)
-        return r["ok"] if isinstance(r, dict) and "ok" in r else {}
+        ok = r.get("ok") if isinstance(r, dict) else None
+        return ok if isinstance(ok, dict) else {}
 
     def on_exit(self) -> None:
         self.mode.resource_gone(self)
@@ -409,7 +419,8 @@ class ProcessMode:
         self._resources: dict[str, ProcessResource] = {}
         self._lock = threading.Lock()
         self._pending_cond = threading.Condition(self._lock)   # _pending changed
-        self.remote: dict[str, dict] = {}         # name -> {host, pid} of remote agents
+        # name -> the join of a remote agent ({host, pid, lease...}: remote/center.py)
+        self.remote: dict[str, dict[str, Any]] = {}
         self.threads = Threads()      # exit watchers, lost tokens: joined by the runtime's stop
         self.forks: ForkServer | None = None
 
@@ -444,12 +455,12 @@ class ProcessMode:
         # unsent: deliveries into reserved room told "delivered" whose sample could not
         # go (the session closing, the component removed meanwhile)
         self.credits = dict(reports=0, bad_reports=0, unsent=0)
-        self._deliver_pubs: dict[str, Any] = {}
+        self._deliver_pubs: dict[str, Callable[[bytes], None]] = {}
         self.bus.subscribe(keys.bs_credit(self.rt.robot, "*"), self._on_credit,
                            with_key=True, garbage=self._bad_credit)
         self.bus.watch_alive(keys.alive_all(self.rt.robot), self._alive)
 
-    def counters(self) -> dict[str, Any]:
+    def counters(self) -> JSONObject:
         """The BS's put path to the agents (``esair std inspect runtime``): the offers'
         samples and the components' reports of their room."""
         offers = getattr(self, "offers", None)
@@ -460,17 +471,17 @@ class ProcessMode:
     def _bad_credit(self, _why: str) -> None:
         self.credits["bad_reports"] += 1
 
-    def _on_credit(self, key: str, obj: Any) -> None:
+    def _on_credit(self, key: str, obj: JSON) -> None:
         """A component's report of its room (on Zenoh's thread: record only)."""
-        gen = obj.get("gen") if isinstance(obj, dict) else None
-        room = obj.get("room") if isinstance(obj, dict) else None
+        body = obj if isinstance(obj, dict) else {}
+        gen, room = body.get("gen"), body.get("room")
         host = (self._component(keys.name_in(key, 2), gen)
                 if isinstance(gen, int) and isinstance(room, int) else None)
         if host is None or host.remote or not isinstance(room, int):
             self.credits["bad_reports"] += 1
             return
         self.credits["reports"] += 1
-        host.credit(obj.get("open") is True, room, obj.get("full") is True)
+        host.credit(body.get("open") is True, room, body.get("full") is True)
 
     def deliver(self, name: str, body: bytes) -> None:
         pub = self._deliver_pubs.get(name)
@@ -543,15 +554,17 @@ class ProcessMode:
         host.reason = "its host process is gone"
         self.rt.rs.failed(host.name, host.generation, host.reason)
 
-    def hello(self, b: dict[str, Any]) -> None:
+    def hello(self, b: JSONObject) -> None:          # the agent's hello (agent_process.py)
         name, gen = b.get("name", ""), b.get("generation", 0)
         with self._lock:
-            child = self._pending.get((name, gen))
-        if child is None:
+            child = (self._pending.get((name, gen))
+                     if isinstance(name, str) and isinstance(gen, int) else None)
+        if child is None or not isinstance(name, str) or not isinstance(gen, int):
             raise ComponentError(f"no component {name!r} (generation {gen}) is starting")
         child.info = b
-        child.pid = b.get("pid", child.pid)
-        child.hostname = b.get("host", "")
+        pid = b.get("pid", child.pid)
+        child.pid = pid if isinstance(pid, int) else child.pid
+        child.hostname = str(b.get("host", ""))
         if child.rejoining and isinstance(child, ProcessResource):   # a remote resource back
             child.rejoining = False
             with self._lock:
@@ -593,14 +606,14 @@ class ProcessMode:
         with self._pending_cond:
             self._pending_cond.notify_all()
 
-    def wait_pending(self, name: str, done: Any, timeout: float) -> bool:
+    def wait_pending(self, name: str, done: Callable[[], bool], timeout: float) -> bool:
         """Wait until generation 1 of ``name`` is starting (its hello may come) or
         ``done()``; False after ``timeout``."""
         with self._pending_cond:
             return self._pending_cond.wait_for(
                 lambda: (name, 1) in self._pending or done(), timeout)
 
-    def _component(self, name: str, generation: Any) -> ProcessComponent | None:
+    def _component(self, name: str, generation: int) -> ProcessComponent | None:
         """The component ``name`` of that generation, deployed or still starting."""
         rec = self.rt.bs.records.get(name)
         host = rec.host if rec is not None else None

@@ -7,7 +7,7 @@ the runtime's control server answers them by calling this same LocalPort.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Callable, Iterable
 
 from ..errors import ComponentError
 from ..latch import may_stop
@@ -15,11 +15,13 @@ from ..level import Level
 from ..classes import component_class
 from ..spec import Spec
 from ..transport import keys
+from ..transport.codec import JSON, JSONObject
 from ..hosts.behavior_host import ComponentHost
 from ..hosts.resource_host import ResourceHost
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..parts import SampleHandle
+    from ..sample import Sample
     from ..runtime_view import RuntimeView
 
 START_TIMEOUT = 10.0
@@ -28,9 +30,9 @@ START_TIMEOUT = 10.0
 class LocalPort:
     def __init__(self, rt: RuntimeView):
         self.rt = rt
-        self._cmd_pubs: dict[str, Any] = {}
+        self._cmd_pubs: dict[str, Callable[[JSON], None]] = {}
 
-    def _uses(self, who: str) -> dict | None:
+    def _uses(self, who: str) -> dict[str, str] | None:
         rec = self.rt.bs.records.get(who)
         if rec is None:
             return {}                          # unknown: nothing listed, every request refused
@@ -43,7 +45,7 @@ class LocalPort:
             raise Refused(f"{who!r} is not a reaction listing {resource!r}")
 
     # registration, SC, AC
-    def register(self, who: str, resource: str, level: Any) -> int:
+    def register(self, who: str, resource: str, level: Level | str) -> int:
         return int(self.rt.rs.register(who, resource, Level.parse(level), self._uses(who)))
 
     def attach_sensor(self, who: str, resource: str, handle: SampleHandle | None,
@@ -55,13 +57,13 @@ class LocalPort:
             self.register(who, resource, Level.read)
         self.rt.sc.attach(who, resource, handle)
 
-    def command(self, who: str, resource: str, command: Any, timeout: float,
-                direct: bool = False) -> Any:
+    def command(self, who: str, resource: str, command: JSON, timeout: float,
+                direct: bool = False) -> JSON:
         if direct:
             self._check_direct(who, resource)
         return self.rt.ac.command(who, resource, command, timeout, direct=direct)
 
-    def configure(self, who: str | None, resource: str, key: str, value: Any) -> Any:
+    def configure(self, who: str | None, resource: str, key: str, value: JSON) -> JSON:
         return self.rt.rs.configure(who, resource, key, value)
 
     def kind_of(self, resource: str) -> str | None:
@@ -71,13 +73,13 @@ class LocalPort:
         return self.rt.rs.state_of(resource)
 
     # BS
-    def put(self, who: str, target: str, data: Any, timeout: float) -> tuple[bool, str]:
+    def put(self, who: str, target: str, data: JSON, timeout: float) -> tuple[bool, str]:
         if "/" in target:                          # robot/behavior: remote/robots.py
             from ..remote import robots
             return robots.put(self.rt, who, target, data, timeout)
         return self.rt.bs.put(who, target, data, timeout)
 
-    def get(self, who: str, target: str, timeout: float) -> tuple[bool, Any]:
+    def get(self, who: str, target: str, timeout: float) -> tuple[bool, JSON]:
         return self.rt.bs.get(who, target, timeout)
 
     def state_of(self, name: str) -> str | None:
@@ -97,10 +99,10 @@ class LocalPort:
             self.rt.bs.failed(name, generation, reason)
         self.rt.note_change()
 
-    def publish(self, resource: str, sample: Any) -> None:
+    def publish(self, resource: str, sample: Sample) -> None:
         self.rt.sc.route(resource, sample)
 
-    def publish_commands(self, entry: str, batch: list[dict]) -> None:
+    def publish_commands(self, entry: str, batch: list[JSON]) -> None:
         """The commands an entry's actuators ran, for recorders outside
         (transport/records.py): on Zenoh when the runtime serves its control endpoint
         (else nobody outside could listen)."""
@@ -144,13 +146,13 @@ class ThreadMode:
     def open(self) -> None:
         pass
 
-    def hello(self, body: dict) -> None:
+    def hello(self, body: JSONObject) -> None:
         raise ComponentError("this runtime runs in thread mode: it hosts no agents")
 
     def reported(self, name: str, generation: int, phase: str, reason: str) -> None:
         raise ComponentError("this runtime runs in thread mode: it hosts no agents")
 
-    def counters(self) -> dict[str, Any]:
+    def counters(self) -> JSONObject:
         return {}                # calls within this process: nothing to count
 
     def watch(self, now: float) -> float | None:
@@ -161,6 +163,6 @@ class ThreadMode:
         pass
 
 
-def _soonest(waits: Any) -> float | None:
-    waits = [w for w in waits if w is not None]
-    return min(waits) if waits else None
+def _soonest(waits: Iterable[float | None]) -> float | None:
+    due = [w for w in waits if w is not None]
+    return min(due) if due else None

@@ -199,8 +199,9 @@ class Center:
         mode = self._mode()
         entry = self.rt.rs.entries.get(spec.name)
         if entry is not None:
+            from ..modes.process import ProcessResource
             host = entry[1]
-            if not getattr(host, "remote", False):
+            if not isinstance(host, ProcessResource) or not host.remote:
                 raise ControlError(f"a resource named {spec.name!r} is already deployed")
             mode.remote[spec.name] = info
             mode.rejoin(host)                     # its hello sets its children ready again

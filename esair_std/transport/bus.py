@@ -14,7 +14,8 @@ from __future__ import annotations
 import contextlib
 import logging
 import threading
-from typing import Any, Callable, TypeVar
+from typing import (Any, Callable, Literal, Mapping, Protocol, TypeVar, overload,
+                    runtime_checkable)
 
 import zenoh
 
@@ -25,7 +26,15 @@ from .codec import JSON, JSONObject
 from .session import endpoint_hosts, open_session, peer_at
 
 log = logging.getLogger("esair_std.transport")
-_T = TypeVar("_T")
+_T = TypeVar("_T", bound="Declared")
+
+
+@runtime_checkable
+class Declared(Protocol):
+    """What the bus declared on its session (a queryable, a subscriber, a publisher, a
+    token, a querier): undeclared when the bus closes."""
+
+    def undeclare(self) -> None: ...
 
 
 class Request:
@@ -34,12 +43,12 @@ class Request:
 
     __slots__ = ("_query", "body", "error", "key", "_done", "_express")
 
-    def __init__(self, query: Any, express: bool = False):
+    def __init__(self, query: zenoh.Query, express: bool = False):
         self._query = query
         self._express = express
         self.key = str(query.key_expr)
         self._done = False
-        self.body: dict[str, Any] | None = None
+        self.body: JSONObject | None = None
         self.error = ""
         payload = query.payload
         try:
@@ -67,26 +76,28 @@ class Route:
     """Whether some queryable answers ``key`` now (Zenoh's matching status), kept in
     ``ready`` (an Event: wait on it, never poll)."""
 
-    def __init__(self, session: Any, key: str):
+    def __init__(self, session: zenoh.Session, key: str):
         self.ready = threading.Event()
         self._querier = session.declare_querier(key)
         self._listener = self._querier.declare_matching_listener(self._status)
-        if self._querier.matching_status.matching:
+        # zenoh's stub types matching_status a bool; it is a MatchingStatus
+        if self._querier.matching_status.matching:  # type: ignore[attr-defined]
             self.ready.set()
 
-    def _status(self, status: Any) -> None:
+    def _status(self, status: zenoh.MatchingStatus) -> None:
         if status.matching:
             self.ready.set()
         else:
             self.ready.clear()
 
     def undeclare(self) -> None:
-        for d in (self._listener, self._querier):
-            with contextlib.suppress(Exception):        # the session is closing
-                d.undeclare()
+        with contextlib.suppress(Exception):            # the session is closing
+            self._listener.undeclare()
+        with contextlib.suppress(Exception):
+            self._querier.undeclare()
 
 
-def _zid(reply: Any) -> str | None:
+def _zid(reply: zenoh.Reply) -> str | None:
     """The Zenoh id of the session that sent ``reply`` (None when Zenoh does not say)."""
     who = reply.replier_id
     return str(who.zid) if who is not None else None
@@ -101,12 +112,12 @@ class Bus:
     answers: without this, 2 of 6 `esair std inspect` answered from such a peer."""
 
     def __init__(self, listen: list[str] | None = None, connect: list[str] | None = None,
-                 options: dict[str, Any] | None = None, runtime: str | None = None):
+                 options: Mapping[str, object] | None = None, runtime: str | None = None):
         self.session = open_session(listen, connect, options)
         self.runtime = runtime
         self._runtime_hosts = endpoint_hosts(runtime) if runtime else set()
-        self._decl: list[Any] = []
-        self._pub_of: dict[str, tuple[Any, ...]] = {}     # key -> its publishers (``undeclare``)
+        self._decl: list[Declared] = []
+        self._pub_of: dict[str, tuple[zenoh.Publisher, ...]] = {}     # key -> its publishers (``undeclare``)
         self._lock = threading.Lock()
         self.closed = False
         # foreign_answers: control answers from a peer not at ``runtime``, ignored (the
@@ -169,10 +180,10 @@ class Bus:
         return self._keep(Route(self.session, key))
 
     def serve(self, key: str, handler: Callable[[Request], None],
-              express: bool = False) -> Any:
+              express: bool = False) -> zenoh.Queryable[None]:
         """``handler(request)`` on Zenoh's network thread: it must enqueue or answer.
         ``express``: replies are sent at once, never held to share a batch."""
-        def cb(query: Any) -> None:
+        def cb(query: zenoh.Query) -> None:
             try:
                 handler(Request(query, express))
             except Exception as exc:  # noqa: BLE001 - never let a handler kill the thread
@@ -181,8 +192,15 @@ class Bus:
             key, zenoh.handlers.Callback(cb, indirect=False)))
 
     # pub/sub
+    @overload
+    def publisher(self, key: str, drop: bool = False, raw: Literal[False] = False,
+                  express: bool | None = None) -> Callable[[JSON], None]: ...
+    @overload
+    def publisher(self, key: str, drop: bool = False, *, raw: Literal[True],
+                  express: bool | None = None) -> Callable[[bytes], None]: ...
+
     def publisher(self, key: str, drop: bool = False, raw: bool = False,
-                  express: bool | None = None) -> Callable[[Any], None]:
+                  express: bool | None = None) -> Callable[[bytes], None] | Callable[[JSON], None]:
         """``put(obj)`` for ``key``. ``drop``: never wait for a congested link (for
         messages whose loss the sender notices by a timeout), sent at once (express,
         unless ``express=False``: a stream of many small messages, batched by Zenoh, costs
@@ -198,13 +216,13 @@ class Bus:
                 key, congestion_control=zenoh.CongestionControl.BLOCK,
                 express=bool(express)))
 
-        if raw:
-            put: Callable[[Any], None] = pub.put
-        else:
-            def put(obj: JSON) -> None:
-                pub.put(codec.encode(obj))
         with self._lock:
             self._pub_of[key] = self._pub_of.get(key, ()) + (pub,)
+        if raw:
+            return pub.put
+
+        def put(obj: JSON) -> None:
+            pub.put(codec.encode(obj))
         return put
 
     def undeclare(self, key: str) -> None:
@@ -220,11 +238,11 @@ class Bus:
 
     def subscribe(self, key: str, callback: Callable[..., None], *,
                   with_key: bool = False,
-                  garbage: Callable[[str], None] | None = None) -> Any:
+                  garbage: Callable[[str], None] | None = None) -> zenoh.Subscriber[None]:
         """``callback(obj)`` (or ``callback(key, obj)``) on Zenoh's network thread for
         each sample's decoded JSON; garbage (not UTF-8 JSON, over the size cap) is dropped
         and told to ``garbage(why)``, else logged."""
-        def cb(sample: Any) -> None:
+        def cb(sample: zenoh.Sample) -> None:
             try:
                 try:
                     obj = codec.decode(sample.payload.to_bytes())
@@ -242,7 +260,10 @@ class Bus:
         return self._keep(self.session.declare_subscriber(
             key, zenoh.handlers.Callback(cb, indirect=False)))
 
-    def unsubscribe(self, sub: Any) -> None:
+    def unsubscribe(self, sub: object) -> None:
+        """Undeclare ``sub`` (what :meth:`subscribe` gave; anything else is left)."""
+        if not isinstance(sub, Declared):
+            return
         with self._lock:
             if sub in self._decl:
                 self._decl.remove(sub)
@@ -252,11 +273,12 @@ class Bus:
             pass
 
     # liveliness
-    def token(self, key: str) -> Any:
+    def token(self, key: str) -> zenoh.LivelinessToken:
         return self._keep(self.session.liveliness().declare_token(key))
 
-    def watch_alive(self, key: str, callback: Callable[[str, bool], None]) -> Any:
-        def cb(sample: Any) -> None:
+    def watch_alive(self, key: str,
+                    callback: Callable[[str, bool], None]) -> zenoh.Subscriber[None]:
+        def cb(sample: zenoh.Sample) -> None:
             try:
                 callback(str(sample.key_expr), sample.kind == zenoh.SampleKind.PUT)
             except Exception as exc:  # noqa: BLE001

@@ -33,7 +33,7 @@ import logging
 import queue
 import threading
 import time
-from typing import Any, Callable
+from typing import Callable
 
 from ..errors import TransportError
 from .bus import Bus
@@ -116,9 +116,9 @@ class SampleCaller:
         if pub is not None:
             self.bus.undeclare(key)
 
-    def wait(self, key: str, peer: str, body: JSONObject, timeout: float) -> Any:
+    def wait(self, key: str, peer: str, body: JSONObject, timeout: float) -> JSON:
         """``call`` from a thread that waits: the answer, or None."""
-        box: queue.SimpleQueue[Any] = queue.SimpleQueue()
+        box: queue.SimpleQueue[JSON] = queue.SimpleQueue()
         if not self.call(key, peer, body, timeout, box.put):
             return None
         try:
@@ -133,7 +133,7 @@ class SampleCaller:
             entry[1](answer)
         return entry is not None
 
-    def _on_answer(self, key: str, obj: Any) -> None:
+    def _on_answer(self, key: str, obj: JSON) -> None:
         oid = _id(obj)
         with self._lock:
             entry = self._pending.get(oid) if oid is not None else None
@@ -225,9 +225,9 @@ class SampleServer:
                         self.answer_key(request_key), drop=False, express=True)
         return pub
 
-    def _on_request(self, key: str, obj: Any) -> None:
+    def _on_request(self, key: str, obj: JSON) -> None:
         oid = _id(obj)
-        if oid is None:
+        if oid is None or not isinstance(obj, dict):
             self.c.add("bad_requests")          # garbage: nobody to answer
             return
         pub = self._publisher(key)

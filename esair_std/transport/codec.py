@@ -4,14 +4,15 @@ component to another obeys the same rules (and is copied) whichever mode runs.""
 from __future__ import annotations
 
 import json
-from typing import Any, Union
+from typing import Mapping, Sequence, Union, cast
 
 from ..errors import TransportError
 
 #: Data on the wire: what ``json`` reads and writes (a request's body, a sample's value,
-#: a command and its answer). Decoded data is typed ``Any`` where the code reads fields
-#: it has just checked; what is sent is typed ``JSON``.
-JSON = Union[dict[str, "JSON"], list["JSON"], str, int, float, bool, None]
+#: a command and its answer). Read-only containers (``Mapping``, ``Sequence``) so that a
+#: ``list[str]`` or a ``dict[str, int]`` is JSON as it stands; a reader narrows with
+#: ``isinstance`` (a decoded object is a ``dict``, an array a ``list``).
+JSON = Union[Mapping[str, "JSON"], Sequence["JSON"], str, int, float, bool, None]
 #: A JSON object: a request's or a reply's body.
 JSONObject = dict[str, JSON]
 
@@ -28,7 +29,7 @@ def encode(obj: JSON) -> bytes:
     return data
 
 
-def decode(data: bytes) -> Any:
+def decode(data: bytes) -> JSON:
     if len(data) > MAX_BYTES:
         raise TransportError(f"message of {len(data)} bytes is over the {MAX_BYTES}-byte cap")
     try:
@@ -36,19 +37,21 @@ def decode(data: bytes) -> Any:
     except UnicodeDecodeError:
         raise TransportError("message is not UTF-8 text") from None
     try:
-        return json.loads(text)
+        obj: JSON = json.loads(text)
     except ValueError as exc:
         raise TransportError(f"message is not JSON: {exc}") from None
     except RecursionError:
         raise TransportError("message is not JSON: nested too deeply") from None
+    return obj
 
 
-def copy(obj: Any) -> Any:
-    """What the receiver gets: the value after one trip through the wire format."""
-    return decode(encode(obj))
+def copy(obj: object) -> JSON:
+    """What the receiver gets: the value after one trip through the wire format (a
+    value that is not JSON raises TransportError, as :func:`encode` does)."""
+    return decode(encode(cast(JSON, obj)))
 
 
-def decode_request(data: bytes) -> dict[str, Any]:
+def decode_request(data: bytes) -> JSONObject:
     """A control or component request: a JSON object, else TransportError."""
     obj = decode(data)
     if not isinstance(obj, dict):

@@ -17,29 +17,31 @@ cannot speak for another's actuators.
 
 from __future__ import annotations
 
-from typing import Any
+from .codec import JSON, JSONObject
 
 BATCH_S = 0.05        # a record waits at most this long for others to share its message
 BATCH_MAX = 256       # ... and goes at once with this many
 
 
-def record(resource: str, seq: int, t: float, outcome: dict[str, Any],
-           command: Any) -> dict[str, Any]:
+def record(resource: str, seq: int, t: float, outcome: JSONObject,
+           command: JSON) -> JSONObject:
     return {"r": resource, "seq": seq, "t": t, "v": dict(outcome, command=command)}
 
 
-def unpack(key: str, obj: Any) -> tuple[list[tuple[str, dict[str, Any]]], int]:
+def unpack(key: str, obj: JSON) -> tuple[list[tuple[str, JSONObject]], int]:
     """The ``(actuator, {seq, t, v})`` of a batch heard on ``key``, and how many of its
     items were not records of that entry's actuators (left out)."""
     entry = key.rsplit("/", 1)[-1]
     if not isinstance(obj, list):
         return [], 1
-    out, bad = [], 0
+    out: list[tuple[str, JSONObject]] = []
+    bad = 0
     for item in obj:
         r = item.get("r") if isinstance(item, dict) else None
-        if (not isinstance(r, str) or not (r == entry or r.startswith(entry + "."))
-                or not isinstance(item.get("v"), dict)):
+        v = item.get("v") if isinstance(item, dict) else None
+        if (not isinstance(item, dict) or not isinstance(r, str)
+                or not (r == entry or r.startswith(entry + ".")) or not isinstance(v, dict)):
             bad += 1
             continue
-        out.append((r, {"seq": item.get("seq"), "t": item.get("t"), "v": item["v"]}))
+        out.append((r, {"seq": item.get("seq"), "t": item.get("t"), "v": v}))
     return out, bad

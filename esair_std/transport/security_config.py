@@ -26,10 +26,12 @@ certificate; ``transport/auth/usrpwd/{user, password, dictionary_file}``;
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Sequence
+from typing import TYPE_CHECKING, Sequence
+
+from .codec import JSONObject
 
 if TYPE_CHECKING:
-    from ..deploy.security import SecuritySpec as Security
+    from ..deploy.security import AgentIdentity, SecuritySpec as Security
 
 from ..errors import TransportError
 
@@ -38,7 +40,7 @@ ALL_MESSAGES = ["put", "delete", "declare_subscriber", "query", "reply", "declar
 LOOPBACK = "lo"
 
 
-def __getattr__(name: str) -> Any:
+def __getattr__(name: str) -> type[Security]:
     """``SecuritySpec`` / ``Security`` (the deployment's section, as the transport calls
     it), imported on first use: it is a pydantic model, and an agent process that only
     reads a validated section's fields (any object with them) need not load pydantic."""
@@ -51,7 +53,7 @@ LEASE_MS = 2000          # default link lease of every STD session (zenoh's own:
 RETRY = {"period_init_ms": 100, "period_max_ms": 250, "period_increase_factor": 1.5}
 
 
-def link_inserts(lease_ms: int = LEASE_MS) -> dict[str, Any]:
+def link_inserts(lease_ms: int = LEASE_MS) -> JSONObject:
     """Zenoh config entries every STD session should have, with or without security:
     a short link lease (a silent computer is dropped, and its liveliness tokens gone,
     after ``lease_ms``; zenoh sends 4 keep-alives per lease) and fast reconnection
@@ -80,7 +82,7 @@ def _password(base: Path, sec: Security) -> str | None:
 
 
 def session_inserts(sec: Security | None, base_dir: str | Path = ".", *,
-                    listen: bool) -> dict[str, Any]:
+                    listen: bool) -> JSONObject:
     """The zenoh config entries (``Config.insert_json5`` path -> value) for ``sec``.
 
     ``listen``: this session accepts peers (control center) rather than only connecting.
@@ -89,7 +91,7 @@ def session_inserts(sec: Security | None, base_dir: str | Path = ".", *,
     if sec is None:
         return {}
     base = Path(base_dir)
-    out: dict[str, Any] = link_inserts(sec.lease_ms)
+    out: JSONObject = link_inserts(sec.lease_ms)
     tls = "transport/link/tls/"
     ca = _file(base, sec.ca, "ca")
     cert, key = _file(base, sec.cert, "cert"), _file(base, sec.key, "key")
@@ -118,13 +120,13 @@ def _check_dictionary(path: str) -> None:
             raise TransportError(f"security: users {path}:{n}: expected 'name:password'")
 
 
-def _rule(rid: str, messages: list[str], flows: list[str], keys: list[str]) -> dict[str, Any]:
+def _rule(rid: str, messages: list[str], flows: list[str], keys: list[str]) -> JSONObject:
     return {"id": rid, "messages": messages, "flows": flows, "permission": "allow",
             "key_exprs": keys}
 
 
 def agent_rules(robot: str, agent: str, reads: list[str], commands: list[str],
-                provides: Sequence[str] = ()) -> list[dict[str, Any]]:
+                provides: Sequence[str] = ()) -> list[JSONObject]:
     """ACL rules for one remote agent of robot ``robot`` (rule ids ``<agent>.<n>``).
 
     The agent may: ask the control queryables (ctl/**) and get their replies, and hear
@@ -176,13 +178,13 @@ def agent_rules(robot: str, agent: str, reads: list[str], commands: list[str],
     return rules
 
 
-def _grant(rules: list[dict[str, Any]], subjects: list[dict[str, Any]],
-           policies: list[dict[str, Any]], sid: str, ident: Any,
-           mine: list[dict[str, Any]]) -> None:
+def _grant(rules: list[JSONObject], subjects: list[JSONObject],
+           policies: list[JSONObject], sid: str, ident: AgentIdentity,
+           mine: list[JSONObject]) -> None:
     """Add ``mine`` (rules) for the subject ``sid``, known by its certificate's CN or its
     login (``ident``), and the policy joining them."""
     rules += mine
-    subject: dict[str, Any] = {"id": sid}
+    subject: JSONObject = {"id": sid}
     if ident.cn is not None:
         subject["cert_common_names"] = [ident.cn]
     else:
@@ -192,7 +194,7 @@ def _grant(rules: list[dict[str, Any]], subjects: list[dict[str, Any]],
 
 
 def access_control(sec: Security | None, robot: str,
-                   grants: dict[str, dict[str, list[str]]] | None = None) -> dict[str, Any] | None:
+                   grants: dict[str, dict[str, list[str]]] | None = None) -> JSONObject | None:
     """The ``access_control`` config of the control center, or None when ``sec`` lists
     no agents (no ACL: the link layer alone decides who gets a session).
 
@@ -201,9 +203,9 @@ def access_control(sec: Security | None, robot: str,
     if sec is None or not (sec.agents or getattr(sec, "operators", None)):
         return None
     grants = grants or {}
-    rules: list[dict[str, Any]] = []
-    subjects: list[dict[str, Any]] = []
-    policies: list[dict[str, Any]] = []
+    rules: list[JSONObject] = []
+    subjects: list[JSONObject] = []
+    policies: list[JSONObject] = []
     if sec.local:
         rules.append(_rule("local", ALL_MESSAGES, ["ingress", "egress"], ["**"]))
         subjects.append({"id": "local", "interfaces": [LOOPBACK]})
@@ -226,7 +228,7 @@ OPERATOR_VERBS = ("ping", "ls", "add", "remove", "add-resource", "remove-resourc
                   "get", "configure", "reaction", "inspect", "state", "kind", "sample", "send")
 
 
-def operator_rules(robot: str, operator: str) -> list[dict[str, Any]]:
+def operator_rules(robot: str, operator: str) -> list[JSONObject]:
     """ACL rules for one operator (rule ids ``operator.<name>.<n>``): it may ask the
     control queryables of the operator's verbs and get their replies, and nothing else
     (no sensor, no actuator, no behavior key, no liveliness)."""

@@ -8,7 +8,7 @@ from __future__ import annotations
 import json
 import os
 import re
-from typing import Any
+from typing import Mapping
 
 import zenoh
 
@@ -45,7 +45,7 @@ def hub_runtime() -> None:
 
 
 def open_session(listen: list[str] | None = None, connect: list[str] | None = None,
-                 options: dict[str, Any] | None = None) -> "zenoh.Session":
+                 options: Mapping[str, object] | None = None) -> "zenoh.Session":
     cfg = zenoh.Config()
     try:
         cfg.insert_json5("mode", '"peer"')

@@ -15,7 +15,9 @@ from __future__ import annotations
 
 import threading
 import time
-from typing import Any, Callable
+from typing import Callable, TypeVarTuple, Unpack
+
+_Ts = TypeVarTuple("_Ts")
 
 
 class Threads:
@@ -26,7 +28,8 @@ class Threads:
         self._lock = threading.Lock()
         self._live: set[threading.Thread] = set()
 
-    def start(self, target: Callable[..., Any], *args: Any, name: str) -> threading.Thread:
+    def start(self, target: Callable[[Unpack[_Ts]], object], *args: Unpack[_Ts],
+              name: str) -> threading.Thread:
         def run() -> None:
             try:
                 target(*args)

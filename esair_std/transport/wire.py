@@ -25,7 +25,7 @@ a bug in a handler is an "internal error" reply, never a silent timeout.
 from __future__ import annotations
 
 import logging
-from typing import Any, Callable, Protocol
+from typing import Callable, Protocol
 
 from ..errors import (CommandError, ComponentError, ControlError, DeployError, Refused,
                       ResourceLost, StdError, TransportError)
@@ -65,7 +65,7 @@ def error(exc: BaseException) -> Reply:
     return out
 
 
-def failure(value: JSON, resource: str) -> StdError:
+def failure(value: JSON | StdError, resource: str) -> StdError:
     """What a resource host's ``on_done(False, value)`` means: its StdError, or a
     CommandError of ``resource`` in the driver's own words."""
     return value if isinstance(value, StdError) else CommandError(resource, str(value))
@@ -85,7 +85,7 @@ def exception(reply: Reply, resource: str = "?") -> StdError:
     return cls(message)
 
 
-def result(reply: Reply, resource: str = "?") -> Any:
+def result(reply: Reply, resource: str = "?") -> JSON:
     """The ``ok`` value of a reply, or its error raised (:func:`exception`)."""
     if "error" in reply:
         raise exception(reply, resource)
@@ -106,8 +106,8 @@ class Request(Protocol):
     def reply(self, obj: Reply) -> None: ...
 
 
-Handler = Callable[[dict[str, Any]], Any]  # a decoded body: read after its checks
-LaterHandler = Callable[[dict[str, Any], Answer], None]
+Handler = Callable[[JSONObject], JSON]  # a decoded body: read after its checks
+LaterHandler = Callable[[JSONObject, Answer], None]
 
 
 class Verbs:
