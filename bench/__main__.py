@@ -8,16 +8,15 @@ import sys
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
-#: modules the benches share (not benches themselves)
-SHARED = {"toolkit.py"}
 
 
 def benches() -> list[tuple[str, str]]:
     """(file name, what it measures) of every bench, in name order; the components
-    modules the benches deploy (``*_comps.py``) are not benches."""
+    modules the benches deploy (``*_comps.py``) are not benches, nor is what they share
+    (the ``toolkit`` package)."""
     out = []
     for path in sorted(HERE.glob("*.py")):
-        if path.name.startswith("_") or path.stem.endswith("_comps") or path.name in SHARED:
+        if path.name.startswith("_") or path.stem.endswith("_comps"):
             continue
         doc = ast.get_docstring(ast.parse(path.read_text())) or ""
         first = " ".join(doc.split("\n\n")[0].split())

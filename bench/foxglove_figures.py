@@ -6,7 +6,7 @@ then, each over ``--window`` seconds:
 1. side by side over the same window: the HMI process with one client (a plain
    WebSocket on its /ws, read on a thread of its own: every batch it sends, read and
    dropped, as a page's socket would be) and the Foxglove server with one client
-   (tests/support/foxclient.py: subscribed to every channel): each process's CPU
+   (bench/toolkit/foxclient.py: subscribed to every channel): each process's CPU
    (utime + stime from /proc, share of one core) and RSS at the end of the window;
    goal: the Foxglove server <= the HMI;
 2. sample -> client: a sample's own time stamp (time.time() when reported) to when the
@@ -41,8 +41,8 @@ sys.path.insert(0, str(ROOT))
 
 from websockets.sync.client import connect  # noqa: E402
 
-from tests.support.foxclient import FoxClient  # noqa: E402
-from tests.support.std import free_endpoint, wait_for  # noqa: E402
+from bench.toolkit import free_endpoint, wait_for  # noqa: E402
+from bench.toolkit.foxclient import FoxClient  # noqa: E402
 
 TICK = os.sysconf("SC_CLK_TCK")
 

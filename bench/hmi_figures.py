@@ -62,7 +62,7 @@ sys.path.insert(0, str(ROOT))
 
 from esair_std.record import Recorder, read_samples  # noqa: E402
 from esair_std.transport.bus import Bus  # noqa: E402
-from tests.support.hmi import CHROMIUM, CHROMIUM_ARGS, free_port, wait_for  # noqa: E402
+from bench.toolkit import CHROMIUM, CHROMIUM_ARGS, free_port, wait_for  # noqa: E402
 
 TICK = os.sysconf("SC_CLK_TCK")
 
@@ -177,7 +177,7 @@ def command_rate(endpoint: str, robot: str, seconds: float) -> float:
     try:
         key = f"esair/{robot}/ctl/command"
         body = {"who": "hmi", "resource": "papaman.motion", "command": "stop", "timeout": 2.0}
-        wait_for(lambda: bus.request(key, body, 5.0) is not None, what="the runtime")
+        wait_for(lambda: bus.request(key, body, 5.0) is not None, timeout=20, what="the runtime")
         n, end = 0, time.monotonic() + seconds
         while time.monotonic() < end:
             r = bus.request(key, body, 5.0)

@@ -33,7 +33,7 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from bench.hmi_figures import LIVE, HmiRun, cpu_s, tree  # noqa: E402
-from tests.support.hmi import CHROMIUM, CHROMIUM_ARGS  # noqa: E402
+from bench.toolkit import CHROMIUM, CHROMIUM_ARGS  # noqa: E402
 
 CATEGORIES = ["devtools.timeline", "disabled-by-default-devtools.timeline", "v8.execute",
               "blink", "cc", "gpu", "viz", "toplevel"]

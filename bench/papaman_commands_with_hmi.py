@@ -58,7 +58,7 @@ from hmi_figures import LIVE, busy_s, cpu_of, pinned_chromium, tree  # noqa: E40
 from esair_std import Runtime  # noqa: E402
 from esair_std.drivers.minlink.emulated import EmulatedRobot  # noqa: E402
 from esair_std.hmi.child import HmiChild  # noqa: E402
-from tests.support.hmi import CHROMIUM, CHROMIUM_ARGS  # noqa: E402
+from toolkit import CHROMIUM, CHROMIUM_ARGS  # noqa: E402
 
 FEET_HZ = 8.0
 FLOOR_PAGE = """<!doctype html><title>floor</title><p id=n>0</p><script>

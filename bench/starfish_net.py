@@ -15,7 +15,7 @@ in one run:
     samples, and whether the subscriber got them as SHM buffers.
 
 Run: sudo python bench/starfish_net.py [--seconds 5] [--frames 10000]. Needs root for the
-namespaces (tests/support/netns.py); prints figures and ratios; asserts nothing.
+namespaces (esair_std/netsim.py); prints figures and ratios; asserts nothing.
 """
 
 from __future__ import annotations
@@ -32,6 +32,8 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
+
+from esair_std import netsim as netns  # noqa: E402
 
 ROOM = ROOT / "esair_std" / "examples" / "starfish" / "room.yaml"
 HEADER = struct.Struct("<qd")           # seq, time.time() at the put
@@ -140,7 +142,7 @@ def raw_sub(spec: dict) -> None:
 
 
 def _run_pair(pub_host, sub_host, spec_pub: dict, spec_sub: dict) -> dict:
-    from tests.support.netstd import Proc
+    from bench.toolkit.netstd import Proc
     sub = Proc(sub_host, [sys.executable, __file__, "raw-sub", json.dumps(spec_sub)])
     pub = Proc(pub_host, [sys.executable, __file__, "raw-pub", json.dumps(spec_pub)])
     sub.wait_line('"ready"', 30)
@@ -175,7 +177,7 @@ def std_stream(net, base: Path, sensor: str, kind: str, rate: float, n: int,
                frame_rate: float) -> dict:
     """The sensor's samples received by a remote agent (host 1) from the control center
     (host 0), until n of them were sent."""
-    from tests.support.netstd import Center, agent
+    from bench.toolkit.netstd import Center, agent
     folder = base / f"{sensor}-{kind}-{rate:g}"
     folder.mkdir()
     (folder / "starfish_net_comps.py").write_text((ROOT / "bench" / "starfish_net_comps.py").read_text())
@@ -186,7 +188,6 @@ def std_stream(net, base: Path, sensor: str, kind: str, rate: float, n: int,
     a = agent(net[1], center.endpoint, "count", "starfish_net_comps:Count", "--robot",
               center.robot, "--uses", f"{sensor}=read", "-o", f"sensor={sensor}",
               "--period", "0.005", cwd=folder)
-    from tests.support import netns
     netns.wait_for(lambda: center.state("count") == "running", 60, interval=0.3,
                    what="the remote agent running")
     want = rate if sensor == "cam" else frame_rate
@@ -226,7 +227,6 @@ def main() -> None:
     ap.add_argument("--frame-rate", type=float, default=200.0)
     ap.add_argument("--skip", default="", help="parts to skip: a, b, c")
     args = ap.parse_args()
-    from tests.support import netns
     if "c" not in args.skip:
         shm_part()
     if {"a", "b"} <= set(args.skip):

@@ -32,7 +32,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from esair_std import Runtime  # noqa: E402
-from tests.support.std import free_endpoint  # noqa: E402
+from bench.toolkit import free_endpoint  # noqa: E402
 
 from bench.starfish_std import deployment, wait  # noqa: E402
 

@@ -37,7 +37,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from esair_std import Runtime  # noqa: E402
-from tests.support.std import free_endpoint, processes  # noqa: E402
+from bench.toolkit import free_endpoint, processes  # noqa: E402
 from esair_std.deploy import load_deployment, resolve_deployment  # noqa: E402
 
 BENCH = Path(__file__).resolve().parent

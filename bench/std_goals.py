@@ -41,8 +41,7 @@ sys.path[:0] = [str(TREE), str(BENCH)]
 
 from esair_std import Runtime  # noqa: E402
 from esair_std.deploy import load_deployment  # noqa: E402
-from tests.support.std import wait_for  # noqa: E402
-from toolkit import free_endpoint  # noqa: E402
+from toolkit import free_endpoint, wait_for  # noqa: E402
 from zenoh_floors import (raw_sample_ages, zenoh_get_round_trip, zenoh_put_floor,  # noqa: E402
                           zenoh_relay_round_trip, zenoh_sample_relay_round_trip)
 

@@ -1,7 +1,7 @@
 """ESAIR STD across computers: figures between two network namespaces (issue 12 item 4).
 
 Host 0 (10.77.0.1) runs the control center, host 1 (10.77.0.2) the remote side; they
-are joined by one veth pair (tests/support/netns.py; root needed). Side by side in one run:
+are joined by one veth pair (esair_std/netsim.py; root needed). Side by side in one run:
 
 1. raw Zenoh query/reply across the link (a client in host 1 asks a queryable of the
    router in host 0): the baseline, over tcp and over tls with client certificates;
@@ -31,10 +31,9 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from tests.support import netns  # noqa: E402
-from tests.support.netstd import Center, Proc  # noqa: E402
-from tests.support.zpeer import Peer  # noqa: E402
-
+from bench.toolkit.netstd import Center, Proc  # noqa: E402
+from bench.toolkit.zpeer import Peer  # noqa: E402
+from esair_std import netsim as netns  # noqa: E402
 from esair_std.transport.tls_certs import make_certs  # noqa: E402
 from esair_std.transport.security_config import Security, SecuritySpec, session_inserts  # noqa: E402
 
@@ -76,9 +75,9 @@ mode: process
 endpoint: ENDPOINT
 SECURITY
 resources:
-  arm: {class: "netcomps:Wheel", allow: {putbench: command}}
+  arm: {class: "bench.toolkit.netcomps:Wheel", allow: {putbench: command}}
 behaviors:
-  sink: {class: "netcomps:Sink"}
+  sink: {class: "bench.toolkit.netcomps:Sink"}
 """
 TLS_SECTION = """security:
   ca: pki/ca.pem
@@ -108,7 +107,7 @@ def remote_put(net, base: Path, n: int, tls: bool, round_: int = 0) -> dict:
     dep = BENCH.replace("SECURITY", TLS_SECTION if tls else "")
     center = Center(net[0], folder, dep, tls)
     t0 = time.monotonic()
-    agent = remote_agent(net[1], center.endpoint, "putbench", "netcomps:PutBench", "behavior",
+    agent = remote_agent(net[1], center.endpoint, "putbench", "bench.toolkit.netcomps:PutBench", "behavior",
                          uses={"arm": "command"}, options={"n": n, "actuator": "arm"}, sec=sec)
     line = agent.wait_line("joined robot", 60)
     start_s = time.monotonic() - t0              # interpreter, imports, session, join
@@ -131,7 +130,7 @@ robot: lab
 mode: process
 endpoint: ENDPOINT
 behaviors:
-  idle: {class: "netcomps:Idle"}
+  idle: {class: "bench.toolkit.netcomps:Idle"}
 """
 
 
@@ -140,10 +139,10 @@ def stream(net, base: Path, seconds: float, down: float) -> dict:
     down for ``down`` s and up: time to the first sample delivered again."""
     folder = base / "stream"
     center = Center(net[0], folder, STREAM)
-    remote_agent(net[1], center.endpoint, "ticks", "netcomps:Counter", "resource",
+    remote_agent(net[1], center.endpoint, "ticks", "bench.toolkit.netcomps:Counter", "resource",
                  allow={"stats": "read"}, options={"rate": 1000})
     netns.wait_for(lambda: center.state("ticks") == "ready", 60, what="remote sensor")
-    center.ctl("add", "stats", "netcomps:StreamStats", "--uses", "ticks=read")
+    center.ctl("add", "stats", "bench.toolkit.netcomps:StreamStats", "--uses", "ticks=read")
     first = center.get("stats")
     t0 = time.monotonic()
     time.sleep(seconds)

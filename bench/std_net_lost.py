@@ -1,5 +1,5 @@
 """When a cut link makes a remote behavior `lost`, then `failed` (issue 19.8): between
-two network namespaces (tests/support/netns.py; root needed) a control center and a
+two network namespaces (esair_std/netsim.py; root needed) a control center and a
 remote agent (an idle behavior); the veth is cut and the center's output line
 ``NAME: remote agent lost`` (then ``NAME failed (remote agent unreachable ...)``) is
 timed from the cut, then the link healed. Side by side in one run: the control center's
@@ -23,8 +23,8 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from tests.support import netns
-from tests.support.netstd import Center, Proc
+from bench.toolkit.netstd import Center, Proc
+from esair_std import netsim as netns
 
 NO_TLS = dict(ca=None, cert=None, key=None, users=None, user=None, password_file=None,
               mtls=False, verify_name=False)
@@ -35,7 +35,7 @@ mode: process
 endpoint: ENDPOINT
 security: {{lease_ms: {lease}}}
 behaviors:
-  idle:  {{class: "tests.support.netcomps:Idle"}}
+  idle:  {{class: "bench.toolkit.netcomps:Idle"}}
 """
 
 
@@ -51,7 +51,7 @@ def _seen(proc, text: str, timeout: float) -> float:
 
 def rounds(net, base: Path, lease_ms: int, agent_ms: int, n: int) -> list[tuple[float, float]]:
     center = Center(net[0], base / f"{lease_ms}-{agent_ms}", DEPLOYMENT.format(lease=lease_ms))
-    kw = dict(endpoint=center.endpoint, name="far", class_path="tests.support.netcomps:Idle",
+    kw = dict(endpoint=center.endpoint, name="far", class_path="bench.toolkit.netcomps:Idle",
               kind="behavior", hostname="far", sec={**NO_TLS, "lease_ms": agent_ms})
     far = Proc(net[1], [sys.executable, "-m", "esair_std.remote.remote_agent", json.dumps(kw)])
     out = []

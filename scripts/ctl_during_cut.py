@@ -1,6 +1,6 @@
 """Reproducer (issue 19.7): how fast the control center answers a control request made
 on its own computer while a remote agent's link is cut. Two network namespaces
-(tests/support/netns.py; root needed): a control center (process mode) and a remote
+(esair_std/netsim.py; root needed): a control center (process mode) and a remote
 agent commanding a local actuator (and, with --stream, a remote 200 Hz sensor read by
 a local behavior). The link is cut, and from the control center's computer one client
 session asks ``ctl/ping`` then ``ctl/ls`` every 50 ms for the next SECONDS: each
@@ -27,8 +27,8 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from tests.support import netns
-from tests.support.netstd import Center, agent, env
+from esair_std import netsim as netns
+from bench.toolkit.netstd import Center, agent, env
 
 LAB = """
 robot: lab
@@ -36,9 +36,9 @@ mode: process
 endpoint: ENDPOINT
 security: {lease_ms: 1500}
 resources:
-  arm:   {class: "tests.support.netcomps:Wheel", allow: {pusher: command}}
+  arm:   {class: "bench.toolkit.netcomps:Wheel", allow: {pusher: command}}
 behaviors:
-  idle:  {class: "tests.support.netcomps:Idle"}
+  idle:  {class: "bench.toolkit.netcomps:Idle"}
 """
 
 ASKER = r"""
@@ -134,13 +134,13 @@ def main() -> None:
         raise SystemExit(f"scripts/ctl_during_cut.py: {why}")
     with tempfile.TemporaryDirectory() as tmp, netns.Net(2) as net:
         center = Center(net[0], Path(tmp), LAB)
-        agent(net[1], center.endpoint, "pusher", "tests.support.netcomps:Pusher",
+        agent(net[1], center.endpoint, "pusher", "bench.toolkit.netcomps:Pusher",
               "--uses", "arm=command")
         if args.stream:
-            agent(net[1], center.endpoint, "ticks", "tests.support.netcomps:Counter",
+            agent(net[1], center.endpoint, "ticks", "bench.toolkit.netcomps:Counter",
                   "--allow", "watch2=read", "-o", "rate=200")
             netns.wait_for(lambda: center.state("ticks") == "ready", 60, what="ticks")
-            center.ctl("add", "watch2", "tests.support.netcomps:Watch", "--uses", "ticks=read")
+            center.ctl("add", "watch2", "bench.toolkit.netcomps:Watch", "--uses", "ticks=read")
         netns.wait_for(lambda: center.state("pusher") == "running", 60, what="pusher")
         show("link up (baseline)", probe(center, args.seconds, lambda: None, puts=args.puts))
         show("link cut", probe(center, args.seconds, lambda: net[1].link(up=False),

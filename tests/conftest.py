@@ -1,5 +1,7 @@
 """Fixtures shared by the test modules."""
 
+import compileall
+import os
 import subprocess
 from pathlib import Path
 
@@ -11,6 +13,16 @@ from esair_min.pic.build import BuildError, build_board, toolchain
 from esair_min.model.validate import load_robot
 
 ROOT = Path(__file__).resolve().parent.parent
+
+
+def pytest_sessionstart(session):
+    """The checkout's modules compiled once (the controller, or the one process of
+    ``-n 0``): each child the tests start (``esair``, an emulator, a robot's agents)
+    loads them instead of compiling the sources again at its start, which it does where
+    PYTHONDONTWRITEBYTECODE is set (Python then reads byte code, never writes it)."""
+    if "PYTEST_XDIST_WORKER" not in os.environ:
+        for folder in ("esair_min", "esair_std", "codegen", "tests/support", "bench/toolkit"):
+            compileall.compile_dir(ROOT / folder, quiet=1)
 
 
 @pytest.fixture(scope="session")
@@ -110,14 +122,15 @@ def _in_process_mode(item) -> bool:
 #: modules of 2 tests and 11 last): started first, they no longer leave one worker
 #: running alone at the end. The two network modules go to different workers' queues
 #: one after the other, never side by side (both cut links and load the CPU).
-LONGEST_FIRST = ["test_starfish_net", "test_std_operator_cli", "test_std_net", "test_std_cli",
-                 "test_avr", "test_hmi_papaman", "test_starfish_std", "test_overrun",
-                 "test_std_papaman_safety", "test_std_stop", "test_std_papaman", "test_pty_promise",
-                 "test_hmi_starfish", "test_validate_errors", "test_std_record",
-                 "test_gpsim_slaves", "test_verify", "test_script", "test_std_net_security",
-                 "test_starfish_avr", "test_std_supervision", "test_validate_fuzz", "test_gpsim",
-                 "test_pic_bootloader",
-                 "test_std_papaman_cli"]
+LONGEST_FIRST = ["test_starfish_net", "test_foxglove", "test_std_net", "test_hmi_security",
+                 "test_std_papaman_cli", "test_flash_avr", "test_hmi_papaman", "test_pic_flash_cli",
+                 "test_starfish_std", "test_hmi_stop", "test_pic_bootloader", "test_verify",
+                 "test_std_operator_cli", "test_std_papaman", "test_hmi_truth", "test_pty_promise",
+                 "test_std_cli", "test_std_supervision", "test_validate_fuzz", "test_std_record",
+                 "test_gpsim", "test_decoder_props", "test_starfish_gpsim", "test_validate_errors",
+                 "test_minlink_safety", "test_std_stop", "test_std_net_security", "test_avr",
+                 "test_std_papaman_safety", "test_gpsim_slaves", "test_overrun",
+                 "test_std_operator_lab"]
 
 
 def pytest_collection_modifyitems(config, items):

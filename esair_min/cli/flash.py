@@ -6,13 +6,15 @@ from __future__ import annotations
 import sys
 import time
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import click
 
 from esair_min.cli.pipes import friendly
 from esair_min.flash import FlashError
-from esair_min.model.robot import Robot
+
+if TYPE_CHECKING:   # the model (pydantic) is imported by the commands that load a robot:
+    from esair_min.model.robot import Robot   # `esair std ...` starts without it
 
 
 def _load(robot: str) -> Robot:

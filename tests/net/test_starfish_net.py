@@ -16,7 +16,7 @@ from pathlib import Path
 from esair_std.drivers.starfish import camera as cam
 from esair_std.drivers.starfish.scene import wrap
 from tests.support.netns import wait_for
-from tests.support.netstd import Center, agent
+from bench.toolkit.netstd import Center, agent
 
 B = "esair_std.examples.starfish.starfish_behaviors"
 ROOM = str(Path(__file__).resolve().parents[2] / "esair_std/examples/starfish/room.yaml")
@@ -219,7 +219,7 @@ def test_strangers_without_credentials_get_nothing_from_starfish(net, tmp_path):
     hear the microphones, nor take a picture, nor drive the wheels."""
     from esair_std.transport.tls_certs import make_certs
     from esair_std.transport.security_config import SecuritySpec, session_inserts
-    from tests.support.zpeer import Peer
+    from bench.toolkit.zpeer import Peer
 
     make_certs(tmp_path / "pki", clients=["localize", "stranger"], hosts=[net[0].addr])
     center = Center(net[0], tmp_path, SECURE.replace("ROOM", ROOM), tls=True)

@@ -8,14 +8,14 @@ from __future__ import annotations
 import sys
 
 from tests.support.netns import wait_for
-from tests.support.netstd import Center, Proc, agent, cli
+from bench.toolkit.netstd import Center, Proc, agent, cli
 
 LAB = """
 robot: lab
 mode: process
 endpoint: ENDPOINT
 behaviors:
-  idle:  {class: "tests.support.netcomps:Idle"}
+  idle:  {class: "bench.toolkit.netcomps:Idle"}
 """
 
 WARNING = "without security (--insecure): anyone on the network can reach the robot"
@@ -33,7 +33,7 @@ def test_run_hmi_and_agent_with_insecure_warn_and_serve(net, tmp_path):
     assert url.startswith(f"http://{net[0].addr}:")
     assert net[1].run(sys.executable, "-c", FETCH, url).stdout == "200\n"
     assert f"warning: listening on {net[0].addr} {WARNING}" in hmi.lines
-    spare = agent(net[1], center.endpoint, "spare", "tests.support.netcomps:Idle")
+    spare = agent(net[1], center.endpoint, "spare", "bench.toolkit.netcomps:Idle")
     spare.wait_line("agent 'spare' joined robot 'lab'", 60)
     assert spare.lines[0] == f"warning: connecting to {center.endpoint} {WARNING}"
     wait_for(lambda: center.state("spare") == "running", 30, what="the remote agent")

@@ -8,25 +8,25 @@ import time
 import pytest
 
 from tests.support.netns import wait_for
-from tests.support.netstd import Center, agent
+from bench.toolkit.netstd import Center, agent
 
 LAB = """
 robot: lab
 mode: process
 endpoint: ENDPOINT
 resources:
-  arm:   {class: "tests.support.netcomps:Wheel", allow: {pusher: command, reader: read}}
-  mic:   {class: "tests.support.netcomps:Counter", rate: 50, allow: {"*": read}}
-  wheel: {class: "tests.support.netcomps:Wheel", allow: {turn: command}}
+  arm:   {class: "bench.toolkit.netcomps:Wheel", allow: {pusher: command, reader: read}}
+  mic:   {class: "bench.toolkit.netcomps:Counter", rate: 50, allow: {"*": read}}
+  wheel: {class: "bench.toolkit.netcomps:Wheel", allow: {turn: command}}
 behaviors:
-  turn:  {class: "tests.support.netcomps:Turn", uses: {wheel: command}}
-  idle:  {class: "tests.support.netcomps:Idle"}
+  turn:  {class: "bench.toolkit.netcomps:Turn", uses: {wheel: command}}
+  idle:  {class: "bench.toolkit.netcomps:Idle"}
 """
 
 
 def test_remote_agent_registers_is_discovered_and_drives_a_local_actuator(net, tmp_path):
     center = Center(net[0], tmp_path, LAB)
-    pusher = agent(net[1], center.endpoint, "pusher", "tests.support.netcomps:Pusher",
+    pusher = agent(net[1], center.endpoint, "pusher", "bench.toolkit.netcomps:Pusher",
                    "--uses", "arm=command")
     wait_for(lambda: center.state("pusher") == "running", 30, what="pusher running")
     row = center.ls()["pusher"]
@@ -43,7 +43,7 @@ def test_starfish_remote_locate_steers_a_local_behavior(net, tmp_path):
     """The thesis's STARFISH: a remote behavior computes from a local sensor's stream
     and sends a heading to a local behavior, which turns the local wheel."""
     center = Center(net[0], tmp_path, LAB)
-    agent(net[1], center.endpoint, "locate", "tests.support.netcomps:Locate", "--uses", "mic=read")
+    agent(net[1], center.endpoint, "locate", "bench.toolkit.netcomps:Locate", "--uses", "mic=read")
     wait_for(lambda: len(center.get("turn")) >= 20, 30, what="20 headings at turn")
     headings = center.get("turn")
     assert {sender for sender, _ in headings} == {"locate"}
@@ -61,22 +61,22 @@ mode: process
 endpoint: ENDPOINT
 security: {lease_ms: 1500}     # lost after 1.5 s of silence, failed after 3 leases
 resources:
-  arm:   {class: "tests.support.netcomps:Wheel", allow: {pusher: command}}
+  arm:   {class: "bench.toolkit.netcomps:Wheel", allow: {pusher: command}}
 behaviors:
-  idle:  {class: "tests.support.netcomps:Idle"}
-  sink:  {class: "tests.support.netcomps:Sink"}
-  putter: {class: "tests.support.netcomps:Putter"}
+  idle:  {class: "bench.toolkit.netcomps:Idle"}
+  sink:  {class: "bench.toolkit.netcomps:Sink"}
+  putter: {class: "bench.toolkit.netcomps:Putter"}
 """
 
 
 def test_partition_marks_remote_agents_lost_and_they_come_back_by_themselves(net, tmp_path):
     center = Center(net[0], tmp_path, PARTITION)
-    agent(net[1], center.endpoint, "ticks", "tests.support.netcomps:Counter", "--allow", "watch2=read",
+    agent(net[1], center.endpoint, "ticks", "bench.toolkit.netcomps:Counter", "--allow", "watch2=read",
           "-o", "rate=200")
     wait_for(lambda: center.state("ticks") == "ready", 30, what="remote sensor ticks")
-    center.ctl("add", "watch2", "tests.support.netcomps:Watch", "--uses", "ticks=read")  # after ticks exists
+    center.ctl("add", "watch2", "bench.toolkit.netcomps:Watch", "--uses", "ticks=read")  # after ticks exists
     assert center.state("watch2") == "running", center.ls()["watch2"]
-    agent(net[1], center.endpoint, "pusher", "tests.support.netcomps:Pusher", "--uses", "arm=command")
+    agent(net[1], center.endpoint, "pusher", "bench.toolkit.netcomps:Pusher", "--uses", "arm=command")
     wait_for(lambda: center.state("pusher") == "running", 30, what="pusher running")
     wait_for(lambda: len(center.get("watch2")["seqs"]) > 100, 20, what="the remote stream")
     assert center.inspect("arm")["grants"] == {"pusher": "command"}
@@ -124,11 +124,11 @@ def test_local_puts_go_on_while_a_remote_stream_is_cut_again_and_again(net, tmp_
     for ~5 s in 5 of 12 cuts (never the first), its threads held by samples waiting for
     room towards the cut link (transport/session.py, HUB_RUNTIME)."""
     center = Center(net[0], tmp_path, PARTITION)
-    agent(net[1], center.endpoint, "ticks", "tests.support.netcomps:Counter", "--allow", "watch2=read",
+    agent(net[1], center.endpoint, "ticks", "bench.toolkit.netcomps:Counter", "--allow", "watch2=read",
           "-o", "rate=200")
     wait_for(lambda: center.state("ticks") == "ready", 30, what="remote sensor ticks")
-    center.ctl("add", "watch2", "tests.support.netcomps:Watch", "--uses", "ticks=read")   # a local reader
-    agent(net[1], center.endpoint, "pusher", "tests.support.netcomps:Pusher", "--uses", "arm=command")
+    center.ctl("add", "watch2", "bench.toolkit.netcomps:Watch", "--uses", "ticks=read")   # a local reader
+    agent(net[1], center.endpoint, "pusher", "bench.toolkit.netcomps:Pusher", "--uses", "arm=command")
     wait_for(lambda: center.state("pusher") == "running", 30, what="pusher running")
     for _ in range(3):
         net[1].link(up=False)
@@ -143,7 +143,7 @@ def test_local_puts_go_on_while_a_remote_stream_is_cut_again_and_again(net, tmp_
 
 def test_a_sigkilled_remote_agent_is_marked_failed(net, tmp_path):
     center = Center(net[0], tmp_path, PARTITION)
-    pusher = agent(net[1], center.endpoint, "pusher", "tests.support.netcomps:Pusher",
+    pusher = agent(net[1], center.endpoint, "pusher", "bench.toolkit.netcomps:Pusher",
                    "--uses", "arm=command")
     wait_for(lambda: center.state("pusher") == "running", 30, what="pusher running")
     pusher.proc.kill()
@@ -164,14 +164,14 @@ def test_garbage_and_oversized_messages_are_refused_without_a_crash(net, tmp_pat
     of bad payload, from another computer: error replies or nothing, no crash, no change."""
     import json
 
-    from tests.support.zpeer import Peer
+    from bench.toolkit.zpeer import Peer
 
     center = Center(net[0], tmp_path, PARTITION)
-    agent(net[1], center.endpoint, "ticks", "tests.support.netcomps:Counter", "--allow", "watch2=read")
-    agent(net[1], center.endpoint, "pusher", "tests.support.netcomps:Pusher", "--uses", "arm=command")
+    agent(net[1], center.endpoint, "ticks", "bench.toolkit.netcomps:Counter", "--allow", "watch2=read")
+    agent(net[1], center.endpoint, "pusher", "bench.toolkit.netcomps:Pusher", "--uses", "arm=command")
     wait_for(lambda: center.state("ticks") == "ready" and center.state("pusher") == "running",
              30, what="remote agents")
-    center.ctl("add", "watch2", "tests.support.netcomps:Watch", "--uses", "ticks=read")
+    center.ctl("add", "watch2", "bench.toolkit.netcomps:Watch", "--uses", "ticks=read")
     before = center.ls()
     bad = Peer(net[1], {"mode": "client", "scouting/multicast/enabled": False,
                         "connect/endpoints": [center.endpoint], "listen/endpoints": []})
@@ -211,18 +211,18 @@ robot: a
 mode: process
 endpoint: ENDPOINT
 resources:
-  mic:   {class: "tests.support.netcomps:Counter", rate: 50, allow: {"*": read}}
+  mic:   {class: "bench.toolkit.netcomps:Counter", rate: 50, allow: {"*": read}}
 behaviors:
-  locate: {class: "tests.support.netcomps:Locate", uses: {mic: read}, to: b/turn}
+  locate: {class: "bench.toolkit.netcomps:Locate", uses: {mic: read}, to: b/turn}
 """
 ROBOT_B = """
 robot: b
 mode: process
 endpoint: ENDPOINT
 resources:
-  wheel: {class: "tests.support.netcomps:Wheel", allow: {turn: command}}
+  wheel: {class: "bench.toolkit.netcomps:Wheel", allow: {turn: command}}
 behaviors:
-  turn:  {class: "tests.support.netcomps:Turn", uses: {wheel: command}}
+  turn:  {class: "bench.toolkit.netcomps:Turn", uses: {wheel: command}}
 """
 
 
@@ -240,7 +240,7 @@ def test_robots_talk_to_robots_when_their_control_centers_are_joined(net3, tmp_p
 
 def test_a_thread_mode_runtime_takes_no_remote_agents(net, tmp_path):
     center = Center(net[0], tmp_path, LAB, mode="thread")
-    proc = agent(net[1], center.endpoint, "pusher", "tests.support.netcomps:Pusher", "--uses", "arm=command")
+    proc = agent(net[1], center.endpoint, "pusher", "bench.toolkit.netcomps:Pusher", "--uses", "arm=command")
     assert proc.wait_exit(60) == 1
     assert proc.lines[-1] == ("error: join refused: this runtime runs in thread mode: "
                               "it takes no remote agents"), proc.output()
@@ -252,9 +252,9 @@ mode: process
 endpoint: ENDPOINT
 security: {lease_ms: 1500}     # lost after 1.5 s of silence, failed after 3 leases
 resources:
-  arm:   {class: "tests.support.netcomps:Wheel", allow: {strict: command, timely: command}}
+  arm:   {class: "bench.toolkit.netcomps:Wheel", allow: {strict: command, timely: command}}
 behaviors:
-  sink:  {class: "tests.support.netcomps:Sink"}
+  sink:  {class: "bench.toolkit.netcomps:Sink"}
 """
 
 
@@ -271,7 +271,7 @@ def test_a_remote_behavior_failed_during_a_cut_is_restarted_under_its_policy(net
     link returns its agent restarts it under --restart (the control center, which
     cannot start a remote process, takes it back); past the policy it stays failed."""
     center = Center(net[0], tmp_path, FAULTS)
-    strict = agent(net[1], center.endpoint, "strict", "tests.support.netcomps:Strict",
+    strict = agent(net[1], center.endpoint, "strict", "bench.toolkit.netcomps:Strict",
                    "--uses", "arm=command", "--restart", "1/120")
     wait_for(lambda: center.state("strict") == "running", 30, what="strict running")
     wait_for(lambda: center.get("strict")["steps"] > 5, 20, what="strict commanding")
@@ -305,7 +305,7 @@ def test_remote_calls_give_up_at_their_timeout_across_3_and_9_s_cuts(net, tmp_pa
     timeout (counted as failed), the behavior is not failed, and the same instance goes
     on after the heal (its counters were not reset by a restart)."""
     center = Center(net[0], tmp_path, FAULTS)
-    timely = agent(net[1], center.endpoint, "timely", "tests.support.netcomps:Timely",
+    timely = agent(net[1], center.endpoint, "timely", "bench.toolkit.netcomps:Timely",
                    "--uses", "arm=command")
     wait_for(lambda: center.state("timely") == "running", 30, what="timely running")
     wait_for(lambda: center.get("timely")["put"] > 5, 20, what="timely putting")

@@ -8,7 +8,7 @@ import time
 
 from esair_std.transport.security_config import link_inserts
 from tests.support.netns import wait_for
-from tests.support.zpeer import Peer
+from bench.toolkit.zpeer import Peer
 
 SENSOR, TOKEN = "esair/lab/sensor/s", "esair/lab/alive/sensor/s"
 

@@ -15,7 +15,7 @@ import sys
 
 from esair_std.control.control_server import WORKERS
 from tests.support.netns import wait_for
-from tests.support.netstd import Center, agent, env
+from bench.toolkit.netstd import Center, agent, env
 
 LAB = """
 robot: lab
@@ -23,9 +23,9 @@ mode: process
 endpoint: ENDPOINT
 security: {lease_ms: 1500}
 resources:
-  arm:   {class: "tests.support.netcomps:Wheel", allow: {pusher: command}}
+  arm:   {class: "bench.toolkit.netcomps:Wheel", allow: {pusher: command}}
 behaviors:
-  idle:  {class: "tests.support.netcomps:Idle"}
+  idle:  {class: "bench.toolkit.netcomps:Idle"}
 """
 
 PUTS = WORKERS + 2
@@ -64,7 +64,7 @@ say("done")
 
 def test_ls_and_ping_answer_while_a_cut_remote_behavior_holds_every_worker(net, tmp_path):
     center = Center(net[0], tmp_path, LAB)
-    agent(net[1], center.endpoint, "pusher", "tests.support.netcomps:Pusher",
+    agent(net[1], center.endpoint, "pusher", "bench.toolkit.netcomps:Pusher",
           "--uses", "arm=command")
     wait_for(lambda: center.state("pusher") == "running", 60, what="pusher running")
     asker = center.host.popen(sys.executable, "-c", ASKER, center.endpoint, str(PUTS),

@@ -12,8 +12,8 @@ import pytest
 from esair_std.transport.tls_certs import make_certs
 from esair_std.transport.security_config import SecuritySpec, session_inserts
 from tests.support.netns import make_net, wait_for
-from tests.support.netstd import Center, agent
-from tests.support.zpeer import Peer
+from bench.toolkit.netstd import Center, agent
+from bench.toolkit.zpeer import Peer
 
 SECURE = """
 robot: lab
@@ -30,11 +30,11 @@ security:
     intruder: {cn: intruder}    # let through the ACL to ctl on purpose: the RS must stop it
     putter: {cn: putter}
 resources:
-  arm: {class: "tests.support.netcomps:Wheel", allow: {pusher: command, reader: read}}
-  mic: {class: "tests.support.netcomps:Counter", rate: 50, allow: {pusher: read, reader: read}}
+  arm: {class: "bench.toolkit.netcomps:Wheel", allow: {pusher: command, reader: read}}
+  mic: {class: "bench.toolkit.netcomps:Counter", rate: 50, allow: {pusher: read, reader: read}}
 behaviors:
-  idle: {class: "tests.support.netcomps:Idle"}
-  sink: {class: "tests.support.netcomps:Sink"}
+  idle: {class: "bench.toolkit.netcomps:Idle"}
+  sink: {class: "bench.toolkit.netcomps:Sink"}
 """
 ARM, MIC = "esair/lab/actuator/arm", "esair/lab/sensor/mic"
 
@@ -91,7 +91,7 @@ def local(secure):
 def test_no_certificate_or_a_wrong_one_gets_no_session(secure, who, pki):
     net, center = secure
     creds = ["--ca", str(center.pki / "ca.pem")] + (_creds(center, who, pki)[4:] if who else [])
-    proc = agent(net[1], center.endpoint, "pusher", "tests.support.netcomps:Pusher", "--uses", "arm=command",
+    proc = agent(net[1], center.endpoint, "pusher", "bench.toolkit.netcomps:Pusher", "--uses", "arm=command",
                  *creds)
     assert proc.wait_exit(60) == 1
     assert proc.lines[-1].startswith(
@@ -117,7 +117,7 @@ def test_rs_refuses_a_join_under_someone_elses_name(secure, local):
     """`intruder` is an agent of the robot, so the ACL lets it ask ctl/join; it claims
     to be `pusher` with its own certificate: the RS's identity check refuses it."""
     net, center = secure
-    proc = agent(net[1], center.endpoint, "pusher", "tests.support.netcomps:Pusher", "--uses", "arm=command",
+    proc = agent(net[1], center.endpoint, "pusher", "bench.toolkit.netcomps:Pusher", "--uses", "arm=command",
                  *_creds(center, "intruder"))
     assert proc.wait_exit(60) == 1
     assert proc.lines[-1] == ("error: join refused: pusher: certificate is not "
@@ -128,9 +128,9 @@ def test_rs_refuses_a_join_under_someone_elses_name(secure, local):
 
 def test_a_registered_agent_works_and_a_read_behavior_cannot_command(secure, local):
     net, center = secure
-    pusher = agent(net[1], center.endpoint, "pusher", "tests.support.netcomps:Pusher",
+    pusher = agent(net[1], center.endpoint, "pusher", "bench.toolkit.netcomps:Pusher",
                    "--uses", "arm=command", *_creds(center, "pusher"))
-    reader = agent(net[1], center.endpoint, "reader", "tests.support.netcomps:Pusher", "--uses", "arm=read",
+    reader = agent(net[1], center.endpoint, "reader", "bench.toolkit.netcomps:Pusher", "--uses", "arm=read",
                    *_creds(center, "reader"))
     import json
     get = lambda name: json.loads(_ctl(center, "get", name, "--timeout", "2"))  # noqa: E731
@@ -164,9 +164,9 @@ security:
   agents:
     pusher: {user: pusher}
 resources:
-  arm: {class: "tests.support.netcomps:Wheel", allow: {pusher: command}}
+  arm: {class: "bench.toolkit.netcomps:Wheel", allow: {pusher: command}}
 behaviors:
-  idle: {class: "tests.support.netcomps:Idle"}
+  idle: {class: "bench.toolkit.netcomps:Idle"}
 """
 
 
@@ -184,12 +184,12 @@ def test_user_password_logins_with_the_runtime(tmp_path, monkeypatch):
     with make_net(2) as net:
         center = Center(net[0], tmp_path, LOGINS)
         login = ["--robot", "lab", "--user", "pusher", "--password-file"]
-        wrong = agent(net[1], center.endpoint, "pusher", "tests.support.netcomps:Pusher",
+        wrong = agent(net[1], center.endpoint, "pusher", "bench.toolkit.netcomps:Pusher",
                       "--uses", "arm=command", *login, str(tmp_path / "bad"))
         assert wrong.wait_exit(60) == 1
         assert wrong.lines[-1].startswith(
             f"error: cannot reach the control center at {center.endpoint}: "), wrong.output()
-        good = agent(net[1], center.endpoint, "pusher", "tests.support.netcomps:Pusher",
+        good = agent(net[1], center.endpoint, "pusher", "bench.toolkit.netcomps:Pusher",
                      "--uses", "arm=command", *login, str(tmp_path / "good"))
 
         def pushed():
@@ -211,9 +211,9 @@ security:
   operators:
     op: {user: op}
 resources:
-  arm: {class: "tests.support.netcomps:Wheel", allow: {pusher: command, operator: command}}
+  arm: {class: "bench.toolkit.netcomps:Wheel", allow: {pusher: command, operator: command}}
 behaviors:
-  idle: {class: "tests.support.netcomps:Idle"}
+  idle: {class: "bench.toolkit.netcomps:Idle"}
 """
 
 
@@ -223,7 +223,7 @@ def test_an_operators_login_works_on_the_main_endpoint_for_the_control_verbs_onl
     command an actuator by itself, and a login that is no operator's gets nothing."""
     import json
 
-    from tests.support.netstd import cli
+    from bench.toolkit.netstd import cli
 
     (tmp_path / "users.txt").write_text("pusher:s3cret\nop:op-pw\nnobody:no-pw\n")
 
@@ -266,7 +266,7 @@ def test_a_remote_behavior_puts_through_the_bs_and_nobody_puts_in_its_name(secur
     ACL lets a remote agent use only its own, so nobody puts in another's name."""
     import json
     net, center = secure
-    putter = agent(net[1], center.endpoint, "putter", "tests.support.netcomps:PutBench", "-o", "n=200",
+    putter = agent(net[1], center.endpoint, "putter", "bench.toolkit.netcomps:PutBench", "-o", "n=200",
                    *_creds(center, "putter"))
     get = lambda name: json.loads(_ctl(center, "get", name, "--timeout", "2"))  # noqa: E731
     def finished():              # no behavior 'putter' until it joins; None until done

@@ -15,7 +15,7 @@ from esair_std.transport.tls_certs import CertError, common_name, make_certs
 from esair_std.transport.security_config import Security, access_control, session_inserts
 
 from tests.support.std import wait_for
-from tests.support.zpeer import Peer
+from bench.toolkit.zpeer import Peer
 
 ROBOT = "lab"
 CTL, ACT, SENSOR = "esair/lab/ctl/ls", "esair/lab/actuator/knee", "esair/lab/sensor/feet"

@@ -31,7 +31,7 @@ from esair_std.drivers.minlink.emulated import EmulatedRobot
 from esair_std.record import SCHEMA, read_samples
 from esair_std.record.recorder import Recorder
 from tests.support.foxcheck import decode
-from tests.support.foxclient import FoxClient
+from bench.toolkit.foxclient import FoxClient
 from tests.support.hmi import PAPAMAN, ROOT, HmiRun, free_port, wait_for
 
 pytestmark = pytest.mark.slow

@@ -50,6 +50,6 @@ def test_a_plain_agent_declares_the_lease_it_is_given(center, args, lease):
 ])
 def test_a_bad_lease_is_refused(value, why):
     out = CliRunner().invoke(agent_cmd, ["--connect", "tcp/127.0.0.1:9", "x",
-                                         "tests.support.netcomps:Strict", "--lease", value])
+                                         "bench.toolkit.netcomps:Strict", "--lease", value])
     assert out.exit_code == 2, out.output
     assert out.output.strip().splitlines()[-1] == f"Error: Invalid value for '--lease': {why}"

@@ -18,14 +18,14 @@ def _run(class_path: str, policy: str):
 
 @pytest.mark.parametrize("policy", ["3", "0/60", "3/0", "a/b", "3/-1", "/"])
 def test_a_bad_restart_policy_is_refused(policy):
-    out = _run("tests.support.netcomps:Strict", policy)
+    out = _run("bench.toolkit.netcomps:Strict", policy)
     assert out.exit_code == 2, out.output
     assert (f"Invalid value for --restart: {policy!r} is not MAX/WITHIN (e.g. 3/60: at "
             "most 3 restarts in any 60 s)") in " ".join(out.output.split())
 
 
 def test_a_resource_takes_no_restart_policy():
-    out = _run("tests.support.netcomps:Wheel", "3/60")
+    out = _run("bench.toolkit.netcomps:Wheel", "3/60")
     assert out.exit_code == 2, out.output
     assert ("Invalid value for --restart: a remote resource is restarted by whatever runs "
             "its agent (it exits with status 1 when it fails)") in " ".join(out.output.split())

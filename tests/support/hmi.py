@@ -9,26 +9,17 @@ import json
 import os
 import re
 import signal
-import socket
 import subprocess
 import sys
 from pathlib import Path
 
+from bench.toolkit import CHROMIUM, CHROMIUM_ARGS, free_port  # noqa: F401  (the tests' too)
 from esair_std.drivers.minlink.emulated import EmulatedRobot
 from tests.support.std import wait_for as std_wait_for
 
 ROOT = Path(__file__).resolve().parents[2]
 PAPAMAN = ROOT / "boards" / "papaman"
-CHROMIUM = "/usr/bin/chromium"
-CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
-                 "--disable-component-update", "--disable-sync", "--no-first-run"]
 PASSWORD = "correct horse"
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def wait_for(fn, timeout=20.0, what="condition"):
@@ -68,7 +59,7 @@ class HmiRun:
                 raise AssertionError(f"esair std run exited: {(self.tmp / 'run.err').read_text()}")
             m = re.search(r"^hmi: (http://\S+)$", (self.tmp / "run.err").read_text(), re.M)
             return m and m.group(1)
-        self.url = wait_for(url, timeout=90, what="the HMI's URL")
+        self.url = wait_for(url, timeout=120, what="the HMI's URL")
         return self
 
     def std(self, *args: str) -> str:

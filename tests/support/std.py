@@ -2,25 +2,18 @@
 
 import os
 import signal
-import socket
 import subprocess
 import sys
 import threading
-import time
 from contextlib import contextmanager
 from pathlib import Path
 
+from bench.toolkit import free_endpoint, processes, wait_for  # noqa: F401  (the tests' too)
 
 #: the checkout: child processes start here, so ``tests.support`` imports in them
 ROOT = Path(__file__).resolve().parents[2]
 
 MODES = ["thread", "process"]
-
-
-def free_endpoint() -> str:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return f"tcp/127.0.0.1:{s.getsockname()[1]}"
 
 
 def ask(ep: str, verb: str, body: dict | None = None, timeout: float = 5.0):
@@ -65,39 +58,51 @@ def emulators_with(text: str) -> list[int]:
             if b"emulate" in cmd.split(b"\0") and text.encode() in cmd.split(b"\0")]
 
 
-def processes() -> list[tuple[int, int, bytes]]:
-    """(pid, parent pid, command line) of every process readable in /proc now."""
-    out = []
-    for d in os.listdir("/proc"):
-        if not d.isdigit():
-            continue
-        try:
-            with open(f"/proc/{d}/stat") as f:
-                ppid = int(f.read().rsplit(")", 1)[1].split()[1])
-            with open(f"/proc/{d}/cmdline", "rb") as f:
-                cmd = f.read()
-        except (OSError, IndexError, ValueError):
-            continue
-        out.append((int(d), ppid, cmd))
-    return out
-
-
 def agent_children() -> list[int]:
     """Agent processes whose parent is this test process."""
     return [pid for pid, ppid, cmd in processes()
             if ppid == os.getpid() and b"esair_std.hosts.agent_process" in cmd]
 
 
+#: ``esair std`` verbs that only talk to a running robot or read a file: :func:`esair`
+#: runs them in this process (``check`` only with ``--no-import``: its imports of a
+#: deployment's modules stay in a child, no module cached from an earlier check)
+IN_PROCESS = {"ls", "get", "put", "add", "remove", "add-resource", "remove-resource", "sample",
+              "send", "configure", "reaction", "inspect", "stop", "release", "ping", "top",
+              "schema", "new"}
+
+
 def esair(*args: str, check: bool = True, cwd: str | Path = ROOT,
-          stdin: str | None = None) -> subprocess.CompletedProcess:
-    """``esair std ARGS`` in a child process (from ``cwd``, the checkout by default;
-    ``stdin``: its standard input)."""
-    r = subprocess.run([sys.executable, "-m", "esair_min.cli", "std", *args],
-                       capture_output=True, text=True, timeout=90, cwd=cwd, input=stdin,
-                       env=dict(os.environ, COLUMNS="200"))
+          stdin: str | None = None, env: dict | None = None) -> subprocess.CompletedProcess:
+    """``esair std ARGS`` from ``cwd`` (the checkout by default; ``stdin``: its standard
+    input; ``env``: variables set for it): the verbs of :data:`IN_PROCESS` run in this
+    process (:func:`std_cli`), every other (``run``, ``agent``, ``hmi``...) in a child
+    process."""
+    here = Path(cwd).resolve() == Path.cwd().resolve()
+    if here and args and (args[0] in IN_PROCESS or args[0] == "check" and "--no-import" in args):
+        r = std_cli(*args, stdin=stdin, env=env)
+    else:
+        r = subprocess.run([sys.executable, "-m", "esair_min.cli", "std", *args],
+                           capture_output=True, text=True, timeout=90, cwd=cwd, input=stdin,
+                           env=dict(os.environ, COLUMNS="200", **(env or {})))
     if check and r.returncode != 0:
         raise AssertionError(f"esair std {' '.join(args)}: {r.returncode}\n{r.stderr}")
     return r
+
+
+def std_cli(*args: str, stdin: str | None = None,
+            env: dict | None = None) -> subprocess.CompletedProcess:
+    """``esair std ARGS`` run in this process by the command line's own click entry point
+    (what the ``esair`` program runs): the exit status, standard output and standard
+    error apart, as a child's, without an interpreter's start. An exception no command
+    turns into a status is raised: the user would see its traceback."""
+    from click.testing import CliRunner
+
+    from esair_min.cli import main
+    r = CliRunner().invoke(main, ["std", *args], input=stdin,
+                           env={"COLUMNS": "200", **(env or {})}, catch_exceptions=False,
+                           prog_name="esair")
+    return subprocess.CompletedProcess(["esair", "std", *args], r.exit_code, r.stdout, r.stderr)
 
 
 @contextmanager
@@ -108,25 +113,13 @@ def std_run(deployment: str, mode: str, ep: str, deployed, what: str = "deployed
                              "--mode", mode, "-e", ep], cwd=ROOT,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
-        wait_for(lambda: proc.poll() is not None or deployed(), timeout=60, what=what)
+        wait_for(lambda: proc.poll() is not None or deployed(), timeout=120, what=what)
         assert proc.poll() is None, proc.communicate()
         yield proc
     finally:
         proc.send_signal(signal.SIGTERM)
         _, err = proc.communicate(timeout=30)
     assert proc.returncode == 0, err
-
-
-def wait_for(fn, timeout=10.0, what="condition"):
-    """Poll fn() until it returns a truthy value (state-based; no timing asserted)."""
-    deadline = time.monotonic() + timeout
-    while True:
-        v = fn()
-        if v:
-            return v
-        if time.monotonic() > deadline:
-            raise AssertionError(f"timed out waiting for {what}; last value {v!r}")
-        time.sleep(0.005)
 
 
 def call(rt, probe, do, *args):

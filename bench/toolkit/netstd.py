@@ -1,6 +1,6 @@
 """Running ESAIR STD across network namespaces: a control center (``esair std run``,
 process mode) on one host, remote agents (``esair std agent``) on others, and the
-control CLI (``esair std ls/get/inspect``) — all real processes (tests/support/netns.py)."""
+control CLI (``esair std ls/get/inspect``) — all real processes (the namespaces of esair_std/netsim.py)."""
 
 from __future__ import annotations
 
@@ -11,10 +11,10 @@ import sys
 import threading
 from pathlib import Path
 
-from tests.support import netns
+from esair_std import netsim
 
 ROOT = Path(__file__).resolve().parents[2]
-HERE = ROOT  # processes start in the checkout, so tests.support imports in them
+HERE = ROOT  # processes start in the checkout, so bench.toolkit imports in them
 PORT = 7447
 
 
@@ -32,7 +32,7 @@ def cli(*args: str) -> list[str]:
 class Proc:
     """A process in a namespace whose output is collected line by line."""
 
-    def __init__(self, host: netns.Host, cmd: list[str], cwd: Path = HERE):
+    def __init__(self, host: netsim.Host, cmd: list[str], cwd: Path = HERE):
         self.host = host
         self.proc = host.popen(*cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
                                stdin=subprocess.DEVNULL, text=True, env=env(), cwd=str(cwd))
@@ -53,7 +53,7 @@ class Proc:
                 raise AssertionError(f"process exited ({self.proc.returncode}) before "
                                      f"{text!r}:\n{self.output()}")
             return next((ln for ln in self.lines if text in ln), None)
-        return netns.wait_for(seen, timeout, what=repr(text))
+        return netsim.wait_for(seen, timeout, what=repr(text))
 
     def wait_exit(self, timeout: float = 30.0) -> int:
         self.proc.wait(timeout)
@@ -61,10 +61,55 @@ class Proc:
         return self.proc.returncode
 
 
+#: the command server: ``esair std ARGS`` by the command line's click entry, a JSON line of
+#: arguments in, a JSON line [status, stdout, stderr] out
+_SERVE = """
+import json, sys, traceback
+from click.testing import CliRunner
+from esair_min.cli import main
+for line in sys.stdin:
+    r = CliRunner().invoke(main, ["std", *json.loads(line)], env={"COLUMNS": "200"},
+                           prog_name="esair")
+    err = r.stderr
+    if r.exception is not None and not isinstance(r.exception, SystemExit):
+        err += "".join(traceback.format_exception(r.exception))
+    print(json.dumps([r.exit_code, r.stdout, err]), flush=True)
+"""
+
+
+class Commands:
+    """``esair std`` commands run on ``host`` one after the other by one interpreter
+    there: a poll of a remote robot's state costs a command, not an interpreter's start
+    (a wait polls often). Ended with the namespaces (Net.close)."""
+
+    def __init__(self, host: netsim.Host):
+        self.proc = host.python("-c", _SERVE, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                stderr=subprocess.DEVNULL, text=True, env=env(), cwd=str(HERE))
+        self._lock = threading.Lock()
+
+    def run(self, *args: str, timeout: float = 60.0) -> tuple[int, str, str]:
+        """(exit status, standard output, standard error) of ``esair std ARGS``."""
+        with self._lock:
+            assert self.proc.stdin is not None and self.proc.stdout is not None
+            self.proc.stdin.write(json.dumps(args) + "\n")
+            self.proc.stdin.flush()
+            box: list[str] = []
+            reader = threading.Thread(target=lambda: box.append(self.proc.stdout.readline()),
+                                      daemon=True)
+            reader.start()
+            reader.join(timeout)
+            if not box or not box[0]:
+                self.proc.kill()           # its answer, late, must not be the next one's
+                raise AssertionError(f"esair std {' '.join(args)}: no answer within {timeout} s "
+                                     f"(command server exit status {self.proc.poll()})")
+            status, out, err = json.loads(box[0])
+            return status, out, err
+
+
 class Center:
     """``esair std run FILE --mode MODE`` on ``host``, listening on its address."""
 
-    def __init__(self, host: netns.Host, folder: Path, deployment: str, tls: bool = False,
+    def __init__(self, host: netsim.Host, folder: Path, deployment: str, tls: bool = False,
                  *extra: str, mode: str = "process"):
         self.host = host
         self.endpoint = f"{'tls' if tls else 'tcp'}/{host.addr}:{PORT}"
@@ -78,14 +123,18 @@ class Center:
         self.robot = line.split("'")[1]
         # a secured endpoint: the runtime's loopback listener for this computer's processes
         self.local = line.split("(local: ")[1].split(")")[0] if "(local: " in line else None
+        self._commands: Commands | None = None
 
     def ctl(self, *args: str, check: bool = True, endpoint: str | None = None) -> str:
-        """An `esair std` control command run on the control center's computer."""
-        cmd = cli(*args, "-e", endpoint or self.endpoint, "-r", self.robot)
-        proc = self.host.run(*cmd, check=False, timeout=60)
-        if check and proc.returncode:
-            raise AssertionError(f"esair std {' '.join(args)}: {proc.stderr or proc.stdout}")
-        return proc.stdout if not proc.returncode else proc.stderr
+        """An `esair std` control command run on the control center's computer (by its
+        :class:`Commands`): its output, or its error when it failed."""
+        if self._commands is None or self._commands.proc.poll() is not None:
+            self._commands = Commands(self.host)
+        args = (*args, "-e", endpoint or self.endpoint, "-r", self.robot)
+        status, out, err = self._commands.run(*args)
+        if check and status:
+            raise AssertionError(f"esair std {' '.join(args)}: {err or out}")
+        return out if not status else err
 
     def ls(self) -> dict[str, dict]:
         return {row["name"]: row for row in json.loads(self.ctl("ls", "--json"))["components"]}
@@ -101,7 +150,7 @@ class Center:
         return json.loads(self.ctl("inspect", name))
 
 
-def agent(host: netns.Host, endpoint: str, name: str, class_path: str, *args: str,
+def agent(host: netsim.Host, endpoint: str, name: str, class_path: str, *args: str,
           cwd: Path = HERE) -> Proc:
     """``esair std agent --connect ENDPOINT NAME module:Class ARGS`` on ``host``."""
     return Proc(host, cli("agent", "--connect", endpoint, "--host-name", f"pc-{host.addr}",

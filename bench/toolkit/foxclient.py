@@ -1,8 +1,8 @@
 """A Foxglove WebSocket protocol client (subprotocol ``foxglove.websocket.v1``) on the
 plain ``websockets`` package, for the live server's tests and bench/foxglove_figures.py:
 subscribes to every channel advertised, decodes each message against its schema
-(tests/support/foxcheck.py), calls services, publishes on client channels and keeps
-the status messages."""
+(tests/support/foxcheck.py, in the tests), calls services, publishes on client channels
+and keeps the status messages."""
 
 from __future__ import annotations
 

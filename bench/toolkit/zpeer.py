@@ -1,6 +1,6 @@
 """A raw Zenoh session driven line by line (for the namespace tests and the bench).
 
-    python tests/support/zpeer.py CONFIG_JSON
+    python bench/toolkit/zpeer.py CONFIG_JSON
 
 CONFIG_JSON is a zenoh config as a JSON object (e.g. from
 esair_std.transport.security_config.zenoh_config). Then each line on stdin is one command;

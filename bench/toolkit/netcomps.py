@@ -1,5 +1,6 @@
-"""Components of the many-computer tests (imported by the control center and by the
-remote agents; tests/ is on their PYTHONPATH)."""
+"""Components of the many-computer tests and benches, deployed by class path
+``bench.toolkit.netcomps:NAME`` (the checkout is on the control center's and the remote
+agents' PYTHONPATH: netstd.env)."""
 
 from __future__ import annotations
 
