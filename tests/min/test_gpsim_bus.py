@@ -78,7 +78,7 @@ def test_held_bus_replies_equal_the_python_core(robot, bus_run):
         READY_OK, OK,
         NOTICE, E10, E10, E10, E10,                        # held SCL: poll, t, PLY01, s, DNC
         VERSION_OK, OK, b"E01 unknown command\r\n", b"E06 bad checksum\r\n",
-        b"E03 bad argument\r\n",                           # v, x, hello, t*75, ozz100
+        b"E03 bad argument\r\n",                           # v, x, zebra, t*75, ozz100
         OK, OK, NOTICE, NOTICE, OK,                        # released t; PLY01 stopped mid-way
         NOTICE, E10, E10, VERSION_OK, OK]                  # held SDA: poll, t, s, v; released t
 
