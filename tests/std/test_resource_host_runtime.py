@@ -216,8 +216,9 @@ def test_when_the_host_dies_nothing_queued_is_carried_out(tmp_path, caplog):
         wait_for(lambda: len(done) == 4, what="every command answered")
         why = "its host died: SystemExit: power cut"
         assert done == [(False, f"ResourceLost: arm: {why}")] * 4
+        host.thread.join(30.0)            # it answers what was queued, then closes and ends
+        assert not host.thread.is_alive()
         assert entered.read_text() == "{'die': 'power cut'}\nclosed\n"
-        host.thread.join(5.0)
         assert (host.state, host.reason) == ("failed", why)
         assert host.states() == {"arm": ("lost", why)} and told == [why]
         assert ("ERROR", f"arm: {why}") in logged(caplog, "esair_std.resource")
