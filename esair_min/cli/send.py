@@ -6,6 +6,7 @@ Works with anything pySerial opens: a serial device (``/dev/ttyUSB0``), the pty 
 
 from __future__ import annotations
 
+import re
 import time
 from dataclasses import dataclass
 from typing import Any, Callable, Sequence
@@ -35,6 +36,9 @@ def open_port(port: str, baud: int, timeout: float) -> Any:
         return serial_port(port, baudrate=baud, timeout=min(timeout, 0.1))
     except (serial.SerialException, ValueError, OSError) as exc:
         raise EsairError(f"cannot open {port}: {describe(exc)}") from None
+
+
+_REPLY = re.compile(r"OK\b|E\d\d\b")
 
 
 def check_command(command: str) -> None:
@@ -69,7 +73,9 @@ def exchange(ser: Any, command: str, timeout: float, checksum: bool = False) -> 
             buf.clear()
             if not text:
                 continue
-            if text.startswith("!"):
+            # every reply is OK... or Enn ...: anything else is a notice, or the tail of
+            # a line cut when the port was opened (kept with the notices, never a reply)
+            if text.startswith("!") or not _REPLY.match(text):
                 notices.append(text)
                 continue
             return Exchange(command, text, tuple(notices))
