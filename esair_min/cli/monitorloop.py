@@ -149,10 +149,11 @@ def run_monitor(port: str, baud: int, robot: Robot | None, log_path: Path | None
     reader = threading.Thread(target=_reader, args=(ser, mon, robot, stop, lost), daemon=True)
     status = 130
     try:
-        reader.start()
+        # the banner first: the reader's lines clear the prompt's row as they arrive
         print(f"monitoring {port}" + (f" at {baud} baud" if "://" not in port else "")
               + ": type a command and Enter to send it; Ctrl-C ends", file=sys.stderr,
               flush=True)
+        reader.start()
         while True:
             text = input(PROMPT) if tty else sys.stdin.readline()
             if not tty and text == "":
