@@ -175,7 +175,10 @@ def run_monitor(port: str, baud: int, robot: Robot | None, log_path: Path | None
         status = 0
     finally:
         stop.set()
-        reader.join(2.0)               # its reads time out in 0.1 s: then the port closes
+        try:
+            reader.join(2.0)           # its reads time out in 0.1 s: then the port closes
+        except RuntimeError:           # Ctrl-C came before the reader had started
+            pass
         if tty:
             import readline
 
