@@ -81,7 +81,7 @@ def done(rt, before: dict) -> dict | None:
     return now if now["shots"] > before["shots"] or now["aborted"] > before["aborted"] else None
 
 
-def shots(mode: str, places: list[tuple[float, float]]) -> list[dict]:
+def shots(mode: str, places: list[tuple[float, float]], odometry_hz: float | None = None) -> list[dict]:
     from esair_min.model.validate import load_robot
     from esair_min.resources import resolve_robot
     from esair_std.drivers.starfish.turn import profile_time, turn_limits
@@ -89,6 +89,8 @@ def shots(mode: str, places: list[tuple[float, float]]) -> list[dict]:
     out = []
     with tempfile.TemporaryDirectory() as store:
         dep = deployment(store)
+        if odometry_hz:
+            dep["resources"]["starfish"]["odometry_hz"] = odometry_hz
         hz = float(dep["resources"]["starfish"].get("odometry_hz", 10))
         with Runtime(dep, mode=mode, endpoint=free_endpoint()) as rt:
             wait(lambda: rt.get("patrol")["reached"] >= 1, 60)
@@ -122,7 +124,8 @@ def shots(mode: str, places: list[tuple[float, float]]) -> list[dict]:
                       f"deg | {r['s']:5.2f} s, floor {floor:4.2f} s, {r['ratio']:4.2f}x | "
                       f"corrections {r['corr']} (first aim off {turn.get('miss_deg', 0):+.1f} deg) | "
                       f"error {err:4.1f} deg (aim {aim:+.1f}, odometry {odo:+.1f}) | "
-                      f"top {r['max_w']} mrad/s | {at}", flush=True)
+                      f"top {r['max_w']} mrad/s | drive {turn.get('drive_mm_s')} mm/s, start "
+                      f"{turn.get('start')}, rest by {turn.get('rest')} | {at}", flush=True)
                 time.sleep(0.8)                    # the cooldown, and patrol drives again
     return out
 
@@ -132,13 +135,15 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--shots", type=int, default=12)
     ap.add_argument("--mode", choices=["thread", "process", "both"], default="both")
+    ap.add_argument("--odometry-hz", type=float, help="the driver's odometry_hz (default: "
+                    "the example deployment's)")
     args = ap.parse_args()
     places = placements(args.seed, args.shots)
     modes = ["thread", "process"] if args.mode == "both" else [args.mode]
     print(f"seed {args.seed}, {args.shots} shots; load average at start "
           f"{' '.join(f'{v:.1f}' for v in os.getloadavg())}")
     for mode in modes:
-        res = shots(mode, places)
+        res = shots(mode, places, args.odometry_hz)
         if not res:
             continue
         lat, err, ratio = [r["s"] for r in res], [r["err"] for r in res], [r["ratio"] for r in res]
