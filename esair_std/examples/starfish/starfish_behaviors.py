@@ -79,6 +79,7 @@ class Patrol(Behavior):
         # (time.monotonic(), mm/s) of the drive commands sent lately: the fastest is in
         # patrol's answer (turn_and_shoot's start while the drive ramps out)
         self.drives: collections.deque[tuple[float, float]] = collections.deque(maxlen=16)
+        self.last_drive = (0.0, 0, 0)       # (when, vx, vy) of the last drive command
         self.reached = 0
         self.link_losses = 0
         self.radio_up = True
@@ -111,6 +112,7 @@ class Patrol(Behavior):
             target = self.waypoints[self.index]
         drive = drive_towards(pose.value, target, self.speed)
         self.drives.append((time.monotonic(), math.hypot(drive["vx"], drive["vy"])))
+        self.last_drive = (time.monotonic(), drive["vx"], drive["vy"])
         self._send(drive)
 
     def _send(self, command) -> bool:
@@ -125,8 +127,11 @@ class Patrol(Behavior):
         # the fastest drive commanded within the last 0.5 s: the wheels are at most there
         now = time.monotonic()
         drive = max((v for t, v in self.drives if t > now - 0.5), default=0.0)
+        t, vx, vy = self.last_drive
         return {"waypoint": self.index, "reached": self.reached, "laps": self.laps,
                 "link_losses": self.link_losses, "drive_mm_s": round(drive),
+                # the last drive command (robot frame), while the wheels may still hold it
+                "drive": [vx, vy] if t > now - 0.5 else [0, 0],
                 "yielded_to": self.yielded_to if now < self.yielded_until else None}
 
 
@@ -214,7 +219,7 @@ class TurnAndShoot(Behavior):
         # arrival (tens of ms on a loaded computer) moves the aim by a fraction of a degree
         self.correction_rate = float(self.options.get("correction_rate", 0.25))
         # the turn's limits from the board files: the top rate and the drive board's ramp
-        robot = load_robot(resolve_robot(str(self.options.get("robot", "starfish"))))
+        robot = self.robot = load_robot(resolve_robot(str(self.options.get("robot", "starfish"))))
         omega, self.accel = turn.turn_limits(robot)
         # the flow sensors lose counts beyond their top speed: while the patrol's drive
         # ramps out, the turn starts slower, so the odometry keeps the heading
@@ -236,6 +241,7 @@ class TurnAndShoot(Behavior):
         self.handover = float(self.options.get("handover_s", 0.06))
         self.handed = False
         self.patrol_drive: float | None = None      # patrol's answer: its drive lately
+        self.drive_cmd: tuple[float, float] | None = None   # ... and its last command
         # the slow start's rate while patrol's drive ramps out: the wheels ramp one by
         # one, and a faster turn would take a flow sensor past its top speed
         self.start_rate = float(self.options.get("start_rate", 1.2))
@@ -332,6 +338,9 @@ class TurnAndShoot(Behavior):
             answer = self.get(self.patrol, timeout=0.3)
             self.handed = isinstance(answer, dict)
             self.patrol_drive = answer.get("drive_mm_s") if self.handed else None
+            drive = answer.get("drive") if self.handed else None
+            self.drive_cmd = (float(drive[0]), float(drive[1])) if isinstance(drive, list) and \
+                len(drive) == 2 and all(isinstance(v, (int, float)) for v in drive) else None
             self.since = time.monotonic()
             self.wheels_ok_at = self.since
             # the turn's record: its first aim, corrections, top rate commanded, and when
@@ -402,7 +411,9 @@ class TurnAndShoot(Behavior):
             self.turn["deg"] = round(math.degrees(angle), 2)
         self.sign = 1.0 if angle >= 0 else -1.0
         self.goal, self.turned = abs(angle), 0.0
-        self.model = self._turn.RampModel(self.accel)
+        # the ramp wheel by wheel, from patrol's drive (the first aim) or from standing
+        drive = self.drive_cmd if self.turn["corrections"] == 0 and self.drive_cmd else (0.0, 0.0)
+        self.model = self._turn.WheelRamp(self.robot, drive, self.sign)
         self.odo = (self.headings[-1][0] if self.headings else time.time(), 0.0)
         self.stop_sent, self.stood = 0.0, False
         self.stop_rate = 0.0                # the model's rate when the stop was sent
