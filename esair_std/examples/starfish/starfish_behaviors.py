@@ -483,8 +483,9 @@ class TurnAndShoot(Behavior):
         self._wheels({"w": w})
         t1 = time.time()
         # where the command landed: the middle of its own round trip (a slow one may have
-        # been slow either way; the middle is off by half of it at most)
-        landed = (t0 + t1) / 2
+        # been slow either way; the middle is off by half of it at most), and half the
+        # drive board's control tick (as the stop's)
+        landed = (t0 + t1) / 2 + 0.005
         if self.going and self.slow_for and w != self.sent[0]:
             self.model.command(landed, rate)      # the slow start ended: when it did
         self.sent = (w, t0)
