@@ -214,10 +214,10 @@ class TurnAndShoot(Behavior):
         from esair_std.drivers.starfish import turn
         self._turn = turn
         self.patrol = self.options.get("patrol", "patrol")
-        self.tolerance = math.radians(float(self.options.get("tolerance_deg", 1.0)))
+        self.tolerance = math.radians(float(self.options.get("tolerance_deg", 1.5)))
         # the correction's top rate (rad/s): slow enough that a wheel command's late
         # arrival (tens of ms on a loaded computer) moves the aim by a fraction of a degree
-        self.correction_rate = float(self.options.get("correction_rate", 0.25))
+        self.correction_rate = float(self.options.get("correction_rate", 0.5))
         # the turn's limits from the board files: the top rate and the drive board's ramp
         robot = self.robot = load_robot(resolve_robot(str(self.options.get("robot", "starfish"))))
         omega, self.accel = turn.turn_limits(robot)
