@@ -100,3 +100,51 @@ def test_the_profile_is_time_optimal_within_the_limits(robot):
         # no profile within the limits does it faster: a bang-bang at the limits
         assert t == pytest.approx(2 * math.sqrt(a / accel) if a < omega ** 2 / accel
                                   else a / omega + omega / accel)
+
+
+@pytest.mark.parametrize("drive_deg", [0, 100, 230])
+@pytest.mark.parametrize("sign", [1, -1])
+def test_a_turn_started_while_driving_follows_the_wheel_by_wheel_ramp(robot, drive_deg, sign):
+    """The robot drives at 200 mm/s (patrol's speed) when the turn is commanded: the
+    drive board ramps each wheel toward its own rim speed, so the turn rate lags a turn
+    from standing (the plain RampModel) until the drive has ramped out; WheelRamp, started
+    from that drive command, tells where the robot is, and a turn stopped by it rests on
+    its goal."""
+    from esair_std.drivers.starfish.turn import WheelRamp
+    omega, accel = turn_limits(robot)
+    sim = StarfishSim(robot, World(pose=Pose(3000, 2000, 0.0)), FlowOptions(noise=0.0))
+    a = math.radians(drive_deg)
+    drive = (round(200 * math.cos(a)), round(200 * math.sin(a)))
+    sim.command(velocity_line(drive[0], drive[1], 0))
+    sim.run_for(0.5)                          # at the drive's speed
+    th0 = sim.world.pose.theta
+    wheel, plain = WheelRamp(robot, drive, sign), RampModel(accel)
+    # the slow start (the flow sensors' limit), then the top rate: each model told when
+    byte_s = byte_time_ns(robot.central.uart.baud) / 1e9
+    for rate, hold in ((1.2, 0.12), (omega, 0.1)):
+        line, t = velocity_line(0, 0, round(sign * rate * 1000)), sim.now_s
+        sim.command(line)                     # (runs the clock to its reply)
+        wheel.command(t + (len(line) + 1) * byte_s, rate)   # its last byte in
+        plain.command(t + (len(line) + 1) * byte_s, rate)
+        sim.run_for(hold - (sim.now_s - t))
+    turned = sign * (sim.world.pose.theta - th0)
+    # within the drive board's steps (its 10 ms control tick); the plain model runs ahead
+    off_wheel = abs(math.degrees(wheel.at(sim.now_s)[0] - turned))
+    off_plain = math.degrees(plain.at(sim.now_s)[0] - turned)
+    assert off_wheel < 0.75 and off_plain > 1.5 and off_wheel < off_plain / 2, (off_wheel, off_plain)
+    # stopped when WheelRamp says the ramp down ends at the goal: rests there
+    goal = math.radians(60)
+    t = stop_time(wheel, turned, sim.now_s, sim.now_s, goal, 2 * byte_s, 0.5)
+    assert t is not None
+    sim.run_for(t - sim.now_s)
+    sim.command("x")
+    t += 2 * byte_s
+    sim.run_for(0.5)
+    assert abs(math.degrees(sign * (sim.world.pose.theta - th0) - goal)) < 1.0
+    assert wheel.rest(t) == pytest.approx(stop_angle(wheel, t))
+
+
+def stop_angle(model, t):
+    """The angle the model turns by once at rest when it is told the stop at ``t``."""
+    model.command(t, 0.0)
+    return model.at(t + 5.0)[0]
