@@ -217,7 +217,7 @@ class TurnAndShoot(Behavior):
         self.tolerance = math.radians(float(self.options.get("tolerance_deg", 1.5)))
         # the correction's top rate (rad/s): slow enough that a wheel command's late
         # arrival (tens of ms on a loaded computer) moves the aim by a fraction of a degree
-        self.correction_rate = float(self.options.get("correction_rate", 0.5))
+        self.correction_rate = float(self.options.get("correction_rate", 0.25))
         # the turn's limits from the board files: the top rate and the drive board's ramp
         robot = self.robot = load_robot(resolve_robot(str(self.options.get("robot", "starfish"))))
         omega, self.accel = turn.turn_limits(robot)
