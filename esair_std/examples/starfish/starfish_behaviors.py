@@ -310,9 +310,12 @@ class TurnAndShoot(Behavior):
             self.gap += 0.2 * (now - self.last_step - self.gap)
         self.last_step = now
         for s in self.odometry.samples():
+            # every sample's board time: the offsets are the last 10 samples' (a lagging
+            # emulator moves them; ones from an earlier turn would time this one early)
+            board_t = self._board_time(s)
             if self.phase in ("turning", "settling") and self.headings:
                 self.turned += self.sign * wrap(s.value["th"] - self.headings[-1][1])
-                prev, self.odo = self.odo, (self._board_time(s), self.turned)
+                prev, self.odo = self.odo, (board_t, self.turned)
                 if self.phase == "settling" and self.stop_sent and s.t > self.stop_sent and \
                         not self.stood:
                     if not s.value.get("moving", True):
