@@ -148,3 +148,61 @@ def stop_angle(model, t):
     """The angle the model turns by once at rest when it is told the stop at ``t``."""
     model.command(t, 0.0)
     return model.at(t + 5.0)[0]
+
+
+@pytest.mark.parametrize("late", [0.0, 0.15])
+def test_the_standing_frame_is_known_by_the_ramp_model_and_a_late_stop_is_seen(robot, late):
+    """Odometry frames every 50 ms (the example's 20 Hz) of a 90 deg turn whose stop
+    lands on time, or 0.15 s late (a stalled computer): seen_at_rest takes the first
+    frame read 20 ms after the model's rest when the stop was on time, and never a frame
+    after which the robot still turned more than 0.1 deg (the late stop: the first
+    frame past the model's rest is not taken)."""
+    from esair_std.drivers.starfish.turn import seen_at_rest
+    omega, accel = turn_limits(robot)
+    sim = StarfishSim(robot, World(pose=Pose(3000, 2000, 0.0)), FlowOptions(noise=0.0))
+    byte_s = byte_time_ns(robot.central.uart.baud) / 1e9
+    th0 = sim.world.pose.theta
+
+    grid = [sim.now_s]                        # the polls' times: every 50 ms, whatever else
+
+    def frame():
+        grid[0] += 0.05
+        sim.run_for(grid[0] - sim.now_s)
+        return sim.now_s, sim.world.pose.theta - th0
+
+    model, goal = RampModel(accel), math.radians(90)
+    line, t = velocity_line(0, 0, round(omega * 1000)), sim.now_s
+    sim.command(line)
+    model.command(t + (len(line) + 1) * byte_s, omega)
+    frames = [(t, 0.0)]
+    while (t_stop := stop_time(model, frames[-1][1], frames[-1][0], sim.now_s, goal,
+                               2 * byte_s, 0.05)) is None:
+        frames.append(frame())
+        sim.command(line)                     # the rate again (the board's 0.5 s watchdog)
+    anchor = frames[-1]
+    while grid[0] + 0.05 < t_stop + late:      # the polls go on until the stop is sent
+        frame()
+        sim.command(line)
+    sim.run_for(t_stop + late - sim.now_s)
+    sim.command("x")
+    landing = t_stop + 2 * byte_s              # where the model has the stop land
+    stop_rate = model.at(landing)[1]
+    model.command(landing, 0.0)
+    rest_at = landing + stop_rate / accel
+    prev, seen, first_past = anchor, None, None
+    while seen is None:
+        now = frame()
+        if first_past is None and now[0] >= rest_at + 0.02:
+            first_past = now
+        if seen_at_rest(model, [anchor, prev, now], rest_at, stop_rate, 0.02, math.radians(0.1)):
+            seen = now
+        prev = now
+        assert now[0] < rest_at + 1.0
+    sim.run_for(0.5)
+    rest = sim.world.pose.theta - th0
+    assert abs(math.degrees(rest - seen[1])) <= 0.15            # it did stand there
+    if not late:
+        assert seen == first_past                               # no frame more
+    else:
+        assert math.degrees(rest - first_past[1]) > 1.0          # still turning then
+        assert seen[0] > first_past[0]

@@ -164,3 +164,22 @@ def stop_time(model: RampModel, angle_then: float, t_then: float, now: float, go
                 lo, t = (lo, mid) if reaches(mid) else (mid, t)
             return t
     return None
+
+
+def seen_at_rest(model: RampModel, frames: list[tuple[float, float]], rest_at: float,
+                 stop_rate: float, margin: float, left: float) -> bool:
+    """Does the odometry frame ``frames[-1]`` (time, angle turned) see the robot at
+    rest, the stop told to ``model``? It was read at least ``margin`` s after the
+    model's rest ``rest_at``, and since each earlier frame in ``frames`` (the one the
+    stop was planned from, the one before it) it turned no more than the model says
+    beyond what a stop landing that much late (the excess over ``stop_rate``, the rate
+    it stopped from) would still have to turn after it: ``left`` rad at most."""
+    t, turned = frames[-1]
+    if t < rest_at + margin:
+        return False
+    for t0, a0 in frames[:-1]:
+        extra = turned - a0 - (model.at(t)[0] - model.at(t0)[0])
+        late = max(0.0, extra) / max(stop_rate, 0.05)
+        if 0.5 * model.accel * max(0.0, late - (t - rest_at)) ** 2 > left:
+            return False
+    return True

@@ -532,19 +532,11 @@ class TurnAndShoot(Behavior):
 
     def _at_rest(self, prev: tuple[float, float]) -> bool:
         """Does the odometry frame just read (``self.odo``, after ``prev``) see the
-        robot at rest? Read after the model's rest and turned no more than the model
-        says (since the frame the stop was planned from, and since ``prev``) beyond what
-        a stop landing that much late leaves to turn after it: 0.1 deg at most."""
-        t, turned = self.odo
-        if self.rest_at is None or t < self.rest_at + REST_MARGIN_S:
+        robot at rest by the ramp model (turn.seen_at_rest)?"""
+        if self.rest_at is None:
             return False
-        model = self.model.at
-        for t0, a0 in (self.anchor, prev):
-            extra = turned - a0 - (model(t)[0] - model(t0)[0])
-            late = max(0.0, extra) / max(self.stop_rate, 0.05)
-            if 0.5 * self.accel * max(0.0, late - (t - self.rest_at)) ** 2 > REST_LEFT_RAD:
-                return False
-        return True
+        return self._turn.seen_at_rest(self.model, [self.anchor, prev, self.odo], self.rest_at,
+                                       self.stop_rate, REST_MARGIN_S, REST_LEFT_RAD)
 
     def _learn(self, err: float) -> None:
         """The stop's lead from the first aim's miss: past the target in the turn's
