@@ -372,6 +372,10 @@ def starfish_figure(rt, shots: int) -> dict:
 
 
 # ---- the bench --------------------------------------------------------------------------
+#: ``--cache warm``: the deployment checked (and kept in the cache) before the start
+WARM = ("import sys\nfrom esair_std.lean.checked import checked_deployment\n"
+        "assert checked_deployment(sys.argv[1], {}) is not None\n")
+
 def one(robot: str, mode: str, limit: bool, args) -> dict:
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(
         [str(TREE), str(BENCH), *filter(None, [os.environ.get("PYTHONPATH")])]))
@@ -401,6 +405,9 @@ def one(robot: str, mode: str, limit: bool, args) -> dict:
             dep = starfish_deployment(store)
         # JSON is YAML: the deployment file esair std run would read
         Path(store, "deployment.yaml").write_text(json.dumps(dep))
+        if args.cache == "warm":    # checked once before (another start): read from the cache
+            subprocess.run([sys.executable, "-c", WARM, os.path.join(store, "deployment.yaml")],
+                           env=env, cwd=TREE, check=True)
         mover = Mover(cap, remote=("localize", "turn_and_shoot") if robot == "starfish" else ())
         mover.start()
         t_exec = time.monotonic()
@@ -601,6 +608,10 @@ def main() -> None:
     ap.add_argument("--tree", metavar="DIR",
                     help="run the esair_std of the checkout DIR (an older commit) under "
                          "this bench: a before beside an after")
+    ap.add_argument("--cache", choices=("cold", "warm"), default="cold",
+                    help="cold: the start checks the deployment in a child (the first start "
+                         "of a deployment); warm: it was checked before, the start reads the "
+                         "cache (esair_std/lean/)")
     ap.add_argument("--endpoint", help=argparse.SUPPRESS)
     ap.add_argument("--inner", help=argparse.SUPPRESS)
     ap.add_argument("--mode", help=argparse.SUPPRESS)
@@ -626,7 +637,10 @@ def main() -> None:
           f"(cgroup {'v2' if Cap.V2.exists() else 'v1'}), standing in for a Raspberry Pi "
           f"Zero 2 W class board; the emulated boards (and STARFISH's remote center in "
           f"process mode) outside; load average {os.getloadavg()[0]:.1f} on "
-          f"{os.cpu_count()} cores; bytecode compiled first, as an installed package has it")
+          f"{os.cpu_count()} cores; bytecode compiled first, as an installed package has it; "
+          f"the deployment checked in a child (esair std run's way) " +
+          ("before, each start reads the cache" if args.cache == "warm"
+           else "at each start (no cache)"))
     rows = []
     for robot in args.robots.split(","):
         for mode in args.modes.split(","):
