@@ -4,8 +4,9 @@ line, valid while every file it was made from hashes the same.
 Where: ``$ESAIR_STD_CACHE`` (a folder; empty: no cache), else
 ``$XDG_CACHE_HOME/esair/std``, else ``~/.cache/esair/std`` — never inside the installed
 package. The key is the deployment's absolute path, the command line's overrides, the
-package's version and this layout's; the entry holds the SHA-256 of each input (the
-deployment, each class's module, the board files). An entry that cannot be read, is
+package's version and this layout's, and ``sys.path`` (where classes are found); the
+entry holds the SHA-256 of each input (the deployment, each class's module, the board
+files). An entry that cannot be read, is
 damaged, of another layout, or whose inputs changed is simply not used (the checking
 child makes a new one); a folder that cannot be written is no error (no cache then).
 """
@@ -36,7 +37,7 @@ def folder() -> Path | None:
 def key(path: str | Path, overrides: Mapping[str, object]) -> str:
     from esair_min import __version__
     what = [VERSION, FORMAT, __version__, list(sys.version_info[:2]),
-            str(Path(path).resolve()), overrides]
+            str(Path(path).resolve()), overrides, sys.path]
     return hashlib.sha256(json.dumps(what, sort_keys=True, default=str).encode()).hexdigest()[:32]
 
 
