@@ -25,7 +25,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from esair_min.config.yamlload import Document
 
 #: Why the last call returned what it did ("cache", "checked", or why not plain): for
-#: tests and ``ESAIR_STD_DEBUG`` logs, never for decisions.
+#: tests, never for decisions.
 last = {"how": ""}
 
 
