@@ -167,3 +167,26 @@ def test_a_bad_deployment_says_where_as_before(tmp_path, cache, old, new, at):
     first = run.stderr.strip().splitlines()[0]
     assert first in check.stdout + check.stderr
     assert not list(cache.glob("*.json"))
+
+
+def test_a_start_from_the_cache_runs_the_robot_a_check_ran(tmp_path, cache):
+    """Two `esair std run --run` of one deployment: the first checks it and keeps it, the
+    second reads it (the entry is not written again) and runs the same components."""
+    dep = _deployment(tmp_path)
+
+    def run() -> list[tuple[str, ...]]:
+        out = subprocess.run([sys.executable, "-m", "esair_min.cli", "std", "run", str(dep),
+                              "--run", "2", "-e", free_endpoint()], cwd=ROOT,
+                             capture_output=True, text=True, timeout=120,
+                             env=dict(os.environ, COLUMNS="200"))
+        assert out.returncode == 0, out.stderr
+        rows = [line.split()[:3] for line in out.stdout.splitlines()[1:] if line.strip()]
+        return sorted(tuple(r) for r in rows)
+
+    first = run()
+    [entry] = cache.glob("*.json")
+    written = entry.stat().st_mtime_ns
+    second = run()
+    assert entry.stat().st_mtime_ns == written            # read, not made again
+    assert first == second and len(first) == 19     # 15 resources, 4 behaviors
+    assert ("papaman.feet", "sensor", "ready") in first and ("checker", "behavior", "running") in first
