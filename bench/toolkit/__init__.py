@@ -44,10 +44,12 @@ def ratio(value: float, baseline: float, digits: int = 2) -> str:
     return f"{value / baseline:.{digits}f}x" if baseline else "-"
 
 
-def wait_for(fn: Callable[[], T], timeout: float = 10.0, what: str = "condition") -> T:
+def wait_for(fn: Callable[[], T], timeout: float = 10.0,
+             what: str | Callable[[], str] = "condition") -> T:
     """Poll ``fn()`` until it returns a truthy value, returned; AssertionError after
-    ``timeout`` seconds. Polls every 5 ms at first, then less often (up to every 50 ms):
-    a short wait ends at once, a long one does not keep a core busy."""
+    ``timeout`` seconds, saying ``what`` (a callable: what it says then). Polls every
+    5 ms at first, then less often (up to every 50 ms): a short wait ends at once, a
+    long one does not keep a core busy."""
     deadline = time.monotonic() + timeout
     pause = 0.005
     while True:
@@ -55,7 +57,8 @@ def wait_for(fn: Callable[[], T], timeout: float = 10.0, what: str = "condition"
         if v:
             return v
         if time.monotonic() > deadline:
-            raise AssertionError(f"timed out waiting for {what}; last value {v!r}")
+            said = what() if callable(what) else what
+            raise AssertionError(f"timed out waiting for {said}; last value {v!r}")
         time.sleep(pause)
         pause = min(pause * 1.5, 0.05)
 

@@ -140,6 +140,8 @@ class Observe:
         out: dict[str, JSONObject] = {}
         for entry, (spec, _host) in list(self.rt.rs.entries.items()):
             d: JSONObject = {"class": spec.class_path}
+            if isinstance(spec.prepared, dict) and spec.prepared.get("link") is True:
+                d["link"] = True          # known where the deployment was checked
             robot = spec.options.get("robot") if isinstance(spec.options, dict) else None
             if isinstance(robot, str):
                 path = os.path.join(spec.base_dir or "", robot)

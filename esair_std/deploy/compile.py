@@ -49,7 +49,11 @@ def compile_deployment(path: str | Path, edit: Callable[[Document], None] | None
                 prepared = None
             if isinstance(prepared, dict):
                 inputs += [str(f) for f in prepared.get("inputs", ())]
-                spec = Spec.from_json({**spec.to_json(), "prepared": prepared})
+            # a serial link (a MinLink or a class derived from it): a page's link bar
+            # shows it, though the runtime never imports its class (observe.v_describe)
+            link: JSONObject = {"link": True}
+            spec = Spec.from_json({**spec.to_json(), "prepared": {
+                **(prepared if isinstance(prepared, dict) else {}), **link}})
         specs.append(spec)
     plain = PlainDeployment(dep.robot, dep.mode, dep.endpoint, str(dep.base_dir),
                             dep.source, specs)

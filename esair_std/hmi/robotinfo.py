@@ -70,16 +70,17 @@ def entries_info(describe: Mapping[str, object]) -> tuple[JSONObject, list[str]]
 def min_links(entries: Mapping[str, object]) -> list[str]:
     """The entries of a ``describe`` answer whose driver is a MinLink or a class derived
     from it (PAPA-MAN's MinLink, STARFISH's Starfish): each is a serial link the page's
-    link bar shows, with or without board files the page can read. Run in the runtime,
-    which imported every class of its deployment when it started: the classes are looked
-    up among the modules loaded, nothing is imported here."""
+    link bar shows, with or without board files the page can read. Run in the runtime:
+    an entry checked in ``esair std run``'s checking child says ``link`` itself; else its
+    class is looked up among the modules the runtime loaded, nothing is imported here."""
     base = getattr(sys.modules.get("esair_std.drivers.minlink.driver"), "MinLink", None)
     out = []
     for entry, d in entries.items():
-        path = str(cast("Mapping[str, object]", d).get("class", ""))   # an entry: an object
+        info = cast("Mapping[str, object]", d)                        # an entry: an object
+        path = str(info.get("class", ""))
         module, _, name = path.partition(":")
         cls = getattr(sys.modules.get(module), name, None) if module in sys.modules else None
-        if path == MINLINK or (isinstance(base, type) and isinstance(cls, type)
-                               and issubclass(cls, base)):
+        if path == MINLINK or info.get("link") is True or (
+                isinstance(base, type) and isinstance(cls, type) and issubclass(cls, base)):
             out.append(entry)
     return out

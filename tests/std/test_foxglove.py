@@ -157,7 +157,7 @@ def test_every_channel_live_and_recorded_decodes_against_its_schema(live, tmp_pa
         def everything():
             client.pump(0.3)
             return want <= set(by_topic(client))
-        wait_for(everything, timeout=90, what=f"every channel of {robot}: "
+        wait_for(everything, timeout=90, what=lambda: f"every channel of {robot}: "
                  f"{sorted(want - set(by_topic(client)))} missing")
         if robot == "starfish":       # the bearing's arrow: once localize is confident
             wait_for(lambda: client.pump(0.3) or any(

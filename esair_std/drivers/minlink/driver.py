@@ -365,7 +365,7 @@ class MinLink(Driver):
         spec = self._esair.spec
         base = Path(getattr(spec, "base_dir", None) or ".")    # the file's folder
         prepared: Any = getattr(spec, "prepared", None)
-        if not prepared:
+        if not prepared or "board" not in prepared:      # not prepared beforehand
             prepared = self.prepare_entry(dict(self.options), base, self.name)
         o = _Options(prepared["options"])
         path = Path(str(prepared["path"]))
