@@ -456,9 +456,13 @@ def test_a_page_that_takes_nothing_loses_frames_counted_and_no_other_page_waits(
             for i in range(120):                                 # its reader stops at once
                 ws.send(json.dumps({"op": "ping", "id": i, "ts": "x" * 60_000}))
             wait_for(lambda: robot.status()["counters"]["dropped"] > before, what="frames dropped")
-            # counted on the stuck page, not on the live one (which takes everything)
+            # counted on the stuck page, not on the live one (which takes everything); the
+            # stuck page known by its port: a third page, seen on a loaded machine (one the
+            # server still held from earlier, its browser gone), may have lost some too
             pages = robot.status()["pages"]
-            assert sorted(p["dropped"] > 0 for p in pages) == [False, True], pages
+            stuck = [p for p in pages if p["port"] == sock.getsockname()[1]]
+            assert [p["dropped"] > 0 for p in stuck] == [True], pages
+            assert [p for p in pages if p not in stuck and p["dropped"] == 0], pages
             seen = page.evaluate("window.__hmi.stats.samples")
             page.wait_for_function(f"() => window.__hmi.stats.samples >= {seen + 20}")
             draws = page.evaluate("window.__hmi.stats.draws")
