@@ -197,7 +197,7 @@ def flash_pic(hex_path: Path, port: str, *, baud: int, progress: Progress | None
     except (serial.SerialException, OSError, ValueError) as exc:
         raise FlashError(f"cannot open {port}: {describe(exc)}") from None
     try:
-        _flash(Bootloader(ser, port), image, progress or (lambda phase, pct: None),
+        _flash(Bootloader(ser, port), image, progress or (lambda _phase, _pct: None),
                connect_timeout)
     finally:
         ser.close()
@@ -207,7 +207,7 @@ def write_image(boot: Bootloader, image: PicImage, progress: Progress | None = N
                 wait: float = 10.0) -> None:
     """The whole flash over ``boot``: hello and its checks, write, verify, the record,
     start the application."""
-    _flash(boot, image, progress or (lambda phase, pct: None), wait)
+    _flash(boot, image, progress or (lambda _phase, _pct: None), wait)
 
 
 def _flash(boot: Bootloader, image: PicImage, progress: Progress, wait: float) -> None:
