@@ -210,15 +210,19 @@ def what(cmd: list[bytes]) -> str:
     return "runtime"
 
 
-def cpu_of(pids: list[int]) -> dict[int, float]:
-    """CPU seconds (user + system) of each of ``pids``."""
+def cpu_of(pids: list[int], children: bool = False) -> dict[int, float]:
+    """CPU seconds (user + system) of each of ``pids`` (``children``: and of its
+    children it has reaped)."""
     out = {}
     for pid in pids:
         try:
             fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
         except OSError:
             continue
-        out[pid] = (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+        ticks = int(fields[11]) + int(fields[12])
+        if children:
+            ticks += int(fields[13]) + int(fields[14])
+        out[pid] = ticks / os.sysconf("SC_CLK_TCK")
     return out
 
 
@@ -306,31 +310,33 @@ def _get(rt, name: str, key: str, timeout: float):
 
 
 def inner(args) -> None:
-    """Child, in the group: run the robot side; print ``ready`` (time.monotonic()) once
-    every component runs, wait for ``go`` on standard input, run the figure, print its
-    JSON, then wait for ``end`` and stop."""
-    import tempfile
-
+    """Child, in the group: run the robot side as ``esair std run`` does — the deployment
+    (a file the bench wrote) checked in a short-lived child and handed over as plain data
+    (esair_std/lean/), so this process holds no pydantic; print ``ready``
+    (time.monotonic()) once every component runs, wait for ``go`` on standard input, run
+    the figure, print its JSON, then wait for ``end`` and stop."""
     from esair_std import Runtime
 
-    store = tempfile.mkdtemp(prefix="esair-bench-")
-    go = os.path.join(store, "go")
-    dep = papaman_deployment(args.port, args.n, go) if args.robot == "papaman" \
-        else starfish_deployment(store)
+    store, path = args.store, args.deployment
+    try:
+        from esair_std.lean.checked import checked_deployment
+    except ImportError:      # an older checkout (--tree): it checked in the runtime's process
+        dep: object = json.loads(Path(path).read_text())
+    else:
+        dep = checked_deployment(path, {}) or json.loads(Path(path).read_text())
     # the control endpoint on in both modes, as ``esair std run`` has it
-    with Runtime(dep, mode=args.mode, endpoint=args.endpoint, settle_heap=True,
-                 control=True) as rt:
+    with Runtime(dep, mode=args.mode, endpoint=args.endpoint,  # type: ignore[arg-type]
+                 settle_heap=True, control=True) as rt:
         end = time.monotonic() + 300
         while time.monotonic() < end and \
                 any(c["state"] not in ("running", "busy", "ready") for c in rt.ls()):
             time.sleep(0.02)
         print(json.dumps({"ready": time.monotonic()}), flush=True)
         sys.stdin.readline()
+        go = os.path.join(store, "go")
         out = papaman_figure(rt, go) if args.robot == "papaman" else starfish_figure(rt, args.shots)
         print(json.dumps(out), flush=True)
         sys.stdin.readline()
-    import shutil
-    shutil.rmtree(store, ignore_errors=True)
 
 
 def papaman_figure(rt, go: str) -> dict:
@@ -366,6 +372,10 @@ def starfish_figure(rt, shots: int) -> dict:
 
 
 # ---- the bench --------------------------------------------------------------------------
+#: ``--cache warm``: the deployment checked (and kept in the cache) before the start
+WARM = ("import sys\nfrom esair_std.lean.checked import checked_deployment\n"
+        "assert checked_deployment(sys.argv[1], {}) is not None\n")
+
 def one(robot: str, mode: str, limit: bool, args) -> dict:
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(
         [str(TREE), str(BENCH), *filter(None, [os.environ.get("PYTHONPATH")])]))
@@ -375,19 +385,29 @@ def one(robot: str, mode: str, limit: bool, args) -> dict:
     with Cap(limit) as cap:
         res["groups"] = [str(d) for d in cap.dirs]
         ep = free_endpoint()
+        import tempfile
+        tmp = tempfile.TemporaryDirectory(prefix="esair-bench-")
+        store = tmp.name
+        # the checked deployment's cache: empty, so the start below checks it (a miss)
+        env["ESAIR_STD_CACHE"] = os.path.join(store, "cache")
         cmd = [sys.executable, str(Path(__file__).resolve()), "--inner", robot, "--mode", mode,
-               "--n", str(args.n), "--shots", str(args.shots), "--endpoint", ep]
-        tmp = None
+               "--n", str(args.n), "--shots", str(args.shots), "--endpoint", ep,
+               "--store", store, "--deployment", os.path.join(store, "deployment.yaml")]
         if robot == "papaman":
-            import tempfile
-            tmp = tempfile.TemporaryDirectory(prefix="esair-bench-")
-            trace = Path(tmp.name) / "trace.txt"
+            trace = Path(store) / "trace.txt"
             emu = subprocess.Popen([sys.executable, str(Path(__file__).resolve()),
                                     "--emulator", str(trace)], env=env,
                                    stdout=subprocess.PIPE, text=True)
             assert emu.stdout is not None
             path, wall0, virt0 = emu.stdout.readline().split()
-            cmd += ["--port", path]
+            dep = papaman_deployment(path, args.n, os.path.join(store, "go"))
+        else:
+            dep = starfish_deployment(store)
+        # JSON is YAML: the deployment file esair std run would read
+        Path(store, "deployment.yaml").write_text(json.dumps(dep))
+        if args.cache == "warm":    # checked once before (another start): read from the cache
+            subprocess.run([sys.executable, "-c", WARM, os.path.join(store, "deployment.yaml")],
+                           env=env, cwd=TREE, check=True)
         mover = Mover(cap, remote=("localize", "turn_and_shoot") if robot == "starfish" else ())
         mover.start()
         t_exec = time.monotonic()
@@ -403,7 +423,8 @@ def one(robot: str, mode: str, limit: bool, args) -> dict:
             res["ready_s"] = json.loads(line)["ready"] - t_exec
             # the CPU the start took (every process in the group, since it began): the
             # start's floor under the cap is this over the cap's share, however loaded
-            res["start_cpu_s"] = sum(cpu_of(cap.pids()).values())
+            # (the deployment's checking child included: reaped, it counts in its parent's)
+            res["start_cpu_s"] = sum(cpu_of(cap.pids(), children=True).values())
             time.sleep(args.settle)
             pids = cap.pids()
             c0, t0 = cpu_of(pids), time.monotonic()
@@ -436,11 +457,10 @@ def one(robot: str, mode: str, limit: bool, args) -> dict:
                 emu.terminate()
                 emu.wait(30)
     if robot == "papaman":
-        assert tmp is not None
         res.update(register_writes(fig, trace, float(wall0), int(virt0)))
-        tmp.cleanup()
     else:
         res.update(shots(fig))
+    tmp.cleanup()
     return res
 
 
@@ -588,10 +608,15 @@ def main() -> None:
     ap.add_argument("--tree", metavar="DIR",
                     help="run the esair_std of the checkout DIR (an older commit) under "
                          "this bench: a before beside an after")
+    ap.add_argument("--cache", choices=("cold", "warm"), default="cold",
+                    help="cold: the start checks the deployment in a child (the first start "
+                         "of a deployment); warm: it was checked before, the start reads the "
+                         "cache (esair_std/lean/)")
     ap.add_argument("--endpoint", help=argparse.SUPPRESS)
     ap.add_argument("--inner", help=argparse.SUPPRESS)
     ap.add_argument("--mode", help=argparse.SUPPRESS)
-    ap.add_argument("--port", help=argparse.SUPPRESS)
+    ap.add_argument("--store", help=argparse.SUPPRESS)
+    ap.add_argument("--deployment", help=argparse.SUPPRESS)
     ap.add_argument("--emulator", help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.emulator:
@@ -612,7 +637,10 @@ def main() -> None:
           f"(cgroup {'v2' if Cap.V2.exists() else 'v1'}), standing in for a Raspberry Pi "
           f"Zero 2 W class board; the emulated boards (and STARFISH's remote center in "
           f"process mode) outside; load average {os.getloadavg()[0]:.1f} on "
-          f"{os.cpu_count()} cores; bytecode compiled first, as an installed package has it")
+          f"{os.cpu_count()} cores; bytecode compiled first, as an installed package has it; "
+          f"the deployment checked in a child (esair std run's way) " +
+          ("before, each start reads the cache" if args.cache == "warm"
+           else "at each start (no cache)"))
     rows = []
     for robot in args.robots.split(","):
         for mode in args.modes.split(","):

@@ -10,7 +10,12 @@ process of its own that does only that:
 - process mode: that runtime-side process (without the board model), a zygote that
   imported Zenoh's module only, and one child forked from it per component, each with
   its own session connected to the runtime, the resource entry's child loading the board
-  model: the PSS of them all.
+  model: the PSS of them all;
+- the same without the checker ("lean": ``esair std run`` checks the deployment and the
+  board files in a short-lived child and hands the robot side plain data, esair_std/lean/):
+  no pydantic, no board model, only ``json``; and the CPU that checking child takes
+  (the deployment loader and the board model, in a process of its own that then exits:
+  a start without the cache pays it, a start from the cache does not).
 
     python bench/small_computer_floors.py [--robots papaman,starfish] [--children N]
 Prints figures; asserts nothing. Uses no control group (memory and CPU seconds do not
@@ -43,11 +48,15 @@ c.insert_json5("mode", '"peer"')
 c.insert_json5("listen/endpoints", json.dumps([sys.argv[1]]))
 c.insert_json5("scouting/multicast/enabled", "false")
 s = zenoh.open(c)
-from esair_std.deploy import load_deployment
-load_deployment({"robot": "floor"})
-if sys.argv[2]:
-    from esair_min.model.validate import load_robot
-    load_robot(sys.argv[2])
+if sys.argv[4]:                  # lean: the plain data a checked deployment is handed as
+    import json
+    json.loads('{"robot": "floor", "specs": []}')
+else:
+    from esair_std.deploy import load_deployment
+    load_deployment({"robot": "floor"})
+    if sys.argv[2]:
+        from esair_min.model.validate import load_robot
+        load_robot(sys.argv[2])
 if sys.argv[3]:
     import numpy  # noqa: F401 - STARFISH's driver and behaviors compute with it
 print(time.process_time(), flush=True)
@@ -72,15 +81,38 @@ def memory(pid: int) -> tuple[float, float]:
     return rss / 1024, pss / 1024
 
 
-def runtime_side(ep: str, board: str, numpy: bool = False) -> tuple[subprocess.Popen, float]:
+CHECKER = """
+import sys, time
+from esair_std.deploy import load_deployment
+load_deployment({"robot": "floor"})
+from esair_min.model.validate import load_robot
+load_robot(sys.argv[1])
+print(time.process_time(), flush=True)
+"""
+
+
+def checker_cpu(board: str) -> float:
+    """CPU seconds of a process that checks a deployment and loads the board model."""
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(
+        [str(ROOT), *filter(None, [os.environ.get("PYTHONPATH")])]))
+    out = subprocess.run([sys.executable, "-P", "-c", CHECKER, board], env=env,
+                         capture_output=True, text=True, check=True)
+    return float(out.stdout)
+
+
+def runtime_side(ep: str, board: str, numpy: bool = False,
+                 lean: bool = False) -> tuple[subprocess.Popen, float]:
     """The runtime-side floor process, its CPU seconds once it holds all of it."""
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(
         [str(ROOT), *filter(None, [os.environ.get("PYTHONPATH")])]))
     proc = subprocess.Popen([sys.executable, "-P", "-c", THREAD, ep, board,
-                             "numpy" if numpy else ""], env=env,
+                             "numpy" if numpy else "", "lean" if lean else ""], env=env,
                             stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
     assert proc.stdout is not None
     return proc, float(proc.stdout.readline())
+
+
+_IMPORT_CPU: dict[str, float] = {}
 
 
 def forked_children(ep: str, board: str, n: int) -> tuple[list[int], list[int], float]:
@@ -90,7 +122,7 @@ def forked_children(ep: str, board: str, n: int) -> tuple[list[int], list[int], 
     CPU seconds Zenoh's import took here."""
     t = time.process_time()
     import zenoh
-    import_cpu = time.process_time() - t
+    import_cpu = _IMPORT_CPU.setdefault("zenoh", time.process_time() - t)   # the first's
 
     gc.collect()
     gc.freeze()
@@ -138,40 +170,48 @@ def main() -> None:
     sys.path.insert(0, str(ROOT))
     for robot in args.robots.split(","):
         board = str(ROOT / "boards" / robot)
-        ep = free_endpoint()
-        proc, cpu = runtime_side(ep, board, numpy=robot == "starfish")
-        time.sleep(1.0)
-        rss, pss = memory(proc.pid)
-        extra = " + numpy" if robot == "starfish" else ""
-        print(f"{robot:8s} thread floor (python + a Zenoh session + the deployment loader + "
-              f"the board model{extra}): RSS {rss:.1f} MB, PSS {pss:.1f} MB; {cpu:.3f} s of CPU "
-              f"to hold it (start floor {cpu / CPU_SHARE:.2f} s at {CPU_SHARE:.0%} of a core)")
-        assert proc.stdin is not None
-        proc.stdin.write("\n")
-        proc.stdin.flush()
-        proc.wait(30)
-        ep = free_endpoint()
-        proc, runtime_cpu = runtime_side(ep, "")
-        n = args.children or CHILDREN[robot]
-        pids, release, import_cpu = forked_children(ep, board, n)
-        start_cpu = runtime_cpu + import_cpu + sum(cpu_s(p) for p in pids)
-        time.sleep(1.0)
-        rows = [("runtime", proc.pid), ("zygote", os.getpid())] + \
-            [(f"child {i + 1}", p) for i, p in enumerate(pids)]
-        each = [(name, *memory(pid)) for name, pid in rows]
-        print(f"{robot:8s} process floor ({n} forked children): PSS "
-              f"{sum(e[2] for e in each):.1f} MB (RSS {sum(e[1] for e in each):.1f}): " +
-              ", ".join(f"{n} {r:.1f} / {p:.1f}" for n, r, p in each) +
-              f"; {start_cpu:.3f} s of CPU to hold it (start floor "
-              f"{start_cpu / CPU_SHARE:.2f} s at {CPU_SHARE:.0%} of a core)")
-        for w in release:
-            os.close(w)
-        for pid in pids:
-            os.waitpid(pid, 0)
-        assert proc.stdin is not None
-        proc.stdin.write("\n")
-        proc.stdin.flush()
-        proc.wait(30)
+        for lean in (False, True):
+            floors(robot, board, lean, args.children or CHILDREN[robot])
+        print(f"{robot:8s} the checking child (deployment loader + board model, then exits): "
+              f"{checker_cpu(board):.3f} s of CPU")
+
+
+def floors(robot: str, board: str, lean: bool, n: int) -> None:
+    held = "json (a deployment checked elsewhere)" if lean else \
+        "the deployment loader + the board model"
+    ep = free_endpoint()
+    proc, cpu = runtime_side(ep, board, numpy=robot == "starfish", lean=lean)
+    time.sleep(1.0)
+    rss, pss = memory(proc.pid)
+    extra = " + numpy" if robot == "starfish" else ""
+    print(f"{robot:8s} thread floor{' lean' if lean else ''} (python + a Zenoh session + "
+          f"{held}{extra}): RSS {rss:.1f} MB, PSS {pss:.1f} MB; {cpu:.3f} s of CPU "
+          f"to hold it (start floor {cpu / CPU_SHARE:.2f} s at {CPU_SHARE:.0%} of a core)")
+    assert proc.stdin is not None
+    proc.stdin.write("\n")
+    proc.stdin.flush()
+    proc.wait(30)
+    ep = free_endpoint()
+    proc, runtime_cpu = runtime_side(ep, "", lean=lean)
+    pids, release, import_cpu = forked_children(ep, "" if lean else board, n)
+    start_cpu = runtime_cpu + import_cpu + sum(cpu_s(p) for p in pids)
+    time.sleep(1.0)
+    rows = [("runtime", proc.pid), ("zygote", os.getpid())] + \
+        [(f"child {i + 1}", p) for i, p in enumerate(pids)]
+    each = [(name, *memory(pid)) for name, pid in rows]
+    print(f"{robot:8s} process floor{' lean' if lean else ''} ({n} forked children): PSS "
+          f"{sum(e[2] for e in each):.1f} MB (RSS {sum(e[1] for e in each):.1f}): " +
+          ", ".join(f"{n} {r:.1f} / {p:.1f}" for n, r, p in each) +
+          f"; {start_cpu:.3f} s of CPU to hold it (start floor "
+          f"{start_cpu / CPU_SHARE:.2f} s at {CPU_SHARE:.0%} of a core)")
+    for w in release:
+        os.close(w)
+    for pid in pids:
+        os.waitpid(pid, 0)
+    assert proc.stdin is not None
+    proc.stdin.write("\n")
+    proc.stdin.flush()
+    proc.wait(30)
 
 
 if __name__ == "__main__":

@@ -24,8 +24,9 @@ __all__ = ["Behavior", "Reaction", "Sensor", "Actuator", "Driver", "Refused", "R
 
 
 def __getattr__(name: str) -> type[Runtime]:
-    # Runtime pulls in the deployment loader (pydantic): loaded only when asked for, so
-    # that an agent process hosting one component stays small.
+    # Runtime pulls in the supervisors (and, given a path or a dict, the deployment
+    # loader's pydantic): loaded only when asked for, so that an agent process hosting
+    # one component stays small.
     if name == "Runtime":
         from .runtime import Runtime
         return Runtime

@@ -35,6 +35,7 @@ from .transport.codec import JSON, JSONObject
 
 if TYPE_CHECKING:  # pragma: no cover
     from .deploy.model import Deployment
+    from .lean.plain import PlainDeployment
     from .control.control_server import ControlServer
     from .parts import ComponentHost, Mode, ResourceHost
     from .supervisor import Record
@@ -47,8 +48,10 @@ WATCH_IDLE = 1.0      # the watchdog's longest sleep (a component added meanwhil
 WAIT_RECHECK = 0.1    # wait_state: how often a state no event announces (busy) is looked at
 
 
-def _load(deployment: str | Path | dict[str, object] | Deployment) -> Deployment:
-    """A Deployment from a path, a dict or an already loaded Deployment."""
+def _load(deployment: str | Path | dict[str, object] | Deployment | PlainDeployment,
+          ) -> Deployment | PlainDeployment:
+    """A Deployment from a path, a dict or an already loaded Deployment (or one checked
+    elsewhere and plain, lean/plain.py: ``esair std run``'s)."""
     if isinstance(deployment, (str, Path, dict)):
         from .deploy import load_deployment
         return load_deployment(deployment)
@@ -56,7 +59,7 @@ def _load(deployment: str | Path | dict[str, object] | Deployment) -> Deployment
 
 
 class Runtime:
-    def __init__(self, deployment: str | Path | dict[str, object] | Deployment,
+    def __init__(self, deployment: str | Path | dict[str, object] | Deployment | PlainDeployment,
                  mode: str | None = None,
                  endpoint: str | None = None, control: bool | None = None,
                  join: list[str] | None = None, settle_heap: bool = False,
@@ -116,10 +119,14 @@ class Runtime:
                 from .control.control_server import ControlServer
                 self.server = ControlServer(self, self.bs, self.rs, self.mode, self.center)
                 self.server.start()
-            from .deploy import load_classes
-            load_classes(self.deployment)     # every class, errors at file:line:col
+            from .lean.plain import PlainDeployment
+            if isinstance(self.deployment, PlainDeployment):   # checked where it was made
+                res, beh, rea = self.deployment.split()
+            else:
+                from .deploy import load_classes
+                load_classes(self.deployment)     # every class, errors at file:line:col
+                res, beh, rea = specmod.specs_of(self.deployment)
             self.mode.open()
-            res, beh, rea = specmod.specs_of(self.deployment)
             for s in res:
                 self.rs.add(s)              # each opened (or failed) on return
             if self.settle_heap:

@@ -11,6 +11,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from .bs import BehaviorSupervisor
     from .connections import ActuatorConnection, SensorConnection
     from .deploy.model import Deployment
+    from .lean.plain import PlainDeployment
     from .level import Level
     from .parts import Mode, RemoteComponent
     from .rs import ResourceSupervisor
@@ -50,7 +51,7 @@ class RuntimeView(Protocol):
     @property
     def hostname(self) -> str: ...
     @property
-    def deployment(self) -> Deployment: ...
+    def deployment(self) -> Deployment | PlainDeployment: ...
     child_session: dict[str, str] | None   # the runtime's own login, for its children
 
     @property

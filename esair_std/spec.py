@@ -22,7 +22,7 @@ class Spec:
 
     __slots__ = ("kind", "name", "class_path", "options", "base_dir", "period", "has_period",
                  "uses", "restart_max", "restart_within", "allow", "resources", "enabled",
-                 "where")
+                 "where", "prepared")
     kind: str
     name: str
     class_path: str
@@ -37,6 +37,7 @@ class Spec:
     resources: tuple[str, ...]
     enabled: bool
     where: str
+    prepared: JSONObject | None
 
     def __init__(self, kind: str, name: str, class_path: str,
                  options: Mapping[str, object] | None = None,
@@ -44,7 +45,8 @@ class Spec:
                  has_period: bool = False, uses: dict[str, str] | None = None,
                  restart_max: int = 0, restart_within: float = 0.0,
                  allow: dict[str, str] | None = None,
-                 resources: tuple[str, ...] = (), enabled: bool = True, where: str = ""):
+                 resources: tuple[str, ...] = (), enabled: bool = True, where: str = "",
+                 prepared: JSONObject | None = None):
         values = dict(
             kind=kind,                           # behavior | reaction | resource
             name=name,
@@ -60,7 +62,10 @@ class Spec:
             allow={} if allow is None else allow,  # resource: behavior (or glob) -> level
             resources=resources,                 # reaction: the resources it reaches
             enabled=enabled,                     # reaction
-            where=where)                         # file:line:col of the entry, for messages
+            where=where,                         # file:line:col of the entry, for messages
+            # what the class's ``prepare`` made of the entry where the deployment was
+            # checked (plain JSON: a driver's checked options and board, lean/compile.py)
+            prepared=prepared)
         for key, value in values.items():
             object.__setattr__(self, key, value)
 

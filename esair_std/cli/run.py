@@ -23,23 +23,32 @@ if TYPE_CHECKING:  # pragma: no cover
     from esair_min.config.yamlload import Document
 
     from ..deploy.model import Deployment
+    from ..lean.plain import PlainDeployment
     from ..runtime import Runtime
 from ..endpoint import reaches_beyond
 from .shared_options import endpoint_option, exposure, insecure_option
 from .table import table as _table
 
 
-def _load(path: str | Path, port: str | None, emulate: dict[str, str]) -> Deployment:
+def _load(path: str | Path, port: str | None,
+          emulate: dict[str, str]) -> Deployment | PlainDeployment:
     """The deployment, through the one loader ``esair std check`` uses, with the command
-    line's ``--port`` / ``--trace`` / ``--scenario`` applied to the document first."""
-    from ..deploy import load_document
-    from ..deploy.overrides import set_emulate, set_port
-
+    line's ``--port`` / ``--trace`` / ``--scenario`` applied to the document first.
+    Checked in a short-lived child (or taken from the cache) and loaded as plain data
+    when it can be (esair_std/lean/): this process, the robot side, then never imports
+    pydantic; else (a problem to report, a security section) checked here."""
     def edit(doc: Document) -> None:
+        from ..deploy.overrides import set_emulate, set_port
         if port is not None:
             set_port(doc, port)
         if emulate:
             set_emulate(doc, emulate)
+
+    from ..lean.checked import checked_deployment
+    plain = checked_deployment(path, {"port": port, "emulate": emulate}, edit)
+    if plain is not None:
+        return plain
+    from ..deploy import load_document
     return load_document(path, edit=edit)[0]
 
 

@@ -39,8 +39,14 @@ def options_document(doc: Document, entry: tuple[str, str], options: dict[str, o
 
 
 def options_model(cls: type) -> type[BaseModel] | None:
-    """The class's ``Options`` schema, if it declares one."""
+    """The class's ``Options`` schema, if it declares one: a pydantic model, or its
+    ``module:Name`` (a driver whose module must not import pydantic: the robot side
+    of ``esair std run`` imports the class, never its schema)."""
     model = getattr(cls, "Options", None)
+    if isinstance(model, str) and ":" in model:
+        import importlib
+        module, _, attr = model.partition(":")
+        model = getattr(importlib.import_module(module), attr, None)
     return model if isinstance(model, type) and issubclass(model, BaseModel) else None
 
 

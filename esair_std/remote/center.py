@@ -91,7 +91,10 @@ def session(rt: RuntimeView) -> tuple[JSONObject, list[str], str | None]:
     base = Path(rt.base_dir)
     options = session_inserts(sec, base, listen=True)
     _local_login(options, rt)
-    grants = {a: grants_for(rt.deployment, a) for a in sec.agents}
+    dep = rt.deployment
+    from ..lean.plain import PlainDeployment
+    assert not isinstance(dep, PlainDeployment), "a plain deployment has no security section"
+    grants = {a: grants_for(dep, a) for a in sec.agents}
     acl = access_control(sec, rt.robot, grants)
     if acl:
         options["access_control"] = acl

@@ -100,3 +100,109 @@ def test_the_profile_is_time_optimal_within_the_limits(robot):
         # no profile within the limits does it faster: a bang-bang at the limits
         assert t == pytest.approx(2 * math.sqrt(a / accel) if a < omega ** 2 / accel
                                   else a / omega + omega / accel)
+
+
+@pytest.mark.parametrize("drive_deg", [0, 100, 230])
+@pytest.mark.parametrize("sign", [1, -1])
+def test_a_turn_started_while_driving_follows_the_wheel_by_wheel_ramp(robot, drive_deg, sign):
+    """The robot drives at 200 mm/s (patrol's speed) when the turn is commanded: the
+    drive board ramps each wheel toward its own rim speed, so the turn rate lags a turn
+    from standing (the plain RampModel) until the drive has ramped out; WheelRamp, started
+    from that drive command, tells where the robot is, and a turn stopped by it rests on
+    its goal."""
+    from esair_std.drivers.starfish.turn import WheelRamp
+    omega, accel = turn_limits(robot)
+    sim = StarfishSim(robot, World(pose=Pose(3000, 2000, 0.0)), FlowOptions(noise=0.0))
+    a = math.radians(drive_deg)
+    drive = (round(200 * math.cos(a)), round(200 * math.sin(a)))
+    sim.command(velocity_line(drive[0], drive[1], 0))
+    sim.run_for(0.5)                          # at the drive's speed
+    th0 = sim.world.pose.theta
+    wheel, plain = WheelRamp(robot, drive, sign), RampModel(accel)
+    # the slow start (the flow sensors' limit), then the top rate: each model told when
+    byte_s = byte_time_ns(robot.central.uart.baud) / 1e9
+    for rate, hold in ((1.2, 0.12), (omega, 0.1)):
+        line, t = velocity_line(0, 0, round(sign * rate * 1000)), sim.now_s
+        sim.command(line)                     # (runs the clock to its reply)
+        wheel.command(t + (len(line) + 1) * byte_s, rate)   # its last byte in
+        plain.command(t + (len(line) + 1) * byte_s, rate)
+        sim.run_for(hold - (sim.now_s - t))
+    turned = sign * (sim.world.pose.theta - th0)
+    # within the drive board's steps (its 10 ms control tick); the plain model runs ahead
+    off_wheel = abs(math.degrees(wheel.at(sim.now_s)[0] - turned))
+    off_plain = math.degrees(plain.at(sim.now_s)[0] - turned)
+    assert off_wheel < 0.75 and off_plain > 1.5 and off_wheel < off_plain / 2, (off_wheel, off_plain)
+    # stopped when WheelRamp says the ramp down ends at the goal: rests there
+    goal = math.radians(60)
+    t = stop_time(wheel, turned, sim.now_s, sim.now_s, goal, 2 * byte_s, 0.5)
+    assert t is not None
+    sim.run_for(t - sim.now_s)
+    sim.command("x")
+    t += 2 * byte_s
+    sim.run_for(0.5)
+    assert abs(math.degrees(sign * (sim.world.pose.theta - th0) - goal)) < 1.0
+    assert wheel.rest(t) == pytest.approx(stop_angle(wheel, t))
+
+
+def stop_angle(model, t):
+    """The angle the model turns by once at rest when it is told the stop at ``t``."""
+    model.command(t, 0.0)
+    return model.at(t + 5.0)[0]
+
+
+@pytest.mark.parametrize("late", [0.0, 0.15])
+def test_the_standing_frame_is_known_by_the_ramp_model_and_a_late_stop_is_seen(robot, late):
+    """Odometry frames every 50 ms (the example's 20 Hz) of a 90 deg turn whose stop
+    lands on time, or 0.15 s late (a stalled computer): seen_at_rest takes the first
+    frame read 20 ms after the model's rest when the stop was on time, and never a frame
+    after which the robot still turned more than 0.1 deg (the late stop: the first
+    frame past the model's rest is not taken)."""
+    from esair_std.drivers.starfish.turn import seen_at_rest
+    omega, accel = turn_limits(robot)
+    sim = StarfishSim(robot, World(pose=Pose(3000, 2000, 0.0)), FlowOptions(noise=0.0))
+    byte_s = byte_time_ns(robot.central.uart.baud) / 1e9
+    th0 = sim.world.pose.theta
+
+    grid = [sim.now_s]                        # the polls' times: every 50 ms, whatever else
+
+    def frame():
+        grid[0] += 0.05
+        sim.run_for(grid[0] - sim.now_s)
+        return sim.now_s, sim.world.pose.theta - th0
+
+    model, goal = RampModel(accel), math.radians(90)
+    line, t = velocity_line(0, 0, round(omega * 1000)), sim.now_s
+    sim.command(line)
+    model.command(t + (len(line) + 1) * byte_s, omega)
+    frames = [(t, 0.0)]
+    while (t_stop := stop_time(model, frames[-1][1], frames[-1][0], sim.now_s, goal,
+                               2 * byte_s, 0.05)) is None:
+        frames.append(frame())
+        sim.command(line)                     # the rate again (the board's 0.5 s watchdog)
+    anchor = frames[-1]
+    while grid[0] + 0.05 < t_stop + late:      # the polls go on until the stop is sent
+        frame()
+        sim.command(line)
+    sim.run_for(t_stop + late - sim.now_s)
+    sim.command("x")
+    landing = t_stop + 2 * byte_s              # where the model has the stop land
+    stop_rate = model.at(landing)[1]
+    model.command(landing, 0.0)
+    rest_at = landing + stop_rate / accel
+    prev, seen, first_past = anchor, None, None
+    while seen is None:
+        now = frame()
+        if first_past is None and now[0] >= rest_at + 0.02:
+            first_past = now
+        if seen_at_rest(model, [anchor, prev, now], rest_at, stop_rate, 0.02, math.radians(0.1)):
+            seen = now
+        prev = now
+        assert now[0] < rest_at + 1.0
+    sim.run_for(0.5)
+    rest = sim.world.pose.theta - th0
+    assert abs(math.degrees(rest - seen[1])) <= 0.15            # it did stand there
+    if not late:
+        assert seen == first_past                               # no frame more
+    else:
+        assert math.degrees(rest - first_past[1]) > 1.0          # still turning then
+        assert seen[0] > first_past[0]

@@ -58,3 +58,19 @@ class Frozen(Behavior):
 
     def provide(self, requester):
         return {"frozen": gc.get_freeze_count()}
+
+
+#: what a robot side handed its deployment checked (esair std run, esair_std/lean/)
+#: does not import: the checker's pydantic and yaml, the board model, Jinja2
+CHECKER = ("pydantic", "pydantic_core", "yaml", "jinja2", "esair_min.model.board",
+           "esair_min.model.robot", "esair_min.model.validate", "esair_std.deploy.loader",
+           "esair_std.deploy.model")
+
+
+class CheckerModules(Behavior):
+    """provide(): which of CHECKER its process has imported."""
+
+    period = 0.5
+
+    def provide(self, requester):
+        return [m for m in CHECKER if m in sys.modules]

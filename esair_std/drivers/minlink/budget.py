@@ -1,4 +1,4 @@
-"""The serial line's time budget, computed from the robot's validated model.
+"""The serial line's time budget, computed from the robot's board (:mod:`.board`).
 
 A byte is 10 bit times on the wire (8N1) at the central board's declared ``uart.baud``.
 The link keeps one command in flight, so one exchange costs the command line, the
@@ -9,9 +9,9 @@ poll may use at most ``share`` of the line (default half), the rest is for comma
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
+from .board import Board, board_of
 from .commands import RobotCommands
 from .link_errors import LinkError
 
@@ -20,17 +20,26 @@ if TYPE_CHECKING:  # pragma: no cover - the model is loaded by whoever opens a l
 
 BITS_PER_BYTE = 10          # start + 8 data + stop
 DEFAULT_FEET_SHARE = 0.5
+#: Seconds from a command's arrival to its line written, when ``deadline`` is not given.
+DEFAULT_DEADLINE_S = 0.5
 
 
-@dataclass(frozen=True)
 class LineBudget:
-    """Wire times of one robot's link."""
+    """Wire times of one robot's link. (A plain class, not a dataclass: ``dataclasses``
+    imports ``inspect`` and ``ast`` into the robot side.)"""
 
-    baud: int
-    tick_s: float
-    sensor_read_s: float      # the central board's I2C read of the sensor board for `s`
-    feet_request_bytes: int   # "s" (+ "*HH") + CR LF
-    feet_reply_bytes: int     # "OK " + the longest readings + CR LF
+    __slots__ = ("baud", "tick_s", "sensor_read_s", "feet_request_bytes", "feet_reply_bytes")
+
+    def __init__(self, baud: int, tick_s: float, sensor_read_s: float,
+                 feet_request_bytes: int, feet_reply_bytes: int):
+        self.baud = baud
+        self.tick_s = tick_s
+        self.sensor_read_s = sensor_read_s          # the central board's I2C read for `s`
+        self.feet_request_bytes = feet_request_bytes   # "s" (+ "*HH") + CR LF
+        self.feet_reply_bytes = feet_reply_bytes       # "OK " + the longest readings + CR LF
+
+    def __repr__(self) -> str:
+        return "LineBudget(" + ", ".join(f"{k}={getattr(self, k)!r}" for k in self.__slots__) + ")"
 
     def line_s(self, nbytes: int) -> float:
         return nbytes * BITS_PER_BYTE / self.baud
@@ -69,15 +78,13 @@ class LineBudget:
         return t
 
 
-def line_budget(robot: Robot) -> LineBudget:
-    central = robot.central
-    assert central.uart is not None and central.timer2 is not None
-    cmds = RobotCommands(robot)
+def line_budget(robot: Board | Robot) -> LineBudget:
+    board = board_of(robot)
+    cmds = RobotCommands(board)
     request = len(cmds.wire(cmds.prefix("sensors")))
-    digits = [len(str(s.max)) for s in robot.sensors] or [0]
+    digits = [len(str(s.max)) for s in board.sensors] or [0]
     reply = len("OK ") + sum(digits) + max(len(digits) - 1, 0) + 2
-    peer = robot.peer("sensor")
-    regs = peer.registers if peer is not None else 0
+    regs = board.sensor_registers
     bits = 1 + 9 + 9 + 1 + 9 + 9 * regs + 1 if regs else 0
-    read_s = bits / central.i2c.speed_hz if central.i2c else 0.0
-    return LineBudget(central.uart.baud, central.timer2.period_s, read_s, request, reply)
+    read_s = bits / board.i2c_hz if board.i2c_hz else 0.0
+    return LineBudget(board.baud, board.tick_s, read_s, request, reply)

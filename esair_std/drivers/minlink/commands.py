@@ -1,6 +1,7 @@
 """Command lines for one robot, built from its validated board model; replies parsed.
 
-Pure functions over the robot's model (``esair_min`` loads and validates it): the
+Pure functions over the robot's board (:mod:`.board`: plain data taken from the model
+``esair_min`` loads and validates, or that model itself, converted): the
 command table's prefixes, the servos' limits and default speeds, the motions' numbers,
 the sensors' order. Everything that can be refused before sending is refused here with
 a :class:`LinkError` naming the servo, the value and the board file.
@@ -13,10 +14,10 @@ from typing import TYPE_CHECKING
 from esair_min.errors import ProtocolError
 from esair_min.core.protocol import MAX_SPEED, encode_pair, frame_line
 
+from .board import Board, Servo, board_of
 from .link_errors import LinkError
 
 if TYPE_CHECKING:  # pragma: no cover - the model is loaded by whoever opens a link
-    from esair_min.model.board import Servo
     from esair_min.model.robot import Robot
 
     from ...transport.codec import JSONObject
@@ -27,22 +28,21 @@ VERSION_PREFIX = "esair-min/1"
 class RobotCommands:
     """The lines ``robot``'s central board understands, and the checks made before sending."""
 
-    def __init__(self, robot: Robot):
-        self.robot = robot
-        uart = robot.central.uart
-        self.checksum = bool(uart and uart.require_checksum)
+    def __init__(self, robot: Board | Robot):
+        self.robot = robot = board_of(robot)
+        self.checksum = robot.checksum
         self.servos: dict[str, Servo] = {s.name: s for s in robot.servos}
         self.sensor_names: tuple[str, ...] = tuple(s.name for s in robot.sensors)
         self.groups: dict[str, tuple[str, ...]] = {}
         for s in robot.sensors:
             self.groups.setdefault(s.group, ())
             self.groups[s.group] += (s.name,)
-        self.motion_numbers: dict[str, int] = {m.name: m.number for m in robot.motions}
+        self.motion_numbers: dict[str, int] = dict(robot.motions)
         self._prefix: dict[str, str] = {}
         for c in robot.commands:
             if c.action not in self._prefix and not (c.action == "play" and c.motion):
                 self._prefix[c.action] = c.prefix
-        self.actuator_file = robot.file_of(robot.actuator) if robot.actuator else "?"
+        self.actuator_file = robot.actuator_file
 
     # -- building lines -----------------------------------------------------------------
     def prefix(self, action: str) -> str:

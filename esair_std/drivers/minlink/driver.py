@@ -66,23 +66,23 @@ from __future__ import annotations
 import threading
 import time
 from pathlib import Path
-from typing import Generic, TypeVar
-
-from pydantic import BaseModel
+from typing import TYPE_CHECKING, Any, Generic, TypeVar
 
 from esair_std import Actuator, CommandError, Driver, ResourceLost, Sensor
 
 from esair_min.errors import EsairError
 
 from ...restart_window import RestartWindow
-from ...deploy.class_options import check_options
 from ...errors import DeployError
-from .budget import line_budget
+from .board import Board, board_of
+from .budget import DEFAULT_DEADLINE_S, DEFAULT_FEET_SHARE, line_budget
 from .emulated import EmulatedRobot
 from .link_errors import LinkDown, LinkError
 from .link import DIFFERENT_ROBOT, Exchange, Link
-from .options import DEFAULT_DEADLINE_S, MinLinkOptions
 from ...transport.codec import JSON, JSONObject
+
+if TYPE_CHECKING:  # pragma: no cover - the schema is imported only to check options
+    from pydantic import BaseModel
 
 _R = TypeVar("_R", bound=JSON)     # what one poll of a PolledSensor gets
 
@@ -306,31 +306,71 @@ def in_folder(base: Path, value: str, must_exist: bool = False) -> str:
     return str(base / p)
 
 
+class _Options:
+    """A ``MinLink`` entry's options, checked (options.py's ``MinLinkOptions``, dumped
+    to plain values): what :meth:`MinLink.open` reads of them."""
+
+    def __init__(self, d: dict[str, Any]):
+        self.robot: str | None = d.get("robot")
+        self.port: str = str(d["port"])
+        emulate = dict(d.get("emulate") or {})
+        restart = dict(emulate.pop("restart", None) or {})
+        self.restart_max = int(restart.get("max", 0))
+        self.restart_within = float(restart.get("within", 0.0))
+        self.emulate: dict[str, object] = emulate        # the child's options
+        self.feet_hz = float(d.get("feet_hz", 8.0))
+        self.feet_share = float(d.get("feet_share", DEFAULT_FEET_SHARE))
+        self.timeout = float(d.get("timeout", 1.0))
+        self.deadline = float(d.get("deadline", DEFAULT_DEADLINE_S))
+        self.duplex = bool(d.get("duplex", True))
+
+
 class MinLink(Driver):
     """One MIN robot over its serial link (see the module docstring)."""
 
-    #: the entry's options (checked with the deployment, each error at its line)
-    Options: type[BaseModel] | None = MinLinkOptions
+    #: the entry's options (checked with the deployment, each error at its line): named,
+    #: not imported, so that a robot side handed them checked never loads pydantic
+    Options: type[BaseModel] | str = "esair_std.drivers.minlink.options:MinLinkOptions"
 
-    def open(self) -> None:
+    @classmethod
+    def prepare_entry(cls, options: dict[str, object], base_dir: str | Path | None,
+                      name: str) -> JSONObject | None:
+        """What :meth:`open` needs, as plain JSON: the options checked, the board files'
+        path and what the link uses of their model (:mod:`.board`), and the files read
+        (``inputs``). ``esair std run`` calls it where the deployment is checked (not in
+        the robot side's process, which then imports neither pydantic nor the model);
+        ``open`` calls it when it was not (an entry added at run time, the Python API)."""
+        from ...deploy.class_options import check_options
+        from .options import MinLinkOptions
         try:
-            o = check_options(MinLinkOptions, dict(self.options))
+            o = check_options(MinLinkOptions, dict(options))
         except DeployError as exc:      # an entry added at run time: its options' paths
-            raise LinkError(f"{self.name}: {exc}") from None
+            raise LinkError(f"{name}: {exc}") from None
         assert isinstance(o, MinLinkOptions)
-        base = Path(getattr(self._esair.spec, "base_dir", None) or ".")   # the file's folder
-        robot_arg = o.robot if o.robot is not None else self.name
+        base = Path(base_dir or ".")                      # the deployment file's folder
+        robot_arg = o.robot if o.robot is not None else name
         robot_arg = in_folder(base, robot_arg, must_exist=True)
-        port = o.port
-        # the board model (pydantic) is loaded here, where the link opens: a runtime
-        # that only checks this class's options (process mode) never loads it
-        from esair_min.model.validate import load_robot
+        from esair_min.model.validate import board_files, load_robot
         from esair_min.resources import resolve_robot
         try:
             path = resolve_robot(str(robot_arg))
             robot = load_robot(path)
         except EsairError as exc:
-            raise LinkError(f"{self.name}: robot {robot_arg!r}: {exc}") from None
+            raise LinkError(f"{name}: robot {robot_arg!r}: {exc}") from None
+        return {"options": o.model_dump(mode="json"), "path": str(path),
+                "board": board_of(robot).to_json(),
+                "inputs": [str(f) for f in board_files(path)]}
+
+    def open(self) -> None:
+        spec = self._esair.spec
+        base = Path(getattr(spec, "base_dir", None) or ".")    # the file's folder
+        prepared: Any = getattr(spec, "prepared", None)
+        if not prepared:
+            prepared = self.prepare_entry(dict(self.options), base, self.name)
+        o = _Options(prepared["options"])
+        path = Path(str(prepared["path"]))
+        robot = Board.from_json(prepared["board"])
+        port = o.port
         self.children: dict[str, Sensor | Actuator] = {}
         self.emulated: EmulatedRobot | None = None
         hz, share, timeout, deadline = o.feet_hz, o.feet_share, o.timeout, o.deadline
@@ -342,9 +382,8 @@ class MinLink(Driver):
         self._supervisor: threading.Thread | None = None
         expect = None
         if port == "emulate":
-            policy = o.emulate.restart
-            self._restarts = RestartWindow(policy.max, policy.within)
-            self.emulated = EmulatedRobot(path, emulate_args(o.emulate.args(), base))
+            self._restarts = RestartWindow(o.restart_max, o.restart_within)
+            self.emulated = EmulatedRobot(path, emulate_args(o.emulate, base))
             expect = self.emulated.instance
             port = self.emulated.start()
         self.notices = NoticeSensor()

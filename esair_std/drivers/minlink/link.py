@@ -85,6 +85,7 @@ from esair_min.core.protocol import RX_RING, Code, parse_reply
 from esair_min.serialport import LOCKED, describe, open_port
 
 from ...counters import Counters
+from .board import Board
 from .budget import LineBudget, line_budget
 from .commands import VERSION_PREFIX, RobotCommands
 from .link_errors import DifferentRobot, Expired, Held, LinkDown, LinkError, RobotRefused
@@ -143,7 +144,7 @@ _Start = tuple[Exchange, "Serial", bytes]
 class Link:
     """The serial link to one MIN robot (see the module docstring)."""
 
-    def __init__(self, robot: Robot, port: str, *, baud: int | None = None,
+    def __init__(self, robot: Board | Robot, port: str, *, baud: int | None = None,
                  timeout: float = 1.0, backoff: tuple[float, float] = (0.05, 2.0),
                  notice_capacity: int = 256, on_state: StateCallback | None = None,
                  on_notice: NoticeCallback | None = None, expect_id: str | None = None,

@@ -9,12 +9,10 @@ from typing import Annotated
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from .budget import DEFAULT_FEET_SHARE
+from .budget import DEFAULT_DEADLINE_S, DEFAULT_FEET_SHARE
 
 #: ``s`` polls per second when ``feet_hz`` is not given.
 DEFAULT_FEET_HZ = 8.0
-#: Seconds from a command's arrival to its line written, when ``deadline`` is not given.
-DEFAULT_DEADLINE_S = 0.5
 
 #: A number of the options: an int or a float, never a bool or text.
 Number = Annotated[float, Field(strict=True)]

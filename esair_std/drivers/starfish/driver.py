@@ -198,6 +198,13 @@ class Starfish(MinLink):
     #: the entry's options (checked with the deployment, each error at its line)
     Options = StarfishOptions
 
+    @classmethod
+    def prepare_entry(cls, options: dict[str, object], base_dir: str | Path | None,
+                      name: str) -> JSONObject | None:
+        """Nothing prepared where the deployment is checked: ``open`` checks its options
+        and loads its board model itself (not MinLink's preparation)."""
+        return None
+
     def open(self) -> None:
         self.tap: WorldTap | None = None
         self.link_switch: LinkSwitch | None = None

@@ -84,6 +84,52 @@ class RampModel:
             angle, speed = _ramp(angle, speed, target, self.accel, t1 - t0)
         return angle, speed
 
+    def rest(self, t: float) -> float:
+        """The angle turned once at rest, the stop landing at time t."""
+        angle, rate = self.at(t)
+        return angle + rate * abs(rate) / (2 * self.accel)
+
+
+class WheelRamp(RampModel):
+    """:class:`RampModel` wheel by wheel: the drive board ramps each wheel toward its own
+    rim speed at its ``ramp_mm_s2``. A robot that was driving (``drive``: vx, vy mm/s,
+    its frame) starts from that drive's rim speeds, and while they ramp out its turn rate
+    lags a turn from standing (a wheel already past its turn speed slows down while the
+    others speed up). ``sign``: the turn's direction (rates and angles in it, >= 0)."""
+
+    def __init__(self, robot: Any, drive: tuple[float, float] = (0.0, 0.0), sign: float = 1.0):
+        from esair_min.components.omni_base.kinematics import inverse, matrix, wheel_table
+        motors = _motors(robot)
+        wheels = wheel_table(list(motors))
+        super().__init__(min(m.ramp_mm_s2 / m.mount_radius_mm for m in motors))
+        self.rows = matrix(wheels)                 # (vx, vy, omega) -> rim speeds
+        self.omega_row = inverse(wheels)[2]        # rim speeds -> omega
+        self.ramps = [float(m.ramp_mm_s2) for m in motors]
+        self.start = [sign * (r[0] * drive[0] + r[1] * drive[1]) for r in self.rows]
+
+    def _wheels(self, t: float) -> list[tuple[float, float]]:
+        """Each wheel's (rim travel mm, rim speed mm/s) at time t."""
+        out = []
+        for i, row in enumerate(self.rows):
+            dist, speed = 0.0, self.start[i]
+            for k, (t0, rate) in enumerate(self.changes):
+                if t <= t0:
+                    break
+                t1 = min(t, self.changes[k + 1][0]) if k + 1 < len(self.changes) else t
+                dist, speed = _ramp(dist, speed, row[2] * rate, self.ramps[i], t1 - t0)
+            out.append((dist, speed))
+        return out
+
+    def at(self, t: float) -> tuple[float, float]:
+        w = self._wheels(t)
+        return (sum(c * d for c, (d, _) in zip(self.omega_row, w)),
+                sum(c * v for c, (_, v) in zip(self.omega_row, w)))
+
+    def rest(self, t: float) -> float:
+        w = self._wheels(t)
+        return sum(c * (d + v * abs(v) / (2 * a))
+                   for c, (d, v), a in zip(self.omega_row, w, self.ramps))
+
 
 def _ramp(angle: float, speed: float, target: float, accel: float, dt: float) -> tuple[float, float]:
     """Angle and rate after ``dt`` s of ramping from ``speed`` toward ``target``."""
@@ -100,11 +146,9 @@ def stop_time(model: RampModel, angle_then: float, t_then: float, now: float, go
     s later) brings the robot to rest at ``goal`` rad: ``angle_then`` was measured at
     ``t_then`` (odometry), the model carries it on; None if not within the horizon."""
     base = model.at(t_then)[0]
-    accel = model.accel
 
     def reaches(t: float) -> bool:
-        angle, rate = model.at(t + latency)
-        return angle_then + angle - base + rate * rate / (2 * accel) >= goal
+        return angle_then + model.rest(t + latency) - base >= goal
 
     if reaches(now):
         return now
@@ -120,3 +164,22 @@ def stop_time(model: RampModel, angle_then: float, t_then: float, now: float, go
                 lo, t = (lo, mid) if reaches(mid) else (mid, t)
             return t
     return None
+
+
+def seen_at_rest(model: RampModel, frames: list[tuple[float, float]], rest_at: float,
+                 stop_rate: float, margin: float, left: float) -> bool:
+    """Does the odometry frame ``frames[-1]`` (time, angle turned) see the robot at
+    rest, the stop told to ``model``? It was read at least ``margin`` s after the
+    model's rest ``rest_at``, and since each earlier frame in ``frames`` (the one the
+    stop was planned from, the one before it) it turned no more than the model says
+    beyond what a stop landing that much late (the excess over ``stop_rate``, the rate
+    it stopped from) would still have to turn after it: ``left`` rad at most."""
+    t, turned = frames[-1]
+    if t < rest_at + margin:
+        return False
+    for t0, a0 in frames[:-1]:
+        extra = turned - a0 - (model.at(t)[0] - model.at(t0)[0])
+        late = max(0.0, extra) / max(stop_rate, 0.05)
+        if 0.5 * model.accel * max(0.0, late - (t - rest_at)) ** 2 > left:
+            return False
+    return True

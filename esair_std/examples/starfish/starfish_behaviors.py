@@ -75,8 +75,11 @@ class Patrol(Behavior):
         self.index = 0
         self.yielded_until = 0.0
         self.yielded_to = None
-        self.was_driving = False
         self.laps = 0
+        # (time.monotonic(), mm/s) of the drive commands sent lately: the fastest is in
+        # patrol's answer (turn_and_shoot's start while the drive ramps out)
+        self.drives: collections.deque[tuple[float, float]] = collections.deque(maxlen=16)
+        self.last_drive = (0.0, 0, 0)       # (when, vx, vy) of the last drive command
         self.reached = 0
         self.link_losses = 0
         self.radio_up = True
@@ -98,9 +101,8 @@ class Patrol(Behavior):
         self.radio_up = up
         pose = self.odometry.latest()
         if not up or time.monotonic() < self.yielded_until or pose is None:
-            if self.was_driving and up:
-                self._send("stop")          # handing over to turn_and_shoot: stand still
-            self.was_driving = False
+            # yielded: the taker commands the wheels at once (a stop sent now would
+            # land in the middle of its turn)
             return                          # reconnect drives while the link is down
         target = self.waypoints[self.index]
         if math.hypot(target[0] - pose.value["x"], target[1] - pose.value["y"]) < self.tolerance:
@@ -108,7 +110,10 @@ class Patrol(Behavior):
             self.index = (self.index + 1) % len(self.waypoints)
             self.laps += self.index == 0
             target = self.waypoints[self.index]
-        self.was_driving = self._send(drive_towards(pose.value, target, self.speed))
+        drive = drive_towards(pose.value, target, self.speed)
+        self.drives.append((time.monotonic(), math.hypot(drive["vx"], drive["vy"])))
+        self.last_drive = (time.monotonic(), drive["vx"], drive["vy"])
+        self._send(drive)
 
     def _send(self, command) -> bool:
         try:
@@ -119,9 +124,15 @@ class Patrol(Behavior):
             return False
 
     def provide(self, requester):
+        # the fastest drive commanded within the last 0.5 s: the wheels are at most there
+        now = time.monotonic()
+        drive = max((v for t, v in self.drives if t > now - 0.5), default=0.0)
+        t, vx, vy = self.last_drive
         return {"waypoint": self.index, "reached": self.reached, "laps": self.laps,
-                "link_losses": self.link_losses, "yielded_to": self.yielded_to
-                if time.monotonic() < self.yielded_until else None}
+                "link_losses": self.link_losses, "drive_mm_s": round(drive),
+                # the last drive command (robot frame), while the wheels may still hold it
+                "drive": [vx, vy] if t > now - 0.5 else [0, 0],
+                "yielded_to": self.yielded_to if now < self.yielded_until else None}
 
 
 class Localize(Behavior):
@@ -187,6 +198,12 @@ class Localize(Behavior):
                 "overwritten": self.mics.overwritten}
 
 
+#: the standing frame by the ramp model (TurnAndShoot._at_rest): read this long after the
+#: model's rest (a control tick of each board), and what the robot may still turn after it
+REST_MARGIN_S = 0.02
+REST_LEFT_RAD = math.radians(0.1)
+
+
 class TurnAndShoot(Behavior):
     period = 0.02
     deadline = 3.0
@@ -197,12 +214,12 @@ class TurnAndShoot(Behavior):
         from esair_std.drivers.starfish import turn
         self._turn = turn
         self.patrol = self.options.get("patrol", "patrol")
-        self.tolerance = math.radians(float(self.options.get("tolerance_deg", 1.0)))
+        self.tolerance = math.radians(float(self.options.get("tolerance_deg", 1.5)))
         # the correction's top rate (rad/s): slow enough that a wheel command's late
         # arrival (tens of ms on a loaded computer) moves the aim by a fraction of a degree
         self.correction_rate = float(self.options.get("correction_rate", 0.25))
         # the turn's limits from the board files: the top rate and the drive board's ramp
-        robot = load_robot(resolve_robot(str(self.options.get("robot", "starfish"))))
+        robot = self.robot = load_robot(resolve_robot(str(self.options.get("robot", "starfish"))))
         omega, self.accel = turn.turn_limits(robot)
         # the flow sensors lose counts beyond their top speed: while the patrol's drive
         # ramps out, the turn starts slower, so the odometry keeps the heading
@@ -218,7 +235,16 @@ class TurnAndShoot(Behavior):
         self.going = False
         self.last_step = 0.0
         self.gap = self.period              # between two steps, smoothed
+        # patrol's step under way when it was asked to yield may still send a drive
+        # command: when patrol's answer to a get (after the yield) does not come, the
+        # turn counts on this long for it
         self.handover = float(self.options.get("handover_s", 0.06))
+        self.handed = False
+        self.patrol_drive: float | None = None      # patrol's answer: its drive lately
+        self.drive_cmd: tuple[float, float] | None = None   # ... and its last command
+        # the slow start's rate while patrol's drive ramps out: the wheels ramp one by
+        # one, and a faster turn would take a flow sensor past its top speed
+        self.start_rate = float(self.options.get("start_rate", 1.2))
         # the central board stops the wheels when no command came for 0.5 s: the turn's
         # rate is sent again after this long
         self.refeed = float(self.options.get("refeed_s", 0.2))
@@ -241,6 +267,11 @@ class TurnAndShoot(Behavior):
         self.pending = None
         self.phase = "idle"
         self.target = 0.0
+        # the turn's odometry: (the board's time, turned rad), and the stop's
+        self.odo: tuple[float, float] = (0.0, 0.0)
+        self.anchor = self.odo
+        self.stop_sent, self.stood = 0.0, False
+        self.rest_at: float | None = None
         self.since = 0.0
         self.quiet_until = 0.0
         self.pictures = []
@@ -279,11 +310,18 @@ class TurnAndShoot(Behavior):
             self.gap += 0.2 * (now - self.last_step - self.gap)
         self.last_step = now
         for s in self.odometry.samples():
+            # every sample's board time: the offsets are the last 10 samples' (a lagging
+            # emulator moves them; ones from an earlier turn would time this one early)
+            board_t = self._board_time(s)
             if self.phase in ("turning", "settling") and self.headings:
                 self.turned += self.sign * wrap(s.value["th"] - self.headings[-1][1])
-                self.odo = (self._board_time(s), self.turned)
-                if self.phase == "settling" and s.t > self.stop_sent and not s.value.get("moving", True):
-                    self.stood = True
+                prev, self.odo = self.odo, (board_t, self.turned)
+                if self.phase == "settling" and self.stop_sent and s.t > self.stop_sent and \
+                        not self.stood:
+                    if not s.value.get("moving", True):
+                        self.stood, self.turn["rest"] = True, "still"
+                    elif self._at_rest(prev):
+                        self.stood, self.turn["rest"] = True, "model"
             if self.last_xy is not None and s.t > self.last_xy[0]:
                 moved = math.hypot(s.value["x"] - self.last_xy[1], s.value["y"] - self.last_xy[2])
                 self.drives.append((s.t, 1000 * moved / (s.t - self.last_xy[0]), s.t - self.last_xy[0]))
@@ -298,6 +336,14 @@ class TurnAndShoot(Behavior):
             self.target = wrap(th + float(data["bearing"]))
             self.bearing = data
             self.put(self.patrol, {"yield": self.turn_timeout + 2.0}, timeout=0.3)
+            # patrol answers from its own thread after it took the yield: a drive command
+            # its step had under way has landed, and it sends no more
+            answer = self.get(self.patrol, timeout=0.3)
+            self.handed = isinstance(answer, dict)
+            self.patrol_drive = answer.get("drive_mm_s") if self.handed else None
+            drive = answer.get("drive") if self.handed else None
+            self.drive_cmd = (float(drive[0]), float(drive[1])) if isinstance(drive, list) and \
+                len(drive) == 2 and all(isinstance(v, (int, float)) for v in drive) else None
             self.since = time.monotonic()
             self.wheels_ok_at = self.since
             # the turn's record: its first aim, corrections, top rate commanded, and when
@@ -323,7 +369,7 @@ class TurnAndShoot(Behavior):
                         self._learn(err)
                     self.turn.setdefault("miss_deg", round(math.degrees(err), 2))
                     self.turn["aim_deg"] = round(math.degrees(err), 2)   # the last stand's
-                    self.turn["at"]["stood"] = time.time()
+                    self.turn["at"][self._key("stood")] = time.time()
                     if abs(err) > self.tolerance and self.turn["corrections"] < 1:
                         self._aim()         # the one correction, from the odometry
                     else:
@@ -368,10 +414,14 @@ class TurnAndShoot(Behavior):
             self.turn["deg"] = round(math.degrees(angle), 2)
         self.sign = 1.0 if angle >= 0 else -1.0
         self.goal, self.turned = abs(angle), 0.0
-        self.model = self._turn.RampModel(self.accel)
+        # the ramp wheel by wheel, from patrol's drive (the first aim) or from standing
+        drive = self.drive_cmd if self.turn["corrections"] == 0 and self.drive_cmd else (0.0, 0.0)
+        self.model = self._turn.WheelRamp(self.robot, drive, self.sign)
         self.odo = (self.headings[-1][0] if self.headings else time.time(), 0.0)
         self.stop_sent, self.stood = 0.0, False
         self.stop_rate = 0.0                # the model's rate when the stop was sent
+        self.rest_at = None                 # when the model has it come to rest
+        self.anchor = self.odo              # the odometry the stop was planned from
         self.going = False
         self.sent = (0, 0.0)                # the last rate sent (mrad/s), when
         # driving: turn at what the flow sensors can follow until the drive has ramped out
@@ -381,10 +431,15 @@ class TurnAndShoot(Behavior):
         # period: handover_s), so the turn starts at what the flow sensors can follow
         # until whatever drive there is has ramped out
         v = 0.0
-        if self.turn["corrections"] == 0 and self.drives and any(self.moved):
+        known = self.handed and isinstance(self.patrol_drive, (int, float))
+        if self.turn["corrections"] == 0 and known:
+            # what patrol commanded lately bounds the wheels (the odometry's speed lags a
+            # robot speeding up, and is a frame old)
+            v = min(self.max_drive, float(self.patrol_drive))  # type: ignore[arg-type]
+        elif self.turn["corrections"] == 0 and self.drives and any(self.moved):
             t_last, v_last, dt = self.drives[-1]
             top = max(sp for t, sp, _ in self.drives if t > t_last - 1.0)
-            v = 1.25 * top + 50.0
+            v = 1.05 * top + 20.0           # the flow counts' noise
             if len(self.drives) > 1 and v_last > self.drives[-2][1] + 30.0:     # speeding up
                 v = max(v, v_last + self.accel * self.wheel_r * (time.time() - t_last + dt))
             v = min(self.max_drive, v)
@@ -396,10 +451,18 @@ class TurnAndShoot(Behavior):
             self.top = min(self.top, max(self.correction_rate, abs(angle) / 1.0))
         self.slow_until, self.slow_rate, self.slow_for = 0.0, self.top, 0.0
         if self.turn["corrections"] == 0:
-            v = max(v, self.handover_mm_s)
-            self.slow_rate = max(0.2, (0.85 * self.flow_max - v) / self.flow_r)
-            self.slow_for = self.handover + (v + self.wheel_r * self.slow_rate) / (
-                self.accel * self.wheel_r)
+            handover = 0.0 if self.handed else self.handover
+            if not self.handed:
+                v = max(v, self.handover_mm_s)
+            if v > 0:
+                # the start rate while the drive ramps out (its largest wheel change, at
+                # the drive board's ramp, and a control tick); faster where the sensors'
+                # speed, the drive's plus the turn's, stays under their top
+                self.slow_rate = min(self.top, max(self.start_rate,
+                                                   (0.85 * self.flow_max - v) / self.flow_r))
+                self.slow_for = handover + v / (self.accel * self.wheel_r) + 0.02
+            self.turn["start"] = [round(1000 * self.slow_rate), round(1000 * self.slow_for),
+                                  self.handed]
         self.phase = "turning" if abs(angle) > self.tolerance else "settling"
 
     def _turning(self):
@@ -423,8 +486,9 @@ class TurnAndShoot(Behavior):
         self._wheels({"w": w})
         t1 = time.time()
         # where the command landed: the middle of its own round trip (a slow one may have
-        # been slow either way; the middle is off by half of it at most)
-        landed = (t0 + t1) / 2
+        # been slow either way; the middle is off by half of it at most), and half the
+        # drive board's control tick (as the stop's)
+        landed = (t0 + t1) / 2 + 0.005
         if self.going and self.slow_for and w != self.sent[0]:
             self.model.command(landed, rate)      # the slow start ended: when it did
         self.sent = (w, t0)
@@ -433,7 +497,7 @@ class TurnAndShoot(Behavior):
         self.turn["max_w"] = max(self.turn["max_w"], abs(w))
         if not self.going:                  # the wheels ramp up from here
             self.going = True
-            self.turn["at"].setdefault("go", t0)
+            self.turn["at"][self._key("go")] = t0
             self.model.command(landed, rate)
             if self.slow_for:
                 # the top rate enters the model when it is sent (the stop is not looked
@@ -443,6 +507,10 @@ class TurnAndShoot(Behavior):
                 # the correction, short and from standing: its stop planned now and
                 # waited for here rather than at the mercy of the next steps
                 self._stop_due(0.4)
+                return
+        # a stop due soon after this command (a short turn's, right after the slow
+        # start) is waited for now, not found late by the next step
+        self._stop_due(min(0.25, max(0.1, 2.5 * self.gap)))
 
     def _stop_due(self, horizon: float) -> bool:
         """Send the stop if it is due within ``horizon`` s (waiting for its moment); not
@@ -450,12 +518,25 @@ class TurnAndShoot(Behavior):
         if self.slow_until > time.time():
             horizon = min(horizon, self.slow_until - time.time())
         t_stop = self._turn.stop_time(self.model, self.odo[1], self.odo[0], time.time(),
-                                      self.goal, self.rtt / 2 + 0.005 + self.lead, horizon)
+                                      self.goal, self._stop_latency(), horizon)
         if t_stop is None:
             return False
         time.sleep(max(0.0, t_stop - time.time()))
         self._stop()
         return True
+
+    def _stop_latency(self) -> float:
+        """From sending the stop to its landing: half a round trip, half the drive
+        board's control tick, and the lead learned from the misses."""
+        return self.rtt / 2 + 0.005 + self.lead
+
+    def _at_rest(self, prev: tuple[float, float]) -> bool:
+        """Does the odometry frame just read (``self.odo``, after ``prev``) see the
+        robot at rest by the ramp model (turn.seen_at_rest)?"""
+        if self.rest_at is None:
+            return False
+        return self._turn.seen_at_rest(self.model, [self.anchor, prev, self.odo], self.rest_at,
+                                       self.stop_rate, REST_MARGIN_S, REST_LEFT_RAD)
 
     def _learn(self, err: float) -> None:
         """The stop's lead from the first aim's miss: past the target in the turn's
@@ -470,13 +551,20 @@ class TurnAndShoot(Behavior):
         self.phase = "settling"
         t0 = time.time()
         if self.going:
+            landing = t0 + self._stop_latency()
             if not self.stop_rate:
-                self.stop_rate = self.model.at(t0 + self.rtt / 2)[1]
-            self.model.command(t0 + self.rtt / 2, 0.0)
+                self.stop_rate = self.model.at(landing)[1]
+            self.model.command(landing, 0.0)
+            self.rest_at = landing + self.model.at(landing)[1] / self.accel
+            self.anchor = self.odo
         self.stop_sent = 0.0
         self._wheels("stop")
         self.stop_sent = t0
-        self.turn["at"]["stop"] = t0
+        self.turn["at"][self._key("stop")] = t0
+
+    def _key(self, event: str) -> str:
+        """The turn record's name of an event: the correction's with a 2 (go2...)."""
+        return event + ("2" if self.turn["corrections"] > 0 else "")
 
     def _wheels(self, command):
         self.wheels.send(command, timeout=0.5)

@@ -1,0 +1,95 @@
+"""A deployment checked outside the robot side's process, then loaded as plain data.
+
+:func:`checked_deployment` is ``esair std run``'s: the cache first (cache.py: every
+file the deployment was made from still the same, byte for byte); else a child forked
+now — before any thread or Zenoh session exists in this process — imports pydantic,
+checks the deployment as ``esair std check`` does and hands back its plain JSON
+through a pipe, then exits, taking pydantic's memory with it. None when it cannot be
+made plain (a problem in the deployment, a security section, no fork): the caller
+then loads it in its own process, which gives the same error at the same file:line.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import threading
+from collections.abc import Callable
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Mapping
+
+from . import cache
+from .plain import PlainDeployment
+
+if TYPE_CHECKING:  # pragma: no cover
+    from esair_min.config.yamlload import Document
+
+#: Why the last call returned what it did ("cache", "checked", or why not plain): for
+#: tests, never for decisions.
+last = {"how": ""}
+
+
+def checked_deployment(path: str | Path, overrides: Mapping[str, object],
+                       edit: Callable[[Document], None] | None = None,
+                       ) -> PlainDeployment | None:
+    """The deployment at ``path`` (with the command line's ``overrides``, which
+    ``edit`` applies to the document read) checked and plain, or None (see the
+    module docstring)."""
+    key = cache.key(path, overrides)
+    hit = cache.read(key)
+    if hit is not None:
+        last["how"] = "cache"
+        return hit
+    got = _in_child(path, edit)
+    if not isinstance(got, dict):
+        last["how"] = str(got)
+        return None
+    try:
+        plain = PlainDeployment.from_json(got["deployment"])
+    except (ValueError, KeyError, TypeError):
+        last["how"] = "the checking child's answer is not a plain deployment"
+        return None
+    cache.write(key, got["deployment"], got.get("inputs", {}))
+    last["how"] = "checked"
+    return plain
+
+
+def _in_child(path: str | Path, edit: Callable[[Document], None] | None) -> object:
+    """The child's answer ({"deployment", "inputs"}), or why there is none (a str)."""
+    if not hasattr(os, "fork") or threading.active_count() > 1:
+        return "not forked: threads run here already"
+    try:
+        r, w = os.pipe()
+        pid = os.fork()
+    except OSError as exc:
+        return f"not forked: {exc}"
+    if pid == 0:                                  # the child: check, answer, leave
+        os.close(r)
+        code = 0
+        try:
+            answer: Any = _check(path, edit)
+        except BaseException as exc:  # noqa: BLE001 - the parent checks again and says it
+            answer, code = f"{type(exc).__name__}: {exc}", 1
+        try:
+            with os.fdopen(w, "w", encoding="utf-8") as f:
+                json.dump(answer, f)
+        finally:
+            os._exit(code)                        # no atexit, no flush of the parent's buffers
+    os.close(w)
+    with os.fdopen(r, encoding="utf-8") as f:
+        text = f.read()
+    os.waitpid(pid, 0)
+    try:
+        return json.loads(text)
+    except ValueError:
+        return "the checking child gave no answer"
+
+
+def _check(path: str | Path, edit: Callable[[Document], None] | None) -> object:
+    """In the child: the plain deployment and the hashes of the files it came from."""
+    from ..deploy.compile import compile_deployment
+    made = compile_deployment(path, edit)
+    if made is None:
+        return "not plain: the deployment has a security section"
+    plain, inputs = made
+    return {"deployment": plain, "inputs": cache.hashes(inputs)}
