@@ -28,6 +28,8 @@ from dataclasses import dataclass
 from typing import (TYPE_CHECKING, Callable, Generic, Literal, TypeVar, TypeVarTuple, Union,
                     Unpack, cast)
 
+from esair_min import sigs
+
 from .errors import ControlError
 from .counters import Counters
 from .restart_window import RestartWindow
@@ -194,7 +196,7 @@ class Supervisor(Generic[H]):
             self._requests.put((fn, args, box, done), timeout=1.0)
         except queue.Full:
             raise ControlError("the supervisor is busy: try again") from None
-        if not done.wait(timeout):
+        if not sigs.wait(done, timeout):    # the main thread's signals interrupt it
             raise ControlError(f"request not done within {timeout:g} s")
         outcome = box[0]
         if outcome[0] is False:

@@ -116,21 +116,24 @@ def _in_process_mode(item) -> bool:
     return callspec is not None and "process" in callspec.params.values()
 
 
-#: The longest modules, longest first (--durations of a whole run, summed per module).
+#: The longest modules, longest first (--durations=0 of a whole run, summed per module).
 #: pytest-xdist hands whole modules to its workers in collection order (--dist loadfile
 #: with --no-loadscope-reorder; its default order, most tests first, ran the two network
 #: modules of 2 tests and 11 last): started first, they no longer leave one worker
 #: running alone at the end. The two network modules go to different workers' queues
 #: one after the other, never side by side (both cut links and load the CPU).
-LONGEST_FIRST = ["test_starfish_net", "test_foxglove", "test_std_net", "test_hmi_security",
-                 "test_std_papaman_cli", "test_flash_avr", "test_hmi_papaman", "test_pic_flash_cli",
-                 "test_starfish_std", "test_hmi_stop", "test_pic_bootloader", "test_verify",
-                 "test_std_operator_cli", "test_std_papaman", "test_hmi_truth", "test_pty_promise",
-                 "test_std_cli", "test_std_supervision", "test_validate_fuzz", "test_std_record",
-                 "test_gpsim", "test_decoder_props", "test_starfish_gpsim", "test_validate_errors",
-                 "test_minlink_safety", "test_std_stop", "test_std_net_security", "test_avr",
-                 "test_std_papaman_safety", "test_gpsim_slaves", "test_overrun",
-                 "test_std_operator_lab"]
+LONGEST_FIRST = ["test_starfish_net", "test_foxglove", "test_std_net", "test_verify",
+                 "test_starfish_std", "test_hmi_papaman", "test_std_papaman",
+                 "test_std_operator_cli", "test_pic_bootloader", "test_hmi_stop",
+                 "test_pic_flash_cli", "test_std_papaman_safety", "test_flash_avr", "test_std_stop",
+                 "test_hmi_truth", "test_avr", "test_pty_promise", "test_gpsim", "test_eeprom_link",
+                 "test_gpsim_slaves", "test_std_cli", "test_doctor", "test_validate_fuzz",
+                 "test_differential", "test_decoder_props", "test_validate_errors",
+                 "test_fast_paths", "test_overrun", "test_std_record",
+                 "test_delivered_means_delivered", "test_std_net_security",
+                 "test_std_first_behavior", "test_std_supervision", "test_hmi_starfish", "test_pty",
+                 "test_minlink_safety", "test_cli_manner", "test_hmi_security",
+                 "test_std_papaman_cli", "test_std_bs"]
 
 
 def pytest_collection_modifyitems(config, items):

@@ -11,6 +11,7 @@ import time
 from pathlib import Path
 from typing import Any, TextIO
 
+from esair_min import sigs
 from esair_min.errors import EsairError
 from esair_min.model.robot import Robot
 
@@ -157,7 +158,7 @@ def run_monitor(port: str, baud: int, robot: Robot | None, log_path: Path | None
         while True:
             text = input(PROMPT) if tty else sys.stdin.readline()
             if not tty and text == "":
-                stop.wait()             # stdin ended: keep showing until Ctrl-C
+                sigs.wait(stop)         # stdin ended: keep showing until Ctrl-C (any thread's)
                 continue
             text = text.rstrip("\r\n")
             if not text:

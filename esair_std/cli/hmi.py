@@ -103,7 +103,7 @@ def record_cmd(out: str, names: tuple[str, ...], endpoint: str | None,
     sigs.install(signal.SIGINT, lambda *_: stop.set())
     rec.start()
     click.echo(f"recording to {out}", err=True)
-    stop.wait(seconds)
+    sigs.wait(stop, seconds)        # a signal taken by any thread ends it
     c = rec.stop()
     click.echo(f"{out}: {counted(c['written'], 'sample')} and "
                f"{counted(c['commands'], 'command')} on {counted(c['channels'], 'channel')}, "

@@ -189,7 +189,7 @@ def run_cmd(deployment: str, mode: str | None, seconds: float | None, endpoint: 
                 if top:
                     _live(rt, stop, seconds)
                 else:
-                    stop.wait(seconds)
+                    sigs.wait(stop, seconds)     # a SIGTERM on any thread ends it
             finally:
                 for child in children:
                     child.stop()

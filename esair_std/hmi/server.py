@@ -101,6 +101,12 @@ class Page:
         self.hidden = False         # in the background: no samples (op "view")
 
 
+def _port(ws: ServerConnection) -> int | None:
+    """The page's port on its browser's side (None once its socket is gone)."""
+    peer = ws.remote_address
+    return peer[1] if isinstance(peer, tuple) and len(peer) > 1 else None
+
+
 def _field(frame: JSONObject, name: str, kind: type[_T]) -> _T:
     v = frame.get(name)
     if not isinstance(v, kind) or isinstance(v, bool) and kind is not bool:
@@ -197,8 +203,10 @@ class HmiServer:
         return {"counters": {**self.c.snapshot(), "open_pages": len(pages),
                              "hidden_pages": sum(p.hidden for p in pages),
                              **self.auth.c.snapshot()},
-                # each open page: its role, whether hidden, the frames it lost
-                "pages": [{"role": p.role, "hidden": p.hidden, **p.c.snapshot()} for p in pages],
+                # each open page: its role, whether hidden, the frames it lost, and the
+                # port it came from (which page is which, for its owner)
+                "pages": [{"role": p.role, "hidden": p.hidden, "port": _port(p.ws),
+                           **p.c.snapshot()} for p in pages],
                 "bridge": {**self.bridge.counters()} if self.bridge else {}}
 
     # ---- HTTP

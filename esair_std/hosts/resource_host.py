@@ -15,6 +15,8 @@ import threading
 import time
 from typing import TYPE_CHECKING, Callable, Union, cast
 
+from esair_min import sigs
+
 from ..errors import CommandError, ComponentError, ResourceLost, StdError
 from ..resource import Actuator, Driver, Sensor
 from ..sample import Sample
@@ -140,7 +142,7 @@ class ResourceHost:
     def start(self, timeout: float = OPEN_TIMEOUT) -> dict[str, str]:
         """Open the device on the host thread; the children ``{name: kind}``."""
         self.thread.start()
-        if not self._opened.wait(timeout):
+        if not sigs.wait(self._opened, timeout):      # a SIGTERM interrupts the start
             self._stop.set()
             raise ComponentError(f"resource {self.name!r} did not open within {timeout:g} s")
         if self._error is not None:

@@ -129,7 +129,10 @@ def _receive(sock: _socket.socket) -> tuple[bytes, list[int]]:
 
 
 def serve(sock: _socket.socket) -> None:
-    sock.send(b'{"ready": true}')
+    try:
+        sock.send(b'{"ready": true}')
+    except OSError:
+        return                  # the runtime went away while this one started
     while True:
         try:
             msg, fds = _receive(sock)
@@ -146,7 +149,10 @@ def serve(sock: _socket.socket) -> None:
         finally:
             for fd in fds:
                 os.close(fd)
-        sock.send(json.dumps(answer).encode())
+        try:
+            sock.send(json.dumps(answer).encode())
+        except OSError:
+            return              # the runtime went away while it forked (a stop while starting)
 
 
 def main() -> None:

@@ -20,6 +20,8 @@ import threading
 import time
 from typing import TYPE_CHECKING, Any, Callable
 
+from esair_min import sigs
+
 from ..errors import ComponentError, ResourceLost, StdError, TransportError
 from ..parts import NO_ANSWER
 from ..spec import Spec
@@ -144,7 +146,7 @@ class _Child:
                 self.kill()
                 raise ComponentError(f"{self.spec.kind} {self.name!r} did not start within"
                                      f" {limit:g} s")
-            self.changed.wait(left)
+            sigs.wait(self.changed, left)       # a signal on any thread interrupts it
         if self.info.get("error"):
             self.kill()
             raise ComponentError(str(self.info["error"]))
@@ -666,7 +668,7 @@ class ProcessMode:
                     child.kill()
                     raise ComponentError(f"{spec.kind} {spec.name!r} did not start within"
                                          f" {START_TIMEOUT:g} s")
-                child.changed.wait(left)
+                sigs.wait(child.changed, left)
         except BaseException:
             child.kill()
             raise

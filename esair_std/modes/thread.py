@@ -9,6 +9,8 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Callable, Iterable
 
+from esair_min import sigs
+
 from ..errors import ComponentError
 from ..latch import may_stop
 from ..level import Level
@@ -130,7 +132,7 @@ class ThreadMode:
         cls = component_class(spec.class_path, spec.base_dir, spec.where, spec.kind)
         host = ComponentHost(spec, cls, self.port, generation)
         host.start()
-        if not host.started.wait(START_TIMEOUT):
+        if not sigs.wait(host.started, START_TIMEOUT):    # a signal on any thread interrupts it
             host.stop(0.1)
             raise ComponentError(f"{spec.kind} {spec.name!r} did not start within"
                                  f" {START_TIMEOUT:g} s")

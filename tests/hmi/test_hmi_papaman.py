@@ -456,9 +456,13 @@ def test_a_page_that_takes_nothing_loses_frames_counted_and_no_other_page_waits(
             for i in range(120):                                 # its reader stops at once
                 ws.send(json.dumps({"op": "ping", "id": i, "ts": "x" * 60_000}))
             wait_for(lambda: robot.status()["counters"]["dropped"] > before, what="frames dropped")
-            # counted on the stuck page, not on the live one (which takes everything)
+            # counted on the stuck page, not on the live one (which takes everything); the
+            # stuck page known by its port: a third page, seen on a loaded machine (one the
+            # server still held from earlier, its browser gone), may have lost some too
             pages = robot.status()["pages"]
-            assert sorted(p["dropped"] > 0 for p in pages) == [False, True], pages
+            stuck = [p for p in pages if p["port"] == sock.getsockname()[1]]
+            assert [p["dropped"] > 0 for p in stuck] == [True], pages
+            assert [p for p in pages if p not in stuck and p["dropped"] == 0], pages
             seen = page.evaluate("window.__hmi.stats.samples")
             page.wait_for_function(f"() => window.__hmi.stats.samples >= {seen + 20}")
             draws = page.evaluate("window.__hmi.stats.draws")
@@ -591,7 +595,9 @@ def test_the_feet_plot_scrolls_new_samples_in_and_pause_holds_it(robot, browser)
     page.click("#pause")                                        # resumed: drawn again
     page.wait_for_function(f"() => window.__hmi.feet.top.frames.full > {frames['full']}")
     resumed = page.evaluate(FIND, ts)
-    assert resumed["xs"] and all(abs(x - resumed["want"]) <= NEAR for x in resumed["xs"]), resumed
+    # the same picture as before the pause: the line up to the spike and down to the next
+    # real sample (which crosses the spike's row past NEAR when that sample came late)
+    assert spike_where_the_time_puts_it(resumed), resumed
     assert page.evaluate(PIXELS) != held
     page.close()
     assert errors == []

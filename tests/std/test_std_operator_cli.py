@@ -5,8 +5,10 @@ test_std_operator_lab.py."""
 
 from __future__ import annotations
 
+import ctypes
 import json
 import os
+import platform
 import re
 import signal
 import subprocess
@@ -15,6 +17,7 @@ from pathlib import Path
 
 import pytest
 
+from esair_std.hosts.resource_host import OPEN_TIMEOUT
 from tests.support import std
 from tests.support.std import (MODES, ROOT, ask, components, free_endpoint, lab_started,
                                 processes, wait_for)
@@ -324,18 +327,38 @@ def gated(tmp_path: Path, limit: float = 60) -> Path:
     return dep
 
 
+#: the tgkill system call's number (a signal to one thread of another process)
+TGKILL = {"x86_64": 234, "aarch64": 131}
+
+
+def sigterm_to_a_thread(pid: int) -> None:
+    """SIGTERM to one of ``pid``'s threads other than its main thread, as the kernel
+    may deliver a process's signal (the main thread then is not woken by it)."""
+    tids = [int(t) for t in os.listdir(f"/proc/{pid}/task") if int(t) != pid]
+    assert tids, "the process has one thread only"
+    libc = ctypes.CDLL(None, use_errno=True)
+    assert libc.syscall(TGKILL[platform.machine()], pid, tids[-1], signal.SIGTERM) == 0
+
+
+@pytest.mark.parametrize("to", ["process", "thread"])
 @pytest.mark.parametrize("mode", MODES)
-def test_sigterm_while_starting_stops_at_once(mode, tmp_path):
+def test_sigterm_while_starting_stops_at_once(mode, to, tmp_path):
     """SIGTERM (a service manager's stop) while a resource's open() hangs interrupts the
-    start, as Ctrl-C does: exit status 0, and no process of the robot is left."""
+    start, as Ctrl-C does: exit status 0, and no process of the robot is left; also
+    when the kernel hands the signal to a thread other than the main thread, which then
+    waits on the open (a stop lost until the open's time limit, OPEN_TIMEOUT)."""
     ep = free_endpoint()
     proc = spawn_run(str(gated(tmp_path, limit=600)), "--mode", mode, "-e", ep, "--no-top")
     try:
         wait_for(lambda: proc.poll() is not None or answers(ep), timeout=60,
                  what="the robot answering")
         assert ask(ep, "ping")["starting"] is True
-        proc.send_signal(signal.SIGTERM)
-        _, err = proc.communicate(timeout=60)       # the open alone would hold it 600 s
+        if to == "process":
+            proc.send_signal(signal.SIGTERM)
+        else:
+            sigterm_to_a_thread(proc.pid)
+        # the open alone would hold it 600 s, a lost signal until OPEN_TIMEOUT
+        _, err = proc.communicate(timeout=OPEN_TIMEOUT * 0.75)
     finally:
         if proc.poll() is None:
             os.killpg(proc.pid, signal.SIGKILL)
