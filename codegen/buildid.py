@@ -20,6 +20,7 @@ import re
 import tempfile
 from pathlib import Path
 
+from esair_min.cachedir import cache_root
 from esair_min.model.robot import Robot
 
 _CACHE: dict[int, tuple[Robot, str]] = {}    # id(robot) -> (robot kept alive, its id)
@@ -53,11 +54,12 @@ def _render_id(robot: Robot) -> str:
     return h.hexdigest()[:8]
 
 
-def cache_dir() -> Path:
-    """Where the ids are kept: ``$XDG_CACHE_HOME/esair/build-id`` (``~/.cache`` when
-    unset). Nothing breaks when it cannot be written: the id is rendered each time."""
-    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-    return Path(base) / "esair" / "build-id"
+def cache_dir() -> Path | None:
+    """Where the ids are kept: ``build-id`` in ESAIR's cache folder
+    (esair_min/cachedir.py; None: none kept). Nothing breaks when it cannot be
+    written: the id is rendered each time."""
+    root = cache_root()
+    return None if root is None else root / "build-id"
 
 
 def _key(robot: Robot) -> str:
@@ -94,8 +96,11 @@ def _files(top: Path) -> list[Path]:
 
 
 def _read(key: str) -> str | None:
+    folder = cache_dir()
+    if folder is None:
+        return None
     try:
-        value = (cache_dir() / key).read_text()
+        value = (folder / key).read_text()
     except (OSError, UnicodeDecodeError):
         return None
     return value if _ID.fullmatch(value) else None
@@ -103,6 +108,8 @@ def _read(key: str) -> str | None:
 
 def _write(key: str, value: str) -> None:
     folder = cache_dir()
+    if folder is None:
+        return
     try:
         folder.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(dir=folder, prefix=".tmp-")

@@ -2,7 +2,9 @@
 
 import compileall
 import os
+import shutil
 import subprocess
+import tempfile
 from pathlib import Path
 
 import pytest
@@ -13,6 +15,19 @@ from esair_min.pic.build import BuildError, build_board, toolchain
 from esair_min.model.validate import load_robot
 
 ROOT = Path(__file__).resolve().parent.parent
+
+
+def pytest_configure(config):
+    """ESAIR's cache (build ids, checked deployments) in a folder of this run, shared by
+    its workers and the processes they start, not the user's (removed at the end)."""
+    if "PYTEST_XDIST_WORKER" not in os.environ and "ESAIR_TEST_CACHE_OWNER" not in os.environ:
+        os.environ["ESAIR_CACHE"] = tempfile.mkdtemp(prefix="esair-test-cache-")
+        os.environ["ESAIR_TEST_CACHE_OWNER"] = str(os.getpid())
+
+
+def pytest_unconfigure(config):
+    if os.environ.get("ESAIR_TEST_CACHE_OWNER") == str(os.getpid()):
+        shutil.rmtree(os.environ["ESAIR_CACHE"], ignore_errors=True)
 
 
 def pytest_sessionstart(session):

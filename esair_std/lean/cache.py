@@ -1,9 +1,10 @@
 """Checked deployments kept between starts: one JSON file per deployment and command
 line, valid while every file it was made from hashes the same.
 
-Where: ``$ESAIR_STD_CACHE`` (a folder; empty: no cache), else
-``$XDG_CACHE_HOME/esair/std``, else ``~/.cache/esair/std`` — never inside the installed
-package. The key is the deployment's absolute path, the command line's overrides, the
+Where: ``$ESAIR_STD_CACHE`` (a folder; empty: no cache), else ``std`` in ESAIR's
+cache folder (esair_min/cachedir.py: ``$ESAIR_CACHE``, ``$XDG_CACHE_HOME/esair``,
+``~/.cache/esair``) — never inside the installed package. The key is the deployment's
+absolute path, the command line's overrides, the
 package's version and this layout's, and ``sys.path`` (where classes are found); the
 entry holds the SHA-256 of each input (the deployment, each class's module, the board
 files). An entry that cannot be read, is
@@ -20,6 +21,8 @@ import sys
 from pathlib import Path
 from typing import Any, Iterable, Mapping
 
+from esair_min.cachedir import cache_root
+
 from .plain import FORMAT, PlainDeployment
 
 VERSION = "esair-std-lean/1"
@@ -29,9 +32,8 @@ def folder() -> Path | None:
     env = os.environ.get("ESAIR_STD_CACHE")
     if env is not None:
         return Path(env) if env else None
-    xdg = os.environ.get("XDG_CACHE_HOME")
-    base = Path(xdg) if xdg else Path.home() / ".cache"
-    return base / "esair" / "std"
+    root = cache_root()
+    return None if root is None else root / "std"
 
 
 def key(path: str | Path, overrides: Mapping[str, object]) -> str:

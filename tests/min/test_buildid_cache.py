@@ -9,9 +9,9 @@ from esair_min.codegen.buildid import central_build_id
 
 def test_a_kept_build_id_is_the_rendered_one_and_any_change_renders_again(
         robot, fast_robot, tmp_path, monkeypatch):
-    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    monkeypatch.setenv("ESAIR_CACHE", str(tmp_path))
     monkeypatch.setattr(buildid, "_CACHE", {})
-    kept = tmp_path / "esair" / "build-id"
+    kept = tmp_path / "build-id"
     first = central_build_id(robot)
     assert first == buildid._render_id(robot)
     [entry] = kept.iterdir()
@@ -37,6 +37,6 @@ def test_a_kept_build_id_is_the_rendered_one_and_any_change_renders_again(
 
 def test_an_unwritable_cache_only_costs_the_rendering(robot, tmp_path, monkeypatch):
     (tmp_path / "file").write_text("")
-    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "file"))    # not a folder
+    monkeypatch.setenv("ESAIR_CACHE", str(tmp_path / "file"))    # not a folder
     monkeypatch.setattr(buildid, "_CACHE", {})
     assert central_build_id(robot) == buildid._render_id(robot)
