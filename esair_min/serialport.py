@@ -29,9 +29,14 @@ def describe(exc: BaseException) -> str:
     return next((plain for raw, plain in PLAIN.items() if text.startswith(raw)), text)
 
 
-def open_port(url: str, **settings: Any) -> Any:
+def open_port(url: str, lock_wait: float = 0.0, **settings: Any) -> Any:
     """A pySerial port for a device path or a URL (``esair://`` included), locked against
-    other ESAIR programs; pySerial's exceptions pass through (see :func:`describe`)."""
+    other ESAIR programs; pySerial's exceptions pass through (see :func:`describe`). A
+    lock another program holds is tried again for ``lock_wait`` seconds: a runtime's
+    link reconnecting to a pty number that is now this robot's holds it only for its
+    probe (a ``v`` or two), then lets go."""
+    import time
+
     import serial
 
     if url.startswith("esair://"):   # the emulator is big: only its own URLs import it
@@ -39,4 +44,13 @@ def open_port(url: str, **settings: Any) -> Any:
 
     if "://" not in url:
         settings.setdefault("exclusive", True)
-    return serial.serial_for_url(url, **settings)
+    deadline, pause = time.monotonic() + lock_wait, 0.02
+    while True:
+        try:
+            return serial.serial_for_url(url, **settings)
+        except serial.SerialException as exc:
+            left = deadline - time.monotonic()
+            if describe(exc) != LOCKED or left <= 0:
+                raise
+            time.sleep(min(pause, left))
+            pause *= 2

@@ -28,12 +28,16 @@ class Exchange:
         return not self.reply.startswith("OK")
 
 
+#: a port another program holds is tried again this long (esair_min/serialport.py)
+LOCK_WAIT_S = 3.0
+
+
 def open_port(port: str, baud: int, timeout: float) -> Any:
     """A pySerial port for a device path or a URL (``esair://`` included)."""
     import serial
 
     try:
-        return serial_port(port, baudrate=baud, timeout=min(timeout, 0.1))
+        return serial_port(port, lock_wait=LOCK_WAIT_S, baudrate=baud, timeout=min(timeout, 0.1))
     except (serial.SerialException, ValueError, OSError) as exc:
         raise EsairError(f"cannot open {port}: {describe(exc)}") from None
 
