@@ -25,6 +25,7 @@ from esair_min.pic.gpsim_i2c import GpsimSession
 from esair_min.pic.gpsim_line import LineFault, SimLine
 from esair_min.pic.toolchain import run_gpsim
 from esair_min.resources import resolve_robot
+from tests.support.robot_ptys import open_pty
 
 pytestmark = [pytest.mark.gpsim, pytest.mark.pty]
 
@@ -286,7 +287,6 @@ def test_no_bootloader_answering(tiny, tmp_path):
 def test_flash_pic_over_a_pty_to_the_gpsim_chip(central, tmp_path):
     """flash_pic on a real pty: gpsim behind it (esair_min.pic.gpsim_pty), paced to the
     wall clock; the application then answers ``v`` at its own 9600 baud on that pty."""
-    import serial
 
     from esair_min.pic.gpsim_pty import GpsimPty
 
@@ -296,7 +296,7 @@ def test_flash_pic_over_a_pty_to_the_gpsim_chip(central, tmp_path):
                   progress=lambda phase, pct: phases.add((phase, pct)))
         assert g.error is None
         assert {("writing", 100), ("verifying", 100)} <= phases
-        with serial.Serial(g.path, 9600, timeout=0.2) as port:
+        with open_pty(g.path, 9600, timeout=0.2) as port:
             seen = b""
             for _ in range(100):                  # its notices, then our v's answer
                 port.write(b"v\r")

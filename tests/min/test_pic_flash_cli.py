@@ -14,12 +14,12 @@ import tty
 from pathlib import Path
 
 import pytest
-import serial
 
 from esair_min.model.validate import load_robot
 from esair_min.pic.build import BuildError, build_robot, toolchain
 from esair_min.resources import resolve_robot
 from tests.support.monitoring import run_until_monitoring
+from tests.support.robot_ptys import open_pty
 
 pytestmark = [pytest.mark.gpsim, pytest.mark.pty]
 
@@ -58,7 +58,7 @@ def test_esair_flash_writes_verifies_and_boots_the_central(built):
         assert proc.returncode == 0, proc.stderr
         assert "written to" in proc.stdout and "verified" in proc.stdout
         assert "verifying" in proc.stderr
-        with serial.Serial(port, 9600, timeout=0.2) as p:
+        with open_pty(port, 9600, timeout=0.2) as p:
             seen = b""
             for _ in range(100):
                 p.write(b"v\r")

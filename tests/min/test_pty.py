@@ -1,8 +1,9 @@
 """`esair emulate boards/papaman --pty` driven with pySerial, as a user's program would.
 
 Each test starts the emulator as a subprocess, reads the pty path from the first line
-of its output, talks to it with serial.Serial, and always stops the child (SIGTERM,
-then SIGKILL if it does not exit).
+of its output, talks to it with pySerial (locked as ESAIR's programs lock a port:
+tests.support.robot_ptys.open_pty), and always stops the child (SIGTERM, then SIGKILL
+if it does not exit).
 """
 
 from __future__ import annotations
@@ -25,6 +26,7 @@ from esair_min.cli.plot import read_trace, replay
 from esair_min.core.trace import without_marks
 from esair_min.model.validate import load_robot
 from tests.support.board_lines import PAPAMAN, text, version
+from tests.support.robot_ptys import open_pty
 
 pytestmark = pytest.mark.pty
 
@@ -82,7 +84,7 @@ def robot():
 def test_commands_replies_and_servo_state(tmp_path, robot):
     trace = tmp_path / "trace.txt"
     with emulator("--trace", str(trace)) as (_, path):
-        with serial.Serial(path, 9600, timeout=3) as port:
+        with open_pty(path, 9600, timeout=3) as port:
             assert ask(port, "v") == VERSION
             assert ask(port, "t") == "OK"
             assert ask(port, "oaf120") == "OK"                 # motor a, speed 5, 120 deg
@@ -114,7 +116,7 @@ def test_commands_replies_and_servo_state(tmp_path, robot):
 def test_dance_plays_one_frame_per_tick_in_one_burst(tmp_path):
     trace = tmp_path / "dance.txt"
     with emulator("--trace", str(trace)) as (_, path):
-        with serial.Serial(path, 9600, timeout=3) as port:
+        with open_pty(path, 9600, timeout=3) as port:
             assert ask(port, "PLY03") == "OK"
             # the dance's end, told by the robot (an EEPROM read is refused while it
             # plays), not by a fixed wait the emulator may lag behind on a loaded machine
@@ -139,7 +141,7 @@ def test_dance_plays_one_frame_per_tick_in_one_burst(tmp_path):
 def test_push_fires_the_balance_reaction_in_time(tmp_path, robot):
     trace = tmp_path / "push.txt"
     with emulator("--scenario", "push", "--trace", str(trace)) as (_, path):
-        with serial.Serial(path, 9600, timeout=0.2) as port:
+        with open_pty(path, 9600, timeout=0.2) as port:
             seen = b""
             deadline = time.monotonic() + 10
             while b"!R auto_balance\r\n" not in seen and time.monotonic() < deadline:
@@ -161,7 +163,7 @@ def test_a_held_scenario_plays_on_sigusr1(tmp_path):
     f = tmp_path / "lean.yaml"
     f.write_text("idle: 500\nsteps:\n  - {at_ms: 0, values: {left_foot: 600}}\n")
     with emulator("--scenario", str(f), "--hold-scenario") as (proc, path):
-        with serial.Serial(path, 9600, timeout=2) as port:
+        with open_pty(path, 9600, timeout=2) as port:
             assert ask(port, "s") == "OK " + ",".join(["500"] * 8)    # held since boot
             proc.send_signal(signal.SIGUSR1)
             want = "OK " + ",".join(["600"] * 4 + ["500"] * 4)
@@ -177,7 +179,7 @@ def test_one_reply_per_line_at_line_rate():
     lines = ["t", "v", "oab100", "s", "zz", "c" + "N" * 12, "x", "PLY09", "a" + "002" * 12,
              "oal100"]
     with emulator() as (_, path):
-        with serial.Serial(path, 9600, timeout=3) as port:
+        with open_pty(path, 9600, timeout=3) as port:
             port.write(b"".join(ln.encode() + b"\r\n" for ln in lines))   # back to back
             replies = []
             while len(replies) < len(lines):
@@ -207,7 +209,7 @@ def test_esair_send_against_the_pty():
 
 def test_faults_over_the_pty():
     with emulator("--nack-actuator", "--corrupt-eeprom", "--no-sensor") as (_, path):
-        with serial.Serial(path, 9600, timeout=3) as port:
+        with open_pty(path, 9600, timeout=3) as port:
             assert ask(port, "t") == "E10 no answer on i2c"
             assert ask(port, "PLY03") == "E09 motion image invalid"
             assert ask(port, "s") == "E10 no answer on i2c"
@@ -217,5 +219,5 @@ def test_faults_over_the_pty():
 def test_ctrl_c_exits_cleanly_and_the_port_reopens():
     with emulator(stop=signal.SIGINT) as (_, path):
         for _ in range(2):                      # clients come and go
-            with serial.Serial(path, 9600, timeout=3) as port:
+            with open_pty(path, 9600, timeout=3) as port:
                 assert ask(port, "v") == VERSION

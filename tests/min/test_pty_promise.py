@@ -19,6 +19,7 @@ from pathlib import Path
 
 import serial
 from tests.support.board_lines import PAPAMAN, version
+from tests.support.robot_ptys import open_pty
 
 pytestmark = pytest.mark.pty
 
@@ -48,7 +49,7 @@ def _first_opener() -> tuple[bytes, bytes]:
     answer to v."""
     proc, path = _served()
     try:
-        with serial.Serial(path, 9600, timeout=0.5) as port:
+        with open_pty(path, 9600, timeout=0.5) as port:
             unasked = port.read(100)
             port.timeout = 10            # the answer may come late on a loaded machine
             port.write(b"v\r\n")
@@ -72,6 +73,7 @@ def test_forty_openers_at_once_read_nothing_old_and_never_raise():
     def opener() -> None:
         try:
             start.wait(30)
+            # unlocked: forty programs at once, as no ESAIR program would open it
             with serial.Serial(path, 9600, timeout=0.3) as port:
                 data = port.read(100)
         except Exception as exc:  # noqa: BLE001 - what a program would see
@@ -84,7 +86,7 @@ def test_forty_openers_at_once_read_nothing_old_and_never_raise():
             t.start()
         for t in threads:
             t.join(60)
-        with serial.Serial(path, 9600, timeout=2) as port:    # the robot still answers
+        with open_pty(path, 9600, timeout=2) as port:    # the robot still answers
             port.write(b"v\r\n")
             assert port.readline() == VERSION
     finally:
@@ -101,7 +103,7 @@ def test_a_stopped_robot_drops_what_it_was_sent_meanwhile(tmp_path):
     trace = tmp_path / "t.txt"
     proc, path = _served("--trace", str(trace))
     try:
-        with serial.Serial(path, 9600, timeout=0.5) as port:
+        with open_pty(path, 9600, timeout=0.5) as port:
             os.kill(proc.pid, signal.SIGSTOP)
             try:
                 while _state(proc.pid) != "T":  # stopped (the signal is asynchronous)

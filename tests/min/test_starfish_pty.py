@@ -19,6 +19,7 @@ from click.testing import CliRunner
 
 from esair_min.cli import main
 from esair_min.emulator.starfish.pose_trace import read_trace
+from tests.support.robot_ptys import open_pty
 
 pytestmark = pytest.mark.pty
 
@@ -70,7 +71,7 @@ def test_driven_over_the_pty_until_the_watchdog_stops_it(tmp_path):
     # real time: the second O must come within the watchdog's 500 ms of the first even
     # on a loaded machine (a faster --speed leaves it too little wall time)
     with emulator("--trace", str(trace), "--instance", "0badcafe") as (_, path), \
-            serial.Serial(path, 38400, timeout=5) as port:
+            open_pty(path, 38400, timeout=5) as port:
         assert ask(port, "v") == VERSION + " id=0badcafe"
         assert ask(port, "V+0200+0000+0000") == "OK"
         first = ask(port, "O")
@@ -192,7 +193,7 @@ def test_the_world_out_socket_gets_the_true_pose_from_the_start_pose(tmp_path):
     sock.bind(sock_path)
     sock.settimeout(5)
     with sock, emulator("--pose", "1000,1500,0.5", "--world-out", sock_path) as (_, path), \
-            serial.Serial(path, 38400, timeout=5) as port:
+            open_pty(path, 38400, timeout=5) as port:
         reply = ask(port, "v")
         assert reply.startswith(VERSION + " id=") and len(reply.split("id=")[1]) == 8
         t, x, y, th, hits = parse_datagram(sock.recv(256))

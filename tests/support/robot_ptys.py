@@ -10,8 +10,10 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 from esair_min.core.trace import without_marks
+from esair_min.serialport import open_port
 from tests.support.board_lines import PAPAMAN, version
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -120,3 +122,11 @@ def stop(proc: subprocess.Popen) -> None:
     for f in (proc.stdin, proc.stdout, proc.stderr):
         if f is not None:
             f.close()
+
+
+def open_pty(path: str, baudrate: int = 9600, **settings: Any) -> Any:
+    """A test's end of a robot's pty, opened as ESAIR's own programs open a port: locked
+    (esair_min.serialport). A runtime of another test whose link reconnects to a reused
+    pty number is then refused instead of reading half of this test's replies; one that
+    got there first holds the lock only for its probe, so this waits up to 10 s for it."""
+    return open_port(path, lock_wait=10.0, baudrate=baudrate, **settings)
