@@ -65,8 +65,10 @@ def test_the_version_reply_names_the_board_set_and_the_emulators_boot(robot):
 
 def test_a_robot_on_the_dead_robots_pty_number_is_refused(tmp_path, robot):
     """The robot is killed outright (its port's link still names /dev/pts/N); another
-    `esair emulate` of the same board files gets N; the link, reconnecting, asks it
-    `v` and refuses it: it sends nothing else, and says which robot answers."""
+    `esair emulate` of the same board files gets N. The link, reconnecting, does not open
+    a pty made since the one it had (not a byte); once the port's link is pointed at
+    that pty anew, it asks it `v` and refuses it: it sends nothing else, and says which
+    robot answers."""
     emu = EmulatedRobot(PAPAMAN, instance="aaaaaaaa")
     states: list[tuple[bool, str]] = []
     foreign = None
@@ -79,8 +81,15 @@ def test_a_robot_on_the_dead_robots_pty_number_is_refused(tmp_path, robot):
             link.stand()
             os.kill(emu.proc.pid, signal.SIGKILL)        # not emu.kill(): the path stays
             _wait(lambda: not link.up, what="the link down")
-            foreign, _ = start_on_number(number, "--instance", "bbbbbbbb",
-                                         "--trace", str(tmp_path / "foreign.txt"))
+            foreign, path = start_on_number(number, "--instance", "bbbbbbbb",
+                                            "--trace", str(tmp_path / "foreign.txt"))
+            gone = (f"the pty behind {port} went away and its number ({path}) now leads "
+                    f"to another program's pty: not opened (name the robot's new port, or "
+                    f"a link that follows it, as port: emulate does)")
+            _wait(lambda: (False, gone) in states, what="the pty refused")
+            assert replies(tmp_path / "foreign.txt") == [READY_OK]     # not a byte
+            os.symlink(path, port + ".new")
+            os.replace(port + ".new", port)               # the port's link made anew
             why = (f"a different robot answers on {port} (id bbbbbbbb, "
                    f"expected aaaaaaaa)")
             _wait(lambda: (False, why) in states, what="the refusal")
@@ -90,6 +99,7 @@ def test_a_robot_on_the_dead_robots_pty_number_is_refused(tmp_path, robot):
                                       f"'PLY03' not sent")
             assert not link.up and link.stats["reconnects"] == 0
             assert states.count((False, why)) == 1        # said once, not at every attempt
+            assert states.count((False, gone)) == 1
         finally:
             link.close()
     finally:

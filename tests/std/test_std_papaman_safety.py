@@ -127,7 +127,8 @@ def test_a_killed_robot_is_restarted_under_its_policy_then_stays_lost(start, tmp
 
 def test_a_different_robot_on_the_port_leaves_the_resources_lost(start, tmp_path):
     """The port is a path the runtime does not own (a udev link): the robot behind it
-    dies and another one of the same board files takes its pty number."""
+    dies and another one of the same board files takes its pty number. The link does not
+    open that pty (made since); pointed at it anew, the link probes it and refuses it."""
     other = tmp_path / "other.txt"
     emu = EmulatedRobot(PAPAMAN, instance="aaaaaaaa")
     foreign = None
@@ -137,7 +138,14 @@ def test_a_different_robot_on_the_port_leaves_the_resources_lost(start, tmp_path
         rt = start(example(port, mover=MOVER))
         assert move(rt, 100) == ["ok", "odc100"]
         os.kill(emu.proc.pid, signal.SIGKILL)             # its link /dev/pts/N stays
-        foreign, _ = start_on_number(number, "--instance", "bbbbbbbb", "--trace", str(other))
+        foreign, path = start_on_number(number, "--instance", "bbbbbbbb", "--trace", str(other))
+        gone = (f"the pty behind {port} went away and its number ({path}) now leads to "
+                f"another program's pty: not opened (name the robot's new port, or a link "
+                f"that follows it, as port: emulate does)")
+        _wait(lambda: all_lost(rt, "link down: " + gone), what="resources lost: the pty gone")
+        assert replies(other) == [READY_OK]                  # not a byte
+        os.symlink(path, port + ".new")
+        os.replace(port + ".new", port)                       # the udev link made anew
         why = f"a different robot answers on {port} (id bbbbbbbb, expected aaaaaaaa)"
         _wait(lambda: all_lost(rt, why), what="resources lost: another robot")
         assert move(rt, 110) == ["ResourceLost", f"papaman.servo.l_knee: lost: {why}"]

@@ -75,6 +75,7 @@ and is dropped, never sent; so does one ``asked`` before the link last came up.
 from __future__ import annotations
 
 import collections
+import os
 import threading
 import time
 from dataclasses import dataclass, field
@@ -82,13 +83,14 @@ from typing import TYPE_CHECKING, Callable
 
 from esair_min.errors import ProtocolError
 from esair_min.core.protocol import RX_RING, Code, parse_reply
-from esair_min.serialport import LOCKED, describe, open_port
+from esair_min.serialport import LOCKED, PtyIdentity, describe, open_port, pty_identity, stale_pty
 
 from ...counters import Counters
 from .board import Board
 from .budget import LineBudget, line_budget
 from .commands import VERSION_PREFIX, RobotCommands
-from .link_errors import DifferentRobot, Expired, Held, LinkDown, LinkError, RobotRefused
+from .link_errors import (DifferentRobot, Expired, Held, LinkDown, LinkError, PtyGone,
+                          RobotRefused)
 
 if TYPE_CHECKING:  # pragma: no cover - the model is loaded by whoever opens a link
     from esair_min.model.robot import Robot
@@ -168,6 +170,7 @@ class Link:
         self.robot_id = expect_id          # the robot's id= (None: it answers none)
         self._known = expect_id is not None  # else learnt at the first connect
         self.may_open = may_open
+        self._pty: PtyIdentity | None = None   # the pty the port led to at the last connect
         self.up_since = 0.0                # time.monotonic() of the last connect
         self.stats = Counters()             # the I/O thread and callers count
         self._notices: collections.deque[tuple[str, float]] = collections.deque(
@@ -717,6 +720,12 @@ class Link:
         """Open the port and probe it with ``v``; the robot must be the board files' one."""
         import serial
 
+        pty = pty_identity(self.port)
+        if stale_pty(self._pty, pty):
+            raise PtyGone(f"the pty behind {self.port} went away and its number "
+                          f"({os.path.realpath(self.port)}) now leads to another program's "
+                          f"pty: not opened (name the robot's new port, or a link that "
+                          f"follows it, as port: emulate does)")
         deadline, wait = time.monotonic() + LOCK_WAIT_S, 0.02
         while True:
             try:
@@ -745,6 +754,7 @@ class Link:
                 port.write(wire)
                 self.stats.add("stops_on_connect")
             self._probe(port)
+            self._pty = pty
         except LinkError:
             _close_quietly(port)
             raise

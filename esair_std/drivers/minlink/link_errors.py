@@ -1,4 +1,4 @@
-"""The MIN link's errors: one type for the layer (:class:`LinkError`), two refinements.
+"""The MIN link's errors: one type for the layer (:class:`LinkError`) and its refinements.
 
 Library code raises these; the STD driver turns them into the runtime's
 ``CommandError`` / ``ResourceLost`` for the behavior that sent the command.
@@ -30,6 +30,11 @@ class RobotRefused(LinkError):
 
 class DifferentRobot(LinkDown):
     """Another robot answers on the port: the link stays down (nothing is sent to it)."""
+
+
+class PtyGone(DifferentRobot):
+    """The pty the link had went away and its number now leads to a pty made since,
+    another program's: the link does not open it (not a byte, not a read)."""
 
 
 class Expired(LinkError):
