@@ -131,12 +131,20 @@ def _in_process_mode(item) -> bool:
     return callspec is not None and "process" in callspec.params.values()
 
 
+def pytest_xdist_auto_num_workers(config) -> int:
+    """``-n auto``: one worker more than the cores. Most STD, HMI, network and flashing
+    tests spend much of their time waiting on a robot's line, a browser or a cut link;
+    a third worker on two cores fills that wait (README, "Contributing")."""
+    return len(os.sched_getaffinity(0)) + 1
+
+
 #: The longest modules, longest first (--durations=0 of a whole run, summed per module).
 #: pytest-xdist hands whole modules to its workers in collection order (--dist loadfile
 #: with --no-loadscope-reorder; its default order, most tests first, ran the two network
-#: modules of 2 tests and 11 last): started first, they no longer leave one worker
-#: running alone at the end. The two network modules go to different workers' queues
-#: one after the other, never side by side (both cut links and load the CPU).
+#: modules of 2 tests and 11 last), one to each worker in turn: started first, they no
+#: longer leave one worker running alone at the end. The two network modules go to one
+#: worker's queue one after the other, never side by side (both cut links and load the
+#: CPU): the second is moved to the place that worker's next module takes.
 LONGEST_FIRST = ["test_starfish_net", "test_foxglove", "test_std_net", "test_verify",
                  "test_starfish_std", "test_hmi_papaman", "test_std_papaman",
                  "test_std_operator_cli", "test_pic_bootloader", "test_hmi_stop",
@@ -153,7 +161,10 @@ LONGEST_FIRST = ["test_starfish_net", "test_foxglove", "test_std_net", "test_ver
 
 def pytest_collection_modifyitems(config, items):
     tests = Path(__file__).resolve().parent
-    rank = {stem: i for i, stem in enumerate(LONGEST_FIRST)}
+    order = [stem for stem in LONGEST_FIRST if stem != "test_std_net"]
+    workers = int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1"))
+    order.insert(workers, "test_std_net")          # gw0's second: after test_starfish_net
+    rank = {stem: i for i, stem in enumerate(order)}
     items.sort(key=lambda item: rank.get(item.path.stem, len(rank)))   # stable: the rest as is
     for item in items:
         rel = item.path.resolve().relative_to(tests).parts
