@@ -45,6 +45,20 @@ def test_good_options_keep_their_values_and_defaults():
                                                    "restart": {"max": 3, "within": 60}}})
     assert isinstance(o, MinLinkOptions)
     assert (o.port, o.feet_hz, o.feet_share, o.timeout, o.deadline, o.duplex) == \
-        ("emulate", 4.0, 0.5, 1.0, 0.5, True)
+        ("emulate", 4.0, 0.5, None, 0.5, True)
     assert (o.emulate.restart.max, o.emulate.restart.within) == (3, 60.0)
     assert o.emulate.args() == {"scenario": "push"}
+
+
+@pytest.mark.parametrize("options, timeout", [
+    ({"port": "emulate"}, 3.0),                      # the emulator shares the host's cores
+    ({"port": "/dev/ttyUSB0"}, 1.0),
+    ({"port": "emulate", "timeout": 0.5}, 0.5),      # named: as named
+    ({"port": "/dev/ttyUSB0", "timeout": 2}, 2.0),
+])
+def test_the_reply_timeout_defaults_by_the_kind_of_port(options, timeout):
+    from esair_std.drivers.minlink.driver import _Options
+
+    o = check_options(MinLinkOptions, options)
+    assert isinstance(o, MinLinkOptions)
+    assert _Options(o.model_dump(mode="json")).timeout == timeout

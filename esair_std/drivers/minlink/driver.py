@@ -14,6 +14,8 @@ Deployment entry (the entry's name is the robot's name in resource names)::
                                   # 0: not polled)
       feet_share: 0.5             # the share of the line the polls may use
       timeout: 1.0                # seconds for a reply; longer means the link is down
+                                  # (default 1, or 3 for port: emulate: the emulator
+                                  # shares this computer's cores, a board does not)
       deadline: 0.5               # seconds from a command's arrival to its line written;
                                   # later it is dropped, never sent (CommandError)
       duplex: true                # write a command while a reply arrives (false: one
@@ -306,6 +308,12 @@ def in_folder(base: Path, value: str, must_exist: bool = False) -> str:
     return str(base / p)
 
 
+#: The reply timeout of an emulated robot (``port: emulate``) when the entry names none:
+#: the emulator shares the host's cores, so on a busy computer its replies can come later
+#: than a real board's ever would; 1 s for any other port.
+EMULATED_TIMEOUT_S = 3.0
+
+
 class _Options:
     """A ``MinLink`` entry's options, checked (options.py's ``MinLinkOptions``, dumped
     to plain values): what :meth:`MinLink.open` reads of them."""
@@ -320,7 +328,9 @@ class _Options:
         self.emulate: dict[str, object] = emulate        # the child's options
         self.feet_hz = float(d.get("feet_hz", 8.0))
         self.feet_share = float(d.get("feet_share", DEFAULT_FEET_SHARE))
-        self.timeout = float(d.get("timeout", 1.0))
+        timeout = d.get("timeout")
+        self.timeout = float(timeout if timeout is not None else
+                             EMULATED_TIMEOUT_S if self.port == "emulate" else 1.0)
         self.deadline = float(d.get("deadline", DEFAULT_DEADLINE_S))
         self.duplex = bool(d.get("duplex", True))
 

@@ -52,6 +52,6 @@ class MinLinkOptions(BaseModel):
     emulate: EmulateOptions = Field(default_factory=EmulateOptions)
     feet_hz: Number = DEFAULT_FEET_HZ
     feet_share: Number = DEFAULT_FEET_SHARE
-    timeout: Number = 1.0
+    timeout: Number | None = None      # None: 1 s, or 3 s for port: emulate (driver.py)
     deadline: Annotated[float, Field(strict=True, gt=0)] = DEFAULT_DEADLINE_S
     duplex: Annotated[bool, Field(strict=True)] = True
