@@ -208,6 +208,10 @@ class PolledSensor(Sensor, Generic[_R]):
         if self._thread is not None:
             self._thread.join(timeout=5)
 
+    def dither(self) -> float:
+        """Seconds (>= 0) the next poll waits beyond its turn; none by default."""
+        return 0.0
+
     def _run(self) -> None:
         next_t = time.monotonic()
         while not self._stop.is_set():
@@ -217,7 +221,7 @@ class PolledSensor(Sensor, Generic[_R]):
             now = time.monotonic()
             if next_t < now:                       # late (a long command): start afresh
                 next_t = now
-            self._stop.wait(next_t - now)
+            self._stop.wait(next_t - now + self.dither())
 
     def _poll(self) -> None:
         try:

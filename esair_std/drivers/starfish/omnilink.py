@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 import threading
+import time
 
 from esair_std import Actuator, CommandError
 from esair_min.components.omni_base.core import velocity_line
@@ -26,7 +27,9 @@ from ..minlink.budget import LineBudget
 from ..minlink.commands import VERSION_PREFIX, RobotCommands
 from ..minlink.driver import PolledSensor, LinkAgent
 from ..minlink.link_errors import LinkError
-from ..minlink.link import Link
+from ..minlink.link import Exchange, Link
+from ..minlink.budget import BITS_PER_BYTE
+from .tickclock import TickClock
 from ...transport.codec import JSON, JSONObject
 from .scene import wrap
 
@@ -127,7 +130,18 @@ class Odometry(PolledSensor[str]):
         self.link, self.robot, self.hz, self.start = link, robot, hz, start
         self._lock = threading.Lock()
         self.bad_replies = 0
+        central = robot.central
+        assert central.uart is not None and central.timer2 is not None   # an omni base's
+        self.clock = TickClock(central.timer2.period_s, BITS_PER_BYTE / central.uart.baud)
+        self._k = 0
+        self._exchange: Exchange | None = None
         self.reset()
+
+    def dither(self) -> float:
+        # each poll a golden-ratio step further into the board's tick: the replies'
+        # bounds on its clock (tickclock.py) close in from every phase
+        self._k += 1
+        return (self._k * 0.6180339887 % 1.0) * self.clock.tick
 
     def reset(self) -> None:
         x, y, th = self.start
@@ -137,7 +151,9 @@ class Odometry(PolledSensor[str]):
             self.last_n: int | None = None
 
     def fetch(self) -> str:
-        return self.link.command("O")
+        ex = self._exchange = self.link.exchange("O")
+        assert ex.data is not None
+        return ex.data
 
     def value(self, data: str) -> JSONObject | None:
         try:
@@ -152,6 +168,13 @@ class Odometry(PolledSensor[str]):
             self.last_n = n
         moving = math.hypot(self.pose[0] - before[0], self.pose[1] - before[1]) > 1e-4 or \
             abs(self.pose[2] - before[2]) > 1e-4
-        return {"x": round(self.pose[0], 4), "y": round(self.pose[1], 4),
-                "th": round(wrap(self.pose[2]), 5), "moving": moving,
-                "squal": [q for _, _, q in sensors], "n": n}
+        out: JSONObject = {"x": round(self.pose[0], 4), "y": round(self.pose[1], 4),
+                           "th": round(wrap(self.pose[2]), 5), "moving": moving,
+                           "squal": [q for _, _, q in sensors], "n": n}
+        ex = self._exchange
+        if ex is not None and ex.t_reply:
+            # when the board read these sums (tick n), on this computer's clock
+            tn = self.clock.add(n, ex.t_sent, ex.sent_bytes, ex.t_reply, len(data) + 5)
+            out["tn"] = round(tn + time.time() - time.monotonic(), 5)
+            out["tn_spread"] = round(self.clock.spread(), 5)
+        return out

@@ -141,14 +141,16 @@ def _ramp(angle: float, speed: float, target: float, accel: float, dt: float) ->
 
 
 def stop_time(model: RampModel, angle_then: float, t_then: float, now: float, goal: float,
-              latency: float, horizon: float) -> float | None:
+              latency: float, horizon: float, back: bool = False) -> float | None:
     """The first time in [now, now + horizon] at which a stop sent (arriving ``latency``
     s later) brings the robot to rest at ``goal`` rad: ``angle_then`` was measured at
-    ``t_then`` (odometry), the model carries it on; None if not within the horizon."""
+    ``t_then`` (odometry), the model carries it on; None if not within the horizon.
+    ``back``: the robot turns back (a negative rate), toward a goal behind it."""
     base = model.at(t_then)[0]
 
     def reaches(t: float) -> bool:
-        return angle_then + model.rest(t + latency) - base >= goal
+        rest = angle_then + model.rest(t + latency) - base
+        return rest <= goal if back else rest >= goal
 
     if reaches(now):
         return now
@@ -166,20 +168,82 @@ def stop_time(model: RampModel, angle_then: float, t_then: float, now: float, go
     return None
 
 
+def stop_tick(model: RampModel, angle_then: float, t_then: float, first: float, last: float,
+              tick: float, goal: float, back: bool = False) -> float | None:
+    """The drive board takes a command at its next control tick: of the ticks ``first``,
+    ``first + tick``, ... up to ``last``, the one a stop should land on to bring the
+    robot to rest nearest ``goal`` rad (of the two around the moment it would reach it,
+    the stop_time's); ``angle_then`` measured at ``t_then``, the model carries it on.
+    None when the goal is not reached by ``last``."""
+    base = model.at(t_then)[0]
+
+    def off(t: float) -> float:
+        rest = angle_then + model.rest(t) - base
+        return goal - rest if back else rest - goal      # >= 0: there or beyond
+
+    t, before = first, None
+    while t <= last + 1e-9:
+        e = off(t)
+        if e >= 0:
+            if before is not None and -before < e:
+                return t - tick
+            return t
+        before, t = e, t + tick
+    return None
+
+
 def seen_at_rest(model: RampModel, frames: list[tuple[float, float]], rest_at: float,
-                 stop_rate: float, margin: float, left: float) -> bool:
+                 stop_rate: float, margin: float, left: float, back: bool = False) -> bool:
     """Does the odometry frame ``frames[-1]`` (time, angle turned) see the robot at
     rest, the stop told to ``model``? It was read at least ``margin`` s after the
     model's rest ``rest_at``, and since each earlier frame in ``frames`` (the one the
     stop was planned from, the one before it) it turned no more than the model says
     beyond what a stop landing that much late (the excess over ``stop_rate``, the rate
-    it stopped from) would still have to turn after it: ``left`` rad at most."""
+    it stopped from) would still have to turn after it: ``left`` rad at most.
+    ``back``: it stopped from turning back (a late stop turns it further back)."""
     t, turned = frames[-1]
     if t < rest_at + margin:
         return False
     for t0, a0 in frames[:-1]:
         extra = turned - a0 - (model.at(t)[0] - model.at(t0)[0])
+        extra = -extra if back else extra
         late = max(0.0, extra) / max(stop_rate, 0.05)
         if 0.5 * model.accel * max(0.0, late - (t - rest_at)) ** 2 > left:
             return False
     return True
+
+
+def fit_stop(model: RampModel, anchor: tuple[float, float], frame: tuple[float, float],
+             spread: float) -> tuple[float, bool]:
+    """When the stop (``model``'s last command, a rate of 0) landed, from the odometry:
+    the landing within ``spread`` s of the model's that carries the angle turned at
+    ``anchor`` (time, angle; before the stop) on to the one ``frame`` read after it.
+    Sets it in ``model`` and returns (it, whether it lies inside the window: False when
+    the frame asks for one beyond it, the nearest end taken)."""
+    t_stop, rate = model.changes[-1]
+    floor = model.changes[-2][0] if len(model.changes) > 1 else anchor[0]
+    lo, hi = max(t_stop - spread, floor + 1e-4, anchor[0]), min(t_stop + spread, frame[0])
+
+    def turned(t: float) -> float:
+        model.changes[-1] = (t, rate)
+        return anchor[1] + model.at(frame[0])[0] - model.at(anchor[0])[0]
+
+    if lo >= hi:
+        model.changes[-1] = (t_stop, rate)
+        return t_stop, False
+    if turned(lo) >= frame[1] or turned(hi) <= frame[1]:
+        end = lo if turned(lo) >= frame[1] else hi
+        model.changes[-1] = (end, rate)
+        return end, False
+    for _ in range(24):                     # to a few microseconds
+        mid = (lo + hi) / 2
+        lo, hi = (lo, mid) if turned(mid) >= frame[1] else (mid, hi)
+    model.changes[-1] = ((lo + hi) / 2, rate)
+    return (lo + hi) / 2, True
+
+
+def rest_angle(model: RampModel, anchor: tuple[float, float]) -> float:
+    """The angle where the robot comes to rest, by ``model`` carried on from ``anchor``
+    (time, angle turned); its commands end with a stop."""
+    end = model.changes[-1][0] + 5.0
+    return anchor[1] + model.at(end)[0] - model.at(anchor[0])[0]

@@ -201,7 +201,21 @@ class Localize(Behavior):
 #: the standing frame by the ramp model (TurnAndShoot._at_rest): read this long after the
 #: model's rest (a control tick of each board), and what the robot may still turn after it
 REST_MARGIN_S = 0.02
+#: ... when the odometry says when its board's ticks are (tn, omnilink.Odometry): the
+#: commands' landings are known to the tick, and a frame read at the rest sees it
+REST_MARGIN_TICK_S = 0.005
+#: the board's tick known to within this (the sample's tn_spread): commands are timed
+#: to land on a tick of it (TurnAndShoot._landing)
+GRID_SPREAD_S = 0.002
 REST_LEFT_RAD = math.radians(0.1)
+#: the aim's closed-loop check (TurnAndShoot._check): the first odometry frame read this
+#: long after the stop's landing (the model's) tells when it landed (turn.fit_stop), within
+#: FIT_SPREAD_S of the model's; a correction then creeps the rest of the way, its rate
+#: the miss over CREEP_S, at most CREEP_MAX rad/s
+FIT_AFTER_S = 0.05
+FIT_SPREAD_S = 0.05
+CREEP_S = 0.05
+CREEP_MAX = 1.2
 
 
 class TurnAndShoot(Behavior):
@@ -229,6 +243,19 @@ class TurnAndShoot(Behavior):
         # the odometry's times from the central board's own tick count (its samples
         # reach this behavior a varying while after the board read the sensors)
         self.tick = float(getattr(robot.central.timer2, "period_s", 0.01))
+        # the line: a byte's time, and the bytes of a stop and of a velocity line (their
+        # CR is decoded (n - 1) bytes after the first leaves)
+        uart = robot.central.uart
+        self.byte = 10.0 / float(getattr(uart, "baud", 38400))
+        extra = 3 if getattr(uart, "require_checksum", False) else 0
+        self.x_bytes, self.v_bytes = 3 + extra, 18 + extra
+        # a tick of the central board (and the drive board's: one virtual clock, one
+        # period) on this computer's clock, from the odometry's tn; None: not known
+        self.grid: float | None = None
+        # one way from this behavior to the robot's line: half of what the wheel
+        # commands' round trips take beyond their bytes on the line (median of the last)
+        self.h = 0.001
+        self.hs: collections.deque[float] = collections.deque(maxlen=7)
         self.offsets: collections.deque[float] = collections.deque(maxlen=10)
         self.n_prev: int | None = None
         self.n_wraps = 0
@@ -285,6 +312,9 @@ class TurnAndShoot(Behavior):
         self.lead = 0.0
         self.stop_rate = 0.0
         self.sign = 1.0
+        self.back = False                   # a correction turning back (an overshoot)
+        self.landing = 0.0                  # when the model has the first stop land
+        self.checked = False                # the first stop's landing fitted (_check)
         self.turn: dict = {}
         self.last_xy: tuple[float, float, float] | None = None
         self.moved: collections.deque[bool] = collections.deque(maxlen=2)   # the last frames
@@ -296,6 +326,9 @@ class TurnAndShoot(Behavior):
             self.ignored += 1
             return
         self.pending = data
+        # the turn starts now, on this behavior's thread, not at the next step
+        self._read_odometry()
+        self._act()
 
     def _heading_at(self, t: float | None) -> float | None:
         if not self.headings:
@@ -309,10 +342,17 @@ class TurnAndShoot(Behavior):
         if self.last_step:
             self.gap += 0.2 * (now - self.last_step - self.gap)
         self.last_step = now
+        self._read_odometry()
+        self._act()
+
+    def _read_odometry(self):
         for s in self.odometry.samples():
             # every sample's board time: the offsets are the last 10 samples' (a lagging
             # emulator moves them; ones from an earlier turn would time this one early)
             board_t = self._board_time(s)
+            tn, spread = s.value.get("tn"), s.value.get("tn_spread")
+            if isinstance(tn, (int, float)) and isinstance(spread, (int, float)):
+                self.grid = float(tn) if spread <= GRID_SPREAD_S else None
             if self.phase in ("turning", "settling") and self.headings:
                 self.turned += self.sign * wrap(s.value["th"] - self.headings[-1][1])
                 prev, self.odo = self.odo, (board_t, self.turned)
@@ -328,6 +368,8 @@ class TurnAndShoot(Behavior):
             self.last_xy = (s.t, s.value["x"], s.value["y"])
             self.moved.append(bool(s.value.get("moving", True)))
             self.headings.append((s.t, s.value["th"]))
+
+    def _act(self):
         if self.phase == "idle" and self.pending is not None:
             data, self.pending = self.pending, None
             th = self._heading_at(data.get("t"))
@@ -363,9 +405,11 @@ class TurnAndShoot(Behavior):
             elif self.phase == "settling":
                 if self.stop_sent == 0.0:
                     self._stop()            # the stop's reply was missed: again
+                elif self._check():
+                    pass                    # the one correction, from the odometry
                 elif self.stood:
                     err = wrap(self.target - self.headings[-1][1])
-                    if self.turn["corrections"] == 0:
+                    if self.turn["corrections"] == 0 and not self.checked:
                         self._learn(err)
                     self.turn.setdefault("miss_deg", round(math.degrees(err), 2))
                     self.turn["aim_deg"] = round(math.degrees(err), 2)   # the last stand's
@@ -389,9 +433,13 @@ class TurnAndShoot(Behavior):
             self._done()
 
     def _board_time(self, s) -> float:
-        """When the central board read the sample, on this computer's clock: its tick
-        count against the least delayed of the recent samples; the sample's own time
-        when the two disagree by more than a reply's delay (a lagging board, a restart)."""
+        """When the central board read the sample, on this computer's clock: the
+        driver's ``tn`` where it gives one; else its tick count against the least
+        delayed of the recent samples, the sample's own time when the two disagree by
+        more than a reply's delay (a lagging board, a restart)."""
+        tn = s.value.get("tn")
+        if isinstance(tn, (int, float)) and s.t - 0.5 <= tn <= s.t:
+            return float(tn)
         n = s.value.get("n")
         if not isinstance(n, int):
             return float(s.t)
@@ -420,6 +468,7 @@ class TurnAndShoot(Behavior):
         self.odo = (self.headings[-1][0] if self.headings else time.time(), 0.0)
         self.stop_sent, self.stood = 0.0, False
         self.stop_rate = 0.0                # the model's rate when the stop was sent
+        self.back, self.checked = False, False
         self.rest_at = None                 # when the model has it come to rest
         self.anchor = self.odo              # the odometry the stop was planned from
         self.going = False
@@ -485,10 +534,7 @@ class TurnAndShoot(Behavior):
             return
         self._wheels({"w": w})
         t1 = time.time()
-        # where the command landed: the middle of its own round trip (a slow one may have
-        # been slow either way; the middle is off by half of it at most), and half the
-        # drive board's control tick (as the stop's)
-        landed = (t0 + t1) / 2 + 0.005
+        landed = self._landing(t0, self.v_bytes, t1)
         if self.going and self.slow_for and w != self.sent[0]:
             self.model.command(landed, rate)      # the slow start ended: when it did
         self.sent = (w, t0)
@@ -515,10 +561,22 @@ class TurnAndShoot(Behavior):
     def _stop_due(self, horizon: float) -> bool:
         """Send the stop if it is due within ``horizon`` s (waiting for its moment); not
         past the slow start's end, whose rate a later step has still to send."""
-        if self.slow_until > time.time():
-            horizon = min(horizon, self.slow_until - time.time())
-        t_stop = self._turn.stop_time(self.model, self.odo[1], self.odo[0], time.time(),
-                                      self.goal, self._stop_latency(), horizon)
+        now = time.time()
+        if self.slow_until > now:
+            horizon = min(horizon, self.slow_until - now)
+        if self.grid is None:
+            t_stop = self._turn.stop_time(self.model, self.odo[1], self.odo[0], now,
+                                          self.goal, self._stop_latency(), horizon, self.back)
+        else:
+            # the board takes the stop at a tick: the tick nearest the target's, and the
+            # stop sent to arrive half a tick before it (a late or early arrival by less
+            # than that lands on the same tick)
+            land = self._turn.stop_tick(self.model, self.odo[1], self.odo[0],
+                                        self._landing(now, self.x_bytes),
+                                        self._landing(now + horizon, self.x_bytes),
+                                        self.tick, self.goal, self.back)
+            t_stop = None if land is None else \
+                land - self.tick / 2 - self.h - (self.x_bytes - 1) * self.byte
         if t_stop is None:
             return False
         time.sleep(max(0.0, t_stop - time.time()))
@@ -526,17 +584,71 @@ class TurnAndShoot(Behavior):
         return True
 
     def _stop_latency(self) -> float:
-        """From sending the stop to its landing: half a round trip, half the drive
-        board's control tick, and the lead learned from the misses."""
+        """From sending the stop to its landing, without the board's tick: half a round
+        trip, half the drive board's control tick, and the lead learned from the misses."""
         return self.rtt / 2 + 0.005 + self.lead
+
+    def _landing(self, t_send: float, nbytes: int, t_back: float | None = None) -> float:
+        """When a command of ``nbytes`` sent at ``t_send`` takes effect: at the first
+        tick of the board after its line is decoded, one way (``h``) and its bytes after
+        it was sent. Without the board's tick: the middle of its round trip (``t_back``,
+        else the usual) and half a tick."""
+        if self.grid is None:
+            back = t_send + self.rtt if t_back is None else t_back
+            return (t_send + back) / 2 + self.tick / 2 + (self.lead if t_back is None else 0.0)
+        d = t_send + self.h + (nbytes - 1) * self.byte
+        return self.grid + math.ceil((d - self.grid) / self.tick) * self.tick
 
     def _at_rest(self, prev: tuple[float, float]) -> bool:
         """Does the odometry frame just read (``self.odo``, after ``prev``) see the
         robot at rest by the ramp model (turn.seen_at_rest)?"""
         if self.rest_at is None:
             return False
+        margin = REST_MARGIN_S if self.grid is None else REST_MARGIN_TICK_S
         return self._turn.seen_at_rest(self.model, [self.anchor, prev, self.odo], self.rest_at,
-                                       self.stop_rate, REST_MARGIN_S, REST_LEFT_RAD)
+                                       self.stop_rate, margin, REST_LEFT_RAD, self.back)
+
+    def _check(self) -> bool:
+        """The aim's closed-loop check, while the first stop ramps the robot down: the
+        first odometry frame read FIT_AFTER_S after the stop's landing (the model's) says
+        when it landed (turn.fit_stop) and so where the robot will rest; off by more than
+        the tolerance, the one correction starts at once, before it stands: a creep on
+        toward the target (the wheels ramp down to it) or back (down through standing).
+        True when it started."""
+        if self.checked or self.turn["corrections"] != 0 or not self.going or \
+                self.odo[0] < self.landing + FIT_AFTER_S:
+            return False
+        self.checked = True
+        t_model = self.landing
+        t_land, inside = self._turn.fit_stop(self.model, self.anchor, self.odo, FIT_SPREAD_S)
+        late = t_land - t_model
+        self.turn["landed_ms"] = round(1000 * late, 1)
+        if inside and self.stop_rate > 1.0 and self.grid is None:
+            # the stops' lead: half of what this one landed late (as _learn, measured)
+            self.lead = max(-0.03, min(0.05, self.lead + 0.5 * late))
+            self.turn["lead_ms"] = round(1000 * self.lead, 1)
+        self.rest_at = t_land + abs(self.model.at(t_land)[1]) / self.accel
+        err = self.goal - self._turn.rest_angle(self.model, self.anchor)     # > 0: short
+        self.turn["miss_deg"] = round(math.degrees(self.sign * err), 2)
+        if abs(err) <= self.tolerance:
+            return False
+        self.turn["corrections"] += 1
+        rate = min(CREEP_MAX, max(self.correction_rate, abs(err) / CREEP_S))
+        self.back = err < 0
+        self.top = -rate if self.back else rate
+        self.slow_until, self.slow_for = 0.0, 0.0
+        self.stood, self.rest_at, self.stop_rate = False, None, 0.0
+        self.anchor = self.odo
+        self.phase = "turning"
+        w = round(self.sign * self.top * 1000)
+        t0 = time.time()
+        self._wheels({"w": w})
+        self.model.command(self._landing(t0, self.v_bytes, time.time()), self.top)
+        self.sent = (w, t0)
+        self.turn["max_w"] = max(self.turn["max_w"], abs(w))
+        self.turn["at"]["go2"] = t0
+        self._stop_due(0.4)                 # planned now and waited for (as _turning's)
+        return True
 
     def _learn(self, err: float) -> None:
         """The stop's lead from the first aim's miss: past the target in the turn's
@@ -551,15 +663,20 @@ class TurnAndShoot(Behavior):
         self.phase = "settling"
         t0 = time.time()
         if self.going:
-            landing = t0 + self._stop_latency()
+            landing = self._landing(t0, self.x_bytes)
             if not self.stop_rate:
-                self.stop_rate = self.model.at(landing)[1]
+                self.stop_rate = abs(self.model.at(landing)[1])
             self.model.command(landing, 0.0)
-            self.rest_at = landing + self.model.at(landing)[1] / self.accel
+            self.rest_at = landing + abs(self.model.at(landing)[1]) / self.accel
             self.anchor = self.odo
+            if self.turn["corrections"] == 0:
+                self.landing = landing
         self.stop_sent = 0.0
         self._wheels("stop")
         self.stop_sent = t0
+        # how the landing was known: on the board's tick (True), and the one way's ms
+        self.turn["on_tick"] = self.grid is not None
+        self.turn["h_ms"] = round(1000 * self.h, 2)
         self.turn["at"][self._key("stop")] = t0
 
     def _key(self, event: str) -> str:
@@ -567,7 +684,13 @@ class TurnAndShoot(Behavior):
         return event + ("2" if self.turn["corrections"] > 0 else "")
 
     def _wheels(self, command):
+        t0 = time.time()
         self.wheels.send(command, timeout=0.5)
+        rtt = time.time() - t0
+        # one way: half the round trip beyond the line's bytes (the line, and "OK")
+        n = self.x_bytes if command == "stop" else self.v_bytes
+        self.hs.append(max(0.0, (rtt - (n - 1 + 4) * self.byte) / 2))
+        self.h = statistics.median(self.hs)
         self.wheels_ok_at = time.monotonic()
 
     def _shoot(self):
