@@ -131,7 +131,9 @@ def shots(mode: str, places: list[tuple[float, float]], odometry_hz: float | Non
                       f"corrections {r['corr']} (first aim off {turn.get('miss_deg', 0):+.1f} deg) | "
                       f"error {err:4.1f} deg (aim {aim:+.1f}, odometry {odo:+.1f}) | "
                       f"top {r['max_w']} mrad/s | drive {turn.get('drive_mm_s')} mm/s, start "
-                      f"{turn.get('start')}, rest by {turn.get('rest')} | {at}", flush=True)
+                      f"{turn.get('start')}, rest by {turn.get('rest')} | stops on the board's "
+                      f"tick {turn.get('on_tick')}, one way {turn.get('h_ms')} ms, landed "
+                      f"{turn.get('landed_ms')} ms from the model's | {at}", flush=True)
                 time.sleep(0.8)                    # the cooldown, and patrol drives again
     return out
 

@@ -221,7 +221,11 @@ class PolledSensor(Sensor, Generic[_R]):
             now = time.monotonic()
             if next_t < now:                       # late (a long command): start afresh
                 next_t = now
-            self._stop.wait(next_t - now + self.dither())
+            self.sleep_until(next_t + self.dither())
+
+    def sleep_until(self, t: float) -> None:
+        """Wait until ``t`` (``time.monotonic()``) or the sensor closes."""
+        self._stop.wait(t - time.monotonic())
 
     def _poll(self) -> None:
         try:

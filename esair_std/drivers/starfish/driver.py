@@ -298,8 +298,9 @@ class Starfish(MinLink):
                                 f"polls may take half the line (the wheels' commands the other "
                                 f"half): at most {b.max_feet_hz(ODOMETRY_SHARE):.1f} a second")
         base_ = robot.central.base
-        self.wheels = Wheels(self.link, base_.max_speed_mm_s, base_.max_omega_mrad_s)
         self.odometry = Odometry(self.link, robot, hz, start)
+        self.wheels = Wheels(self.link, base_.max_speed_mm_s, base_.max_omega_mrad_s,
+                             robot, self.odometry.poll_at)
         kids: dict[str, Sensor | Actuator] = {"wheels": self.wheels, "odometry": self.odometry,
                                 "notices": self.notices}
         self.wheels.deadline_s = deadline

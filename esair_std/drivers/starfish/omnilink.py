@@ -17,9 +17,11 @@ from __future__ import annotations
 import math
 import threading
 import time
+from typing import Callable
 
 from esair_std import Actuator, CommandError
 from esair_min.components.omni_base.core import velocity_line
+from esair_min.components.omni_base.kinematics import Wheel, wheel_speeds, wheel_table
 from esair_min.components.optical_flow.odometry import FlowOdometry, parse_odometry
 from esair_min.model.robot import Robot
 
@@ -35,6 +37,9 @@ from .scene import wrap
 
 #: the omni base's lines by action (docs/protocol.md, STARFISH)
 PREFIX = {"velocity": "V", "odometry": "O", "stop": "x", "version": "v"}
+#: the extra poll after a stop, this long after the wheels are at rest by the ramp: the
+#: board's tick that reads the flow sums has passed
+AT_REST_S = 0.002
 #: the longest ``O`` reply: n=65535 and two sensors' -2147483648,-2147483648,255
 ODOMETRY_REPLY_BYTES = len("OK n=65535") + 2 * len(" a=-2147483648,-2147483648,255") + 2
 
@@ -87,14 +92,39 @@ def omni_budget(robot: Robot) -> LineBudget:
 
 class Wheels(LinkAgent, Actuator):
     """The body velocity in the robot's frame: ``{"vx": mm/s, "vy": mm/s, "w": mrad/s}``
-    (missing keys 0) or ``"stop"``."""
+    (missing keys 0) or ``"stop"``. With ``at_rest`` (a robot model and a callback):
+    after a stop, ``at_rest(t)`` is told when the wheels are at rest at the latest
+    (``time.monotonic()``): the drive board's ramp from the last speeds commanded."""
 
-    def __init__(self, link: Link, max_v: int, max_w: int):
+    def __init__(self, link: Link, max_v: int, max_w: int,
+                 robot: Robot | None = None, at_rest: Callable[[float], None] | None = None):
         self.link, self.max_v, self.max_w = link, max_v, max_w
+        self.at_rest = at_rest
+        self.last = (0, 0, 0)
+        self._wheels: list[Wheel] = []
+        self._ramps: list[float] = []
+        self.tick = 0.0
+        if robot is not None:
+            drive = robot.board("drive")
+            assert drive is not None and robot.central.timer2 is not None   # an omni base's
+            self._wheels = wheel_table(list(drive.motors))
+            self._ramps = [float(m.ramp_mm_s2) for m in drive.motors]
+            self.tick = robot.central.timer2.period_s
+
+    def _rest_in(self) -> float:
+        """Seconds from a stop's reply to the wheels at rest, at the latest: the drive
+        board takes it at its next tick and ramps each wheel down by its step a tick
+        from the last speeds commanded, the last step a tick after the first."""
+        rims = wheel_speeds(self._wheels, *self.last)
+        return max(math.ceil(abs(v) / max(1.0, a * self.tick)) for v, a in
+                   zip(rims, self._ramps)) * self.tick
 
     def write(self, command: JSON) -> dict[str, int]:
         if command == "stop":
             self._send("x")
+            if self.at_rest is not None and self._wheels and any(self.last):
+                self.at_rest(time.monotonic() + self._rest_in())
+            self.last = (0, 0, 0)
             return {"vx": 0, "vy": 0, "w": 0}
         if not isinstance(command, dict) or set(command) - {"vx", "vy", "w"}:
             raise CommandError(self.name, f"expected {{'vx': mm/s, 'vy': mm/s, 'w': mrad/s}} or "
@@ -110,6 +140,7 @@ class Wheels(LinkAgent, Actuator):
                                               f"+-{limit} {unit}")
             out[key] = int(round(v))
         self._send(velocity_line(out["vx"], out["vy"], out["w"]))
+        self.last = (out["vx"], out["vy"], out["w"])
         return out
 
     def halt(self) -> dict[str, int] | None:
@@ -135,6 +166,8 @@ class Odometry(PolledSensor[str]):
         self.clock = TickClock(central.timer2.period_s, BITS_PER_BYTE / central.uart.baud)
         self._k = 0
         self._exchange: Exchange | None = None
+        self._poll_at: float | None = None
+        self._wake = threading.Event()
         self.reset()
 
     def dither(self) -> float:
@@ -142,6 +175,26 @@ class Odometry(PolledSensor[str]):
         # bounds on its clock (tickclock.py) close in from every phase
         self._k += 1
         return (self._k * 0.6180339887 % 1.0) * self.clock.tick
+
+    def poll_at(self, t: float) -> None:
+        """One poll more at ``t`` (``time.monotonic()``; the wheels at rest after a stop:
+        the frame that sees the robot stand comes then, not up to a period later)."""
+        self._poll_at = t + AT_REST_S
+        self._wake.set()
+
+    def sleep_until(self, t: float) -> None:
+        while not self._stop.is_set():
+            now, at = time.monotonic(), self._poll_at
+            if at is not None and at <= now:
+                self._poll_at = None
+                if self.link.up:
+                    self._poll()
+                continue
+            end = t if at is None else min(t, at)
+            if end <= now:
+                return
+            self._wake.wait(end - now)
+            self._wake.clear()
 
     def reset(self) -> None:
         x, y, th = self.start

@@ -202,8 +202,10 @@ class Localize(Behavior):
 #: model's rest (a control tick of each board), and what the robot may still turn after it
 REST_MARGIN_S = 0.02
 #: ... when the odometry says when its board's ticks are (tn, omnilink.Odometry): the
-#: commands' landings are known to the tick, and a frame read at the rest sees it
-REST_MARGIN_TICK_S = 0.005
+#: commands' landings are known to the tick, and the drive board's ramp, a step each
+#: tick, comes to rest half a tick before the ramp model's (_landing): a frame read from
+#: then (less the tick's estimate's error) sees it
+REST_MARGIN_TICK_S = -0.002
 #: the board's tick known to within this (the sample's tn_spread): commands are timed
 #: to land on a tick of it (TurnAndShoot._landing)
 GRID_SPREAD_S = 0.002
@@ -576,7 +578,7 @@ class TurnAndShoot(Behavior):
                                         self._landing(now + horizon, self.x_bytes),
                                         self.tick, self.goal, self.back)
             t_stop = None if land is None else \
-                land - self.tick / 2 - self.h - (self.x_bytes - 1) * self.byte
+                land - self.h - (self.x_bytes - 1) * self.byte
         if t_stop is None:
             return False
         time.sleep(max(0.0, t_stop - time.time()))
@@ -589,22 +591,24 @@ class TurnAndShoot(Behavior):
         return self.rtt / 2 + 0.005 + self.lead
 
     def _landing(self, t_send: float, nbytes: int, t_back: float | None = None) -> float:
-        """When a command of ``nbytes`` sent at ``t_send`` takes effect: at the first
-        tick of the board after its line is decoded, one way (``h``) and its bytes after
-        it was sent. Without the board's tick: the middle of its round trip (``t_back``,
-        else the usual) and half a tick."""
+        """When a command of ``nbytes`` sent at ``t_send`` takes effect, for the ramp
+        model: the drive board takes it at its first tick after its line is decoded, one
+        way (``h``) and its bytes after it was sent, and ramps a step each tick from
+        then, as the model's ramp from half a tick before (the same speed in the middle
+        of each tick). Without the board's tick: the middle of its round trip
+        (``t_back``, else the usual) and half a tick."""
         if self.grid is None:
             back = t_send + self.rtt if t_back is None else t_back
             return (t_send + back) / 2 + self.tick / 2 + (self.lead if t_back is None else 0.0)
         d = t_send + self.h + (nbytes - 1) * self.byte
-        return self.grid + math.ceil((d - self.grid) / self.tick) * self.tick
+        return self.grid + (math.ceil((d - self.grid) / self.tick) - 0.5) * self.tick
 
     def _at_rest(self, prev: tuple[float, float]) -> bool:
         """Does the odometry frame just read (``self.odo``, after ``prev``) see the
         robot at rest by the ramp model (turn.seen_at_rest)?"""
         if self.rest_at is None:
             return False
-        margin = REST_MARGIN_S if self.grid is None else REST_MARGIN_TICK_S
+        margin = REST_MARGIN_S if self.grid is None else REST_MARGIN_TICK_S - self.tick / 2
         return self._turn.seen_at_rest(self.model, [self.anchor, prev, self.odo], self.rest_at,
                                        self.stop_rate, margin, REST_LEFT_RAD, self.back)
 
