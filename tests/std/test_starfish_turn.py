@@ -206,3 +206,48 @@ def test_the_standing_frame_is_known_by_the_ramp_model_and_a_late_stop_is_seen(r
     else:
         assert math.degrees(rest - first_past[1]) > 1.0          # still turning then
         assert seen[0] > first_past[0]
+
+
+def _on_tick(robot):
+    """The landing of a line of ``nbytes`` sent at ``t`` for the ramp model: the drive
+    board takes it at its first control tick (every CONTROL_TICK_MS of the emulator's
+    clock) after the line's CR, the model's ramp half a tick before (the same speed in
+    the middle of each tick)."""
+    from esair_min.components.dc_motor.core import CONTROL_TICK_MS
+    tick = CONTROL_TICK_MS / 1000
+    byte_s = byte_time_ns(robot.central.uart.baud) / 1e9
+
+    def landing(t: float, nbytes: int) -> float:
+        return (math.ceil((t + (nbytes - 1) * byte_s) / tick - 1e-9) - 0.5) * tick
+    return tick, byte_s, landing
+
+
+@pytest.mark.parametrize("late_ticks", [0, 1, -1])
+def test_a_stops_landing_is_fitted_from_a_frame_of_the_ramp_down(robot, late_ticks):
+    """fit_stop: the stop landed on the drive board's tick the model has, a tick later or
+    earlier (a slow or hasty host): an odometry frame 60 ms into the ramp down, carried
+    from one read at the top rate, says when, to a millisecond, and rest_angle where the
+    robot comes to rest, to 0.2 deg."""
+    from esair_std.drivers.starfish.turn import WheelRamp, fit_stop, rest_angle
+    omega, _ = turn_limits(robot)
+    tick, byte_s, landing = _on_tick(robot)
+    sim = StarfishSim(robot, World(pose=Pose(3000, 2000, 0.0)), FlowOptions(noise=0.0))
+    sim.run_for(1.0)
+    th0, t0 = sim.world.pose.theta, sim.now_s
+    model = WheelRamp(robot)
+    go = velocity_line(0, 0, round(omega * 1000))
+    sim.command(go)
+    model.command(landing(t0, len(go) + 2), omega)
+    sim.run_for(1.3 - sim.now_s)
+    anchor = (sim.now_s, sim.world.pose.theta - th0)     # on a tick: a frame's time
+    send = 1.345
+    sim.run_for(send + late_ticks * tick - sim.now_s)
+    sim.command("x")
+    told = landing(send, 3)
+    model.command(told, 0.0)
+    sim.run_for(told + 0.065 - sim.now_s)
+    frame = (sim.now_s, sim.world.pose.theta - th0)
+    t_land, inside = fit_stop(model, anchor, frame, 0.05)
+    assert inside and t_land == pytest.approx(told + late_ticks * tick, abs=0.001)
+    sim.run_for(0.5)
+    assert abs(math.degrees(rest_angle(model, anchor) - (sim.world.pose.theta - th0))) < 0.2

@@ -20,6 +20,7 @@ import time
 from typing import Callable
 
 from esair_std import Actuator, CommandError
+from esair_min.components.dc_motor.core import CONTROL_TICK_MS
 from esair_min.components.omni_base.core import velocity_line
 from esair_min.components.omni_base.kinematics import Wheel, wheel_speeds, wheel_table
 from esair_min.components.optical_flow.odometry import FlowOdometry, parse_odometry
@@ -106,10 +107,10 @@ class Wheels(LinkAgent, Actuator):
         self.tick = 0.0
         if robot is not None:
             drive = robot.board("drive")
-            assert drive is not None and robot.central.timer2 is not None   # an omni base's
+            assert drive is not None                # an omni base has its drive board
             self._wheels = wheel_table(list(drive.motors))
             self._ramps = [float(m.ramp_mm_s2) for m in drive.motors]
-            self.tick = robot.central.timer2.period_s
+            self.tick = CONTROL_TICK_MS / 1000          # the drive board's control tick
 
     def _rest_in(self) -> float:
         """Seconds from a stop's reply to the wheels at rest, at the latest: the drive

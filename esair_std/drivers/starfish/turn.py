@@ -168,30 +168,6 @@ def stop_time(model: RampModel, angle_then: float, t_then: float, now: float, go
     return None
 
 
-def stop_tick(model: RampModel, angle_then: float, t_then: float, first: float, last: float,
-              tick: float, goal: float, back: bool = False) -> float | None:
-    """The drive board takes a command at its next control tick: of the ticks ``first``,
-    ``first + tick``, ... up to ``last``, the one a stop should land on to bring the
-    robot to rest nearest ``goal`` rad (of the two around the moment it would reach it,
-    the stop_time's); ``angle_then`` measured at ``t_then``, the model carries it on.
-    None when the goal is not reached by ``last``."""
-    base = model.at(t_then)[0]
-
-    def off(t: float) -> float:
-        rest = angle_then + model.rest(t) - base
-        return goal - rest if back else rest - goal      # >= 0: there or beyond
-
-    t, before = first, None
-    while t <= last + 1e-9:
-        e = off(t)
-        if e >= 0:
-            if before is not None and -before < e:
-                return t - tick
-            return t
-        before, t = e, t + tick
-    return None
-
-
 def seen_at_rest(model: RampModel, frames: list[tuple[float, float]], rest_at: float,
                  stop_rate: float, margin: float, left: float, back: bool = False) -> bool:
     """Does the odometry frame ``frames[-1]`` (time, angle turned) see the robot at

@@ -201,23 +201,30 @@ class Localize(Behavior):
 #: the standing frame by the ramp model (TurnAndShoot._at_rest): read this long after the
 #: model's rest (a control tick of each board), and what the robot may still turn after it
 REST_MARGIN_S = 0.02
-#: ... when the odometry says when its board's ticks are (tn, omnilink.Odometry): the
-#: commands' landings are known to the tick, and the drive board's ramp, a step each
-#: tick, comes to rest half a tick before the ramp model's (_landing): a frame read from
-#: then (less the tick's estimate's error) sees it
-REST_MARGIN_TICK_S = -0.002
-#: the board's tick known to within this (the sample's tn_spread): commands are timed
-#: to land on a tick of it (TurnAndShoot._landing)
-GRID_SPREAD_S = 0.002
+#: ... when the odometry says when the board read it (tn, omnilink.Odometry, known to
+#: TN_SPREAD_S): the frame's own time is the board's, and a frame read after the model's
+#: rest sees it (the drive board's ramp, a step each tick, rests by the model's, _landing)
+REST_MARGIN_TN_S = 0.001
+TN_SPREAD_S = 0.002
 REST_LEFT_RAD = math.radians(0.1)
-#: the aim's closed-loop check (TurnAndShoot._check): the first odometry frame read this
-#: long after the stop's landing (the model's) tells when it landed (turn.fit_stop), within
-#: FIT_SPREAD_S of the model's; a correction then creeps the rest of the way, its rate
-#: the miss over CREEP_S, at most CREEP_MAX rad/s
+#: the aim's closed-loop check while the robot ramps down (TurnAndShoot._check): the
+#: first odometry frame read FIT_AFTER_S after the stop's landing (the model's) tells
+#: when it landed (turn.fit_stop, within FIT_SPREAD_S of the model's); a miss it predicts
+#: beyond FIT_MISS_RAD (a stop held up: the frame's counts' noise alone moves the
+#: prediction by a degree) starts the one correction then, a creep the rest of the way,
+#: its rate the miss over CREEP_S, at most CREEP_MAX rad/s; a smaller one is left to the
+#: standing frame
 FIT_AFTER_S = 0.05
 FIT_SPREAD_S = 0.05
+FIT_MISS_RAD = math.radians(3.0)
 CREEP_S = 0.05
 CREEP_MAX = 1.2
+#: the share of a first aim's miss (as a time: over the rate it stopped from) the stops'
+#: lead takes up (the drive board's tick alone moves a landing by up to 10 ms)
+LEARN = 0.3
+#: the standing frame is waited for inside a step until this long after the model's rest
+#: (the poll at rest, its reply on the line, the driver's hop)
+AWAIT_STAND_S = 0.05
 
 
 class TurnAndShoot(Behavior):
@@ -251,9 +258,8 @@ class TurnAndShoot(Behavior):
         self.byte = 10.0 / float(getattr(uart, "baud", 38400))
         extra = 3 if getattr(uart, "require_checksum", False) else 0
         self.x_bytes, self.v_bytes = 3 + extra, 18 + extra
-        # a tick of the central board (and the drive board's: one virtual clock, one
-        # period) on this computer's clock, from the odometry's tn; None: not known
-        self.grid: float | None = None
+        # the odometry says when the board read each frame (its tn)
+        self.timed = False
         # one way from this behavior to the robot's line: half of what the wheel
         # commands' round trips take beyond their bytes on the line (median of the last)
         self.h = 0.001
@@ -352,9 +358,8 @@ class TurnAndShoot(Behavior):
             # every sample's board time: the offsets are the last 10 samples' (a lagging
             # emulator moves them; ones from an earlier turn would time this one early)
             board_t = self._board_time(s)
-            tn, spread = s.value.get("tn"), s.value.get("tn_spread")
-            if isinstance(tn, (int, float)) and isinstance(spread, (int, float)):
-                self.grid = float(tn) if spread <= GRID_SPREAD_S else None
+            spread = s.value.get("tn_spread")
+            self.timed = isinstance(spread, (int, float)) and spread <= TN_SPREAD_S
             if self.phase in ("turning", "settling") and self.headings:
                 self.turned += self.sign * wrap(s.value["th"] - self.headings[-1][1])
                 prev, self.odo = self.odo, (board_t, self.turned)
@@ -409,9 +414,9 @@ class TurnAndShoot(Behavior):
                     self._stop()            # the stop's reply was missed: again
                 elif self._check():
                     pass                    # the one correction, from the odometry
-                elif self.stood:
+                elif self._await_stand() or self.stood:
                     err = wrap(self.target - self.headings[-1][1])
-                    if self.turn["corrections"] == 0 and not self.checked:
+                    if self.turn["corrections"] == 0:
                         self._learn(err)
                     self.turn.setdefault("miss_deg", round(math.degrees(err), 2))
                     self.turn["aim_deg"] = round(math.degrees(err), 2)   # the last stand's
@@ -566,19 +571,8 @@ class TurnAndShoot(Behavior):
         now = time.time()
         if self.slow_until > now:
             horizon = min(horizon, self.slow_until - now)
-        if self.grid is None:
-            t_stop = self._turn.stop_time(self.model, self.odo[1], self.odo[0], now,
-                                          self.goal, self._stop_latency(), horizon, self.back)
-        else:
-            # the board takes the stop at a tick: the tick nearest the target's, and the
-            # stop sent to arrive half a tick before it (a late or early arrival by less
-            # than that lands on the same tick)
-            land = self._turn.stop_tick(self.model, self.odo[1], self.odo[0],
-                                        self._landing(now, self.x_bytes),
-                                        self._landing(now + horizon, self.x_bytes),
-                                        self.tick, self.goal, self.back)
-            t_stop = None if land is None else \
-                land - self.h - (self.x_bytes - 1) * self.byte
+        t_stop = self._turn.stop_time(self.model, self.odo[1], self.odo[0], now,
+                                      self.goal, self._stop_latency(), horizon, self.back)
         if t_stop is None:
             return False
         time.sleep(max(0.0, t_stop - time.time()))
@@ -586,39 +580,54 @@ class TurnAndShoot(Behavior):
         return True
 
     def _stop_latency(self) -> float:
-        """From sending the stop to its landing, without the board's tick: half a round
-        trip, half the drive board's control tick, and the lead learned from the misses."""
-        return self.rtt / 2 + 0.005 + self.lead
+        """From sending the stop to its landing (_landing)."""
+        return self._landing(0.0, self.x_bytes)
 
     def _landing(self, t_send: float, nbytes: int, t_back: float | None = None) -> float:
         """When a command of ``nbytes`` sent at ``t_send`` takes effect, for the ramp
-        model: the drive board takes it at its first tick after its line is decoded, one
-        way (``h``) and its bytes after it was sent, and ramps a step each tick from
-        then, as the model's ramp from half a tick before (the same speed in the middle
-        of each tick). Without the board's tick: the middle of its round trip
-        (``t_back``, else the usual) and half a tick."""
-        if self.grid is None:
-            back = t_send + self.rtt if t_back is None else t_back
-            return (t_send + back) / 2 + self.tick / 2 + (self.lead if t_back is None else 0.0)
-        d = t_send + self.h + (nbytes - 1) * self.byte
-        return self.grid + (math.ceil((d - self.grid) / self.tick) - 0.5) * self.tick
+        model, and the lead learned from the first aims' misses. The drive board takes it
+        at its next control tick (its own clock: 0-10 ms after the line is decoded) and
+        ramps a step each tick from there, as the model's ramp from half a tick before
+        (the same speed in the middle of each tick): on average, from the line's
+        decoding, one way (``h``) and its bytes after it was sent. Without the frames'
+        own times (untimed odometry) the model's times are the host's: the middle of the
+        command's round trip (``t_back``, else the usual) and half a tick."""
+        if self.timed:
+            return t_send + self.h + (nbytes - 1) * self.byte + self.lead
+        back = t_send + self.rtt if t_back is None else t_back
+        return (t_send + back) / 2 + 0.005 + (self.lead if t_back is None else 0.0)
 
     def _at_rest(self, prev: tuple[float, float]) -> bool:
         """Does the odometry frame just read (``self.odo``, after ``prev``) see the
         robot at rest by the ramp model (turn.seen_at_rest)?"""
         if self.rest_at is None:
             return False
-        margin = REST_MARGIN_S if self.grid is None else REST_MARGIN_TICK_S - self.tick / 2
+        margin = REST_MARGIN_TN_S if self.timed else REST_MARGIN_S
         return self._turn.seen_at_rest(self.model, [self.anchor, prev, self.odo], self.rest_at,
                                        self.stop_rate, margin, REST_LEFT_RAD, self.back)
+
+    def _await_stand(self) -> bool:
+        """The frame that sees the robot stand (the driver polls the odometry when the
+        wheels come to rest) is waited for in this step when it is due before the next
+        one, and taken as it arrives; True when it came."""
+        if self.stood or self.rest_at is None or not self.timed:
+            return self.stood
+        end = self.rest_at + AWAIT_STAND_S
+        if time.time() < self.rest_at - 1.5 * self.gap:
+            return False
+        while not self.stood and time.time() < end:
+            time.sleep(0.002)
+            self._read_odometry()
+        return self.stood
 
     def _check(self) -> bool:
         """The aim's closed-loop check, while the first stop ramps the robot down: the
         first odometry frame read FIT_AFTER_S after the stop's landing (the model's) says
         when it landed (turn.fit_stop) and so where the robot will rest; off by more than
-        the tolerance, the one correction starts at once, before it stands: a creep on
-        toward the target (the wheels ramp down to it) or back (down through standing).
-        True when it started."""
+        FIT_MISS_RAD (a stop held up), the one correction starts at once, before it
+        stands: a creep on toward the target (the wheels ramp down to it) or back (down
+        through standing). True when it started; otherwise the model stays as it was and
+        the standing frame tells the miss."""
         if self.checked or self.turn["corrections"] != 0 or not self.going or \
                 self.odo[0] < self.landing + FIT_AFTER_S:
             return False
@@ -627,15 +636,12 @@ class TurnAndShoot(Behavior):
         t_land, inside = self._turn.fit_stop(self.model, self.anchor, self.odo, FIT_SPREAD_S)
         late = t_land - t_model
         self.turn["landed_ms"] = round(1000 * late, 1)
-        if inside and self.stop_rate > 1.0 and self.grid is None:
-            # the stops' lead: half of what this one landed late (as _learn, measured)
-            self.lead = max(-0.03, min(0.05, self.lead + 0.5 * late))
-            self.turn["lead_ms"] = round(1000 * self.lead, 1)
-        self.rest_at = t_land + abs(self.model.at(t_land)[1]) / self.accel
         err = self.goal - self._turn.rest_angle(self.model, self.anchor)     # > 0: short
-        self.turn["miss_deg"] = round(math.degrees(self.sign * err), 2)
-        if abs(err) <= self.tolerance:
+        self.turn["fit_deg"] = round(math.degrees(self.sign * err), 2)
+        if abs(err) <= max(self.tolerance, FIT_MISS_RAD) or not inside:
+            self.model.changes[-1] = (t_model, 0.0)
             return False
+        self.turn["miss_deg"] = round(math.degrees(self.sign * err), 2)
         self.turn["corrections"] += 1
         rate = min(CREEP_MAX, max(self.correction_rate, abs(err) / CREEP_S))
         self.back = err < 0
@@ -660,7 +666,7 @@ class TurnAndShoot(Behavior):
         stopped from (a loaded computer's misses of many degrees are not learned)."""
         if self.stop_rate > 1.0 and abs(err) < math.radians(6):
             late = -self.sign * err / self.stop_rate
-            self.lead = max(-0.03, min(0.05, self.lead + 0.5 * late))
+            self.lead = max(-0.03, min(0.05, self.lead + LEARN * late))
         self.turn["lead_ms"] = round(1000 * self.lead, 1)
 
     def _stop(self):
@@ -679,7 +685,7 @@ class TurnAndShoot(Behavior):
         self._wheels("stop")
         self.stop_sent = t0
         # how the landing was known: on the board's tick (True), and the one way's ms
-        self.turn["on_tick"] = self.grid is not None
+        self.turn["timed"] = self.timed
         self.turn["h_ms"] = round(1000 * self.h, 2)
         self.turn["at"][self._key("stop")] = t0
 
