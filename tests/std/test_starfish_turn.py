@@ -251,3 +251,37 @@ def test_a_stops_landing_is_fitted_from_a_frame_of_the_ramp_down(robot, late_tic
     assert inside and t_land == pytest.approx(told + late_ticks * tick, abs=0.001)
     sim.run_for(0.5)
     assert abs(math.degrees(rest_angle(model, anchor) - (sim.world.pose.theta - th0))) < 0.2
+
+
+@pytest.mark.parametrize("drive_deg", [0, 45, 135, 230, 300])
+@pytest.mark.parametrize("sign", [1, -1])
+def test_a_turn_started_while_driving_by_the_start_plan_loses_no_flow_count(robot, drive_deg, sign):
+    """While patrol's drive (200 mm/s) ramps out wheel by wheel, a turn at the top rate
+    takes a flow sensor past its top speed and the odometry loses counts: start_plan's
+    start (a rate held, then the top; behavior's START_LIMIT) loses none on the emulated
+    boards and is ahead of the fixed slow start (1.2 rad/s for 0.12 s) by 0.3 s."""
+    from esair_std.drivers.starfish.turn import flow_limit, start_plan
+    omega, _ = turn_limits(robot)
+    top_ips, _ = flow_limit(robot)
+    a = math.radians(drive_deg)
+    drive = (round(200 * math.cos(a)), round(200 * math.sin(a)))
+    rate, hold = start_plan(robot, drive, sign, omega, 0.75 * top_ips)
+    assert 0 < rate <= omega
+
+    def turned(plan):
+        sim = StarfishSim(robot, World(pose=Pose(3000, 2000, 0.0)), FlowOptions(noise=0.0))
+        sim.command(velocity_line(drive[0], drive[1], 0))
+        sim.run_for(0.5)
+        th0, lost = sim.world.pose.theta, [s.lost for s in sim.sensors]
+        t0 = sim.now_s
+        for r, until in plan:
+            sim.command(velocity_line(0, 0, round(sign * r * 1000)))
+            sim.run_for(t0 + until - sim.now_s)
+        return sign * (sim.world.pose.theta - th0), [s.lost - n for s, n in zip(sim.sensors, lost)]
+
+    ahead, lost = turned([(rate, hold), (omega, 0.3)])
+    assert lost == [0, 0]
+    fixed, _ = turned([(1.2, 0.12), (omega, 0.3)])
+    assert ahead > fixed
+    top_at_once, lost_at_once = turned([(omega, 0.3)])
+    assert rate < omega or lost_at_once == [0, 0]

@@ -103,7 +103,8 @@ class WheelRamp(RampModel):
         wheels = wheel_table(list(motors))
         super().__init__(min(m.ramp_mm_s2 / m.mount_radius_mm for m in motors))
         self.rows = matrix(wheels)                 # (vx, vy, omega) -> rim speeds
-        self.omega_row = inverse(wheels)[2]        # rim speeds -> omega
+        self.inv = inverse(wheels)                 # rim speeds -> (vx, vy, omega)
+        self.omega_row = self.inv[2]
         self.ramps = [float(m.ramp_mm_s2) for m in motors]
         self.start = [sign * (r[0] * drive[0] + r[1] * drive[1]) for r in self.rows]
 
@@ -120,6 +121,13 @@ class WheelRamp(RampModel):
             out.append((dist, speed))
         return out
 
+    def body(self, t: float) -> tuple[float, float, float]:
+        """The body's velocity at time t: vx, vy mm/s (its frame), omega rad/s (all in
+        the turn's direction)."""
+        v = [speed for _, speed in self._wheels(t)]
+        vx, vy, w = (sum(c * x for c, x in zip(row, v)) for row in self.inv)
+        return vx, vy, w
+
     def at(self, t: float) -> tuple[float, float]:
         w = self._wheels(t)
         return (sum(c * d for c, (d, _) in zip(self.omega_row, w)),
@@ -129,6 +137,45 @@ class WheelRamp(RampModel):
         w = self._wheels(t)
         return sum(c * (d + v * abs(v) / (2 * a))
                    for c, (d, v), a in zip(self.omega_row, w, self.ramps))
+
+
+def start_plan(robot: Any, drive: tuple[float, float], sign: float, top: float,
+               limit: float) -> tuple[float, float]:
+    """How a turn starts while the robot drives (``drive``: vx, vy mm/s, its frame): a
+    rate held for a while, then ``top``, so that no flow sensor moves faster than
+    ``limit`` mm/s while the drive ramps out wheel by wheel (WheelRamp). Of the rates
+    from ``top`` down to 40 % of it, each with the shortest hold (20 ms steps, 0.2 s at
+    most) that keeps them under, the one that has turned furthest at 0.25 s: (rate,
+    hold); (top, 0.0) when the top rate keeps them under at once, (0.0, 0.0) when none
+    does."""
+    sensors = [(float(f.mount_x_mm), float(f.mount_y_mm)) for f in robot.central.flow_sensors]
+    probe = WheelRamp(robot, drive, sign)
+    ramp_out = max(abs(s) / a for s, a in zip(probe.start, probe.ramps)) + 0.02
+    times = [0.005 + 0.01 * k for k in range(int(ramp_out / 0.01) + 1)]
+
+    def fast(model: WheelRamp) -> bool:
+        for t in times:
+            vx, vy, w = model.body(t)
+            if any(math.hypot(vx - w * py, vy + w * px) > limit for px, py in sensors):
+                return True
+        return False
+
+    best, plan = -1.0, (0.0, 0.0)
+    for k in range(7):
+        rate = top * (1.0 - 0.1 * k)
+        for hold in ([0.0] if k == 0 else [0.02 * j for j in range(1, 11)]):
+            model = WheelRamp(robot, drive, sign)
+            model.command(0.0, rate)
+            if hold:
+                model.command(hold, top)
+            if not fast(model):
+                ahead = model.at(0.25)[0]
+                if ahead > best:
+                    best, plan = ahead, (rate, hold)
+                break
+        if k == 0 and best >= 0:
+            return plan
+    return plan
 
 
 def _ramp(angle: float, speed: float, target: float, accel: float, dt: float) -> tuple[float, float]:

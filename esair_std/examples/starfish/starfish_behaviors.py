@@ -215,13 +215,19 @@ REST_LEFT_RAD = math.radians(0.1)
 #: its rate the miss over CREEP_S, at most CREEP_MAX rad/s; a smaller one is left to the
 #: standing frame
 FIT_AFTER_S = 0.05
-FIT_SPREAD_S = 0.05
+FIT_SPREAD_S = 0.2
 FIT_MISS_RAD = math.radians(3.0)
 CREEP_S = 0.05
 CREEP_MAX = 1.2
+#: the flow sensors' speed a turn started while patrol drives keeps under, as a share of
+#: their top (turn.start_plan; the model's ramp is smooth, the board's in steps)
+START_LIMIT = 0.75
 #: the share of a first aim's miss (as a time: over the rate it stopped from) the stops'
 #: lead takes up (the drive board's tick alone moves a landing by up to 10 ms)
 LEARN = 0.3
+#: ... within a tick of the drive board either way (a stop held up longer by a loaded
+#: computer is not learned)
+LEAD_MAX = 0.01
 #: the standing frame is waited for inside a step until this long after the model's rest
 #: (the poll at rest, its reply on the line, the driver's hop)
 AWAIT_STAND_S = 0.05
@@ -502,15 +508,25 @@ class TurnAndShoot(Behavior):
         self.turn.setdefault("drive_mm_s", round(v))
         self.top = self.max_turn / 1000.0
         if self.turn["corrections"] > 0:
-            # slow (a stop landing late costs little); a miss of many degrees (a stalled
-            # computer) turns faster, so that its correction takes about a second at most
-            self.top = min(self.top, max(self.correction_rate, abs(angle) / 1.0))
+            # a creep as the one started while ramping down (_check): the miss over
+            # CREEP_S, at most CREEP_MAX (a stop landing 10 ms late moves it by 0.7 deg at
+            # most), at least correction_rate
+            self.top = min(self.top, CREEP_MAX, max(self.correction_rate, abs(angle) / CREEP_S))
         self.slow_until, self.slow_rate, self.slow_for = 0.0, self.top, 0.0
         if self.turn["corrections"] == 0:
             handover = 0.0 if self.handed else self.handover
             if not self.handed:
                 v = max(v, self.handover_mm_s)
-            if v > 0:
+            plan = (0.0, 0.0)
+            if v > 0 and self.handed and self.drive_cmd:
+                # patrol's last drive command known: the start the wheel-by-wheel ramp
+                # says keeps every flow sensor under START_LIMIT of its top while that
+                # drive ramps out (turn.start_plan)
+                plan = self._turn.start_plan(self.robot, self.drive_cmd, self.sign, self.top,
+                                             START_LIMIT * self.flow_max)
+            if plan[0] > 0:
+                self.slow_rate, self.slow_for = plan
+            elif v > 0:
                 # the start rate while the drive ramps out (its largest wheel change, at
                 # the drive board's ramp, and a control tick); faster where the sensors'
                 # speed, the drive's plus the turn's, stays under their top
@@ -634,6 +650,11 @@ class TurnAndShoot(Behavior):
         self.checked = True
         t_model = self.landing
         t_land, inside = self._turn.fit_stop(self.model, self.anchor, self.odo, FIT_SPREAD_S)
+        if not inside and t_land >= self.odo[0] - 1e-4:
+            # it had not landed when this frame was read (held up): the next frame
+            self.model.changes[-1] = (t_model, 0.0)
+            self.checked = False
+            return False
         late = t_land - t_model
         self.turn["landed_ms"] = round(1000 * late, 1)
         err = self.goal - self._turn.rest_angle(self.model, self.anchor)     # > 0: short
@@ -664,9 +685,9 @@ class TurnAndShoot(Behavior):
         """The stop's lead from the first aim's miss: past the target in the turn's
         direction, the stop landed later than expected by the miss over the rate it
         stopped from (a loaded computer's misses of many degrees are not learned)."""
-        if self.stop_rate > 1.0 and abs(err) < math.radians(6):
-            late = -self.sign * err / self.stop_rate
-            self.lead = max(-0.03, min(0.05, self.lead + LEARN * late))
+        late = -self.sign * err / max(self.stop_rate, 1e-3)
+        if self.stop_rate > 1.0 and abs(late) < LEAD_MAX:
+            self.lead = max(-LEAD_MAX, min(LEAD_MAX, self.lead + LEARN * late))
         self.turn["lead_ms"] = round(1000 * self.lead, 1)
 
     def _stop(self):
