@@ -56,6 +56,11 @@ def drive_towards(pose: dict, target: tuple[float, float], speed: float) -> dict
     return {"vx": round(v * (c * ux + s * uy)), "vy": round(v * (-s * ux + c * uy)), "w": 0}
 
 
+#: patrol's drive is steady while its commands stay within this of one (mm/s, each axis):
+#: the wheels are then at that drive's speeds, give or take this, once it has ramped in
+STEADY_MM_S = 15
+
+
 # deadline: a step that waits for the wheels (0.3 s at most) on a loaded computer must
 # not fail the component: 3 s, the same for every STARFISH component
 
@@ -80,6 +85,8 @@ class Patrol(Behavior):
         # patrol's answer (turn_and_shoot's start while the drive ramps out)
         self.drives: collections.deque[tuple[float, float]] = collections.deque(maxlen=16)
         self.last_drive = (0.0, 0, 0)       # (when, vx, vy) of the last drive command
+        # the drive command since when it stayed within STEADY_MM_S of this one
+        self.steady = (0.0, 0, 0)
         self.reached = 0
         self.link_losses = 0
         self.radio_up = True
@@ -111,8 +118,11 @@ class Patrol(Behavior):
             self.laps += self.index == 0
             target = self.waypoints[self.index]
         drive = drive_towards(pose.value, target, self.speed)
-        self.drives.append((time.monotonic(), math.hypot(drive["vx"], drive["vy"])))
-        self.last_drive = (time.monotonic(), drive["vx"], drive["vy"])
+        now = time.monotonic()
+        self.drives.append((now, math.hypot(drive["vx"], drive["vy"])))
+        self.last_drive = (now, drive["vx"], drive["vy"])
+        if max(abs(drive["vx"] - self.steady[1]), abs(drive["vy"] - self.steady[2])) > STEADY_MM_S:
+            self.steady = (now, drive["vx"], drive["vy"])
         self._send(drive)
 
     def _send(self, command) -> bool:
@@ -132,6 +142,8 @@ class Patrol(Behavior):
                 "link_losses": self.link_losses, "drive_mm_s": round(drive),
                 # the last drive command (robot frame), while the wheels may still hold it
                 "drive": [vx, vy] if t > now - 0.5 else [0, 0],
+                # how long the drive commanded has stayed within STEADY_MM_S of it
+                "drive_steady_s": round(now - self.steady[0], 3) if t > now - 0.5 else 0.0,
                 "yielded_to": self.yielded_to if now < self.yielded_until else None}
 
 
@@ -222,6 +234,9 @@ CREEP_MAX = 1.2
 #: the flow sensors' speed a turn started while patrol drives keeps under, as a share of
 #: their top (turn.start_plan; the model's ramp is smooth, the board's in steps)
 START_LIMIT = 0.75
+#: ... when patrol's drive has been steady this long (its commands within STEADY_MM_S: a
+#: reversal at 250 mm/s has ramped in); else the fixed slow start
+STEADY_S = 0.3
 #: the share of a first aim's miss (as a time: over the rate it stopped from) the stops'
 #: lead takes up (the drive board's tick alone moves a landing by up to 10 ms)
 LEARN = 0.3
@@ -282,6 +297,7 @@ class TurnAndShoot(Behavior):
         self.handover = float(self.options.get("handover_s", 0.06))
         self.handed = False
         self.patrol_drive: float | None = None      # patrol's answer: its drive lately
+        self.drive_steady = 0.0                     # ... and how long it has been steady
         self.drive_cmd: tuple[float, float] | None = None   # ... and its last command
         # the slow start's rate while patrol's drive ramps out: the wheels ramp one by
         # one, and a faster turn would take a flow sensor past its top speed
@@ -396,6 +412,8 @@ class TurnAndShoot(Behavior):
             answer = self.get(self.patrol, timeout=0.3)
             self.handed = isinstance(answer, dict)
             self.patrol_drive = answer.get("drive_mm_s") if self.handed else None
+            steady = answer.get("drive_steady_s") if self.handed else None
+            self.drive_steady = float(steady) if isinstance(steady, (int, float)) else 0.0
             drive = answer.get("drive") if self.handed else None
             self.drive_cmd = (float(drive[0]), float(drive[1])) if isinstance(drive, list) and \
                 len(drive) == 2 and all(isinstance(v, (int, float)) for v in drive) else None
@@ -518,10 +536,10 @@ class TurnAndShoot(Behavior):
             if not self.handed:
                 v = max(v, self.handover_mm_s)
             plan = (0.0, 0.0)
-            if v > 0 and self.handed and self.drive_cmd:
-                # patrol's last drive command known: the start the wheel-by-wheel ramp
-                # says keeps every flow sensor under START_LIMIT of its top while that
-                # drive ramps out (turn.start_plan)
+            if v > 0 and self.handed and self.drive_cmd and self.drive_steady >= STEADY_S:
+                # patrol's drive known and steady (the wheels at its speeds): the start
+                # the wheel-by-wheel ramp says keeps every flow sensor under START_LIMIT
+                # of its top while that drive ramps out (turn.start_plan)
                 plan = self._turn.start_plan(self.robot, self.drive_cmd, self.sign, self.top,
                                              START_LIMIT * self.flow_max)
             if plan[0] > 0:
