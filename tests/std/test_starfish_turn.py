@@ -285,3 +285,47 @@ def test_a_turn_started_while_driving_by_the_start_plan_loses_no_flow_count(robo
     assert ahead > fixed
     top_at_once, lost_at_once = turned([(omega, 0.3)])
     assert rate < omega or lost_at_once == [0, 0]
+
+
+@pytest.mark.parametrize("late_ms", [-25, 25, 60])
+def test_a_stop_off_its_moment_is_corrected_while_the_robot_ramps_down(robot, late_ms):
+    """The first stop lands 25 ms early, 25 or 60 ms late (a loaded host): the frame
+    60 ms after it, fitted (fit_stop), says where the robot would rest; a creep on or back
+    (the miss over 50 ms, at most 1.2 rad/s: TurnAndShoot's), commanded at once and
+    stopped when the model says (stop_time), brings it to rest within 0.7 deg of its
+    goal (the creep's stop lands on the drive board's next tick: 10 ms at 1.2 rad/s),
+    before it ever stood."""
+    from esair_std.drivers.starfish.turn import WheelRamp, fit_stop, rest_angle
+    omega, _ = turn_limits(robot)
+    tick, byte_s, landing = _on_tick(robot)
+    sim = StarfishSim(robot, World(pose=Pose(3000, 2000, 0.0)), FlowOptions(noise=0.0))
+    sim.run_for(1.0)
+    th0, t0, goal = sim.world.pose.theta, sim.now_s, math.radians(90)
+    model = WheelRamp(robot)
+    go = velocity_line(0, 0, round(omega * 1000))
+    sim.command(go)
+    model.command(landing(t0, len(go) + 2), omega)
+    sim.run_for(1.2 - sim.now_s)
+    anchor = (sim.now_s, sim.world.pose.theta - th0)
+    t_stop = stop_time(model, anchor[1], anchor[0], sim.now_s, goal, 2 * byte_s, 0.5)
+    told = landing(t_stop, 3)
+    sim.run_for(t_stop + late_ms / 1000 - sim.now_s)
+    sim.command("x")
+    model.command(told, 0.0)
+    sim.run_for(told + late_ms / 1000 + 0.06 - sim.now_s)
+    frame = (sim.now_s, sim.world.pose.theta - th0)
+    t_land, inside = fit_stop(model, anchor, frame, 0.2)
+    assert inside
+    err = goal - rest_angle(model, anchor)
+    assert abs(math.degrees(err)) > 1.5                 # a miss worth the correction
+    rate = min(1.2, max(0.25, abs(err) / 0.05)) * (1 if err > 0 else -1)
+    line, t = velocity_line(0, 0, round(rate * 1000)), sim.now_s
+    sim.command(line)
+    model.command(landing(t, len(line) + 2), rate)
+    now = sim.now_s
+    t2 = stop_time(model, frame[1], frame[0], now, goal, 2 * byte_s, 0.4, back=err < 0)
+    assert t2 is not None
+    sim.run_for(t2 - sim.now_s)
+    sim.command("x")
+    sim.run_for(0.5)
+    assert abs(math.degrees(sim.world.pose.theta - th0 - goal)) < 0.7
