@@ -258,14 +258,15 @@ def test_a_stops_landing_is_fitted_from_a_frame_of_the_ramp_down(robot, late_tic
 def test_a_turn_started_while_driving_by_the_start_plan_loses_no_flow_count(robot, drive_deg, sign):
     """While patrol's drive (200 mm/s) ramps out wheel by wheel, a turn at the top rate
     takes a flow sensor past its top speed and the odometry loses counts: start_plan's
-    start (a rate held, then the top; behavior's START_LIMIT) loses none on the emulated
-    boards and is ahead of the fixed slow start (1.2 rad/s for 0.12 s) by 0.3 s."""
+    start (a rate held, then the top; the behavior's START_LIMIT and START_MARGIN_S) loses
+    none on the emulated boards, also with the top rate 30 ms early, and is no later than
+    the fixed slow start (1.2 rad/s for 0.12 s) by 0.3 s."""
     from esair_std.drivers.starfish.turn import flow_limit, start_plan
     omega, _ = turn_limits(robot)
     top_ips, _ = flow_limit(robot)
     a = math.radians(drive_deg)
     drive = (round(200 * math.cos(a)), round(200 * math.sin(a)))
-    rate, hold = start_plan(robot, drive, sign, omega, 0.75 * top_ips)
+    rate, hold = start_plan(robot, drive, sign, omega, 0.75 * top_ips, 0.03)
     assert 0 < rate <= omega
 
     def turned(plan):
@@ -281,8 +282,10 @@ def test_a_turn_started_while_driving_by_the_start_plan_loses_no_flow_count(robo
 
     ahead, lost = turned([(rate, hold), (omega, 0.3)])
     assert lost == [0, 0]
+    _, lost = turned([(rate, max(0.001, hold - 0.03)), (omega, 0.3)])    # the top rate early
+    assert lost == [0, 0]
     fixed, _ = turned([(1.2, 0.12), (omega, 0.3)])
-    assert ahead > fixed
+    assert ahead >= fixed - 1e-9
     top_at_once, lost_at_once = turned([(omega, 0.3)])
     assert rate < omega or lost_at_once == [0, 0]
 

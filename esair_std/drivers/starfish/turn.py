@@ -140,14 +140,14 @@ class WheelRamp(RampModel):
 
 
 def start_plan(robot: Any, drive: tuple[float, float], sign: float, top: float,
-               limit: float) -> tuple[float, float]:
+               limit: float, margin: float = 0.0) -> tuple[float, float]:
     """How a turn starts while the robot drives (``drive``: vx, vy mm/s, its frame): a
     rate held for a while, then ``top``, so that no flow sensor moves faster than
-    ``limit`` mm/s while the drive ramps out wheel by wheel (WheelRamp). Of the rates
-    from ``top`` down to 40 % of it, each with the shortest hold (20 ms steps, 0.2 s at
-    most) that keeps them under, the one that has turned furthest at 0.25 s: (rate,
-    hold); (top, 0.0) when the top rate keeps them under at once, (0.0, 0.0) when none
-    does."""
+    ``limit`` mm/s while the drive ramps out wheel by wheel (WheelRamp), also when the
+    top rate lands up to ``margin`` s sooner after the first. Of the rates from ``top``
+    down to 40 % of it, each with the shortest hold (20 ms steps, 0.2 s at most) that
+    keeps them under, the one that has turned furthest at 0.25 s: (rate, hold); (top,
+    0.0) when the top rate keeps them under at once, (0.0, 0.0) when none does."""
     sensors = [(float(f.mount_x_mm), float(f.mount_y_mm)) for f in robot.central.flow_sensors]
     probe = WheelRamp(robot, drive, sign)
     ramp_out = max(abs(s) / a for s, a in zip(probe.start, probe.ramps)) + 0.02
@@ -167,8 +167,11 @@ def start_plan(robot: Any, drive: tuple[float, float], sign: float, top: float,
             model = WheelRamp(robot, drive, sign)
             model.command(0.0, rate)
             if hold:
-                model.command(hold, top)
+                model.command(max(1e-3, hold - margin), top)
             if not fast(model):
+                model.changes = model.changes[:1]
+                if hold:
+                    model.command(hold, top)
                 ahead = model.at(0.25)[0]
                 if ahead > best:
                     best, plan = ahead, (rate, hold)

@@ -237,6 +237,9 @@ START_LIMIT = 0.75
 #: ... when patrol's drive has been steady this long (its commands within STEADY_MM_S: a
 #: reversal at 250 mm/s has ramped in); else the fixed slow start
 STEADY_S = 0.3
+#: ... and kept under when the top rate lands this much sooner after the first command
+#: than planned (each lands on the drive board's tick; the first may come late)
+START_MARGIN_S = 0.03
 #: the share of a first aim's miss (as a time: over the rate it stopped from) the stops'
 #: lead takes up (the drive board's tick alone moves a landing by up to 10 ms)
 LEARN = 0.3
@@ -541,7 +544,7 @@ class TurnAndShoot(Behavior):
                 # the wheel-by-wheel ramp says keeps every flow sensor under START_LIMIT
                 # of its top while that drive ramps out (turn.start_plan)
                 plan = self._turn.start_plan(self.robot, self.drive_cmd, self.sign, self.top,
-                                             START_LIMIT * self.flow_max)
+                                             START_LIMIT * self.flow_max, START_MARGIN_S)
             if plan[0] > 0:
                 self.slow_rate, self.slow_for = plan
             elif v > 0:
