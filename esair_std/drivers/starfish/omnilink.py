@@ -38,8 +38,8 @@ from .scene import wrap
 
 #: the omni base's lines by action (docs/protocol.md, STARFISH)
 PREFIX = {"velocity": "V", "odometry": "O", "stop": "x", "version": "v"}
-#: the extra poll after a stop, this long after the wheels are at rest by the ramp: the
-#: board's tick that reads the flow sums has passed
+#: the extra poll after a stop, a central tick and this long after the wheels are at
+#: rest by the ramp: the tick whose flow sums the reply carries came after the rest
 AT_REST_S = 0.002
 #: the longest ``O`` reply: n=65535 and two sensors' -2147483648,-2147483648,255
 ODOMETRY_REPLY_BYTES = len("OK n=65535") + 2 * len(" a=-2147483648,-2147483648,255") + 2
@@ -180,7 +180,7 @@ class Odometry(PolledSensor[str]):
     def poll_at(self, t: float) -> None:
         """One poll more at ``t`` (``time.monotonic()``; the wheels at rest after a stop:
         the frame that sees the robot stand comes then, not up to a period later)."""
-        self._poll_at = t + AT_REST_S
+        self._poll_at = t + self.clock.tick + AT_REST_S
         self._wake.set()
 
     def sleep_until(self, t: float) -> None:

@@ -214,9 +214,9 @@ class Localize(Behavior):
 #: model's rest (a control tick of each board), and what the robot may still turn after it
 REST_MARGIN_S = 0.02
 #: ... when the odometry says when the board read it (tn, omnilink.Odometry, known to
-#: TN_SPREAD_S): the frame's own time is the board's, and a frame read after the model's
+#: TN_SPREAD_S): the frame's own time is the board's, and a frame read from the model's
 #: rest sees it (the drive board's ramp, a step each tick, rests by the model's, _landing)
-REST_MARGIN_TN_S = 0.001
+REST_MARGIN_TN_S = 0.0
 TN_SPREAD_S = 0.002
 REST_LEFT_RAD = math.radians(0.1)
 #: the aim's closed-loop check while the robot ramps down (TurnAndShoot._check): the
