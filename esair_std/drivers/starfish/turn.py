@@ -97,7 +97,8 @@ class WheelRamp(RampModel):
     lags a turn from standing (a wheel already past its turn speed slows down while the
     others speed up). ``sign``: the turn's direction (rates and angles in it, >= 0)."""
 
-    def __init__(self, robot: Any, drive: tuple[float, float] = (0.0, 0.0), sign: float = 1.0):
+    def __init__(self, robot: Any, drive: tuple[float, float] = (0.0, 0.0), sign: float = 1.0,
+                 rims: list[float] | None = None):
         from esair_min.components.omni_base.kinematics import inverse, matrix, wheel_table
         motors = _motors(robot)
         wheels = wheel_table(list(motors))
@@ -106,7 +107,10 @@ class WheelRamp(RampModel):
         self.inv = inverse(wheels)                 # rim speeds -> (vx, vy, omega)
         self.omega_row = self.inv[2]
         self.ramps = [float(m.ramp_mm_s2) for m in motors]
-        self.start = [sign * (r[0] * drive[0] + r[1] * drive[1]) for r in self.rows]
+        # each wheel's rim speed when the first command lands: the drive's, or ``rims``
+        # (mm/s) where the wheels are still ramping toward it
+        self.start = [sign * (r[0] * drive[0] + r[1] * drive[1]) for r in self.rows] \
+            if rims is None else [sign * v for v in rims]
 
     def _wheels(self, t: float) -> list[tuple[float, float]]:
         """Each wheel's (rim travel mm, rim speed mm/s) at time t."""

@@ -213,11 +213,10 @@ class Localize(Behavior):
 #: the standing frame by the ramp model (TurnAndShoot._at_rest): read this long after the
 #: model's rest (a control tick of each board), and what the robot may still turn after it
 REST_MARGIN_S = 0.02
-#: ... when the odometry says when the board read it (tn, omnilink.Odometry, known to
-#: TN_SPREAD_S): the frame's own time is the board's, and a frame read from the model's
-#: rest sees it (the drive board's ramp, a step each tick, rests by the model's, _landing)
+#: ... when the odometry says when the board read it (tn, omnilink.Odometry): the frame's
+#: own time is the board's, and a frame read from the model's rest sees it (the drive
+#: board's ramp, a step each tick, rests by the model's, _landing)
 REST_MARGIN_TN_S = 0.0
-TN_SPREAD_S = 0.002
 REST_LEFT_RAD = math.radians(0.1)
 #: the aim's closed-loop check while the robot ramps down (TurnAndShoot._check): the
 #: first odometry frame read FIT_AFTER_S after the stop's landing (the model's) tells
@@ -349,7 +348,8 @@ class TurnAndShoot(Behavior):
         self.landing = 0.0                  # when the model has the first stop land
         self.checked = False                # the first stop's landing fitted (_check)
         self.turn: dict = {}
-        self.last_xy: tuple[float, float, float] | None = None
+        self.last_xy: tuple[float, float, float, float] | None = None
+        self.vel: tuple[float, float, float] | None = None     # (t, vx, vy) from the odometry
         self.moved: collections.deque[bool] = collections.deque(maxlen=2)   # the last frames
         # (t, translation speed mm/s) from the odometry
         self.drives: collections.deque[tuple[float, float, float]] = collections.deque(maxlen=10)
@@ -383,8 +383,7 @@ class TurnAndShoot(Behavior):
             # every sample's board time: the offsets are the last 10 samples' (a lagging
             # emulator moves them; ones from an earlier turn would time this one early)
             board_t = self._board_time(s)
-            spread = s.value.get("tn_spread")
-            self.timed = isinstance(spread, (int, float)) and spread <= TN_SPREAD_S
+            self.timed = isinstance(s.value.get("tn"), (int, float))
             if self.phase in ("turning", "settling") and self.headings:
                 self.turned += self.sign * wrap(s.value["th"] - self.headings[-1][1])
                 prev, self.odo = self.odo, (board_t, self.turned)
@@ -397,7 +396,14 @@ class TurnAndShoot(Behavior):
             if self.last_xy is not None and s.t > self.last_xy[0]:
                 moved = math.hypot(s.value["x"] - self.last_xy[1], s.value["y"] - self.last_xy[2])
                 self.drives.append((s.t, 1000 * moved / (s.t - self.last_xy[0]), s.t - self.last_xy[0]))
-            self.last_xy = (s.t, s.value["x"], s.value["y"])
+                if board_t > self.last_xy[3]:
+                    # the robot's velocity over the frame (mm/s, its frame), at its middle
+                    dx, dy = s.value["x"] - self.last_xy[1], s.value["y"] - self.last_xy[2]
+                    c, n = math.cos(s.value["th"]), math.sin(s.value["th"])
+                    dt = board_t - self.last_xy[3]
+                    self.vel = ((board_t + self.last_xy[3]) / 2, 1000 * (c * dx + n * dy) / dt,
+                                1000 * (-n * dx + c * dy) / dt)
+            self.last_xy = (s.t, s.value["x"], s.value["y"], board_t)
             self.moved.append(bool(s.value.get("moving", True)))
             self.headings.append((s.t, s.value["th"]))
 
@@ -498,7 +504,12 @@ class TurnAndShoot(Behavior):
         self.goal, self.turned = abs(angle), 0.0
         # the ramp wheel by wheel, from patrol's drive (the first aim) or from standing
         drive = self.drive_cmd if self.turn["corrections"] == 0 and self.drive_cmd else (0.0, 0.0)
-        self.model = self._turn.WheelRamp(self.robot, drive, self.sign)
+        rims = None
+        if self.turn["corrections"] == 0 and self.drive_cmd and self.vel is not None and \
+                self.drive_steady < STEADY_S:
+            rims = self._rims_at_go(drive)      # patrol's drive still ramping in
+            self.turn["drive_ramping"] = True
+        self.model = self._turn.WheelRamp(self.robot, drive, self.sign, rims)
         self.odo = (self.headings[-1][0] if self.headings else time.time(), 0.0)
         self.stop_sent, self.stood = 0.0, False
         self.stop_rate = 0.0                # the model's rate when the stop was sent
@@ -619,6 +630,20 @@ class TurnAndShoot(Behavior):
     def _stop_latency(self) -> float:
         """From sending the stop to its landing (_landing)."""
         return self._landing(0.0, self.x_bytes)
+
+    def _rims_at_go(self, drive: tuple[float, float]) -> list[float]:
+        """Each wheel's rim speed (mm/s) when the turn's first command lands, while
+        patrol's last drive command is still ramping in: from the odometry's velocity
+        (over its last frame) toward that drive's, at each wheel's ramp."""
+        t_v, vx, vy = self.vel                  # type: ignore[misc]  # checked by the caller
+        probe = self._turn.WheelRamp(self.robot)
+        t_go = self._landing(time.time(), self.v_bytes)
+        out = []
+        for row, ramp in zip(probe.rows, probe.ramps):
+            now, to = row[0] * vx + row[1] * vy, row[0] * drive[0] + row[1] * drive[1]
+            step = ramp * max(0.0, t_go - t_v)
+            out.append(now + max(-step, min(step, to - now)))
+        return out
 
     def _landing(self, t_send: float, nbytes: int, t_back: float | None = None) -> float:
         """When a command of ``nbytes`` sent at ``t_send`` takes effect, for the ramp
