@@ -228,8 +228,8 @@ REST_LEFT_RAD = math.radians(0.1)
 FIT_AFTER_S = 0.05
 FIT_SPREAD_S = 0.2
 FIT_MISS_RAD = math.radians(3.0)
-CREEP_S = 0.05
-CREEP_MAX = 1.2
+CREEP_S = 0.06
+CREEP_MAX = 0.6
 #: the flow sensors' speed a turn started while patrol drives keeps under, as a share of
 #: their top (turn.start_plan; the model's ramp is smooth, the board's in steps)
 START_LIMIT = 0.75
@@ -541,8 +541,8 @@ class TurnAndShoot(Behavior):
         self.top = self.max_turn / 1000.0
         if self.turn["corrections"] > 0:
             # a creep as the one started while ramping down (_check): the miss over
-            # CREEP_S, at most CREEP_MAX (a stop landing 10 ms late moves it by 0.7 deg at
-            # most), at least correction_rate
+            # CREEP_S, at most CREEP_MAX (a stop landing 10 ms late moves it by 0.35 deg,
+            # one held up 50 ms by a loaded computer 1.7 deg), at least correction_rate
             self.top = min(self.top, CREEP_MAX, max(self.correction_rate, abs(angle) / CREEP_S))
         self.slow_until, self.slow_rate, self.slow_for = 0.0, self.top, 0.0
         if self.turn["corrections"] == 0:
