@@ -322,6 +322,8 @@ def process_put(quick: bool, n: int) -> None:
     p = median["p50"]
     z = zenoh_get_round_trip(n // 4)
     row("  reference: raw zenoh get, a fresh server", f"{z*1e6:.0f} us", "", None)
+    row("process: put p50 / that get (no ESAIR code in it)", f"{p['put']['p50']*1e6:.0f} us / "
+        f"{z*1e6:.0f} us = {p['put']['p50']/z:.2f}x", "", None)
     two = zenoh_sample_relay_round_trip(n // 4, hops=2)
     row("  reference: 2 raw samples A-R-A", f"{two*1e6:.0f} us = {two/z:.2f}x zenoh",
         "(two crossings)", None)
