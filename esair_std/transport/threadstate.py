@@ -16,6 +16,7 @@ unless threads come and go; beyond it a callback runs as before.
 
 from __future__ import annotations
 
+import os
 import threading
 from typing import Callable
 
@@ -23,6 +24,9 @@ THREADS = 64
 
 _kept: set[int] = set()
 _ensure: Callable[[], int] | None = None
+# a forked child (an agent forked by the zygote) has none of its parent's other threads:
+# Python deleted their states, and a new thread may get the ident of one of them
+os.register_at_fork(after_in_child=_kept.clear)
 
 
 def _load() -> Callable[[], int]:
