@@ -8,7 +8,9 @@ ramp (esair_std/drivers/starfish/turn.py) + one frame of odometry (1 / odometry_
 the camera's time (rendering and encoding a picture at the shot's pose, median of 3,
 on this computer). Printed per shot: the source, the turn, the time, the floor, their
 ratio (and the ratio from the bearing reaching turn_and_shoot, which the floor leaves
-out), the corrections, the error (the source's true bearing from the picture's true
+out), the corrections, whether the odometry's frames carried the board's time (tn), the
+one-way time to the robot's line, when the stop landed against the model's (the frame
+read while the robot ramped down), the error (the source's true bearing from the picture's true
 pose) and its parts: the aim (the target against the odometry's heading at the picture)
 and the odometry (its heading against the true one); then p50/p90 of the time, of the
 error and of the aim. Goals: every shot <= 1.3x
@@ -131,8 +133,8 @@ def shots(mode: str, places: list[tuple[float, float]], odometry_hz: float | Non
                       f"corrections {r['corr']} (first aim off {turn.get('miss_deg', 0):+.1f} deg) | "
                       f"error {err:4.1f} deg (aim {aim:+.1f}, odometry {odo:+.1f}) | "
                       f"top {r['max_w']} mrad/s | drive {turn.get('drive_mm_s')} mm/s, start "
-                      f"{turn.get('start')}, rest by {turn.get('rest')} | stops on the board's "
-                      f"tick {turn.get('on_tick')}, one way {turn.get('h_ms')} ms, landed "
+                      f"{turn.get('start')}, rest by {turn.get('rest')} | frames on the board's "
+                      f"clock {turn.get('timed')}, one way {turn.get('h_ms')} ms, the stop landed "
                       f"{turn.get('landed_ms')} ms from the model's | {at}", flush=True)
                 time.sleep(0.8)                    # the cooldown, and patrol drives again
     return out
