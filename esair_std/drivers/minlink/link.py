@@ -76,6 +76,7 @@ from __future__ import annotations
 
 import collections
 import os
+import select
 import threading
 import time
 from dataclasses import dataclass, field
@@ -104,6 +105,9 @@ WIRE_CODES = frozenset({Code.UNKNOWN, Code.TOO_LONG, Code.BAD_ARGUMENT, Code.BAD
 MAX_LINE_BYTES = 256        # a longer line from the robot is garbage: dropped, counted
 POLL_S = 0.05               # the I/O thread's longest wait on a port it can wake
 POLL_S_NO_CANCEL = 0.002    # ... on a port without cancel_read
+IDLE_LOOK_S = 1.0           # a port with a descriptor: the longest sleep with nothing due
+DUE_SLACK_S = 0.001         # a reply's deadline is looked at just after it passes
+GATHER_BYTES = 4            # a line longer than its kind's last: waited for this many more
 RESYNC = b"\r\n"            # an empty line: no reply, but it ends a line noise began
 RESYNC_IDLE_S = 0.25        # a command after this long a silence is sent after RESYNC
 QUEUE_MAX = 64              # commands waiting for their turn; more are refused, not sent
@@ -190,6 +194,12 @@ class Link:
         self._partial_since = 0.0          # a line from the robot began arriving then
         self._thread: threading.Thread | None = None
         self._poll: float | None = POLL_S
+        # the I/O thread's wake pipe (a port with a descriptor), when it next looks, and
+        # the byte length of the last line of each kind (a reply's, "!" a notice's)
+        self._wake_r: int | None = None
+        self._wake_w: int | None = None
+        self._look_at = 0.0
+        self._line_bytes: dict[str, int] = {}
         self._last_write = 0.0
         # the latched STOP (hold()): only these lines go while held; every (re)connect
         # then writes the stop line before any other byte
@@ -214,6 +224,9 @@ class Link:
         self._port = self._connect()
         self._up, self._reason = True, "up"
         self.up_since = time.monotonic()
+        self._wake_r, self._wake_w = os.pipe()
+        os.set_blocking(self._wake_r, False)
+        os.set_blocking(self._wake_w, False)
         self._thread = threading.Thread(target=self._run, name=f"minlink-io:{self.port}",
                                         daemon=True)
         self._thread.start()
@@ -230,6 +243,11 @@ class Link:
             port, self._port = self._port, None
             self._fail_all(LinkDown(f"link to {self.port} closed"))
         _close_quietly(port)
+        if self._thread is None or not self._thread.is_alive():
+            for fd in (self._wake_r, self._wake_w):
+                if fd is not None:
+                    os.close(fd)
+            self._wake_r = self._wake_w = None
 
     def __enter__(self) -> "Link":
         self.open()
@@ -409,6 +427,8 @@ class Link:
         self._last_write = now
         self._flight.append(ex)
         ex.started.set()
+        if now + ex.timeout < self._look_at:
+            self._wake()                    # due before the I/O thread's next look
         assert self._port is not None       # _pump starts exchanges while the port is open
         return ex, self._port, wire
 
@@ -492,6 +512,12 @@ class Link:
 
     # -- the I/O thread -------------------------------------------------------------------
     def _wake(self) -> None:
+        """Make the I/O thread look now (closing; a reply deadline sooner than it knew)."""
+        if self._wake_w is not None:
+            try:
+                os.write(self._wake_w, b"x")
+            except OSError:         # full (a wake is pending anyway) or closed
+                pass
         port = self._port
         cancel = getattr(port, "cancel_read", None)
         if cancel is not None:
@@ -507,13 +533,17 @@ class Link:
                 continue
             port = self._port
             try:
-                self._service()
+                if self._wake_r is not None and _fd_of(port) is not None:
+                    self._service_fd(port)
+                else:
+                    self._service()
             except (OSError, Exception) as exc:  # noqa: BLE001 - pySerial's errors vary
                 if self._stop.is_set():
                     break
                 self._down(describe(exc), port)
 
     def _service(self) -> None:
+        """A port without a descriptor (a URL's): short reads, its timeout the pace."""
         port = self._port
         assert port is not None     # else taken down meanwhile: _run's except, as any error
         data = port.read(1)
@@ -522,7 +552,60 @@ class Link:
             if more:
                 data += port.read(more)
             self._take(data)
-        now = time.monotonic()
+        self._check_head(time.monotonic())
+
+    def _service_fd(self, port: Serial) -> None:
+        """A device or pty: sleep in select until bytes come, a reply's deadline, or a
+        wake; then read all there is. A line begun is read whole: the thread waits out
+        the bytes its kind's last line had (at the baud rate) instead of waking for each."""
+        fd = _fd_of(port)
+        assert fd is not None and self._wake_r is not None
+        with self._lock:
+            now = time.monotonic()
+            look = min(self._head_due(), now + IDLE_LOOK_S)
+            self._look_at = look
+        ready, _, _ = select.select([fd, self._wake_r], [], [], max(0.0, look - now))
+        if self._wake_r in ready:
+            _drain(self._wake_r)
+        if fd in ready:
+            self._take(_read_fd(fd, ready=True))
+            while self._buf and self._port is port and not self._stop.is_set():
+                wait = self.budget.line_s(self._rest_of_line())
+                self._look_at = time.monotonic() + wait
+                if select.select([self._wake_r], [], [], wait)[0]:
+                    _drain(self._wake_r)
+                data = _read_fd(fd)
+                if not data:
+                    break               # the line pauses: select waits for its next byte
+                self._take(data)
+                self._check_head(time.monotonic())
+        self._check_head(time.monotonic())
+
+    def _head_due(self) -> float:
+        """(lock held) When the oldest command in flight is next due a look: the end
+        of its settle time, or of its reply timeout (inf: nothing in flight)."""
+        head = self._flight[0] if self._flight else None
+        if head is None or not head.sent or head.done.is_set():
+            return float("inf")
+        if head.settle_until is not None:
+            return head.settle_until
+        return head.t_sent + head.timeout + DUE_SLACK_S
+
+    def _rest_of_line(self) -> int:
+        """Bytes the line begun in the buffer likely still needs (at least a few)."""
+        have = len(self._buf)
+        expect = self._line_bytes.get(self._line_kind(), 0)
+        return expect - have if expect > have else GATHER_BYTES
+
+    def _line_kind(self) -> str:
+        """The kind the line now arriving is counted under: a notice, or the reply to
+        the oldest command in flight."""
+        if self._buf[:1] == b"!":
+            return "!"
+        head = self._flight[0] if self._flight else None
+        return head.kind if head is not None else ""
+
+    def _check_head(self, now: float) -> None:
         head = self._flight[0] if self._flight else None
         if head is None or not head.sent or head.done.is_set():
             return
@@ -542,6 +625,7 @@ class Link:
                     self._buf.clear()
                     self.stats.add("garbled")
                 break
+            self._line_bytes[self._line_kind()] = i + 1
             raw = bytes(self._buf[:i])
             del self._buf[:i + 1]
             text = raw.decode("latin-1").strip("\r")
@@ -840,6 +924,36 @@ def _lines_of(commands: RobotCommands, actions: tuple[str, ...]) -> list[str]:
         except LinkError:
             pass
     return out
+
+
+def _fd_of(port: Serial) -> int | None:
+    """The descriptor of a device or pty port (None: a URL's port, read through pySerial)."""
+    fd = getattr(port, "fd", None)
+    return fd if isinstance(fd, int) and hasattr(port, "pipe_abort_read_r") else None
+
+
+def _read_fd(fd: int, ready: bool = False) -> bytes:
+    """What the port has (b"" if nothing yet: pySerial sets VMIN 0); pySerial's errors,
+    in its words, for a port that failed, or hung up (``ready``: select said readable)."""
+    from serial import SerialException
+
+    try:
+        data = os.read(fd, 4096)
+    except (BlockingIOError, InterruptedError):
+        return b""
+    except OSError as exc:
+        raise SerialException(f"read failed: {exc}") from None
+    if not data and ready:
+        raise SerialException("device reports readiness to read but returned no data "
+                              "(device disconnected or multiple access on port?)")
+    return data
+
+
+def _drain(fd: int) -> None:
+    try:
+        os.read(fd, 4096)
+    except OSError:
+        pass
 
 
 def _close_quietly(port: Serial | None) -> None:
