@@ -298,3 +298,8 @@ def parse_reply(line: str | bytes) -> Reply:
     if code is None:
         raise ProtocolError(f"not a reply line: {text!r}")
     return Reply("error", code, text)
+
+
+def velocity_line(vx: int, vy: int, omega: int) -> str:
+    """An omni base's command line for a body velocity (mm/s, mm/s, mrad/s)."""
+    return "V" + "".join(f"{v:+05d}" for v in (vx, vy, omega))
