@@ -568,13 +568,13 @@ class Link:
         if self._wake_r in ready:
             _drain(self._wake_r)
         if fd in ready:
-            self._take(_read_fd(fd, ready=True))
+            self._take(_read_fd(port, ready=True))
             while self._buf and self._port is port and not self._stop.is_set():
                 wait = self.budget.line_s(self._rest_of_line())
                 self._look_at = time.monotonic() + wait
                 if select.select([self._wake_r], [], [], wait)[0]:
                     _drain(self._wake_r)
-                data = _read_fd(fd)
+                data = _read_fd(port)
                 if not data:
                     break               # the line pauses: select waits for its next byte
                 self._take(data)
@@ -932,11 +932,16 @@ def _fd_of(port: Serial) -> int | None:
     return fd if isinstance(fd, int) and hasattr(port, "pipe_abort_read_r") else None
 
 
-def _read_fd(fd: int, ready: bool = False) -> bytes:
+def _read_fd(port: Serial, ready: bool = False) -> bytes:
     """What the port has (b"" if nothing yet: pySerial sets VMIN 0); pySerial's errors,
-    in its words, for a port that failed, or hung up (``ready``: select said readable)."""
-    from serial import SerialException
+    in its words, for a port closed meanwhile, that failed, or hung up (``ready``:
+    select said readable). Its descriptor is asked at each read: a closed port has none
+    (its number may be another file's by then)."""
+    from serial import PortNotOpenError, SerialException
 
+    fd = port.fd
+    if fd is None:
+        raise PortNotOpenError()
     try:
         data = os.read(fd, 4096)
     except (BlockingIOError, InterruptedError):
