@@ -79,7 +79,6 @@ import os
 import select
 import threading
 import time
-from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Callable
 
 from esair_min.errors import ProtocolError
@@ -119,27 +118,35 @@ LOCK_WAIT_S = 3.0           # a port another program holds is tried again this l
                             # it for its probe (a `v` or two), then lets go
 
 
-@dataclass
 class Exchange:
-    """One command and its fate. Times are ``time.monotonic()``."""
+    """One command and its fate. Times are ``time.monotonic()``. (A plain class, not a
+    dataclass: ``dataclasses`` imports ``inspect`` and ``ast`` into the robot side.)"""
 
-    line: str
-    wire: bytes
-    timeout: float
-    deadline: float = float("inf")   # not written by then: Expired, dropped
-    poll: bool = False               # a poll: commands go first
-    kind: str = ""                   # the shape of its OK reply (never two alike in flight)
-    sent: bool = False
-    t_sent: float = 0.0
-    t_reply: float = 0.0
-    sent_bytes: int = 0
-    data: str | None = None
-    error: LinkError | None = None
-    settle_until: float | None = None
-    first_error: RobotRefused | None = None
-    later_error: RobotRefused | None = None    # a wire error after first_error
-    started: threading.Event = field(default_factory=threading.Event)   # its turn came
-    done: threading.Event = field(default_factory=threading.Event)
+    __slots__ = ("line", "wire", "timeout", "deadline", "poll", "kind", "sent", "t_sent",
+                 "t_reply", "sent_bytes", "data", "error", "settle_until", "first_error",
+                 "later_error", "started", "done")
+
+    def __init__(self, line: str, wire: bytes, timeout: float,
+                 deadline: float = float("inf"), poll: bool = False, kind: str = ""):
+        self.line, self.wire, self.timeout = line, wire, timeout
+        self.deadline = deadline          # not written by then: Expired, dropped
+        self.poll = poll                  # a poll: commands go first
+        self.kind = kind                  # the shape of its OK reply (never two alike in flight)
+        self.sent = False
+        self.t_sent = 0.0
+        self.t_reply = 0.0
+        self.sent_bytes = 0
+        self.data: str | None = None
+        self.error: LinkError | None = None
+        self.settle_until: float | None = None
+        self.first_error: RobotRefused | None = None
+        self.later_error: RobotRefused | None = None    # a wire error after first_error
+        self.started = threading.Event()  # its turn came
+        self.done = threading.Event()
+
+    def __repr__(self) -> str:
+        return (f"Exchange(line={self.line!r}, sent={self.sent}, data={self.data!r}, "
+                f"error={self.error!r})")
 
 
 StateCallback = Callable[[bool, str], None]
