@@ -572,6 +572,7 @@ class Link:
             look = min(self._head_due(), now + IDLE_LOOK_S)
             self._look_at = look
         ready, _, _ = select.select([fd, self._wake_r], [], [], max(0.0, look - now))
+        self.stats.add("wakes")             # the thread's wake-ups (a quiet line: few)
         if self._wake_r in ready:
             _drain(self._wake_r)
         if fd in ready:
@@ -581,6 +582,7 @@ class Link:
                 self._look_at = time.monotonic() + wait
                 if select.select([self._wake_r], [], [], wait)[0]:
                     _drain(self._wake_r)
+                self.stats.add("wakes")
                 data = _read_fd(port)
                 if not data:
                     break               # the line pauses: select waits for its next byte
