@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import glob
 import os
 import time
 
@@ -14,6 +15,19 @@ def _pcts(xs: list[float]) -> dict:
         return {"n": 0}
     return {"n": len(xs), "p50": xs[len(xs) // 2], "p99": xs[min(len(xs) - 1, int(len(xs) * 0.99))],
             "max": xs[-1]}
+
+
+def cpu_seconds(pid: int) -> float:
+    """CPU time of every thread of process ``pid`` so far (schedstat's nanoseconds: finer
+    than the clock ticks of /proc/PID/stat)."""
+    total = 0
+    for f in glob.glob(f"/proc/{pid}/task/*/schedstat"):
+        try:
+            with open(f) as fh:
+                total += int(fh.read().split()[0])
+        except (OSError, ValueError):
+            pass                                    # a thread ended meanwhile
+    return total / 1e9
 
 
 class Ticker(Sensor):
@@ -35,6 +49,8 @@ class Echo(Behavior):
         self.got += 1
 
     def provide(self, requester):
+        if requester == "pinger":          # where it runs: the pinger reads its CPU time
+            return {"got": self.got, "pid": os.getpid()}
         return self.got
 
 
@@ -44,7 +60,8 @@ class Pinger(Behavior):
     ``n`` raw ``get``s of that key from this agent's own session come first, timed alike:
     the reference taken between the same two processes, in the same run (before the
     puts: a get right after a put would carry the delivery's work in the other
-    processes)."""
+    processes). ``runtime_pid`` (process mode): the CPU time per put and per raw get of
+    the three processes (this one, the runtime's, the echo's) is measured too."""
 
     def _raw(self):
         key = self.options.get("raw")
@@ -61,26 +78,44 @@ class Pinger(Behavior):
             time.sleep(0.01)
         return get
 
+    def _pids(self):
+        rt = self.options.get("runtime_pid")
+        echo = self.get("echo", timeout=5.0) if rt else None
+        if not isinstance(echo, dict):
+            return {}
+        return {"sender": os.getpid(), "runtime": int(rt), "target": echo["pid"]}
+
     def run(self):
         n = int(self.options.get("n", 2000))
         raw = self._raw()
+        pids = self._pids()
+        cpu = {}
+
+        def cpu_now():
+            return {k: cpu_seconds(p) for k, p in pids.items()}
         puts, gets, raws, failed = [], [], [], 0
+        c0 = cpu_now()
         for _ in range(n if raw is not None else 0):
             t = time.perf_counter()
             failed += not raw()
             raws.append(time.perf_counter() - t)
+        c1 = cpu_now()
         for i in range(n):
             t = time.perf_counter()
             ok = self.put("echo", {"i": i}, timeout=1.0)
             puts.append(time.perf_counter() - t)
             failed += not ok
+        c2 = cpu_now()
+        if pids and n:                  # seconds of CPU per call, each process
+            cpu = {"raw": {k: (c1[k] - c0[k]) / n for k in pids},
+                   "put": {k: (c2[k] - c1[k]) / n for k in pids}}
         for _ in range(n):
             t = time.perf_counter()
             v = self.get("echo", timeout=1.0)
             gets.append(time.perf_counter() - t)
             failed += v is None
         self.result = {"put": _pcts(puts), "get": _pcts(gets), "raw": _pcts(raws),
-                       "failed": failed}
+                       "failed": failed, "cpu": cpu}
 
     def provide(self, requester):
         return getattr(self, "result", None)

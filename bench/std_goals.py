@@ -17,8 +17,9 @@ side by side in one run on this machine.
 
 Sample ages are measured in the behavior's step (period 1 ms): they include up to one
 step of polling. Run: python bench/std_goals.py [--quick] [--memory | --put | --sensor]
-[--against DIR]. Prints the figures; asserts nothing. --memory, --put, --sensor print only
-those rows; --put --against DIR puts an older checkout's put rows beside this one's.
+[--against DIR] [--rounds N]. Prints the figures; asserts nothing. --memory, --put,
+--sensor print only those rows; --put --against DIR puts an older checkout's put rows
+beside this one's.
 """
 
 from __future__ import annotations
@@ -99,6 +100,7 @@ def put_get(mode: str, n: int) -> dict:
     pinger: dict = {"class": "std_comps:Pinger", "n": n}
     if mode == "process":
         pinger["raw"] = RAW_KEY
+        pinger["runtime_pid"] = os.getpid()
     dep = {"behaviors": {"echo": {"class": "std_comps:Echo"}, "pinger": pinger}}
     with runtime(dep, mode) as rt:
         if mode == "process":
@@ -238,6 +240,8 @@ def main() -> None:
     ap.add_argument("--against", metavar="DIR",
                     help="with --put: the same rows for the checkout DIR (an older commit), "
                          "rounds alternated with this one's, side by side")
+    ap.add_argument("--rounds", type=int, metavar="N",
+                    help="with --put: rounds (default 5, --quick 3)")
     ap.add_argument("--tree", metavar="DIR", help=argparse.SUPPRESS)
     ap.add_argument("--one-round", type=int, metavar="N", help=argparse.SUPPRESS)
     a = ap.parse_args()
@@ -248,10 +252,10 @@ def main() -> None:
     print(f"ESAIR STD bench ({os.cpu_count()} cores, load {os.getloadavg()[0]:.1f})")
     print(f"  {'goal':<46} {'measured':<30} {'target':<16} verdict")
     if a.put and a.against:
-        put_against(Path(a.against).resolve(), 3 if a.quick else 5, n // 4)
+        put_against(Path(a.against).resolve(), a.rounds or (3 if a.quick else 5), n // 4)
         return
     if a.put:
-        process_put(a.quick, n)
+        process_put(a.quick, n, a.rounds)
         return
     if a.sensor:
         sensor_rows(4.0 if a.quick else 10.0)
@@ -303,25 +307,28 @@ def speed(quick: bool, n: int) -> None:
         f"{med*1e3:.0f} ms ({max(restarted)*1e3:.0f} ms)", "<= 1 s", max(restarted) <= 1.0)
 
 
-def process_put(quick: bool, n: int) -> None:
+def process_put(quick: bool, n: int, rounds: int | None = None) -> None:
     """Process mode's put against a raw zenoh get between the same two processes (the
     pinger's agent and the runtime), each put followed by one get, in rounds (the
     machine is shared and noisy; the median round's figures), with the floors of any
     mediated put beside them."""
-    rounds = [put_get("process", n // 4) for _ in range(3 if quick else 5)]
+    got = [put_get("process", n // 4) for _ in range(rounds or (3 if quick else 5))]
     median = {}
     for q in ("p50", "p99"):
-        rounds.sort(key=lambda p: p["put"][q] / p["raw"][q])
-        p = median[q] = rounds[len(rounds) // 2]           # the median round
+        got.sort(key=lambda p: p["put"][q] / p["raw"][q])
+        p = median[q] = got[len(got) // 2]           # the median round
         r = p["put"][q] / p["raw"][q]
-        each = ", ".join(f"{pp['put'][q] / pp['raw'][q]:.2f}" for pp in rounds)
+        each = ", ".join(f"{pp['put'][q] / pp['raw'][q]:.2f}" for pp in got)
         row(f"process: put {q} / raw zenoh get (same 2 procs)",
             f"{p['put'][q]*1e6:.0f} us / {p['raw'][q]*1e6:.0f} us = {r:.2f}x", "<= 1.5x",
             r <= 1.5)
         row("  each round (put/raw)", each, "", None)
+    cpu_rows("process: ", got)
     p = median["p50"]
     z = zenoh_get_round_trip(n // 4)
     row("  reference: raw zenoh get, a fresh server", f"{z*1e6:.0f} us", "", None)
+    row("process: put p50 / that get (no ESAIR code in it)", f"{p['put']['p50']*1e6:.0f} us / "
+        f"{z*1e6:.0f} us = {p['put']['p50']/z:.2f}x", "", None)
     two = zenoh_sample_relay_round_trip(n // 4, hops=2)
     row("  reference: 2 raw samples A-R-A", f"{two*1e6:.0f} us = {two/z:.2f}x zenoh",
         "(two crossings)", None)
@@ -356,6 +363,19 @@ def sensor_rows(secs: float) -> None:
         "+ 1 ms step", None)
 
 
+def cpu_rows(tag: str, got: list[dict]) -> None:
+    """CPU per put and per raw get in each process (the median over rounds): the cost
+    a loaded machine turns into waiting."""
+    cpus = [p["cpu"] for p in got if p.get("cpu")]
+    if not cpus:
+        return
+    for what in ("put", "raw"):
+        each = {k: sorted(c[what][k] for c in cpus)[len(cpus) // 2] for k in cpus[0][what]}
+        row(f"{tag}CPU per {'put' if what == 'put' else 'raw get'}, each process",
+            ", ".join(f"{k} {v*1e6:.0f}" for k, v in each.items()) +
+            f" = {sum(each.values())*1e6:.0f} us", "", None)
+
+
 def put_against(old: Path, rounds: int, n: int) -> None:
     """Process mode's put, before (checkout ``old``) and after (this one), rounds
     alternated in child processes; each row the median round's."""
@@ -378,6 +398,8 @@ def put_against(old: Path, rounds: int, n: int) -> None:
             row(f"{tag}: put {q} / raw get (same 2 procs)",
                 f"{p['put'][q]*1e6:.0f}/{p['raw'][q]*1e6:.0f} us = {r:.2f}x ({each})",
                 "<= 1.5x", r <= 1.5)
+    for tag in ("before", "after"):
+        cpu_rows(f"{tag}: ", got[tag])
 
 
 def memory_rows() -> None:

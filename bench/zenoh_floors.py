@@ -1,8 +1,11 @@
 """The floors of process mode's paths with no ESAIR code, between processes opened as
 STD opens its sessions (transport/session.py): a raw zenoh get; the same through a
 relay; samples relayed A -> R -> A and A -> R -> E -> R -> A; a put's floor (A -> R -> A
-with JSON, R also delivering to E, whose callback hands it to a thread); one-way samples
-at a sensor's rate. Used by bench/std_goals.py (and bench/papaman_std.py) beside STD's
+with JSON, R also delivering to E, whose callback hands it to a thread); the put answered
+by its target instead (A -> E -> A, E handing it to a thread, with and without telling R
+after); the CPU a subscriber's callback costs with Zenoh's thread state made anew for
+each call and kept (transport/threadstate.py); one-way samples at a sensor's rate. Used
+by bench/std_goals.py (and bench/papaman_std.py) beside STD's
 figures; run alone: python bench/zenoh_floors.py [--n 500]. Prints figures; asserts
 nothing.
 """
@@ -176,6 +179,146 @@ def zenoh_put_floor(n: int) -> float:
             p.wait(5)
 
 
+TARGET_ANSWERS = """
+import json, queue, sys, threading, zenoh
+from esair_std.transport.session import open_session
+s = open_session(listen=[sys.argv[1]], connect=sys.argv[2:])
+B = zenoh.CongestionControl.BLOCK
+if len(sys.argv) > 2:       # the target: answers the sender, hands the data to a thread,
+    ans = s.declare_publisher("f/answer", congestion_control=B, express=True)
+    told = s.declare_publisher("f/told", congestion_control=B, express=True)
+    box = queue.Queue(maxsize=64)
+    def work():
+        while True:
+            box.get()
+    threading.Thread(target=work, daemon=True).start()
+    def take(smp):
+        body = json.loads(smp.payload.to_bytes())
+        ans.put(json.dumps({"ok": {"delivered": True}, "id": body["id"]}).encode())
+        box.put_nowait(body)
+        if body.get("tell"):  # then tells the runtime what it took
+            told.put(json.dumps({"from": "pinger", "id": body["id"]}).encode())
+    s.declare_subscriber("f/put", zenoh.handlers.Callback(take, indirect=False))
+else:                       # the runtime, told after
+    s.declare_subscriber("f/told", zenoh.handlers.Callback(
+        lambda smp: json.loads(smp.payload.to_bytes()), indirect=False))
+print("ready", flush=True)
+sys.stdin.read()
+import os
+os._exit(0)
+"""
+
+
+def zenoh_target_answers(n: int, tell: bool) -> float:
+    """A put answered by its target's process, as a raw get is (A -> E -> A, E handing
+    the data to a thread), no ESAIR code; ``tell``: E then tells R what it took (a
+    runtime that must know of every put, told after)."""
+    import queue
+
+    import zenoh
+
+    from esair_std.transport.session import open_session
+    r_ep, e_ep = free_endpoint(), free_endpoint()
+    procs = []
+    try:
+        for args in ([r_ep], [e_ep, r_ep]):
+            procs.append(subprocess.Popen([sys.executable, "-c", TARGET_ANSWERS, *args],
+                                          stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                          text=True, cwd=ROOT))
+            procs[-1].stdout.readline()
+        s = open_session(connect=[e_ep])
+        got: queue.SimpleQueue = queue.SimpleQueue()
+        s.declare_subscriber("f/answer", zenoh.handlers.Callback(
+            lambda smp: got.put(json.loads(smp.payload.to_bytes())), indirect=False))
+        pub = s.declare_publisher("f/put", congestion_control=zenoh.CongestionControl.DROP,
+                                  express=True)
+
+        def one(i: int) -> bool:
+            pub.put(json.dumps({"to": "echo", "data": {"i": i}, "timeout": 1.0, "id": i,
+                                "tell": tell}).encode())
+            try:
+                return bool(got.get(timeout=1.0))
+            except queue.Empty:
+                return False
+        wait(lambda: one(0))
+        times = []
+        for i in range(n):
+            t0 = time.perf_counter()
+            if one(i):
+                times.append(time.perf_counter() - t0)
+        s.close()
+        return pct(times, 0.5)
+    finally:
+        for p in procs:
+            assert p.stdin is not None
+            p.stdin.close()
+            p.wait(5)
+
+
+CALLBACK_SINK = """
+import sys, zenoh
+from esair_std.transport import threadstate
+from esair_std.transport.session import open_session
+keep = sys.argv[2] == "keep"
+s = open_session(listen=[sys.argv[1]])
+def cb(smp):
+    if keep:
+        threadstate.keep()
+    smp.payload.to_bytes()
+s.declare_subscriber("f/cb", zenoh.handlers.Callback(cb, indirect=False))
+print("ready", flush=True)
+sys.stdin.read()
+import os
+os._exit(0)
+"""
+
+
+def _cpu_ns(pid: int) -> int:
+    """CPU time of every thread of ``pid`` so far (schedstat: nanoseconds)."""
+    import glob
+    total = 0
+    for f in glob.glob(f"/proc/{pid}/task/*/schedstat"):
+        try:
+            total += int(Path(f).read_text().split()[0])
+        except (OSError, ValueError):
+            pass                                    # a thread ended meanwhile
+    return total
+
+
+def callback_cpu(n: int, keep: bool) -> float:
+    """CPU seconds a subscriber's process spends per sample (one every 0.5 ms, a
+    callback on Zenoh's thread that reads it), with Zenoh's thread state made anew for
+    each callback, or kept (``keep``: transport/threadstate.py)."""
+    import zenoh
+
+    from esair_std.transport.session import open_session
+    ep = free_endpoint()
+    sink = subprocess.Popen([sys.executable, "-c", CALLBACK_SINK, ep,
+                             "keep" if keep else "anew"], stdin=subprocess.PIPE,
+                            stdout=subprocess.PIPE, text=True, cwd=ROOT)
+    assert sink.stdin is not None and sink.stdout is not None
+    try:
+        sink.stdout.readline()
+        s = open_session(connect=[ep])
+        pub = s.declare_publisher("f/cb", congestion_control=zenoh.CongestionControl.BLOCK,
+                                  express=True)
+        payload = json.dumps({"from": "pinger", "data": {"i": 0}}).encode()
+        for _ in range(200):                        # the link up, the threads started
+            pub.put(payload)
+            time.sleep(0.0005)
+        before = _cpu_ns(sink.pid)
+        for _ in range(n):
+            pub.put(payload)
+            time.sleep(0.0005)
+        time.sleep(0.1)
+        spent = _cpu_ns(sink.pid) - before
+        s.close()
+        return spent / n / 1e9
+    finally:
+        sink.stdin.close()
+        sink.wait(5)
+
+
 def zenoh_sample_relay_round_trip(n: int, hops: int = 4) -> float:
     """A mediated put's floor through samples, no ESAIR code: A -> R -> E -> R -> A,
     four one-way samples (what transport/calls.py does, with the handling left out);
@@ -314,8 +457,13 @@ def main() -> None:
     for name, t in (("get through a relay", zenoh_relay_round_trip(a.n)),
                     ("samples A-R-A", zenoh_sample_relay_round_trip(a.n, hops=2)),
                     ("samples A-R-E-R-A", zenoh_sample_relay_round_trip(a.n)),
-                    ("put floor A-R-A + R-E, JSON", zenoh_put_floor(a.n))):
+                    ("put floor A-R-A + R-E, JSON", zenoh_put_floor(a.n)),
+                    ("target answers A-E-A", zenoh_target_answers(a.n, tell=False)),
+                    ("the same, E tells R after", zenoh_target_answers(a.n, tell=True))):
         print(f"  {name:28s} {t*1e6:7.0f} us = {t/z:.2f}x the get")
+    anew, kept = callback_cpu(3 * a.n, keep=False), callback_cpu(3 * a.n, keep=True)
+    print(f"  callback CPU per sample, thread state made anew {anew*1e6:.0f} us, kept "
+          f"{kept*1e6:.0f} us")
     ages = raw_sample_ages(50, 10.0)
     print(f"  one-way samples at 50 Hz     p50 {pct(ages, 0.5)*1e3:.2f} ms, "
           f"p99 {pct(ages, 0.99)*1e3:.2f} ms (n {len(ages)})")

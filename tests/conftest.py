@@ -131,6 +131,13 @@ def _in_process_mode(item) -> bool:
     return callspec is not None and "process" in callspec.params.values()
 
 
+def pytest_xdist_auto_num_workers(config) -> int:
+    """``-n auto``: one worker more than the cores. Most STD, HMI, network and flashing
+    tests spend much of their time waiting on a robot's line, a browser or a cut link;
+    a third worker on two cores fills that wait (README, "Contributing")."""
+    return len(os.sched_getaffinity(0)) + 1
+
+
 #: The longest modules, longest first (--durations=0 of a whole run, summed per module).
 #: pytest-xdist hands whole modules to its workers in collection order (--dist loadfile
 #: with --no-loadscope-reorder; its default order, most tests first, ran the two network

@@ -57,6 +57,16 @@ class FoxClient:
                 return
             self._frame(frame)
 
+    def wait_ready(self, timeout: float = 15.0) -> None:
+        """Read until the server has said who it is and advertised its channels and
+        services (what it sends a new client first)."""
+        end = time.monotonic() + timeout
+        while not (self.info and self.channels and self.services):
+            if time.monotonic() >= end:
+                raise TimeoutError(f"the server sent no serverInfo, channels and services "
+                                   f"within {timeout} s")
+            self.pump(0.05)
+
     def _frame(self, frame: str | bytes) -> None:
         if isinstance(frame, str):
             m = json.loads(frame)

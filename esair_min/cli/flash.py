@@ -195,8 +195,10 @@ def _line_starting(ser: Any, prefix: str, timeout: float, ask: bytes = b"") -> s
     return None
 
 
-def _wait_ready(ser: Any, timeout: float = 5.0) -> str | None:
-    """The board's ``!READY`` line on an open port (opening it reset an Arduino)."""
+def _wait_ready(ser: Any, timeout: float = 10.0) -> str | None:
+    """The board's ``!READY`` line on an open port (opening it reset an Arduino; its
+    bootloader waits first). 10 s, as for a PIC's ``v``: a slow USB adapter or a
+    simulated chip on a busy computer may take seconds."""
     return _line_starting(ser, "!READY", timeout)
 
 

@@ -6,7 +6,8 @@ modes/ only enqueue or answer at once; user code never runs on them). Queryable 
 subscriber callbacks run directly on Zenoh's network thread (``indirect=False``):
 zenoh-python's default hands each one to a Python thread of its own first, which cost
 50-100 us a hop here (bench/std_goals.py); since ours only copy, enqueue or answer, the hand-off
-buys nothing. Liveliness callbacks, which may take locks of the runtime, keep it.
+buys nothing. Liveliness callbacks, which may take locks of the runtime, keep it. The
+thread states of Zenoh's threads are kept between callbacks (threadstate.py).
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ import zenoh
 
 from ..counters import Counters
 from ..errors import TransportError
-from . import codec, keys, wire
+from . import codec, keys, threadstate, wire
 from .codec import JSON, JSONObject
 from .session import endpoint_hosts, open_session, peer_at
 
@@ -184,6 +185,7 @@ class Bus:
         """``handler(request)`` on Zenoh's network thread: it must enqueue or answer.
         ``express``: replies are sent at once, never held to share a batch."""
         def cb(query: zenoh.Query) -> None:
+            threadstate.keep()
             try:
                 handler(Request(query, express))
             except Exception as exc:  # noqa: BLE001 - never let a handler kill the thread
@@ -243,6 +245,7 @@ class Bus:
         each sample's decoded JSON; garbage (not UTF-8 JSON, over the size cap) is dropped
         and told to ``garbage(why)``, else logged."""
         def cb(sample: zenoh.Sample) -> None:
+            threadstate.keep()
             try:
                 try:
                     obj = codec.decode(sample.payload.to_bytes())

@@ -141,7 +141,7 @@ def test_every_channel_live_and_recorded_decodes_against_its_schema(live, tmp_pa
         if robot == "starfish":
             live.std("configure", "starfish.mics", "source", '{"x": 1.0, "y": 3.5, "on": true}')
         else:
-            client.pump(1.0)
+            client.wait_ready()
             assert client.call("command", {"resource": "papaman.servo.l_knee",
                                            "command": {"angle": 100, "speed": 3}}) == (True, "odd100")
             # the push, again every 5 s: one comes after the link is up again (it
@@ -189,7 +189,7 @@ def test_every_channel_live_and_recorded_decodes_against_its_schema(live, tmp_pa
 def test_commands_only_where_the_operator_is_granted(live):
     client = FoxClient(live.url)
     try:
-        client.pump(0.5)
+        client.wait_ready()
         if live.robot == "starfish":             # allow: {"*": read, patrol, turn_and_shoot}
             ok, why = client.call("command", {"resource": "starfish.wheels",
                                               "command": {"vx": 0, "vy": 0, "w": 0}})
@@ -213,7 +213,7 @@ def test_client_publish_commands_only_where_the_operator_is_granted(live):
     the RS as the services, the answer as a status message."""
     client = FoxClient(live.url)
     try:
-        client.pump(0.5)
+        client.wait_ready()
         assert "clientPublish" in client.info["capabilities"]
         assert set(json.loads(client.info["metadata"]["clientPublish"])) == {
             "/esair/command", "/esair/stop", "/esair/release"}
@@ -272,7 +272,9 @@ def test_garbage_frames_get_an_error_status_and_lose_nothing(live):
         cid = client.advertise("/esair/command")
         level, message = client.send_expecting_status(struct.pack("<BI", 1, cid) + b"[1, 2")
         assert level == 2 and "not JSON" in message
-        client.pump(2.0)
+        before = len(by_topic(client)[sensor])
+        wait_for(lambda: client.pump(0.2) or len(by_topic(client)[sensor]) >= before + 4,
+                 timeout=30, what=f"{sensor}'s samples after the garbage")
         seqs = [json.loads(d)["seq"] for d in by_topic(client)[sensor]]
         assert len(seqs) >= 4 and seqs == list(range(seqs[0], seqs[0] + len(seqs))), seqs
     finally:
@@ -310,7 +312,7 @@ def test_the_layout_names_only_what_a_robot_publishes(live):
     mine = [(p, t, f) for p, t, f in refs if t in GENERIC or live.robot in t]
     client = FoxClient(live.url)
     try:
-        client.pump(0.5)
+        client.wait_ready()
         if live.robot == "starfish":
             live.std("configure", "starfish.mics", "source", '{"x": 1.0, "y": 3.5, "on": true}')
         else:

@@ -312,7 +312,9 @@ def test_trace_and_scenario_reach_the_emulated_robot(tmp_path):
 
 def top_title(ep: str) -> str:
     """The title of the table `esair std top --count 1` leaves on the screen."""
-    out = esair("top", "--count", "1", "--interval", "0.1", "-e", ep).stdout
+    top = esair("top", "--count", "1", "--interval", "0.1", "-e", ep)
+    assert top.returncode == 0, top.stderr
+    out = top.stdout
     return [line.strip() for line in out.splitlines() if "ESAIR STD" in line][-1]
 
 
@@ -409,7 +411,9 @@ def test_papaman_from_the_command_line(robot, mode):
              "papaman.notices", *servos)
     wait_for(lambda: lab_started(ep, names), timeout=60,
              what="papaman ready")     # process mode on a loaded machine: 10 s was seen to run out
-    out = esair("top", "--count", "1", "--interval", "0.1", "-e", ep).stdout
+    top = esair("top", "--count", "1", "--interval", "0.1", "-e", ep)
+    assert top.returncode == 0, top.stderr
+    out = top.stdout
     names = [line.split("│")[1].strip() for line in out.splitlines()
              if line.startswith("│")]
     assert names == ["sequencer", "watcher", "logger", "papaman", ".servo.* (12)",

@@ -23,7 +23,7 @@ class Follow(Behavior):
         angle = round(90 + 60 * s.value)
         self.arm.send({"angle": angle})
         if self.steps % 10 == 0:
-            self.put("logger", {"seq": s.seq, "angle": angle}, timeout=0.2)
+            self.put("logger", {"seq": s.seq, "angle": angle}, timeout=1.0)
 
     def provide(self, requester):
         return {"steps": self.steps}
