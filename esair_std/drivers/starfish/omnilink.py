@@ -9,18 +9,18 @@ gives: the wheels actuator and the odometry sensor (the notices are MinLink's).
 - :class:`Wheels`: ``{"vx", "vy", "w"}`` -> ``V±vvvv±vvvv±wwww``, ``"stop"`` -> ``x``,
   refused by name outside the board file's limits before anything is sent;
 - :class:`Odometry`: polls ``O`` on its own thread and integrates the flow sensors'
-  sums into a pose (esair_min.components.optical_flow.odometry), from the start pose.
+  sums into a pose (esair_min.core.odometry), from the start pose.
 """
 
 from __future__ import annotations
 
 import math
 import threading
+from typing import TYPE_CHECKING
 
 from esair_std import Actuator, CommandError
-from esair_min.components.omni_base.core import velocity_line
-from esair_min.components.optical_flow.odometry import FlowOdometry, parse_odometry
-from esair_min.model.robot import Robot
+from esair_min.core.odometry import FlowOdometry, parse_odometry
+from esair_min.core.protocol import velocity_line
 
 from ..minlink.budget import LineBudget
 from ..minlink.commands import VERSION_PREFIX, RobotCommands
@@ -28,7 +28,11 @@ from ..minlink.driver import PolledSensor, LinkAgent
 from ..minlink.link_errors import LinkError
 from ..minlink.link import Link
 from ...transport.codec import JSON, JSONObject
+from .omniboard import OmniBoard, omni_of
 from .scene import wrap
+
+if TYPE_CHECKING:  # pragma: no cover - the model: a test's, or a driver not prepared
+    from esair_min.model.robot import Robot
 
 #: the omni base's lines by action (docs/protocol.md, STARFISH)
 PREFIX = {"velocity": "V", "odometry": "O", "stop": "x", "version": "v"}
@@ -39,12 +43,11 @@ ODOMETRY_REPLY_BYTES = len("OK n=65535") + 2 * len(" a=-2147483648,-2147483648,2
 class OmniCommands(RobotCommands):
     """The command set of a central board with ``base:`` (it has no command table)."""
 
-    def __init__(self, robot: Robot):
-        super().__init__(robot)
-        self.flow = len(robot.central.flow_sensors)
-        drive = robot.board("drive")
-        assert drive is not None            # an omni base has its drive board (validate.py)
-        self.wheels = len(drive.motors)
+    def __init__(self, robot: Robot | OmniBoard):
+        omni = omni_of(robot)
+        super().__init__(omni.board)
+        self.flow = len(omni.flow)
+        self.wheels = omni.wheels
 
     def prefix(self, action: str) -> str:
         try:
@@ -71,13 +74,12 @@ class OmniCommands(RobotCommands):
                 "checksum": "on" if self.checksum else "off"}
 
 
-def omni_budget(robot: Robot) -> LineBudget:
+def omni_budget(robot: Robot | OmniBoard) -> LineBudget:
     """The line's budget; its "feet" exchange is the odometry poll (``O`` and its longest
     reply), the only poll the omni base has."""
-    central = robot.central
-    assert central.uart is not None and central.timer2 is not None
-    checksum = bool(central.uart.require_checksum)
-    return LineBudget(baud=central.uart.baud, tick_s=central.timer2.period_s, sensor_read_s=0.0,
+    board = omni_of(robot).board
+    checksum = board.checksum
+    return LineBudget(baud=board.baud, tick_s=board.tick_s, sensor_read_s=0.0,
                       feet_request_bytes=len("O") + (3 if checksum else 0) + 2,
                       feet_reply_bytes=ODOMETRY_REPLY_BYTES)
 
@@ -122,9 +124,11 @@ class Odometry(PolledSensor[str]):
 
     thread_name = "starfish-odometry"
 
-    def __init__(self, link: Link, robot: Robot, hz: float, start: tuple[float, float, float]):
+    def __init__(self, link: Link, robot: Robot | OmniBoard, hz: float,
+                 start: tuple[float, float, float]):
         super().__init__()
-        self.link, self.robot, self.hz, self.start = link, robot, hz, start
+        self.link, self.hz, self.start = link, hz, start
+        self.flow = omni_of(robot).flow
         self._lock = threading.Lock()
         self.bad_replies = 0
         self.reset()
@@ -132,7 +136,7 @@ class Odometry(PolledSensor[str]):
     def reset(self) -> None:
         x, y, th = self.start
         with self._lock:
-            self.odo = FlowOdometry(self.robot.central.flow_sensors, x * 1000, y * 1000, th)
+            self.odo = FlowOdometry(self.flow, x * 1000, y * 1000, th)
             self.pose = (x, y, th)
             self.last_n: int | None = None
 
