@@ -318,12 +318,14 @@ def inner(args) -> None:
     from esair_std import Runtime
 
     store, path = args.store, args.deployment
+    how = "loaded here"
     try:
-        from esair_std.lean.checked import checked_deployment
+        from esair_std.lean.checked import checked_deployment, last
     except ImportError:      # an older checkout (--tree): it checked in the runtime's process
         dep: object = json.loads(Path(path).read_text())
     else:
         dep = checked_deployment(path, {}) or json.loads(Path(path).read_text())
+        how = last["how"]
     # the control endpoint on in both modes, as ``esair std run`` has it
     with Runtime(dep, mode=args.mode, endpoint=args.endpoint,  # type: ignore[arg-type]
                  settle_heap=True, control=True) as rt:
@@ -331,7 +333,7 @@ def inner(args) -> None:
         while time.monotonic() < end and \
                 any(c["state"] not in ("running", "busy", "ready") for c in rt.ls()):
             time.sleep(0.02)
-        print(json.dumps({"ready": time.monotonic()}), flush=True)
+        print(json.dumps({"ready": time.monotonic(), "how": how}), flush=True)
         sys.stdin.readline()
         go = os.path.join(store, "go")
         out = papaman_figure(rt, go) if args.robot == "papaman" else starfish_figure(rt, args.shots)
@@ -372,9 +374,14 @@ def starfish_figure(rt, shots: int) -> dict:
 
 
 # ---- the bench --------------------------------------------------------------------------
-#: ``--cache warm``: the deployment checked (and kept in the cache) before the start
-WARM = ("import sys\nfrom esair_std.lean.checked import checked_deployment\n"
-        "assert checked_deployment(sys.argv[1], {}) is not None\n")
+def warm(path: str) -> None:
+    """Child (``--cache warm``): check the deployment and keep it in the cache, run as
+    the robot side is (this script, from the same folder: the cache's key holds
+    sys.path), so that its start reads the cache."""
+    from esair_std.lean.checked import checked_deployment, last
+
+    assert checked_deployment(path, {}) is not None, last["how"]
+
 
 def one(robot: str, mode: str, limit: bool, args) -> dict:
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(
@@ -406,8 +413,9 @@ def one(robot: str, mode: str, limit: bool, args) -> dict:
         # JSON is YAML: the deployment file esair std run would read
         Path(store, "deployment.yaml").write_text(json.dumps(dep))
         if args.cache == "warm":    # checked once before (another start): read from the cache
-            subprocess.run([sys.executable, "-c", WARM, os.path.join(store, "deployment.yaml")],
-                           env=env, cwd=TREE, check=True)
+            subprocess.run([sys.executable, str(Path(__file__).resolve()), "--warm",
+                            os.path.join(store, "deployment.yaml")], env=env, cwd=TREE,
+                           check=True)
         mover = Mover(cap, remote=("localize", "turn_and_shoot") if robot == "starfish" else ())
         mover.start()
         t_exec = time.monotonic()
@@ -420,7 +428,8 @@ def one(robot: str, mode: str, limit: bool, args) -> dict:
             if not line:
                 res["error"] = f"the robot side exited ({child.wait()}) before it was ready"
                 return res
-            res["ready_s"] = json.loads(line)["ready"] - t_exec
+            said = json.loads(line)
+            res["ready_s"], res["how"] = said["ready"] - t_exec, said.get("how", "")
             # the CPU the start took (every process in the group, since it began): the
             # start's floor under the cap is this over the cap's share, however loaded
             # (the deployment's checking child included: reaped, it counts in its parent's)
@@ -562,7 +571,8 @@ def show(rows: list[dict], floor_ms: float) -> None:
         print(f"{tag} RSS {r['rss_mb']:6.1f} MB  PSS {r['pss_mb']:6.1f} MB "
               f"({r['processes']} processes; {mem})  CPU {r['cpu_pct']:5.1f} % of a core  "
               f"start -> ready {r['ready_s']:5.2f} s ({r['start_cpu_s']:.2f} s of CPU: "
-              f"{r['start_cpu_s'] / CPU_SHARE:.2f} s at {CPU_SHARE:.0%} of a core)")
+              f"{r['start_cpu_s'] / CPU_SHARE:.2f} s at {CPU_SHARE:.0%} of a core; the "
+              f"deployment: {r.get('how') or '?'})")
         if r["processes"] > 1:
             print(f"{'':26s} each (RSS / PSS MB): " + ", ".join(
                 f"{n} {a:.1f} / {b:.1f}" for n, a, b in r["each"]))
@@ -618,7 +628,10 @@ def main() -> None:
     ap.add_argument("--store", help=argparse.SUPPRESS)
     ap.add_argument("--deployment", help=argparse.SUPPRESS)
     ap.add_argument("--emulator", help=argparse.SUPPRESS)
+    ap.add_argument("--warm", help=argparse.SUPPRESS)
     args = ap.parse_args()
+    if args.warm:
+        return warm(args.warm)
     if args.emulator:
         return serve_emulator(args.emulator)
     if args.inner:

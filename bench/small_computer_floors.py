@@ -82,22 +82,26 @@ def memory(pid: int) -> tuple[float, float]:
 
 
 CHECKER = """
-import sys, time
+import gc, sys, time
+gc.disable()                  # as esair std run's checking child
+t0 = time.process_time()      # a forked child does not pay python's own start
 from esair_std.deploy import load_deployment
 load_deployment({"robot": "floor"})
 from esair_min.model.validate import load_robot
 load_robot(sys.argv[1])
-print(time.process_time(), flush=True)
+print(time.process_time() - t0, time.process_time(), flush=True)
 """
 
 
-def checker_cpu(board: str) -> float:
-    """CPU seconds of a process that checks a deployment and loads the board model."""
+def checker_cpu(board: str) -> tuple[float, float]:
+    """CPU seconds a process takes to check a deployment and load the board model: (the
+    work alone, as a child forked from a started python pays it; with python's start)."""
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(
         [str(ROOT), *filter(None, [os.environ.get("PYTHONPATH")])]))
     out = subprocess.run([sys.executable, "-P", "-c", CHECKER, board], env=env,
                          capture_output=True, text=True, check=True)
-    return float(out.stdout)
+    work, total = out.stdout.split()
+    return float(work), float(total)
 
 
 def runtime_side(ep: str, board: str, numpy: bool = False,
@@ -170,13 +174,19 @@ def main() -> None:
     sys.path.insert(0, str(ROOT))
     for robot in args.robots.split(","):
         board = str(ROOT / "boards" / robot)
+        lean_cpu = 0.0
         for lean in (False, True):
-            floors(robot, board, lean, args.children or CHILDREN[robot])
+            lean_cpu = floors(robot, board, lean, args.children or CHILDREN[robot])
+        work, total = checker_cpu(board)
         print(f"{robot:8s} the checking child (deployment loader + board model, then exits): "
-              f"{checker_cpu(board):.3f} s of CPU")
+              f"{work:.3f} s of CPU ({total:.3f} s as a process of its own, python's start "
+              f"included); a first start's floor in thread mode (the lean floor + that "
+              f"work): {lean_cpu + work:.3f} s of CPU ({(lean_cpu + work) / CPU_SHARE:.2f} s "
+              f"at {CPU_SHARE:.0%} of a core)")
 
 
-def floors(robot: str, board: str, lean: bool, n: int) -> None:
+def floors(robot: str, board: str, lean: bool, n: int) -> float:
+    """Print the floors; return the thread-mode floor's CPU seconds."""
     held = "json (a deployment checked elsewhere)" if lean else \
         "the deployment loader + the board model"
     ep = free_endpoint()
@@ -212,6 +222,7 @@ def floors(robot: str, board: str, lean: bool, n: int) -> None:
     proc.stdin.write("\n")
     proc.stdin.flush()
     proc.wait(30)
+    return cpu
 
 
 if __name__ == "__main__":

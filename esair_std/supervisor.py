@@ -24,7 +24,6 @@ import logging
 import queue
 import threading
 import time
-from dataclasses import dataclass
 from typing import (TYPE_CHECKING, Callable, Generic, Literal, TypeVar, TypeVarTuple, Union,
                     Unpack, cast)
 
@@ -55,20 +54,42 @@ REQUESTS = 256          # requests and failure events waiting for the supervisor
 PAST_LIMIT = ("stay", "remove")
 
 
-@dataclass(frozen=True)
 class ChildSpec:
     """How a child is supervised: at most ``max`` restarts in any ``within`` seconds;
-    past that, ``past_limit``: "stay" (failed, listed with its reason) or "remove"."""
+    past that, ``past_limit``: "stay" (failed, listed with its reason) or "remove".
+    Immutable, compared by value. (A plain class, not a dataclass: ``dataclasses``
+    imports ``inspect`` and ``ast`` into the robot side.)"""
 
+    __slots__ = ("name", "kind", "max", "within", "past_limit")
     name: str
     kind: str
-    max: int = 0
-    within: float = 10.0
-    past_limit: Literal["stay", "remove"] = "stay"
+    max: int
+    within: float
+    past_limit: Literal["stay", "remove"]
 
-    def __post_init__(self) -> None:
-        if self.past_limit not in PAST_LIMIT:
-            raise ValueError(f"past_limit must be one of {PAST_LIMIT}, not {self.past_limit!r}")
+    def __init__(self, name: str, kind: str, max: int = 0, within: float = 10.0,
+                 past_limit: Literal["stay", "remove"] = "stay"):
+        if past_limit not in PAST_LIMIT:
+            raise ValueError(f"past_limit must be one of {PAST_LIMIT}, not {past_limit!r}")
+        for key, value in zip(self.__slots__, (name, kind, max, within, past_limit)):
+            object.__setattr__(self, key, value)
+
+    def __setattr__(self, name: str, value: object) -> None:
+        raise AttributeError(f"cannot assign to field {name!r} of ChildSpec")
+
+    def _values(self) -> tuple[object, ...]:
+        return tuple(getattr(self, k) for k in self.__slots__)
+
+    def __eq__(self, other: object) -> bool:
+        if type(other) is not ChildSpec:
+            return NotImplemented
+        return self._values() == other._values()
+
+    def __hash__(self) -> int:
+        return hash(self._values())
+
+    def __repr__(self) -> str:
+        return "ChildSpec(" + ", ".join(f"{k}={getattr(self, k)!r}" for k in self.__slots__) + ")"
 
     @classmethod
     def of(cls, spec: Spec) -> "ChildSpec":
@@ -128,26 +149,23 @@ class Starting:
         pass
 
 
-@dataclass
 class Record(Generic[H]):
     """A supervised child: its component spec, its host (or a stand-in while it
     starts), its restart history."""
 
-    spec: Spec
-    host: H | Starting
-    child: ChildSpec | None = None
-    generation: int = 1
-    restarts: int = 0
-    window: RestartWindow | None = None
-    reason: str = ""
-    handled: int = 0           # the last generation whose failure was handled
-    removing: bool = False     # being removed: its failures are no longer events
-
-    def __post_init__(self) -> None:
-        if self.child is None:
-            self.child = ChildSpec.of(self.spec)
-        if self.window is None:
-            self.window = RestartWindow(self.child.max, self.child.within)
+    def __init__(self, spec: Spec, host: H | Starting, child: ChildSpec | None = None,
+                 generation: int = 1, restarts: int = 0, window: RestartWindow | None = None,
+                 reason: str = "", handled: int = 0, removing: bool = False):
+        self.spec = spec
+        self.host = host
+        self.child: ChildSpec | None = ChildSpec.of(spec) if child is None else child
+        self.generation = generation
+        self.restarts = restarts
+        self.window: RestartWindow | None = (RestartWindow(self.child.max, self.child.within)
+                                             if window is None else window)
+        self.reason = reason
+        self.handled = handled      # the last generation whose failure was handled
+        self.removing = removing    # being removed: its failures are no longer events
 
 
 class Supervisor(Generic[H]):

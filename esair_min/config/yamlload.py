@@ -6,6 +6,13 @@ into dicts, lists and scalars while recording, for every path such as
 It refuses what PyYAML would silently accept: duplicate keys, alias expansion that
 grows without bound (or refers to itself), and non-string keys. Every error is one
 :class:`ConfigError` on one line with the mark of the node to change.
+
+The graph is composed by libyaml where PyYAML has it (the same parser in C, about ten
+times faster: a start that checks its board files pays for this), unless the text is
+one where the two differ (a tab, which libyaml takes where PyYAML refuses it; an empty
+value, whose mark libyaml puts a column further; more brackets than PyYAML's flow
+guard allows); any error there is read again by PyYAML's Python parser, whose
+messages (and marks) are the ones given.
 """
 
 from __future__ import annotations
@@ -46,6 +53,37 @@ class _Loader(yaml.SafeLoader):
         if self.flow_level >= MAX_FLOW_LEVEL:
             raise _TooDeep
         super().fetch_flow_collection_start(TokenClass)
+
+
+def _compose_fast(text: str) -> tuple[yaml.Node | None, Any] | None:
+    """(the node, a loader to construct its scalars) composed by libyaml; None when
+    libyaml is missing, or the text is one for PyYAML's parser (the module docstring)."""
+    fast = getattr(yaml, "CSafeLoader", None)
+    if (fast is None or "\t" in text
+            or text.count("[") + text.count("{") >= MAX_FLOW_LEVEL):
+        return None
+    loader = fast(text)
+    try:
+        node = loader.get_single_node()
+    except (yaml.YAMLError, RecursionError):
+        return None
+    finally:
+        loader.dispose()
+    todo = [node] if node is not None else []
+    seen: set[int] = set()
+    while todo:
+        n = todo.pop()
+        if id(n) in seen:
+            continue
+        seen.add(id(n))
+        if isinstance(n, yaml.ScalarNode):
+            if n.value == "" and not n.style:       # plain empty (a quoted one is fine)
+                return None
+        elif isinstance(n, yaml.MappingNode):
+            todo += [x for kv in n.value for x in kv]
+        elif isinstance(n, yaml.SequenceNode):
+            todo += n.value
+    return node, loader
 
 
 def _one_line(text: str) -> str:
@@ -95,7 +133,7 @@ _PLAIN_TAGS = ("tag:yaml.org,2002:map", "tag:yaml.org,2002:seq")
 
 
 class _Builder:
-    def __init__(self, path: str, loader: yaml.SafeLoader, kind: FileKind = BOARD_FILE):
+    def __init__(self, path: str, loader: Any, kind: FileKind = BOARD_FILE):
         self.path = path
         self.kind = kind
         self.loader = loader
@@ -204,6 +242,25 @@ def load_yaml(path: Path | str, kind: FileKind = BOARD_FILE) -> Document:
     except UnicodeDecodeError as exc:
         raise ConfigError(f"not a text file (invalid UTF-8 at byte {exc.start}); a "
                           f"{what_file} is UTF-8 YAML", file_mark(name)) from None
+    fast = _compose_fast(text)
+    if fast is not None:
+        node, loader = fast
+    else:
+        node, loader = _compose(text, name, what_file)
+    if node is None or (isinstance(node, yaml.ScalarNode) and node.tag.endswith(":null")):
+        raise ConfigError(f"file is empty, expected {kind.description} ({kind.keys})",
+                          file_mark(name))
+    if not isinstance(node, yaml.MappingNode):
+        what = "a list" if isinstance(node, yaml.SequenceNode) else "a single value"
+        raise ConfigError(f"the file is {what}; a {what_file} must be a mapping of keys "
+                          f"({kind.keys})", _mark(name, node))
+    builder = _Builder(name, loader, kind)
+    data = builder.build(node, ())
+    return Document(name, data, builder.value_marks, builder.key_marks)
+
+
+def _compose(text: str, name: str, what_file: str) -> tuple[yaml.Node | None, _Loader]:
+    """PyYAML's Python parser: the node, or a :class:`ConfigError` in plain words."""
     try:
         loader = _Loader(text)
     except yaml.reader.ReaderError as exc:
@@ -229,16 +286,7 @@ def load_yaml(path: Path | str, kind: FileKind = BOARD_FILE) -> Document:
                           f"never needed in a {what_file})", file_mark(name)) from None
     finally:
         loader.dispose()
-    if node is None or (isinstance(node, yaml.ScalarNode) and node.tag.endswith(":null")):
-        raise ConfigError(f"file is empty, expected {kind.description} ({kind.keys})",
-                          file_mark(name))
-    if not isinstance(node, yaml.MappingNode):
-        what = "a list" if isinstance(node, yaml.SequenceNode) else "a single value"
-        raise ConfigError(f"the file is {what}; a {what_file} must be a mapping of keys "
-                          f"({kind.keys})", _mark(name, node))
-    builder = _Builder(name, loader, kind)
-    data = builder.build(node, ())
-    return Document(name, data, builder.value_marks, builder.key_marks)
+    return node, loader
 
 
 def _reader_error(exc: yaml.reader.ReaderError, text: str, name: str) -> ConfigError:

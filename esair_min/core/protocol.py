@@ -7,9 +7,8 @@ a parser of reply lines. No I/O, no state.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from enum import IntEnum
-from typing import Iterable, Sequence
+from typing import Iterable, NamedTuple, Sequence
 
 from esair_min.errors import ProtocolError
 from esair_min.model import encoding
@@ -266,9 +265,10 @@ def frame_line(line: str, checksum: bool = False) -> bytes:
 
 # -- replies --------------------------------------------------------------------------
 
-@dataclass(frozen=True)
-class Reply:
-    """One line from the board. ``kind`` is ``ok``, ``error`` or ``notice``."""
+class Reply(NamedTuple):
+    """One line from the board. ``kind`` is ``ok``, ``error`` or ``notice``. (A named
+    tuple, not a dataclass: ``dataclasses`` imports ``inspect`` and ``ast`` into the
+    robot side, whose link parses every reply with this module.)"""
 
     kind: str
     code: Code | None = None   # for errors and error notices
@@ -298,3 +298,8 @@ def parse_reply(line: str | bytes) -> Reply:
     if code is None:
         raise ProtocolError(f"not a reply line: {text!r}")
     return Reply("error", code, text)
+
+
+def velocity_line(vx: int, vy: int, omega: int) -> str:
+    """An omni base's command line for a body velocity (mm/s, mm/s, mrad/s)."""
+    return "V" + "".join(f"{v:+05d}" for v in (vx, vy, omega))

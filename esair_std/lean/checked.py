@@ -11,6 +11,7 @@ then loads it in its own process, which gives the same error at the same file:li
 
 from __future__ import annotations
 
+import gc
 import json
 import os
 import threading
@@ -64,7 +65,8 @@ def _in_child(path: str | Path, edit: Callable[[Document], None] | None) -> obje
     except OSError as exc:
         return f"not forked: {exc}"
     if pid == 0:                                  # the child: check, answer, leave
-        os.close(r)
+        gc.disable()            # it lives for one check: pydantic's import makes many
+        os.close(r)             # objects and cycles the exit frees anyway
         code = 0
         try:
             answer: Any = _check(path, edit)

@@ -17,7 +17,7 @@ from esair_min.core.protocol import Code
 from esair_min.model.validate import load_robot
 from esair_std.drivers.minlink import Link, LinkDown, RobotRefused
 from esair_std.drivers.minlink.emulated import EmulatedRobot
-from esair_std.drivers.minlink.link import WIRE_CODES
+from esair_std.drivers.minlink.link import IDLE_LOOK_S, WIRE_CODES
 
 pytestmark = pytest.mark.pty
 
@@ -115,3 +115,18 @@ def test_board_faults_and_noise_over_the_pty(robot):
             assert codes and set(codes) <= WIRE_CODES, codes
             assert Code.NO_ANSWER not in codes
     assert _io_threads() == []
+
+
+def test_an_idle_link_sleeps_until_it_has_something_to_do(robot):
+    """With nothing in flight the I/O thread waits in select on the port (and its wake
+    pipe) for at most IDLE_LOOK_S at a time: over a quiet spell it wakes at most once per
+    IDLE_LOOK_S (a starved thread wakes less, never more), not once per short read
+    timeout; and a line it reads is counted once, whole, however its bytes came."""
+    with EmulatedRobot(PAPAMAN) as emu, Link(robot, emu.port) as link:
+        assert link.version().startswith("esair-min")
+        before, t0 = link.stats["wakes"], time.monotonic()
+        time.sleep(2.0)                          # the quiet spell being measured
+        woke, spell = link.stats["wakes"] - before, time.monotonic() - t0
+        assert woke <= spell / IDLE_LOOK_S + 1, (woke, spell)
+        assert link.version().startswith("esair-min")      # and it still answers at once
+        assert link.stats["timeouts"] == 0

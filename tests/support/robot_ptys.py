@@ -35,13 +35,17 @@ def pty_number(pid: int) -> int:
     raise AssertionError(f"process {pid} holds no pty master")
 
 
-#: `esair emulate` with its modules imported, waiting for a byte on stdin before it runs:
-#: from that byte to its pty takes milliseconds, not a Python start-up.
-_PRELOADED = ("import sys\n"
-              "import esair_min.emulator.ptyserver, esair_min.emulator.serve\n"
+#: `esair emulate` run up to the moment it opens its pty, where it waits for a byte on
+#: stdin: from that byte to its pty is one system call, not a start-up (another
+#: program of a busy machine opening a pty meanwhile would take the number).
+_PRELOADED = ("import os, sys\n"
+              "_openpty = os.openpty\n"
+              "def _when_told():\n"
+              "    sys.stderr.write('ready\\n'); sys.stderr.flush()\n"
+              "    sys.stdin.buffer.read(1)\n"
+              "    return _openpty()\n"
+              "os.openpty = _when_told\n"
               "from esair_min.cli import main\n"
-              "sys.stderr.write('ready\\n'); sys.stderr.flush()\n"
-              "sys.stdin.buffer.read(1)\n"
               "main(sys.argv[1:])\n")
 
 

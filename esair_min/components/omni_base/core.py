@@ -19,6 +19,7 @@ from esair_min.components.omni_base.kinematics import wheel_speeds, wheel_table
 from esair_min.components.optical_flow.core import read_deltas
 from esair_min.core.decoder import LineAssembler
 from esair_min.core.protocol import CHECKSUM_CHARS, ERROR_LINE, OK_LINE, PROTOCOL_NAME, Code
+from esair_min.core.protocol import velocity_line  # noqa: F401  (the omni base's V line)
 
 WATCHDOG_NOTICE = b"!W watchdog stop\r\n"
 #: The command set: prefix -> (action, characters of a matching line).
@@ -66,11 +67,6 @@ def ready_line(robot: str) -> bytes:
     """The notice the emulated central board sends at reset: the robot it is, by name
     (``!READY esair-min/1 starfish-avr`` for STARFISH on the AVR), as its ``v`` reply."""
     return f"!READY {PROTOCOL_NAME} {robot}\r\n".encode()
-
-
-def velocity_line(vx: int, vy: int, omega: int) -> str:
-    """The command line for a body velocity (mm/s, mm/s, mrad/s)."""
-    return "V" + "".join(f"{v:+05d}" for v in (vx, vy, omega))
 
 
 def wheels_line(speeds: Sequence[int]) -> str:

@@ -24,6 +24,8 @@ import math
 import random
 from dataclasses import dataclass, field
 
+from esair_min.core.odometry import MM_PER_INCH
+
 REG_CONFIG = 0x00
 REG_STATUS = 0x01
 REG_DELTA_Y = 0x02
@@ -33,7 +35,6 @@ T_SRAD_NS = 100_000
 T_SRR_NS = 250
 T_SWW_NS = 100_000
 MAX_SPEED_IPS = 12.0
-MM_PER_INCH = 25.4
 #: One register read by the central board: address, tSRAD, 8 bits, tSRR, 8 bits.
 _READ_NS = T_SRAD_NS + 8_000 + T_SRR_NS + 8_000
 #: A burst of the three reads (:meth:`Adns2610.deltas`): the sensor is free again, and

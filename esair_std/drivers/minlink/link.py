@@ -76,9 +76,9 @@ from __future__ import annotations
 
 import collections
 import os
+import select
 import threading
 import time
-from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Callable
 
 from esair_min.errors import ProtocolError
@@ -104,6 +104,9 @@ WIRE_CODES = frozenset({Code.UNKNOWN, Code.TOO_LONG, Code.BAD_ARGUMENT, Code.BAD
 MAX_LINE_BYTES = 256        # a longer line from the robot is garbage: dropped, counted
 POLL_S = 0.05               # the I/O thread's longest wait on a port it can wake
 POLL_S_NO_CANCEL = 0.002    # ... on a port without cancel_read
+IDLE_LOOK_S = 1.0           # a port with a descriptor: the longest sleep with nothing due
+DUE_SLACK_S = 0.001         # a reply's deadline is looked at just after it passes
+GATHER_BYTES = 4            # a line longer than its kind's last: waited for this many more
 RESYNC = b"\r\n"            # an empty line: no reply, but it ends a line noise began
 RESYNC_IDLE_S = 0.25        # a command after this long a silence is sent after RESYNC
 QUEUE_MAX = 64              # commands waiting for their turn; more are refused, not sent
@@ -115,27 +118,35 @@ LOCK_WAIT_S = 3.0           # a port another program holds is tried again this l
                             # it for its probe (a `v` or two), then lets go
 
 
-@dataclass
 class Exchange:
-    """One command and its fate. Times are ``time.monotonic()``."""
+    """One command and its fate. Times are ``time.monotonic()``. (A plain class, not a
+    dataclass: ``dataclasses`` imports ``inspect`` and ``ast`` into the robot side.)"""
 
-    line: str
-    wire: bytes
-    timeout: float
-    deadline: float = float("inf")   # not written by then: Expired, dropped
-    poll: bool = False               # a poll: commands go first
-    kind: str = ""                   # the shape of its OK reply (never two alike in flight)
-    sent: bool = False
-    t_sent: float = 0.0
-    t_reply: float = 0.0
-    sent_bytes: int = 0
-    data: str | None = None
-    error: LinkError | None = None
-    settle_until: float | None = None
-    first_error: RobotRefused | None = None
-    later_error: RobotRefused | None = None    # a wire error after first_error
-    started: threading.Event = field(default_factory=threading.Event)   # its turn came
-    done: threading.Event = field(default_factory=threading.Event)
+    __slots__ = ("line", "wire", "timeout", "deadline", "poll", "kind", "sent", "t_sent",
+                 "t_reply", "sent_bytes", "data", "error", "settle_until", "first_error",
+                 "later_error", "started", "done")
+
+    def __init__(self, line: str, wire: bytes, timeout: float,
+                 deadline: float = float("inf"), poll: bool = False, kind: str = ""):
+        self.line, self.wire, self.timeout = line, wire, timeout
+        self.deadline = deadline          # not written by then: Expired, dropped
+        self.poll = poll                  # a poll: commands go first
+        self.kind = kind                  # the shape of its OK reply (never two alike in flight)
+        self.sent = False
+        self.t_sent = 0.0
+        self.t_reply = 0.0
+        self.sent_bytes = 0
+        self.data: str | None = None
+        self.error: LinkError | None = None
+        self.settle_until: float | None = None
+        self.first_error: RobotRefused | None = None
+        self.later_error: RobotRefused | None = None    # a wire error after first_error
+        self.started = threading.Event()  # its turn came
+        self.done = threading.Event()
+
+    def __repr__(self) -> str:
+        return (f"Exchange(line={self.line!r}, sent={self.sent}, data={self.data!r}, "
+                f"error={self.error!r})")
 
 
 StateCallback = Callable[[bool, str], None]
@@ -190,6 +201,12 @@ class Link:
         self._partial_since = 0.0          # a line from the robot began arriving then
         self._thread: threading.Thread | None = None
         self._poll: float | None = POLL_S
+        # the I/O thread's wake pipe (a port with a descriptor), when it next looks, and
+        # the byte length of the last line of each kind (a reply's, "!" a notice's)
+        self._wake_r: int | None = None
+        self._wake_w: int | None = None
+        self._look_at = 0.0
+        self._line_bytes: dict[str, int] = {}
         self._last_write = 0.0
         # the latched STOP (hold()): only these lines go while held; every (re)connect
         # then writes the stop line before any other byte
@@ -214,6 +231,9 @@ class Link:
         self._port = self._connect()
         self._up, self._reason = True, "up"
         self.up_since = time.monotonic()
+        self._wake_r, self._wake_w = os.pipe()
+        os.set_blocking(self._wake_r, False)
+        os.set_blocking(self._wake_w, False)
         self._thread = threading.Thread(target=self._run, name=f"minlink-io:{self.port}",
                                         daemon=True)
         self._thread.start()
@@ -230,6 +250,11 @@ class Link:
             port, self._port = self._port, None
             self._fail_all(LinkDown(f"link to {self.port} closed"))
         _close_quietly(port)
+        if self._thread is None or not self._thread.is_alive():
+            for fd in (self._wake_r, self._wake_w):
+                if fd is not None:
+                    os.close(fd)
+            self._wake_r = self._wake_w = None
 
     def __enter__(self) -> "Link":
         self.open()
@@ -409,6 +434,8 @@ class Link:
         self._last_write = now
         self._flight.append(ex)
         ex.started.set()
+        if now + ex.timeout < self._look_at:
+            self._wake()                    # due before the I/O thread's next look
         assert self._port is not None       # _pump starts exchanges while the port is open
         return ex, self._port, wire
 
@@ -492,6 +519,12 @@ class Link:
 
     # -- the I/O thread -------------------------------------------------------------------
     def _wake(self) -> None:
+        """Make the I/O thread look now (closing; a reply deadline sooner than it knew)."""
+        if self._wake_w is not None:
+            try:
+                os.write(self._wake_w, b"x")
+            except OSError:         # full (a wake is pending anyway) or closed
+                pass
         port = self._port
         cancel = getattr(port, "cancel_read", None)
         if cancel is not None:
@@ -507,13 +540,17 @@ class Link:
                 continue
             port = self._port
             try:
-                self._service()
+                if self._wake_r is not None and _fd_of(port) is not None:
+                    self._service_fd(port)
+                else:
+                    self._service()
             except (OSError, Exception) as exc:  # noqa: BLE001 - pySerial's errors vary
                 if self._stop.is_set():
                     break
                 self._down(describe(exc), port)
 
     def _service(self) -> None:
+        """A port without a descriptor (a URL's): short reads, its timeout the pace."""
         port = self._port
         assert port is not None     # else taken down meanwhile: _run's except, as any error
         data = port.read(1)
@@ -522,7 +559,62 @@ class Link:
             if more:
                 data += port.read(more)
             self._take(data)
-        now = time.monotonic()
+        self._check_head(time.monotonic())
+
+    def _service_fd(self, port: Serial) -> None:
+        """A device or pty: sleep in select until bytes come, a reply's deadline, or a
+        wake; then read all there is. A line begun is read whole: the thread waits out
+        the bytes its kind's last line had (at the baud rate) instead of waking for each."""
+        fd = _fd_of(port)
+        assert fd is not None and self._wake_r is not None
+        with self._lock:
+            now = time.monotonic()
+            look = min(self._head_due(), now + IDLE_LOOK_S)
+            self._look_at = look
+        ready, _, _ = select.select([fd, self._wake_r], [], [], max(0.0, look - now))
+        self.stats.add("wakes")             # the thread's wake-ups (a quiet line: few)
+        if self._wake_r in ready:
+            _drain(self._wake_r)
+        if fd in ready:
+            self._take(_read_fd(port, ready=True))
+            while self._buf and self._port is port and not self._stop.is_set():
+                wait = self.budget.line_s(self._rest_of_line())
+                self._look_at = time.monotonic() + wait
+                if select.select([self._wake_r], [], [], wait)[0]:
+                    _drain(self._wake_r)
+                self.stats.add("wakes")
+                data = _read_fd(port)
+                if not data:
+                    break               # the line pauses: select waits for its next byte
+                self._take(data)
+                self._check_head(time.monotonic())
+        self._check_head(time.monotonic())
+
+    def _head_due(self) -> float:
+        """(lock held) When the oldest command in flight is next due a look: the end
+        of its settle time, or of its reply timeout (inf: nothing in flight)."""
+        head = self._flight[0] if self._flight else None
+        if head is None or not head.sent or head.done.is_set():
+            return float("inf")
+        if head.settle_until is not None:
+            return head.settle_until
+        return head.t_sent + head.timeout + DUE_SLACK_S
+
+    def _rest_of_line(self) -> int:
+        """Bytes the line begun in the buffer likely still needs (at least a few)."""
+        have = len(self._buf)
+        expect = self._line_bytes.get(self._line_kind(), 0)
+        return expect - have if expect > have else GATHER_BYTES
+
+    def _line_kind(self) -> str:
+        """The kind the line now arriving is counted under: a notice, or the reply to
+        the oldest command in flight."""
+        if self._buf[:1] == b"!":
+            return "!"
+        head = self._flight[0] if self._flight else None
+        return head.kind if head is not None else ""
+
+    def _check_head(self, now: float) -> None:
         head = self._flight[0] if self._flight else None
         if head is None or not head.sent or head.done.is_set():
             return
@@ -542,6 +634,7 @@ class Link:
                     self._buf.clear()
                     self.stats.add("garbled")
                 break
+            self._line_bytes[self._line_kind()] = i + 1
             raw = bytes(self._buf[:i])
             del self._buf[:i + 1]
             text = raw.decode("latin-1").strip("\r")
@@ -840,6 +933,41 @@ def _lines_of(commands: RobotCommands, actions: tuple[str, ...]) -> list[str]:
         except LinkError:
             pass
     return out
+
+
+def _fd_of(port: Serial) -> int | None:
+    """The descriptor of a device or pty port (None: a URL's port, read through pySerial)."""
+    fd = getattr(port, "fd", None)
+    return fd if isinstance(fd, int) and hasattr(port, "pipe_abort_read_r") else None
+
+
+def _read_fd(port: Serial, ready: bool = False) -> bytes:
+    """What the port has (b"" if nothing yet: pySerial sets VMIN 0); pySerial's errors,
+    in its words, for a port closed meanwhile, that failed, or hung up (``ready``:
+    select said readable). Its descriptor is asked at each read: a closed port has none
+    (its number may be another file's by then)."""
+    from serial import PortNotOpenError, SerialException
+
+    fd = port.fd
+    if fd is None:
+        raise PortNotOpenError()
+    try:
+        data = os.read(fd, 4096)
+    except (BlockingIOError, InterruptedError):
+        return b""
+    except OSError as exc:
+        raise SerialException(f"read failed: {exc}") from None
+    if not data and ready:
+        raise SerialException("device reports readiness to read but returned no data "
+                              "(device disconnected or multiple access on port?)")
+    return data
+
+
+def _drain(fd: int) -> None:
+    try:
+        os.read(fd, 4096)
+    except OSError:
+        pass
 
 
 def _close_quietly(port: Serial | None) -> None:

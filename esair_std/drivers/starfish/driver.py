@@ -62,16 +62,13 @@ import base64
 import threading
 import time
 from pathlib import Path
-from typing import TYPE_CHECKING
-
+from typing import TYPE_CHECKING, Any
 
 from esair_std import Actuator, CommandError, Sensor
 from esair_min.errors import EsairError
 
 from ..minlink.driver import MinLink, NoticeSensor, emulate_args, in_folder
-from ...deploy.class_options import check_options
 from ...errors import DeployError
-from .options import StarfishOptions
 from ..minlink.emulated import EmulatedRobot
 from ..minlink.link_errors import LinkError
 from ..minlink.link import Link
@@ -80,6 +77,8 @@ from .linkswitch import LinkSwitch
 from ...transport.codec import JSON, JSONObject
 
 if TYPE_CHECKING:  # pragma: no cover
+    from pydantic import BaseModel
+
     from .worldtap import WorldTap
 
 # the renderers (numpy) and the camera (Pillow) are imported when the driver opens, not
@@ -91,6 +90,28 @@ RATE, FRAME = 16000, 1024
 ODOMETRY_SHARE = 0.5
 class StarfishError(ValueError):
     """A bad option of the Starfish entry (the message names it)."""
+
+
+class _Options:
+    """A ``Starfish`` entry's options, checked (options.py's ``StarfishOptions``, dumped
+    to plain values): what :meth:`Starfish.open` reads of them."""
+
+    def __init__(self, d: dict[str, Any]):
+        self.room_file, self.port = str(d["room_file"]), str(d["port"])
+        self.pose = tuple(float(v) for v in d["pose"])
+        self.odometry_hz, self.timeout = float(d["odometry_hz"]), float(d["timeout"])
+        self.deadline, self.snr_db = float(d["deadline"]), float(d["snr_db"])
+        self.seed, self.echo = float(d["seed"]), float(d["echo"])
+        radio, camera = dict(d["radio"]), dict(d["camera"])
+        self.radio_device: str | None = radio["device"]
+        self.range_m, self.heal_m = float(radio["range_m"]), float(radio["heal_m"])
+        self.pause_audio = bool(radio["pause_audio"])
+        self.picture_format, self.fov_deg = str(camera["format"]), float(camera["fov_deg"])
+        emulate = dict(d["emulate"])
+        restart = dict(emulate.pop("restart", None) or {})
+        self.restart_max = int(restart.get("max", 0))
+        self.restart_within = float(restart.get("within", 0.0))
+        self.emulate: dict[str, object] = emulate        # the child's options
 
 
 class Mics(Sensor):
@@ -195,15 +216,41 @@ class Starfish(MinLink):
     """STARFISH's wheels, odometry and notices over its MIN link; its microphones, camera
     and radio rendered from the emulated world (see the module docstring)."""
 
-    #: the entry's options (checked with the deployment, each error at its line)
-    Options = StarfishOptions
+    #: the entry's options (checked with the deployment, each error at its line): named,
+    #: not imported, so that a robot side handed them checked never loads pydantic
+    Options: type[BaseModel] | str = "esair_std.drivers.starfish.options:StarfishOptions"
 
     @classmethod
     def prepare_entry(cls, options: dict[str, object], base_dir: str | Path | None,
                       name: str) -> JSONObject | None:
-        """Nothing prepared where the deployment is checked: ``open`` checks its options
-        and loads its board model itself (not MinLink's preparation)."""
-        return None
+        """What :meth:`open` needs, as plain JSON: the options checked, the board files'
+        path and what the driver uses of their model (omniboard.py), and the files read
+        (``inputs``). ``esair std run`` calls it where the deployment is checked (the
+        robot side then imports neither pydantic nor the model); ``open`` calls it when
+        it was not. What needs the room or the line ``open`` checks."""
+        from ...deploy.class_options import check_options
+        from .options import StarfishOptions
+        from esair_min.model.validate import board_files, load_robot   # pydantic
+        from esair_min.resources import resolve_robot
+        from .omniboard import omni_of
+        try:
+            o = check_options(StarfishOptions, dict(options))
+        except DeployError as exc:      # an entry added at run time: its options' paths
+            raise StarfishError(str(exc)) from None
+        assert isinstance(o, StarfishOptions)
+        base = Path(base_dir or ".")                      # the deployment file's folder
+        robot_arg = o.robot
+        try:
+            path = resolve_robot(in_folder(base, str(robot_arg), must_exist=True))
+            robot = load_robot(path)
+        except EsairError as exc:
+            raise StarfishError(f"robot {robot_arg!r}: {exc}") from None
+        if robot.central.base is None:
+            raise StarfishError(f"robot {robot_arg!r} has no omni base (its central board "
+                                "has no 'base:')")
+        return {"options": o.model_dump(mode="json"), "path": str(path),
+                "omni": omni_of(robot).to_json(),
+                "inputs": [str(f) for f in board_files(path)]}
 
     def open(self) -> None:
         self.tap: WorldTap | None = None
@@ -220,19 +267,21 @@ class Starfish(MinLink):
     def _open(self, opts: dict[str, object]) -> None:
         from .camera import Camera, encode
         from .mics import AudioRenderer, encode_frame
+        from .omniboard import OmniBoard
         from .omnilink import Odometry, OmniCommands, Wheels, omni_budget
         from .radio import RadioModel
         from .scene import load_scene
         from .worldtap import WorldTap
-        from esair_min.model.validate import load_robot      # the board model (pydantic)
-        from esair_min.resources import resolve_robot
         self.encode_frame, self.encode_picture = encode_frame, encode
-        try:
-            o = check_options(StarfishOptions, opts)
-        except DeployError as exc:      # an entry added at run time: its options' paths
-            raise StarfishError(str(exc)) from None
-        assert isinstance(o, StarfishOptions)
-        base = Path(getattr(self._esair.spec, "base_dir", None) or ".")   # the file's folder
+        spec = self._esair.spec
+        base = Path(getattr(spec, "base_dir", None) or ".")   # the deployment file's folder
+        prepared: Any = getattr(spec, "prepared", None)
+        if not prepared or "omni" not in prepared:       # not prepared beforehand
+            prepared = self.prepare_entry(opts, base, self.name)
+            assert prepared is not None
+        o = _Options(prepared["options"])
+        path = Path(str(prepared["path"]))
+        robot = OmniBoard.from_json(prepared["omni"])
         if o.port != "emulate":
             raise StarfishError(f"port {o.port!r}: the simulated microphones, camera and "
                                 "radio need the emulated world (port: emulate)")
@@ -248,36 +297,25 @@ class Starfish(MinLink):
         hz, timeout, deadline = o.odometry_hz, o.timeout, o.deadline
         self.audio = AudioRenderer(self.room, snr_db=o.snr_db, seed=int(o.seed),
                                    reflection_gain=o.echo)
-        radio, cam = o.radio, o.camera
-        emulate = o.emulate.args()
+        emulate = o.emulate
         bad = sorted(set(emulate) & {"room", "pose", "world_out", "instance"})
         if bad:
             raise StarfishError(f"option 'emulate.{bad[0]}' is the driver's own (give "
                                 f"room_file and pose)")
-        self.radio = RadioModel(self.room, radio.range_m, radio.heal_m)
-        self.pause_audio = radio.pause_audio
-        self.picture_format = cam.format
-        self.camera = Camera(self.room, fov_deg=cam.fov_deg)
-        robot_arg = o.robot
-        try:
-            path = resolve_robot(in_folder(base, str(robot_arg), must_exist=True))
-            robot = load_robot(path)
-        except EsairError as exc:
-            raise StarfishError(f"robot {robot_arg!r}: {exc}") from None
-        if robot.central.base is None:
-            raise StarfishError(f"robot {robot_arg!r} has no omni base (its central board "
-                                "has no 'base:')")
+        self.radio = RadioModel(self.room, o.range_m, o.heal_m)
+        self.pause_audio = o.pause_audio
+        self.picture_format = o.picture_format
+        self.camera = Camera(self.room, fov_deg=o.fov_deg)
         self._radio_lock = threading.Lock()
         # before anything starts: a device ESAIR did not make is refused, nothing changed
-        self.link_switch = LinkSwitch(radio.device) if radio.device else None
+        self.link_switch = LinkSwitch(o.radio_device) if o.radio_device else None
         # the world first (its socket bound before the emulator sends), then the robot
         self.tap = WorldTap(start)
         self.children: dict[str, Sensor | Actuator] = {}
         self._closing = threading.Event()
         self._lost: str | None = None
         self._supervisor: threading.Thread | None = None
-        policy = o.emulate.restart
-        self._restarts = RestartWindow(policy.max, policy.within)
+        self._restarts = RestartWindow(o.restart_max, o.restart_within)
         args = emulate_args(emulate, base) + [
             "--room", room_file, "--world-out", self.tap.path,
             "--pose", f"{start[0] * 1000:.1f},{start[1] * 1000:.1f},{start[2]:.6f}"]
@@ -286,7 +324,7 @@ class Starfish(MinLink):
         port = self.emulated.start()
         self._starts = self.emulated.starts
         self.notices = NoticeSensor()
-        self.link = Link(robot, str(port), timeout=timeout, on_state=self._link_state,
+        self.link = Link(robot.board, str(port), timeout=timeout, on_state=self._link_state,
                          on_notice=self.notices.notice, expect_id=self.emulated.instance,
                          may_open=self.emulated.held, commands=OmniCommands(robot),
                          budget=omni_budget(robot))
@@ -297,9 +335,8 @@ class Starfish(MinLink):
                                 f"exchange takes up to {b.feet_exchange_s * 1e3:.1f} ms, and the "
                                 f"polls may take half the line (the wheels' commands the other "
                                 f"half): at most {b.max_feet_hz(ODOMETRY_SHARE):.1f} a second")
-        base_ = robot.central.base
         self.odometry = Odometry(self.link, robot, hz, start)
-        self.wheels = Wheels(self.link, base_.max_speed_mm_s, base_.max_omega_mrad_s,
+        self.wheels = Wheels(self.link, robot.max_speed_mm_s, robot.max_omega_mrad_s,
                              robot, self.odometry.poll_at)
         kids: dict[str, Sensor | Actuator] = {"wheels": self.wheels, "odometry": self.odometry,
                                 "notices": self.notices}

@@ -9,7 +9,7 @@ gives: the wheels actuator and the odometry sensor (the notices are MinLink's).
 - :class:`Wheels`: ``{"vx", "vy", "w"}`` -> ``V±vvvv±vvvv±wwww``, ``"stop"`` -> ``x``,
   refused by name outside the board file's limits before anything is sent;
 - :class:`Odometry`: polls ``O`` on its own thread and integrates the flow sensors'
-  sums into a pose (esair_min.components.optical_flow.odometry), from the start pose.
+  sums into a pose (esair_min.core.odometry), from the start pose.
 """
 
 from __future__ import annotations
@@ -17,14 +17,11 @@ from __future__ import annotations
 import math
 import threading
 import time
-from typing import Callable
+from typing import TYPE_CHECKING, Callable
 
 from esair_std import Actuator, CommandError
-from esair_min.components.dc_motor.core import CONTROL_TICK_MS
-from esair_min.components.omni_base.core import velocity_line
-from esair_min.components.omni_base.kinematics import Wheel, wheel_speeds, wheel_table
-from esair_min.components.optical_flow.odometry import FlowOdometry, parse_odometry
-from esair_min.model.robot import Robot
+from esair_min.core.odometry import FlowOdometry, parse_odometry
+from esair_min.core.protocol import velocity_line
 
 from ..minlink.budget import LineBudget
 from ..minlink.commands import VERSION_PREFIX, RobotCommands
@@ -34,7 +31,11 @@ from ..minlink.link import Exchange, Link
 from ..minlink.budget import BITS_PER_BYTE
 from .tickclock import TickClock
 from ...transport.codec import JSON, JSONObject
+from .omniboard import OmniBoard, omni_of
 from .scene import wrap
+
+if TYPE_CHECKING:  # pragma: no cover - the model: a test's, or a driver not prepared
+    from esair_min.model.robot import Robot
 
 #: the omni base's lines by action (docs/protocol.md, STARFISH)
 PREFIX = {"velocity": "V", "odometry": "O", "stop": "x", "version": "v"}
@@ -48,12 +49,11 @@ ODOMETRY_REPLY_BYTES = len("OK n=65535") + 2 * len(" a=-2147483648,-2147483648,2
 class OmniCommands(RobotCommands):
     """The command set of a central board with ``base:`` (it has no command table)."""
 
-    def __init__(self, robot: Robot):
-        super().__init__(robot)
-        self.flow = len(robot.central.flow_sensors)
-        drive = robot.board("drive")
-        assert drive is not None            # an omni base has its drive board (validate.py)
-        self.wheels = len(drive.motors)
+    def __init__(self, robot: Robot | OmniBoard):
+        omni = omni_of(robot)
+        super().__init__(omni.board)
+        self.flow = len(omni.flow)
+        self.wheels = omni.wheels
 
     def prefix(self, action: str) -> str:
         try:
@@ -80,50 +80,45 @@ class OmniCommands(RobotCommands):
                 "checksum": "on" if self.checksum else "off"}
 
 
-def omni_budget(robot: Robot) -> LineBudget:
+def omni_budget(robot: Robot | OmniBoard) -> LineBudget:
     """The line's budget; its "feet" exchange is the odometry poll (``O`` and its longest
     reply), the only poll the omni base has."""
-    central = robot.central
-    assert central.uart is not None and central.timer2 is not None
-    checksum = bool(central.uart.require_checksum)
-    return LineBudget(baud=central.uart.baud, tick_s=central.timer2.period_s, sensor_read_s=0.0,
+    board = omni_of(robot).board
+    checksum = board.checksum
+    return LineBudget(baud=board.baud, tick_s=board.tick_s, sensor_read_s=0.0,
                       feet_request_bytes=len("O") + (3 if checksum else 0) + 2,
                       feet_reply_bytes=ODOMETRY_REPLY_BYTES)
 
 
 class Wheels(LinkAgent, Actuator):
     """The body velocity in the robot's frame: ``{"vx": mm/s, "vy": mm/s, "w": mrad/s}``
-    (missing keys 0) or ``"stop"``. With ``at_rest`` (a robot model and a callback):
-    after a stop, ``at_rest(t)`` is told when the wheels are at rest at the latest
-    (``time.monotonic()``): the drive board's ramp from the last speeds commanded."""
+    (missing keys 0) or ``"stop"``. With ``robot`` (its model or OmniBoard) and
+    ``at_rest`` (a callback): after a stop, ``at_rest(t)`` is told when the wheels are at
+    rest at the latest (``time.monotonic()``): the drive board's ramp from the last speeds
+    commanded."""
 
     def __init__(self, link: Link, max_v: int, max_w: int,
-                 robot: Robot | None = None, at_rest: Callable[[float], None] | None = None):
+                 robot: Robot | OmniBoard | None = None,
+                 at_rest: Callable[[float], None] | None = None):
         self.link, self.max_v, self.max_w = link, max_v, max_w
         self.at_rest = at_rest
         self.last = (0, 0, 0)
-        self._wheels: list[Wheel] = []
-        self._ramps: list[float] = []
-        self.tick = 0.0
-        if robot is not None:
-            drive = robot.board("drive")
-            assert drive is not None                # an omni base has its drive board
-            self._wheels = wheel_table(list(drive.motors))
-            self._ramps = [float(m.ramp_mm_s2) for m in drive.motors]
-            self.tick = CONTROL_TICK_MS / 1000          # the drive board's control tick
+        omni = None if robot is None else omni_of(robot)
+        self._drive = () if omni is None else omni.drive
+        self.tick = 0.0 if omni is None else omni.control_tick_s
 
     def _rest_in(self) -> float:
         """Seconds from a stop's reply to the wheels at rest, at the latest: the drive
-        board takes it at its next tick and ramps each wheel down by its step a tick
-        from the last speeds commanded, the last step a tick after the first."""
-        rims = wheel_speeds(self._wheels, *self.last)
-        return max(math.ceil(abs(v) / max(1.0, a * self.tick)) for v, a in
-                   zip(rims, self._ramps)) * self.tick
+        board takes it at its next control tick and ramps each wheel down by its step a
+        tick from the last speeds commanded, the last step a tick after the first."""
+        vx, vy, w = self.last
+        return max(math.ceil(abs(cx * vx + cy * vy + cw * w / 1000) / max(1.0, step))
+                   for cx, cy, cw, step in self._drive) * self.tick
 
     def write(self, command: JSON) -> dict[str, int]:
         if command == "stop":
             self._send("x")
-            if self.at_rest is not None and self._wheels and any(self.last):
+            if self.at_rest is not None and self._drive and any(self.last):
                 self.at_rest(time.monotonic() + self._rest_in())
             self.last = (0, 0, 0)
             return {"vx": 0, "vy": 0, "w": 0}
@@ -157,14 +152,15 @@ class Odometry(PolledSensor[str]):
 
     thread_name = "starfish-odometry"
 
-    def __init__(self, link: Link, robot: Robot, hz: float, start: tuple[float, float, float]):
+    def __init__(self, link: Link, robot: Robot | OmniBoard, hz: float,
+                 start: tuple[float, float, float]):
         super().__init__()
-        self.link, self.robot, self.hz, self.start = link, robot, hz, start
+        self.link, self.hz, self.start = link, hz, start
+        omni = omni_of(robot)
+        self.flow = omni.flow
         self._lock = threading.Lock()
         self.bad_replies = 0
-        central = robot.central
-        assert central.uart is not None and central.timer2 is not None   # an omni base's
-        self.clock = TickClock(central.timer2.period_s, BITS_PER_BYTE / central.uart.baud)
+        self.clock = TickClock(omni.board.tick_s, BITS_PER_BYTE / omni.board.baud)
         self._k = 0
         self._exchange: Exchange | None = None
         self._poll_at: float | None = None
@@ -200,7 +196,7 @@ class Odometry(PolledSensor[str]):
     def reset(self) -> None:
         x, y, th = self.start
         with self._lock:
-            self.odo = FlowOdometry(self.robot.central.flow_sensors, x * 1000, y * 1000, th)
+            self.odo = FlowOdometry(self.flow, x * 1000, y * 1000, th)
             self.pose = (x, y, th)
             self.last_n: int | None = None
 

@@ -17,7 +17,7 @@ import socket
 import tempfile
 import threading
 
-from esair_min.emulator.world_out import parse_datagram
+from esair_min.world.out import parse_datagram
 
 
 class WorldTap:
