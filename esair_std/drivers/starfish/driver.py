@@ -31,10 +31,12 @@ Resources:
   missing keys 0) -> ``V±vvvv±vvvv±wwww``, or ``"stop"`` -> ``x``, over the MIN link;
   the board file's limits refused by name before sending; the central board's 0.5 s
   watchdog stops the robot when no command comes (``!W watchdog stop``);
-- ``<entry>.odometry`` sensor: ``{"x", "y", "th", "moving", "squal", "n"}``
-  ``odometry_hz`` times a second: the flow sensors' sums (``O``) integrated from
-  ``pose``; ``n`` is the reply's count of the central board's ticks (16 bits): the
-  robot's own clock;
+- ``<entry>.odometry`` sensor: ``{"x", "y", "th", "moving", "squal", "n", "tn",
+  "tn_spread"}`` ``odometry_hz`` times a second (each poll a step further into the
+  board's tick), and once more when the wheels are at rest after a stop: the flow
+  sensors' sums (``O``) integrated from ``pose``; ``n`` is the reply's count of the
+  central board's ticks (16 bits): the robot's own clock; ``tn`` when the board read
+  the sums, on this computer's clock (tickclock.py), ``tn_spread`` how far off it may be;
 - ``<entry>.notices`` sensor: the robot's ``!`` lines (MinLink's);
 - ``<entry>.mics`` sensor: the microphone array's frames (mics.py) rendered from the
   world's TRUE pose 15.625 times a second; ``configure(mics, "source", {...})`` places /
