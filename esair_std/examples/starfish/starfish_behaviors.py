@@ -245,6 +245,9 @@ LEARN = 0.3
 #: ... within a tick of the drive board either way (a stop held up longer by a loaded
 #: computer is not learned)
 LEAD_MAX = 0.01
+#: a stop found further ahead than this is planned again from each odometry frame that
+#: comes before it (TurnAndShoot._stop_due)
+REPLAN_S = 0.03
 #: the standing frame is waited for inside a step until this long after the model's rest
 #: (the poll at rest, its reply on the line, the driver's hop)
 AWAIT_STAND_S = 0.05
@@ -621,6 +624,18 @@ class TurnAndShoot(Behavior):
             horizon = min(horizon, self.slow_until - now)
         t_stop = self._turn.stop_time(self.model, self.odo[1], self.odo[0], now,
                                       self.goal, self._stop_latency(), horizon, self.back)
+        # waited for here, and planned again from each frame that comes meanwhile (a
+        # short turn's stop, found right after its slow start, was planned from a frame
+        # of the drive's ramp-out: 3-6 deg off) until it is REPLAN_S away
+        while t_stop is not None and t_stop - time.time() > REPLAN_S:
+            time.sleep(min(0.005, t_stop - time.time() - REPLAN_S))
+            frame = self.odo
+            self._read_odometry()
+            if self.odo is not frame and self.phase == "turning":
+                now = time.time()
+                t_stop = self._turn.stop_time(self.model, self.odo[1], self.odo[0], now,
+                                              self.goal, self._stop_latency(),
+                                              t_stop - now + REPLAN_S, self.back)
         if t_stop is None:
             return False
         time.sleep(max(0.0, t_stop - time.time()))
