@@ -22,11 +22,19 @@ from typing import Callable
 
 THREADS = 64
 
-_kept: set[int] = set()
+# marked in the kept state itself: a thread that ends leaves its mark behind with its
+# state, and a new thread with the same ident (they are reused) starts unmarked
+_mark = threading.local()
+_count = 0
 _ensure: Callable[[], int] | None = None
-# a forked child (an agent forked by the zygote) has none of its parent's other threads:
-# Python deleted their states, and a new thread may get the ident of one of them
-os.register_at_fork(after_in_child=_kept.clear)
+
+
+def _forked() -> None:               # a forked child has none of its parent's other threads
+    global _count
+    _count = 0
+
+
+os.register_at_fork(after_in_child=_forked)
 
 
 def _load() -> Callable[[], int]:
@@ -49,11 +57,11 @@ def _load() -> Callable[[], int]:
 def keep() -> None:
     """Called on a Zenoh thread holding the GIL (in a callback): its thread state
     outlives this callback, once per thread."""
-    global _ensure
-    ident = threading.get_ident()
-    if ident in _kept or len(_kept) >= THREADS:
+    global _ensure, _count
+    if getattr(_mark, "kept", False) or _count >= THREADS:
         return
     if _ensure is None:
         _ensure = _load()
-    _kept.add(ident)
+    _mark.kept = True
+    _count += 1
     _ensure()

@@ -5,11 +5,15 @@ callback ran in a thread state made for it alone (and the thread-local was new e
 
 from __future__ import annotations
 
+import json
+import os
 import queue
+import subprocess
+import sys
 import threading
 import time
 
-from tests.support.std import free_endpoint
+from tests.support.std import ROOT, free_endpoint
 
 from esair_std.transport.bus import Bus
 
@@ -17,6 +21,20 @@ SAMPLES = 40      # more than the threads of any Zenoh pool here: some thread ru
 
 
 def test_a_zenoh_thread_keeps_its_python_state_between_callbacks():
+    """In a process of its own: a test worker has run many sessions' threads before."""
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    proc = subprocess.run([sys.executable, "-c", "from tests.std.test_threadstate import "
+                           "callbacks_by_thread as f; import json; print(json.dumps(f()))"],
+                          cwd=ROOT, env=env, capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    calls: dict[str, list[int]] = json.loads(proc.stdout)
+    assert max(len(ns) for ns in calls.values()) >= 2
+    # each thread counted every callback it ran: 1, 2, 3... (not 1, 1, 1...)
+    assert all(ns == list(range(1, len(ns) + 1)) for ns in calls.values()), calls
+
+
+def callbacks_by_thread() -> dict[str, list[int]]:
+    """Each Zenoh thread's count of the callbacks it ran, as its thread-local kept it."""
     ep = free_endpoint()
     receiver, sender = Bus(listen=[ep]), Bus(connect=[ep])
     local = threading.local()
@@ -44,9 +62,7 @@ def test_a_zenoh_thread_keeps_its_python_state_between_callbacks():
     finally:
         sender.close()
         receiver.close()
-    calls: dict[int, list[int]] = {}
+    calls: dict[str, list[int]] = {}
     for ident, n, _obj in got:
-        calls.setdefault(ident, []).append(n)
-    assert max(len(ns) for ns in calls.values()) >= 2
-    # each thread counted every callback it ran: 1, 2, 3... (not 1, 1, 1...)
-    assert all(ns == list(range(1, len(ns) + 1)) for ns in calls.values()), calls
+        calls.setdefault(str(ident), []).append(n)
+    return calls
