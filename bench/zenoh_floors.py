@@ -137,20 +137,26 @@ os._exit(0)
 def zenoh_put_floor(n: int) -> float:
     """A put into reserved room with no ESAIR code: A -> R (JSON decoded), R answers A
     and delivers to E (whose callback hands it to a thread): what a put must do."""
+    e_ep, r_ep = free_endpoint(), free_endpoint()
+    return _puts(SAMPLE_DELIVER, ([e_ep], [r_ep, e_ep]), r_ep, n, {})
+
+
+def _puts(script: str, argv: tuple[list[str], ...], to: str, n: int, extra: dict) -> float:
+    """p50 of ``n`` puts from this process to the session at ``to``, each waiting for its
+    answer, with a process of ``script`` started for each of ``argv`` (in order)."""
     import queue
 
     import zenoh
 
     from esair_std.transport.session import open_session
-    e_ep, r_ep = free_endpoint(), free_endpoint()
     procs = []
     try:
-        for args in ([e_ep], [r_ep, e_ep]):
-            procs.append(subprocess.Popen([sys.executable, "-c", SAMPLE_DELIVER, *args],
+        for args in argv:
+            procs.append(subprocess.Popen([sys.executable, "-c", script, *args],
                                           stdin=subprocess.PIPE, stdout=subprocess.PIPE,
                                           text=True, cwd=ROOT))
             procs[-1].stdout.readline()
-        s = open_session(connect=[r_ep])
+        s = open_session(connect=[to])
         got: queue.SimpleQueue = queue.SimpleQueue()
         s.declare_subscriber("f/answer", zenoh.handlers.Callback(
             lambda smp: got.put(json.loads(smp.payload.to_bytes())), indirect=False))
@@ -158,8 +164,8 @@ def zenoh_put_floor(n: int) -> float:
                                   express=True)
 
         def one(i: int) -> bool:
-            pub.put(json.dumps({"to": "echo", "data": {"i": i}, "timeout": 1.0,
-                                "id": i}).encode())
+            pub.put(json.dumps({"to": "echo", "data": {"i": i}, "timeout": 1.0, "id": i,
+                                **extra}).encode())
             try:
                 return bool(got.get(timeout=1.0))
             except queue.Empty:
@@ -213,46 +219,8 @@ def zenoh_target_answers(n: int, tell: bool) -> float:
     """A put answered by its target's process, as a raw get is (A -> E -> A, E handing
     the data to a thread), no ESAIR code; ``tell``: E then tells R what it took (a
     runtime that must know of every put, told after)."""
-    import queue
-
-    import zenoh
-
-    from esair_std.transport.session import open_session
     r_ep, e_ep = free_endpoint(), free_endpoint()
-    procs = []
-    try:
-        for args in ([r_ep], [e_ep, r_ep]):
-            procs.append(subprocess.Popen([sys.executable, "-c", TARGET_ANSWERS, *args],
-                                          stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-                                          text=True, cwd=ROOT))
-            procs[-1].stdout.readline()
-        s = open_session(connect=[e_ep])
-        got: queue.SimpleQueue = queue.SimpleQueue()
-        s.declare_subscriber("f/answer", zenoh.handlers.Callback(
-            lambda smp: got.put(json.loads(smp.payload.to_bytes())), indirect=False))
-        pub = s.declare_publisher("f/put", congestion_control=zenoh.CongestionControl.DROP,
-                                  express=True)
-
-        def one(i: int) -> bool:
-            pub.put(json.dumps({"to": "echo", "data": {"i": i}, "timeout": 1.0, "id": i,
-                                "tell": tell}).encode())
-            try:
-                return bool(got.get(timeout=1.0))
-            except queue.Empty:
-                return False
-        wait(lambda: one(0))
-        times = []
-        for i in range(n):
-            t0 = time.perf_counter()
-            if one(i):
-                times.append(time.perf_counter() - t0)
-        s.close()
-        return pct(times, 0.5)
-    finally:
-        for p in procs:
-            assert p.stdin is not None
-            p.stdin.close()
-            p.wait(5)
+    return _puts(TARGET_ANSWERS, ([r_ep], [e_ep, r_ep]), e_ep, n, {"tell": tell})
 
 
 CALLBACK_SINK = """
