@@ -76,6 +76,7 @@ def start_on_number(number: int, *args: str) -> tuple[subprocess.Popen, str]:
                 os.close(slave)
         if path == f"/dev/pts/{number}":
             return proc, path
+        proc.kill()              # not told to go, it waits in its read: a SIGTERM it handles
         stop(proc)
     raise AssertionError(f"/dev/pts/{number} went to other programs five times")
 
