@@ -12,7 +12,6 @@ from urllib.request import urlopen
 
 import pytest
 import websockets
-import yaml
 from websockets.sync.client import connect
 
 from esair_min.core.trace import without_marks
@@ -22,8 +21,6 @@ from esair_std.record import read_commands, read_samples
 from tests.support.hmi import PAPAMAN, esair_std, open_page, wait_for
 
 ACTUATOR = 0x10
-PUSH_LATER_MS = 5000       # the push comes this long after the robot is plugged back:
-                           # after the link is up again (it reconnects with a backoff)
 
 
 @pytest.fixture(scope="module")
@@ -328,15 +325,12 @@ def test_sigkill_of_the_robot_shows_the_banner_then_recovery(robot, browser):
     assert errors == []
 
 
-def test_the_push_shows_on_the_feet_plot_with_the_reaction_marker(robot, browser, tmp_path):
-    push = yaml.safe_load((PAPAMAN / "scenarios" / "push.yaml").read_text())
-    for step in push["steps"][1:]:
-        step["at_ms"] += PUSH_LATER_MS
-    (tmp_path / "push.yaml").write_text(yaml.safe_dump(push))
+def test_the_push_shows_on_the_feet_plot_with_the_reaction_marker(robot, browser):
     page, errors = open_page(browser, robot.url)
-    robot.restart_robot("--scenario", str(tmp_path / "push.yaml"))
     page.wait_for_function("() => window.__hmi.link.papaman.state === 'ready' && "
-                           "window.__hmi.feet.markers.length == 0", timeout=30000)
+                           "window.__hmi.feet.t.length > 0 && window.__hmi.feet.markers.length == 0",
+                           timeout=30000)
+    robot.emu.play_scenario()                  # the push, held since the robot's start
     page.wait_for_function("() => window.__hmi.feet.markers.length > 0", timeout=30000)
     # the tipping samples are on the plot: |L - R| over the threshold. The firmware's
     # notice (the marker) comes at once; the next feet poll (8 Hz) may come after it

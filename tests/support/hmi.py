@@ -77,11 +77,13 @@ class HmiRun:
 
 class Robot(HmiRun):
     """``esair std run papaman --hmi`` against a traced emulated PAPA-MAN (an operator
-    logs in with PASSWORD)."""
+    logs in with PASSWORD), its push scenario held: its feet at rest until
+    ``emu.play_scenario()`` plays the push (boards/papaman/scenarios/push.yaml)."""
 
     def __init__(self, mode: str, tmp: Path):
         self.trace = tmp / "trace.txt"
-        self.emu = EmulatedRobot(PAPAMAN, ["--trace", str(self.trace)])
+        self.emu = EmulatedRobot(PAPAMAN, ["--trace", str(self.trace), "--scenario", "push",
+                                           "--hold-scenario"])
         super().__init__(mode, tmp, ["papaman"])
 
     def env(self) -> dict[str, str]:
@@ -90,10 +92,6 @@ class Robot(HmiRun):
     def start(self) -> "Robot":
         self.args = ["papaman", "--port", self.emu.start()]
         return super().start()
-
-    def restart_robot(self, *extra: str) -> None:
-        self.emu.kill()
-        self.emu.start(extra)
 
     def status(self) -> dict:
         import urllib.request
@@ -112,8 +110,9 @@ def open_page(browser, url: str, login: bool = True, width: int = 1280, height: 
               ready: str = "window.__hmi.info"):
     """A page on the HMI (logged in as the operator unless ``login`` is False) once its
     WebSocket is up and ``ready`` (a JavaScript expression) holds, and the console errors
-    and page errors it collects."""
-    page = browser.new_page(viewport={"width": width, "height": height})
+    and page errors it collects. ``browser``: the tests' browser context (or a browser)."""
+    page = browser.new_page()
+    page.set_viewport_size({"width": width, "height": height})
     errors: list[str] = []
     page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
     page.on("pageerror", lambda e: errors.append(str(e)))
