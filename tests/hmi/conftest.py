@@ -22,7 +22,7 @@ def browser():
                     "chromium)", pytrace=False)
     with sync_playwright() as p:
         b = p.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
-        context = b.new_context()
+        context = b.new_context(viewport={"width": 1280, "height": 800})
         yield context
         context.close()
         b.close()

@@ -18,7 +18,7 @@ from esair_min.core.trace import without_marks
 from esair_min.emulator.papaman.actuator import encode
 from esair_min.model.validate import load_robot
 from esair_std.record import read_commands, read_samples
-from tests.support.hmi import PAPAMAN, esair_std, open_page, wait_for
+from tests.support.hmi import PAPAMAN, PASSWORD, open_page, wait_for
 
 ACTUATOR = 0x10
 
@@ -40,9 +40,12 @@ def frame_bytes(papaman, motion: str) -> list[bytes]:
 
 
 def test_the_page_loads_without_errors_and_lists_every_component(robot, browser):
-    page, errors = open_page(browser, robot.url)
-    names = sorted(row["name"] for row in json.loads(
-        esair_std("ls", "--json", "-e", robot.endpoint).stdout)["components"])
+    page, errors = open_page(browser, robot.url, login=False)
+    page.fill("#login-pass", PASSWORD)                  # an operator logs in
+    page.click("#login button")
+    page.wait_for_function("() => window.__hmi.role === 'operator'")
+    assert page.locator("#login").is_hidden()
+    names = sorted(row["name"] for row in robot.call("ls", {"all": True}))
     assert len(names) == 19          # 3 behaviors, the driver, 12 servos, motion, feet, notices
     page.wait_for_function(f"() => document.querySelectorAll('#components tbody tr').length == {len(names)}")
     shown = sorted(page.eval_on_selector_all("#components tbody tr", "rs => rs.map(r => r.dataset.name)"))
@@ -154,12 +157,11 @@ def test_a_slider_writes_that_servos_angle(robot, browser, papaman):
 
 
 def test_the_pose_shows_commands_of_every_sender(robot, browser):
-    """A command another sender got through (here `esair std send`, as a behavior's)
-    moves the page's stick figure and that servo's slider: the page shows what the
-    robot was told, not only what this HMI sent."""
+    """A command another sender got through (here the control request `esair std send`
+    makes, as a behavior's) moves the page's stick figure and that servo's slider: the
+    page shows what the robot was told, not only what this HMI sent."""
     page, errors = open_page(browser, robot.url)
-    r = esair_std("send", "papaman.servo.l_knee", '{"angle": 77}', "-e", robot.endpoint)
-    assert r.returncode == 0, r.stderr
+    robot.send("papaman.servo.l_knee", {"angle": 77})
     page.wait_for_function("""() => window.__hmi.pose.angles.l_knee === 77 &&
         document.querySelector('#joints input[data-servo=l_knee]').value === '77'""")
     status = json.loads(urlopen(robot.url.rstrip("/") + "/status.json").read())
@@ -425,7 +427,7 @@ def test_a_viewer_without_login_gets_no_command_through(robot, browser):
     # nothing reached the robot: no PLY line on its UART and the watcher still runs
     rx = [ln for ln in robot.trace_lines()[before:] if ln.startswith("TX ")]
     assert all(bytes.fromhex(ln[3:]).startswith(b"OK ") or ln == "TX 4F4B0D0A" for ln in rx)
-    rows = json.loads(esair_std("ls", "--json", "-e", robot.endpoint).stdout)["components"]
+    rows = robot.call("ls", {"all": True})
     assert [r["state"] for r in rows if r["name"] == "watcher"] == ["running"]
     page.close()
     assert errors == []

@@ -12,7 +12,6 @@ import re
 
 import pytest
 
-from esair_std.cli.client import Client
 from esair_std.drivers.minlink.emulated import EmulatedRobot
 from esair_std.errors import StdError
 from tests.support.hmi import PAPAMAN, Robot, esair_std, open_page, wait_for
@@ -51,48 +50,46 @@ def test_stop_in_the_page_holds_until_an_operator_releases(robot, browser):
     """The runtime is asked over one control session (as `esair std put/get/ping/send`
     ask it, without a process each); the command line's refusal is the CLI's own."""
     page, errors = open_page(browser, robot.url)
-    with Client(robot.endpoint) as client:
-        r = client.call("put", {"to": "sequencer", "data": ["dance"] * DANCES, "timeout": 1.0,
-                                "wait": True}, timeout=6.0)
-        assert r["delivered"], r
-        wait_for(lambda: len(frames(robot.trace_lines())) >= 3, what="a dance playing")
-        page.click("#stop")
-        page.wait_for_function("() => !document.getElementById('latch').hidden")
-        assert BANNER.fullmatch(latch_text(page)), latch_text(page)
-        assert page.locator("#release").is_visible()
-        # a page opened later shows it (a viewer: no Release button, and its release refused)
-        later, more = open_page(browser, robot.url, login=False)
-        assert BANNER.fullmatch(latch_text(later))
-        assert not later.locator("#release").is_visible()
-        r = later.evaluate("window.__hmi.send({op: 'release'})")
-        assert (r["ok"], r["error"]) == (False, "viewers cannot command: log in as an operator")
-        # every sender refused with the STOP's words: the command line, the page, behaviors
-        r = esair_std("send", "papaman.motion", "stand", "-e", robot.endpoint)
-        assert r.returncode == 1 and REFUSED.fullmatch(r.stderr), r.stderr
-        r = page.evaluate("window.__hmi.send({op: 'cmd', resource: 'papaman.servo.l_knee', "
-                          "command: {angle: 100}})")
-        assert not r["ok"] and "stopped by hmi:operator at " in r["error"], r
-        seq = client.call("get", {"to": "sequencer", "timeout": 1.0}, timeout=6.0)
-        assert seq["ok"] and seq["data"]["queued"] == [] and seq["data"]["playing"] is None, seq
-        stopped = client.call("ping")["stopped"]
-        assert stopped["by"] == "hmi:operator", stopped
-        # the robot's trace while STOPPED: nothing moved after its x
-        lines = robot.trace_lines()
-        at, moved = after_stop(lines)
-        assert moved == [], moved[:5]
-        cut = len(frames(lines))
-        assert cut < DANCE_FRAMES * DANCES, cut      # stopped before the last dance ended
-        # the operator's Release: every page's banner goes; commands move the robot again;
-        # nothing queued played meanwhile or after
-        page.click("#release")
-        for p in (page, later):
-            p.wait_for_function("() => document.getElementById('latch').hidden")
-        assert client.call("ping")["stopped"] is None
-        client.call("send", {"name": "papaman.servo.l_knee", "value": 100, "timeout": 1.0},
-                    timeout=6.0)
-        lines = robot.trace_lines()
-        assert any(ln.startswith("W 10 ") and len(ln.split()[2]) == 6 for ln in lines[at:])
-        assert len(frames(lines)) == cut
+    r = robot.call("put", {"to": "sequencer", "data": ["dance"] * DANCES, "timeout": 1.0,
+                           "wait": True}, timeout=6.0)
+    assert r["delivered"], r
+    wait_for(lambda: len(frames(robot.trace_lines())) >= 3, what="a dance playing")
+    page.click("#stop")
+    page.wait_for_function("() => !document.getElementById('latch').hidden")
+    assert BANNER.fullmatch(latch_text(page)), latch_text(page)
+    assert page.locator("#release").is_visible()
+    # a page opened later shows it (a viewer: no Release button, and its release refused)
+    later, more = open_page(browser, robot.url, login=False)
+    assert BANNER.fullmatch(latch_text(later))
+    assert not later.locator("#release").is_visible()
+    r = later.evaluate("window.__hmi.send({op: 'release'})")
+    assert (r["ok"], r["error"]) == (False, "viewers cannot command: log in as an operator")
+    # every sender refused with the STOP's words: the command line, the page, behaviors
+    r = esair_std("send", "papaman.motion", "stand", "-e", robot.endpoint)
+    assert r.returncode == 1 and REFUSED.fullmatch(r.stderr), r.stderr
+    r = page.evaluate("window.__hmi.send({op: 'cmd', resource: 'papaman.servo.l_knee', "
+                      "command: {angle: 100}})")
+    assert not r["ok"] and "stopped by hmi:operator at " in r["error"], r
+    seq = robot.call("get", {"to": "sequencer", "timeout": 1.0}, timeout=6.0)
+    assert seq["ok"] and seq["data"]["queued"] == [] and seq["data"]["playing"] is None, seq
+    stopped = robot.call("ping")["stopped"]
+    assert stopped["by"] == "hmi:operator", stopped
+    # the robot's trace while STOPPED: nothing moved after its x
+    lines = robot.trace_lines()
+    at, moved = after_stop(lines)
+    assert moved == [], moved[:5]
+    cut = len(frames(lines))
+    assert cut < DANCE_FRAMES * DANCES, cut      # stopped before the last dance ended
+    # the operator's Release: every page's banner goes; commands move the robot again;
+    # nothing queued played meanwhile or after
+    page.click("#release")
+    for p in (page, later):
+        p.wait_for_function("() => document.getElementById('latch').hidden")
+    assert robot.call("ping")["stopped"] is None
+    robot.send("papaman.servo.l_knee", 100)
+    lines = robot.trace_lines()
+    assert any(ln.startswith("W 10 ") and len(ln.split()[2]) == 6 for ln in lines[at:])
+    assert len(frames(lines)) == cut
     later.close()
     page.close()
     assert errors == more == []
@@ -101,7 +98,7 @@ def test_stop_in_the_page_holds_until_an_operator_releases(robot, browser):
 RACE = """async (op) => await window.__hmi.send({op})"""
 
 
-def _send_on_a_live_link(client: Client) -> StdError | None:
+def _send_on_a_live_link(robot) -> StdError | None:
     """The runtime's send of one servo angle (as `esair std send`'s), None once it went
     through, else what refused it. A link that a loaded machine kept past the robot's
     1 s reply timeout is lost for a moment and comes back by itself: the send is made
@@ -110,8 +107,7 @@ def _send_on_a_live_link(client: Client) -> StdError | None:
 
     def once() -> bool:
         try:
-            client.call("send", {"name": "papaman.servo.l_knee", "value": 100, "timeout": 1.0},
-                        timeout=6.0)
+            robot.send("papaman.servo.l_knee", 100)
             tries.append(None)
         except StdError as exc:
             tries.append(exc)
@@ -126,23 +122,22 @@ def test_stop_and_release_racing_from_two_pages_leave_everyone_agreeing(robot, b
     session (as `esair std ls` and `send` do, without a process each)."""
     a, errors = open_page(browser, robot.url)
     b, more = open_page(browser, robot.url)
-    with Client(robot.endpoint) as client:
-        for _ in range(6):
-            # both sent before either is answered (each page's own socket)
-            a.evaluate("() => { window.__race = window.__hmi.send({op: 'stop'}); }")
-            b.evaluate("() => { window.__race = window.__hmi.send({op: 'release'}); }")
-            a.evaluate("() => window.__race")
-            b.evaluate("() => window.__race")
-            stopped = client.call("ping").get("stopped")
-            want = "" if stopped is None else "STOPPED"
-            for p in (a, b):
-                wait_for(lambda p=p, w=want: latch_text(p).startswith(w)
-                         and bool(latch_text(p)) == bool(w),
-                         what="the page's banner agreeing with the runtime")
-            refused = _send_on_a_live_link(client)
-            assert (refused is None) == (stopped is None), (stopped, refused)
-            if stopped is None:
-                assert b.evaluate(RACE, "stop")["ok"]           # the next round starts STOPPED
+    for _ in range(6):
+        # both sent before either is answered (each page's own socket)
+        a.evaluate("() => { window.__race = window.__hmi.send({op: 'stop'}); }")
+        b.evaluate("() => { window.__race = window.__hmi.send({op: 'release'}); }")
+        a.evaluate("() => window.__race")
+        b.evaluate("() => window.__race")
+        stopped = robot.call("ping").get("stopped")
+        want = "" if stopped is None else "STOPPED"
+        for p in (a, b):
+            wait_for(lambda p=p, w=want: latch_text(p).startswith(w)
+                     and bool(latch_text(p)) == bool(w),
+                     what="the page's banner agreeing with the runtime")
+        refused = _send_on_a_live_link(robot)
+        assert (refused is None) == (stopped is None), (stopped, refused)
+        if stopped is None:
+            assert b.evaluate(RACE, "stop")["ok"]           # the next round starts STOPPED
     assert a.evaluate(RACE, "release")["ok"]
     a.close()
     b.close()

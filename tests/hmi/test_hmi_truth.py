@@ -12,7 +12,7 @@ from playwright.sync_api import TimeoutError as PlaywrightTimeout
 
 from esair_min.model.validate import load_robot
 from esair_std.hmi.child import HmiChild
-from tests.support.hmi import PAPAMAN, esair_std, open_page
+from tests.support.hmi import PAPAMAN, open_page
 
 LOG_LINES = "() => [...document.querySelectorAll('#log li')].map(li => li.textContent)"
 ANGLES = "() => window.__hmi.pose.angles"
@@ -62,8 +62,7 @@ def test_an_hmi_started_after_the_robot_moved_shows_the_pose_it_holds(robot, bro
                            timeout=30000)
     assert page.evaluate("() => window.__hmi.send({op: 'stop'})")["ok"]
     assert page.evaluate("() => window.__hmi.send({op: 'release'})")["ok"]  # the latch
-    r = esair_std("send", "papaman.servo.l_knee", '{"angle": 77}', "-e", robot.endpoint)
-    assert r.returncode == 0, r.stderr
+    robot.send("papaman.servo.l_knee", {"angle": 77})       # another sender's
     page.wait_for_function("() => window.__hmi.pose.angles.l_knee === 77")
     names = [s.name for s in papaman.servos]
     want = dict(zip(names, papaman.motion("dance").frames[-1].angles, strict=True), l_knee=77)
