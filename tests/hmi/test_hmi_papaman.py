@@ -18,7 +18,7 @@ from esair_min.core.trace import without_marks
 from esair_min.emulator.papaman.actuator import encode
 from esair_min.model.validate import load_robot
 from esair_std.record import read_commands, read_samples
-from tests.support.hmi import PAPAMAN, PASSWORD, open_page, wait_for
+from tests.support.hmi import PAPAMAN, PASSWORD, open_page, reopen, wait_for
 
 ACTUATOR = 0x10
 
@@ -115,14 +115,12 @@ def test_a_page_in_the_background_draws_nothing_and_gets_no_samples(robot, brows
     page.wait_for_function(f"() => window.__hmi.stats.samples > {before[0]} && "
                            f"window.__hmi.stats.draws > {before[1]}")
     wait_for(lambda: robot.status()["counters"]["hidden_pages"] == 0, what="no page hidden")
-    page.close()
-    page, more = open_page(browser, robot.url + "?fps=500", login=False)    # capped at 60
+    reopen(page, robot.url + "?fps=500")                                    # capped at 60
     assert page.evaluate("[window.__hmi.fps, window.__hmi.feetFps]") == [60, 60]
-    page.close()
-    page, most = open_page(browser, robot.url + "?feet_fps=60", login=False)  # the feet only
+    reopen(page, robot.url + "?feet_fps=60")                                # the feet only
     assert page.evaluate("[window.__hmi.fps, window.__hmi.feetFps]") == [30, 60]
     page.close()
-    assert errors == more == most == []
+    assert errors == []
 
 
 def test_dance_button_plays_the_dance_frames(robot, browser, papaman):
@@ -211,7 +209,6 @@ def test_a_page_opened_after_stop_shows_the_pose_the_motion_reached(robot, brows
     later, more = open_page(browser, robot.url, login=False)
     assert later.evaluate("window.__hmi.played") == first.evaluate("window.__hmi.played")
     assert later.evaluate(ANGLES) == held
-    later.close()
     assert first.evaluate("window.__hmi.send({op: 'release'})")["ok"]    # the STOP latched
     # the frame a motion shows at a time into it, as the robot's frame player writes them:
     # frame 0 at the first tick after the PLY line (half a tick on, on average), frame i
@@ -229,21 +226,19 @@ def test_a_page_opened_after_stop_shows_the_pose_the_motion_reached(robot, brows
                             "p.v.play === 'dance' && !p.stopped && h.pose.motion === null; }")
     last = frames_of(papaman, "dance")[-1]
     assert first.evaluate(ANGLES) == last
-    ended, more2 = open_page(browser, robot.url, login=False,
-                             ready="window.__hmi.played && window.__hmi.pose.motion === null")
-    assert ended.evaluate(ANGLES) == last
-    ended.close()
+    reopen(later, robot.url, ready="window.__hmi.played && window.__hmi.pose.motion === null")
+    assert later.evaluate(ANGLES) == last                       # a page opened at its end
     first.click("#stop")
     first.wait_for_function("() => { const p = window.__hmi.played; "
                             "return p && p.stopped && p.v.play === 'dance'; }")
     assert first.evaluate(ANGLES) == last
-    stopped, more3 = open_page(browser, robot.url, login=False)
-    assert stopped.evaluate(ANGLES) == last
-    assert stopped.evaluate("window.__hmi.played.stopped") is True
-    stopped.close()
+    reopen(later, robot.url)                                    # one opened after the STOP
+    assert later.evaluate(ANGLES) == last
+    assert later.evaluate("window.__hmi.played.stopped") is True
+    later.close()
     assert first.evaluate("window.__hmi.send({op: 'release'})")["ok"]
     first.close()
-    assert errors == more == more2 == more3 == []
+    assert errors == more == []
 
 
 STOP_DANCE = """async (wait) => { const h = window.__hmi;

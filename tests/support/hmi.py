@@ -133,11 +133,7 @@ def open_page(browser, url: str, login: bool = True, width: int = 1280, height: 
     errors: list[str] = []
     page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
     page.on("pageerror", lambda e: errors.append(str(e)))
-    page.goto(url)
-    # ``ready`` may read what the runtime's hello makes (window.__hmi.feet...), which comes
-    # after the WebSocket is up: until then it is false, not an error that ends the wait
-    page.wait_for_function(f"() => {{ try {{ return !!(window.__hmi && window.__hmi.wsUp "
-                           f"&& ({ready})); }} catch (e) {{ return false; }} }}")
+    reopen(page, url, ready)
     if login:
         # the login form submitted as its button does (one step, not Playwright's typing
         # and click; test_the_page_loads_without_errors_and_lists_every_component clicks)
@@ -145,3 +141,15 @@ def open_page(browser, url: str, login: bool = True, width: int = 1280, height: 
                                  document.getElementById("login").requestSubmit(); }""", PASSWORD)
         page.wait_for_function("() => window.__hmi.role === 'operator'")
     return page, errors
+
+
+def reopen(page, url: str, ready: str = "window.__hmi.info") -> None:
+    """``page`` loads ``url`` anew (a new document, a new WebSocket: a page opened then,
+    without a new tab's cost; its errors go on into open_page's list; a tab that logged
+    in logs in again with its token) and returns once its WebSocket is up and ``ready``
+    holds."""
+    page.goto(url, wait_until="commit")
+    # ``ready`` may read what the runtime's hello makes (window.__hmi.feet...), which comes
+    # after the WebSocket is up: until then it is false (or not yet defined), not an error
+    page.wait_for_function(f"() => {{ try {{ return !!(window.__hmi && window.__hmi.wsUp "
+                           f"&& ({ready})); }} catch (e) {{ return false; }} }}")
