@@ -135,12 +135,17 @@ def open_page(browser, url: str, login: bool = True, width: int = 1280, height: 
     page.on("pageerror", lambda e: errors.append(str(e)))
     reopen(page, url, ready)
     if login:
-        # the login form submitted as its button does (one step, not Playwright's typing
-        # and click; test_the_page_loads_without_errors_and_lists_every_component clicks)
-        page.evaluate("""pw => { document.getElementById("login-pass").value = pw;
-                                 document.getElementById("login").requestSubmit(); }""", PASSWORD)
-        page.wait_for_function("() => window.__hmi.role === 'operator'")
+        log_in(page)
     return page, errors
+
+
+def log_in(page) -> None:
+    """The operator logs in: the login form submitted as its button does (one step, not
+    Playwright's typing and click; test_the_page_loads_without_errors_and_lists_every_component
+    clicks)."""
+    page.evaluate("""pw => { document.getElementById("login-pass").value = pw;
+                             document.getElementById("login").requestSubmit(); }""", PASSWORD)
+    page.wait_for_function("() => window.__hmi.role === 'operator'")
 
 
 def reopen(page, url: str, ready: str = "window.__hmi.info") -> None:
