@@ -216,8 +216,13 @@ def test_the_example_runs_its_own_emulated_robot(start, tmp_path):
     wait_for(lambda: rt.get("sequencer")["done"] == ["stand_up", "dance"], what="two ops")
     logged = wait_for(lambda: (g := rt.get("logger"))["records"] and g, what="a record")
     assert set(logged["records"][-1]) == {"t", "sequencer", "watcher"}
+
+    def frames() -> list[bytes]:
+        return [w for _, w in actuator_writes(trace) if len(w) == 25]
+    # "done" is the sequencer's host-clock estimate; a starved emulator may still be
+    # writing the dance's last frames: wait for the robot's own trace to show them
+    wait_for(lambda: len(frames()) >= 1 + 32, what="the dance's frames in the trace")
     rt.stop()
     assert emulators_with(str(trace)) == []               # the child is gone
     assert not [t for t in threading.enumerate() if t.name.startswith("minlink")]
-    frames = [w for _, w in actuator_writes(trace) if len(w) == 25]
-    assert len(frames) == 1 + 32                           # stand's frame, the dance's 32
+    assert len(frames()) == 1 + 32                         # stand's frame, the dance's 32
