@@ -105,11 +105,14 @@ def test_a_put_starts_the_dance(start, emulated, robot):
     rt.wait_state("sequencer", "running")
     rt.put("sequencer", ["dance"], timeout=2.0)
     wait_for(lambda: rt.get("sequencer")["done"] == ["dance"], what="the dance played")
-    rt.stop()
-    emu.stop()
     dance = robot.motion("dance")
     frames = [b"\x00" + b"".join(bytes(encode(a, f.speeds()[i])) for i, a in enumerate(f.angles))
               for f in dance.frames]
+    # "done" is the sequencer's host-clock estimate: the robot's trace says when it played
+    wait_for(lambda: sum(len(w) == 25 for _, w in actuator_writes(emu.trace)) >= len(frames),
+             what="the dance's frames in the trace")
+    rt.stop()
+    emu.stop()
     writes = [(t, w) for t, w in actuator_writes(emu.trace) if len(w) == 25]
     assert [w for _, w in writes] == frames                       # every frame, in order
     ticks = [t for t, _ in writes]
