@@ -444,8 +444,6 @@ def one(robot: str, mode: str, limit: bool, args) -> dict:
             res["rss_mb"], res["pss_mb"], res["each"] = memory_of(pids)
             res["processes"] = len(pids)
             res.update(control_asks(ep, robot, args.asks))
-            if mode == "process":
-                res.update(control_asks(ep, robot, args.asks, frozen=cap.pids()))
             child.stdin.write("go\n")
             child.stdin.flush()
             line = child.stdout.readline()
@@ -453,6 +451,10 @@ def one(robot: str, mode: str, limit: bool, args) -> dict:
                 res["error"] = f"the robot side exited ({child.wait()}) during the figure"
                 return res
             fig = json.loads(line)
+            if mode == "process":
+                # after the figure: behaviors stopped longer than the link lease (2 s)
+                # lose their links, and the samples sent meanwhile (counted as missed)
+                res.update(control_asks(ep, robot, args.asks, frozen=cap.pids()))
             res.update(cap.memory_events())
             child.stdin.write("end\n")
             child.stdin.flush()
@@ -528,7 +530,8 @@ def register_writes(fig: dict, trace: Path, wall0: float, virt0: int) -> dict:
     lat = [(w - s) * 1e3 for s, w in zip(sent, writes)]
     return {"cmd_p50_ms": pct(lat, 0.5), "cmd_p99_ms": pct(lat, 0.99), "cmd_n": len(lat),
             "cmd_errors": fig["errors"], "writes": len(writes),
-            "samples": fig["feet"]["samples"], "lost": fig["feet"]["lost"]}
+            "samples": fig["feet"]["samples"], "lost": fig["feet"]["lost"],
+            "missed": fig["feet"].get("missed"), "overwritten": fig["feet"].get("overwritten")}
 
 
 def audio_sim_pct(dep: dict, frames: int = 150) -> float:
@@ -589,7 +592,8 @@ def show(rows: list[dict], floor_ms: float) -> None:
             print(f"{'':26s} command -> register write p50 {r['cmd_p50_ms']:.2f} ms, "
                   f"p99 {r['cmd_p99_ms']:.2f} ms = {r['cmd_p99_ms'] / floor_ms:.2f}x the "
                   f"line-and-tick floor {floor_ms:.2f} ms (n {r['cmd_n']}, errors "
-                  f"{r['cmd_errors']}); feet samples {r['samples']}, lost {r['lost']}")
+                  f"{r['cmd_errors']}); feet samples {r['samples']}, lost {r['lost']} "
+                  f"(missed {r.get('missed')}, overwritten {r.get('overwritten')})")
         else:
             each = ", ".join("none in 30 s" if s is None else
                              f"{s[0]:.2f} s ({s[0] / max(s[1], 1e-3):.2f}x floor {s[1]:.2f} s)"
