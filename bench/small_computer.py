@@ -23,6 +23,7 @@ side by side:
 
     python bench/small_computer.py [--robots papaman,starfish] [--modes thread,process]
         [--window 10] [--n 100] [--shots 3] [--asks 20] [--caps capped,uncapped] [--tree DIR]
+        [--starts N]   # only the start, N times: its CPU seconds
 Prints figures; asserts nothing. Every control group it made is removed at the end
 (also on an error or Ctrl-C), after every process in it has been ended.
 """
@@ -434,6 +435,8 @@ def one(robot: str, mode: str, limit: bool, args) -> dict:
             # start's floor under the cap is this over the cap's share, however loaded
             # (the deployment's checking child included: reaped, it counts in its parent's)
             res["start_cpu_s"] = sum(cpu_of(cap.pids(), children=True).values())
+            if args.starts:            # --starts: the start alone (the group ends it all)
+                return res
             time.sleep(args.settle)
             pids = cap.pids()
             c0, t0 = cpu_of(pids), time.monotonic()
@@ -605,6 +608,25 @@ def show(rows: list[dict], floor_ms: float) -> None:
                   f"{r['cpu_pct'] - r['sim_cpu_pct']:.1f} %")
 
 
+def start_only(robot: str, mode: str, limit: bool, args) -> dict:
+    """``--starts N``: N starts, each to every component running, then ended: the CPU
+    each took (far less noisy than its wall time on a shared machine) and the time."""
+    runs = [one(robot, mode, limit, args) for _ in range(args.starts)]
+    cpu = sorted(r["start_cpu_s"] for r in runs if "error" not in r)
+    wall = sorted(r["ready_s"] for r in runs if "error" not in r)
+    tag = f"{robot:8s} {mode:7s} {'capped' if limit else 'uncapped':8s}"
+    if not cpu:
+        print(f"{tag} ERROR: {runs[-1].get('error')}")
+        return {"robot": robot, "mode": mode, "capped": limit, "runs": runs}
+    print(f"{tag} {len(cpu)} starts (the deployment: {runs[-1].get('how') or '?'}): CPU "
+          f"median {cpu[len(cpu) // 2]:.3f} s (min {cpu[0]:.3f}, max {cpu[-1]:.3f}; "
+          f"{cpu[len(cpu) // 2] / CPU_SHARE:.2f} s at {CPU_SHARE:.0%} of a core), start -> "
+          f"ready median {wall[len(wall) // 2]:.2f} s (min {wall[0]:.2f}, max {wall[-1]:.2f}); "
+          f"load {os.getloadavg()[0]:.1f}", flush=True)
+    return {"robot": robot, "mode": mode, "capped": limit, "start_cpu_s": cpu,
+            "ready_s": wall}
+
+
 def _interrupted(*_) -> None:
     raise KeyboardInterrupt
 
@@ -619,6 +641,8 @@ def main() -> None:
     ap.add_argument("--n", type=int, default=100, help="PAPA-MAN: commands")
     ap.add_argument("--shots", type=int, default=3, help="STARFISH: shots")
     ap.add_argument("--asks", type=int, default=20, help="rounds of ls + ping")
+    ap.add_argument("--starts", type=int, default=0, metavar="N",
+                    help="only start the robot side, N times each: the CPU each start took")
     ap.add_argument("--tree", metavar="DIR",
                     help="run the esair_std of the checkout DIR (an older commit) under "
                          "this bench: a before beside an after")
@@ -662,6 +686,9 @@ def main() -> None:
     for robot in args.robots.split(","):
         for mode in args.modes.split(","):
             for cap in args.caps.split(","):
+                if args.starts:
+                    rows.append(start_only(robot, mode, cap == "capped", args))
+                    continue
                 rows.append(one(robot, mode, cap == "capped", args))
                 show(rows[-1:], floor)
     print(json.dumps({"rows": rows, "floor_ms": floor, "cpu_share": CPU_SHARE,
