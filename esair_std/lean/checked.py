@@ -92,7 +92,9 @@ def _check(path: str | Path, edit: Callable[[Document], None] | None) -> object:
     """In the child: the plain deployment and the hashes of the files it came from."""
     # ESAIR's own check, not the user's validation: no pydantic plugins, which pydantic
     # looks for by reading every installed package's entry points (unless told which)
-    os.environ.setdefault("PYDANTIC_DISABLE_PLUGINS", "__all__")
+    if "PYDANTIC_DISABLE_PLUGINS" not in os.environ:
+        os.environ["PYDANTIC_DISABLE_PLUGINS"] = "__all__"
+        _no_plugin_loader()
     _pydantic_without_asyncio()
     from ..deploy.compile import compile_deployment
     made = compile_deployment(path, edit)
@@ -128,3 +130,18 @@ def _pydantic_without_asyncio() -> None:
         for name, module in stand_ins.items():
             if sys.modules.get(name) is module:
                 del sys.modules[name]
+
+
+def _no_plugin_loader() -> None:
+    """With its plugins off, pydantic's plugin loader answers "none" to the question it
+    is asked at each validator pydantic builds, but its module imports
+    ``importlib.metadata`` (email and csv with it: about 3 % of a start's instructions)
+    first. In the checking child, its one function, answering as it does with plugins
+    off, stands in for it (should pydantic ask it for more, the check fails in the child
+    and the runtime's process checks the deployment itself: slower, not wrong)."""
+    import types
+    name = "pydantic.plugin._loader"
+    if name not in sys.modules:
+        loader = types.ModuleType(name)
+        vars(loader).update(get_plugins=lambda: ())
+        sys.modules[name] = loader

@@ -1,8 +1,9 @@
-"""The checking child's pydantic import (esair_std/lean/checked.py): without asyncio, and
-leaving nothing of its stand-in behind."""
+"""The checking child's pydantic (esair_std/lean/checked.py): imported without asyncio,
+leaving nothing of its stand-in behind; no plugin scan, and no importlib.metadata."""
 
 from __future__ import annotations
 
+import json
 import subprocess
 import sys
 
@@ -37,3 +38,28 @@ def test_pydantic_imported_without_asyncio_and_the_real_one_after():
                          timeout=120)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == "ok"
+
+
+CHECK = r"""
+import json, os, sys
+os.environ.pop("PYDANTIC_DISABLE_PLUGINS", None)
+from esair_std.lean import checked
+answer = checked._check(sys.argv[1], None)
+print(json.dumps({"answer": answer, "left": [m for m in ("asyncio", "importlib.metadata")
+                                             if m in sys.modules]}))
+"""
+
+
+def test_the_check_needs_neither_asyncio_nor_importlib_metadata(tmp_path):
+    dep = tmp_path / "deployment.yaml"
+    dep.write_text(json.dumps({"robot": "t", "resources": {"count": {
+        "class": "tests.support.comps:Counter", "allow": {"*": "read"}}}, "behaviors": {
+        "w": {"class": "tests.support.comps:Watcher", "uses": {"count": "read"}}}}))
+    out = subprocess.run([sys.executable, "-c", CHECK, str(dep)], capture_output=True,
+                         text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    got = json.loads(out.stdout)
+    assert got["left"] == []
+    plain = got["answer"]["deployment"]
+    assert plain["robot"] == "t"
+    assert sorted(spec["name"] for spec in plain["specs"]) == ["count", "w"]
