@@ -28,6 +28,10 @@ pytestmark = [pytest.mark.gpsim, pytest.mark.pty]
 
 FIXTURES = Path(__file__).resolve().parents[1] / "fixtures" / "pic"
 CLOCK = 20_000_000
+#: a reply's longest wait in simulated time, the host answering at once: a data EEPROM
+#: block (64 x 4 ms) and its frame take 0.26 s (a real line's 1 s would only lengthen
+#: each cut's three unanswered tries)
+REPLY_S = 0.5
 #: the bootloader's exact size (gpasm); the boot block holds 512
 BOOT_BYTES = 512
 
@@ -61,7 +65,7 @@ class Chip:
         self.s = GpsimSession(workdir, timeout=600).start(
             central.folder / "build-boot" / "bootloader.cod", CLOCK)
         self.line = SimLine(self.s, workdir, CLOCK, picboot.BOOT_BAUD)
-        self.boot = Bootloader(self.line, "gpsim")
+        self.boot = Bootloader(self.line, "gpsim", REPLY_S)
 
     def reset(self, baud: int = picboot.BOOT_BAUD) -> None:
         """A reset (power cycle) with a clean line."""
