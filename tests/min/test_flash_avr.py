@@ -32,11 +32,15 @@ ENV = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHO
 
 @pytest.fixture(scope="module")
 def build(tmp_path_factory) -> Path:
-    """papaman-avr built once (``esair build``)."""
-    from esair_min.pic.build import build_robot
+    """papaman-avr generated and its central board built once (``esair build``'s steps):
+    every flash here is the central's, and esair flash/run check only the flashed
+    board's .hex."""
+    from esair_min.avr.build import build_board
+    from esair_min.codegen import generate_robot
 
     out = tmp_path_factory.mktemp("build")
-    build_robot(load_robot(BOARDS), out)
+    generate_robot(load_robot(BOARDS), out)
+    build_board(out / "central")
     return out
 
 
@@ -93,6 +97,7 @@ def test_optiboot_writes_verifies_and_the_chip_then_answers_v(build, tmp_path):
         assert r.returncode == 0, r.stderr
         assert "written to" in r.stdout and "verified" in r.stdout
         assert "writing: 100%" in r.stderr and "verifying: 100%" in r.stderr
+        assert f"built {build}" not in r.stderr           # the fixture's build was taken
         assert holds(uno, build / "central" / "firmware.hex")
         assert uno.flash_bytes()[0x7E00:] == Path(chip).read_bytes()[0x7E00:]
         assert answers_v(uno.port).startswith("OK esair-min/1 servos=12 sensors=8 motions=5")
@@ -272,6 +277,7 @@ def test_run_flashes_writes_the_motions_then_monitors_and_skips_what_is_done(bui
         # a chip holding only its bootloader never says !READY: 1 s to find it out
         status, out, err = run_until_motions(uno.port, build, "--wait", "1")
         assert status == 130, err
+        assert f"built {build}" not in err                # the fixture's build was taken
         assert re.search(r"central: \d+ bytes written to", out)
         assert re.search(r"motions: wrote (\d+) of \1 chunks", out)
         assert "monitor stopped" in err and "Traceback" not in err
