@@ -169,9 +169,36 @@ class Localize(Behavior):
         self.lost_frames = 0                 # holes in the frames' own sequence numbers
         self.last_seq = None
         self.last = None
+        self.next_due: float | None = None      # when the next frame should arrive
+        self.last_step = 0.0
+        self.gap = float(self.period or 0.02)   # between two steps, smoothed
+        self.awaited = 0                         # frames taken up inside a step
 
     def step(self):
-        frames = self.mics.samples()
+        now = time.time()
+        if self.last_step:
+            self.gap += 0.2 * (now - self.last_step - self.gap)
+        self.last_step = now
+        self._localize(self.mics.samples())
+        # the next frame, due before the next step, is waited for here and taken up as
+        # it comes (a sound's first frame is heard up to a period sooner)
+        due, now = self.next_due, time.time()
+        if due is None or now >= due + AWAIT_FRAME_S or due - now >= self.gap:
+            return
+        end = due + AWAIT_FRAME_S
+        while time.time() < end:
+            time.sleep(0.002)
+            frames = self.mics.samples()
+            if frames:
+                self.awaited += 1
+                self._localize(frames)
+                return
+
+    def _localize(self, frames: list) -> None:
+        last = frames[-1].value if frames else None
+        if isinstance(last, dict) and isinstance(last.get("n"), int) and \
+                isinstance(last.get("rate"), int) and last["rate"] > 0:
+            self.next_due = frames[-1].t + last["n"] / last["rate"]
         if len(frames) > self.max_per_step:
             self.skipped += len(frames) - self.max_per_step
             seq = frames[-self.max_per_step - 1].value.get("seq") if isinstance(
@@ -204,12 +231,15 @@ class Localize(Behavior):
 
     def provide(self, requester):
         return {"last": self.last, "frames": self.frames, "lost_frames": self.lost_frames,
-                "skipped": self.skipped,
+                "skipped": self.skipped, "awaited": self.awaited,
                 "bad_frames": self.bad_frames,
                 "confident": self.confident, "published": self.published,
                 "overwritten": self.mics.overwritten}
 
 
+#: a frame due before localize's next step is waited for inside the step until this
+#: long after it was due (the sensor's poll, its hop to the behavior)
+AWAIT_FRAME_S = 0.015
 #: the standing frame by the ramp model (TurnAndShoot._at_rest): read this long after the
 #: model's rest (a control tick of each board), and what the robot may still turn after it
 REST_MARGIN_S = 0.02
