@@ -506,6 +506,8 @@ class TurnAndShoot(Behavior):
                     self.turn["at"][self._key("stood")] = time.time()
                     if abs(err) > self.tolerance and self.turn["corrections"] < 1:
                         self._aim()         # the one correction, from the odometry
+                        if self.phase == "turning":
+                            self._turning()     # its creep goes now, not at the next step
                     else:
                         self.turn["odo_th"] = self.headings[-1][1]
                         self._shoot()
