@@ -181,11 +181,13 @@ class Localize(Behavior):
         self.last_step = now
         self._localize(self.mics.samples())
         # the next frame, due before the next step, is waited for here and taken up as
-        # it comes (a sound's first frame is heard up to a period sooner)
+        # it comes (a sound's first frame is heard up to a period sooner), polled every
+        # 2 ms from just before it is due
         due, now = self.next_due, time.time()
         if due is None or now >= due + AWAIT_FRAME_S or due - now >= self.gap:
             return
         end = due + AWAIT_FRAME_S
+        time.sleep(max(0.0, due - AWAIT_EARLY_S - now))   # asleep until it is nearly due
         while time.time() < end:
             time.sleep(0.002)
             frames = self.mics.samples()
@@ -237,8 +239,9 @@ class Localize(Behavior):
                 "overwritten": self.mics.overwritten}
 
 
-#: a frame due before localize's next step is waited for inside the step until this
-#: long after it was due (the sensor's poll, its hop to the behavior)
+#: a frame due before localize's next step is waited for inside the step, from this long
+#: before it is due, until this long after (the sensor's poll, its hop to the behavior)
+AWAIT_EARLY_S = 0.002
 AWAIT_FRAME_S = 0.015
 #: the standing frame by the ramp model (TurnAndShoot._at_rest): read this long after the
 #: model's rest (a control tick of each board), and what the robot may still turn after it
