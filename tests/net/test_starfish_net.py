@@ -160,9 +160,11 @@ def test_starfish_hears_turns_shoots_and_reconnects_across_a_veth(net, tmp_path)
     # 2. the patrol path out of range: the veth goes down, reconnect drives back, it heals
     link = LinkWatch(net[0])
     center.ctl("remove", "patrol")
+    # straight out through the gap above the inner wall (its end at (3.0, 2.5)): the cut
+    # comes 3.0 m from the access point at (1, 1), near (3.1, 3.2)
     center.ctl("add", "patrol", f"{B}:Patrol", "--uses", "starfish.odometry=read", "--uses",
                "starfish.radio=read", "--uses", "starfish.wheels=command", "--period", "0.05",
-               "-o", "speed=250", "-o", "waypoints=[[2.5, 3.2], [4.8, 3.2], [1.5, 3.0]]")
+               "-o", "speed=250", "-o", "waypoints=[[3.2, 3.4], [1.5, 3.0]]")
     w = get_when(center, "watcher", lambda r: len(r["events"]) >= 2, 120, "the radio cut and healed")
     assert [e[0] for e in w["events"][:2]] == ["down", "up"]
     assert w["events"][1][1] <= 2.9
@@ -179,9 +181,15 @@ def test_starfish_hears_turns_shoots_and_reconnects_across_a_veth(net, tmp_path)
 
     # 3. the remote center killed outright: the robot patrols on; started again, it rejoins
     center.ctl("remove", "patrol")
+    # a short patrol where the robot is: here and 0.4 m toward the access point (in range)
+    pose = json.loads(center.ctl("sample", "starfish.odometry"))
+    x, y = pose["x"], pose["y"]
+    d = math.hypot(1.0 - x, 1.0 - y)
+    legs = [[round(x, 3), round(y, 3)],
+            [round(x + 0.4 * (1.0 - x) / d, 3), round(y + 0.4 * (1.0 - y) / d, 3)]]
     center.ctl("add", "patrol", f"{B}:Patrol", "--uses", "starfish.odometry=read", "--uses",
                "starfish.radio=read", "--uses", "starfish.wheels=command", "--period", "0.05",
-               "-o", "speed=250", "-o", "waypoints=[[1.5, 1.5], [2.3, 1.5]]")
+               "-o", "speed=250", "-o", f"waypoints={json.dumps(legs)}")
     sigkill(loc)
     sigkill(tas)
     reached = center.get("patrol")["reached"]
