@@ -205,8 +205,11 @@ def test_garbage_and_oversized_messages_are_refused_without_a_crash(streaming):
     net, center = streaming
     wait_for(lambda: center.state("ticks") == "ready" and center.state("pusher") == "running"
              and center.state("watch2") == "running", 30, what="remote agents")
+    # registered (again, after a cut): from here none of its sends may fail
+    wait_for(lambda: center.inspect("arm")["grants"] == {"pusher": "command"}, 10,
+             what="pusher registered")
     before = center.ls()
-    failed = center.get("pusher")["failed"]      # its sends that failed (during cuts)
+    failed = center.get("pusher")["failed"]      # its sends that failed (in cuts before)
     bad = Peer(net[1], {"mode": "client", "scouting/multicast/enabled": False,
                         "connect/endpoints": [center.endpoint], "listen/endpoints": []})
     keys = ([f"esair/lab/ctl/{v}" for v in VERBS] +
@@ -314,7 +317,8 @@ def test_a_sigkilled_remote_agent_is_marked_failed(faults):
     pusher = agent(net[1], center.endpoint, "pusher", "bench.toolkit.netcomps:Pusher",
                    "--uses", "arm=command", *LEASE)
     wait_for(lambda: center.state("pusher") == "running", 30, what="pusher running")
-    assert center.inspect("arm")["grants"]["pusher"] == "command"
+    wait_for(lambda: center.inspect("arm")["grants"].get("pusher") == "command", 10,
+             what="pusher registered")
     pusher.proc.kill()
     wait_for(lambda: center.state("pusher") == "failed", 15, what="pusher failed")
     assert center.ls()["pusher"]["reason"].startswith("remote agent unreachable for")
