@@ -47,16 +47,38 @@ behaviors:
 """
 
 
+#: LAB with what the partition tests need: a 1 s lease (failed 3 leases after lost) and
+#: the arm commanded by their remote behaviors
+SHARED = """
+robot: lab
+mode: process
+endpoint: ENDPOINT
+security: {lease_ms: 1000}
+resources:
+  arm:   {class: "bench.toolkit.netcomps:Wheel",
+          allow: {pusher: command, reader: read, strict: command, timely: command, doomed: command}}
+  mic:   {class: "bench.toolkit.netcomps:Counter", rate: 50, allow: {"*": read}}
+  wheel: {class: "bench.toolkit.netcomps:Wheel", allow: {turn: command}}
+behaviors:
+  turn:  {class: "bench.toolkit.netcomps:Turn", uses: {wheel: command}}
+  idle:  {class: "bench.toolkit.netcomps:Idle"}
+  sink:  {class: "bench.toolkit.netcomps:Sink"}
+"""
+#: the agents' own link lease: the control center marks one lost ~1 s after a cut (the
+#: lease its session declared, docs/std-network.md), not 2 s
+LEASE = ("--lease", "1000")
+
+
 @pytest.fixture(scope="module")
 def _lab(tmp_path_factory):
     with make_net(2) as net:
-        yield net, Center(net[0], tmp_path_factory.mktemp("lab"), LAB)
+        yield net, Center(net[0], tmp_path_factory.mktemp("lab"), SHARED)
 
 
 @pytest.fixture
 def lab(_lab):
-    """LAB's control center, shared by the tests that add remote agents of their own names
-    to it (its start is the slow part)."""
+    """One control center shared by the tests that add remote agents of their own names
+    to it (its start is the slow part); they end with the test."""
     with _own_agents(_lab[0]):
         yield _lab
 
@@ -90,6 +112,131 @@ def test_starfish_remote_locate_steers_a_local_behavior(lab):
     assert seqs == sorted(seqs) and len(set(seqs)) == len(seqs)
     assert center.inspect("mic")["attached"] == ["locate"]
     assert center.state("turn") == "running"
+
+
+def test_a_sigkilled_remote_agent_is_marked_failed(lab):
+    net, center = lab
+    doomed = agent(net[1], center.endpoint, "doomed", "bench.toolkit.netcomps:Pusher",
+                   "--uses", "arm=command", *LEASE)
+    wait_for(lambda: center.state("doomed") == "running", 30, what="doomed running")
+    wait_for(lambda: center.inspect("arm")["grants"].get("doomed") == "command", 10,
+             what="doomed registered")
+    doomed.proc.kill()
+    wait_for(lambda: center.state("doomed") == "failed", 15, what="doomed failed")
+    assert center.ls()["doomed"]["reason"].startswith("remote agent unreachable for")
+    assert "doomed" not in center.inspect("arm")["grants"]
+    assert center.state("idle") == "running"
+
+
+def _cut(center: Center, host, name: str, seconds: float, past_failed: bool = False) -> None:
+    """The link cut for ``seconds`` once the center has seen ``name`` lost (and, with
+    ``past_failed``, marked it failed), then healed."""
+    center.run.lines.clear()
+    host.link(up=False)
+    center.run.wait_line(f"{name}: remote agent lost", 30)
+    if past_failed:
+        center.run.wait_line(f"{name} failed (remote agent unreachable for at least", 30)
+    time.sleep(seconds)                              # the fault's length, not a check
+    host.link(up=True)
+
+
+def test_a_remote_behavior_failed_during_a_cut_is_restarted_under_its_policy(lab):
+    """Issue 19.7: its own code fails while the link is cut (its send gives up); when the
+    link returns its agent restarts it under --restart (the control center, which
+    cannot start a remote process, takes it back); past the policy it stays failed."""
+    net, center = lab
+    strict = agent(net[1], center.endpoint, "strict", "bench.toolkit.netcomps:Strict",
+                   "--uses", "arm=command", "--restart", "1/120", *LEASE)
+    wait_for(lambda: center.state("strict") == "running", 30, what="strict running")
+    wait_for(lambda: center.get("strict")["steps"] > 5, 20, what="strict commanding")
+
+    _cut(center, net[1], "strict", 1.0)
+    failed = strict.wait_line("strict failed: CommandError: ", 30)       # during the cut
+    assert failed.endswith("strict failed: CommandError: arm: no answer within 0.2 s"), failed
+    line = strict.wait_line("strict: restarted after it failed", 30)
+    assert line.endswith("strict: restarted after it failed (CommandError: arm: no answer "
+                         "within 0.2 s): restart 1 of at most 1 within 120 s"), line
+    wait_for(lambda: center.state("strict") == "running", 30, what="strict running again")
+    wait_for(lambda: center.get("strict")["steps"] > 5, 20, what="the new strict commanding")
+    assert center.inspect("arm")["grants"] == {"strict": "command"}
+    assert center.ls()["strict"]["reason"] == ""
+
+    strict.lines.clear()
+    center.run.lines.clear()
+    _cut(center, net[1], "strict", 1.0)               # again: past its policy
+    strict.wait_line("strict: failed (CommandError: arm: no answer within 0.2 s); past its "
+                     "restart policy (1 within 120 s): it stays failed", 30)
+    # once the center is told why, the agent leaves with status 1 (for its supervisor)
+    assert strict.wait_exit(30) == 1
+    wait_for(lambda: center.state("strict") == "failed", 30, what="strict failed")
+    assert center.ls()["strict"]["reason"] == "CommandError: arm: no answer within 0.2 s"
+    assert not any("restarted" in ln for ln in strict.lines)
+
+
+def test_remote_calls_give_up_at_their_timeout_across_a_cut_and_one_past_failed(lab):
+    """Issue 19.8: a remote behavior whose send()/put() timeouts (0.6 s) fit its step
+    deadline (1 s) never overruns while the link is cut: each call gives up at its
+    timeout (counted as failed), the behavior is not failed, and the same instance goes
+    on after the heal (its counters were not reset by a restart) -- after a cut inside
+    the control center's grace, and after one held until the center marked it failed."""
+    net, center = lab
+    timely = agent(net[1], center.endpoint, "timely", "bench.toolkit.netcomps:Timely",
+                   "--uses", "arm=command", *LEASE)
+    wait_for(lambda: center.state("timely") == "running", 30, what="timely running")
+    wait_for(lambda: center.get("timely")["put"] > 5, 20, what="timely putting")
+    for past_failed in (False, True):
+        before = center.get("timely")
+        # 1.5 s past the loss: inside the grace (3 leases) on the first cut
+        _cut(center, net[1], "timely", 1.5, past_failed)
+        wait_for(lambda: center.state("timely") == "running", 30, what="timely back")
+        wait_for(lambda b=before: center.get("timely")["put"] > b["put"] + 5, 20,
+                 what="timely putting again")
+        after = center.get("timely")
+        assert after["steps"] > before["steps"] and after["sent"] > before["sent"], (before, after)
+        assert after["send_failed"] > before["send_failed"], (before, after)  # gave up, cut
+        assert after["put_failed"] > before["put_failed"], (before, after)
+    assert not any("timely failed" in ln for ln in timely.lines), timely.output()
+    assert timely.proc.poll() is None
+
+
+ROBOT_A = """
+robot: a
+mode: process
+endpoint: ENDPOINT
+resources:
+  mic:   {class: "bench.toolkit.netcomps:Counter", rate: 50, allow: {"*": read}}
+behaviors:
+  locate: {class: "bench.toolkit.netcomps:Locate", uses: {mic: read}, to: b/turn}
+"""
+ROBOT_B = """
+robot: b
+mode: process
+endpoint: ENDPOINT
+resources:
+  wheel: {class: "bench.toolkit.netcomps:Wheel", allow: {turn: command}}
+behaviors:
+  turn:  {class: "bench.toolkit.netcomps:Turn", uses: {wheel: command}}
+"""
+
+
+@pytest.mark.parametrize("mode", ["thread", "process"])
+def test_robots_talk_to_robots_when_their_control_centers_are_joined(net3, tmp_path, mode):
+    a = Center(net3[0], tmp_path / "a", ROBOT_A, mode=mode)
+    b = Center(net3[2], tmp_path / "b", ROBOT_B, False, "--join", a.endpoint)
+    wait_for(lambda: len(b.get("turn")) >= 10, 30, what="headings from robot a")
+    headings = b.get("turn")
+    assert {sender for sender, _ in headings} == {"a/locate"}
+    assert all(d["heading"] == (d["seq"] * 7) % 360 for _, d in headings)
+    assert "turn" not in a.ls() and "locate" not in b.ls()      # two robots, two name spaces
+    assert a.get("locate")["sent"] >= 10
+
+
+def test_a_thread_mode_runtime_takes_no_remote_agents(net, tmp_path):
+    center = Center(net[0], tmp_path, LAB, mode="thread")
+    proc = agent(net[1], center.endpoint, "pusher", "bench.toolkit.netcomps:Pusher", "--uses", "arm=command")
+    assert proc.wait_exit(60) == 1
+    assert proc.lines[-1] == ("error: join refused: this runtime runs in thread mode: "
+                              "it takes no remote agents"), proc.output()
 
 
 PARTITION = """
@@ -240,158 +387,3 @@ def test_garbage_and_oversized_messages_are_refused_without_a_crash(streaming):
     sent = center.get("pusher")["sent"]                 # it goes on commanding
     wait_for(lambda: center.get("pusher")["sent"] > sent + 5, 10, what="pusher stepping")
     assert center.get("pusher")["failed"] == failed, center.get("pusher")["errors"]
-
-
-ROBOT_A = """
-robot: a
-mode: process
-endpoint: ENDPOINT
-resources:
-  mic:   {class: "bench.toolkit.netcomps:Counter", rate: 50, allow: {"*": read}}
-behaviors:
-  locate: {class: "bench.toolkit.netcomps:Locate", uses: {mic: read}, to: b/turn}
-"""
-ROBOT_B = """
-robot: b
-mode: process
-endpoint: ENDPOINT
-resources:
-  wheel: {class: "bench.toolkit.netcomps:Wheel", allow: {turn: command}}
-behaviors:
-  turn:  {class: "bench.toolkit.netcomps:Turn", uses: {wheel: command}}
-"""
-
-
-@pytest.mark.parametrize("mode", ["thread", "process"])
-def test_robots_talk_to_robots_when_their_control_centers_are_joined(net3, tmp_path, mode):
-    a = Center(net3[0], tmp_path / "a", ROBOT_A, mode=mode)
-    b = Center(net3[2], tmp_path / "b", ROBOT_B, False, "--join", a.endpoint)
-    wait_for(lambda: len(b.get("turn")) >= 10, 30, what="headings from robot a")
-    headings = b.get("turn")
-    assert {sender for sender, _ in headings} == {"a/locate"}
-    assert all(d["heading"] == (d["seq"] * 7) % 360 for _, d in headings)
-    assert "turn" not in a.ls() and "locate" not in b.ls()      # two robots, two name spaces
-    assert a.get("locate")["sent"] >= 10
-
-
-def test_a_thread_mode_runtime_takes_no_remote_agents(net, tmp_path):
-    center = Center(net[0], tmp_path, LAB, mode="thread")
-    proc = agent(net[1], center.endpoint, "pusher", "bench.toolkit.netcomps:Pusher", "--uses", "arm=command")
-    assert proc.wait_exit(60) == 1
-    assert proc.lines[-1] == ("error: join refused: this runtime runs in thread mode: "
-                              "it takes no remote agents"), proc.output()
-
-
-FAULTS = """
-robot: lab
-mode: process
-endpoint: ENDPOINT
-security: {lease_ms: 1000}     # failed 3 of these leases after lost
-resources:
-  arm:   {class: "bench.toolkit.netcomps:Wheel", allow: {strict: command, timely: command, pusher: command}}
-behaviors:
-  idle:  {class: "bench.toolkit.netcomps:Idle"}
-  sink:  {class: "bench.toolkit.netcomps:Sink"}
-"""
-#: the agents' own link lease: the control center marks one lost ~1 s after a cut (the
-#: lease its session declared, docs/std-network.md), not 2 s
-LEASE = ("--lease", "1000")
-
-
-@pytest.fixture(scope="module")
-def _faults(tmp_path_factory):
-    with make_net(2) as net:
-        yield net, Center(net[0], tmp_path_factory.mktemp("faults"), FAULTS)
-
-
-@pytest.fixture
-def faults(_faults):
-    """FAULTS's control center, shared by the tests that cut its link under remote agents
-    of their own names (which end with the test)."""
-    with _own_agents(_faults[0]):
-        yield _faults
-
-
-def test_a_sigkilled_remote_agent_is_marked_failed(faults):
-    net, center = faults
-    pusher = agent(net[1], center.endpoint, "pusher", "bench.toolkit.netcomps:Pusher",
-                   "--uses", "arm=command", *LEASE)
-    wait_for(lambda: center.state("pusher") == "running", 30, what="pusher running")
-    wait_for(lambda: center.inspect("arm")["grants"].get("pusher") == "command", 10,
-             what="pusher registered")
-    pusher.proc.kill()
-    wait_for(lambda: center.state("pusher") == "failed", 15, what="pusher failed")
-    assert center.ls()["pusher"]["reason"].startswith("remote agent unreachable for")
-    assert "pusher" not in center.inspect("arm")["grants"]
-    assert center.state("idle") == "running"
-
-
-def _cut(center: Center, host, name: str, seconds: float, past_failed: bool = False) -> None:
-    """The link cut for ``seconds`` once the center has seen ``name`` lost (and, with
-    ``past_failed``, marked it failed), then healed."""
-    center.run.lines.clear()
-    host.link(up=False)
-    center.run.wait_line(f"{name}: remote agent lost", 30)
-    if past_failed:
-        center.run.wait_line(f"{name} failed (remote agent unreachable for at least", 30)
-    time.sleep(seconds)                              # the fault's length, not a check
-    host.link(up=True)
-
-
-def test_a_remote_behavior_failed_during_a_cut_is_restarted_under_its_policy(faults):
-    """Issue 19.7: its own code fails while the link is cut (its send gives up); when the
-    link returns its agent restarts it under --restart (the control center, which
-    cannot start a remote process, takes it back); past the policy it stays failed."""
-    net, center = faults
-    strict = agent(net[1], center.endpoint, "strict", "bench.toolkit.netcomps:Strict",
-                   "--uses", "arm=command", "--restart", "1/120", *LEASE)
-    wait_for(lambda: center.state("strict") == "running", 30, what="strict running")
-    wait_for(lambda: center.get("strict")["steps"] > 5, 20, what="strict commanding")
-
-    _cut(center, net[1], "strict", 1.0)
-    failed = strict.wait_line("strict failed: CommandError: ", 30)       # during the cut
-    assert failed.endswith("strict failed: CommandError: arm: no answer within 0.2 s"), failed
-    line = strict.wait_line("strict: restarted after it failed", 30)
-    assert line.endswith("strict: restarted after it failed (CommandError: arm: no answer "
-                         "within 0.2 s): restart 1 of at most 1 within 120 s"), line
-    wait_for(lambda: center.state("strict") == "running", 30, what="strict running again")
-    wait_for(lambda: center.get("strict")["steps"] > 5, 20, what="the new strict commanding")
-    assert center.inspect("arm")["grants"] == {"strict": "command"}
-    assert center.ls()["strict"]["reason"] == ""
-
-    strict.lines.clear()
-    center.run.lines.clear()
-    _cut(center, net[1], "strict", 1.0)               # again: past its policy
-    strict.wait_line("strict: failed (CommandError: arm: no answer within 0.2 s); past its "
-                     "restart policy (1 within 120 s): it stays failed", 30)
-    # once the center is told why, the agent leaves with status 1 (for its supervisor)
-    assert strict.wait_exit(30) == 1
-    wait_for(lambda: center.state("strict") == "failed", 30, what="strict failed")
-    assert center.ls()["strict"]["reason"] == "CommandError: arm: no answer within 0.2 s"
-    assert not any("restarted" in ln for ln in strict.lines)
-
-
-def test_remote_calls_give_up_at_their_timeout_across_a_cut_and_one_past_failed(faults):
-    """Issue 19.8: a remote behavior whose send()/put() timeouts (0.6 s) fit its step
-    deadline (1 s) never overruns while the link is cut: each call gives up at its
-    timeout (counted as failed), the behavior is not failed, and the same instance goes
-    on after the heal (its counters were not reset by a restart) -- after a cut inside
-    the control center's grace, and after one held until the center marked it failed."""
-    net, center = faults
-    timely = agent(net[1], center.endpoint, "timely", "bench.toolkit.netcomps:Timely",
-                   "--uses", "arm=command", *LEASE)
-    wait_for(lambda: center.state("timely") == "running", 30, what="timely running")
-    wait_for(lambda: center.get("timely")["put"] > 5, 20, what="timely putting")
-    for past_failed in (False, True):
-        before = center.get("timely")
-        # 1.5 s past the loss: inside the grace (3 leases) on the first cut
-        _cut(center, net[1], "timely", 1.5, past_failed)
-        wait_for(lambda: center.state("timely") == "running", 30, what="timely back")
-        wait_for(lambda b=before: center.get("timely")["put"] > b["put"] + 5, 20,
-                 what="timely putting again")
-        after = center.get("timely")
-        assert after["steps"] > before["steps"] and after["sent"] > before["sent"], (before, after)
-        assert after["send_failed"] > before["send_failed"], (before, after)  # gave up, cut
-        assert after["put_failed"] > before["put_failed"], (before, after)
-    assert not any("timely failed" in ln for ln in timely.lines), timely.output()
-    assert timely.proc.poll() is None
