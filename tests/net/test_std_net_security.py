@@ -7,6 +7,8 @@ are refused without a crash."""
 
 from __future__ import annotations
 
+import subprocess
+
 import pytest
 
 from esair_std.transport.tls_certs import make_certs
@@ -238,17 +240,23 @@ def test_an_operators_login_works_on_the_main_endpoint_for_the_control_verbs_onl
     with make_net(2) as net:
         center = Center(net[0], tmp_path, OPERATORS)
 
-        def esair(who: dict, *args: str):
-            return net[1].run("env", f"ESAIR_STD_SESSION={json.dumps(who)}",
-                              *cli(*args, "-e", center.endpoint, "-r", "lab"),
-                              check=False, timeout=60)
+        def esair(who: dict, *args: str) -> subprocess.Popen:
+            return net[1].popen("env", f"ESAIR_STD_SESSION={json.dumps(who)}",
+                                *cli(*args, "-e", center.endpoint, "-r", "lab"),
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 
-        ls = esair(login("op", "op-pw"), "ls", "--json")
+        def done(proc: subprocess.Popen) -> subprocess.CompletedProcess:
+            out, err = proc.communicate(timeout=60)
+            return subprocess.CompletedProcess(proc.args, proc.returncode, out, err)
+
+        # the three commands at once (each its own interpreter; the one no operator's
+        # login waits out the command line's timeout)
+        ls, sent, other = map(done, [esair(login("op", "op-pw"), "ls", "--json"),
+                                     esair(login("op", "op-pw"), "send", "arm", "7"),
+                                     esair(login("nobody", "no-pw"), "ls")])
         assert ls.returncode == 0, ls.stderr
         assert {r["name"] for r in json.loads(ls.stdout)["components"]} >= {"idle", "arm"}
-        sent = esair(login("op", "op-pw"), "send", "arm", "7")
         assert sent.returncode == 0, sent.stderr
-        other = esair(login("nobody", "no-pw"), "ls")
         assert other.returncode == 1
         assert other.stderr.strip() == (f"error: the runtime of robot 'lab' on {center.endpoint} "
                                         "did not answer 'ls'")
