@@ -176,9 +176,9 @@ def test_a_remote_behavior_failed_during_a_cut_is_restarted_under_its_policy(lab
 def test_remote_calls_give_up_at_their_timeout_across_a_cut_and_one_past_failed(lab):
     """Issue 19.8: a remote behavior whose send()/put() timeouts (0.6 s) fit its step
     deadline (1 s) never overruns while the link is cut: each call gives up at its
-    timeout (counted as failed), the behavior is not failed, and the same instance goes
-    on after the heal (its counters were not reset by a restart) -- after a cut inside
-    the control center's grace, and after one held until the center marked it failed."""
+    timeout (counted as failed), its agent never fails it, and the same instance goes on
+    after the heal (its counters were not reset by a restart) -- after a cut inside the
+    control center's grace, and after one held until the center marked it failed."""
     net, center = lab
     timely = agent(net[1], center.endpoint, "timely", "bench.toolkit.netcomps:Timely",
                    "--uses", "arm=command", *LEASE)
