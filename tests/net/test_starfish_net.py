@@ -161,10 +161,11 @@ def test_starfish_hears_turns_shoots_and_reconnects_across_a_veth(net, tmp_path)
     link = LinkWatch(net[0])
     center.ctl("remove", "patrol")
     # straight out through the gap above the inner wall (its end at (3.0, 2.5)): the cut
-    # comes 3.0 m from the access point at (1, 1), near (3.1, 3.2)
+    # comes 3.0 m from the access point at (1, 1), near (3.1, 3.2); after the heal two
+    # waypoints in range before it heads out again (long after the patrol below replaces it)
     center.ctl("add", "patrol", f"{B}:Patrol", "--uses", "starfish.odometry=read", "--uses",
                "starfish.radio=read", "--uses", "starfish.wheels=command", "--period", "0.05",
-               "-o", "speed=250", "-o", "waypoints=[[3.2, 3.4], [1.5, 3.0]]")
+               "-o", "speed=250", "-o", "waypoints=[[3.2, 3.4], [1.5, 3.0], [1.5, 2.0]]")
     w = get_when(center, "watcher", lambda r: len(r["events"]) >= 2, 120, "the radio cut and healed")
     assert [e[0] for e in w["events"][:2]] == ["down", "up"]
     assert w["events"][1][1] <= 2.9
