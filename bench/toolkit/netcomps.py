@@ -31,12 +31,12 @@ class Pusher(Behavior):
     """Commands actuator ``arm`` every step (each send gives up after ``timeout``, default
     0.6 s: the docs' advice for a 1 s step; 0.2 s was too short for a loaded CI machine
     across the veth); provide(): the actuator's last answer and what went wrong (for a `read`
-    registration: the refusal)."""
+    registration: the refusal) with how many sends failed in all."""
 
     period = 0.05
 
     def start(self):
-        self.last, self.errors, self.sent = None, [], 0
+        self.last, self.errors, self.sent, self.failed = None, [], 0, 0
         try:
             self.arm = self.attach_actuator(self.options.get("actuator", "arm"))
         except (Refused, CommandError) as exc:
@@ -52,10 +52,12 @@ class Pusher(Behavior):
             self.last = self.arm.send({"push": self.sent},
                                       timeout=float(self.options.get("timeout", 0.6)))
         except (CommandError, ResourceLost, Refused) as exc:
+            self.failed += 1
             self.errors = (self.errors + [str(exc)])[-5:]
 
     def provide(self, requester):
-        return {"last": self.last, "sent": self.sent, "errors": self.errors}
+        return {"last": self.last, "sent": self.sent, "errors": self.errors,
+                "failed": self.failed}
 
 
 class Locate(Behavior):

@@ -82,9 +82,12 @@ class Commands:
     there: a poll of a remote robot's state costs a command, not an interpreter's start
     (a wait polls often). Ended with the namespaces (Net.close)."""
 
-    def __init__(self, host: netsim.Host):
+    def __init__(self, host: netsim.Host, session: str | None = None):
+        e = env()
+        if session is not None:                  # a login (ESAIR_STD_SESSION)
+            e["ESAIR_STD_SESSION"] = session
         self.proc = host.python("-c", _SERVE, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-                                stderr=subprocess.DEVNULL, text=True, env=env(), cwd=str(HERE))
+                                stderr=subprocess.DEVNULL, text=True, env=e, cwd=str(HERE))
         self._lock = threading.Lock()
 
     def run(self, *args: str, timeout: float = 60.0) -> tuple[int, str, str]:
@@ -110,8 +113,10 @@ class Center:
     """``esair std run FILE --mode MODE`` on ``host``, listening on its address."""
 
     def __init__(self, host: netsim.Host, folder: Path, deployment: str, tls: bool = False,
-                 *extra: str, mode: str = "process"):
+                 *extra: str, mode: str = "process", session: str | None = None):
+        """``session``: ESAIR_STD_SESSION of its control commands (:meth:`ctl`), e.g. a login."""
         self.host = host
+        self.session = session
         self.endpoint = f"{'tls' if tls else 'tcp'}/{host.addr}:{PORT}"
         folder.mkdir(parents=True, exist_ok=True)
         path = folder / "robot.yaml"
@@ -129,7 +134,7 @@ class Center:
         """An `esair std` control command run on the control center's computer (by its
         :class:`Commands`): its output, or its error when it failed."""
         if self._commands is None or self._commands.proc.poll() is not None:
-            self._commands = Commands(self.host)
+            self._commands = Commands(self.host, self.session)
         args = (*args, "-e", endpoint or self.endpoint, "-r", self.robot)
         status, out, err = self._commands.run(*args)
         if check and status:

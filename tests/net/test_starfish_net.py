@@ -115,6 +115,11 @@ def get_when(center, name, ok, timeout, what):
                              f"{center.run.output()[-4000:]}") from None
 
 
+def _any(answer) -> bool:
+    """get_when's ok for a single answer (any answer will do)."""
+    return True
+
+
 def wait_running(center, names, timeout, what):
     """Wait until every one of ``names`` is running; on a timeout their rows say why."""
     rows: dict = {}
@@ -154,15 +159,18 @@ def test_starfish_hears_turns_shoots_and_reconnects_across_a_veth(net, tmp_path)
     assert abs(math.degrees(wrap(math.atan2(src[1] - pose[1], src[0] - pose[0]) - pose[2]))) <= 5.0
     cols = cam.marker_columns(cam.decode((store / meta["file"]).read_bytes()))
     assert len(cols) > 3 and abs(cols.mean() - 160) <= 25
-    before = center.get("localize")
+    before = get_when(center, "localize", _any, 30, "localize's answer")
     assert before["lost_frames"] == 0 and before["bad_frames"] == 0
 
     # 2. the patrol path out of range: the veth goes down, reconnect drives back, it heals
     link = LinkWatch(net[0])
     center.ctl("remove", "patrol")
+    # straight out through the gap above the inner wall (its end at (3.0, 2.5)): the cut
+    # comes 3.0 m from the access point at (1, 1), near (3.1, 3.2); after the heal two
+    # waypoints in range before it heads out again (long after the patrol below replaces it)
     center.ctl("add", "patrol", f"{B}:Patrol", "--uses", "starfish.odometry=read", "--uses",
                "starfish.radio=read", "--uses", "starfish.wheels=command", "--period", "0.05",
-               "-o", "speed=250", "-o", "waypoints=[[2.5, 3.2], [4.8, 3.2], [1.5, 3.0]]")
+               "-o", "speed=250", "-o", "waypoints=[[3.2, 3.4], [1.5, 3.0], [1.5, 2.0]]")
     w = get_when(center, "watcher", lambda r: len(r["events"]) >= 2, 120, "the radio cut and healed")
     assert [e[0] for e in w["events"][:2]] == ["down", "up"]
     assert w["events"][1][1] <= 2.9
@@ -172,24 +180,30 @@ def test_starfish_hears_turns_shoots_and_reconnects_across_a_veth(net, tmp_path)
     # the remote behaviors resume: frames flow again (a short cut may lose none: the
     # transport delivers what waited for the link)
     wait_running(center, ("localize", "turn_and_shoot"), 90, "the remote center back")
-    n = center.get("localize")["frames"]
+    n = get_when(center, "localize", _any, 30, "localize's answer")["frames"]
     after = get_when(center, "localize", lambda r: r["frames"] > n + 10, 60, "frames after the heal")
     assert after["bad_frames"] == 0
-    assert center.get("patrol")["link_losses"] >= 1
+    get_when(center, "patrol", lambda r: r["link_losses"] >= 1, 30, "patrol's link losses")
 
     # 3. the remote center killed outright: the robot patrols on; started again, it rejoins
     center.ctl("remove", "patrol")
+    # a short patrol where the robot is: here and 0.4 m toward the access point (in range)
+    pose = json.loads(center.ctl("sample", "starfish.odometry"))
+    x, y = pose["x"], pose["y"]
+    d = math.hypot(1.0 - x, 1.0 - y)
+    legs = [[round(x, 3), round(y, 3)],
+            [round(x + 0.4 * (1.0 - x) / d, 3), round(y + 0.4 * (1.0 - y) / d, 3)]]
     center.ctl("add", "patrol", f"{B}:Patrol", "--uses", "starfish.odometry=read", "--uses",
                "starfish.radio=read", "--uses", "starfish.wheels=command", "--period", "0.05",
-               "-o", "speed=250", "-o", "waypoints=[[1.5, 1.5], [2.3, 1.5]]")
+               "-o", "speed=250", "-o", f"waypoints={json.dumps(legs)}")
     sigkill(loc)
     sigkill(tas)
-    reached = center.get("patrol")["reached"]
+    reached = get_when(center, "patrol", _any, 30, "patrol's answer")["reached"]
     get_when(center, "patrol", lambda r: r["reached"] >= reached + 2, 60, "patrol without the center")
     loc, tas = remote_center(net[1], center.endpoint, store)
     wait_running(center, ("localize", "turn_and_shoot"), 90, "the remote center again")
-    n = center.get("localize")["frames"]
-    wait_for(lambda: center.get("localize")["frames"] > n, 30, what="frames at the new center")
+    n = get_when(center, "localize", _any, 30, "localize's answer")["frames"]
+    get_when(center, "localize", lambda r: r["frames"] > n, 30, "frames at the new center")
     ls = center.ls()
     assert {k: ls[k]["state"] for k in ("patrol", "watcher", "reconnect", "starfish.wheels")} == {
         "patrol": "running", "watcher": "running", "reconnect": "running", "starfish.wheels": "ready"}

@@ -7,6 +7,8 @@ are refused without a crash."""
 
 from __future__ import annotations
 
+import subprocess
+
 import pytest
 
 from esair_std.transport.tls_certs import make_certs
@@ -87,15 +89,19 @@ def local(secure):
     return center
 
 
-@pytest.mark.parametrize("who, pki", [(None, None), ("pusher", "other")])
-def test_no_certificate_or_a_wrong_one_gets_no_session(secure, who, pki):
+def test_no_certificate_or_a_wrong_one_gets_no_session(secure):
+    """An agent with no certificate and one with a certificate of another CA, at once
+    (each tries for the agent's connect window before it gives up)."""
     net, center = secure
-    creds = ["--ca", str(center.pki / "ca.pem")] + (_creds(center, who, pki)[4:] if who else [])
-    proc = agent(net[1], center.endpoint, "pusher", "bench.toolkit.netcomps:Pusher", "--uses", "arm=command",
-                 *creds)
-    assert proc.wait_exit(60) == 1
-    assert proc.lines[-1].startswith(
-        f"error: cannot reach the control center at {center.endpoint}: "), proc.output()
+    procs = {}
+    for who, pki in [(None, None), ("pusher", "other")]:
+        creds = ["--ca", str(center.pki / "ca.pem")] + (_creds(center, who, pki)[4:] if who else [])
+        procs[who, pki] = agent(net[1], center.endpoint, "pusher", "bench.toolkit.netcomps:Pusher",
+                                "--uses", "arm=command", *creds)
+    for case, proc in procs.items():
+        assert proc.wait_exit(60) == 1, (case, proc.output())
+        assert proc.lines[-1].startswith(
+            f"error: cannot reach the control center at {center.endpoint}: "), (case, proc.output())
 
 
 def test_acl_stops_a_valid_certificate_that_is_no_agent_of_the_robot(secure, local):
@@ -163,51 +169,6 @@ security:
   users: users.txt
   agents:
     pusher: {user: pusher}
-resources:
-  arm: {class: "bench.toolkit.netcomps:Wheel", allow: {pusher: command}}
-behaviors:
-  idle: {class: "bench.toolkit.netcomps:Idle"}
-"""
-
-
-def test_user_password_logins_with_the_runtime(tmp_path, monkeypatch):
-    """Logins instead of certificates: a good one joins (its proof an HMAC of the
-    password) and commands the arm; a wrong password gets no session at all."""
-    import json
-
-    (tmp_path / "users.txt").write_text("pusher:s3cret\noperator:op-pw\n")
-    (tmp_path / "good").write_text("s3cret\n")
-    (tmp_path / "bad").write_text("guess\n")
-    # the operator's own login for `esair std get` (the control CLI reads it from here)
-    monkeypatch.setenv("ESAIR_STD_SESSION", json.dumps({
-        "transport/auth/usrpwd/user": "operator", "transport/auth/usrpwd/password": "op-pw"}))
-    with make_net(2) as net:
-        center = Center(net[0], tmp_path, LOGINS)
-        login = ["--robot", "lab", "--user", "pusher", "--password-file"]
-        wrong = agent(net[1], center.endpoint, "pusher", "bench.toolkit.netcomps:Pusher",
-                      "--uses", "arm=command", *login, str(tmp_path / "bad"))
-        assert wrong.wait_exit(60) == 1
-        assert wrong.lines[-1].startswith(
-            f"error: cannot reach the control center at {center.endpoint}: "), wrong.output()
-        good = agent(net[1], center.endpoint, "pusher", "bench.toolkit.netcomps:Pusher",
-                     "--uses", "arm=command", *login, str(tmp_path / "good"))
-
-        def pushed():
-            assert good.proc.poll() is None, good.output()
-            out = center.ctl("get", "pusher", "--timeout", "2", endpoint=center.local,
-                             check=False)
-            return not out.startswith("error") and (json.loads(out)["last"] or {}).get("n", 0)
-        wait_for(pushed, 30, what="pusher's commands through a login")
-
-
-OPERATORS = """
-robot: lab
-mode: process
-endpoint: ENDPOINT
-security:
-  users: users.txt
-  agents:
-    pusher: {user: pusher}
   operators:
     op: {user: op}
 resources:
@@ -217,7 +178,64 @@ behaviors:
 """
 
 
-def test_an_operators_login_works_on_the_main_endpoint_for_the_control_verbs_only(tmp_path):
+def _login(user: str, password: str) -> dict:
+    return {"transport/auth/usrpwd/user": user, "transport/auth/usrpwd/password": password}
+
+
+@pytest.fixture(scope="module")
+def _logins(tmp_path_factory):
+    import json
+
+    folder = tmp_path_factory.mktemp("logins")
+    (folder / "users.txt").write_text("pusher:s3cret\nop:op-pw\nnobody:no-pw\n")
+    (folder / "good").write_text("s3cret\n")
+    (folder / "bad").write_text("guess\n")
+    with make_net(2) as net:
+        # the operator's own login for the `esair std` commands center.ctl runs on the
+        # control center's computer (the control CLI reads it from ESAIR_STD_SESSION)
+        center = Center(net[0], folder, LOGINS, session=json.dumps(_login("op", "op-pw")))
+        center.folder = folder
+        yield net, center
+
+
+@pytest.fixture
+def logins(_logins):
+    """A control center whose peers log in (security.users), with agents' and an
+    operator's logins; shared by the tests, each ending the agents it started."""
+    net = _logins[0]
+    before = {id(p) for p in net[1].procs}
+    yield _logins
+    for proc in net[1].procs:
+        if id(proc) not in before and proc.poll() is None:
+            proc.kill()
+            proc.wait(10)
+
+
+def test_user_password_logins_with_the_runtime(logins):
+    """Logins instead of certificates: a good one joins (its proof an HMAC of the
+    password) and commands the arm; a wrong password gets no session at all."""
+    import json
+
+    net, center = logins
+    login = ["--robot", "lab", "--user", "pusher", "--password-file"]
+    # both at once: the wrong one never gets a session, so it never joins
+    wrong = agent(net[1], center.endpoint, "pusher", "bench.toolkit.netcomps:Pusher",
+                  "--uses", "arm=command", *login, str(center.folder / "bad"))
+    good = agent(net[1], center.endpoint, "pusher", "bench.toolkit.netcomps:Pusher",
+                 "--uses", "arm=command", *login, str(center.folder / "good"))
+    assert wrong.wait_exit(60) == 1
+    assert wrong.lines[-1].startswith(
+        f"error: cannot reach the control center at {center.endpoint}: "), wrong.output()
+
+    def pushed():
+        assert good.proc.poll() is None, good.output()
+        out = center.ctl("get", "pusher", "--timeout", "2", endpoint=center.local,
+                         check=False)
+        return not out.startswith("error") and (json.loads(out)["last"] or {}).get("n", 0)
+    wait_for(pushed, 30, what="pusher's commands through a login")
+
+
+def test_an_operators_login_works_on_the_main_endpoint_for_the_control_verbs_only(logins):
     """security.operators: an operator's login gets the control verbs on the main
     endpoint, from another computer; it cannot speak an agent's verb, read a sensor or
     command an actuator by itself, and a login that is no operator's gets nothing."""
@@ -225,40 +243,41 @@ def test_an_operators_login_works_on_the_main_endpoint_for_the_control_verbs_onl
 
     from bench.toolkit.netstd import cli
 
-    (tmp_path / "users.txt").write_text("pusher:s3cret\nop:op-pw\nnobody:no-pw\n")
+    net, center = logins
+    login = _login
 
-    def login(user: str, password: str) -> dict:
-        return {"transport/auth/usrpwd/user": user, "transport/auth/usrpwd/password": password}
+    def esair(who: dict, *args: str) -> subprocess.Popen:
+        return net[1].popen("env", f"ESAIR_STD_SESSION={json.dumps(who)}",
+                            *cli(*args, "-e", center.endpoint, "-r", "lab"),
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 
-    with make_net(2) as net:
-        center = Center(net[0], tmp_path, OPERATORS)
+    def done(proc: subprocess.Popen) -> subprocess.CompletedProcess:
+        out, err = proc.communicate(timeout=60)
+        return subprocess.CompletedProcess(proc.args, proc.returncode, out, err)
 
-        def esair(who: dict, *args: str):
-            return net[1].run("env", f"ESAIR_STD_SESSION={json.dumps(who)}",
-                              *cli(*args, "-e", center.endpoint, "-r", "lab"),
-                              check=False, timeout=60)
-
-        ls = esair(login("op", "op-pw"), "ls", "--json")
-        assert ls.returncode == 0, ls.stderr
-        assert {r["name"] for r in json.loads(ls.stdout)["components"]} >= {"idle", "arm"}
-        sent = esair(login("op", "op-pw"), "send", "arm", "7")
-        assert sent.returncode == 0, sent.stderr
-        other = esair(login("nobody", "no-pw"), "ls")
-        assert other.returncode == 1
-        assert other.stderr.strip() == (f"error: the runtime of robot 'lab' on {center.endpoint} "
-                                        "did not answer 'ls'")
-        raw = Peer(net[1], {"mode": "client", "scouting/multicast/enabled": False,
-                            "connect/endpoints": [center.endpoint], "listen/endpoints": [],
-                            **login("op", "op-pw")})
-        try:
-            assert raw.error is None, raw.error
-            assert raw.get("esair/lab/ctl/ping", 2.0, "{}") != []          # a control verb
-            # an agent's verb, a behavior's key, an actuator: denied (no answer at all)
-            assert raw.get("esair/lab/ctl/report", 1.0, "{}") == []
-            assert raw.get("esair/lab/bs/idle", 1.0, "{}") == []
-            assert raw.get("esair/lab/actuator/arm", 1.0, "{}") == []
-        finally:
-            raw.close()
+    # the three commands at once (each its own interpreter; the one no operator's
+    # login waits out the command line's timeout)
+    ls, sent, other = map(done, [esair(login("op", "op-pw"), "ls", "--json"),
+                                 esair(login("op", "op-pw"), "send", "arm", "7"),
+                                 esair(login("nobody", "no-pw"), "ls")])
+    assert ls.returncode == 0, ls.stderr
+    assert {r["name"] for r in json.loads(ls.stdout)["components"]} >= {"idle", "arm"}
+    assert sent.returncode == 0, sent.stderr
+    assert other.returncode == 1
+    assert other.stderr.strip() == (f"error: the runtime of robot 'lab' on {center.endpoint} "
+                                    "did not answer 'ls'")
+    raw = Peer(net[1], {"mode": "client", "scouting/multicast/enabled": False,
+                        "connect/endpoints": [center.endpoint], "listen/endpoints": [],
+                        **login("op", "op-pw")})
+    try:
+        assert raw.error is None, raw.error
+        assert raw.get("esair/lab/ctl/ping", 2.0, "{}") != []          # a control verb
+        # an agent's verb, a behavior's key, an actuator: denied (no answer at all)
+        assert raw.get("esair/lab/ctl/report", 1.0, "{}") == []
+        assert raw.get("esair/lab/bs/idle", 1.0, "{}") == []
+        assert raw.get("esair/lab/actuator/arm", 1.0, "{}") == []
+    finally:
+        raw.close()
 
 
 def test_a_remote_behavior_puts_through_the_bs_and_nobody_puts_in_its_name(secure, local):
