@@ -28,8 +28,12 @@ class Chan:
 
 class FoxClient:
     def __init__(self, url: str, origin: str | None = None):
+        # max_queue=None: frames are read off the socket as they come, also between
+        # pumps, so close() gets the server's close frame at once (with the default
+        # 16-frame queue full, reading stops and close() waits out its 10 s)
         self._cm = connect(url, subprotocols=[SUBPROTOCOL],   # type: ignore[list-item]
-                           origin=origin, max_size=None)  # type: ignore[arg-type]
+                           origin=origin, max_size=None,  # type: ignore[arg-type]
+                           max_queue=None)
         self.ws: ClientConnection = self._cm.__enter__()
         self.channels: dict[int, Chan] = {}
         self.services: dict[str, int] = {}
