@@ -11,7 +11,7 @@ import json
 import struct
 import time
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Callable
 
 from websockets.sync.client import ClientConnection, connect
 
@@ -48,8 +48,9 @@ class FoxClient:
     def close(self) -> None:
         self._cm.__exit__(None, None, None)
 
-    def pump(self, seconds: float = 0.2) -> None:
-        """Read what comes for ``seconds``; subscribe to each new channel."""
+    def pump(self, seconds: float = 0.2, until: Callable[[], bool] | None = None) -> None:
+        """Read what comes for ``seconds``, or until ``until()`` holds after a frame;
+        subscribe to each new channel."""
         end = time.monotonic() + seconds
         while True:
             left = end - time.monotonic()
@@ -60,6 +61,8 @@ class FoxClient:
             except TimeoutError:
                 return
             self._frame(frame)
+            if until is not None and until():
+                return
 
     def wait_ready(self, timeout: float = 15.0) -> None:
         """Read until the server has said who it is and advertised its channels and
@@ -107,9 +110,7 @@ class FoxClient:
         enc = b"json"
         self.ws.send(struct.pack("<BIII", 2, self.services[service], call, len(enc)) + enc
                      + json.dumps(body).encode())
-        end = time.monotonic() + timeout
-        while call not in self.answers and time.monotonic() < end:
-            self.pump(0.1)
+        self.pump(timeout, until=lambda: call in self.answers)
         return self.answers.pop(call)
 
     def advertise(self, topic: str, encoding: str = "json") -> int:
@@ -130,7 +131,5 @@ class FoxClient:
         """Send ``frame``; the next status message the server sends."""
         seen = len(self.statuses)
         self.ws.send(frame)
-        end = time.monotonic() + timeout
-        while len(self.statuses) == seen and time.monotonic() < end:
-            self.pump(0.1)
+        self.pump(timeout, until=lambda: len(self.statuses) > seen)
         return self.statuses[seen]
