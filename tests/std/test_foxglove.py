@@ -30,6 +30,7 @@ from esair_std.drivers.minlink.emulated import EmulatedRobot
 from esair_std.record import SCHEMA, read_samples
 from esair_std.record.recorder import Recorder
 from tests.support.foxcheck import decode
+from tests.support.scenarios import push_soon
 from bench.toolkit.foxclient import FoxClient
 from tests.support.hmi import PAPAMAN, ROOT, HmiRun, free_port, wait_for
 
@@ -146,7 +147,7 @@ def test_every_channel_live_and_recorded_decodes_against_its_schema(live, tmp_pa
             # the robot pulled and plugged back (the link's channel), its push held
             # until the link is up again (it reconnects with a backoff)
             live.emu.kill()
-            live.emu.start(["--scenario", "push", "--hold-scenario"])
+            live.emu.start(["--scenario", str(push_soon(tmp_path)), "--hold-scenario"])
         pushed = [0.0]
 
         def everything():
