@@ -57,9 +57,10 @@ once, ahead of every command waiting, which fails with :class:`Held`, as does ev
 line but the stop, the version and the polls (sensors keep flowing) until
 ``hold(False)``. Right after the stop line the firmware's own reactions are held too
 (``h1``, where the command table has the ``hold`` verb: a reaction that fires then sends
-``!H`` and moves nothing, docs/protocol.md). While held, each (re)connect writes the
-stop line and ``h1`` before any other byte (a STOP made while the link was down, or a
-robot reset since, which releases its reactions, is told first thing). ``hold(False)``
+``!H`` and moves nothing, docs/protocol.md); no poll goes between the two. While held,
+each (re)connect writes the stop line and ``h1`` before any other byte (a STOP made
+while the link was down, or a robot reset since, which releases its reactions, is told
+first thing). ``hold(False)``
 sends ``h0``; one that could not go is sent at the next connect. A reaction's ``!R``
 while held (one that fired before ``h1`` arrived, or a robot without the verb), and a
 robot's ``!READY`` (a reset, which releases its reactions, while the port stayed open)
@@ -221,6 +222,9 @@ class Link:
             self._held_lines.add(self._hold_lines[0])
         self._release_due = False       # an h0 that could not go: sent at the next connect
         self._told_held = False         # the last connect wrote the stop line and h1
+        # hold(True) under way: polls wait from the stop line until h1 is written, so
+        # that h1 follows the x with no poll between (the window a reaction may fire)
+        self._holding = False
 
     # -- life cycle -----------------------------------------------------------------------
     def open(self) -> None:
@@ -369,9 +373,17 @@ class Link:
                 self._release_due = True
             return None
         self.stats.add("holds")
-        ex = self.send_stop()
-        if ex is not None:
-            self._send_hold(True)
+        with self._lock:
+            self._holding = self._hold_lines is not None
+        try:
+            ex = self.send_stop()
+            if ex is not None:
+                self._send_hold(True)
+        finally:
+            with self._lock:
+                held_polls, self._holding = self._holding, False
+            if held_polls:          # h1 did not go: the polls that waited go now
+                self._release()
         return ex
 
     @property
@@ -412,6 +424,8 @@ class Link:
 
     def _may_go(self, ex: Exchange) -> bool:
         """(lock held) May ``ex`` be written now? (the module docstring, "Full duplex")"""
+        if ex.poll and self._holding:
+            return False                    # h1 goes first (hold())
         flight = self._flight
         if not flight:
             return True
@@ -429,6 +443,8 @@ class Link:
         wire = ex.wire if now - self._last_write < RESYNC_IDLE_S else RESYNC + ex.wire
         # sent before the write: its reply may come before write() returns
         ex.sent, ex.t_sent, ex.sent_bytes = True, now, len(wire)
+        if self._holding and self._hold_lines is not None and ex.line == self._hold_lines[0]:
+            self._holding = False           # h1 written: the polls may follow it
         if self._flight:
             self.stats.add("duplex")               # written while a reply arrives
         self._last_write = now
