@@ -18,7 +18,7 @@ import subprocess
 import sys
 import threading
 import time
-from typing import TYPE_CHECKING, Any, Callable
+from typing import TYPE_CHECKING, Any, Callable, Iterator
 
 from esair_min import sigs
 
@@ -646,14 +646,28 @@ class ProcessMode:
         else:
             self.rt.note_change()
 
-    def start_component(self, spec: Spec, generation: int) -> ProcessComponent:
-        child = ProcessComponent(self, spec, generation)
+    @contextlib.contextmanager
+    def _spawning(self, child: ProcessComponent | ProcessResource) -> Iterator[None]:
+        """The child spawned and greeted while it is pending (its hello finds it here);
+        killed if anything in the block fails."""
+        key = (child.spec.name, child.generation)
         with self._lock:
-            self._pending[(spec.name, generation)] = child
+            self._pending[key] = child
             self._pending_cond.notify_all()
         try:
             child.spawn()
             child.wait_hello()
+            yield
+        except BaseException:
+            child.kill()
+            raise
+        finally:
+            with self._lock:
+                self._pending.pop(key, None)
+
+    def start_component(self, spec: Spec, generation: int) -> ProcessComponent:
+        child = ProcessComponent(self, spec, generation)
+        with self._spawning(child):
             deadline = time.monotonic() + START_TIMEOUT
             while True:                          # its first report: running or failed
                 child.changed.clear()
@@ -669,29 +683,12 @@ class ProcessMode:
                     raise ComponentError(f"{spec.kind} {spec.name!r} did not start within"
                                          f" {START_TIMEOUT:g} s")
                 sigs.wait(child.changed, left)
-        except BaseException:
-            child.kill()
-            raise
-        finally:
-            with self._lock:
-                self._pending.pop((spec.name, generation), None)
         return child
 
     def start_resource(self, spec: Spec, generation: int = 1) -> ProcessResource:
         child = ProcessResource(self, spec, generation)
-        with self._lock:
-            self._pending[(spec.name, generation)] = child
-            self._pending_cond.notify_all()
-        try:
-            child.spawn()
-            child.wait_hello()
-        except BaseException:
-            child.kill()
-            raise
-        finally:
-            with self._lock:
-                self._pending.pop((spec.name, generation), None)
-        self._resources[spec.name] = child
+        with self._spawning(child):
+            self._resources[spec.name] = child
         return child
 
     def watch(self, now: float) -> float | None:

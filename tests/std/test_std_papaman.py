@@ -105,11 +105,14 @@ def test_a_put_starts_the_dance(start, emulated, robot):
     rt.wait_state("sequencer", "running")
     rt.put("sequencer", ["dance"], timeout=2.0)
     wait_for(lambda: rt.get("sequencer")["done"] == ["dance"], what="the dance played")
-    rt.stop()
-    emu.stop()
     dance = robot.motion("dance")
     frames = [b"\x00" + b"".join(bytes(encode(a, f.speeds()[i])) for i, a in enumerate(f.angles))
               for f in dance.frames]
+    # "done" is the sequencer's host-clock estimate: the robot's trace says when it played
+    wait_for(lambda: sum(len(w) == 25 for _, w in actuator_writes(emu.trace)) >= len(frames),
+             what="the dance's frames in the trace")
+    rt.stop()
+    emu.stop()
     writes = [(t, w) for t, w in actuator_writes(emu.trace) if len(w) == 25]
     assert [w for _, w in writes] == frames                       # every frame, in order
     ticks = [t for t, _ in writes]
@@ -216,8 +219,13 @@ def test_the_example_runs_its_own_emulated_robot(start, tmp_path):
     wait_for(lambda: rt.get("sequencer")["done"] == ["stand_up", "dance"], what="two ops")
     logged = wait_for(lambda: (g := rt.get("logger"))["records"] and g, what="a record")
     assert set(logged["records"][-1]) == {"t", "sequencer", "watcher"}
+
+    def frames() -> list[bytes]:
+        return [w for _, w in actuator_writes(trace) if len(w) == 25]
+    # "done" is the sequencer's host-clock estimate; a starved emulator may still be
+    # writing the dance's last frames: wait for the robot's own trace to show them
+    wait_for(lambda: len(frames()) >= 1 + 32, what="the dance's frames in the trace")
     rt.stop()
     assert emulators_with(str(trace)) == []               # the child is gone
     assert not [t for t in threading.enumerate() if t.name.startswith("minlink")]
-    frames = [w for _, w in actuator_writes(trace) if len(w) == 25]
-    assert len(frames) == 1 + 32                           # stand's frame, the dance's 32
+    assert len(frames()) == 1 + 32                         # stand's frame, the dance's 32

@@ -46,6 +46,9 @@ def test_std_drives_the_c_firmware(start, firmware, robot):
         assert [r[0] for r in got["results"]] == ["ok", "CommandError", "ok"]
         rt.put("sequencer", ["dance"], timeout=2.0)
         wait_for(lambda: rt.get("sequencer")["done"] == ["dance"], what="the dance")
+        # "done" is the sequencer's host-clock estimate: the firmware's trace says when
+        wait_for(lambda: sum(len(w) == 25 for _, w in actuator_writes(list(c.lines)))
+                 >= len(robot.motion("dance").frames), what="the dance's frames in the trace")
         rt.stop()
     finally:
         lines = c.stop()
