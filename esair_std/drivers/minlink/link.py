@@ -40,7 +40,8 @@ their order and shape, and resynchronises whenever it cannot be sure:
   time could answer either: the link cannot tell, and goes down (below);
 - no reply within ``timeout``, or a port error: the link is **down**. The commands in
   flight fail with :class:`LinkDown`, the port is closed, and the I/O thread reopens
-  it with exponential backoff; it is up again once a ``v`` probe is answered by the robot
+  it with exponential backoff, at once when the port's file is made anew (plugged
+  in); it is up again once a ``v`` probe is answered by the robot
   of the board files (servo and sensor count, checksum setting). While down, commands
   fail at once with :class:`LinkDown`; ``on_state`` reports every change.
 
@@ -114,6 +115,7 @@ QUEUE_MAX = 64              # commands waiting for their turn; more are refused,
 MAX_IN_FLIGHT = 2           # full duplex: one reply arriving, the next command written
 DIFFERENT_ROBOT = "a different robot answers on"
 OUT_OF_STEP = "replies out of step"
+PORT_LOOK_S = 0.05          # while down: how often the port's file is looked at (made anew?)
 LOCK_WAIT_S = 3.0           # a port another program holds is tried again this long: a link
                             # reconnecting to a pty number that is now this robot's holds
                             # it for its probe (a `v` or two), then lets go
@@ -799,7 +801,7 @@ class Link:
     def _reconnect(self) -> None:
         delay = self.backoff[0]
         told = ""
-        while not self._stop.wait(delay):
+        while not self._wait_or_port_made(delay):
             held = self.may_open() if self.may_open is not None else None
             try:
                 if held is not None:
@@ -824,6 +826,19 @@ class Link:
                 self.on_state(True, "up")
             self._after_up()
             return
+
+    def _wait_or_port_made(self, delay: float) -> bool:
+        """Wait ``delay`` before the next try (True: the link closes), or less: a port
+        made anew meanwhile (a device plugged in, a link the emulated robot's start
+        replaced) is tried at once. A port that stays as it was waits out the backoff."""
+        seen = _port_node(self.port)
+        end = time.monotonic() + delay
+        while (left := end - time.monotonic()) > 0:
+            if self._stop.wait(min(left, PORT_LOOK_S)):
+                return True
+            if _port_node(self.port) != seen:
+                return False
+        return self._stop.is_set()
 
     def _connect(self) -> Serial:
         """Open the port and probe it with ``v``; the robot must be the board files' one."""
@@ -949,6 +964,15 @@ def _lines_of(commands: RobotCommands, actions: tuple[str, ...]) -> list[str]:
         except LinkError:
             pass
     return out
+
+
+def _port_node(path: str) -> tuple[int, int, int] | None:
+    """The port's file itself (a symbolic link not followed): made anew, it differs."""
+    try:
+        st = os.lstat(path)
+    except (OSError, ValueError):           # none (unplugged), or a URL, not a file
+        return None
+    return st.st_dev, st.st_ino, st.st_ctime_ns
 
 
 def _fd_of(port: Serial) -> int | None:
