@@ -25,12 +25,11 @@ def test_a_full_mailbox_loses_no_delivered_put_and_keeps_its_bounds(start, mode,
                                        "release": str(release), "deadline": 120}}})
     told: dict[str, dict[int, bool]] = {s: {} for s in ("big0", "big1", "big2", "s0", "s1")}
 
-    def send(sender: str, refusals: int = REFUSALS) -> None:
-        """Up to EACH puts (big0: as many as the mailbox takes), until ``refusals`` in a
-        row were refused: the mailbox is full for this sender's kind, and each refusal
-        waits out its timeout."""
+    def send(sender: str, most: int = EACH, refusals: int = REFUSALS) -> None:
+        """Up to ``most`` puts, until ``refusals`` in a row were refused: the mailbox is
+        full for this sender's kind, and each refusal waits out its timeout."""
         row = 0
-        for i in range(EACH if refusals == REFUSALS else 10 * INBOX):
+        for i in range(most):
             try:
                 rt.put("sink", {"i": i, "pad": BIG if sender.startswith("big") else ""},
                        timeout=0.3, sender=sender)
@@ -41,7 +40,7 @@ def test_a_full_mailbox_loses_no_delivered_put_and_keeps_its_bounds(start, mode,
                     return
     # plain offers first, until the mailbox takes no more of them: they must leave the
     # reserved room free; then both kinds at once
-    send("big0", refusals=1)
+    send("big0", most=10 * INBOX, refusals=1)
     threads = [threading.Thread(target=send, args=(s,)) for s in told if s != "big0"]
     for t in threads:
         t.start()
