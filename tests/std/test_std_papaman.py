@@ -131,10 +131,10 @@ def test_the_push_reaches_the_watcher_and_its_stop_the_robot(start, emulated, ro
     # stop, then stand (tried again while the firmware's own balance motion plays: E07);
     # the firmware's `!R` notice comes on its own sensor, in no set order with the
     # reaction's commands: both waited for
-    got = wait_for(lambda: (w := rt.get("watcher"))["reactions"]
-                   and w["reactions"][0]["sent"] == ["x", "t"]
-                   and w["firmware_reactions"] >= 1 and w, timeout=15,
-                   what="the watcher's reaction and the firmware's notice")
+    wait_for(lambda: rt.get("watcher")["reactions"], timeout=30, what="the watcher's reaction")
+    got = wait_for(lambda: (w := rt.get("watcher"))["reactions"][0]["sent"] == ["x", "t"]
+                   and w["firmware_reactions"] >= 1 and w, timeout=30,
+                   what="its stop and stand sent, and the firmware's notice")
     rt.stop()
     emu.stop()
     reaction = got["reactions"][0]
