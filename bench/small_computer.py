@@ -23,6 +23,7 @@ side by side:
 
     python bench/small_computer.py [--robots papaman,starfish] [--modes thread,process]
         [--window 10] [--n 100] [--shots 3] [--asks 20] [--caps capped,uncapped] [--tree DIR]
+        [--starts N]   # only the start, N times: its CPU seconds
 Prints figures; asserts nothing. Every control group it made is removed at the end
 (also on an error or Ctrl-C), after every process in it has been ended.
 """
@@ -434,6 +435,8 @@ def one(robot: str, mode: str, limit: bool, args) -> dict:
             # start's floor under the cap is this over the cap's share, however loaded
             # (the deployment's checking child included: reaped, it counts in its parent's)
             res["start_cpu_s"] = sum(cpu_of(cap.pids(), children=True).values())
+            if args.starts:            # --starts: the start alone (the group ends it all)
+                return res
             time.sleep(args.settle)
             pids = cap.pids()
             c0, t0 = cpu_of(pids), time.monotonic()
@@ -444,8 +447,6 @@ def one(robot: str, mode: str, limit: bool, args) -> dict:
             res["rss_mb"], res["pss_mb"], res["each"] = memory_of(pids)
             res["processes"] = len(pids)
             res.update(control_asks(ep, robot, args.asks))
-            if mode == "process":
-                res.update(control_asks(ep, robot, args.asks, frozen=cap.pids()))
             child.stdin.write("go\n")
             child.stdin.flush()
             line = child.stdout.readline()
@@ -453,6 +454,10 @@ def one(robot: str, mode: str, limit: bool, args) -> dict:
                 res["error"] = f"the robot side exited ({child.wait()}) during the figure"
                 return res
             fig = json.loads(line)
+            if mode == "process":
+                # after the figure: behaviors stopped longer than the link lease (2 s)
+                # lose their links, and the samples sent meanwhile (counted as missed)
+                res.update(control_asks(ep, robot, args.asks, frozen=cap.pids()))
             res.update(cap.memory_events())
             child.stdin.write("end\n")
             child.stdin.flush()
@@ -528,7 +533,8 @@ def register_writes(fig: dict, trace: Path, wall0: float, virt0: int) -> dict:
     lat = [(w - s) * 1e3 for s, w in zip(sent, writes)]
     return {"cmd_p50_ms": pct(lat, 0.5), "cmd_p99_ms": pct(lat, 0.99), "cmd_n": len(lat),
             "cmd_errors": fig["errors"], "writes": len(writes),
-            "samples": fig["feet"]["samples"], "lost": fig["feet"]["lost"]}
+            "samples": fig["feet"]["samples"], "lost": fig["feet"]["lost"],
+            "missed": fig["feet"].get("missed"), "overwritten": fig["feet"].get("overwritten")}
 
 
 def audio_sim_pct(dep: dict, frames: int = 150) -> float:
@@ -589,7 +595,8 @@ def show(rows: list[dict], floor_ms: float) -> None:
             print(f"{'':26s} command -> register write p50 {r['cmd_p50_ms']:.2f} ms, "
                   f"p99 {r['cmd_p99_ms']:.2f} ms = {r['cmd_p99_ms'] / floor_ms:.2f}x the "
                   f"line-and-tick floor {floor_ms:.2f} ms (n {r['cmd_n']}, errors "
-                  f"{r['cmd_errors']}); feet samples {r['samples']}, lost {r['lost']}")
+                  f"{r['cmd_errors']}); feet samples {r['samples']}, lost {r['lost']} "
+                  f"(missed {r.get('missed')}, overwritten {r.get('overwritten')})")
         else:
             each = ", ".join("none in 30 s" if s is None else
                              f"{s[0]:.2f} s ({s[0] / max(s[1], 1e-3):.2f}x floor {s[1]:.2f} s)"
@@ -599,6 +606,25 @@ def show(rows: list[dict], floor_ms: float) -> None:
             print(f"{'':26s} the room's audio simulation alone: {r['sim_cpu_pct']:.1f} % of a "
                   f"core (rendered here): the robot side without it "
                   f"{r['cpu_pct'] - r['sim_cpu_pct']:.1f} %")
+
+
+def start_only(robot: str, mode: str, limit: bool, args) -> dict:
+    """``--starts N``: N starts, each to every component running, then ended: the CPU
+    each took (far less noisy than its wall time on a shared machine) and the time."""
+    runs = [one(robot, mode, limit, args) for _ in range(args.starts)]
+    cpu = sorted(r["start_cpu_s"] for r in runs if "error" not in r)
+    wall = sorted(r["ready_s"] for r in runs if "error" not in r)
+    tag = f"{robot:8s} {mode:7s} {'capped' if limit else 'uncapped':8s}"
+    if not cpu:
+        print(f"{tag} ERROR: {runs[-1].get('error')}")
+        return {"robot": robot, "mode": mode, "capped": limit, "runs": runs}
+    print(f"{tag} {len(cpu)} starts (the deployment: {runs[-1].get('how') or '?'}): CPU "
+          f"median {cpu[len(cpu) // 2]:.3f} s (min {cpu[0]:.3f}, max {cpu[-1]:.3f}; "
+          f"{cpu[len(cpu) // 2] / CPU_SHARE:.2f} s at {CPU_SHARE:.0%} of a core), start -> "
+          f"ready median {wall[len(wall) // 2]:.2f} s (min {wall[0]:.2f}, max {wall[-1]:.2f}); "
+          f"load {os.getloadavg()[0]:.1f}", flush=True)
+    return {"robot": robot, "mode": mode, "capped": limit, "start_cpu_s": cpu,
+            "ready_s": wall}
 
 
 def _interrupted(*_) -> None:
@@ -615,6 +641,8 @@ def main() -> None:
     ap.add_argument("--n", type=int, default=100, help="PAPA-MAN: commands")
     ap.add_argument("--shots", type=int, default=3, help="STARFISH: shots")
     ap.add_argument("--asks", type=int, default=20, help="rounds of ls + ping")
+    ap.add_argument("--starts", type=int, default=0, metavar="N",
+                    help="only start the robot side, N times each: the CPU each start took")
     ap.add_argument("--tree", metavar="DIR",
                     help="run the esair_std of the checkout DIR (an older commit) under "
                          "this bench: a before beside an after")
@@ -658,6 +686,9 @@ def main() -> None:
     for robot in args.robots.split(","):
         for mode in args.modes.split(","):
             for cap in args.caps.split(","):
+                if args.starts:
+                    rows.append(start_only(robot, mode, cap == "capped", args))
+                    continue
                 rows.append(one(robot, mode, cap == "capped", args))
                 show(rows[-1:], floor)
     print(json.dumps({"rows": rows, "floor_ms": floor, "cpu_share": CPU_SHARE,

@@ -59,4 +59,7 @@ class SeqCounter(Behavior):
             self.last = s.seq
 
     def provide(self, requester):
-        return {"samples": self.samples, "lost": self.lost}
+        # where the lost ones went: never reached the handle (a link down), or pushed out
+        # of it before this read them (None: a checkout from before the count)
+        return {"samples": self.samples, "lost": self.lost,
+                "missed": getattr(self.h, "missed", None), "overwritten": self.h.overwritten}

@@ -52,6 +52,10 @@ class SensorHandle(_Handle):
         self._state_fn = state_fn
         self.received = 0          # samples that reached this handle
         self.overwritten = 0       # samples dropped because samples() was not called in time
+        # samples the sensor numbered between two that reached this handle but that never
+        # did (its link was down: a process stopped longer than the link lease, a cut)
+        self.missed = 0
+        self._seq: int | None = None
         self._draining = False     # samples() was called: the reader wants every sample
         self.detached = False
 
@@ -60,6 +64,9 @@ class SensorHandle(_Handle):
         if self.detached:
             return
         with self._lock:
+            if self._seq is not None and sample.seq > self._seq + 1:
+                self.missed += sample.seq - self._seq - 1
+            self._seq = sample.seq         # a restarted sensor numbers from 1 again
             if len(self._buf) == self._buf.maxlen and self._draining:
                 self.overwritten += 1
             self._buf.append(sample)
@@ -79,7 +86,8 @@ class SensorHandle(_Handle):
         return out
 
     def counters(self) -> dict[str, int]:
-        return {"received": self.received, "overwritten": self.overwritten}
+        return {"received": self.received, "overwritten": self.overwritten,
+                "missed": self.missed}
 
 
 class ActuatorHandle(_Handle):

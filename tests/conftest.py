@@ -74,6 +74,28 @@ def pic_firmware(robot, tmp_path_factory):
     return board
 
 
+@pytest.fixture(scope="session")
+def papaman_boot(tmp_path_factory):
+    """PAPA-MAN generated, its central alone built as ``esair build`` does (the
+    bootloader and ``firmware-app.hex`` included): a BoardBuild. A flash of the central
+    needs nothing of the other boards (``esair flash``/``esair run`` check only the
+    flashed board's .hex); without the toolchain the test fails with the install hint."""
+    from esair_min.pic.bootbuild import build_boot
+    from esair_min.pic.build import BoardBuild
+    from esair_min.resources import resolve_robot
+
+    try:
+        tc = toolchain()
+    except BuildError as exc:
+        pytest.fail(str(exc), pytrace=False)
+    out = tmp_path_factory.mktemp("boot")
+    generate_robot(load_robot(resolve_robot("papaman")), out)
+    folder = out / "central"
+    usage = build_board(folder, tc)
+    return BoardBuild("central", folder, usage, "pic18f452",
+                      build_boot(folder, tc, "papaman", "central"))
+
+
 #: gcc flags of the sanitized host builds (address and undefined behaviour, no recovery)
 SANITIZE = "-fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer"
 
@@ -119,7 +141,7 @@ def fast_robot(tmp_path_factory):
 # pty, a network or a browser is also ``slow``, as is every process-mode run;
 # `-m "not slow"` is the fast loop.
 _BY_FOLDER = {"net": "net", "hmi": "browser"}
-_BY_FIXTURE = {"pic_firmware": "gpsim"}
+_BY_FIXTURE = {"pic_firmware": "gpsim", "papaman_boot": "gpsim"}
 _SLOW_NEEDS = {"net", "browser", "gpsim", "avr", "pty"}
 
 

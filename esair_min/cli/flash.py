@@ -43,7 +43,8 @@ class _Bar:
             self.shown = (phase, quarter)
 
 
-def _flash_pic(hex_path: Path, port: str, baud: int | None, progress: _Bar) -> None:
+def _flash_pic(hex_path: Path, port: str, baud: int | None, progress: _Bar,
+               wait: float = 10.0) -> None:
     import importlib
 
     try:    # the PIC path (esair_min/flash/pic.py) comes with ESAIR's PIC bootloader
@@ -53,7 +54,7 @@ def _flash_pic(hex_path: Path, port: str, baud: int | None, progress: _Bar) -> N
                          "which this version of ESAIR does not have yet (Debian has no PIC "
                          "programmer package): program it with the PIC vendor's tools "
                          "(docs/hardware.md)") from None
-    pic.flash_pic(hex_path, port, baud=baud or 115200, progress=progress)
+    pic.flash_pic(hex_path, port, baud=baud or 115200, progress=progress, connect_timeout=wait)
 
 
 @click.command(short_help="Put a board's firmware on its chip (avrdude for ATmega328P).")
@@ -76,13 +77,17 @@ def _flash_pic(hex_path: Path, port: str, baud: int | None, progress: _Bar) -> N
 @click.option("--yes", is_flag=True, help="Do not ask before writing fuses.")
 @click.option("--attempts", type=click.IntRange(1, 20), default=3, show_default=True,
               help="Times avrdude tries to reach the bootloader (about 5 s each).")
+@click.option("--wait", type=click.FloatRange(0.5, 600), default=10.0, show_default=True,
+              metavar="SECONDS",
+              help="A PIC18F452 board: how long to say hello to its bootloader (reset the "
+                   "board meanwhile).")
 @click.option("-o", "--output", "build_dir", metavar="DIR",
               help="The build folder (default build/ROBOT); built first when a board file "
                    "is newer than the .hex.")
 @click.option("--dry-run", is_flag=True, help="Print the avrdude command; change nothing.")
 @friendly
 def flash(robot: str, role: str, port: str, bootloader: str, programmer: str | None,
-          baud: int | None, write_fuses: bool, yes: bool, attempts: int,
+          baud: int | None, write_fuses: bool, yes: bool, attempts: int, wait: float,
           build_dir: str | None, dry_run: bool) -> None:
     """Build (if needed), write and verify one board's firmware.
 
@@ -108,7 +113,7 @@ def flash(robot: str, role: str, port: str, bootloader: str, programmer: str | N
             click.echo(f"flash_pic {fw.hex_path} {port} (ESAIR's serial bootloader)")
             return
         with PortLock(port):
-            _flash_pic(fw.hex_path, port, baud, bar)
+            _flash_pic(fw.hex_path, port, baud, bar, wait)
         click.echo(f"{role}: {fw.hex_path} written to {port} and verified")
         return
     fuses = None
@@ -202,13 +207,14 @@ def _wait_ready(ser: Any, timeout: float = 10.0) -> str | None:
     return _line_starting(ser, "!READY", timeout)
 
 
-def _booted(link: Any, part: str) -> str | None:
+def _booted(link: Any, part: str, wait: float = 10.0) -> str | None:
     """The central board's boot line: its ``!READY`` (opening the port reset an Arduino),
-    or for a PIC18F452 board, which no port reset reaches, its reply to ``v``."""
+    or for a PIC18F452 board, which no port reset reaches, its reply to ``v``; None
+    when none comes in ``wait`` seconds."""
     if part != "pic18f452":
-        return _wait_ready(link)
+        return _wait_ready(link, wait)
     link.reset_input_buffer()
-    return _line_starting(link, "OK esair-min", 10.0, ask=b"v\r\n")
+    return _line_starting(link, "OK esair-min", wait, ask=b"v\r\n")
 
 
 def _write_motions(model: Robot, ser: Any) -> None:
@@ -234,12 +240,16 @@ def _write_motions(model: Robot, ser: Any) -> None:
               show_default=True, help="The boards' bootloader (as esair flash).")
 @click.option("--attempts", type=click.IntRange(1, 20), default=3, show_default=True,
               help="Times avrdude tries to reach a bootloader.")
+@click.option("--wait", type=click.FloatRange(0.5, 600), default=10.0, show_default=True,
+              metavar="SECONDS",
+              help="How long the central board has to say which build it runs before it "
+                   "is flashed (a board holding no application never says).")
 @click.option("-o", "--output", "build_dir", metavar="DIR",
               help="The build folder (default build/ROBOT).")
 @click.option("--log", "log_path", type=click.Path(dir_okay=False), metavar="FILE",
               help="The monitor's log (as esair monitor --log).")
 @friendly
-def run(robot: str, ports: tuple[str, ...], bootloader: str, attempts: int,
+def run(robot: str, ports: tuple[str, ...], bootloader: str, attempts: int, wait: float,
         build_dir: str | None, log_path: str | None) -> None:
     """Build the robot (if a board file changed), flash each board given a port unless
     it already runs the built firmware (the central board: the build id of its !READY;
@@ -269,7 +279,7 @@ def run(robot: str, ports: tuple[str, ...], bootloader: str, attempts: int,
             click.echo(f"built {out}", err=True)
         if role == central:
             link = open_port(port, baud, 0.1)       # (opening resets an Arduino)
-            ready = _booted(link, fw.part)
+            ready = _booted(link, fw.part, wait)
             want = central_build_id(model)
             if ready is not None and f"build={want}" in ready.split():
                 click.echo(f"{role}: {port} already runs build {want}: not flashed")

@@ -103,9 +103,12 @@ def load_image(hex_path: Path) -> PicImage:
 class Bootloader:
     """The protocol over an open serial port (pySerial's read/write/reset_input_buffer)."""
 
-    def __init__(self, port: Any, name: str) -> None:
+    def __init__(self, port: Any, name: str, reply_s: float = REPLY_S) -> None:
         self.port = port
         self.name = name
+        # how long a reply may take: a real line's host and adapter add their delays;
+        # a simulated line with a host that answers at once needs only the chip's
+        self.reply_s = reply_s
         # a simulated line (esair_min.pic.gpsim_line) keeps its own time
         self.clock: Callable[[], float] = getattr(port, "clock", time.monotonic)
         self.sleep: Callable[[float], None] = getattr(port, "sleep", time.sleep)
@@ -122,9 +125,11 @@ class Bootloader:
         return data
 
     def exchange(self, cmd: str, address: int = 0, data: bytes = b"", reply: int = 0,
-                 timeout: float = REPLY_S, retries: int = RETRIES) -> bytes:
-        """Send a frame; its reply's data (``reply`` bytes after 'K'). A damaged or
-        missing reply, or the bootloader seeing a damaged frame, sends it again."""
+                 timeout: float | None = None, retries: int = RETRIES) -> bytes:
+        """Send a frame; its reply's data (``reply`` bytes after 'K'), waited for
+        ``timeout`` s (``reply_s`` by default). A damaged or missing reply, or the
+        bootloader seeing a damaged frame, sends it again."""
+        timeout = self.reply_s if timeout is None else timeout
         why = "no answer"
         for _ in range(retries):
             self.port.reset_input_buffer()

@@ -21,4 +21,4 @@ Number = Union[StrictInt, StrictFloat]
 
 
 class Section(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, defer_build=True)

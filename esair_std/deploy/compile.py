@@ -2,10 +2,11 @@
 
 Runs where pydantic may be loaded (``esair std run``'s short-lived checking child):
 the deployment read and checked as ``esair std check`` does, every class imported and
-its options checked, then each resource whose class has ``prepare_entry`` (a driver:
-``MinLink``) prepared — its options checked and its board model reduced to what it
-uses — and all of it written as JSON with the list of files it was made from (the
-deployment, each class's module, the board files), which the cache hashes.
+its options checked, then each component whose class has ``prepare_entry`` (a driver:
+``MinLink``; a behavior: STARFISH's ``TurnAndShoot``) prepared — its options checked
+and its board model reduced to what it uses — and all of it written as JSON with the
+list of files it was made from (the deployment, each class's module, the board files),
+which the cache hashes.
 """
 
 from __future__ import annotations
@@ -42,18 +43,20 @@ def compile_deployment(path: str | Path, edit: Callable[[Document], None] | None
         if module_file:
             inputs.append(str(module_file))
         prepare = getattr(cls, "prepare_entry", None)
-        if spec.kind == "resource" and callable(prepare):
+        if callable(prepare):
             try:
                 prepared = prepare(dict(spec.options), spec.base_dir, spec.name)
-            except Exception:  # noqa: BLE001 - its open() fails the same way, as it would
+            except Exception:  # noqa: BLE001 - its open()/start() fails the same way
                 prepared = None
             if isinstance(prepared, dict):
                 inputs += [str(f) for f in prepared.get("inputs", ())]
-            # a serial link (a MinLink or a class derived from it): a page's link bar
-            # shows it, though the runtime never imports its class (observe.v_describe)
-            link: JSONObject = {"link": True}
-            spec = Spec.from_json({**spec.to_json(), "prepared": {
-                **(prepared if isinstance(prepared, dict) else {}), **link}})
+            # a resource's: a serial link (a MinLink or a class derived from it): a page's
+            # link bar shows it, though the runtime never imports its class
+            # (observe.v_describe)
+            link: JSONObject = {"link": True} if spec.kind == "resource" else {}
+            if spec.kind == "resource" or isinstance(prepared, dict):
+                spec = Spec.from_json({**spec.to_json(), "prepared": {
+                    **(prepared if isinstance(prepared, dict) else {}), **link}})
         specs.append(spec)
     plain = PlainDeployment(dep.robot, dep.mode, dep.endpoint, str(dep.base_dir),
                             dep.source, specs)

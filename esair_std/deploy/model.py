@@ -63,7 +63,7 @@ LevelName = Annotated[
 
 
 class _Frozen(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, defer_build=True)
 
 
 class RestartPolicy(_Frozen):
@@ -86,7 +86,7 @@ class ComponentSpec(BaseModel):
     everything under ``options:``); options go to the component as ``self.options``.
     """
 
-    model_config = ConfigDict(extra="forbid", frozen=True, populate_by_name=True,
+    model_config = ConfigDict(extra="forbid", frozen=True, populate_by_name=True, defer_build=True,
                               json_schema_extra={"additionalProperties": True})
     KEYS: ClassVar[tuple[str, ...]] = COMMON_KEYS
 

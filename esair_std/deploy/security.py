@@ -21,7 +21,7 @@ IDENT = r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,63}$"     # a certificate CN or a login
 class AgentIdentity(BaseModel):
     """Who a remote agent is on the link: its certificate's CN or its login."""
 
-    model_config = ConfigDict(frozen=True, extra="forbid")
+    model_config = ConfigDict(frozen=True, extra="forbid", defer_build=True)
     cn: StrictStr | None = Field(None, pattern=IDENT,
                                  description="common name of the agent's client certificate")
     user: StrictStr | None = Field(None, pattern=IDENT,
@@ -37,7 +37,7 @@ class AgentIdentity(BaseModel):
 class SecuritySpec(BaseModel):
     """Transport security of the runtime's sessions."""
 
-    model_config = ConfigDict(frozen=True, extra="forbid")
+    model_config = ConfigDict(frozen=True, extra="forbid", defer_build=True)
     ca: Path | None = Field(None, description="the CA that signed the peers' certificates (PEM)")
     cert: Path | None = Field(None, description="this computer's certificate (PEM)")
     key: Path | None = Field(None, description="this computer's private key (PEM)")

@@ -82,7 +82,8 @@ def write(k: str, deployment: object, inputs: object) -> None:
     try:
         where.mkdir(parents=True, exist_ok=True)
         with open(tmp, "w", encoding="utf-8") as f:
-            json.dump({"deployment": deployment, "inputs": inputs}, f)
+            # dumps: C's encoder (json.dump to a file takes Python's)
+            f.write(json.dumps({"deployment": deployment, "inputs": inputs}))
         os.replace(tmp, where / f"{k}.json")
     except OSError:
         try:

@@ -14,6 +14,7 @@ from __future__ import annotations
 import gc
 import json
 import os
+import sys
 import threading
 from collections.abc import Callable
 from pathlib import Path
@@ -74,7 +75,7 @@ def _in_child(path: str | Path, edit: Callable[[Document], None] | None) -> obje
             answer, code = f"{type(exc).__name__}: {exc}", 1
         try:
             with os.fdopen(w, "w", encoding="utf-8") as f:
-                json.dump(answer, f)
+                f.write(json.dumps(answer))     # dumps: C's encoder (dump's is Python's)
         finally:
             os._exit(code)                        # no atexit, no flush of the parent's buffers
     os.close(w)
@@ -89,9 +90,58 @@ def _in_child(path: str | Path, edit: Callable[[Document], None] | None) -> obje
 
 def _check(path: str | Path, edit: Callable[[Document], None] | None) -> object:
     """In the child: the plain deployment and the hashes of the files it came from."""
+    # ESAIR's own check, not the user's validation: no pydantic plugins, which pydantic
+    # looks for by reading every installed package's entry points (unless told which)
+    if "PYDANTIC_DISABLE_PLUGINS" not in os.environ:
+        os.environ["PYDANTIC_DISABLE_PLUGINS"] = "__all__"
+        _no_plugin_loader()
+    _pydantic_without_asyncio()
     from ..deploy.compile import compile_deployment
     made = compile_deployment(path, edit)
     if made is None:
         return "not plain: the deployment has a security section"
     plain, inputs = made
     return {"deployment": plain, "inputs": cache.hashes(inputs)}
+
+
+def _pydantic_without_asyncio() -> None:
+    """Import pydantic without all of asyncio: its import marks its deprecated methods
+    with ``typing_extensions.deprecated``, which imports ``asyncio.coroutines`` (and so
+    the whole package, ssl included: about a sixth of pydantic's import) only to ask
+    whether each is a coroutine function. In the checking child, which imports nothing
+    of asyncio before and exits after one check, that question is answered as Python
+    3.11's asyncio does, by a stand-in removed right after; a later ``import asyncio``
+    gets the real one."""
+    if "asyncio" in sys.modules or "pydantic.main" in sys.modules:
+        import pydantic.main  # already imported, or asyncio is (nothing to spare)
+        return
+    import inspect
+    import types
+    marker = object()
+    pkg, coroutines = types.ModuleType("asyncio"), types.ModuleType("asyncio.coroutines")
+    vars(coroutines).update(_is_coroutine=marker, iscoroutinefunction=lambda f: (
+        inspect.iscoroutinefunction(f) or getattr(f, "_is_coroutine", None) is marker))
+    vars(pkg).update(coroutines=coroutines)
+    stand_ins = {"asyncio": pkg, "asyncio.coroutines": coroutines}
+    sys.modules.update(stand_ins)
+    try:
+        import pydantic.main  # noqa: F401
+    finally:
+        for name, module in stand_ins.items():
+            if sys.modules.get(name) is module:
+                del sys.modules[name]
+
+
+def _no_plugin_loader() -> None:
+    """With its plugins off, pydantic's plugin loader answers "none" to the question it
+    is asked at each validator pydantic builds, but its module imports
+    ``importlib.metadata`` (email and csv with it: about 3 % of a start's instructions)
+    first. In the checking child, its one function, answering as it does with plugins
+    off, stands in for it (should pydantic ask it for more, the check fails in the child
+    and the runtime's process checks the deployment itself: slower, not wrong)."""
+    import types
+    name = "pydantic.plugin._loader"
+    if name not in sys.modules:
+        loader = types.ModuleType(name)
+        vars(loader).update(get_plugins=lambda: ())
+        sys.modules[name] = loader

@@ -75,7 +75,7 @@ def stored_picture(hmi: StarfishHmi) -> str | None:
 def test_the_last_picture_shows_on_the_picture_panel_also_on_a_page_opened_later(
         starfish_hmi, browser):
     page, errors = open_page(browser, starfish_hmi.url)
-    starfish_hmi.std("configure", "starfish.mics", "source", '{"x": 1.0, "y": 3.5, "on": true}')
+    starfish_hmi.configure("starfish.mics", "source", {"x": 1.0, "y": 3.5, "on": True})
     # sound -> localize -> turn_and_shoot turns and shoots: the picture it stored is the
     # one the page shows (byte for byte)
     page.wait_for_function("() => { const p = window.__hmi.generic.panels['starfish.pictures'];"
@@ -90,7 +90,7 @@ def test_the_last_picture_shows_on_the_picture_panel_also_on_a_page_opened_later
                            " return i.complete && i.naturalWidth === 320 && i.naturalHeight === 240; }")
     # silence: no more shots. A page opened now still gets the last picture (the HMI
     # keeps each sensor's last sample for a page's hello)
-    starfish_hmi.std("configure", "starfish.mics", "source", '{"x": 1.0, "y": 3.5, "on": false}')
+    starfish_hmi.configure("starfish.mics", "source", {"x": 1.0, "y": 3.5, "on": False})
     later, errors2 = open_page(browser, starfish_hmi.url)
     later.wait_for_function("() => { const p = window.__hmi.generic.panels['starfish.pictures'];"
                             " return p && p.img.src.startsWith('data:image/png;base64,'); }")
@@ -105,8 +105,8 @@ def test_localize_bearing_shows_on_a_dial_and_points_at_the_source_on_the_map(
     hmi = starfish_hmi
     # turn_and_shoot would turn the robot to face the sound (a bearing near 0 tells little):
     # without it patrol keeps its heading and the bearing stays large
-    if "turn_and_shoot" in hmi.std("ls"):
-        hmi.std("remove", "turn_and_shoot")
+    if "turn_and_shoot" in [row["name"] for row in hmi.call("ls", {"all": True})]:
+        hmi.call("remove", {"name": "turn_and_shoot"}, timeout=30)
     page, errors = open_page(browser, hmi.url)
     page.wait_for_function(f"() => {MAP} && {MAP}.view.pose")
     x, y, th = page.evaluate(f"() => {MAP}.view.pose")
@@ -117,7 +117,7 @@ def test_localize_bearing_shows_on_a_dial_and_points_at_the_source_on_the_map(
         sx, sy = x + 1.5 * math.cos(th + side * math.pi / 2), y + 1.5 * math.sin(th + side * math.pi / 2)
         if x0 + 0.3 < sx < x1 - 0.3 and y0 + 0.3 < sy < y1 - 0.3:
             break
-    hmi.std("configure", "starfish.mics", "source", json.dumps({"x": sx, "y": sy, "on": True}))
+    hmi.configure("starfish.mics", "source", {"x": sx, "y": sy, "on": True})
     page.wait_for_function(f"""() => {MAP}.landmarks.some(l => l.kind === 'sound' && l.on &&
         Math.abs(l.x - {sx}) < 1e-3 && Math.abs(l.y - {sy}) < 1e-3)""", timeout=10000)
     # the ray (the odometry's heading + localize's bearing) points at the source from the

@@ -8,12 +8,12 @@ agreeing."""
 
 from __future__ import annotations
 
-import json
 import re
 
 import pytest
 
 from esair_std.drivers.minlink.emulated import EmulatedRobot
+from esair_std.errors import StdError
 from tests.support.hmi import PAPAMAN, Robot, esair_std, open_page, wait_for
 from tests.std.test_std_stop import DANCE_FRAMES, DANCES, after_stop, frames
 
@@ -47,8 +47,12 @@ def latch_text(page) -> str:
 
 
 def test_stop_in_the_page_holds_until_an_operator_releases(robot, browser):
+    """The runtime is asked over one control session (as `esair std put/get/ping/send`
+    ask it, without a process each); the command line's refusal is the CLI's own."""
     page, errors = open_page(browser, robot.url)
-    robot.std("put", "sequencer", json.dumps(["dance"] * DANCES))
+    r = robot.call("put", {"to": "sequencer", "data": ["dance"] * DANCES, "timeout": 1.0,
+                           "wait": True}, timeout=6.0)
+    assert r["delivered"], r
     wait_for(lambda: len(frames(robot.trace_lines())) >= 3, what="a dance playing")
     page.click("#stop")
     page.wait_for_function("() => !document.getElementById('latch').hidden")
@@ -66,10 +70,10 @@ def test_stop_in_the_page_holds_until_an_operator_releases(robot, browser):
     r = page.evaluate("window.__hmi.send({op: 'cmd', resource: 'papaman.servo.l_knee', "
                       "command: {angle: 100}})")
     assert not r["ok"] and "stopped by hmi:operator at " in r["error"], r
-    seq = json.loads(robot.std("get", "sequencer"))
-    assert seq["queued"] == [] and seq["playing"] is None, seq
-    assert "STOPPED by hmi:operator at " in robot.std("ls")
-    assert ": STOPPED by hmi:operator at " in robot.std("ping")
+    seq = robot.call("get", {"to": "sequencer", "timeout": 1.0}, timeout=6.0)
+    assert seq["ok"] and seq["data"]["queued"] == [] and seq["data"]["playing"] is None, seq
+    stopped = robot.call("ping")["stopped"]
+    assert stopped["by"] == "hmi:operator", stopped
     # the robot's trace while STOPPED: nothing moved after its x
     lines = robot.trace_lines()
     at, moved = after_stop(lines)
@@ -81,8 +85,8 @@ def test_stop_in_the_page_holds_until_an_operator_releases(robot, browser):
     page.click("#release")
     for p in (page, later):
         p.wait_for_function("() => document.getElementById('latch').hidden")
-    assert ": running" in robot.std("ping")
-    robot.std("send", "papaman.servo.l_knee", "100")
+    assert robot.call("ping")["stopped"] is None
+    robot.send("papaman.servo.l_knee", 100)
     lines = robot.trace_lines()
     assert any(ln.startswith("W 10 ") and len(ln.split()[2]) == 6 for ln in lines[at:])
     assert len(frames(lines)) == cut
@@ -94,21 +98,28 @@ def test_stop_in_the_page_holds_until_an_operator_releases(robot, browser):
 RACE = """async (op) => await window.__hmi.send({op})"""
 
 
-def _send_on_a_live_link(endpoint: str):
-    """`esair std send` of one servo angle. A link that a loaded machine kept past the
-    robot's 1 s reply timeout is lost for a moment and comes back by itself: the send is
-    made again then (a refusal for STOP is never "lost")."""
-    tries: list = []
+def _send_on_a_live_link(robot) -> StdError | None:
+    """The runtime's send of one servo angle (as `esair std send`'s), None once it went
+    through, else what refused it. A link that a loaded machine kept past the robot's
+    1 s reply timeout is lost for a moment and comes back by itself: the send is made
+    again then (a refusal for STOP is never "lost")."""
+    tries: list[StdError | None] = []
 
     def once() -> bool:
-        tries.append(esair_std("send", "papaman.servo.l_knee", "100", "-e", endpoint))
-        return ": lost: " not in tries[-1].stderr
+        try:
+            robot.send("papaman.servo.l_knee", 100)
+            tries.append(None)
+        except StdError as exc:
+            tries.append(exc)
+        return ": lost: " not in str(tries[-1])
 
-    wait_for(once, timeout=30, what=lambda: f"a send on a live link ({tries[-1].stderr})")
+    wait_for(once, timeout=30, what=lambda: f"a send on a live link ({tries[-1]})")
     return tries[-1]
 
 
 def test_stop_and_release_racing_from_two_pages_leave_everyone_agreeing(robot, browser):
+    """Each round the runtime's state is read, and a command sent, over one control
+    session (as `esair std ls` and `send` do, without a process each)."""
     a, errors = open_page(browser, robot.url)
     b, more = open_page(browser, robot.url)
     for _ in range(6):
@@ -117,14 +128,14 @@ def test_stop_and_release_racing_from_two_pages_leave_everyone_agreeing(robot, b
         b.evaluate("() => { window.__race = window.__hmi.send({op: 'release'}); }")
         a.evaluate("() => window.__race")
         b.evaluate("() => window.__race")
-        stopped = json.loads(esair_std("ls", "--json", "-e", robot.endpoint).stdout)["stopped"]
+        stopped = robot.call("ping").get("stopped")
         want = "" if stopped is None else "STOPPED"
         for p in (a, b):
             wait_for(lambda p=p, w=want: latch_text(p).startswith(w)
                      and bool(latch_text(p)) == bool(w),
                      what="the page's banner agreeing with the runtime")
-        r = _send_on_a_live_link(robot.endpoint)
-        assert (r.returncode == 0) == (stopped is None), (stopped, r.stderr)
+        refused = _send_on_a_live_link(robot)
+        assert (refused is None) == (stopped is None), (stopped, refused)
         if stopped is None:
             assert b.evaluate(RACE, "stop")["ok"]           # the next round starts STOPPED
     assert a.evaluate(RACE, "release")["ok"]

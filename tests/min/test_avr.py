@@ -124,15 +124,18 @@ def test_papaman_pic_output_keeps_no_avr_port(tmp_path):
 
 
 @pytest.fixture(scope="session")
-def host_avr(avr_robot, tmp_path_factory):
-    """The papaman-avr central board's core on the host port (the third column)."""
-    out = tmp_path_factory.mktemp("avrhost")
-    generate_robot(avr_robot, out)
-    proc = subprocess.run(["make", "-s", "host"], cwd=out / "central", capture_output=True,
+def host_avr(avr_robot, avr_build, tmp_path_factory):
+    """The papaman-avr central board's core on the host port (the third column), built
+    in a copy of avr_build's generated central folder (the same sources)."""
+    import shutil
+
+    central = tmp_path_factory.mktemp("avrhost") / "central"
+    shutil.copytree(avr_build["central"].folder, central)
+    proc = subprocess.run(["make", "-s", "host"], cwd=central, capture_output=True,
                           text=True, timeout=300)
     assert proc.returncode == 0, proc.stdout + proc.stderr
-    write_hex(build_image(avr_robot), out / "central" / "papaman.hex")
-    return out / "central" / "firmware_host"
+    write_hex(build_image(avr_robot), central / "papaman.hex")
+    return central / "firmware_host"
 
 
 def four_way(robot, host, elf, stimulus: str, work: Path):
@@ -224,8 +227,9 @@ def fast_avr(tmp_path_factory):
         (folder / path.name).write_text(path.read_text().replace("baud: 9600", "baud: 250000"))
     robot = load_robot(folder)
     out = tmp_path_factory.mktemp("fastavr_fw")
-    builds = {b.role: b for b in build_robot(robot, out)}
-    return robot, builds["central"].folder / "firmware.elf"
+    generate_robot(robot, out)
+    build_board(out / "central")          # its runs are the central board's alone
+    return robot, out / "central" / "firmware.elf"
 
 
 @pytest.mark.parametrize("name, e12", [("issue10_gpsim.txt", 1), ("gaps.txt", 4)])

@@ -32,11 +32,15 @@ ENV = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHO
 
 @pytest.fixture(scope="module")
 def build(tmp_path_factory) -> Path:
-    """papaman-avr built once (``esair build``)."""
-    from esair_min.pic.build import build_robot
+    """papaman-avr generated and its central board built once (``esair build``'s steps):
+    every flash here is the central's, and esair flash/run check only the flashed
+    board's .hex."""
+    from esair_min.avr.build import build_board
+    from esair_min.codegen import generate_robot
 
     out = tmp_path_factory.mktemp("build")
-    build_robot(load_robot(BOARDS), out)
+    generate_robot(load_robot(BOARDS), out)
+    build_board(out / "central")
     return out
 
 
@@ -84,20 +88,6 @@ def answers_v(port: Path, timeout: float = 30) -> str:
         ser.close()
 
 
-def test_optiboot_writes_verifies_and_the_chip_then_answers_v(build, tmp_path):
-    chip = tmp_path / "flash.bin"
-    boot = new_chip(chip, "optiboot")
-    assert boot == 0x7E00
-    with SimUno(chip, tmp_path / "ttyUNO", boot) as uno:
-        r = flash(uno.port, build, *AS_A_USER)
-        assert r.returncode == 0, r.stderr
-        assert "written to" in r.stdout and "verified" in r.stdout
-        assert "writing: 100%" in r.stderr and "verifying: 100%" in r.stderr
-        assert holds(uno, build / "central" / "firmware.hex")
-        assert uno.flash_bytes()[0x7E00:] == Path(chip).read_bytes()[0x7E00:]
-        assert answers_v(uno.port).startswith("OK esair-min/1 servos=12 sensors=8 motions=5")
-
-
 def test_the_old_nano_bootloader_as_debian_ships_it(build, tmp_path):
     chip = tmp_path / "flash.bin"
     boot = new_chip(chip, "atmegaboot")
@@ -136,9 +126,16 @@ def test_another_chips_signature(build, tmp_path):
         assert all(b == 0xFF for b in uno.flash_bytes()[:0x3E00])
 
 
-def test_a_byte_damaged_on_the_line_fails_the_verify_and_the_next_flash_succeeds(build, tmp_path):
+def test_a_byte_damaged_fails_the_verify_then_optiboot_writes_verifies_and_the_chip_answers_v(
+        build, tmp_path):
+    """One byte damaged on the line: the verify fails, nothing runs. The chip powered on
+    again, the next flash (as a user runs it) writes and verifies the whole .hex over the
+    damaged image, the bootloader untouched, and the chip then boots the firmware, which
+    answers ``v`` on the same port at 9600 baud."""
     chip = tmp_path / "flash.bin"
     boot = new_chip(chip, "optiboot")
+    assert boot == 0x7E00
+    loader = chip.read_bytes()[0x7E00:]
     hex_path = build / "central" / "firmware.hex"
     # the 2000th byte from the host lies in a page's data (avrdude 7.1's STK500 stream)
     with SimUno(chip, tmp_path / "ttyUNO", boot, damage_at=2000) as uno:
@@ -150,7 +147,12 @@ def test_a_byte_damaged_on_the_line_fails_the_verify_and_the_next_flash_succeeds
     with SimUno(chip, tmp_path / "ttyUNO", boot) as uno:
         r = flash(uno.port, build, *AS_A_USER)
         assert r.returncode == 0, r.stderr
+        assert "written to" in r.stdout and "verified" in r.stdout
+        assert "writing: 100%" in r.stderr and "verifying: 100%" in r.stderr
+        assert f"built {build}" not in r.stderr           # the fixture's build was taken
         assert holds(uno, hex_path)
+        assert uno.flash_bytes()[0x7E00:] == loader
+        assert answers_v(uno.port).startswith("OK esair-min/1 servos=12 sensors=8 motions=5")
 
 
 def test_the_cable_pulled_mid_write_then_the_next_flash_succeeds(build, tmp_path):
@@ -241,11 +243,11 @@ def test_debians_optiboot_hex_does_not_fit_the_boot_section():
         read_flash_hex(shipped, 32768)
 
 
-def run_until_motions(port: Path, build: Path) -> tuple[int, str, str]:
+def run_until_motions(port: Path, build: Path, *extra: str) -> tuple[int, str, str]:
     """``esair run papaman-avr --port PORT`` until it monitors (the motions written or
     skipped), then Ctrl-C (SIGINT): (status, stdout, stderr)."""
     return run_until_monitoring(["run", str(BOARDS), "--port", str(port), "-o", str(build),
-                                 "--attempts", "1"], ENV)
+                                 "--attempts", "1", *extra], ENV)
 
 
 def ready_line(port: Path, timeout: float = 30) -> str:
@@ -269,8 +271,10 @@ def test_run_flashes_writes_the_motions_then_monitors_and_skips_what_is_done(bui
     chip = tmp_path / "flash.bin"
     boot = new_chip(chip, "optiboot")
     with SimUno(chip, tmp_path / "ttyUNO", boot, eeprom=tmp_path / "ee.bin") as uno:
-        status, out, err = run_until_motions(uno.port, build)
+        # a chip holding only its bootloader never says !READY: 1 s to find it out
+        status, out, err = run_until_motions(uno.port, build, "--wait", "1")
         assert status == 130, err
+        assert f"built {build}" not in err                # the fixture's build was taken
         assert re.search(r"central: \d+ bytes written to", out)
         assert re.search(r"motions: wrote (\d+) of \1 chunks", out)
         assert "monitor stopped" in err and "Traceback" not in err

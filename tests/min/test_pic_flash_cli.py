@@ -15,9 +15,6 @@ from pathlib import Path
 
 import pytest
 
-from esair_min.model.validate import load_robot
-from esair_min.pic.build import BuildError, build_robot, toolchain
-from esair_min.resources import resolve_robot
 from tests.support.monitoring import run_until_monitoring
 from tests.support.robot_ptys import open_pty
 
@@ -28,14 +25,10 @@ ENV = {**os.environ, "PYTHONPATH": str(ROOT)}
 
 
 @pytest.fixture(scope="module")
-def built(tmp_path_factory):
-    try:
-        tc = toolchain()
-    except BuildError as exc:
-        pytest.fail(str(exc), pytrace=False)
-    out = tmp_path_factory.mktemp("build")
-    build_robot(load_robot(resolve_robot("papaman")), out, tc, boot=True)
-    return out
+def built(papaman_boot):
+    """The build folder (-o): PAPA-MAN generated, its central built with the bootloader
+    (tests/conftest.py); esair flash and esair run check only the flashed board's .hex."""
+    return papaman_boot.folder.parent
 
 
 def esair(*args: str, timeout: float = 300) -> subprocess.CompletedProcess[str]:
@@ -57,7 +50,8 @@ def test_esair_flash_writes_verifies_and_boots_the_central(built):
                      "-o", str(built))
         assert proc.returncode == 0, proc.stderr
         assert "written to" in proc.stdout and "verified" in proc.stdout
-        assert "verifying" in proc.stderr
+        assert "writing: 100%" in proc.stderr and "verifying: 100%" in proc.stderr
+        assert f"built {built}" not in proc.stderr        # the fixture's build was taken
         with open_pty(port, 9600, timeout=0.2) as p:
             seen = b""
             for _ in range(100):
@@ -74,14 +68,16 @@ def test_esair_flash_writes_verifies_and_boots_the_central(built):
 def test_esair_flash_with_no_bootloader_answering_exits_non_zero(built):
     master, slave = os.openpty()
     tty.setraw(slave)
+    name = os.ttyname(slave)
     try:
-        proc = esair("flash", "papaman", "--board", "central", "--port", os.ttyname(slave),
-                     "-o", str(built))
+        proc = esair("flash", "papaman", "--board", "central", "--port", name,
+                     "-o", str(built), "--wait", "1.5")
     finally:
         os.close(master)
         os.close(slave)
     assert proc.returncode == 1
-    assert "no bootloader answered" in proc.stderr and "Traceback" not in proc.stderr
+    assert f"no bootloader answered on {name} in 1.5 s" in proc.stderr
+    assert "Traceback" not in proc.stderr
 
 
 def test_esair_run_flashes_a_blank_pic_writes_the_motions_then_skips_what_is_done(built):
@@ -98,7 +94,8 @@ def test_esair_run_flashes_a_blank_pic_writes_the_motions_then_skips_what_is_don
         assert line.startswith("pty: "), line
         port = line.split()[1]
         run = ["run", "papaman", "--port", port, "-o", str(built)]
-        status, out, err = run_until_monitoring(run, ENV, ROOT)
+        # a chip holding only its bootloader never answers v: 1 s to find it out
+        status, out, err = run_until_monitoring([*run, "--wait", "1"], ENV, ROOT)
         assert status == 130, out + err
         assert "central: written to" in out and "verified" in out
         assert "motions: wrote 67 of 67 chunks (1070 bytes)" in out, out

@@ -26,15 +26,15 @@ def test_a_sensor_handle_keeps_the_newest_and_counts_what_a_reader_lost():
     for i in (1, 2, 3):
         h.push(sample(i))
     # samples() never called: the reader only looks at latest(), nothing is "lost"
-    assert h.counters() == {"received": 3, "overwritten": 0} and h.latest().seq == 3
+    assert h.counters() == {"received": 3, "overwritten": 0, "missed": 0} and h.latest().seq == 3
     assert [s.seq for s in h.samples()] == [2, 3] and h.samples() == []
     for i in (4, 5, 6, 7, 8):           # into 2 places: 6, 7 and 8 each push one out
         h.push(sample(i))
-    assert h.counters() == {"received": 8, "overwritten": 3}
+    assert h.counters() == {"received": 8, "overwritten": 3, "missed": 0}
     assert [s.seq for s in h.samples()] == [7, 8]
     h.detached = True
     h.push(sample(9))
-    assert h.counters() == {"received": 8, "overwritten": 3} and h.latest().seq == 8
+    assert h.counters() == {"received": 8, "overwritten": 3, "missed": 0} and h.latest().seq == 8
     assert h.state == "detached"
     del states["count"]
     h.detached = False
@@ -43,6 +43,17 @@ def test_a_sensor_handle_keeps_the_newest_and_counts_what_a_reader_lost():
     one.push(sample(1))
     one.push(sample(2))
     assert [s.seq for s in one.samples()] == [2]
+
+
+def test_a_sensor_handle_counts_the_samples_that_never_reached_it():
+    h = SensorHandle("count", 64, {"count": "ready"}.get)
+    for i in (5, 6, 9, 10, 14):        # from 5: those before it reached no handle yet
+        h.push(sample(i))
+    assert h.counters() == {"received": 5, "overwritten": 0, "missed": 2 + 3}
+    for i in (1, 2, 4):                # the sensor restarted: it numbers from 1 again
+        h.push(sample(i))
+    assert h.counters() == {"received": 8, "overwritten": 0, "missed": 5 + 1}
+    assert [s.seq for s in h.samples()] == [5, 6, 9, 10, 14, 1, 2, 4]
 
 
 def test_an_actuator_handle_raises_only_the_documented_errors_and_counts_them():

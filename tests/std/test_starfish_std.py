@@ -100,6 +100,8 @@ def _sound_turns_and_shoots(rt, store):
         math.tan(math.radians(5.0)), cols.mean()
     loc = rt.get("localize")
     assert loc["published"] >= 1 and loc["bad_frames"] == 0
+    # frames due before localize's next step were taken up inside the step as they came
+    assert loc["awaited"] >= 1, loc
     # patrol got the wheels back and goes on
     reached = rt.get("patrol")["reached"]
     get_when(rt, "patrol", lambda p: p["reached"] > reached, 30, "patrol to go on")

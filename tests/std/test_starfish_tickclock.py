@@ -44,3 +44,26 @@ def test_a_restarted_robot_starts_afresh_and_a_wrapped_count_does_not():
     errors = _polls(clock, 109.9041, 110.0, 40, k0=40)          # a new boot: n from 9
     assert clock.resets == 1
     assert all(abs(e) < 0.001 for e in errors[-10:]), errors[-10:]
+
+
+def test_the_poll_at_rest_reads_the_first_tick_after_the_rest():
+    """Odometry.poll_at(t) (the wheels at rest at t): once the polls tell the tick's
+    phase, the extra poll's O is decoded within the first central tick from t (its sums
+    see the rest, and come no later); before, a whole tick after t."""
+    from esair_min.model.validate import load_robot
+    from esair_min.resources import resolve_robot
+    from esair_std.drivers.starfish.omniboard import omni_of
+    from esair_std.drivers.starfish.omnilink import Odometry
+    odo = Odometry(None, omni_of(load_robot(resolve_robot("starfish"))), 20.0,  # type: ignore[arg-type]
+                   (0.0, 0.0, 0.0))
+    origin = 12.3456
+    odo.clock = TickClock(TICK, BYTE)               # this test's board: a 10 ms tick
+    odo.poll_at(105.0)
+    assert odo._poll_at is not None and odo._poll_at >= 105.0 + TICK
+    _polls(odo.clock, origin, 100.0, 40)
+    for t in (105.0, 105.0037, 105.0099):
+        odo.poll_at(t)
+        decoded = odo._poll_at + BYTE              # its 2 bytes' CR
+        first = origin + math.ceil((t - origin) / TICK) * TICK
+        assert first <= decoded < first + TICK, (t, decoded - first)
+        assert decoded - first < 0.004

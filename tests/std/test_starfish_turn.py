@@ -332,3 +332,46 @@ def test_a_stop_off_its_moment_is_corrected_while_the_robot_ramps_down(robot, la
     sim.command("x")
     sim.run_for(0.5)
     assert abs(math.degrees(sim.world.pose.theta - th0 - goal)) < 0.5
+
+
+@pytest.mark.parametrize("name, commands, stop_after", [
+    # a short turn (20 deg) stopped on its way up to the top rate (a triangle)
+    ("short turn", [(0.0, (0, 0, 3000))], 0.11),
+    ("slow start", [(0.0, (0, 0, 1200)), (0.12, (0, 0, 3000))], 0.2),
+    ("top rate", [(0.0, (0, 0, 3000))], 0.5),
+    ("drive ramping in", [(0.0, (200, 0, 0))], 0.05),
+    ("drive reversed", [(0.0, (200, 0, 0)), (0.4, (-200, 0, 0))], 0.46),
+])
+def test_the_wheels_say_when_they_rest_after_a_stop_at_the_latest(robot, monkeypatch, name,
+                                                                  commands, stop_after):
+    """The Wheels actuator's ``at_rest`` after a stop (the driver's extra odometry poll)
+    is never before the emulated drive board's wheels stand, and within two of its
+    control ticks of it; a turn stopped on its way up is told by the ramp from the
+    commands written, not by the speed last commanded (a tick or more sooner)."""
+    from esair_std.drivers.starfish import omnilink
+    from esair_std.drivers.starfish.omniboard import omni_of
+    sim = StarfishSim(robot, World(pose=Pose(3000, 2000, 0.0)), FlowOptions(noise=0.0))
+    sim.keep_trace = True
+    monkeypatch.setattr(omnilink, "time", type("Clock", (), {"monotonic": lambda: sim.now_s}))
+    told: list[float] = []
+    wheels = omnilink.Wheels(None, 600, 3000, omni_of(robot), told.append)  # type: ignore[arg-type]
+    monkeypatch.setattr(wheels, "_send", lambda line: sim.command(line))
+    t0 = sim.now_s
+    for at, (vx, vy, w) in commands:
+        sim.run_until(round((t0 + at) * 1e9))
+        wheels.write({"vx": vx, "vy": vy, "w": w})
+    sim.run_until(round((t0 + stop_after) * 1e9))
+    last = wheels.last
+    wheels.write("stop")
+    replied = sim.now_s
+    sim.run_for(0.6)
+    moving = [r.t_s for r in sim.trace if any(r.wheels)]
+    standing = [r.t_s for r in sim.trace if r.t_s > moving[-1]]
+    tick = omni_of(robot).control_tick_s
+    assert len(told) == 1 and moving[-1] <= told[0] <= standing[0] + 2 * tick, (told, moving[-1])
+    # the speed last commanded: the bound before the ramp was followed
+    step = min(row[3] for row in omni_of(robot).drive)
+    commanded = max(abs(r[0] * last[0] + r[1] * last[1] + r[2] * last[2] / 1000)
+                    for r in omni_of(robot).drive)
+    if name == "short turn":
+        assert told[0] <= replied + (math.ceil(commanded / step) - 5) * tick + 1e-9

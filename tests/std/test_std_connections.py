@@ -1,6 +1,11 @@
 """SC: every sample to every attached behavior (numbered), overwrites counted, nothing
 kept for nobody. AC: commands routed, errors raised to the sender, no arbitration."""
 
+import os
+import signal
+import time
+
+from esair_std.transport.security_config import LEASE_MS
 from tests.support.std import call, wait_for
 
 DEP = {
@@ -34,6 +39,36 @@ def test_every_sample_reaches_every_attached_behavior(start):
     c = rt.inspect("slow")["counters"]["sensor:count"]
     assert c["overwritten"] >= slow["overwritten"] and c["received"] > slow["n"]
     assert rt.inspect("count")["attached"] == ["slow", "w1", "w2", "w3"]
+
+
+def test_samples_that_never_reached_a_behavior_are_counted(start, mode):
+    """Every sample the sensor numbered after a behavior's first is read by it, pushed out
+    of its handle (overwritten) or counted as missed: never reached it (process mode: its
+    process stopped longer than the link lease, its links dropped as a silent
+    computer's). Thread mode has no link: nothing is missed."""
+    rt = start({"resources": {"count": {"class": "tests.support.comps:Counter", "rate": 50,
+                                        "allow": {"*": "read"}}},
+                "behaviors": {"w": {"class": "tests.support.comps:Watcher",
+                                    "uses": {"count": "read"}}}})
+    wait_for(lambda: rt.get("w")["n"] >= 20, what="20 samples")
+    if mode == "process":
+        pid = next(r["pid"] for r in rt.ls() if r["name"] == "w")
+        os.kill(pid, signal.SIGSTOP)
+        try:
+            time.sleep(2.5 * LEASE_MS / 1000)      # the fault: silent past the lease
+        finally:
+            os.kill(pid, signal.SIGCONT)
+    after = rt.inspect("count")["counters"]["seq"] + 50
+    got = wait_for(lambda: (lambda g: g if g["last"] >= after else None)(rt.get("w")),
+                   what="samples after the stop", timeout=30)
+    assert got["overwritten"] == 0
+    assert got["unread"] == got["missed"], got
+    assert got["last"] - got["first"] + 1 == got["n"] + got["missed"]
+    assert rt.inspect("w")["counters"]["sensor:count"]["missed"] >= got["missed"]
+    if mode == "process":
+        assert got["missed"] > 0, got
+    else:
+        assert got["missed"] == 0, got
 
 
 def test_nothing_kept_for_nobody(start):

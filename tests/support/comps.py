@@ -108,7 +108,11 @@ class Watcher(Behavior):
         gaps = sum(1 for a, b in zip(s, s[1:]) if b != a + 1)
         return {"n": len(s), "first": s[0] if s else None, "last": s[-1] if s else None,
                 "gaps": gaps, "overwritten": self.h.overwritten, "state": self.h.state,
-                "notices": self.detach_notices}
+                "notices": self.detach_notices,
+                # the samples numbered between two it read but never read, and the
+                # handle's count of those that never reached it
+                "unread": sum(b - a - 1 for a, b in zip(s, s[1:]) if b > a + 1),
+                "missed": self.h.missed}
 
 
 class Pusher(Behavior):

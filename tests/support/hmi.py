@@ -14,6 +14,7 @@ import sys
 from pathlib import Path
 
 from bench.toolkit import CHROMIUM, CHROMIUM_ARGS, free_port  # noqa: F401  (the tests' too)
+from esair_std.cli.client import Client
 from esair_std.drivers.minlink.emulated import EmulatedRobot
 from tests.support.std import wait_for as std_wait_for
 
@@ -43,6 +44,7 @@ class HmiRun:
         self.endpoint = f"tcp/127.0.0.1:{free_port()}"
         self.url = ""
         self.proc: subprocess.Popen | None = None
+        self.client: Client | None = None
 
     def env(self) -> dict[str, str]:
         return dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
@@ -68,7 +70,21 @@ class HmiRun:
         assert r.returncode == 0, r.stderr
         return r.stdout
 
+    def call(self, verb: str, body: dict | None = None, timeout: float | None = None):
+        """The runtime's answer to a control request, over one session kept open (the
+        one `esair std VERB` opens each time: no process per question)."""
+        if self.client is None:
+            self.client = Client(self.endpoint)
+        return self.client.call(verb, body, timeout)
+
+    def send(self, name: str, value) -> object:
+        """An actuator's answer to ``value``, as `esair std send NAME VALUE` sends it."""
+        return self.call("send", {"name": name, "value": value, "timeout": 1.0}, timeout=6.0)
+
     def stop(self) -> None:
+        if self.client is not None:
+            self.client.close()
+            self.client = None
         if self.proc is not None:
             self.proc.send_signal(signal.SIGTERM)
             self.proc.wait(timeout=30)
@@ -77,11 +93,13 @@ class HmiRun:
 
 class Robot(HmiRun):
     """``esair std run papaman --hmi`` against a traced emulated PAPA-MAN (an operator
-    logs in with PASSWORD)."""
+    logs in with PASSWORD), its push scenario held: its feet at rest until
+    ``emu.play_scenario()`` plays the push (boards/papaman/scenarios/push.yaml)."""
 
     def __init__(self, mode: str, tmp: Path):
         self.trace = tmp / "trace.txt"
-        self.emu = EmulatedRobot(PAPAMAN, ["--trace", str(self.trace)])
+        self.emu = EmulatedRobot(PAPAMAN, ["--trace", str(self.trace), "--scenario", "push",
+                                           "--hold-scenario"])
         super().__init__(mode, tmp, ["papaman"])
 
     def env(self) -> dict[str, str]:
@@ -90,10 +108,6 @@ class Robot(HmiRun):
     def start(self) -> "Robot":
         self.args = ["papaman", "--port", self.emu.start()]
         return super().start()
-
-    def restart_robot(self, *extra: str) -> None:
-        self.emu.kill()
-        self.emu.start(extra)
 
     def status(self) -> dict:
         import urllib.request
@@ -112,18 +126,35 @@ def open_page(browser, url: str, login: bool = True, width: int = 1280, height: 
               ready: str = "window.__hmi.info"):
     """A page on the HMI (logged in as the operator unless ``login`` is False) once its
     WebSocket is up and ``ready`` (a JavaScript expression) holds, and the console errors
-    and page errors it collects."""
-    page = browser.new_page(viewport={"width": width, "height": height})
+    and page errors it collects. ``browser``: the tests' browser context (or a browser)."""
+    page = browser.new_page()
+    if page.viewport_size != {"width": width, "height": height}:
+        page.set_viewport_size({"width": width, "height": height})
     errors: list[str] = []
     page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
     page.on("pageerror", lambda e: errors.append(str(e)))
-    page.goto(url)
+    reopen(page, url, ready)
+    if login:
+        log_in(page)
+    return page, errors
+
+
+def log_in(page) -> None:
+    """The operator logs in: the login form submitted as its button does (one step, not
+    Playwright's typing and click; test_the_page_loads_without_errors_and_lists_every_component
+    clicks)."""
+    page.evaluate("""pw => { document.getElementById("login-pass").value = pw;
+                             document.getElementById("login").requestSubmit(); }""", PASSWORD)
+    page.wait_for_function("() => window.__hmi.role === 'operator'")
+
+
+def reopen(page, url: str, ready: str = "window.__hmi.info") -> None:
+    """``page`` loads ``url`` anew (a new document, a new WebSocket: a page opened then,
+    without a new tab's cost; its errors go on into open_page's list; a tab that logged
+    in logs in again with its token) and returns once its WebSocket is up and ``ready``
+    holds."""
+    page.goto(url, wait_until="commit")
     # ``ready`` may read what the runtime's hello makes (window.__hmi.feet...), which comes
-    # after the WebSocket is up: until then it is false, not an error that ends the wait
+    # after the WebSocket is up: until then it is false (or not yet defined), not an error
     page.wait_for_function(f"() => {{ try {{ return !!(window.__hmi && window.__hmi.wsUp "
                            f"&& ({ready})); }} catch (e) {{ return false; }} }}")
-    if login:
-        page.fill("#login-pass", PASSWORD)
-        page.click("#login button")
-        page.wait_for_function("() => window.__hmi.role === 'operator'")
-    return page, errors

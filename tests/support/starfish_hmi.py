@@ -4,7 +4,6 @@ the HMI on a free port of 127.0.0.1 (every page an operator)."""
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 from tests.support.hmi import ROOT, HmiRun
@@ -26,7 +25,14 @@ class StarfishHmi(HmiRun):
         return env
 
     def get(self, name: str) -> dict:
-        return json.loads(self.std("get", name))
+        """Behavior ``name``'s data (its provide()), as `esair std get` asks it."""
+        r = self.call("get", {"to": name, "timeout": 1.0}, timeout=6.0)
+        assert r["ok"], r
+        return r["data"]
+
+    def configure(self, resource: str, key: str, value: object) -> None:
+        """``key`` of ``resource`` set to ``value``, as `esair std configure` sets it."""
+        self.call("configure", {"resource": resource, "key": key, "value": value})
 
 
 def open_page(browser, url: str):

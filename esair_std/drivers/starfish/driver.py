@@ -232,27 +232,19 @@ class Starfish(MinLink):
         it was not. What needs the room or the line ``open`` checks."""
         from ...deploy.class_options import check_options
         from .options import StarfishOptions
-        from esair_min.model.validate import board_files, load_robot   # pydantic
-        from esair_min.resources import resolve_robot
-        from .omniboard import omni_of
+        from .omniboard import prepare_omni
         try:
             o = check_options(StarfishOptions, dict(options))
         except DeployError as exc:      # an entry added at run time: its options' paths
             raise StarfishError(str(exc)) from None
         assert isinstance(o, StarfishOptions)
         base = Path(base_dir or ".")                      # the deployment file's folder
-        robot_arg = o.robot
         try:
-            path = resolve_robot(in_folder(base, str(robot_arg), must_exist=True))
-            robot = load_robot(path)
-        except EsairError as exc:
-            raise StarfishError(f"robot {robot_arg!r}: {exc}") from None
-        if robot.central.base is None:
-            raise StarfishError(f"robot {robot_arg!r} has no omni base (its central board "
-                                "has no 'base:')")
+            omni, path, inputs = prepare_omni(str(o.robot), base)
+        except ValueError as exc:
+            raise StarfishError(str(exc)) from None
         return {"options": o.model_dump(mode="json"), "path": str(path),
-                "omni": omni_of(robot).to_json(),
-                "inputs": [str(f) for f in board_files(path)]}
+                "omni": omni.to_json(), "inputs": inputs}
 
     def open(self) -> None:
         self.tap: WorldTap | None = None

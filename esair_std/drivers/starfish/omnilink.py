@@ -39,8 +39,9 @@ if TYPE_CHECKING:  # pragma: no cover - the model: a test's, or a driver not pre
 
 #: the omni base's lines by action (docs/protocol.md, STARFISH)
 PREFIX = {"velocity": "V", "odometry": "O", "stop": "x", "version": "v"}
-#: the extra poll after a stop, a central tick and this long after the wheels are at
-#: rest by the ramp: the tick whose flow sums the reply carries came after the rest
+#: the extra poll after a stop, this long after the central board's first tick from
+#: when the wheels are at rest by the ramp: the tick whose flow sums the reply carries
+#: came after the rest
 AT_REST_S = 0.002
 #: the longest ``O`` reply: n=65535 and two sensors' -2147483648,-2147483648,255
 ODOMETRY_REPLY_BYTES = len("OK n=65535") + 2 * len(" a=-2147483648,-2147483648,255") + 2
@@ -106,20 +107,61 @@ class Wheels(LinkAgent, Actuator):
         omni = None if robot is None else omni_of(robot)
         self._drive = () if omni is None else omni.drive
         self.tick = 0.0 if omni is None else omni.control_tick_s
+        # each wheel's rim speed by the drive board's ramp from the commands written (on
+        # this computer's clock, from when each was written: at most the board's), when
+        # the last was written, and its rim speeds; None: not known (a write that failed)
+        self._rims: list[float] | None = [0.0] * len(self._drive)
+        self._since = 0.0
+        self._targets = [0.0] * len(self._drive)
 
-    def _rest_in(self) -> float:
+    def _rims_at(self, t: float) -> list[float] | None:
+        if self.tick <= 0:
+            return None
+        if self._rims is None:
+            # not known since a write that failed or a halt; a second after a stop the
+            # wheels are at rest whatever they did (the ramp down from the top: 0.3 s)
+            if any(self._targets) or t - self._since < 1.0:
+                return None
+            return [0.0] * len(self._drive)
+        out = []
+        for v, target, (_, _, _, step) in zip(self._rims, self._targets, self._drive):
+            change = step * max(0.0, t - self._since) / self.tick
+            out.append(v + max(-change, min(change, target - v)))
+        return out
+
+    def _rest_in(self, now: float) -> float:
         """Seconds from a stop's reply to the wheels at rest, at the latest: the drive
         board takes it at its next control tick and ramps each wheel down by its step a
-        tick from the last speeds commanded, the last step a tick after the first."""
+        tick from its speed, the last step a tick after the first. Its speed: the last
+        commanded, or less where the ramp from the commands written says so (a short
+        turn stopped on its way up), give or take two steps (the board ramps in steps,
+        from its tick after each line arrived)."""
         vx, vy, w = self.last
-        return max(math.ceil(abs(cx * vx + cy * vy + cw * w / 1000) / max(1.0, step))
-                   for cx, cy, cw, step in self._drive) * self.tick
+        rims = self._rims_at(now)
+        ticks = 0
+        for i, (cx, cy, cw, step) in enumerate(self._drive):
+            speed = abs(cx * vx + cy * vy + cw * w / 1000)
+            if rims is not None:
+                speed = min(speed, abs(rims[i]) + 2 * step)
+            ticks = max(ticks, math.ceil(speed / max(1.0, step) - 1e-9))
+        return ticks * self.tick
+
+    def _written(self, targets: list[float] | None, send: Callable[[], object]) -> None:
+        """Write a line (``send``) that sets the wheels' ``targets`` (rim speeds)."""
+        now = time.monotonic()
+        rims, self._rims = self._rims_at(now), None         # unknown if it fails
+        self._since, self._targets = now, list(targets or [1.0])
+        send()
+        if rims is not None and targets is not None and self.tick > 0:
+            self._rims = rims
 
     def write(self, command: JSON) -> dict[str, int]:
         if command == "stop":
-            self._send("x")
+            now = time.monotonic()
+            rest_in = self._rest_in(now) if self._drive else 0.0
+            self._written([0.0] * len(self._drive), lambda: self._send("x"))
             if self.at_rest is not None and self._drive and any(self.last):
-                self.at_rest(time.monotonic() + self._rest_in())
+                self.at_rest(time.monotonic() + rest_in)
             self.last = (0, 0, 0)
             return {"vx": 0, "vy": 0, "w": 0}
         if not isinstance(command, dict) or set(command) - {"vx", "vy", "w"}:
@@ -135,13 +177,17 @@ class Wheels(LinkAgent, Actuator):
                 raise CommandError(self.name, f"{key} {v} {unit} is outside the limit "
                                               f"+-{limit} {unit}")
             out[key] = int(round(v))
-        self._send(velocity_line(out["vx"], out["vy"], out["w"]))
+        targets = [cx * out["vx"] + cy * out["vy"] + cw * out["w"] / 1000
+                   for cx, cy, cw, _ in self._drive]
+        self._written(targets, lambda: self._send(velocity_line(out["vx"], out["vy"], out["w"])))
         self.last = (out["vx"], out["vy"], out["w"])
         return out
 
     def halt(self) -> dict[str, int] | None:
         """The latched STOP's ``x`` (the driver's halt() sent it: the wheels to zero),
         recorded as this actuator's ``stop``; None when it could not go."""
+        self._rims, self._since = None, time.monotonic()     # the wheels ramp down
+        self._targets = [0.0] * len(self._drive)
         return None if self.link.last_stop is None else {"vx": 0, "vy": 0, "w": 0}
 
 
@@ -175,8 +221,15 @@ class Odometry(PolledSensor[str]):
 
     def poll_at(self, t: float) -> None:
         """One poll more at ``t`` (``time.monotonic()``; the wheels at rest after a stop:
-        the frame that sees the robot stand comes then, not up to a period later)."""
-        self._poll_at = t + self.clock.tick + AT_REST_S
+        the frame that sees the robot stand comes then, not up to a period later): just
+        after the central board's first tick from ``t`` where the replies tell its phase
+        (tickclock.py), else a whole tick later."""
+        tick, clock = self.clock.tick, self.clock
+        if clock.low and clock.spread() < 0.25 * tick:
+            first = clock.origin() + math.ceil((t - clock.origin()) / tick) * tick
+            self._poll_at = first + clock.spread() + AT_REST_S
+        else:
+            self._poll_at = t + tick + AT_REST_S
         self._wake.set()
 
     def sleep_until(self, t: float) -> None:

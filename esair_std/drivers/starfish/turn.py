@@ -7,49 +7,55 @@ its commanded speed by that much each control tick). A turn commanded at the top
 and stopped at the right moment follows the time-optimal profile (trapezoid, or triangle
 when too short to reach the top rate): the board's own ramp speeds it up and slows it
 down. :class:`RampModel` replays the commands through that ramp, so the behavior can
-predict where the robot will come to rest if it stops now. Pure computation.
+predict where the robot will come to rest if it stops now. Pure computation, on the
+robot's plain facts (omniboard.OmniBoard; esair_min's model is made into them).
 """
 
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .omniboard import OmniBoard
 
 
 def turn_limits(robot: Any) -> tuple[float, float]:
-    """(top turn rate rad/s, angular acceleration rad/s^2) of an omni base's robot model
-    (esair_min.model): the smallest the central board and every wheel allow."""
-    base = robot.central.base
-    motors = _motors(robot)
-    omega = min([base.max_omega_mrad_s / 1000.0] +
-                [m.limit_mm_s / m.mount_radius_mm for m in motors])
-    accel = min(m.ramp_mm_s2 / m.mount_radius_mm for m in motors)
+    """(top turn rate rad/s, angular acceleration rad/s^2) of an omni base's robot
+    (:class:`~.omniboard.OmniBoard`, or esair_min's model): the smallest the central
+    board and every wheel allow."""
+    omni = _omni(robot)
+    omega = min([omni.max_omega_mrad_s / 1000.0] +
+                [m.limit_mm_s / m.mount_radius_mm for m in omni.motors])
+    accel = min(m.ramp_mm_s2 / m.mount_radius_mm for m in omni.motors)
     return omega, accel
 
 
-def _motors(robot: Any) -> Any:
-    drive = robot.board("drive")
-    if drive is None or base_of(robot) is None:
-        raise ValueError(f"robot {robot.name!r} has no omni base (a central board with "
-                         f"'base:' and a drive board)")
-    return drive.motors
-
-
-def base_of(robot: Any) -> Any:
-    return robot.central.base
+def _omni(robot: Any) -> "OmniBoard":
+    """The robot's plain facts (omniboard.py), the turn's limits among them."""
+    from .omniboard import omni_of
+    omni = omni_of(robot)
+    if not omni.has_turn:
+        raise ValueError("the robot's prepared board facts hold no turn limits (the "
+                         "wheels' limits and ramps): prepare them again (omniboard.py)")
+    return omni
 
 
 def wheel_radius(robot: Any) -> float:
     """The wheels' largest distance from the centre (mm)."""
-    return float(max(m.mount_radius_mm for m in _motors(robot)))
+    return float(max(m.mount_radius_mm for m in _omni(robot).motors))
+
+
+def max_speed(robot: Any) -> float:
+    """The base's top drive speed (mm/s)."""
+    return float(_omni(robot).max_speed_mm_s)
 
 
 def flow_limit(robot: Any) -> tuple[float, float]:
     """(the flow sensors' top speed mm/s, their largest distance from the centre mm): a
     sensor moving faster loses counts, and the odometry its heading."""
-    from esair_min.components.optical_flow.core import MAX_SPEED_IPS, MM_PER_INCH
-    radius = max(math.hypot(f.mount_x_mm, f.mount_y_mm) for f in robot.central.flow_sensors)
-    return MAX_SPEED_IPS * MM_PER_INCH, radius
+    omni = _omni(robot)
+    return omni.flow_max_mm_s, max(math.hypot(f.mount_x_mm, f.mount_y_mm) for f in omni.flow)
 
 
 def profile_time(angle: float, omega: float, accel: float) -> float:
@@ -99,12 +105,11 @@ class WheelRamp(RampModel):
 
     def __init__(self, robot: Any, drive: tuple[float, float] = (0.0, 0.0), sign: float = 1.0,
                  rims: list[float] | None = None):
-        from esair_min.components.omni_base.kinematics import inverse, matrix, wheel_table
-        motors = _motors(robot)
-        wheels = wheel_table(list(motors))
+        omni = _omni(robot)
+        motors = omni.motors
         super().__init__(min(m.ramp_mm_s2 / m.mount_radius_mm for m in motors))
-        self.rows = matrix(wheels)                 # (vx, vy, omega) -> rim speeds
-        self.inv = inverse(wheels)                 # rim speeds -> (vx, vy, omega)
+        self.rows = [row[:3] for row in omni.drive]     # (vx, vy, omega) -> rim speeds
+        self.inv = omni.inverse                         # rim speeds -> (vx, vy, omega)
         self.omega_row = self.inv[2]
         self.ramps = [float(m.ramp_mm_s2) for m in motors]
         # each wheel's rim speed when the first command lands: the drive's, or ``rims``
@@ -152,7 +157,8 @@ def start_plan(robot: Any, drive: tuple[float, float], sign: float, top: float,
     down to 40 % of it, each with the shortest hold (20 ms steps, 0.2 s at most) that
     keeps them under, the one that has turned furthest at 0.25 s: (rate, hold); (top,
     0.0) when the top rate keeps them under at once, (0.0, 0.0) when none does."""
-    sensors = [(float(f.mount_x_mm), float(f.mount_y_mm)) for f in robot.central.flow_sensors]
+    robot = _omni(robot)
+    sensors = [(float(f.mount_x_mm), float(f.mount_y_mm)) for f in robot.flow]
     probe = WheelRamp(robot, drive, sign)
     ramp_out = max(abs(s) / a for s, a in zip(probe.start, probe.ramps)) + 0.02
     times = [0.005 + 0.01 * k for k in range(int(ramp_out / 0.01) + 1)]

@@ -169,9 +169,38 @@ class Localize(Behavior):
         self.lost_frames = 0                 # holes in the frames' own sequence numbers
         self.last_seq = None
         self.last = None
+        self.next_due: float | None = None      # when the next frame should arrive
+        self.last_step = 0.0
+        self.gap = float(self.period or 0.02)   # between two steps, smoothed
+        self.awaited = 0                         # frames taken up inside a step
 
     def step(self):
-        frames = self.mics.samples()
+        now = time.time()
+        if self.last_step:
+            self.gap += 0.2 * (now - self.last_step - self.gap)
+        self.last_step = now
+        self._localize(self.mics.samples())
+        # the next frame, due before the next step, is waited for here and taken up as
+        # it comes (a sound's first frame is heard up to a period sooner), polled every
+        # 2 ms from just before it is due
+        due, now = self.next_due, time.time()
+        if due is None or now >= due + AWAIT_FRAME_S or due - now >= self.gap:
+            return
+        end = due + AWAIT_FRAME_S
+        time.sleep(max(0.0, due - AWAIT_EARLY_S - now))   # asleep until it is nearly due
+        while time.time() < end:
+            time.sleep(0.002)
+            frames = self.mics.samples()
+            if frames:
+                self.awaited += 1
+                self._localize(frames)
+                return
+
+    def _localize(self, frames: list) -> None:
+        last = frames[-1].value if frames else None
+        if isinstance(last, dict) and isinstance(last.get("n"), int) and \
+                isinstance(last.get("rate"), int) and last["rate"] > 0:
+            self.next_due = frames[-1].t + last["n"] / last["rate"]
         if len(frames) > self.max_per_step:
             self.skipped += len(frames) - self.max_per_step
             seq = frames[-self.max_per_step - 1].value.get("seq") if isinstance(
@@ -204,12 +233,16 @@ class Localize(Behavior):
 
     def provide(self, requester):
         return {"last": self.last, "frames": self.frames, "lost_frames": self.lost_frames,
-                "skipped": self.skipped,
+                "skipped": self.skipped, "awaited": self.awaited,
                 "bad_frames": self.bad_frames,
                 "confident": self.confident, "published": self.published,
                 "overwritten": self.mics.overwritten}
 
 
+#: a frame due before localize's next step is waited for inside the step, from this long
+#: before it is due, until this long after (the sensor's poll, its hop to the behavior)
+AWAIT_EARLY_S = 0.002
+AWAIT_FRAME_S = 0.015
 #: the standing frame by the ramp model (TurnAndShoot._at_rest): read this long after the
 #: model's rest (a control tick of each board), and what the robot may still turn after it
 REST_MARGIN_S = 0.02
@@ -257,10 +290,21 @@ class TurnAndShoot(Behavior):
     period = 0.02
     deadline = 3.0
 
+    @classmethod
+    def prepare_entry(cls, options: dict, base_dir: str | None, name: str) -> dict:
+        """The turn's limits from the board files (option ``robot``, default
+        ``starfish``), as plain data: ``esair std run`` calls it where the deployment is
+        checked, so that the robot side never imports the board model (pydantic);
+        ``start`` calls it when it was not (a remote agent). Raises ValueError naming
+        the robot for one that is missing, bad, or has no omni base."""
+        from esair_std.drivers.starfish.omniboard import prepare_omni
+        omni, _path, inputs = prepare_omni(str(options.get("robot", "starfish")),
+                                           Path(base_dir or "."))
+        return {"omni": omni.to_json(), "inputs": inputs}
+
     def start(self):
-        from esair_min.model.validate import load_robot
-        from esair_min.resources import resolve_robot
         from esair_std.drivers.starfish import turn
+        from esair_std.drivers.starfish.omniboard import OmniBoard
         self._turn = turn
         self.patrol = self.options.get("patrol", "patrol")
         self.tolerance = math.radians(float(self.options.get("tolerance_deg", 1.5)))
@@ -268,21 +312,27 @@ class TurnAndShoot(Behavior):
         # arrival (tens of ms on a loaded computer) moves the aim by a fraction of a degree
         self.correction_rate = float(self.options.get("correction_rate", 0.25))
         # the turn's limits from the board files: the top rate and the drive board's ramp
-        robot = self.robot = load_robot(resolve_robot(str(self.options.get("robot", "starfish"))))
+        spec = self._esair.spec
+        prepared: dict = spec.prepared if isinstance(spec.prepared, dict) else {}
+        omni = prepared.get("omni")
+        robot = OmniBoard.from_json(omni) if isinstance(omni, dict) else None
+        if robot is None or not robot.has_turn:        # not prepared beforehand
+            robot = OmniBoard.from_json(
+                self.prepare_entry(dict(self.options), spec.base_dir, self.name)["omni"])
+        self.robot = robot
         omega, self.accel = turn.turn_limits(robot)
         # the flow sensors lose counts beyond their top speed: while the patrol's drive
         # ramps out, the turn starts slower, so the odometry keeps the heading
         self.flow_max, self.flow_r = turn.flow_limit(robot)
         self.wheel_r = turn.wheel_radius(robot)
-        self.max_drive = float(turn.base_of(robot).max_speed_mm_s)
+        self.max_drive = turn.max_speed(robot)
         # the odometry's times from the central board's own tick count (its samples
         # reach this behavior a varying while after the board read the sensors)
-        self.tick = float(getattr(robot.central.timer2, "period_s", 0.01))
+        self.tick = robot.board.tick_s
         # the line: a byte's time, and the bytes of a stop and of a velocity line (their
         # CR is decoded (n - 1) bytes after the first leaves)
-        uart = robot.central.uart
-        self.byte = 10.0 / float(getattr(uart, "baud", 38400))
-        extra = 3 if getattr(uart, "require_checksum", False) else 0
+        self.byte = 10.0 / robot.board.baud
+        extra = 3 if robot.board.checksum else 0
         self.x_bytes, self.v_bytes = 3 + extra, 18 + extra
         # the odometry says when the board read each frame (its tn)
         self.timed = False
@@ -459,6 +509,8 @@ class TurnAndShoot(Behavior):
                     self.turn["at"][self._key("stood")] = time.time()
                     if abs(err) > self.tolerance and self.turn["corrections"] < 1:
                         self._aim()         # the one correction, from the odometry
+                        if self.phase == "turning":
+                            self._turning()     # its creep goes now, not at the next step
                     else:
                         self.turn["odo_th"] = self.headings[-1][1]
                         self._shoot()
