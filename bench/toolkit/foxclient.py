@@ -11,7 +11,7 @@ import json
 import struct
 import time
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Callable
 
 from websockets.sync.client import ClientConnection, connect
 
@@ -28,8 +28,12 @@ class Chan:
 
 class FoxClient:
     def __init__(self, url: str, origin: str | None = None):
+        # max_queue=None: frames are read off the socket as they come, also between
+        # pumps, so close() gets the server's close frame at once (with the default
+        # 16-frame queue full, reading stops and close() waits out its 10 s)
         self._cm = connect(url, subprotocols=[SUBPROTOCOL],   # type: ignore[list-item]
-                           origin=origin, max_size=None)  # type: ignore[arg-type]
+                           origin=origin, max_size=None,  # type: ignore[arg-type]
+                           max_queue=None)
         self.ws: ClientConnection = self._cm.__enter__()
         self.channels: dict[int, Chan] = {}
         self.services: dict[str, int] = {}
@@ -44,8 +48,9 @@ class FoxClient:
     def close(self) -> None:
         self._cm.__exit__(None, None, None)
 
-    def pump(self, seconds: float = 0.2) -> None:
-        """Read what comes for ``seconds``; subscribe to each new channel."""
+    def pump(self, seconds: float = 0.2, until: Callable[[], bool] | None = None) -> None:
+        """Read what comes for ``seconds``, or until ``until()`` holds after a frame;
+        subscribe to each new channel."""
         end = time.monotonic() + seconds
         while True:
             left = end - time.monotonic()
@@ -56,6 +61,8 @@ class FoxClient:
             except TimeoutError:
                 return
             self._frame(frame)
+            if until is not None and until():
+                return
 
     def wait_ready(self, timeout: float = 15.0) -> None:
         """Read until the server has said who it is and advertised its channels and
@@ -103,9 +110,7 @@ class FoxClient:
         enc = b"json"
         self.ws.send(struct.pack("<BIII", 2, self.services[service], call, len(enc)) + enc
                      + json.dumps(body).encode())
-        end = time.monotonic() + timeout
-        while call not in self.answers and time.monotonic() < end:
-            self.pump(0.1)
+        self.pump(timeout, until=lambda: call in self.answers)
         return self.answers.pop(call)
 
     def advertise(self, topic: str, encoding: str = "json") -> int:
@@ -126,7 +131,5 @@ class FoxClient:
         """Send ``frame``; the next status message the server sends."""
         seen = len(self.statuses)
         self.ws.send(frame)
-        end = time.monotonic() + timeout
-        while len(self.statuses) == seen and time.monotonic() < end:
-            self.pump(0.1)
+        self.pump(timeout, until=lambda: len(self.statuses) > seen)
         return self.statuses[seen]

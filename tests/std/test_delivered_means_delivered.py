@@ -16,6 +16,7 @@ from tests.support.std import wait_for
 
 EACH = 40
 BIG = "x" * 9000        # over modes/process.py's RESERVED_BYTES: always a plain offer
+REFUSALS = 3            # refused in a row: a sender stops (the gate never opens meanwhile)
 
 
 def test_a_full_mailbox_loses_no_delivered_put_and_keeps_its_bounds(start, mode, tmp_path):
@@ -24,19 +25,22 @@ def test_a_full_mailbox_loses_no_delivered_put_and_keeps_its_bounds(start, mode,
                                        "release": str(release), "deadline": 120}}})
     told: dict[str, dict[int, bool]] = {s: {} for s in ("big0", "big1", "big2", "s0", "s1")}
 
-    def send(sender: str, until_refused: bool = False) -> None:
-        for i in range(EACH if not until_refused else 10 * INBOX):
+    def send(sender: str, most: int = EACH, refusals: int = REFUSALS) -> None:
+        """Up to ``most`` puts, until ``refusals`` in a row were refused: the mailbox is
+        full for this sender's kind, and each refusal waits out its timeout."""
+        row = 0
+        for i in range(most):
             try:
                 rt.put("sink", {"i": i, "pad": BIG if sender.startswith("big") else ""},
                        timeout=0.3, sender=sender)
-                told[sender][i] = True
+                told[sender][i], row = True, 0
             except ControlError:
-                told[sender][i] = False
-                if until_refused:
+                told[sender][i], row = False, row + 1
+                if row == refusals:
                     return
     # plain offers first, until the mailbox takes no more of them: they must leave the
     # reserved room free; then both kinds at once
-    send("big0", until_refused=True)
+    send("big0", most=10 * INBOX, refusals=1)
     threads = [threading.Thread(target=send, args=(s,)) for s in told if s != "big0"]
     for t in threads:
         t.start()

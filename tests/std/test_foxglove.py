@@ -21,7 +21,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import yaml
 from mcap.reader import make_reader
 from mcap.writer import Writer
 from PIL import Image
@@ -31,6 +30,7 @@ from esair_std.drivers.minlink.emulated import EmulatedRobot
 from esair_std.record import SCHEMA, read_samples
 from esair_std.record.recorder import Recorder
 from tests.support.foxcheck import decode
+from tests.support.scenarios import push_soon
 from bench.toolkit.foxclient import FoxClient
 from tests.support.hmi import PAPAMAN, ROOT, HmiRun, free_port, wait_for
 
@@ -144,19 +144,21 @@ def test_every_channel_live_and_recorded_decodes_against_its_schema(live, tmp_pa
             client.wait_ready()
             assert client.call("command", {"resource": "papaman.servo.l_knee",
                                            "command": {"angle": 100, "speed": 3}}) == (True, "odd100")
-            # the push, again every 5 s: one comes after the link is up again (it
-            # reconnects with a backoff)
-            push = yaml.safe_load((PAPAMAN / "scenarios" / "push.yaml").read_text())
-            push["steps"] = push["steps"][:1] + [dict(step, at_ms=step["at_ms"] + k * 5000)
-                                                 for k in range(1, 13)
-                                                 for step in push["steps"][1:]]
-            (tmp_path / "push.yaml").write_text(yaml.safe_dump(push))
+            # the robot pulled and plugged back (the link's channel), its push held
+            # until the link is up again (it reconnects with a backoff)
             live.emu.kill()
-            live.emu.start(["--scenario", str(tmp_path / "push.yaml")])
+            live.emu.start(["--scenario", str(push_soon(tmp_path)), "--hold-scenario"])
+        pushed = [0.0]
 
         def everything():
             client.pump(0.3)
-            return want <= set(by_topic(client))
+            got = by_topic(client)
+            links = [json.loads(d)["state"] for d in got["/link"]]
+            if (robot == "papaman" and "/papaman/reactions" not in got and "lost" in links
+                    and links[-1] == "ready" and time.monotonic() - pushed[0] > 3.0):
+                live.emu.play_scenario()       # the push: again if its reaction is not seen
+                pushed[0] = time.monotonic()
+            return want <= set(got)
         wait_for(everything, timeout=90, what=lambda: f"every channel of {robot}: "
                  f"{sorted(want - set(by_topic(client)))} missing")
         if robot == "starfish":       # the bearing's arrow: once localize is confident

@@ -254,3 +254,39 @@ def test_a_held_link_holds_the_firmwares_reactions_again_after_a_reset(robot):
         wait_for(lambda: link.stats["hold_lines_sent"] == 2, timeout=10, what="h1 answered")
         link.hold(False)
         assert not core.reactions_held and link.stats["hold_lines_sent"] == 3
+
+
+def test_no_poll_goes_between_the_stop_line_and_h1(robot):
+    """hold(True) writes ``h1`` right after the ``x`` (the window in which a reaction
+    may still fire): polls asked all the while (the feet's, full duplex) wait for it."""
+    from tests.support.std import wait_for
+
+    with Link(robot, URL) as link:
+        port = link._port
+        written: list[bytes] = []
+        write = port.write
+
+        def logged(data: bytes) -> int | None:
+            written.append(bytes(data))
+            return write(data)
+        port.write = logged
+        polling = threading.Event()
+
+        def poller() -> None:
+            while not polling.is_set():
+                link.exchange("s", poll=True)
+        threads = [threading.Thread(target=poller) for _ in range(3)]
+        for t in threads:
+            t.start()
+        try:
+            wait_for(lambda: len(written) >= 3, timeout=10, what="the polls going")
+            assert link.hold(True) is not None
+            lines = [ln for ln in b"".join(written).split() if ln]
+            at = lines.index(b"x")
+            assert lines[at - 2:at].count(b"s") >= 1       # the polls went right up to it
+            assert lines[at + 1] == b"h1", lines[at - 2:at + 3]
+        finally:
+            polling.set()
+            for t in threads:
+                t.join(10)
+        assert link.stats["hold_lines_sent"] == 1

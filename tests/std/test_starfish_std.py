@@ -68,7 +68,7 @@ def test_a_sound_turns_the_robot_and_its_picture_shows_the_source(start, tmp_pat
     install, run = tmp_path / "install", tmp_path / "run"
     install.mkdir()
     run.mkdir()
-    dep = starfish([1.5, 1.5, 0.0], [[1.5, 1.5], [2.3, 1.5]], None)
+    dep = starfish([1.5, 1.5, 0.0], [[1.5, 1.5], [1.9, 1.5]], None)
     del dep["behaviors"]["turn_and_shoot"]["store"]
     (install / "robot.yaml").write_text(json.dumps({"robot": "t", **dep}))
     install.chmod(0o555)
@@ -196,15 +196,16 @@ def test_the_turn_keeps_within_max_omega_and_a_shot_takes_one_correction_at_most
 
 
 def test_out_of_range_reconnect_drives_back_and_patrol_goes_on(start, tmp_path):
-    # from (2.5, 3.2) toward (4.8, 3.2): the link is cut 3.0 m from the access point
-    rt = start(starfish([2.5, 3.2, 0.0], [[4.8, 3.2], [1.5, 3.2]], tmp_path))
+    # from (2.8, 3.2) toward (4.8, 3.2): the link is cut 3.0 m from the access point
+    # (x 3.04), heals inside 2.9 m (x 2.89); patrol skips to (2.7, 3.2) after
+    rt = start(starfish([2.8, 3.2, 0.0], [[4.8, 3.2], [2.7, 3.2]], tmp_path))
     w = get_when(rt, "watcher", lambda r: len(r["events"]) >= 2, 40, "the link to go down and come back")
     (down, d_cut), (up, d_heal) = w["events"][:2]
     assert (down, up) == ("down", "up")
     # cut beyond the healing edge (2.9 m; the radio sensor samples at 5 Hz, so it may see
     # the cut a little after the robot turned back), healed inside it: driven back
     assert d_cut > 2.9 and d_heal <= 2.9
-    get_when(rt, "patrol", lambda p: p["reached"] >= 1, 40, "patrol to reach (1.5, 3.2)")
+    get_when(rt, "patrol", lambda p: p["reached"] >= 1, 40, "patrol to reach (2.7, 3.2)")
     p = rt.get("patrol")
     assert p["link_losses"] >= 1
     no_failures(rt)

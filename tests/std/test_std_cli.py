@@ -10,7 +10,7 @@ import time
 
 import pytest
 from tests.support.std import (MODES, components, esair, free_endpoint, lab_started, processes,
-                                std_run, wait_for)
+                                std_cli, std_run, wait_for)
 
 pytestmark = pytest.mark.slow
 
@@ -208,7 +208,7 @@ def test_cli_controls_a_running_robot(robot_mode):
 @pytest.mark.parametrize("mode", MODES)
 def test_run_headless_prints_a_summary(mode):
     ep = free_endpoint()
-    r = esair("run", "lab", "--mode", mode, "--run", "3", "-e", ep)
+    r = esair("run", "lab", "--mode", mode, "--run", "1", "-e", ep)
     lines = r.stdout.splitlines()
     assert lines[0].split() == ["NAME", "KIND", "STATE", "SAMPLES", "OVERWRITTEN", "COMMANDS",
                                 "PUTS_OK", "PUTS_FAILED", "RESTARTS"]
@@ -245,11 +245,12 @@ def test_run_refuses_bad_input_with_one_line(tmp_path):
     assert (r.returncode, r.stderr) == (
         1, f"error: {bad}:3:14: no module named 'nomod'; looked in the deployment's folder, "
            "then sys.path\n")
-    r = esair("run", "nosuch", "--run", "1", check=False)
+    # refused before anything is read or started: in this process (no interpreter start)
+    r = std_cli("run", "nosuch", "--run", "1")
     assert (r.returncode, r.stderr) == (
         1, "error: nosuch: no such file, and no bundled example named 'nosuch' "
            "(bundled: lab, papaman, starfish)\n")
-    r = esair("run", "lab", "--run", "1", "-e", "tcp/127.0.0.1", check=False)
+    r = std_cli("run", "lab", "--run", "1", "-e", "tcp/127.0.0.1")
     assert (r.returncode, r.stderr.splitlines()[-1]) == (      # a usage error (issue 20)
         2, "Error: Invalid value for '-e' / '--endpoint' (env var: 'ESAIR_STD_ENDPOINT'): "
            "needs a host and a port: PROTOCOL/HOST:PORT such as tcp/127.0.0.1:7447, not text "

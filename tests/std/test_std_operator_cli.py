@@ -42,6 +42,14 @@ def esair(*args: str, cwd: str | Path = ROOT, env: dict | None = None,
                      env={"PYTHONPATH": path, **(env or {})})
 
 
+def refused(*args: str) -> subprocess.CompletedProcess:
+    """``esair std ARGS`` that must stop before anything starts (a usage error, a
+    deployment refused as it is read), in this process (tests.support.std.std_cli: the
+    command line's own entry point, an uncaught exception raised) rather than a child's
+    interpreter start."""
+    return std.std_cli(*args)
+
+
 def cmdline(pid: int) -> bytes:
     try:
         with open(f"/proc/{pid}/cmdline", "rb") as f:
@@ -116,18 +124,18 @@ def robot(request):
 def test_run_with_port_reads_the_file_as_check_does(case, message):
     path = FIX / f"{case}.yaml"
     check = esair("check", "--no-import", str(path))
-    run = esair("run", str(path), "--port", "/dev/null", "--run", "0", "--no-control")
+    run = refused("run", str(path), "--port", "/dev/null", "--run", "0", "--no-control")
     assert (check.returncode, check.stderr) == (1, f"error: {path}:{message}\n")
     assert (run.returncode, run.stderr) == (1, f"error: {path}:{message}\n")
 
 
 def test_port_on_a_deployment_without_a_port_option_is_an_error():
     path = FIX / "no_port.yaml"
-    r = esair("run", str(path), "--port", "/dev/ttyUSB0", "--run", "0", "--no-control")
+    r = refused("run", str(path), "--port", "/dev/ttyUSB0", "--run", "0", "--no-control")
     assert (r.returncode, r.stderr) == (
         1, f"error: {path}: --port /dev/ttyUSB0: no resource of this deployment has a "
            "'port' option\n")
-    r = esair("run", str(path), "--trace", "t.txt", "--run", "0", "--no-control")
+    r = refused("run", str(path), "--trace", "t.txt", "--run", "0", "--no-control")
     assert (r.returncode, r.stderr) == (
         1, f"error: {path}: --trace: no resource of this deployment runs an emulated robot "
            "(port: emulate)\n")
@@ -181,7 +189,7 @@ def test_ctrl_c_stops_with_one_line_and_status_130(mode):
      "Invalid value for '--days': 0 is not in the range x>=1."),
 ])
 def test_bad_option_values_are_usage_errors(args, message):
-    r = esair(*args)
+    r = refused(*args)
     assert r.returncode == 2
     assert r.stderr.splitlines()[-1] == f"Error: {message}"
 
@@ -300,13 +308,13 @@ def test_run_listens_on_esair_std_endpoint(tmp_path):
 
 @pytest.mark.pty
 def test_trace_and_scenario_reach_the_emulated_robot(tmp_path):
-    r = esair("run", "papaman", "--trace", "trace.txt", "--scenario", "push", "--run", "3",
+    r = esair("run", "papaman", "--trace", "trace.txt", "--scenario", "push", "--run", "0.5",
               "--no-control", cwd=tmp_path)
     assert r.returncode == 0, r.stderr
     trace = (tmp_path / "trace.txt").read_text()        # relative to where it was run
     assert trace.startswith("# esair-trace 1\n@ 0\n")
-    assert error_of("run", "papaman", "--trace", "t.txt", "--port", "/dev/ttyUSB0",
-                    "--run", "0")[1].splitlines()[-1] == (
+    assert refused("run", "papaman", "--trace", "t.txt", "--port", "/dev/ttyUSB0",
+                   "--run", "0").stderr.splitlines()[-1] == (
         "Error: --trace is for the emulated robot, not --port /dev/ttyUSB0")
 
 
@@ -447,7 +455,7 @@ def test_new_copies_an_example_that_checks_and_runs(tmp_path):
     """The copy is a robot of its own (issue 34 item 5): its file and robot named after
     its folder, a port of its own, comments that run it from there."""
     folder = tmp_path / "mybot"
-    r = esair("new", "papaman", str(folder), cwd=tmp_path)
+    r = esair("new", "papaman", str(folder))      # (in this process: the folder is absolute)
     dep = folder / "mybot.yaml"
     text = dep.read_text()
     endpoint = re.search(r"^endpoint: (tcp/127\.0\.0\.1:(\d+))$", text, re.M)
@@ -473,7 +481,7 @@ def test_new_copies_an_example_that_checks_and_runs(tmp_path):
     assert text.count("      scenario: quiet\n") == 1
     dep.write_text(text.replace("      scenario: quiet\n",
                                 "      scenario: quiet\n      trace: trace.txt\n"))
-    r = esair("run", str(folder), "--run", "2", cwd=elsewhere)
+    r = esair("run", str(folder), "--run", "0.5", cwd=elsewhere)
     assert r.returncode == 0, r.stderr
     assert f"robot 'mybot' running in thread mode, control endpoint {endpoint}" in r.stderr
     assert (folder / "trace.txt").read_text().startswith("# esair-trace 1\n")
@@ -481,7 +489,7 @@ def test_new_copies_an_example_that_checks_and_runs(tmp_path):
     # the other examples likewise: each copy its own robot on its own port
     ports = {endpoint}
     for example in ("lab", "starfish"):
-        r = esair("new", example, str(tmp_path / f"my-{example}"), cwd=tmp_path)
+        r = esair("new", example, str(tmp_path / f"my-{example}"))
         copy = (tmp_path / f"my-{example}" / f"my-{example}.yaml").read_text()
         assert f"\nrobot: my_{example}\n" in copy and f"esair std run {example}" not in copy
         ports.add(re.search(r"^endpoint: (.*)$", copy, re.M)[1])

@@ -21,6 +21,7 @@ import pytest
 from esair_std.drivers.minlink.emulated import EmulatedRobot
 from esair_std.errors import ControlError, Refused
 from tests.std.test_std_papaman import example
+from tests.support.scenarios import push_soon
 from tests.support.std import esair, wait_for
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -279,8 +280,8 @@ def test_the_firmwares_balance_reaction_is_held_while_stopped(start, tmp_path):
     fires ``!R auto_balance`` and the balance motion moves the servos again. (No host
     behavior commands the robot here: the moves are the firmware's.)"""
     trace = tmp_path / "trace.txt"
-    emu = EmulatedRobot(PAPAMAN, ["--trace", str(trace), "--trace-rx", "--scenario", "push",
-                                  "--hold-scenario"])
+    emu = EmulatedRobot(PAPAMAN, ["--trace", str(trace), "--trace-rx", "--scenario",
+                                  str(push_soon(tmp_path)), "--hold-scenario"])
     emu.start()
     try:
         dep = example(emu.port)

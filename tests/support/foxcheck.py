@@ -57,15 +57,26 @@ def _one(field: Any, v: Any) -> Any:
     return v
 
 
+@lru_cache(maxsize=None)
+def _validator(schema_text: str | bytes) -> Any:
+    """A validator of the JSON Schema ``schema_text``, the schema itself checked once
+    (``jsonschema.validate`` checks it again for every message)."""
+    schema = json.loads(schema_text)
+    cls = jsonschema.validators.validator_for(schema)
+    cls.check_schema(schema)
+    return cls(schema)
+
+
 def decode(schema: Any, data: bytes) -> dict:
     """An MCAP/Foxglove-protocol message of ``schema`` (name, encoding, data) as a dict,
     validated against Foxglove's (or its channel's) JSON Schema."""
     if schema.encoding == "protobuf":
         msg = _message_class(schema.name, bytes(schema.data)).FromString(data)
         obj = _as_json(msg)
-        jsonschema.validate(obj, FOXGLOVE[schema.name])
+        _validator(json.dumps(FOXGLOVE[schema.name])).validate(obj)
         return obj
     assert schema.encoding == "jsonschema", schema.encoding
     obj = json.loads(data)
-    jsonschema.validate(obj, json.loads(schema.data))
+    text = schema.data if isinstance(schema.data, str) else bytes(schema.data)
+    _validator(text).validate(obj)
     return obj

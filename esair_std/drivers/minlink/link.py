@@ -40,7 +40,8 @@ their order and shape, and resynchronises whenever it cannot be sure:
   time could answer either: the link cannot tell, and goes down (below);
 - no reply within ``timeout``, or a port error: the link is **down**. The commands in
   flight fail with :class:`LinkDown`, the port is closed, and the I/O thread reopens
-  it with exponential backoff; it is up again once a ``v`` probe is answered by the robot
+  it with exponential backoff, at once when the port's file is made anew (plugged
+  in); it is up again once a ``v`` probe is answered by the robot
   of the board files (servo and sensor count, checksum setting). While down, commands
   fail at once with :class:`LinkDown`; ``on_state`` reports every change.
 
@@ -57,9 +58,10 @@ once, ahead of every command waiting, which fails with :class:`Held`, as does ev
 line but the stop, the version and the polls (sensors keep flowing) until
 ``hold(False)``. Right after the stop line the firmware's own reactions are held too
 (``h1``, where the command table has the ``hold`` verb: a reaction that fires then sends
-``!H`` and moves nothing, docs/protocol.md). While held, each (re)connect writes the
-stop line and ``h1`` before any other byte (a STOP made while the link was down, or a
-robot reset since, which releases its reactions, is told first thing). ``hold(False)``
+``!H`` and moves nothing, docs/protocol.md); no poll goes between the two. While held,
+each (re)connect writes the stop line and ``h1`` before any other byte (a STOP made
+while the link was down, or a robot reset since, which releases its reactions, is told
+first thing). ``hold(False)``
 sends ``h0``; one that could not go is sent at the next connect. A reaction's ``!R``
 while held (one that fired before ``h1`` arrived, or a robot without the verb), and a
 robot's ``!READY`` (a reset, which releases its reactions, while the port stayed open)
@@ -113,6 +115,7 @@ QUEUE_MAX = 64              # commands waiting for their turn; more are refused,
 MAX_IN_FLIGHT = 2           # full duplex: one reply arriving, the next command written
 DIFFERENT_ROBOT = "a different robot answers on"
 OUT_OF_STEP = "replies out of step"
+PORT_LOOK_S = 0.05          # while down: how often the port's file is looked at (made anew?)
 LOCK_WAIT_S = 3.0           # a port another program holds is tried again this long: a link
                             # reconnecting to a pty number that is now this robot's holds
                             # it for its probe (a `v` or two), then lets go
@@ -221,6 +224,9 @@ class Link:
             self._held_lines.add(self._hold_lines[0])
         self._release_due = False       # an h0 that could not go: sent at the next connect
         self._told_held = False         # the last connect wrote the stop line and h1
+        # hold(True) under way: polls wait from the stop line until h1 is written, so
+        # that h1 follows the x with no poll between (the window a reaction may fire)
+        self._holding = False
 
     # -- life cycle -----------------------------------------------------------------------
     def open(self) -> None:
@@ -369,9 +375,17 @@ class Link:
                 self._release_due = True
             return None
         self.stats.add("holds")
-        ex = self.send_stop()
-        if ex is not None:
-            self._send_hold(True)
+        with self._lock:
+            self._holding = self._hold_lines is not None
+        try:
+            ex = self.send_stop()
+            if ex is not None:
+                self._send_hold(True)
+        finally:
+            with self._lock:
+                held_polls, self._holding = self._holding, False
+            if held_polls:          # h1 did not go: the polls that waited go now
+                self._release()
         return ex
 
     @property
@@ -412,6 +426,8 @@ class Link:
 
     def _may_go(self, ex: Exchange) -> bool:
         """(lock held) May ``ex`` be written now? (the module docstring, "Full duplex")"""
+        if ex.poll and self._holding:
+            return False                    # h1 goes first (hold())
         flight = self._flight
         if not flight:
             return True
@@ -429,6 +445,8 @@ class Link:
         wire = ex.wire if now - self._last_write < RESYNC_IDLE_S else RESYNC + ex.wire
         # sent before the write: its reply may come before write() returns
         ex.sent, ex.t_sent, ex.sent_bytes = True, now, len(wire)
+        if self._holding and self._hold_lines is not None and ex.line == self._hold_lines[0]:
+            self._holding = False           # h1 written: the polls may follow it
         if self._flight:
             self.stats.add("duplex")               # written while a reply arrives
         self._last_write = now
@@ -783,7 +801,7 @@ class Link:
     def _reconnect(self) -> None:
         delay = self.backoff[0]
         told = ""
-        while not self._stop.wait(delay):
+        while not self._wait_or_port_made(delay):
             held = self.may_open() if self.may_open is not None else None
             try:
                 if held is not None:
@@ -808,6 +826,19 @@ class Link:
                 self.on_state(True, "up")
             self._after_up()
             return
+
+    def _wait_or_port_made(self, delay: float) -> bool:
+        """Wait ``delay`` before the next try (True: the link closes), or less: a port
+        made anew meanwhile (a device plugged in, a link the emulated robot's start
+        replaced) is tried at once. A port that stays as it was waits out the backoff."""
+        seen = _port_node(self.port)
+        end = time.monotonic() + delay
+        while (left := end - time.monotonic()) > 0:
+            if self._stop.wait(min(left, PORT_LOOK_S)):
+                return True
+            if _port_node(self.port) != seen:
+                return False
+        return self._stop.is_set()
 
     def _connect(self) -> Serial:
         """Open the port and probe it with ``v``; the robot must be the board files' one."""
@@ -933,6 +964,15 @@ def _lines_of(commands: RobotCommands, actions: tuple[str, ...]) -> list[str]:
         except LinkError:
             pass
     return out
+
+
+def _port_node(path: str) -> tuple[int, int, int] | None:
+    """The port's file itself (a symbolic link not followed): made anew, it differs."""
+    try:
+        st = os.lstat(path)
+    except (OSError, ValueError):           # none (unplugged), or a URL, not a file
+        return None
+    return st.st_dev, st.st_ino, st.st_ctime_ns
 
 
 def _fd_of(port: Serial) -> int | None:

@@ -289,6 +289,13 @@ class Starfish(MinLink):
             raise StarfishError(f"start pose ({start[0]}, {start[1]}) is closer than 0.15 m "
                                 f"to a wall")
         hz, timeout, deadline = o.odometry_hz, o.timeout, o.deadline
+        budget = omni_budget(robot)         # the line's, known before the robot starts
+        if hz > budget.max_feet_hz(ODOMETRY_SHARE):
+            raise StarfishError(f"odometry_hz {hz:g} exceeds the line: at {budget.baud} baud one "
+                                f"'O' exchange takes up to {budget.feet_exchange_s * 1e3:.1f} ms, "
+                                f"and the polls may take half the line (the wheels' commands the "
+                                f"other half): at most {budget.max_feet_hz(ODOMETRY_SHARE):.1f} a "
+                                f"second")
         self.audio = AudioRenderer(self.room, snr_db=o.snr_db, seed=int(o.seed),
                                    reflection_gain=o.echo)
         emulate = o.emulate
@@ -321,14 +328,8 @@ class Starfish(MinLink):
         self.link = Link(robot.board, str(port), timeout=timeout, on_state=self._link_state,
                          on_notice=self.notices.notice, expect_id=self.emulated.instance,
                          may_open=self.emulated.held, commands=OmniCommands(robot),
-                         budget=omni_budget(robot))
+                         budget=budget)
         self.link.open()
-        if hz > self.link.budget.max_feet_hz(ODOMETRY_SHARE):
-            b = self.link.budget
-            raise StarfishError(f"odometry_hz {hz:g} exceeds the line: at {b.baud} baud one 'O' "
-                                f"exchange takes up to {b.feet_exchange_s * 1e3:.1f} ms, and the "
-                                f"polls may take half the line (the wheels' commands the other "
-                                f"half): at most {b.max_feet_hz(ODOMETRY_SHARE):.1f} a second")
         self.odometry = Odometry(self.link, robot, hz, start)
         self.wheels = Wheels(self.link, robot.max_speed_mm_s, robot.max_omega_mrad_s,
                              robot, self.odometry.poll_at)
