@@ -104,8 +104,10 @@ def test_a_put_starts_the_dance(start, emulated, robot):
     emu = emulated()
     rt = start(example(emu.port))
     rt.wait_state("sequencer", "running")
+    rt.wait_state("papaman.motion", "ready", timeout=30)   # else the dance is dropped
     rt.put("sequencer", ["dance"], timeout=2.0)
-    wait_for(lambda: rt.get("sequencer")["done"] == ["dance"], what="the dance played")
+    wait_for(lambda: rt.get("sequencer")["done"] == ["dance"], timeout=30,
+             what=lambda: f"the dance played: {rt.get('sequencer')}")
     dance = robot.motion("dance")
     frames = [b"\x00" + b"".join(bytes(encode(a, f.speeds()[i])) for i, a in enumerate(f.angles))
               for f in dance.frames]
@@ -225,8 +227,11 @@ def test_the_example_runs_its_own_emulated_robot(start, tmp_path):
     rt = start(dep)
     assert len(emulators_with(str(trace))) == 1          # `esair emulate ... --trace`
     rt.wait_state("sequencer", "running")
+    # the sequencer drops what is queued while the link is not ready: asked once it is
+    rt.wait_state("papaman.motion", "ready", timeout=30)
     rt.put("sequencer", ["stand_up", "dance"], timeout=2.0)
-    wait_for(lambda: rt.get("sequencer")["done"] == ["stand_up", "dance"], what="two ops")
+    wait_for(lambda: rt.get("sequencer")["done"] == ["stand_up", "dance"], timeout=30,
+             what=lambda: f"two ops: {rt.get('sequencer')}")
     logged = wait_for(lambda: (g := rt.get("logger"))["records"] and g, what="a record")
     assert set(logged["records"][-1]) == {"t", "sequencer", "watcher"}
 
