@@ -35,7 +35,6 @@ import json
 import os
 import secrets
 import signal
-import socket
 import subprocess
 import sys
 import threading
@@ -47,10 +46,10 @@ BENCH = ROOT / "bench"
 # --tree DIR: the robot side runs the esair_std of another checkout (an older commit)
 TREE = Path(sys.argv[sys.argv.index("--tree") + 1]).resolve() if "--tree" in sys.argv else ROOT
 PAPAMAN = ROOT / "boards" / "papaman"
-STARFISH_ROOM = ROOT / "esair_std" / "examples" / "starfish" / "room.yaml"
+# after the measured checkout's own paths (PYTHONPATH, --tree): the toolkit from this one
+sys.path.append(str(ROOT))
 CPU_SHARE = 0.25
 MEMORY = 128 << 20
-SOURCES = [(1.0, 3.5), (0.4, 0.4), (2.7, 3.7), (0.3, 2.0), (2.6, 0.3), (1.8, 3.7)]
 
 
 # ---- the control group ----------------------------------------------------------------
@@ -232,12 +231,6 @@ def pct(xs: list[float], q: float) -> float:
     return xs[min(len(xs) - 1, int(q * len(xs)))] if xs else float("nan")
 
 
-def free_endpoint() -> str:
-    with socket.socket() as sock:
-        sock.bind(("127.0.0.1", 0))
-        return f"tcp/127.0.0.1:{sock.getsockname()[1]}"
-
-
 # ---- the emulated PAPA-MAN outside the cap, its pacer's origin known --------------------
 def serve_emulator(trace: str) -> None:
     """Child: PAPA-MAN's emulated boards behind a pty, tracing; prints the pty path, the
@@ -278,18 +271,9 @@ def papaman_deployment(port: str, n: int, go: str) -> dict:
 
 
 def starfish_deployment(store: str) -> dict:
-    import yaml
-    from esair_std.deploy import resolve_deployment
+    from bench.toolkit.starfish import deployment
 
-    dep = yaml.safe_load(Path(resolve_deployment("starfish")).read_text())
-    dep["resources"]["starfish"].update(pose=[1.5, 1.5, 0.0], room_file=str(STARFISH_ROOM))
-    dep["reactions"]["reconnect"]["room_file"] = str(STARFISH_ROOM)
-    dep["behaviors"]["patrol"]["waypoints"] = [[1.5, 1.5], [2.3, 1.5]]
-    mod = "esair_std.examples.starfish.starfish_behaviors"
-    for name in ("patrol", "localize", "turn_and_shoot"):
-        dep["behaviors"][name]["class"] = f"{mod}:" + dep["behaviors"][name]["class"].split(":")[1]
-    dep["reactions"]["reconnect"]["class"] = f"{mod}:Reconnect"
-    dep["behaviors"]["turn_and_shoot"].update(store=store, cooldown=0.5)
+    dep = deployment(store)
     dep["behaviors"]["ears"] = {"class": "small_computer_comps:SeqCounter", "period": 0.05,
                                 "sensor": "starfish.mics", "uses": {"starfish.mics": "read"}}
     return dep
@@ -337,7 +321,8 @@ def inner(args) -> None:
         print(json.dumps({"ready": time.monotonic(), "how": how}), flush=True)
         sys.stdin.readline()
         go = os.path.join(store, "go")
-        out = papaman_figure(rt, go) if args.robot == "papaman" else starfish_figure(rt, args.shots)
+        out = (papaman_figure(rt, go) if args.robot == "papaman"
+               else starfish_figure(rt, json.loads(args.sources)))
         print(json.dumps(out), flush=True)
         sys.stdin.readline()
 
@@ -349,11 +334,10 @@ def papaman_figure(rt, go: str) -> dict:
             "feet": rt.get("feet", timeout=10.0)}
 
 
-def starfish_figure(rt, shots: int) -> dict:
+def starfish_figure(rt, sources: list[list[float]]) -> dict:
     _get(rt, "patrol", "reached", 120)
     out = []
-    for k in range(shots):
-        x, y = SOURCES[k % len(SOURCES)]
+    for x, y in sources:
         before = rt.get("turn_and_shoot", timeout=10.0)["shots"]
         t0 = time.time()
         rt.configure("starfish.mics", "source", {"x": x, "y": y, "on": True})
@@ -365,11 +349,7 @@ def starfish_figure(rt, shots: int) -> dict:
                 break
             time.sleep(0.05)
         rt.configure("starfish.mics", "source", {"x": x, "y": y, "on": False})
-        if got:
-            out.append({"took": got["last"]["t"] - t0,
-                        "turned": abs(float(got["last"]["bearing"]["bearing"]))})
-        else:
-            out.append(None)
+        out.append({"took": got["last"]["t"] - t0, "last": got["last"]} if got else None)
         time.sleep(1.0)
     return {"shots": out, "ears": rt.get("ears", timeout=10.0)}
 
@@ -385,6 +365,9 @@ def warm(path: str) -> None:
 
 
 def one(robot: str, mode: str, limit: bool, args) -> dict:
+    from bench.toolkit import free_endpoint
+    from bench.toolkit.starfish import SOURCES
+
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(
         [str(TREE), str(BENCH), *filter(None, [os.environ.get("PYTHONPATH")])]))
     env.pop("PYTHONDONTWRITEBYTECODE", None)       # bytecode read, as installed on a robot
@@ -399,7 +382,8 @@ def one(robot: str, mode: str, limit: bool, args) -> dict:
         # the checked deployment's cache: empty, so the start below checks it (a miss)
         env["ESAIR_STD_CACHE"] = os.path.join(store, "cache")
         cmd = [sys.executable, str(Path(__file__).resolve()), "--inner", robot, "--mode", mode,
-               "--n", str(args.n), "--shots", str(args.shots), "--endpoint", ep,
+               "--n", str(args.n), "--endpoint", ep,
+               "--sources", json.dumps([SOURCES[k % len(SOURCES)] for k in range(args.shots)]),
                "--store", store, "--deployment", os.path.join(store, "deployment.yaml")]
         if robot == "papaman":
             trace = Path(store) / "trace.txt"
@@ -473,7 +457,7 @@ def one(robot: str, mode: str, limit: bool, args) -> dict:
     if robot == "papaman":
         res.update(register_writes(fig, trace, float(wall0), int(virt0)))
     else:
-        res.update(shots(fig))
+        res.update(shots(fig, dep, CPU_SHARE if limit else 1.0))
     tmp.cleanup()
     return res
 
@@ -542,11 +526,12 @@ def audio_sim_pct(dep: dict, frames: int = 150) -> float:
     its microphone frames (16 kHz x 4, 1024 samples each, the room's echoes and noise)
     rendered here, one after the other, as the driver does (the robot's own work, the
     frames' encoding and publishing, is not in it)."""
+    from bench.toolkit.starfish import ROOM
     from esair_std.drivers.starfish.mics import RATE, AudioRenderer
     from esair_std.drivers.starfish.scene import load_scene
 
     o = dep["resources"]["starfish"]
-    room = load_scene(str(STARFISH_ROOM))           # its source as in the idle window
+    room = load_scene(str(ROOM))           # its source as in the idle window
     audio = AudioRenderer(room, snr_db=float(o.get("snr_db", 20.0)),
                           reflection_gain=float(o.get("echo", 0.0)))
     pose = tuple(o.get("pose", (1.5, 1.5, 0.0)))
@@ -557,13 +542,16 @@ def audio_sim_pct(dep: dict, frames: int = 150) -> float:
     return 100 * (time.process_time() - t) / frames * RATE / audio.frame
 
 
-def shots(fig: dict) -> dict:
-    from esair_min.model.validate import load_robot
+def shots(fig: dict, dep: dict, cpu_share: float) -> dict:
+    """Each shot's time beside its floor (bench/toolkit/starfish.py), the camera's part at
+    the cap's share: the driver renders the picture inside the group."""
+    from bench.toolkit.starfish import shot_floor
 
-    omega = load_robot(ROOT / "boards" / "starfish").central.base.max_omega_mrad_s / 1000
-    each = [None if s is None else (s["took"], s["turned"] / omega) for s in fig["shots"]]
+    hz = float(dep["resources"]["starfish"].get("odometry_hz", 10))
+    each = [None if s is None else (s["took"], shot_floor(s["last"], hz, cpu_share))
+            for s in fig["shots"]]
     return {"shots": each, "samples": fig["ears"]["samples"], "lost": fig["ears"]["lost"],
-            "sim_cpu_pct": audio_sim_pct(starfish_deployment(str(ROOT)))}
+            "sim_cpu_pct": audio_sim_pct(dep)}
 
 
 def show(rows: list[dict], floor_ms: float) -> None:
@@ -652,6 +640,7 @@ def main() -> None:
                          "cache (esair_std/lean/)")
     ap.add_argument("--endpoint", help=argparse.SUPPRESS)
     ap.add_argument("--inner", help=argparse.SUPPRESS)
+    ap.add_argument("--sources", help=argparse.SUPPRESS)
     ap.add_argument("--mode", help=argparse.SUPPRESS)
     ap.add_argument("--store", help=argparse.SUPPRESS)
     ap.add_argument("--deployment", help=argparse.SUPPRESS)

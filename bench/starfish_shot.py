@@ -26,7 +26,6 @@ import argparse
 import math
 import os
 import random
-import statistics
 import sys
 import tempfile
 import time
@@ -38,37 +37,24 @@ sys.path.insert(0, str(ROOT))
 from esair_std import Runtime  # noqa: E402
 from bench.toolkit import free_endpoint  # noqa: E402
 
-from bench.starfish_std import deployment, wait  # noqa: E402
-
-ROBOT_AREA = (1.5, 1.5, 2.3, 1.5)        # patrol's segment (bench/starfish_std.py)
-
+from bench.starfish_std import wait  # noqa: E402
+from bench.toolkit.starfish import PATROL, ROOM, deployment, shot_floor  # noqa: E402
 
 def placements(seed: int, n: int) -> list[tuple[float, float]]:
     """``n`` source places drawn anywhere in the room (0.15 m off the walls and 0.6 m
     off the patrol's segment), from ``seed``."""
     from esair_std.drivers.starfish.scene import load_scene
-    room = load_scene(ROOT / "esair_std" / "examples" / "starfish" / "room.yaml")
+    room = load_scene(str(ROOM))
     x0, y0, x1, y1 = room.bounds()
+    (ax, ay), (bx, by) = PATROL
+    segment = [(ax, ay), ((ax + bx) / 2, (ay + by) / 2), (bx, by)]
     rng = random.Random(seed)
     out: list[tuple[float, float]] = []
     while len(out) < n:
         p = (round(rng.uniform(x0, x1), 2), round(rng.uniform(y0, y1), 2))
-        if room.clearance(p) >= 0.15 and min(math.dist(p, (x, ROBOT_AREA[1])) for x in
-                                                 (1.5, 1.9, 2.3)) >= 0.6:
+        if room.clearance(p) >= 0.15 and min(math.dist(p, q_) for q_ in segment) >= 0.6:
             out.append(p)
     return out
-
-
-def camera_time(pose) -> float:
-    from esair_std.drivers.starfish.camera import Camera, encode
-    from esair_std.drivers.starfish.scene import load_scene
-    cam = Camera(load_scene(ROOT / "esair_std" / "examples" / "starfish" / "room.yaml"))
-    times = []
-    for _ in range(3):
-        t0 = time.perf_counter()
-        encode(cam.render(pose), "png")
-        times.append(time.perf_counter() - t0)
-    return statistics.median(times)
 
 
 def q(values: list[float], p: float) -> float:
@@ -86,10 +72,6 @@ def done(rt, before: dict) -> dict | None:
 
 
 def shots(mode: str, places: list[tuple[float, float]], odometry_hz: float | None = None) -> list[dict]:
-    from esair_min.model.validate import load_robot
-    from esair_min.resources import resolve_robot
-    from esair_std.drivers.starfish.turn import profile_time, turn_limits
-    omega, accel = turn_limits(load_robot(resolve_robot("starfish")))
     out = []
     with tempfile.TemporaryDirectory() as store:
         dep = deployment(store)
@@ -110,8 +92,7 @@ def shots(mode: str, places: list[tuple[float, float]], odometry_hz: float | Non
                     continue
                 last = got["last"]
                 pose, turn = last["pose"], last["turn"]
-                angle = math.radians(turn["deg"])
-                floor = profile_time(angle, omega, accel) + 1 / hz + camera_time(pose)
+                floor = shot_floor(last, hz)
                 err = math.degrees(abs(math.remainder(
                     math.atan2(y - pose[1], x - pose[0]) - pose[2], 2 * math.pi)))
                 # the error's parts: the aim (the target vs the odometry's heading at the

@@ -3,9 +3,9 @@ emulated boards, started by the driver) in the example's room.
 
 1. sound onset -> picture taken, thread and process mode side by side: the source is
    switched on (``configure starfish.mics source``) and the time to the picture's own
-   time stamp is measured; beside it, the rotation alone: the turn's time-optimal profile
-   within the board files' limits (esair_std/drivers/starfish/turn.py; each shot against
-   its own floor: bench/starfish_shot.py). Goal <= 2 s.
+   time stamp is measured; beside it, the shot's floor (bench/toolkit/starfish.py: the
+   turn's time-optimal profile within the board files' limits + one odometry frame + the
+   camera's time; sources at random: bench/starfish_shot.py). Goal <= 2 s.
 2. the robot side's memory and CPU while patrolling, process mode (``esair std run
    starfish --mode process`` in a child process): RSS of the runtime and of the driver,
    patrol and reconnect processes (the robot's), and of localize and turn_and_shoot
@@ -38,12 +38,10 @@ sys.path.insert(0, str(ROOT))
 
 from esair_std import Runtime  # noqa: E402
 from bench.toolkit import free_endpoint, processes  # noqa: E402
-from esair_std.deploy import load_deployment, resolve_deployment  # noqa: E402
+from bench.toolkit.starfish import SOURCES, deployment, shot_floor  # noqa: E402
+from esair_std.deploy import load_deployment  # noqa: E402
 
 BENCH = Path(__file__).resolve().parent
-
-SOURCES = [(1.0, 3.5), (0.4, 0.4), (2.7, 3.7), (0.3, 2.0), (2.6, 0.3), (1.8, 3.7)]
-
 
 def wait(fn, timeout: float):
     deadline = time.monotonic() + timeout
@@ -55,30 +53,11 @@ def wait(fn, timeout: float):
     return None
 
 
-def deployment(store: str) -> dict:
-    import yaml
-    dep = yaml.safe_load(Path(resolve_deployment("starfish")).read_text())
-    dep["resources"]["starfish"]["pose"] = [1.5, 1.5, 0.0]
-    room = str(ROOT / "esair_std" / "examples" / "starfish" / "room.yaml")
-    dep["resources"]["starfish"]["room_file"] = room
-    dep["reactions"]["reconnect"]["room_file"] = room
-    dep["behaviors"]["patrol"]["waypoints"] = [[1.5, 1.5], [2.3, 1.5]]
-    for name in ("patrol", "localize", "turn_and_shoot"):
-        dep["behaviors"][name]["class"] = \
-            "esair_std.examples.starfish.starfish_behaviors:" + dep["behaviors"][name]["class"].split(":")[1]
-    dep["reactions"]["reconnect"]["class"] = "esair_std.examples.starfish.starfish_behaviors:Reconnect"
-    dep["behaviors"]["turn_and_shoot"].update(store=store, cooldown=0.5)
-    return dep
-
-
 def onset_to_picture(mode: str, shots: int) -> list[tuple[float, float]]:
-    from esair_min.model.validate import load_robot
-    from esair_min.resources import resolve_robot
-    from esair_std.drivers.starfish.turn import profile_time, turn_limits
-    limits = turn_limits(load_robot(resolve_robot("starfish")))
     out = []
     with tempfile.TemporaryDirectory() as store, \
-            Runtime(deployment(store), mode=mode, endpoint=free_endpoint()) as rt:
+            Runtime(dep := deployment(store), mode=mode, endpoint=free_endpoint()) as rt:
+        hz = float(dep["resources"]["starfish"].get("odometry_hz", 10))
         wait(lambda: rt.get("patrol")["reached"] >= 1, 60)
         for k in range(shots):
             x, y = SOURCES[k % len(SOURCES)]
@@ -91,8 +70,7 @@ def onset_to_picture(mode: str, shots: int) -> list[tuple[float, float]]:
             if not got:
                 print(f"  {mode}: shot {k + 1}: no picture within 30 s")
                 continue
-            turned = abs(float(got["last"]["bearing"]["bearing"]))
-            out.append((got["last"]["t"] - t0, profile_time(turned, *limits)))
+            out.append((got["last"]["t"] - t0, shot_floor(got["last"], hz)))
             time.sleep(1.0)                   # the cooldown, and patrol drives again
     return out
 
@@ -191,13 +169,13 @@ def main() -> None:
 
 
 def onset(shots: int) -> None:
-    print("1. sound onset -> picture taken (goal <= 2 s), beside the rotation alone "
-          "(the turn's profile)")
+    print("1. sound onset -> picture taken (goal <= 2 s), beside the shot's floor (its "
+          "turn's profile + an odometry frame + the camera)")
     for mode in ("thread", "process"):
         res = onset_to_picture(mode, shots)
         if res:
             lat = sorted(r[0] for r in res)
-            print(f"  {mode:>7}: " + ", ".join(f"{a:.2f} s (rotation {b:.2f} s)" for a, b in res)
+            print(f"  {mode:>7}: " + ", ".join(f"{a:.2f} s (floor {b:.2f} s)" for a, b in res)
                   + f"; median {lat[len(lat) // 2]:.2f} s = {lat[len(lat) // 2] / 2.0:.2f}x goal, "
                     f"max {lat[-1]:.2f} s")
 
