@@ -13,13 +13,15 @@ side by side:
 - PAPA-MAN (feet polled at 8 Hz): command -> register write p99 (the emulator's trace,
   in its virtual time, mapped from time.monotonic() by its pacer's origin) against the
   line-and-tick floor (tick + oMSAAA's line time), feet samples lost;
-- STARFISH: sound onset -> picture per shot against its floor (the turn at the board
-  files' max_omega_mrad_s), audio frames lost.
+- STARFISH: sound onset -> picture per shot against its floor (bench/toolkit/starfish.py:
+  the turn's profile from standing, an odometry frame, the camera), audio frames lost.
 - the control endpoint under the cap: ``ls`` and ``ping`` asked from outside the group
   (the client ``esair std`` uses), p50 / p99 and how many went unanswered in 5 s (issue
   37 item 5's goal: p99 <= 1 s); in process mode again with the behaviors' processes
   stopped (SIGSTOP), as agents starved of the CPU or cut off. STARFISH's driver renders the room's
-  audio and pictures itself: that simulation work is inside the cap.
+  audio and pictures itself and follows the emulated world's true pose (a thread of its
+  own): that simulation work is inside the cap; the audio's share (rendered in the
+  bench's process) and the pose thread's (its own CPU) are printed and taken out.
 
     python bench/small_computer.py [--robots papaman,starfish] [--modes thread,process]
         [--window 10] [--n 100] [--shots 3] [--asks 20] [--caps capped,uncapped] [--tree DIR]
@@ -49,6 +51,7 @@ PAPAMAN = ROOT / "boards" / "papaman"
 # after the measured checkout's own paths (PYTHONPATH, --tree): the toolkit from this one
 sys.path.append(str(ROOT))
 CPU_SHARE = 0.25
+WORLD_THREAD = "starfish-world"   # the emulated world's true pose (drivers/starfish/worldtap.py)
 MEMORY = 128 << 20
 
 
@@ -224,6 +227,21 @@ def cpu_of(pids: list[int], children: bool = False) -> dict[int, float]:
             ticks += int(fields[13]) + int(fields[14])
         out[pid] = ticks / os.sysconf("SC_CLK_TCK")
     return out
+
+
+def threads_cpu(pids: list[int], comm: str) -> float:
+    """CPU seconds of the threads named ``comm`` (as the OS shows them) in ``pids``."""
+    total = 0.0
+    for pid in pids:
+        for task in Path(f"/proc/{pid}/task").glob("*") if Path(f"/proc/{pid}").exists() else ():
+            try:
+                if (task / "comm").read_text().strip() != comm:
+                    continue
+                fields = (task / "stat").read_text().rsplit(")", 1)[1].split()
+            except OSError:
+                continue
+            total += (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+    return total
 
 
 def pct(xs: list[float], q: float) -> float:
@@ -423,11 +441,12 @@ def one(robot: str, mode: str, limit: bool, args) -> dict:
                 return res
             time.sleep(args.settle)
             pids = cap.pids()
-            c0, t0 = cpu_of(pids), time.monotonic()
+            c0, w0, t0 = cpu_of(pids), threads_cpu(pids, WORLD_THREAD), time.monotonic()
             time.sleep(args.window)
             pids = cap.pids()
-            c1, dt = cpu_of(pids), time.monotonic() - t0
+            c1, w1, dt = cpu_of(pids), threads_cpu(pids, WORLD_THREAD), time.monotonic() - t0
             res["cpu_pct"] = 100 * sum(c1[p] - c0[p] for p in c1 if p in c0) / dt
+            res["world_cpu_pct"] = 100 * (w1 - w0) / dt
             res["rss_mb"], res["pss_mb"], res["each"] = memory_of(pids)
             res["processes"] = len(pids)
             res.update(control_asks(ep, robot, args.asks))
@@ -591,9 +610,10 @@ def show(rows: list[dict], floor_ms: float) -> None:
                              for s in r["shots"])
             print(f"{'':26s} sound -> picture: {each}; audio frames {r['samples']}, "
                   f"lost {r['lost']}")
-            print(f"{'':26s} the room's audio simulation alone: {r['sim_cpu_pct']:.1f} % of a "
-                  f"core (rendered here): the robot side without it "
-                  f"{r['cpu_pct'] - r['sim_cpu_pct']:.1f} %")
+            world = r.get("world_cpu_pct", 0.0)
+            print(f"{'':26s} the simulation: the room's audio {r['sim_cpu_pct']:.1f} % of a "
+                  f"core (rendered here), the world's pose tap {world:.1f} % (its thread): "
+                  f"the robot side without them {r['cpu_pct'] - r['sim_cpu_pct'] - world:.1f} %")
 
 
 def start_only(robot: str, mode: str, limit: bool, args) -> dict:

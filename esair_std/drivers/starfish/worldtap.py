@@ -47,6 +47,7 @@ class WorldTap:
         self.fresh.clear()
 
     def _run(self) -> None:
+        _name_os_thread(b"starfish-world")
         while not self._stop.is_set():
             try:
                 data = self.sock.recv(256)
@@ -70,3 +71,11 @@ class WorldTap:
         with contextlib.suppress(OSError):
             self.sock.close()
         self._dir.cleanup()
+
+
+def _name_os_thread(name: bytes) -> None:
+    """The calling thread's name as the OS shows it (/proc/PID/task/TID/comm): this
+    simulation plumbing told apart from the robot's own work (bench/small_computer.py)."""
+    import ctypes                           # loaded already: numpy imports it
+    with contextlib.suppress(OSError, AttributeError):
+        ctypes.CDLL(None).prctl(15, name[:15], 0, 0, 0)     # PR_SET_NAME
