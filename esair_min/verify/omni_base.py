@@ -169,23 +169,14 @@ def budgets(target: str, robot: Robot, fw: Firmware, run: TargetRun, work: Path)
 
 def verify_omni(robot: Robot, targets: tuple[str, ...], work: Path, script: str | None,
                 name: str, say: Progress, firmware: Firmware | None) -> Report:
-    from esair_min.verify.targets import build
+    from esair_min.verify.targets import prepare
 
     start = time.monotonic()
     sc = Scenario(script) if script is not None else default_scenario(robot)
     report = Report(robot.name, targets, sc, name or "default scenario (generated from the "
                     "board files)")
-    work.mkdir(parents=True, exist_ok=True)
-    path = work / "scenario.txt"
-    path.write_text(sc.text)
-    if script is not None and name and Path(name).is_file():
-        path = Path(name)        # the builder's own: its name in errors, its folder
-                                        # for `image` lines
-    if firmware is None and any(t != "python" for t in targets):
-        t0 = time.monotonic()
-        firmware = build(robot, targets, work / "firmware")
-        say(f"build: {', '.join(t for t in targets if t != 'python')} firmware in "
-            f"{time.monotonic() - t0:.1f} s")
+    path, firmware = prepare(robot, targets, sc.text, name if script is not None else None,
+                             work, say, firmware)
     for target in targets:
         t0 = time.monotonic()
         cmp = None

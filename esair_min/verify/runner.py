@@ -12,7 +12,7 @@ from esair_min.verify.compare import compare_chip, compare_host
 from esair_min.verify.omni_base import is_omni, verify_omni
 from esair_min.verify.result import Progress, Report
 from esair_min.verify.default_scenario import Scenario, default_scenario
-from esair_min.verify.targets import (Firmware, TargetRun, VerifyError, avr_watch, build,
+from esair_min.verify.targets import (Firmware, TargetRun, VerifyError, avr_watch, prepare,
                                       run_avr, run_host, run_pic, run_python)
 
 
@@ -35,17 +35,8 @@ def verify(robot: Robot, targets: tuple[str, ...], work: Path, script: str | Non
     sc = Scenario(script) if script is not None else default_scenario(robot, targets)
     name = script_name or "default scenario (generated from the board files)"
     report = Report(robot.name, targets, sc, name)
-    work.mkdir(parents=True, exist_ok=True)
-    path = work / "scenario.txt"
-    path.write_text(sc.text)
-    if script is not None and script_name and Path(script_name).is_file():
-        path = Path(script_name)        # the builder's own: its name in errors, its folder
-                                        # for `image` lines
-    if firmware is None and any(t != "python" for t in targets):
-        t0 = time.monotonic()
-        firmware = build(robot, targets, work / "firmware")
-        say(f"build: {', '.join(t for t in targets if t != 'python')} firmware in "
-            f"{time.monotonic() - t0:.1f} s")
+    path, firmware = prepare(robot, targets, sc.text, script_name if script is not None else None,
+                             work, say, firmware)
     for target in targets:
         t0 = time.monotonic()
         run = _run(target, robot, sc.text, path, firmware, work)

@@ -14,6 +14,8 @@ budgets need them all); the runs reuse it.
 from __future__ import annotations
 
 import subprocess
+import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -98,6 +100,26 @@ def build(robot: Robot, targets: tuple[str, ...], folder: Path) -> Firmware:
     if "host" in targets:
         fw.host = build_host(fw.central)
     return fw
+
+
+def prepare(robot: Robot, targets: tuple[str, ...], text: str, script_name: str | None,
+            work: Path, say: Callable[[str], None],
+            firmware: Firmware | None) -> tuple[Path, Firmware | None]:
+    """The scenario's file and the firmware the targets run: ``text`` written into
+    ``work`` (the file named ``script_name`` instead, where it is one: the builder's own,
+    named in errors, its folder the one its `image` lines are read from), and the
+    firmware built there unless given."""
+    work.mkdir(parents=True, exist_ok=True)
+    path = work / "scenario.txt"
+    path.write_text(text)
+    if script_name and Path(script_name).is_file():
+        path = Path(script_name)
+    if firmware is None and any(t != "python" for t in targets):
+        t0 = time.monotonic()
+        firmware = build(robot, targets, work / "firmware")
+        say(f"build: {', '.join(t for t in targets if t != 'python')} firmware in "
+            f"{time.monotonic() - t0:.1f} s")
+    return path, firmware
 
 
 @dataclass
