@@ -10,33 +10,11 @@ import time
 from esair_std import Behavior
 from esair_std.drivers.minlink.driver import MinLink
 
-
-class Stepper(Behavior):
-    """Sends options['n'] servo commands to papaman.servo.l_knee, one every
-    options['every'] seconds (phase drifting against the robot's tick), and keeps
-    time.monotonic() just before each send (one clock for every process)."""
-
-    def start(self):
-        self.knee = self.attach_actuator("papaman.servo.l_knee")
-        self.sent = []
-        self.errors = 0
-
-    def run(self):
-        n, every = int(self.options["n"]), float(self.options["every"])
-        for i in range(n):
-            if self.stopping:
-                return
-            t = time.monotonic()
-            try:
-                self.knee.send({"angle": 100 + (i % 2) * 10, "speed": 0}, timeout=2.0)
-                self.sent.append(t)
-            except Exception:  # noqa: BLE001 - counted
-                self.errors += 1
-            time.sleep(max(0.0, every - (time.monotonic() - t)))
-
-    def provide(self, requester):
-        return {"sent": self.sent, "errors": self.errors, "done": len(self.sent) + self.errors
-                == int(self.options["n"])}
+# deployed as papaman_std_comps:Stepper (bench/ on the path) or bench.papaman_std_comps
+try:
+    from small_computer_comps import Stepper
+except ImportError:
+    from bench.small_computer_comps import Stepper  # noqa: F401
 
 
 class Blaster(Behavior):

@@ -282,7 +282,7 @@ def papaman_deployment(port: str, n: int, go: str) -> dict:
                                       "robot": str(PAPAMAN), "port": port, "feet_hz": 8,
                                       "allow": {"*": "command"}}},
             "behaviors": {
-                "stepper": {"class": "small_computer_comps:GoStepper", "n": n,
+                "stepper": {"class": "small_computer_comps:Stepper", "n": n,
                             "every": 0.0373, "go": go, "uses": uses},
                 "feet": {"class": "small_computer_comps:SeqCounter", "period": 0.05,
                          "sensor": "papaman.feet", "uses": {"papaman.feet": "read"}}}}

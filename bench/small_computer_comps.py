@@ -8,11 +8,12 @@ import time
 from esair_std import Behavior
 
 
-class GoStepper(Behavior):
-    """Waits until the file options['go'] exists (a run() behavior is busy: no puts),
-    then sends options['n'] servo commands to
-    papaman.servo.l_knee, one every options['every'] seconds, keeping time.monotonic()
-    just before each send (one clock for every process)."""
+class Stepper(Behavior):
+    """Sends options['n'] servo commands to papaman.servo.l_knee, one every
+    options['every'] seconds (phase drifting against the robot's tick), and keeps
+    time.monotonic() just before each send (one clock for every process); with
+    options['go'], not before that file exists (a run() behavior is busy: no puts).
+    bench/papaman_std.py deploys it too (papaman_std_comps imports it)."""
 
     def start(self):
         self.knee = self.attach_actuator("papaman.servo.l_knee")
@@ -20,7 +21,7 @@ class GoStepper(Behavior):
         self.errors = 0
 
     def run(self):
-        while not os.path.exists(self.options["go"]):
+        while self.options.get("go") and not os.path.exists(self.options["go"]):
             if self.stopping:
                 return
             time.sleep(0.25)        # the bench's own wait: kept out of the CPU figure
