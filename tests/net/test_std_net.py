@@ -33,6 +33,12 @@ def _own_agents(net):
                     pass
                 proc.wait(10)
 
+def _center(tmp_path_factory, name: str, deployment: str):
+    """A module's control center: ``deployment`` on the first host of a two-host net."""
+    with make_net(2) as net:
+        yield net, Center(net[0], tmp_path_factory.mktemp(name), deployment)
+
+
 LAB = """
 robot: lab
 mode: process
@@ -49,8 +55,7 @@ behaviors:
 
 @pytest.fixture(scope="module")
 def _lab(tmp_path_factory):
-    with make_net(2) as net:
-        yield net, Center(net[0], tmp_path_factory.mktemp("lab"), LAB)
+    yield from _center(tmp_path_factory, "lab", LAB)
 
 
 @pytest.fixture
@@ -109,8 +114,7 @@ LEASE = ("--lease", "1000")
 
 @pytest.fixture(scope="module")
 def _faults(tmp_path_factory):
-    with make_net(2) as net:
-        yield net, Center(net[0], tmp_path_factory.mktemp("faults"), FAULTS)
+    yield from _center(tmp_path_factory, "faults", FAULTS)
 
 
 @pytest.fixture
